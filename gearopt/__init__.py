@@ -1,0 +1,17 @@
+"""gearopt: CasADi-based local synthesis and tooth contact analysis of gear drives.
+
+After Litvin & Fuentes, *Gear Geometry and Applied Theory*, sections 9.4-9.6 and chapter 10.
+Lengths in mm, angles in rad inside; see :mod:`gearopt.units` for the edges.
+"""
+
+from .errors import ConvergenceError, GearoptError, GeometryError, SceneError
+from .gears import BasicRack, Gear, GearPair
+from .units import ARCMIN, ARCSEC, DEG, deg, to_deg
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "GearoptError", "GeometryError", "ConvergenceError", "SceneError",
+    "BasicRack", "Gear", "GearPair",
+    "DEG", "ARCMIN", "ARCSEC", "deg", "to_deg",
+]

@@ -1,0 +1,43 @@
+"""Exception hierarchy of gearopt.
+
+Every error names what is wrong, the offending value and, where one exists, the valid range,
+so that a user can fix the input without reading the source.
+"""
+
+from __future__ import annotations
+
+
+class GearoptError(Exception):
+    """Base class of every error raised on purpose by gearopt."""
+
+
+class GeometryError(GearoptError, ValueError):
+    """Impossible or inconsistent gear data (undercut, pointed tip, too small centre distance, ...)."""
+
+
+class ConvergenceError(GearoptError, RuntimeError):
+    """A numerical solver did not reach its tolerance (the result is not returned)."""
+
+
+class SceneError(GearoptError, ValueError):
+    """A scene file is malformed: unknown or missing keys, wrong types or units, bad values."""
+
+
+def out_of_range(name: str, value, valid: str, hint: str = "", cls=GeometryError) -> GearoptError:
+    """Build the standard 'parameter out of range' error.
+
+    Parameters
+    ----------
+    name : str
+        Parameter name as the user writes it (e.g. ``"pinion.z"``).
+    value
+        The offending value (already converted to the unit stated in ``valid``).
+    valid : str
+        Human-readable valid range, with units (e.g. ``"0 < alpha_n < 45 deg"``).
+    hint : str
+        Optional sentence saying how to fix it.
+    """
+    msg = f"{name} = {value!r} is out of range; valid: {valid}."
+    if hint:
+        msg += " " + hint
+    return cls(msg)

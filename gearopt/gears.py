@@ -1,0 +1,436 @@
+"""Gear data: the basic rack (the tool that defines a gear), a gear, a gear pair.
+
+Frozen dataclasses with ISO 21771 symbols, validated on construction. Lengths in mm, angles in rad
+(use :func:`gearopt.units.deg` at the edges), rack coefficients in units of the normal module m_n.
+Derived quantities are properties; nothing is mutated after construction.
+
+Glossary (ISO 21771 / ISO 53)
+-----------------------------
+z        number of teeth
+m_n      normal module [mm];  m_t = m_n / cos(beta) transverse module
+alpha_n  normal pressure angle of the basic rack [rad]; alpha_t transverse
+beta     helix angle on the reference cylinder [rad]; hand 'right' or 'left'
+x        profile shift coefficient (rack displaced by x m_n away from the gear centre)
+k        tip alteration coefficient (d_a = d + 2 m_n (h_aP + x + k))
+h_aP     addendum of the basic rack [m_n] (= cutting-tool dedendum)
+h_fP     dedendum of the basic rack [m_n] (= cutting-tool addendum, cutting depth)
+rho_fP   root fillet radius of the basic rack [m_n] (= tool tip radius)
+c_P      bottom clearance h_fP - h_aP [m_n]
+b        face width [mm]
+r_p      reference (pitch) radius m_t z / 2;  r_b = r_p cos(alpha_t) base radius
+r_a, r_f tip and root radii; r_F form radius (where the fillet meets the involute)
+a        centre distance [mm]; alpha_wt working transverse pressure angle
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+
+from .errors import GeometryError, out_of_range
+from .geometry.involute import inv, inv_inverse, tooth_thickness
+from .units import DEG, INCH
+
+_ISO53 = {
+    # profile: (h_aP, h_fP, rho_fP)   alpha_n = 20 deg for all (ISO 53:1998)
+    "A": (1.0, 1.25, 0.38),
+    "B": (1.0, 1.25, 0.30),
+    "C": (1.0, 1.25, 0.25),
+    "D": (1.0, 1.40, 0.39),
+}
+
+
+def _finite(name: str, value: float) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise GeometryError(f"{name} = {value!r} must be a finite number.")
+    return float(value)
+
+
+@dataclass(frozen=True)
+class BasicRack:
+    """Basic rack profile / rack-cutter that defines a gear (ISO 53, Litvin Fig. 10.3.4).
+
+    The rack-cutter is the negative of the basic rack: its addendum cuts the gear's dedendum.
+    Coefficients are in units of the normal module ``m_n`` of the gear it cuts.
+
+    Parameters
+    ----------
+    alpha_n : float
+        Profile (pressure) angle [rad], ``0 < alpha_n < 45 deg``.
+    h_aP : float
+        Addendum of the basic rack [m_n] (> 0); the gear's addendum for ``x = 0``.
+    h_fP : float
+        Dedendum of the basic rack [m_n] (>= h_aP); the tool's cutting depth below the datum line.
+    rho_fP : float
+        Root fillet radius of the basic rack [m_n] (tool tip radius), ``0 <= rho_fP <= rho_max``
+        where ``rho_max`` leaves a tool tip land of zero width.
+    a_c : float
+        Parabolic profile coefficient [1/mm] of the rack-cutter (profile crowning, Litvin
+        section 4): the tool profile deviates by ``a_c (u - u_0)^2`` from the straight line, ``u``
+        measured along the profile [mm]. 0 is the straight (conjugate) rack.
+    u_0 : float
+        Position of the parabola apex along the profile [mm], from the datum line, positive towards
+        the tool tip (the gear root). Usually at the mean contact point.
+    name : str
+        Label (``"ISO 53 A"`` for presets).
+    """
+
+    alpha_n: float = 20 * DEG
+    h_aP: float = 1.0
+    h_fP: float = 1.25
+    rho_fP: float = 0.38
+    a_c: float = 0.0
+    u_0: float = 0.0
+    name: str = "custom"
+
+    def __post_init__(self):
+        for f in ("alpha_n", "h_aP", "h_fP", "rho_fP", "a_c", "u_0"):
+            _finite(f"rack.{f}", getattr(self, f))
+        if not 0.0 < self.alpha_n < 45 * DEG:
+            raise out_of_range("rack.alpha_n", f"{self.alpha_n / DEG:.6g} deg", "0 < alpha_n < 45 deg")
+        if self.h_aP <= 0:
+            raise out_of_range("rack.h_aP", self.h_aP, "h_aP > 0 (in modules)")
+        if self.h_fP < self.h_aP:
+            raise out_of_range("rack.h_fP", self.h_fP, f"h_fP >= h_aP = {self.h_aP} (clearance c_P >= 0, in modules)")
+        if self.rho_fP < 0 or self.rho_fP > self.rho_max:
+            raise out_of_range("rack.rho_fP", self.rho_fP, f"0 <= rho_fP <= {self.rho_max:.4f} (in modules; larger "
+                               "fillets do not fit on the tool tip)")
+        if self.a_c < 0:
+            raise out_of_range("rack.a_c", self.a_c, "a_c >= 0 [1/mm] (0 = straight profile)")
+
+    @classmethod
+    def iso53(cls, profile: str = "A", **changes) -> "BasicRack":
+        """ISO 53 basic rack profile A, B, C or D (alpha_n = 20 deg); ``changes`` override fields."""
+        key = str(profile).upper().replace("ISO53", "").replace("ISO 53", "").strip(" -")
+        if key not in _ISO53:
+            raise out_of_range("rack.preset", profile, "one of 'A', 'B', 'C', 'D' (ISO 53)")
+        h_aP, h_fP, rho = _ISO53[key]
+        return cls(**{"alpha_n": 20 * DEG, "h_aP": h_aP, "h_fP": h_fP, "rho_fP": rho, "name": f"ISO 53 {key}", **changes})
+
+    @property
+    def c_P(self) -> float:
+        """Bottom clearance coefficient ``h_fP - h_aP`` [m_n]."""
+        return self.h_fP - self.h_aP
+
+    @property
+    def rho_max(self) -> float:
+        """Largest tip radius [m_n] that fits the tool tooth (tip land of zero width)."""
+        a = self.alpha_n
+        half_land = math.pi / 4 - self.h_fP * math.tan(a)  # half tip width of the straight tool [m_n]
+        return max(half_land, 0.0) * math.cos(a) / (1 - math.sin(a))
+
+    @property
+    def h_lim(self) -> float:
+        """Height [m_n] below the datum line where the tool's straight flank meets its tip fillet.
+
+        This bounds the part of the tool that generates involute; it sets the undercut limit
+        (ISO 53 A: ``1.25 - 0.38 (1 - sin 20 deg) = 1.0``).
+        """
+        return self.h_fP - self.rho_fP * (1 - math.sin(self.alpha_n))
+
+
+_HANDS = ("right", "left")
+
+
+@dataclass(frozen=True)
+class Gear:
+    """An external spur or helical involute gear, defined by the rack-cutter that generates it.
+
+    Parameters
+    ----------
+    z : int
+        Number of teeth, ``z >= 3``.
+    m_n : float
+        Normal module [mm], > 0. (Use :meth:`from_diametral_pitch` for P in 1/in.)
+    x : float
+        Profile shift coefficient [-].
+    b : float
+        Face width [mm], > 0.
+    beta : float
+        Helix angle [rad], ``0 <= beta < 45 deg`` (0 = spur).
+    hand : {"right", "left"}
+        Hand of helix (ignored for spur gears).
+    rack : BasicRack
+        The generating rack-cutter (normal section).
+    k : float
+        Tip alteration coefficient [-]; tip radius ``r_a = r_p + m_n (h_aP + x + k)``.
+    a_pl : float
+        Longitudinal crowning by plunging of the tool [1/mm]: in the section at axial position
+        ``l`` the tool is fed ``a_pl l^2`` deeper (Litvin section 4). 0 = no crowning.
+    allow_undercut : bool
+        Accept a gear whose rack-cutter undercuts the involute (otherwise an error).
+    name : str
+        Label used in reports and plots.
+    """
+
+    z: int
+    m_n: float
+    x: float = 0.0
+    b: float = 20.0
+    beta: float = 0.0
+    hand: str = "right"
+    rack: BasicRack = field(default_factory=BasicRack)
+    k: float = 0.0
+    a_pl: float = 0.0
+    allow_undercut: bool = False
+    name: str = "gear"
+
+    def __post_init__(self):
+        n = self.name
+        if isinstance(self.z, bool) or not isinstance(self.z, int):
+            raise GeometryError(f"{n}.z = {self.z!r} must be an integer number of teeth (z >= 3).")
+        if self.z < 3:
+            raise out_of_range(f"{n}.z", self.z, "z >= 3 teeth")
+        for f in ("m_n", "x", "b", "beta", "k", "a_pl"):
+            _finite(f"{n}.{f}", getattr(self, f))
+        if self.m_n <= 0:
+            raise out_of_range(f"{n}.m_n", self.m_n, "m_n > 0 mm")
+        if self.b <= 0:
+            raise out_of_range(f"{n}.b", self.b, "b > 0 mm")
+        if not 0 <= self.beta < 45 * DEG:
+            raise out_of_range(f"{n}.beta", f"{self.beta / DEG:.6g} deg", "0 <= beta < 45 deg")
+        if self.hand not in _HANDS:
+            raise out_of_range(f"{n}.hand", self.hand, "'right' or 'left'")
+        if self.a_pl < 0:
+            raise out_of_range(f"{n}.a_pl", self.a_pl, "a_pl >= 0 [1/mm] (0 = no longitudinal crowning)")
+        if not isinstance(self.rack, BasicRack):
+            raise GeometryError(f"{n}.rack must be a BasicRack, got {type(self.rack).__name__}.")
+        if self.r_a <= self.r_f:
+            raise out_of_range(f"{n}.k", self.k, f"k > {-(self.rack.h_aP + self.rack.h_fP):.4g} (tip above root)")
+        if not self.allow_undercut and self.x < self.x_min_undercut - 1e-12:
+            raise out_of_range(
+                f"{n}.x", self.x, f"x >= {self.x_min_undercut:.4f} for z = {self.z} (no undercut; z >= {self.z_min_undercut:.2f} "
+                "teeth without shift)", "Raise x, or set allow_undercut = true to accept an undercut gear.")
+        s_a = self.s_at(self.r_a)
+        if s_a <= 0:
+            raise out_of_range(f"{n}.x", self.x, f"x < {self.x_max_pointed:.4f} for z = {self.z}, k = {self.k} "
+                               f"(the tip is pointed: s_a = {s_a:.4g} mm)", "Lower x or shorten the tip (k < 0).")
+
+    @classmethod
+    def from_diametral_pitch(cls, z: int, P_n: float, **kw) -> "Gear":
+        """Build from the normal diametral pitch ``P_n`` [1/in] (``m_n = 25.4 / P_n`` mm)."""
+        P_n = _finite("P_n", P_n)
+        if P_n <= 0:
+            raise out_of_range("P_n", P_n, "P_n > 0 [1/in]")
+        return cls(z=z, m_n=INCH / P_n, **kw)
+
+    def with_(self, **changes) -> "Gear":
+        """A copy with fields changed (validated again)."""
+        return replace(self, **changes)
+
+    # --- derived quantities -------------------------------------------------------------------
+    @property
+    def is_spur(self) -> bool:
+        return self.beta == 0.0
+
+    @property
+    def helix_sign(self) -> int:
+        """+1 for a right-hand helix, -1 for left hand (0 for spur)."""
+        return 0 if self.is_spur else (1 if self.hand == "right" else -1)
+
+    @property
+    def m_t(self) -> float:
+        """Transverse module [mm]."""
+        return self.m_n / math.cos(self.beta)
+
+    @property
+    def alpha_t(self) -> float:
+        """Transverse pressure angle [rad]: ``tan alpha_t = tan alpha_n / cos beta``."""
+        return math.atan(math.tan(self.rack.alpha_n) / math.cos(self.beta))
+
+    @property
+    def beta_b(self) -> float:
+        """Base helix angle [rad]."""
+        return math.atan(math.tan(self.beta) * math.cos(self.alpha_t))
+
+    @property
+    def r_p(self) -> float:
+        """Reference (pitch) radius ``m_t z / 2`` [mm] (Litvin eq. 10.3.1)."""
+        return self.m_t * self.z / 2
+
+    @property
+    def r_b(self) -> float:
+        """Base radius ``r_p cos alpha_t`` [mm] (Litvin eq. 10.3.2)."""
+        return self.r_p * math.cos(self.alpha_t)
+
+    @property
+    def r_a(self) -> float:
+        """Tip radius [mm]."""
+        return self.r_p + self.m_n * (self.rack.h_aP + self.x + self.k)
+
+    @property
+    def r_f(self) -> float:
+        """Root radius [mm] (cut by the tool tip line)."""
+        return self.r_p + self.m_n * (self.x - self.rack.h_fP)
+
+    @property
+    def p_n(self) -> float:
+        """Normal pitch ``pi m_n`` [mm]."""
+        return math.pi * self.m_n
+
+    @property
+    def p_bt(self) -> float:
+        """Transverse base pitch ``pi m_t cos alpha_t`` [mm]."""
+        return math.pi * self.m_t * math.cos(self.alpha_t)
+
+    @property
+    def s_t(self) -> float:
+        """Transverse arc tooth thickness on the reference circle [mm]:
+        ``m_t (pi/2 + 2 x tan alpha_t)``."""
+        return self.m_t * (math.pi / 2 + 2 * self.x * math.tan(self.alpha_t))
+
+    def s_at(self, r: float) -> float:
+        """Transverse arc tooth thickness at radius ``r >= r_b`` [mm]."""
+        if r < self.r_b:
+            raise out_of_range(f"{self.name}: radius", r, f"r >= r_b = {self.r_b:.6g} mm")
+        return float(tooth_thickness(r, self.r_p, self.s_t, self.alpha_t))
+
+    @property
+    def r_lim(self) -> float:
+        """Radius [mm] generated by the end of the tool's straight flank (the involute's lower
+        limit, the form radius ``r_F`` when there is no undercut)."""
+        h = (self.rack.h_lim - self.x) * self.m_n  # below the rolling (pitch) line
+        if h <= 0:
+            return self.r_p - h
+        return math.hypot(self.r_b, self.r_p * math.sin(self.alpha_t) - h / math.sin(self.alpha_t))
+
+    @property
+    def undercut(self) -> bool:
+        """True when the tool's straight flank reaches below the interference point
+        (the generating line's tangency point with the base circle)."""
+        return self.x < self.x_min_undercut
+
+    @property
+    def x_min_undercut(self) -> float:
+        """Smallest profile shift without undercut: ``h_lim - z sin^2(alpha_t) / (2 cos beta)``."""
+        return self.rack.h_lim - self.z * math.sin(self.alpha_t) ** 2 / (2 * math.cos(self.beta))
+
+    @property
+    def z_min_undercut(self) -> float:
+        """Smallest (real) number of teeth without undercut at x = 0: ``2 h_lim cos beta / sin^2 alpha_t``."""
+        return 2 * self.rack.h_lim * math.cos(self.beta) / math.sin(self.alpha_t) ** 2
+
+    @property
+    def x_max_pointed(self) -> float:
+        """Profile shift at which the tip becomes pointed (s_a = 0), by bisection."""
+        def s_a(x):
+            r_a = self.r_p + self.m_n * (self.rack.h_aP + x + self.k)
+            s_p = self.m_t * (math.pi / 2 + 2 * x * math.tan(self.alpha_t))
+            return float(tooth_thickness(r_a, self.r_p, s_p, self.alpha_t))
+        lo, hi = -5.0, 5.0
+        for _ in range(200):
+            mid = 0.5 * (lo + hi)
+            lo, hi = (mid, hi) if s_a(mid) > 0 else (lo, mid)
+        return lo
+
+
+@dataclass(frozen=True)
+class GearPair:
+    """An external gear pair: pinion (driving, member 1) and gear (driven, member 2).
+
+    Parameters
+    ----------
+    pinion, gear : Gear
+        Same m_n, rack alpha_n and beta; opposite hands for helical gears.
+    a : float or None
+        Centre distance [mm]. ``None`` (default): the zero-backlash distance ``a_0`` from
+        ``x1 + x2`` through ``inv alpha_wt = inv alpha_t + 2 tan alpha_n (x1 + x2) / (z1 + z2)``.
+        A larger ``a`` opens backlash; a smaller one jams the teeth (an error).
+    """
+
+    pinion: Gear
+    gear: Gear
+    a: float | None = None
+
+    def __post_init__(self):
+        p, g = self.pinion, self.gear
+        if not isinstance(p, Gear) or not isinstance(g, Gear):
+            raise GeometryError("GearPair needs two Gear objects (pinion, gear).")
+        if abs(p.m_n - g.m_n) > 1e-12 * p.m_n:
+            raise out_of_range("gear.m_n", g.m_n, f"equal to pinion.m_n = {p.m_n} mm (meshing gears share the module)")
+        if abs(p.rack.alpha_n - g.rack.alpha_n) > 1e-12:
+            raise out_of_range("gear.rack.alpha_n", f"{g.rack.alpha_n / DEG:.6g} deg",
+                               f"equal to pinion.rack.alpha_n = {p.rack.alpha_n / DEG:.6g} deg")
+        if abs(p.beta - g.beta) > 1e-12:
+            raise out_of_range("gear.beta", f"{g.beta / DEG:.6g} deg", f"equal to pinion.beta = {p.beta / DEG:.6g} deg")
+        if not p.is_spur and p.hand == g.hand:
+            raise out_of_range("gear.hand", g.hand, f"opposite to pinion.hand = {p.hand!r} (external helical pair)")
+        if self.a is not None:
+            a = _finite("pair.a", self.a)
+            r_bsum = p.r_b + g.r_b
+            if a <= r_bsum:
+                raise out_of_range("pair.a", a, f"a > r_b1 + r_b2 = {r_bsum:.6g} mm (base circles)")
+            if a < self.a_0 * (1 - 1e-12):
+                raise out_of_range("pair.a", a, f"a >= a_0 = {self.a_0:.6g} mm, the zero-backlash distance for "
+                                   f"x1 + x2 = {p.x + g.x:.4g}", "Increase a or reduce x1 + x2.")
+        c1, c2 = self.tip_clearance
+        for who, c, r_a in (("pinion", c1, p.r_a), ("gear", c2, g.r_a)):
+            if c < 0:
+                raise out_of_range(f"{who}.k", (p if who == "pinion" else g).k,
+                                   f"tip radius r_a = {r_a:.6g} mm that clears the mating root (clearance {c:.4g} mm < 0)",
+                                   "Shorten the tip (negative k) or increase a.")
+        if self.eps_alpha < 1.0 and self.eps_gamma < 1.0:
+            raise GeometryError(f"contact ratio eps_gamma = {self.eps_gamma:.4f} < 1: the pair does not mesh continuously "
+                                "(valid: eps_gamma >= 1). Increase addenda, reduce x or a, or use helical gears.")
+
+    # --- derived quantities -------------------------------------------------------------------
+    @property
+    def ratio(self) -> float:
+        """Gear ratio ``m12 = z2 / z1`` (= omega1 / omega2)."""
+        return self.gear.z / self.pinion.z
+
+    @property
+    def alpha_t(self) -> float:
+        return self.pinion.alpha_t
+
+    @property
+    def a_0(self) -> float:
+        """Zero-backlash centre distance [mm] for x1 + x2 (THEORY section 3)."""
+        p, g = self.pinion, self.gear
+        inv_w = inv(p.alpha_t) + 2 * math.tan(p.rack.alpha_n) * (p.x + g.x) / (p.z + g.z)
+        alpha_w = float(inv_inverse(inv_w))
+        return (p.r_p + g.r_p) * math.cos(p.alpha_t) / math.cos(alpha_w)
+
+    @property
+    def a_w(self) -> float:
+        """Operating centre distance [mm]: ``a`` if given, else ``a_0``."""
+        return self.a if self.a is not None else self.a_0
+
+    @property
+    def alpha_wt(self) -> float:
+        """Working transverse pressure angle [rad]: ``cos alpha_wt = (r_b1 + r_b2) / a``."""
+        return math.acos((self.pinion.r_b + self.gear.r_b) / self.a_w)
+
+    @property
+    def backlash(self) -> float:
+        """Circumferential backlash on the working pitch circle of the gear [mm] (0 at a = a_0):
+        from the tooth thicknesses on the operating pitch circles."""
+        p, g, aw = self.pinion, self.gear, self.alpha_wt
+        r_w1 = self.a_w * p.z / (p.z + g.z)
+        r_w2 = self.a_w - r_w1
+        s1 = float(tooth_thickness(r_w1, p.r_p, p.s_t, p.alpha_t))
+        s2 = float(tooth_thickness(r_w2, g.r_p, g.s_t, g.alpha_t))
+        return 2 * math.pi * r_w2 / g.z - s2 - s1
+
+    @property
+    def tip_clearance(self) -> tuple[float, float]:
+        """Radial clearance [mm] between each tip and the mating root: (pinion tip, gear tip)."""
+        return self.a_w - self.pinion.r_a - self.gear.r_f, self.a_w - self.gear.r_a - self.pinion.r_f
+
+    @property
+    def eps_alpha(self) -> float:
+        """Transverse contact ratio (THEORY section 3)."""
+        p, g = self.pinion, self.gear
+        path = (math.sqrt(p.r_a**2 - p.r_b**2) + math.sqrt(g.r_a**2 - g.r_b**2)
+                - self.a_w * math.sin(self.alpha_wt))
+        return path / p.p_bt
+
+    @property
+    def eps_beta(self) -> float:
+        """Overlap ratio ``b sin(beta) / (pi m_n)`` with the narrower face width."""
+        return min(self.pinion.b, self.gear.b) * math.sin(self.pinion.beta) / self.pinion.p_n
+
+    @property
+    def eps_gamma(self) -> float:
+        """Total contact ratio ``eps_alpha + eps_beta``."""
+        return self.eps_alpha + self.eps_beta

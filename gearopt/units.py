@@ -1,0 +1,75 @@
+"""Units at the edges: gearopt computes in mm and rad; degrees, arcmin, arcsec, inches only here.
+
+A scene may give a length or an angle either as a bare number (taken in the documented default
+unit: mm for lengths, deg for angles) or as a string with a unit, e.g. ``"20 deg"``, ``"3 arcmin"``,
+``"0.5 in"``. A unit of the wrong kind (``"20 mm"`` for an angle) is an error.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+
+from .errors import SceneError
+
+DEG = math.pi / 180.0  #: one degree in rad
+ARCMIN = DEG / 60.0  #: one arc minute in rad
+ARCSEC = DEG / 3600.0  #: one arc second in rad
+RAD_TO_ARCSEC = 1.0 / ARCSEC  #: 206264.806... arcsec per rad
+INCH = 25.4  #: one inch in mm
+
+_LENGTH = {"mm": 1.0, "m": 1000.0, "cm": 10.0, "um": 1e-3, "µm": 1e-3, "in": INCH}
+_ANGLE = {"rad": 1.0, "deg": DEG, "°": DEG, "arcmin": ARCMIN, "'": ARCMIN, "arcsec": ARCSEC, '"': ARCSEC}
+_INV_LENGTH = {"1/mm": 1.0, "1/m": 1e-3, "1/in": 1.0 / INCH}
+KINDS = {"length": (_LENGTH, "mm"), "angle": (_ANGLE, "deg"), "inverse_length": (_INV_LENGTH, "1/mm")}
+
+_QTY = re.compile(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*(\S+)?\s*$")
+
+
+def deg(value_deg: float) -> float:
+    """Degrees to radians."""
+    return value_deg * DEG
+
+
+def to_deg(value_rad: float) -> float:
+    """Radians to degrees."""
+    return value_rad / DEG
+
+
+def parse_quantity(value, kind: str, name: str) -> float:
+    """Convert a scene value to gearopt's internal unit (mm, rad or 1/mm).
+
+    Parameters
+    ----------
+    value : float | int | str
+        A bare number (in the default unit of ``kind``) or ``"<number> <unit>"``.
+    kind : {"length", "angle", "inverse_length"}
+        Physical dimension expected.
+    name : str
+        Parameter name used in error messages.
+
+    Returns
+    -------
+    float
+        The value in mm, rad or 1/mm.
+    """
+    table, default = KINDS[kind]
+    if isinstance(value, bool):
+        raise SceneError(f"{name} = {value!r}: expected a {kind} (number or '<number> <unit>'), got a boolean.")
+    if isinstance(value, (int, float)):
+        number, unit = float(value), default
+    elif isinstance(value, str):
+        m = _QTY.match(value)
+        if not m:
+            raise SceneError(f"{name} = {value!r}: expected '<number> <unit>' with unit one of {sorted(table)}.")
+        number, unit = float(m.group(1)), (m.group(2) or default)
+    else:
+        raise SceneError(f"{name} = {value!r}: expected a {kind} (number or '<number> <unit>'), got {type(value).__name__}.")
+    if unit not in table:
+        kinds = [k for k, (t, _) in KINDS.items() if unit in t]
+        what = f"a {kinds[0]} unit" if kinds else "an unknown unit"
+        raise SceneError(f"{name} = {value!r}: '{unit}' is {what}, but {name} is a {kind}; use one of {sorted(table)} "
+                         f"(a bare number means {default}).")
+    if not math.isfinite(number):
+        raise SceneError(f"{name} = {value!r}: not a finite number.")
+    return number * table[unit]
