@@ -1,0 +1,56 @@
+# gearopt: `make demo` runs the default scene, `make test` runs the test suite.
+# Both create .venv (python3 -m venv) and install the package with its test extra on first use.
+
+SHELL   := /bin/bash
+PYTHON  ?= python3
+VENV    := .venv
+VPY     := $(VENV)/bin/python
+STAMP   := $(VENV)/.installed
+SCENE   ?= problems/spur_geometry.toml
+OUT     ?= out/spur_geometry
+
+.PHONY: demo test bench ccx clean distclean venv
+
+venv: $(STAMP)
+
+$(VPY):
+	@$(PYTHON) -c 'import sys; sys.exit(sys.version_info < (3, 11))' \
+	  || { echo "error: gearopt needs Python >= 3.11; '$(PYTHON)' is $$($(PYTHON) --version 2>&1)" >&2; exit 1; }
+	@echo "creating $(VENV) ..."
+	@$(PYTHON) -m venv $(VENV)
+
+# Reinstall only when pyproject.toml changed (the package itself is installed editable).
+$(STAMP): pyproject.toml | $(VPY)
+	@echo "installing gearopt and its test dependencies into $(VENV) ..."
+	@$(VPY) -m pip install -q --disable-pip-version-check -e '.[test]'
+	@touch $@
+
+demo: $(STAMP)
+	$(VENV)/bin/gearopt run $(SCENE) --out $(OUT)
+
+test: ccx $(STAMP)
+	$(VPY) -m pytest -q
+
+bench: $(STAMP)
+	@set -e; found=0; for f in benchmarks/*.py; do \
+	  [ -e "$$f" ] || continue; found=1; echo "== $$f"; $(VPY) "$$f"; done; \
+	  [ $$found = 1 ] || echo "no benchmarks/*.py yet"
+
+# CalculiX (ccx) for the planned FE checks: best effort, never fails the build.
+ccx:
+	@if command -v ccx >/dev/null 2>&1; then :; \
+	elif [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then \
+	  log="$${TMPDIR:-/tmp}/gearopt-ccx-install.log"; \
+	  echo "installing CalculiX (apt-get install calculix-ccx; log: $$log) ..."; \
+	  if ( timeout 900 apt-get update -qq && DEBIAN_FRONTEND=noninteractive timeout 900 \
+	       apt-get install -y -qq --no-install-recommends calculix-ccx ) >"$$log" 2>&1 \
+	     && command -v ccx >/dev/null 2>&1; then echo "installed $$(command -v ccx)"; \
+	  else echo "note: could not install calculix-ccx (see $$log); FE features will be unavailable."; fi; \
+	else echo "note: ccx (CalculiX) not found and not root: FE features will be unavailable."; fi
+
+clean:
+	rm -rf out .pytest_cache .hypothesis build *.egg-info
+	find . -path ./$(VENV) -prune -o -name __pycache__ -type d -exec rm -rf {} +
+
+distclean: clean
+	rm -rf $(VENV)

@@ -1,0 +1,128 @@
+"""The ``gearopt`` command line.
+
+::
+
+    gearopt run SCENE.toml [--out DIR] [--quiet]   run the scene's study, write results.json + plots
+    gearopt check SCENE.toml                       validate a scene (and build its study), write nothing
+    gearopt studies                                list the studies and the keys of their sections
+
+Errors in the input (any :class:`~gearopt.errors.GearoptError`) print ``error: <message>`` to
+stderr and exit with status 2, without a traceback; anything else is a bug and propagates.
+"""
+
+from __future__ import annotations
+
+import argparse
+import inspect
+import os
+import sys
+import time
+from pathlib import Path
+
+from . import __version__
+from .errors import GearoptError
+
+EXIT_USAGE = 2  #: exit status for bad input (same as argparse's usage errors)
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="gearopt", description="Gear geometry and tooth contact analysis "
+                                "(after Litvin & Fuentes). Scenes are TOML files; see README.md.")
+    p.add_argument("--version", action="version", version=f"gearopt {__version__}")
+    sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    r = sub.add_parser("run", help="run a scene's study and write results.json and plots")
+    r.add_argument("scene", type=Path, help="scene file (.toml)")
+    r.add_argument("--out", "-o", type=Path, default=None,
+                   help="output directory (replaced on success; default out/<scene file stem>)")
+    r.add_argument("--quiet", "-q", action="store_true", help="no progress lines on stderr")
+    c = sub.add_parser("check", help="validate a scene without running or writing anything")
+    c.add_argument("scene", type=Path, help="scene file (.toml)")
+    sub.add_parser("studies", help="list the studies and their scene sections")
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of the ``gearopt`` console script; returns the exit status."""
+    args = _parser().parse_args(argv)
+    try:
+        if args.command == "run":
+            return _run(args)
+        if args.command == "check":
+            return _check(args)
+        return _studies()
+    except GearoptError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return EXIT_USAGE
+
+
+def _run(args) -> int:
+    os.environ.setdefault("MPLBACKEND", "Agg")  # plots go to files; never open a window
+    from .io.results import write_results
+    from .io.scene import load_scene
+
+    def say(msg: str) -> None:
+        if not args.quiet:
+            print(f"gearopt: {msg}", file=sys.stderr, flush=True)
+
+    say(f"loading {args.scene}")
+    scene = load_scene(args.scene)
+    out = args.out if args.out is not None else Path("out") / args.scene.stem
+    say(f"building study {scene.study!r} for scene {scene.name!r}")
+    study = scene.build()
+    say("running")
+    t0 = time.perf_counter()
+    run = study.run
+    try:
+        takes_progress = "progress" in inspect.signature(run).parameters
+    except (TypeError, ValueError):
+        takes_progress = False
+    result = run(progress=say) if takes_progress else run()
+    run_time = time.perf_counter() - t0
+    say(f"done in {run_time:.2f} s; writing {out}")
+    paths = write_results(out, result, scene=scene, run_time=run_time, progress=say)
+    for p in paths:
+        print(p)
+    return 0
+
+
+def _check(args) -> int:
+    from .io.scene import load_scene
+
+    scene = load_scene(args.scene)
+    scene.build()
+    p, g = scene.pair.pinion, scene.pair.gear
+    print(f"ok: {args.scene}: scene {scene.name!r}, study {scene.study!r}, z = {p.z}/{g.z}, "
+          f"m_n = {p.m_n:.6g} mm, a = {scene.pair.a_w:.6g} mm")
+    return 0
+
+
+def _studies() -> int:
+    from .io.scene import COMMON_SECTIONS, format_field
+    from .studies import broken_modules, studies
+
+    def show(section, indent="  ", prefix=""):
+        req = " (required)" if section.required else ""
+        doc = f"  -- {section.doc}" if section.doc else ""
+        print(f"{indent}[{prefix}{section.name}]{req}{doc}")
+        for f in section.fields:
+            print(f"{indent}    {format_field(f)}")
+        for s in section.subsections:
+            show(s, indent + "    ", f"{prefix}{section.name}.")
+
+    specs = studies()
+    if not specs:
+        print("no studies registered")
+    for name in sorted(specs):
+        spec = specs[name]
+        print(f"{name}: {spec.doc}".rstrip(": "))
+        for s in spec.sections:
+            show(s)
+        if not spec.sections:
+            print("  (no extra sections)")
+        print()
+    for mod, err in broken_modules().items():
+        print(f"warning: study module {mod} failed to import: {err!r}", file=sys.stderr)
+    print("common sections (every scene; lengths in mm, angles in deg unless written as \"<number> <unit>\"):")
+    for s in COMMON_SECTIONS:
+        show(s)
+    return 0

@@ -1,0 +1,455 @@
+"""Tooth surfaces generated as envelopes of tool families (Litvin ch. 10.3, THEORY section 3-4).
+
+A tool surface ``r_c(q, z)`` (rack-cutter, the imaginary rack of a hob, or a shaper tooth) moves
+relative to the gear with one generating parameter psi (the gear's rotation angle). The gear
+tooth surface is the envelope of that family: ``r_g(q, z) = M_gc(psi) r_c(q, z)`` together with
+the equation of meshing ``n . v^(cg) = 0``. For a rack the meshing equation is affine in psi and
+for a shaper (planar) it is the intersection of the normal line with the tool's centrode, so psi
+is eliminated in closed form and every surface is an explicit CasADi graph of its surface
+coordinates and a parameter vector ``p`` (design parameters stay symbolic).
+
+Frames (gear frame S_g, tool frame S_c; mm, rad)
+-----------------------------------------------
+* S_g: origin on the gear axis, z along the axis; at psi = 0 the tooth is centred on +y.
+* Rack: the datum line of the normal section is at ``y = r_p + x m_n``; the rack translates by
+  ``s = -r_p psi`` when the gear turns by +psi (counter-clockwise), rolling on the pitch circle.
+* Surface coordinates: ``q`` along the tool profile (``u`` [mm] on the flank, from the datum line
+  towards the tool tip; ``phi`` [rad] on the tip fillet, from the flank junction towards the tip
+  bottom) and ``z`` [mm], the axial position (face from -b/2 to b/2).
+* Normals returned are unit outward normals of the gear tooth.
+* Sides: ``"right"`` is the flank on the +x side of the tooth at psi = 0 seen from +z (for a
+  pinion driving counter-clockwise... the sign of contact is the TCA's business), ``"left"`` the
+  mirror one.
+
+Parameter vector ``p`` (see :data:`PARAMS`): ``x`` profile shift [-], ``a_c`` parabolic profile
+coefficient [1/mm], ``u_0`` parabola apex [mm], ``a_pl`` plunging (longitudinal crowning)
+coefficient [1/mm].
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import casadi as ca
+import numpy as np
+
+from ..errors import ConvergenceError, GeometryError, out_of_range
+from ..gears import BasicRack, Gear
+from .involute import inv, inv_inverse
+
+#: Names of the entries of the surface parameter vector p, in order.
+PARAMS = ("x", "a_c", "u_0", "a_pl")
+SIDES = ("right", "left")
+_FILLET_NEWTON = 5  # Newton steps for the fillet junction of a parabolic tool profile
+
+
+def default_params(gear: Gear) -> np.ndarray:
+    """Parameter vector ``p`` (:data:`PARAMS`) of ``gear`` as built."""
+    return np.array([gear.x, gear.rack.a_c, gear.rack.u_0, gear.a_pl], dtype=float)
+
+
+def _cross(a, b):
+    return ca.vertcat(a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
+def _unit(v):
+    return v / ca.norm_2(v)
+
+
+def _rot_z(angle, v):
+    """Rotate vector ``v`` (3,) by ``angle`` about z."""
+    c, s = ca.cos(angle), ca.sin(angle)
+    return ca.vertcat(c * v[0] - s * v[1], s * v[0] + c * v[1], v[2])
+
+
+# ---------------------------------------------------------------------------------------------
+# Rack-cutter profile (normal section)
+# ---------------------------------------------------------------------------------------------
+def rack_profile_functions(rack: BasicRack, m_n: float) -> dict[str, ca.Function]:
+    """Normal-section profile of the rack-cutter tooth that cuts the right flank of a gear tooth.
+
+    Coordinates ``(xi, eta)`` [mm]: ``xi`` along the datum line (gear tooth centred on xi = 0),
+    ``eta`` normal to it, positive away from the gear, datum line at eta = 0. The straight flank
+    passes through ``xi = pi m_n / 4`` on the datum line at the profile angle alpha_n; the
+    parabolic modification (profile crowning) adds ``a_c (u - u_0)^2`` along the tool normal.
+    The tip fillet (radius rho_fP m_n) is tangent to the flank and to the tip line
+    ``eta = -h_fP m_n``.
+
+    Returns
+    -------
+    dict
+        ``"flank"``: Function (u, p) -> (P (2,), n (2,)) and ``"fillet"``: Function (phi, p) ->
+        (P, n), with ``n`` the unit outward normal of the tool (pointing into the gear tooth);
+        ``"junction"``: Function (p) -> (u_f, phi_max), the flank parameter where the fillet starts
+        and the fillet angle range.
+    """
+    a, m = rack.alpha_n, m_n
+    h_f, rho = rack.h_fP * m, rack.rho_fP * m
+    u = ca.SX.sym("u")
+    p = ca.SX.sym("p", len(PARAMS))
+    a_c, u_0 = p[1], p[2]
+    t0 = ca.vertcat(ca.sin(a), -ca.cos(a))
+    n0 = ca.vertcat(-ca.cos(a), -ca.sin(a))
+    P = ca.vertcat(math.pi * m / 4, 0.0) + u * t0 + a_c * (u - u_0) ** 2 * n0
+    t = ca.jacobian(P, u)
+    n = _unit(ca.vertcat(t[1], -t[0]))  # tangent turned by -90 deg: the tool's outward normal
+    flank = ca.Function("rack_flank", [u, p], [P, n], ["u", "p"], ["P", "n"])
+
+    # Fillet junction u_f: circle of radius rho tangent to the profile at u_f and to the tip line.
+    g = P[1] - rho * n[1] + h_f - rho
+    G = ca.Function("g", [u, p], [g, ca.jacobian(g, u)])
+    u_f = (h_f - rho * (1 - math.sin(a))) / math.cos(a)  # exact for the straight profile
+    for _ in range(_FILLET_NEWTON):
+        gv, dg = G(u_f, p)
+        u_f = u_f - gv / dg
+    P_f, n_f = flank(u_f, p)
+    C = P_f - rho * n_f
+    theta_f = ca.atan2(-n_f[0], -n_f[1])  # angle of n_f from the tip normal (0, -1)
+    junction = ca.Function("rack_junction", [p], [u_f, theta_f, C], ["p"], ["u_f", "phi_max", "C"])
+
+    phi = ca.SX.sym("phi")
+    th = theta_f - phi
+    n_fil = ca.vertcat(-ca.sin(th), -ca.cos(th))
+    fillet = ca.Function("rack_fillet", [phi, p], [C + rho * n_fil, n_fil], ["phi", "p"], ["P", "n"])
+    return {"flank": flank, "fillet": fillet, "junction": junction}
+
+
+# ---------------------------------------------------------------------------------------------
+# Generated tooth
+# ---------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class GeneratedTooth:
+    """Tooth surfaces of one gear generated by a tool, as compiled CasADi Functions.
+
+    Attributes
+    ----------
+    gear : Gear
+        The gear data.
+    method : str
+        ``"rack"``, ``"hob"`` or ``"shaper"``.
+    functions : dict[str, casadi.Function]
+        ``"<side>_flank"`` and ``"<side>_fillet"`` for side in ``("right", "left")``:
+        inputs ``(q, z, p)`` -> outputs ``(r (3,) [mm], n (3,) unit outward normal, psi [rad]
+        generating parameter)`` (plus ``phi_h`` hob rotation for a hob); ``"<side>_family"``:
+        ``(q, z, psi, p)`` -> (r, n) of the tool surface point in the gear frame for any psi
+        (for checks of the equation of meshing); ``"junction"``: ``(p)`` -> ``(u_f, phi_max)``.
+    r_root : float
+        Root radius cut by the tool [mm].
+    """
+
+    gear: Gear
+    method: str
+    functions: dict = field(repr=False)
+    r_root: float
+    extras: dict = field(default_factory=dict)
+
+    @property
+    def p0(self) -> np.ndarray:
+        """Parameter vector of the gear as built."""
+        return default_params(self.gear)
+
+    def surface(self, side: str = "right", segment: str = "flank") -> ca.Function:
+        """The compiled surface Function ``(q, z, p) -> (r, n, psi)`` of a side and segment."""
+        if side not in SIDES:
+            raise out_of_range("side", side, "'right' or 'left'")
+        if segment not in ("flank", "fillet"):
+            raise out_of_range("segment", segment, "'flank' or 'fillet'")
+        return self.functions[f"{side}_{segment}"]
+
+    def junction(self, p=None) -> tuple[float, float]:
+        """Flank parameter ``u_f`` [mm] where the fillet begins and fillet angle range [rad]."""
+        u_f, phi_max = self.functions["junction"](self.p0 if p is None else p)[:2]
+        return float(u_f), float(phi_max)
+
+    def point(self, side, segment, q, z=0.0, p=None):
+        """Numeric position (3,), unit normal (3,) and psi of one surface point."""
+        r, n, psi = self.surface(side, segment)(q, z, self.p0 if p is None else p)[:3]
+        return np.asarray(r).ravel(), np.asarray(n).ravel(), float(psi)
+
+    def radius_function(self, side="right") -> ca.Function:
+        """Function (u, z, p) -> (transverse radius, d radius / du) on the flank."""
+        u, z = ca.SX.sym("u"), ca.SX.sym("z")
+        p = ca.SX.sym("p", len(PARAMS))
+        r = self.surface(side, "flank")(u, z, p)[0]
+        rad = ca.sqrt(r[0] ** 2 + r[1] ** 2)
+        return ca.Function("flank_radius", [u, z, p], [rad, ca.jacobian(rad, u)])
+
+    def u_at_radius(self, radius: float, z: float = 0.0, side: str = "right", p=None, tol: float = 1e-12) -> float:
+        """Flank parameter u [mm] of the point at transverse radius ``radius`` (Newton).
+
+        Raises
+        ------
+        GeometryError
+            If the radius is not reached on the generated flank (below the form radius of an
+            undercut tooth or beyond the tool's reach).
+        """
+        p = self.p0 if p is None else p
+        f = self.radius_function(side)
+        u = float(self.extras.get("q_pitch", 0.0))
+        for _ in range(60):
+            rad, d = (float(v) for v in f(u, z, p))
+            if d >= 0:  # the flank coordinate runs towards the root: radius must decrease
+                raise GeometryError(f"{self.gear.name}: radius {radius:.6g} mm is not reached on the involute flank "
+                                    f"(the flank radius stops growing at u = {u:.6g} mm: undercut or singular point).")
+            step = (rad - radius) / d
+            u -= step
+            if abs(step) < tol:
+                return u
+        raise ConvergenceError(f"{self.gear.name}: no flank point at radius {radius:.6g} mm after 60 Newton steps.")
+
+    def transverse_profile(self, z: float = 0.0, n: int = 60, p=None) -> dict[str, np.ndarray]:
+        """Sampled transverse section of one tooth (both sides, fillets, tip arc) [mm].
+
+        Returns
+        -------
+        dict
+            ``"right_flank"``, ``"left_flank"``, ``"right_fillet"``, ``"left_fillet"`` as (k, 2)
+            arrays from the form limit to the tip / from the flank junction to the root,
+            ``"tip"`` (k, 2) arc.
+        """
+        p = self.p0 if p is None else p
+        g = self.gear
+        u_f, phi_max = self.junction(p)
+        out = {}
+        for side in SIDES:
+            u_tip = self.u_at_radius(g.r_a, z, side, p)
+            us = np.linspace(u_tip, u_f, n)
+            fl = np.array(self.surface(side, "flank").map(n)(us, z, np.tile(p[:, None], n))[0]).T
+            phis = np.linspace(0.0, phi_max, n)
+            fi = np.array(self.surface(side, "fillet").map(n)(phis, z, np.tile(p[:, None], n))[0]).T
+            out[f"{side}_flank"] = fl[:, :2]
+            out[f"{side}_fillet"] = fi[:, :2]
+        a0 = math.atan2(out["left_flank"][0, 1], out["left_flank"][0, 0])
+        a1 = math.atan2(out["right_flank"][0, 1], out["right_flank"][0, 0])
+        ang = np.linspace(a1, a0, 20)
+        out["tip"] = g.r_a * np.c_[np.cos(ang), np.sin(ang)]
+        return out
+
+
+def _helix_sigma(gear: Gear) -> float:
+    return 0.0 if gear.is_spur else (1.0 if gear.hand == "right" else -1.0)
+
+
+def _rack_generated(gear: Gear, rack: BasicRack, method: str, N_h: int | None = None) -> GeneratedTooth:
+    m_n, beta = gear.m_n, gear.beta
+    cb, tb = math.cos(beta), math.tan(beta)
+    r_p = gear.r_p
+    sigma = _helix_sigma(gear)
+    prof = rack_profile_functions(rack, m_n)
+    q, z, psi_free = ca.SX.sym("q"), ca.SX.sym("z"), ca.SX.sym("psi")
+    p = ca.SX.sym("p", len(PARAMS))
+    x, a_pl = p[0], p[3]
+    funcs: dict[str, ca.Function] = {"junction": prof["junction"]}
+    for side, sx in (("right", 1.0), ("left", -1.0)):
+        for seg, qname in (("flank", "u"), ("fillet", "phi")):
+            P = prof[seg](q, p)[0]
+            # Tool surface in S_c: normal-section profile swept along the helix, plunged by a_pl z^2.
+            # A right-hand tooth moves towards -x along +z on the rack side (+y) of the gear.
+            R = ca.vertcat(sx * P[0] / cb - sigma * z * tb, P[1] - a_pl * z**2, z)
+            n_c = _unit(sx * _cross(ca.jacobian(R, q), ca.jacobian(R, z)))  # tool outward normal
+            # Equation of meshing n . v^(cg) = 0 with v^(cg) = omega (y_f - r_p, -x_f, 0),
+            # x_f = x_c - r_p psi, y_f = y_c + r_p + x m_n: affine in psi, solved exactly.
+            psi = (n_c[1] * R[0] - n_c[0] * (R[1] + x * m_n)) / (n_c[1] * r_p)
+
+            def in_gear(ps):
+                r_f = ca.vertcat(R[0] - r_p * ps, R[1] + r_p + x * m_n, R[2])
+                return _rot_z(-ps, r_f), -_rot_z(-ps, n_c)
+
+            r_g, n_g = in_gear(psi)
+            outs, onames = [r_g, n_g, psi], ["r", "n", "psi"]
+            if N_h is not None:  # hob: phi_h / phi_g = N_g / N_h (Litvin eq. 10.3.4)
+                outs.append(psi * gear.z / N_h)
+                onames.append("phi_h")
+            name = f"{gear.name}_{side}_{seg}"
+            funcs[f"{side}_{seg}"] = ca.Function(name, [q, z, p], outs, [qname, "z", "p"], onames)
+            r_fam, n_fam = in_gear(psi_free)
+            funcs[f"{side}_{seg}_family"] = ca.Function(
+                f"{name}_family", [q, z, psi_free, p], [r_fam, n_fam], [qname, "z", "psi", "p"], ["r", "n"])
+    return GeneratedTooth(gear=gear, method=method, functions=funcs, r_root=gear.r_f)
+
+
+def generate_by_rack(gear: Gear, rack: BasicRack | None = None) -> GeneratedTooth:
+    """Tooth surfaces of ``gear`` generated by its rack-cutter (straight or parabolic profile).
+
+    Spur or helical; the rack-cutter's tip fillet generates the root fillet (the offset of an
+    extended involute, eq. 10.2.11); longitudinal crowning by plunging (``gear.a_pl``) and
+    profile crowning (``rack.a_c``) are entries of the parameter vector.
+
+    Parameters
+    ----------
+    gear : Gear
+    rack : BasicRack, optional
+        The rack-cutter's normal section; default ``gear.rack``.
+    """
+    return _rack_generated(gear, rack or gear.rack, "rack")
+
+
+@dataclass(frozen=True)
+class Hob:
+    """A hob whose normal section is the rack-cutter (Litvin section 10.3, Fig. 10.3.5).
+
+    Parameters
+    ----------
+    N_h : int
+        Number of threads (usually 1).
+    d_p0 : float
+        Hob reference diameter [mm].
+    hand : {"right", "left"}
+        Hand of the hob thread.
+    """
+
+    N_h: int = 1
+    d_p0: float = 60.0
+    hand: str = "right"
+
+    def __post_init__(self):
+        if isinstance(self.N_h, bool) or not isinstance(self.N_h, int) or self.N_h < 1:
+            raise out_of_range("hob.N_h", self.N_h, "an integer >= 1 (threads)")
+        if not (isinstance(self.d_p0, (int, float)) and math.isfinite(self.d_p0) and self.d_p0 > 0):
+            raise out_of_range("hob.d_p0", self.d_p0, "d_p0 > 0 mm")
+        if self.hand not in SIDES:
+            raise out_of_range("hob.hand", self.hand, "'right' or 'left'")
+
+    def lead_angle(self, m_n: float) -> float:
+        """Thread lead angle on the reference cylinder [rad]: ``sin lambda = N_h m_n / d_p0``."""
+        s = self.N_h * m_n / self.d_p0
+        if s >= 1:
+            raise out_of_range("hob.d_p0", self.d_p0, f"d_p0 > N_h m_n = {self.N_h * m_n:.4g} mm")
+        return math.asin(s)
+
+    def swivel_angle(self, gear: Gear) -> float:
+        """Setting angle between hob and gear axes [rad]: ``beta -+ lambda`` (same/opposite hands),
+        measured from the plane normal to the gear axis."""
+        lam = self.lead_angle(gear.m_n)
+        same = gear.is_spur or gear.hand == self.hand
+        sign = -1.0 if same else 1.0
+        return (gear.beta if not gear.is_spur else 0.0) + sign * lam
+
+
+def generate_by_hob(gear: Gear, hob: Hob | None = None) -> GeneratedTooth:
+    """Tooth surfaces generated by a hob: its normal section acts as the rack-cutter, and the
+    hob turns ``phi_h = (N_g / N_h) psi`` while the gear turns by psi (Litvin eq. 10.3.4).
+
+    The surface Functions carry the extra output ``phi_h`` [rad]; the generated flank and fillet
+    coincide with the rack-generated ones (the feed motion along the axis is continuous).
+    """
+    hob = hob or Hob()
+    tooth = _rack_generated(gear, gear.rack, "hob", N_h=hob.N_h)
+    return GeneratedTooth(gear=gear, method="hob", functions=tooth.functions, r_root=tooth.r_root,
+                          extras={"N_h": hob.N_h, "lead_angle": hob.lead_angle(gear.m_n),
+                                  "swivel_angle": hob.swivel_angle(gear)})
+
+
+@dataclass(frozen=True)
+class Shaper:
+    """A gear-shaped cutter (Litvin section 10.3, Fig. 10.3.6) with N_s teeth.
+
+    Its teeth are involute teeth conjugate to the gear's basic rack: addendum ``h_fP m_n`` (it cuts
+    the gear's dedendum) with a tip rounding of radius ``rho_fP m_n``.
+
+    Parameters
+    ----------
+    N_s : int
+        Number of shaper teeth (>= 8).
+    x_s : float
+        Profile shift coefficient of the shaper [-].
+    """
+
+    N_s: int = 25
+    x_s: float = 0.0
+
+    def __post_init__(self):
+        if isinstance(self.N_s, bool) or not isinstance(self.N_s, int) or self.N_s < 8:
+            raise out_of_range("shaper.N_s", self.N_s, "an integer >= 8 (teeth)")
+        if not (isinstance(self.x_s, (int, float)) and math.isfinite(self.x_s)):
+            raise out_of_range("shaper.x_s", self.x_s, "a finite profile shift")
+
+
+def generate_by_shaper(gear: Gear, shaper: Shaper | None = None) -> GeneratedTooth:
+    """Tooth surfaces of a spur gear generated by a shaper (external cutting mesh).
+
+    The shaper turns by ``psi_s = (N_2 / N_s) psi`` opposite to the gear; the cutting centre
+    distance follows from ``x_s + x`` (``inv alpha_w0 = inv alpha + 2 tan alpha (x_s + x)/(N_s + N_2)``)
+    and the equation of meshing ``n_s . v^(s2) = 0`` says that the common normal passes through the
+    pitch point I: the tool normal line is intersected with the shaper's cutting pitch circle.
+    The involute flank equals the rack-generated one; the fillet differs (and tends to the
+    rack's as N_s grows).
+    """
+    shaper = shaper or Shaper()
+    if not gear.is_spur:
+        raise GeometryError(f"{gear.name}.beta = {math.degrees(gear.beta):.6g} deg: shaper generation is implemented "
+                            "for spur gears only (beta = 0); use generate_by_rack or generate_by_hob for helical gears.")
+    if gear.a_pl != 0 or gear.rack.a_c != 0:
+        raise GeometryError(f"{gear.name}: crowning (a_pl = {gear.a_pl}, a_c = {gear.rack.a_c}) is defined for rack/hob "
+                            "generation; shaper generation needs a_pl = 0 and a_c = 0.")
+    rack, m = gear.rack, gear.m_n
+    al = rack.alpha_n
+    N_s, N_2 = shaper.N_s, gear.z
+    r_ps, r_bs = m * N_s / 2, m * N_s / 2 * math.cos(al)
+    r_as = r_ps + m * (rack.h_fP + shaper.x_s)
+    rho = rack.rho_fP * m
+    s_ps = m * (math.pi / 2 + 2 * shaper.x_s * math.tan(al))  # shaper tooth thickness on r_ps
+    if (r_as - rho) <= r_bs:
+        raise GeometryError(f"shaper.N_s = {N_s}: the tip rounding centre falls inside the shaper base circle; "
+                            "use more shaper teeth or a smaller rho_fP.")
+    gam0 = -math.pi / 2 + math.pi / N_s  # direction of the shaper tooth right of the line of centres
+
+    q, z, psi_free = ca.SX.sym("q"), ca.SX.sym("z"), ca.SX.sym("psi")
+    p = ca.SX.sym("p", len(PARAMS))
+    x = p[0]
+    inv_w = inv(al) + 2 * math.tan(al) * (shaper.x_s + x) / (N_s + N_2)
+    a_cut = (m * (N_s + N_2) / 2) * math.cos(al) / ca.cos(inv_inverse(inv_w))  # cutting centre distance
+    r_ws = a_cut * N_s / (N_s + N_2)  # shaper's cutting pitch radius
+
+    def shaper_flank(phi_roll):  # shaper flank facing -x (decreasing polar angle), roll angle phi_roll
+        rad = r_bs * ca.sqrt(1 + phi_roll**2)
+        half = s_ps / (2 * r_ps) + inv(al) - (phi_roll - ca.atan(phi_roll))
+        ang = gam0 - half
+        return ca.vertcat(rad * ca.cos(ang), rad * ca.sin(ang))
+
+    P_fl = shaper_flank(q)
+    t_fl = ca.jacobian(P_fl, q)
+    n_fl = _unit(ca.vertcat(t_fl[1], -t_fl[0]))
+    flank_fn = ca.Function("shaper_flank", [q], [P_fl, n_fl])
+    # Tip rounding tangent to the flank (centre on the flank normal, |C| = r_as - rho): closed form.
+    phi_j = (rho + math.sqrt((r_as - rho) ** 2 - r_bs**2)) / r_bs
+    P_j, n_j = (np.asarray(v).ravel() for v in flank_fn(phi_j))
+    C = P_j - rho * n_j
+    c_hat = C / np.linalg.norm(C)
+    phi_max = math.atan2(n_j[0] * c_hat[1] - n_j[1] * c_hat[0], n_j @ c_hat)
+    n_rd = ca.vertcat(ca.cos(q) * n_j[0] - ca.sin(q) * n_j[1], ca.sin(q) * n_j[0] + ca.cos(q) * n_j[1])
+    P_rd = C + rho * n_rd
+    funcs: dict[str, ca.Function] = {
+        "junction": ca.Function("shaper_junction", [p], [phi_j, phi_max, ca.DM(C)], ["p"], ["u_f", "phi_max", "C"])}
+    for seg, qname, P, n in (("flank", "u", P_fl, n_fl), ("fillet", "phi", P_rd, n_rd)):
+        # Meshing: I_s = P + t n on the circle |I_s| = r_ws, nearest root (P . n > 0 on the tool).
+        b = P[0] * n[0] + P[1] * n[1]
+        c = r_ws**2 - (P[0] ** 2 + P[1] ** 2)
+        t = c / (b + ca.sqrt(b * b + c))
+        I_s = P + t * n
+        psi_s = ca.atan2(I_s[1], I_s[0]) + math.pi / 2  # shaper rotation (clockwise positive)
+        psi = psi_s * N_s / N_2
+
+        def in_gear(ps, side_x):
+            ps_s = ps * N_2 / N_s
+            c_, s_ = ca.cos(ps_s), ca.sin(ps_s)
+            Pf = ca.vertcat(c_ * P[0] + s_ * P[1], -s_ * P[0] + c_ * P[1] + a_cut, z)  # R(-psi_s) P + O_s
+            nf = ca.vertcat(c_ * n[0] + s_ * n[1], -s_ * n[0] + c_ * n[1], 0.0)
+            r_g, n_g = _rot_z(-ps, Pf), -_rot_z(-ps, nf)
+            mirror = ca.vertcat(side_x, 1.0, 1.0)
+            return r_g * mirror, n_g * mirror
+
+        for side, sx in (("right", 1.0), ("left", -1.0)):
+            # The shaper tooth right of the line of centres cuts the gear tooth's right flank; the
+            # left side is its mirror image (spur gears are symmetric).
+            r_g, n_g = in_gear(psi, sx)
+            name = f"{gear.name}_{side}_{seg}"
+            funcs[f"{side}_{seg}"] = ca.Function(name, [q, z, p], [r_g, n_g, sx * psi], [qname, "z", "p"],
+                                                 ["r", "n", "psi"])
+            r_fam, n_fam = in_gear(sx * psi_free, sx)
+            funcs[f"{side}_{seg}_family"] = ca.Function(
+                f"{name}_family", [q, z, psi_free, p], [r_fam, n_fam], [qname, "z", "psi", "p"], ["r", "n"])
+    a_cut0 = float(ca.Function("a", [p], [a_cut])(default_params(gear)))
+    return GeneratedTooth(gear=gear, method="shaper", functions=funcs, r_root=a_cut0 - r_as,
+                          extras={"N_s": N_s, "x_s": shaper.x_s, "a_cut": a_cut0, "r_as": r_as, "q_pitch": math.tan(al)})

@@ -1,0 +1,611 @@
+"""Scene files: TOML input that declares a gear pair and the study to run on it.
+
+A scene declares only what its study needs. The common sections (see :data:`COMMON_SECTIONS`)::
+
+    [scene]   name (required), description, study (required; a registered study)
+    [rack]    optional, for both members: preset ("A".."D", ISO 53), alpha_n, h_aP, h_fP, rho_fP, a_c, u_0
+    [pinion]  z, b (required), x, k, a_pl, allow_undercut; optional subtable rack = {...} (overrides [rack])
+    [gear]    same as [pinion]
+    [pair]    m_n or P_n (exactly one), beta, hand (the pinion's; the gear gets the opposite), a
+    [output]  optional: plots, dpi
+
+and each study adds its own sections (:mod:`gearopt.studies`). Lengths are mm, angles deg, unless a
+value carries its unit as a string (``"0.5 in"``, ``"20 deg"``, ``"0.3 rad"``; see
+:mod:`gearopt.units`). Internally everything is mm, rad, 1/mm.
+
+Every problem (TOML syntax, unknown or missing key, wrong type or unit, impossible gear) raises one
+:class:`~gearopt.errors.SceneError` whose message starts with the file name and names the key as
+``[section] key``.
+"""
+
+from __future__ import annotations
+
+import difflib
+import json
+import math
+import re
+import tomllib
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any, Callable
+
+from ..errors import GeometryError, SceneError
+from ..gears import BasicRack, Gear, GearPair
+from ..units import KINDS, parse_quantity
+
+__all__ = [
+    "Field", "Section", "Bounds", "Scene", "load_scene", "COMMON_SECTIONS", "KIND_UNITS", "format_field",
+]
+
+#: Internal unit of each field kind (what the loaded value is in) and the unit of a bare number.
+KIND_UNITS = {
+    "int": ("", ""), "float": ("", ""), "bool": ("", ""), "str": ("", ""),
+    "length": ("mm", "mm"), "angle": ("rad", "deg"), "inverse_length": ("1/mm", "1/mm"),
+}
+
+_MISSING = object()
+
+
+def _toml(value) -> str:
+    """A value as it would be written in TOML (for messages)."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return "nan" if math.isnan(value) else ("inf" if value > 0 else "-inf")
+    try:
+        return json.dumps(value, ensure_ascii=False)
+    except (TypeError, ValueError):
+        return repr(value)
+
+
+@dataclass(frozen=True)
+class Bounds:
+    """A range check for :class:`Field`, with bounds in the field's *scene* unit (deg for angles,
+    mm for lengths, ``Field.unit`` if set). ``Field(check=Bounds(lo=0, lo_open=True))`` means > 0."""
+
+    lo: float | None = None
+    hi: float | None = None
+    lo_open: bool = False
+    hi_open: bool = False
+
+    def text(self, name: str, unit: str) -> str:
+        u = f" {unit}" if unit else ""
+        lo_op = "<" if self.lo_open else "<="
+        hi_op = "<" if self.hi_open else "<="
+        if self.lo is not None and self.hi is not None:
+            return f"{self.lo:g} {lo_op} {name} {hi_op} {self.hi:g}{u}"
+        if self.lo is not None:
+            return f"{name} {'>' if self.lo_open else '>='} {self.lo:g}{u}"
+        if self.hi is not None:
+            return f"{name} {hi_op} {self.hi:g}{u}"
+        return f"any {name}"
+
+    def ok(self, value_in_scene_unit: float) -> bool:
+        v = value_in_scene_unit
+        if self.lo is not None and (v <= self.lo if self.lo_open else v < self.lo):
+            return False
+        if self.hi is not None and (v >= self.hi if self.hi_open else v > self.hi):
+            return False
+        return True
+
+
+@dataclass(frozen=True)
+class Field:
+    """One key of a scene section.
+
+    Parameters
+    ----------
+    name : str
+        The TOML key.
+    kind : {"int", "float", "bool", "str", "length", "angle", "inverse_length"}
+        Value type. Quantities are converted to mm, rad, 1/mm by :func:`gearopt.units.parse_quantity`.
+    required : bool
+        Missing key is an error.
+    default
+        Value used when the key is absent, written as in a scene file (``20`` for an angle means
+        20 deg) and converted like a given value. Without a default an absent key loads as ``None``.
+    doc : str
+        One line for ``gearopt studies`` and error messages.
+    choices : sequence or None
+        Allowed values (compared after conversion; use with "str" or "int").
+    check : Bounds | callable(value) -> str | None | bool
+        Extra validation of the converted value. A :class:`Bounds` is in the scene unit. A callable
+        returns ``None``/``True`` when fine, else ``False`` or a text stating the valid range.
+    unit : str or None
+        Unit of a bare number for a quantity when it differs from the kind's default (e.g.
+        ``"1/in"`` for a diametral pitch).
+    """
+
+    name: str
+    kind: str
+    required: bool = False
+    default: Any = None
+    doc: str = ""
+    choices: tuple | list | None = None
+    check: Bounds | Callable[[Any], Any] | None = None
+    unit: str | None = None
+
+    def __post_init__(self):
+        if self.kind not in KIND_UNITS:
+            raise ValueError(f"Field {self.name!r}: unknown kind {self.kind!r}; one of {sorted(KIND_UNITS)}")
+        if self.unit is not None and (self.kind not in KINDS or self.unit not in KINDS[self.kind][0]):
+            raise ValueError(f"Field {self.name!r}: unit {self.unit!r} does not fit kind {self.kind!r}")
+
+    @property
+    def scene_unit(self) -> str:
+        """Unit of a bare number in the scene file ('' for plain numbers)."""
+        return self.unit or KIND_UNITS[self.kind][1]
+
+    @property
+    def internal_unit(self) -> str:
+        return KIND_UNITS[self.kind][0]
+
+    def convert(self, value, where: str) -> Any:
+        """Check and convert a TOML value; ``where`` is the key path for messages."""
+        k = self.kind
+        if k == "int":
+            if isinstance(value, bool) or not isinstance(value, int):
+                raise SceneError(f"{where} = {_toml(value)}: expected an integer, got {_type(value)}.")
+            out = value
+        elif k == "float":
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                raise SceneError(f"{where} = {_toml(value)}: expected a number, got {_type(value)}.")
+            if not math.isfinite(value):
+                raise SceneError(f"{where} = {_toml(value)}: not a finite number.")
+            out = float(value)
+        elif k == "bool":
+            if not isinstance(value, bool):
+                raise SceneError(f"{where} = {_toml(value)}: expected true or false, got {_type(value)}.")
+            out = value
+        elif k == "str":
+            if not isinstance(value, str):
+                raise SceneError(f"{where} = {_toml(value)}: expected a string (in quotes), got {_type(value)}.")
+            out = value
+        else:
+            if isinstance(value, (dict, list)):
+                raise SceneError(f"{where} = {_toml(value)}: expected a {k} (number or \"<number> <unit>\"), "
+                                 f"got {_type(value)}.")
+            if self.unit is not None and isinstance(value, (int, float)) and not isinstance(value, bool):
+                value_in = f"{value!r} {self.unit}"
+                try:
+                    out = parse_quantity(value_in, k, where)
+                except SceneError:  # e.g. inf: report the value as written
+                    raise SceneError(f"{where} = {_toml(value)}: not a finite number.") from None
+            else:
+                try:
+                    out = parse_quantity(value, k, where)
+                except SceneError as e:
+                    if self.unit is None:
+                        raise
+                    msg = str(e).replace(f"(a bare number means {KINDS[k][1]})", f"(a bare number means {self.unit})")
+                    raise SceneError(msg) from None
+        if self.choices is not None and out not in self.choices:
+            hint = _closest(str(out), [str(c) for c in self.choices])
+            raise SceneError(f"{where} = {_toml(value)} is not allowed; valid: one of "
+                             f"{', '.join(_toml(c) for c in self.choices)}.{hint}")
+        if self.check is not None:
+            if isinstance(self.check, Bounds):
+                shown = self.to_scene_unit(out)
+                if not self.check.ok(shown):
+                    raise SceneError(f"{where} = {_toml(value)} is out of range; valid: "
+                                     f"{self.check.text(self.name, self.scene_unit)}.")
+            else:
+                res = self.check(out)
+                if res is False or isinstance(res, str):
+                    valid = f"; valid: {res}" if isinstance(res, str) else ""
+                    raise SceneError(f"{where} = {_toml(value)} is out of range{valid}.")
+        return out
+
+    def to_scene_unit(self, internal: float) -> float:
+        """An internal value (mm, rad, 1/mm) expressed in the scene unit of this field."""
+        if self.kind not in KINDS:
+            return internal
+        table, _ = KINDS[self.kind]
+        return internal / table[self.scene_unit]
+
+
+@dataclass(frozen=True)
+class Section:
+    """A TOML table of a scene: its fields and nested sub-tables (``[pinion] rack = {...}``)."""
+
+    name: str
+    fields: list = field(default_factory=list)
+    required: bool = False
+    doc: str = ""
+    subsections: list = field(default_factory=list)
+
+    def __post_init__(self):
+        names = [f.name for f in self.fields] + [s.name for s in self.subsections]
+        if len(set(names)) != len(names):
+            raise ValueError(f"Section {self.name!r}: duplicate keys in {names}")
+
+    @property
+    def keys(self) -> list[str]:
+        return [f.name for f in self.fields] + [s.name for s in self.subsections]
+
+    def parse(self, table, path: str, errors: list[str]) -> tuple[dict, set[str]]:
+        """Convert a TOML table. Returns (values, keys given); problems are appended to ``errors``.
+
+        ``values`` has every field (``None`` / default when absent) and, for each subsection, the
+        parsed sub-dict (or ``None`` when absent). Given keys of subsections appear in the set as
+        ``"sub.key"``.
+        """
+        where = f"[{path}]"
+        values: dict[str, Any] = {}
+        given: set[str] = set()
+        if not isinstance(table, dict):
+            errors.append(f"{where} must be a table (a [{path}] section or {{...}}), got {_type(table)} "
+                          f"{_toml(table)}.")
+            return values, given
+        for key in table:
+            if key not in self.keys:
+                errors.append(f"{where} {key}: unknown key.{_closest(key, self.keys)} Valid keys: "
+                              f"{', '.join(self.keys)}.")
+        for f in self.fields:
+            loc = f"{where} {f.name}"
+            if f.name in table:
+                given.add(f.name)
+                try:
+                    values[f.name] = f.convert(table[f.name], loc)
+                except SceneError as e:
+                    errors.append(str(e))
+            elif f.required:
+                errors.append(f"{loc}: missing required key ({_describe(f)}).")
+            elif f.default is not None:
+                values[f.name] = f.convert(f.default, loc + " (default)")
+            else:
+                values[f.name] = None
+        for sub in self.subsections:
+            if sub.name in table:
+                vals, sub_given = sub.parse(table[sub.name], f"{path}.{sub.name}", errors)
+                values[sub.name] = vals
+                given |= {f"{sub.name}.{k}" for k in sub_given} | {sub.name}
+            elif sub.required:
+                errors.append(f"{where} {sub.name}: missing required table.")
+            else:
+                values[sub.name] = None
+        return values, given
+
+
+def _same(text: str, value) -> bool:
+    """Whether a value printed by gearopt.gears equals the value written in the file."""
+    if text == str(value):
+        return True
+    try:
+        return not isinstance(value, (bool, str)) and math.isclose(float(text), float(value), rel_tol=1e-9)
+    except (TypeError, ValueError):
+        return False
+
+
+def _type(value) -> str:
+    return {bool: "a boolean", int: "an integer", float: "a number", str: "a string", dict: "a table",
+            list: "an array"}.get(type(value), type(value).__name__)
+
+
+def _closest(word: str, options) -> str:
+    m = difflib.get_close_matches(word, list(options), n=1, cutoff=0.6)
+    if not m:
+        m = [o for o in options if o.lower() == word.lower()]
+    return f" Did you mean {m[0]!r}?" if m else ""
+
+
+def _describe(f: Field) -> str:
+    bits = [f.kind]
+    if f.scene_unit:
+        bits.append(f"bare number in {f.scene_unit}")
+    if f.choices is not None:
+        bits.append("one of " + ", ".join(_toml(c) for c in f.choices))
+    if f.doc:
+        bits.append(f.doc)
+    return "; ".join(bits)
+
+
+def format_field(f: Field) -> str:
+    """One line describing a field (for ``gearopt studies``)."""
+    req = "required" if f.required else (f"default {_toml(f.default)}" if f.default is not None else "optional")
+    unit = f" [{f.scene_unit}]" if f.scene_unit else ""
+    choices = f" one of {', '.join(_toml(c) for c in f.choices)};" if f.choices is not None else ""
+    check = f" {f.check.text(f.name, f.scene_unit)};" if isinstance(f.check, Bounds) else ""
+    return f"{f.name} ({f.kind}{unit}, {req}):{choices}{check} {f.doc}".rstrip()
+
+
+# --- common sections ----------------------------------------------------------------------------
+
+_POS = Bounds(lo=0, lo_open=True)
+_RACK_FIELDS = [
+    Field("preset", "str", default="A", choices=("A", "B", "C", "D"),
+          doc="ISO 53 basic rack profile (alpha_n = 20 deg); the other keys override it"),
+    Field("alpha_n", "angle", doc="normal pressure angle, 0 < alpha_n < 45 deg"),
+    Field("h_aP", "float", doc="addendum of the basic rack [m_n], > 0"),
+    Field("h_fP", "float", doc="dedendum of the basic rack [m_n], >= h_aP"),
+    Field("rho_fP", "float", doc="root fillet radius of the basic rack [m_n] (tool tip radius)"),
+    Field("a_c", "inverse_length", doc="parabolic profile coefficient of the rack-cutter (0 = straight)"),
+    Field("u_0", "length", doc="apex of the profile parabola along the profile, from the datum line"),
+]
+
+
+def _member(name: str) -> Section:
+    return Section(name, [
+        Field("z", "int", required=True, doc="number of teeth, z >= 3"),
+        Field("b", "length", required=True, doc="face width, > 0"),
+        Field("x", "float", default=0.0, doc="profile shift coefficient"),
+        Field("k", "float", default=0.0, doc="tip alteration coefficient"),
+        Field("a_pl", "inverse_length", default=0.0, doc="longitudinal crowning by tool plunging, >= 0"),
+        Field("allow_undercut", "bool", default=False, doc="accept an undercut gear"),
+    ], required=True, doc=f"the {name}" + (" (driving member)" if name == "pinion" else " (driven member)"),
+        subsections=[Section("rack", _RACK_FIELDS, doc=f"rack-cutter of the {name}, overrides [rack] key by key")])
+
+
+#: Sections every scene may have (``[scene]`` and the gear data), in order.
+COMMON_SECTIONS: list[Section] = [
+    Section("scene", [
+        Field("name", "str", required=True, doc="short name of the scene"),
+        Field("description", "str", default="", doc="free text"),
+        Field("study", "str", required=True, doc="which study to run (see `gearopt studies`)"),
+    ], required=True, doc="what this scene is and which study it runs"),
+    Section("rack", _RACK_FIELDS, doc="basic rack (rack-cutter) of both members"),
+    _member("pinion"),
+    _member("gear"),
+    Section("pair", [
+        Field("m_n", "length", check=_POS, doc="normal module (give m_n or P_n)"),
+        Field("P_n", "inverse_length", unit="1/in", check=_POS,
+              doc="normal diametral pitch, bare number in 1/in (give m_n or P_n)"),
+        Field("beta", "angle", default=0.0, doc="helix angle, 0 <= beta < 45 deg (0 = spur)"),
+        Field("hand", "str", default="right", choices=("right", "left"),
+              doc="hand of the pinion's helix; the gear gets the opposite"),
+        Field("a", "length", doc="centre distance; default the zero-backlash distance a_0"),
+    ], required=True, doc="meshing data"),
+    Section("output", [
+        Field("plots", "bool", default=True, doc="write plots next to results.json"),
+        Field("dpi", "int", default=120, check=Bounds(lo=10, hi=2400), doc="resolution of raster plots"),
+    ], doc="what to write"),
+]
+
+
+# --- the scene ----------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class Scene:
+    """A loaded, validated scene.
+
+    Attributes
+    ----------
+    name, description, study : str
+        From ``[scene]``.
+    pair : GearPair
+        Pinion and gear (``pair.pinion``, ``pair.gear``), validated by :mod:`gearopt.gears`.
+    options : dict[str, dict[str, Any]]
+        The study's sections: ``options[section][key]`` in internal units (mm, rad, 1/mm);
+        absent optional keys without default are ``None``.
+    output : dict
+        ``{"plots": bool, "dpi": int}``.
+    source : Path
+        The scene file.
+    """
+
+    name: str
+    description: str
+    study: str
+    pair: GearPair
+    options: dict
+    output: dict
+    source: Path
+
+    def build(self):
+        """Build the study object (``STUDIES[study].build(self)``)."""
+        from ..studies import get_study
+
+        spec = get_study(self.study)
+        if spec is None:
+            raise SceneError(f"{self.source}: [scene] study = {_toml(self.study)} is not a registered study.")
+        return spec.build(self)
+
+
+def _read_toml(path: Path, label: str) -> dict:
+    try:
+        raw = path.read_bytes()
+    except FileNotFoundError:
+        raise SceneError(f"{label}: no such scene file.") from None
+    except IsADirectoryError:
+        raise SceneError(f"{label}: is a directory, not a scene file (.toml).") from None
+    except OSError as e:
+        raise SceneError(f"{label}: cannot read the scene file: {e.strerror or e}.") from None
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as e:
+        raise SceneError(f"{label}: not UTF-8 text ({e.reason} at byte {e.start}).") from None
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as e:
+        raise SceneError(f"{label}: TOML syntax error: {e}.") from None
+
+
+def _fail(label: str, errors: list[str]):
+    if len(errors) == 1:
+        raise SceneError(f"{label}: {errors[0]}")
+    raise SceneError(f"{label}: {len(errors)} problems:\n" + "\n".join(f"  - {e}" for e in errors))
+
+
+def load_scene(path) -> Scene:
+    """Read, validate and convert a scene file.
+
+    Raises
+    ------
+    SceneError
+        For any problem, with the file name and ``[section] key`` in the message.
+    """
+    from ..studies import broken_modules, get_study, studies
+
+    path = Path(path)
+    label = str(path)
+    data = _read_toml(path, label)
+    errors: list[str] = []
+
+    # [scene] first: it says which study, hence which further sections are allowed.
+    head = COMMON_SECTIONS[0]
+    if "scene" not in data:
+        _fail(label, ["[scene]: missing required section (with name = \"...\" and study = \"...\").",
+                      *([] if data else ["the file is empty."])])
+    scene_vals, _ = head.parse(data["scene"], "scene", errors)
+    if errors:
+        _fail(label, errors)
+    study_name = scene_vals["study"]
+    spec = get_study(study_name)
+    if spec is None:
+        known = sorted(studies())
+        broken = "".join(f" (module {m} failed to import: {e!r})" for m, e in broken_modules().items())
+        valid = ", ".join(_toml(k) for k in known) if known else "none registered"
+        _fail(label, [f"[scene] study = {_toml(study_name)} is not a registered study; valid: {valid}."
+                      f"{_closest(study_name, known)}{broken}"])
+
+    sections = {s.name: s for s in COMMON_SECTIONS}
+    for s in spec.sections:
+        if s.name in sections:
+            raise ValueError(f"study {spec.name!r} redefines the common section [{s.name}]")
+        sections[s.name] = s
+
+    for key, value in data.items():
+        if key in sections:
+            continue
+        if not isinstance(value, dict):
+            homes = [f"[{n}]" for n, sec in sections.items() if key in sec.keys]
+            hint = f" It belongs in {' or '.join(homes)}." if homes else ""
+            errors.append(f"{key} = {_toml(value)}: top-level key {key!r} is not allowed; keys must be inside a "
+                          f"section such as [scene].{hint}")
+            continue
+        owner = [n for n, st in studies().items() for s in st.sections if s.name == key]
+        if owner:
+            errors.append(f"[{key}]: this section belongs to study {_toml(owner[0])}, but this scene's "
+                          f"study is {_toml(study_name)}.")
+        else:
+            errors.append(f"[{key}]: unknown section.{_closest(key, list(sections))} Valid sections: "
+                          f"{', '.join(f'[{n}]' for n in sections)}.")
+
+    parsed: dict[str, dict] = {}
+    given: dict[str, set] = {}
+    for name, sec in sections.items():
+        if name == "scene":
+            continue
+        if name in data:
+            parsed[name], given[name] = sec.parse(data[name], name, errors)
+        elif sec.required:
+            errors.append(f"[{name}]: missing required section ({sec.doc}).")
+        else:
+            parsed[name], given[name] = sec.parse({}, name, errors)
+
+    pair_given = given.get("pair", set())
+    if "pair" in data and isinstance(data["pair"], dict):
+        if "m_n" in pair_given and "P_n" in pair_given:
+            errors.append("[pair] m_n and P_n: give exactly one of them (module in mm or diametral pitch in 1/in), "
+                          "not both.")
+        elif "m_n" not in pair_given and "P_n" not in pair_given:
+            errors.append("[pair] m_n: missing; give exactly one of m_n (normal module, mm) or P_n "
+                          "(normal diametral pitch, 1/in).")
+    if errors:
+        _fail(label, errors)
+
+    pair = _build_pair(data, parsed, given, label)
+    options = {s.name: parsed[s.name] for s in spec.sections}
+    return Scene(name=scene_vals["name"], description=scene_vals["description"], study=study_name, pair=pair,
+                 options=options, output=dict(parsed["output"]), source=path)
+
+
+# --- gear objects -------------------------------------------------------------------------------
+
+_RACK_KEYS = [f.name for f in _RACK_FIELDS if f.name != "preset"]
+
+
+def _build_pair(data: dict, parsed: dict, given: dict, label: str) -> GearPair:
+    pr = parsed["pair"]
+    if pr["m_n"] is not None:
+        m_n, m_key = pr["m_n"], "m_n"
+    else:
+        m_n, m_key = 1.0 / pr["P_n"], "P_n"
+    pinion_hand = pr["hand"]
+    hands = {"pinion": pinion_hand, "gear": "left" if pinion_hand == "right" else "right"}
+
+    def raw(section: str, key: str):
+        """The value as written in the file (``section`` may be ``"pinion.rack"``)."""
+        t = data
+        for part in section.split("."):
+            t = t.get(part, {}) if isinstance(t, dict) else {}
+        return t.get(key, _MISSING) if isinstance(t, dict) else _MISSING
+
+    def rack_source(member: str, key: str) -> str | None:
+        if f"rack.{key}" in given[member]:
+            return f"{member}.rack"
+        if key in given["rack"]:
+            return "rack"
+        return None
+
+    def locate(member: str | None, name: str) -> tuple[str, str] | None:
+        """Map a gearopt.gears parameter name to (section, key) in the scene file."""
+        parts = name.split(".")
+        if parts[0] in ("pinion", "gear") and len(parts) == 2:
+            member, key = parts
+            if key in ("m_n",):
+                return ("pair", m_key)
+            if key in ("beta", "hand"):
+                return ("pair", key)
+            return (member, key)
+        if parts[0] in ("pinion", "gear") and len(parts) == 3 and parts[1] == "rack":
+            src = rack_source(parts[0], parts[2])
+            return (src, parts[2]) if src else None
+        if parts[0] == "rack" and len(parts) == 2 and member is not None:
+            if parts[1] == "preset":
+                src = rack_source(member, "preset")
+                return (src, "preset") if src else None
+            src = rack_source(member, parts[1])
+            return (src, parts[1]) if src else None
+        if name == "pair.a":
+            return ("pair", "a")
+        if name == "P_n":
+            return ("pair", "P_n")
+        return None
+
+    def reraise(err: GeometryError, member: str | None, context: str):
+        msg = str(err)
+        m = re.match(r"^([A-Za-z_][\w.]*) = ", msg)
+        loc = locate(member, m.group(1)) if m else None
+        if loc is not None:
+            section, key = loc
+            value = raw(section, key)
+            rest = msg[m.end():]
+            cut = re.search(r" (is out of range|must be)", rest)
+            if cut:
+                converted = rest[:cut.start()].strip("'\"")
+                if value is _MISSING:
+                    shown = f"{converted} (not set: the default)"
+                else:
+                    shown = _toml(value)
+                    if not _same(converted, value):
+                        shown += f" (= {converted})"
+                raise SceneError(f"{label}: [{section}] {key} = {shown}{rest[cut.start():]}") from None
+            raise SceneError(f"{label}: [{section}] {key}: {msg}") from None
+        raise SceneError(f"{label}: {context}: {msg}") from None
+
+    members = {}
+    for member in ("pinion", "gear"):
+        own = parsed[member]["rack"] or {}
+        common = parsed["rack"]
+        preset = own["preset"] if "rack.preset" in given[member] else common["preset"]
+        changes = {k: common[k] for k in _RACK_KEYS if k in given["rack"]}
+        changes.update({k: own[k] for k in _RACK_KEYS if f"rack.{k}" in given[member]})
+        ctx = f"[{member}] rack (ISO 53 {preset}" + (f" with {', '.join(changes)} changed)" if changes else ")")
+        try:
+            rack = BasicRack.iso53(preset, **changes)
+            if changes:
+                rack = replace(rack, name=f"ISO 53 {preset}, modified")
+        except GeometryError as e:
+            reraise(e, member, ctx)
+        v = parsed[member]
+        try:
+            members[member] = Gear(z=v["z"], m_n=m_n, x=v["x"], b=v["b"], beta=pr["beta"], hand=hands[member],
+                                   rack=rack, k=v["k"], a_pl=v["a_pl"], allow_undercut=v["allow_undercut"],
+                                   name=member)
+        except GeometryError as e:
+            reraise(e, member, f"[{member}]")
+    try:
+        return GearPair(pinion=members["pinion"], gear=members["gear"], a=pr["a"])
+    except GeometryError as e:
+        reraise(e, None, "[pair]")
+    raise AssertionError("unreachable")  # pragma: no cover
+

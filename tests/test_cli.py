@@ -1,0 +1,176 @@
+"""The gearopt command line (gearopt.cli) and the all-or-nothing results writer (gearopt.io.results)."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from conftest import GOOD_SCENE
+from gearopt.cli import main
+from gearopt.io.results import write_results
+
+REPO = Path(__file__).resolve().parents[1]
+TESTS = Path(__file__).resolve().parent
+BAD_SCENE = GOOD_SCENE.replace("z = 20", "z = 2")
+
+
+def leftovers(parent: Path) -> list[str]:
+    """Temporary directories of the results writer left in ``parent``."""
+    return sorted(p.name for p in parent.iterdir() if p.name.startswith("."))
+
+
+def test_run_bad_scene_exits_2_and_writes_nothing(dummy_study, scene_file, tmp_path, capsys):
+    scene = scene_file(BAD_SCENE, "bad.toml")
+    out = tmp_path / "out" / "bad"
+    assert main(["run", str(scene), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert f"error: {scene}: [pinion] z = 2 is out of range; valid: z >= 3 teeth." in err
+    assert "Traceback" not in err
+    assert not out.exists()
+    assert not (tmp_path / "out").exists() or leftovers(tmp_path / "out") == []
+
+
+def test_run_good_scene_writes_results_and_plots(dummy_study, scene_file, tmp_path, capsys):
+    scene = scene_file(GOOD_SCENE)
+    out = tmp_path / "results" / "good"
+    assert main(["run", str(scene), "--out", str(out)]) == 0
+    captured = capsys.readouterr()
+    printed = captured.out.split()
+    assert printed == [str(out / "results.json"), str(out / "dummy.png")]
+    assert "gearopt: loading" in captured.err and "dummy study running" in captured.err
+    data = json.loads((out / "results.json").read_text())
+    assert data["units"]["r_a"] == "mm"
+    assert data["a_w"] == pytest.approx(60.0)
+    assert data["n"] == 4
+    meta = data["meta"]
+    assert meta["scene"] == str(scene) and meta["study"] == "dummy" and meta["scene_name"] == "dummy spur"
+    assert meta["gearopt_version"] and meta["timestamp"] and meta["run_time_s"] >= 0
+    assert (out / "dummy.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert leftovers(out.parent) == []
+
+
+def test_run_quiet_and_no_plots(dummy_study, scene_file, tmp_path, capsys):
+    scene = scene_file(GOOD_SCENE + "[output]\nplots = false\n")
+    out = tmp_path / "o"
+    assert main(["run", str(scene), "--out", str(out), "--quiet"]) == 0
+    captured = capsys.readouterr()
+    assert captured.err == ""
+    assert captured.out.split() == [str(out / "results.json")]
+    assert sorted(p.name for p in out.iterdir()) == ["results.json"]
+
+
+def test_run_replaces_existing_output_only_on_success(dummy_study, scene_file, tmp_path, capsys):
+    out = tmp_path / "o"
+    out.mkdir()
+    (out / "old.txt").write_text("previous run")
+    # failure while plotting (a bug, not an input error): propagates, old results stay untouched
+    scene = scene_file(GOOD_SCENE.replace("n = 4", "n = 4\nfail_plots = true"))
+    with pytest.raises(RuntimeError, match="on purpose"):
+        main(["run", str(scene), "--out", str(out), "-q"])
+    assert sorted(p.name for p in out.iterdir()) == ["old.txt"]
+    assert leftovers(tmp_path) == []
+    # NaN in the results: nothing written either
+    scene = scene_file(GOOD_SCENE.replace("n = 4", "n = 4\nnan = true"))
+    with pytest.raises(ValueError, match="non-finite.*angle"):
+        main(["run", str(scene), "--out", str(out), "-q"])
+    assert sorted(p.name for p in out.iterdir()) == ["old.txt"]
+    # success replaces the directory as a whole
+    scene = scene_file(GOOD_SCENE)
+    assert main(["run", str(scene), "--out", str(out), "-q"]) == 0
+    assert sorted(p.name for p in out.iterdir()) == ["dummy.png", "results.json"]
+    assert leftovers(tmp_path) == []
+
+
+def test_default_out_dir(dummy_study, scene_file, tmp_path, monkeypatch, capsys):
+    scene = scene_file(GOOD_SCENE, "my_scene.toml")
+    monkeypatch.chdir(tmp_path)
+    assert main(["run", str(scene), "-q"]) == 0
+    assert (tmp_path / "out" / "my_scene" / "results.json").is_file()
+
+
+def test_check(dummy_study, scene_file, tmp_path, capsys):
+    good = scene_file(GOOD_SCENE)
+    assert main(["check", str(good)]) == 0
+    assert "ok:" in capsys.readouterr().out
+    bad = scene_file(BAD_SCENE, "bad.toml")
+    assert main(["check", str(bad)]) == 2
+    assert "[pinion] z = 2" in capsys.readouterr().err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.toml", "scene.toml"]
+
+
+def test_missing_scene_file(tmp_path, capsys):
+    assert main(["check", str(tmp_path / "nope.toml")]) == 2
+    assert "no such scene file" in capsys.readouterr().err
+
+
+def test_studies_lists_sections(dummy_study, capsys):
+    assert main(["studies"]) == 0
+    out = capsys.readouterr().out
+    assert "dummy: dummy study for tests" in out
+    assert "[dummy]" in out and "angle (angle [deg], default 10)" in out
+    assert "[pair]" in out and "P_n (inverse_length [1/in]" in out
+    assert "[pinion.rack]" in out
+
+
+def test_write_results_requires_units(tmp_path):
+    class NoUnits:
+        def to_dict(self):
+            return {"x": 1.0}
+
+        def save_plots(self, d):
+            return []
+
+    with pytest.raises(ValueError, match="units"):
+        write_results(tmp_path / "r", NoUnits())
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_write_results_numpy(tmp_path):
+    import numpy as np
+
+    class R:
+        def to_dict(self):
+            return {"units": {"r": "mm"}, "r": np.linspace(0, 1, 3), "n": np.int64(3)}
+
+        def save_plots(self, d):
+            return []
+
+    paths = write_results(tmp_path / "r", R(), run_time=0.5)
+    data = json.loads(paths[0].read_text())
+    assert data["r"] == [0.0, 0.5, 1.0] and data["n"] == 3 and data["meta"]["run_time_s"] == 0.5
+
+
+def _env(*extra_paths):
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join([str(REPO), *map(str, extra_paths), env.get("PYTHONPATH", "")])
+    env["MPLBACKEND"] = "Agg"
+    return env
+
+
+def test_subprocess_bad_scene(scene_file, tmp_path):
+    scene = scene_file(GOOD_SCENE.replace("name =", "nmae ="), "bad.toml")
+    out = tmp_path / "out"
+    r = subprocess.run([sys.executable, "-m", "gearopt", "run", str(scene), "--out", str(out)],
+                       capture_output=True, text=True, cwd=tmp_path, env=_env(), timeout=120)
+    assert r.returncode == 2, r.stderr
+    assert "error:" in r.stderr and "[scene] nmae" in r.stderr and "Did you mean 'name'" in r.stderr
+    assert "Traceback" not in r.stderr
+    assert not out.exists()
+
+
+def test_subprocess_good_scene_with_plugin_study(scene_file, tmp_path):
+    (tmp_path / "dummy_plugin.py").write_text("from conftest import register_dummy\nregister_dummy()\n")
+    scene = scene_file(GOOD_SCENE)
+    out = tmp_path / "out"
+    env = _env(TESTS, tmp_path)
+    env["GEAROPT_STUDY_MODULES"] = "dummy_plugin"
+    r = subprocess.run([sys.executable, "-m", "gearopt", "run", str(scene), "--out", str(out)],
+                       capture_output=True, text=True, cwd=tmp_path, env=env, timeout=120)
+    assert r.returncode == 0, r.stderr
+    assert (out / "results.json").is_file() and (out / "dummy.png").is_file()
+    assert r.stdout.split() == [str(out / "results.json"), str(out / "dummy.png")]
