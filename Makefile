@@ -22,7 +22,7 @@ $(VPY):
 # Reinstall only when pyproject.toml changed (the package itself is installed editable).
 $(STAMP): pyproject.toml | $(VPY)
 	@echo "installing gearopt and its test dependencies into $(VENV) ..."
-	@$(VPY) -m pip install -q --disable-pip-version-check -e '.[test]'
+	@$(VPY) -m pip install -qq --disable-pip-version-check -e '.[test]'
 	@touch $@
 
 demo: $(STAMP)

@@ -317,6 +317,8 @@ class Gear:
         """Profile shift at which the tip becomes pointed (s_a = 0), by bisection."""
         def s_a(x):
             r_a = self.r_p + self.m_n * (self.rack.h_aP + x + self.k)
+            if r_a <= self.r_b:  # no involute at the tip: not pointed
+                return math.inf
             s_p = self.m_t * (math.pi / 2 + 2 * x * math.tan(self.rack.alpha_n))
             return float(tooth_thickness(r_a, self.r_p, s_p, self.alpha_t))
         lo, hi = -5.0, 5.0
@@ -371,6 +373,16 @@ class GearPair:
                 raise out_of_range(f"{who}.k", (p if who == "pinion" else g).k,
                                    f"tip radius r_a = {r_a:.6g} mm that clears the mating root (clearance {c:.4g} mm < 0)",
                                    "Shorten the tip (negative k) or increase a.")
+        aw = self.alpha_wt
+        for who, me, mate in (("gear", p, g), ("pinion", g, p)):
+            # The mating tip must meet the line of action before the tangency point T on this base circle.
+            g_len = self.a_w * math.sin(aw) - math.sqrt(mate.r_a**2 - mate.r_b**2)
+            if g_len < 0 and not me.allow_undercut:
+                r_max = math.sqrt((self.a_w * math.sin(aw)) ** 2 + mate.r_b**2)
+                raise out_of_range(f"{who}.k", mate.k, f"tip radius r_a <= {r_max:.6g} mm (the {who} tip, r_a = "
+                                   f"{mate.r_a:.6g} mm, reaches past the interference point of the {me.name} "
+                                   "base circle)", f"Shorten the {who} tip (negative k), shift the {me.name} (larger x) "
+                                   "or use more pinion teeth.")
         if self.eps_alpha < 1.0 and self.eps_gamma < 1.0:
             raise GeometryError(f"contact ratio eps_gamma = {self.eps_gamma:.4f} < 1: the pair does not mesh continuously "
                                 "(valid: eps_gamma >= 1). Increase addenda, reduce x or a, or use helical gears.")
@@ -423,8 +435,10 @@ class GearPair:
     def eps_alpha(self) -> float:
         """Transverse contact ratio (THEORY section 3)."""
         p, g = self.pinion, self.gear
-        path = (math.sqrt(p.r_a**2 - p.r_b**2) + math.sqrt(g.r_a**2 - g.r_b**2)
-                - self.a_w * math.sin(self.alpha_wt))
+        # Each tip's reach along the line of action is cut at the mating base circle's tangency
+        # point (only possible for a member that is allowed to be undercut).
+        ga = self.a_w * math.sin(self.alpha_wt)
+        path = min(math.sqrt(p.r_a**2 - p.r_b**2), ga) + min(math.sqrt(g.r_a**2 - g.r_b**2), ga) - ga
         return path / p.p_bt
 
     @property

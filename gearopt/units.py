@@ -26,6 +26,10 @@ KINDS = {"length": (_LENGTH, "mm"), "angle": (_ANGLE, "deg"), "inverse_length": 
 _QTY = re.compile(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*(\S+)?\s*$")
 
 
+def _a(word: str) -> str:
+    return ("an " if word[0] in "aeiou" else "a ") + word.replace("_", " ")
+
+
 def deg(value_deg: float) -> float:
     """Degrees to radians."""
     return value_deg * DEG
@@ -67,8 +71,8 @@ def parse_quantity(value, kind: str, name: str) -> float:
         raise SceneError(f"{name} = {value!r}: expected a {kind} (number or '<number> <unit>'), got {type(value).__name__}.")
     if unit not in table:
         kinds = [k for k, (t, _) in KINDS.items() if unit in t]
-        what = f"a {kinds[0]} unit" if kinds else "an unknown unit"
-        raise SceneError(f"{name} = {value!r}: '{unit}' is {what}, but {name} is a {kind}; use one of {sorted(table)} "
+        what = f"{_a(kinds[0])} unit" if kinds else "an unknown unit"
+        raise SceneError(f"{name} = {value!r}: '{unit}' is {what}, but {name} is {_a(kind)}; use one of {sorted(table)} "
                          f"(a bare number means {default}).")
     if not math.isfinite(number):
         raise SceneError(f"{name} = {value!r}: not a finite number.")

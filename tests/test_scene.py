@@ -67,7 +67,7 @@ BAD = [
     ("rack-h_aP", edit(append="[rack]\nh_aP = 0\n"), ["[rack] h_aP = 0", "h_aP > 0"]),
     ("rack-h_fP", edit(append="[rack]\nh_fP = 0.5\n"), ["[rack] h_fP = 0.5", "h_fP >= h_aP"]),
     ("rack-a_c-negative", edit(append="[rack]\na_c = -0.001\n"), ["[rack] a_c = -0.001", "a_c >= 0"]),
-    ("rack-a_c-unit", edit(append='[rack]\na_c = "0.001 mm"\n'), ["[rack] a_c", "'mm'", "inverse_length"]),
+    ("rack-a_c-unit", edit(append='[rack]\na_c = "0.001 mm"\n'), ["[rack] a_c", "'mm'", "inverse length"]),
     ("alpha-mismatch", edit(("z = 40", "z = 40\nrack = { alpha_n = 25 }"), append="[rack]\nrho_fP = 0.2\n"),
      ["[gear.rack] alpha_n = 25", "equal to pinion.rack.alpha_n"]),
     ("m_n-and-P_n", edit(("m_n = 2", "m_n = 2\nP_n = 8")), ["m_n", "P_n", "exactly one"]),

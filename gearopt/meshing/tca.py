@@ -1,0 +1,448 @@
+"""Tooth contact analysis of 3-D involute drives with misalignment (Litvin section 9.4).
+
+For every input angle phi1 of the pinion the unknowns ``w = (u1, z1, u2, z2, r_p2 phi2)`` (surface
+coordinates of both flanks in mm, and the gear angle scaled to mm) solve (eq. 9.4.31)
+
+    r_f1(u1, z1, phi1) - r_f2(u2, z2, phi2) = 0               (3 equations)
+    n_f1 . dr_f2/du2 = 0,   n_f1 . dr_f2/dz2 = 0              (2 independent normal conditions)
+
+with every design parameter (both tooth surfaces' parameter vectors, the misalignments) a symbolic
+input of one expression graph. Newton on exact AD Jacobians (``ca.rootfinder``) solves it; sweeps go
+through ``Function.map`` from first guesses predicted by the implicit function theorem at an anchor
+point, then every solution is checked (residual, opposite outward normals, inside the active flank).
+
+Frames and signs (THEORY section 1)
+----------------------------------
+* S_f: pinion axis = z_f; gear centre at ``(0, a + dE, axial)``; the line of centres is y_f.
+* Pinion tooth 0 is centred on +y_f at phi1 = 0; the pinion drives on its ``side`` flank ("right":
+  the +x side) and turns clockwise, ``r_f1 = Rz(-phi1) r_1``: phi1 > 0 in the driving direction.
+* The gear turns counter-clockwise, ``r_f2 = O_2 + R_mis Rz(phi2) Rz(pi + pi/z2) r_2``: at phi2 = 0
+  a tooth space of the gear faces pinion tooth 0. phi2 > 0 in the driven direction.
+* Misalignments of the gear (frame S_q at its centre): ``crossing`` turns the gear axis about y_f
+  (axes become skew), ``intersecting`` about x_f (axes stay coplanar), ``dE`` changes the centre
+  distance, ``axial`` shifts the gear along its axis.
+* Transmission error: ``TE(phi1) = phi2(phi1) - (z1/z2) phi1 - phi2(0)`` [rad] (positive: gear ahead).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import casadi as ca
+import numpy as np
+
+from ..errors import ConvergenceError, GeometryError, out_of_range
+from ..gears import GearPair
+from ..geometry.generation import PARAMS, GeneratedTooth, generate_by_rack
+from ..units import ARCMIN, RAD_TO_ARCSEC
+
+MISALIGNMENTS = ("dE", "crossing", "intersecting", "axial")
+DELTA_DEFAULT = 0.00632  #: elastic approach for the contact ellipse [mm]
+
+
+@dataclass(frozen=True)
+class Misalignment:
+    """Errors of alignment of the gear (applied through the auxiliary frame S_q).
+
+    Parameters
+    ----------
+    dE : float
+        Change of centre distance [mm].
+    crossing : float
+        Crossing angle [rad]: the gear axis turned about the line of centres (skew axes).
+    intersecting : float
+        Intersecting angle [rad]: the gear axis turned in the plane of the axes.
+    axial : float
+        Axial displacement of the gear [mm].
+    """
+
+    dE: float = 0.0
+    crossing: float = 0.0
+    intersecting: float = 0.0
+    axial: float = 0.0
+
+    def __post_init__(self):
+        for k in MISALIGNMENTS:
+            v = getattr(self, k)
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+                raise GeometryError(f"misalignment.{k} = {v!r} must be a finite number.")
+        for k in ("crossing", "intersecting"):
+            if abs(getattr(self, k)) > 600 * ARCMIN:
+                raise out_of_range(f"misalignment.{k}", f"{getattr(self, k) / ARCMIN:.6g} arcmin",
+                                   "|angle| <= 600 arcmin (10 deg)")
+
+    def vector(self) -> np.ndarray:
+        return np.array([getattr(self, k) for k in MISALIGNMENTS], dtype=float)
+
+
+def _rx(a, v):
+    c, s = ca.cos(a), ca.sin(a)
+    return ca.vertcat(v[0], c * v[1] - s * v[2], s * v[1] + c * v[2])
+
+
+def _ry(a, v):
+    c, s = ca.cos(a), ca.sin(a)
+    return ca.vertcat(c * v[0] + s * v[2], v[1], -s * v[0] + c * v[2])
+
+
+def _rz(a, v):
+    c, s = ca.cos(a), ca.sin(a)
+    return ca.vertcat(c * v[0] - s * v[1], s * v[0] + c * v[1], v[2])
+
+
+def _shape_matrix(r, n, q, E):
+    """Curvature matrix of a surface in the orthonormal tangent basis ``E`` (3x2):
+    ``B = E^T (dn/dr) E`` with the outward normal (convex: positive), via AD."""
+    J = ca.jacobian(r, q)  # 3x2
+    Nq = ca.jacobian(n, q)  # 3x2
+    pinv = ca.solve(ca.mtimes(J.T, J), J.T)  # 2x3
+    return ca.mtimes([E.T, Nq, pinv, E])
+
+
+@dataclass(frozen=True)
+class TCAResult:
+    """Numeric result of a TCA sweep (one design, one misalignment case).
+
+    Arrays have shape (K, N): K tooth pairs (pinion tooth ``pairs[k]``, positions shifted by
+    2 pi/z1) and N input positions ``phi1``.
+
+    Attributes
+    ----------
+    phi1 : (N,) pinion angles [rad].
+    phi2, te : (K, N) gear angle and transmission error [rad] of each pair (NaN where unsolved).
+    te_envelope : (N,) actual TE [rad]: the upper envelope over pairs in contact on the active flank.
+    driving : (N,) index into ``pairs`` of the driving pair (-1 where none).
+    u1, z1, u2, z2 : (K, N) surface coordinates [mm] of the contact points.
+    r1, r2 : (K, N, 3) contact points on pinion / gear in their own frames [mm].
+    radius1, radius2 : (K, N) transverse radii of the contact point on each member [mm].
+    rf : (K, N, 3) contact point in the fixed frame [mm].
+    kappa1, kappa2 : (K, N, 2) principal curvatures of pinion and gear flank [1/mm] (convex > 0).
+    ellipse_a, ellipse_b : (K, N) contact ellipse semi-axes [mm] (major, minor) for ``delta``.
+    ellipse_dir2 : (K, N, 3) unit major-axis direction in the gear frame.
+    residual : (K, N) residual norm after the solve [mm].
+    normal_dot : (K, N) n1 . n2 of the outward normals in S_f (-1 for a true contact point).
+    converged, on_surface : (K, N) bool flags.
+    solve_time : float [s]; ``stats`` dict with counts and timing.
+    """
+
+    phi1: np.ndarray
+    pairs: tuple
+    phi2: np.ndarray
+    te: np.ndarray
+    te_envelope: np.ndarray
+    driving: np.ndarray
+    u1: np.ndarray
+    z1: np.ndarray
+    u2: np.ndarray
+    z2: np.ndarray
+    r1: np.ndarray
+    r2: np.ndarray
+    rf: np.ndarray
+    radius1: np.ndarray
+    radius2: np.ndarray
+    kappa1: np.ndarray
+    kappa2: np.ndarray
+    ellipse_a: np.ndarray
+    ellipse_b: np.ndarray
+    ellipse_dir2: np.ndarray
+    residual: np.ndarray
+    normal_dot: np.ndarray
+    converged: np.ndarray
+    on_surface: np.ndarray
+    delta: float
+    misalignment: Misalignment
+    solve_time: float
+    stats: dict = field(default_factory=dict)
+
+    @property
+    def te_arcsec(self) -> np.ndarray:
+        """TE of every pair [arcsec]."""
+        return self.te * RAD_TO_ARCSEC
+
+    @property
+    def te_envelope_arcsec(self) -> np.ndarray:
+        return self.te_envelope * RAD_TO_ARCSEC
+
+    @property
+    def peak_to_peak(self) -> float:
+        """Peak-to-peak of the actual TE (envelope) [rad]."""
+        v = self.te_envelope[np.isfinite(self.te_envelope)]
+        return float(v.max() - v.min()) if v.size else float("nan")
+
+
+class TCA:
+    """Compiled tooth contact analysis of a gear pair (build once, solve many).
+
+    Parameters
+    ----------
+    pair : GearPair
+        Pinion (driving) and gear; ``pair.a_w`` is the nominal centre distance.
+    side : {"right", "left"}
+        Driving flank of the pinion (the gear's contacting flank follows).
+    pinion, gear : GeneratedTooth, optional
+        Generated tooth surfaces (default: rack generation of each member).
+    solver : {"fast_newton", "newton"}
+        CasADi rootfinder plugin for mapped sweeps (a line-search ``newton`` is the fallback).
+    tol : float
+        Acceptance threshold on the residual norm [mm].
+    """
+
+    def __init__(self, pair: GearPair, side: str = "right", pinion: GeneratedTooth | None = None,
+                 gear: GeneratedTooth | None = None, solver: str = "fast_newton", tol: float = 1e-10):
+        if side not in ("right", "left"):
+            raise out_of_range("side", side, "'right' or 'left'")
+        if solver not in ("fast_newton", "newton"):
+            raise out_of_range("solver", solver, "'fast_newton' or 'newton'")
+        t0 = time.perf_counter()
+        self.pair, self.side, self.solver, self.tol = pair, side, solver, tol
+        self.pinion = pinion or generate_by_rack(pair.pinion)
+        self.gear = gear or generate_by_rack(pair.gear)
+        self._build()
+        self.build_time = time.perf_counter() - t0
+
+    # ------------------------------------------------------------------------------------------
+    def _build(self):
+        pair, side = self.pair, self.side
+        g1, g2 = pair.pinion, pair.gear
+        sgn = 1.0 if side == "right" else -1.0  # the left flank drives the other way round
+        np_ = len(PARAMS)
+        w = ca.SX.sym("w", 5)
+        phi1 = ca.SX.sym("phi1")
+        p1, p2 = ca.SX.sym("p1", np_), ca.SX.sym("p2", np_)
+        mis = ca.SX.sym("mis", len(MISALIGNMENTS))
+        self.scale2 = g2.r_p  # phi2 is carried as r_p2 * phi2 [mm]
+        u1, z1, u2, z2 = w[0], w[1], w[2], w[3]
+        phi2 = w[4] / self.scale2
+        S1 = self.pinion.surface(side, "flank")
+        S2 = self.gear.surface(side, "flank")
+        r1, n1 = S1(u1, z1, p1)[:2]
+        r2, n2 = S2(u2, z2, p2)[:2]
+        # Pinion: clockwise by phi1 for the right flank (the left flank drives counter-clockwise).
+        rf1, nf1 = _rz(-sgn * phi1, r1), _rz(-sgn * phi1, n1)
+
+        def gear_to_fixed(v, point: bool):
+            v = _rz(math.pi + sgn * math.pi / g2.z, v)
+            v = _rz(sgn * phi2, v)
+            v = _ry(mis[1], _rx(mis[2], v))
+            if point:
+                v = v + ca.vertcat(0.0, pair.a_w + mis[0], mis[3])
+            return v
+
+        rf2, nf2 = gear_to_fixed(r2, True), gear_to_fixed(n2, False)
+        t2u = gear_to_fixed(ca.jacobian(r2, u2), False)
+        t2z = gear_to_fixed(ca.jacobian(r2, z2), False)
+        F = ca.vertcat(rf1 - rf2, ca.dot(nf1, t2u), ca.dot(nf1, t2z))
+        prm = ca.vertcat(phi1, p1, p2, mis)
+        self._nprm = prm.numel()
+        self.residual = ca.Function("tca_residual", [w, prm], [F], ["w", "prm"], ["F"])
+        self.jacobian = ca.Function("tca_jacobian", [w, prm], [ca.jacobian(F, w)], ["w", "prm"], ["J"])
+        # Implicit-function predictor: dw/dphi1 = -J^-1 dF/dphi1.
+        dw = -ca.solve(ca.jacobian(F, w), ca.jacobian(F, phi1))
+        self._dw = ca.Function("tca_dw", [w, prm], [dw])
+        # Curvatures and contact ellipse (Litvin ch. 9; THEORY section 6) at a solved point.
+        q1, q2 = ca.vertcat(u1, z1), ca.vertcat(u2, z2)
+        e1 = r1 * 0 + _unit_perp(n1)  # tangent basis in the pinion frame
+        e2 = ca.cross(n1, e1)
+        E1 = ca.horzcat(e1, e2)
+        B1 = _shape_matrix(r1, n1, q1, E1)
+        # The same basis carried into the gear frame (a rotation), where surface 2 lives.
+        def fixed_to_gear(v):
+            v = _rz(-sgn * phi1, v)  # pinion -> fixed
+            v = _rx(-mis[2], _ry(-mis[1], v))
+            v = _rz(-sgn * phi2, v)
+            return _rz(-(math.pi + sgn * math.pi / g2.z), v)
+        E2 = ca.horzcat(fixed_to_gear(e1), fixed_to_gear(e2))
+        # Surface 2's outward normal is -n1 at contact: its convex curvature in the same basis.
+        B2 = _shape_matrix(r2, n2, q2, E2)
+        K1 = 0.5 * (B1 + B1.T)
+        K2 = 0.5 * (B2 + B2.T)
+        out = [rf1, nf1, rf2, nf2, ca.dot(nf1, nf2), r1, r2, K1, K2, E2]
+        names = ["rf1", "nf1", "rf2", "nf2", "n1n2", "r1", "r2", "K1", "K2", "E2"]
+        self.contact = ca.Function("tca_contact", [w, prm], out, ["w", "prm"], names)
+        G = ca.Function("G", [w, prm], [F])
+        self._rf_fast = ca.rootfinder("tca_fast", self.solver, G, {"error_on_fail": False, "abstol": 1e-13,
+                                                                   "max_iter": 30} if self.solver == "fast_newton"
+                                      else {"error_on_fail": False, "abstol": 1e-13})
+        self._rf_safe = ca.rootfinder("tca_newton", "newton", G, {"error_on_fail": False, "abstol": 1e-13,
+                                                                  "max_iter": 100, "line_search": True})
+        self._maps: dict[int, tuple] = {}
+
+    def _mapped(self, n: int):
+        if n not in self._maps:
+            self._maps[n] = (self._rf_fast.map(n), self.residual.map(n), self.contact.map(n))
+        return self._maps[n]
+
+    def prm(self, phi1, p1=None, p2=None, mis: Misalignment | None = None) -> np.ndarray:
+        """Parameter matrix (n_prm, N) for the positions ``phi1``."""
+        phi1 = np.atleast_1d(np.asarray(phi1, dtype=float))
+        p1 = self.pinion.p0 if p1 is None else np.asarray(p1, float)
+        p2 = self.gear.p0 if p2 is None else np.asarray(p2, float)
+        m = (mis or Misalignment()).vector()
+        const = np.concatenate([p1, p2, m])
+        return np.vstack([phi1[None, :], np.tile(const[:, None], phi1.size)])
+
+    def guess(self, p1=None, p2=None) -> np.ndarray:
+        """First guess at the pitch point: both flanks at their operating pitch radii, mid face."""
+        pair = self.pair
+        r_w1 = pair.a_w * pair.pinion.z / (pair.pinion.z + pair.gear.z)
+        u1 = self.pinion.u_at_radius(r_w1, 0.0, self.side, p1)
+        u2 = self.gear.u_at_radius(pair.a_w - r_w1, 0.0, self.side, p2)
+        return np.array([u1, 0.0, u2, 0.0, 0.0])
+
+    def solve_point(self, phi1: float, w0=None, p1=None, p2=None, mis=None) -> np.ndarray:
+        """Solve one position with the line-search Newton; raise :class:`ConvergenceError` if the
+        residual is not below ``tol`` or the normals do not oppose (a false root)."""
+        w0 = self.guess(p1, p2) if w0 is None else np.asarray(w0, float)
+        prm = self.prm([phi1], p1, p2, mis)[:, 0]
+        w = np.asarray(self._rf_safe(w0, prm)).ravel()
+        res = float(np.linalg.norm(np.asarray(self.residual(w, prm)).ravel()))
+        n1n2 = float(self.contact(w, prm)[4])
+        if not np.isfinite(res) or res > self.tol:
+            raise ConvergenceError(f"TCA: no contact point at phi1 = {phi1:.6g} rad (residual {res:.3g} mm > "
+                                   f"{self.tol:g} mm); the first guess may be too far or the flanks do not meet.")
+        if n1n2 > -0.5:
+            raise ConvergenceError(f"TCA: false root at phi1 = {phi1:.6g} rad: the outward normals agree "
+                                   f"(n1 . n2 = {n1n2:.3f}, must be -1); near the involute base-circle singular "
+                                   "point. Start from another guess.")
+        return w
+
+    def sweep(self, phi1, p1=None, p2=None, mis: Misalignment | None = None, pairs=(-1, 0, 1),
+              delta: float = DELTA_DEFAULT, anchor: float = 0.0) -> TCAResult:
+        """TCA over the pinion angles ``phi1`` [rad] for the tooth pairs ``pairs``.
+
+        Pair k is pinion tooth k (positions ``phi1 - 2 pi k / z1`` of pair 0), its gear angle shifted
+        back by ``2 pi k / z2``. Each position is solved by the mapped rootfinder from an
+        implicit-function prediction around the anchor solve at ``phi1 = anchor``; positions that
+        fail the checks are re-solved by continuation from solved neighbours with line-search
+        Newton, and flagged (NaN, ``converged = False``) if that fails too.
+
+        Returns
+        -------
+        TCAResult
+        """
+        t0 = time.perf_counter()
+        mis = mis or Misalignment()
+        phi1 = np.atleast_1d(np.asarray(phi1, dtype=float))
+        g1, g2 = self.pair.pinion, self.pair.gear
+        pairs = tuple(int(k) for k in pairs)
+        K, N = len(pairs), phi1.size
+        phis = np.concatenate([phi1 - 2 * math.pi * k / g1.z for k in pairs])
+        prm = self.prm(phis, p1, p2, mis)
+        w_a = self.solve_point(anchor, None, p1, p2, mis)
+        prm_a = self.prm([anchor], p1, p2, mis)[:, 0]
+        dw = np.asarray(self._dw(w_a, prm_a)).ravel()
+        W0 = w_a[:, None] + dw[:, None] * (phis - anchor)[None, :]
+        rf, res_f, con_f = self._mapped(phis.size)
+        W = np.asarray(rf(W0, prm))
+        res = np.linalg.norm(np.asarray(res_f(W, prm)), axis=0)
+        n1n2 = np.asarray(con_f(W, prm)[4]).ravel()
+        ok = np.isfinite(res) & (res <= self.tol) & (n1n2 < -0.5)
+        n_fast = int(ok.sum())
+        # Continuation for the rest, from the nearest solved neighbour of the same pair.
+        n_retry = 0
+        for kk in range(K):
+            sl = slice(kk * N, (kk + 1) * N)
+            idx = np.arange(sl.start, sl.stop)
+            for order in (idx, idx[::-1]):
+                last = None
+                for i in order:
+                    if ok[i]:
+                        last = i
+                        continue
+                    if last is None:
+                        continue
+                    n_retry += 1
+                    w = np.asarray(self._rf_safe(W[:, last], prm[:, i])).ravel()
+                    r = float(np.linalg.norm(np.asarray(self.residual(w, prm[:, i])).ravel()))
+                    d = float(self.contact(w, prm[:, i])[4])
+                    if np.isfinite(r) and r <= self.tol and d < -0.5:
+                        W[:, i], res[i], n1n2[i], ok[i] = w, r, d, True
+                        last = i
+        W[:, ~ok] = np.nan
+        out = con_f(np.where(ok, W, W0), prm)
+        rf1, nf1, rf2, nf2, _, r1, r2, K1, K2, E2 = (np.asarray(v) for v in out)
+        solve_time = time.perf_counter() - t0
+        return self._result(phi1, pairs, W, ok, res, n1n2, r1, r2, rf1, K1, K2, E2, delta, mis, solve_time,
+                            {"n_positions": int(phis.size), "n_fast": n_fast, "n_retry": n_retry,
+                             "n_failed": int((~ok).sum()), "build_s": self.build_time})
+
+    # ------------------------------------------------------------------------------------------
+    def _result(self, phi1, pairs, W, ok, res, n1n2, r1, r2, rf1, K1, K2, E2, delta, mis, solve_time, stats):
+        g1, g2 = self.pair.pinion, self.pair.gear
+        K, N = len(pairs), phi1.size
+        shp = lambda a: a.reshape(K, N)  # noqa: E731
+        phi2 = shp(W[4] / self.scale2) + np.array([2 * math.pi * k / g2.z for k in pairs])[:, None]
+        # TE relative to the pair-0 gear angle at the anchor (phi1 = 0) so that pairs share one zero.
+        ratio = g1.z / g2.z
+        ref_prm = self.prm([0.0], None, None, mis)[:, 0]  # noqa: F841  (reference recorded below)
+        te_raw = phi2 - ratio * phi1[None, :]
+        k0 = pairs.index(0) if 0 in pairs else 0
+        ref = np.interp(0.0, phi1, te_raw[k0]) if np.all(np.isfinite(te_raw[k0])) and phi1.min() <= 0 <= phi1.max() \
+            else np.nanmedian(te_raw[k0])
+        te = te_raw - ref
+        radius1 = shp(np.hypot(r1[0], r1[1]))
+        radius2 = shp(np.hypot(r2[0], r2[1]))
+        z1, z2 = shp(W[1]), shp(W[3])
+        r_form1 = self._form_radius(self.pinion)
+        r_form2 = self._form_radius(self.gear)
+        eps = 1e-9
+        on = (ok.reshape(K, N) & (np.abs(z1) <= g1.b / 2 + eps) & (np.abs(z2) <= g2.b / 2 + eps)
+              & (radius1 >= r_form1 - eps) & (radius1 <= g1.r_a + eps)
+              & (radius2 >= r_form2 - eps) & (radius2 <= g2.r_a + eps))
+        te_on = np.where(on, te, -np.inf)
+        drv = np.argmax(te_on, axis=0)
+        env = te_on[drv, np.arange(N)]
+        has = np.isfinite(env)
+        env = np.where(has, env, np.nan)
+        driving = np.where(has, drv, -1)
+        # Curvatures and contact ellipse: eigen-decomposition of K1 + K2 in the common basis.
+        K1m = K1.reshape(2, 2, -1, order="F") if K1.ndim == 2 else K1
+        kap1 = np.full((K * N, 2), np.nan)
+        kap2 = np.full((K * N, 2), np.nan)
+        ea = np.full(K * N, np.nan)
+        eb = np.full(K * N, np.nan)
+        edir = np.full((K * N, 3), np.nan)
+        K1a = _as_mats(K1, K * N)
+        K2a = _as_mats(K2, K * N)
+        E2a = _as_mats(E2, K * N, rows=3)
+        for i in range(K * N):
+            if not ok[i]:
+                continue
+            kap1[i] = np.linalg.eigvalsh(K1a[i])
+            kap2[i] = np.linalg.eigvalsh(K2a[i])
+            lam, vec = np.linalg.eigh(K1a[i] + K2a[i])  # ascending: major axis with the smaller lambda
+            with np.errstate(divide="ignore", invalid="ignore"):
+                a_ = np.sqrt(2 * delta / lam[0]) if lam[0] > 0 else np.inf
+                b_ = np.sqrt(2 * delta / lam[1]) if lam[1] > 0 else np.inf
+            ea[i], eb[i] = a_, b_
+            edir[i] = E2a[i] @ vec[:, 0]
+        del K1m
+        return TCAResult(
+            phi1=phi1, pairs=pairs, phi2=np.where(ok.reshape(K, N), phi2, np.nan), te=np.where(ok.reshape(K, N), te, np.nan),
+            te_envelope=env, driving=driving, u1=shp(W[0]), z1=z1, u2=shp(W[2]), z2=z2,
+            r1=r1.T.reshape(K, N, 3), r2=r2.T.reshape(K, N, 3), rf=rf1.T.reshape(K, N, 3),
+            radius1=np.where(ok.reshape(K, N), radius1, np.nan), radius2=np.where(ok.reshape(K, N), radius2, np.nan),
+            kappa1=kap1.reshape(K, N, 2), kappa2=kap2.reshape(K, N, 2),
+            ellipse_a=ea.reshape(K, N), ellipse_b=eb.reshape(K, N), ellipse_dir2=edir.reshape(K, N, 3),
+            residual=res.reshape(K, N), normal_dot=n1n2.reshape(K, N), converged=ok.reshape(K, N), on_surface=on,
+            delta=delta, misalignment=mis, solve_time=solve_time, stats=stats)
+
+    def _form_radius(self, tooth: GeneratedTooth) -> float:
+        u_f, _ = tooth.junction()
+        r = tooth.point(self.side, "flank", u_f, 0.0)[0]
+        return float(math.hypot(r[0], r[1]))
+
+
+def _unit_perp(n):
+    """A unit vector perpendicular to ``n`` that is smooth where n is far from the z axis' ...
+    (for gear flanks n_z is small): ``e = k x n / |k x n|``... oriented along the profile."""
+    v = ca.vertcat(-n[1], n[0], 0.0)
+    return v / ca.norm_2(v)
+
+
+def _as_mats(M, count, rows=2):
+    """Mapped matrix outputs come as (rows, 2*count); split them into (count, rows, 2)."""
+    M = np.asarray(M)
+    return M.reshape(rows, count, 2).transpose(1, 0, 2) if M.shape == (rows, 2 * count) else M.reshape(count, rows, 2)
