@@ -365,8 +365,9 @@ def test_rack_fillet_is_offset_of_extended_involute(z, m_n, x):
             P = r[:2]
             d2 = [np.sum((trochoid(t, sx) - P) ** 2) for t in ts]
             k = int(np.argmin(d2))
-            res = minimize_scalar(lambda t: np.sum((trochoid(t, sx) - P) ** 2), bounds=(ts[max(k - 2, 0)], ts[min(k + 2, 800)]),
-                                  method="bounded", options={"xatol": 1e-13})
+            res = minimize_scalar(lambda t: np.sum((trochoid(t, sx) - P) ** 2),
+                                  bounds=(ts[max(k - 2, 0)], ts[min(k + 2, 800)]), method="bounded",
+                                  options={"xatol": 1e-13})
             Q = trochoid(res.x, sx)
             dist = np.linalg.norm(Q - P)
             assert abs(dist - rho) < 1e-9, (side, phi, dist, rho)

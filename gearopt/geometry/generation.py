@@ -131,9 +131,10 @@ class GeneratedTooth:
     functions : dict[str, casadi.Function]
         ``"<side>_flank"`` and ``"<side>_fillet"`` for side in ``("right", "left")``:
         inputs ``(q, z, p)`` -> outputs ``(r (3,) [mm], n (3,) unit outward normal, psi [rad]
-        generating parameter)`` (plus ``phi_h`` hob rotation for a hob); ``"<side>_family"``:
+        generating parameter)`` (plus ``phi_h`` hob rotation for a hob); ``"<side>_<segment>_family"``:
         ``(q, z, psi, p)`` -> (r, n) of the tool surface point in the gear frame for any psi
-        (for checks of the equation of meshing); ``"junction"``: ``(p)`` -> ``(u_f, phi_max)``.
+        (for checks of the equation of meshing); ``"junction"``: ``(p)`` -> ``(u_f, phi_max, C)``
+        (flank parameter where the fillet starts, fillet angle range, fillet centre of the tool).
     r_root : float
         Root radius cut by the tool [mm].
     """

@@ -14,10 +14,13 @@ point, then every solution is checked (residual, opposite outward normals, insid
 Frames and signs (THEORY section 1)
 ----------------------------------
 * S_f: pinion axis = z_f; gear centre at ``(0, a + dE, axial)``; the line of centres is y_f.
-* Pinion tooth 0 is centred on +y_f at phi1 = 0; the pinion drives on its ``side`` flank ("right":
-  the +x side) and turns clockwise, ``r_f1 = Rz(-phi1) r_1``: phi1 > 0 in the driving direction.
-* The gear turns counter-clockwise, ``r_f2 = O_2 + R_mis Rz(phi2) Rz(pi + pi/z2) r_2``: at phi2 = 0
-  a tooth space of the gear faces pinion tooth 0. phi2 > 0 in the driven direction.
+* The pinion drives on its ``side`` flank ("right": the +x side of tooth 0) and turns clockwise,
+  ``r_f1 = Rz(-phi1 + theta1) r_1``: phi1 > 0 in the driving direction; theta1 (half the tooth angle
+  on the operating pitch circle) makes phi1 = 0 the position where tooth 0's driving flank crosses
+  the operating pitch circle on the line of centres (the pitch point I).
+* The gear turns counter-clockwise, ``r_f2 = O_2 + R_mis Rz(phi2) Rz(pi + theta2) r_2``: at
+  phi2 = 0 its contacting flank passes through I. phi2 > 0 in the driven direction.
+  (For the left flank every rotation changes sign.)
 * Misalignments of the gear (frame S_q at its centre): ``crossing`` turns the gear axis about y_f
   (axes become skew), ``intersecting`` about x_f (axes stay coplanar), ``dE`` changes the centre
   distance, ``axial`` shifts the gear along its axis.
@@ -190,9 +193,14 @@ class TCA:
     """
 
     def __init__(self, pair: GearPair, side: str = "right", pinion: GeneratedTooth | None = None,
-                 gear: GeneratedTooth | None = None, solver: str = "fast_newton", tol: float = 1e-10):
+                 gear: GeneratedTooth | None = None, solver: str = "fast_newton", tol: float = 1e-10,
+                 contact: str = "point"):
         if side not in ("right", "left"):
             raise out_of_range("side", side, "'right' or 'left'")
+        if contact not in ("point", "line"):
+            raise out_of_range("contact", contact, "'point' (crowned or misaligned drives) or 'line' (conjugate "
+                               "surfaces: contact sought in the pinion section z_section)")
+        self.contact_type = contact
         if solver not in ("fast_newton", "newton"):
             raise out_of_range("solver", solver, "'fast_newton' or 'newton'")
         t0 = time.perf_counter()
@@ -208,22 +216,34 @@ class TCA:
         g1, g2 = pair.pinion, pair.gear
         sgn = 1.0 if side == "right" else -1.0  # the left flank drives the other way round
         np_ = len(PARAMS)
-        w = ca.SX.sym("w", 5)
+        line = self.contact_type == "line"
+        w = ca.SX.sym("w", 4 if line else 5)
         phi1 = ca.SX.sym("phi1")
         p1, p2 = ca.SX.sym("p1", np_), ca.SX.sym("p2", np_)
         mis = ca.SX.sym("mis", len(MISALIGNMENTS))
+        zsec = ca.SX.sym("z_section")  # line contact: the pinion section where contact is sought
         self.scale2 = g2.r_p  # phi2 is carried as r_p2 * phi2 [mm]
-        u1, z1, u2, z2 = w[0], w[1], w[2], w[3]
-        phi2 = w[4] / self.scale2
+        if line:
+            u1, z1, u2, z2, phi2 = w[0], zsec, w[1], w[2], w[3] / self.scale2
+        else:
+            u1, z1, u2, z2, phi2 = w[0], w[1], w[2], w[3], w[4] / self.scale2
+        self._full = ca.Function("w_full", [w, zsec], [ca.vertcat(u1, z1, u2, z2, phi2 * self.scale2)])
         S1 = self.pinion.surface(side, "flank")
         S2 = self.gear.surface(side, "flank")
         r1, n1 = S1(u1, z1, p1)[:2]
         r2, n2 = S2(u2, z2, p2)[:2]
+        # Reference positions: at phi1 = phi2 = 0 the driving flanks of pinion tooth 0 and of the
+        # gear cross their operating pitch circles on the line of centres (the pitch point I).
+        r_w1 = pair.a_w * g1.z / (g1.z + g2.z)
+        r_w2 = pair.a_w - r_w1
+        self.theta1 = g1.s_at(r_w1) / (2 * r_w1)  # half tooth angle on the operating pitch circle
+        self.theta2 = g2.s_at(r_w2) / (2 * r_w2)
         # Pinion: clockwise by phi1 for the right flank (the left flank drives counter-clockwise).
-        rf1, nf1 = _rz(-sgn * phi1, r1), _rz(-sgn * phi1, n1)
+        rot1 = -sgn * phi1 + sgn * self.theta1
+        rf1, nf1 = _rz(rot1, r1), _rz(rot1, n1)
 
         def gear_to_fixed(v, point: bool):
-            v = _rz(math.pi + sgn * math.pi / g2.z, v)
+            v = _rz(math.pi + sgn * self.theta2, v)
             v = _rz(sgn * phi2, v)
             v = _ry(mis[1], _rx(mis[2], v))
             if point:
@@ -233,8 +253,11 @@ class TCA:
         rf2, nf2 = gear_to_fixed(r2, True), gear_to_fixed(n2, False)
         t2u = gear_to_fixed(ca.jacobian(r2, u2), False)
         t2z = gear_to_fixed(ca.jacobian(r2, z2), False)
-        F = ca.vertcat(rf1 - rf2, ca.dot(nf1, t2u), ca.dot(nf1, t2z))
-        prm = ca.vertcat(phi1, p1, p2, mis)
+        if line:  # line contact: n . dr2/dz2 vanishes identically; the section z1 is given
+            F = ca.vertcat(rf1 - rf2, ca.dot(nf1, t2u))
+        else:
+            F = ca.vertcat(rf1 - rf2, ca.dot(nf1, t2u), ca.dot(nf1, t2z))
+        prm = ca.vertcat(phi1, p1, p2, mis, zsec)
         self._nprm = prm.numel()
         self.residual = ca.Function("tca_residual", [w, prm], [F], ["w", "prm"], ["F"])
         self.jacobian = ca.Function("tca_jacobian", [w, prm], [ca.jacobian(F, w)], ["w", "prm"], ["J"])
@@ -249,10 +272,10 @@ class TCA:
         B1 = _shape_matrix(r1, n1, q1, E1)
         # The same basis carried into the gear frame (a rotation), where surface 2 lives.
         def fixed_to_gear(v):
-            v = _rz(-sgn * phi1, v)  # pinion -> fixed
+            v = _rz(rot1, v)  # pinion -> fixed
             v = _rx(-mis[2], _ry(-mis[1], v))
             v = _rz(-sgn * phi2, v)
-            return _rz(-(math.pi + sgn * math.pi / g2.z), v)
+            return _rz(-(math.pi + sgn * self.theta2), v)
         E2 = ca.horzcat(fixed_to_gear(e1), fixed_to_gear(e2))
         # Surface 2's outward normal is -n1 at contact: its convex curvature in the same basis.
         B2 = _shape_matrix(r2, n2, q2, E2)
@@ -274,31 +297,52 @@ class TCA:
             self._maps[n] = (self._rf_fast.map(n), self.residual.map(n), self.contact.map(n))
         return self._maps[n]
 
-    def prm(self, phi1, p1=None, p2=None, mis: Misalignment | None = None) -> np.ndarray:
+    def prm(self, phi1, p1=None, p2=None, mis: Misalignment | None = None, z_section: float = 0.0) -> np.ndarray:
         """Parameter matrix (n_prm, N) for the positions ``phi1``."""
         phi1 = np.atleast_1d(np.asarray(phi1, dtype=float))
         p1 = self.pinion.p0 if p1 is None else np.asarray(p1, float)
         p2 = self.gear.p0 if p2 is None else np.asarray(p2, float)
         m = (mis or Misalignment()).vector()
-        const = np.concatenate([p1, p2, m])
+        const = np.concatenate([p1, p2, m, [z_section]])
         return np.vstack([phi1[None, :], np.tile(const[:, None], phi1.size)])
 
-    def guess(self, p1=None, p2=None) -> np.ndarray:
-        """First guess at the pitch point: both flanks at their operating pitch radii, mid face."""
+    def _reduce(self, w_full):
+        w_full = np.asarray(w_full, float)
+        return w_full[[0, 2, 3, 4]] if self.contact_type == "line" else w_full
+
+    def guess(self, p1=None, p2=None, z_section: float = 0.0) -> np.ndarray:
+        """First guess at the pitch point: both flanks at their operating pitch radii, mid face
+        (the unknown vector of this TCA: 5 entries, or 4 for line contact)."""
         pair = self.pair
         r_w1 = pair.a_w * pair.pinion.z / (pair.pinion.z + pair.gear.z)
-        u1 = self.pinion.u_at_radius(r_w1, 0.0, self.side, p1)
-        u2 = self.gear.u_at_radius(pair.a_w - r_w1, 0.0, self.side, p2)
-        return np.array([u1, 0.0, u2, 0.0, 0.0])
+        u1 = self.pinion.u_at_radius(r_w1, z_section, self.side, p1)
+        u2 = self.gear.u_at_radius(pair.a_w - r_w1, z_section, self.side, p2)
+        return self._reduce([u1, z_section, u2, z_section, 0.0])
 
-    def solve_point(self, phi1: float, w0=None, p1=None, p2=None, mis=None) -> np.ndarray:
-        """Solve one position with the line-search Newton; raise :class:`ConvergenceError` if the
-        residual is not below ``tol`` or the normals do not oppose (a false root)."""
-        w0 = self.guess(p1, p2) if w0 is None else np.asarray(w0, float)
-        prm = self.prm([phi1], p1, p2, mis)[:, 0]
-        w = np.asarray(self._rf_safe(w0, prm)).ravel()
+    def _check(self, w, prm):
         res = float(np.linalg.norm(np.asarray(self.residual(w, prm)).ravel()))
         n1n2 = float(self.contact(w, prm)[4])
+        return res, n1n2, bool(np.isfinite(res) and res <= self.tol and n1n2 < -0.5)
+
+    def solve_point(self, phi1: float, w0=None, p1=None, p2=None, mis=None, z_section: float = 0.0) -> np.ndarray:
+        """Solve one position with the line-search Newton; raise :class:`ConvergenceError` if the
+        residual is not below ``tol`` or the normals do not oppose (a false root).
+
+        Returns
+        -------
+        w : ndarray
+            The unknowns (u1, z1, u2, z2, r_p2 phi2) [mm]; (u1, u2, z2, r_p2 phi2) for line contact.
+        """
+        w0 = self.guess(p1, p2, z_section) if w0 is None else np.asarray(w0, float)
+        prm = self.prm([phi1], p1, p2, mis, z_section)[:, 0]
+        J = np.asarray(self.jacobian(w0, prm))
+        if self.contact_type == "point" and np.linalg.cond(J) > 1e14:
+            raise ConvergenceError(
+                f"TCA: the point-contact equations are singular at phi1 = {phi1:.6g} rad (Jacobian condition "
+                f"{np.linalg.cond(J):.2g}): the flanks are in line contact (no crowning, no angular misalignment). "
+                "Use contact='line' (TCA in a given pinion section) or crown the pinion.")
+        w = np.asarray(self._rf_safe(w0, prm)).ravel()
+        res, n1n2, ok = self._check(w, prm)
         if not np.isfinite(res) or res > self.tol:
             raise ConvergenceError(f"TCA: no contact point at phi1 = {phi1:.6g} rad (residual {res:.3g} mm > "
                                    f"{self.tol:g} mm); the first guess may be too far or the flanks do not meet.")
@@ -309,7 +353,7 @@ class TCA:
         return w
 
     def sweep(self, phi1, p1=None, p2=None, mis: Misalignment | None = None, pairs=(-1, 0, 1),
-              delta: float = DELTA_DEFAULT, anchor: float = 0.0) -> TCAResult:
+              delta: float = DELTA_DEFAULT, anchor: float = 0.0, z_section: float = 0.0) -> TCAResult:
         """TCA over the pinion angles ``phi1`` [rad] for the tooth pairs ``pairs``.
 
         Pair k is pinion tooth k (positions ``phi1 - 2 pi k / z1`` of pair 0), its gear angle shifted
@@ -318,6 +362,22 @@ class TCA:
         fail the checks are re-solved by continuation from solved neighbours with line-search
         Newton, and flagged (NaN, ``converged = False``) if that fails too.
 
+        Parameters
+        ----------
+        phi1 : array_like (N,)
+            Pinion angles [rad] (0: pinion tooth 0 centred on the line of centres).
+        p1, p2 : array_like (4,), optional
+            Surface parameter vectors (:data:`gearopt.geometry.generation.PARAMS`) of pinion and gear.
+        mis : Misalignment, optional
+        pairs : sequence of int
+            Pinion teeth (tooth pairs) to analyse.
+        delta : float
+            Elastic approach for the contact ellipse [mm].
+        anchor : float
+            Pinion angle of the first (line-search Newton) solve [rad].
+        z_section : float
+            Line contact only: the pinion's axial section [mm].
+
         Returns
         -------
         TCAResult
@@ -325,13 +385,13 @@ class TCA:
         t0 = time.perf_counter()
         mis = mis or Misalignment()
         phi1 = np.atleast_1d(np.asarray(phi1, dtype=float))
-        g1, g2 = self.pair.pinion, self.pair.gear
+        g1 = self.pair.pinion
         pairs = tuple(int(k) for k in pairs)
         K, N = len(pairs), phi1.size
         phis = np.concatenate([phi1 - 2 * math.pi * k / g1.z for k in pairs])
-        prm = self.prm(phis, p1, p2, mis)
-        w_a = self.solve_point(anchor, None, p1, p2, mis)
-        prm_a = self.prm([anchor], p1, p2, mis)[:, 0]
+        prm = self.prm(phis, p1, p2, mis, z_section)
+        w_a = self.solve_point(anchor, None, p1, p2, mis, z_section)
+        prm_a = self.prm([anchor], p1, p2, mis, z_section)[:, 0]
         dw = np.asarray(self._dw(w_a, prm_a)).ravel()
         W0 = w_a[:, None] + dw[:, None] * (phis - anchor)[None, :]
         rf, res_f, con_f = self._mapped(phis.size)
@@ -343,8 +403,7 @@ class TCA:
         # Continuation for the rest, from the nearest solved neighbour of the same pair.
         n_retry = 0
         for kk in range(K):
-            sl = slice(kk * N, (kk + 1) * N)
-            idx = np.arange(sl.start, sl.stop)
+            idx = np.arange(kk * N, (kk + 1) * N)
             for order in (idx, idx[::-1]):
                 last = None
                 for i in order:
@@ -355,18 +414,19 @@ class TCA:
                         continue
                     n_retry += 1
                     w = np.asarray(self._rf_safe(W[:, last], prm[:, i])).ravel()
-                    r = float(np.linalg.norm(np.asarray(self.residual(w, prm[:, i])).ravel()))
-                    d = float(self.contact(w, prm[:, i])[4])
-                    if np.isfinite(r) and r <= self.tol and d < -0.5:
+                    r, d, good = self._check(w, prm[:, i])
+                    if good:
                         W[:, i], res[i], n1n2[i], ok[i] = w, r, d, True
                         last = i
-        W[:, ~ok] = np.nan
         out = con_f(np.where(ok, W, W0), prm)
         rf1, nf1, rf2, nf2, _, r1, r2, K1, K2, E2 = (np.asarray(v) for v in out)
+        Wf = np.asarray(self._full.map(phis.size)(W, np.full((1, phis.size), z_section)))
+        Wf[:, ~ok] = np.nan
         solve_time = time.perf_counter() - t0
-        return self._result(phi1, pairs, W, ok, res, n1n2, r1, r2, rf1, K1, K2, E2, delta, mis, solve_time,
+        return self._result(phi1, pairs, Wf, ok, res, n1n2, r1, r2, rf1, K1, K2, E2, delta, mis, solve_time,
                             {"n_positions": int(phis.size), "n_fast": n_fast, "n_retry": n_retry,
-                             "n_failed": int((~ok).sum()), "build_s": self.build_time})
+                             "n_failed": int((~ok).sum()), "build_s": self.build_time, "solver": self.solver,
+                             "contact": self.contact_type})
 
     # ------------------------------------------------------------------------------------------
     def _result(self, phi1, pairs, W, ok, res, n1n2, r1, r2, rf1, K1, K2, E2, delta, mis, solve_time, stats):
@@ -376,7 +436,6 @@ class TCA:
         phi2 = shp(W[4] / self.scale2) + np.array([2 * math.pi * k / g2.z for k in pairs])[:, None]
         # TE relative to the pair-0 gear angle at the anchor (phi1 = 0) so that pairs share one zero.
         ratio = g1.z / g2.z
-        ref_prm = self.prm([0.0], None, None, mis)[:, 0]  # noqa: F841  (reference recorded below)
         te_raw = phi2 - ratio * phi1[None, :]
         k0 = pairs.index(0) if 0 in pairs else 0
         ref = np.interp(0.0, phi1, te_raw[k0]) if np.all(np.isfinite(te_raw[k0])) and phi1.min() <= 0 <= phi1.max() \
@@ -398,7 +457,6 @@ class TCA:
         env = np.where(has, env, np.nan)
         driving = np.where(has, drv, -1)
         # Curvatures and contact ellipse: eigen-decomposition of K1 + K2 in the common basis.
-        K1m = K1.reshape(2, 2, -1, order="F") if K1.ndim == 2 else K1
         kap1 = np.full((K * N, 2), np.nan)
         kap2 = np.full((K * N, 2), np.nan)
         ea = np.full(K * N, np.nan)
@@ -418,7 +476,6 @@ class TCA:
                 b_ = np.sqrt(2 * delta / lam[1]) if lam[1] > 0 else np.inf
             ea[i], eb[i] = a_, b_
             edir[i] = E2a[i] @ vec[:, 0]
-        del K1m
         return TCAResult(
             phi1=phi1, pairs=pairs, phi2=np.where(ok.reshape(K, N), phi2, np.nan), te=np.where(ok.reshape(K, N), te, np.nan),
             te_envelope=env, driving=driving, u1=shp(W[0]), z1=z1, u2=shp(W[2]), z2=z2,

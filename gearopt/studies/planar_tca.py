@@ -1,0 +1,212 @@
+"""Study ``planar_tca``: TCA of two planar involute profiles (Litvin & Fuentes, Problem 9.4.1).
+
+Scene section ``[planar_tca]`` (all optional):
+
+``r_b1``, ``r_b2``  base radii of the driving gear 1 and the driven gear 2 (mm); default: the base
+                    radii of ``[pinion]`` and ``[gear]``.
+``E``               centre distance (mm), > r_b1 + r_b2; default the pair's centre distance ``a``.
+``phi1_min``, ``phi1_max``  range of the rotation of gear 1 (deg); default: the contact point runs
+                    over the middle 80 % of the segment T1 T2 between the base-circle tangency points.
+                    Valid: ``-alpha < phi1 < E sin(alpha)/r_b1 - alpha`` with
+                    ``cos alpha = (r_b1 + r_b2)/E`` (theta1, theta2 > 0 on both profiles).
+``n``               number of positions (default 41).
+``method``          "continuation" (warm starts with the AD tangent, default) or "map" (all
+                    positions in one mapped rootfinder call).
+``alpha_guess``     pressure angle assumed by the starting point of Newton (deg; default 20).
+``profiles``        number of positions at which the two profiles are drawn (default 3).
+
+The scene loader requires ``[pinion]``, ``[gear]`` and ``[pair]`` for every study; this study uses
+them only for the defaults above. When ``r_b1``/``r_b2``/``E`` are given and differ from the pair,
+the given values are used and ``results.json`` says so under ``notes``.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import GeometryError, SceneError
+from ..meshing.planar import PlanarTCA, PlanarTCAResult, closed_form, profile_points
+from ..units import DEG
+
+UNITS = {"length": "mm", "angle": "rad (suffix _deg: degrees)", "te": "rad", "te_arcsec": "arcsec",
+         "ratio": "-", "time": "s", "profiles": "mm, fixed frame S_f (O1 at the origin, O2 = (0, E))"}
+
+
+@dataclass(frozen=True)
+class PlanarTCAReport:
+    """Result of the ``planar_tca`` study: the solved TCA plus profile polylines for the plots."""
+
+    scene: str
+    tca: PlanarTCAResult
+    profiles: list = field(repr=False)
+    notes: list = field(default_factory=list)
+    timing: dict = field(default_factory=dict)
+
+    def to_dict(self) -> dict:
+        t = self.tca
+        d = t.to_dict()
+        units = {**d.pop("units"), **UNITS}
+        lo = d["derived"]["line_of_action"]
+        if lo["angle"] is not None:
+            lo["angle_deg"] = lo["angle"] / DEG
+        return {"study": "planar_tca", "scene": self.scene, "units": units, **d,
+                "profiles": self.profiles, "notes": list(self.notes),
+                "timing": {**d["timing"], **self.timing}}
+
+    def save_plots(self, out_dir, dpi: int = 120) -> list[str]:
+        """Write ``line_of_action.png`` (Fig. 9.4.5) and ``transmission_error.png`` into ``out_dir``."""
+        import matplotlib
+        matplotlib.use("Agg")
+        from pathlib import Path
+
+        import matplotlib.pyplot as plt
+
+        from ..plot.planar import plot_line_of_action, plot_transmission_error
+
+        out = Path(out_dir)
+        fig, ax = plt.subplots(figsize=(8, 9))
+        plot_line_of_action(self, ax=ax)
+        fig.tight_layout()
+        fig.savefig(out / "line_of_action.png", dpi=dpi, bbox_inches="tight")
+        plt.close(fig)
+
+        fig, ax = plt.subplots(figsize=(8, 4.5))
+        plot_transmission_error(self, ax=ax)
+        fig.tight_layout()
+        fig.savefig(out / "transmission_error.png", dpi=dpi, bbox_inches="tight")
+        plt.close(fig)
+        return ["line_of_action.png", "transmission_error.png"]
+
+
+class PlanarTCAStudy:
+    """Problem 9.4.1 for one geometry and sweep (built once, ``run()`` for the report).
+
+    Parameters
+    ----------
+    r_b1, r_b2, E : float
+        Base radii and centre distance [mm].
+    phi1 : (n,) array
+        Rotations of gear 1 [rad].
+    method : {"continuation", "map"}
+    alpha_guess : float
+        Pressure angle of the Newton starting point [rad].
+    profiles : int
+        Positions at which the profiles are sampled for the plot.
+    name : str
+        Scene name.
+    notes : list[str]
+    """
+
+    def __init__(self, r_b1, r_b2, E, phi1, method="continuation", alpha_guess=20 * DEG, profiles=3,
+                 name="planar_tca", notes=()):
+        t0 = time.perf_counter()
+        self.tca = PlanarTCA(r_b1, r_b2, E)
+        self.phi1 = np.asarray(phi1, dtype=float)
+        self.method, self.alpha_guess, self.n_profiles = method, alpha_guess, int(profiles)
+        self.name, self.notes = name, list(notes)
+        self.build_time = time.perf_counter() - t0
+
+    def run(self, progress=None) -> PlanarTCAReport:
+        t0 = time.perf_counter()
+        if progress:
+            progress(f"planar_tca: solving {self.phi1.size} positions ({self.method})")
+        res = self.tca.solve(self.phi1, method=self.method, alpha_guess=self.alpha_guess, on_fail="raise")
+        if progress:
+            progress(f"planar_tca: {res.time_per_position_s * 1e3:.3f} ms per position, m12 = {res.m12:.12g}, "
+                     f"max |TE| = {res.errors['te_max_abs']:.2e} rad")
+        profiles = _sample_profiles(res, self.n_profiles)
+        return PlanarTCAReport(scene=self.name, tca=res, profiles=profiles, notes=self.notes,
+                               timing={"build_s": self.build_time, "run_s": time.perf_counter() - t0})
+
+
+def _sample_profiles(res: PlanarTCAResult, k: int, m: int = 80) -> list:
+    """Both profiles in S_f at ``k`` solved positions, from their base circle (theta = 0) to a bit
+    beyond the largest solved theta."""
+    if k <= 0:
+        return []
+    idx = np.unique(np.linspace(0, res.n - 1, k).round().astype(int))
+    th1_max = 1.15 * float(np.max(res.theta1))
+    th2_max = 1.15 * float(np.max(res.theta2))
+    out = []
+    for i in idx:
+        p1 = profile_points(1, np.linspace(0, th1_max, m), float(res.phi1[i]), res.r_b1, res.r_b2, res.E)
+        p2 = profile_points(2, np.linspace(0, th2_max, m), float(res.phi2[i]), res.r_b1, res.r_b2, res.E)
+        out.append({"index": int(i), "phi1": float(res.phi1[i]), "phi2": float(res.phi2[i]),
+                    "contact": res.r_f1[i].tolist(), "profile_1": p1.tolist(), "profile_2": p2.tolist()})
+    return out
+
+
+# --- scene binding ------------------------------------------------------------------------------
+def _from_scene(scene) -> PlanarTCAStudy:
+    o = scene.options.get("planar_tca", {}) or {}
+    src = scene.source
+    pair = scene.pair
+    notes = []
+    defaults = {"r_b1": pair.pinion.r_b, "r_b2": pair.gear.r_b, "E": pair.a_w}
+    vals = {}
+    for key, dflt in defaults.items():
+        v = o.get(key)
+        if v is None:
+            vals[key] = dflt
+            notes.append(f"{key} = {dflt:.9g} mm from the gear pair")
+        else:
+            vals[key] = v
+            if abs(v - dflt) > 1e-9 * max(abs(dflt), 1.0):
+                notes.append(f"[planar_tca] {key} = {v:.9g} mm differs from the pair's {dflt:.9g} mm; "
+                             f"the [planar_tca] value is used")
+    r_b1, r_b2, E = vals["r_b1"], vals["r_b2"], vals["E"]
+    try:
+        cf = closed_form(r_b1, r_b2, E)
+    except GeometryError as e:
+        raise SceneError(f"{src}: [planar_tca] {e}") from e
+    lo, hi = cf["phi1_range"]
+    span = hi - lo
+    p_min = o.get("phi1_min")
+    p_max = o.get("phi1_max")
+    p_min = lo + 0.1 * span if p_min is None else p_min
+    p_max = hi - 0.1 * span if p_max is None else p_max
+    valid = (f"{lo / DEG:.6g} < phi1 < {hi / DEG:.6g} deg (contact between the base-circle tangency points "
+             f"T1, T2 for r_b1 = {r_b1:g}, r_b2 = {r_b2:g}, E = {E:g} mm)")
+    for key, v in (("phi1_min", p_min), ("phi1_max", p_max)):
+        if not lo < v < hi:
+            raise SceneError(f"{src}: [planar_tca] {key} = {v / DEG:.6g} deg is out of range; valid: {valid}.")
+    if not p_min < p_max:
+        raise SceneError(f"{src}: [planar_tca] phi1_min = {p_min / DEG:.6g} deg must be < phi1_max = "
+                         f"{p_max / DEG:.6g} deg.")
+    phi1 = np.linspace(p_min, p_max, o.get("n") or 41)
+    return PlanarTCAStudy(r_b1, r_b2, E, phi1, method=o.get("method") or "continuation",
+                          alpha_guess=o.get("alpha_guess") if o.get("alpha_guess") is not None else 20 * DEG,
+                          profiles=o.get("profiles") if o.get("profiles") is not None else 3,
+                          name=scene.name, notes=notes)
+
+
+def _register():
+    from ..io.scene import Bounds, Field, Section
+    from . import StudySpec, register
+
+    pos = Bounds(lo=0, lo_open=True)
+    register(StudySpec(
+        name="planar_tca",
+        doc="TCA of two planar involute profiles (Litvin Problem 9.4.1): ratio, line of action, TE",
+        sections=[Section("planar_tca", [
+            Field("r_b1", "length", check=pos, doc="base radius of gear 1 (driving); default the pinion's"),
+            Field("r_b2", "length", check=pos, doc="base radius of gear 2 (driven); default the gear's"),
+            Field("E", "length", check=pos, doc="centre distance, > r_b1 + r_b2; default the pair's a"),
+            Field("phi1_min", "angle", doc="first rotation of gear 1; default: 10 % into T1 T2"),
+            Field("phi1_max", "angle", doc="last rotation of gear 1; default: 90 % along T1 T2"),
+            Field("n", "int", default=41, check=Bounds(lo=3, hi=100000), doc="number of positions"),
+            Field("method", "str", default="continuation", choices=("continuation", "map"),
+                  doc="warm-started sequence or one mapped rootfinder call"),
+            Field("alpha_guess", "angle", default=20, check=Bounds(lo=0, hi=90, lo_open=True, hi_open=True),
+                  doc="pressure angle of the Newton starting point"),
+            Field("profiles", "int", default=3, check=Bounds(lo=0, hi=20), doc="positions drawn with both profiles"),
+        ], required=False, doc="planar involute TCA (Problem 9.4.1)")],
+        build=_from_scene,
+    ))
+
+
+_register()
