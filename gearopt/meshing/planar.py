@@ -74,7 +74,7 @@ from functools import lru_cache
 import casadi as ca
 import numpy as np
 
-from ..errors import ConvergenceError, GeometryError, out_of_range
+from ..errors import ConvergenceError, GeometryError, out_of_range  # noqa: F401 (GeometryError via out_of_range)
 from ..units import DEG, RAD_TO_ARCSEC
 
 __all__ = [
@@ -289,6 +289,12 @@ def _ro(a):
     return a
 
 
+def _ro_int(a):
+    a = np.array(a, dtype=int)
+    a.setflags(write=False)
+    return a
+
+
 def _f(v):
     """float, or None when not finite (for JSON)."""
     v = float(v)
@@ -404,8 +410,13 @@ class PlanarTCAResult:
 
     def to_dict(self) -> dict:
         """JSON-able dict with a ``units`` mapping (mm, rad; TE also in arcsec)."""
-        def lst(a):
-            return None if a is None else np.asarray(a).tolist()
+        def lst(a):  # arrays -> lists, NaN (flagged points) -> None
+            if a is None:
+                return None
+            a = np.asarray(a)
+            if a.dtype.kind == "f" and not np.all(np.isfinite(a)):
+                return np.where(np.isfinite(a), a, None).tolist()
+            return a.tolist()
 
         units = {"length": "mm", "angle": "rad", "te": "rad", "te_arcsec": "arcsec", "ratio": "-",
                  "residual": "- (positions scaled by E)", "time": "s", "n_dot": "-",
@@ -620,7 +631,7 @@ class PlanarTCA:
             r_b1=self.r_b1, r_b2=self.r_b2, E=self.E, phi1=_ro(phi1), phi2=_ro(raw["phi2"]),
             theta1=_ro(raw["theta1"]), theta2=_ro(raw["theta2"]), r_f1=_ro(raw["r_f1"]), r_f2=_ro(raw["r_f2"]),
             n_f1=_ro(raw["n_f1"]), n_f2=_ro(raw["n_f2"]), residual=_ro(raw["residual"]), n_dot=_ro(raw["n_dot"]),
-            iterations=it, flags=raw["flags"], method=method, solve_time_s=solve_time,
+            iterations=_ro_int(it), flags=_ro_int(raw["flags"]), method=method, solve_time_s=solve_time,
             **{k: (_ro(v) if isinstance(v, np.ndarray) else v) for k, v in der.items()})
         if on_fail == "raise" and np.any(result.flags):
             bad = np.flatnonzero(result.flags)

@@ -123,7 +123,8 @@ class TCAResult:
     rf : (K, N, 3) contact point in the fixed frame [mm].
     kappa1, kappa2 : (K, N, 2) principal curvatures of pinion and gear flank [1/mm] (convex > 0).
     ellipse_a, ellipse_b : (K, N) contact ellipse semi-axes [mm] (major, minor) for ``delta``.
-    ellipse_dir2 : (K, N, 3) unit major-axis direction in the gear frame.
+    ellipse_dir2, ellipse_dir1 : (K, N, 2, 3) unit directions of the major ([..., 0, :]) and minor
+        ([..., 1, :]) axes in the gear and in the pinion frame.
     residual : (K, N) residual norm after the solve [mm].
     normal_dot : (K, N) n1 . n2 of the outward normals in S_f (-1 for a true contact point).
     converged, on_surface : (K, N) bool flags.
@@ -150,6 +151,7 @@ class TCAResult:
     ellipse_a: np.ndarray
     ellipse_b: np.ndarray
     ellipse_dir2: np.ndarray
+    ellipse_dir1: np.ndarray
     residual: np.ndarray
     normal_dot: np.ndarray
     converged: np.ndarray
@@ -281,8 +283,8 @@ class TCA:
         B2 = _shape_matrix(r2, n2, q2, E2)
         K1 = 0.5 * (B1 + B1.T)
         K2 = 0.5 * (B2 + B2.T)
-        out = [rf1, nf1, rf2, nf2, ca.dot(nf1, nf2), r1, r2, K1, K2, E2]
-        names = ["rf1", "nf1", "rf2", "nf2", "n1n2", "r1", "r2", "K1", "K2", "E2"]
+        out = [rf1, nf1, rf2, nf2, ca.dot(nf1, nf2), r1, r2, K1, K2, E2, E1]
+        names = ["rf1", "nf1", "rf2", "nf2", "n1n2", "r1", "r2", "K1", "K2", "E2", "E1"]
         self.contact = ca.Function("tca_contact", [w, prm], out, ["w", "prm"], names)
         G = ca.Function("G", [w, prm], [F])
         self._rf_fast = ca.rootfinder("tca_fast", self.solver, G, {"error_on_fail": False, "abstol": 1e-13,
@@ -419,17 +421,17 @@ class TCA:
                         W[:, i], res[i], n1n2[i], ok[i] = w, r, d, True
                         last = i
         out = con_f(np.where(ok, W, W0), prm)
-        rf1, nf1, rf2, nf2, _, r1, r2, K1, K2, E2 = (np.asarray(v) for v in out)
+        rf1, nf1, rf2, nf2, _, r1, r2, K1, K2, E2, E1 = (np.asarray(v) for v in out)
         Wf = np.asarray(self._full.map(phis.size)(W, np.full((1, phis.size), z_section)))
         Wf[:, ~ok] = np.nan
         solve_time = time.perf_counter() - t0
-        return self._result(phi1, pairs, Wf, ok, res, n1n2, r1, r2, rf1, K1, K2, E2, delta, mis, solve_time,
+        return self._result(phi1, pairs, Wf, ok, res, n1n2, r1, r2, rf1, K1, K2, E2, E1, delta, mis, solve_time,
                             {"n_positions": int(phis.size), "n_fast": n_fast, "n_retry": n_retry,
                              "n_failed": int((~ok).sum()), "build_s": self.build_time, "solver": self.solver,
                              "contact": self.contact_type})
 
     # ------------------------------------------------------------------------------------------
-    def _result(self, phi1, pairs, W, ok, res, n1n2, r1, r2, rf1, K1, K2, E2, delta, mis, solve_time, stats):
+    def _result(self, phi1, pairs, W, ok, res, n1n2, r1, r2, rf1, K1, K2, E2, E1, delta, mis, solve_time, stats):
         g1, g2 = self.pair.pinion, self.pair.gear
         K, N = len(pairs), phi1.size
         shp = lambda a: a.reshape(K, N)  # noqa: E731
@@ -461,10 +463,12 @@ class TCA:
         kap2 = np.full((K * N, 2), np.nan)
         ea = np.full(K * N, np.nan)
         eb = np.full(K * N, np.nan)
-        edir = np.full((K * N, 3), np.nan)
+        edir = np.full((K * N, 2, 3), np.nan)  # [major, minor] unit directions, gear frame
+        edir1 = np.full((K * N, 2, 3), np.nan)  # the same in the pinion frame
         K1a = _as_mats(K1, K * N)
         K2a = _as_mats(K2, K * N)
         E2a = _as_mats(E2, K * N, rows=3)
+        E1a = _as_mats(E1, K * N, rows=3)
         for i in range(K * N):
             if not ok[i]:
                 continue
@@ -475,14 +479,16 @@ class TCA:
                 a_ = np.sqrt(2 * delta / lam[0]) if lam[0] > 0 else np.inf
                 b_ = np.sqrt(2 * delta / lam[1]) if lam[1] > 0 else np.inf
             ea[i], eb[i] = a_, b_
-            edir[i] = E2a[i] @ vec[:, 0]
+            edir[i] = (E2a[i] @ vec).T
+            edir1[i] = (E1a[i] @ vec).T
         return TCAResult(
             phi1=phi1, pairs=pairs, phi2=np.where(ok.reshape(K, N), phi2, np.nan), te=np.where(ok.reshape(K, N), te, np.nan),
             te_envelope=env, driving=driving, u1=shp(W[0]), z1=z1, u2=shp(W[2]), z2=z2,
             r1=r1.T.reshape(K, N, 3), r2=r2.T.reshape(K, N, 3), rf=rf1.T.reshape(K, N, 3),
             radius1=np.where(ok.reshape(K, N), radius1, np.nan), radius2=np.where(ok.reshape(K, N), radius2, np.nan),
             kappa1=kap1.reshape(K, N, 2), kappa2=kap2.reshape(K, N, 2),
-            ellipse_a=ea.reshape(K, N), ellipse_b=eb.reshape(K, N), ellipse_dir2=edir.reshape(K, N, 3),
+            ellipse_a=ea.reshape(K, N), ellipse_b=eb.reshape(K, N), ellipse_dir2=edir.reshape(K, N, 2, 3),
+            ellipse_dir1=edir1.reshape(K, N, 2, 3),
             residual=res.reshape(K, N), normal_dot=n1n2.reshape(K, N), converged=ok.reshape(K, N), on_surface=on,
             delta=delta, misalignment=mis, solve_time=solve_time, stats=stats)
 

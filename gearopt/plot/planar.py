@@ -27,7 +27,7 @@ def _circle(ax, c, r, **kw):
     return ax.plot(c[0] + r * np.cos(t), c[1] + r * np.sin(t), **kw)
 
 
-def plot_line_of_action(report, ax=None):
+def plot_line_of_action(report, ax=None, zoom: bool = False):
     """Base circles, centre line, line of action tangent to both base circles, contact points,
     pitch point I and both involute profiles at a few positions (Fig. 9.4.5).
 
@@ -35,6 +35,8 @@ def plot_line_of_action(report, ax=None):
     ----------
     report : PlanarTCAReport
     ax : matplotlib Axes, optional
+    zoom : bool
+        Limit the view to the meshing zone (segment T1 T2 and a margin) instead of both gears.
 
     Returns
     -------
@@ -72,7 +74,8 @@ def plot_line_of_action(report, ax=None):
             ax.annotate(name, P, xytext=(6, -4), textcoords="offset points")
         if math.isfinite(t.y_I):
             ax.plot(0, t.y_I, "D", color="k", ms=5, zorder=5)
-            ax.annotate(f"I (y_I = {t.y_I:.4f} mm)", (0, t.y_I), xytext=(8, 6), textcoords="offset points")
+            ax.annotate(f"I ($y_I$ = {t.y_I:.4f} mm)" if zoom else "I", (0, t.y_I), xytext=(-8, -14),
+                        textcoords="offset points", ha="right")
     # profiles at a few positions
     for k, p in enumerate(report.profiles):
         p1, p2 = np.asarray(p["profile_1"]), np.asarray(p["profile_2"])
@@ -80,18 +83,28 @@ def plot_line_of_action(report, ax=None):
         lab2 = "profile 2 (gear 2, driven)" if k == 0 else None
         ax.plot(p1[:, 0], p1[:, 1], color="C2", lw=1.1, alpha=0.85, label=lab1)
         ax.plot(p2[:, 0], p2[:, 1], color="C4", lw=1.1, alpha=0.85, label=lab2)
-        ax.annotate(f"phi1 = {p['phi1'] / DEG:.1f} deg", p["contact"], xytext=(-70, 8),
-                    textcoords="offset points", fontsize=7, color="0.3")
+        if zoom:
+            ax.plot(*p["contact"], "o", mfc="none", color="k", ms=7)
+            ax.annotate(f"$\\phi_1$ = {p['phi1'] / DEG:.1f} deg", p["contact"], xytext=(10, 10),
+                        textcoords="offset points", fontsize=8, color="0.2")
     ax.plot(t.r_f1[ok, 0], t.r_f1[ok, 1], ".", color="C1", ms=4, label=f"solved contact points ({int(ok.sum())})")
     if (~ok).any():
         ax.plot(t.r_f1[~ok, 0], t.r_f1[~ok, 1], "x", color="r", ms=6, label="rejected points")
     ax.set_aspect("equal")
+    if zoom and t.T1 is not None:
+        T1, T2 = np.asarray(t.T1), np.asarray(t.T2)
+        c, h = 0.5 * (T1 + T2), 0.5 * np.max(np.abs(T2 - T1)) * 1.3
+        ax.set_xlim(c[0] - h, c[0] + h)
+        ax.set_ylim(c[1] - h, c[1] + h)
     ax.set_xlabel("$x_f$ [mm]")
     ax.set_ylabel("$y_f$ [mm]")
-    ax.set_title(f"{report.scene}: line of action (Litvin Fig. 9.4.5), E = {E:.4g} mm, "
-                 f"m12 = {t.m12:.6f}", fontsize=10)
+    if zoom:
+        ax.set_title("meshing zone: contact points on the line of action T$_1$T$_2$", fontsize=10)
+    else:
+        ax.set_title(f"{report.scene}: line of action (Litvin Fig. 9.4.5)\nE = {E:.6g} mm, "
+                     f"m12 = {t.m12:.9g}, $y_I$ = {t.y_I:.6g} mm", fontsize=10)
+        ax.legend(fontsize=7, loc="upper left", framealpha=0.9)
     ax.grid(True, lw=0.3)
-    ax.legend(fontsize=7, loc="upper left", framealpha=0.9)
     return ax
 
 

@@ -36,7 +36,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from gearopt.io.scene import Scene, Section
 
 #: Study modules shipped with gearopt (imported lazily by :func:`_load_builtin`).
-BUILTIN_MODULES = ("gearopt.studies.geometry", "gearopt.studies.planar_tca")
+BUILTIN_MODULES = ("gearopt.studies.geometry", "gearopt.studies.planar_tca", "gearopt.studies.tca")
 #: Environment variable naming extra study modules to import (comma-separated).
 ENV_MODULES = "GEAROPT_STUDY_MODULES"
 

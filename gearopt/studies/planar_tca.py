@@ -22,7 +22,6 @@ the given values are used and ``results.json`` says so under ``notes``.
 
 from __future__ import annotations
 
-import math
 import time
 from dataclasses import dataclass, field
 
@@ -68,8 +67,9 @@ class PlanarTCAReport:
         from ..plot.planar import plot_line_of_action, plot_transmission_error
 
         out = Path(out_dir)
-        fig, ax = plt.subplots(figsize=(8, 9))
-        plot_line_of_action(self, ax=ax)
+        fig, axes = plt.subplots(1, 2, figsize=(14, 8.5), gridspec_kw={"width_ratios": [1, 1.15]})
+        plot_line_of_action(self, ax=axes[0])
+        plot_line_of_action(self, ax=axes[1], zoom=True)
         fig.tight_layout()
         fig.savefig(out / "line_of_action.png", dpi=dpi, bbox_inches="tight")
         plt.close(fig)

@@ -1,0 +1,214 @@
+"""Tooth contact analysis study: transmission errors, paths of contact and bearing contact of a
+drive, aligned and under a misalignment (Litvin section 9.4).
+
+Scene section ``[tca]``:
+
+``side``          driving flank of the pinion, "right" (default) or "left".
+``contact``       "point" (crowned pinion, default) or "line" (conjugate / profile-crowned spur:
+                  contact sought in the pinion section ``z_section``).
+``z_section``     pinion section for line contact [mm] (default 0).
+``positions``     positions per mesh cycle (default 81, 9..5000); two cycles are analysed.
+``delta``         elastic approach for the contact ellipse [mm] (default 0.00632).
+``dE``, ``crossing``, ``intersecting``, ``axial``: the misalignment case analysed beside the
+                  aligned drive [mm, angle, angle, mm] (all 0 by default: aligned only).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..gears import GearPair
+from ..meshing.tca import TCA, Misalignment, TCAResult
+from ..units import ARCMIN, DEG, RAD_TO_ARCSEC
+
+UNITS = {"length": "mm", "angle": "rad", "te": "arcsec (suffix _arcsec)", "curvature": "1/mm",
+         "misalignment": "dE, axial in mm; crossing, intersecting in arcmin (suffix _arcmin)",
+         "time": "s", "flank_map": "axial position z [mm], transverse radius [mm], member's own frame"}
+
+
+def te_harmonics(phi1: np.ndarray, te: np.ndarray, z1: int, n: int = 5) -> list[float] | None:
+    """Amplitudes of the first ``n`` mesh-frequency harmonics of a TE sampled uniformly over a whole
+    number of mesh cycles ``[phi0, phi0 + c 2 pi / z1)`` (same unit as ``te``); None if the samples
+    do not span whole cycles or contain gaps."""
+    te = np.asarray(te, float)
+    phi1 = np.asarray(phi1, float)
+    span = (phi1[-1] - phi1[0]) * phi1.size / (phi1.size - 1)
+    cycles = span * z1 / (2 * math.pi)
+    c = int(round(cycles))
+    if c < 1 or abs(cycles - c) > 1e-9 or te.size < 2 * c * n + 1 or not np.all(np.isfinite(te)):
+        return None
+    f = np.fft.rfft(te - te.mean()) / te.size
+    return [float(2 * abs(f[c * k])) for k in range(1, n + 1)]
+
+
+def _arr(a, digits=None):
+    a = np.asarray(a, dtype=float)
+    return [None if not np.isfinite(v) else float(v) for v in a.ravel()] if a.ndim == 1 else \
+        [_arr(row) for row in a]
+
+
+def case_dict(res: TCAResult, pair: GearPair, label: str, limits: dict) -> dict:
+    """JSON-able summary of one TCA case (what results.json holds and the plots read)."""
+    z1 = pair.pinion.z
+    k0 = res.pairs.index(0) if 0 in res.pairs else 0
+    env = res.te_envelope_arcsec
+    # Transfer points: where the driving pair changes.
+    drv = res.driving
+    transfers = [float(0.5 * (res.phi1[i] + res.phi1[i + 1])) for i in range(len(drv) - 1)
+                 if drv[i] >= 0 and drv[i + 1] >= 0 and drv[i] != drv[i + 1]]
+    mis = res.misalignment
+    on0 = res.on_surface[k0]
+    return {
+        "label": label,
+        "misalignment": {"dE": mis.dE, "crossing_arcmin": mis.crossing / ARCMIN,
+                         "intersecting_arcmin": mis.intersecting / ARCMIN, "axial": mis.axial},
+        "phi1": _arr(res.phi1), "pairs": list(res.pairs),
+        "te_arcsec": _arr(res.te_arcsec), "te_envelope_arcsec": _arr(env),
+        "driving_pair": [int(v) for v in drv], "transfer_phi1": transfers,
+        "peak_to_peak_arcsec": res.peak_to_peak * RAD_TO_ARCSEC,
+        "harmonics_arcsec": te_harmonics(res.phi1, env, z1),
+        "pinion": {"z": _arr(res.z1[k0]), "radius": _arr(res.radius1[k0]), "xyz": _arr(res.r1[k0]),
+                   "kappa": _arr(res.kappa1[k0]), "ellipse_dirs": _arr(res.ellipse_dir1[k0].reshape(-1, 6))},
+        "gear": {"z": _arr(res.z2[k0]), "radius": _arr(res.radius2[k0]), "xyz": _arr(res.r2[k0]),
+                 "kappa": _arr(res.kappa2[k0]), "ellipse_dirs": _arr(res.ellipse_dir2[k0].reshape(-1, 6))},
+        "ellipse_a": _arr(res.ellipse_a[k0]), "ellipse_b": _arr(res.ellipse_b[k0]),
+        "delta": res.delta,
+        "converged": [bool(v) for v in res.converged[k0]], "on_surface": [bool(v) for v in on0],
+        "all_converged": bool(res.converged.all()),
+        "max_residual": float(np.nanmax(res.residual)),
+        "min_normal_dot": float(np.nanmin(res.normal_dot)),
+        "stats": res.stats, "solve_time_s": res.solve_time,
+        "limits": limits,
+    }
+
+
+@dataclass(frozen=True)
+class TCAReport:
+    """Result of the TCA study: one entry per case (aligned, misaligned)."""
+
+    scene: str
+    pair: dict
+    cases: list
+    timing: dict = field(default_factory=dict)
+
+    def to_dict(self) -> dict:
+        return {"study": "tca", "scene": self.scene, "units": UNITS, "pair": self.pair, "cases": self.cases,
+                "timing": self.timing}
+
+    def save_plots(self, out_dir, dpi: int = 120) -> list[str]:
+        """``te.png`` (TE per pair and envelope, every case) and ``bearing_contact.png`` (paths of
+        contact with contact ellipses on both flanks, every case)."""
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+        from pathlib import Path
+
+        from ..plot.tca import plot_bearing_contact, plot_te
+
+        out = Path(out_dir)
+        n = len(self.cases)
+        fig, axes = plt.subplots(n, 1, figsize=(9, 3.6 * n), squeeze=False)
+        for ax, case in zip(axes[:, 0], self.cases):
+            plot_te(case, ax=ax)
+        fig.suptitle(f"{self.scene}: transmission errors")
+        fig.tight_layout()
+        fig.savefig(out / "te.png", dpi=dpi, bbox_inches="tight")
+        plt.close(fig)
+        fig, axes = plt.subplots(n, 2, figsize=(12, 4.2 * n), squeeze=False)
+        for row, case in zip(axes, self.cases):
+            plot_bearing_contact(case, "pinion", ax=row[0])
+            plot_bearing_contact(case, "gear", ax=row[1])
+        fig.suptitle(f"{self.scene}: bearing contact (paths of contact and contact ellipses)")
+        fig.tight_layout()
+        fig.savefig(out / "bearing_contact.png", dpi=dpi, bbox_inches="tight")
+        plt.close(fig)
+        return ["te.png", "bearing_contact.png"]
+
+
+class TCAStudy:
+    """Compiled TCA of a pair; ``run()`` sweeps one mesh cycle for each case."""
+
+    def __init__(self, pair: GearPair, side="right", contact="point", z_section=0.0, positions=81,
+                 delta=0.00632, misalignment: Misalignment | None = None, name="tca"):
+        self.pair, self.name = pair, name
+        self.positions, self.delta, self.z_section = positions, delta, z_section
+        self.cases = [("aligned", Misalignment())]
+        if misalignment is not None and np.any(misalignment.vector() != 0):
+            self.cases.append(("misaligned", misalignment))
+        self.tca = TCA(pair, side=side, contact=contact)
+
+    def limits(self) -> dict:
+        t = self.tca
+        return {"pinion": {"b": self.pair.pinion.b, "r_a": self.pair.pinion.r_a,
+                           "r_form": t._form_radius(t.pinion)},
+                "gear": {"b": self.pair.gear.b, "r_a": self.pair.gear.r_a, "r_form": t._form_radius(t.gear)}}
+
+    def run(self, progress=None) -> TCAReport:
+        t0 = time.perf_counter()
+        z1 = self.pair.pinion.z
+        # Two mesh cycles centred on the pitch point, so that the transfers between pairs show.
+        phi = np.linspace(-2 * math.pi / z1, 2 * math.pi / z1, 2 * self.positions, endpoint=False)
+        cases = []
+        lim = self.limits()
+        for label, mis in self.cases:
+            if progress:
+                progress(f"tca: {label} ({2 * self.positions} positions x 5 tooth pairs)")
+            res = self.tca.sweep(phi, mis=mis, delta=self.delta, z_section=self.z_section, pairs=(-2, -1, 0, 1, 2))
+            cases.append(case_dict(res, self.pair, label, lim))
+        p = self.pair
+        pair = {"z1": p.pinion.z, "z2": p.gear.z, "m_n": p.pinion.m_n, "beta_deg": p.pinion.beta / DEG,
+                "a": p.a_w, "ratio": p.ratio, "side": self.tca.side, "contact": self.tca.contact_type,
+                "pinion_a_c": p.pinion.rack.a_c, "pinion_a_pl": p.pinion.a_pl, "eps_alpha": p.eps_alpha}
+        return TCAReport(scene=self.name, pair=pair, cases=cases,
+                         timing={"build_s": self.tca.build_time, "run_s": time.perf_counter() - t0})
+
+
+# --- scene binding ------------------------------------------------------------------------------
+def _from_scene(scene) -> TCAStudy:
+    from ..errors import GeometryError, SceneError
+
+    o = scene.options.get("tca", {}) or {}
+    try:
+        mis = Misalignment(dE=o.get("dE") or 0.0, crossing=o.get("crossing") or 0.0,
+                           intersecting=o.get("intersecting") or 0.0, axial=o.get("axial") or 0.0)
+        if o.get("contact") == "point" and scene.pair.pinion.a_pl == 0:
+            raise SceneError(f"{scene.source}: [tca] contact = \"point\" needs a longitudinally crowned pinion "
+                             "([pinion] a_pl > 0); for conjugate or profile-crowned spur pinions use contact = "
+                             "\"line\".")
+        return TCAStudy(scene.pair, side=o.get("side") or "right", contact=o.get("contact") or "point",
+                        z_section=o.get("z_section") or 0.0, positions=o.get("positions") or 81,
+                        delta=o.get("delta") or 0.00632, misalignment=mis, name=scene.name)
+    except GeometryError as e:
+        raise SceneError(f"{scene.source}: [tca] {e}") from e
+
+
+def _register():
+    from ..io.scene import Bounds, Field, Section
+    from . import StudySpec, register
+
+    register(StudySpec(
+        name="tca",
+        doc="Tooth contact analysis: TE per pair and envelope, paths of contact, contact ellipses, aligned and misaligned",
+        sections=[Section("tca", [
+            Field("side", "str", default="right", choices=("right", "left"), doc="driving flank of the pinion"),
+            Field("contact", "str", default="point", choices=("point", "line"),
+                  doc="point (crowned pinion) or line (conjugate/profile-crowned: in section z_section)"),
+            Field("z_section", "length", default=0.0, doc="pinion section for line contact"),
+            Field("positions", "int", default=81, check=Bounds(lo=9, hi=5000), doc="positions per mesh cycle"),
+            Field("delta", "length", default=0.00632, check=Bounds(lo=0, lo_open=True, hi=0.1),
+                  doc="elastic approach for the contact ellipse"),
+            Field("dE", "length", default=0.0, check=Bounds(lo=-5, hi=5), doc="centre distance change"),
+            Field("crossing", "angle", default=0.0, check=Bounds(lo=-10, hi=10), doc="crossing angle of the axes"),
+            Field("intersecting", "angle", default=0.0, check=Bounds(lo=-10, hi=10),
+                  doc="intersecting angle of the axes"),
+            Field("axial", "length", default=0.0, check=Bounds(lo=-50, hi=50), doc="axial displacement of the gear"),
+        ], required=False)],
+        build=_from_scene,
+    ))
+
+
+_register()
