@@ -6,6 +6,11 @@ Lengths in mm, angles in rad inside; see :mod:`gearopt.units` for the edges.
 
 from .errors import ConvergenceError, GearoptError, GeometryError, SceneError
 from .gears import BasicRack, Gear, GearPair
+from .geometry.generation import (PARAMS, GeneratedTooth, Hob, Shaper, generate_by_hob, generate_by_rack,
+                                  generate_by_shaper)
+from .io.scene import load_scene
+from .meshing.planar import PlanarTCA, solve_planar_tca
+from .meshing.tca import TCA, Misalignment, TCAResult
 from .units import ARCMIN, ARCSEC, DEG, deg, to_deg
 
 __version__ = "0.1.0"
@@ -13,5 +18,8 @@ __version__ = "0.1.0"
 __all__ = [
     "GearoptError", "GeometryError", "ConvergenceError", "SceneError",
     "BasicRack", "Gear", "GearPair",
+    "PARAMS", "GeneratedTooth", "Hob", "Shaper", "generate_by_rack", "generate_by_hob", "generate_by_shaper",
+    "TCA", "Misalignment", "TCAResult", "PlanarTCA", "solve_planar_tca",
+    "load_scene",
     "DEG", "ARCMIN", "ARCSEC", "deg", "to_deg",
 ]
