@@ -67,7 +67,7 @@ def case_dict(res: TCAResult, pair: GearPair, label: str, limits: dict) -> dict:
         "misalignment": {"dE": mis.dE, "crossing_arcmin": mis.crossing / ARCMIN,
                          "intersecting_arcmin": mis.intersecting / ARCMIN, "axial": mis.axial},
         "phi1": _arr(res.phi1), "pairs": list(res.pairs),
-        "te_arcsec": _arr(res.te_arcsec), "te_envelope_arcsec": _arr(env),
+        "phi2": _arr(res.phi2), "te_arcsec": _arr(res.te_arcsec), "te_envelope_arcsec": _arr(env),
         "driving_pair": [int(v) for v in drv], "transfer_phi1": transfers,
         "peak_to_peak_arcsec": res.peak_to_peak * RAD_TO_ARCSEC,
         "harmonics_arcsec": te_harmonics(res.phi1, env, z1),
@@ -100,14 +100,15 @@ class TCAReport:
                 "timing": self.timing}
 
     def save_plots(self, out_dir, dpi: int = 120) -> list[str]:
-        """``te.png`` (TE per pair and envelope, every case) and ``bearing_contact.png`` (paths of
-        contact with contact ellipses on both flanks, every case)."""
+        """``te.png`` (TE per pair and envelope, every case), ``bearing_contact.png`` (paths of
+        contact with contact ellipses on both flanks, every case) and, with several cases,
+        ``compare.png`` (their actual TE and gear-flank paths overlaid)."""
         import matplotlib
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
         from pathlib import Path
 
-        from ..plot.tca import plot_bearing_contact, plot_te
+        from ..plot.tca import plot_bearing_contact, plot_compare, plot_te
 
         out = Path(out_dir)
         n = len(self.cases)
@@ -126,7 +127,16 @@ class TCAReport:
         fig.tight_layout()
         fig.savefig(out / "bearing_contact.png", dpi=dpi, bbox_inches="tight")
         plt.close(fig)
-        return ["te.png", "bearing_contact.png"]
+        files = ["te.png", "bearing_contact.png"]
+        if n > 1:
+            fig, axes = plt.subplots(1, 2, figsize=(12, 4.5))
+            plot_compare({c["label"]: c for c in self.cases}, axes=axes)
+            fig.suptitle(f"{self.scene}: cases compared (actual TE, path of contact on the gear flank)")
+            fig.tight_layout()
+            fig.savefig(out / "compare.png", dpi=dpi, bbox_inches="tight")
+            plt.close(fig)
+            files.append("compare.png")
+        return files
 
 
 class TCAStudy:
