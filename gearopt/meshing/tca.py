@@ -192,17 +192,25 @@ class TCA:
         CasADi rootfinder plugin for mapped sweeps (a line-search ``newton`` is the fallback).
     tol : float
         Acceptance threshold on the residual norm [mm].
+    contact : {"point", "line"}
+        Point contact (crowned pinion) or line contact (conjugate surfaces, solved in a given
+        pinion section ``z_section``).
+    jit : bool
+        Compile the mapped sweep (rootfinder + checks) to C with the system compiler (about 0.5 s
+        per sweep size, then ~10x faster; see benchmarks/bench_tca.py). Falls back to the
+        interpreted Function, with a warning, when no compiler works.
     """
 
     def __init__(self, pair: GearPair, side: str = "right", pinion: GeneratedTooth | None = None,
                  gear: GeneratedTooth | None = None, solver: str = "fast_newton", tol: float = 1e-10,
-                 contact: str = "point"):
+                 contact: str = "point", jit: bool = False):
         if side not in ("right", "left"):
             raise out_of_range("side", side, "'right' or 'left'")
         if contact not in ("point", "line"):
             raise out_of_range("contact", contact, "'point' (crowned or misaligned drives) or 'line' (conjugate "
                                "surfaces: contact sought in the pinion section z_section)")
         self.contact_type = contact
+        self.jit = bool(jit)
         if solver not in ("fast_newton", "newton"):
             raise out_of_range("solver", solver, "'fast_newton' or 'newton'")
         t0 = time.perf_counter()
@@ -229,6 +237,7 @@ class TCA:
             u1, z1, u2, z2, phi2 = w[0], zsec, w[1], w[2], w[3] / self.scale2
         else:
             u1, z1, u2, z2, phi2 = w[0], w[1], w[2], w[3], w[4] / self.scale2
+        self._nw = w.numel()
         self._full = ca.Function("w_full", [w, zsec], [ca.vertcat(u1, z1, u2, z2, phi2 * self.scale2)])
         S1 = self.pinion.surface(side, "flank")
         S2 = self.gear.surface(side, "flank")
@@ -287,17 +296,41 @@ class TCA:
         names = ["rf1", "nf1", "rf2", "nf2", "n1n2", "r1", "r2", "K1", "K2", "E2", "E1"]
         self.contact = ca.Function("tca_contact", [w, prm], out, ["w", "prm"], names)
         G = ca.Function("G", [w, prm], [F])
-        self._rf_fast = ca.rootfinder("tca_fast", self.solver, G, {"error_on_fail": False, "abstol": 1e-13,
-                                                                   "max_iter": 30} if self.solver == "fast_newton"
-                                      else {"error_on_fail": False, "abstol": 1e-13})
+        fast_opts = {"error_on_fail": False, "abstol": 1e-13, "max_iter": 30}
+        if self.solver == "fast_newton":
+            fast_opts["abstolStep"] = 1e-9  # stop after the step below 1e-9 mm (saves one Jacobian)
+        self._rf_fast = ca.rootfinder("tca_fast", self.solver, G, fast_opts)
         self._rf_safe = ca.rootfinder("tca_newton", "newton", G, {"error_on_fail": False, "abstol": 1e-13,
                                                                   "max_iter": 100, "line_search": True})
-        self._maps: dict[int, tuple] = {}
+        self._maps: dict[int, ca.Function] = {}
 
-    def _mapped(self, n: int):
+    def _mapped(self, n: int) -> ca.Function:
+        """One Function (W0, P) -> (W, residual norm, n1 . n2) for n positions: the mapped
+        rootfinder and its acceptance checks, compiled to C when ``jit`` is on."""
         if n not in self._maps:
-            self._maps[n] = (self._rf_fast.map(n), self.residual.map(n), self.contact.map(n))
+            W0 = ca.MX.sym("W0", self._nw, n)
+            P = ca.MX.sym("P", self._nprm, n)
+            W = self._rf_fast.map(n)(W0, P)
+            R = self.residual.map(n)(W, P)
+            dots = self.contact.map(n)(W, P)[4]
+            args = ("tca_sweep", [W0, P], [W, ca.sqrt(ca.sum1(R * R)), dots], ["W0", "P"], ["W", "res", "n1n2"])
+            f = None
+            if self.jit and self.solver == "fast_newton":
+                f = _jit_function(*args)
+            self._maps[n] = f if f is not None else ca.Function(*args)
         return self._maps[n]
+
+    def _contact_mapped(self, n: int) -> ca.Function:
+        key = ("contact", n)
+        if key not in self._maps:
+            f = None
+            if self.jit:
+                W = ca.MX.sym("W", self._nw, n)
+                P = ca.MX.sym("P", self._nprm, n)
+                f = _jit_function("tca_contact_map", [W, P], self.contact.map(n)(W, P), ["W", "P"],
+                                  self.contact.name_out())
+            self._maps[key] = f if f is not None else self.contact.map(n)
+        return self._maps[key]
 
     def prm(self, phi1, p1=None, p2=None, mis: Misalignment | None = None, z_section: float = 0.0) -> np.ndarray:
         """Parameter matrix (n_prm, N) for the positions ``phi1``."""
@@ -396,10 +429,8 @@ class TCA:
         prm_a = self.prm([anchor], p1, p2, mis, z_section)[:, 0]
         dw = np.asarray(self._dw(w_a, prm_a)).ravel()
         W0 = w_a[:, None] + dw[:, None] * (phis - anchor)[None, :]
-        rf, res_f, con_f = self._mapped(phis.size)
-        W = np.asarray(rf(W0, prm))
-        res = np.linalg.norm(np.asarray(res_f(W, prm)), axis=0)
-        n1n2 = np.asarray(con_f(W, prm)[4]).ravel()
+        W, res, n1n2 = (np.asarray(v) for v in self._mapped(phis.size)(W0, prm))
+        res, n1n2 = res.ravel(), n1n2.ravel()
         ok = np.isfinite(res) & (res <= self.tol) & (n1n2 < -0.5)
         n_fast = int(ok.sum())
         # Continuation for the rest, from the nearest solved neighbour of the same pair.
@@ -420,7 +451,7 @@ class TCA:
                     if good:
                         W[:, i], res[i], n1n2[i], ok[i] = w, r, d, True
                         last = i
-        out = con_f(np.where(ok, W, W0), prm)
+        out = self._contact_mapped(phis.size)(np.where(ok, W, W0), prm)
         rf1, nf1, rf2, nf2, _, r1, r2, K1, K2, E2, E1 = (np.asarray(v) for v in out)
         Wf = np.asarray(self._full.map(phis.size)(W, np.full((1, phis.size), z_section)))
         Wf[:, ~ok] = np.nan
@@ -469,18 +500,16 @@ class TCA:
         K2a = _as_mats(K2, K * N)
         E2a = _as_mats(E2, K * N, rows=3)
         E1a = _as_mats(E1, K * N, rows=3)
-        for i in range(K * N):
-            if not ok[i]:
-                continue
-            kap1[i] = np.linalg.eigvalsh(K1a[i])
-            kap2[i] = np.linalg.eigvalsh(K2a[i])
-            lam, vec = np.linalg.eigh(K1a[i] + K2a[i])  # ascending: major axis with the smaller lambda
+        good = np.flatnonzero(ok)
+        if good.size:
+            kap1[good] = np.linalg.eigvalsh(K1a[good])
+            kap2[good] = np.linalg.eigvalsh(K2a[good])
+            lam, vec = np.linalg.eigh(K1a[good] + K2a[good])  # ascending: major axis with the smaller lambda
             with np.errstate(divide="ignore", invalid="ignore"):
-                a_ = np.sqrt(2 * delta / lam[0]) if lam[0] > 0 else np.inf
-                b_ = np.sqrt(2 * delta / lam[1]) if lam[1] > 0 else np.inf
-            ea[i], eb[i] = a_, b_
-            edir[i] = (E2a[i] @ vec).T
-            edir1[i] = (E1a[i] @ vec).T
+                ax_len = np.where(lam > 0, np.sqrt(2 * delta / np.where(lam > 0, lam, 1.0)), np.inf)
+            ea[good], eb[good] = ax_len[:, 0], ax_len[:, 1]
+            edir[good] = np.transpose(E2a[good] @ vec, (0, 2, 1))
+            edir1[good] = np.transpose(E1a[good] @ vec, (0, 2, 1))
         return TCAResult(
             phi1=phi1, pairs=pairs, phi2=np.where(ok.reshape(K, N), phi2, np.nan), te=np.where(ok.reshape(K, N), te, np.nan),
             te_envelope=env, driving=driving, u1=shp(W[0]), z1=z1, u2=shp(W[2]), z2=z2,
@@ -509,3 +538,25 @@ def _as_mats(M, count, rows=2):
     """Mapped matrix outputs come as (rows, 2*count); split them into (count, rows, 2)."""
     M = np.asarray(M)
     return M.reshape(rows, count, 2).transpose(1, 0, 2) if M.shape == (rows, 2 * count) else M.reshape(count, rows, 2)
+
+
+def _jit_function(name, ins, outs, in_names, out_names):
+    """Compile a Function to C with the system compiler in a scratch directory; None on failure."""
+    import contextlib
+    import shutil
+    import tempfile
+    import warnings
+
+    tmp = tempfile.mkdtemp(prefix="gearopt-jit-")
+    opts = {"jit": True, "compiler": "shell", "jit_cleanup": False,
+            "jit_options": {"flags": ["-O2"], "verbose": False, "cleanup": False}}
+    try:
+        with contextlib.chdir(tmp):
+            f = ca.Function(name, ins, outs, in_names, out_names, opts)
+            f(*[np.zeros(i.shape) for i in ins])  # force the compilation now, inside tmp
+        return f
+    except Exception as e:  # noqa: BLE001 - any compiler problem: fall back to the interpreter
+        warnings.warn(f"gearopt: jit compilation failed ({e!s:.200}); using the interpreted sweep.", stacklevel=3)
+        return None
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
