@@ -6,8 +6,8 @@ PYTHON  ?= python3
 VENV    := .venv
 VPY     := $(VENV)/bin/python
 STAMP   := $(VENV)/.installed
-SCENE   ?= problems/spur_geometry.toml
-OUT     ?= out/spur_geometry
+SCENE   ?= problems/tca_spur_crowned.toml
+OUT     ?= out/tca_spur_crowned
 
 .PHONY: demo test bench ccx clean distclean venv
 
