@@ -43,6 +43,8 @@ from ..units import ARCMIN, RAD_TO_ARCSEC
 
 MISALIGNMENTS = ("dE", "crossing", "intersecting", "axial")
 DELTA_DEFAULT = 0.00632  #: elastic approach for the contact ellipse [mm]
+NORMAL_TOL = 1e-8  #: accepted contact points have n1 . n2 < -1 + NORMAL_TOL (tangency, not crossing)
+REGULARITY_MIN = 1e-6  #: and |dr/du x dr/dz| > REGULARITY_MIN on both flanks (not at a singular point)
 
 
 @dataclass(frozen=True)
@@ -292,8 +294,12 @@ class TCA:
         B2 = _shape_matrix(r2, n2, q2, E2)
         K1 = 0.5 * (B1 + B1.T)
         K2 = 0.5 * (B2 + B2.T)
-        out = [rf1, nf1, rf2, nf2, ca.dot(nf1, nf2), r1, r2, K1, K2, E2, E1]
-        names = ["rf1", "nf1", "rf2", "nf2", "n1n2", "r1", "r2", "K1", "K2", "E2", "E1"]
+        # Regularity of both surfaces at the point: |dr/du x dr/dz| (0 at the involute's singular point,
+        # where n . dr/du = 0 holds for any normal and crossing surfaces solve the equations).
+        reg = ca.fmin(ca.norm_2(ca.cross(ca.jacobian(r1, u1), ca.jacobian(r1, z1))),
+                      ca.norm_2(ca.cross(ca.jacobian(r2, u2), ca.jacobian(r2, z2))))
+        out = [rf1, nf1, rf2, nf2, ca.dot(nf1, nf2), r1, r2, K1, K2, E2, E1, reg]
+        names = ["rf1", "nf1", "rf2", "nf2", "n1n2", "r1", "r2", "K1", "K2", "E2", "E1", "reg"]
         self.contact = ca.Function("tca_contact", [w, prm], out, ["w", "prm"], names)
         G = ca.Function("G", [w, prm], [F])
         fast_opts = {"error_on_fail": False, "abstol": 1e-13, "max_iter": 30}
@@ -312,8 +318,9 @@ class TCA:
             P = ca.MX.sym("P", self._nprm, n)
             W = self._rf_fast.map(n)(W0, P)
             R = self.residual.map(n)(W, P)
-            dots = self.contact.map(n)(W, P)[4]
-            args = ("tca_sweep", [W0, P], [W, ca.sqrt(ca.sum1(R * R)), dots], ["W0", "P"], ["W", "res", "n1n2"])
+            c = self.contact.map(n)(W, P)
+            args = ("tca_sweep", [W0, P], [W, ca.sqrt(ca.sum1(R * R)), c[4], c[11]], ["W0", "P"],
+                    ["W", "res", "n1n2", "reg"])
             f = None
             if self.jit and self.solver == "fast_newton":
                 f = _jit_function(*args)
@@ -354,10 +361,16 @@ class TCA:
         u2 = self.gear.u_at_radius(pair.a_w - r_w1, z_section, self.side, p2)
         return self._reduce([u1, z_section, u2, z_section, 0.0])
 
+    def _accept(self, res, n1n2, reg):
+        """Acceptance of solved points: residual below tol, outward normals opposite (n1 . n2 = -1
+        to NORMAL_TOL: tangency, not crossing) and both surfaces regular (not at a singular point)."""
+        return np.isfinite(res) & (res <= self.tol) & (n1n2 < -1 + NORMAL_TOL) & (reg > REGULARITY_MIN)
+
     def _check(self, w, prm):
         res = float(np.linalg.norm(np.asarray(self.residual(w, prm)).ravel()))
-        n1n2 = float(self.contact(w, prm)[4])
-        return res, n1n2, bool(np.isfinite(res) and res <= self.tol and n1n2 < -0.5)
+        c = self.contact(w, prm)
+        n1n2, reg = float(c[4]), float(c[11])
+        return res, n1n2, reg, bool(self._accept(res, n1n2, reg))
 
     def solve_point(self, phi1: float, w0=None, p1=None, p2=None, mis=None, z_section: float = 0.0) -> np.ndarray:
         """Solve one position with the line-search Newton; raise :class:`ConvergenceError` if the
@@ -377,14 +390,23 @@ class TCA:
                 f"{np.linalg.cond(J):.2g}): the flanks are in line contact (no crowning, no angular misalignment). "
                 "Use contact='line' (TCA in a given pinion section) or crown the pinion.")
         w = np.asarray(self._rf_safe(w0, prm)).ravel()
-        res, n1n2, ok = self._check(w, prm)
+        res, n1n2, reg, ok = self._check(w, prm)
+        at = f"TCA at phi1 = {phi1:.6g} rad"
         if not np.isfinite(res) or res > self.tol:
-            raise ConvergenceError(f"TCA: no contact point at phi1 = {phi1:.6g} rad (residual {res:.3g} mm > "
-                                   f"{self.tol:g} mm); the first guess may be too far or the flanks do not meet.")
-        if n1n2 > -0.5:
-            raise ConvergenceError(f"TCA: false root at phi1 = {phi1:.6g} rad: the outward normals agree "
-                                   f"(n1 . n2 = {n1n2:.3f}, must be -1); near the involute base-circle singular "
-                                   "point. Start from another guess.")
+            raise ConvergenceError(f"{at}: no contact point (residual {res:.3g} mm > {self.tol:g} mm); the first "
+                                   "guess may be too far or the flanks do not meet.")
+        if reg <= REGULARITY_MIN:
+            raise ConvergenceError(f"{at}: false root at a singular point of a flank (|r_u x r_z| = {reg:.2g}, the "
+                                   "involute's base-circle cusp): the surfaces cross there, they do not touch. Start "
+                                   "from another guess.")
+        if n1n2 > 0:
+            raise ConvergenceError(f"{at}: false root: the outward normals agree (n1 . n2 = {n1n2:.3f}, must be "
+                                   "-1); typical near the involute base-circle singular point. Start from another guess.")
+        if not ok:
+            hint = (" The flanks are not in line contact here: use contact='point' (and crown the pinion "
+                    "longitudinally)." if self.contact_type == "line" else " Start from another guess.")
+            raise ConvergenceError(f"{at}: the surfaces cross instead of touching (n1 . n2 = {n1n2:.12f}, must be "
+                                   f"-1 within {NORMAL_TOL:g}).{hint}")
         return w
 
     def sweep(self, phi1, p1=None, p2=None, mis: Misalignment | None = None, pairs=(-1, 0, 1),
@@ -429,9 +451,9 @@ class TCA:
         prm_a = self.prm([anchor], p1, p2, mis, z_section)[:, 0]
         dw = np.asarray(self._dw(w_a, prm_a)).ravel()
         W0 = w_a[:, None] + dw[:, None] * (phis - anchor)[None, :]
-        W, res, n1n2 = (np.asarray(v) for v in self._mapped(phis.size)(W0, prm))
-        res, n1n2 = res.ravel(), n1n2.ravel()
-        ok = np.isfinite(res) & (res <= self.tol) & (n1n2 < -0.5)
+        W, res, n1n2, reg = (np.asarray(v) for v in self._mapped(phis.size)(W0, prm))
+        res, n1n2, reg = res.ravel(), n1n2.ravel(), reg.ravel()
+        ok = self._accept(res, n1n2, reg)
         n_fast = int(ok.sum())
         # Continuation for the rest, from the nearest solved neighbour of the same pair.
         n_retry = 0
@@ -447,12 +469,12 @@ class TCA:
                         continue
                     n_retry += 1
                     w = np.asarray(self._rf_safe(W[:, last], prm[:, i])).ravel()
-                    r, d, good = self._check(w, prm[:, i])
+                    r, d, _, good = self._check(w, prm[:, i])
                     if good:
                         W[:, i], res[i], n1n2[i], ok[i] = w, r, d, True
                         last = i
         out = self._contact_mapped(phis.size)(np.where(ok, W, W0), prm)
-        rf1, nf1, rf2, nf2, _, r1, r2, K1, K2, E2, E1 = (np.asarray(v) for v in out)
+        rf1, nf1, rf2, nf2, _, r1, r2, K1, K2, E2, E1, _ = (np.asarray(v) for v in out)
         Wf = np.asarray(self._full.map(phis.size)(W, np.full((1, phis.size), z_section)))
         Wf[:, ~ok] = np.nan
         solve_time = time.perf_counter() - t0
