@@ -281,10 +281,11 @@ def main(argv=None):
         """phi2 error vs the reference, and failures by the engine's checks (residual, normals)."""
         W = np.asarray(W, float)
         res = np.linalg.norm(np.asarray(res_map(np.nan_to_num(W), P)), axis=0)
-        n1n2 = np.asarray(con_map(np.nan_to_num(W), P)[4]).ravel()
+        c = con_map(np.nan_to_num(W), P)
+        n1n2, reg = np.asarray(c[4]).ravel(), np.asarray(c[11]).ravel()
         err = np.array([abs(float(mpmath.mpf(float(W[4, i])) / mpmath.mpf(scale2) - phi2_ref[i]))
                         if np.isfinite(W[4, i]) else np.inf for i in range(n)])
-        ok = np.isfinite(res) & (res <= tca.tol) & (n1n2 < -0.5) & (err < 1e-9)
+        ok = tca._accept(res, n1n2, reg) & (err < 1e-9)
         return (float(err[ok].max()) if ok.any() else float("nan")), int((~ok).sum())
 
     rows = []
