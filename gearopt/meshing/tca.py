@@ -241,31 +241,45 @@ class TCA:
             u1, z1, u2, z2, phi2 = w[0], w[1], w[2], w[3], w[4] / self.scale2
         self._nw = w.numel()
         self._full = ca.Function("w_full", [w, zsec], [ca.vertcat(u1, z1, u2, z2, phi2 * self.scale2)])
-        S1 = self.pinion.surface(side, "flank")
-        S2 = self.gear.surface(side, "flank")
-        r1, n1 = S1(u1, z1, p1)[:2]
-        r2, n2 = S2(u2, z2, p2)[:2]
         # Reference positions: at phi1 = phi2 = 0 the driving flanks of pinion tooth 0 and of the
         # gear cross their operating pitch circles on the line of centres (the pitch point I).
         r_w1 = pair.a_w * g1.z / (g1.z + g2.z)
         r_w2 = pair.a_w - r_w1
         self.theta1 = g1.s_at(r_w1) / (2 * r_w1)  # half tooth angle on the operating pitch circle
         self.theta2 = g2.s_at(r_w2) / (2 * r_w2)
-        # Pinion: clockwise by phi1 for the right flank (the left flank drives counter-clockwise).
-        rot1 = -sgn * phi1 + sgn * self.theta1
-        rf1, nf1 = _rz(rot1, r1), _rz(rot1, n1)
+        S1 = self.pinion.surface(side, "flank")
+        S2 = self.gear.surface(side, "flank")
 
-        def gear_to_fixed(v, point: bool):
-            v = _rz(math.pi + sgn * self.theta2, v)
-            v = _rz(sgn * phi2, v)
-            v = _ry(mis[1], _rx(mis[2], v))
-            if point:
-                v = v + ca.vertcat(0.0, pair.a_w + mis[0], mis[3])
-            return v
+        def kin(u1, z1, u2, z2, phi2, phi1, p1, p2, mis):
+            """Both flanks in S_f: points, normals and coordinate tangents (eq. 9.4.30)."""
+            r1, n1 = S1(u1, z1, p1)[:2]
+            r2, n2 = S2(u2, z2, p2)[:2]
+            # Pinion: clockwise by phi1 for the right flank (the left flank drives counter-clockwise).
+            rot1 = -sgn * phi1 + sgn * self.theta1
 
-        rf2, nf2 = gear_to_fixed(r2, True), gear_to_fixed(n2, False)
-        t2u = gear_to_fixed(ca.jacobian(r2, u2), False)
-        t2z = gear_to_fixed(ca.jacobian(r2, z2), False)
+            def gear_to_fixed(v, point: bool):
+                v = _rz(math.pi + sgn * self.theta2, v)
+                v = _rz(sgn * phi2, v)
+                v = _ry(mis[1], _rx(mis[2], v))
+                if point:
+                    v = v + ca.vertcat(0.0, pair.a_w + mis[0], mis[3])
+                return v
+
+            return {"r1": r1, "n1": n1, "r2": r2, "n2": n2, "rot1": rot1,
+                    "rf1": _rz(rot1, r1), "nf1": _rz(rot1, n1),
+                    "t1u": _rz(rot1, ca.jacobian(r1, u1)), "t1z": _rz(rot1, ca.jacobian(r1, z1)),
+                    "rf2": gear_to_fixed(r2, True), "nf2": gear_to_fixed(n2, False),
+                    "t2u": gear_to_fixed(ca.jacobian(r2, u2), False), "t2z": gear_to_fixed(ca.jacobian(r2, z2), False)}
+
+        k = kin(u1, z1, u2, z2, phi2, phi1, p1, p2, mis)
+        r1, n1, r2, n2, rot1 = k["r1"], k["n1"], k["r2"], k["n2"], k["rot1"]
+        rf1, nf1, rf2, nf2, t2u, t2z = k["rf1"], k["nf1"], k["rf2"], k["nf2"], k["t2u"], k["t2z"]
+        # Kinematics of any point pair q = (u1, z1, u2, z2, r_p2 phi2) (edge contact builds on it).
+        q = ca.SX.sym("q", 5)
+        prm_k = ca.vertcat(phi1, p1, p2, mis, zsec)
+        kq = kin(q[0], q[1], q[2], q[3], q[4] / self.scale2, phi1, p1, p2, mis)
+        names_k = ["rf1", "nf1", "t1u", "t1z", "rf2", "nf2", "t2u", "t2z", "r1", "r2"]
+        self.kinematics = ca.Function("tca_kinematics", [q, prm_k], [kq[n] for n in names_k], ["q", "prm"], names_k)
         if line:  # line contact: n . dr2/dz2 vanishes identically; the section z1 is given
             F = ca.vertcat(rf1 - rf2, ca.dot(nf1, t2u))
         else:
@@ -274,9 +288,6 @@ class TCA:
         self._nprm = prm.numel()
         self.residual = ca.Function("tca_residual", [w, prm], [F], ["w", "prm"], ["F"])
         self.jacobian = ca.Function("tca_jacobian", [w, prm], [ca.jacobian(F, w)], ["w", "prm"], ["J"])
-        # Implicit-function predictor: dw/dphi1 = -J^-1 dF/dphi1.
-        dw = -ca.solve(ca.jacobian(F, w), ca.jacobian(F, phi1))
-        self._dw = ca.Function("tca_dw", [w, prm], [dw])
         # Curvatures and contact ellipse (Litvin ch. 9; THEORY section 6) at a solved point.
         q1, q2 = ca.vertcat(u1, z1), ca.vertcat(u2, z2)
         e1 = r1 * 0 + _unit_perp(n1)  # tangent basis in the pinion frame
@@ -301,31 +312,9 @@ class TCA:
         out = [rf1, nf1, rf2, nf2, ca.dot(nf1, nf2), r1, r2, K1, K2, E2, E1, reg]
         names = ["rf1", "nf1", "rf2", "nf2", "n1n2", "r1", "r2", "K1", "K2", "E2", "E1", "reg"]
         self.contact = ca.Function("tca_contact", [w, prm], out, ["w", "prm"], names)
-        G = ca.Function("G", [w, prm], [F])
-        fast_opts = {"error_on_fail": False, "abstol": 1e-13, "max_iter": 30}
-        if self.solver == "fast_newton":
-            fast_opts["abstolStep"] = 1e-9  # stop after the step below 1e-9 mm (saves one Jacobian)
-        self._rf_fast = ca.rootfinder("tca_fast", self.solver, G, fast_opts)
-        self._rf_safe = ca.rootfinder("tca_newton", "newton", G, {"error_on_fail": False, "abstol": 1e-13,
-                                                                  "max_iter": 100, "line_search": True})
-        self._maps: dict[int, ca.Function] = {}
-
-    def _mapped(self, n: int) -> ca.Function:
-        """One Function (W0, P) -> (W, residual norm, n1 . n2) for n positions: the mapped
-        rootfinder and its acceptance checks, compiled to C when ``jit`` is on."""
-        if n not in self._maps:
-            W0 = ca.MX.sym("W0", self._nw, n)
-            P = ca.MX.sym("P", self._nprm, n)
-            W = self._rf_fast.map(n)(W0, P)
-            R = self.residual.map(n)(W, P)
-            c = self.contact.map(n)(W, P)
-            args = ("tca_sweep", [W0, P], [W, ca.sqrt(ca.sum1(R * R)), c[4], c[11]], ["W0", "P"],
-                    ["W", "res", "n1n2", "reg"])
-            f = None
-            if self.jit and self.solver == "fast_newton":
-                f = _jit_function(*args)
-            self._maps[n] = f if f is not None else ca.Function(*args)
-        return self._maps[n]
+        checks = ca.Function("tca_checks", [w, prm], [ca.dot(nf1, nf2), reg], ["w", "prm"], ["n1n2", "reg"])
+        self.branch = Branch("tca", self.residual, checks, self._accept, self.tol, self.solver, self.jit)
+        self._maps: dict = {}
 
     def _contact_mapped(self, n: int) -> ca.Function:
         key = ("contact", n)
@@ -367,10 +356,7 @@ class TCA:
         return np.isfinite(res) & (res <= self.tol) & (n1n2 < -1 + NORMAL_TOL) & (reg > REGULARITY_MIN)
 
     def _check(self, w, prm):
-        res = float(np.linalg.norm(np.asarray(self.residual(w, prm)).ravel()))
-        c = self.contact(w, prm)
-        n1n2, reg = float(c[4]), float(c[11])
-        return res, n1n2, reg, bool(self._accept(res, n1n2, reg))
+        return self.branch.check(w, prm)
 
     def solve_point(self, phi1: float, w0=None, p1=None, p2=None, mis=None, z_section: float = 0.0) -> np.ndarray:
         """Solve one position with the line-search Newton; raise :class:`ConvergenceError` if the
@@ -389,7 +375,7 @@ class TCA:
                 f"TCA: the point-contact equations are singular at phi1 = {phi1:.6g} rad (Jacobian condition "
                 f"{np.linalg.cond(J):.2g}): the flanks are in line contact (no crowning, no angular misalignment). "
                 "Use contact='line' (TCA in a given pinion section) or crown the pinion.")
-        w = np.asarray(self._rf_safe(w0, prm)).ravel()
+        w = self.branch.newton(w0, prm)
         res, n1n2, reg, ok = self._check(w, prm)
         at = f"TCA at phi1 = {phi1:.6g} rad"
         if not np.isfinite(res) or res > self.tol:
@@ -449,30 +435,9 @@ class TCA:
         prm = self.prm(phis, p1, p2, mis, z_section)
         w_a = self.solve_point(anchor, None, p1, p2, mis, z_section)
         prm_a = self.prm([anchor], p1, p2, mis, z_section)[:, 0]
-        dw = np.asarray(self._dw(w_a, prm_a)).ravel()
-        W0 = w_a[:, None] + dw[:, None] * (phis - anchor)[None, :]
-        W, res, n1n2, reg = (np.asarray(v) for v in self._mapped(phis.size)(W0, prm))
-        res, n1n2, reg = res.ravel(), n1n2.ravel(), reg.ravel()
-        ok = self._accept(res, n1n2, reg)
-        n_fast = int(ok.sum())
-        # Continuation for the rest, from the nearest solved neighbour of the same pair.
-        n_retry = 0
-        for kk in range(K):
-            idx = np.arange(kk * N, (kk + 1) * N)
-            for order in (idx, idx[::-1]):
-                last = None
-                for i in order:
-                    if ok[i]:
-                        last = i
-                        continue
-                    if last is None:
-                        continue
-                    n_retry += 1
-                    w = np.asarray(self._rf_safe(W[:, last], prm[:, i])).ravel()
-                    r, d, _, good = self._check(w, prm[:, i])
-                    if good:
-                        W[:, i], res[i], n1n2[i], ok[i] = w, r, d, True
-                        last = i
+        W0 = self.branch.predict(w_a, prm_a, phis - anchor)
+        W, res, n1n2, reg, ok, st = self.branch.solve(W0, prm, [np.arange(k * N, (k + 1) * N) for k in range(K)])
+        n_fast, n_retry = st["n_fast"], st["n_retry"]
         out = self._contact_mapped(phis.size)(np.where(ok, W, W0), prm)
         rf1, nf1, rf2, nf2, _, r1, r2, K1, K2, E2, E1, _ = (np.asarray(v) for v in out)
         Wf = np.asarray(self._full.map(phis.size)(W, np.full((1, phis.size), z_section)))
@@ -560,6 +525,104 @@ def _as_mats(M, count, rows=2):
     """Mapped matrix outputs come as (rows, 2*count); split them into (count, rows, 2)."""
     M = np.asarray(M)
     return M.reshape(rows, count, 2).transpose(1, 0, 2) if M.shape == (rows, 2 * count) else M.reshape(count, rows, 2)
+
+
+
+class Branch:
+    """A square system ``G(w, prm) = 0`` solved at many parameter columns (positions): one mapped
+    rootfinder call from predicted first guesses, the acceptance checks, and continuation from
+    solved neighbours with line-search Newton for the points that fail. Shared by the surface
+    TCA and the edge-contact branches.
+
+    Parameters
+    ----------
+    name : str
+    G : casadi.Function
+        ``(w, prm) -> F`` with ``prm[0]`` the pinion angle phi1.
+    checks : casadi.Function
+        ``(w, prm) -> (n1 . n2, regularity)`` at a solved point.
+    accept : callable(res, n1n2, reg) -> bool array
+    tol : float
+        Residual tolerance [mm] (used by ``accept``).
+    solver : {"fast_newton", "newton"}
+    jit : bool
+    """
+
+    def __init__(self, name, G, checks, accept, tol, solver="fast_newton", jit=False):
+        self.name, self.G, self.checks, self.accept, self.tol = name, G, checks, accept, tol
+        self.solver, self.jit = solver, jit
+        nw, npr = G.size1_in(0), G.size1_in(1)
+        w, p = ca.SX.sym("w", nw), ca.SX.sym("p", npr)
+        F = G(w, p)
+        J = ca.jacobian(F, w)
+        # Implicit-function predictor: dw/dphi1 = -J^-1 dF/dphi1.
+        self.dw = ca.Function(f"{name}_dw", [w, p], [-ca.solve(J, ca.jacobian(F, p)[:, 0])])
+        fast_opts = {"error_on_fail": False, "abstol": 1e-13, "max_iter": 30}
+        if solver == "fast_newton":
+            fast_opts["abstolStep"] = 1e-9  # stop after the step below 1e-9 mm (saves one Jacobian)
+        self.rf_fast = ca.rootfinder(f"{name}_fast", solver, G, fast_opts)
+        self.rf_safe = ca.rootfinder(f"{name}_newton", "newton", G, {"error_on_fail": False, "abstol": 1e-13,
+                                                                     "max_iter": 100, "line_search": True})
+        self._maps: dict[int, ca.Function] = {}
+
+    def newton(self, w0, prm) -> np.ndarray:
+        """Line-search Newton from ``w0`` at one parameter column (unchecked)."""
+        return np.asarray(self.rf_safe(np.asarray(w0, float), prm)).ravel()
+
+    def check(self, w, prm):
+        """(residual norm, n1 . n2, regularity, accepted) at one point."""
+        res = float(np.linalg.norm(np.asarray(self.G(w, prm)).ravel()))
+        n1n2, reg = (float(v) for v in self.checks(w, prm))
+        return res, n1n2, reg, bool(self.accept(res, n1n2, reg))
+
+    def predict(self, w_a, prm_a, dphi) -> np.ndarray:
+        """First guesses ``w_a + dw/dphi1 * dphi`` (nw, len(dphi)) around the solved anchor."""
+        dw = np.asarray(self.dw(w_a, prm_a)).ravel()
+        return np.asarray(w_a)[:, None] + dw[:, None] * np.asarray(dphi)[None, :]
+
+    def mapped(self, n: int) -> ca.Function:
+        """(W0, P) -> (W, residual norm, n1 . n2, regularity) for n columns, compiled with jit."""
+        if n not in self._maps:
+            W0 = ca.MX.sym("W0", self.G.size1_in(0), n)
+            P = ca.MX.sym("P", self.G.size1_in(1), n)
+            W = self.rf_fast.map(n)(W0, P)
+            R = self.G.map(n)(W, P)
+            c = self.checks.map(n)(W, P)
+            args = (f"{self.name}_sweep", [W0, P], [W, ca.sqrt(ca.sum1(R * R)), c[0], c[1]], ["W0", "P"],
+                    ["W", "res", "n1n2", "reg"])
+            f = _jit_function(*args) if self.jit and self.solver == "fast_newton" else None
+            self._maps[n] = f if f is not None else ca.Function(*args)
+        return self._maps[n]
+
+    def solve(self, W0, prm, groups):
+        """Solve every column; ``groups`` are index arrays ordered by phi1 (continuation runs
+        within a group, forwards then backwards, from accepted neighbours).
+
+        Returns
+        -------
+        W, res, n1n2, reg, ok, stats
+        """
+        W, res, n1n2, reg = (np.asarray(v) for v in self.mapped(prm.shape[1])(W0, prm))
+        res, n1n2, reg = res.ravel().copy(), n1n2.ravel().copy(), reg.ravel().copy()
+        W = W.copy()
+        ok = np.asarray(self.accept(res, n1n2, reg), bool)
+        n_fast, n_retry = int(ok.sum()), 0
+        for idx in groups:
+            for order in (idx, idx[::-1]):
+                last = None
+                for i in order:
+                    if ok[i]:
+                        last = i
+                        continue
+                    if last is None:
+                        continue
+                    n_retry += 1
+                    w = self.newton(W[:, last], prm[:, i])
+                    r, d, g, good = self.check(w, prm[:, i])
+                    if good:
+                        W[:, i], res[i], n1n2[i], reg[i], ok[i] = w, r, d, g, True
+                        last = i
+        return W, res, n1n2, reg, ok, {"n_fast": n_fast, "n_retry": n_retry}
 
 
 def _jit_function(name, ins, outs, in_names, out_names):
