@@ -265,7 +265,11 @@ class TCA:
                     v = v + ca.vertcat(0.0, pair.a_w + mis[0], mis[3])
                 return v
 
+            rad1 = ca.vertcat(r1[0], r1[1], 0.0) / ca.sqrt(r1[0] ** 2 + r1[1] ** 2)
+            rad2 = ca.vertcat(r2[0], r2[1], 0.0) / ca.sqrt(r2[0] ** 2 + r2[1] ** 2)
             return {"r1": r1, "n1": n1, "r2": r2, "n2": n2, "rot1": rot1,
+                    "er1": _rz(rot1, rad1), "er2": gear_to_fixed(rad2, False),
+                    "ez2": gear_to_fixed(ca.DM([0.0, 0.0, 1.0]), False),
                     "rf1": _rz(rot1, r1), "nf1": _rz(rot1, n1),
                     "t1u": _rz(rot1, ca.jacobian(r1, u1)), "t1z": _rz(rot1, ca.jacobian(r1, z1)),
                     "rf2": gear_to_fixed(r2, True), "nf2": gear_to_fixed(n2, False),
@@ -278,7 +282,7 @@ class TCA:
         q = ca.SX.sym("q", 5)
         prm_k = ca.vertcat(phi1, p1, p2, mis, zsec)
         kq = kin(q[0], q[1], q[2], q[3], q[4] / self.scale2, phi1, p1, p2, mis)
-        names_k = ["rf1", "nf1", "t1u", "t1z", "rf2", "nf2", "t2u", "t2z", "r1", "r2"]
+        names_k = ["rf1", "nf1", "t1u", "t1z", "rf2", "nf2", "t2u", "t2z", "r1", "r2", "er1", "er2", "ez2"]
         self.kinematics = ca.Function("tca_kinematics", [q, prm_k], [kq[n] for n in names_k], ["q", "prm"], names_k)
         if line:  # line contact: n . dr2/dz2 vanishes identically; the section z1 is given
             F = ca.vertcat(rf1 - rf2, ca.dot(nf1, t2u))
@@ -594,9 +598,10 @@ class Branch:
             self._maps[n] = f if f is not None else ca.Function(*args)
         return self._maps[n]
 
-    def solve(self, W0, prm, groups):
+    def solve(self, W0, prm, groups, max_gap: int = 4):
         """Solve every column; ``groups`` are index arrays ordered by phi1 (continuation runs
-        within a group, forwards then backwards, from accepted neighbours).
+        within a group, forwards then backwards, from the last accepted neighbour, for at most
+        ``max_gap`` consecutive failures).
 
         Returns
         -------
@@ -609,19 +614,21 @@ class Branch:
         n_fast, n_retry = int(ok.sum()), 0
         for idx in groups:
             for order in (idx, idx[::-1]):
-                last = None
+                last, misses = None, 0
                 for i in order:
                     if ok[i]:
-                        last = i
+                        last, misses = i, 0
                         continue
-                    if last is None:
-                        continue
+                    if last is None or misses >= max_gap:
+                        continue  # no accepted neighbour near: the branch has ended here
                     n_retry += 1
                     w = self.newton(W[:, last], prm[:, i])
                     r, d, g, good = self.check(w, prm[:, i])
                     if good:
                         W[:, i], res[i], n1n2[i], reg[i], ok[i] = w, r, d, g, True
-                        last = i
+                        last, misses = i, 0
+                    else:
+                        misses += 1
         return W, res, n1n2, reg, ok, {"n_fast": n_fast, "n_retry": n_retry}
 
 

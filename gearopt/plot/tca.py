@@ -110,3 +110,65 @@ def plot_compare(cases: dict, axes=None, member: str = "gear"):
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7)
     return axes
+
+
+_BRANCH_STYLE = {"surface": ("C3", "-"), "pinion_tip": ("C0", "-"), "gear_tip": ("C2", "-"),
+                 "pinion_face+": ("C4", "-"), "pinion_face-": ("C5", "-"), "gear_face+": ("C6", "-"),
+                 "gear_face-": ("C8", "-")}
+
+
+def plot_edge_te(case: dict, ax=None):
+    """TE with edge contact (Litvin Figs. 9.6.3-9.6.6): every pair's TE (thin, grey), the actual
+    TE coloured by the feature that carries the load (surface or which edge), transfer points."""
+    ax = _axes(ax)
+    phi = np.degrees(_f(case["phi1"]))
+    for te in case["te_arcsec"]:
+        ax.plot(phi, _f(te), color="0.7", lw=0.8, ls="--")
+    env = _f(case["te_envelope_arcsec"])
+    act = case["active_branch"]
+    for name in dict.fromkeys(a for a in act if a):
+        col, ls = _BRANCH_STYLE.get(name, ("k", "-"))
+        m = np.array([a == name for a in act])
+        ax.plot(phi, np.where(m, env, np.nan), color=col, lw=2.4, ls=ls,
+                label="surface contact" if name == "surface" else f"edge contact: {name}")
+    for t in case.get("transfers", []):
+        ax.axvline(np.degrees(t["phi1"]), color="k", lw=0.6, ls=":")
+    m = case["misalignment"]
+    mis = ", ".join(f"{k} = {v:g}" for k, v in m.items() if v) or "aligned"
+    ax.set_title(f"{case['label']} ({mis}): p-p {case['peak_to_peak_arcsec']:.3g} arcsec; "
+                 f"edge contact {'YES' if case['edge_carries_load'] else 'no'}", fontsize=9)
+    ax.set_xlabel("pinion angle phi1 [deg]")
+    ax.set_ylabel("TE [arcsec]")
+    finite = env[np.isfinite(env)]
+    if finite.size:
+        lo, hi = finite.min(), finite.max()
+        pad = 0.5 * max(hi - lo, 1e-3)
+        ax.set_ylim(lo - pad, hi + 0.3 * pad)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, loc="lower center", ncol=3)
+    return ax
+
+
+def plot_edge_paths(case: dict, member: str = "gear", ax=None):
+    """Paths of contact of the central pair on the ``member`` flank map: the surface part and the
+    edge parts (thick where that feature carries the pair's load), with the flank boundaries."""
+    ax = _axes(ax)
+    lim = case["limits"][member]
+    b, ra, rF = lim["b"], lim["r_a"], lim["r_form"]
+    ax.plot([-b / 2, b / 2, b / 2, -b / 2, -b / 2], [rF, rF, ra, ra, rF], color="k", lw=1.2)
+    for name, path in case["paths_central_pair"].items():
+        col, _ = _BRANCH_STYLE.get(name, ("k", "-"))
+        z, r = _f(path[member]["z"]), _f(path[member]["radius"])
+        load = np.array(path["carries_load"], bool)
+        ax.plot(z, r, color=col, lw=0.8, ls="--")
+        ax.plot(np.where(load, z, np.nan), np.where(load, r, np.nan), color=col, lw=2.6,
+                label="surface" if name == "surface" else name)
+    ax.set_xlim(-0.65 * b, 0.65 * b)
+    pad = 0.08 * (ra - rF)
+    ax.set_ylim(rF - pad, ra + pad)
+    ax.set_xlabel("axial position z [mm]")
+    ax.set_ylabel("radius [mm]")
+    ax.set_title(f"{member} flank, {case['label']}: thick = carries the load", fontsize=9)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, loc="upper right")
+    return ax

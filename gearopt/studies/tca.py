@@ -11,6 +11,8 @@ Scene section ``[tca]``:
 ``delta``         elastic approach for the contact ellipse [mm] (default 0.00632).
 ``dE``, ``crossing``, ``intersecting``, ``axial``: the misalignment case analysed beside the
                   aligned drive [mm, angle, angle, mm] (all 0 by default: aligned only).
+``edge_contact``  also solve edge contact and combine it with surface contact (default false;
+                  needed for unmodified gears under misalignment).
 """
 
 from __future__ import annotations
@@ -22,6 +24,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..gears import GearPair
+from ..contact.edge import EdgeContact, EdgeTCAResult
 from ..meshing.tca import TCA, Misalignment, TCAResult
 from ..units import ARCMIN, DEG, RAD_TO_ARCSEC
 
@@ -86,6 +89,45 @@ def case_dict(res: TCAResult, pair: GearPair, label: str, limits: dict) -> dict:
     }
 
 
+def edge_case_dict(res: EdgeTCAResult, pair: GearPair, label: str, limits: dict) -> dict:
+    """JSON-able summary of a TCA case with edge contact (what results.json holds; plots read it)."""
+    k0 = res.pairs.index(0) if 0 in res.pairs else 0
+    mis = res.misalignment
+    env = res.te_envelope_arcsec
+    branches = list(res.branches)
+    paths = {}
+    for b, name in enumerate(branches):
+        v = res.valid[b, k0]
+        if not v.any():
+            continue
+        paths[name] = {"pinion": {"z": _arr(np.where(v, res.z1[b, k0], np.nan)),
+                                  "radius": _arr(np.where(v, res.radius1[b, k0], np.nan))},
+                       "gear": {"z": _arr(np.where(v, res.z2[b, k0], np.nan)),
+                                "radius": _arr(np.where(v, res.radius2[b, k0], np.nan))},
+                       "carries_load": [bool(x) for x in (res.branch[k0] == b)]}
+    return {
+        "label": label, "edge_contact": True,
+        "misalignment": {"dE": mis.dE, "crossing_arcmin": mis.crossing / ARCMIN,
+                         "intersecting_arcmin": mis.intersecting / ARCMIN, "axial": mis.axial},
+        "phi1": _arr(res.phi1), "pairs": list(res.pairs), "branches": branches,
+        "te_arcsec": _arr(res.te_pair * RAD_TO_ARCSEC), "te_envelope_arcsec": _arr(env),
+        "te_branches_central_arcsec": {name: _arr(res.te[b, k0] * RAD_TO_ARCSEC) for b, name in enumerate(branches)},
+        "driving_pair": [int(v) for v in res.driving],
+        "active_branch": [branches[a] if a >= 0 else None for a in res.active],
+        "edge_carries_load": res.edge_contact(),
+        "intervals_central_pair": res.intervals,
+        "transfers": res.transfers,
+        "transfer_phi1": [t["phi1"] for t in res.transfers],
+        "peak_to_peak_arcsec": res.peak_to_peak * RAD_TO_ARCSEC,
+        "harmonics_arcsec": te_harmonics(res.phi1, env, pair.pinion.z),
+        "paths_central_pair": paths,
+        "all_converged": bool(np.isfinite(res.te_envelope).all()),
+        "stats": {k: (v if isinstance(v, (dict, str, int, float)) else str(v)) for k, v in res.stats.items()},
+        "solve_time_s": res.solve_time,
+        "limits": limits,
+    }
+
+
 @dataclass(frozen=True)
 class TCAReport:
     """Result of the TCA study: one entry per case (aligned, misaligned)."""
@@ -112,6 +154,8 @@ class TCAReport:
 
         out = Path(out_dir)
         n = len(self.cases)
+        if self.cases and self.cases[0].get("edge_contact"):
+            return self._save_edge_plots(out, dpi, plt)
         fig, axes = plt.subplots(n, 1, figsize=(9, 3.6 * n), squeeze=False)
         for ax, case in zip(axes[:, 0], self.cases):
             plot_te(case, ax=ax)
@@ -139,17 +183,40 @@ class TCAReport:
         return files
 
 
+    def _save_edge_plots(self, out, dpi, plt) -> list[str]:
+        from ..plot.tca import plot_edge_paths, plot_edge_te
+
+        n = len(self.cases)
+        fig, axes = plt.subplots(n, 1, figsize=(9, 3.8 * n), squeeze=False)
+        for ax, case in zip(axes[:, 0], self.cases):
+            plot_edge_te(case, ax=ax)
+        fig.suptitle(f"{self.scene}: transmission errors with edge contact (Litvin 9.6)")
+        fig.tight_layout()
+        fig.savefig(out / "te.png", dpi=dpi, bbox_inches="tight")
+        plt.close(fig)
+        fig, axes = plt.subplots(n, 2, figsize=(12, 4.2 * n), squeeze=False)
+        for row, case in zip(axes, self.cases):
+            plot_edge_paths(case, "pinion", ax=row[0])
+            plot_edge_paths(case, "gear", ax=row[1])
+        fig.suptitle(f"{self.scene}: paths of contact, surface and edge parts (central tooth pair)")
+        fig.tight_layout()
+        fig.savefig(out / "bearing_contact.png", dpi=dpi, bbox_inches="tight")
+        plt.close(fig)
+        return ["te.png", "bearing_contact.png"]
+
+
 class TCAStudy:
     """Compiled TCA of a pair; ``run()`` sweeps one mesh cycle for each case."""
 
     def __init__(self, pair: GearPair, side="right", contact="point", z_section=0.0, positions=81,
-                 delta=0.00632, misalignment: Misalignment | None = None, name="tca"):
+                 delta=0.00632, misalignment: Misalignment | None = None, name="tca", edge_contact: bool = False):
         self.pair, self.name = pair, name
         self.positions, self.delta, self.z_section = positions, delta, z_section
         self.cases = [("aligned", Misalignment())]
         if misalignment is not None and np.any(misalignment.vector() != 0):
             self.cases.append(("misaligned", misalignment))
         self.tca = TCA(pair, side=side, contact=contact)
+        self.edge = EdgeContact(self.tca) if edge_contact else None
 
     def limits(self) -> dict:
         t = self.tca
@@ -167,12 +234,17 @@ class TCAStudy:
         for label, mis in self.cases:
             if progress:
                 progress(f"tca: {label} ({2 * self.positions} positions x 5 tooth pairs)")
+            if self.edge is not None:
+                eres = self.edge.sweep(phi, mis=mis, pairs=(-2, -1, 0, 1, 2))
+                cases.append(edge_case_dict(eres, self.pair, label, lim))
+                continue
             res = self.tca.sweep(phi, mis=mis, delta=self.delta, z_section=self.z_section, pairs=(-2, -1, 0, 1, 2))
             cases.append(case_dict(res, self.pair, label, lim))
         p = self.pair
         pair = {"z1": p.pinion.z, "z2": p.gear.z, "m_n": p.pinion.m_n, "beta_deg": p.pinion.beta / DEG,
                 "a": p.a_w, "ratio": p.ratio, "side": self.tca.side, "contact": self.tca.contact_type,
-                "pinion_a_c": p.pinion.rack.a_c, "pinion_a_pl": p.pinion.a_pl, "eps_alpha": p.eps_alpha}
+                "pinion_a_c": p.pinion.rack.a_c, "pinion_a_pl": p.pinion.a_pl, "eps_alpha": p.eps_alpha,
+                "edge_contact_analysis": self.edge is not None}
         return TCAReport(scene=self.name, pair=pair, cases=cases,
                          timing={"build_s": self.tca.build_time, "run_s": time.perf_counter() - t0})
 
@@ -185,13 +257,14 @@ def _from_scene(scene) -> TCAStudy:
     try:
         mis = Misalignment(dE=o.get("dE") or 0.0, crossing=o.get("crossing") or 0.0,
                            intersecting=o.get("intersecting") or 0.0, axial=o.get("axial") or 0.0)
-        if o.get("contact") == "point" and scene.pair.pinion.a_pl == 0:
+        if o.get("contact") == "point" and scene.pair.pinion.a_pl == 0 and not o.get("edge_contact"):
             raise SceneError(f"{scene.source}: [tca] contact = \"point\" needs a longitudinally crowned pinion "
                              "([pinion] a_pl > 0); for conjugate or profile-crowned spur pinions use contact = "
                              "\"line\".")
         return TCAStudy(scene.pair, side=o.get("side") or "right", contact=o.get("contact") or "point",
                         z_section=o.get("z_section") or 0.0, positions=o.get("positions") or 81,
-                        delta=o.get("delta") or 0.00632, misalignment=mis, name=scene.name)
+                        delta=o.get("delta") or 0.00632, misalignment=mis, name=scene.name,
+                        edge_contact=bool(o.get("edge_contact")))
     except GeometryError as e:
         raise SceneError(f"{scene.source}: [tca] {e}") from e
 
@@ -216,6 +289,8 @@ def _register():
             Field("intersecting", "angle", default=0.0, check=Bounds(lo=-10, hi=10),
                   doc="intersecting angle of the axes"),
             Field("axial", "length", default=0.0, check=Bounds(lo=-50, hi=50), doc="axial displacement of the gear"),
+            Field("edge_contact", "bool", default=False,
+                  doc="also solve edge contact (tips, face ends) and combine it with the surface contact (Litvin 9.6)"),
         ], required=False)],
         build=_from_scene,
     ))

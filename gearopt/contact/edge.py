@@ -1,0 +1,416 @@
+"""Edge contact (Litvin section 9.6): an edge of one tooth touching the flank of the other.
+
+The boundaries of the active flank of each member are curves on its surface ``g(u, z) = 0``:
+
+* ``tip``: the addendum edge, transverse radius = r_a (``g = (x^2 + y^2 - r_a^2) / (2 r_a)``);
+* ``face+`` / ``face-``: the face ends z = +-b/2;
+* ``limit``: the line u = u_f between the active flank and the fillet (a concave transition: it is
+  reported as a boundary but cannot be a convex edge that touches the mating flank).
+
+Edge contact of an edge of member i with the flank of member j (eqs. 9.6.1-9.6.2, written with the
+edge as a level curve of g instead of an explicit parameterization):
+
+    r_f1(u1, z1, phi1) = r_f2(u2, z2, phi2),  g_i(u_i, z_i) = 0,  t_edge,i . n_fj = 0,
+    t_edge,i = dr_i/du_i dg/dz_i - dr_i/dz_i dg/du_i   (the edge tangent),
+
+five equations in (u1, z1, u2, z2, phi2) for each phi1. Each (surface or edge) branch of a tooth
+pair is solved like the surface TCA (mapped Newton, checks, continuation) and is valid where its
+contact point lies on the finite edge and on the mating active flank. For a given phi1 the gear of
+a pair rests against the feature that gives it the largest advance, so the pair's TE is the upper
+envelope of its valid branches; the actual TE is the upper envelope over the pairs (THEORY 8).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import casadi as ca
+import numpy as np
+
+from ..errors import ConvergenceError, out_of_range
+from ..meshing.tca import REGULARITY_MIN, TCA, Branch, Misalignment, TCAResult
+from ..units import RAD_TO_ARCSEC
+
+#: Convex edges that can touch the mating flank (member, kind, sign of the face end).
+EDGES = {
+    "pinion_tip": (1, "tip", 0), "pinion_face+": (1, "face", 1), "pinion_face-": (1, "face", -1),
+    "gear_tip": (2, "tip", 0), "gear_face+": (2, "face", 1), "gear_face-": (2, "face", -1),
+}
+SURFACE = "surface"
+
+
+@dataclass(frozen=True)
+class EdgeTCAResult:
+    """Surface and edge contact of a drive over the pinion angles, every tooth pair.
+
+    Arrays: ``(B, K, N)`` for B branches (``branches[0] = "surface"``, then the edges), K tooth
+    pairs, N positions.
+
+    Attributes
+    ----------
+    phi1 : (N,) [rad].
+    branches : tuple of str.
+    te : (B, K, N) TE of each branch [rad], NaN where the branch is not a valid contact.
+    te_pair : (K, N) TE of each pair: upper envelope of its valid branches [rad].
+    branch : (K, N) index into ``branches`` of the feature in contact (-1: none).
+    te_envelope : (N,) actual TE [rad]; driving : (N,) index into ``pairs`` (-1: none);
+    active : (N,) branch index of the driving contact.
+    z1, radius1, z2, radius2 : (B, K, N) contact point on pinion and gear [mm].
+    converged : (B, K, N) solved and checked; valid : (B, K, N) on the finite edge and flank.
+    intervals : list of dicts for the central pair: ``branch``, ``phi1_start``, ``phi1_end``
+        (where that feature carries the central pair; eq. 9.6.3 for the surface branch).
+    transfers : list of dicts along the actual TE: ``phi1``, ``from``/``to`` (pair, branch), TE
+        slopes before/after [rad/rad] and their jump (the jump in gear angular velocity / omega1).
+    surface : TCAResult or None (None when no surface-to-surface contact exists, e.g. misaligned
+        line-contact gears).
+    """
+
+    phi1: np.ndarray
+    pairs: tuple
+    branches: tuple
+    te: np.ndarray
+    te_pair: np.ndarray
+    branch: np.ndarray
+    te_envelope: np.ndarray
+    driving: np.ndarray
+    active: np.ndarray
+    z1: np.ndarray
+    radius1: np.ndarray
+    z2: np.ndarray
+    radius2: np.ndarray
+    converged: np.ndarray
+    valid: np.ndarray
+    intervals: list
+    transfers: list
+    misalignment: Misalignment
+    surface: TCAResult | None = None
+    solve_time: float = 0.0
+    stats: dict = field(default_factory=dict)
+
+    @property
+    def te_envelope_arcsec(self) -> np.ndarray:
+        return self.te_envelope * RAD_TO_ARCSEC
+
+    @property
+    def peak_to_peak(self) -> float:
+        v = self.te_envelope[np.isfinite(self.te_envelope)]
+        return float(v.max() - v.min()) if v.size else float("nan")
+
+    def edge_contact(self) -> bool:
+        """True when an edge carries the load somewhere along the actual TE."""
+        return bool(np.any(self.active[self.active >= 0] > 0))
+
+
+class EdgeContact:
+    """Surface-to-surface and edge contact of a drive (build once, sweep many).
+
+    Parameters
+    ----------
+    tca : TCA
+        The surface TCA of the drive (its surfaces, frames and checks are reused).
+    edges : sequence of str
+        Edges to analyse (keys of :data:`EDGES`); default all.
+    """
+
+    def __init__(self, tca: TCA, edges=tuple(EDGES)):
+        t0 = time.perf_counter()
+        for e in edges:
+            if e not in EDGES:
+                raise out_of_range("edges", e, f"one of {list(EDGES)}")
+        self.tca, self.edges = tca, tuple(edges)
+        pair = tca.pair
+        self.members = {1: pair.pinion, 2: pair.gear}
+        self.teeth = {1: tca.pinion, 2: tca.gear}
+        self.r_form = {1: tca._form_radius(tca.pinion), 2: tca._form_radius(tca.gear)}
+        q = ca.SX.sym("q", 5)
+        prm = ca.SX.sym("prm", tca._nprm)
+        k = dict(zip(tca.kinematics.name_out(), tca.kinematics(q, prm)))
+        reg = ca.fmin(ca.norm_2(ca.cross(k["t1u"], k["t1z"])), ca.norm_2(ca.cross(k["t2u"], k["t2z"])))
+        ez1 = ca.DM([0.0, 0.0, 1.0])
+        self.branches: dict[str, Branch] = {}
+        self.residuals: dict[str, ca.Function] = {}
+        for name in self.edges:
+            member, kind, sign = EDGES[name]
+            g_m = self.members[member]
+            iu, iz = (0, 1) if member == 1 else (2, 3)
+            r_own = k["r1"] if member == 1 else k["r2"]
+            if kind == "tip":
+                g = (r_own[0] ** 2 + r_own[1] ** 2 - g_m.r_a**2) / (2 * g_m.r_a)
+            else:
+                g = q[iz] - sign * g_m.b / 2
+            gu, gz = ca.jacobian(g, q[iu]), ca.jacobian(g, q[iz])
+            tu, tz = (k["t1u"], k["t1z"]) if member == 1 else (k["t2u"], k["t2z"])
+            t_edge = tu * gz - tz * gu
+            n_other = k["nf2"] if member == 1 else k["nf1"]
+            F = ca.vertcat(k["rf1"] - k["rf2"], g, ca.dot(t_edge, n_other) / ca.norm_2(t_edge))
+            G = ca.Function(f"edge_{_cname(name)}", [q, prm], [F], ["w", "prm"], ["F"])
+            # A genuine touch: the edge's wedge (flank with outward normal a, tip cylinder or face end
+            # with outward normal c) lies outside the mating tooth, i.e. the mating outward normal is
+            # n = -(alpha a + gamma c) with alpha, gamma >= 0 (gamma = 0: tangency of the flanks).
+            a = k["nf1"] if member == 1 else k["nf2"]
+            if kind == "tip":
+                c = k["er1"] if member == 1 else k["er2"]
+            else:
+                c = sign * (ez1 if member == 1 else k["ez2"])
+            Mc = ca.horzcat(a, c)
+            ag = ca.solve(ca.mtimes(Mc.T, Mc), -ca.mtimes(Mc.T, n_other))
+            checks = ca.Function(f"edge_checks_{_cname(name)}", [q, prm], [ca.fmin(ag[0], ag[1]), reg],
+                                 ["w", "prm"], ["cone", "reg"])
+            self.residuals[name] = G
+            self.branches[name] = Branch(f"edge_{_cname(name)}", G, checks, self._accept, tca.tol, tca.solver,
+                                         tca.jit)
+        self._line: TCA | None = None
+        self.build_time = time.perf_counter() - t0
+
+    def _accept(self, res, cone, reg):
+        # Edge contact: residual small, the edge touches from outside (cone >= 0, see __init__),
+        # both flanks regular at the point.
+        return np.isfinite(res) & (res <= self.tca.tol) & (cone > -1e-9) & (reg > REGULARITY_MIN)
+
+    # ------------------------------------------------------------------------------------------
+    def _line_tca(self) -> TCA:
+        if self._line is None:
+            t = self.tca
+            self._line = TCA(t.pair, side=t.side, pinion=t.pinion, gear=t.gear, solver=t.solver, contact="line")
+        return self._line
+
+    def _line_guess(self, phi1: float, z_section: float, p1, p2) -> np.ndarray:
+        """Full unknowns (u1, z1, u2, z2, r_p2 phi2) of the aligned conjugate drive (crowning
+        removed) in the pinion section ``z_section`` at ``phi1``: a first guess for edge branches."""
+        lt = self._line_tca()
+        flat1 = np.array(p1, float)
+        flat2 = np.array(p2, float)
+        flat1[1:] = [0.0, 0.0, 0.0]
+        flat2[1:] = [0.0, 0.0, 0.0]
+        w = lt.solve_point(phi1, None, flat1, flat2, Misalignment(), z_section)
+        return np.asarray(lt._full(w, z_section)).ravel()
+
+    def sweep(self, phi1, p1=None, p2=None, mis: Misalignment | None = None, pairs=(-1, 0, 1)) -> EdgeTCAResult:
+        """Surface and edge contact over ``phi1`` [rad] for the tooth pairs ``pairs``.
+
+        Returns
+        -------
+        EdgeTCAResult
+        """
+        t0 = time.perf_counter()
+        tca = self.tca
+        mis = mis or Misalignment()
+        p1 = tca.pinion.p0 if p1 is None else np.asarray(p1, float)
+        p2 = tca.gear.p0 if p2 is None else np.asarray(p2, float)
+        phi1 = np.atleast_1d(np.asarray(phi1, float))
+        pairs = tuple(int(k) for k in pairs)
+        K, N = len(pairs), phi1.size
+        z1 = self.members[1].z
+        phis = np.concatenate([phi1 - 2 * math.pi * k / z1 for k in pairs])
+        prm = tca.prm(phis, p1, p2, mis)
+        # Every pair is pair 0 at a shifted angle: solve the distinct angles once, in order.
+        uphi, inv_idx = np.unique(np.round(phis, 13), return_inverse=True)
+        uprm = tca.prm(uphi, p1, p2, mis)
+        names = (SURFACE,) + self.edges
+        B, M = len(names), phis.size
+        Q = np.full((B, 5, M), np.nan)
+        conv = np.zeros((B, M), bool)
+        stats = {}
+        # Surface branch (line contact in the mid section when the drive is in line contact).
+        surf = None
+        try:
+            try:
+                surf = tca.sweep(phi1, p1, p2, mis, pairs=pairs)
+            except ConvergenceError as e:
+                if "line contact" not in str(e):
+                    raise
+                stats["surface_mode"] = "line contact (mid section)"
+                surf = self._line_tca().sweep(phi1, p1, p2, mis, pairs=pairs)
+            Q[0] = np.vstack([surf.u1.ravel(), surf.z1.ravel(), surf.u2.ravel(), surf.z2.ravel(),
+                              (surf.phi2 - np.array([2 * math.pi * k / self.members[2].z for k in pairs])[:, None]
+                               ).ravel() * tca.scale2])
+            conv[0] = surf.converged.ravel()
+        except ConvergenceError as e:
+            stats["surface"] = f"no surface-to-surface contact: {e}"
+        # Edge branches: anchor near where the reference touches the edge, predict, solve, continue.
+        for b, name in enumerate(self.edges, start=1):
+            member, kind, sign = EDGES[name]
+            try:
+                i_a, q0 = self._edge_anchor_guess(name, Q[0], conv[0], phis, p1, p2)
+            except ConvergenceError as e:
+                stats[name] = f"no anchor: {e}"
+                continue
+            br = self.branches[name]
+            w_a = br.newton(q0, prm[:, i_a])
+            res, cone, reg, ok = br.check(w_a, prm[:, i_a])
+            if not (np.isfinite(res) and res <= tca.tol):
+                stats[name] = f"no edge solution near the anchor (residual {res:.2g} mm)"
+                continue
+            W0 = br.predict(w_a, prm[:, i_a], uphi - phis[i_a])
+            W, res, n1n2, reg, ok, st = br.solve(W0, uprm, [np.arange(uphi.size)])
+            W[:, ~ok] = np.nan
+            Q[b], conv[b] = W[:, inv_idx], ok[inv_idx]
+            stats[name] = st
+        return self._combine(phi1, pairs, names, Q, conv, prm, mis, surf, stats, t0)
+
+    def _edge_anchor_guess(self, name, Qs, conv_s, phis, p1, p2):
+        """Index of the anchor column and a first guess on the edge."""
+        member, kind, sign = EDGES[name]
+        g_m = self.members[member]
+        if conv_s.any():
+            # Surface solutions closest to this edge, projected onto it.
+            iu, iz = (0, 1) if member == 1 else (2, 3)
+            if kind == "face":
+                dist = np.abs(Qs[iz] - sign * g_m.b / 2)
+            else:
+                rad = self._radius(member, Qs)
+                dist = np.abs(rad - g_m.r_a)
+            dist = np.where(conv_s, dist, np.inf)
+            i_a = int(np.argmin(dist))
+            q0 = Qs[:, i_a].copy()
+            if kind == "face":
+                shift = sign * g_m.b / 2 - q0[iz]
+                q0[1] += shift
+                q0[3] += shift
+            else:
+                q0[iu] = self.teeth[member].u_at_radius(g_m.r_a, q0[iz], self.tca.side,
+                                                        p1 if member == 1 else p2)
+            return i_a, q0
+        # No surface contact: the conjugate line contact of the aligned drive as the reference.
+        i_a = int(np.argmin(np.abs(phis)))
+        if kind == "face":
+            z_sec = sign * g_m.b / 2
+            return i_a, self._line_guess(phis[i_a], z_sec, p1, p2)
+        q0 = self._line_guess(phis[i_a], 0.0, p1, p2)
+        iu = 0 if member == 1 else 2
+        q0[iu] = self.teeth[member].u_at_radius(g_m.r_a, 0.0, self.tca.side, p1 if member == 1 else p2)
+        return i_a, q0
+
+    def _radius(self, member, Q, prm=None):
+        """Transverse radius of the contact point on ``member`` for the columns of Q (NaN-safe)."""
+        tooth = self.teeth[member]
+        f = tooth.surface(self.tca.side, "flank")
+        iu, iz = (0, 1) if member == 1 else (2, 3)
+        p = tooth.p0 if prm is None else prm
+        good = np.isfinite(Q[iu]) & np.isfinite(Q[iz])
+        out = np.full(Q.shape[1], np.nan)
+        if good.any():
+            n = int(good.sum())
+            r = np.asarray(f.map(n)(Q[iu][good], Q[iz][good], np.tile(np.asarray(p)[:, None], n))[0])
+            out[good] = np.hypot(r[0], r[1])
+        return out
+
+    # ------------------------------------------------------------------------------------------
+    def _combine(self, phi1, pairs, names, Q, conv, prm, mis, surf, stats, t0):
+        tca = self.tca
+        g1, g2 = self.members[1], self.members[2]
+        K, N = len(pairs), phi1.size
+        B = len(names)
+        p1, p2 = prm[1:5, 0], prm[5:9, 0]
+        eps = 1e-9
+        rad1 = np.stack([self._radius(1, Q[b], p1) for b in range(B)])
+        rad2 = np.stack([self._radius(2, Q[b], p2) for b in range(B)])
+        z1, z2 = Q[:, 1, :], Q[:, 3, :]
+        inside1 = (np.abs(z1) <= g1.b / 2 + eps) & (rad1 >= self.r_form[1] - eps) & (rad1 <= g1.r_a + eps)
+        inside2 = (np.abs(z2) <= g2.b / 2 + eps) & (rad2 >= self.r_form[2] - eps) & (rad2 <= g2.r_a + eps)
+        valid = conv & inside1 & inside2
+        shift2 = np.concatenate([np.full(N, 2 * math.pi * k / g2.z) for k in pairs])
+        phi2 = Q[:, 4, :] / tca.scale2 + shift2[None, :]
+        te_raw = phi2 - (g1.z / g2.z) * np.tile(phi1, K)[None, :]
+        # One zero for every branch: the surface TE reference of the TCA (phi2 at phi1 = 0 of pair 0)
+        # or, without surface contact, the mean of the actual TE.
+        te_raw = te_raw.reshape(B, K, N)
+        valid = valid.reshape(B, K, N)
+        if surf is not None and np.isfinite(surf.te).any():
+            ref = self._surface_zero(surf, te_raw[0], k0 := (pairs.index(0) if 0 in pairs else 0))
+        else:
+            ref = float(np.nanmedian(np.where(valid, te_raw, np.nan))) if valid.any() else 0.0
+        # Reachability: the gear cannot be ahead of the conjugate position by more than the coast-side
+        # clearance (backlash, crowning, misalignment), or the coast flanks would interpenetrate;
+        # and a contact more than half a gear pitch behind belongs to another tooth.
+        valid &= (te_raw - ref < self._coast_clearance(p1, mis)) & (ref - te_raw < math.pi / g2.z)
+        te_valid = np.where(valid, te_raw, -np.inf)
+        # Ties (line contact along a face end) go to the surface branch.
+        te_valid[0] = np.where(valid[0] & (te_valid[0] >= te_valid.max(axis=0) - 1e-12), np.inf, te_valid[0])
+        branch = np.argmax(te_valid, axis=0)
+        te_pair = np.take_along_axis(np.where(valid, te_raw, -np.inf), branch[None], axis=0)[0]
+        branch = np.where(np.isfinite(te_pair), branch, -1)
+        drv = np.argmax(np.where(np.isfinite(te_pair), te_pair, -np.inf), axis=0)
+        env = te_pair[drv, np.arange(N)]
+        has = np.isfinite(env)
+        k0 = pairs.index(0) if 0 in pairs else 0
+        te = np.where(valid, te_raw - ref, np.nan)
+        te_pair = np.where(np.isfinite(te_pair), te_pair - ref, np.nan)
+        env = np.where(has, env - ref, np.nan)
+        driving = np.where(has, drv, -1)
+        active = np.where(has, branch[drv, np.arange(N)], -1)
+        intervals = _intervals(phi1, branch[k0], names)
+        transfers = _transfers(phi1, env, driving, active, pairs, names)
+        return EdgeTCAResult(
+            phi1=phi1, pairs=pairs, branches=names, te=te, te_pair=te_pair, branch=branch, te_envelope=env,
+            driving=driving, active=active, z1=z1.reshape(B, K, N), radius1=rad1.reshape(B, K, N),
+            z2=z2.reshape(B, K, N), radius2=rad2.reshape(B, K, N), converged=conv.reshape(B, K, N), valid=valid,
+            intervals=intervals, transfers=transfers, misalignment=mis, surface=surf,
+            solve_time=time.perf_counter() - t0, stats={"build_s": self.build_time, **stats})
+
+    def _coast_clearance(self, p1, mis: Misalignment) -> float:
+        """Upper bound of the gear's advance over the conjugate position [rad]: circumferential
+        backlash plus the pinion thinning by crowning plus what the misalignment can open, on the
+        operating pitch circle of the gear (a generous bound of the coast-side clearance)."""
+        pair, tca = self.tca.pair, self.tca
+        g1 = pair.pinion
+        a_w = pair.a_w
+        r_w2 = a_w * pair.gear.z / (pair.pinion.z + pair.gear.z)
+        u_f, _ = tca.pinion.junction(p1)
+        u_tip = tca.pinion.u_at_radius(g1.r_a, 0.0, tca.side, p1)
+        u_span = max(abs(u_tip - p1[2]), abs(u_f - p1[2]))
+        thin = 2 * (p1[3] * (g1.b / 2) ** 2 * math.tan(pair.alpha_wt) + p1[1] * u_span**2)
+        opened = 2 * abs(mis.dE) * math.tan(pair.alpha_wt) + max(g1.b, pair.gear.b) * (
+            abs(mis.crossing) + abs(mis.intersecting))
+        return (max(pair.backlash, 0.0) + thin + opened) / r_w2 + 1e-9
+
+    @staticmethod
+    def _surface_zero(surf: TCAResult, te_raw_surface, k0) -> float:
+        # The surface TCA measures TE from phi2 at phi1 = 0 of pair 0; recover that constant so that
+        # the surface branch here equals surf.te.
+        diff = te_raw_surface.reshape(surf.te.shape) - surf.te
+        vals = diff[np.isfinite(diff)]
+        return float(np.median(vals)) if vals.size else 0.0
+
+
+def _cname(name: str) -> str:
+    return name.replace("+", "_pos").replace("-", "_neg")
+
+
+def _intervals(phi1, branch_row, names) -> list[dict]:
+    """Runs of one branch along phi1 for a pair: [{"branch", "phi1_start", "phi1_end"}]."""
+    out, start = [], 0
+    for i in range(1, len(phi1) + 1):
+        if i == len(phi1) or branch_row[i] != branch_row[start]:
+            if branch_row[start] >= 0:
+                out.append({"branch": names[branch_row[start]], "phi1_start": float(phi1[start]),
+                            "phi1_end": float(phi1[i - 1])})
+            start = i
+    return out
+
+
+def _slope(x, y, i0, i1):
+    """Slope of y over the samples [i0, i1] (least squares), NaN if fewer than 2 finite points."""
+    xs, ys = x[i0:i1 + 1], y[i0:i1 + 1]
+    m = np.isfinite(ys)
+    if m.sum() < 2:
+        return float("nan")
+    return float(np.polyfit(xs[m], ys[m], 1)[0])
+
+
+def _transfers(phi1, env, driving, active, pairs, names) -> list[dict]:
+    """Changes of the driving (pair, branch) along the actual TE with the TE slopes on both sides."""
+    out = []
+    for i in range(len(phi1) - 1):
+        a, b = (driving[i], active[i]), (driving[i + 1], active[i + 1])
+        if a[0] < 0 or b[0] < 0 or a == b:
+            continue
+        before = _slope(phi1, env, max(i - 3, 0), i)
+        after = _slope(phi1, env, i + 1, min(i + 4, len(phi1) - 1))
+        out.append({"phi1": float(0.5 * (phi1[i] + phi1[i + 1])),
+                    "from": {"pair": pairs[a[0]], "branch": names[a[1]]},
+                    "to": {"pair": pairs[b[0]], "branch": names[b[1]]},
+                    "slope_before": before, "slope_after": after, "slope_jump": after - before})
+    return out
