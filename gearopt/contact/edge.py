@@ -318,6 +318,13 @@ class EdgeContact:
         # or, without surface contact, the mean of the actual TE.
         te_raw = te_raw.reshape(B, K, N)
         valid = valid.reshape(B, K, N)
+        if stats.get("surface_mode", "").startswith("line"):
+            # Line contact: where an edge ties with the line-contact TE, the contact line runs
+            # through that edge point: it is surface contact, not edge contact.
+            conv0 = conv.reshape(B, K, N)[0]
+            for b in range(1, B):
+                tie = valid[b] & conv0 & (np.abs(te_raw[b] - te_raw[0]) < 1e-10)
+                valid[0] |= tie
         if surf is not None and np.isfinite(surf.te).any():
             ref = self._surface_zero(surf, te_raw[0], k0 := (pairs.index(0) if 0 in pairs else 0))
         else:
@@ -342,7 +349,7 @@ class EdgeContact:
         driving = np.where(has, drv, -1)
         active = np.where(has, branch[drv, np.arange(N)], -1)
         intervals = _intervals(phi1, branch[k0], names)
-        transfers = _transfers(phi1, env, driving, active, pairs, names)
+        transfers = _transfers(phi1, te, driving, active, pairs, names)
         return EdgeTCAResult(
             phi1=phi1, pairs=pairs, branches=names, te=te, te_pair=te_pair, branch=branch, te_envelope=env,
             driving=driving, active=active, z1=z1.reshape(B, K, N), radius1=rad1.reshape(B, K, N),
@@ -400,15 +407,18 @@ def _slope(x, y, i0, i1):
     return float(np.polyfit(xs[m], ys[m], 1)[0])
 
 
-def _transfers(phi1, env, driving, active, pairs, names) -> list[dict]:
-    """Changes of the driving (pair, branch) along the actual TE with the TE slopes on both sides."""
+def _transfers(phi1, te, driving, active, pairs, names) -> list[dict]:
+    """Changes of the driving (pair, branch) along the actual TE, with the slopes dTE/dphi1 of the
+    two contacts at the transfer [rad/rad] (fitted on each one's own TE curve around it; NaN where
+    a curve has fewer than 2 points there) and the jump (the jump in omega2/omega1)."""
     out = []
-    for i in range(len(phi1) - 1):
+    n = len(phi1)
+    for i in range(n - 1):
         a, b = (driving[i], active[i]), (driving[i + 1], active[i + 1])
         if a[0] < 0 or b[0] < 0 or a == b:
             continue
-        before = _slope(phi1, env, max(i - 3, 0), i)
-        after = _slope(phi1, env, i + 1, min(i + 4, len(phi1) - 1))
+        before = _slope(phi1, te[a[1], a[0]], max(i - 3, 0), min(i + 1, n - 1))
+        after = _slope(phi1, te[b[1], b[0]], max(i, 0), min(i + 4, n - 1))
         out.append({"phi1": float(0.5 * (phi1[i] + phi1[i + 1])),
                     "from": {"pair": pairs[a[0]], "branch": names[a[1]]},
                     "to": {"pair": pairs[b[0]], "branch": names[b[1]]},

@@ -565,8 +565,11 @@ class Branch:
         if solver == "fast_newton":
             fast_opts["abstolStep"] = 1e-9  # stop after the step below 1e-9 mm (saves one Jacobian)
         self.rf_fast = ca.rootfinder(f"{name}_fast", solver, G, fast_opts)
+        # Failed points are judged by the checks, not by CasADi's NaN warnings (off the surfaces'
+        # domain, e.g. inside a base circle, the residual is NaN and the point is simply rejected).
         self.rf_safe = ca.rootfinder(f"{name}_newton", "newton", G, {"error_on_fail": False, "abstol": 1e-13,
-                                                                     "max_iter": 100, "line_search": True})
+                                                                     "max_iter": 100, "line_search": True,
+                                                                     "show_eval_warnings": False})
         self._maps: dict[int, ca.Function] = {}
 
     def newton(self, w0, prm) -> np.ndarray:

@@ -116,7 +116,8 @@ def edge_case_dict(res: EdgeTCAResult, pair: GearPair, label: str, limits: dict)
         "active_branch": [branches[a] if a >= 0 else None for a in res.active],
         "edge_carries_load": res.edge_contact(),
         "intervals_central_pair": res.intervals,
-        "transfers": res.transfers,
+        "transfers": [{k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in t.items()}
+                      for t in res.transfers],
         "transfer_phi1": [t["phi1"] for t in res.transfers],
         "peak_to_peak_arcsec": res.peak_to_peak * RAD_TO_ARCSEC,
         "harmonics_arcsec": te_harmonics(res.phi1, env, pair.pinion.z),
