@@ -151,7 +151,8 @@ def plot_edge_te(case: dict, ax=None):
 
 def plot_edge_paths(case: dict, member: str = "gear", ax=None):
     """Paths of contact of the central pair on the ``member`` flank map: the surface part and the
-    edge parts (thick where that feature carries the pair's load), with the flank boundaries."""
+    edge parts (dashed: that feature's contact of the pair; thick: where it carries the load of the
+    drive), with the flank boundaries."""
     ax = _axes(ax)
     lim = case["limits"][member]
     b, ra, rF = lim["b"], lim["r_a"], lim["r_form"]
@@ -168,7 +169,7 @@ def plot_edge_paths(case: dict, member: str = "gear", ax=None):
     ax.set_ylim(rF - pad, ra + pad)
     ax.set_xlabel("axial position z [mm]")
     ax.set_ylabel("radius [mm]")
-    ax.set_title(f"{member} flank, {case['label']}: thick = carries the load", fontsize=9)
+    ax.set_title(f"{member} flank, {case['label']}: thick where the central pair drives", fontsize=9)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7, loc="upper right")
     return ax

@@ -104,7 +104,7 @@ def edge_case_dict(res: EdgeTCAResult, pair: GearPair, label: str, limits: dict)
                                   "radius": _arr(np.where(v, res.radius1[b, k0], np.nan))},
                        "gear": {"z": _arr(np.where(v, res.z2[b, k0], np.nan)),
                                 "radius": _arr(np.where(v, res.radius2[b, k0], np.nan))},
-                       "carries_load": [bool(x) for x in (res.branch[k0] == b)]}
+                       "carries_load": [bool(x) for x in ((res.branch[k0] == b) & (res.driving == k0))]}
     return {
         "label": label, "edge_contact": True,
         "misalignment": {"dE": mis.dE, "crossing_arcmin": mis.crossing / ARCMIN,
