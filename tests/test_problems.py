@@ -96,8 +96,13 @@ def test_shaper_generation_scene(tmp_path):
     assert rep.members["pinion"]["r_f"] != pytest.approx(rep.members["pinion"]["r_p"] + 3 * (0.3 - 1.25), abs=1e-6)
 
 
-def _tca_scenes():
-    return [p for p in SCENES if tomllib.loads(p.read_text())["scene"]["study"] == "tca"]
+def _tca_scenes(edge=False):
+    out = []
+    for p in SCENES:
+        raw = tomllib.loads(p.read_text())
+        if raw["scene"]["study"] == "tca" and bool(raw.get("tca", {}).get("edge_contact", False)) == edge:
+            out.append(p)
+    return out
 
 
 @pytest.fixture(scope="module")
@@ -137,3 +142,34 @@ def test_tca_scene_physics(tca_reports, name):
         assert sorted(mis["transfer_phi1"])[0] < tr[0] - 2 * step  # TE parabola shifted
     # The parabolic TE absorbs the misalignment: the level stays within 10 %.
     assert mis["peak_to_peak_arcsec"] == pytest.approx(aligned["peak_to_peak_arcsec"], rel=0.10)
+
+
+EDGE_EXPECT = {  # scene: (edge contact aligned, edge contact misaligned, an edge that must carry load)
+    "edge_spur_crossed": (False, True, "pinion_face-"),
+    "edge_helical_crossing": (False, True, "pinion_tip"),
+    "edge_helical_intersecting": (False, True, "gear_tip"),
+    "edge_crowned_tip": (False, True, "pinion_tip"),
+    "edge_crowned_avoided": (False, False, None),
+}
+
+
+@pytest.mark.parametrize("scene", _tca_scenes(edge=True), ids=lambda p: p.stem)
+def test_edge_scene_physics(scene):
+    rep = load_scene(scene).build().run().to_dict()
+    aligned, mis = rep["cases"]
+    exp_al, exp_mis, edge = EDGE_EXPECT[scene.stem]
+    assert aligned["edge_carries_load"] is exp_al
+    assert mis["edge_carries_load"] is exp_mis
+    for case in (aligned, mis):
+        env = [v for v in case["te_envelope_arcsec"] if v is not None]
+        assert len(env) == len(case["phi1"]), "a position without any contact"
+    if edge is not None:
+        assert edge in set(a for a in mis["active_branch"] if a)
+        # Edge contact makes the gear's angular velocity jump at the transfers (Litvin 9.6).
+        # Scale: the mean TE slope over a cycle, p-p / (pi / z1).
+        jumps = [abs(t["slope_jump"]) for t in mis["transfers"] if t["slope_jump"] is not None]
+        scale = mis["peak_to_peak_arcsec"] / 206264.806 / (math.pi / rep["pair"]["z1"])
+        assert max(jumps) > 0.5 * scale
+    if rep["pair"]["pinion_a_c"] == 0 and rep["pair"]["pinion_a_pl"] == 0:
+        # Unmodified gears: the aligned drive is conjugate, TE identically zero.
+        assert max(abs(v) for v in aligned["te_envelope_arcsec"]) < 1e-9
