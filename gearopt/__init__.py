@@ -4,6 +4,7 @@ After Litvin & Fuentes, *Gear Geometry and Applied Theory*, sections 9.4-9.6 and
 Lengths in mm, angles in rad inside; see :mod:`gearopt.units` for the edges.
 """
 
+from .contact.edge import EdgeContact, EdgeTCAResult
 from .errors import ConvergenceError, GearoptError, GeometryError, SceneError
 from .gears import BasicRack, Gear, GearPair
 from .geometry.generation import (PARAMS, GeneratedTooth, Hob, Shaper, generate_by_hob, generate_by_rack,
@@ -19,7 +20,7 @@ __all__ = [
     "GearoptError", "GeometryError", "ConvergenceError", "SceneError",
     "BasicRack", "Gear", "GearPair",
     "PARAMS", "GeneratedTooth", "Hob", "Shaper", "generate_by_rack", "generate_by_hob", "generate_by_shaper",
-    "TCA", "Misalignment", "TCAResult", "PlanarTCA", "solve_planar_tca",
+    "TCA", "Misalignment", "TCAResult", "PlanarTCA", "solve_planar_tca", "EdgeContact", "EdgeTCAResult",
     "load_scene",
     "DEG", "ARCMIN", "ARCSEC", "deg", "to_deg",
 ]
