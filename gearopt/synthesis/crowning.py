@@ -1,0 +1,473 @@
+"""Crowning optimization: IPOPT NLPs that choose the pinion's crowning so that the drive follows a
+predesigned parabolic function of transmission errors and keeps its contact on the flanks for a
+set of misalignments (THEORY sections 4, 7, 8).
+
+Simultaneous formulation. For every misalignment case c and pinion angle phi_k of a mesh cycle, the
+TCA unknowns ``w_ck = (u1, z1, u2, z2, r_p2 phi2)`` are NLP variables tied by the TCA equations
+(equality constraints, the exact residual Function of :class:`gearopt.meshing.tca.TCA`). The TE of
+each case is fitted by the target parabola plus a free line, ``TE_ck = c0_c + c1_c phi_k - A phi_k^2``
+with ``A = level / (pi/z1)^2`` (a misalignment adds a line, which the parabola absorbs); the
+objective is the squared misfit (sum over the cases, or the worst case). The transfer points of
+the shifted parabolas, ``phi_t = p/2 + c1/(2A)`` and ``phi_t - p`` (p = 2 pi/z1), carry two more
+TCA points per case whose contact must lie inside the active flanks (edge-contact avoidance), and
+the contact ellipse at the mean point can be required to span a share of the face width.
+
+Design variables are the pinion's profile crowning ``a_c`` (parabolic rack-cutter) and
+longitudinal crowning ``a_pl`` (plunging), scaled to O(1). For a spur pinion ``a_pl`` barely moves
+the TE: its role is the bearing contact, so a small penalty on ``a_pl`` picks the least crowning
+that keeps the contact on the face (the problem is otherwise ill-posed in ``a_pl``).
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+import time
+from dataclasses import dataclass, field, replace
+
+import casadi as ca
+import numpy as np
+
+from ..contact.edge import EdgeContact
+from ..errors import ConvergenceError, GeometryError, out_of_range
+from ..gears import GearPair
+from ..geometry.generation import PARAMS
+from ..meshing.tca import TCA, Misalignment
+from ..units import ARCMIN, ARCSEC, RAD_TO_ARCSEC
+
+SETTINGS = ("a_c", "a_pl")  #: design variables (entries of the pinion parameter vector)
+_IDX = {name: PARAMS.index(name) for name in SETTINGS}
+
+
+class SynthesisError(ConvergenceError):
+    """The NLP found no design: infeasible request or solver failure (message names the binding
+    constraints)."""
+
+
+@dataclass(frozen=True)
+class CrowningTarget:
+    """What the optimized drive must do.
+
+    Parameters
+    ----------
+    te_level : float
+        Predesigned TE level [rad]: the parabola's drop from its apex to the transfer points
+        ``pi/z1`` away (e.g. ``8 * ARCSEC``).
+    ellipse_share : float
+        Minimum major axis of the contact ellipse at the mean point of the aligned drive, as a share
+        of the face width (0 = no constraint).
+    edge_margin : float
+        Distance [mm] the contact points at the transfer points keep from the flank boundaries.
+    delta : float
+        Elastic approach for the contact ellipse [mm].
+    objective : {"sum", "worst"}
+        Misfit summed over the cases, or the worst case (epigraph form).
+    """
+
+    te_level: float
+    ellipse_share: float = 0.0
+    edge_margin: float = 0.0
+    delta: float = 0.00632
+    objective: str = "sum"
+
+    def __post_init__(self):
+        if not (math.isfinite(self.te_level) and 0 < self.te_level < 600 * ARCSEC):
+            raise out_of_range("target.te_level", f"{self.te_level * RAD_TO_ARCSEC:.6g} arcsec",
+                               "0 < te_level < 600 arcsec")
+        if not 0 <= self.ellipse_share < 1:
+            raise out_of_range("target.ellipse_share", self.ellipse_share, "0 <= share < 1")
+        if not (math.isfinite(self.edge_margin) and self.edge_margin >= 0):
+            raise out_of_range("target.edge_margin", self.edge_margin, "edge_margin >= 0 mm")
+        if self.objective not in ("sum", "worst"):
+            raise out_of_range("target.objective", self.objective, "'sum' or 'worst'")
+
+
+@dataclass(frozen=True)
+class CaseReport:
+    """One misalignment case of an optimized design, checked by an independent TCA sweep."""
+
+    name: str
+    misalignment: Misalignment
+    fit_rms: float  # RMS misfit of the case's TE to the target parabola + line in the NLP [rad]
+    te_level_tca: float  # peak-to-peak of the actual TE of the verification sweep [rad]
+    edge_contact: bool  # edge contact anywhere in the verification sweep
+    transfer_phi1: tuple  # transfer points of the NLP fit [rad]
+    phi1: np.ndarray = field(repr=False)
+    te_envelope: np.ndarray = field(repr=False)  # verification sweep, actual TE [rad]
+    path: dict = field(repr=False)  # central pair: {"pinion": (z, radius), "gear": (z, radius)}, valid points
+
+
+@dataclass(frozen=True)
+class CrowningDesign:
+    """Result of :meth:`CrowningOptimizer.solve`.
+
+    Attributes
+    ----------
+    pair : GearPair
+        The drive with the optimized pinion (``pinion.rack.a_c``, ``pinion.a_pl``).
+    settings : dict
+        ``{"a_c": [1/mm], "a_pl": [1/mm]}``.
+    status : str
+        IPOPT return status; ``iterations``; ``solve_time`` and ``build_time`` [s].
+    cases : list[CaseReport]
+        Every misalignment case verified by an independent TCA sweep with edge contact.
+    sensitivities : dict
+        ``d(TE level of case) / d(setting or misalignment)`` by AD through the TCA equations
+        [rad per unit of the variable: 1/mm settings, rad angles, mm distances].
+    objective : float
+    """
+
+    pair: GearPair
+    settings: dict
+    status: str
+    iterations: int
+    solve_time: float
+    build_time: float
+    objective: float
+    cases: list
+    sensitivities: dict = field(default_factory=dict)
+
+    def table(self) -> str:
+        """A plain-text table of the cases: TE level of the verification sweep (peak-to-peak of the
+        actual TE), RMS misfit to the target parabola in the NLP, edge contact."""
+        rows = [f"{'case':20s} {'TE level [arcsec]':>18s} {'fit RMS [arcsec]':>17s} {'edge contact':>13s}"]
+        for c in self.cases:
+            rows.append(f"{c.name:20s} {c.te_level_tca * RAD_TO_ARCSEC:18.3f} {c.fit_rms * RAD_TO_ARCSEC:17.4f} "
+                        f"{'YES' if c.edge_contact else 'no':>13s}")
+        return "\n".join(rows)
+
+
+def _default_cases() -> dict:
+    g = 3 * ARCMIN
+    return {"aligned": Misalignment(), "crossing +3'": Misalignment(crossing=g),
+            "crossing -3'": Misalignment(crossing=-g), "intersecting +3'": Misalignment(intersecting=g),
+            "intersecting -3'": Misalignment(intersecting=-g)}
+
+
+class CrowningOptimizer:
+    """Builder of the crowning NLP (declare, ``build()``, then ``solve()``).
+
+    Parameters
+    ----------
+    pair : GearPair
+        The drive; its pinion's current crowning is the first guess (0 is replaced by an estimate).
+    target : CrowningTarget
+    cases : dict[str, Misalignment]
+        Misalignment set (default: aligned, crossing and intersecting +-3 arcmin).
+    positions : int
+        TCA positions per case over the cycle ``[-pi/z1, pi/z1]``.
+    side : {"right", "left"}
+        Driving flank.
+    bounds : dict, optional
+        ``{"a_c": (lo, hi), "a_pl": (lo, hi)}`` [1/mm].
+    """
+
+    def __init__(self, pair: GearPair, target: CrowningTarget, cases: dict | None = None, positions: int = 41,
+                 side: str = "right", bounds: dict | None = None):
+        if not isinstance(target, CrowningTarget):
+            raise GeometryError("target must be a CrowningTarget")
+        cases = dict(cases or _default_cases())
+        if not cases:
+            raise out_of_range("cases", cases, "at least one misalignment case")
+        if "aligned" not in cases and target.ellipse_share > 0:
+            cases = {"aligned": Misalignment(), **cases}
+        if not (isinstance(positions, int) and 7 <= positions <= 401):
+            raise out_of_range("positions", positions, "an integer 7..401")
+        self.pair, self.target, self.cases, self.positions, self.side = pair, target, cases, positions, side
+        self.bounds = {"a_c": (1e-7, 0.05), "a_pl": (1e-7, 0.02), **(bounds or {})}
+        for k, (lo, hi) in self.bounds.items():
+            if k not in SETTINGS:
+                raise out_of_range("bounds", k, f"keys in {SETTINGS}")
+            if not 0 <= lo < hi:
+                raise out_of_range(f"bounds[{k!r}]", (lo, hi), "0 <= lo < hi [1/mm]")
+        self._built = False
+
+    # ------------------------------------------------------------------------------------------
+    def initial_settings(self) -> dict:
+        """First guess: the pinion's crowning, or estimates from the target (profile crowning from
+        the TE level, plunging from the largest angular misalignment)."""
+        p = self.pair
+        g1, g2 = p.pinion, p.gear
+        A = self.target.te_level / (math.pi / g1.z) ** 2
+        tan_a = math.tan(p.alpha_wt)
+        a_c = g1.rack.a_c or A * g2.r_b / (tan_a**2 * g1.r_b**2)  # parabolic-rack TE law (tests/test_tca.py)
+        gam = max([abs(m.crossing) + abs(m.intersecting) for m in self.cases.values()] + [1 * ARCMIN])
+        a_pl = g1.a_pl or 2 * gam / (g1.b * tan_a)  # path shift gamma/(2 a_pl tan a) = b/4
+        lo_c, hi_c = self.bounds["a_c"]
+        lo_p, hi_p = self.bounds["a_pl"]
+        return {"a_c": min(max(a_c, lo_c), hi_c), "a_pl": min(max(a_pl, lo_p), hi_p)}
+
+    def build(self, verbose: bool = False) -> "CrowningOptimizer":
+        """Assemble the NLP (SX graph, exact Hessian) around a first guess from TCA sweeps."""
+        t0 = time.perf_counter()
+        pair, tgt = self.pair, self.target
+        g1 = pair.pinion
+        s0 = self.initial_settings()
+        self.scale = dict(s0)  # design variables are setting / scale
+        pin0 = g1.with_(rack=replace(g1.rack, a_c=s0["a_c"]), a_pl=s0["a_pl"])
+        pair0 = GearPair(pin0, pair.gear, pair.a)
+        self.tca = TCA(pair0, side=self.side)
+        tca = self.tca
+        p1_0, p2 = tca.pinion.p0, tca.gear.p0
+        K = self.positions
+        z1 = g1.z
+        pitch = 2 * math.pi / z1
+        phis = np.linspace(-pitch / 2, pitch / 2, K)
+        A_t = tgt.te_level / (pitch / 2) ** 2
+        te_scale = tgt.te_level
+        x = ca.SX.sym("x", len(SETTINGS))  # scaled settings
+        p1 = ca.SX(p1_0)
+        for j, name in enumerate(SETTINGS):
+            p1[_IDX[name]] = x[j] * self.scale[name]
+        F = tca.residual
+        vars_, lbx, ubx, x0 = [x], [], [], []
+        for name in SETTINGS:
+            lo, hi = self.bounds[name]
+            lbx.append(lo / self.scale[name])
+            ubx.append(hi / self.scale[name])
+            x0.append(s0[name] / self.scale[name])
+        g, lbg, ubg, gnames = [], [], [], []
+        self._c_index = {}
+        obj_terms = []
+        self._w_index = {}
+        r_form1, r_form2 = tca._form_radius(tca.pinion), tca._form_radius(tca.gear)
+        S1 = tca.pinion.surface(self.side, "flank")
+        S2 = tca.gear.surface(self.side, "flank")
+        m = tgt.edge_margin
+        nvar = len(SETTINGS)
+        for ci, (cname, mis) in enumerate(self.cases.items()):
+            mv = mis.vector()
+            if verbose:
+                print(f"gearopt: crowning: first guess for case {cname!r}", file=sys.stderr)
+            res0 = tca.sweep(phis, mis=mis, pairs=(0,))
+            if not res0.converged.all():
+                raise SynthesisError(f"crowning: the first-guess TCA of case {cname!r} did not converge at "
+                                     f"{int((~res0.converged).sum())} positions; reduce the misalignment or "
+                                     "start from another crowning.")
+            W0 = np.vstack([res0.u1[0], res0.z1[0], res0.u2[0], res0.z2[0],
+                            res0.phi2[0] * tca.scale2])
+            te0 = res0.phi2[0] - (z1 / pair.gear.z) * phis
+            c = ca.SX.sym(f"c_{ci}", 2)  # c0, c1 of the absorbed line [rad, rad/rad]
+            self._c_index[cname] = len(lbx)
+            vars_.append(c)
+            V = np.c_[np.ones(K), phis]
+            cfit = np.linalg.lstsq(V, te0 + A_t * phis**2, rcond=None)[0]
+            lbx += [-np.inf, -np.inf]
+            ubx += [np.inf, np.inf]
+            x0 += [cfit[0] / te_scale, cfit[1] / te_scale]
+            c0, c1 = c[0] * te_scale, c[1] * te_scale
+            mis_terms = []
+            for k, ph in enumerate(phis):
+                w = ca.SX.sym(f"w_{ci}_{k}", 5)
+                vars_.append(w)
+                lbx += [-np.inf] * 5
+                ubx += [np.inf] * 5
+                x0 += list(W0[:, k])
+                prm = ca.vertcat(ph, p1, p2, mv, 0.0)
+                g.append(F(w, prm))
+                lbg += [0.0] * 5
+                ubg += [0.0] * 5
+                te = w[4] / tca.scale2 - (z1 / pair.gear.z) * ph
+                mis_terms.append(((te - (c0 + c1 * ph - A_t * ph**2)) / te_scale) ** 2)
+            obj_terms.append(ca.sum1(ca.vertcat(*mis_terms)) / K)
+            # Transfer points of the shifted parabolas: phi_t = p/2 + c1/(2A), phi_t - p.
+            phi_t = pitch / 2 + c1 / (2 * A_t)
+            for label, ph_t, w_guess in (("B'", phi_t, W0[:, -1]), ("A'", phi_t - pitch, W0[:, 0])):
+                w = ca.SX.sym(f"wt_{ci}_{label}", 5)
+                vars_.append(w)
+                lbx += [-np.inf] * 5
+                ubx += [np.inf] * 5
+                x0 += list(w_guess)
+                g.append(F(w, ca.vertcat(ph_t, p1, p2, mv, 0.0)))
+                lbg += [0.0] * 5
+                ubg += [0.0] * 5
+                r1 = S1(w[0], w[1], p1)[0]
+                r2 = S2(w[2], w[3], p2)[0]
+                rad1 = ca.sqrt(r1[0] ** 2 + r1[1] ** 2)
+                rad2 = ca.sqrt(r2[0] ** 2 + r2[1] ** 2)
+                for expr, lo, hi, what in (
+                        (rad1, r_form1 + m, g1.r_a - m, f"pinion radius at {label}"),
+                        (w[1], -g1.b / 2 + m, g1.b / 2 - m, f"pinion face position at {label}"),
+                        (rad2, r_form2 + m, pair.gear.r_a - m, f"gear radius at {label}"),
+                        (w[3], -pair.gear.b / 2 + m, pair.gear.b / 2 - m, f"gear face position at {label}")):
+                    g.append(expr)
+                    lbg.append(lo)
+                    ubg.append(hi)
+                    gnames.append((cname, what, len(lbg) - 1))
+            if tgt.ellipse_share > 0 and cname == "aligned":
+                wm = ca.SX.sym("w_mean", 5)
+                vars_.append(wm)
+                lbx += [-np.inf] * 5
+                ubx += [np.inf] * 5
+                x0 += list(W0[:, K // 2])
+                prm_m = ca.vertcat(phis[K // 2], p1, p2, mv, 0.0)
+                g.append(F(wm, prm_m))
+                lbg += [0.0] * 5
+                ubg += [0.0] * 5
+                out = tca.contact(wm, prm_m)
+                Ks = out[7] + out[8]
+                lam_min = 0.5 * (Ks[0, 0] + Ks[1, 1] - ca.sqrt((Ks[0, 0] - Ks[1, 1]) ** 2 + 4 * Ks[0, 1] ** 2))
+                # 2 a = 2 sqrt(2 delta / lam_min) >= share b  <=>  lam_min <= 8 delta / (share b)^2
+                g.append(lam_min * (tgt.ellipse_share * g1.b) ** 2 / (8 * tgt.delta))
+                lbg.append(-np.inf)
+                ubg.append(1.0)
+                gnames.append((cname, "contact ellipse major axis at the mean point", len(lbg) - 1))
+        if tgt.objective == "worst":
+            t = ca.SX.sym("t")
+            vars_.append(t)
+            lbx.append(0.0)
+            ubx.append(np.inf)
+            x0.append(float(max(1.0, 1.0)))
+            for term in obj_terms:
+                g.append(t - term)
+                lbg.append(0.0)
+                ubg.append(np.inf)
+            fit = t
+        else:
+            fit = ca.sum1(ca.vertcat(*obj_terms))
+        # Least longitudinal crowning among equally good fits (a_pl hardly moves a spur TE).
+        f = fit + 1e-6 * (x[SETTINGS.index("a_pl")]) ** 2
+        X = ca.vertcat(*vars_)
+        G = ca.vertcat(*g)
+        self._nlp = {"x": X, "f": f, "g": G}
+        self._x0, self._lbx, self._ubx = np.array(x0, float), np.array(lbx, float), np.array(ubx, float)
+        self._lbg, self._ubg, self._gnames = np.array(lbg, float), np.array(ubg, float), gnames
+        self._nvar, self._phis, self._A_t = nvar, phis, A_t
+        self._ncase_vars = 2
+        self._fit_terms = ca.Function("fit_terms", [X], obj_terms)
+        opts = {"ipopt.print_level": 5 if verbose else 0, "print_time": False, "ipopt.sb": "yes",
+                "ipopt.tol": 1e-10, "ipopt.max_iter": 200, "ipopt.mu_strategy": "adaptive"}
+        self._solver = ca.nlpsol("crowning", "ipopt", self._nlp, opts)
+        self.build_time = time.perf_counter() - t0
+        self._built = True
+        return self
+
+    # ------------------------------------------------------------------------------------------
+    def solve(self, x0_settings: dict | None = None, verbose: bool = False, verify: bool = True,
+              sensitivities: bool = True) -> CrowningDesign:
+        """Solve the NLP; verify every case by an independent TCA sweep with edge contact.
+
+        Parameters
+        ----------
+        x0_settings : dict, optional
+            Start from these settings instead of the build's first guess (the TCA unknowns keep
+            their first guess).
+        verbose : bool
+            Print IPOPT's iterations and progress to stderr.
+
+        Raises
+        ------
+        SynthesisError
+            IPOPT did not find a feasible optimum; the message lists the binding or violated
+            constraints (case, what, value, bound).
+        """
+        if not self._built:
+            self.build(verbose=verbose)
+        x0 = self._x0.copy()
+        if x0_settings:
+            for j, name in enumerate(SETTINGS):
+                if name in x0_settings:
+                    x0[j] = x0_settings[name] / self.scale[name]
+        t0 = time.perf_counter()
+        sol = self._solver(x0=x0, lbx=self._lbx, ubx=self._ubx, lbg=self._lbg, ubg=self._ubg)
+        st = self._solver.stats()
+        solve_time = time.perf_counter() - t0
+        X = np.asarray(sol["x"]).ravel()
+        Gv = np.asarray(sol["g"]).ravel()
+        status = st.get("return_status", "unknown")
+        viol = self._violations(Gv)
+        if not st.get("success", False) or viol:
+            raise SynthesisError(self._diagnose(status, Gv, viol))
+        settings = {name: float(X[j] * self.scale[name]) for j, name in enumerate(SETTINGS)}
+        g1 = self.pair.pinion
+        pin = g1.with_(rack=replace(g1.rack, a_c=settings["a_c"]), a_pl=settings["a_pl"])
+        pair = GearPair(pin, self.pair.gear, self.pair.a)
+        cases = self._verify(pair, X) if verify else []
+        sens = self.sensitivities(pair) if sensitivities else {}
+        return CrowningDesign(pair=pair, settings=settings, status=status, iterations=int(st.get("iter_count", -1)),
+                              solve_time=solve_time, build_time=self.build_time, objective=float(sol["f"]),
+                              cases=cases, sensitivities=sens)
+
+    def _violations(self, Gv, tol=1e-7):
+        bad = []
+        for cname, what, i in self._gnames:
+            lo, hi = self._lbg[i], self._ubg[i]
+            if Gv[i] < lo - tol * max(1, abs(lo)) or Gv[i] > hi + tol * max(1, abs(hi)):
+                bad.append((cname, what, Gv[i], lo, hi))
+        return bad
+
+    def _describe(self, cname, what, v, lo, hi) -> str:
+        if what.startswith("contact ellipse"):
+            need = self.target.ellipse_share * self.pair.pinion.b
+            two_a = need / math.sqrt(v) if v > 0 else float("inf")
+            return f"  case {cname!r}: {what}: 2a = {two_a:.4g} mm, required >= {need:.4g} mm"
+        return f"  case {cname!r}: {what} = {v:.6g} mm, allowed [{lo:.6g}, {hi:.6g}] mm"
+
+    def _diagnose(self, status, Gv, viol) -> str:
+        lines = [f"crowning: no feasible design (IPOPT: {status})."]
+        if viol:
+            lines.append("Violated constraints at IPOPT's last point:")
+            for cname, what, v, lo, hi in viol[:12]:
+                lines.append(self._describe(cname, what, v, lo, hi))
+        else:
+            near = []
+            for cname, what, i in self._gnames:
+                lo, hi = self._lbg[i], self._ubg[i]
+                d = min(abs(Gv[i] - lo) if np.isfinite(lo) else np.inf, abs(Gv[i] - hi) if np.isfinite(hi) else np.inf)
+                near.append((d, cname, what, Gv[i], lo, hi))
+            near.sort(key=lambda r: r[0])
+            lines.append("Binding constraints at IPOPT's last point:")
+            for d, cname, what, v, lo, hi in near[:6]:
+                lines.append(self._describe(cname, what, v, lo, hi))
+        lines.append("Relax the request: a larger TE level, a smaller misalignment set, a smaller edge margin or "
+                     "ellipse share, or wider bounds on the settings.")
+        return "\n".join(lines)
+
+    def _verify(self, pair: GearPair, X) -> list:
+        """Independent check: TCA + edge contact sweeps of the optimized drive, every case."""
+        z1 = pair.pinion.z
+        pitch = 2 * math.pi / z1
+        phi = np.linspace(-pitch, pitch, 4 * self.positions, endpoint=False)
+        ec = EdgeContact(TCA(pair, side=self.side))
+        out = []
+        fits = dict(zip(self.cases, (float(v) for v in self._fit_terms(X))))
+        for cname, mis in self.cases.items():
+            c1 = X[self._c_index[cname] + 1] * self.target.te_level
+            r = ec.sweep(phi, mis=mis, pairs=(-2, -1, 0, 1, 2))
+            phi_t = pitch / 2 + c1 / (2 * self._A_t)
+            k0 = r.pairs.index(0)
+            v = r.valid[0, k0]
+            path = {"pinion": (r.z1[0, k0][v], r.radius1[0, k0][v]), "gear": (r.z2[0, k0][v], r.radius2[0, k0][v])}
+            out.append(CaseReport(name=cname, misalignment=mis, fit_rms=float(np.sqrt(fits[cname])) * self.target.te_level,
+                                  te_level_tca=r.peak_to_peak, edge_contact=r.edge_contact(),
+                                  transfer_phi1=(float(phi_t - pitch), float(phi_t)), phi1=phi,
+                                  te_envelope=r.te_envelope, path=path))
+        return out
+
+    def sensitivities(self, pair: GearPair) -> dict:
+        """d(TE level)/d(variable) of every case by AD through the TCA equations (implicit
+        function theorem on each position, then the least-squares parabola fit of the TE)."""
+        tca = TCA(pair, side=self.side)
+        z1, z2 = pair.pinion.z, pair.gear.z
+        phis = self._phis
+        K = phis.size
+        V = np.c_[np.ones(K), phis, -phis**2]
+        P = np.linalg.pinv(V)  # the fitted A is row 2 of P @ TE
+        pitch = 2 * math.pi / z1
+        names = ["a_c", "a_pl"] + [f"mis.{m}" for m in ("dE", "crossing", "intersecting", "axial")]
+        out = {}
+        for cname, mis in self.cases.items():
+            res = tca.sweep(phis, mis=mis, pairs=(0,))
+            if not res.converged.all():
+                continue
+            W = np.vstack([res.u1[0], res.z1[0], res.u2[0], res.z2[0], res.phi2[0] * tca.scale2])
+            prm = tca.prm(phis, mis=mis)
+            w_s, p_s = ca.SX.sym("w", 5), ca.SX.sym("p", prm.shape[0])
+            Fw = tca.residual(w_s, p_s)
+            dwdp = ca.Function("dwdp", [w_s, p_s], [-ca.solve(ca.jacobian(Fw, w_s), ca.jacobian(Fw, p_s))])
+            D = np.stack([np.asarray(dwdp(W[:, k], prm[:, k]))[4] / tca.scale2 for k in range(K)])  # dphi2/dprm
+            cols = [1 + PARAMS.index("a_c"), 1 + PARAMS.index("a_pl")] + [1 + 2 * len(PARAMS) + i for i in range(4)]
+            dA = P[2] @ D[:, cols]  # d(fitted A)/d(var)
+            out[cname] = {n: float(v * (pitch / 2) ** 2) for n, v in zip(names, dA)}
+        del z2
+        return out
