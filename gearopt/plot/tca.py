@@ -173,3 +173,17 @@ def plot_edge_paths(case: dict, member: str = "gear", ax=None):
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7, loc="upper right")
     return ax
+
+
+def plot_crowning_comparison(before: list, after: list, axes, member: str | None = None):
+    """Before/after comparison of a crowning optimization, one row per misalignment case: the actual
+    TE (``member=None``) or the paths of contact on the ``member`` flank; left column before, right
+    column after. ``axes`` is an (n_cases, 2) array of Axes; returns it."""
+    for row, b, a in zip(axes, before, after):
+        for ax, case, when in ((row[0], b, "before"), (row[1], a, "after")):
+            if member is None:
+                plot_edge_te(case, ax=ax)
+            else:
+                plot_edge_paths(case, member, ax=ax)
+            ax.set_title(f"{when}: " + ax.get_title(), fontsize=8)
+    return axes

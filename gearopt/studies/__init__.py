@@ -36,7 +36,8 @@ if TYPE_CHECKING:  # pragma: no cover
     from gearopt.io.scene import Scene, Section
 
 #: Study modules shipped with gearopt (imported lazily by :func:`_load_builtin`).
-BUILTIN_MODULES = ("gearopt.studies.geometry", "gearopt.studies.planar_tca", "gearopt.studies.tca")
+BUILTIN_MODULES = ("gearopt.studies.geometry", "gearopt.studies.planar_tca", "gearopt.studies.tca",
+                   "gearopt.studies.crowning")
 #: Environment variable naming extra study modules to import (comma-separated).
 ENV_MODULES = "GEAROPT_STUDY_MODULES"
 

@@ -57,7 +57,12 @@ class CrowningTarget:
         Minimum major axis of the contact ellipse at the mean point of the aligned drive, as a share
         of the face width (0 = no constraint).
     edge_margin : float
-        Distance [mm] the contact points at the transfer points keep from the flank boundaries.
+        Distance [mm] the contact points at the transfer points keep from the face ends.
+    tip_margin : float
+        Radial distance [mm] they keep from the tip and form circles.
+    level_tolerance : float
+        Accepted relative deviation of every case's verified TE level from ``te_level``; a design
+        outside it is refused with the binding constraints named (the constraints won).
     delta : float
         Elastic approach for the contact ellipse [mm].
     objective : {"sum", "worst"}
@@ -67,6 +72,8 @@ class CrowningTarget:
     te_level: float
     ellipse_share: float = 0.0
     edge_margin: float = 0.0
+    tip_margin: float = 0.0
+    level_tolerance: float = 0.10
     delta: float = 0.00632
     objective: str = "sum"
 
@@ -76,8 +83,12 @@ class CrowningTarget:
                                "0 < te_level < 600 arcsec")
         if not 0 <= self.ellipse_share < 1:
             raise out_of_range("target.ellipse_share", self.ellipse_share, "0 <= share < 1")
-        if not (math.isfinite(self.edge_margin) and self.edge_margin >= 0):
-            raise out_of_range("target.edge_margin", self.edge_margin, "edge_margin >= 0 mm")
+        for name in ("edge_margin", "tip_margin"):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and 0 <= v < 10):
+                raise out_of_range(f"target.{name}", v, f"0 <= {name} < 10 mm")
+        if not 0 < self.level_tolerance < 1:
+            raise out_of_range("target.level_tolerance", self.level_tolerance, "0 < tolerance < 1")
         if self.objective not in ("sum", "worst"):
             raise out_of_range("target.objective", self.objective, "'sum' or 'worst'")
 
@@ -95,6 +106,7 @@ class CaseReport:
     phi1: np.ndarray = field(repr=False)
     te_envelope: np.ndarray = field(repr=False)  # verification sweep, actual TE [rad]
     path: dict = field(repr=False)  # central pair: {"pinion": (z, radius), "gear": (z, radius)}, valid points
+    result: object = field(default=None, repr=False)  # the EdgeTCAResult of the verification sweep
 
 
 @dataclass(frozen=True)
@@ -233,7 +245,7 @@ class CrowningOptimizer:
         r_form1, r_form2 = tca._form_radius(tca.pinion), tca._form_radius(tca.gear)
         S1 = tca.pinion.surface(self.side, "flank")
         S2 = tca.gear.surface(self.side, "flank")
-        m = tgt.edge_margin
+        m, mt = tgt.edge_margin, tgt.tip_margin
         nvar = len(SETTINGS)
         for ci, (cname, mis) in enumerate(self.cases.items()):
             mv = mis.vector()
@@ -286,9 +298,9 @@ class CrowningOptimizer:
                 rad1 = ca.sqrt(r1[0] ** 2 + r1[1] ** 2)
                 rad2 = ca.sqrt(r2[0] ** 2 + r2[1] ** 2)
                 for expr, lo, hi, what in (
-                        (rad1, r_form1 + m, g1.r_a - m, f"pinion radius at {label}"),
+                        (rad1, r_form1 + mt, g1.r_a - mt, f"pinion radius at {label}"),
                         (w[1], -g1.b / 2 + m, g1.b / 2 - m, f"pinion face position at {label}"),
-                        (rad2, r_form2 + m, pair.gear.r_a - m, f"gear radius at {label}"),
+                        (rad2, r_form2 + mt, pair.gear.r_a - mt, f"gear radius at {label}"),
                         (w[3], -pair.gear.b / 2 + m, pair.gear.b / 2 - m, f"gear face position at {label}")):
                     g.append(expr)
                     lbg.append(lo)
@@ -383,6 +395,15 @@ class CrowningOptimizer:
         pin = g1.with_(rack=replace(g1.rack, a_c=settings["a_c"]), a_pl=settings["a_pl"])
         pair = GearPair(pin, self.pair.gear, self.pair.a)
         cases = self._verify(pair, X) if verify else []
+        off = [c for c in cases if abs(c.te_level_tca / self.target.te_level - 1) > self.target.level_tolerance]
+        if off:
+            worst = max(off, key=lambda c: abs(c.te_level_tca / self.target.te_level - 1))
+            raise SynthesisError(
+                f"crowning: the best design misses the TE level: case {worst.name!r} has "
+                f"{worst.te_level_tca * RAD_TO_ARCSEC:.3f} arcsec for a target of "
+                f"{self.target.te_level * RAD_TO_ARCSEC:.3f} arcsec (tolerance "
+                f"{100 * self.target.level_tolerance:.0f} %), a_c = {settings['a_c']:.4g}, a_pl = "
+                f"{settings['a_pl']:.4g} 1/mm.\n" + self._diagnose(status, Gv, [], head=False))
         sens = self.sensitivities(pair) if sensitivities else {}
         return CrowningDesign(pair=pair, settings=settings, status=status, iterations=int(st.get("iter_count", -1)),
                               solve_time=solve_time, build_time=self.build_time, objective=float(sol["f"]),
@@ -403,8 +424,8 @@ class CrowningOptimizer:
             return f"  case {cname!r}: {what}: 2a = {two_a:.4g} mm, required >= {need:.4g} mm"
         return f"  case {cname!r}: {what} = {v:.6g} mm, allowed [{lo:.6g}, {hi:.6g}] mm"
 
-    def _diagnose(self, status, Gv, viol) -> str:
-        lines = [f"crowning: no feasible design (IPOPT: {status})."]
+    def _diagnose(self, status, Gv, viol, head: bool = True) -> str:
+        lines = [f"crowning: no feasible design (IPOPT: {status})."] if head else []
         if viol:
             lines.append("Violated constraints at IPOPT's last point:")
             for cname, what, v, lo, hi in viol[:12]:
@@ -419,8 +440,8 @@ class CrowningOptimizer:
             lines.append("Binding constraints at IPOPT's last point:")
             for d, cname, what, v, lo, hi in near[:6]:
                 lines.append(self._describe(cname, what, v, lo, hi))
-        lines.append("Relax the request: a larger TE level, a smaller misalignment set, a smaller edge margin or "
-                     "ellipse share, or wider bounds on the settings.")
+        lines.append("Relax the request: a larger TE level, a smaller misalignment set, smaller edge/tip margins "
+                     "or ellipse share, or wider bounds on the settings.")
         return "\n".join(lines)
 
     def _verify(self, pair: GearPair, X) -> list:
@@ -441,7 +462,7 @@ class CrowningOptimizer:
             out.append(CaseReport(name=cname, misalignment=mis, fit_rms=float(np.sqrt(fits[cname])) * self.target.te_level,
                                   te_level_tca=r.peak_to_peak, edge_contact=r.edge_contact(),
                                   transfer_phi1=(float(phi_t - pitch), float(phi_t)), phi1=phi,
-                                  te_envelope=r.te_envelope, path=path))
+                                  te_envelope=r.te_envelope, path=path, result=r))
         return out
 
     def sensitivities(self, pair: GearPair) -> dict:

@@ -1,0 +1,180 @@
+"""Crowning optimization study: optimize the pinion crowning for a predesigned parabolic TE over a
+set of misalignments, then compare the drive before and after (TE and bearing contact, every case).
+
+Scene section ``[crowning]``:
+
+``te_level``       predesigned TE level (angle; e.g. "8 arcsec").
+``crossing``, ``intersecting`` (angles), ``dE``, ``axial`` (lengths): each non-zero value adds the
+                   cases +value and -value to the aligned drive.
+``combined``       also the case with all given misalignments at their + values (default false).
+``ellipse_share``  minimum contact-ellipse major axis at the mean point / face width (default 0).
+``edge_margin``    distance the transfer contact points keep from the face ends [mm] (0).
+``tip_margin``     radial distance they keep from the tip and form circles [mm] (0).
+``positions``      TCA positions per case in the NLP (default 41).
+``objective``      "sum" (default) or "worst".
+``quiet``          no IPOPT iteration output (default true).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..contact.edge import EdgeContact
+from ..gears import GearPair
+from ..meshing.tca import TCA, Misalignment
+from ..synthesis.crowning import CrowningOptimizer, CrowningTarget
+from ..units import ARCMIN, RAD_TO_ARCSEC
+from .tca import edge_case_dict
+
+UNITS = {"length": "mm", "angle": "rad", "te": "arcsec (suffix _arcsec)", "settings": "1/mm",
+         "sensitivities": "arcsec of TE level per unit of the variable (1/mm, rad, mm)", "time": "s"}
+
+
+def misalignment_cases(crossing=0.0, intersecting=0.0, dE=0.0, axial=0.0, combined=False) -> dict:
+    """The aligned drive plus +-each given misalignment (and their combination)."""
+    cases = {"aligned": Misalignment()}
+    fmt = {"crossing": lambda v: f"{v / ARCMIN:+g}'", "intersecting": lambda v: f"{v / ARCMIN:+g}'",
+           "dE": lambda v: f"{v:+g} mm", "axial": lambda v: f"{v:+g} mm"}
+    given = {k: v for k, v in (("crossing", crossing), ("intersecting", intersecting), ("dE", dE), ("axial", axial))
+             if v}
+    for k, v in given.items():
+        for sgn in (1, -1):
+            cases[f"{k} {fmt[k](sgn * abs(v))}"] = Misalignment(**{k: sgn * abs(v)})
+    if combined and len(given) > 1:
+        cases["combined +"] = Misalignment(**{k: abs(v) for k, v in given.items()})
+    return cases
+
+
+@dataclass(frozen=True)
+class CrowningReport:
+    scene: str
+    design: dict
+    before: list
+    after: list
+    timing: dict = field(default_factory=dict)
+
+    def to_dict(self) -> dict:
+        return {"study": "crowning", "scene": self.scene, "units": UNITS, "design": self.design,
+                "before": self.before, "after": self.after, "timing": self.timing}
+
+    def save_plots(self, out_dir, dpi: int = 120) -> list[str]:
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+        from pathlib import Path
+
+        from ..plot.tca import plot_crowning_comparison
+
+        out = Path(out_dir)
+        files = []
+        for name, member in (("before_after_te.png", None), ("before_after_contact_gear.png", "gear"),
+                             ("before_after_contact_pinion.png", "pinion")):
+            n = len(self.after)
+            fig, axes = plt.subplots(n, 2, figsize=(12, 3.3 * n), squeeze=False)
+            plot_crowning_comparison(self.before, self.after, axes=axes, member=member)
+            what = "actual TE" if member is None else f"paths of contact on the {member} flank"
+            fig.suptitle(f"{self.scene}: {what}, before (left) and after (right) crowning optimization")
+            fig.tight_layout()
+            fig.savefig(out / name, dpi=dpi, bbox_inches="tight")
+            plt.close(fig)
+            files.append(name)
+        return files
+
+
+class CrowningStudy:
+    def __init__(self, pair: GearPair, target: CrowningTarget, cases: dict, positions=41, quiet=True, name="crowning"):
+        self.pair, self.target, self.cases, self.quiet, self.name = pair, target, cases, quiet, name
+        self.optimizer = CrowningOptimizer(pair, target, cases=cases, positions=positions)
+
+    def run(self, progress=None) -> CrowningReport:
+        t0 = time.perf_counter()
+        z1 = self.pair.pinion.z
+        pitch = 2 * math.pi / z1
+        phi = np.linspace(-pitch, pitch, 162, endpoint=False)
+        if progress:
+            progress(f"crowning: TCA of the drive before optimization ({len(self.cases)} cases)")
+        ec0 = EdgeContact(TCA(self.pair))
+        lim0 = {"pinion": {"b": self.pair.pinion.b, "r_a": self.pair.pinion.r_a, "r_form": ec0.r_form[1]},
+                "gear": {"b": self.pair.gear.b, "r_a": self.pair.gear.r_a, "r_form": ec0.r_form[2]}}
+        before = [edge_case_dict(ec0.sweep(phi, mis=m, pairs=(-2, -1, 0, 1, 2)), self.pair, c, lim0)
+                  for c, m in self.cases.items()]
+        if progress:
+            progress("crowning: building the NLP")
+        self.optimizer.build(verbose=not self.quiet)
+        if progress:
+            progress(f"crowning: solving (IPOPT, {self.optimizer._x0.size} variables)")
+        d = self.optimizer.solve(verbose=not self.quiet)
+        if progress:
+            progress(f"crowning: {d.status} in {d.iterations} iterations, {d.solve_time:.3f} s; verifying every case")
+        ec1 = EdgeContact(TCA(d.pair))
+        lim1 = {"pinion": {"b": d.pair.pinion.b, "r_a": d.pair.pinion.r_a, "r_form": ec1.r_form[1]},
+                "gear": {"b": d.pair.gear.b, "r_a": d.pair.gear.r_a, "r_form": ec1.r_form[2]}}
+        after = [edge_case_dict(ec1.sweep(phi, mis=m, pairs=(-2, -1, 0, 1, 2)), d.pair, c, lim1)
+                 for c, m in self.cases.items()]
+        design = {
+            "settings": d.settings, "status": d.status, "iterations": d.iterations, "objective": d.objective,
+            "target_te_level_arcsec": self.target.te_level * RAD_TO_ARCSEC,
+            "ellipse_share": self.target.ellipse_share, "edge_margin": self.target.edge_margin,
+            "tip_margin": self.target.tip_margin,
+            "nlp_build_s": d.build_time, "nlp_solve_s": d.solve_time,
+            "cases": [{"name": c.name, "te_level_arcsec": c.te_level_tca * RAD_TO_ARCSEC,
+                       "fit_rms_arcsec": c.fit_rms * RAD_TO_ARCSEC, "edge_contact": c.edge_contact,
+                       "transfer_phi1": list(c.transfer_phi1)} for c in d.cases],
+            "sensitivities_arcsec": {c: {k: v * RAD_TO_ARCSEC for k, v in s.items()}
+                                     for c, s in d.sensitivities.items()},
+        }
+        self.design = d
+        return CrowningReport(scene=self.name, design=design, before=before, after=after,
+                              timing={"run_s": time.perf_counter() - t0})
+
+
+def _from_scene(scene) -> CrowningStudy:
+    from ..errors import GeometryError, SceneError
+
+    o = scene.options.get("crowning", {}) or {}
+    try:
+        target = CrowningTarget(te_level=o["te_level"], ellipse_share=o.get("ellipse_share") or 0.0,
+                                edge_margin=o.get("edge_margin") or 0.0, tip_margin=o.get("tip_margin") or 0.0,
+                                objective=o.get("objective") or "sum")
+        cases = misalignment_cases(o.get("crossing") or 0.0, o.get("intersecting") or 0.0, o.get("dE") or 0.0,
+                                   o.get("axial") or 0.0, bool(o.get("combined")))
+        return CrowningStudy(scene.pair, target, cases, positions=o.get("positions") or 41,
+                             quiet=o.get("quiet", True) is not False, name=scene.name)
+    except GeometryError as e:
+        raise SceneError(f"{scene.source}: [crowning] {e}") from e
+
+
+def _register():
+    from ..io.scene import Bounds, Field, Section
+    from . import StudySpec, register
+
+    register(StudySpec(
+        name="crowning",
+        doc="Optimize pinion crowning (a_c, a_pl) for a parabolic TE over a misalignment set; before/after plots",
+        sections=[Section("crowning", [
+            Field("te_level", "angle", required=True, check=Bounds(lo=0, lo_open=True, hi=600 / 3600),
+                  doc="predesigned TE level (e.g. \"8 arcsec\")"),
+            Field("crossing", "angle", default=0.0, check=Bounds(lo=0, hi=10), doc="+- crossing angle cases"),
+            Field("intersecting", "angle", default=0.0, check=Bounds(lo=0, hi=10), doc="+- intersecting angle cases"),
+            Field("dE", "length", default=0.0, check=Bounds(lo=0, hi=5), doc="+- centre distance change cases"),
+            Field("axial", "length", default=0.0, check=Bounds(lo=0, hi=50), doc="+- axial displacement cases"),
+            Field("combined", "bool", default=False, doc="also all misalignments together"),
+            Field("ellipse_share", "float", default=0.0, check=Bounds(lo=0, hi=1, hi_open=True),
+                  doc="min contact-ellipse major axis / face width at the mean point"),
+            Field("edge_margin", "length", default=0.0, check=Bounds(lo=0, hi=5),
+                  doc="margin of the transfer contact points from the face ends"),
+            Field("tip_margin", "length", default=0.0, check=Bounds(lo=0, hi=5),
+                  doc="radial margin of the transfer contact points from the tip and form circles"),
+            Field("positions", "int", default=41, check=Bounds(lo=7, hi=401), doc="TCA positions per case in the NLP"),
+            Field("objective", "str", default="sum", choices=("sum", "worst"), doc="sum of case misfits or worst case"),
+            Field("quiet", "bool", default=True, doc="silence IPOPT's iteration output"),
+        ], required=True)],
+        build=_from_scene,
+    ))
+
+
+_register()
