@@ -227,8 +227,9 @@ class CrowningOptimizer:
         phis = np.linspace(-pitch / 2, pitch / 2, K)
         A_t = tgt.te_level / (pitch / 2) ** 2
         te_scale = tgt.te_level
-        x = ca.SX.sym("x", len(SETTINGS))  # scaled settings
-        p1 = ca.SX(p1_0)
+        SYM = ca.MX  # Function calls stay nodes of the graph: fast exact-Hessian construction
+        x = SYM.sym("x", len(SETTINGS))  # scaled settings
+        p1 = SYM(p1_0)
         for j, name in enumerate(SETTINGS):
             p1[_IDX[name]] = x[j] * self.scale[name]
         F = tca.residual
@@ -259,7 +260,7 @@ class CrowningOptimizer:
             W0 = np.vstack([res0.u1[0], res0.z1[0], res0.u2[0], res0.z2[0],
                             res0.phi2[0] * tca.scale2])
             te0 = res0.phi2[0] - (z1 / pair.gear.z) * phis
-            c = ca.SX.sym(f"c_{ci}", 2)  # c0, c1 of the absorbed line [rad, rad/rad]
+            c = SYM.sym(f"c_{ci}", 2)  # c0, c1 of the absorbed line [rad, rad/rad]
             self._c_index[cname] = len(lbx)
             vars_.append(c)
             V = np.c_[np.ones(K), phis]
@@ -268,24 +269,24 @@ class CrowningOptimizer:
             ubx += [np.inf, np.inf]
             x0 += [cfit[0] / te_scale, cfit[1] / te_scale]
             c0, c1 = c[0] * te_scale, c[1] * te_scale
-            mis_terms = []
-            for k, ph in enumerate(phis):
-                w = ca.SX.sym(f"w_{ci}_{k}", 5)
-                vars_.append(w)
-                lbx += [-np.inf] * 5
-                ubx += [np.inf] * 5
-                x0 += list(W0[:, k])
-                prm = ca.vertcat(ph, p1, p2, mv, 0.0)
-                g.append(F(w, prm))
-                lbg += [0.0] * 5
-                ubg += [0.0] * 5
-                te = w[4] / tca.scale2 - (z1 / pair.gear.z) * ph
-                mis_terms.append(((te - (c0 + c1 * ph - A_t * ph**2)) / te_scale) ** 2)
-            obj_terms.append(ca.sum1(ca.vertcat(*mis_terms)) / K)
+            # All positions of the case in one mapped call of the TCA residual.
+            W = SYM.sym(f"W_{ci}", 5, K)
+            vars_.append(ca.vec(W))
+            lbx += [-np.inf] * (5 * K)
+            ubx += [np.inf] * (5 * K)
+            x0 += list(W0.T.ravel())
+            PRM = ca.vertcat(ca.DM(phis).T, ca.repmat(p1, 1, K), ca.repmat(ca.DM(p2), 1, K),
+                             ca.repmat(ca.DM(mv), 1, K), ca.DM.zeros(1, K))
+            g.append(ca.vec(F.map(K)(W, PRM)))
+            lbg += [0.0] * (5 * K)
+            ubg += [0.0] * (5 * K)
+            te = W[4, :] / tca.scale2 - (z1 / pair.gear.z) * ca.DM(phis).T
+            fit_row = (te - (c0 + c1 * ca.DM(phis).T - A_t * ca.DM(phis**2).T)) / te_scale
+            obj_terms.append(ca.sumsqr(fit_row) / K)
             # Transfer points of the shifted parabolas: phi_t = p/2 + c1/(2A), phi_t - p.
             phi_t = pitch / 2 + c1 / (2 * A_t)
             for label, ph_t, w_guess in (("B'", phi_t, W0[:, -1]), ("A'", phi_t - pitch, W0[:, 0])):
-                w = ca.SX.sym(f"wt_{ci}_{label}", 5)
+                w = SYM.sym(f"wt_{ci}_{label}", 5)
                 vars_.append(w)
                 lbx += [-np.inf] * 5
                 ubx += [np.inf] * 5
@@ -307,7 +308,7 @@ class CrowningOptimizer:
                     ubg.append(hi)
                     gnames.append((cname, what, len(lbg) - 1))
             if tgt.ellipse_share > 0 and cname == "aligned":
-                wm = ca.SX.sym("w_mean", 5)
+                wm = SYM.sym("w_mean", 5)
                 vars_.append(wm)
                 lbx += [-np.inf] * 5
                 ubx += [np.inf] * 5
@@ -325,7 +326,7 @@ class CrowningOptimizer:
                 ubg.append(1.0)
                 gnames.append((cname, "contact ellipse major axis at the mean point", len(lbg) - 1))
         if tgt.objective == "worst":
-            t = ca.SX.sym("t")
+            t = SYM.sym("t")
             vars_.append(t)
             lbx.append(0.0)
             ubx.append(np.inf)
