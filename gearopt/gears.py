@@ -92,6 +92,10 @@ class BasicRack:
             raise out_of_range("rack.h_aP", self.h_aP, "h_aP > 0 (in modules)")
         if self.h_fP < self.h_aP:
             raise out_of_range("rack.h_fP", self.h_fP, f"h_fP >= h_aP = {self.h_aP} (clearance c_P >= 0, in modules)")
+        land = math.pi / 4 - self.h_fP * math.tan(self.alpha_n)  # half tip land of the straight tool [m_n]
+        if land < 0:
+            raise out_of_range("rack.h_fP", self.h_fP, f"h_fP <= {math.pi / 4 / math.tan(self.alpha_n):.4f} for "
+                               f"alpha_n = {math.degrees(self.alpha_n):.4g} deg (the tool tooth would be pointed)")
         if self.rho_fP < 0 or self.rho_fP > self.rho_max:
             raise out_of_range("rack.rho_fP", self.rho_fP, f"0 <= rho_fP <= {self.rho_max:.4f} (in modules; larger "
                                "fillets do not fit on the tool tip)")

@@ -172,4 +172,4 @@ def test_edge_scene_physics(scene):
         assert max(jumps) > 0.5 * scale
     if rep["pair"]["pinion_a_c"] == 0 and rep["pair"]["pinion_a_pl"] == 0:
         # Unmodified gears: the aligned drive is conjugate, TE identically zero.
-        assert max(abs(v) for v in aligned["te_envelope_arcsec"]) < 1e-9
+        assert max(abs(v) for v in aligned["te_envelope_arcsec"]) < 1e-7  # 5e-13 rad

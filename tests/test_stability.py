@@ -22,7 +22,7 @@ from hypothesis import strategies as st  # noqa: E402
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
 import stability as S  # noqa: E402
 
-from gearopt.errors import GeometryError  # noqa: E402
+from gearopt.errors import ConvergenceError, GeometryError  # noqa: E402
 from gearopt.gears import BasicRack, Gear, GearPair  # noqa: E402
 from gearopt.meshing.tca import TCA, Misalignment  # noqa: E402
 from gearopt.units import DEG  # noqa: E402
@@ -53,8 +53,13 @@ def test_cusp_is_rejected_by_name():
     tca = TCA(case.make(), contact=case.contact)
     phi_c, msg = S.find_cusp(tca, case.mis)
     assert msg.startswith("ConvergenceError") and "singular point" in msg, msg
-    res = tca.sweep(np.array([phi_c]), pairs=(0,), anchor=phi_c - 1e-3)
-    assert not res.converged[0, 0] and np.isnan(res.te[0, 0]) and np.isnan(res.te_envelope[0])
+    # A sweep through it either refuses its anchor by name or flags the point; never a number.
+    try:
+        res = tca.sweep(np.array([phi_c]), pairs=(0,), anchor=phi_c - 1e-3)
+    except ConvergenceError as e:
+        assert "singular point" in str(e)
+    else:
+        assert not res.converged[0, 0] and np.isnan(res.te[0, 0]) and np.isnan(res.te_envelope[0])
 
 
 # ---------------------------------------------------------------------------------------------
@@ -98,7 +103,7 @@ def _phis(pair, n=21):
 def test_conjugate_pair_has_zero_te(pair):
     tca = TCA(pair, contact="line")
     res = tca.sweep(_phis(pair))
-    assert res.converged.all()
+    assert res.converged[res.pairs.index(0)].all()  # neighbours may run past the cusp (rejected)
     assert np.nanmax(np.abs(res.te)) <= S.BOUND_ZERO
     env = res.te_envelope[np.isfinite(res.te_envelope)]
     assert env.size and np.all(np.abs(env) <= S.BOUND_ZERO)

@@ -532,7 +532,7 @@ def test_sweep_never_returns_false_roots_undercut_pinion():
     tca = TCA(pair)
     r = tca.sweep(np.linspace(-0.9, 0.5, 57), pairs=(-1, 0, 1))
     ok = r.converged
-    assert ok.sum() > 100
+    assert ok.sum() >= 90  # the rest lies past the cusp (reversed involute branch): rejected
     np.testing.assert_allclose(r.normal_dot[ok], -1.0, atol=1e-9)
     assert np.all(r.residual[ok] <= tca.tol)
     assert np.all(~r.converged[np.isnan(r.te)])
@@ -588,7 +588,9 @@ def test_multi_pair_envelope_double_crowned_spur():
     tca = TCA(pair)
     phi = np.linspace(-2 * math.pi / z1, 2 * math.pi / z1, 161)
     r = tca.sweep(phi, pairs=(-2, -1, 0, 1, 2))
-    assert r.converged.all()
+    # every position has a contact; pair 0 is solved over the whole range (far pairs may run past
+    # the involute cusp, where the sweep rejects the reversed branch)
+    assert np.isfinite(r.te_envelope).all() and r.converged[2].all()
     # envelope = max over pairs in contact on the active flanks; driving = that pair
     te_on = np.where(r.on_surface, r.te, -np.inf)
     np.testing.assert_array_equal(r.te_envelope, te_on.max(axis=0))

@@ -127,7 +127,8 @@ class EdgeContact:
         q = ca.SX.sym("q", 5)
         prm = ca.SX.sym("prm", tca._nprm)
         k = dict(zip(tca.kinematics.name_out(), tca.kinematics(q, prm)))
-        reg = ca.fmin(ca.norm_2(ca.cross(k["t1u"], k["t1z"])), ca.norm_2(ca.cross(k["t2u"], k["t2z"])))
+        reg = ca.fmin(tca.orient1 * ca.dot(ca.cross(k["t1u"], k["t1z"]), k["nf1"]),
+                      tca.orient2 * ca.dot(ca.cross(k["t2u"], k["t2z"]), k["nf2"]))  # signed, see TCA
         ez1 = ca.DM([0.0, 0.0, 1.0])
         self.branches: dict[str, Branch] = {}
         self.residuals: dict[str, ca.Function] = {}
@@ -212,6 +213,7 @@ class EdgeContact:
         B, M = len(names), phis.size
         Q = np.full((B, 5, M), np.nan)
         conv = np.zeros((B, M), bool)
+        cone = np.full((B, M), np.nan)  # min(alpha, gamma) of the edge points (0: tangency)
         stats = {}
         # Surface branch (line contact in the mid section when the drive is in line contact).
         surf = None
@@ -239,16 +241,16 @@ class EdgeContact:
                 continue
             br = self.branches[name]
             w_a = br.newton(q0, prm[:, i_a])
-            res, cone, reg, ok = br.check(w_a, prm[:, i_a])
+            res, _, _, _ = br.check(w_a, prm[:, i_a])
             if not (np.isfinite(res) and res <= tca.tol):
                 stats[name] = f"no edge solution near the anchor (residual {res:.2g} mm)"
                 continue
             W0 = br.predict(w_a, prm[:, i_a], uphi - phis[i_a])
-            W, res, n1n2, reg, ok, st = br.solve(W0, uprm, [np.arange(uphi.size)])
+            W, res, cn, reg, ok, st = br.solve(W0, uprm, [np.arange(uphi.size)])
             W[:, ~ok] = np.nan
-            Q[b], conv[b] = W[:, inv_idx], ok[inv_idx]
+            Q[b], conv[b], cone[b] = W[:, inv_idx], ok[inv_idx], cn[inv_idx]
             stats[name] = st
-        return self._combine(phi1, pairs, names, Q, conv, prm, mis, surf, stats, t0)
+        return self._combine(phi1, pairs, names, Q, conv, cone, prm, mis, surf, stats, t0)
 
     def _edge_anchor_guess(self, name, Qs, conv_s, phis, p1, p2):
         """Index of the anchor column and a first guess on the edge."""
@@ -298,7 +300,7 @@ class EdgeContact:
         return out
 
     # ------------------------------------------------------------------------------------------
-    def _combine(self, phi1, pairs, names, Q, conv, prm, mis, surf, stats, t0):
+    def _combine(self, phi1, pairs, names, Q, conv, cone, prm, mis, surf, stats, t0):
         tca = self.tca
         g1, g2 = self.members[1], self.members[2]
         K, N = len(pairs), phi1.size
@@ -318,13 +320,19 @@ class EdgeContact:
         # or, without surface contact, the mean of the actual TE.
         te_raw = te_raw.reshape(B, K, N)
         valid = valid.reshape(B, K, N)
-        if stats.get("surface_mode", "").startswith("line"):
-            # Line contact: where an edge ties with the line-contact TE, the contact line runs
-            # through that edge point: it is surface contact, not edge contact.
-            conv0 = conv.reshape(B, K, N)[0]
-            for b in range(1, B):
-                tie = valid[b] & conv0 & (np.abs(te_raw[b] - te_raw[0]) < 1e-10)
-                valid[0] |= tie
+        # An edge point where the flanks are tangent (gamma = 0: the mating normal is the flank's)
+        # is surface contact reaching the boundary, e.g. a contact line running through a face end:
+        # it counts as surface contact where the surface branch has no valid point of its own.
+        tangent = (cone.reshape(B, K, N) < 1e-7) & valid
+        for b in range(1, B):
+            take = tangent[b] & ~valid[0]
+            if take.any():
+                te_raw[0] = np.where(take, te_raw[b], te_raw[0])
+                z1r, z2r = z1.reshape(B, K, N), z2.reshape(B, K, N)
+                r1r, r2r = rad1.reshape(B, K, N), rad2.reshape(B, K, N)
+                for arr in (z1r, z2r, r1r, r2r):
+                    arr[0] = np.where(take, arr[b], arr[0])
+                valid[0] |= take
         if surf is not None and np.isfinite(surf.te).any():
             ref = self._surface_zero(surf, te_raw[0], k0 := (pairs.index(0) if 0 in pairs else 0))
         else:

@@ -44,7 +44,7 @@ from ..units import ARCMIN, RAD_TO_ARCSEC
 MISALIGNMENTS = ("dE", "crossing", "intersecting", "axial")
 DELTA_DEFAULT = 0.00632  #: elastic approach for the contact ellipse [mm]
 NORMAL_TOL = 1e-8  #: accepted contact points have n1 . n2 < -1 + NORMAL_TOL (tangency, not crossing)
-REGULARITY_MIN = 1e-6  #: and |dr/du x dr/dz| > REGULARITY_MIN on both flanks (not at a singular point)
+REGULARITY_MIN = 1e-6  #: and (dr/du x dr/dz) . n > REGULARITY_MIN on both flanks' valid branches (no cusp)
 
 
 @dataclass(frozen=True)
@@ -311,8 +311,13 @@ class TCA:
         K2 = 0.5 * (B2 + B2.T)
         # Regularity of both surfaces at the point: |dr/du x dr/dz| (0 at the involute's singular point,
         # where n . dr/du = 0 holds for any normal and crossing surfaces solve the equations).
-        reg = ca.fmin(ca.norm_2(ca.cross(ca.jacobian(r1, u1), ca.jacobian(r1, z1))),
-                      ca.norm_2(ca.cross(ca.jacobian(r2, u2), ca.jacobian(r2, z2))))
+        # Signed: (r_u x r_z) . n keeps its sign on the valid branch of each flank and changes it past
+        # the cusp (the reversed involute branch of an undercut tooth, whose tool normal would still
+        # pass the n1 . n2 = -1 test).
+        self.orient1 = self._orientation(self.pinion, pair.a_w * g1.z / (g1.z + g2.z))
+        self.orient2 = self._orientation(self.gear, pair.a_w * g2.z / (g1.z + g2.z))
+        reg = ca.fmin(self.orient1 * ca.dot(ca.cross(ca.jacobian(r1, u1), ca.jacobian(r1, z1)), n1),
+                      self.orient2 * ca.dot(ca.cross(ca.jacobian(r2, u2), ca.jacobian(r2, z2)), n2))
         out = [rf1, nf1, rf2, nf2, ca.dot(nf1, nf2), r1, r2, K1, K2, E2, E1, reg]
         names = ["rf1", "nf1", "rf2", "nf2", "n1n2", "r1", "r2", "K1", "K2", "E2", "E1", "reg"]
         self.contact = ca.Function("tca_contact", [w, prm], out, ["w", "prm"], names)
@@ -383,12 +388,20 @@ class TCA:
         res, n1n2, reg, ok = self._check(w, prm)
         at = f"TCA at phi1 = {phi1:.6g} rad"
         if not np.isfinite(res) or res > self.tol:
+            g1, g2 = self.pair.pinion, self.pair.gear
+            wf = np.asarray(self._full(w, z_section)).ravel()
+            if np.all(np.isfinite(wf)) and (abs(wf[1]) > g1.b / 2 or abs(wf[3]) > g2.b / 2):
+                raise ConvergenceError(
+                    f"{at}: no contact point on the face: the search ran off it (last iterate z1 = {wf[1]:.4g} mm, "
+                    f"z2 = {wf[3]:.4g} mm; faces +-{g1.b / 2:g} / +-{g2.b / 2:g} mm). The contact leaves the "
+                    "tooth: analyse edge contact (gearopt.contact.EdgeContact, [tca] edge_contact = true) or "
+                    "crown the pinion more.")
             raise ConvergenceError(f"{at}: no contact point (residual {res:.3g} mm > {self.tol:g} mm); the first "
                                    "guess may be too far or the flanks do not meet.")
         if reg <= REGULARITY_MIN:
-            raise ConvergenceError(f"{at}: false root at a singular point of a flank (|r_u x r_z| = {reg:.2g}, the "
-                                   "involute's base-circle cusp): the surfaces cross there, they do not touch. Start "
-                                   "from another guess.")
+            raise ConvergenceError(f"{at}: false root at a singular point of a flank ((r_u x r_z) . n = {reg:.2g}: at "
+                                   "or past the involute's base-circle cusp, on the reversed branch): the surfaces "
+                                   "cross there, they do not touch. Start from another guess.")
         if n1n2 > 0:
             raise ConvergenceError(f"{at}: false root: the outward normals agree (n1 . n2 = {n1n2:.3f}, must be "
                                    "-1); typical near the involute base-circle singular point. Start from another guess.")
@@ -446,25 +459,25 @@ class TCA:
         rf1, nf1, rf2, nf2, _, r1, r2, K1, K2, E2, E1, _ = (np.asarray(v) for v in out)
         Wf = np.asarray(self._full.map(phis.size)(W, np.full((1, phis.size), z_section)))
         Wf[:, ~ok] = np.nan
+        # TE zero: phi2 of pair 0 at phi1 = 0 (the same for every sweep of this design and case).
+        w_0 = w_a if anchor == 0.0 else self.solve_point(0.0, w_a, p1, p2, mis, z_section)
+        phi2_ref = float(np.asarray(self._full(w_0, z_section)).ravel()[4]) / self.scale2
         solve_time = time.perf_counter() - t0
         return self._result(phi1, pairs, Wf, ok, res, n1n2, r1, r2, rf1, K1, K2, E2, E1, delta, mis, solve_time,
                             {"n_positions": int(phis.size), "n_fast": n_fast, "n_retry": n_retry,
                              "n_failed": int((~ok).sum()), "build_s": self.build_time, "solver": self.solver,
-                             "contact": self.contact_type})
+                             "contact": self.contact_type}, phi2_ref)
 
     # ------------------------------------------------------------------------------------------
-    def _result(self, phi1, pairs, W, ok, res, n1n2, r1, r2, rf1, K1, K2, E2, E1, delta, mis, solve_time, stats):
+    def _result(self, phi1, pairs, W, ok, res, n1n2, r1, r2, rf1, K1, K2, E2, E1, delta, mis, solve_time, stats,
+                phi2_ref):
         g1, g2 = self.pair.pinion, self.pair.gear
         K, N = len(pairs), phi1.size
         shp = lambda a: a.reshape(K, N)  # noqa: E731
         phi2 = shp(W[4] / self.scale2) + np.array([2 * math.pi * k / g2.z for k in pairs])[:, None]
-        # TE relative to the pair-0 gear angle at the anchor (phi1 = 0) so that pairs share one zero.
+        # TE relative to the pair-0 gear angle at phi1 = 0, so that every pair and sweep shares one zero.
         ratio = g1.z / g2.z
-        te_raw = phi2 - ratio * phi1[None, :]
-        k0 = pairs.index(0) if 0 in pairs else 0
-        ref = np.interp(0.0, phi1, te_raw[k0]) if np.all(np.isfinite(te_raw[k0])) and phi1.min() <= 0 <= phi1.max() \
-            else np.nanmedian(te_raw[k0])
-        te = te_raw - ref
+        te = phi2 - ratio * phi1[None, :] - phi2_ref
         radius1 = shp(np.hypot(r1[0], r1[1]))
         radius2 = shp(np.hypot(r2[0], r2[1]))
         z1, z2 = shp(W[1]), shp(W[3])
@@ -511,6 +524,13 @@ class TCA:
             ellipse_dir1=edir1.reshape(K, N, 2, 3),
             residual=res.reshape(K, N), normal_dot=n1n2.reshape(K, N), converged=ok.reshape(K, N), on_surface=on,
             delta=delta, misalignment=mis, solve_time=solve_time, stats=stats)
+
+    def _orientation(self, tooth: GeneratedTooth, r_w: float) -> float:
+        """Sign of (r_u x r_z) . n on the flank's valid branch (at the operating pitch radius)."""
+        u, z = ca.SX.sym("u"), ca.SX.sym("z")
+        r, n = tooth.surface(self.side, "flank")(u, z, tooth.p0)[:2]
+        f = ca.Function("o", [u, z], [ca.dot(ca.cross(ca.jacobian(r, u), ca.jacobian(r, z)), n)])
+        return float(np.sign(float(f(tooth.u_at_radius(r_w, 0.0, self.side), 0.0))))
 
     def _form_radius(self, tooth: GeneratedTooth) -> float:
         u_f, _ = tooth.junction()

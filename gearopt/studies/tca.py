@@ -81,9 +81,9 @@ def case_dict(res: TCAResult, pair: GearPair, label: str, limits: dict) -> dict:
         "ellipse_a": _arr(res.ellipse_a[k0]), "ellipse_b": _arr(res.ellipse_b[k0]),
         "delta": res.delta,
         "converged": [bool(v) for v in res.converged[k0]], "on_surface": [bool(v) for v in on0],
-        "all_converged": bool(res.converged.all()),
-        "max_residual": float(np.nanmax(res.residual)),
-        "min_normal_dot": float(np.nanmin(res.normal_dot)),
+        "all_converged": bool(np.isfinite(res.te_envelope).all()),  # a contact at every position
+        "max_residual": float(np.max(res.residual[res.converged])),  # over the accepted points
+        "min_normal_dot": float(np.min(res.normal_dot[res.converged])),
         "stats": res.stats, "solve_time_s": res.solve_time,
         "limits": limits,
     }
