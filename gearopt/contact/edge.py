@@ -5,7 +5,9 @@ The boundaries of the active flank of each member are curves on its surface ``g(
 * ``tip``: the addendum edge, transverse radius = r_a (``g = (x^2 + y^2 - r_a^2) / (2 r_a)``);
 * ``face+`` / ``face-``: the face ends z = +-b/2;
 * ``limit``: the line u = u_f between the active flank and the fillet (a concave transition: it is
-  reported as a boundary but cannot be a convex edge that touches the mating flank).
+  a boundary of the active flank, checked through the form radius, but not a convex edge);
+* ``corner+`` / ``corner-``: the vertices where the tip edge meets a face end (vertex contact:
+  ``r_f1 = r_f2`` with both boundary equations, the mating normal inside the vertex's normal cone).
 
 Edge contact of an edge of member i with the flank of member j (eqs. 9.6.1-9.6.2, written with the
 edge as a level curve of g instead of an explicit parameterization):
@@ -37,6 +39,9 @@ from ..units import RAD_TO_ARCSEC
 EDGES = {
     "pinion_tip": (1, "tip", 0), "pinion_face+": (1, "face", 1), "pinion_face-": (1, "face", -1),
     "gear_tip": (2, "tip", 0), "gear_face+": (2, "face", 1), "gear_face-": (2, "face", -1),
+    # the corners where the tip edge meets a face end (vertex contact between an edge's end and the mate)
+    "pinion_corner+": (1, "corner", 1), "pinion_corner-": (1, "corner", -1),
+    "gear_corner+": (2, "corner", 1), "gear_corner-": (2, "corner", -1),
 }
 SURFACE = "surface"
 
@@ -137,28 +142,32 @@ class EdgeContact:
             g_m = self.members[member]
             iu, iz = (0, 1) if member == 1 else (2, 3)
             r_own = k["r1"] if member == 1 else k["r2"]
-            if kind == "tip":
-                g = (r_own[0] ** 2 + r_own[1] ** 2 - g_m.r_a**2) / (2 * g_m.r_a)
-            else:
-                g = q[iz] - sign * g_m.b / 2
-            gu, gz = ca.jacobian(g, q[iu]), ca.jacobian(g, q[iz])
-            tu, tz = (k["t1u"], k["t1z"]) if member == 1 else (k["t2u"], k["t2z"])
-            t_edge = tu * gz - tz * gu
+            g_tip = (r_own[0] ** 2 + r_own[1] ** 2 - g_m.r_a**2) / (2 * g_m.r_a)
+            g_face = q[iz] - sign * g_m.b / 2
             n_other = k["nf2"] if member == 1 else k["nf1"]
-            F = ca.vertcat(k["rf1"] - k["rf2"], g, ca.dot(t_edge, n_other) / ca.norm_2(t_edge))
-            G = ca.Function(f"edge_{_cname(name)}", [q, prm], [F], ["w", "prm"], ["F"])
-            # A genuine touch: the edge's wedge (flank with outward normal a, tip cylinder or face end
-            # with outward normal c) lies outside the mating tooth, i.e. the mating outward normal is
-            # n = -(alpha a + gamma c) with alpha, gamma >= 0 (gamma = 0: tangency of the flanks).
-            a = k["nf1"] if member == 1 else k["nf2"]
-            if kind == "tip":
-                c = k["er1"] if member == 1 else k["er2"]
+            a = k["nf1"] if member == 1 else k["nf2"]  # the flank's outward normal
+            c_tip = k["er1"] if member == 1 else k["er2"]  # the tip cylinder's
+            c_face = sign * (ez1 if member == 1 else k["ez2"])  # the face end's
+            if kind == "corner":
+                # Vertex contact: the corner point lies on the mating flank (3 + 2 equations).
+                F = ca.vertcat(k["rf1"] - k["rf2"], g_tip, g_face)
+                Mc = ca.horzcat(a, c_tip, c_face)
+                coef = ca.solve(Mc, -n_other)
+                cone = ca.fmin(coef[0], ca.fmin(coef[1], coef[2]))
             else:
-                c = sign * (ez1 if member == 1 else k["ez2"])
-            Mc = ca.horzcat(a, c)
-            ag = ca.solve(ca.mtimes(Mc.T, Mc), -ca.mtimes(Mc.T, n_other))
-            checks = ca.Function(f"edge_checks_{_cname(name)}", [q, prm], [ca.fmin(ag[0], ag[1]), reg],
-                                 ["w", "prm"], ["cone", "reg"])
+                g = g_tip if kind == "tip" else g_face
+                gu, gz = ca.jacobian(g, q[iu]), ca.jacobian(g, q[iz])
+                tu, tz = (k["t1u"], k["t1z"]) if member == 1 else (k["t2u"], k["t2z"])
+                t_edge = tu * gz - tz * gu
+                F = ca.vertcat(k["rf1"] - k["rf2"], g, ca.dot(t_edge, n_other) / ca.norm_2(t_edge))
+                # A genuine touch: the edge's wedge (flank with outward normal a, tip cylinder or face
+                # end with outward normal c) lies outside the mating tooth, i.e. the mating outward
+                # normal is n = -(alpha a + gamma c) with alpha, gamma >= 0 (gamma = 0: tangency).
+                Mc = ca.horzcat(a, c_tip if kind == "tip" else c_face)
+                coef = ca.solve(ca.mtimes(Mc.T, Mc), -ca.mtimes(Mc.T, n_other))
+                cone = ca.fmin(coef[0], coef[1])
+            G = ca.Function(f"edge_{_cname(name)}", [q, prm], [F], ["w", "prm"], ["F"])
+            checks = ca.Function(f"edge_checks_{_cname(name)}", [q, prm], [cone, reg], ["w", "prm"], ["cone", "reg"])
             self.residuals[name] = G
             self.branches[name] = Branch(f"edge_{_cname(name)}", G, checks, self._accept, tca.tol, tca.solver,
                                          tca.jit)
@@ -259,30 +268,27 @@ class EdgeContact:
         if conv_s.any():
             # Surface solutions closest to this edge, projected onto it.
             iu, iz = (0, 1) if member == 1 else (2, 3)
-            if kind == "face":
-                dist = np.abs(Qs[iz] - sign * g_m.b / 2)
-            else:
-                rad = self._radius(member, Qs)
-                dist = np.abs(rad - g_m.r_a)
+            d_face = np.abs(Qs[iz] - sign * g_m.b / 2)
+            d_tip = np.abs(self._radius(member, Qs) - g_m.r_a)
+            dist = {"face": d_face, "tip": d_tip, "corner": np.hypot(d_face, d_tip)}[kind]
             dist = np.where(conv_s, dist, np.inf)
             i_a = int(np.argmin(dist))
             q0 = Qs[:, i_a].copy()
-            if kind == "face":
+            if kind in ("face", "corner"):
                 shift = sign * g_m.b / 2 - q0[iz]
                 q0[1] += shift
                 q0[3] += shift
-            else:
+            if kind in ("tip", "corner"):
                 q0[iu] = self.teeth[member].u_at_radius(g_m.r_a, q0[iz], self.tca.side,
                                                         p1 if member == 1 else p2)
             return i_a, q0
         # No surface contact: the conjugate line contact of the aligned drive as the reference.
         i_a = int(np.argmin(np.abs(phis)))
-        if kind == "face":
-            z_sec = sign * g_m.b / 2
-            return i_a, self._line_guess(phis[i_a], z_sec, p1, p2)
-        q0 = self._line_guess(phis[i_a], 0.0, p1, p2)
-        iu = 0 if member == 1 else 2
-        q0[iu] = self.teeth[member].u_at_radius(g_m.r_a, 0.0, self.tca.side, p1 if member == 1 else p2)
+        z_sec = sign * g_m.b / 2 if kind in ("face", "corner") else 0.0
+        q0 = self._line_guess(phis[i_a], z_sec, p1, p2)
+        if kind in ("tip", "corner"):
+            iu = 0 if member == 1 else 2
+            q0[iu] = self.teeth[member].u_at_radius(g_m.r_a, z_sec, self.tca.side, p1 if member == 1 else p2)
         return i_a, q0
 
     def _radius(self, member, Q, prm=None):

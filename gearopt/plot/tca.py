@@ -114,7 +114,8 @@ def plot_compare(cases: dict, axes=None, member: str = "gear"):
 
 _BRANCH_STYLE = {"surface": ("C3", "-"), "pinion_tip": ("C0", "-"), "gear_tip": ("C2", "-"),
                  "pinion_face+": ("C4", "-"), "pinion_face-": ("C5", "-"), "gear_face+": ("C6", "-"),
-                 "gear_face-": ("C8", "-")}
+                 "gear_face-": ("C8", "-"), "pinion_corner+": ("C1", "-"), "pinion_corner-": ("C1", "-"),
+                 "gear_corner+": ("C9", "-"), "gear_corner-": ("C9", "-")}
 
 
 def plot_edge_te(case: dict, ax=None):
