@@ -106,7 +106,7 @@ def edge_case_dict(res: EdgeTCAResult, pair: GearPair, label: str, limits: dict)
                                 "radius": _arr(np.where(v, res.radius2[b, k0], np.nan))},
                        "carries_load": [bool(x) for x in ((res.branch[k0] == b) & (res.driving == k0))]}
     return {
-        "label": label, "edge_contact": True,
+        "label": label, "edge_analysis": True,  # whether an edge carries load: "edge_carries_load"
         "misalignment": {"dE": mis.dE, "crossing_arcmin": mis.crossing / ARCMIN,
                          "intersecting_arcmin": mis.intersecting / ARCMIN, "axial": mis.axial},
         "phi1": _arr(res.phi1), "pairs": list(res.pairs), "branches": branches,
@@ -155,7 +155,7 @@ class TCAReport:
 
         out = Path(out_dir)
         n = len(self.cases)
-        if self.cases and self.cases[0].get("edge_contact"):
+        if self.cases and self.cases[0].get("edge_analysis"):
             return self._save_edge_plots(out, dpi, plt)
         fig, axes = plt.subplots(n, 1, figsize=(9, 3.6 * n), squeeze=False)
         for ax, case in zip(axes[:, 0], self.cases):

@@ -1,0 +1,231 @@
+"""CalculiX (``ccx``) input writer, runner and a small reader of its ``.dat`` output.
+
+Units throughout: mm, N, MPa, N*mm; rotations in rad. See ``/work/shared/FE-NOTES.md`` for the
+measured behaviour this module relies on (two-step loading, LINEAR penalty ~50 E, no ADJUST).
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import shutil
+import subprocess
+import tempfile
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import GearoptError
+
+CCX_ENV = "GEAROPT_CCX"  #: environment variable naming the ccx executable (default: ``ccx`` on PATH)
+
+
+class CalculixError(GearoptError, RuntimeError):
+    """CalculiX is missing, failed, timed out, or its result fails the physical checks."""
+
+
+def ccx_path() -> str | None:
+    """Path of the ccx executable, or None."""
+    exe = os.environ.get(CCX_ENV) or "ccx"
+    return shutil.which(exe)
+
+
+def require_ccx() -> str:
+    exe = ccx_path()
+    if exe is None:
+        raise CalculixError("CalculiX (ccx) is not installed or not on PATH: the finite element step needs it. "
+                            "Install it (Debian/Ubuntu: apt-get install calculix-ccx; `make ccx` tries that) or set "
+                            f"{CCX_ENV} to the executable.")
+    return exe
+
+
+# ---------------------------------------------------------------------------------------------
+# input deck
+# ---------------------------------------------------------------------------------------------
+def _id_lines(ids, per_line: int = 16) -> str:
+    ids = [int(i) for i in ids]
+    return "\n".join(", ".join(str(i) for i in ids[k:k + per_line]) for k in range(0, len(ids), per_line))
+
+
+@dataclass
+class Deck:
+    """Everything the writer needs (1-based ids)."""
+
+    nodes: np.ndarray  # (N, 3)
+    elements: np.ndarray  # (E, 8) 1-based node ids
+    nsets: dict  # name -> ids
+    elsets: dict  # name -> ids
+    surfaces: dict  # name -> list of (element id, face number)
+    contact_pairs: list  # (slave surface, master surface)
+    ref_node: int
+    rot_node: int
+    rigid_nset: str
+    fixed_nset: str
+    E: float
+    nu: float
+    penalty: float  # N/mm^3
+    close_rotation: float  # rad (signed, about +z)
+    moment: float  # N*mm (signed, about +z)
+    print_elsets: list = field(default_factory=list)
+    element_type: str = "C3D8"
+    increments: tuple = (1.0, 1.0)  # (initial increment of step 1, of step 2)
+
+
+def write_inp(deck: Deck, path) -> Path:
+    """Write the Abaqus-style input deck: mesh, rigid pinion rim, fixed gear rim, contact pairs and the
+    two steps (close the contact with a small rotation, then release it and apply the torque)."""
+    path = Path(path)
+    lines = ["** gearopt: automatic FE model of a gear drive (Litvin 9.5); units mm, N, MPa", "*NODE, NSET=NALL"]
+    lines += [f"{i + 1}, {x:.12e}, {y:.12e}, {z:.12e}" for i, (x, y, z) in enumerate(deck.nodes)]
+    lines.append(f"{deck.ref_node}, 0., 0., 0.")
+    lines.append(f"{deck.rot_node}, 0., 0., 0.")
+    lines.append(f"*ELEMENT, TYPE={deck.element_type}, ELSET=EALL")
+    lines += [f"{i + 1}, " + ", ".join(str(int(n)) for n in e) for i, e in enumerate(deck.elements)]
+    for name, ids in deck.nsets.items():
+        lines += [f"*NSET, NSET={name}", _id_lines(ids)]
+    for name, ids in deck.elsets.items():
+        lines += [f"*ELSET, ELSET={name}", _id_lines(ids)]
+    lines += ["*NSET, NSET=NREF", str(deck.ref_node), "*NSET, NSET=NROT", str(deck.rot_node)]
+    for name, faces in deck.surfaces.items():
+        lines.append(f"*SURFACE, NAME={name}, TYPE=ELEMENT")
+        lines += [f"{e}, S{f}" for e, f in faces]
+    lines += ["*MATERIAL, NAME=STEEL", "*ELASTIC", f"{deck.E:.6e}, {deck.nu:.6f}",
+              "*SOLID SECTION, ELSET=EALL, MATERIAL=STEEL",
+              f"*RIGID BODY, NSET={deck.rigid_nset}, REF NODE={deck.ref_node}, ROT NODE={deck.rot_node}",
+              "*SURFACE INTERACTION, NAME=SI", "*SURFACE BEHAVIOR, PRESSURE-OVERCLOSURE=LINEAR",
+              f"{deck.penalty:.6e}"]
+    for slave, master in deck.contact_pairs:
+        lines += ["*CONTACT PAIR, INTERACTION=SI, TYPE=SURFACE TO SURFACE", f"{slave}, {master}"]
+    fix = [f"{deck.fixed_nset}, 1, 3", "NREF, 1, 3", "NROT, 1, 2"]
+    d0, d1 = deck.increments
+    lines += ["** step 1: close the contact with a small prescribed pinion rotation (FE-NOTES pitfall 1)",
+              "*STEP", "*STATIC", f"{d0}, 1.0", "*BOUNDARY", *fix, f"NROT, 3, 3, {deck.close_rotation:.9e}", "*END STEP",
+              "** step 2: release the rotation, apply the torque about the pinion axis",
+              "*STEP", "*STATIC", f"{d1}, 1.0", "*BOUNDARY, OP=NEW", *fix,
+              "*CLOAD", f"NROT, 3, {deck.moment:.9e}",
+              f"*NODE PRINT, NSET={deck.fixed_nset}, TOTALS=ONLY", "RF",
+              "*NODE PRINT, NSET=NREF, TOTALS=ONLY", "RF",
+              "*NODE PRINT, NSET=NROT", "U",
+              "*CONTACT PRINT", "CSTR", "*CONTACT FILE", "CSTR"]
+    for es in deck.print_elsets:
+        lines += [f"*EL PRINT, ELSET={es}", "S"]
+    lines += ["*END STEP", ""]
+    path.write_text("\n".join(lines))
+    return path
+
+
+# ---------------------------------------------------------------------------------------------
+# runner
+# ---------------------------------------------------------------------------------------------
+@dataclass
+class CcxRun:
+    dat: str
+    log: str
+    seconds: float
+    workdir: Path | None
+    frd: str = ""
+
+
+def run_ccx(deck: Deck, jobname: str = "gear", threads: int = 2, timeout: float = 900.0,
+            keep_dir=None) -> CcxRun:
+    """Write the deck and run ``ccx -i jobname`` in a temporary directory (or ``keep_dir``, which
+    keeps the files). Raises :class:`CalculixError` on a missing executable, timeout or failure."""
+    exe = require_ccx()
+    tmp = None
+    if keep_dir is None:
+        tmp = tempfile.TemporaryDirectory(prefix="gearopt-ccx-")
+        wd = Path(tmp.name)
+    else:
+        wd = Path(keep_dir)
+        wd.mkdir(parents=True, exist_ok=True)
+    try:
+        write_inp(deck, wd / f"{jobname}.inp")
+        env = dict(os.environ, OMP_NUM_THREADS=str(threads), CCX_NPROC_EQUATION_SOLVER=str(threads))
+        t0 = time.perf_counter()
+        try:
+            proc = subprocess.run([exe, "-i", jobname], cwd=wd, env=env, capture_output=True, text=True,
+                                  timeout=timeout)
+        except subprocess.TimeoutExpired as e:
+            raise CalculixError(f"ccx did not finish within {timeout:g} s ({len(deck.elements)} elements); "
+                                "coarsen the mesh or raise the timeout.") from e
+        secs = time.perf_counter() - t0
+        log = proc.stdout + proc.stderr
+        dat = (wd / f"{jobname}.dat").read_text() if (wd / f"{jobname}.dat").exists() else ""
+        frd = (wd / f"{jobname}.frd").read_text() if (wd / f"{jobname}.frd").exists() else ""
+        if proc.returncode != 0 or "*ERROR" in log or "Job finished" not in log:
+            tail = "\n".join([ln for ln in log.splitlines() if ln.strip()][-12:])
+            raise CalculixError(f"ccx failed (exit code {proc.returncode}) in {wd}:\n{tail}")
+        return CcxRun(dat=dat, log=log, seconds=secs, workdir=None if tmp else wd, frd=frd)
+    finally:
+        if tmp is not None:
+            tmp.cleanup()
+
+
+# ---------------------------------------------------------------------------------------------
+# .dat reader
+# ---------------------------------------------------------------------------------------------
+_HEADER = re.compile(r"^\s*(?P<what>[a-z][a-z .()]*?)\s*\((?P<cols>[^)]*)\)\s*for\s+(?:set\s+(?P<set>\S+)|all contact elements)"
+                     r"\s+and\s+time\s+(?P<time>\S+)", re.I)
+
+
+@dataclass
+class DatBlock:
+    what: str
+    columns: str
+    set: str | None
+    time: float
+    rows: list
+
+
+def read_dat(text: str) -> list[DatBlock]:
+    """Blocks of a ccx ``.dat`` file: each header line ``<what> (<columns>) for set <S> and time <t>``
+    followed by numeric rows (lists of floats; integer columns as floats)."""
+    blocks: list[DatBlock] = []
+    cur = None
+    for line in text.splitlines():
+        m = _HEADER.match(line)
+        if m:
+            cur = DatBlock(m.group("what").strip().lower(), m.group("cols"), m.group("set"),
+                           float(m.group("time")), [])
+            blocks.append(cur)
+            continue
+        if cur is None:
+            continue
+        s = line.strip()
+        if not s:
+            continue
+        try:
+            cur.rows.append([float(v) for v in s.split()])
+        except ValueError:
+            cur = None  # another section (e.g. step headers)
+    return blocks
+
+
+def last_block(blocks, what: str, set_name: str | None = None) -> DatBlock | None:
+    """The last block (latest time) whose description starts with ``what`` (and of ``set_name``)."""
+    found = [b for b in blocks if b.what.startswith(what) and (set_name is None or (b.set or "").upper() == set_name.upper())]
+    return found[-1] if found else None
+
+
+def read_frd_block(text: str, name: str) -> dict[int, list[float]] | None:
+    """The last result block ``name`` (e.g. "CONTACT", "STRESS", "DISP") of a ccx ``.frd`` file as
+    {node id: values}. Fixed-width records: `` -1`` + node id (10 chars) + values (12 chars each)."""
+    out, cur = None, None
+    for line in text.splitlines():
+        if line.startswith(" -4"):
+            parts = line.split()
+            cur = {} if len(parts) > 1 and parts[1].upper() == name.upper() else None
+            if cur is not None:
+                out = cur
+            continue
+        if cur is None:
+            continue
+        if line.startswith(" -3"):
+            cur = None
+        elif line.startswith(" -1"):
+            nid = int(line[3:13])
+            vals = [float(line[13 + 12 * k: 25 + 12 * k]) for k in range((len(line.rstrip()) - 13) // 12)]
+            cur[nid] = vals
+    return out

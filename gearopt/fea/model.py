@@ -1,0 +1,472 @@
+"""Finite element model of a gear drive at one position of the meshing cycle (Litvin section 9.5),
+solved with CalculiX, and the analytic references it is checked against (Hertz, ISO 6336-3).
+
+:class:`GearFEModel` takes a :class:`~gearopt.gears.GearPair` and a pinion angle ``phi1`` (the TCA
+convention of :mod:`gearopt.meshing.tca`): the TCA gives the gear angle ``phi2`` with the flanks in
+contact and the contact points of each tooth pair; ``teeth`` teeth of each member (mates of each
+other) are meshed (:mod:`gearopt.fea.mesh`) and placed in the fixed frame S_f exactly as the TCA
+places the surfaces:
+
+    pinion: r_f = Rz(-phi1 + theta1) r_1          gear: r_f = (0, a, 0) + Rz(phi2) Rz(pi + theta2) r_2
+
+Pinion tooth k (turned by ``k 2 pi / z1`` in its frame) meshes with gear tooth ``-k``.
+
+Boundary conditions: the gear rim (bottom arc and both sector sides) is fixed; the pinion rim nodes
+form a rigid body tied to a reference node on the pinion axis whose rotation about z is the only
+free DOF. Step 1 prescribes a small rotation in the driving direction that closes the contact;
+step 2 releases it (``*BOUNDARY, OP=NEW``) and applies the torque as a moment on the rotation
+node (FE-NOTES pitfall 1). Contact: element-face surfaces on the driving flanks, the gear master
+and the pinion slave, surface-to-surface penalty contact with a LINEAR pressure-overclosure slope
+of ``penalty`` x E (50 E by default, FE-NOTES pitfall 2), no ADJUST (pitfall 3), no friction.
+
+Elements are 8-node hexahedra C3D8 (full integration). C3D8I (incompatible modes) was measured to
+cost ~3.4x the equations for no gain in this contact/root-stress problem (FE-NOTES), so it is not
+offered by default (``element_type`` may still name it).
+
+The torque is in N*mm internally (the scene takes N*m).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from ..errors import GeometryError, out_of_range
+from ..gears import GearPair
+from ..geometry.generation import GeneratedTooth, generate_by_rack
+from ..meshing.tca import TCA
+from .calculix import CalculixError, Deck, last_block, read_dat, read_frd_block, run_ccx
+from .mesh import GAUSS_C3D8, HEX_FACES, MemberMesh, MeshOptions, ToothMesher, build_member, face_of, shape
+
+MESH_STIFFNESS = 14.0e3  #: single-pair mesh stiffness estimate c' [N/mm per mm of face] (ISO 6336-1 order)
+
+
+@dataclass(frozen=True)
+class FEOptions:
+    """Material, load and mesh of the FE model.
+
+    Parameters
+    ----------
+    torque : float
+        Pinion torque [N*mm] (driving).
+    E, nu : float
+        Young's modulus [MPa] and Poisson's ratio of both members.
+    teeth : int
+        Teeth of each member in the model (3 = three tooth pairs).
+    mesh : MeshOptions
+        Element counts; ``h_contact``/``window`` 0 means: derived from ``n_hertz``.
+    n_hertz : float
+        Elements across the Hertz half-width b_H at a loaded contact point (0: no grading).
+    penalty : float
+        Contact stiffness as a multiple of E [1/mm] (pressure = penalty E overclosure).
+    close_fraction : float
+        Step-1 rotation as a fraction of the estimated loaded mesh deflection.
+    element_type : str
+        "C3D8" (default) or "C3D8I".
+    threads, timeout : int, float
+        ccx threads and time limit [s].
+    keep_dir : str or None
+        Keep the ccx files in this directory.
+    """
+
+    torque: float = 100e3
+    E: float = 210e3
+    nu: float = 0.3
+    teeth: int = 3
+    mesh: MeshOptions = field(default_factory=MeshOptions)
+    n_hertz: float = 3.0
+    penalty: float = 50.0
+    close_fraction: float = 0.25
+    element_type: str = "C3D8"
+    threads: int = 2
+    timeout: float = 900.0
+    keep_dir: str | None = None
+
+    def __post_init__(self):
+        for name in ("torque", "E"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+                raise out_of_range(f"fea.{name}", v, f"{name} > 0")
+        if not (0 <= self.nu < 0.5):
+            raise out_of_range("fea.nu", self.nu, "0 <= nu < 0.5")
+        if isinstance(self.teeth, bool) or not isinstance(self.teeth, int) or not 1 <= self.teeth <= 7:
+            raise out_of_range("fea.teeth", self.teeth, "an integer 1..7 (teeth of each member)")
+        if not (0 <= self.n_hertz <= 50):
+            raise out_of_range("fea.n_hertz", self.n_hertz, "0 <= n_hertz <= 50")
+        if not (1 <= self.penalty <= 1000):
+            raise out_of_range("fea.penalty", self.penalty, "1 <= penalty <= 1000 (multiples of E, per mm)")
+        if self.element_type not in ("C3D8", "C3D8I"):
+            raise out_of_range("fea.element_type", self.element_type, "'C3D8' or 'C3D8I'")
+
+
+# ---------------------------------------------------------------------------------------------
+# analytic references
+# ---------------------------------------------------------------------------------------------
+def hertz_line(force_per_length: float, rho1: float, rho2: float, E: float, nu: float) -> dict:
+    """Hertz line contact of two cylinders of radii rho1, rho2 [mm], equal materials.
+
+    Returns p0 [MPa] (max pressure), b [mm] (half-width), R* [mm], E* [MPa] with
+    ``1/R* = 1/rho1 + 1/rho2``, ``E* = E / (2 (1 - nu^2))``, ``p0 = sqrt(F' E* / (pi R*))``,
+    ``b = sqrt(4 F' R* / (pi E*))``; also the max von Mises stress 0.557 p0 at depth 0.70 b (nu 0.3)."""
+    Rs = 1.0 / (1.0 / rho1 + 1.0 / rho2)
+    Es = E / (2 * (1 - nu**2))
+    p0 = math.sqrt(force_per_length * Es / (math.pi * Rs))
+    b = math.sqrt(4 * force_per_length * Rs / (math.pi * Es))
+    return {"p0": p0, "b": b, "R_star": Rs, "E_star": Es, "vm_max": 0.557 * p0}
+
+
+def root_stress_estimate(tooth: GeneratedTooth, contact_radius: float, F_n: float, b: float) -> dict:
+    """Tooth-root stress estimates for a normal load F_n [N] on the (right) flank at ``contact_radius``.
+
+    ISO 6336-3 method B geometry, evaluated on the generated fillet itself: the critical section
+    joins the points where the fillet tangent makes 30 deg with the tooth centreline (chord s_Fn),
+    the load line meets the centreline at h_Fe above the section, at alpha_Fen from its normal.
+    Nominal (Lewis-type) bending stress ``sigma_b = 6 F_n cos(alpha_Fen) h_Fe / (b s_Fn^2)`` and ISO's
+    ``sigma_F0 = sigma_b Y_S`` with ``Y_S = (1.2 + 0.13 L) q_s^(1 / (1.21 + 2.3 / L))``,
+    ``L = s_Fn / h_Fe``, ``q_s = s_Fn / (2 rho_F)`` (rho_F: fillet radius of curvature at the 30 deg
+    point). ISO applies it with the load at the outer point of single contact; here the load sits at
+    the analysed position. Spur gears only."""
+    g = tooth.gear
+    if not g.is_spur:
+        raise GeometryError("root_stress_estimate: spur gears only (transverse = normal section).")
+    u_f, phi_max = tooth.junction()
+    n = 2000
+    ph = np.linspace(0.0, phi_max, n)
+    f = tooth.surface("right", "fillet").map(n)
+    P = np.asarray(f(ph, 0.0, np.tile(tooth.p0[:, None], n))[0]).T[:, :2]
+    t = np.gradient(P, ph, axis=0)
+    ang = np.degrees(np.arctan2(np.abs(t[:, 0]), np.abs(t[:, 1])))  # tangent angle from the centreline (y)
+    i = int(np.argmin(np.abs(ang - 30.0)))
+    dd = np.gradient(t, ph, axis=0)
+    curv = np.abs(t[:, 0] * dd[:, 1] - t[:, 1] * dd[:, 0]) / np.linalg.norm(t, axis=1) ** 3
+    x_F, y_F = P[i]
+    s_Fn = 2 * x_F
+    rho_F = 1.0 / curv[i]
+    u_c = tooth.u_at_radius(contact_radius)
+    r, nrm, _ = tooth.point("right", "flank", u_c)
+    # load on the tooth: along -n through r; where it meets x = 0
+    d = -nrm[:2]
+    y_L = r[1] + d[1] * (-r[0] / d[0])
+    h_Fe = y_L - y_F
+    cos_a = abs(d[0]) / np.linalg.norm(d)
+    sigma_b = 6 * F_n * cos_a * h_Fe / (b * s_Fn**2)
+    L = s_Fn / h_Fe
+    q_s = s_Fn / (2 * rho_F)
+    Y_S = (1.2 + 0.13 * L) * q_s ** (1.0 / (1.21 + 2.3 / L))
+    return {"s_Fn": s_Fn, "h_Fe": h_Fe, "rho_F": rho_F, "alpha_Fen_deg": math.degrees(math.acos(cos_a)),
+            "radius_30deg": float(math.hypot(x_F, y_F)), "sigma_lewis": sigma_b, "Y_S": Y_S,
+            "sigma_iso": sigma_b * Y_S}
+
+
+# ---------------------------------------------------------------------------------------------
+# the model
+# ---------------------------------------------------------------------------------------------
+def _rotz(P, a):
+    c, s = math.cos(a), math.sin(a)
+    return np.c_[c * P[:, 0] - s * P[:, 1], s * P[:, 0] + c * P[:, 1], P[:, 2]]
+
+
+def _principal_vm(S):
+    """Max principal and von Mises stress of rows (sxx, syy, szz, sxy, sxz, syz)."""
+    T = np.empty((len(S), 3, 3))
+    T[:, 0, 0], T[:, 1, 1], T[:, 2, 2] = S[:, 0], S[:, 1], S[:, 2]
+    T[:, 0, 1] = T[:, 1, 0] = S[:, 3]
+    T[:, 0, 2] = T[:, 2, 0] = S[:, 4]
+    T[:, 1, 2] = T[:, 2, 1] = S[:, 5]
+    ev = np.linalg.eigvalsh(T)
+    vm = np.sqrt(0.5 * ((S[:, 0] - S[:, 1]) ** 2 + (S[:, 1] - S[:, 2]) ** 2 + (S[:, 2] - S[:, 0]) ** 2)
+                 + 3 * (S[:, 3] ** 2 + S[:, 4] ** 2 + S[:, 5] ** 2))
+    return ev[:, 2], vm
+
+
+class GearFEModel:
+    """FE model of ``pair`` at the pinion angle ``phi1`` [rad] (see the module docstring).
+
+    Parameters
+    ----------
+    pair : GearPair
+    phi1 : float
+        Pinion angle (TCA convention: 0 = tooth 0's driving flank at the pitch point).
+    options : FEOptions
+    tca : TCA, optional
+        A compiled TCA of the pair (right flank driving); built if omitted (line contact for
+        unmodified members, point contact for a crowned pinion).
+    """
+
+    def __init__(self, pair: GearPair, phi1: float, options: FEOptions | None = None, tca: TCA | None = None):
+        t0 = time.perf_counter()
+        self.pair, self.phi1 = pair, float(phi1)
+        self.opt = options or FEOptions()
+        if tca is None:
+            crowned = any(g.a_pl != 0 or g.rack.a_c != 0 for g in (pair.pinion, pair.gear))
+            tca = TCA(pair, side="right", contact="point" if crowned else "line")
+        if tca.side != "right":
+            raise out_of_range("tca.side", tca.side, "'right' (the FE model drives on the pinion's right flank)")
+        self.tca = tca
+        o = self.opt
+        g1, g2 = pair.pinion, pair.gear
+        n = o.teeth
+        self.tooth_ids = list(range(-(n // 2), n - n // 2))
+        res = tca.sweep(np.array([self.phi1]), pairs=self.tooth_ids)
+        on = res.on_surface[:, 0]
+        if not on.any():
+            raise GeometryError(f"FE model at phi1 = {self.phi1:.6g} rad: no tooth pair of the {n} modelled is in "
+                                "contact on the active flanks (TCA); choose phi1 within the meshing cycle.")
+        self.phi2 = float(np.nanmax(np.where(on, res.phi2[:, 0], np.nan)))
+        gap = (self.phi2 - res.phi2[:, 0]) * pair.gear.r_b  # separation of each pair along the line of action
+        self.loaded = [k for k, o_, gp in zip(self.tooth_ids, on, gap) if o_ and gp < 5e-3]
+        self.contact = {k: {"u1": float(res.u1[i, 0]), "u2": float(res.u2[i, 0]), "z1": float(res.z1[i, 0]),
+                            "radius1": float(res.radius1[i, 0]), "radius2": float(res.radius2[i, 0]),
+                            "gap": float(gap[i]), "on_surface": bool(on[i])}
+                        for i, k in enumerate(self.tooth_ids)}
+        self.tca_result = res
+        # Hertz reference for the full load on one pair (also sets the contact grading)
+        F_n = o.torque / g1.r_b
+        self.F_n = F_n
+        b_eff = min(g1.b, g2.b)
+        self.hertz = {}
+        for k in self.loaded:
+            c = self.contact[k]
+            rho1 = math.sqrt(max(c["radius1"] ** 2 - g1.r_b**2, 1e-12))
+            rho2 = math.sqrt(max(c["radius2"] ** 2 - g2.r_b**2, 1e-12))
+            self.hertz[k] = {**hertz_line(F_n / b_eff, rho1, rho2, o.E, o.nu), "rho1": rho1, "rho2": rho2}
+        b_H = min(h["b"] for h in self.hertz.values())
+        mo = o.mesh
+        if o.n_hertz > 0 and mo.h_contact == 0:
+            mo = replace(mo, h_contact=b_H / o.n_hertz, window=mo.window or 1.5 * b_H)
+        self.mesh_options = mo
+        self.b_H = b_H
+        # meshes (member frames), then placement in S_f
+        self.pin_tooth = tca.pinion
+        self.gear_tooth = tca.gear
+        m1 = ToothMesher(self.pin_tooth, mo)
+        m2 = ToothMesher(self.gear_tooth, mo)
+        cu1 = {k: self.contact[k]["u1"] for k in self.loaded}
+        cu2 = {-k: self.contact[k]["u2"] for k in self.loaded}
+        first1 = self._first_layer(g1, [self.contact[k]["radius1"] for k in self.loaded], mo)
+        first2 = self._first_layer(g2, [self.contact[k]["radius2"] for k in self.loaded], mo)
+        self.pinion_mesh = build_member(m1, self.tooth_ids, cu1, "pinion", first1)
+        self.gear_mesh = build_member(m2, sorted(-k for k in self.tooth_ids), cu2, "gear", first2)
+        self.nodes_pinion = _rotz(self.pinion_mesh.nodes, -self.phi1 + tca.theta1)
+        Xg = _rotz(_rotz(self.gear_mesh.nodes, math.pi + tca.theta2), self.phi2)
+        Xg[:, 1] += pair.a_w
+        self.nodes_gear = Xg
+        self.build_time = time.perf_counter() - t0
+
+    @staticmethod
+    def _first_layer(g, radii, mo) -> float:
+        if mo.h_contact <= 0 or not radii:
+            return 0.0
+        half = min(g.s_at(max(r, g.r_b)) / 2 for r in radii)
+        return mo.h_contact / half
+
+    # ------------------------------------------------------------------------------------------
+    @property
+    def n_elements(self) -> int:
+        return len(self.pinion_mesh.elements) + len(self.gear_mesh.elements)
+
+    @property
+    def n_nodes(self) -> int:
+        return len(self.pinion_mesh.nodes) + len(self.gear_mesh.nodes)
+
+    def _flank_faces(self, mesh: MemberMesh, k: int, eoff: int, noff: int):
+        """(element id, face) of the right flank of tooth k (1-based ids)."""
+        t = next(t for t in mesh.teeth if t["k"] == k)
+        r0, r1 = t["section"].segments["flank"]
+        out = []
+        nodes = t["nodes"]
+        for L in range(nodes.shape[0] - 1):
+            for R in range(r0, r1):
+                e = int(t["elements"][L, R, -1])
+                quad = {int(nodes[L, R, -1]), int(nodes[L, R + 1, -1]), int(nodes[L + 1, R, -1]),
+                        int(nodes[L + 1, R + 1, -1])}
+                out.append((e + 1 + eoff, face_of(mesh.elements[e], quad)))
+        return out
+
+    def _fillet_elements(self, mesh: MemberMesh, eoff: int, cols: int = 2):
+        ids = []
+        for t in mesh.teeth:
+            a, b = t["section"].segments["fillet"][0], t["section"].segments["root"][1]
+            ids.append(t["elements"][:, a:b, -cols:].ravel())
+        return np.concatenate(ids) + 1 + eoff
+
+    def deck(self) -> Deck:
+        o = self.opt
+        n1 = len(self.nodes_pinion)
+        e1 = len(self.pinion_mesh.elements)
+        nodes = np.vstack([self.nodes_pinion, self.nodes_gear])
+        elems = np.vstack([self.pinion_mesh.elements + 1, self.gear_mesh.elements + 1 + n1])
+        ref, rot = len(nodes) + 1, len(nodes) + 2
+        pm, gm = self.pinion_mesh, self.gear_mesh
+        nsets = {"PRIM": np.unique(np.r_[pm.rim_bottom, pm.rim_sides]) + 1,
+                 "GFIX": np.unique(np.r_[gm.rim_bottom, gm.rim_sides]) + 1 + n1}
+        surfaces, pairs = {}, []
+        for k in self.tooth_ids:
+            surfaces[f"SP{k + 10}"] = self._flank_faces(pm, k, 0, 0)
+            surfaces[f"SG{k + 10}"] = self._flank_faces(gm, -k, e1, n1)
+            pairs.append((f"SP{k + 10}", f"SG{k + 10}"))
+        self._pfil = self._fillet_elements(pm, 0)
+        self._gfil = self._fillet_elements(gm, e1)
+        elsets = {"PFIL": self._pfil, "GFIL": self._gfil}
+        g1 = self.pair.pinion
+        delta = o.torque / g1.r_b / (MESH_STIFFNESS * min(g1.b, self.pair.gear.b))
+        close = -o.close_fraction * delta / g1.r_b  # clockwise: the pinion's driving direction
+        return Deck(nodes=nodes, elements=elems, nsets=nsets, elsets=elsets, surfaces=surfaces, contact_pairs=pairs,
+                    ref_node=ref, rot_node=rot, rigid_nset="PRIM", fixed_nset="GFIX", E=o.E, nu=o.nu,
+                    penalty=o.penalty * o.E, close_rotation=close, moment=-o.torque, print_elsets=["PFIL", "GFIL"],
+                    element_type=o.element_type)
+
+    def run(self) -> "FEResult":
+        """Write the deck, run ccx, read and check the results (:class:`CalculixError` when the
+        reaction misses T / r_b1 by more than 1 % or no contact pressure is positive)."""
+        deck = self.deck()
+        run = run_ccx(deck, threads=self.opt.threads, timeout=self.opt.timeout, keep_dir=self.opt.keep_dir)
+        return FEResult.from_run(self, deck, run)
+
+
+@dataclass
+class FEResult:
+    """Results of one FE position (JSON-able via :meth:`to_dict`)."""
+
+    phi1: float
+    phi2: float
+    data: dict
+
+    @classmethod
+    def from_run(cls, model: GearFEModel, deck: Deck, run) -> "FEResult":
+        blocks = read_dat(run.dat)
+        o = model.opt
+        g1, g2 = model.pair.pinion, model.pair.gear
+        n1 = len(model.nodes_pinion)
+        nodes = deck.nodes
+        rf = last_block(blocks, "total force", "GFIX") or last_block(blocks, "forces", "GFIX")
+        if rf is None or not rf.rows:
+            raise CalculixError("ccx output has no reaction forces of the fixed gear rim (GFIX): the run did not "
+                                "reach the load step.")
+        R = np.array(rf.rows[-1][-3:])
+        F_n = model.F_n
+        rel = abs(np.linalg.norm(R[:2]) - F_n) / F_n
+        rot = last_block(blocks, "displacements", "NROT")
+        rotation = float(rot.rows[-1][-1]) if rot and rot.rows else float("nan")
+        cs = last_block(blocks, "contact stress")
+        if cs is None or not cs.rows:
+            raise CalculixError(f"ccx reports no contact stress at phi1 = {model.phi1:.6g} rad: the flanks did not "
+                                "come into contact (open gap); nothing to report.")
+        C = np.array([r for r in cs.rows if len(r) >= 4], float)
+        press = C[:, -3]
+        if not np.any(press > 0):
+            raise CalculixError(f"no positive contact pressure at phi1 = {model.phi1:.6g} rad (max {press.max():.4g} "
+                                "MPa): the contact is open; the result is not valid.")
+        if rel > 0.01:
+            raise CalculixError(f"gear reaction |R| = {np.linalg.norm(R[:2]):.6g} N differs from T / r_b1 = {F_n:.6g} N "
+                                f"by {100 * rel:.3g} % (> 1 %): the load did not pass through the contact; the result "
+                                "is not valid (see FE-NOTES pitfall 1).")
+        elems = deck.elements
+        profiles, p_mid_max = cls._contact_profiles(model, run.frd)
+        # stresses at integration points of the fillet elements
+        roots = {}
+        for member, es, tooth, place in (("pinion", "PFIL", model.pin_tooth, (0.0, model.phi1)),
+                                         ("gear", "GFIL", model.gear_tooth, None)):
+            blk = last_block(blocks, "stresses", es)
+            if blk is None or not blk.rows:
+                raise CalculixError(f"ccx output has no stresses for the {member} fillet elements ({es}).")
+            S = np.array(blk.rows, float)
+            e = S[:, 0].astype(int) - 1
+            ip = S[:, 1].astype(int) - 1
+            N = np.array([shape(*GAUSS_C3D8[i]) for i in ip])
+            X = np.einsum("ni,nij->nj", N, nodes[elems[e] - 1])
+            s1, vm = _principal_vm(S[:, 2:8])
+            if member == "pinion":
+                rad = np.hypot(X[:, 0], X[:, 1])
+            else:
+                rad = np.hypot(X[:, 0], X[:, 1] - model.pair.a_w)
+            mid = np.abs(X[:, 2]) <= 0.25 * min(g1.b, g2.b)
+            i_mid = int(np.argmax(np.where(mid, s1, -np.inf)))
+            roots[member] = {"max_principal": float(s1.max()), "max_principal_mid": float(s1[i_mid]),
+                             "radius_at_max_mid": float(rad[i_mid]), "z_at_max_mid": float(X[i_mid, 2]),
+                             "max_von_mises": float(vm.max()), "n_points": int(len(s1))}
+        # the pair nearest the pitch point: its Hertz reference and the FE pressure at mid face
+        k0 = min(model.loaded, key=lambda k: abs(model.contact[k]["radius1"] - g1.r_p))
+        hz = model.hertz[k0]
+        p_max_mid = p_mid_max.get(k0, float("nan"))
+        # ISO / Lewis estimates of the root stress for the whole load on the loaded pair (single contact)
+        est = {}
+        for member, tooth, radius in (("pinion", model.pin_tooth, model.contact[k0]["radius1"]),
+                                      ("gear", model.gear_tooth, model.contact[k0]["radius2"])):
+            try:
+                est[member] = root_stress_estimate(tooth, radius, F_n, min(g1.b, g2.b))
+            except GeometryError as e:  # helical: no estimate
+                est[member] = {"error": str(e)}
+        te_arcsec = rotation * (g1.z / g2.z) * 206264.806  # gear lag equivalent of the pinion's extra rotation
+        data = {
+            "phi1": model.phi1, "phi2": model.phi2, "loaded_pairs": model.loaded,
+            "single_pair_contact": len(model.loaded) == 1,
+            "contact_points": {str(k): {n: (x if not isinstance(x, float) or math.isfinite(x) else None)
+                                        for n, x in v.items()} for k, v in model.contact.items()},
+            "n_elements": model.n_elements, "n_nodes": model.n_nodes, "element_type": o.element_type,
+            "reaction": {"gear_rim_force": R.tolist(), "magnitude": float(np.linalg.norm(R[:2])),
+                         "T_over_rb1": F_n, "rel_error": float(rel)},
+            "pinion_rotation_rad": rotation,
+            "loaded_te_arcsec": float(te_arcsec),
+            "contact": {"p_max": float(press.max()), "p_max_mid": p_max_mid,
+                        "hertz_p0": hz["p0"], "hertz_b": hz["b"], "R_star": hz["R_star"],
+                        "ratio_mid_to_hertz": p_max_mid / hz["p0"], "hertz_pair": k0,
+                        "profiles": profiles,
+                        "n_points": int(len(press)), "n_positive": int((press > 0).sum())},
+            "root": roots, "root_estimate": est,
+            "timing": {"build_s": model.build_time, "ccx_s": run.seconds},
+        }
+        for member in ("pinion", "gear"):
+            e_ = est[member]
+            if "sigma_iso" in e_:
+                data["root"][member]["ratio_to_iso"] = roots[member]["max_principal_mid"] / e_["sigma_iso"]
+                data["root"][member]["ratio_to_lewis"] = roots[member]["max_principal_mid"] / e_["sigma_lewis"]
+        data = _jsonable(data)
+        return cls(phi1=model.phi1, phi2=model.phi2, data=data)
+
+    @staticmethod
+    def _contact_profiles(model, frd: str):
+        """Nodal contact pressure (CPRESS of the .frd) along the pinion's driving flank of each tooth in
+        the middle section z = 0: ``{tooth: {"s", "radius", "p"}}`` with ``s`` the arc length [mm]
+        along the profile from the TCA contact point (positive towards the tip), and the maximum per tooth."""
+        blk = read_frd_block(frd, "CONTACT")
+        if blk is None:
+            raise CalculixError("ccx wrote no nodal contact output (CONTACT block of the .frd).")
+        out, pmax = {}, {}
+        pm = model.pinion_mesh
+        for t in pm.teeth:
+            k = t["k"]
+            r0, r1 = t["section"].segments["flank"]
+            layer = t["nodes"].shape[0] // 2
+            ids = t["nodes"][layer, r0:r1 + 1, -1]
+            X = pm.nodes[ids]
+            p = np.array([blk.get(int(i) + 1, [0, 0, 0, 0])[3] for i in ids])
+            arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(X, axis=0), axis=1))])
+            u_rows = t["u_rows"]
+            c = model.contact.get(k)
+            ok = k in model.loaded and np.all(np.diff(u_rows) > 0)
+            s0 = float(np.interp(c["u1"], u_rows, arc)) if ok else 0.0
+            out[str(k)] = {"s": (s0 - arc).tolist(), "radius": np.hypot(X[:, 0], X[:, 1]).tolist(), "p": p.tolist()}
+            pmax[k] = float(p.max())
+        return out, pmax
+
+    def to_dict(self) -> dict:
+        return self.data
+
+
+def _jsonable(v):
+    """Plain Python floats/ints/lists (NumPy scalars converted, non-finite floats as None)."""
+    if isinstance(v, dict):
+        return {str(k): _jsonable(x) for k, x in v.items()}
+    if isinstance(v, (list, tuple)):
+        return [_jsonable(x) for x in v]
+    if isinstance(v, (bool, np.bool_)):
+        return bool(v)
+    if isinstance(v, (int, np.integer)):
+        return int(v)
+    if isinstance(v, (float, np.floating)):
+        return float(v) if math.isfinite(v) else None
+    return v

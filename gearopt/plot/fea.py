@@ -1,0 +1,93 @@
+"""Plots of FE study results (read ``FEReport.to_dict()`` only; ``ax=`` in, Axes out)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .geometry import _axes
+
+
+def plot_mesh(report: dict, ax=None, zoom: bool = False):
+    """Element edges of the model's middle transverse section (S_f) at the first analysed position,
+    with the TCA contact points; ``zoom`` frames the loaded contact (a few Hertz widths)."""
+    from matplotlib.collections import LineCollection
+
+    ax = _axes(ax)
+    m = report["mesh"]
+    for name, color in (("pinion", "C0"), ("gear", "C1")):
+        seg = np.asarray(m[name], float).reshape(-1, 2, 2)
+        ax.add_collection(LineCollection(seg, colors=color, linewidths=0.25 if not zoom else 0.6, label=name))
+    cp = np.asarray(m["contact_points"], float).reshape(-1, 2)
+    ax.plot(cp[:, 0], cp[:, 1], "r+", ms=10, mew=1.5, label="TCA contact point")
+    ax.set_aspect("equal")
+    allp = np.vstack([np.asarray(m[n], float).reshape(-1, 2) for n in ("pinion", "gear")])
+    if zoom and len(cp):
+        w = 12 * m["hertz_b"]
+        ax.set_xlim(cp[0, 0] - w, cp[0, 0] + w)
+        ax.set_ylim(cp[0, 1] - w, cp[0, 1] + w)
+        ax.set_title(f"contact zone (+-{w:.2f} mm; Hertz half-width {m['hertz_b']:.3f} mm)", fontsize=9)
+    else:
+        ax.set_xlim(allp[:, 0].min() - 1, allp[:, 0].max() + 1)
+        ax.set_ylim(allp[:, 1].min() - 1, allp[:, 1].max() + 1)
+        p0 = report["positions"][0]
+        ax.set_title(f"{report['scene']}: FE mesh, middle section, phi1 = {math.degrees(p0['phi1']):.3f} deg "
+                     f"({p0['n_elements']} {p0['element_type']} elements)", fontsize=9)
+    ax.set_xlabel("x_f [mm]")
+    ax.set_ylabel("y_f [mm]")
+    ax.legend(fontsize=7, loc="upper right")
+    return ax
+
+
+def plot_contact_pressure(report: dict, ax=None):
+    """Nodal contact pressure along the pinion's driving flank at mid face (arc length from the TCA
+    contact point, positive towards the tip) for every position and loaded pair, with the Hertz
+    ellipse p0 sqrt(1 - (s/b)^2) of the full load on one pair."""
+    ax = _axes(ax)
+    for i, pos in enumerate(report["positions"]):
+        c = pos["contact"]
+        for k in pos["loaded_pairs"]:
+            pr = c["profiles"][str(k)]
+            s, p = np.asarray(pr["s"]), np.asarray(pr["p"])
+            sel = np.abs(s) <= 6 * c["hertz_b"]
+            ax.plot(s[sel], p[sel], "o-", ms=3, lw=1, color=f"C{i}",
+                    label=f"FE, phi1 = {math.degrees(pos['phi1']):.2f} deg, pair {k}")
+        if pos["single_pair_contact"]:
+            b, p0 = c["hertz_b"], c["hertz_p0"]
+            t = np.linspace(-b, b, 101)
+            ax.plot(t, p0 * np.sqrt(np.clip(1 - (t / b) ** 2, 0, None)), "--", color=f"C{i}", lw=1,
+                    label=f"Hertz p0 = {p0:.0f} MPa (FE/Hertz {c['ratio_mid_to_hertz']:.3f})")
+    ax.set_xlabel("distance along the profile from the contact point [mm]")
+    ax.set_ylabel("contact pressure [MPa]")
+    ax.set_title("contact pressure on the pinion flank, middle section", fontsize=9)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7)
+    return ax
+
+
+def plot_root_stress(report: dict, ax=None):
+    """Maximum principal stress in the loaded-side root fillets (mid face) of pinion and gear vs the
+    pinion angle, with the ISO 6336-3 (method B geometry) estimate at each position and the max
+    contact pressure on a second axis."""
+    ax = _axes(ax)
+    pos = report["positions"]
+    phi = np.degrees([p["phi1"] for p in pos])
+    for member, col in (("pinion", "C0"), ("gear", "C1")):
+        ax.plot(phi, [p["root"][member]["max_principal_mid"] for p in pos], "o-", color=col, label=f"{member} FE")
+        # the estimate puts the whole load on one pair: shown at single-pair positions only
+        iso = [p["root_estimate"][member].get("sigma_iso", np.nan) if p["single_pair_contact"] else np.nan
+               for p in pos]
+        ax.plot(phi, iso, "s", color=col, mfc="none", ms=8,
+                label=f"{member} ISO 6336-3 (single-pair positions, load at the position)")
+    ax.set_xlabel("pinion angle phi1 [deg]")
+    ax.set_ylabel("root stress, max principal [MPa]")
+    ax2 = ax.twinx()
+    ax2.plot(phi, [p["contact"]["p_max_mid"] for p in pos], "^:", color="C3", label="max contact pressure")
+    ax2.set_ylabel("contact pressure [MPa]", color="C3")
+    ax.set_title("root stress and contact pressure vs position (mid face)", fontsize=9)
+    ax.grid(alpha=0.3)
+    h1, l1 = ax.get_legend_handles_labels()
+    h2, l2 = ax2.get_legend_handles_labels()
+    ax.legend(h1 + h2, l1 + l2, fontsize=7)
+    return ax

@@ -1,0 +1,188 @@
+"""Finite element study (Litvin section 9.5): contact pressure, root stresses and loaded rotation of
+a spur/helical drive at a few positions of the meshing cycle, solved with CalculiX (``ccx``).
+
+Scene section ``[fea]`` (torque in N*m; lengths mm; see :mod:`gearopt.fea.model`):
+
+``torque``            pinion torque [N*m] (default 100)
+``E``, ``nu``         Young's modulus [MPa] and Poisson's ratio (210000, 0.3)
+``phi1_start``, ``phi1_end``, ``n_positions``: pinion angles analysed (TCA convention, 0 = tooth 0 at
+                      the pitch point), evenly spaced (one position: ``phi1_start``)
+``teeth``             teeth of each member in the model (3 = three pairs)
+``n_hertz``           elements across the Hertz half-width at the contact point (graded profile)
+``n_face``, ``n_half``, ``n_flank``, ``n_fillet``, ``n_rim``: element counts of the six sub-volumes
+``rim_depth``         rim thickness below the root circle [m_n]
+``penalty``           contact stiffness [multiples of E per mm] (50)
+``keep_files``        keep the ccx input and output in ``out/<scene name>_ccx/pos<i>`` (relative to the cwd)
+
+Each position is an independent ccx run; the study needs ``ccx`` on PATH (a clear error otherwise).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+UNITS = {"length": "mm", "angle": "rad", "stress": "MPa", "force": "N", "torque": "N*mm (input: N*m)",
+         "te": "arcsec (suffix _arcsec)", "time": "s"}
+
+
+@dataclass
+class FEReport:
+    scene: str
+    pair: dict
+    options: dict
+    positions: list
+    mesh_plot: dict
+    timing: dict = field(default_factory=dict)
+
+    def to_dict(self) -> dict:
+        return {"study": "fea", "scene": self.scene, "units": UNITS, "pair": self.pair, "options": self.options,
+                "positions": self.positions, "mesh": self.mesh_plot, "timing": self.timing}
+
+    def save_plots(self, out_dir, dpi: int = 120) -> list[str]:
+        """``fea_mesh.png`` (transverse section of the model at the first position, element edges),
+        ``fea_contact.png`` (contact pressure along the profile at mid face vs Hertz),
+        ``fea_root.png`` (root stress and pressure vs position)."""
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        from ..plot.fea import plot_contact_pressure, plot_mesh, plot_root_stress
+
+        out = Path(out_dir)
+        d = self.to_dict()
+        fig, axes = plt.subplots(1, 2, figsize=(13, 6))
+        plot_mesh(d, ax=axes[0])
+        plot_mesh(d, ax=axes[1], zoom=True)
+        fig.tight_layout()
+        fig.savefig(out / "fea_mesh.png", dpi=dpi, bbox_inches="tight")
+        plt.close(fig)
+        fig, ax = plt.subplots(figsize=(8, 4.5))
+        plot_contact_pressure(d, ax=ax)
+        fig.tight_layout()
+        fig.savefig(out / "fea_contact.png", dpi=dpi, bbox_inches="tight")
+        plt.close(fig)
+        fig, ax = plt.subplots(figsize=(8, 4.5))
+        plot_root_stress(d, ax=ax)
+        fig.tight_layout()
+        fig.savefig(out / "fea_root.png", dpi=dpi, bbox_inches="tight")
+        plt.close(fig)
+        return ["fea_mesh.png", "fea_contact.png", "fea_root.png"]
+
+
+def mesh_section(model, layer: int | None = None) -> dict:
+    """Element edges of the middle transverse section of the model (S_f, mm) for plotting:
+    ``{"pinion": [[x0, y0, x1, y1], ...], "gear": [...]}`` plus the contact points."""
+    out = {}
+    for name, mesh, X in (("pinion", model.pinion_mesh, model.nodes_pinion), ("gear", model.gear_mesh, model.nodes_gear)):
+        segs = []
+        for t in mesh.teeth:
+            nd = t["nodes"]
+            L = nd.shape[0] // 2 if layer is None else layer
+            G = X[nd[L]][..., :2]  # (rows, cols, 2)
+            for a, b in ((G[:-1, :], G[1:, :]), (G[:, :-1], G[:, 1:])):
+                segs.append(np.concatenate([a.reshape(-1, 2), b.reshape(-1, 2)], axis=1))
+        out[name] = np.round(np.vstack(segs), 5).tolist()
+    r = model.tca_result
+    out["contact_points"] = [[float(v) for v in r.rf[i, 0, :2]] for i, k in enumerate(model.tooth_ids) if k in model.loaded]
+    out["hertz_b"] = model.b_H
+    return out
+
+
+class FEStudy:
+    def __init__(self, pair, options, phi1s, name="fea", keep_dir=None):
+        self.pair, self.options, self.phi1s, self.name, self.keep_dir = pair, options, list(phi1s), name, keep_dir
+
+    def run(self, progress=None) -> FEReport:
+        from dataclasses import replace
+
+        from ..fea.calculix import require_ccx
+        from ..fea.model import GearFEModel
+        from ..meshing.tca import TCA
+
+        require_ccx()
+        t0 = time.perf_counter()
+        p = self.pair
+        crowned = any(g.a_pl != 0 or g.rack.a_c != 0 for g in (p.pinion, p.gear))
+        tca = TCA(p, side="right", contact="point" if crowned else "line")
+        positions, mesh_plot = [], None
+        for i, phi1 in enumerate(self.phi1s):
+            if progress:
+                progress(f"fea: position {i + 1}/{len(self.phi1s)} (phi1 = {math.degrees(phi1):.3f} deg)")
+            opt = self.options
+            if self.keep_dir is not None:
+                opt = replace(opt, keep_dir=str(Path(self.keep_dir) / f"pos{i}"))
+            model = GearFEModel(p, phi1, opt, tca=tca)
+            if mesh_plot is None:
+                mesh_plot = mesh_section(model)
+            positions.append(model.run().to_dict())
+        o = self.options
+        pair = {"z1": p.pinion.z, "z2": p.gear.z, "m_n": p.pinion.m_n, "a": p.a_w, "b1": p.pinion.b, "b2": p.gear.b,
+                "r_b1": p.pinion.r_b, "r_b2": p.gear.r_b, "eps_alpha": p.eps_alpha, "contact": tca.contact_type}
+        opts = {"torque_Nmm": o.torque, "E": o.E, "nu": o.nu, "teeth": o.teeth, "n_hertz": o.n_hertz,
+                "penalty_times_E": o.penalty, "element_type": o.element_type,
+                "mesh": {k: getattr(o.mesh, k) for k in ("n_face", "n_half", "n_flank", "n_fillet", "n_rim", "rim_depth")}}
+        return FEReport(scene=self.name, pair=pair, options=opts, positions=positions, mesh_plot=mesh_plot,
+                        timing={"run_s": time.perf_counter() - t0})
+
+
+def _from_scene(scene) -> FEStudy:
+    from ..errors import GeometryError, SceneError
+    from ..fea.mesh import MeshOptions
+    from ..fea.model import FEOptions
+
+    o = scene.options.get("fea", {}) or {}
+    try:
+        mesh = MeshOptions(n_face=o["n_face"], n_half=o["n_half"], n_flank=o["n_flank"], n_fillet=o["n_fillet"],
+                           n_rim=o["n_rim"], rim_depth=o["rim_depth"])
+        opt = FEOptions(torque=o["torque"] * 1e3, E=o["E"], nu=o["nu"], teeth=o["teeth"], mesh=mesh,
+                        n_hertz=o["n_hertz"], penalty=o["penalty"])
+    except GeometryError as e:
+        raise SceneError(f"{scene.source}: [fea] {e}") from e
+    n = o["n_positions"]
+    a, b = o["phi1_start"], o["phi1_end"]
+    phis = [a] if n == 1 else list(np.linspace(a, b, n))
+    keep = None
+    if o.get("keep_files"):
+        keep = Path("out") / f"{scene.name}_ccx"
+    return FEStudy(scene.pair, opt, phis, name=scene.name, keep_dir=keep)
+
+
+def _register():
+    from ..io.scene import Bounds, Field, Section
+    from . import StudySpec, register
+
+    register(StudySpec(
+        name="fea",
+        doc="Finite element model (Litvin 9.5) solved with CalculiX: contact pressure vs Hertz, root stress, loaded TE",
+        sections=[Section("fea", [
+            Field("torque", "float", default=100.0, check=Bounds(lo=0, lo_open=True, hi=1e6),
+                  doc="pinion torque [N*m]"),
+            Field("E", "float", default=210000.0, check=Bounds(lo=0, lo_open=True), doc="Young's modulus [MPa]"),
+            Field("nu", "float", default=0.3, check=Bounds(lo=0, hi=0.5, hi_open=True), doc="Poisson's ratio"),
+            Field("phi1_start", "angle", default=0.0, check=Bounds(lo=-60, hi=60),
+                  doc="first pinion angle (0: tooth 0 at the pitch point)"),
+            Field("phi1_end", "angle", default=0.0, check=Bounds(lo=-60, hi=60), doc="last pinion angle"),
+            Field("n_positions", "int", default=1, check=Bounds(lo=1, hi=50), doc="positions from phi1_start to phi1_end"),
+            Field("teeth", "int", default=3, check=Bounds(lo=1, hi=7), doc="teeth of each member in the model"),
+            Field("n_hertz", "float", default=3.0, check=Bounds(lo=0, hi=50),
+                  doc="elements across the Hertz half-width at the contact (0: no grading)"),
+            Field("n_face", "int", default=4, check=Bounds(lo=2, hi=200), doc="elements along the face (even)"),
+            Field("n_half", "int", default=6, check=Bounds(lo=1, hi=100), doc="elements across half a tooth"),
+            Field("n_flank", "int", default=8, check=Bounds(lo=2, hi=400), doc="elements along an unloaded flank"),
+            Field("n_fillet", "int", default=5, check=Bounds(lo=1, hi=200), doc="elements along each fillet"),
+            Field("n_rim", "int", default=4, check=Bounds(lo=1, hi=200), doc="elements through the rim"),
+            Field("rim_depth", "float", default=1.5, check=Bounds(lo=0.3, hi=10), doc="rim below the root circle [m_n]"),
+            Field("penalty", "float", default=50.0, check=Bounds(lo=1, hi=1000),
+                  doc="contact penalty stiffness [multiples of E per mm]"),
+            Field("keep_files", "bool", default=False, doc="keep the ccx files (out/<scene name>_ccx/pos<i>)"),
+        ], required=False)],
+        build=_from_scene,
+    ))
+
+
+_register()
