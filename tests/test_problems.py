@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import math
+import shutil
 import tomllib
 from pathlib import Path
 
@@ -32,6 +33,8 @@ def _inv_inverse(t):
 
 @pytest.mark.parametrize("scene", SCENES, ids=[p.stem for p in SCENES])
 def test_scene_runs_and_writes(scene, tmp_path):
+    if tomllib.loads(scene.read_text())["scene"]["study"] == "fea" and shutil.which("ccx") is None:
+        pytest.skip("CalculiX (ccx) is not installed: the FE scene cannot run (make test installs it as root)")
     out = tmp_path / "out"
     assert main(["run", str(scene), "--out", str(out), "--quiet"]) == 0
     res = json.loads((out / "results.json").read_text())
