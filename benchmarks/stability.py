@@ -185,50 +185,9 @@ def cases() -> list[Case]:
 # ---------------------------------------------------------------------------------------------
 # Reference: the SX algorithm of a Function re-evaluated in mpmath
 # ---------------------------------------------------------------------------------------------
-class MPEval:
-    """Evaluate an SX Function's algorithm in mpmath (inputs and constants exact as float64)."""
-
-    def __init__(self, f: ca.Function):
-        m = mpmath
-        un = {ca.OP_NEG: lambda a: -a, ca.OP_SQ: lambda a: a * a, ca.OP_TWICE: lambda a: 2 * a, ca.OP_SIN: m.sin,
-              ca.OP_COS: m.cos, ca.OP_TAN: m.tan, ca.OP_SQRT: m.sqrt, ca.OP_EXP: m.exp, ca.OP_LOG: m.log,
-              ca.OP_ASIN: m.asin, ca.OP_ACOS: m.acos, ca.OP_ATAN: m.atan, ca.OP_FABS: abs,
-              ca.OP_INV: lambda a: 1 / a, ca.OP_ASSIGN: lambda a: a, ca.OP_SIGN: m.sign}
-        bi = {ca.OP_ADD: lambda a, b: a + b, ca.OP_SUB: lambda a, b: a - b, ca.OP_MUL: lambda a, b: a * b,
-              ca.OP_DIV: lambda a, b: a / b, ca.OP_POW: lambda a, b: a**b, ca.OP_CONSTPOW: lambda a, b: a**b,
-              ca.OP_ATAN2: m.atan2, ca.OP_FMIN: min, ca.OP_FMAX: max, ca.OP_HYPOT: m.hypot,
-              ca.OP_IF_ELSE_ZERO: lambda a, b: b if a != 0 else m.mpf(0)}
-        self.prog, self.n_out = [], [f.nnz_out(i) for i in range(f.n_out())]
-        for k in range(f.n_instructions()):
-            op, ins, outs = f.instruction_id(k), f.instruction_input(k), f.instruction_output(k)
-            if op == ca.OP_CONST:
-                self.prog.append(("c", outs[0], mpmath.mpf(f.instruction_constant(k))))
-            elif op == ca.OP_INPUT:
-                self.prog.append(("i", outs[0], ins[0], ins[1]))
-            elif op == ca.OP_OUTPUT:
-                self.prog.append(("o", ins[0], outs[0], outs[1]))
-            elif op in un:
-                self.prog.append(("u", outs[0], un[op], ins[0]))
-            elif op in bi:
-                self.prog.append(("b", outs[0], bi[op], ins[0], ins[1]))
-            else:
-                raise NotImplementedError(f"SX operation {op} in the reference evaluator")
-
-    def __call__(self, *args):
-        w, out = {}, [[None] * n for n in self.n_out]
-        for ins in self.prog:
-            t = ins[0]
-            if t == "b":
-                w[ins[1]] = ins[2](w[ins[3]], w[ins[4]])
-            elif t == "u":
-                w[ins[1]] = ins[2](w[ins[3]])
-            elif t == "c":
-                w[ins[1]] = ins[2]
-            elif t == "i":
-                w[ins[1]] = args[ins[2]][ins[3]]
-            else:
-                out[ins[2]][ins[3]] = w[ins[1]]
-        return out
+# The mpmath re-evaluation of an SX graph is the one of bench_tca.py (same folder).
+sys.path.insert(0, str(__import__("pathlib").Path(__file__).resolve().parent))
+from bench_tca import MPEval  # noqa: E402
 
 
 _MP_CACHE: dict = {}

@@ -32,8 +32,7 @@ import casadi as ca
 import numpy as np
 
 from ..errors import ConvergenceError, out_of_range
-from ..meshing.tca import REGULARITY_MIN, TCA, Branch, Misalignment, TCAResult
-from ..units import RAD_TO_ARCSEC
+from ..meshing.tca import REGULARITY_MIN, TCA, Branch, EnvelopeTE, Misalignment, TCAResult
 
 #: Convex edges that can touch the mating flank (member, kind, sign of the face end).
 EDGES = {
@@ -47,7 +46,7 @@ SURFACE = "surface"
 
 
 @dataclass(frozen=True)
-class EdgeTCAResult:
+class EdgeTCAResult(EnvelopeTE):
     """Surface and edge contact of a drive over the pinion angles, every tooth pair.
 
     Arrays: ``(B, K, N)`` for B branches (``branches[0] = "surface"``, then the edges), K tooth
@@ -93,15 +92,6 @@ class EdgeTCAResult:
     surface: TCAResult | None = None
     solve_time: float = 0.0
     stats: dict = field(default_factory=dict)
-
-    @property
-    def te_envelope_arcsec(self) -> np.ndarray:
-        return self.te_envelope * RAD_TO_ARCSEC
-
-    @property
-    def peak_to_peak(self) -> float:
-        v = self.te_envelope[np.isfinite(self.te_envelope)]
-        return float(v.max() - v.min()) if v.size else float("nan")
 
     def edge_contact(self) -> bool:
         """True when an edge carries the load somewhere along the actual TE."""

@@ -106,8 +106,22 @@ def _shape_matrix(r, n, q, E):
     return ca.mtimes([E.T, Nq, pinv, E])
 
 
+class EnvelopeTE:
+    """TE-envelope helpers shared by the result objects (needs ``te_envelope`` [rad])."""
+
+    @property
+    def te_envelope_arcsec(self) -> np.ndarray:
+        return self.te_envelope * RAD_TO_ARCSEC
+
+    @property
+    def peak_to_peak(self) -> float:
+        """Peak-to-peak of the actual TE (envelope) [rad]."""
+        v = self.te_envelope[np.isfinite(self.te_envelope)]
+        return float(v.max() - v.min()) if v.size else float("nan")
+
+
 @dataclass(frozen=True)
-class TCAResult:
+class TCAResult(EnvelopeTE):
     """Numeric result of a TCA sweep (one design, one misalignment case).
 
     Arrays have shape (K, N): K tooth pairs (pinion tooth ``pairs[k]``, positions shifted by
@@ -168,15 +182,6 @@ class TCAResult:
         """TE of every pair [arcsec]."""
         return self.te * RAD_TO_ARCSEC
 
-    @property
-    def te_envelope_arcsec(self) -> np.ndarray:
-        return self.te_envelope * RAD_TO_ARCSEC
-
-    @property
-    def peak_to_peak(self) -> float:
-        """Peak-to-peak of the actual TE (envelope) [rad]."""
-        v = self.te_envelope[np.isfinite(self.te_envelope)]
-        return float(v.max() - v.min()) if v.size else float("nan")
 
 
 class TCA:
