@@ -304,7 +304,7 @@ def main(argv=None):
     t, r = timed(lambda: tca.sweep(phi, mis=case["mis"], pairs=(0,)), rep)
     Wsw = np.vstack([r.u1[0], r.z1[0], r.u2[0], r.z2[0], r.phi2[0] * scale2])
     add("a) TCA.sweep (fast_newton map + checks + curvatures)", case["t_build"], 0.0, t, Wsw,
-        f"engine solve_time includes anchor solve, checks, contact ellipses")
+        "engine solve_time includes anchor solve, checks, contact ellipses")
 
     # (a') the engine with jit=True (mapped solve + checks + contact outputs compiled to C)
     t0 = time.perf_counter()

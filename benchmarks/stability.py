@@ -38,8 +38,8 @@ import casadi as ca
 import mpmath
 import numpy as np
 
-from gearopt.contact.edge import EDGES, EdgeContact
-from gearopt.errors import ConvergenceError, GearoptError, GeometryError
+from gearopt.contact.edge import EdgeContact
+from gearopt.errors import ConvergenceError, GeometryError
 from gearopt.gears import BasicRack, Gear, GearPair
 from gearopt.meshing.tca import TCA, Misalignment
 from gearopt.units import ARCMIN, DEG, RAD_TO_ARCSEC

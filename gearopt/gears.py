@@ -423,7 +423,7 @@ class GearPair:
     def backlash(self) -> float:
         """Circumferential backlash on the working pitch circle of the gear [mm] (0 at a = a_0):
         from the tooth thicknesses on the operating pitch circles."""
-        p, g, aw = self.pinion, self.gear, self.alpha_wt
+        p, g = self.pinion, self.gear
         r_w1 = self.a_w * p.z / (p.z + g.z)
         r_w2 = self.a_w - r_w1
         s1 = float(tooth_thickness(r_w1, p.r_p, p.s_t, p.alpha_t))

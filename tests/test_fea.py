@@ -3,7 +3,6 @@ Hertz, T / r_b1 and ISO 6336-3 (the CalculiX runs skip where ccx is missing)."""
 
 from __future__ import annotations
 
-import math
 import shutil
 
 import numpy as np

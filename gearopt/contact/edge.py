@@ -201,7 +201,6 @@ class EdgeContact:
         p2 = tca.gear.p0 if p2 is None else np.asarray(p2, float)
         phi1 = np.atleast_1d(np.asarray(phi1, float))
         pairs = tuple(int(k) for k in pairs)
-        K, N = len(pairs), phi1.size
         z1 = self.members[1].z
         phis = np.concatenate([phi1 - 2 * math.pi * k / z1 for k in pairs])
         prm = tca.prm(phis, p1, p2, mis)

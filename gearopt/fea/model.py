@@ -36,10 +36,10 @@ import numpy as np
 
 from ..errors import GeometryError, out_of_range
 from ..gears import GearPair
-from ..geometry.generation import GeneratedTooth, generate_by_rack
+from ..geometry.generation import GeneratedTooth
 from ..meshing.tca import TCA
 from .calculix import CalculixError, Deck, last_block, read_dat, read_frd_block, run_ccx
-from .mesh import GAUSS_C3D8, HEX_FACES, MemberMesh, MeshOptions, ToothMesher, build_member, face_of, shape
+from .mesh import GAUSS_C3D8, MemberMesh, MeshOptions, ToothMesher, build_member, face_of, shape
 
 MESH_STIFFNESS = 14.0e3  #: single-pair mesh stiffness estimate c' [N/mm per mm of face] (ISO 6336-1 order)
 
@@ -340,7 +340,6 @@ class FEResult:
         blocks = read_dat(run.dat)
         o = model.opt
         g1, g2 = model.pair.pinion, model.pair.gear
-        n1 = len(model.nodes_pinion)
         nodes = deck.nodes
         rf = last_block(blocks, "total force", "GFIX") or last_block(blocks, "forces", "GFIX")
         if rf is None or not rf.rows:
