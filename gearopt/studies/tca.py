@@ -155,55 +155,37 @@ class TCAReport:
 
         out = Path(out_dir)
         n = len(self.cases)
-        if self.cases and self.cases[0].get("edge_analysis"):
-            return self._save_edge_plots(out, dpi, plt)
-        fig, axes = plt.subplots(n, 1, figsize=(9, 3.6 * n), squeeze=False)
+        edge = bool(self.cases and self.cases[0].get("edge_analysis"))
+        if edge:
+            from ..plot.tca import plot_edge_paths as plot_paths, plot_edge_te as plot_te_case
+            te_title = "transmission errors with edge contact (Litvin 9.6)"
+            path_title = "paths of contact, surface and edge parts (central tooth pair)"
+        else:
+            plot_paths, plot_te_case = plot_bearing_contact, plot_te
+            te_title = "transmission errors"
+            path_title = "bearing contact (paths of contact and contact ellipses)"
+
+        def save(name, fig, title):
+            fig.suptitle(f"{self.scene}: {title}")
+            fig.tight_layout()
+            fig.savefig(out / name, dpi=dpi, bbox_inches="tight")
+            plt.close(fig)
+            return name
+
+        fig, axes = plt.subplots(n, 1, figsize=(9, 3.7 * n), squeeze=False)
         for ax, case in zip(axes[:, 0], self.cases):
-            plot_te(case, ax=ax)
-        fig.suptitle(f"{self.scene}: transmission errors")
-        fig.tight_layout()
-        fig.savefig(out / "te.png", dpi=dpi, bbox_inches="tight")
-        plt.close(fig)
+            plot_te_case(case, ax=ax)
+        files = [save("te.png", fig, te_title)]
         fig, axes = plt.subplots(n, 2, figsize=(12, 4.2 * n), squeeze=False)
         for row, case in zip(axes, self.cases):
-            plot_bearing_contact(case, "pinion", ax=row[0])
-            plot_bearing_contact(case, "gear", ax=row[1])
-        fig.suptitle(f"{self.scene}: bearing contact (paths of contact and contact ellipses)")
-        fig.tight_layout()
-        fig.savefig(out / "bearing_contact.png", dpi=dpi, bbox_inches="tight")
-        plt.close(fig)
-        files = ["te.png", "bearing_contact.png"]
-        if n > 1:
+            plot_paths(case, "pinion", ax=row[0])
+            plot_paths(case, "gear", ax=row[1])
+        files.append(save("bearing_contact.png", fig, path_title))
+        if n > 1 and not edge:
             fig, axes = plt.subplots(1, 2, figsize=(12, 4.5))
             plot_compare({c["label"]: c for c in self.cases}, axes=axes)
-            fig.suptitle(f"{self.scene}: cases compared (actual TE, path of contact on the gear flank)")
-            fig.tight_layout()
-            fig.savefig(out / "compare.png", dpi=dpi, bbox_inches="tight")
-            plt.close(fig)
-            files.append("compare.png")
+            files.append(save("compare.png", fig, "cases compared (actual TE, path of contact on the gear flank)"))
         return files
-
-
-    def _save_edge_plots(self, out, dpi, plt) -> list[str]:
-        from ..plot.tca import plot_edge_paths, plot_edge_te
-
-        n = len(self.cases)
-        fig, axes = plt.subplots(n, 1, figsize=(9, 3.8 * n), squeeze=False)
-        for ax, case in zip(axes[:, 0], self.cases):
-            plot_edge_te(case, ax=ax)
-        fig.suptitle(f"{self.scene}: transmission errors with edge contact (Litvin 9.6)")
-        fig.tight_layout()
-        fig.savefig(out / "te.png", dpi=dpi, bbox_inches="tight")
-        plt.close(fig)
-        fig, axes = plt.subplots(n, 2, figsize=(12, 4.2 * n), squeeze=False)
-        for row, case in zip(axes, self.cases):
-            plot_edge_paths(case, "pinion", ax=row[0])
-            plot_edge_paths(case, "gear", ax=row[1])
-        fig.suptitle(f"{self.scene}: paths of contact, surface and edge parts (central tooth pair)")
-        fig.tight_layout()
-        fig.savefig(out / "bearing_contact.png", dpi=dpi, bbox_inches="tight")
-        plt.close(fig)
-        return ["te.png", "bearing_contact.png"]
 
 
 class TCAStudy:
