@@ -120,3 +120,28 @@ def scene_file(tmp_path):
         return path
 
     return write
+
+
+# Rotation matrices of the tests' own (independent) frames.
+def Rz(a):
+    import math
+
+    import numpy as np
+    c, s = math.cos(a), math.sin(a)
+    return np.array([[c, -s, 0], [s, c, 0], [0, 0, 1.0]])
+
+
+def Ry(a):
+    import math
+
+    import numpy as np
+    c, s = math.cos(a), math.sin(a)
+    return np.array([[c, 0, s], [0, 1.0, 0], [-s, 0, c]])
+
+
+def Rx(a):
+    import math
+
+    import numpy as np
+    c, s = math.cos(a), math.sin(a)
+    return np.array([[1.0, 0, 0], [0, c, -s], [0, s, c]])

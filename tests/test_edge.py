@@ -64,6 +64,7 @@ from scipy.optimize import brentq, fsolve
 from gearopt.contact.edge import EdgeContact
 from gearopt.gears import BasicRack, Gear, GearPair
 from gearopt.meshing.tca import TCA, Misalignment
+from conftest import Rx, Ry, Rz  # noqa: E402  (the tests' own rotation matrices)
 
 DEG = math.pi / 180
 ARCMIN = DEG / 60
@@ -144,21 +145,6 @@ def own(pair: GearPair) -> dict:
         s_w = 2 * r_w * (out[f"s_t{i}"] / (2 * out[f"r_p{i}"]) + inv(out["alpha_t"]) - inv(a_r))
         out[f"theta{i}"] = s_w / (2 * r_w)
     return out
-
-
-def Rz(a):
-    c, s = math.cos(a), math.sin(a)
-    return np.array([[c, -s, 0], [s, c, 0], [0, 0, 1.0]])
-
-
-def Ry(a):
-    c, s = math.cos(a), math.sin(a)
-    return np.array([[c, 0, s], [0, 1.0, 0], [-s, 0, c]])
-
-
-def Rx(a):
-    c, s = math.cos(a), math.sin(a)
-    return np.array([[1.0, 0, 0], [0, c, -s], [0, s, c]])
 
 
 class Frames:

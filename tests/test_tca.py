@@ -62,6 +62,7 @@ from gearopt.errors import ConvergenceError
 from gearopt.gears import BasicRack, Gear, GearPair
 from gearopt.geometry.generation import PARAMS
 from gearopt.meshing.tca import TCA, Misalignment
+from conftest import Rx, Ry, Rz  # noqa: E402  (the tests' own rotation matrices)
 
 DEG = math.pi / 180
 ARCMIN = DEG / 60
@@ -81,21 +82,6 @@ def thickness(g: Gear, r: float) -> float:
     """Transverse arc thickness at radius r (Litvin eq. 10.2.9)."""
     a_r = math.acos(g.r_b / r)
     return 2 * r * (g.s_t / (2 * g.r_p) + inv(g.alpha_t) - inv(a_r))
-
-
-def Rz(a):
-    c, s = math.cos(a), math.sin(a)
-    return np.array([[c, -s, 0], [s, c, 0], [0, 0, 1.0]])
-
-
-def Ry(a):
-    c, s = math.cos(a), math.sin(a)
-    return np.array([[c, 0, s], [0, 1.0, 0], [-s, 0, c]])
-
-
-def Rx(a):
-    c, s = math.cos(a), math.sin(a)
-    return np.array([[1.0, 0, 0], [0, c, -s], [0, s, c]])
 
 
 def frames(pair: GearPair, side: str, phi1: float, phi2: float, mis: Misalignment):
