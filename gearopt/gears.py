@@ -20,6 +20,11 @@ b        face width [mm]
 r_p      reference (pitch) radius m_t z / 2;  r_b = r_p cos(alpha_t) base radius
 r_a, r_f tip and root radii; r_F form radius (where the fillet meets the involute)
 a        centre distance [mm]; alpha_wt working transverse pressure angle
+A_sne, A_sni  upper / lower tooth thickness allowance [mm], normal section, on the reference
+         circle (DIN 3967, ISO 21771); negative = thinner than the nominal tooth of shift x
+x_E      generating profile shift coefficient x + A_sn / (2 m_n tan alpha_n) (ISO 21771): the tool
+         position that cuts the thinned tooth
+j_wt, j_bn  circumferential backlash on the working pitch circle, normal backlash [mm]
 """
 
 from __future__ import annotations
@@ -165,6 +170,14 @@ class Gear:
         Accept a gear whose rack-cutter undercuts the involute (otherwise an error).
     name : str
         Label used in reports and plots.
+    A_sne : float
+        Upper tooth thickness allowance [mm] (DIN 3967 / ISO 21771): normal tooth thickness on the
+        reference circle minus the nominal one of shift ``x``; negative = thinner (backlash). The
+        generated tooth (flanks, root, TCA, FE) is the one of the upper allowance (maximum
+        material), cut with the tool at the generating shift ``x_E`` (:attr:`x_E`).
+    A_sni : float or None
+        Lower tooth thickness allowance [mm], ``A_sni <= A_sne``; ``None``: equal to ``A_sne``.
+        Only the largest backlash (:attr:`GearPair.backlash_max`) uses it.
     """
 
     z: int
@@ -178,9 +191,17 @@ class Gear:
     a_pl: float = 0.0
     allow_undercut: bool = False
     name: str = "gear"
+    A_sne: float = 0.0
+    A_sni: float | None = None
 
     def __post_init__(self):
         n = self.name
+        _finite(f"{n}.A_sne", self.A_sne)
+        if self.A_sni is None:
+            object.__setattr__(self, "A_sni", float(self.A_sne))
+        elif _finite(f"{n}.A_sni", self.A_sni) > self.A_sne:
+            raise out_of_range(f"{n}.A_sni", self.A_sni, f"A_sni <= A_sne = {self.A_sne:.6g} mm (lower thickness "
+                               "allowance below the upper one)")
         if isinstance(self.z, bool) or not isinstance(self.z, int):
             raise GeometryError(f"{n}.z = {self.z!r} must be an integer number of teeth (z >= 3).")
         if self.z < 3:
@@ -201,9 +222,9 @@ class Gear:
             raise GeometryError(f"{n}.rack must be a BasicRack, got {type(self.rack).__name__}.")
         if self.r_a <= self.r_f:
             raise out_of_range(f"{n}.k", self.k, f"k > {-(self.rack.h_aP + self.rack.h_fP):.4g} (tip above root)")
-        if not self.allow_undercut and self.x < self.x_min_undercut - 1e-12:
+        if not self.allow_undercut and self.x_E < self.x_min_undercut - 1e-12:
             raise out_of_range(
-                f"{n}.x", self.x, f"x >= {self.x_min_undercut:.4f} for z = {self.z} (no undercut; z >= {self.z_min_undercut:.2f} "
+                f"{n}.x", self.x, f"x >= {self.x_min_undercut + self.x - self.x_E:.4f} for z = {self.z} (no undercut; z >= {self.z_min_undercut:.2f} "
                 "teeth without shift)", "Raise x, or set allow_undercut = true to accept an undercut gear.")
         s_a = self.s_at(self.r_a)
         if s_a <= 0:
@@ -231,6 +252,18 @@ class Gear:
     def helix_sign(self) -> int:
         """+1 for a right-hand helix, -1 for left hand (0 for spur)."""
         return 0 if self.is_spur else (1 if self.hand == "right" else -1)
+
+    @property
+    def x_E(self) -> float:
+        """Generating profile shift coefficient [-] of the upper thickness allowance:
+        ``x + A_sne / (2 m_n tan alpha_n)`` (ISO 21771; the tool sits ``x_E m_n`` off the reference
+        circle). Equal to ``x`` without allowance."""
+        return self.x + self.A_sne / (2 * self.m_n * math.tan(self.rack.alpha_n))
+
+    @property
+    def x_Ei(self) -> float:
+        """Generating profile shift coefficient [-] of the lower thickness allowance ``A_sni``."""
+        return self.x + self.A_sni / (2 * self.m_n * math.tan(self.rack.alpha_n))
 
     @property
     def m_t(self) -> float:
@@ -264,8 +297,8 @@ class Gear:
 
     @property
     def r_f(self) -> float:
-        """Root radius [mm] (cut by the tool tip line)."""
-        return self.r_p + self.m_n * (self.x - self.rack.h_fP)
+        """Root radius [mm] (cut by the tool tip line, tool at the generating shift ``x_E``)."""
+        return self.r_p + self.m_n * (self.x_E - self.rack.h_fP)
 
     @property
     def p_n(self) -> float:
@@ -279,9 +312,9 @@ class Gear:
 
     @property
     def s_t(self) -> float:
-        """Transverse arc tooth thickness on the reference circle [mm]:
-        ``m_t (pi/2 + 2 x tan alpha_n)``."""
-        return self.m_t * (math.pi / 2 + 2 * self.x * math.tan(self.rack.alpha_n))
+        """Transverse arc tooth thickness on the reference circle [mm] of the generated tooth (upper
+        allowance): ``m_t (pi/2 + 2 x_E tan alpha_n) = m_t (pi/2 + 2 x tan alpha_n) + A_sne / cos beta``."""
+        return self.m_t * (math.pi / 2 + 2 * self.x_E * math.tan(self.rack.alpha_n))
 
     def s_at(self, r: float) -> float:
         """Transverse arc tooth thickness at radius ``r >= r_b`` [mm]."""
@@ -297,18 +330,19 @@ class Gear:
         # where it crosses the line of action, h / sin(alpha_t) from the pitch point towards the
         # interference point T (r_p sin(alpha_t) from the pitch point); the same formula holds for h < 0.
         # With undercut (h > r_p sin^2 alpha_t) the point lies beyond T: the value is then not the form radius.
-        h = (self.rack.h_lim - self.x) * self.m_n
+        h = (self.rack.h_lim - self.x_E) * self.m_n
         return math.hypot(self.r_b, self.r_p * math.sin(self.alpha_t) - h / math.sin(self.alpha_t))
 
     @property
     def undercut(self) -> bool:
         """True when the tool's straight flank reaches below the interference point
         (the generating line's tangency point with the base circle)."""
-        return self.x < self.x_min_undercut
+        return self.x_E < self.x_min_undercut
 
     @property
     def x_min_undercut(self) -> float:
-        """Smallest profile shift without undercut: ``h_lim - z sin^2(alpha_t) / (2 cos beta)``."""
+        """Smallest (generating) profile shift without undercut: ``h_lim - z sin^2(alpha_t) / (2 cos beta)``;
+        compared with :attr:`x_E`."""
         return self.rack.h_lim - self.z * math.sin(self.alpha_t) ** 2 / (2 * math.cos(self.beta))
 
     @property
@@ -318,12 +352,15 @@ class Gear:
 
     @property
     def x_max_pointed(self) -> float:
-        """Profile shift at which the tip becomes pointed (s_a = 0), by bisection."""
+        """Profile shift at which the tip becomes pointed (s_a = 0), by bisection (with the allowance
+        ``A_sne`` on the thickness)."""
+        dx = self.x_E - self.x
+
         def s_a(x):
             r_a = self.r_p + self.m_n * (self.rack.h_aP + x + self.k)
             if r_a <= self.r_b:  # no involute at the tip: not pointed
                 return math.inf
-            s_p = self.m_t * (math.pi / 2 + 2 * x * math.tan(self.rack.alpha_n))
+            s_p = self.m_t * (math.pi / 2 + 2 * (x + dx) * math.tan(self.rack.alpha_n))
             return float(tooth_thickness(r_a, self.r_p, s_p, self.alpha_t))
         lo, hi = -5.0, 5.0
         for _ in range(200):
@@ -343,8 +380,14 @@ class GearPair:
     a : float or None
         Centre distance [mm]. ``None`` (default): the zero-backlash distance ``a_0`` from
         ``x1 + x2`` through ``inv alpha_wt = inv alpha_t + 2 tan alpha_n (x1 + x2) / (z1 + z2)``.
-        A larger ``a`` opens backlash; a smaller one jams the teeth (an error).
+        A larger ``a`` opens backlash; a smaller one jams the teeth (an error), except within
+        :attr:`a_0_tolerance` of the zero-backlash distance of the generated teeth (the effect of
+        shift coefficients rounded to 4 decimals). The operating geometry (alpha_wt, backlash,
+        contact ratio, TCA) always uses the given ``a``; ``a - a_0`` is :attr:`a_minus_a_0`.
     """
+
+    #: Rounding of published profile shift coefficients (4 decimals: x1 + x2 is known to +-1e-4).
+    X_ROUNDING = 1e-4
 
     pinion: Gear
     gear: Gear
@@ -368,9 +411,14 @@ class GearPair:
             r_bsum = p.r_b + g.r_b
             if a <= r_bsum:
                 raise out_of_range("pair.a", a, f"a > r_b1 + r_b2 = {r_bsum:.6g} mm (base circles)")
-            if a < self.a_0 * (1 - 1e-12):
-                raise out_of_range("pair.a", a, f"a >= a_0 = {self.a_0:.6g} mm, the zero-backlash distance for "
-                                   f"x1 + x2 = {p.x + g.x:.4g}", "Increase a or reduce x1 + x2.")
+            a_jam, tol = self.a_0_generated, self.a_0_tolerance
+            if a < a_jam - tol:
+                gen = "" if p.A_sne == g.A_sne == 0 else (f" with the upper thickness allowances (generating shifts "
+                                                           f"x_E1 + x_E2 = {p.x_E + g.x_E:.6g})")
+                raise out_of_range("pair.a", a, f"a >= a_0 = {a_jam:.6g} mm, the zero-backlash distance for "
+                                   f"x1 + x2 = {p.x + g.x:.6g}{gen}, less the tolerance {tol * 1000:.3g} um for "
+                                   "shifts rounded to 4 decimals", "Increase a, reduce x1 + x2 or thin the teeth "
+                                   "(negative A_sne).")
         c1, c2 = self.tip_clearance
         for who, c, r_a in (("pinion", c1, p.r_a), ("gear", c2, g.r_a)):
             if c < 0:
@@ -409,6 +457,34 @@ class GearPair:
         alpha_w = float(inv_inverse(inv_w))
         return (p.r_p + g.r_p) * math.cos(p.alpha_t) / math.cos(alpha_w)
 
+    @staticmethod
+    def _a_of_shift(p: Gear, g: Gear, x_sum: float) -> float:
+        inv_w = inv(p.alpha_t) + 2 * math.tan(p.rack.alpha_n) * x_sum / (p.z + g.z)
+        alpha_w = float(inv_inverse(inv_w))
+        return (p.r_p + g.r_p) * math.cos(p.alpha_t) / math.cos(alpha_w)
+
+    @property
+    def a_0_generated(self) -> float:
+        """Zero-backlash centre distance [mm] of the generated teeth (upper thickness allowances,
+        generating shifts ``x_E1 + x_E2``); equals :attr:`a_0` without allowances."""
+        return self._a_of_shift(self.pinion, self.gear, self.pinion.x_E + self.gear.x_E)
+
+    @property
+    def a_0_tolerance(self) -> float:
+        """How far [mm] ``a`` may lie below the zero-backlash distance: the change of ``a_0`` caused
+        by :attr:`X_ROUNDING` in ``x1 + x2``, ``X_ROUNDING * da_0/d(x1 + x2)`` with
+        ``da_0/d(x1 + x2) = 2 a_0 tan(alpha_n) / ((z1 + z2) tan(alpha_wt0))`` (differentiating
+        ``inv alpha_wt``; ``d inv(a)/da = tan^2 a``). About 0.1 um per mm of module."""
+        p, g = self.pinion, self.gear
+        a0 = self.a_0_generated
+        alpha_w0 = math.acos((p.r_b + g.r_b) / a0)
+        return self.X_ROUNDING * 2 * a0 * math.tan(p.rack.alpha_n) / ((p.z + g.z) * math.tan(alpha_w0))
+
+    @property
+    def a_minus_a_0(self) -> float:
+        """Operating centre distance minus the zero-backlash distance of the nominal shifts [mm]."""
+        return self.a_w - self.a_0
+
     @property
     def a_w(self) -> float:
         """Operating centre distance [mm]: ``a`` if given, else ``a_0``."""
@@ -419,16 +495,45 @@ class GearPair:
         """Working transverse pressure angle [rad]: ``cos alpha_wt = (r_b1 + r_b2) / a``."""
         return math.acos((self.pinion.r_b + self.gear.r_b) / self.a_w)
 
-    @property
-    def backlash(self) -> float:
-        """Circumferential backlash on the working pitch circle of the gear [mm] (0 at a = a_0):
-        from the tooth thicknesses on the operating pitch circles."""
+    def _backlash(self, s_t1: float, s_t2: float) -> float:
         p, g = self.pinion, self.gear
         r_w1 = self.a_w * p.z / (p.z + g.z)
         r_w2 = self.a_w - r_w1
-        s1 = float(tooth_thickness(r_w1, p.r_p, p.s_t, p.alpha_t))
-        s2 = float(tooth_thickness(r_w2, g.r_p, g.s_t, g.alpha_t))
+        s1 = float(tooth_thickness(r_w1, p.r_p, s_t1, p.alpha_t))
+        s2 = float(tooth_thickness(r_w2, g.r_p, s_t2, g.alpha_t))
         return 2 * math.pi * r_w2 / g.z - s2 - s1
+
+    @property
+    def backlash(self) -> float:
+        """Smallest circumferential backlash ``j_wt`` on the working pitch circles [mm], of the
+        generated teeth (upper thickness allowances ``A_sne``): working pitch minus both tooth
+        thicknesses there (0 at a = a_0 without allowances; slightly negative when ``a`` lies below
+        ``a_0`` within :attr:`a_0_tolerance`)."""
+        return self._backlash(self.pinion.s_t, self.gear.s_t)
+
+    @property
+    def backlash_max(self) -> float:
+        """Largest circumferential backlash ``j_wt`` [mm], with the lower allowances ``A_sni``."""
+        p, g = self.pinion, self.gear
+        dx1, dx2 = p.x_Ei - p.x_E, g.x_Ei - g.x_E
+        tan_a = math.tan(p.rack.alpha_n)
+        return self._backlash(p.s_t + 2 * dx1 * tan_a * p.m_t, g.s_t + 2 * dx2 * tan_a * g.m_t)
+
+    @property
+    def backlash_normal(self) -> tuple[float, float]:
+        """Normal backlash ``j_bn = j_wt cos(alpha_wt) cos(beta_b)`` [mm] (ISO 21771), smallest and
+        largest: the gap between the coast flanks along their common normal."""
+        f = math.cos(self.alpha_wt) * math.cos(self.pinion.beta_b)
+        return self.backlash * f, self.backlash_max * f
+
+    @property
+    def g_alpha(self) -> float:
+        """Length of the path of contact [mm] on the transverse line of action (THEORY section 3):
+        ``sqrt(r_a1^2 - r_b1^2) + sqrt(r_a2^2 - r_b2^2) - a sin(alpha_wt)``, each tip's reach cut at
+        the mating interference point."""
+        p, g = self.pinion, self.gear
+        ga = self.a_w * math.sin(self.alpha_wt)
+        return min(math.sqrt(p.r_a**2 - p.r_b**2), ga) + min(math.sqrt(g.r_a**2 - g.r_b**2), ga) - ga
 
     @property
     def tip_clearance(self) -> tuple[float, float]:
@@ -438,12 +543,9 @@ class GearPair:
     @property
     def eps_alpha(self) -> float:
         """Transverse contact ratio (THEORY section 3)."""
-        p, g = self.pinion, self.gear
         # Each tip's reach along the line of action is cut at the mating base circle's tangency
         # point (only possible for a member that is allowed to be undercut).
-        ga = self.a_w * math.sin(self.alpha_wt)
-        path = min(math.sqrt(p.r_a**2 - p.r_b**2), ga) + min(math.sqrt(g.r_a**2 - g.r_b**2), ga) - ga
-        return path / p.p_bt
+        return self.g_alpha / self.pinion.p_bt
 
     @property
     def eps_beta(self) -> float:

@@ -45,8 +45,9 @@ _FILLET_NEWTON = 5  # Newton steps for the fillet junction of a parabolic tool p
 
 
 def default_params(gear: Gear) -> np.ndarray:
-    """Parameter vector ``p`` (:data:`PARAMS`) of ``gear`` as built."""
-    return np.array([gear.x, gear.rack.a_c, gear.rack.u_0, gear.a_pl], dtype=float)
+    """Parameter vector ``p`` (:data:`PARAMS`) of ``gear`` as built; ``x`` is the generating shift
+    ``gear.x_E`` (the tool position that includes the tooth thickness allowance)."""
+    return np.array([gear.x_E, gear.rack.a_c, gear.rack.u_0, gear.a_pl], dtype=float)
 
 
 def _cross(a, b):

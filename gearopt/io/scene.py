@@ -4,7 +4,8 @@ A scene declares only what its study needs. The common sections (see :data:`COMM
 
     [scene]   name (required), description, study (required; a registered study)
     [rack]    optional, for both members: preset ("A".."D", ISO 53), alpha_n, h_aP, h_fP, rho_fP, a_c, u_0
-    [pinion]  z, b (required), x, k, a_pl, allow_undercut; optional subtable rack = {...} (overrides [rack])
+    [pinion]  z, b (required), x, k or d_a, A_sne, A_sni, a_pl, allow_undercut; optional subtable
+              rack = {...} (overrides [rack])
     [gear]    same as [pinion]
     [pair]    m_n or P_n (exactly one), beta, hand (the pinion's; the gear gets the opposite), a
     [output]  optional: plots, dpi
@@ -328,6 +329,10 @@ def _member(name: str) -> Section:
         Field("b", "length", required=True, doc="face width, > 0"),
         Field("x", "float", default=0.0, doc="profile shift coefficient"),
         Field("k", "float", default=0.0, doc="tip alteration coefficient"),
+        Field("d_a", "length", check=_POS, doc="tip diameter (instead of k: k = (d_a / 2 - r_p) / m_n - h_aP - x)"),
+        Field("A_sne", "length", default=0.0, doc="upper tooth thickness allowance, normal, on the reference circle "
+              "(DIN 3967; negative = thinner)"),
+        Field("A_sni", "length", doc="lower tooth thickness allowance (<= A_sne; default A_sne)"),
         Field("a_pl", "inverse_length", default=0.0, doc="longitudinal crowning by tool plunging, >= 0"),
         Field("allow_undercut", "bool", default=False, doc="accept an undercut gear"),
     ], required=True, doc=f"the {name}" + (" (driving member)" if name == "pinion" else " (driven member)"),
@@ -597,10 +602,17 @@ def _build_pair(data: dict, parsed: dict, given: dict, label: str) -> GearPair:
         except GeometryError as e:
             reraise(e, member, ctx)
         v = parsed[member]
+        k = v["k"]
+        if v.get("d_a") is not None:
+            if "k" in given[member]:
+                raise SceneError(f"{label}: [{member}] k and d_a: give at most one of them (tip alteration "
+                                 "coefficient or tip diameter).")
+            r_p = m_n * v["z"] / math.cos(pr["beta"]) / 2
+            k = (v["d_a"] / 2 - r_p) / m_n - rack.h_aP - v["x"]
         try:
             members[member] = Gear(z=v["z"], m_n=m_n, x=v["x"], b=v["b"], beta=pr["beta"], hand=hands[member],
-                                   rack=rack, k=v["k"], a_pl=v["a_pl"], allow_undercut=v["allow_undercut"],
-                                   name=member)
+                                   rack=rack, k=k, a_pl=v["a_pl"], allow_undercut=v["allow_undercut"],
+                                   name=member, A_sne=v["A_sne"], A_sni=v.get("A_sni"))
         except GeometryError as e:
             reraise(e, member, f"[{member}]")
     try:

@@ -22,7 +22,9 @@ from ..geometry.generation import (GeneratedTooth, Hob, Shaper, default_params, 
                                    generate_by_rack, generate_by_shaper, rack_profile_functions)
 from ..units import DEG
 
-UNITS = {"length": "mm", "angle": "rad (suffix _deg: degrees)", "ratio": "-", "time": "s",
+UNITS = {"length": "mm (suffix _um: micrometres)", "angle": "rad (suffix _deg: degrees)", "ratio": "-", "time": "s",
+         "backlash": "mm; backlash_circumferential on the working pitch circles (j_wt), backlash_normal along the "
+                     "flank normal (j_bn); without suffix: smallest (upper allowances A_sne), _max: largest (A_sni)",
          "profiles": "mm, transverse section at mid face (z = 0), gear frame, tooth centred on +y"}
 
 
@@ -134,6 +136,7 @@ class GeometryStudy:
             r_start, _ = _active_start(a, aw, g.r_b, mate.r_b, mate.r_a)
             members[name] = {
                 "z": g.z, "m_n": g.m_n, "m_t": g.m_t, "x": g.x, "k": g.k, "b": g.b,
+                "A_sne": g.A_sne, "A_sni": g.A_sni, "x_E": g.x_E, "d_a": 2 * g.r_a,
                 "beta_deg": g.beta / DEG, "hand": g.hand if not g.is_spur else None,
                 "alpha_n_deg": g.rack.alpha_n / DEG, "alpha_t_deg": g.alpha_t / DEG, "beta_b_deg": g.beta_b / DEG,
                 "rack": {"name": g.rack.name, "h_aP": g.rack.h_aP, "h_fP": g.rack.h_fP, "rho_fP": g.rack.rho_fP,
@@ -145,7 +148,7 @@ class GeometryStudy:
                 "form_margin": r_start - r_form,
                 "s_t": g.s_t, "s_a": g.s_at(g.r_a), "s_a_over_m_n": g.s_at(g.r_a) / g.m_n,
                 "undercut": g.undercut, "x_min_undercut": g.x_min_undercut, "z_min_undercut": g.z_min_undercut,
-                "undercut_margin_x": g.x - g.x_min_undercut, "x_max_pointed": g.x_max_pointed,
+                "undercut_margin_x": g.x_E - g.x_min_undercut, "x_max_pointed": g.x_max_pointed,
                 "flank_u_form": u_f,
             }
             profiles[name] = {k: v.tolist() for k, v in prof.items()}
@@ -155,11 +158,16 @@ class GeometryStudy:
         r_A2, g2 = _active_start(a, aw, pair.gear.r_b, pair.pinion.r_b, pair.pinion.r_a)
         path = a * math.sin(aw) - g1 - g2  # length of the path of contact on the line of action
         c1, c2 = pair.tip_clearance
+        j_bn = pair.backlash_normal
         report_pair = {
-            "ratio": pair.ratio, "a": a, "a_0": pair.a_0, "alpha_wt_deg": aw / DEG,
-            "backlash_circumferential": pair.backlash, "tip_clearance_pinion": c1, "tip_clearance_gear": c2,
+            "ratio": pair.ratio, "a": a, "a_0": pair.a_0, "a_minus_a_0_um": pair.a_minus_a_0 * 1000,
+            "a_0_tolerance_um": pair.a_0_tolerance * 1000,
+            "alpha_wt_deg": aw / DEG,
+            "backlash_circumferential": pair.backlash, "backlash_circumferential_max": pair.backlash_max,
+            "backlash_normal": j_bn[0], "backlash_normal_max": j_bn[1],
+            "tip_clearance_pinion": c1, "tip_clearance_gear": c2,
             "eps_alpha": pair.eps_alpha, "eps_beta": pair.eps_beta, "eps_gamma": pair.eps_gamma,
-            "path_of_contact": path, "base_pitch_t": pair.pinion.p_bt,
+            "g_alpha": pair.g_alpha, "path_of_contact": path, "base_pitch_t": pair.pinion.p_bt,
             "involute_interference": any(members[n]["form_margin"] < 0 for n in members),
         }
         return GeometryReport(scene=self.name, members=members, pair=report_pair, profiles=profiles, rack=racks,
@@ -189,8 +197,8 @@ def _rack_outline(g: Gear, teeth: int = 3) -> dict:
         pts.append(seg)
     out = np.vstack(pts)
     out[:, 0] /= cb  # transverse section of the rack
-    out[:, 1] += g.r_p + g.x * g.m_n
-    return {"outline": out.tolist(), "pitch_line_y": g.r_p, "datum_line_y": g.r_p + g.x * g.m_n,
+    out[:, 1] += g.r_p + g.x_E * g.m_n
+    return {"outline": out.tolist(), "pitch_line_y": g.r_p, "datum_line_y": g.r_p + g.x_E * g.m_n,
             "alpha_t": g.alpha_t, "r_p": g.r_p, "r_b": g.r_b}
 
 
