@@ -103,7 +103,8 @@ def _studies() -> int:
     def show(section, indent="  ", prefix=""):
         req = " (required)" if section.required else ""
         doc = f"  -- {section.doc}" if section.doc else ""
-        print(f"{indent}[{prefix}{section.name}]{req}{doc}")
+        br = ("[[", "]]") if getattr(section, "array", False) else ("[", "]")
+        print(f"{indent}{br[0]}{prefix}{section.name}{br[1]}{req}{doc}")
         for f in section.fields:
             print(f"{indent}    {format_field(f)}")
         for s in section.subsections:

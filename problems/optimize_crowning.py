@@ -51,8 +51,8 @@ def main(argv=None):
         print(f"{b['label']:18s} {b['peak_to_peak_arcsec']:13.3f}\" {'YES' if b['edge_carries_load'] else 'no':>5s} "
               f"{a['peak_to_peak_arcsec']:12.3f}\" {'YES' if a['edge_carries_load'] else 'no':>5s}")
     print("\nSensitivity of the TE level [arcsec per arcmin of misalignment], aligned design:")
-    s = d["sensitivities_arcsec"]["aligned"]
-    print("  " + ", ".join(f"{k}: {s[k] * ARCMIN:+.4f}" for k in ("mis.crossing", "mis.intersecting")))
+    s = d["sensitivities"]["aligned"]  # already in arcsec per arcmin (design["sensitivity_units"])
+    print("  " + ", ".join(f"{k}: {s[k]:+.4f}" for k in ("mis.crossing", "mis.intersecting")))
     # 4. Plots: TE and bearing contact before/after, every case.
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)

@@ -7,6 +7,8 @@ A study's ``run()`` returns a result object with
 * ``save_plots(directory) -> list[str]``: writes its figures into ``directory`` and returns their
   paths (absolute, or relative to ``directory``). If it accepts a ``dpi`` keyword, the scene's
   ``[output] dpi`` is passed.
+* optionally ``save_tables(directory) -> list[str]``: writes data tables (CSV) beside
+  ``results.json``, whether or not plots are written; same path rules.
 
 :func:`write_results` writes into a temporary sibling of the output directory and renames it into
 place at the end: an existing output directory is replaced only when everything succeeded, and a
@@ -123,26 +125,35 @@ def write_results(out_dir, result, *, scene=None, run_time: float | None = None,
         os.chmod(tmp, 0o777 & ~_umask())  # mkdtemp makes it 0700; give it the usual mode
         (tmp / RESULTS_FILE).write_text(text, encoding="utf-8")
         written = [RESULTS_FILE]
+        if callable(getattr(result, "save_tables", None)):
+            written += _reported(tmp, result.save_tables(str(tmp)), "save_tables")
         if plots:
             say(f"writing plots to {out_dir}")
             kwargs = {}
             if scene is not None and _accepts(result.save_plots, "dpi"):
                 kwargs["dpi"] = scene.output.get("dpi", 120)
-            for p in result.save_plots(str(tmp), **kwargs) or []:
-                p = Path(p)
-                full = p if p.is_absolute() else tmp / p
-                try:
-                    rel = full.resolve().relative_to(tmp.resolve())
-                except ValueError:
-                    raise ValueError(f"save_plots wrote {p} outside the directory it was given") from None
-                if not full.exists():
-                    raise FileNotFoundError(f"save_plots reported {p}, which does not exist")
-                written.append(str(rel))
+            written += _reported(tmp, result.save_plots(str(tmp), **kwargs), "save_plots")
         _replace_dir(tmp, out_dir)
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
     return [out_dir / w for w in written]
+
+
+def _reported(tmp: Path, paths, who: str) -> list[str]:
+    """Paths returned by ``save_plots``/``save_tables``, relative to ``tmp``; each must exist inside it."""
+    out = []
+    for p in paths or []:
+        p = Path(p)
+        full = p if p.is_absolute() else tmp / p
+        try:
+            rel = full.resolve().relative_to(tmp.resolve())
+        except ValueError:
+            raise ValueError(f"{who} wrote {p} outside the directory it was given") from None
+        if not full.exists():
+            raise FileNotFoundError(f"{who} reported {p}, which does not exist")
+        out.append(str(rel))
+    return out
 
 
 def _accepts(func, name: str) -> bool:

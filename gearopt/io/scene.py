@@ -212,6 +212,7 @@ class Section:
     required: bool = False
     doc: str = ""
     subsections: list = field(default_factory=list)
+    array: bool = False  #: as a subsection: an array of tables (``[[a.b]]`` or ``b = [{...}, ...]``)
 
     def __post_init__(self):
         names = [f.name for f in self.fields] + [s.name for s in self.subsections]
@@ -255,7 +256,16 @@ class Section:
             else:
                 values[f.name] = None
         for sub in self.subsections:
-            if sub.name in table:
+            if sub.name in table and sub.array:
+                items = table[sub.name]
+                if not isinstance(items, list):
+                    errors.append(f"[{path}.{sub.name}] must be an array of tables ([[{path}.{sub.name}]] or "
+                                  f"{sub.name} = [{{...}}, ...]), got {_type(items)} {_toml(items)}.")
+                    values[sub.name] = None
+                    continue
+                values[sub.name] = [sub.parse(item, f"{path}.{sub.name}][{i}", errors)[0] for i, item in enumerate(items)]
+                given |= {sub.name}
+            elif sub.name in table:
                 vals, sub_given = sub.parse(table[sub.name], f"{path}.{sub.name}", errors)
                 values[sub.name] = vals
                 given |= {f"{sub.name}.{k}" for k in sub_given} | {sub.name}

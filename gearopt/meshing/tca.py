@@ -119,6 +119,11 @@ class EnvelopeTE:
         v = self.te_envelope[np.isfinite(self.te_envelope)]
         return float(v.max() - v.min()) if v.size else float("nan")
 
+    @property
+    def peak_to_peak_arcsec(self) -> float:
+        """Peak-to-peak of the actual TE (envelope) [arcsec]."""
+        return self.peak_to_peak * RAD_TO_ARCSEC
+
 
 @dataclass(frozen=True)
 class TCAResult(EnvelopeTE):

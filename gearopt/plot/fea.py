@@ -45,19 +45,25 @@ def plot_contact_pressure(report: dict, ax=None):
     contact point, positive towards the tip) for every position and loaded pair, with the Hertz
     ellipse p0 sqrt(1 - (s/b)^2) of the full load on one pair."""
     ax = _axes(ax)
-    for i, pos in enumerate(report["positions"]):
+    # one colour per curve (position and tooth pair); the marker tells the pair, the colour family
+    # the position is not relied on
+    markers = ("o", "s", "^", "D", "v")
+    curve = 0
+    for pos in report["positions"]:
         c = pos["contact"]
-        for k in pos["loaded_pairs"]:
+        for j, k in enumerate(pos["loaded_pairs"]):
             pr = c["profiles"][str(k)]
             s, p = np.asarray(pr["s"]), np.asarray(pr["p"])
             sel = np.abs(s) <= 6 * c["hertz_b"]
-            ax.plot(s[sel], p[sel], "o-", ms=3, lw=1, color=f"C{i}",
-                    label=f"FE, phi1 = {math.degrees(pos['phi1']):.2f} deg, pair {k}")
+            ax.plot(s[sel], p[sel], "-", marker=markers[j % len(markers)], ms=3.5, lw=1, color=f"C{curve % 10}",
+                    label=f"FE, phi1 = {math.degrees(pos['phi1']):.2f} deg, tooth pair {int(k):+d}")
+            curve += 1
         if pos["single_pair_contact"]:
             b, p0 = c["hertz_b"], c["hertz_p0"]
             t = np.linspace(-b, b, 101)
-            ax.plot(t, p0 * np.sqrt(np.clip(1 - (t / b) ** 2, 0, None)), "--", color=f"C{i}", lw=1,
-                    label=f"Hertz p0 = {p0:.0f} MPa (FE/Hertz {c['ratio_mid_to_hertz']:.3f})")
+            ax.plot(t, p0 * np.sqrt(np.clip(1 - (t / b) ** 2, 0, None)), "--", color="k", lw=1,
+                    label=f"Hertz, phi1 = {math.degrees(pos['phi1']):.2f} deg: p0 = {p0:.0f} MPa "
+                          f"(FE/Hertz {c['ratio_mid_to_hertz']:.3f})")
     ax.set_xlabel("distance along the profile from the contact point [mm]")
     ax.set_ylabel("contact pressure [MPa]")
     ax.set_title("contact pressure on the pinion flank, middle section", fontsize=9)
@@ -90,4 +96,27 @@ def plot_root_stress(report: dict, ax=None):
     h1, l1 = ax.get_legend_handles_labels()
     h2, l2 = ax2.get_legend_handles_labels()
     ax.legend(h1 + h2, l1 + l2, fontsize=7)
+    return ax
+
+
+def plot_loaded_te(report: dict, ax=None):
+    """Loaded transmission error [arcsec] from the FE solutions (pinion rotation under the torque,
+    gear rim fixed) against the pinion angle [deg], one point per analysed position; positive:
+    the gear ahead of its conjugate position (the pinion lags under load: negative)."""
+    ax = _axes(ax)
+    pos = report["positions"]
+    phi = np.degrees([p["phi1"] for p in pos])
+    te = np.array([np.nan if p.get("loaded_te_arcsec") is None else p["loaded_te_arcsec"] for p in pos], float)
+    single = np.array([bool(p["single_pair_contact"]) for p in pos])
+    ax.plot(phi, te, "-", color="0.5", lw=1)
+    ax.plot(phi[single], te[single], "o", color="C3", ms=7, label="loaded TE (FE), one tooth pair in contact")
+    ax.plot(phi[~single], te[~single], "s", color="C0", ms=7, label="loaded TE (FE), two or more pairs in contact")
+    ax.set_xlabel("pinion angle phi1 [deg]")
+    ax.set_ylabel("loaded TE [arcsec] (+: gear ahead)")
+    ax.set_title("loaded transmission error from the FE model", fontsize=9)
+    ax.grid(alpha=0.3)
+    h, lab = ax.get_legend_handles_labels()
+    keep = [(hh, ll) for hh, ll in zip(h, lab) if np.isfinite(np.asarray(hh.get_xydata(), float)).all(axis=1).any()]
+    if keep:
+        ax.legend(*zip(*keep), fontsize=7)
     return ax

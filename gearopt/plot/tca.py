@@ -1,5 +1,12 @@
 """Plots of TCA results (transmission errors, bearing contact). They read the JSON-able case
-dicts of a TCA report (``report.to_dict()["cases"][i]``), take ``ax=`` and return the Axes."""
+dicts of a TCA report (``report.to_dict()["cases"][i]``), take ``ax=`` and return the Axes.
+
+Conventions: TE in arcsec, positive when the gear is ahead of its conjugate position (THEORY
+section 1); flank maps show the axial position z [mm] against the transverse radius [mm] in the
+member's own frame. A conjugate drive (peak-to-peak TE at round-off level, below
+:data:`CONJUGATE_ARCSEC`) is drawn as "conjugate: TE = 0", without per-pair curves or transfers.
+Legends list only what is drawn, once.
+"""
 
 from __future__ import annotations
 
@@ -7,35 +14,139 @@ import numpy as np
 
 from .geometry import _axes
 
+#: A peak-to-peak TE below this [arcsec] is round-off: the drive is conjugate (TE = 0).
+CONJUGATE_ARCSEC = 1e-5
+
+#: Readable names and distinct colours of the contact features (edge branches) of
+#: :mod:`gearopt.contact.edge`.
+BRANCH_NAMES = {
+    "surface": "surface contact",
+    "pinion_tip": "pinion tip edge", "gear_tip": "gear tip edge",
+    "pinion_face+": "pinion face end z = +b/2", "pinion_face-": "pinion face end z = -b/2",
+    "gear_face+": "gear face end z = +b/2", "gear_face-": "gear face end z = -b/2",
+    "pinion_corner+": "pinion tip corner z = +b/2", "pinion_corner-": "pinion tip corner z = -b/2",
+    "gear_corner+": "gear tip corner z = +b/2", "gear_corner-": "gear tip corner z = -b/2",
+}
+_BRANCH_COLOR = {"surface": "C3", "pinion_tip": "C0", "gear_tip": "C2", "pinion_face+": "C4", "pinion_face-": "C5",
+                 "gear_face+": "C6", "gear_face-": "C8", "pinion_corner+": "C1", "pinion_corner-": "gold",
+                 "gear_corner+": "C9", "gear_corner-": "navy"}
+_LINESTYLES = ("-", "--", ":", "-.")
+
 
 def _f(v):
     return np.array([np.nan if x is None else x for x in v], dtype=float)
 
 
+def branch_label(name: str) -> str:
+    """Readable name of a contact feature (``"pinion_face-"`` -> ``"pinion face end z = -b/2"``)."""
+    return BRANCH_NAMES.get(name, name.replace("_", " "))
+
+
+def _key(d: dict, *names):
+    for n in names:
+        if n in d:
+            return d[n]
+    raise KeyError(names[0])
+
+
+def _axial(m: dict):
+    return _f(_key(m, "axial", "z"))
+
+
+def is_conjugate(case: dict) -> bool:
+    """True when the case's actual TE is zero up to round-off (a conjugate drive)."""
+    if "conjugate" in case:
+        return bool(case["conjugate"])
+    return abs(case["peak_to_peak_arcsec"]) < CONJUGATE_ARCSEC
+
+
+def misalignment_text(case: dict) -> str:
+    """The case's misalignment in words ("crossing 3 arcmin, dE 0.05 mm"), "" when aligned."""
+    m = case["misalignment"]
+    unit = {"dE": ("dE", "mm"), "axial": ("axial", "mm"), "crossing_arcmin": ("crossing", "arcmin"),
+            "intersecting_arcmin": ("intersecting", "arcmin"), "dE_mm": ("dE", "mm"), "axial_mm": ("axial", "mm")}
+    return ", ".join(f"{unit.get(k, (k, ''))[0]} {v:+g} {unit.get(k, ('', ''))[1]}".rstrip() for k, v in m.items() if v)
+
+
+def case_title(case: dict) -> str:
+    """The case label, with the misalignment when the label does not already say it."""
+    label = str(case["label"])
+    mis = misalignment_text(case)
+    if not mis:
+        return label if "align" in label.lower() else f"{label} (aligned)"
+    return label if label == mis else f"{label} ({mis})"
+
+
+def legend(ax, **kw):
+    """A legend of the labelled artists that show data (finite points), each label once; none if
+    nothing is labelled. Returns the Legend or None."""
+    handles, labels = ax.get_legend_handles_labels()
+    seen, H, L = set(), [], []
+    for h, lab in zip(handles, labels):
+        if lab in seen or not _draws(h):
+            continue
+        seen.add(lab)
+        H.append(h)
+        L.append(lab)
+    if not H:
+        if ax.get_legend() is not None:
+            ax.get_legend().remove()
+        return None
+    return ax.legend(H, L, **kw)
+
+
+def _draws(artist) -> bool:
+    if hasattr(artist, "get_xydata"):
+        xy = np.asarray(artist.get_xydata(), float)
+        return bool(xy.size) and bool(np.isfinite(xy).all(axis=1).any())
+    return True
+
+
+def _transfer_lines(ax, phis_deg):
+    for i, t in enumerate(phis_deg):
+        ax.axvline(t, color="0.35", lw=0.7, ls=":", label="transfer: the driving tooth pair changes" if i == 0 else None)
+
+
+def _draw_conjugate(ax, case, phi):
+    ax.plot(phi, np.zeros_like(phi), color="C3", lw=2.4, label="conjugate: TE = 0")
+    ax.text(0.5, 0.62, f"conjugate: TE = 0\n(computed peak-to-peak {case['peak_to_peak_arcsec']:.1g} arcsec: "
+            "round-off)", transform=ax.transAxes, ha="center", va="center", fontsize=9,
+            bbox=dict(fc="white", ec="0.6", alpha=0.9))
+    ax.set_ylim(-1.0, 1.0)
+
+
 def plot_te(case: dict, ax=None, label_pairs: bool = True):
     """TE of every tooth pair (thin) and the actual TE, their upper envelope (thick) [arcsec]
-    against the pinion angle [deg], with the transfer points."""
+    against the pinion angle [deg], with the transfer points (where the driving pair changes).
+    A conjugate case is drawn as TE = 0."""
     ax = _axes(ax)
     phi = np.degrees(_f(case["phi1"]))
-    for k, te in zip(case["pairs"], case["te_arcsec"]):
-        ax.plot(phi, _f(te), lw=0.9, ls="--", alpha=0.8, label=f"pair {k:+d}" if label_pairs else None)
-    env = _f(case["te_envelope_arcsec"])
-    ax.plot(phi, env, color="k", lw=2.2, label="actual TE (envelope)")
-    for t in case.get("transfer_phi1", []):
-        ax.axvline(np.degrees(t), color="C3", lw=0.8, ls=":")
-    m = case["misalignment"]
-    mis = ", ".join(f"{k} = {v:g}" for k, v in m.items() if v) or "aligned"
-    ok = "" if case["all_converged"] else "  (some positions unsolved)"
-    ax.set_title(f"{case['label']} ({mis}): peak-to-peak {case['peak_to_peak_arcsec']:.2f} arcsec{ok}", fontsize=9)
     ax.set_xlabel("pinion angle phi1 [deg]")
-    ax.set_ylabel("TE [arcsec]")
-    finite = env[np.isfinite(env)]
-    if finite.size:
-        lo, hi = finite.min(), finite.max()
-        pad = 0.6 * max(hi - lo, 1e-3)
-        ax.set_ylim(lo - pad, hi + 0.3 * pad)
+    ax.set_ylabel("TE [arcsec] (+: gear ahead)")
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=7, loc="lower center", ncol=4)
+    if is_conjugate(case):
+        _draw_conjugate(ax, case, phi)
+        ax.set_title(f"{case_title(case)}: conjugate, TE = 0", fontsize=9)
+        legend(ax, fontsize=7, loc="lower center")
+        return ax
+    env = _f(case["te_envelope_arcsec"])
+    finite = env[np.isfinite(env)]
+    lo, hi = -np.inf, np.inf
+    if finite.size:
+        pad = 0.6 * max(finite.max() - finite.min(), 1e-3)
+        lo, hi = finite.min() - pad, finite.max() + 0.3 * pad
+        ax.set_ylim(lo, hi)
+    for i, (k, te) in enumerate(zip(case["pairs"], case["te_arcsec"])):
+        te = _f(te)
+        if not np.any((te >= lo) & (te <= hi)):
+            continue  # this pair's TE lies outside the range shown (far from the envelope)
+        ax.plot(phi, te, lw=0.9, ls="--", alpha=0.8, color=f"C{i % 10}",
+                label=f"tooth pair {k:+d}" if label_pairs else None)
+    ax.plot(phi, env, color="k", lw=2.2, label="actual TE (envelope)")
+    _transfer_lines(ax, np.degrees(case.get("transfer_phi1", [])))
+    ok = "" if _key(case, "actual_te_at_every_position", "all_converged") else "  (some positions without contact)"
+    ax.set_title(f"{case_title(case)}: peak-to-peak {case['peak_to_peak_arcsec']:.2f} arcsec{ok}", fontsize=9)
+    legend(ax, fontsize=7, loc="lower center", ncol=4)
     return ax
 
 
@@ -46,140 +157,180 @@ def _ellipse_on_map(xyz, dirs, a, b, n=48):
     return P[:, 2], np.hypot(P[:, 0], P[:, 1])
 
 
-def plot_bearing_contact(case: dict, member: str = "gear", ax=None, every: int = 8, ellipses: bool = True):
-    """Path of contact of the central tooth pair on the flank map of ``member`` (axial position z
-    vs transverse radius), with the tooth boundaries (face ends, form and tip radii) and contact
-    ellipses (for the elastic approach ``delta``); points off the active flank are drawn grey."""
-    ax = _axes(ax)
-    m = case[member]
-    lim = case["limits"][member]
-    z, r = _f(m["z"]), _f(m["radius"])
-    on = np.array(case["on_surface"], bool)
+def _flank_box(ax, lim, fill=False):
+    """The active flank (face width x form-to-tip radii) as a patch; returns it (for clipping)."""
+    from matplotlib.patches import Rectangle
+
     b, ra, rF = lim["b"], lim["r_a"], lim["r_form"]
-    ax.add_patch(__import__("matplotlib.patches", fromlist=["Rectangle"]).Rectangle(
-        (-b / 2, rF), b, ra - rF, fill=True, fc="0.95", ec="k", lw=1.2))
-    ax.plot(np.where(on, z, np.nan), np.where(on, r, np.nan), color="C3", lw=2, label="path of contact")
-    ax.plot(np.where(~on, z, np.nan), np.where(~on, r, np.nan), color="0.6", lw=1, ls="--", label="off the flank")
-    if ellipses and "ellipse_dirs" in m:
-        xyz = np.array([[np.nan] * 3 if p is None else p for p in m["xyz"]], dtype=float)
-        A, B = _f(case["ellipse_a"]), _f(case["ellipse_b"])
-        dirs = m["ellipse_dirs"]
-        for i in range(0, len(z), max(1, every)):
-            if not on[i] or not np.isfinite(A[i]) or dirs[i] is None or None in dirs[i]:
-                continue
-            a = min(A[i], 2 * b)  # a near-line contact ellipse is clipped for the drawing
-            ez, er = _ellipse_on_map(xyz[i], dirs[i], a, B[i])
-            ax.plot(ez, er, color="C0", lw=0.7)
+    rect = Rectangle((-b / 2, rF), b, ra - rF, fill=fill, fc="0.95", ec="k", lw=1.2, zorder=0.5)
+    ax.add_patch(rect)
     ax.set_xlim(-0.65 * b, 0.65 * b)
     pad = 0.08 * (ra - rF)
     ax.set_ylim(rF - pad, ra + pad)
     ax.set_xlabel("axial position z [mm]")
     ax.set_ylabel("radius [mm]")
-    ax.set_title(f"{member} flank, {case['label']}: contact ellipses for delta = {case['delta'] * 1000:.2f} um",
+    return rect
+
+
+def plot_bearing_contact(case: dict, member: str = "gear", ax=None, every: int = 8, ellipses: bool = True):
+    """Path of contact of the central tooth pair on the flank map of ``member`` (axial position z
+    vs transverse radius), with the tooth boundaries (face ends, form and tip radii) and contact
+    ellipses (for the elastic approach ``delta``), clipped to the flank; points off the active
+    flank are drawn grey."""
+    ax = _axes(ax)
+    m = case[member]
+    lim = case["limits"][member]
+    z, r = _axial(m), _f(m["radius"])
+    on = np.array(case["on_surface"], bool)
+    b = lim["b"]
+    rect = _flank_box(ax, lim, fill=True)
+    ax.plot(np.where(on, z, np.nan), np.where(on, r, np.nan), color="C3", lw=2, label="path of contact")
+    ax.plot(np.where(~on, z, np.nan), np.where(~on, r, np.nan), color="0.6", lw=1, ls="--",
+            label="solution off the active flank")
+    delta = _key(case, "delta_mm", "delta")
+    if ellipses and "ellipse_dirs" in m:
+        xyz = np.array([[np.nan] * 3 if p is None else p for p in m["xyz"]], dtype=float)
+        A = _f(_key(case, "ellipse_semi_major_mm", "ellipse_a"))
+        B = _f(_key(case, "ellipse_semi_minor_mm", "ellipse_b"))
+        dirs = m["ellipse_dirs"]
+        drawn = 0
+        for i in range(0, len(z), max(1, every)):
+            if not on[i] or not np.isfinite(A[i]) or dirs[i] is None or None in dirs[i]:
+                continue
+            a = min(A[i], 2 * b)  # a near-line contact ellipse is shortened for the drawing
+            ez, er = _ellipse_on_map(xyz[i], dirs[i], a, B[i])
+            (line,) = ax.plot(ez, er, color="C0", lw=0.7,
+                              label=f"contact ellipses (every {every}th position), clipped at the flank edges"
+                              if drawn == 0 else None)
+            line.set_clip_path(rect)
+            drawn += 1
+    ax.set_title(f"{member} flank, {case_title(case)}\ncontact ellipses for the approach delta = {delta * 1000:.2f} um",
                  fontsize=9)
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=7, loc="upper right")
+    legend(ax, fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.2), ncol=2, frameon=False)
     return ax
+
+
+def _coincident(a: np.ndarray, b: np.ndarray) -> bool:
+    ok = np.isfinite(a) & np.isfinite(b)
+    if not ok.any() or (np.isfinite(a) != np.isfinite(b)).any():
+        return False
+    scale = max(np.ptp(a[ok]), np.ptp(b[ok]), 1e-9)
+    return float(np.max(np.abs(a[ok] - b[ok]))) <= 5e-3 * scale
 
 
 def plot_compare(cases: dict, axes=None, member: str = "gear"):
     """Overlay several designs' or cases' actual TE (first Axes) and paths of contact on the
-    ``member`` flank map (second Axes). ``cases`` maps a label to a case dict."""
+    ``member`` flank map (second Axes). ``cases`` maps a label to a case dict. Each case has its own
+    colour and line style; a curve that coincides with an earlier one says so in the legend."""
     if axes is None:
         import matplotlib.pyplot as plt
         _, axes = plt.subplots(1, 2, figsize=(12, 4.5))
     ax_te, ax_map = axes
+    first = next(iter(cases.values()))
+    _flank_box(ax_map, first["limits"][member])
+    seen_te, seen_map = [], []
     for i, (label, case) in enumerate(cases.items()):
-        col = f"C{i}"
+        col, ls = f"C{i % 10}", _LINESTYLES[i % len(_LINESTYLES)]
+        lw = 2.6 if i == 0 else 1.8
         phi = np.degrees(_f(case["phi1"]))
-        ax_te.plot(phi, _f(case["te_envelope_arcsec"]), color=col, lw=2,
-                   label=f"{label}: {case['peak_to_peak_arcsec']:.2f} arcsec p-p")
+        te = np.zeros_like(phi) if is_conjugate(case) else _f(case["te_envelope_arcsec"])
+        same = [lab for lab, t in seen_te if _coincident(t, te)]
+        note = f" (coincides with {same[0]})" if same else ""
+        pp = "conjugate, TE = 0" if is_conjugate(case) else f"{case['peak_to_peak_arcsec']:.2f} arcsec p-p"
+        ax_te.plot(phi, te, color=col, ls=ls, lw=lw, label=f"{label}: {pp}{note}")
+        seen_te.append((label, te))
         m = case[member]
         on = np.array(case["on_surface"], bool)
-        ax_map.plot(np.where(on, _f(m["z"]), np.nan), np.where(on, _f(m["radius"]), np.nan), color=col, lw=2,
-                    label=label)
-    first = next(iter(cases.values()))
-    lim = first["limits"][member]
-    b, ra, rF = lim["b"], lim["r_a"], lim["r_form"]
-    ax_map.plot([-b / 2, b / 2, b / 2, -b / 2, -b / 2], [rF, rF, ra, ra, rF], color="k", lw=1.2)
+        zz, rr = np.where(on, _axial(m), np.nan), np.where(on, _f(m["radius"]), np.nan)
+        same = [lab for lab, (z0, r0) in seen_map if _coincident(z0, zz) and _coincident(r0, rr)]
+        ax_map.plot(zz, rr, color=col, ls=ls, lw=lw, label=label + (f" (coincides with {same[0]})" if same else ""))
+        seen_map.append((label, (zz, rr)))
     ax_te.set_xlabel("pinion angle phi1 [deg]")
-    ax_te.set_ylabel("actual TE [arcsec]")
-    ax_map.set_xlabel("axial position z [mm]")
+    ax_te.set_ylabel("actual TE [arcsec] (+: gear ahead)")
     ax_map.set_ylabel(f"{member} radius [mm]")
     for ax in axes:
         ax.grid(alpha=0.3)
-        ax.legend(fontsize=7)
+        legend(ax, fontsize=7)
     return axes
-
-
-_BRANCH_STYLE = {"surface": ("C3", "-"), "pinion_tip": ("C0", "-"), "gear_tip": ("C2", "-"),
-                 "pinion_face+": ("C4", "-"), "pinion_face-": ("C5", "-"), "gear_face+": ("C6", "-"),
-                 "gear_face-": ("C8", "-"), "pinion_corner+": ("C1", "-"), "pinion_corner-": ("C1", "-"),
-                 "gear_corner+": ("C9", "-"), "gear_corner-": ("C9", "-")}
 
 
 def plot_edge_te(case: dict, ax=None):
     """TE with edge contact (Litvin Figs. 9.6.3-9.6.6): every pair's TE (thin, grey), the actual
-    TE coloured by the feature that carries the load (surface or which edge), transfer points."""
+    TE coloured by the feature that carries the load (surface or which edge), transfer points.
+    A conjugate case is drawn as TE = 0."""
     ax = _axes(ax)
     phi = np.degrees(_f(case["phi1"]))
-    for te in case["te_arcsec"]:
-        ax.plot(phi, _f(te), color="0.7", lw=0.8, ls="--")
+    ax.set_xlabel("pinion angle phi1 [deg]")
+    ax.set_ylabel("TE [arcsec] (+: gear ahead)")
+    ax.grid(alpha=0.3)
+    if is_conjugate(case):
+        _draw_conjugate(ax, case, phi)
+        ax.set_title(f"{case_title(case)}: conjugate, TE = 0; edge contact "
+                     f"{'YES' if case['edge_carries_load'] else 'no'}", fontsize=9)
+        legend(ax, fontsize=7, loc="lower center")
+        return ax
+    for i, te in enumerate(case["te_arcsec"]):
+        ax.plot(phi, _f(te), color="0.7", lw=0.8, ls="--", label="TE of each tooth pair" if i == 0 else None)
     env = _f(case["te_envelope_arcsec"])
     act = case["active_branch"]
     for name in dict.fromkeys(a for a in act if a):
-        col, ls = _BRANCH_STYLE.get(name, ("k", "-"))
         m = np.array([a == name for a in act])
-        ax.plot(phi, np.where(m, env, np.nan), color=col, lw=2.4, ls=ls,
-                label="surface contact" if name == "surface" else f"edge contact: {name}")
-    for t in case.get("transfers", []):
-        ax.axvline(np.degrees(t["phi1"]), color="k", lw=0.6, ls=":")
-    m = case["misalignment"]
-    mis = ", ".join(f"{k} = {v:g}" for k, v in m.items() if v) or "aligned"
-    ax.set_title(f"{case['label']} ({mis}): p-p {case['peak_to_peak_arcsec']:.3g} arcsec; "
+        ax.plot(phi, np.where(m, env, np.nan), color=_BRANCH_COLOR.get(name, "k"), lw=2.4,
+                label=branch_label(name) if name == "surface" else f"edge contact: {branch_label(name)}")
+    _transfer_lines(ax, np.degrees([t["phi1"] for t in case.get("transfers", [])]))
+    ax.set_title(f"{case_title(case)}: p-p {case['peak_to_peak_arcsec']:.3g} arcsec; "
                  f"edge contact {'YES' if case['edge_carries_load'] else 'no'}", fontsize=9)
-    ax.set_xlabel("pinion angle phi1 [deg]")
-    ax.set_ylabel("TE [arcsec]")
     finite = env[np.isfinite(env)]
     if finite.size:
         lo, hi = finite.min(), finite.max()
         pad = 0.5 * max(hi - lo, 1e-3)
         ax.set_ylim(lo - pad, hi + 0.3 * pad)
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=7, loc="lower center", ncol=3)
+    legend(ax, fontsize=7, loc="lower center", ncol=3)
     return ax
+
+
+def _break_jumps(z, r, lim, tol=0.2):
+    """NaN between consecutive points further apart than ``tol`` of the flank size (so that
+    separate pieces of a path are not joined by straight lines)."""
+    z, r = np.array(z, float), np.array(r, float)
+    if z.size < 2:
+        return z, r
+    step = np.hypot(np.diff(z) / lim["b"], np.diff(r) / max(lim["r_a"] - lim["r_form"], 1e-9))
+    cut = np.flatnonzero(step > tol)
+    return np.insert(z, cut + 1, np.nan), np.insert(r, cut + 1, np.nan)
 
 
 def plot_edge_paths(case: dict, member: str = "gear", ax=None):
     """Paths of contact of the central pair on the ``member`` flank map: the surface part and the
-    edge parts (dashed: that feature's contact of the pair; thick: where it carries the load of the
-    drive), with the flank boundaries."""
+    edge parts (thin dashed: that feature's contact of the pair while another pair drives; thick:
+    where it carries the load of the drive), with the flank boundaries."""
     ax = _axes(ax)
     lim = case["limits"][member]
-    b, ra, rF = lim["b"], lim["r_a"], lim["r_form"]
-    ax.plot([-b / 2, b / 2, b / 2, -b / 2, -b / 2], [rF, rF, ra, ra, rF], color="k", lw=1.2)
+    _flank_box(ax, lim)
     for name, path in case["paths_central_pair"].items():
-        col, _ = _BRANCH_STYLE.get(name, ("k", "-"))
-        z, r = _f(path[member]["z"]), _f(path[member]["radius"])
+        col = _BRANCH_COLOR.get(name, "k")
+        z, r = _axial(path[member]), _f(path[member]["radius"])
         load = np.array(path["carries_load"], bool)
-        ax.plot(z, r, color=col, lw=0.8, ls="--")
-        ax.plot(np.where(load, z, np.nan), np.where(load, r, np.nan), color=col, lw=2.6,
-                label="surface" if name == "surface" else name)
-    ax.set_xlim(-0.65 * b, 0.65 * b)
-    pad = 0.08 * (ra - rF)
-    ax.set_ylim(rF - pad, ra + pad)
-    ax.set_xlabel("axial position z [mm]")
-    ax.set_ylabel("radius [mm]")
-    ax.set_title(f"{member} flank, {case['label']}: thick where the central pair drives", fontsize=9)
+        ax.plot(*_break_jumps(z, r, lim), color=col, lw=0.8, ls="--",
+                label="thin dashed: contact of the pair while another pair drives")
+        ax.plot(*_break_jumps(np.where(load, z, np.nan), np.where(load, r, np.nan), lim), color=col, lw=2.6,
+                label=branch_label(name))
+    # the dashed entry in black: it stands for every colour
+    ax.set_title(f"{member} flank, {case_title(case)}: thick where the central pair drives", fontsize=9)
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=7, loc="upper right")
+    leg = legend(ax, fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.2), ncol=2, frameon=False)
+    if leg is not None:
+        for h, t in zip(leg.legend_handles, leg.get_texts()):
+            if t.get_text().startswith("thin dashed"):
+                h.set_color("0.3")
     return ax
 
 
 def plot_crowning_comparison(before: list, after: list, axes, member: str | None = None):
     """Before/after comparison of a crowning optimization, one row per misalignment case: the actual
     TE (``member=None``) or the paths of contact on the ``member`` flank; left column before, right
-    column after. ``axes`` is an (n_cases, 2) array of Axes; returns it."""
+    column after, on common axis limits per row. ``axes`` is an (n_cases, 2) array of Axes; returns it."""
     for row, b, a in zip(axes, before, after):
         for ax, case, when in ((row[0], b, "before"), (row[1], a, "after")):
             if member is None:
@@ -187,4 +338,11 @@ def plot_crowning_comparison(before: list, after: list, axes, member: str | None
             else:
                 plot_edge_paths(case, member, ax=ax)
             ax.set_title(f"{when}: " + ax.get_title(), fontsize=8)
+        lo = min(row[0].get_ylim()[0], row[1].get_ylim()[0])
+        hi = max(row[0].get_ylim()[1], row[1].get_ylim()[1])
+        x0 = min(row[0].get_xlim()[0], row[1].get_xlim()[0])
+        x1 = max(row[0].get_xlim()[1], row[1].get_xlim()[1])
+        for ax in row[:2]:
+            ax.set_ylim(lo, hi)
+            ax.set_xlim(x0, x1)
     return axes

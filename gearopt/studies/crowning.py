@@ -31,7 +31,15 @@ from ..units import ARCMIN, RAD_TO_ARCSEC
 from .tca import edge_case_dict
 
 UNITS = {"length": "mm", "angle": "rad", "te": "arcsec (suffix _arcsec)", "settings": "1/mm",
-         "sensitivities": "arcsec of TE level per unit of the variable (1/mm, rad, mm)", "time": "s"}
+         "sensitivities": "d(TE level)/d(variable), in the unit given per variable in design.sensitivity_units "
+                          "(arcsec per arcmin for the misalignment angles, as the scene gives them)",
+         "time": "s", "see": "docs/results.md"}
+
+#: Unit of each sensitivity d(TE level)/d(variable) in results.json, and the factor from the
+#: engine's arcsec per internal unit (1/mm, mm, rad).
+SENSITIVITY_UNITS = {"a_c": ("arcsec per 1/mm", 1.0), "a_pl": ("arcsec per 1/mm", 1.0),
+                     "mis.dE": ("arcsec per mm", 1.0), "mis.axial": ("arcsec per mm", 1.0),
+                     "mis.crossing": ("arcsec per arcmin", ARCMIN), "mis.intersecting": ("arcsec per arcmin", ARCMIN)}
 
 
 def misalignment_cases(crossing=0.0, intersecting=0.0, dE=0.0, axial=0.0, combined=False) -> dict:
@@ -74,11 +82,12 @@ class CrowningReport:
         for name, member in (("before_after_te.png", None), ("before_after_contact_gear.png", "gear"),
                              ("before_after_contact_pinion.png", "pinion")):
             n = len(self.after)
-            fig, axes = plt.subplots(n, 2, figsize=(12, 3.3 * n), squeeze=False)
+            fig, axes = plt.subplots(n, 2, figsize=(13, 3.6 * n + (0.6 * n if member else 0)), squeeze=False,
+                                     layout="constrained")
             plot_crowning_comparison(self.before, self.after, axes=axes, member=member)
             what = "actual TE" if member is None else f"paths of contact on the {member} flank"
-            fig.suptitle(f"{self.scene}: {what}, before (left) and after (right) crowning optimization")
-            fig.tight_layout()
+            fig.suptitle(f"{self.scene}: {what}, before (left) and after (right) crowning optimization\n"
+                         "(each row on common axes)")
             fig.savefig(out / name, dpi=dpi, bbox_inches="tight")
             plt.close(fig)
             files.append(name)
@@ -124,8 +133,10 @@ class CrowningStudy:
             "cases": [{"name": c.name, "te_level_arcsec": c.te_level_tca * RAD_TO_ARCSEC,
                        "fit_rms_arcsec": c.fit_rms * RAD_TO_ARCSEC, "edge_contact": c.edge_contact,
                        "transfer_phi1": list(c.transfer_phi1)} for c in d.cases],
-            "sensitivities_arcsec": {c: {k: v * RAD_TO_ARCSEC for k, v in s.items()}
-                                     for c, s in d.sensitivities.items()},
+            "sensitivities": {c: {k: v * RAD_TO_ARCSEC * SENSITIVITY_UNITS.get(k, ("", 1.0))[1] for k, v in s.items()}
+                              for c, s in d.sensitivities.items()},
+            "sensitivity_units": {k: SENSITIVITY_UNITS.get(k, ("arcsec per internal unit", 1.0))[0]
+                                  for s in d.sensitivities.values() for k in s},
         }
         self.design = d
         return CrowningReport(scene=self.name, design=design, before=before, after=after,

@@ -46,12 +46,13 @@ class FEReport:
     def save_plots(self, out_dir, dpi: int = 120) -> list[str]:
         """``fea_mesh.png`` (transverse section of the model at the first position, element edges),
         ``fea_contact.png`` (contact pressure along the profile at mid face vs Hertz),
-        ``fea_root.png`` (root stress and pressure vs position)."""
+        ``fea_root.png`` (root stress and pressure vs position), ``fea_te.png`` (loaded TE vs
+        position)."""
         import matplotlib
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
 
-        from ..plot.fea import plot_contact_pressure, plot_mesh, plot_root_stress
+        from ..plot.fea import plot_contact_pressure, plot_loaded_te, plot_mesh, plot_root_stress
 
         out = Path(out_dir)
         d = self.to_dict()
@@ -61,7 +62,7 @@ class FEReport:
         fig.tight_layout()
         fig.savefig(out / "fea_mesh.png", dpi=dpi, bbox_inches="tight")
         plt.close(fig)
-        fig, ax = plt.subplots(figsize=(8, 4.5))
+        fig, ax = plt.subplots(figsize=(9, 5))
         plot_contact_pressure(d, ax=ax)
         fig.tight_layout()
         fig.savefig(out / "fea_contact.png", dpi=dpi, bbox_inches="tight")
@@ -71,7 +72,12 @@ class FEReport:
         fig.tight_layout()
         fig.savefig(out / "fea_root.png", dpi=dpi, bbox_inches="tight")
         plt.close(fig)
-        return ["fea_mesh.png", "fea_contact.png", "fea_root.png"]
+        fig, ax = plt.subplots(figsize=(8, 4.5))
+        plot_loaded_te(d, ax=ax)
+        fig.tight_layout()
+        fig.savefig(out / "fea_te.png", dpi=dpi, bbox_inches="tight")
+        plt.close(fig)
+        return ["fea_mesh.png", "fea_contact.png", "fea_root.png", "fea_te.png"]
 
 
 def mesh_section(model, layer: int | None = None) -> dict:

@@ -11,6 +11,12 @@ Scene section ``[tca]``:
 ``delta``         elastic approach for the contact ellipse [mm] (default 0.00632).
 ``dE``, ``crossing``, ``intersecting``, ``axial``: the misalignment case analysed beside the
                   aligned drive [mm, angle, angle, mm] (all 0 by default: aligned only).
+``[[tca.cases]]`` a list of misalignment cases instead (array of tables, each with ``label`` and
+                  any of ``dE``, ``crossing``, ``intersecting``, ``axial``); the aligned drive is
+                  analysed first unless a case is aligned itself. Not together with the single keys.
+
+results.json keys are described in docs/results.md; beside it, ``te_path_<case>.csv`` holds each
+case's TE and path table. TE sign: positive when the gear is ahead of its conjugate position.
 ``edge_contact``  also solve edge contact and combine it with surface contact (default false;
                   needed for unmodified gears under misalignment).
 """
@@ -28,9 +34,15 @@ from ..contact.edge import EdgeContact, EdgeTCAResult
 from ..meshing.tca import TCA, Misalignment, TCAResult
 from ..units import ARCMIN, DEG, RAD_TO_ARCSEC
 
-UNITS = {"length": "mm", "angle": "rad", "te": "arcsec (suffix _arcsec)", "curvature": "1/mm",
-         "misalignment": "dE, axial in mm; crossing, intersecting in arcmin (suffix _arcmin)",
-         "time": "s", "flank_map": "axial position z [mm], transverse radius [mm], member's own frame"}
+UNITS = {"length": "mm (suffix _mm where a key could be read otherwise)", "angle": "rad", "phi1": "rad",
+         "te": "arcsec (suffix _arcsec); positive: the gear is ahead of its conjugate position",
+         "curvature": "1/mm (kappa: principal curvatures)",
+         "misalignment": "dE_mm, axial_mm in mm; crossing, intersecting in arcmin (suffix _arcmin)",
+         "time": "s", "flank_map": "pinion/gear axial = axial position z [mm], radius = transverse radius [mm], "
+                                   "member's own frame", "see": "docs/results.md"}
+
+#: A case whose actual TE has a smaller peak-to-peak [arcsec] is conjugate (TE = 0 up to round-off).
+CONJUGATE_ARCSEC = 1e-5
 
 
 def te_harmonics(phi1: np.ndarray, te: np.ndarray, z1: int, n: int = 5) -> list[float] | None:
@@ -63,66 +75,84 @@ def case_dict(res: TCAResult, pair: GearPair, label: str, limits: dict) -> dict:
     drv = res.driving
     transfers = [float(0.5 * (res.phi1[i] + res.phi1[i + 1])) for i in range(len(drv) - 1)
                  if drv[i] >= 0 and drv[i + 1] >= 0 and drv[i] != drv[i + 1]]
-    mis = res.misalignment
+    if res.peak_to_peak_arcsec < CONJUGATE_ARCSEC:
+        transfers = []  # conjugate: the pairs in contact tie, round-off picks the "driving" one
     on0 = res.on_surface[k0]
+    stats = dict(res.stats)
+    if "n_failed" in stats:  # tooth pairs out of mesh at a position: not a failure of the drive
+        stats["n_pair_positions_without_contact"] = stats.pop("n_failed")
+    pp = res.peak_to_peak_arcsec
     return {
         "label": label,
-        "misalignment": {"dE": mis.dE, "crossing_arcmin": mis.crossing / ARCMIN,
-                         "intersecting_arcmin": mis.intersecting / ARCMIN, "axial": mis.axial},
+        "misalignment": _mis_dict(res.misalignment),
         "phi1": _arr(res.phi1), "pairs": list(res.pairs),
         "phi2": _arr(res.phi2), "te_arcsec": _arr(res.te_arcsec), "te_envelope_arcsec": _arr(env),
-        "driving_pair": [int(v) for v in drv], "transfer_phi1": transfers,
-        "peak_to_peak_arcsec": res.peak_to_peak * RAD_TO_ARCSEC,
+        "driving_pair": _pair_numbers(drv, res.pairs), "transfer_phi1": transfers,
+        "peak_to_peak_arcsec": pp, "conjugate": bool(pp < CONJUGATE_ARCSEC),
         "harmonics_arcsec": te_harmonics(res.phi1, env, z1),
-        "pinion": {"z": _arr(res.z1[k0]), "radius": _arr(res.radius1[k0]), "xyz": _arr(res.r1[k0]),
+        "pinion": {"axial": _arr(res.z1[k0]), "radius": _arr(res.radius1[k0]), "xyz": _arr(res.r1[k0]),
                    "kappa": _arr(res.kappa1[k0]), "ellipse_dirs": _arr(res.ellipse_dir1[k0].reshape(-1, 6))},
-        "gear": {"z": _arr(res.z2[k0]), "radius": _arr(res.radius2[k0]), "xyz": _arr(res.r2[k0]),
+        "gear": {"axial": _arr(res.z2[k0]), "radius": _arr(res.radius2[k0]), "xyz": _arr(res.r2[k0]),
                  "kappa": _arr(res.kappa2[k0]), "ellipse_dirs": _arr(res.ellipse_dir2[k0].reshape(-1, 6))},
-        "ellipse_a": _arr(res.ellipse_a[k0]), "ellipse_b": _arr(res.ellipse_b[k0]),
-        "delta": res.delta,
+        "ellipse_semi_major_mm": _arr(res.ellipse_a[k0]), "ellipse_semi_minor_mm": _arr(res.ellipse_b[k0]),
+        "delta_mm": res.delta,
         "converged": [bool(v) for v in res.converged[k0]], "on_surface": [bool(v) for v in on0],
-        "all_converged": bool(np.isfinite(res.te_envelope).all()),  # a contact at every position
+        "actual_te_at_every_position": bool(np.isfinite(res.te_envelope).all()),
         "max_residual": float(np.max(res.residual[res.converged])),  # over the accepted points
         "min_normal_dot": float(np.min(res.normal_dot[res.converged])),
-        "stats": res.stats, "solve_time_s": res.solve_time,
+        "stats": stats, "solve_time_s": res.solve_time,
         "limits": limits,
     }
+
+
+def _mis_dict(mis: Misalignment) -> dict:
+    return {"dE_mm": mis.dE, "crossing_arcmin": mis.crossing / ARCMIN,
+            "intersecting_arcmin": mis.intersecting / ARCMIN, "axial_mm": mis.axial}
+
+
+def _pair_numbers(driving, pairs) -> list:
+    """Driving tooth pair at each position as the pair number (pinion tooth, 0 = central), or None."""
+    return [int(pairs[v]) if v >= 0 else None for v in np.asarray(driving, int)]
 
 
 def edge_case_dict(res: EdgeTCAResult, pair: GearPair, label: str, limits: dict) -> dict:
     """JSON-able summary of a TCA case with edge contact (what results.json holds; plots read it)."""
     k0 = res.pairs.index(0) if 0 in res.pairs else 0
-    mis = res.misalignment
     env = res.te_envelope_arcsec
     branches = list(res.branches)
+    conjugate = bool(res.peak_to_peak_arcsec < CONJUGATE_ARCSEC)
+    # A pair carries load where its TE reaches the envelope (ties: all pairs of a conjugate drive).
+    tie = CONJUGATE_ARCSEC / RAD_TO_ARCSEC
+    loads = np.isfinite(res.te_pair[k0]) & (res.te_pair[k0] >= res.te_envelope - tie)
     paths = {}
     for b, name in enumerate(branches):
         v = res.valid[b, k0]
         if not v.any():
             continue
-        paths[name] = {"pinion": {"z": _arr(np.where(v, res.z1[b, k0], np.nan)),
+        paths[name] = {"pinion": {"axial": _arr(np.where(v, res.z1[b, k0], np.nan)),
                                   "radius": _arr(np.where(v, res.radius1[b, k0], np.nan))},
-                       "gear": {"z": _arr(np.where(v, res.z2[b, k0], np.nan)),
+                       "gear": {"axial": _arr(np.where(v, res.z2[b, k0], np.nan)),
                                 "radius": _arr(np.where(v, res.radius2[b, k0], np.nan))},
-                       "carries_load": [bool(x) for x in ((res.branch[k0] == b) & (res.driving == k0))]}
+                       "carries_load": [bool(x) for x in ((res.branch[k0] == b) & loads)]}
     return {
         "label": label, "edge_analysis": True,  # whether an edge carries load: "edge_carries_load"
-        "misalignment": {"dE": mis.dE, "crossing_arcmin": mis.crossing / ARCMIN,
-                         "intersecting_arcmin": mis.intersecting / ARCMIN, "axial": mis.axial},
+        "misalignment": _mis_dict(res.misalignment),
         "phi1": _arr(res.phi1), "pairs": list(res.pairs), "branches": branches,
         "te_arcsec": _arr(res.te_pair * RAD_TO_ARCSEC), "te_envelope_arcsec": _arr(env),
         "te_branches_central_arcsec": {name: _arr(res.te[b, k0] * RAD_TO_ARCSEC) for b, name in enumerate(branches)},
-        "driving_pair": [int(v) for v in res.driving],
+        "driving_pair": _pair_numbers(res.driving, res.pairs),
         "active_branch": [branches[a] if a >= 0 else None for a in res.active],
         "edge_carries_load": res.edge_contact(),
         "intervals_central_pair": res.intervals,
-        "transfers": [{k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in t.items()}
-                      for t in res.transfers],
-        "transfer_phi1": [t["phi1"] for t in res.transfers],
-        "peak_to_peak_arcsec": res.peak_to_peak * RAD_TO_ARCSEC,
+        # a conjugate drive has no transfers: all pairs in contact tie (round-off picks a "driver")
+        "transfers": [] if conjugate else [{k: (None if isinstance(v, float) and not math.isfinite(v) else v)
+                                            for k, v in t.items()} for t in res.transfers],
+        "transfer_phi1": [] if conjugate else [t["phi1"] for t in res.transfers],
+        "peak_to_peak_arcsec": res.peak_to_peak_arcsec,
+        "conjugate": conjugate,
         "harmonics_arcsec": te_harmonics(res.phi1, env, pair.pinion.z),
         "paths_central_pair": paths,
-        "all_converged": bool(np.isfinite(res.te_envelope).all()),
+        "actual_te_at_every_position": bool(np.isfinite(res.te_envelope).all()),
         "stats": {k: (v if isinstance(v, (dict, str, int, float)) else str(v)) for k, v in res.stats.items()},
         "solve_time_s": res.solve_time,
         "limits": limits,
@@ -167,36 +197,112 @@ class TCAReport:
 
         def save(name, fig, title):
             fig.suptitle(f"{self.scene}: {title}")
-            fig.tight_layout()
             fig.savefig(out / name, dpi=dpi, bbox_inches="tight")
             plt.close(fig)
             return name
 
-        fig, axes = plt.subplots(n, 1, figsize=(9, 3.7 * n), squeeze=False)
+        fig, axes = plt.subplots(n, 1, figsize=(9, 3.7 * n), squeeze=False, layout="constrained")
         for ax, case in zip(axes[:, 0], self.cases):
             plot_te_case(case, ax=ax)
         files = [save("te.png", fig, te_title)]
-        fig, axes = plt.subplots(n, 2, figsize=(12, 4.2 * n), squeeze=False)
+        fig, axes = plt.subplots(n, 2, figsize=(12, 4.4 * n), squeeze=False, layout="constrained")
         for row, case in zip(axes, self.cases):
             plot_paths(case, "pinion", ax=row[0])
             plot_paths(case, "gear", ax=row[1])
         files.append(save("bearing_contact.png", fig, path_title))
         if n > 1 and not edge:
-            fig, axes = plt.subplots(1, 2, figsize=(12, 4.5))
+            fig, axes = plt.subplots(1, 2, figsize=(12, 4.5), layout="constrained")
             plot_compare({c["label"]: c for c in self.cases}, axes=axes)
             files.append(save("compare.png", fig, "cases compared (actual TE, path of contact on the gear flank)"))
         return files
+
+    def save_tables(self, out_dir) -> list[str]:
+        """One CSV per case, ``te_path_<case>.csv``: per pinion angle the actual TE, the driving pair,
+        every pair's TE and the central pair's path of contact (see docs/results.md)."""
+        from pathlib import Path
+
+        files, used = [], set()
+        for i, case in enumerate(self.cases):
+            name = f"te_path_{_slug(case['label'])}.csv"
+            if name in used:
+                name = f"te_path_{i}_{_slug(case['label'])}.csv"
+            used.add(name)
+            cols = case_table(case)
+            rows = zip(*cols.values())
+            text = ",".join(cols) + "\n" + "".join(",".join(_cell(v) for v in row) + "\n" for row in rows)
+            (Path(out_dir) / name).write_text(text, encoding="utf-8")
+            files.append(name)
+        return files
+
+
+def _slug(label: str) -> str:
+    import re
+    return re.sub(r"[^A-Za-z0-9+-]+", "_", str(label)).strip("_") or "case"
+
+
+def _cell(v) -> str:
+    if v is None or (isinstance(v, float) and not math.isfinite(v)):
+        return ""
+    if isinstance(v, bool):
+        return "1" if v else "0"
+    return repr(v) if isinstance(v, float) else str(v)
+
+
+def case_table(case: dict) -> dict:
+    """Columns of a case's CSV table (name -> list, one entry per pinion angle): ``phi1_deg``,
+    ``te_envelope_arcsec``, ``driving_pair``, ``te_pair_<k>_arcsec`` for every pair and the central
+    pair's path: ``<member>_axial_mm``, ``<member>_radius_mm`` (surface contact), the contact
+    ellipse semi-axes, or, with edge contact, ``active_feature`` and per feature
+    ``<feature>_<member>_axial_mm`` / ``_radius_mm``. Empty cells: no value."""
+    cols = {"phi1_deg": [None if v is None else math.degrees(v) for v in case["phi1"]],
+            "te_envelope_arcsec": case["te_envelope_arcsec"], "driving_pair": case["driving_pair"]}
+    for k, te in zip(case["pairs"], case["te_arcsec"]):
+        cols[f"te_pair_{k:+d}_arcsec"] = te
+    if case.get("edge_analysis"):
+        cols["active_feature"] = case["active_branch"]
+        for name, path in case["paths_central_pair"].items():
+            for member in ("pinion", "gear"):
+                cols[f"{name}_{member}_axial_mm"] = path[member]["axial"]
+                cols[f"{name}_{member}_radius_mm"] = path[member]["radius"]
+    else:
+        for member in ("pinion", "gear"):
+            cols[f"{member}_axial_mm"] = case[member]["axial"]
+            cols[f"{member}_radius_mm"] = case[member]["radius"]
+        cols["on_active_flank"] = case["on_surface"]
+        cols["ellipse_semi_major_mm"] = case["ellipse_semi_major_mm"]
+        cols["ellipse_semi_minor_mm"] = case["ellipse_semi_minor_mm"]
+    return cols
 
 
 class TCAStudy:
     """Compiled TCA of a pair; ``run()`` sweeps one mesh cycle for each case."""
 
     def __init__(self, pair: GearPair, side="right", contact="point", z_section=0.0, positions=81,
-                 delta=0.00632, misalignment: Misalignment | None = None, name="tca", edge_contact: bool = False):
+                 delta=0.00632, misalignment: Misalignment | None = None, name="tca", edge_contact: bool = False,
+                 cases=None):
+        """``misalignment``: one case beside the aligned drive; or ``cases``: a list of
+        ``(label, Misalignment)`` (or a dict label -> Misalignment) analysed in order, with the
+        aligned drive first unless one of them is aligned."""
+        from ..errors import GeometryError
+
         self.pair, self.name = pair, name
         self.positions, self.delta, self.z_section = positions, delta, z_section
         self.cases = [("aligned", Misalignment())]
-        if misalignment is not None and np.any(misalignment.vector() != 0):
+        if cases is not None:
+            if misalignment is not None and np.any(misalignment.vector() != 0):
+                raise GeometryError("TCAStudy: give misalignment or cases, not both.")
+            items = list(cases.items()) if isinstance(cases, dict) else [tuple(c) for c in cases]
+            for item in items:
+                if len(item) != 2 or not isinstance(item[1], Misalignment):
+                    raise GeometryError(f"TCAStudy: cases = {item!r}: each case must be (label, Misalignment).")
+            if any(np.all(m.vector() == 0) for _, m in items):
+                self.cases = []
+            self.cases += [(str(lab), m) for lab, m in items]
+            labels = [lab for lab, _ in self.cases]
+            if len(set(labels)) != len(labels):
+                raise GeometryError(f"TCAStudy: case labels {labels} must be distinct (the aligned drive is "
+                                    "'aligned').")
+        elif misalignment is not None and np.any(misalignment.vector() != 0):
             self.cases.append(("misaligned", misalignment))
         self.tca = TCA(pair, side=side, contact=contact)
         self.edge = EdgeContact(self.tca) if edge_contact else None
@@ -240,16 +346,39 @@ def _from_scene(scene) -> TCAStudy:
     try:
         mis = Misalignment(dE=o.get("dE") or 0.0, crossing=o.get("crossing") or 0.0,
                            intersecting=o.get("intersecting") or 0.0, axial=o.get("axial") or 0.0)
+        cases = None
+        if o.get("cases") is not None:
+            if np.any(mis.vector() != 0):
+                raise SceneError(f"{scene.source}: [tca] cases and the single keys dE, crossing, intersecting, axial: "
+                                 "give the misalignments either as [[tca.cases]] or as the single keys, not both.")
+            cases = []
+            for i, c in enumerate(o["cases"]):
+                m = Misalignment(dE=c.get("dE") or 0.0, crossing=c.get("crossing") or 0.0,
+                                 intersecting=c.get("intersecting") or 0.0, axial=c.get("axial") or 0.0)
+                label = c.get("label") or _auto_label(m)
+                if label in [lab for lab, _ in cases]:
+                    raise SceneError(f"{scene.source}: [tca.cases][{i}] label = {label!r}: the labels of the cases "
+                                     "must be distinct.")
+                cases.append((label, m))
+            if not cases:
+                raise SceneError(f"{scene.source}: [tca] cases = []: give at least one case or leave it out.")
         if o.get("contact") == "point" and scene.pair.pinion.a_pl == 0 and not o.get("edge_contact"):
             raise SceneError(f"{scene.source}: [tca] contact = \"point\" needs a longitudinally crowned pinion "
                              "([pinion] a_pl > 0); for conjugate or profile-crowned spur pinions use contact = "
                              "\"line\".")
         return TCAStudy(scene.pair, side=o.get("side") or "right", contact=o.get("contact") or "point",
                         z_section=o.get("z_section") or 0.0, positions=o.get("positions") or 81,
-                        delta=o.get("delta") or 0.00632, misalignment=mis, name=scene.name,
-                        edge_contact=bool(o.get("edge_contact")))
+                        delta=o.get("delta") or 0.00632, misalignment=None if cases else mis, name=scene.name,
+                        edge_contact=bool(o.get("edge_contact")), cases=cases)
     except GeometryError as e:
         raise SceneError(f"{scene.source}: [tca] {e}") from e
+
+
+def _auto_label(m: Misalignment) -> str:
+    parts = [f"dE {m.dE:+g} mm" if m.dE else "", f"crossing {m.crossing / ARCMIN:+g}'" if m.crossing else "",
+             f"intersecting {m.intersecting / ARCMIN:+g}'" if m.intersecting else "",
+             f"axial {m.axial:+g} mm" if m.axial else ""]
+    return ", ".join(p for p in parts if p) or "aligned"
 
 
 def _register():
@@ -274,7 +403,15 @@ def _register():
             Field("axial", "length", default=0.0, check=Bounds(lo=-50, hi=50), doc="axial displacement of the gear"),
             Field("edge_contact", "bool", default=False,
                   doc="also solve edge contact (tips, face ends) and combine it with the surface contact (Litvin 9.6)"),
-        ], required=False)],
+        ], required=False, subsections=[Section("cases", [
+            Field("label", "str", doc="name of the case in plots and results (default: its misalignments)"),
+            Field("dE", "length", default=0.0, check=Bounds(lo=-5, hi=5), doc="centre distance change"),
+            Field("crossing", "angle", default=0.0, check=Bounds(lo=-10, hi=10), doc="crossing angle of the axes"),
+            Field("intersecting", "angle", default=0.0, check=Bounds(lo=-10, hi=10),
+                  doc="intersecting angle of the axes"),
+            Field("axial", "length", default=0.0, check=Bounds(lo=-50, hi=50), doc="axial displacement of the gear"),
+        ], array=True, doc="list of misalignment cases ([[tca.cases]]), instead of the single keys; the aligned "
+                           "drive comes first unless a case is aligned")])],
         build=_from_scene,
     ))
 
