@@ -36,7 +36,7 @@ bench: $(STAMP)
 	  [ -e "$$f" ] || continue; found=1; echo "== $$f"; $(VPY) "$$f"; done; \
 	  [ $$found = 1 ] || echo "no benchmarks/*.py yet"
 
-# CalculiX (ccx) for the planned FE checks: best effort, never fails the build.
+# CalculiX (ccx) for the FE study (problems/fea_spur.toml) and its tests: best effort, never fails the build.
 ccx:
 	@if command -v ccx >/dev/null 2>&1; then :; \
 	elif [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then \

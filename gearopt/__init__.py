@@ -9,6 +9,7 @@ from .errors import ConvergenceError, GearoptError, GeometryError, SceneError
 from .gears import BasicRack, Gear, GearPair
 from .geometry.generation import (PARAMS, GeneratedTooth, Hob, Shaper, generate_by_hob, generate_by_rack,
                                   generate_by_shaper)
+from .geometry.involute import inv, inv_inverse
 from .io.scene import load_scene
 from .meshing.planar import PlanarTCA, solve_planar_tca
 from .meshing.tca import TCA, Misalignment, TCAResult
@@ -21,6 +22,18 @@ __all__ = [
     "BasicRack", "Gear", "GearPair",
     "PARAMS", "GeneratedTooth", "Hob", "Shaper", "generate_by_rack", "generate_by_hob", "generate_by_shaper",
     "TCA", "Misalignment", "TCAResult", "PlanarTCA", "solve_planar_tca", "EdgeContact", "EdgeTCAResult",
-    "load_scene",
+    "load_scene", "TCAStudy", "CrowningStudy", "inv", "inv_inverse",
     "DEG", "ARCMIN", "ARCSEC", "deg", "to_deg",
 ]
+
+
+def __getattr__(name):
+    """Study classes load lazily (``gearopt.TCAStudy``, ``gearopt.CrowningStudy``): importing
+    gearopt stays cheap."""
+    if name == "TCAStudy":
+        from .studies.tca import TCAStudy
+        return TCAStudy
+    if name == "CrowningStudy":
+        from .studies.crowning import CrowningStudy
+        return CrowningStudy
+    raise AttributeError(f"module 'gearopt' has no attribute {name!r}")

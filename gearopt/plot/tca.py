@@ -31,6 +31,7 @@ _BRANCH_COLOR = {"surface": "C3", "pinion_tip": "C0", "gear_tip": "C2", "pinion_
                  "gear_face+": "C6", "gear_face-": "C8", "pinion_corner+": "C1", "pinion_corner-": "gold",
                  "gear_corner+": "C9", "gear_corner-": "navy"}
 _LINESTYLES = ("-", "--", ":", "-.")
+_BELOW = dict(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.22), ncol=3, frameon=False)  # legend under the axes
 
 
 def _f(v):
@@ -96,6 +97,8 @@ def legend(ax, **kw):
 
 
 def _draws(artist) -> bool:
+    if artist.get_gid() == "legend-proxy":
+        return True
     if hasattr(artist, "get_xydata"):
         xy = np.asarray(artist.get_xydata(), float)
         return bool(xy.size) and bool(np.isfinite(xy).all(axis=1).any())
@@ -127,7 +130,7 @@ def plot_te(case: dict, ax=None, label_pairs: bool = True):
     if is_conjugate(case):
         _draw_conjugate(ax, case, phi)
         ax.set_title(f"{case_title(case)}: conjugate, TE = 0", fontsize=9)
-        legend(ax, fontsize=7, loc="lower center")
+        legend(ax, **_BELOW)
         return ax
     env = _f(case["te_envelope_arcsec"])
     finite = env[np.isfinite(env)]
@@ -146,7 +149,7 @@ def plot_te(case: dict, ax=None, label_pairs: bool = True):
     _transfer_lines(ax, np.degrees(case.get("transfer_phi1", [])))
     ok = "" if _key(case, "actual_te_at_every_position", "all_converged") else "  (some positions without contact)"
     ax.set_title(f"{case_title(case)}: peak-to-peak {case['peak_to_peak_arcsec']:.2f} arcsec{ok}", fontsize=9)
-    legend(ax, fontsize=7, loc="lower center", ncol=4)
+    legend(ax, **_BELOW)
     return ax
 
 
@@ -207,7 +210,7 @@ def plot_bearing_contact(case: dict, member: str = "gear", ax=None, every: int =
     ax.set_title(f"{member} flank, {case_title(case)}\ncontact ellipses for the approach delta = {delta * 1000:.2f} um",
                  fontsize=9)
     ax.grid(alpha=0.3)
-    legend(ax, fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.2), ncol=2, frameon=False)
+    legend(ax, fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.22), ncol=2, frameon=False)
     return ax
 
 
@@ -268,7 +271,7 @@ def plot_edge_te(case: dict, ax=None):
         _draw_conjugate(ax, case, phi)
         ax.set_title(f"{case_title(case)}: conjugate, TE = 0; edge contact "
                      f"{'YES' if case['edge_carries_load'] else 'no'}", fontsize=9)
-        legend(ax, fontsize=7, loc="lower center")
+        legend(ax, **_BELOW)
         return ax
     for i, te in enumerate(case["te_arcsec"]):
         ax.plot(phi, _f(te), color="0.7", lw=0.8, ls="--", label="TE of each tooth pair" if i == 0 else None)
@@ -286,7 +289,7 @@ def plot_edge_te(case: dict, ax=None):
         lo, hi = finite.min(), finite.max()
         pad = 0.5 * max(hi - lo, 1e-3)
         ax.set_ylim(lo - pad, hi + 0.3 * pad)
-    legend(ax, fontsize=7, loc="lower center", ncol=3)
+    legend(ax, **_BELOW)
     return ax
 
 
@@ -308,22 +311,25 @@ def plot_edge_paths(case: dict, member: str = "gear", ax=None):
     ax = _axes(ax)
     lim = case["limits"][member]
     _flank_box(ax, lim)
+    dashed_any = False
     for name, path in case["paths_central_pair"].items():
         col = _BRANCH_COLOR.get(name, "k")
         z, r = _axial(path[member]), _f(path[member]["radius"])
         load = np.array(path["carries_load"], bool)
+        loaded = bool((load & np.isfinite(z)).any())
+        idle = np.isfinite(z) & ~load
+        dashed_any |= bool(idle.any())
         ax.plot(*_break_jumps(z, r, lim), color=col, lw=0.8, ls="--",
-                label="thin dashed: contact of the pair while another pair drives")
+                label=None if loaded else f"{branch_label(name)} (not driving)")
         ax.plot(*_break_jumps(np.where(load, z, np.nan), np.where(load, r, np.nan), lim), color=col, lw=2.6,
                 label=branch_label(name))
-    # the dashed entry in black: it stands for every colour
+    if dashed_any:
+        (proxy,) = ax.plot([], [], color="0.3", lw=0.8, ls="--",
+                           label="dashed: contact while another pair drives")
+        proxy.set_gid("legend-proxy")
     ax.set_title(f"{member} flank, {case_title(case)}: thick where the central pair drives", fontsize=9)
     ax.grid(alpha=0.3)
-    leg = legend(ax, fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.2), ncol=2, frameon=False)
-    if leg is not None:
-        for h, t in zip(leg.legend_handles, leg.get_texts()):
-            if t.get_text().startswith("thin dashed"):
-                h.set_color("0.3")
+    legend(ax, fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.22), ncol=2, frameon=False)
     return ax
 
 
