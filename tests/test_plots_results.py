@@ -401,3 +401,17 @@ def test_readme_and_makefile():
     for key in ("driving_pair", "actual_te_at_every_position", "n_pair_positions_without_contact", "delta_mm",
                 "ellipse_semi_major_mm", "sensitivity_units", "backlash_normal", "a_minus_a_0_um", "g_alpha"):
         assert key in doc, key
+
+
+def test_planar_conjugate_te_plot():
+    """Problem 9.4.1: involutes are conjugate at any centre distance; the plot says TE = 0 instead of
+    drawing round-off on a 1e-11 scale."""
+    from gearopt.plot.planar import plot_transmission_error
+    rep = load_scene(ROOT / "problems" / "problem_9_4_1.toml").build().run()
+    fig, ax = plt.subplots()
+    plot_transmission_error(rep, ax=ax)
+    lo, hi = ax.get_ylim()
+    assert hi - lo >= 1.0
+    assert "conjugate" in ax.get_title()
+    assert any("conjugate: TE = 0" in lab for lab in _check_legend(ax))
+    plt.close(fig)

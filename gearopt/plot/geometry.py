@@ -167,7 +167,8 @@ def plot_rack_mesh(report, member: str = "pinion", ax=None, teeth: int = 3):
     half = 2.2 * math.pi * m["m_t"]
     ax.axhline(r_p, color="C2", ls="-.", lw=0.8, label="rack centrode (pitch line)")
     if abs(rk["datum_line_y"] - r_p) > 1e-9:
-        ax.axhline(rk["datum_line_y"], color="C4", ls=":", lw=0.8, label=f"datum line (x m_n = {m['x'] * m['m_n']:+.3f} mm)")
+        ax.axhline(rk["datum_line_y"], color="C4", ls=":", lw=0.8, label=f"datum line (x_E m_n = {rk['datum_line_y'] - r_p:+.3f} mm"
+                   + (", thickness allowance" if m.get("A_sne") else "") + ")")
     for sgn in (1, -1):  # lines of action through I, tangent to the base circle at T
         T = np.array([sgn * r_b * math.sin(at), r_b * math.cos(at)])
         E = I + 0.6 * (I - T)

@@ -121,19 +121,28 @@ def plot_transmission_error(report, ax=None):
     -------
     matplotlib Axes
     """
+    from .tca import CONJUGATE_ARCSEC
+
     ax = _axes(ax)
     t = report.tca
     ok = t.ok
     te = np.asarray(t.te) * RAD_TO_ARCSEC
-    ax.plot(t.phi1[ok] / DEG, te[ok], "o-", color="C3", ms=3, lw=1, label="TE = phi2 - phi1 r_b1/r_b2 - const")
-    ax.axhline(0, color="k", lw=0.6)
     peak = float(np.max(np.abs(te[ok]))) if ok.any() else 0.0
-    ax.set_ylim(-max(peak, 1e-12) * 3, max(peak, 1e-12) * 3)
-    ax.ticklabel_format(axis="y", style="sci", scilimits=(-3, 3))
+    ax.axhline(0, color="k", lw=0.6)
     ax.set_xlabel("$\\phi_1$ [deg]")
-    ax.set_ylabel("TE [arcsec]")
-    ax.set_title(f"{report.scene}: transmission error (max |TE| = {peak:.2e} arcsec, round-off), "
-                 f"m12 = {t.m12:.12g}", fontsize=9)
+    ax.set_ylabel("TE [arcsec] (+: gear 2 ahead)")
+    if peak < CONJUGATE_ARCSEC:  # involutes are conjugate at any centre distance: what remains is round-off
+        ax.plot(t.phi1[ok] / DEG, np.zeros(int(ok.sum())), "o-", color="C3", ms=3, lw=1.5,
+                label=f"conjugate: TE = 0 at the {int(ok.sum())} solved positions")
+        ax.set_ylim(-1.0, 1.0)
+        ax.text(0.5, 0.7, f"conjugate: TE = 0\n(computed max |TE| {peak:.1g} arcsec: round-off)",
+                transform=ax.transAxes, ha="center", va="center", fontsize=9, bbox=dict(fc="white", ec="0.6"))
+        ax.set_title(f"{report.scene}: transmission error, conjugate (TE = 0), m12 = {t.m12:.12g}", fontsize=9)
+    else:
+        ax.plot(t.phi1[ok] / DEG, te[ok], "o-", color="C3", ms=3, lw=1, label="TE = phi2 - phi1 r_b1/r_b2 - const")
+        ax.set_ylim(-peak * 1.5, peak * 1.5)
+        ax.set_title(f"{report.scene}: transmission error (max |TE| = {peak:.3g} arcsec), m12 = {t.m12:.12g}",
+                     fontsize=9)
     ax.grid(True, lw=0.3)
     ax.legend(fontsize=8)
     return ax

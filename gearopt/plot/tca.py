@@ -312,11 +312,14 @@ def plot_edge_paths(case: dict, member: str = "gear", ax=None):
     lim = case["limits"][member]
     _flank_box(ax, lim)
     dashed_any = False
+    conj = is_conjugate(case)
     for name, path in case["paths_central_pair"].items():
         col = _BRANCH_COLOR.get(name, "k")
         z, r = _axial(path[member]), _f(path[member]["radius"])
         load = np.array(path["carries_load"], bool)
         loaded = bool((load & np.isfinite(z)).any())
+        if conj and not loaded:
+            continue  # conjugate: edges tie with the line contact where it reaches them; not a contact of their own
         idle = np.isfinite(z) & ~load
         dashed_any |= bool(idle.any())
         ax.plot(*_break_jumps(z, r, lim), color=col, lw=0.8, ls="--",

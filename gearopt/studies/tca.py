@@ -333,6 +333,8 @@ class TCAStudy:
         pair = {"z1": p.pinion.z, "z2": p.gear.z, "m_n": p.pinion.m_n, "beta_deg": p.pinion.beta / DEG,
                 "a": p.a_w, "ratio": p.ratio, "side": self.tca.side, "contact": self.tca.contact_type,
                 "pinion_a_c": p.pinion.rack.a_c, "pinion_a_pl": p.pinion.a_pl, "eps_alpha": p.eps_alpha,
+                "eps_beta": p.eps_beta, "alpha_wt_deg": p.alpha_wt / DEG, "a_minus_a_0_um": p.a_minus_a_0 * 1000,
+                "backlash_circumferential": p.backlash,
                 "edge_contact_analysis": self.edge is not None}
         return TCAReport(scene=self.name, pair=pair, cases=cases,
                          timing={"build_s": self.tca.build_time, "run_s": time.perf_counter() - t0})
