@@ -307,7 +307,8 @@ def _break_jumps(z, r, lim, tol=0.2):
 def plot_edge_paths(case: dict, member: str = "gear", ax=None):
     """Paths of contact of the central pair on the ``member`` flank map: the surface part and the
     edge parts (thin dashed: that feature's contact of the pair while another pair drives; thick:
-    where it carries the load of the drive), with the flank boundaries."""
+    where it carries the load of the drive), with the flank boundaries. A conjugate drive shows
+    only the loaded contact (its pairs share the load)."""
     ax = _axes(ax)
     lim = case["limits"][member]
     _flank_box(ax, lim)
@@ -321,9 +322,10 @@ def plot_edge_paths(case: dict, member: str = "gear", ax=None):
         if conj and not loaded:
             continue  # conjugate: edges tie with the line contact where it reaches them; not a contact of their own
         idle = np.isfinite(z) & ~load
-        dashed_any |= bool(idle.any())
-        ax.plot(*_break_jumps(z, r, lim), color=col, lw=0.8, ls="--",
-                label=None if loaded else f"{branch_label(name)} (not driving)")
+        if not conj:  # a conjugate drive's pairs share the load: no "while another pair drives"
+            dashed_any |= bool(idle.any())
+            ax.plot(*_break_jumps(z, r, lim), color=col, lw=0.8, ls="--",
+                    label=None if loaded else f"{branch_label(name)} (not driving)")
         ax.plot(*_break_jumps(np.where(load, z, np.nan), np.where(load, r, np.nan), lim), color=col, lw=2.6,
                 label=branch_label(name))
     if dashed_any:
