@@ -21,7 +21,6 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
-from matplotlib.lines import Line2D  # noqa: E402
 
 import gearopt  # noqa: E402
 from gearopt import ARCMIN, BasicRack, Gear, GearPair, Misalignment  # noqa: E402
