@@ -23,6 +23,30 @@ class SceneError(GearoptError, ValueError):
     """A scene file is malformed: unknown or missing keys, wrong types or units, bad values."""
 
 
+class ArgumentError(GearoptError, TypeError, ValueError):
+    """A public function or method was called with a wrong argument: wrong type (a dict where a
+    :class:`~gearopt.meshing.tca.Misalignment` is expected), wrong vector length, an empty or
+    non-finite sweep, a value outside its valid range. The message names the argument."""
+
+
+class ResultsError(GearoptError, ValueError):
+    """Results cannot be written: a non-finite number where the schema has none, or an output
+    path that cannot hold the results directory (an existing file, an unwritable place, ``""``).
+    Nothing is written."""
+
+
+#: Longest value text echoed in a message; longer values are abbreviated (see :func:`shorten`).
+MAX_ECHO = 60
+
+
+def shorten(text: str, limit: int = MAX_ECHO) -> str:
+    """``text`` cut to about ``limit`` characters for an error message, saying how long it was."""
+    text = str(text)
+    if len(text) <= limit:
+        return text
+    return f"{text[:limit - 20]}...{text[-8:]} ({len(text)} characters)"
+
+
 def out_of_range(name: str, value, valid: str, hint: str = "", cls=GeometryError) -> GearoptError:
     """Build the standard 'parameter out of range' error.
 
@@ -37,7 +61,7 @@ def out_of_range(name: str, value, valid: str, hint: str = "", cls=GeometryError
     hint : str
         Optional sentence saying how to fix it.
     """
-    msg = f"{name} = {value!r} is out of range; valid: {valid}."
+    msg = f"{name} = {shorten(repr(value))} is out of range; valid: {valid}."
     if hint:
         msg += " " + hint
     return cls(msg)

@@ -256,6 +256,11 @@ def _register():
     from ..io.scene import Bounds, Field, Section
     from . import StudySpec, register
 
+    # Misalignment angles of real drives are arcminutes (Litvin's examples: 3 arcmin); a bare number
+    # above 1 deg (60 arcmin, 0.35 mm across a 20 mm face) is almost surely an arcmin value written
+    # without its unit. Refused unless the unit is written out ("2 deg" is accepted).
+    _BARE_MIS = Bounds(lo=-1, hi=1)
+
     register(StudySpec(
         name="tca",
         doc="Tooth contact analysis: TE per pair and envelope, paths of contact, contact ellipses, aligned and misaligned",
@@ -268,9 +273,10 @@ def _register():
             Field("delta", "length", default=0.00632, check=Bounds(lo=0, lo_open=True, hi=0.1),
                   doc="elastic approach for the contact ellipse"),
             Field("dE", "length", default=0.0, check=Bounds(lo=-5, hi=5), doc="centre distance change"),
-            Field("crossing", "angle", default=0.0, check=Bounds(lo=-10, hi=10), doc="crossing angle of the axes"),
-            Field("intersecting", "angle", default=0.0, check=Bounds(lo=-10, hi=10),
-                  doc="intersecting angle of the axes"),
+            Field("crossing", "angle", default=0.0, check=Bounds(lo=-10, hi=10), bare=_BARE_MIS,
+                  typical="arcmin", doc="crossing angle of the axes (a bare number is deg: |crossing| <= 1)"),
+            Field("intersecting", "angle", default=0.0, check=Bounds(lo=-10, hi=10), bare=_BARE_MIS,
+                  typical="arcmin", doc="intersecting angle of the axes (a bare number is deg: |intersecting| <= 1)"),
             Field("axial", "length", default=0.0, check=Bounds(lo=-50, hi=50), doc="axial displacement of the gear"),
             Field("edge_contact", "bool", default=False,
                   doc="also solve edge contact (tips, face ends) and combine it with the surface contact (Litvin 9.6)"),
