@@ -204,12 +204,11 @@ class Field:
             raise SceneError(f"{where} = {_toml(value)} is not allowed; valid: one of "
                              f"{', '.join(_toml(c) for c in self.choices)}.{hint}")
         bare_number = self.kind in KINDS and isinstance(value, (int, float)) and not isinstance(value, bool)
-        if self.bare is not None and bare_number and not self.bare.ok(value):
-            hint = self._unit_hint(value, self.bare)
+        hint = self._unit_hint(value, self.bare) if self.bare is not None and bare_number else ""
+        if hint and not self.bare.ok(value):  # implausible as written, plausible in another unit
             raise SceneError(f"{where} = {_toml(value)}: a bare number is read as {value:g} {self.scene_unit}, which "
                              f"is implausible for {self.name} (plausible without a unit: "
-                             f"{self.bare.text(self.name, self.scene_unit)}). Write the unit out"
-                             f"{'.' + hint if hint else ', e.g. ' + _toml(f'{value:g} {self.scene_unit}') + '.'}")
+                             f"{self.bare.text(self.name, self.scene_unit)}). Write the unit out.{hint}")
         if self.check is not None:
             if isinstance(self.check, Bounds):
                 shown = self.to_scene_unit(out)
@@ -451,6 +450,43 @@ class Scene:
     options: dict
     output: dict
     source: Path
+    raw: dict = field(default_factory=dict, repr=False, compare=False)
+
+    def written(self, section: str, key: str) -> str | None:
+        """The value of ``[section] key`` as written in the file (TOML text), or None if absent."""
+        t = self.raw.get(section)
+        if isinstance(t, dict) and key in t:
+            return _toml(t[key])
+        return None
+
+    def key_error(self, section: str, key: str, err) -> SceneError:
+        """A :class:`SceneError` for ``[section] key`` from an error (or text) of gear or study code:
+        its leading ``name = value`` (internal name and units) is replaced by the key and the value
+        as written in the file."""
+        msg = re.sub(r"^[\w.\[\] -]*?\b" + re.escape(key) + r" = \S+( \w+)? (?=is |must |:)", "", str(err))
+        shown = self.written(section, key)
+        sep = " " if msg.startswith(("is ", "must ")) else ": "
+        return SceneError(f"{self.source}: [{section}] {key} = {shown if shown is not None else '(default)'}{sep}"
+                          f"{msg.lstrip(': ')}")
+
+    def run_error(self, err: Exception) -> SceneError:
+        """An error raised while the study ran, tied to this scene: file name, the study's
+        ``[section] key`` names instead of internal ones (``mis.crossing`` -> ``[tca] crossing``) and
+        the keys the scene set, as written (deg/arcmin, not rad)."""
+        from ..studies import get_study
+
+        msg = str(err)
+        spec = get_study(self.study)
+        given = []
+        for sec in (spec.sections if spec else []):
+            for f in sec.fields:
+                msg = re.sub(r"\b(?:mis|misalignment|target|options|" + re.escape(sec.name) + r")\." + re.escape(f.name)
+                             + r"\b", f"[{sec.name}] {f.name}", msg)
+                w = self.written(sec.name, f.name)
+                if w is not None:
+                    given.append(f"{f.name} = {w}")
+        ctx = f" (the scene sets [{spec.sections[0].name}] {', '.join(given)})" if given and spec else ""
+        return SceneError(f"{self.source}: study {self.study!r} failed{ctx}: {msg}")
 
     def build(self):
         """Build the study object (``STUDIES[study].build(self)``)."""
@@ -613,7 +649,7 @@ def load_scene(path) -> Scene:
     pair = _build_pair(data, parsed, given, label)
     options = {s.name: parsed[s.name] for s in spec.sections}
     return Scene(name=scene_vals["name"], description=scene_vals["description"], study=study_name, pair=pair,
-                 options=options, output=dict(parsed["output"]), source=path)
+                 options=options, output=dict(parsed["output"]), source=path, raw=data)
 
 
 _NAME_FORBIDDEN = set('/\\:*?"<>|')

@@ -135,7 +135,10 @@ class CrowningStudy:
 def _from_scene(scene) -> CrowningStudy:
     from ..errors import GeometryError, SceneError
 
+    from .tca import _check_operating
+
     o = scene.options.get("crowning", {}) or {}
+    _check_operating(scene, "crowning", o, signs=(1, -1))
     try:
         target = CrowningTarget(te_level=o["te_level"], ellipse_share=o.get("ellipse_share") or 0.0,
                                 edge_margin=o.get("edge_margin") or 0.0, tip_margin=o.get("tip_margin") or 0.0,

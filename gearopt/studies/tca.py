@@ -233,6 +233,29 @@ class TCAStudy:
 
 
 # --- scene binding ------------------------------------------------------------------------------
+def _check_operating(scene, section: str, o: dict, signs=(1,)) -> None:
+    """Refuse, before running, misalignments that make the study meaningless: a centre distance
+    change dE that jams the teeth (a + dE < a_0, the rule of [pair] a) or separates them (contact
+    ratio < 1), and an axial displacement beyond the overlap of the faces. ``signs``: the cases
+    analysed (+dE only, or +-dE)."""
+    from ..errors import GeometryError
+
+    pair = scene.pair
+    dE = o.get("dE") or 0.0
+    for s in signs:
+        try:
+            pair.check_operating(s * dE, "dE" if s > 0 else "-dE")
+        except GeometryError as e:
+            text = str(e).split(" is out of range; ", 1)[-1]
+            case = "" if s > 0 else f" (the case -dE = {-dE:g} mm)"
+            raise scene.key_error(section, "dE", f"is out of range{case}; {text}") from None
+    axial = o.get("axial") or 0.0
+    overlap = (pair.pinion.b + pair.gear.b) / 2
+    if abs(axial) >= overlap:
+        raise scene.key_error(section, "axial", f"is out of range; valid: |axial| < (b1 + b2) / 2 = {overlap:g} mm "
+                              "(beyond it the faces do not overlap and the teeth cannot touch).")
+
+
 def _from_scene(scene) -> TCAStudy:
     from ..errors import GeometryError, SceneError
 
@@ -240,6 +263,11 @@ def _from_scene(scene) -> TCAStudy:
     try:
         mis = Misalignment(dE=o.get("dE") or 0.0, crossing=o.get("crossing") or 0.0,
                            intersecting=o.get("intersecting") or 0.0, axial=o.get("axial") or 0.0)
+        _check_operating(scene, "tca", o, signs=(1,))
+        if o.get("contact") == "line" and abs(o.get("z_section") or 0.0) > scene.pair.pinion.b / 2:
+            raise scene.key_error("tca", "z_section", f"is out of range; valid: |z_section| <= b1 / 2 = "
+                                  f"{scene.pair.pinion.b / 2:g} mm (a section of the pinion face, [pinion] b = "
+                                  f"{scene.pair.pinion.b:g} mm).")
         if o.get("contact") == "point" and scene.pair.pinion.a_pl == 0 and not o.get("edge_contact"):
             raise SceneError(f"{scene.source}: [tca] contact = \"point\" needs a longitudinally crowned pinion "
                              "([pinion] a_pl > 0); for conjugate or profile-crowned spur pinions use contact = "
