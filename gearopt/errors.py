@@ -23,10 +23,13 @@ class SceneError(GearoptError, ValueError):
     """A scene file is malformed: unknown or missing keys, wrong types or units, bad values."""
 
 
-class ArgumentError(GearoptError, TypeError, ValueError):
+class ArgumentError(GeometryError, TypeError):
     """A public function or method was called with a wrong argument: wrong type (a dict where a
     :class:`~gearopt.meshing.tca.Misalignment` is expected), wrong vector length, an empty or
-    non-finite sweep, a value outside its valid range. The message names the argument."""
+    non-finite sweep, a value outside its valid range. The message names the argument.
+
+    A :class:`GeometryError` (hence also ``ValueError``) and a ``TypeError``, so that code catching
+    either for invalid arguments keeps working."""
 
 
 class ResultsError(GearoptError, ValueError):
@@ -45,6 +48,23 @@ def shorten(text: str, limit: int = MAX_ECHO) -> str:
     if len(text) <= limit:
         return text
     return f"{text[:limit - 20]}...{text[-8:]} ({len(text)} characters)"
+
+
+def check_number(name: str, value, what: str = "a finite number") -> float:
+    """``value`` as a float, or :class:`ArgumentError` naming ``name`` if it is not a finite real
+    number (strings such as ``"8 arcsec"``, booleans, None, NaN, inf are refused: the Python API
+    takes numbers in gearopt's internal units, mm and rad)."""
+    import math
+    import numbers
+
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        hint = " (the Python API takes plain numbers in mm and rad; units in strings are for scenes)" \
+            if isinstance(value, str) else ""
+        raise ArgumentError(f"{name} = {type(value).__name__} {shorten(repr(value))}: expected {what}{hint}.")
+    v = float(value)
+    if not math.isfinite(v):
+        raise ArgumentError(f"{name} = {v}: expected {what}.")
+    return v
 
 
 def out_of_range(name: str, value, valid: str, hint: str = "", cls=GeometryError) -> GearoptError:
