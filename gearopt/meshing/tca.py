@@ -150,7 +150,7 @@ def check_sweep_args(tca, phi1, p1=None, p2=None, mis=None, pairs=(-1, 0, 1), de
             raise ArgumentError(f"pairs contains {_describe(k)}: tooth-pair indices are integers (pinion tooth k, "
                                 f"-{g1.z} < k < {g1.z}).")
         if abs(int(k)) >= g1.z:
-            raise ArgumentError(f"pairs contains {int(k)}: valid: -{g1.z} < k < {g1.z} (pinion teeth from tooth 0).")
+            raise ArgumentError(f"pairs contains {int(k)}; valid: -{g1.z} < k < {g1.z} (pinion teeth from tooth 0).")
         out.append(int(k))
     if len(set(out)) != len(out):
         raise ArgumentError(f"pairs = {tuple(out)}: every tooth pair may appear once.")
