@@ -134,6 +134,10 @@ class BasicRack:
 
 
 _HANDS = ("right", "left")
+#: Most teeth gearopt accepts on one member.
+Z_MAX = 100_000
+#: Widest face, in reference diameters of the member.
+B_MAX_PER_D = 10.0
 #: Range of the normal module [mm] gearopt accepts (ISO 54 modules are 0.05 to 100 mm).
 M_N_RANGE = (0.01, 1000.0)
 #: Largest share of the reference tooth thickness crowning may remove from each flank.
@@ -189,6 +193,9 @@ class Gear:
             raise GeometryError(f"{n}.z = {self.z!r} must be an integer number of teeth (z >= 3).")
         if self.z < 3:
             raise out_of_range(f"{n}.z", self.z, "z >= 3 teeth")
+        if self.z > Z_MAX:
+            raise out_of_range(f"{n}.z", self.z, f"3 <= z <= {Z_MAX} teeth (beyond, a tooth is too small against "
+                               "the gear radius for double precision; the largest gears have about 1000 teeth)")
         for f in ("m_n", "x", "b", "beta", "k", "a_pl"):
             _finite(f"{n}.{f}", getattr(self, f))
         if self.m_n <= 0:
@@ -199,6 +206,11 @@ class Gear:
                                "gears of ordinary size; ISO 54 modules span 0.05 to 100 mm)")
         if self.b <= 0:
             raise out_of_range(f"{n}.b", self.b, "b > 0 mm")
+        d = self.m_n * self.z / math.cos(self.beta) if abs(self.beta) < 1.5 else self.m_n * self.z
+        if self.b > B_MAX_PER_D * d:
+            raise out_of_range(f"{n}.b", self.b, f"0 < b <= {B_MAX_PER_D:g} d = {B_MAX_PER_D * d:.6g} mm (d = m_n z / "
+                               f"cos beta = {d:.6g} mm; a face wider than ten reference diameters is a shaft, not a "
+                               "gear)")
         if not 0 <= self.beta < 45 * DEG:
             raise out_of_range(f"{n}.beta", f"{self.beta / DEG:.6g} deg", "0 <= beta < 45 deg")
         if self.hand not in _HANDS:
@@ -222,7 +234,9 @@ class Gear:
         if not self.allow_undercut and self.x < self.x_min_undercut - 1e-12:
             raise out_of_range(
                 f"{n}.x", self.x, f"x >= {self.x_min_undercut:.4f} for z = {self.z} (no undercut; z >= {self.z_min_undercut:.2f} "
-                "teeth without shift)", "Raise x, or set allow_undercut = true to accept an undercut gear.")
+                "teeth without shift)", "Raise x, or set allow_undercut = true to accept an undercut gear."
+                + (f" Note rack.alpha_n = {self.rack.alpha_n / DEG:.6g} deg, far below the usual 14.5-30 deg (a value "
+                   "meant in rad?)." if self.rack.alpha_n < 10 * DEG else ""))
         s_a = self.s_at(self.r_a)
         if not s_a > 0:  # NaN too
             raise out_of_range(f"{n}.x", self.x, f"x < {self.x_max_pointed:.4f} for z = {self.z}, k = {self.k} "
@@ -239,17 +253,23 @@ class Gear:
         limit = CROWNING_SHARE * math.pi * self.m_n / 2  # per flank [mm]
         sin_a = math.sin(rack.alpha_n)
         # plunging by a_pl l^2 (radial feed) moves the flank by a_pl l^2 sin(alpha_n) along its normal
-        depth = self.a_pl * (self.b / 2) ** 2 * sin_a
+        half = self.b / 2
+        depth = self.a_pl * half * half * sin_a
         if depth > limit:
-            a_max = limit / ((self.b / 2) ** 2 * sin_a)
+            a_max = limit / (half * half * sin_a)
             raise out_of_range(f"{n}.a_pl", self.a_pl, f"a_pl <= {a_max:.4g} 1/mm for b = {self.b:g} mm, m_n = "
                                f"{self.m_n:g} mm: the plunge at the face ends may remove at most pi m_n / 8 = "
                                f"{limit:.4g} mm from each flank (here a_pl (b/2)^2 sin(alpha_n) = {depth:.4g} mm)",
                                "Real longitudinal crowning is of the order of 1e-4 to 1e-3 1/mm.")
         c = math.cos(rack.alpha_n)
         ends = (-rack.h_aP * self.m_n / c, rack.h_lim * self.m_n / c)  # the tool's straight flank [mm]
+        depth_u = (rack.h_aP + rack.h_fP) * self.m_n / c  # whole depth along the tool flank
+        if abs(rack.u_0) > depth_u:
+            raise out_of_range(f"{n}.rack.u_0", rack.u_0, f"|u_0| <= {depth_u:.4g} mm for m_n = {self.m_n:g} mm: the "
+                               "apex of the profile parabola lies on the tool flank, within one whole depth (h_aP + "
+                               "h_fP) m_n / cos(alpha_n) of the datum line")
         reach = max(abs(u - rack.u_0) for u in ends)
-        dev = rack.a_c * reach ** 2
+        dev = rack.a_c * reach * reach
         if dev > limit:
             a_max = limit / reach ** 2
             raise out_of_range(f"{n}.rack.a_c", rack.a_c, f"a_c <= {a_max:.4g} 1/mm for m_n = {self.m_n:g} mm, u_0 = "
@@ -362,7 +382,8 @@ class Gear:
     @property
     def z_min_undercut(self) -> float:
         """Smallest (real) number of teeth without undercut at x = 0: ``2 h_lim cos beta / sin^2 alpha_t``."""
-        return 2 * self.rack.h_lim * math.cos(self.beta) / math.sin(self.alpha_t) ** 2
+        s2 = math.sin(self.alpha_t) ** 2
+        return 2 * self.rack.h_lim * math.cos(self.beta) / s2 if s2 > 0 else math.inf
 
     @property
     def x_max_pointed(self) -> float:
@@ -442,8 +463,28 @@ class GearPair:
                                "(the teeth do not reach each other long enough to mesh continuously)",
                                "Check the units of a and m_n.")
         if self.eps_alpha < 1.0 and self.eps_gamma < 1.0:
+            self._blame_short_tips()
             raise GeometryError(f"contact ratio eps_gamma = {self.eps_gamma:.4f} < 1: the pair does not mesh continuously "
-                                "(valid: eps_gamma >= 1). Increase addenda, reduce x or a, or use helical gears.")
+                                "(valid: eps_gamma >= 1). Increase the addenda ([rack] h_aP, [pinion]/[gear] k), reduce x or a, or use "
+                                "helical gears.")
+
+    def _blame_short_tips(self) -> None:
+        """Contact ratio below 1 at a_0: if a member's tip is shortened (k < 0), name that k and the
+        least k that gives eps_gamma = 1 (closed form: the tip's reach along the line of action)."""
+        p, g = self.pinion, self.gear
+        ga = self.a_w * math.sin(self.alpha_wt)
+        members = [(who, me, mate) for who, me, mate in (("pinion", p, g), ("gear", g, p)) if me.k < 0]
+        if not members:
+            return
+        who, me, mate = min(members, key=lambda t: t[1].k)
+        need = p.p_bt * (1.0 - self.eps_beta) + ga - min(math.sqrt(mate.r_a**2 - mate.r_b**2), ga)
+        if need <= 0 or need > ga:
+            return
+        r_a = math.hypot(me.r_b, need)
+        k_min = (r_a - me.r_p) / me.m_n - me.rack.h_aP - me.x
+        raise out_of_range(f"{who}.k", me.k, f"k >= {k_min:.4f} (tip radius r_a >= {r_a:.6g} mm, so that eps_gamma >= 1): with k = {me.k:g} the "
+                           f"contact ratio eps_gamma = {self.eps_gamma:.4f} is below 1 (the pair does not mesh "
+                           "continuously)")
 
     def _a_max(self) -> float:
         """Largest centre distance [mm] with eps_gamma >= 1 (bisection; a_0 if none)."""

@@ -274,6 +274,34 @@ def test_centre_distance_too_large_names_a_and_m_n(capsys, scene_file, mod, a):
     assert main(["check", str(scene_file(text.replace(f"a = {a}", f"a = {a_max * (1 - 1e-5)}")))]) == 0
 
 
+@pytest.mark.parametrize("section, line, key", [
+    ("gear", "z = 9000000000", r"\[gear\] z = 9000000000 is out of range; valid: 3 <= z <= 100000"),
+    ("pinion", "b = 3e306", r"\[pinion\] b = 3e\+?306 is out of range; valid: 0 < b <= 10 d"),
+    ("rack", "u_0 = -2e305", r"\[rack\] u_0 = -2e\+?305 is out of range; valid: \|u_0\| <= "),
+    ("rack", "alpha_n = 1e-300", r"alpha_n = 1e-300 deg"),
+])
+def test_extreme_values_blame_themselves(capsys, scene_file, section, line, key):
+    text = geom(**{section: line})
+    if section == "gear":
+        text = text.replace("z = 51\n", "")
+    elif section == "pinion":
+        text = text.replace("z = 23\nb = 18", "z = 23")
+    check(capsys, scene_file, text, key)
+
+
+@pytest.mark.parametrize("k1, k2", [(-0.7, -0.2), (-0.1, -0.8)])
+def test_short_tips_blame_the_shortened_k(k1, k2):
+    def pair(k1, k2):
+        return GearPair(Gear(26, 1.5, b=12, k=k1, name="pinion"), Gear(31, 1.5, b=12, k=k2, name="gear"))
+
+    who = "pinion" if k1 < k2 else "gear"
+    with pytest.raises(GeometryError, match=rf"{who}\.k = {min(k1, k2)} is out of range; valid: k >= ") as e:
+        pair(k1, k2)
+    k_min = float(re.search(r"k >= (-?[\d.]+)", str(e.value)).group(1))
+    fixed = pair(k_min + 1e-4, k2) if who == "pinion" else pair(k1, k_min + 1e-4)
+    assert fixed.eps_gamma == pytest.approx(1.0, abs=2e-3)  # the stated bound is where eps_gamma reaches 1
+
+
 @pytest.mark.parametrize("where, value, rad", [("rack", "0.4", "0.4 rad"), ("pinion", "rack = { alpha_n = 0.26 }", "")])
 def test_pressure_angle_in_radians(capsys, scene_file, where, value, rad):
     line = f"alpha_n = {value}" if where == "rack" else value
