@@ -462,7 +462,7 @@ def test_tca_sweep_misalignment_ranges(crowned_tca, mis, name):
 
 @pytest.mark.parametrize("phi", [np.linspace(1.0, 1.1, 4), np.array([-2.5])])
 def test_sweep_entirely_outside_the_meshing_cycle_is_an_error(crowned_tca, phi):
-    with pytest.raises(ConvergenceError, match=r"no contact on the flanks at any of the \d+ positions"):
+    with pytest.raises(ConvergenceError, match=r"no contact at any of the \d+ positions"):
         crowned_tca.sweep(phi, pairs=(0,))
     # partly inside: a result, with NaN (flagged) where there is no contact
     r = crowned_tca.sweep(np.concatenate([[0.0], phi]), pairs=(0,))

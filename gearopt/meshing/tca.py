@@ -170,9 +170,9 @@ def check_sweep_args(tca, phi1, p1=None, p2=None, mis=None, pairs=(-1, 0, 1), de
 
 
 def no_contact(where: str, phi1: np.ndarray, pairs, z1: int) -> ConvergenceError:
-    """The error for a sweep that found no contact on the flanks at any position (never all-NaN)."""
+    """The error for a sweep that found no contact at any position (never an all-NaN result)."""
     return ConvergenceError(
-        f"{where}: no contact on the flanks at any of the {phi1.size} positions phi1 = {phi1.min():.6g} .. "
+        f"{where}: no contact at any of the {phi1.size} positions phi1 = {phi1.min():.6g} .. "
         f"{phi1.max():.6g} rad (pairs {tuple(pairs)}). The angles may lie outside the meshing cycle (pair 0 meshes "
         f"around phi1 = 0; one cycle is 2 pi / z1 = {2 * math.pi / z1:.6g} rad; angles are in rad), or the flanks do "
         "not meet under this misalignment.")
@@ -568,7 +568,7 @@ class TCA:
                               {"n_positions": int(phis.size), "n_fast": n_fast, "n_retry": n_retry,
                                "n_failed": int((~ok).sum()), "build_s": self.build_time, "solver": self.solver,
                                "contact": self.contact_type}, phi2_ref)
-        if not np.isfinite(result.te_envelope).any():
+        if not ok.any():  # all-NaN: not a result (points found off the finite flanks are kept, flagged)
             raise no_contact("TCA.sweep", phi1, pairs, g1.z)
         return result
 

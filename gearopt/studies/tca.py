@@ -222,6 +222,12 @@ class TCAStudy:
                 cases.append(edge_case_dict(eres, self.pair, label, lim))
                 continue
             res = self.tca.sweep(phi, mis=mis, delta=self.delta, z_section=self.z_section, pairs=(-2, -1, 0, 1, 2))
+            if not np.isfinite(res.te_envelope).any():
+                from ..errors import ConvergenceError
+                raise ConvergenceError(f"tca case {label!r}: every contact point found lies off the active flanks "
+                                       "(beyond the face or the tip/form circles), so there is no transmission error "
+                                       "to report. Analyse edge contact ([tca] edge_contact = true), crown the pinion "
+                                       "more, or reduce the misalignment.")
             cases.append(case_dict(res, self.pair, label, lim))
         p = self.pair
         pair = {"z1": p.pinion.z, "z2": p.gear.z, "m_n": p.pinion.m_n, "beta_deg": p.pinion.beta / DEG,
