@@ -29,7 +29,7 @@ import casadi as ca
 import numpy as np
 
 from ..contact.edge import EdgeContact
-from ..errors import ArgumentError, ConvergenceError, GeometryError, check_number, out_of_range
+from ..errors import ArgumentError, ConvergenceError, check_number, out_of_range
 from ..gears import GearPair
 from ..geometry.generation import PARAMS
 from ..meshing.tca import TCA, Misalignment

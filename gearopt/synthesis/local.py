@@ -22,7 +22,7 @@ from dataclasses import dataclass, replace
 import casadi as ca
 import numpy as np
 
-from ..errors import ArgumentError, GeometryError, out_of_range
+from ..errors import ArgumentError, out_of_range
 from ..gears import GearPair
 from ..meshing.tca import TCA, Misalignment
 from .crowning import SETTINGS, SynthesisError, _IDX
