@@ -124,6 +124,12 @@ def test_results_that_cannot_be_finite_are_refused_by_check(capsys, scene_file, 
     check(capsys, scene_file, text, key, valid)
 
 
+@pytest.mark.parametrize("crossing", ['"28 arcmin"', '"0.6 deg"'])
+def test_a_case_without_contact_on_the_flanks_is_an_error_not_nan(capsys, scene_file, tmp_path, crossing):
+    check(capsys, scene_file, tca(f"crossing = {crossing}"), r"study 'tca' failed", rf"crossing = {crossing}",
+          r"off the active flanks", r"edge_contact = true", run=True, tmp_path=tmp_path)
+
+
 def test_out_that_is_a_file_empty_or_the_working_directory(capsys, scene_file, tmp_path, monkeypatch):
     (tmp_path / "scenes").mkdir()
     (tmp_path / "work").mkdir()
