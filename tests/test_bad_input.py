@@ -475,6 +475,26 @@ def test_sweep_entirely_outside_the_meshing_cycle_is_an_error(crowned_tca, phi):
     assert np.isfinite(r.te_envelope[0]) and np.isnan(r.te_envelope[1:]).all()
 
 
+@pytest.mark.parametrize("phi1, needle", [([], "it is empty"), ([0.1, math.nan], r"phi1\[1\] is not finite"),
+                                          ("12 deg", "phi1 = str"), (np.ones((2, 2)), "1-D")])
+def test_planar_tca_arguments(phi1, needle):
+    from gearopt.meshing.planar import PlanarTCA
+
+    with pytest.raises(ArgumentError, match=needle):
+        PlanarTCA(31.0, 52.0, 88.0).solve(phi1)
+
+
+def test_loader_and_writer_argument_types(tmp_path):
+    from gearopt.io.results import write_results
+    from gearopt.io.scene import load_scene
+
+    with pytest.raises(ArgumentError, match="path = int"):
+        load_scene(17)
+    with pytest.raises(ArgumentError, match="result = dict"):
+        write_results(tmp_path / "o", {"units": {}})
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_edge_contact_arguments(crowned_tca):
     from gearopt.contact.edge import EdgeContact
 

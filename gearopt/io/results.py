@@ -138,6 +138,10 @@ def write_results(out_dir, result, *, scene=None, run_time: float | None = None,
     from .. import __version__
 
     out_dir = check_out_dir(out_dir)
+    if not (callable(getattr(result, "to_dict", None)) and callable(getattr(result, "save_plots", None))):
+        from ..errors import ArgumentError
+        raise ArgumentError(f"result = {type(result).__name__}: expected a study result with to_dict() and "
+                            "save_plots(directory) (what a study's run() returns).")
     say = progress or (lambda _msg: None)
     if plots is None:
         plots = bool(scene.output.get("plots", True)) if scene is not None else True

@@ -561,6 +561,10 @@ def load_scene(path) -> Scene:
     """
     from ..studies import broken_modules, get_study, studies
 
+    if not isinstance(path, (str, Path)) or str(path) == "":
+        from ..errors import ArgumentError
+        raise ArgumentError(f"path = {type(path).__name__} {shorten(repr(path))}: expected the path of a scene file "
+                            "(str or pathlib.Path).")
     path = Path(path)
     label = str(path)
     data = _read_toml(path, label)
