@@ -173,6 +173,15 @@ class Gear:
         Accept a gear whose rack-cutter undercuts the involute (otherwise an error).
     name : str
         Label used in reports and plots.
+
+    Raises
+    ------
+    GeometryError
+        Naming the parameter, its value and valid range. Besides the ranges above:
+        ``0.01 <= m_n <= 1000`` mm, ``z <= 100000``, ``b`` at most ten reference diameters, a root
+        circle above the axis and a tip that is not pointed, and crowning that removes at most
+        ``pi m_n / 8`` from each flank (``a_pl (b/2)^2 sin(alpha_n)`` at the face ends,
+        ``a_c (u - u_0)^2`` over the tool's straight flank).
     """
 
     z: int
