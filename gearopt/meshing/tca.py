@@ -544,6 +544,17 @@ class TCA:
         Returns
         -------
         TCAResult
+            Points that fail the checks are NaN with ``converged = False``; points off the finite
+            flanks have ``on_surface = False``.
+
+        Raises
+        ------
+        ArgumentError
+            Wrong type, shape or value of an argument (see :func:`check_sweep_args`).
+        GeometryError
+            A misalignment that jams or separates the teeth, or faces that do not overlap.
+        ConvergenceError
+            No position converged (never an all-NaN result), or the anchor solve failed.
         """
         t0 = time.perf_counter()
         phi1, p1, p2, mis, pairs = check_sweep_args(self, phi1, p1, p2, mis, pairs, delta, anchor, z_section)
