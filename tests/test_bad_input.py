@@ -378,6 +378,11 @@ def test_key_in_the_wrong_section_says_where_it_belongs(capsys, scene_file, wher
     check(capsys, scene_file, geom(**{where: line}), needle)
 
 
+def test_key_of_another_study_says_so(capsys, scene_file):
+    check(capsys, scene_file, tca("te_level = \"9 arcsec\""),
+          r"\[tca\] te_level: unknown key\. te_level belongs in \[crowning\] of study \"crowning\"")
+
+
 def test_top_level_key_says_where_it_belongs(capsys, scene_file):
     check(capsys, scene_file, "centre_distance = 80\n" + geom(), r"top-level key .* It belongs in \[pair\] \(as a\)")
 

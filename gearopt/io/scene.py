@@ -606,6 +606,12 @@ def load_scene(path) -> Scene:
 
     for n_, sec_ in sections.items():
         index(sec_, n_)
+    for other, st in studies().items():  # keys of other studies' sections, said as such
+        if other == study_name:
+            continue
+        for sec_ in st.sections:
+            for k in sec_.keys:
+                homes.setdefault(k, []).append(f"[{sec_.name}] of study {_toml(other)}")
     for key, value in data.items():
         if key in sections:
             continue
