@@ -530,6 +530,14 @@ def test_constructors_name_wrong_types():
         CrowningOptimizer(pair, CrowningTarget(te_level=6e-5), cases={"in": Misalignment(dE=-0.2)})
 
 
+@pytest.mark.parametrize("lines, key", [('phi1_start = "47 deg"', r"\[fea\] phi1_start = \"47 deg\""),
+                                        ('phi1_start = 0\nphi1_end = -40\nn_positions = 2',
+                                         r"\[fea\] phi1_end = -40")])
+def test_fe_positions_outside_the_meshing_are_refused_by_check(capsys, scene_file, lines, key):
+    text = geom().replace('study = "geometry"', 'study = "fea"').replace("beta = 12\n", "") + "[fea]\n" + lines + "\n"
+    check(capsys, scene_file, text, key, r"none of the 3 modelled tooth pairs is in contact")
+
+
 # ----------------------------------------------------------------------------------------------
 # 6. FE garbage
 # ----------------------------------------------------------------------------------------------
