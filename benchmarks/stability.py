@@ -290,7 +290,11 @@ def find_cusp(tca: TCA, mis: Misalignment):
     a, b, sa = phi[j], phi[j + 1], np.sign(o[j])
     for _ in range(60):
         m = 0.5 * (a + b)
-        r = tca.sweep(np.array([a, m]), mis=mis, pairs=(0,))
+        try:
+            r = tca.sweep(np.array([a, m]), mis=mis, pairs=(0,))
+        except ConvergenceError:  # neither point converged: an all-NaN sweep is an error
+            a = b = m
+            break
         if not r.converged[0, 1]:
             a = b = m
             break

@@ -32,7 +32,7 @@ def _parser() -> argparse.ArgumentParser:
     sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
     r = sub.add_parser("run", help="run a scene's study and write results.json and plots")
     r.add_argument("scene", type=Path, help="scene file (.toml)")
-    r.add_argument("--out", "-o", type=Path, default=None,
+    r.add_argument("--out", "-o", dest="out_text", type=str, default=None,
                    help="output directory (replaced on success; default out/<scene file stem>)")
     r.add_argument("--quiet", "-q", action="store_true", help="no progress lines on stderr")
     c = sub.add_parser("check", help="validate a scene without running or writing anything")
@@ -64,11 +64,14 @@ def _run(args) -> int:
         if not args.quiet:
             print(f"gearopt: {msg}", file=sys.stderr, flush=True)
 
+    from .io.results import check_out_dir
+
     say(f"loading {args.scene}")
     scene = load_scene(args.scene)
-    out = args.out if args.out is not None else Path("out") / args.scene.stem
+    out = check_out_dir(args.out_text if args.out_text is not None else Path("out") / args.scene.stem, args.scene)
     say(f"building study {scene.study!r} for scene {scene.name!r}")
-    study = scene.build()
+    with _in_scene(scene):
+        study = scene.build()
     say("running")
     t0 = time.perf_counter()
     run = study.run
@@ -76,7 +79,8 @@ def _run(args) -> int:
         takes_progress = "progress" in inspect.signature(run).parameters
     except (TypeError, ValueError):
         takes_progress = False
-    result = run(progress=say) if takes_progress else run()
+    with _in_scene(scene):
+        result = run(progress=say) if takes_progress else run()
     run_time = time.perf_counter() - t0
     say(f"done in {run_time:.2f} s; writing {out}")
     paths = write_results(out, result, scene=scene, run_time=run_time, progress=say)
@@ -85,11 +89,32 @@ def _run(args) -> int:
     return 0
 
 
+class _in_scene:
+    """Context manager: a GearoptError raised while a scene's study is built or run is re-raised as
+    a SceneError that names the scene file, the study's ``[section] key`` and the keys as written."""
+
+    def __init__(self, scene):
+        self.scene = scene
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, typ, err, tb):
+        from .errors import ResultsError, SceneError
+
+        if err is None or not isinstance(err, GearoptError) or isinstance(err, ResultsError):
+            return False
+        if isinstance(err, SceneError) and str(err).startswith(str(self.scene.source)):
+            return False
+        raise self.scene.run_error(err) from err
+
+
 def _check(args) -> int:
     from .io.scene import load_scene
 
     scene = load_scene(args.scene)
-    scene.build()
+    with _in_scene(scene):
+        scene.build()
     p, g = scene.pair.pinion, scene.pair.gear
     print(f"ok: {args.scene}: scene {scene.name!r}, study {scene.study!r}, z = {p.z}/{g.z}, "
           f"m_n = {p.m_n:.6g} mm, a = {scene.pair.a_w:.6g} mm")

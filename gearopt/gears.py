@@ -139,6 +139,14 @@ class BasicRack:
 
 
 _HANDS = ("right", "left")
+#: Most teeth gearopt accepts on one member.
+Z_MAX = 100_000
+#: Widest face, in reference diameters of the member.
+B_MAX_PER_D = 10.0
+#: Range of the normal module [mm] gearopt accepts (ISO 54 modules are 0.05 to 100 mm).
+M_N_RANGE = (0.01, 1000.0)
+#: Largest share of the reference tooth thickness crowning may remove from each flank.
+CROWNING_SHARE = 0.25
 
 
 @dataclass(frozen=True)
@@ -178,6 +186,15 @@ class Gear:
     A_sni : float or None
         Lower tooth thickness allowance [mm], ``A_sni <= A_sne``; ``None``: equal to ``A_sne``.
         Only the largest backlash (:attr:`GearPair.backlash_max`) uses it.
+
+    Raises
+    ------
+    GeometryError
+        Naming the parameter, its value and valid range. Besides the ranges above:
+        ``0.01 <= m_n <= 1000`` mm, ``z <= 100000``, ``b`` at most ten reference diameters, a root
+        circle above the axis and a tip that is not pointed, and crowning that removes at most
+        ``pi m_n / 8`` from each flank (``a_pl (b/2)^2 sin(alpha_n)`` at the face ends,
+        ``a_c (u - u_0)^2`` over the tool's straight flank).
     """
 
     z: int
@@ -206,12 +223,24 @@ class Gear:
             raise GeometryError(f"{n}.z = {self.z!r} must be an integer number of teeth (z >= 3).")
         if self.z < 3:
             raise out_of_range(f"{n}.z", self.z, "z >= 3 teeth")
+        if self.z > Z_MAX:
+            raise out_of_range(f"{n}.z", self.z, f"3 <= z <= {Z_MAX} teeth (beyond, a tooth is too small against "
+                               "the gear radius for double precision; the largest gears have about 1000 teeth)")
         for f in ("m_n", "x", "b", "beta", "k", "a_pl"):
             _finite(f"{n}.{f}", getattr(self, f))
         if self.m_n <= 0:
             raise out_of_range(f"{n}.m_n", self.m_n, "m_n > 0 mm")
+        if not M_N_RANGE[0] <= self.m_n <= M_N_RANGE[1]:
+            raise out_of_range(f"{n}.m_n", self.m_n, f"{M_N_RANGE[0]:g} <= m_n <= {M_N_RANGE[1]:g} mm (the solvers' "
+                               "absolute tolerances, 1e-10 mm, and the contact's elastic approach, microns, assume "
+                               "gears of ordinary size; ISO 54 modules span 0.05 to 100 mm)")
         if self.b <= 0:
             raise out_of_range(f"{n}.b", self.b, "b > 0 mm")
+        d = self.m_n * self.z / math.cos(self.beta) if abs(self.beta) < 1.5 else self.m_n * self.z
+        if self.b > B_MAX_PER_D * d:
+            raise out_of_range(f"{n}.b", self.b, f"0 < b <= {B_MAX_PER_D:g} d = {B_MAX_PER_D * d:.6g} mm (d = m_n z / "
+                               f"cos beta = {d:.6g} mm; a face wider than ten reference diameters is a shaft, not a "
+                               "gear)")
         if not 0 <= self.beta < 45 * DEG:
             raise out_of_range(f"{n}.beta", f"{self.beta / DEG:.6g} deg", "0 <= beta < 45 deg")
         if self.hand not in _HANDS:
@@ -220,16 +249,64 @@ class Gear:
             raise out_of_range(f"{n}.a_pl", self.a_pl, "a_pl >= 0 [1/mm] (0 = no longitudinal crowning)")
         if not isinstance(self.rack, BasicRack):
             raise GeometryError(f"{n}.rack must be a BasicRack, got {type(self.rack).__name__}.")
+        x_root = self.rack.h_fP - self.r_p / self.m_n  # r_f = 0
+        if self.x <= x_root:
+            raise out_of_range(f"{n}.x", self.x, f"x > {x_root:.4g} for z = {self.z} (root circle r_f = r_p + m_n (x - "
+                               "h_fP) above the axis)")
+        if not (math.isfinite(self.r_a) and math.isfinite(self.r_f) and self.x < self.z) and self.x > 0:
+            # x >= z: the tip radius exceeds twice the reference radius; long before that the tip is pointed
+            raise out_of_range(f"{n}.x", self.x, f"x < {self.x_max_pointed:.4f} for z = {self.z}, k = {self.k} "
+                               "(beyond it the tip is pointed)", "Lower x or shorten the tip (k < 0).")
+        if not math.isfinite(self.k * self.m_n):
+            raise out_of_range(f"{n}.k", self.k, "a finite tip radius r_a = r_p + m_n (h_aP + x + k)")
         if self.r_a <= self.r_f:
             raise out_of_range(f"{n}.k", self.k, f"k > {-(self.rack.h_aP + self.rack.h_fP):.4g} (tip above root)")
         if not self.allow_undercut and self.x_E < self.x_min_undercut - 1e-12:
             raise out_of_range(
                 f"{n}.x", self.x, f"x >= {self.x_min_undercut + self.x - self.x_E:.4f} for z = {self.z} (no undercut; z >= {self.z_min_undercut:.2f} "
-                "teeth without shift)", "Raise x, or set allow_undercut = true to accept an undercut gear.")
+                "teeth without shift)", "Raise x, or set allow_undercut = true to accept an undercut gear."
+                + (f" Note rack.alpha_n = {self.rack.alpha_n / DEG:.6g} deg, far below the usual 14.5-30 deg (a value "
+                   "meant in rad?)." if self.rack.alpha_n < 10 * DEG else ""))
         s_a = self.s_at(self.r_a)
-        if s_a <= 0:
+        if not s_a > 0:  # NaN too
             raise out_of_range(f"{n}.x", self.x, f"x < {self.x_max_pointed:.4f} for z = {self.z}, k = {self.k} "
                                f"(the tip is pointed: s_a = {s_a:.4g} mm)", "Lower x or shorten the tip (k < 0).")
+
+        self._check_crowning()
+
+    def _check_crowning(self):
+        """Crowning must be a modification, not a different tooth: at the face ends (plunging
+        ``a_pl``) and at the ends of the tool's straight flank (parabolic profile ``a_c``) it may
+        remove at most a quarter of the reference tooth thickness, ``pi m_n / 8``, from each flank
+        (normal to it). Real crowning is tens of microns: that bound is some 30x above it."""
+        n, rack = self.name, self.rack
+        limit = CROWNING_SHARE * math.pi * self.m_n / 2  # per flank [mm]
+        sin_a = math.sin(rack.alpha_n)
+        # plunging by a_pl l^2 (radial feed) moves the flank by a_pl l^2 sin(alpha_n) along its normal
+        half = self.b / 2
+        depth = self.a_pl * half * half * sin_a
+        if depth > limit:
+            a_max = limit / (half * half * sin_a)
+            raise out_of_range(f"{n}.a_pl", self.a_pl, f"a_pl <= {a_max:.4g} 1/mm for b = {self.b:g} mm, m_n = "
+                               f"{self.m_n:g} mm: the plunge at the face ends may remove at most pi m_n / 8 = "
+                               f"{limit:.4g} mm from each flank (here a_pl (b/2)^2 sin(alpha_n) = {depth:.4g} mm)",
+                               "Real longitudinal crowning is of the order of 1e-4 to 1e-3 1/mm.")
+        c = math.cos(rack.alpha_n)
+        ends = (-rack.h_aP * self.m_n / c, rack.h_lim * self.m_n / c)  # the tool's straight flank [mm]
+        depth_u = (rack.h_aP + rack.h_fP) * self.m_n / c  # whole depth along the tool flank
+        if abs(rack.u_0) > depth_u:
+            raise out_of_range(f"{n}.rack.u_0", rack.u_0, f"|u_0| <= {depth_u:.4g} mm for m_n = {self.m_n:g} mm: the "
+                               "apex of the profile parabola lies on the tool flank, within one whole depth (h_aP + "
+                               "h_fP) m_n / cos(alpha_n) of the datum line")
+        reach = max(abs(u - rack.u_0) for u in ends)
+        dev = rack.a_c * reach * reach
+        if dev > limit:
+            a_max = limit / reach ** 2
+            raise out_of_range(f"{n}.rack.a_c", rack.a_c, f"a_c <= {a_max:.4g} 1/mm for m_n = {self.m_n:g} mm, u_0 = "
+                               f"{rack.u_0:g} mm: the parabolic profile may depart from the straight one by at most pi "
+                               f"m_n / 8 = {limit:.4g} mm over the tool's straight flank (here a_c (u - u_0)^2 = "
+                               f"{dev:.4g} mm at |u - u_0| = {reach:.4g} mm)",
+                               "Real profile crowning is of the order of 1e-3 1/mm for m_n = 3 mm.")
 
     @classmethod
     def from_diametral_pitch(cls, z: int, P_n: float, **kw) -> "Gear":
@@ -348,7 +425,8 @@ class Gear:
     @property
     def z_min_undercut(self) -> float:
         """Smallest (real) number of teeth without undercut at x = 0: ``2 h_lim cos beta / sin^2 alpha_t``."""
-        return 2 * self.rack.h_lim * math.cos(self.beta) / math.sin(self.alpha_t) ** 2
+        s2 = math.sin(self.alpha_t) ** 2
+        return 2 * self.rack.h_lim * math.cos(self.beta) / s2 if s2 > 0 else math.inf
 
     @property
     def x_max_pointed(self) -> float:
@@ -435,9 +513,80 @@ class GearPair:
                                    f"{mate.r_a:.6g} mm, reaches past the interference point of the {me.name} "
                                    "base circle)", f"Shorten the {who} tip (negative k), shift the {me.name} (larger x) "
                                    "or use more pinion teeth.")
+        if self.a is not None and self.eps_gamma < 1.0:
+            a_max = self._a_max()
+            raise out_of_range("pair.a", self.a, f"a_0 = {self.a_0:.6g} <= a <= {a_max:.6g} mm for m_n = {p.m_n:g} mm, "
+                               f"z = {p.z}/{g.z}: beyond it the contact ratio eps_gamma = {self.eps_gamma:.4g} is below 1 "
+                               "(the teeth do not reach each other long enough to mesh continuously)",
+                               "Check the units of a and m_n.")
         if self.eps_alpha < 1.0 and self.eps_gamma < 1.0:
+            self._blame_short_tips()
             raise GeometryError(f"contact ratio eps_gamma = {self.eps_gamma:.4f} < 1: the pair does not mesh continuously "
-                                "(valid: eps_gamma >= 1). Increase addenda, reduce x or a, or use helical gears.")
+                                "(valid: eps_gamma >= 1). Increase the addenda ([rack] h_aP, [pinion]/[gear] k), reduce x or a, or use "
+                                "helical gears.")
+
+    def _blame_short_tips(self) -> None:
+        """Contact ratio below 1 at a_0: if a member's tip is shortened (k < 0), name that k and the
+        least k that gives eps_gamma = 1 (closed form: the tip's reach along the line of action)."""
+        p, g = self.pinion, self.gear
+        ga = self.a_w * math.sin(self.alpha_wt)
+        members = [(who, me, mate) for who, me, mate in (("pinion", p, g), ("gear", g, p)) if me.k < 0]
+        if not members:
+            return
+        who, me, mate = min(members, key=lambda t: t[1].k)
+        need = p.p_bt * (1.0 - self.eps_beta) + ga - min(math.sqrt(mate.r_a**2 - mate.r_b**2), ga)
+        if need <= 0 or need > ga:
+            return
+        r_a = math.hypot(me.r_b, need)
+        k_min = (r_a - me.r_p) / me.m_n - me.rack.h_aP - me.x
+        raise out_of_range(f"{who}.k", me.k, f"k >= {k_min:.4f} (tip radius r_a >= {r_a:.6g} mm, so that eps_gamma >= 1): with k = {me.k:g} the "
+                           f"contact ratio eps_gamma = {self.eps_gamma:.4f} is below 1 (the pair does not mesh "
+                           "continuously)")
+
+    def _a_max(self) -> float:
+        """Largest centre distance [mm] with eps_gamma >= 1 (bisection; a_0 if none)."""
+        lo, hi = self.a_0, self.pinion.r_a + self.gear.r_a
+        if self.eps_alpha_at(lo) + self.eps_beta < 1.0:
+            return lo
+        for _ in range(100):
+            mid = 0.5 * (lo + hi)
+            lo, hi = (mid, hi) if self.eps_alpha_at(mid) + self.eps_beta >= 1.0 else (lo, mid)
+        return lo
+
+    def check_operating(self, dE: float, name: str = "dE") -> None:
+        """Refuse a centre distance change ``dE`` [mm] (a misalignment) that jams or separates the teeth.
+
+        The operating centre distance ``a_w + dE`` obeys the same rules as ``[pair] a``: not below
+        the zero-backlash distance ``a_0`` (the teeth would interfere), tips clear of the mating
+        roots, and a total contact ratio of at least 1.
+
+        Raises
+        ------
+        GeometryError
+            Naming ``name``, its value and the valid range of dE [mm].
+        """
+        dE = _finite(name, dE)
+        if dE == 0.0:
+            return
+        p, g = self.pinion, self.gear
+        a = self.a_w + dE
+        c_min = min(a - p.r_a - g.r_f, a - g.r_a - p.r_f)
+        lo = max(self.a_0, self.a_w - min(self.tip_clearance)) - self.a_w
+        if a < self.a_0 * (1 - 1e-12) or c_min < 0:
+            raise out_of_range(name, dE, f"dE >= {lo:.6g} mm: the operating centre distance a + dE = {a:.6g} mm must be "
+                               f">= a_0 = {self.a_0:.6g} mm, the zero-backlash distance (the same rule as for [pair] "
+                               "a), with the tips clear of the mating roots; closer, the teeth interfere")
+        if self.eps_alpha_at(a) + self.eps_beta < 1.0:
+            hi = self._a_max() - self.a_w
+            raise out_of_range(name, dE, f"{lo:.6g} <= dE <= {hi:.6g} mm: at a + dE = {a:.6g} mm the contact ratio "
+                               "drops below 1 (the teeth separate)")
+
+    def eps_alpha_at(self, a: float) -> float:
+        """Transverse contact ratio at the centre distance ``a`` [mm] (THEORY section 3)."""
+        p, g = self.pinion, self.gear
+        ga = a * math.sqrt(max(0.0, 1.0 - ((p.r_b + g.r_b) / a) ** 2))  # a sin(alpha_wt)
+        path = min(math.sqrt(p.r_a**2 - p.r_b**2), ga) + min(math.sqrt(g.r_a**2 - g.r_b**2), ga) - ga
+        return path / p.p_bt
 
     # --- derived quantities -------------------------------------------------------------------
     @property

@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 import re
 
-from .errors import SceneError
+from .errors import SceneError, shorten
 
 DEG = math.pi / 180.0  #: one degree in rad
 ARCMIN = DEG / 60.0  #: one arc minute in rad
@@ -24,6 +24,15 @@ _INV_LENGTH = {"1/mm": 1.0, "1/m": 1e-3, "1/in": 1.0 / INCH}
 KINDS = {"length": (_LENGTH, "mm"), "angle": (_ANGLE, "deg"), "inverse_length": (_INV_LENGTH, "1/mm")}
 
 _QTY = re.compile(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*(\S+)?\s*$")
+
+
+def _show(value) -> str:
+    """A scene value as written in TOML (``true``, ``"20 mm"``, ``3.5``), abbreviated when long."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, str):
+        return shorten('"' + value.replace("\\", "\\\\").replace('"', '\\"') + '"')
+    return shorten(repr(value) if not isinstance(value, float) else f"{value!r}")
 
 
 def _a(word: str) -> str:
@@ -59,21 +68,21 @@ def parse_quantity(value, kind: str, name: str) -> float:
     """
     table, default = KINDS[kind]
     if isinstance(value, bool):
-        raise SceneError(f"{name} = {value!r}: expected a {kind} (number or '<number> <unit>'), got a boolean.")
+        raise SceneError(f"{name} = {_show(value)}: expected a {kind} (number or '<number> <unit>'), got a boolean.")
     if isinstance(value, (int, float)):
         number, unit = float(value), default
     elif isinstance(value, str):
         m = _QTY.match(value)
         if not m:
-            raise SceneError(f"{name} = {value!r}: expected '<number> <unit>' with unit one of {sorted(table)}.")
+            raise SceneError(f"{name} = {_show(value)}: expected '<number> <unit>' with unit one of {sorted(table)}.")
         number, unit = float(m.group(1)), (m.group(2) or default)
     else:
-        raise SceneError(f"{name} = {value!r}: expected a {kind} (number or '<number> <unit>'), got {type(value).__name__}.")
+        raise SceneError(f"{name} = {_show(value)}: expected a {kind} (number or '<number> <unit>'), got {type(value).__name__}.")
     if unit not in table:
         kinds = [k for k, (t, _) in KINDS.items() if unit in t]
         what = f"{_a(kinds[0])} unit" if kinds else "an unknown unit"
-        raise SceneError(f"{name} = {value!r}: '{unit}' is {what}, but {name} is {_a(kind)}; use one of {sorted(table)} "
+        raise SceneError(f"{name} = {_show(value)}: '{unit}' is {what}, but {name} is {_a(kind)}; use one of {sorted(table)} "
                          f"(a bare number means {default}).")
     if not math.isfinite(number):
-        raise SceneError(f"{name} = {value!r}: not a finite number.")
+        raise SceneError(f"{name} = {_show(value)}: not a finite number.")
     return number * table[unit]

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 import os
 import subprocess
 import sys
@@ -74,10 +75,11 @@ def test_run_replaces_existing_output_only_on_success(dummy_study, scene_file, t
         main(["run", str(scene), "--out", str(out), "-q"])
     assert sorted(p.name for p in out.iterdir()) == ["old.txt"]
     assert leftovers(tmp_path) == []
-    # NaN in the results: nothing written either
+    # NaN in the results: a clear error (exit 2, no traceback), nothing written either
     scene = scene_file(GOOD_SCENE.replace("n = 4", "n = 4\nnan = true"))
-    with pytest.raises(ValueError, match="non-finite.*angle"):
-        main(["run", str(scene), "--out", str(out), "-q"])
+    capsys.readouterr()
+    assert main(["run", str(scene), "--out", str(out), "-q"]) == 2
+    assert re.search(r"error: .*non-finite.*angle", capsys.readouterr().err)
     assert sorted(p.name for p in out.iterdir()) == ["old.txt"]
     # success replaces the directory as a whole
     scene = scene_file(GOOD_SCENE)

@@ -56,8 +56,8 @@ def test_cusp_is_rejected_by_name():
     # A sweep through it either refuses its anchor by name or flags the point; never a number.
     try:
         res = tca.sweep(np.array([phi_c]), pairs=(0,), anchor=phi_c - 1e-3)
-    except ConvergenceError as e:
-        assert "singular point" in str(e)
+    except ConvergenceError as e:  # the anchor is refused, or no point of the sweep converged
+        assert "singular point" in str(e) or "no contact at any" in str(e)
     else:
         assert not res.converged[0, 0] and np.isnan(res.te[0, 0]) and np.isnan(res.te_envelope[0])
 

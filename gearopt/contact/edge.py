@@ -32,7 +32,9 @@ import casadi as ca
 import numpy as np
 
 from ..errors import ConvergenceError, out_of_range
-from ..meshing.tca import REGULARITY_MIN, TCA, Branch, EnvelopeTE, Misalignment, TCAResult
+from ..errors import ArgumentError
+from ..meshing.tca import (REGULARITY_MIN, TCA, Branch, EnvelopeTE, Misalignment, TCAResult, check_sweep_args,
+                           no_contact)
 
 #: Convex edges that can touch the mating flank (member, kind, sign of the face end).
 EDGES = {
@@ -111,6 +113,11 @@ class EdgeContact:
 
     def __init__(self, tca: TCA, edges=tuple(EDGES)):
         t0 = time.perf_counter()
+        if not isinstance(tca, TCA):
+            raise ArgumentError(f"tca = {type(tca).__name__}: expected a gearopt.meshing.tca.TCA (built from the "
+                                "GearPair: EdgeContact(TCA(pair)))")
+        if isinstance(edges, str):
+            edges = (edges,)
         for e in edges:
             if e not in EDGES:
                 raise out_of_range("edges", e, f"one of {list(EDGES)}")
@@ -196,11 +203,7 @@ class EdgeContact:
         """
         t0 = time.perf_counter()
         tca = self.tca
-        mis = mis or Misalignment()
-        p1 = tca.pinion.p0 if p1 is None else np.asarray(p1, float)
-        p2 = tca.gear.p0 if p2 is None else np.asarray(p2, float)
-        phi1 = np.atleast_1d(np.asarray(phi1, float))
-        pairs = tuple(int(k) for k in pairs)
+        phi1, p1, p2, mis, pairs = check_sweep_args(tca, phi1, p1, p2, mis, pairs, z_section=None)
         z1 = self.members[1].z
         phis = np.concatenate([phi1 - 2 * math.pi * k / z1 for k in pairs])
         prm = tca.prm(phis, p1, p2, mis)
@@ -353,6 +356,8 @@ class EdgeContact:
         active = np.where(has, branch[drv, np.arange(N)], -1)
         intervals = _intervals(phi1, branch[k0], names)
         transfers = _transfers(phi1, te, driving, active, pairs, names)
+        if not has.any():
+            raise no_contact("EdgeContact.sweep (surface and edges)", phi1, pairs, g1.z)
         return EdgeTCAResult(
             phi1=phi1, pairs=pairs, branches=names, te=te, te_pair=te_pair, branch=branch, te_envelope=env,
             driving=driving, active=active, z1=z1.reshape(B, K, N), radius1=rad1.reshape(B, K, N),

@@ -34,12 +34,66 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from ..errors import GeometryError, out_of_range
+from ..errors import ArgumentError, GeometryError, check_number, out_of_range
 from ..gears import GearPair
 from ..geometry.generation import GeneratedTooth
 from ..meshing.tca import TCA
 from .calculix import CalculixError, Deck, last_block, read_dat, read_frd_block, run_ccx
-from .mesh import GAUSS_C3D8, MemberMesh, MeshOptions, ToothMesher, build_member, face_of, shape
+from .mesh import GAUSS_C3D8, MemberMesh, MeshOptions, ToothMesher, _hex_volume_sign, build_member, face_of, shape
+
+#: ISO 6336-1 single-pair mesh stiffness of steel spur gears, c' ~ 14 N/(mm um), scaled with E below.
+C_PRIME_STEEL = 14.0e3  # N/mm per mm of face width (14 N/(mm um))
+#: A loaded approach along the line of action more than this many times the ISO estimate F / (c' b)
+#: is not an elastic deflection (the docs/fea.md model measures ~0.75x: 19 N/(mm um) with its rims).
+DEFLECTION_FACTOR = 20.0
+#: A peak contact pressure more than this many times the Hertz line-contact estimate means the load
+#: sits on a few nodes (penetration, a bad mesh); crowned point contact stays within about 5x.
+PRESSURE_FACTOR = 10.0
+
+
+def check_elements(nodes: np.ndarray, elements: np.ndarray) -> None:
+    """Raise :class:`CalculixError` if any hexahedron of the deck is inverted (non-positive Jacobian
+    at its centre; ``elements`` 1-based C3D8 connectivity (n, 8), ``nodes`` (m, 3) [mm])."""
+    det = _hex_volume_sign(np.asarray(nodes, float), np.asarray(elements, int) - 1)
+    bad = np.flatnonzero(~(det > 0))
+    if bad.size:
+        raise CalculixError(f"{bad.size} inverted element(s) in the FE mesh (non-positive Jacobian at the centre; "
+                            f"first: element {int(bad[0]) + 1}): ccx would return garbage. Coarsen the mesh along the "
+                            "flank/fillet (n_flank, n_fillet) or check the tooth geometry; nothing was run.")
+
+
+def check_physics(*, phi1: float, rotation: float, r_b1: float, F_n: float, b: float, E: float, p_max: float,
+                  p0: float) -> None:
+    """Physical sanity of one FE position; :class:`CalculixError` naming the first failed rule.
+
+    Parameters
+    ----------
+    rotation : float
+        Pinion rotation under load [rad] (from the rigid-rim rotation node).
+    r_b1, b : float
+        Pinion base radius and loaded face width [mm].
+    F_n, E : float
+        Normal load [N] and Young's modulus [MPa].
+    p_max, p0 : float
+        Peak FE contact pressure and the Hertz line-contact estimate [MPa].
+    """
+    at = f"FE result at phi1 = {phi1:.6g} rad"
+    if not (math.isfinite(rotation) and math.isfinite(p_max)):
+        raise CalculixError(f"{at}: non-finite pinion rotation ({rotation}) or contact pressure ({p_max}) in the ccx "
+                            "output: the solution diverged; the result is not valid.")
+    c_prime = C_PRIME_STEEL * E / 210e3
+    est = F_n / (c_prime * b)  # approach along the line of action [mm]
+    approach = abs(rotation) * r_b1
+    if approach > DEFLECTION_FACTOR * est:
+        raise CalculixError(f"{at}: the loaded approach along the line of action, |rotation| r_b1 = {approach:.4g} mm "
+                            f"(loaded TE {rotation * 206264.806:.4g} arcsec of the pinion), is more than "
+                            f"{DEFLECTION_FACTOR:g} x the ISO 6336-1 estimate F / (c' b) = {est:.4g} mm (c' = "
+                            f"{c_prime / 1e3:.3g} N/(mm um) for E = {E:g} MPa): not an elastic deflection (the teeth "
+                            "passed through each other or the model is not restrained); the result is not valid.")
+    if p_max > PRESSURE_FACTOR * p0:
+        raise CalculixError(f"{at}: peak contact pressure {p_max:.4g} MPa is more than {PRESSURE_FACTOR:g} x the Hertz "
+                            f"estimate p0 = {p0:.4g} MPa: the load sits on a few nodes (penetration or a bad contact "
+                            "mesh); the result is not valid. Refine the contact (n_hertz) or raise the penalty.")
 
 MESH_STIFFNESS = 14.0e3  #: single-pair mesh stiffness estimate c' [N/mm per mm of face] (ISO 6336-1 order)
 
@@ -198,7 +252,11 @@ class GearFEModel:
 
     def __init__(self, pair: GearPair, phi1: float, options: FEOptions | None = None, tca: TCA | None = None):
         t0 = time.perf_counter()
-        self.pair, self.phi1 = pair, float(phi1)
+        if not isinstance(pair, GearPair):
+            raise ArgumentError(f"pair = {type(pair).__name__}: expected a gearopt.gears.GearPair.")
+        if options is not None and not isinstance(options, FEOptions):
+            raise ArgumentError(f"options = {type(options).__name__}: expected an FEOptions.")
+        self.pair, self.phi1 = pair, check_number("phi1", phi1, "a finite pinion angle [rad]")
         self.opt = options or FEOptions()
         if tca is None:
             crowned = any(g.a_pl != 0 or g.rack.a_c != 0 for g in (pair.pinion, pair.gear))
@@ -314,6 +372,7 @@ class GearFEModel:
         g1 = self.pair.pinion
         delta = o.torque / g1.r_b / (MESH_STIFFNESS * min(g1.b, self.pair.gear.b))
         close = -o.close_fraction * delta / g1.r_b  # clockwise: the pinion's driving direction
+        check_elements(nodes, elems)
         return Deck(nodes=nodes, elements=elems, nsets=nsets, elsets=elsets, surfaces=surfaces, contact_pairs=pairs,
                     ref_node=ref, rot_node=rot, rigid_nset="PRIM", fixed_nset="GFIX", E=o.E, nu=o.nu,
                     penalty=o.penalty * o.E, close_rotation=close, moment=-o.torque, print_elsets=["PFIL", "GFIL"],
@@ -345,8 +404,11 @@ class FEResult:
         if rf is None or not rf.rows:
             raise CalculixError("ccx output has no reaction forces of the fixed gear rim (GFIX): the run did not "
                                 "reach the load step.")
-        R = np.array(rf.rows[-1][-3:])
+        R = np.array(rf.rows[-1][-3:], float)
         F_n = model.F_n
+        if not np.all(np.isfinite(R)):
+            raise CalculixError(f"ccx reports a non-finite reaction force {R.tolist()} at phi1 = {model.phi1:.6g} rad: "
+                                "the solution diverged; the result is not valid.")
         rel = abs(np.linalg.norm(R[:2]) - F_n) / F_n
         rot = last_block(blocks, "displacements", "NROT")
         rotation = float(rot.rows[-1][-1]) if rot and rot.rows else float("nan")
@@ -373,6 +435,9 @@ class FEResult:
             if blk is None or not blk.rows:
                 raise CalculixError(f"ccx output has no stresses for the {member} fillet elements ({es}).")
             S = np.array(blk.rows, float)
+            if not np.all(np.isfinite(S)):
+                raise CalculixError(f"ccx reports non-finite stresses in the {member} fillet elements ({es}) at phi1 = "
+                                    f"{model.phi1:.6g} rad: the solution diverged; the result is not valid.")
             e = S[:, 0].astype(int) - 1
             ip = S[:, 1].astype(int) - 1
             N = np.array([shape(*GAUSS_C3D8[i]) for i in ip])
@@ -399,6 +464,8 @@ class FEResult:
                 est[member] = root_stress_estimate(tooth, radius, F_n, min(g1.b, g2.b))
             except GeometryError as e:  # helical: no estimate
                 est[member] = {"error": str(e)}
+        check_physics(phi1=model.phi1, rotation=rotation, r_b1=g1.r_b, F_n=F_n, b=min(g1.b, g2.b), E=o.E,
+                      p_max=float(press.max()), p0=hz["p0"])
         te_arcsec = rotation * (g1.z / g2.z) * 206264.806  # gear lag equivalent of the pinion's extra rotation
         data = {
             "phi1": model.phi1, "phi2": model.phi2, "loaded_pairs": model.loaded,

@@ -196,7 +196,9 @@ class GeneratedTooth:
                                     f"(the flank radius stops growing at u = {u:.6g} mm: undercut or singular point).")
             step = (rad - radius) / d
             u -= step
-            if abs(step) < tol:
+            # converged: the step is below tol, or the radius is met to rounding (large gears, where
+            # an absolute 1e-12 mm is below the resolution of a double at that radius)
+            if abs(step) < tol or abs(rad - radius) <= 4 * np.finfo(float).eps * abs(radius):
                 return u
         raise ConvergenceError(f"{self.gear.name}: no flank point at radius {radius:.6g} mm after 60 Newton steps.")
 

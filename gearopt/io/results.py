@@ -27,7 +27,9 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
-__all__ = ["write_results", "RESULTS_FILE"]
+from ..errors import ResultsError
+
+__all__ = ["write_results", "check_out_dir", "RESULTS_FILE"]
 
 RESULTS_FILE = "results.json"
 
@@ -60,6 +62,47 @@ def _find_nonfinite(obj, path="") -> str | None:
     return None
 
 
+def check_out_dir(out_dir, scene_file=None) -> Path:
+    """Check, before anything runs, that ``out_dir`` can become the results directory.
+
+    Refused (:class:`~gearopt.errors.ResultsError`): the empty path; an existing file or symlink;
+    the working directory, one of its parents or the root, or a directory holding the scene file
+    (the output directory is replaced as a whole); a place where the directory cannot be created.
+
+    Returns
+    -------
+    Path
+        ``out_dir`` as a Path.
+    """
+    if out_dir is None or str(out_dir).strip() == "":
+        raise ResultsError("--out / out_dir is empty; valid: a directory path such as out/my_scene (it is created, "
+                           "or replaced as a whole).")
+    out = Path(out_dir)
+    full = Path(os.path.abspath(out))
+    cwd = Path(os.getcwd())
+    if full == Path(full.anchor) or full == cwd or full in cwd.parents:
+        raise ResultsError(f"--out {out}: is the working directory, one of its parents or the root; results replace "
+                           "the output directory as a whole, so give a directory of its own (e.g. out/my_scene).")
+    if out.is_symlink() or (out.exists() and not out.is_dir()):
+        raise ResultsError(f"--out {out}: exists and is not a directory; valid: a new directory or a previous "
+                           "gearopt results directory.")
+    if scene_file is not None:
+        scene_full = Path(os.path.abspath(scene_file))
+        if full in scene_full.parents:
+            raise ResultsError(f"--out {out}: contains the scene file {scene_file}; replacing it would delete the scene. "
+                               "Give another output directory.")
+    base = full.parent
+    while not base.exists():
+        base = base.parent
+    if not base.is_dir() or not os.access(base, os.W_OK | os.X_OK):
+        raise ResultsError(f"--out {out}: cannot create it: {base} is not a writable directory.")
+    try:  # the real test: can a directory be made there (read-only file systems, /proc, ...)?
+        os.rmdir(tempfile.mkdtemp(prefix=".gearopt-probe-", dir=base))
+    except OSError as e:
+        raise ResultsError(f"--out {out}: cannot create it in {base}: {e.strerror or e}.") from None
+    return out
+
+
 def write_results(out_dir, result, *, scene=None, run_time: float | None = None, plots: bool | None = None,
                   progress=None) -> list[Path]:
     """Write ``results.json`` (and the plots) of ``result`` into ``out_dir``.
@@ -87,12 +130,20 @@ def write_results(out_dir, result, *, scene=None, run_time: float | None = None,
 
     Raises
     ------
+    ResultsError
+        A non-finite number (NaN, inf) in the results (the schema has ``null`` where a point did not
+        converge, never NaN), an output path that cannot hold the results (see
+        :func:`check_out_dir`), or a failure to write; nothing is written.
     ValueError
-        A non-finite number (NaN, inf) in the results, or no ``units`` mapping; nothing is written.
+        No ``units`` mapping (a bug of the study).
     """
     from .. import __version__
 
-    out_dir = Path(out_dir)
+    out_dir = check_out_dir(out_dir)
+    if not (callable(getattr(result, "to_dict", None)) and callable(getattr(result, "save_plots", None))):
+        from ..errors import ArgumentError
+        raise ArgumentError(f"result = {type(result).__name__}: expected a study result with to_dict() and "
+                            "save_plots(directory) (what a study's run() returns).")
     say = progress or (lambda _msg: None)
     if plots is None:
         plots = bool(scene.output.get("plots", True)) if scene is not None else True
@@ -115,12 +166,17 @@ def write_results(out_dir, result, *, scene=None, run_time: float | None = None,
     data = {**data, "meta": meta}
     bad = _find_nonfinite(data)
     if bad is not None:
-        raise ValueError(f"results: non-finite number (NaN or inf) at {bad}; results.json is not written.")
+        raise ResultsError(f"results: non-finite number (NaN or inf) at {bad}; results.json is not written (a "
+                           "position without contact is null in the arrays; a non-finite scalar means the study "
+                           "has no valid result for these inputs).")
     text = json.dumps(data, indent=2, allow_nan=False, default=_jsonable, ensure_ascii=False) + "\n"
 
     parent = out_dir.parent
-    parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.tmp-", dir=parent)).resolve()
+    try:
+        parent.mkdir(parents=True, exist_ok=True)
+        tmp = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.tmp-", dir=parent)).resolve()
+    except OSError as e:
+        raise ResultsError(f"cannot create the output directory {out_dir}: {e.strerror or e}.") from None
     try:
         os.chmod(tmp, 0o777 & ~_umask())  # mkdtemp makes it 0700; give it the usual mode
         (tmp / RESULTS_FILE).write_text(text, encoding="utf-8")
@@ -134,6 +190,9 @@ def write_results(out_dir, result, *, scene=None, run_time: float | None = None,
                 kwargs["dpi"] = scene.output.get("dpi", 120)
             written += _reported(tmp, result.save_plots(str(tmp), **kwargs), "save_plots")
         _replace_dir(tmp, out_dir)
+    except OSError as e:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise ResultsError(f"cannot write the results to {out_dir}: {e.strerror or e}; nothing was written.") from None
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise

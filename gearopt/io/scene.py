@@ -30,7 +30,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Callable
 
-from ..errors import GeometryError, SceneError
+from ..errors import GeometryError, SceneError, shorten
 from ..gears import BasicRack, Gear, GearPair
 from ..units import KINDS, parse_quantity
 
@@ -48,13 +48,26 @@ _MISSING = object()
 
 
 def _toml(value) -> str:
-    """A value as it would be written in TOML (for messages)."""
+    """A value as it would be written in TOML (for messages), abbreviated when long."""
     if isinstance(value, float) and not math.isfinite(value):
         return "nan" if math.isnan(value) else ("inf" if value > 0 else "-inf")
     try:
-        return json.dumps(value, ensure_ascii=False)
+        text = json.dumps(value, ensure_ascii=False)
+    except RecursionError:
+        return "<an array or table nested too deeply to show>"
     except (TypeError, ValueError):
-        return repr(value)
+        text = repr(value)
+    return shorten(text)
+
+
+#: Keys that users write for a gearopt key (other standards, plain words): key -> gearopt key.
+ALIASES = {
+    "module": "m_n", "m": "m_n", "mn": "m_n", "m_t": "m_n", "normal_module": "m_n", "diametral_pitch": "P_n",
+    "P": "P_n", "teeth": "z", "n_teeth": "z", "N": "z", "number_of_teeth": "z", "face_width": "b", "width": "b",
+    "helix_angle": "beta", "pressure_angle": "alpha_n", "alpha": "alpha_n", "alpha_t": "alpha_n",
+    "profile_shift": "x", "shift": "x", "x_n": "x", "center_distance": "a", "centre_distance": "a", "a_w": "a",
+    "E_c": "a", "crowning": "a_pl", "lead_crowning": "a_pl", "profile_crowning": "a_c", "misalignment": "crossing",
+}
 
 
 @dataclass(frozen=True)
@@ -113,6 +126,13 @@ class Field:
     unit : str or None
         Unit of a bare number for a quantity when it differs from the kind's default (e.g.
         ``"1/in"`` for a diametral pitch).
+    bare : Bounds or None
+        Plausible range of a *bare* number (no unit written), in the scene unit. A bare number
+        outside it is refused as a likely unit slip (``alpha_n = 0.35`` meant in rad, ``crossing = 2``
+        meant in arcmin); the same value with its unit written out is accepted if ``check`` allows it.
+    typical : str or None
+        The unit this quantity is usually given in (``"arcsec"`` for a TE level); suggested first
+        when a bare number is out of range but would fit in that unit.
     """
 
     name: str
@@ -123,6 +143,8 @@ class Field:
     choices: tuple | list | None = None
     check: Bounds | Callable[[Any], Any] | None = None
     unit: str | None = None
+    bare: Bounds | None = None
+    typical: str | None = None
 
     def __post_init__(self):
         if self.kind not in KIND_UNITS:
@@ -182,18 +204,41 @@ class Field:
             hint = _closest(str(out), [str(c) for c in self.choices])
             raise SceneError(f"{where} = {_toml(value)} is not allowed; valid: one of "
                              f"{', '.join(_toml(c) for c in self.choices)}.{hint}")
+        bare_number = self.kind in KINDS and isinstance(value, (int, float)) and not isinstance(value, bool)
+        hint = self._unit_hint(value, self.bare) if self.bare is not None and bare_number else ""
+        if hint and not self.bare.ok(value):  # implausible as written, plausible in another unit
+            raise SceneError(f"{where} = {_toml(value)}: a bare number is read as {value:g} {self.scene_unit}, which "
+                             f"is implausible for {self.name} (plausible without a unit: "
+                             f"{self.bare.text(self.name, self.scene_unit)}). Write the unit out.{hint}")
         if self.check is not None:
             if isinstance(self.check, Bounds):
                 shown = self.to_scene_unit(out)
                 if not self.check.ok(shown):
+                    hint = self._unit_hint(value, self.check) if bare_number else ""
                     raise SceneError(f"{where} = {_toml(value)} is out of range; valid: "
-                                     f"{self.check.text(self.name, self.scene_unit)}.")
+                                     f"{self.check.text(self.name, self.scene_unit)}."
+                                     + (f" A bare number is read as {self.scene_unit}.{hint}" if hint else ""))
             else:
                 res = self.check(out)
                 if res is False or isinstance(res, str):
                     valid = f"; valid: {res}" if isinstance(res, str) else ""
                     raise SceneError(f"{where} = {_toml(value)} is out of range{valid}.")
         return out
+
+    def _unit_hint(self, number: float, bounds: Bounds) -> str:
+        """``' Did you mean "8 arcsec"?'`` when the bare ``number`` fits ``bounds`` in another unit of
+        its kind (the :attr:`typical` unit first and alone if it fits), else ``""``."""
+        table, _ = KINDS[self.kind]
+        here = table[self.scene_unit]
+        fits = [u for u in table if u != self.scene_unit and u.isascii() and u not in ("'", '"')
+                and bounds.ok(number * table[u] / here)]
+        if self.typical in fits:
+            fits = [self.typical]
+        if not fits:
+            return ""
+        alts = " or ".join(_toml(f"{number:g} {u}") + (f" (= {number * table[u] / here:.6g} {self.scene_unit})"
+                                                        if u == "rad" else "") for u in fits[:3])
+        return f" Did you mean {alts}?"
 
     def to_scene_unit(self, internal: float) -> float:
         """An internal value (mm, rad, 1/mm) expressed in the scene unit of this field."""
@@ -223,12 +268,13 @@ class Section:
     def keys(self) -> list[str]:
         return [f.name for f in self.fields] + [s.name for s in self.subsections]
 
-    def parse(self, table, path: str, errors: list[str]) -> tuple[dict, set[str]]:
+    def parse(self, table, path: str, errors: list[str], homes: dict | None = None) -> tuple[dict, set[str]]:
         """Convert a TOML table. Returns (values, keys given); problems are appended to ``errors``.
 
         ``values`` has every field (``None`` / default when absent) and, for each subsection, the
         parsed sub-dict (or ``None`` when absent). Given keys of subsections appear in the set as
-        ``"sub.key"``.
+        ``"sub.key"``. ``homes`` maps a key to the sections (``"[pair]"``) where it belongs, for the
+        hint on a key written in the wrong section.
         """
         where = f"[{path}]"
         values: dict[str, Any] = {}
@@ -239,8 +285,8 @@ class Section:
             return values, given
         for key in table:
             if key not in self.keys:
-                errors.append(f"{where} {key}: unknown key.{_closest(key, self.keys)} Valid keys: "
-                              f"{', '.join(self.keys)}.")
+                errors.append(f"{where} {shorten(key)}: unknown key.{_key_hint(key, self.keys, homes or {})} "
+                              f"Valid keys: {', '.join(self.keys)}.")
         for f in self.fields:
             loc = f"{where} {f.name}"
             if f.name in table:
@@ -263,10 +309,10 @@ class Section:
                                   f"{sub.name} = [{{...}}, ...]), got {_type(items)} {_toml(items)}.")
                     values[sub.name] = None
                     continue
-                values[sub.name] = [sub.parse(item, f"{path}.{sub.name}][{i}", errors)[0] for i, item in enumerate(items)]
+                values[sub.name] = [sub.parse(item, f"{path}.{sub.name}][{i}", errors, homes)[0] for i, item in enumerate(items)]
                 given |= {sub.name}
             elif sub.name in table:
-                vals, sub_given = sub.parse(table[sub.name], f"{path}.{sub.name}", errors)
+                vals, sub_given = sub.parse(table[sub.name], f"{path}.{sub.name}", errors, homes)
                 values[sub.name] = vals
                 given |= {f"{sub.name}.{k}" for k in sub_given} | {sub.name}
             elif sub.required:
@@ -298,6 +344,20 @@ def _closest(word: str, options) -> str:
     return f" Did you mean {m[0]!r}?" if m else ""
 
 
+def _key_hint(key: str, keys, homes: dict) -> str:
+    """Hint for an unknown ``key`` in a section with ``keys``: a known alias (``module`` -> ``m_n``),
+    the section(s) where the key belongs, or the closest key by spelling."""
+    target = ALIASES.get(key) or ALIASES.get(key.lower())
+    if target is not None and target != key:
+        if target in keys:
+            return f" Did you mean {target!r} (gearopt's name for it)?"
+        if target in homes:
+            return f" Did you mean {target!r}? It belongs in {' or '.join(homes[target])}."
+    if key in homes:
+        return f" {key} belongs in {' or '.join(homes[key])}, not here."
+    return _closest(key, keys)
+
+
 def _describe(f: Field) -> str:
     bits = [f.kind]
     if f.scene_unit:
@@ -324,7 +384,9 @@ _POS = Bounds(lo=0, lo_open=True)
 _RACK_FIELDS = [
     Field("preset", "str", default="A", choices=("A", "B", "C", "D"),
           doc="ISO 53 basic rack profile (alpha_n = 20 deg); the other keys override it"),
-    Field("alpha_n", "angle", doc="normal pressure angle, 0 < alpha_n < 45 deg"),
+    Field("alpha_n", "angle", bare=Bounds(lo=10, hi=45, hi_open=True),
+          doc="normal pressure angle, 0 < alpha_n < 45 deg (a bare number, in deg, must be >= 10: pressure "
+              "angles below 10 deg undercut any gear of fewer than 66 teeth; smaller values need a unit)"),
     Field("h_aP", "float", doc="addendum of the basic rack [m_n], > 0"),
     Field("h_fP", "float", doc="dedendum of the basic rack [m_n], >= h_aP"),
     Field("rho_fP", "float", doc="root fillet radius of the basic rack [m_n] (tool tip radius)"),
@@ -403,6 +465,50 @@ class Scene:
     options: dict
     output: dict
     source: Path
+    raw: dict = field(default_factory=dict, repr=False, compare=False)
+
+    def written(self, section: str, key: str) -> str | None:
+        """The value of ``[section] key`` as written in the file (TOML text), or None if absent."""
+        t = self.raw
+        for part in re.findall(r"[^.\[\]]+", section):  # "tca.cases][0" -> tca, cases, 0
+            if isinstance(t, list) and part.isdigit() and int(part) < len(t):
+                t = t[int(part)]
+            elif isinstance(t, dict):
+                t = t.get(part)
+            else:
+                return None
+        if isinstance(t, dict) and key in t:
+            return _toml(t[key])
+        return None
+
+    def key_error(self, section: str, key: str, err) -> SceneError:
+        """A :class:`SceneError` for ``[section] key`` from an error (or text) of gear or study code:
+        its leading ``name = value`` (internal name and units) is replaced by the key and the value
+        as written in the file."""
+        msg = re.sub(r"^[\w.\[\] -]*?\b" + re.escape(key) + r" = \S+( \w+)? (?=is |must |:)", "", str(err))
+        shown = self.written(section, key)
+        sep = " " if msg.startswith(("is ", "must ")) else ": "
+        return SceneError(f"{self.source}: [{section}] {key} = {shown if shown is not None else '(default)'}{sep}"
+                          f"{msg.lstrip(': ')}")
+
+    def run_error(self, err: Exception) -> SceneError:
+        """An error raised while the study ran, tied to this scene: file name, the study's
+        ``[section] key`` names instead of internal ones (``mis.crossing`` -> ``[tca] crossing``) and
+        the keys the scene set, as written (deg/arcmin, not rad)."""
+        from ..studies import get_study
+
+        msg = str(err)
+        spec = get_study(self.study)
+        given = []
+        for sec in (spec.sections if spec else []):
+            for f in sec.fields:
+                msg = re.sub(r"\b(?:mis|misalignment|target|options|" + re.escape(sec.name) + r")\." + re.escape(f.name)
+                             + r"\b", f"[{sec.name}] {f.name}", msg)
+                w = self.written(sec.name, f.name)
+                if w is not None:
+                    given.append(f"{f.name} = {w}")
+        ctx = f" (the scene sets [{spec.sections[0].name}] {', '.join(given)})" if given and spec else ""
+        return SceneError(f"{self.source}: study {self.study!r} failed{ctx}: {msg}")
 
     def build(self):
         """Build the study object (``STUDIES[study].build(self)``)."""
@@ -429,8 +535,36 @@ def _read_toml(path: Path, label: str) -> dict:
         raise SceneError(f"{label}: not UTF-8 text ({e.reason} at byte {e.start}).") from None
     try:
         return tomllib.loads(text)
+    except RecursionError:
+        raise SceneError(f"{label}: arrays or inline tables are nested too deeply to read (no scene value is "
+                         "nested more than two levels).") from None
     except tomllib.TOMLDecodeError as e:
-        raise SceneError(f"{label}: TOML syntax error: {e}.") from None
+        raise SceneError(f"{label}: TOML syntax error: {_toml_error(e, text)}.") from None
+
+
+def _toml_error(e: Exception, text: str) -> str:
+    """tomllib's message, naming the key or table when it is defined twice."""
+    msg = str(e)
+    m = re.search(r"\(at line (\d+), column \d+\)", msg)
+    if not m or not ("overwrite" in msg or "twice" in msg):
+        return msg
+    lines = text.splitlines()
+    n = int(m.group(1))
+    line = lines[n - 1] if 0 < n <= len(lines) else ""
+    head = re.match(r"^\s*\[\[?\s*([^\]]+?)\s*\]", line)
+    if head:
+        return f"table [{shorten(head.group(1))}] is defined twice (line {n}); merge the two"
+    key = line.split("=", 1)[0].strip()
+    section, start = "", 0
+    for i in range(n - 2, -1, -1):
+        h = re.match(r"^\s*\[\[?\s*([^\]]+?)\s*\]", lines[i])
+        if h:
+            section, start = f"[{h.group(1)}] ", i + 1
+            break
+    first = next((i + 1 for i in range(start, n - 1) if "=" in lines[i] and lines[i].split("=", 1)[0].strip() == key),
+                 None)
+    where = f" (first on line {first})" if first else ""
+    return f"duplicate key {section}{shorten(key)} on line {n}{where}; a key may be given once per table"
 
 
 def _fail(label: str, errors: list[str]):
@@ -449,6 +583,10 @@ def load_scene(path) -> Scene:
     """
     from ..studies import broken_modules, get_study, studies
 
+    if not isinstance(path, (str, Path)) or str(path) == "":
+        from ..errors import ArgumentError
+        raise ArgumentError(f"path = {type(path).__name__} {shorten(repr(path))}: expected the path of a scene file "
+                            "(str or pathlib.Path).")
     path = Path(path)
     label = str(path)
     data = _read_toml(path, label)
@@ -462,6 +600,9 @@ def load_scene(path) -> Scene:
     scene_vals, _ = head.parse(data["scene"], "scene", errors)
     if errors:
         _fail(label, errors)
+    bad_name = _check_name(scene_vals["name"])
+    if bad_name:
+        _fail(label, [f"[scene] name = {_toml(scene_vals['name'])}: {bad_name}"])
     study_name = scene_vals["study"]
     spec = get_study(study_name)
     if spec is None:
@@ -477,13 +618,30 @@ def load_scene(path) -> Scene:
             raise ValueError(f"study {spec.name!r} redefines the common section [{s.name}]")
         sections[s.name] = s
 
+    homes: dict[str, list[str]] = {}
+
+    def index(sec: Section, path: str):
+        for k in sec.keys:
+            homes.setdefault(k, []).append(f"[{path}]")
+        for sub in sec.subsections:
+            index(sub, f"{path}.{sub.name}")
+
+    for n_, sec_ in sections.items():
+        index(sec_, n_)
+    for other, st in studies().items():  # keys of other studies' sections, said as such
+        if other == study_name:
+            continue
+        for sec_ in st.sections:
+            for k in sec_.keys:
+                homes.setdefault(k, []).append(f"[{sec_.name}] of study {_toml(other)}")
     for key, value in data.items():
         if key in sections:
             continue
         if not isinstance(value, dict):
-            homes = [f"[{n}]" for n, sec in sections.items() if key in sec.keys]
-            hint = f" It belongs in {' or '.join(homes)}." if homes else ""
-            errors.append(f"{key} = {_toml(value)}: top-level key {key!r} is not allowed; keys must be inside a "
+            target = key if key in homes else ALIASES.get(key, key)
+            hint = f" It belongs in {' or '.join(homes[target])}" if target in homes else ""
+            hint = (hint + (f" (as {target})" if target != key else "") + ".") if hint else ""
+            errors.append(f"{shorten(key)} = {_toml(value)}: top-level key {shorten(repr(key))} is not allowed; keys must be inside a "
                           f"section such as [scene].{hint}")
             continue
         owner = [n for n, st in studies().items() for s in st.sections if s.name == key]
@@ -491,7 +649,7 @@ def load_scene(path) -> Scene:
             errors.append(f"[{key}]: this section belongs to study {_toml(owner[0])}, but this scene's "
                           f"study is {_toml(study_name)}.")
         else:
-            errors.append(f"[{key}]: unknown section.{_closest(key, list(sections))} Valid sections: "
+            errors.append(f"[{shorten(key)}]: unknown section.{_closest(key, list(sections))} Valid sections: "
                           f"{', '.join(f'[{n}]' for n in sections)}.")
 
     parsed: dict[str, dict] = {}
@@ -500,11 +658,14 @@ def load_scene(path) -> Scene:
         if name == "scene":
             continue
         if name in data:
-            parsed[name], given[name] = sec.parse(data[name], name, errors)
+            parsed[name], given[name] = sec.parse(data[name], name, errors, homes)
         elif sec.required:
-            errors.append(f"[{name}]: missing required section ({sec.doc}).")
+            needs = [f.name for f in sec.fields if f.required]
+            what = f" ({sec.doc})" if sec.doc else ""
+            keys = f"; it needs {', '.join(needs)}" if needs else ""
+            errors.append(f"[{name}]: missing required section{what}{keys} (see `gearopt studies`).")
         else:
-            parsed[name], given[name] = sec.parse({}, name, errors)
+            parsed[name], given[name] = sec.parse({}, name, errors, homes)
 
     pair_given = given.get("pair", set())
     if "pair" in data and isinstance(data["pair"], dict):
@@ -520,7 +681,26 @@ def load_scene(path) -> Scene:
     pair = _build_pair(data, parsed, given, label)
     options = {s.name: parsed[s.name] for s in spec.sections}
     return Scene(name=scene_vals["name"], description=scene_vals["description"], study=study_name, pair=pair,
-                 options=options, output=dict(parsed["output"]), source=path)
+                 options=options, output=dict(parsed["output"]), source=path, raw=data)
+
+
+_NAME_FORBIDDEN = set('/\\:*?"<>|')
+
+
+def _check_name(name: str) -> str | None:
+    """Why a scene name cannot name files (out/<name>_ccx, ...), or None when it can."""
+    if not name.strip():
+        return "empty; valid: a short name (letters, digits, spaces, . _ - ...) that can name a file."
+    bad = sorted({c for c in name if c in _NAME_FORBIDDEN or ord(c) < 32 or ord(c) == 127})
+    if bad:
+        shown = ", ".join(repr(c) for c in bad)
+        return (f"contains {shown}; valid: a name that can be a file name (no path separators /, \\, no :*?\"<>| "
+                "or control characters), since output files are named after it.")
+    if name.startswith(".") or name != name.strip():
+        return "starts with '.' or has leading/trailing spaces; valid: a plain file name (not hidden, not '..')."
+    if len(name) > 120:
+        return f"is {len(name)} characters long; valid: at most 120 (it names output files)."
+    return None
 
 
 # --- gear objects -------------------------------------------------------------------------------

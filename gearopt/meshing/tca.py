@@ -36,7 +36,7 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-from ..errors import ConvergenceError, GeometryError, out_of_range
+from ..errors import ArgumentError, ConvergenceError, GeometryError, out_of_range, shorten
 from ..gears import GearPair
 from ..geometry.generation import PARAMS, GeneratedTooth, generate_by_rack
 from ..units import ARCMIN, RAD_TO_ARCSEC
@@ -80,6 +80,102 @@ class Misalignment:
 
     def vector(self) -> np.ndarray:
         return np.array([getattr(self, k) for k in MISALIGNMENTS], dtype=float)
+
+
+def _describe(v) -> str:
+    return f"{type(v).__name__} {shorten(repr(v))}"
+
+
+def check_sweep_args(tca, phi1, p1=None, p2=None, mis=None, pairs=(-1, 0, 1), delta=None, anchor=0.0,
+                     z_section=0.0):
+    """Validate and normalise the arguments of :meth:`TCA.sweep` / ``EdgeContact.sweep``.
+
+    Returns ``(phi1 (N,), p1 (4,), p2 (4,), mis, pairs)``; raises :class:`~gearopt.errors.ArgumentError`
+    (wrong type, shape, empty, non-finite) or :class:`~gearopt.errors.GeometryError` (a misalignment
+    that jams or separates the teeth, faces that do not overlap, a section off the face), naming
+    the argument and its valid range.
+    """
+    pair = tca.pair
+    g1, g2 = pair.pinion, pair.gear
+    try:
+        arr = np.asarray(phi1, dtype=float)
+    except (TypeError, ValueError):
+        raise ArgumentError(f"phi1 = {_describe(phi1)}: expected a sequence of pinion angles [rad] (numbers).") from None
+    if arr.ndim > 1:
+        raise ArgumentError(f"phi1: expected a 1-D sequence of pinion angles [rad], got shape {arr.shape}.")
+    arr = np.atleast_1d(arr)
+    if arr.size == 0:
+        raise ArgumentError("phi1 is empty: a sweep needs at least one pinion angle [rad] (one mesh cycle is "
+                            f"2 pi / z1 = {2 * math.pi / g1.z:.6g} rad).")
+    bad = np.flatnonzero(~np.isfinite(arr))
+    if bad.size:
+        raise ArgumentError(f"phi1[{bad[0]}] = {arr[bad[0]]}: every pinion angle must be a finite number [rad] "
+                            f"({bad.size} of {arr.size} are not).")
+    vecs = []
+    for name, p, tooth in (("p1", p1, tca.pinion), ("p2", p2, tca.gear)):
+        if p is None:
+            vecs.append(np.asarray(tooth.p0, float))
+            continue
+        try:
+            v = np.asarray(p, dtype=float)
+        except (TypeError, ValueError):
+            raise ArgumentError(f"{name} = {_describe(p)}: expected {len(PARAMS)} numbers {PARAMS}.") from None
+        if v.shape != (len(PARAMS),):
+            raise ArgumentError(f"{name}: expected a vector of {len(PARAMS)} numbers {PARAMS} (x, a_c [1/mm], u_0 [mm], "
+                                f"a_pl [1/mm]), got shape {v.shape}.")
+        if not np.all(np.isfinite(v)):
+            raise ArgumentError(f"{name} = {v.tolist()}: every entry of {PARAMS} must be finite.")
+        vecs.append(v)
+    if mis is None:
+        mis = Misalignment()
+    elif not isinstance(mis, Misalignment):
+        hint = " Use Misalignment(**d) (angles in rad)." if isinstance(mis, dict) else ""
+        raise ArgumentError(f"mis = {_describe(mis)}: expected a gearopt.meshing.tca.Misalignment (dE [mm], crossing "
+                            f"[rad], intersecting [rad], axial [mm]).{hint}")
+    pair.check_operating(mis.dE, "mis.dE")
+    overlap = (g1.b + g2.b) / 2
+    if abs(mis.axial) >= overlap:
+        raise out_of_range("mis.axial", mis.axial, f"|axial| < (b1 + b2) / 2 = {overlap:.6g} mm (the faces must "
+                           "overlap for the teeth to touch)")
+    try:
+        seq = list(pairs)
+    except TypeError:
+        raise ArgumentError(f"pairs = {_describe(pairs)}: expected a sequence of tooth-pair indices (integers), "
+                            "e.g. (-1, 0, 1).") from None
+    if not seq:
+        raise ArgumentError("pairs is empty: give at least one tooth-pair index, e.g. (0,) or (-1, 0, 1).")
+    out = []
+    for k in seq:
+        if isinstance(k, (bool, np.bool_)) or not isinstance(k, (int, np.integer)):
+            raise ArgumentError(f"pairs contains {_describe(k)}: tooth-pair indices are integers (pinion tooth k, "
+                                f"-{g1.z} < k < {g1.z}).")
+        if abs(int(k)) >= g1.z:
+            raise ArgumentError(f"pairs contains {int(k)}; valid: -{g1.z} < k < {g1.z} (pinion teeth from tooth 0).")
+        out.append(int(k))
+    if len(set(out)) != len(out):
+        raise ArgumentError(f"pairs = {tuple(out)}: every tooth pair may appear once.")
+    for name, v in (("delta", delta), ("anchor", anchor), ("z_section", z_section)):
+        if v is None:
+            continue
+        if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, float, np.integer, np.floating)) \
+                or not math.isfinite(v):
+            raise ArgumentError(f"{name} = {_describe(v)}: expected a finite number.")
+    if delta is not None and not 0 < delta <= 0.1 * g1.m_n:
+        raise ArgumentError(f"delta = {delta!r} is out of range; valid: 0 < delta <= 0.1 m_n = {0.1 * g1.m_n:.4g} mm "
+                            "(elastic approach for the contact ellipse, microns).")
+    if tca.contact_type == "line" and z_section is not None and abs(z_section) > g1.b / 2:
+        raise out_of_range("z_section", z_section, f"|z_section| <= b1 / 2 = {g1.b / 2:.6g} mm (a section of the "
+                           "pinion face)")
+    return arr, vecs[0], vecs[1], mis, tuple(out)
+
+
+def no_contact(where: str, phi1: np.ndarray, pairs, z1: int) -> ConvergenceError:
+    """The error for a sweep that found no contact at any position (never an all-NaN result)."""
+    return ConvergenceError(
+        f"{where}: no contact at any of the {phi1.size} positions phi1 = {phi1.min():.6g} .. "
+        f"{phi1.max():.6g} rad (pairs {tuple(pairs)}). The angles may lie outside the meshing cycle (pair 0 meshes "
+        f"around phi1 = 0; one cycle is 2 pi / z1 = {2 * math.pi / z1:.6g} rad; angles are in rad), or the flanks do "
+        "not meet under this misalignment.")
 
 
 def _rx(a, v):
@@ -216,6 +312,8 @@ class TCA:
     def __init__(self, pair: GearPair, side: str = "right", pinion: GeneratedTooth | None = None,
                  gear: GeneratedTooth | None = None, solver: str = "fast_newton", tol: float = 1e-10,
                  contact: str = "point", jit: bool = False):
+        if not isinstance(pair, GearPair):
+            raise ArgumentError(f"pair = {_describe(pair)}: expected a gearopt.gears.GearPair (pinion, gear).")
         if side not in ("right", "left"):
             raise out_of_range("side", side, "'right' or 'left'")
         if contact not in ("point", "line"):
@@ -451,12 +549,21 @@ class TCA:
         Returns
         -------
         TCAResult
+            Points that fail the checks are NaN with ``converged = False``; points off the finite
+            flanks have ``on_surface = False``.
+
+        Raises
+        ------
+        ArgumentError
+            Wrong type, shape or value of an argument (see :func:`check_sweep_args`).
+        GeometryError
+            A misalignment that jams or separates the teeth, or faces that do not overlap.
+        ConvergenceError
+            No position converged (never an all-NaN result), or the anchor solve failed.
         """
         t0 = time.perf_counter()
-        mis = mis or Misalignment()
-        phi1 = np.atleast_1d(np.asarray(phi1, dtype=float))
+        phi1, p1, p2, mis, pairs = check_sweep_args(self, phi1, p1, p2, mis, pairs, delta, anchor, z_section)
         g1 = self.pair.pinion
-        pairs = tuple(int(k) for k in pairs)
         K, N = len(pairs), phi1.size
         phis = np.concatenate([phi1 - 2 * math.pi * k / g1.z for k in pairs])
         prm = self.prm(phis, p1, p2, mis, z_section)
@@ -473,10 +580,13 @@ class TCA:
         w_0 = w_a if anchor == 0.0 else self.solve_point(0.0, w_a, p1, p2, mis, z_section)
         phi2_ref = float(np.asarray(self._full(w_0, z_section)).ravel()[4]) / self.scale2
         solve_time = time.perf_counter() - t0
-        return self._result(phi1, pairs, Wf, ok, res, n1n2, r1, r2, rf1, K1, K2, E2, E1, delta, mis, solve_time,
-                            {"n_positions": int(phis.size), "n_fast": n_fast, "n_retry": n_retry,
-                             "n_failed": int((~ok).sum()), "build_s": self.build_time, "solver": self.solver,
-                             "contact": self.contact_type}, phi2_ref)
+        result = self._result(phi1, pairs, Wf, ok, res, n1n2, r1, r2, rf1, K1, K2, E2, E1, delta, mis, solve_time,
+                              {"n_positions": int(phis.size), "n_fast": n_fast, "n_retry": n_retry,
+                               "n_failed": int((~ok).sum()), "build_s": self.build_time, "solver": self.solver,
+                               "contact": self.contact_type}, phi2_ref)
+        if not ok.any():  # all-NaN: not a result (points found off the finite flanks are kept, flagged)
+            raise no_contact("TCA.sweep", phi1, pairs, g1.z)
+        return result
 
     # ------------------------------------------------------------------------------------------
     def _result(self, phi1, pairs, W, ok, res, n1n2, r1, r2, rf1, K1, K2, E2, E1, delta, mis, solve_time, stats,

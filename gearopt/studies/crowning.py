@@ -146,7 +146,10 @@ class CrowningStudy:
 def _from_scene(scene) -> CrowningStudy:
     from ..errors import GeometryError, SceneError
 
+    from .tca import _check_operating
+
     o = scene.options.get("crowning", {}) or {}
+    _check_operating(scene, "crowning", o, signs=(1, -1))
     try:
         target = CrowningTarget(te_level=o["te_level"], ellipse_share=o.get("ellipse_share") or 0.0,
                                 edge_margin=o.get("edge_margin") or 0.0, tip_margin=o.get("tip_margin") or 0.0,
@@ -167,10 +170,12 @@ def _register():
         name="crowning",
         doc="Optimize pinion crowning (a_c, a_pl) for a parabolic TE over a misalignment set; before/after plots",
         sections=[Section("crowning", [
-            Field("te_level", "angle", required=True, check=Bounds(lo=0, lo_open=True, hi=600 / 3600),
+            Field("te_level", "angle", required=True, check=Bounds(lo=0, lo_open=True, hi=600 / 3600), typical="arcsec",
                   doc="predesigned TE level (e.g. \"8 arcsec\")"),
-            Field("crossing", "angle", default=0.0, check=Bounds(lo=0, hi=10), doc="+- crossing angle cases"),
-            Field("intersecting", "angle", default=0.0, check=Bounds(lo=0, hi=10), doc="+- intersecting angle cases"),
+            Field("crossing", "angle", default=0.0, check=Bounds(lo=0, hi=10), bare=Bounds(lo=0, hi=1),
+                  typical="arcmin", doc="+- crossing angle cases (a bare number is deg: <= 1)"),
+            Field("intersecting", "angle", default=0.0, check=Bounds(lo=0, hi=10), bare=Bounds(lo=0, hi=1),
+                  typical="arcmin", doc="+- intersecting angle cases (a bare number is deg: <= 1)"),
             Field("dE", "length", default=0.0, check=Bounds(lo=0, hi=5), doc="+- centre distance change cases"),
             Field("axial", "length", default=0.0, check=Bounds(lo=0, hi=50), doc="+- axial displacement cases"),
             Field("combined", "bool", default=False, doc="also all misalignments together"),

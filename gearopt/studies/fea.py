@@ -136,6 +136,32 @@ class FEStudy:
                         timing={"run_s": time.perf_counter() - t0})
 
 
+def _check_positions(scene, phis, teeth: int) -> None:
+    """Before running: every FE position must have a tooth pair of the modelled ones in contact on
+    the active flanks (the same TCA the model uses), else a SceneError naming phi1_start/phi1_end."""
+    from ..errors import ConvergenceError
+    from ..meshing.tca import TCA
+
+    p = scene.pair
+    crowned = any(g.a_pl != 0 or g.rack.a_c != 0 for g in (p.pinion, p.gear))
+    tca = TCA(p, side="right", contact="point" if crowned else "line")
+    ids = tuple(range(-(teeth // 2), teeth - teeth // 2))
+    phis = np.asarray(phis, float)
+    try:
+        on = tca.sweep(phis, pairs=ids).on_surface.any(axis=0)
+    except ConvergenceError:
+        on = np.zeros(phis.size, bool)
+    if on.all():
+        return
+    i = int(np.flatnonzero(~on)[0])
+    key = "phi1_end" if (i == phis.size - 1 and phis.size > 1) else "phi1_start"
+    pitch = 360.0 / p.pinion.z
+    raise scene.key_error("fea", key, f"is out of range: at phi1 = {math.degrees(phis[i]):.4g} deg none of the {teeth} "
+                          f"modelled tooth pairs is in contact on the active flanks (one mesh cycle is 360 / z1 = "
+                          f"{pitch:.4g} deg; phi1 = 0 puts tooth 0 at the pitch point). Choose positions within the "
+                          "meshing of the modelled teeth or model more teeth.")
+
+
 def _from_scene(scene) -> FEStudy:
     from ..errors import GeometryError, SceneError
     from ..fea.mesh import MeshOptions
@@ -152,6 +178,7 @@ def _from_scene(scene) -> FEStudy:
     n = o["n_positions"]
     a, b = o["phi1_start"], o["phi1_end"]
     phis = [a] if n == 1 else list(np.linspace(a, b, n))
+    _check_positions(scene, phis, opt.teeth)
     keep = None
     if o.get("keep_files"):
         keep = Path("out") / f"{scene.name}_ccx"

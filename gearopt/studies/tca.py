@@ -328,6 +328,12 @@ class TCAStudy:
                 cases.append(edge_case_dict(eres, self.pair, label, lim))
                 continue
             res = self.tca.sweep(phi, mis=mis, delta=self.delta, z_section=self.z_section, pairs=(-2, -1, 0, 1, 2))
+            if not np.isfinite(res.te_envelope).any():
+                from ..errors import ConvergenceError
+                raise ConvergenceError(f"tca case {label!r}: every contact point found lies off the active flanks "
+                                       "(beyond the face or the tip/form circles), so there is no transmission error "
+                                       "to report. Analyse edge contact ([tca] edge_contact = true), crown the pinion "
+                                       "more, or reduce the misalignment.")
             cases.append(case_dict(res, self.pair, label, lim))
         p = self.pair
         pair = {"z1": p.pinion.z, "z2": p.gear.z, "m_n": p.pinion.m_n, "beta_deg": p.pinion.beta / DEG,
@@ -341,6 +347,29 @@ class TCAStudy:
 
 
 # --- scene binding ------------------------------------------------------------------------------
+def _check_operating(scene, section: str, o: dict, signs=(1,)) -> None:
+    """Refuse, before running, misalignments that make the study meaningless: a centre distance
+    change dE that jams the teeth (a + dE < a_0, the rule of [pair] a) or separates them (contact
+    ratio < 1), and an axial displacement beyond the overlap of the faces. ``signs``: the cases
+    analysed (+dE only, or +-dE)."""
+    from ..errors import GeometryError
+
+    pair = scene.pair
+    dE = o.get("dE") or 0.0
+    for s in signs:
+        try:
+            pair.check_operating(s * dE, "dE" if s > 0 else "-dE")
+        except GeometryError as e:
+            text = str(e).split(" is out of range; ", 1)[-1]
+            case = "" if s > 0 else f" (the case -dE = {-dE:g} mm)"
+            raise scene.key_error(section, "dE", f"is out of range{case}; {text}") from None
+    axial = o.get("axial") or 0.0
+    overlap = (pair.pinion.b + pair.gear.b) / 2
+    if abs(axial) >= overlap:
+        raise scene.key_error(section, "axial", f"is out of range; valid: |axial| < (b1 + b2) / 2 = {overlap:g} mm "
+                              "(beyond it the faces do not overlap and the teeth cannot touch).")
+
+
 def _from_scene(scene) -> TCAStudy:
     from ..errors import GeometryError, SceneError
 
@@ -361,9 +390,16 @@ def _from_scene(scene) -> TCAStudy:
                 if label in [lab for lab, _ in cases]:
                     raise SceneError(f"{scene.source}: [tca.cases][{i}] label = {label!r}: the labels of the cases "
                                      "must be distinct.")
+                _check_operating(scene, f"tca.cases][{i}", c, signs=(1,))
                 cases.append((label, m))
             if not cases:
                 raise SceneError(f"{scene.source}: [tca] cases = []: give at least one case or leave it out.")
+        if cases is None:
+            _check_operating(scene, "tca", o, signs=(1,))
+        if o.get("contact") == "line" and abs(o.get("z_section") or 0.0) > scene.pair.pinion.b / 2:
+            raise scene.key_error("tca", "z_section", f"is out of range; valid: |z_section| <= b1 / 2 = "
+                                  f"{scene.pair.pinion.b / 2:g} mm (a section of the pinion face, [pinion] b = "
+                                  f"{scene.pair.pinion.b:g} mm).")
         if o.get("contact") == "point" and scene.pair.pinion.a_pl == 0 and not o.get("edge_contact"):
             raise SceneError(f"{scene.source}: [tca] contact = \"point\" needs a longitudinally crowned pinion "
                              "([pinion] a_pl > 0); for conjugate or profile-crowned spur pinions use contact = "
@@ -387,6 +423,11 @@ def _register():
     from ..io.scene import Bounds, Field, Section
     from . import StudySpec, register
 
+    # Misalignment angles of real drives are arcminutes (Litvin's examples: 3 arcmin); a bare number
+    # above 1 deg (60 arcmin, 0.35 mm across a 20 mm face) is almost surely an arcmin value written
+    # without its unit. Refused unless the unit is written out ("2 deg" is accepted).
+    _BARE_MIS = Bounds(lo=-1, hi=1)
+
     register(StudySpec(
         name="tca",
         doc="Tooth contact analysis: TE per pair and envelope, paths of contact, contact ellipses, aligned and misaligned",
@@ -399,9 +440,10 @@ def _register():
             Field("delta", "length", default=0.00632, check=Bounds(lo=0, lo_open=True, hi=0.1),
                   doc="elastic approach for the contact ellipse"),
             Field("dE", "length", default=0.0, check=Bounds(lo=-5, hi=5), doc="centre distance change"),
-            Field("crossing", "angle", default=0.0, check=Bounds(lo=-10, hi=10), doc="crossing angle of the axes"),
-            Field("intersecting", "angle", default=0.0, check=Bounds(lo=-10, hi=10),
-                  doc="intersecting angle of the axes"),
+            Field("crossing", "angle", default=0.0, check=Bounds(lo=-10, hi=10), bare=_BARE_MIS,
+                  typical="arcmin", doc="crossing angle of the axes (a bare number is deg: |crossing| <= 1)"),
+            Field("intersecting", "angle", default=0.0, check=Bounds(lo=-10, hi=10), bare=_BARE_MIS,
+                  typical="arcmin", doc="intersecting angle of the axes (a bare number is deg: |intersecting| <= 1)"),
             Field("axial", "length", default=0.0, check=Bounds(lo=-50, hi=50), doc="axial displacement of the gear"),
             Field("edge_contact", "bool", default=False,
                   doc="also solve edge contact (tips, face ends) and combine it with the surface contact (Litvin 9.6)"),

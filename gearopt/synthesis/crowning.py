@@ -29,7 +29,7 @@ import casadi as ca
 import numpy as np
 
 from ..contact.edge import EdgeContact
-from ..errors import ConvergenceError, GeometryError, out_of_range
+from ..errors import ArgumentError, ConvergenceError, check_number, out_of_range
 from ..gears import GearPair
 from ..geometry.generation import PARAMS
 from ..meshing.tca import TCA, Misalignment
@@ -78,6 +78,8 @@ class CrowningTarget:
     objective: str = "sum"
 
     def __post_init__(self):
+        for name in ("te_level", "ellipse_share", "edge_margin", "tip_margin", "level_tolerance", "delta"):
+            check_number(f"target.{name}", getattr(self, name))
         if not (math.isfinite(self.te_level) and 0 < self.te_level < 600 * ARCSEC):
             raise out_of_range("target.te_level", f"{self.te_level * RAD_TO_ARCSEC:.6g} arcsec",
                                "0 < te_level < 600 arcsec")
@@ -180,11 +182,25 @@ class CrowningOptimizer:
 
     def __init__(self, pair: GearPair, target: CrowningTarget, cases: dict | None = None, positions: int = 41,
                  side: str = "right", bounds: dict | None = None, tol: float = 1e-10):
+        if not isinstance(pair, GearPair):
+            raise ArgumentError(f"pair = {type(pair).__name__}: expected a gearopt.gears.GearPair.")
         if not isinstance(target, CrowningTarget):
-            raise GeometryError("target must be a CrowningTarget")
+            raise ArgumentError(f"target = {type(target).__name__}: expected a CrowningTarget(te_level [rad], ...).")
+        if cases is not None and not isinstance(cases, dict):
+            raise ArgumentError(f"cases = {type(cases).__name__}: expected a dict {{name: Misalignment}}, e.g. "
+                                "misalignment_cases(crossing=3 * ARCMIN).")
         cases = dict(cases or _default_cases())
         if not cases:
             raise out_of_range("cases", cases, "at least one misalignment case")
+        overlap = (pair.pinion.b + pair.gear.b) / 2
+        for name, m in cases.items():
+            if not isinstance(m, Misalignment):
+                hint = " Use Misalignment(**d) (angles in rad)." if isinstance(m, dict) else ""
+                raise ArgumentError(f"cases[{name!r}] = {type(m).__name__}: expected a Misalignment.{hint}")
+            pair.check_operating(m.dE, f"cases[{name!r}].dE")
+            if abs(m.axial) >= overlap:
+                raise out_of_range(f"cases[{name!r}].axial", m.axial, f"|axial| < (b1 + b2) / 2 = {overlap:.6g} mm "
+                                   "(the faces must overlap)")
         if "aligned" not in cases and target.ellipse_share > 0:
             cases = {"aligned": Misalignment(), **cases}
         if not (isinstance(positions, int) and 7 <= positions <= 401):

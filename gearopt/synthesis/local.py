@@ -22,7 +22,7 @@ from dataclasses import dataclass, replace
 import casadi as ca
 import numpy as np
 
-from ..errors import GeometryError, out_of_range
+from ..errors import ArgumentError, out_of_range
 from ..gears import GearPair
 from ..meshing.tca import TCA, Misalignment
 from .crowning import SETTINGS, SynthesisError, _IDX
@@ -123,9 +123,15 @@ def local_synthesis(pair: GearPair, target: LocalTarget, side: str = "right", ve
     SynthesisError
         No design reaches the targets (IPOPT status and the residuals are in the message).
     """
+    if not isinstance(pair, GearPair):
+        raise ArgumentError(f"pair = {type(pair).__name__}: expected a gearopt.gears.GearPair.")
     if not isinstance(target, LocalTarget):
-        raise GeometryError("target must be a LocalTarget")
+        raise ArgumentError(f"target = {type(target).__name__}: expected a LocalTarget (target must be a LocalTarget).")
+    if mis is not None and not isinstance(mis, Misalignment):
+        raise ArgumentError(f"mis = {type(mis).__name__}: expected a Misalignment"
+                            + (" (use Misalignment(**d), angles in rad)." if isinstance(mis, dict) else "."))
     mis = mis or Misalignment()
+    pair.check_operating(mis.dE, "mis.dE")
     g1 = pair.pinion
     # First guess: profile crowning from m'21 through the parabolic-rack TE law, plunging from 2a.
     tan_a = math.tan(pair.alpha_wt)
