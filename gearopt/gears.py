@@ -571,11 +571,13 @@ class GearPair:
         p, g = self.pinion, self.gear
         a = self.a_w + dE
         c_min = min(a - p.r_a - g.r_f, a - g.r_a - p.r_f)
-        lo = max(self.a_0, self.a_w - min(self.tip_clearance)) - self.a_w
-        if a < self.a_0 * (1 - 1e-12) or c_min < 0:
+        a_jam = self.a_0_generated - self.a_0_tolerance  # the rule of [pair] a
+        lo = max(a_jam, self.a_w - min(self.tip_clearance)) - self.a_w
+        if a < a_jam or c_min < 0:
             raise out_of_range(name, dE, f"dE >= {lo:.6g} mm: the operating centre distance a + dE = {a:.6g} mm must be "
-                               f">= a_0 = {self.a_0:.6g} mm, the zero-backlash distance (the same rule as for [pair] "
-                               "a), with the tips clear of the mating roots; closer, the teeth interfere")
+                               f">= a_0 = {self.a_0_generated:.6g} mm, the zero-backlash distance of the generated teeth "
+                               "(the same rule as for [pair] a), with the tips clear of the mating roots; closer, the "
+                               "teeth interfere")
         if self.eps_alpha_at(a) + self.eps_beta < 1.0:
             hi = self._a_max() - self.a_w
             raise out_of_range(name, dE, f"{lo:.6g} <= dE <= {hi:.6g} mm: at a + dE = {a:.6g} mm the contact ratio "

@@ -197,7 +197,7 @@ def test_absurd_crowning_in_a_scene(capsys, scene_file, where, line, key):
 
 
 @pytest.mark.parametrize("lines, needle", [
-    ("dE = -0.15", r"\[tca\] dE = -0.15 is out of range; valid: dE >= 0 mm.*a_0 = "),
+    ("dE = -0.15", r"\[tca\] dE = -0.15 is out of range; valid: dE >= -0\.000[0-9]+ mm.*a_0 = "),
     ('dE = "-0.02 in"', r"\[tca\] dE = \"-0.02 in\" is out of range"),
     ("dE = 4.5", r"\[tca\] dE = 4.5 is out of range.*contact ratio"),
 ])
@@ -461,7 +461,7 @@ def test_tca_sweep_arguments(crowned_tca, kwargs, name):
 
 
 @pytest.mark.parametrize("mis, name", [
-    (dict(dE=-0.05), r"mis\.dE = -0.05 is out of range; valid: dE >= 0 mm"),
+    (dict(dE=-0.05), r"mis\.dE = -0.05 is out of range; valid: dE >= -0\.000[0-9]+ mm"),
     (dict(axial=17.0), r"mis\.axial = 17.0 is out of range; valid: \|axial\| < \(b1 \+ b2\) / 2 = 16 mm"),
 ])
 def test_tca_sweep_misalignment_ranges(crowned_tca, mis, name):
