@@ -469,7 +469,7 @@ class EdgeContact:
             driving=driving, active=active, z1=z1.reshape(B, K, N), radius1=rad1.reshape(B, K, N),
             z2=z2.reshape(B, K, N), radius2=rad2.reshape(B, K, N), converged=conv.reshape(B, K, N), valid=valid,
             intervals=intervals, transfers=transfers, misalignment=mis, surface=surf,
-            solve_time=time.perf_counter() - t0, stats={"build_s": self.build_time, **stats})
+            solve_time=time.perf_counter() - t0, stats={"build_s": self.build_time, "te_zero_rad": ref, **stats})
 
     def _coast_clearance(self, p1, mis: Misalignment) -> float:
         """Upper bound of the gear's advance over the conjugate position of the aligned drive [rad]:
