@@ -242,12 +242,12 @@ class EdgeContact:
         surf = None
         try:
             try:
-                surf = tca.sweep(phi1, p1, p2, mis, pairs=pairs)
+                surf = tca.sweep(phi1, p1, p2, mis, pairs=pairs, continuation=False)
             except ConvergenceError as e:
                 if "line contact" not in str(e):
                     raise
                 stats["surface_mode"] = "line contact (mid section)"
-                surf = self._line_tca().sweep(phi1, p1, p2, mis, pairs=pairs)
+                surf = self._line_tca().sweep(phi1, p1, p2, mis, pairs=pairs, continuation=False)
             Q[0] = np.vstack([surf.u1.ravel(), surf.z1.ravel(), surf.u2.ravel(), surf.z2.ravel(),
                               (surf.phi2 - np.array([2 * math.pi * k / self.members[2].z for k in pairs])[:, None]
                                ).ravel() * tca.scale2])
