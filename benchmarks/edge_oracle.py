@@ -164,7 +164,7 @@ class Oracle:
                 k = np.unravel_index(np.argmax(g), g.shape)
                 if g[k] >= val:
                     val, r0, z0 = g[k], rr[k], zz[k]
-                hr, hz = hr / 5, hz / 5
+                hr, hz = hr / 4, hz / 4
             if val > best:
                 best, at = val, (r0, z0)
         return best - ratio * phis, at
