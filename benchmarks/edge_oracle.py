@@ -126,7 +126,8 @@ class Oracle:
         zg = w[2]
         ok = (rho2 >= m2.r_form) & (rho2 <= m2.r_a) & (np.abs(zg) <= m2.b / 2)
         # own-frame point (sg rho sin psi, rho cos psi) has polar angle atan2(rho cos psi, sg rho sin psi)
-        v_ang = math.pi + sg * m2.theta + np.arctan2(rho2 * np.cos(m2.psi(rho2, zg)), sg * rho2 * np.sin(m2.psi(rho2, zg)))
+        psi2 = m2.psi(rho2, zg)
+        v_ang = math.pi + sg * m2.theta + np.arctan2(rho2 * np.cos(psi2), sg * rho2 * np.sin(psi2))
         ang = np.arctan2(w[1], w[0]) - v_ang
         phi2 = sg * np.remainder(ang + math.pi, 2 * math.pi) - sg * math.pi
         return np.where(ok, phi2, -np.inf)

@@ -7,7 +7,8 @@ The boundaries of the active flank of each member are curves on its surface ``g(
 * ``limit``: the line u = u_f between the active flank and the fillet (a concave transition: it is
   a boundary of the active flank, checked through the form radius, but not a convex edge);
 * ``corner+`` / ``corner-``: the vertices where the tip edge meets a face end (vertex contact:
-  ``r_f1 = r_f2`` with both boundary equations, the mating normal inside the vertex's normal cone).
+  ``r_f1 = r_f2`` with both boundary equations, the mating normal inside the vertex's normal cone);
+* ``pinion_X/gear_Y``: an edge X of the pinion touching an edge Y of the gear (edge on edge).
 
 Edge contact of an edge of member i with the flank of member j (eqs. 9.6.1-9.6.2, written with the
 edge as a level curve of g instead of an explicit parameterization):
@@ -15,9 +16,19 @@ edge as a level curve of g instead of an explicit parameterization):
     r_f1(u1, z1, phi1) = r_f2(u2, z2, phi2),  g_i(u_i, z_i) = 0,  t_edge,i . n_fj = 0,
     t_edge,i = dr_i/du_i dg/dz_i - dr_i/dz_i dg/du_i   (the edge tangent),
 
-five equations in (u1, z1, u2, z2, phi2) for each phi1. Each (surface or edge) branch of a tooth
-pair is solved like the surface TCA (mapped Newton, checks, continuation) and is valid where its
-contact point lies on the finite edge and on the mating active flank. For a given phi1 the gear of
+five equations in (u1, z1, u2, z2, phi2) for each phi1. An edge of the pinion crossing an edge of
+the gear (``pinion_tip/gear_face+`` ...: two boundary curves touching) is
+
+    r_f1(u1, z1, phi1) = r_f2(u2, z2, phi2),  g_1(u1, z1) = 0,  g_2(u2, z2) = 0,
+
+again five equations; the common perpendicular of the two edges, n = t_edge,1 x t_edge,2, is the
+contact normal (the gap between the two curves is measured along it, so the common-perpendicular
+condition holds at the touch), and the touch is genuine when each member's wedge lies on its own
+side of the plane normal to n. Each (surface or edge) branch of a tooth pair is solved with
+mapped Newton and the checks, every position on its own from first guesses of that position only
+(the conjugate contact of the aligned drive in several sections, moved onto the edge), so that
+no contact depends on the other positions of the sweep; a branch is valid where its contact point
+lies on the finite edge and on the mating active flank. For a given phi1 the gear of
 a pair rests against the feature that gives it the largest advance, so the pair's TE is the upper
 envelope of its valid branches; the actual TE is the upper envelope over the pairs (THEORY 8).
 """
