@@ -210,3 +210,14 @@ def test_edge_on_edge_contact(name):
                 assert abs(r.te[b, k, i] + r.stats["te_zero_rad"] - te_or[k_or, i]) * AS < TOL_AS
             checked += 1
     assert checked
+
+
+def test_stability_benchmark_edge_block():
+    """The edge-corner / edge-on-edge block of benchmarks/stability.py (its quick case) agrees with
+    the oracle and between grids."""
+    import stability as S
+
+    case = next(c for c in S.edge_grid_cases() if c.fast)
+    row = S.run_edge_grid_case(case, singles=8)
+    assert row["ok"], row
+    assert any("/" in f for f in row["features"]), row["features"]
