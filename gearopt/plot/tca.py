@@ -115,19 +115,7 @@ def plot_compare(cases: dict, axes=None, member: str = "gear"):
 _BRANCH_STYLE = {"surface": ("C3", "-"), "pinion_tip": ("C0", "-"), "gear_tip": ("C2", "-"),
                  "pinion_face+": ("C4", "-"), "pinion_face-": ("C5", "-"), "gear_face+": ("C6", "-"),
                  "gear_face-": ("C8", "-"), "pinion_corner+": ("C1", "-"), "pinion_corner-": ("C1", "-"),
-                 "gear_corner+": ("C9", "-"), "gear_corner-": ("C9", "-"),
-                 # edge on edge (gearopt.contact.edge): isolated instants, drawn with markers
-                 "pinion_tip/gear_face+": ("m", "-"), "pinion_tip/gear_face-": ("m", "-"),
-                 "pinion_face+/gear_tip": ("C7", "-"), "pinion_face-/gear_tip": ("C7", "-"),
-                 "pinion_tip/gear_tip": ("k", "-")}
-
-
-def _branch_label(name: str) -> str:
-    if name == "surface":
-        return "surface contact"
-    if "/" in name:
-        return "edge on edge: " + name.replace("/", " x ")
-    return f"edge contact: {name}"
+                 "gear_corner+": ("C9", "-"), "gear_corner-": ("C9", "-")}
 
 
 def plot_edge_te(case: dict, ax=None):
@@ -142,9 +130,8 @@ def plot_edge_te(case: dict, ax=None):
     for name in dict.fromkeys(a for a in act if a):
         col, ls = _BRANCH_STYLE.get(name, ("k", "-"))
         m = np.array([a == name for a in act])
-        point_like = "/" in name or "corner" in name  # often carries the load at single positions only
-        ax.plot(phi, np.where(m, env, np.nan), color=col, lw=2.4, ls=ls, marker="o" if point_like else None,
-                ms=5, label=_branch_label(name))
+        ax.plot(phi, np.where(m, env, np.nan), color=col, lw=2.4, ls=ls,
+                label="surface contact" if name == "surface" else f"edge contact: {name}")
     for t in case.get("transfers", []):
         ax.axvline(np.degrees(t["phi1"]), color="k", lw=0.6, ls=":")
     m = case["misalignment"]
@@ -176,10 +163,8 @@ def plot_edge_paths(case: dict, member: str = "gear", ax=None):
         z, r = _f(path[member]["z"]), _f(path[member]["radius"])
         load = np.array(path["carries_load"], bool)
         ax.plot(z, r, color=col, lw=0.8, ls="--")
-        point_like = "/" in name or "corner" in name  # a point of the flank (edge on edge, vertex)
         ax.plot(np.where(load, z, np.nan), np.where(load, r, np.nan), color=col, lw=2.6,
-                marker="o" if point_like else None, ms=5,
-                label="surface" if name == "surface" else name.replace("/", " x "))
+                label="surface" if name == "surface" else name)
     ax.set_xlim(-0.65 * b, 0.65 * b)
     pad = 0.08 * (ra - rF)
     ax.set_ylim(rF - pad, ra + pad)
