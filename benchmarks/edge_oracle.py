@@ -55,10 +55,11 @@ class Member:
         m_t = g.m_n / math.cos(g.beta)
         self.r_p = m_t * g.z / 2
         self.r_b = self.r_p * math.cos(self.alpha_t)
-        self.r_a = self.r_p + g.m_n * (g.rack.h_aP + g.x)
-        self.s_t = m_t * (math.pi / 2 + 2 * g.x * math.tan(g.rack.alpha_n))
+        self.r_a = g.r_a  # tip radius: gear data (r_p + m_n (h_aP + x) unless given otherwise)
+        x_E = getattr(g, "x_E", g.x)  # the generating shift (thickness allowance included, if any)
+        self.s_t = m_t * (math.pi / 2 + 2 * x_E * math.tan(g.rack.alpha_n))
         # start of the involute: end of the rack's straight flank, h below the datum line
-        h = (g.rack.h_fP - g.rack.rho_fP * (1 - math.sin(g.rack.alpha_n)) - g.x) * g.m_n
+        h = (g.rack.h_fP - g.rack.rho_fP * (1 - math.sin(g.rack.alpha_n)) - x_E) * g.m_n
         self.r_form = math.hypot(self.r_b, self.r_p * math.sin(self.alpha_t) - h / math.sin(self.alpha_t))
         self.tanb = math.tan(g.beta)
         self.helix = 0.0  # +-1: set by calibrate() (sense of the twist along z)
