@@ -550,6 +550,97 @@ def _edge(case, tca, phi1, row, n_mp):
 
 
 # ---------------------------------------------------------------------------------------------
+# Edge corners and edge on edge: dense and single-position sweeps against the patch-maximum oracle
+# (issue 10, items 2 and 3). Self-contained: own case list, runner and table.
+# ---------------------------------------------------------------------------------------------
+@dataclass
+class EdgeGridCase:
+    name: str
+    z: tuple  # (z1, z2)
+    m_n: float
+    b: float
+    beta_deg: float
+    mis: dict  # Misalignment kwargs, angles in arcmin
+    side: str = "right"
+    n: int = 41  # positions over [-pi/z1, pi/z1]
+    fast: bool = False
+
+
+def edge_grid_cases() -> list[EdgeGridCase]:
+    C = []
+    # the issue's drive: gear tip/face corner (+4'), pinion tip edge crossing the gear face end (-4')
+    for g in (4, -4):
+        C.append(EdgeGridCase(f"19/47 b24 beta25 intersecting {g:+d}'", (19, 47), 3.0, 24, 25, dict(intersecting=g),
+                              fast=g < 0))
+    # other drives, both signs, both flanks, crossing and intersecting
+    C += [EdgeGridCase("17/56 b30 beta30 intersecting +3' (corner)", (17, 56), 4.0, 30, 30, dict(intersecting=3)),
+          EdgeGridCase("17/56 b30 beta30 intersecting -3'", (17, 56), 4.0, 30, 30, dict(intersecting=-3)),
+          EdgeGridCase("27/63 b12 beta35 intersecting +4' left (edge x edge)", (27, 63), 1.5, 12, 35,
+                       dict(intersecting=4), side="left"),
+          EdgeGridCase("24/59 b20 beta28 intersecting +8' left", (24, 59), 2.5, 20, 28, dict(intersecting=8),
+                       side="left"),
+          EdgeGridCase("31/44 b24 beta20 intersecting -8'", (31, 44), 4.0, 24, 20, dict(intersecting=-8)),
+          EdgeGridCase("31/43 b12 beta12 intersecting -10' + axial 0.02 mm", (31, 43), 1.5, 12, 12,
+                       dict(intersecting=-10, axial=0.02)),
+          EdgeGridCase("17/40 b20 beta30 crossing +3'", (17, 40), 4.0, 20, 30, dict(crossing=3)),
+          EdgeGridCase("17/40 b20 beta30 crossing -3' left", (17, 40), 4.0, 20, 30, dict(crossing=-3), side="left"),
+          EdgeGridCase("spur 25/25 b16 crossing 8'", (25, 25), 2.0, 16, 0, dict(crossing=8))]
+    return C
+
+
+def run_edge_grid_case(case: EdgeGridCase, singles: int = 0) -> dict:
+    """Dense sweep, every position alone (or every ``singles``-th), the positions shuffled, and the
+    oracle: max deviations [arcsec], the features that carry the load, the outcome."""
+    from edge_oracle import Oracle
+
+    t0 = time.perf_counter()
+    z1, z2 = case.z
+    beta = case.beta_deg * DEG
+    pair = GearPair(Gear(z1, case.m_n, b=case.b, beta=beta, hand="right", name="pinion"),
+                    Gear(z2, case.m_n, b=case.b, beta=beta, hand="left" if beta else "right", name="gear"))
+    mis = Misalignment(**{k: v * ARCMIN if k in ("crossing", "intersecting") else v for k, v in case.mis.items()})
+    ec = EdgeContact(TCA(pair, side=case.side))
+    phi = np.linspace(-math.pi / z1, math.pi / z1, case.n)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        r = ec.sweep(phi, mis=mis)
+        step = singles or 1
+        idx = np.arange(0, case.n, step)
+        single = np.array([ec.sweep(phi[i:i + 1], mis=mis).te_envelope[0] for i in idx])
+        perm = np.random.default_rng(10).permutation(case.n)
+        shuf = np.empty(case.n)
+        shuf[perm] = ec.sweep(phi[perm], mis=mis).te_envelope
+    t_engine = time.perf_counter() - t0
+    o = Oracle(pair, case.side, mis, n=121, levels=8)
+    calib = o.calibrate(ec.tca.pinion, ec.tca.gear)
+    env, _ = o.envelope(phi)
+    raw = r.te_envelope + r.stats["te_zero_rad"]
+    d_or = np.abs(raw - env) * RAD_TO_ARCSEC
+    d_single = np.abs(single - r.te_envelope[idx]) * RAD_TO_ARCSEC
+    d_shuf = np.abs(shuf - r.te_envelope) * RAD_TO_ARCSEC
+    nan_ok = np.array_equal(np.isnan(raw), np.isnan(env))
+    used = [r.branches[a] for a in r.active if a >= 0]
+    feats = {n: used.count(n) for n in dict.fromkeys(used)}
+    grid = max(np.nanmax(d_single, initial=0.0), np.nanmax(d_shuf, initial=0.0))
+    worst = float(np.nanmax(d_or, initial=0.0))
+    ok = nan_ok and calib < 1e-12 and worst < 5e-3 and grid < 1e-9
+    return {"name": case.name, "oracle_dev": worst, "grid_dev": float(grid), "nan_ok": nan_ok,
+            "p2p": r.peak_to_peak * RAD_TO_ARCSEC, "features": feats, "ok": ok,
+            "time_engine": t_engine, "time": time.perf_counter() - t0}
+
+
+def edge_grid_table(rows) -> list[str]:
+    out = ["| case | oracle dev [arcsec] | dense vs single/shuffled [arcsec] | TE p2p [arcsec] | features carrying the "
+           "load (positions) | outcome |", "|---|---|---|---|---|---|"]
+    for r in rows:
+        feats = ", ".join(f"{k} ({v})" for k, v in r["features"].items())
+        outcome = "agrees" if r["ok"] else "WRONG (silent)"
+        out.append(f"| {r['name']} | {r['oracle_dev']:.1e} | {r['grid_dev']:.1e} | {r['p2p']:.3f} | {feats} | "
+                   f"{outcome} |")
+    return out
+
+
+# ---------------------------------------------------------------------------------------------
 def fmt(v):
     return "-" if not np.isfinite(v) else f"{v:.1e}"
 
@@ -582,7 +673,20 @@ def main(argv=None):
               f"{r['ref']} | {fmt(r['err'])} | {c.expect}{'' if match else ' (MISMATCH)'} | "
               f"{r['outcome'][:400]} |")
     print(f"\n{len(rows)} cases, {bad} silent wrong results; total {time.perf_counter() - t_start:.1f} s")
-    return 1 if bad else 0
+    # Edge corners and edge on edge, dense vs single-position sweeps, against the oracle
+    t_edge = time.perf_counter()
+    erows = []
+    for c in edge_grid_cases():
+        if args.quick and not c.fast:
+            continue
+        erows.append(run_edge_grid_case(c, singles=4 if args.quick else 1))
+        print(f"  {c.name}: {'agrees' if erows[-1]['ok'] else 'WRONG'} ({erows[-1]['time']:.1f} s)", file=sys.stderr)
+    print("\nEdge corners and edge on edge (41 positions over one pinion pitch; single = every position alone, "
+          "shuffled = the same positions in random order; oracle = patch-maximum rigid contact):\n")
+    print("\n".join(edge_grid_table(erows)))
+    ebad = sum(not r["ok"] for r in erows)
+    print(f"\n{len(erows)} edge cases, {ebad} wrong; total {time.perf_counter() - t_edge:.1f} s")
+    return 1 if bad or ebad else 0
 
 
 if __name__ == "__main__":

@@ -350,6 +350,8 @@ def test_edge_equations_hold_independently(case):
     seen, ref = set(), []
     for b in range(1, len(r.branches)):
         name = r.branches[b]
+        if "/" in name:
+            continue  # edge on edge: tests/test_edge_grid.py
         member = 1 if name.startswith("pinion") else 2
         ks, iis = np.nonzero(r.valid[b])
         for k, i in list(zip(ks, iis))[::3]:
@@ -429,7 +431,7 @@ def test_helical_crossing_te_slopes_first_order():
                 assert abs(s / pred - 1) < 0.01, (name, gam_min, s, pred)
                 found[(name, gam_min)] = s
         # the transfers' slopes too (face-end -> face-end transfers between pairs)
-        ff = [t for t in r.transfers if "face" in t["from"]["branch"] and "face" in t["to"]["branch"]]
+        ff = [t for t in r.transfers if all("face" in t[e]["branch"] and "/" not in t[e]["branch"] for e in ("from", "to"))]
         assert ff
         for t in ff:
             assert abs(t["slope_before"] / s_face - 1) < 0.01 and abs(t["slope_after"] / s_face - 1) < 0.01
@@ -437,7 +439,7 @@ def test_helical_crossing_te_slopes_first_order():
         pred = np.array([first_order_te(g, gam, r.phi1, k)[0] for k in r.pairs])
         face = np.zeros_like(r.te_pair, bool)
         for b, name in enumerate(r.branches):
-            if "face" in name:
+            if "face" in name and "/" not in name:
                 face |= (r.branch == b)
         d = (r.te_pair - pred)[face]
         pp = np.nanmax(np.nanmax(pred, axis=0)) - np.nanmin(np.nanmax(pred, axis=0))
@@ -491,7 +493,7 @@ def test_crossing_sign_mirrors_helical_te():
         names = {r.branches[a] for a in r.active}
         assert tip in names and ("pinion_tip" if tip == "gear_tip" else "gear_tip") not in names
         for b, name in enumerate(r.branches):
-            if "face" in name:
+            if "face" in name and "/" not in name:
                 on = r.active == b
                 if on.any():
                     assert name.endswith("+" if sign > 0 else "-")
@@ -499,7 +501,7 @@ def test_crossing_sign_mirrors_helical_te():
                     assert np.allclose(r.z1[b, d, np.flatnonzero(on)], sign * g["b1"] / 2, atol=0.02)
         # and the first-order model predicts the same end for pair 0 where a face end carries it
         zp = first_order_te(g, gam if r is rp else -gam, r.phi1, 0)[1]
-        fb = [b for b, n in enumerate(r.branches) if "face" in n]
+        fb = [b for b, n in enumerate(r.branches) if "face" in n and "/" not in n]
         onf = np.isin(r.branch[K0], fb)
         assert onf.any() and np.allclose(zp[onf], sign * g["b1"] / 2)
     # TE(phi; -g) = TE(2 phi_m - phi; +g) + const, per pair 0 where both are valid (first order:
@@ -507,14 +509,17 @@ def test_crossing_sign_mirrors_helical_te():
     # shift of the tip contact point, ~6 % here, see derivation B).
     a, bb = rm.te_pair[K0], rp.te_pair[K0][::-1]
     both = np.isfinite(a) & np.isfinite(bb)
-    face_m = np.isin(rm.branch[K0], [b for b, n in enumerate(rm.branches) if "face" in n])
-    face_p = np.isin(rp.branch[K0][::-1], [b for b, n in enumerate(rp.branches) if "face" in n])
+    face_m = np.isin(rm.branch[K0], [b for b, n in enumerate(rm.branches) if "face" in n and "/" not in n])
+    face_p = np.isin(rp.branch[K0][::-1], [b for b, n in enumerate(rp.branches) if "face" in n and "/" not in n])
     sel = both & face_m & face_p
     assert sel.sum() > 20
     d = a[sel] - bb[sel]
     pp = rp.peak_to_peak
     assert np.ptp(d) < 0.01 * pp, (np.ptp(d) * AS, pp * AS)
-    d_all = a[both] - bb[both] - np.median(d)
+    # (where pair 0 is in the active rectangle to first order: outside it the pair's own TE is set by
+    # corners and crossing edges, to second order, and never carries the load)
+    inside = both & np.isfinite(first_order_te(g, -gam, rm.phi1, 0)[0])
+    d_all = a[inside] - bb[inside] - np.median(d)
     assert np.abs(d_all).max() < 0.1 * pp
     assert abs(rm.peak_to_peak / pp - 1) < 0.1
 

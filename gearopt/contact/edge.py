@@ -7,7 +7,8 @@ The boundaries of the active flank of each member are curves on its surface ``g(
 * ``limit``: the line u = u_f between the active flank and the fillet (a concave transition: it is
   a boundary of the active flank, checked through the form radius, but not a convex edge);
 * ``corner+`` / ``corner-``: the vertices where the tip edge meets a face end (vertex contact:
-  ``r_f1 = r_f2`` with both boundary equations, the mating normal inside the vertex's normal cone).
+  ``r_f1 = r_f2`` with both boundary equations, the mating normal inside the vertex's normal cone);
+* ``pinion_X/gear_Y``: an edge X of the pinion touching an edge Y of the gear (edge on edge).
 
 Edge contact of an edge of member i with the flank of member j (eqs. 9.6.1-9.6.2, written with the
 edge as a level curve of g instead of an explicit parameterization):
@@ -15,9 +16,19 @@ edge as a level curve of g instead of an explicit parameterization):
     r_f1(u1, z1, phi1) = r_f2(u2, z2, phi2),  g_i(u_i, z_i) = 0,  t_edge,i . n_fj = 0,
     t_edge,i = dr_i/du_i dg/dz_i - dr_i/dz_i dg/du_i   (the edge tangent),
 
-five equations in (u1, z1, u2, z2, phi2) for each phi1. Each (surface or edge) branch of a tooth
-pair is solved like the surface TCA (mapped Newton, checks, continuation) and is valid where its
-contact point lies on the finite edge and on the mating active flank. For a given phi1 the gear of
+five equations in (u1, z1, u2, z2, phi2) for each phi1. An edge of the pinion crossing an edge of
+the gear (``pinion_tip/gear_face+`` ...: two boundary curves touching) is
+
+    r_f1(u1, z1, phi1) = r_f2(u2, z2, phi2),  g_1(u1, z1) = 0,  g_2(u2, z2) = 0,
+
+again five equations; the common perpendicular of the two edges, n = t_edge,1 x t_edge,2, is the
+contact normal (the gap between the two curves is measured along it, so the common-perpendicular
+condition holds at the touch), and the touch is genuine when each member's wedge lies on its own
+side of the plane normal to n. Each (surface or edge) branch of a tooth pair is solved with
+mapped Newton and the checks, every position on its own from first guesses of that position only
+(the conjugate contact of the aligned drive in several sections, moved onto the edge), so that
+no contact depends on the other positions of the sweep; a branch is valid where its contact point
+lies on the finite edge and on the mating active flank. For a given phi1 the gear of
 a pair rests against the feature that gives it the largest advance, so the pair's TE is the upper
 envelope of its valid branches; the actual TE is the upper envelope over the pairs (THEORY 8).
 """
@@ -43,6 +54,12 @@ EDGES = {
     # the corners where the tip edge meets a face end (vertex contact between an edge's end and the mate)
     "pinion_corner+": (1, "corner", 1), "pinion_corner-": (1, "corner", -1),
     "gear_corner+": (2, "corner", 1), "gear_corner-": (2, "corner", -1),
+    # an edge of the pinion crossing an edge of the gear (edge-on-edge contact of two boundary curves)
+    "pinion_tip/gear_face+": (0, "cross", ("pinion_tip", "gear_face+")),
+    "pinion_tip/gear_face-": (0, "cross", ("pinion_tip", "gear_face-")),
+    "pinion_face+/gear_tip": (0, "cross", ("pinion_face+", "gear_tip")),
+    "pinion_face-/gear_tip": (0, "cross", ("pinion_face-", "gear_tip")),
+    "pinion_tip/gear_tip": (0, "cross", ("pinion_tip", "gear_tip")),
 }
 SURFACE = "surface"
 
@@ -134,35 +151,65 @@ class EdgeContact:
         ez1 = ca.DM([0.0, 0.0, 1.0])
         self.branches: dict[str, Branch] = {}
         self.residuals: dict[str, ca.Function] = {}
-        for name in self.edges:
-            member, kind, sign = EDGES[name]
+        def boundary(member, kind, sign):
+            """Boundary g = 0 of a member's flank, its edge tangent t (S_f), the flank's outward
+            normal a and the outward normal c of the tip cylinder / face end (all in S_f)."""
             g_m = self.members[member]
             iu, iz = (0, 1) if member == 1 else (2, 3)
             r_own = k["r1"] if member == 1 else k["r2"]
-            g_tip = (r_own[0] ** 2 + r_own[1] ** 2 - g_m.r_a**2) / (2 * g_m.r_a)
-            g_face = q[iz] - sign * g_m.b / 2
-            n_other = k["nf2"] if member == 1 else k["nf1"]
-            a = k["nf1"] if member == 1 else k["nf2"]  # the flank's outward normal
-            c_tip = k["er1"] if member == 1 else k["er2"]  # the tip cylinder's
-            c_face = sign * (ez1 if member == 1 else k["ez2"])  # the face end's
-            if kind == "corner":
+            g = ((r_own[0] ** 2 + r_own[1] ** 2 - g_m.r_a**2) / (2 * g_m.r_a) if kind == "tip"
+                 else q[iz] - sign * g_m.b / 2)
+            gu, gz = ca.jacobian(g, q[iu]), ca.jacobian(g, q[iz])
+            tu, tz = (k["t1u"], k["t1z"]) if member == 1 else (k["t2u"], k["t2z"])
+            a = k["nf1"] if member == 1 else k["nf2"]
+            c = (k["er1"] if member == 1 else k["er2"]) if kind == "tip" else sign * (ez1 if member == 1 else k["ez2"])
+            return g, tu * gz - tz * gu, a, c
+
+        def cone2(a, c, n):
+            """min(alpha, gamma) of n = alpha a + gamma c (least squares in the plane of a and c)."""
+            Mc = ca.horzcat(a, c)
+            coef = ca.solve(ca.mtimes(Mc.T, Mc), ca.mtimes(Mc.T, n))
+            return ca.fmin(coef[0], coef[1])
+
+        for name in self.edges:
+            member, kind, sign = EDGES[name]
+            if kind == "cross":
+                # Edge on edge (two boundary curves touching): r_f1 = r_f2 with both boundary
+                # equations, 5 equations in (u1, z1, u2, z2, r_p2 phi2). The common perpendicular of
+                # the two edges, n = t1 x t2 (orthogonal to both edge tangents), is the contact
+                # normal. A genuine touch from outside: each member's wedge (flank + tip cylinder or
+                # face end) lies on its own side of the plane through the point normal to n, i.e.
+                # n is in the cone of the pinion's outward normals (a1, c1) and -n in the gear's.
+                e1, e2 = (EDGES[e] for e in sign)
+                g1_, t1, a1, c1 = boundary(*e1)
+                g2_, t2, a2, c2 = boundary(*e2)
+                F = ca.vertcat(k["rf1"] - k["rf2"], g1_, g2_)
+                n = ca.cross(t1, t2)
+                n = n / ca.norm_2(n)
+                n = ca.if_else(ca.dot(n, a1 + c1) >= 0, n, -n)
+                cone = ca.fmin(cone2(a1, c1, n), cone2(a2, c2, -n))
+            elif kind == "corner":
+                g_m = self.members[member]
+                r_own = k["r1"] if member == 1 else k["r2"]
+                g_tip = (r_own[0] ** 2 + r_own[1] ** 2 - g_m.r_a**2) / (2 * g_m.r_a)
+                g_face = q[1 if member == 1 else 3] - sign * g_m.b / 2
+                n_other = k["nf2"] if member == 1 else k["nf1"]
+                a = k["nf1"] if member == 1 else k["nf2"]  # the flank's outward normal
+                c_tip = k["er1"] if member == 1 else k["er2"]  # the tip cylinder's
+                c_face = sign * (ez1 if member == 1 else k["ez2"])  # the face end's
                 # Vertex contact: the corner point lies on the mating flank (3 + 2 equations).
                 F = ca.vertcat(k["rf1"] - k["rf2"], g_tip, g_face)
                 Mc = ca.horzcat(a, c_tip, c_face)
                 coef = ca.solve(Mc, -n_other)
                 cone = ca.fmin(coef[0], ca.fmin(coef[1], coef[2]))
             else:
-                g = g_tip if kind == "tip" else g_face
-                gu, gz = ca.jacobian(g, q[iu]), ca.jacobian(g, q[iz])
-                tu, tz = (k["t1u"], k["t1z"]) if member == 1 else (k["t2u"], k["t2z"])
-                t_edge = tu * gz - tz * gu
+                g, t_edge, a, c = boundary(member, kind, sign)
+                n_other = k["nf2"] if member == 1 else k["nf1"]
                 F = ca.vertcat(k["rf1"] - k["rf2"], g, ca.dot(t_edge, n_other) / ca.norm_2(t_edge))
                 # A genuine touch: the edge's wedge (flank with outward normal a, tip cylinder or face
                 # end with outward normal c) lies outside the mating tooth, i.e. the mating outward
                 # normal is n = -(alpha a + gamma c) with alpha, gamma >= 0 (gamma = 0: tangency).
-                Mc = ca.horzcat(a, c_tip if kind == "tip" else c_face)
-                coef = ca.solve(ca.mtimes(Mc.T, Mc), -ca.mtimes(Mc.T, n_other))
-                cone = ca.fmin(coef[0], coef[1])
+                cone = cone2(a, c, -n_other)
             G = ca.Function(f"edge_{_cname(name)}", [q, prm], [F], ["w", "prm"], ["F"])
             checks = ca.Function(f"edge_checks_{_cname(name)}", [q, prm], [cone, reg], ["w", "prm"], ["cone", "reg"])
             self.residuals[name] = G
@@ -182,17 +229,6 @@ class EdgeContact:
             t = self.tca
             self._line = TCA(t.pair, side=t.side, pinion=t.pinion, gear=t.gear, solver=t.solver, contact="line")
         return self._line
-
-    def _line_guess(self, phi1: float, z_section: float, p1, p2) -> np.ndarray:
-        """Full unknowns (u1, z1, u2, z2, r_p2 phi2) of the aligned conjugate drive (crowning
-        removed) in the pinion section ``z_section`` at ``phi1``: a first guess for edge branches."""
-        lt = self._line_tca()
-        flat1 = np.array(p1, float)
-        flat2 = np.array(p2, float)
-        flat1[1:] = [0.0, 0.0, 0.0]
-        flat2[1:] = [0.0, 0.0, 0.0]
-        w = lt.solve_point(phi1, None, flat1, flat2, Misalignment(), z_section)
-        return np.asarray(lt._full(w, z_section)).ravel()
 
     def sweep(self, phi1, p1=None, p2=None, mis: Misalignment | None = None, pairs=(-1, 0, 1)) -> EdgeTCAResult:
         """Surface and edge contact over ``phi1`` [rad] for the tooth pairs ``pairs``.
@@ -220,68 +256,146 @@ class EdgeContact:
         surf = None
         try:
             try:
-                surf = tca.sweep(phi1, p1, p2, mis, pairs=pairs)
+                surf = tca.sweep(phi1, p1, p2, mis, pairs=pairs, continuation=False)
             except ConvergenceError as e:
                 if "line contact" not in str(e):
                     raise
                 stats["surface_mode"] = "line contact (mid section)"
-                surf = self._line_tca().sweep(phi1, p1, p2, mis, pairs=pairs)
+                surf = self._line_tca().sweep(phi1, p1, p2, mis, pairs=pairs, continuation=False)
             Q[0] = np.vstack([surf.u1.ravel(), surf.z1.ravel(), surf.u2.ravel(), surf.z2.ravel(),
                               (surf.phi2 - np.array([2 * math.pi * k / self.members[2].z for k in pairs])[:, None]
                                ).ravel() * tca.scale2])
             conv[0] = surf.converged.ravel()
         except ConvergenceError as e:
             stats["surface"] = f"no surface-to-surface contact: {e}"
-        # Edge branches: anchor near where the reference touches the edge, predict, solve, continue.
+        # Edge branches. Every position is solved on its own, from first guesses that depend on that
+        # position only (never on the other positions of the sweep: no sweep-wide anchor, predictor
+        # or continuation), so a contact does not depend on the grid. The guesses come from the
+        # conjugate contact of the aligned, unmodified drive in several pinion sections at the same
+        # phi1, moved onto the edge; of the accepted roots the one that gives the gear the largest
+        # advance among those on the finite flanks is kept (the gear rests against it).
+        sections = self._sections(uphi, p1, p2)
         for b, name in enumerate(self.edges, start=1):
-            member, kind, sign = EDGES[name]
-            try:
-                i_a, q0 = self._edge_anchor_guess(name, Q[0], conv[0], phis, p1, p2)
-            except ConvergenceError as e:
-                stats[name] = f"no anchor: {e}"
+            W0s = self._guesses(name, sections, p1, p2)
+            if not W0s:
+                stats[name] = "no first guess"
                 continue
             br = self.branches[name]
-            w_a = br.newton(q0, prm[:, i_a])
-            res, _, _, _ = br.check(w_a, prm[:, i_a])
-            if not (np.isfinite(res) and res <= tca.tol):
-                stats[name] = f"no edge solution near the anchor (residual {res:.2g} mm)"
-                continue
-            W0 = br.predict(w_a, prm[:, i_a], uphi - phis[i_a])
-            W, res, cn, reg, ok, st = br.solve(W0, uprm, [np.arange(uphi.size)])
-            W[:, ~ok] = np.nan
-            Q[b], conv[b], cone[b] = W[:, inv_idx], ok[inv_idx], cn[inv_idx]
-            stats[name] = st
-        return self._combine(phi1, pairs, names, Q, conv, cone, prm, mis, surf, stats, t0)
+            G = len(W0s)
+            W0 = np.hstack(W0s)
+            P = np.tile(uprm, (1, G))
+            good0 = np.all(np.isfinite(W0), axis=0)
+            W0 = np.where(good0, W0, 0.0)
+            W, res, cn, reg = (np.asarray(v) for v in br.mapped(W0.shape[1])(W0, P))
+            res, cn, reg = res.ravel(), cn.ravel(), reg.ravel()
+            ok = np.asarray(br.accept(res, cn, reg), bool) & good0
+            W = np.where(ok, W, np.nan)
+            Mu = uphi.size
+            valid = self._inside(W, np.tile(uphi, G), p1, p2, mis) & ok
+            te_g = np.where(ok, W[4] / tca.scale2, -np.inf).reshape(G, Mu)
+            score = np.where(valid.reshape(G, Mu), te_g, -np.inf)
+            # valid roots first; otherwise the largest accepted one (reported as converged, not valid)
+            pick = np.where(np.isfinite(score).any(axis=0), np.argmax(score, axis=0), np.argmax(te_g, axis=0))
+            cols = pick * Mu + np.arange(Mu)
+            Wb, okb, cnb = W[:, cols], ok[cols], cn[cols]
+            Q[b], conv[b], cone[b] = Wb[:, inv_idx], okb[inv_idx], cnb[inv_idx]
+            stats[name] = {"n_starts": int(W0.shape[1]), "n_accepted": int(ok.sum()), "n_positions": int(okb.sum())}
+        return self._combine(phi1, pairs, names, Q, conv, cone, prm, mis, surf, stats, t0, p1, p2)
 
-    def _edge_anchor_guess(self, name, Qs, conv_s, phis, p1, p2):
-        """Index of the anchor column and a first guess on the edge."""
+    # ------------------------------------------------------------------------------------------
+    _SECTIONS = (-0.5, -0.25, 0.0, 0.25, 0.5)  #: pinion sections of the first guesses [b1]
+
+    def _sections(self, uphi, p1, p2) -> dict:
+        """Conjugate contact of the aligned drive with the crowning removed in the pinion sections
+        z = s b1 (s in _SECTIONS) at each angle of ``uphi``: {s: (5, M) full unknowns, NaN where
+        none}. Each column is solved by itself (Newton from the linear prediction around phi1 = 0,
+        which depends on that angle only)."""
+        lt = self._line_tca()
+        flat1, flat2 = np.array(p1, float), np.array(p2, float)
+        flat1[1:], flat2[1:] = 0.0, 0.0
+        b1 = self.members[1].b
+        out = {}
+        for s in self._SECTIONS:
+            zs = s * b1
+            try:
+                w_a = lt.solve_point(0.0, None, flat1, flat2, Misalignment(), zs)
+            except ConvergenceError:
+                continue
+            prm_l = lt.prm(uphi, flat1, flat2, Misalignment(), zs)
+            W0 = lt.branch.predict(w_a, lt.prm([0.0], flat1, flat2, Misalignment(), zs)[:, 0], uphi)
+            W, res, _, _ = (np.asarray(v) for v in lt.branch.mapped(uphi.size)(W0, prm_l))
+            res = res.ravel()
+            Wf = np.asarray(lt._full.map(uphi.size)(W, np.full((1, uphi.size), zs)))
+            Wf[:, ~(np.isfinite(res) & (res <= 1e-8))] = np.nan
+            out[s] = Wf
+        return out
+
+    def _u_at(self, member, radius, z, p):
+        """Vectorised flank parameter u at transverse ``radius`` and axial ``z`` (Newton; NaN where
+        it fails)."""
+        tooth = self.teeth[member]
+        z = np.asarray(z, float)
+        n = z.size
+        f = tooth.radius_function(self.tca.side).map(n)
+        u = np.full(n, float(tooth.extras.get("q_pitch", 0.0)))
+        P = np.tile(np.asarray(p, float)[:, None], n)
+        zz = np.where(np.isfinite(z), z, 0.0)
+        for _ in range(40):
+            rad, d = (np.asarray(v).ravel() for v in f(u, zz, P))
+            with np.errstate(invalid="ignore", divide="ignore"):
+                step = np.where(d < 0, (rad - radius) / d, np.nan)
+            u = u - step
+            if np.all(~np.isfinite(step) | (np.abs(step) < 1e-12)):
+                break
+        return np.where(np.isfinite(z) & np.isfinite(u), u, np.nan)
+
+    def _guesses(self, name, sections, p1, p2) -> list:
+        """First guesses (5, M) for branch ``name`` from the conjugate section solutions."""
         member, kind, sign = EDGES[name]
-        g_m = self.members[member]
-        if conv_s.any():
-            # Surface solutions closest to this edge, projected onto it.
-            iu, iz = (0, 1) if member == 1 else (2, 3)
-            d_face = np.abs(Qs[iz] - sign * g_m.b / 2)
-            d_tip = np.abs(self._radius(member, Qs) - g_m.r_a)
-            dist = {"face": d_face, "tip": d_tip, "corner": np.hypot(d_face, d_tip)}[kind]
-            dist = np.where(conv_s, dist, np.inf)
-            i_a = int(np.argmin(dist))
-            q0 = Qs[:, i_a].copy()
-            if kind in ("face", "corner"):
-                shift = sign * g_m.b / 2 - q0[iz]
-                q0[1] += shift
-                q0[3] += shift
-            if kind in ("tip", "corner"):
-                q0[iu] = self.teeth[member].u_at_radius(g_m.r_a, q0[iz], self.tca.side,
-                                                        p1 if member == 1 else p2)
-            return i_a, q0
-        # No surface contact: the conjugate line contact of the aligned drive as the reference.
-        i_a = int(np.argmin(np.abs(phis)))
-        z_sec = sign * g_m.b / 2 if kind in ("face", "corner") else 0.0
-        q0 = self._line_guess(phis[i_a], z_sec, p1, p2)
-        if kind in ("tip", "corner"):
-            iu = 0 if member == 1 else 2
-            q0[iu] = self.teeth[member].u_at_radius(g_m.r_a, z_sec, self.tca.side, p1 if member == 1 else p2)
-        return i_a, q0
+        secs = [sections[s] for s in self._SECTIONS if s in sections]
+        if not secs:
+            return []
+        prm_of = {1: p1, 2: p2}
+
+        def on_face(Qs, m, sg):  # slide the conjugate point along the face width onto the face end m
+            q0 = Qs.copy()
+            shift = sg * self.members[m].b / 2 - q0[1 if m == 1 else 3]
+            q0[1] += shift
+            q0[3] += shift
+            return q0
+
+        def on_tip(Qs, m):
+            q0 = Qs.copy()
+            iu, iz = (0, 1) if m == 1 else (2, 3)
+            q0[iu] = self._u_at(m, self.members[m].r_a, q0[iz], prm_of[m])
+            return q0
+
+        def tip_crossing(m):
+            """The conjugate contact line interpolated to where it crosses member m's tip circle."""
+            rads = np.stack([self._radius(m, S, prm_of[m]) for S in secs]) - self.members[m].r_a
+            M = rads.shape[1]
+            out = np.full((5, M), np.nan)
+            for j in range(len(secs) - 1):
+                f0, f1 = rads[j], rads[j + 1]
+                br = np.isfinite(f0) & np.isfinite(f1) & (np.sign(f0) != np.sign(f1)) & ~np.isfinite(out[0])
+                with np.errstate(invalid="ignore", divide="ignore"):
+                    t = np.where(br, f0 / (f0 - f1), np.nan)
+                out = np.where(br, secs[j] + t * (secs[j + 1] - secs[j]), out)
+            return on_tip(out, m)
+
+        if kind == "face":
+            return [on_face(secs[0 if sign < 0 else -1], member, sign)]
+        if kind == "corner":
+            return [on_tip(on_face(secs[0 if sign < 0 else -1], member, sign), member)]
+        if kind == "tip":
+            return [tip_crossing(member)] + [on_tip(S, member) for S in secs]
+        # edge on edge
+        (m1, k1, s1), (m2, k2, s2) = (EDGES[e] for e in sign)
+        if k1 == "tip" and k2 == "tip":
+            return [on_tip(tip_crossing(1), 2), on_tip(tip_crossing(2), 1)]
+        face_m, face_s, tip_m = (m2, s2, m1) if k2 == "face" else (m1, s1, m2)
+        return [on_tip(on_face(secs[0 if face_s < 0 else -1], face_m, face_s), tip_m),
+                on_face(tip_crossing(tip_m), face_m, face_s)]
 
     def _radius(self, member, Q, prm=None):
         """Transverse radius of the contact point on ``member`` for the columns of Q (NaN-safe)."""
@@ -298,26 +412,42 @@ class EdgeContact:
         return out
 
     # ------------------------------------------------------------------------------------------
-    def _combine(self, phi1, pairs, names, Q, conv, cone, prm, mis, surf, stats, t0):
+    def _inside(self, W, phis, p1, p2, mis):
+        """Columns of W (full unknowns at the pair-0 angles ``phis``) whose point lies on both finite
+        active flanks and is reachable: the gear at most the coast-side clearance ahead of the
+        conjugate position (or the coast flanks would interpenetrate) and less than half a gear
+        pitch behind it (that would be another tooth)."""
+        g1, g2 = self.members[1], self.members[2]
+        eps = 1e-9
+        rad1, rad2 = self._radius(1, W, p1), self._radius(2, W, p2)
+        with np.errstate(invalid="ignore"):
+            in1 = (np.abs(W[1]) <= g1.b / 2 + eps) & (rad1 >= self.r_form[1] - eps) & (rad1 <= g1.r_a + eps)
+            in2 = (np.abs(W[3]) <= g2.b / 2 + eps) & (rad2 >= self.r_form[2] - eps) & (rad2 <= g2.r_a + eps)
+            te_raw = W[4] / self.tca.scale2 - (g1.z / g2.z) * np.asarray(phis)
+            reach = (te_raw < self._coast_clearance(p1, mis)) & (-te_raw < math.pi / g2.z)
+        return in1 & in2 & reach
+
+    def _combine(self, phi1, pairs, names, Q, conv, cone, prm, mis, surf, stats, t0, p1, p2):
         tca = self.tca
         g1, g2 = self.members[1], self.members[2]
         K, N = len(pairs), phi1.size
         B = len(names)
-        p1, p2 = prm[1:5, 0], prm[5:9, 0]
-        eps = 1e-9
         rad1 = np.stack([self._radius(1, Q[b], p1) for b in range(B)])
         rad2 = np.stack([self._radius(2, Q[b], p2) for b in range(B)])
         z1, z2 = Q[:, 1, :], Q[:, 3, :]
-        inside1 = (np.abs(z1) <= g1.b / 2 + eps) & (rad1 >= self.r_form[1] - eps) & (rad1 <= g1.r_a + eps)
-        inside2 = (np.abs(z2) <= g2.b / 2 + eps) & (rad2 >= self.r_form[2] - eps) & (rad2 <= g2.r_a + eps)
-        valid = conv & inside1 & inside2
+        phis = prm[0]
+        valid = conv & np.stack([self._inside(Q[b], phis, p1, p2, mis) for b in range(B)])
         shift2 = np.concatenate([np.full(N, 2 * math.pi * k / g2.z) for k in pairs])
         phi2 = Q[:, 4, :] / tca.scale2 + shift2[None, :]
+        # Raw TE: the gear angle ahead of the conjugate position of the aligned, unmodified drive
+        # (phi1 = phi2 = 0 puts both driving flanks through the pitch point I).
         te_raw = phi2 - (g1.z / g2.z) * np.tile(phi1, K)[None, :]
-        # One zero for every branch: the surface TE reference of the TCA (phi2 at phi1 = 0 of pair 0)
-        # or, without surface contact, the mean of the actual TE.
         te_raw = te_raw.reshape(B, K, N)
         valid = valid.reshape(B, K, N)
+        # One zero for every branch and every sweep of the drive: the surface TCA's (phi2 of pair 0
+        # at phi1 = 0) when there is surface contact, so that the surface branch equals surf.te;
+        # otherwise the conjugate position itself (raw TE). Neither depends on the sweep's grid.
+        ref = self._surface_zero(surf, te_raw[0], 0) if surf is not None and np.isfinite(surf.te).any() else 0.0
         # An edge point where the flanks are tangent (gamma = 0: the mating normal is the flank's)
         # is surface contact reaching the boundary, e.g. a contact line running through a face end:
         # it counts as surface contact where the surface branch has no valid point of its own.
@@ -331,14 +461,6 @@ class EdgeContact:
                 for arr in (z1r, z2r, r1r, r2r):
                     arr[0] = np.where(take, arr[b], arr[0])
                 valid[0] |= take
-        if surf is not None and np.isfinite(surf.te).any():
-            ref = self._surface_zero(surf, te_raw[0], k0 := (pairs.index(0) if 0 in pairs else 0))
-        else:
-            ref = float(np.nanmedian(np.where(valid, te_raw, np.nan))) if valid.any() else 0.0
-        # Reachability: the gear cannot be ahead of the conjugate position by more than the coast-side
-        # clearance (backlash, crowning, misalignment), or the coast flanks would interpenetrate;
-        # and a contact more than half a gear pitch behind belongs to another tooth.
-        valid &= (te_raw - ref < self._coast_clearance(p1, mis)) & (ref - te_raw < math.pi / g2.z)
         te_valid = np.where(valid, te_raw, -np.inf)
         # Ties (line contact along a face end) go to the surface branch.
         te_valid[0] = np.where(valid[0] & (te_valid[0] >= te_valid.max(axis=0) - 1e-12), np.inf, te_valid[0])
@@ -363,12 +485,13 @@ class EdgeContact:
             driving=driving, active=active, z1=z1.reshape(B, K, N), radius1=rad1.reshape(B, K, N),
             z2=z2.reshape(B, K, N), radius2=rad2.reshape(B, K, N), converged=conv.reshape(B, K, N), valid=valid,
             intervals=intervals, transfers=transfers, misalignment=mis, surface=surf,
-            solve_time=time.perf_counter() - t0, stats={"build_s": self.build_time, **stats})
+            solve_time=time.perf_counter() - t0, stats={"build_s": self.build_time, "te_zero_rad": ref, **stats})
 
     def _coast_clearance(self, p1, mis: Misalignment) -> float:
-        """Upper bound of the gear's advance over the conjugate position [rad]: circumferential
-        backlash plus the pinion thinning by crowning plus what the misalignment can open, on the
-        operating pitch circle of the gear (a generous bound of the coast-side clearance)."""
+        """Upper bound of the gear's advance over the conjugate position of the aligned drive [rad]:
+        circumferential backlash plus the pinion thinning by crowning plus what the misalignment can
+        open, on the operating pitch circle of the gear (a generous bound of the coast-side
+        clearance), plus the rigid displacement of the gear by the misalignment."""
         pair, tca = self.tca.pair, self.tca
         g1 = pair.pinion
         a_w = pair.a_w
@@ -379,7 +502,16 @@ class EdgeContact:
         thin = 2 * (p1[3] * (g1.b / 2) ** 2 * math.tan(pair.alpha_wt) + p1[1] * u_span**2)
         opened = 2 * abs(mis.dE) * math.tan(pair.alpha_wt) + max(g1.b, pair.gear.b) * (
             abs(mis.crossing) + abs(mis.intersecting))
-        return (max(pair.backlash, 0.0) + thin + opened) / r_w2 + 1e-9
+        # The misalignment also moves the gear rigidly against the conjugate position: a point P of
+        # its flank moves by at most |dE| + |axial| + (|crossing| + |intersecting|) |P - O2| (the
+        # angles turn the gear about its centre: for a helical gear that is an axial shift of the
+        # mesh, i.e. a rotation), which the gear's rotation takes up along the normal, on the
+        # lever r_b2 cos(beta_b) at least.
+        g2 = pair.gear
+        lever = math.hypot(g2.r_a, g2.b / 2)
+        moved = (abs(mis.dE) + abs(mis.axial) + (abs(mis.crossing) + abs(mis.intersecting)) * lever) / (
+            g2.r_b * math.cos(g2.beta_b))
+        return (max(pair.backlash, 0.0) + thin + opened) / r_w2 + moved + 1e-9
 
     @staticmethod
     def _surface_zero(surf: TCAResult, te_raw_surface, k0) -> float:
@@ -391,7 +523,7 @@ class EdgeContact:
 
 
 def _cname(name: str) -> str:
-    return name.replace("+", "_pos").replace("-", "_neg")
+    return name.replace("+", "_pos").replace("-", "_neg").replace("/", "_x_")
 
 
 def _intervals(phi1, branch_row, names) -> list[dict]:

@@ -521,7 +521,8 @@ class TCA:
         return w
 
     def sweep(self, phi1, p1=None, p2=None, mis: Misalignment | None = None, pairs=(-1, 0, 1),
-              delta: float = DELTA_DEFAULT, anchor: float = 0.0, z_section: float = 0.0) -> TCAResult:
+              delta: float = DELTA_DEFAULT, anchor: float = 0.0, z_section: float = 0.0,
+              continuation: bool = True) -> TCAResult:
         """TCA over the pinion angles ``phi1`` [rad] for the tooth pairs ``pairs``.
 
         Pair k is pinion tooth k (positions ``phi1 - 2 pi k / z1`` of pair 0), its gear angle shifted
@@ -543,6 +544,10 @@ class TCA:
             Elastic approach for the contact ellipse [mm].
         anchor : float
             Pinion angle of the first (line-search Newton) solve [rad].
+        continuation : bool
+            Re-solve failed positions from solved neighbours. ``False``: every position is solved
+            from its own prediction only, so that its result does not depend on the other positions
+            of the sweep (what EdgeContact uses).
         z_section : float
             Line contact only: the pinion's axial section [mm].
 
@@ -570,7 +575,8 @@ class TCA:
         w_a = self.solve_point(anchor, None, p1, p2, mis, z_section)
         prm_a = self.prm([anchor], p1, p2, mis, z_section)[:, 0]
         W0 = self.branch.predict(w_a, prm_a, phis - anchor)
-        W, res, n1n2, reg, ok, st = self.branch.solve(W0, prm, [np.arange(k * N, (k + 1) * N) for k in range(K)])
+        groups = [np.arange(k * N, (k + 1) * N) for k in range(K)] if continuation else []
+        W, res, n1n2, reg, ok, st = self.branch.solve(W0, prm, groups)
         n_fast, n_retry = st["n_fast"], st["n_retry"]
         out = self._contact_mapped(phis.size)(np.where(ok, W, W0), prm)
         rf1, nf1, rf2, nf2, _, r1, r2, K1, K2, E2, E1, _ = (np.asarray(v) for v in out)
