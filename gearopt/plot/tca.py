@@ -26,10 +26,24 @@ BRANCH_NAMES = {
     "gear_face+": "gear face end z = +b/2", "gear_face-": "gear face end z = -b/2",
     "pinion_corner+": "pinion tip corner z = +b/2", "pinion_corner-": "pinion tip corner z = -b/2",
     "gear_corner+": "gear tip corner z = +b/2", "gear_corner-": "gear tip corner z = -b/2",
+    # edge on edge (gearopt.contact.edge): two boundary curves touching
+    "pinion_tip/gear_face+": "pinion tip edge x gear face end z = +b/2",
+    "pinion_tip/gear_face-": "pinion tip edge x gear face end z = -b/2",
+    "pinion_face+/gear_tip": "pinion face end z = +b/2 x gear tip edge",
+    "pinion_face-/gear_tip": "pinion face end z = -b/2 x gear tip edge",
+    "pinion_tip/gear_tip": "pinion tip edge x gear tip edge",
 }
 _BRANCH_COLOR = {"surface": "C3", "pinion_tip": "C0", "gear_tip": "C2", "pinion_face+": "C4", "pinion_face-": "C5",
                  "gear_face+": "C6", "gear_face-": "C8", "pinion_corner+": "C1", "pinion_corner-": "gold",
-                 "gear_corner+": "C9", "gear_corner-": "navy"}
+                 "gear_corner+": "C9", "gear_corner-": "navy", "pinion_tip/gear_face+": "m",
+                 "pinion_tip/gear_face-": "darkmagenta", "pinion_face+/gear_tip": "C7", "pinion_face-/gear_tip": "olive",
+                 "pinion_tip/gear_tip": "k"}
+
+
+def _point_like(name: str) -> bool:
+    """Features that touch at a point of both flanks (edge on edge, tip corners): they often carry
+    the load at single positions only, so they are drawn with markers."""
+    return "/" in name or "corner" in name
 _LINESTYLES = ("-", "--", ":", "-.")
 _BELOW = dict(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.22), ncol=3, frameon=False)  # legend under the axes
 
@@ -280,6 +294,7 @@ def plot_edge_te(case: dict, ax=None):
     for name in dict.fromkeys(a for a in act if a):
         m = np.array([a == name for a in act])
         ax.plot(phi, np.where(m, env, np.nan), color=_BRANCH_COLOR.get(name, "k"), lw=2.4,
+                marker="o" if _point_like(name) else None, ms=4,
                 label=branch_label(name) if name == "surface" else f"edge contact: {branch_label(name)}")
     _transfer_lines(ax, np.degrees([t["phi1"] for t in case.get("transfers", [])]))
     ax.set_title(f"{case_title(case)}: p-p {case['peak_to_peak_arcsec']:.3g} arcsec; "
@@ -327,7 +342,7 @@ def plot_edge_paths(case: dict, member: str = "gear", ax=None):
             ax.plot(*_break_jumps(z, r, lim), color=col, lw=0.8, ls="--",
                     label=None if loaded else f"{branch_label(name)} (not driving)")
         ax.plot(*_break_jumps(np.where(load, z, np.nan), np.where(load, r, np.nan), lim), color=col, lw=2.6,
-                label=branch_label(name))
+                marker="o" if _point_like(name) else None, ms=4, label=branch_label(name))
     if dashed_any:
         (proxy,) = ax.plot([], [], color="0.3", lw=0.8, ls="--",
                            label="dashed: contact while another pair drives")
