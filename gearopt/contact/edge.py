@@ -305,8 +305,9 @@ class EdgeContact:
         rad1 = np.stack([self._radius(1, Q[b], p1) for b in range(B)])
         rad2 = np.stack([self._radius(2, Q[b], p2) for b in range(B)])
         z1, z2 = Q[:, 1, :], Q[:, 3, :]
-        inside1 = (np.abs(z1) <= g1.b / 2 + eps) & (rad1 >= self.r_form[1] - eps) & (rad1 <= g1.r_a + eps)
-        inside2 = (np.abs(z2) <= g2.b / 2 + eps) & (rad2 >= self.r_form[2] - eps) & (rad2 <= g2.r_a + eps)
+        # Form limit: the true end of each generated flank in the point's section (TCA.on_active_flank).
+        inside1 = (np.abs(z1) <= g1.b / 2 + eps) & tca.on_active_flank(1, Q[:, 0, :], z1, p1) & (rad1 <= g1.r_a + eps)
+        inside2 = (np.abs(z2) <= g2.b / 2 + eps) & tca.on_active_flank(2, Q[:, 2, :], z2, p2) & (rad2 <= g2.r_a + eps)
         valid = conv & inside1 & inside2
         shift2 = np.concatenate([np.full(N, 2 * math.pi * k / g2.z) for k in pairs])
         phi2 = Q[:, 4, :] / tca.scale2 + shift2[None, :]

@@ -224,6 +224,7 @@ class TCA:
         self.pair, self.side, self.solver, self.tol = pair, side, solver, tol
         self.pinion = pinion or generate_by_rack(pair.pinion)
         self.gear = gear or generate_by_rack(pair.gear)
+        self._limits: dict = {}
         self._build()
         self.build_time = time.perf_counter() - t0
 
@@ -468,14 +469,18 @@ class TCA:
         w_0 = w_a if anchor == 0.0 else self.solve_point(0.0, w_a, p1, p2, mis, z_section)
         phi2_ref = float(np.asarray(self._full(w_0, z_section)).ravel()[4]) / self.scale2
         solve_time = time.perf_counter() - t0
+        stats = {"n_positions": int(phis.size), "n_fast": n_fast, "n_retry": n_retry,
+                 "n_failed": int((~ok).sum()), "build_s": self.build_time, "solver": self.solver,
+                 "contact": self.contact_type}
+        folded = self.folding(p1, p2)
+        if folded:
+            stats["folded_flanks"] = folded
         return self._result(phi1, pairs, Wf, ok, res, n1n2, r1, r2, rf1, K1, K2, E2, E1, delta, mis, solve_time,
-                            {"n_positions": int(phis.size), "n_fast": n_fast, "n_retry": n_retry,
-                             "n_failed": int((~ok).sum()), "build_s": self.build_time, "solver": self.solver,
-                             "contact": self.contact_type}, phi2_ref)
+                            stats, phi2_ref, p1, p2)
 
     # ------------------------------------------------------------------------------------------
     def _result(self, phi1, pairs, W, ok, res, n1n2, r1, r2, rf1, K1, K2, E2, E1, delta, mis, solve_time, stats,
-                phi2_ref):
+                phi2_ref, p1=None, p2=None):
         g1, g2 = self.pair.pinion, self.pair.gear
         K, N = len(pairs), phi1.size
         shp = lambda a: a.reshape(K, N)  # noqa: E731
@@ -486,12 +491,12 @@ class TCA:
         radius1 = shp(np.hypot(r1[0], r1[1]))
         radius2 = shp(np.hypot(r2[0], r2[1]))
         z1, z2 = shp(W[1]), shp(W[3])
-        r_form1 = self._form_radius(self.pinion)
-        r_form2 = self._form_radius(self.gear)
         eps = 1e-9
+        # Above the true end of each generated flank (junction, fold or crossing; per section z).
+        lim1 = self.on_active_flank(1, shp(W[0]), z1, p1)
+        lim2 = self.on_active_flank(2, shp(W[2]), z2, p2)
         on = (ok.reshape(K, N) & (np.abs(z1) <= g1.b / 2 + eps) & (np.abs(z2) <= g2.b / 2 + eps)
-              & (radius1 >= r_form1 - eps) & (radius1 <= g1.r_a + eps)
-              & (radius2 >= r_form2 - eps) & (radius2 <= g2.r_a + eps))
+              & lim1 & (radius1 <= g1.r_a + eps) & lim2 & (radius2 <= g2.r_a + eps))
         te_on = np.where(on, te, -np.inf)
         drv = np.argmax(te_on, axis=0)
         env = te_on[drv, np.arange(N)]
@@ -537,10 +542,67 @@ class TCA:
         f = ca.Function("o", [u, z], [ca.dot(ca.cross(ca.jacobian(r, u), ca.jacobian(r, z)), n)])
         return float(np.sign(float(f(tooth.u_at_radius(r_w, 0.0, self.side), 0.0))))
 
-    def _form_radius(self, tooth: GeneratedTooth) -> float:
-        u_f, _ = tooth.junction()
-        r = tooth.point(self.side, "flank", u_f, 0.0)[0]
-        return float(math.hypot(r[0], r[1]))
+    def _form_radius(self, tooth: GeneratedTooth, p=None) -> float:
+        """Form radius [mm] of a member's driving flank in the mid section z = 0: where the real
+        generated flank ends (:meth:`GeneratedTooth.flank_limit`: the tool's flank/fillet junction,
+        or below a fold of the flank its crossing with the reversed branch or the fillet)."""
+        return self.flank_limit(1 if tooth is self.pinion else 2, 0.0, p).radius
+
+    def flank_limit(self, member: int, z: float = 0.0, p=None):
+        """:class:`~gearopt.geometry.generation.FlankLimit` of member 1 (pinion) or 2 (gear) on the
+        driving side in section ``z`` [mm] for the parameter vector ``p`` (default: as built)."""
+        tooth = self.pinion if member == 1 else self.gear
+        p = tooth.p0 if p is None else np.asarray(p, float).ravel()
+        key = ("limit", member, float(z), tuple(p.tolist()))
+        if key not in self._limits:
+            self._limits[key] = tooth.flank_limit(self.side, float(z), p)
+        return self._limits[key]
+
+    def _limit_table(self, member: int, p):
+        """(z^2 grid, u_limit on it): the flank limit depends on z only through the plunging a_pl z^2
+        (a shift of the tool in that section), so it is tabulated in z^2 across the face."""
+        tooth = self.pinion if member == 1 else self.gear
+        p = tooth.p0 if p is None else np.asarray(p, float).ravel()
+        key = ("table", member, tuple(p.tolist()))
+        if key not in self._limits:
+            b = (self.pair.pinion if member == 1 else self.pair.gear).b
+            s = np.array([0.0]) if p[3] == 0 else (b / 2) ** 2 * np.linspace(0.0, 1.0, 9)
+            self._limits[key] = (s, np.array([self.flank_limit(member, math.sqrt(v), p).u for v in s]))
+        return self._limits[key]
+
+    def on_active_flank(self, member: int, u, z, p=None, band: float = 1e-3) -> np.ndarray:
+        """True where the flank point (u, z) [mm] of member 1 or 2 lies on the real generated flank
+        (``u`` not past the flank limit of its section; the tip and face are checked elsewhere).
+        The limit is interpolated in z^2 and recomputed exactly for points within ``band`` [mm] of it.
+        NaN points are False."""
+        u, z = np.asarray(u, float), np.asarray(z, float)
+        s_grid, u_grid = self._limit_table(member, p)
+        b = (self.pair.pinion if member == 1 else self.pair.gear).b
+        fin = np.isfinite(u) & np.isfinite(z)
+        s = np.clip(np.where(fin, z, 0.0) ** 2, 0.0, (b / 2) ** 2)
+        u_lim = np.interp(s, s_grid, u_grid) if s_grid.size > 1 else np.full(u.shape, u_grid[0])
+        near = fin & (np.abs(np.where(fin, u, 0.0) - u_lim) < band) & (s_grid.size > 1)
+        for idx in zip(*np.nonzero(near)):
+            u_lim[idx] = self.flank_limit(member, math.sqrt(s[idx]), p).u
+        with np.errstate(invalid="ignore"):
+            return fin & (u <= u_lim + 1e-9)
+
+    def folding(self, p1=None, p2=None) -> dict:
+        """Members whose driving flank folds before the tool's junction (mid section), with the
+        flank limit and the largest a_c that does not fold: ``{"pinion": {...}}``; empty if none."""
+        out = {}
+        for member, name, tooth, p in ((1, "pinion", self.pinion, p1), (2, "gear", self.gear, p2)):
+            lim = self.flank_limit(member, 0.0, p)
+            if lim.folded:
+                key = ("a_c_max", member, tuple((tooth.p0 if p is None else np.asarray(p, float)).tolist()))
+                if key not in self._limits:
+                    self._limits[key] = tooth.max_unfolded_a_c(self.side, 0.0, p)
+                out[name] = {"kind": lim.kind, "r_form": lim.radius, "u_limit": lim.u, "r_fold": lim.radius_fold,
+                             "r_junction": float(np.hypot(*tooth.point(self.side, "flank", lim.u_junction, 0.0,
+                                                                       p)[0][:2])),
+                             "a_c": float((tooth.p0 if p is None else np.asarray(p, float))[1]),
+                             "a_c_max_unfolded": self._limits[key]}
+        return out
 
 
 def _unit_perp(n):

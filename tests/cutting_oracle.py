@@ -1,0 +1,209 @@
+"""Independent oracle for the real tooth shape and rigid contact of spur/helical drives (tests only).
+
+Shares none of the engine's equations (no envelope / meshing equation, no tangency conditions):
+
+* ``cut_boundary``: the transverse tooth section as what the rack-cutter leaves standing. The tool
+  outline (straight or parabolic flank, tip fillet, tip land) is a dense polyline; for every radius
+  r the right flank of the tooth is the smallest polar angle (clockwise from the tooth axis +y) at
+  which any tool position, rolled on the pitch circle, crosses the circle r (material removal,
+  minimised over the generating motion by a coarse scan and golden-section refinement).
+* ``rigid_te``: for each pinion angle the gear angle at which the two finite tooth sections first
+  touch without interpenetrating (bisection on a point-in-tooth penetration test of both boundary
+  polylines against the other tooth), tooth pair by tooth pair; the actual TE is the largest.
+
+The frames follow the TCA module docstring only in what defines the problem (gear centres, sense
+of rotation, the pitch-point datum phi1 = phi2 = 0); TE is compared up to its constant.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy.optimize import brentq
+
+
+def tool_outline(m, alpha, h_fP, rho_fP, a_c=0.0, u_0=0.0, h_top=1.6, n=1500, beta=0.0):
+    """Transverse outline of the rack-cutter tooth that cuts the right flank [mm]: (xi, eta) from
+    ``h_top`` modules above the datum line down the flank, round the tip fillet and to the middle of
+    the tip land. xi along the datum line (tooth centre at 0), eta towards the gear outside."""
+    tb = (math.sin(alpha), -math.cos(alpha))
+    nb = (-math.cos(alpha), -math.sin(alpha))
+
+    def flank(u):
+        d = a_c * (u - u_0) ** 2
+        return np.array([math.pi * m / 4 + u * tb[0] + d * nb[0], u * tb[1] + d * nb[1]])
+
+    def normal(u):  # unit normal pointing into the tool (away from the gear tooth)
+        t = np.array([tb[0] + 2 * a_c * (u - u_0) * nb[0], tb[1] + 2 * a_c * (u - u_0) * nb[1]])
+        t /= np.linalg.norm(t)
+        return np.array([-t[1], t[0]])
+
+    rho, h_f = rho_fP * m, h_fP * m
+    # fillet circle: centre at distance rho from the flank (into the tool) and rho above the tip line
+    uf = brentq(lambda u: (flank(u) + rho * normal(u))[1] - (-h_f + rho), -5 * m, 5 * m)
+    C = flank(uf) + rho * normal(uf)
+    u_top = -h_top * m / math.cos(alpha)
+    us = np.linspace(u_top, uf, n)
+    fl = np.array([flank(u) for u in us])
+    a0 = math.atan2(*(flank(uf) - C)[::-1])
+    a1 = -math.pi / 2
+    if a0 > a1 + math.pi:
+        a0 -= 2 * math.pi
+    fi = C + rho * np.c_[np.cos(np.linspace(a0, a1, n // 3)), np.sin(np.linspace(a0, a1, n // 3))]
+    land = np.c_[np.linspace(C[0], math.pi * m / 2, 20), np.full(20, -h_f)]
+    P = np.vstack([fl, fi[1:], land[1:]])
+    P[:, 0] /= math.cos(beta)  # the transverse section of the helical rack
+    return P
+
+
+def _crossing_angles(gx, gy, radii):
+    """Smallest polar angle atan2(x, y) at which the polyline (gx, gy) crosses each circle of
+    ``radii`` (+inf where it does not), piece by piece where the radius along it is monotone, and
+    the (fractional) polyline index of that crossing."""
+    R = np.hypot(gx, gy)
+    out = np.full(radii.shape, np.inf)
+    where = np.full(radii.shape, np.nan)
+    d = np.sign(np.diff(R))
+    cuts = np.flatnonzero(d[1:] != d[:-1]) + 1
+    idx = np.arange(R.size, dtype=float)
+    for a, b in zip(np.r_[0, cuts], np.r_[cuts, R.size - 1]):
+        Rp, ip = R[a:b + 1], idx[a:b + 1]
+        if Rp.size < 2 or Rp[0] == Rp[-1]:
+            continue
+        if Rp[0] > Rp[-1]:
+            Rp, ip = Rp[::-1], ip[::-1]
+        m = (radii >= Rp[0]) & (radii <= Rp[-1])
+        if not m.any():
+            continue
+        t = np.interp(radii[m], Rp, ip)
+        x = np.interp(t, idx, gx)
+        y = np.interp(t, idx, gy)
+        ang = np.arctan2(x, y)
+        better = ang < out[m]
+        out[m] = np.where(better, ang, out[m])
+        where[m] = np.where(better, t, where[m])
+    return out, where
+
+
+def cut_boundary(z, m, alpha, h_fP, rho_fP, x=0.0, a_c=0.0, u_0=0.0, beta=0.0, depth=0.0, radii=None, n_psi=2001,
+                 with_cutter=False):
+    """Right-flank angle phi_R(r) [rad] of the tooth left standing by the rack-cutter, at the radii
+    ``radii`` [mm] (default 600 from just above the root to beyond the tip). ``depth`` [mm]: extra
+    feed of the tool towards the centre (plunging in this section). Minimum over the generating
+    motion: a scan of ``n_psi`` tool positions, then rounds of parabolic refinement per radius.
+    ``with_cutter``: also return the index of the tool-outline point that cut each radius (the
+    outline of :func:`tool_outline`: flank points first, then the fillet)."""
+    r_p = m * z / (2 * math.cos(beta))
+    P = tool_outline(m, alpha, h_fP, rho_fP, a_c, u_0, beta=beta)
+    X, Y = P[:, 0], P[:, 1] + r_p + x * m - depth
+    if radii is None:
+        radii = np.linspace(r_p + (x - h_fP) * m - depth + 1e-3, r_p + (x + 1.5) * m, 600)
+    radii = np.asarray(radii, float)
+
+    def at(psi, r):
+        c, s = math.cos(psi), math.sin(psi)
+        xs = X - r_p * psi
+        return _crossing_angles(c * xs + s * Y, -s * xs + c * Y, np.atleast_1d(r))
+
+    span = 1.2 * (h_fP + 1.5) * m / r_p + 0.3
+    coarse = np.linspace(-span, span, n_psi)
+    AT = [at(p, radii) for p in coarse]
+    A = np.stack([a for a, _ in AT], axis=1)
+    T = np.stack([t for _, t in AT], axis=1)
+    k = np.clip(np.argmin(A, axis=1), 1, n_psi - 2)
+    best = A[np.arange(radii.size), k]
+    cutter = T[np.arange(radii.size), k]
+    h = coarse[1] - coarse[0]
+    for i, r in enumerate(radii):
+        c0, step = coarse[k[i]], h
+        for _ in range(3):
+            f = [at(c0 + j * step, r)[0][0] for j in (-1, 0, 1)]
+            if not np.all(np.isfinite(f)):
+                break
+            den = f[0] - 2 * f[1] + f[2]
+            c0 = c0 + (0.5 * step * (f[0] - f[2]) / den if den > 0 else 0.0)
+            v, tv = at(c0, r)
+            if v[0] < best[i]:
+                best[i], cutter[i] = v[0], tv[0]
+            step /= 8
+    if with_cutter:
+        return radii, best, cutter
+    return radii, best
+
+
+class Section:
+    """A tooth section as polar boundary phi_R(r) (symmetric tooth) on [r_min, r_a]."""
+
+    def __init__(self, radii, phi_R, r_a):
+        keep = np.isfinite(phi_R) & (radii <= r_a)
+        self.r = np.append(radii[keep], r_a)
+        self.phi = np.append(phi_R[keep], np.interp(r_a, radii[keep], phi_R[keep]))
+        self.r_a = r_a
+
+    def half_angle(self, r):
+        return np.interp(r, self.r, self.phi)
+
+    def points(self):
+        """Right-flank boundary points (x, y) in the tooth frame, plus the tip land to the centre."""
+        pr = np.c_[self.r * np.sin(self.phi), self.r * np.cos(self.phi)]
+        tip = np.linspace(self.phi[-1], 0.0, 30)
+        return np.vstack([pr, np.c_[self.r_a * np.sin(tip), self.r_a * np.cos(tip)]])
+
+    def inside(self, x, y):
+        """Points strictly inside the tooth (near its axis: within a quarter turn)."""
+        r = np.hypot(x, y)
+        ang = np.arctan2(x, y)
+        return (r < self.r_a) & (r > self.r[0]) & (np.abs(ang) < self.half_angle(r)) & (y > 0)
+
+
+def _rot(a, x, y):
+    c, s = math.cos(a), math.sin(a)
+    return c * x - s * y, s * x + c * y
+
+
+def rigid_te(sec1: Section, sec2: Section, z1, z2, a, phi1, pairs=(-1, 0, 1), r_w1=None, window=0.03):
+    """Actual TE of the rigid sections [rad] for the pinion angles ``phi1``: per pair the smallest
+    gear angle without interpenetration (bisection, gear pushed by the pinion's right flank, pinion
+    clockwise, gear counter-clockwise), relative to the ratio; the upper envelope over pairs.
+
+    Returns (te_envelope (N,), te_pairs (K, N), binding radii (K, N, 2) of the touching points on
+    pinion and gear)."""
+    r_w1 = a * z1 / (z1 + z2) if r_w1 is None else r_w1
+    r_w2 = a - r_w1
+    th1, th2 = sec1.half_angle(r_w1), sec2.half_angle(r_w2)
+    P1, P2 = sec1.points(), sec2.points()
+    ratio = z1 / z2
+    te = np.full((len(pairs), len(phi1)), -np.inf)
+    bind = np.full((len(pairs), len(phi1), 2), np.nan)
+
+    def penetrates(ph1, ph2):
+        # pinion own -> fixed: CCW rotation by (-ph1 + th1); gear own -> fixed: CCW by (ph2 + pi + th2) + (0, a)
+        fx, fy = _rot(-ph1 + th1, P1[:, 0], P1[:, 1])
+        gx, gy = _rot(-(ph2 + math.pi + th2), fx, fy - a)
+        in2 = sec2.inside(gx, gy)
+        hx, hy = _rot(ph2 + math.pi + th2, P2[:, 0], P2[:, 1])
+        qx, qy = _rot(-(-ph1 + th1), hx, hy + a)
+        in1 = sec1.inside(qx, qy)
+        return in2.any() or in1.any(), (in2, in1)
+
+    for kk, k in enumerate(pairs):
+        for i, p in enumerate(phi1):
+            ph1 = p - 2 * math.pi * k / z1
+            nominal = ratio * ph1
+            lo, hi = nominal - window, nominal + window
+            if not penetrates(ph1, lo)[0] or penetrates(ph1, hi)[0]:
+                continue  # no contact of this pair within the window
+            for _ in range(55):
+                mid = 0.5 * (lo + hi)
+                if penetrates(ph1, mid)[0]:
+                    lo = mid
+                else:
+                    hi = mid
+            te[kk, i] = hi - nominal
+            _, (in2, in1) = penetrates(ph1, lo)
+            r1 = np.hypot(*P1[in2].T).mean() if in2.any() else np.nan
+            r2 = np.hypot(*P2[in1].T).mean() if in1.any() else np.nan
+            bind[kk, i] = (r1, r2)
+    env = te.max(axis=0)
+    return np.where(np.isfinite(env), env, np.nan), te, bind
