@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
+from functools import lru_cache
 
 from .errors import GeometryError, out_of_range
 from .geometry.involute import inv, inv_inverse, tooth_thickness
@@ -303,8 +304,41 @@ class Gear:
     @property
     def undercut(self) -> bool:
         """True when the tool's straight flank reaches below the interference point
-        (the generating line's tangency point with the base circle)."""
+        (the generating line's tangency point with the base circle). A profile-crowned tool
+        (``rack.a_c > 0``) can fold the flank without this: see :attr:`folded`."""
         return self.x < self.x_min_undercut
+
+    @property
+    def flank_limit(self):
+        """Where the real generated flank ends in the mid section (rack generation, right flank):
+        a :class:`gearopt.geometry.generation.FlankLimit` (the tool's flank/fillet junction, or
+        below a fold of the flank its crossing with the reversed branch / the fillet)."""
+        return _flank_limit(self)
+
+    @property
+    def r_form(self) -> float:
+        """Form radius [mm]: the lowest radius of the real generated flank (mid section). Equals
+        :attr:`r_lim` for a straight tool without undercut; for an undercut tooth the crossing of
+        the involute with the trochoid fillet; for a folded profile-crowned flank the crossing
+        below the fold."""
+        if self.rack.a_c == 0 and not self.undercut:
+            return self.r_lim  # the straight tool's flank end generates it; the flank cannot fold
+        return self.flank_limit.radius
+
+    @property
+    def folded(self) -> bool:
+        """True when the generated flank folds (its radius has a turning point, the surface a
+        singular point) before the tool's flank/fillet junction: undercut by a straight tool, or
+        by the curvature of a profile-crowned tool (large ``rack.a_c``)."""
+        if self.rack.a_c == 0:
+            return self.undercut
+        return self.flank_limit.folded
+
+    @property
+    def a_c_max_unfolded(self) -> float:
+        """Largest profile-crowning coefficient ``rack.a_c`` [1/mm] (all else as built) for which the
+        flank does not fold; 0.0 if it folds even with the straight tool (undercut)."""
+        return _a_c_max_unfolded(self)
 
     @property
     def x_min_undercut(self) -> float:
@@ -437,13 +471,17 @@ class GearPair:
 
     @property
     def eps_alpha(self) -> float:
-        """Transverse contact ratio (THEORY section 3)."""
+        """Transverse contact ratio (THEORY section 3): the path of contact between the tips and
+        the form circles (:attr:`Gear.r_form`) over the transverse base pitch."""
         p, g = self.pinion, self.gear
-        # Each tip's reach along the line of action is cut at the mating base circle's tangency
-        # point (only possible for a member that is allowed to be undercut).
+        # Positions along the line of action from the pinion's tangency point T1 (length ga = T1 T2).
+        # Contact runs from where the gear tip or the pinion's form circle (whichever is later)
+        # to where the pinion tip or the gear's form circle ends it. The form radius is where the
+        # real flank ends (r_form: the involute/trochoid crossing of an undercut tooth, not T).
         ga = self.a_w * math.sin(self.alpha_wt)
-        path = min(math.sqrt(p.r_a**2 - p.r_b**2), ga) + min(math.sqrt(g.r_a**2 - g.r_b**2), ga) - ga
-        return path / p.p_bt
+        s_start = max(ga - math.sqrt(g.r_a**2 - g.r_b**2), math.sqrt(max(p.r_form**2 - p.r_b**2, 0.0)))
+        s_end = min(math.sqrt(p.r_a**2 - p.r_b**2), ga - math.sqrt(max(g.r_form**2 - g.r_b**2, 0.0)))
+        return (s_end - s_start) / p.p_bt
 
     @property
     def eps_beta(self) -> float:
@@ -454,3 +492,17 @@ class GearPair:
     def eps_gamma(self) -> float:
         """Total contact ratio ``eps_alpha + eps_beta``."""
         return self.eps_alpha + self.eps_beta
+
+
+@lru_cache(maxsize=256)
+def _flank_limit(gear: Gear):
+    from .geometry.generation import generate_by_rack  # generation builds on this module
+
+    return generate_by_rack(gear).flank_limit("right", 0.0)
+
+
+@lru_cache(maxsize=256)
+def _a_c_max_unfolded(gear: Gear) -> float:
+    from .geometry.generation import generate_by_rack
+
+    return generate_by_rack(gear).max_unfolded_a_c("right", 0.0)

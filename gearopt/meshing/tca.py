@@ -393,10 +393,11 @@ class TCA:
         w = self.branch.newton(w0, prm)
         res, n1n2, reg, ok = self._check(w, prm)
         at = f"TCA at phi1 = {phi1:.6g} rad"
+        g1, g2 = self.pair.pinion, self.pair.gear
+        wf = np.asarray(self._full(w, z_section)).ravel()
+        off_face = bool(np.all(np.isfinite(wf)) and (abs(wf[1]) > g1.b / 2 or abs(wf[3]) > g2.b / 2))
         if not np.isfinite(res) or res > self.tol:
-            g1, g2 = self.pair.pinion, self.pair.gear
-            wf = np.asarray(self._full(w, z_section)).ravel()
-            if np.all(np.isfinite(wf)) and (abs(wf[1]) > g1.b / 2 or abs(wf[3]) > g2.b / 2):
+            if off_face:
                 raise ConvergenceError(
                     f"{at}: no contact point on the face: the search ran off it (last iterate z1 = {wf[1]:.4g} mm, "
                     f"z2 = {wf[3]:.4g} mm; faces +-{g1.b / 2:g} / +-{g2.b / 2:g} mm). The contact leaves the "
@@ -404,10 +405,19 @@ class TCA:
                     "crown the pinion more.")
             raise ConvergenceError(f"{at}: no contact point (residual {res:.3g} mm > {self.tol:g} mm); the first "
                                    "guess may be too far or the flanks do not meet.")
+        if not ok and off_face:
+            # A root of the equations on the flanks' mathematical extension beyond the face (where the
+            # extended surfaces may also be singular or reversed): not a contact of these teeth.
+            where = self._root_facts(w, prm, wf)
+            raise ConvergenceError(
+                f"{at}: no contact point on the face: the tangency equations converge only off it, at z1 = "
+                f"{wf[1]:.4g} mm, z2 = {wf[3]:.4g} mm (faces +-{g1.b / 2:g} / +-{g2.b / 2:g} mm; {where}). The "
+                "flanks have no point contact on the teeth here: the contact is on an edge; analyse edge contact "
+                "(gearopt.contact.EdgeContact, [tca] edge_contact = true) or crown the pinion more.")
         if reg <= REGULARITY_MIN:
-            raise ConvergenceError(f"{at}: false root at a singular point of a flank ((r_u x r_z) . n = {reg:.2g}: at "
-                                   "or past the involute's base-circle cusp, on the reversed branch): the surfaces "
-                                   "cross there, they do not touch. Start from another guess.")
+            where = self._root_facts(w, prm, wf)
+            raise ConvergenceError(f"{at}: false root at a singular point of a flank ((r_u x r_z) . n = {reg:.2g}: "
+                                   f"{where}): the surfaces cross there, they do not touch. Start from another guess.")
         if n1n2 > 0:
             raise ConvergenceError(f"{at}: false root: the outward normals agree (n1 . n2 = {n1n2:.3f}, must be "
                                    "-1); typical near the involute base-circle singular point. Start from another guess.")
@@ -417,6 +427,28 @@ class TCA:
             raise ConvergenceError(f"{at}: the surfaces cross instead of touching (n1 . n2 = {n1n2:.12f}, must be "
                                    f"-1 within {NORMAL_TOL:g}).{hint}")
         return w
+
+    def _root_facts(self, w, prm, wf) -> str:
+        """What a rejected root is, in words: for each flank whose regularity (r_u x r_z) . n has
+        the wrong sign or vanishes, where the point lies (radius against base circle and fold)."""
+        k = dict(zip(self.kinematics.name_out(), self.kinematics(wf, prm)))
+        out = []
+        for member, name, orient, tu, tz, nf, r, tooth in (
+                (1, "pinion", self.orient1, "t1u", "t1z", "nf1", "r1", self.pinion),
+                (2, "gear", self.orient2, "t2u", "t2z", "nf2", "r2", self.gear)):
+            reg = orient * float(ca.dot(ca.cross(k[tu], k[tz]), k[nf]))
+            rad = float(np.hypot(*np.asarray(k[r]).ravel()[:2]))
+            if reg > REGULARITY_MIN:
+                continue
+            p = prm[1:5] if member == 1 else prm[5:9]
+            lim = self.flank_limit(member, 0.0, p)
+            fold = (f"its flank folds at radius {lim.radius_fold:.6g} mm" if lim.folded else
+                    f"its flank is regular down to the tool junction, radius {lim.radius:.6g} mm")
+            side = "reversed branch" if reg < 0 else "singular point"
+            cusp = "its fold" if lim.folded else "the involute's base-circle cusp"
+            out.append(f"{name} point at radius {rad:.6g} mm (base circle {tooth.gear.r_b:.6g} mm; {fold}) lies on "
+                       f"the {side} of its flank surface, at or past {cusp}")
+        return "; ".join(out) if out else "both flanks regular there"
 
     def sweep(self, phi1, p1=None, p2=None, mis: Misalignment | None = None, pairs=(-1, 0, 1),
               delta: float = DELTA_DEFAULT, anchor: float = 0.0, z_section: float = 0.0) -> TCAResult:
@@ -596,8 +628,9 @@ class TCA:
             if lim.folded:
                 key = ("a_c_max", member, tuple((tooth.p0 if p is None else np.asarray(p, float)).tolist()))
                 if key not in self._limits:
-                    self._limits[key] = tooth.max_unfolded_a_c(self.side, 0.0, p)
-                out[name] = {"kind": lim.kind, "r_form": lim.radius, "u_limit": lim.u, "r_fold": lim.radius_fold,
+                    self._limits[key] = float(tooth.max_unfolded_a_c(self.side, 0.0, p))
+                out[name] = {"kind": lim.kind, "r_form": float(lim.radius), "u_limit": float(lim.u),
+                             "r_fold": float(lim.radius_fold),
                              "r_junction": float(np.hypot(*tooth.point(self.side, "flank", lim.u_junction, 0.0,
                                                                        p)[0][:2])),
                              "a_c": float((tooth.p0 if p is None else np.asarray(p, float))[1]),

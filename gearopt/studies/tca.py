@@ -227,7 +227,7 @@ class TCAStudy:
         pair = {"z1": p.pinion.z, "z2": p.gear.z, "m_n": p.pinion.m_n, "beta_deg": p.pinion.beta / DEG,
                 "a": p.a_w, "ratio": p.ratio, "side": self.tca.side, "contact": self.tca.contact_type,
                 "pinion_a_c": p.pinion.rack.a_c, "pinion_a_pl": p.pinion.a_pl, "eps_alpha": p.eps_alpha,
-                "edge_contact_analysis": self.edge is not None}
+                "edge_contact_analysis": self.edge is not None, "folded_flanks": self.tca.folding()}
         return TCAReport(scene=self.name, pair=pair, cases=cases,
                          timing={"build_s": self.tca.build_time, "run_s": time.perf_counter() - t0})
 
