@@ -558,6 +558,7 @@ def actual_level(ec: EdgeContact, r, mis: Misalignment, zooms: int = 3, points: 
         ks = (ka,) if ka == kb else (ka, kb)
         lo, hi = phi[i], phi[i + 1]
         best = (float(phi[i + 1]), float(env[i + 1])) if env[i + 1] < env[i] else (float(phi[i]), float(env[i]))
+        cross = None
         for _ in range(zooms):
             g = np.linspace(lo, hi, points)
             te = sub(g, ks, i)
@@ -580,12 +581,11 @@ def actual_level(ec: EdgeContact, r, mis: Misalignment, zooms: int = 3, points: 
             if j + 1 >= points:
                 break
             lo, hi = g[j], g[j + 1]
-            if np.isfinite(f[j + 1]):  # both curves on the last bracket: where they cross
+            if np.isfinite(f[j + 1]):  # both curves on the bracket: where they cross (the finest wins)
                 t = f[j] / (f[j] - f[j + 1])
-                xc = lo + t * (hi - lo)
-                vc = te[0, j] + t * (te[0, j + 1] - te[0, j])
-                if vc < best[1] or not np.isfinite(best[1]):
-                    best = (float(xc), float(vc))
+                cross = (float(lo + t * (hi - lo)), float(te[0, j] + t * (te[0, j + 1] - te[0, j])))
+        if cross is not None:
+            best = cross
         corners.append(best)
         lows.append(best[1])
     # the peak: zoom around the highest sample
@@ -595,7 +595,8 @@ def actual_level(ec: EdgeContact, r, mis: Misalignment, zooms: int = 3, points: 
         peak = (float(phi[i]), float(env[i]))
         if drv[i] >= 0:
             k = (pairs[drv[i]],)
-            lo, hi = phi[max(i - 1, 0)], phi[min(i + 1, phi.size - 1)]
+            h = float(np.median(np.diff(phi))) if phi.size > 1 else 1e-3
+            lo, hi = phi[i] - h, phi[i] + h  # the apex may lie beyond the first or last sample
             for _ in range(zooms):
                 g = np.linspace(lo, hi, points)
                 e = sub(g, k, i)[0]
