@@ -1,7 +1,7 @@
 """Folded crowned flanks and undercut teeth: where the real generated flank ends, and that the TE
 envelope never drops a real contact (issue 10, item 1).
 
-The oracle (tests/cutting_oracle.py) shares none of the engine's equations: the tooth section is
+The oracle (benchmarks/cutting_oracle.py) shares none of the engine's equations: the tooth section is
 what the rack-cutter leaves standing (material removal minimised over the generating motion), and
 the TE is the rigid, penetration-free position of the two finite sections (bisection on a
 point-in-tooth test), tooth pair by tooth pair. The gears and crowning values are not the issue's.
@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
 import cutting_oracle as O  # noqa: E402
 
 from gearopt import BasicRack, Gear, GearPair, deg  # noqa: E402

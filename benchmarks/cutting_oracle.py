@@ -1,4 +1,5 @@
-"""Independent oracle for the real tooth shape and rigid contact of spur/helical drives (tests only).
+"""Independent oracle for the real tooth shape and rigid contact of spur/helical drives (used by
+tests/test_flank_limit.py and benchmarks/stability.py).
 
 Shares none of the engine's equations (no envelope / meshing equation, no tangency conditions):
 
@@ -162,16 +163,19 @@ def _rot(a, x, y):
     return c * x - s * y, s * x + c * y
 
 
-def rigid_te(sec1: Section, sec2: Section, z1, z2, a, phi1, pairs=(-1, 0, 1), r_w1=None, window=0.03):
+def rigid_te(sec1: Section, sec2: Section, z1, z2, a, phi1, pairs=(-1, 0, 1), r_w1=None, window=0.03, th=None):
     """Actual TE of the rigid sections [rad] for the pinion angles ``phi1``: per pair the smallest
     gear angle without interpenetration (bisection, gear pushed by the pinion's right flank, pinion
     clockwise, gear counter-clockwise), relative to the ratio; the upper envelope over pairs.
+
+    ``th``: the sections' angular datums (half tooth angles on the operating pitch circles; default
+    from these sections).
 
     Returns (te_envelope (N,), te_pairs (K, N), binding radii (K, N, 2) of the touching points on
     pinion and gear)."""
     r_w1 = a * z1 / (z1 + z2) if r_w1 is None else r_w1
     r_w2 = a - r_w1
-    th1, th2 = sec1.half_angle(r_w1), sec2.half_angle(r_w2)
+    th1, th2 = (sec1.half_angle(r_w1), sec2.half_angle(r_w2)) if th is None else th
     P1, P2 = sec1.points(), sec2.points()
     ratio = z1 / z2
     te = np.full((len(pairs), len(phi1)), -np.inf)
@@ -207,3 +211,36 @@ def rigid_te(sec1: Section, sec2: Section, z1, z2, a, phi1, pairs=(-1, 0, 1), r_
             bind[kk, i] = (r1, r2)
     env = te.max(axis=0)
     return np.where(np.isfinite(env), env, np.nan), te, bind
+
+
+def rigid_te_helical(g1, g2, a, phi1, nz=9, pairs=(-1, 0, 1)):
+    """Actual TE [rad] of an aligned spur or helical pair (parallel axes) with a profile- and
+    longitudinally crowned pinion (``gearopt.Gear`` data used only as numbers): both bodies are
+    stacks of their transverse sections, so the rigid contact is the largest over the sections z of
+    the section contact. Section z of a helical member is its mid section turned by z tan(beta)/r_p
+    (the pair's TE is unchanged when the pinion turns by d and the gear by (z1/z2) d, so this is a
+    shift of phi1), cut with the extra depth a_pl z^2 of the plunged tool; z and -z share the cut
+    (depth even in z) with opposite shifts. Max over ``2 nz - 1`` sections refined by a parabola
+    through the best three."""
+    m, al = g1.m_n, g1.rack.alpha_n
+    r_p1 = m * g1.z / (2 * math.cos(g1.beta))
+    c = math.tan(g1.beta) / r_p1
+    zs = np.linspace(0.0, min(g1.b, g2.b) / 2, nz)
+    sec2 = Section(*cut_boundary(g2.z, m, al, g2.rack.h_fP, g2.rack.rho_fP, x=g2.x, a_c=g2.rack.a_c,
+                                 beta=g2.beta), g2.r_a)
+    secs = {}
+    for z in zs:
+        secs[z] = Section(*cut_boundary(g1.z, m, al, g1.rack.h_fP, g1.rack.rho_fP, x=g1.x, a_c=g1.rack.a_c,
+                                        u_0=g1.rack.u_0, beta=g1.beta, depth=g1.a_pl * z**2), g1.r_a)
+    r_w1 = a * g1.z / (g1.z + g2.z)
+    th = (secs[0.0].half_angle(r_w1), sec2.half_angle(a - r_w1))
+    zz = np.r_[-zs[:0:-1], zs]
+    T = np.stack([rigid_te(secs[abs(z)], sec2, g1.z, g2.z, a, np.asarray(phi1) + c * z, pairs, th=th)[0]
+                  for z in zz])
+    j = np.clip(np.nanargmax(np.where(np.isfinite(T), T, -np.inf), axis=0), 1, zz.size - 2)
+    i = np.arange(T.shape[1])
+    f0, f1, f2 = T[j - 1, i], T[j, i], T[j + 1, i]
+    den = f0 - 2 * f1 + f2
+    with np.errstate(all="ignore"):
+        refined = np.where(np.isfinite(den) & (den < 0), f1 - (f0 - f2) ** 2 / (8 * den), f1)
+    return np.fmax(refined, np.nanmax(T, axis=0))
