@@ -58,79 +58,81 @@ def tool_outline(m, alpha, h_fP, rho_fP, a_c=0.0, u_0=0.0, h_top=1.6, n=1500, be
     return P
 
 
-def _crossing_angles(gx, gy, radii):
-    """Smallest polar angle atan2(x, y) at which the polyline (gx, gy) crosses each circle of
-    ``radii`` (+inf where it does not), piece by piece where the radius along it is monotone, and
-    the (fractional) polyline index of that crossing."""
-    R = np.hypot(gx, gy)
-    out = np.full(radii.shape, np.inf)
-    where = np.full(radii.shape, np.nan)
-    d = np.sign(np.diff(R))
-    cuts = np.flatnonzero(d[1:] != d[:-1]) + 1
-    idx = np.arange(R.size, dtype=float)
-    for a, b in zip(np.r_[0, cuts], np.r_[cuts, R.size - 1]):
-        Rp, ip = R[a:b + 1], idx[a:b + 1]
-        if Rp.size < 2 or Rp[0] == Rp[-1]:
-            continue
-        if Rp[0] > Rp[-1]:
-            Rp, ip = Rp[::-1], ip[::-1]
-        m = (radii >= Rp[0]) & (radii <= Rp[-1])
-        if not m.any():
-            continue
-        t = np.interp(radii[m], Rp, ip)
-        x = np.interp(t, idx, gx)
-        y = np.interp(t, idx, gy)
-        ang = np.arctan2(x, y)
-        better = ang < out[m]
-        out[m] = np.where(better, ang, out[m])
-        where[m] = np.where(better, t, where[m])
-    return out, where
-
-
-def cut_boundary(z, m, alpha, h_fP, rho_fP, x=0.0, a_c=0.0, u_0=0.0, beta=0.0, depth=0.0, radii=None, n_psi=2001,
-                 with_cutter=False):
+def cut_boundary(z, m, alpha, h_fP, rho_fP, x=0.0, a_c=0.0, u_0=0.0, beta=0.0, depth=0.0, radii=None,
+                 with_cutter=False, chunk=64):
     """Right-flank angle phi_R(r) [rad] of the tooth left standing by the rack-cutter, at the radii
     ``radii`` [mm] (default 600 from just above the root to beyond the tip). ``depth`` [mm]: extra
-    feed of the tool towards the centre (plunging in this section). Minimum over the generating
-    motion: a scan of ``n_psi`` tool positions, then rounds of parabolic refinement per radius.
-    ``with_cutter``: also return the index of the tool-outline point that cut each radius (the
-    outline of :func:`tool_outline`: flank points first, then the fillet)."""
+    feed of the tool towards the centre (plunging in this section).
+
+    Material removal: tool point (X, Y) of the rolling rack (gear turned by psi, rack shifted by
+    r_p psi) is at (X - r_p psi, Y) turned clockwise by psi; it crosses the circle r where
+    X - r_p psi = -+sqrt(r^2 - Y^2), at the polar angle (clockwise from +y)
+    atan2(-+sqrt(r^2 - Y^2), Y) + psi. The tooth keeps what no tool point reaches: phi_R(r) is the
+    smallest of these angles over the tool outline, refined by a parabola through the best three
+    outline points. ``with_cutter``: also return the (fractional) index of the outline point that
+    cuts each radius (the outline of :func:`tool_outline`: flank points first, then the fillet)."""
     r_p = m * z / (2 * math.cos(beta))
     P = tool_outline(m, alpha, h_fP, rho_fP, a_c, u_0, beta=beta)
     X, Y = P[:, 0], P[:, 1] + r_p + x * m - depth
     if radii is None:
         radii = np.linspace(r_p + (x - h_fP) * m - depth + 1e-3, r_p + (x + 1.5) * m, 600)
     radii = np.asarray(radii, float)
-
-    def at(psi, r):
-        c, s = math.cos(psi), math.sin(psi)
-        xs = X - r_p * psi
-        return _crossing_angles(c * xs + s * Y, -s * xs + c * Y, np.atleast_1d(r))
-
-    span = 1.2 * (h_fP + 1.5) * m / r_p + 0.3
-    coarse = np.linspace(-span, span, n_psi)
-    AT = [at(p, radii) for p in coarse]
-    A = np.stack([a for a, _ in AT], axis=1)
-    T = np.stack([t for _, t in AT], axis=1)
-    k = np.clip(np.argmin(A, axis=1), 1, n_psi - 2)
-    best = A[np.arange(radii.size), k]
-    cutter = T[np.arange(radii.size), k]
-    h = coarse[1] - coarse[0]
-    for i, r in enumerate(radii):
-        c0, step = coarse[k[i]], h
-        for _ in range(3):
-            f = [at(c0 + j * step, r)[0][0] for j in (-1, 0, 1)]
-            if not np.all(np.isfinite(f)):
-                break
-            den = f[0] - 2 * f[1] + f[2]
-            c0 = c0 + (0.5 * step * (f[0] - f[2]) / den if den > 0 else 0.0)
-            v, tv = at(c0, r)
-            if v[0] < best[i]:
-                best[i], cutter[i] = v[0], tv[0]
-            step /= 8
+    best = np.full(radii.size, np.inf)
+    cutter = np.full(radii.size, np.nan)
+    M = X.size
+    for a in range(0, radii.size, chunk):
+        r = radii[a:a + chunk, None]
+        with np.errstate(invalid="ignore"):
+            S = np.sqrt(r**2 - Y[None, :] ** 2)
+        th = np.fmin(np.arctan2(-S, Y) + (X + S) / r_p, np.arctan2(S, Y) + (X - S) / r_p)
+        th = np.where(np.isfinite(th), th, np.inf)
+        i = np.argmin(th, axis=1)
+        rows = np.arange(th.shape[0])
+        v = th[rows, i]
+        il, ir = np.clip(i - 1, 0, M - 1), np.clip(i + 1, 0, M - 1)
+        f0, f2 = th[rows, il], th[rows, ir]
+        den = f0 - 2 * v + f2
+        ok = (i > 0) & (i < M - 1) & np.isfinite(den) & (den > 0)
+        with np.errstate(all="ignore"):
+            t = np.where(ok, 0.5 * (f0 - f2) / den, 0.0)
+            vr = np.where(ok, v - 0.25 * (f0 - f2) * t, v)
+        best[a:a + chunk] = np.where(np.isfinite(v), vr, np.inf)
+        cutter[a:a + chunk] = np.where(np.isfinite(v), i + t, np.nan)
+        # Then minimise over the continuous outline between the neighbours (golden section; points
+        # that do not reach the circle, Y > r, are +inf: near the pitch line the cutting point's
+        # path touches r in a cusp, and the minimum sits on that boundary).
+        for row in np.flatnonzero(np.isfinite(v)):
+            rr = float(radii[a + row])
+            lo, hi = max(i[row] - 1.0, 0.0), min(i[row] + 1.0, M - 1.0)
+            g = (math.sqrt(5) - 1) / 2
+            c, d = hi - g * (hi - lo), lo + g * (hi - lo)
+            fc, fd = _theta(c, X, Y, rr, r_p), _theta(d, X, Y, rr, r_p)
+            for _ in range(80):
+                if fc <= fd:
+                    hi, d, fd = d, c, fc
+                    c = hi - g * (hi - lo)
+                    fc = _theta(c, X, Y, rr, r_p)
+                else:
+                    lo, c, fc = c, d, fd
+                    d = lo + g * (hi - lo)
+                    fd = _theta(d, X, Y, rr, r_p)
+            tm, fm = (c, fc) if fc <= fd else (d, fd)  # the boundary minimum may sit at Y(t) = r
+            if fm < best[a + row]:
+                best[a + row], cutter[a + row] = fm, tm
     if with_cutter:
         return radii, best, cutter
     return radii, best
+
+
+def _theta(t, X, Y, r, r_p):
+    """Smallest crossing angle of the circle r by the outline point at fractional index t."""
+    k = min(int(t), X.size - 2)
+    f = t - k
+    x, y = X[k] + f * (X[k + 1] - X[k]), Y[k] + f * (Y[k + 1] - Y[k])
+    if y > r:
+        return math.inf
+    S = math.sqrt(r * r - y * y)
+    return min(math.atan2(-S, y) + (x + S) / r_p, math.atan2(S, y) + (x - S) / r_p)
 
 
 class Section:
@@ -244,3 +246,29 @@ def rigid_te_helical(g1, g2, a, phi1, nz=9, pairs=(-1, 0, 1)):
     with np.errstate(all="ignore"):
         refined = np.where(np.isfinite(den) & (den < 0), f1 - (f0 - f2) ** 2 / (8 * den), f1)
     return np.fmax(refined, np.nanmax(T, axis=0))
+
+
+#: Resolution of :func:`flank_end` at a tangential flank/fillet junction [mm]: there every outline
+#: point near the junction cuts almost the same angle, so which one cut a radius is ill-conditioned
+#: (for a straight tool the junction lands 0.002 mm below the analytic r_lim, Gear.r_lim).
+JUNCTION_TOL = 0.005
+
+
+def flank_end(g, r_guess, half=0.25, n=251, n_flank=1500):
+    """Where the flank of the cut tooth section (mid section, ``gearopt.Gear`` data used as numbers)
+    ends near ``r_guess`` [mm]: going down in radius, the first radius where the outline point that
+    cuts it jumps (another part of the tool cuts the flank away below a fold: returns the bracket
+    and True) or passes the last flank point of the outline (the fillet takes over tangentially:
+    the interpolated radius twice and False)."""
+    radii = np.linspace(r_guess - half, r_guess + half, n)
+    r, _, cut = cut_boundary(g.z, g.m_n, g.rack.alpha_n, g.rack.h_fP, g.rack.rho_fP, x=g.x, a_c=g.rack.a_c,
+                             u_0=g.rack.u_0, beta=g.beta, radii=radii, with_cutter=True)
+    last = n_flank - 1
+    for k in range(n - 1, 0, -1):  # from the top down
+        if cut[k - 1] - cut[k] > 20:
+            return float(r[k - 1]), float(r[k]), True
+        if cut[k - 1] >= last:
+            f = (last - cut[k]) / (cut[k - 1] - cut[k])
+            rj = float(r[k] + f * (r[k - 1] - r[k]))
+            return rj, rj, False
+    raise ValueError("no end of the flank within the window")

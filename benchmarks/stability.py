@@ -550,6 +550,118 @@ def _edge(case, tca, phi1, row, n_mp):
 
 
 # ---------------------------------------------------------------------------------------------
+# Large profile crowning: folded flanks (issue 10, item 1). Own case list and runner.
+# ---------------------------------------------------------------------------------------------
+@dataclass
+class FoldCase:
+    name: str
+    make: object  # () -> GearPair (aligned drive, crowned pinion)
+    n: int = 33  # positions over [-pi/z1, pi/z1]
+    fast: bool = False
+    expect_kind: str = "intersection"  # flank limit of the pinion: junction | intersection | fold
+
+
+def _fold_pair(z1, z2, m, a_c, a_pl, b=20.0, beta=0.0, x1=0.0, undercut=False):
+    hands = ("right", "left") if beta else ("right", "right")
+    return GearPair(Gear(z1, m, x=x1, b=b, beta=beta, hand=hands[0], rack=BasicRack.iso53("A", a_c=a_c), a_pl=a_pl,
+                         allow_undercut=undercut, name="pinion"),
+                    Gear(z2, m, b=b, beta=beta, hand=hands[1], name="gear"))
+
+
+def fold_cases() -> list[FoldCase]:
+    C = [
+        FoldCase("20/40 m2 a_c=0.004 (below the fold limit)", lambda: _fold_pair(20, 40, 2.0, 0.004, 0.002),
+                 expect_kind="junction", fast=True),
+        FoldCase("20/40 m2 a_c=0.006 (just folded)", lambda: _fold_pair(20, 40, 2.0, 0.006, 0.002)),
+        FoldCase("20/40 m2 a_c=0.02 a_pl=0.002", lambda: _fold_pair(20, 40, 2.0, 0.02, 0.002)),
+        FoldCase("20/40 m2 a_c=0.05 a_pl=0.002", lambda: _fold_pair(20, 40, 2.0, 0.05, 0.002)),
+        FoldCase("18/45 m3 a_c=0.012 a_pl=0.001", lambda: _fold_pair(18, 45, 3.0, 0.012, 0.001), fast=True),
+        FoldCase("22/70 m1.25 a_c=0.04 a_pl=0.002", lambda: _fold_pair(22, 70, 1.25, 0.04, 0.002)),
+        FoldCase("12/50 m2 undercut a_c=0.004 a_pl=0.0015", lambda: _fold_pair(12, 50, 2.0, 0.004, 0.0015,
+                                                                                undercut=True)),
+        FoldCase("20/40 m2 a_c=0.02, dense (201 positions)", lambda: _fold_pair(20, 40, 2.0, 0.02, 0.002), n=201),
+        FoldCase("helical 17/43 m3 b40 beta 15 a_c=0.015 a_pl=0.001",
+                 lambda: _fold_pair(17, 43, 3.0, 0.015, 0.001, b=40.0, beta=15 * DEG), n=25),
+    ]
+    return C
+
+
+def run_fold_case(case: FoldCase) -> dict:
+    """Flank limit against the cutting oracle, actual TE against the rigid-contact oracle, what the
+    tool-junction form radius (the old rule) would have lost, and single-position sweeps at the
+    positions that use contacts below the junction (the TE must not depend on the grid)."""
+    sys.path.insert(0, str(__import__("pathlib").Path(__file__).resolve().parent))
+    import cutting_oracle as O
+
+    t0 = time.perf_counter()
+    pair = case.make()
+    g1, g2 = pair.pinion, pair.gear
+    tca = TCA(pair)
+    lim = tca.flank_limit(1)
+    r_j = float(np.hypot(*tca.pinion.point("right", "flank", lim.u_junction)[0][:2]))
+    row = {"name": case.name, "kind": lim.kind, "r_form": lim.radius, "r_fold": lim.radius_fold, "r_junction": r_j,
+           "a_c_max": g1.a_c_max_unfolded, "verified": True, "notes": []}
+    # cut tooth: where the tool point that cuts the section jumps (or leaves the flank)
+    lo, hi, jumped = O.flank_end(g1, lim.radius)
+    row["r_form_oracle"] = (lo, hi)
+    tol = 1e-9 if jumped else O.JUNCTION_TOL
+    if not lo - tol <= lim.radius <= hi + tol or jumped != lim.folded:
+        row["verified"] = False
+        row["notes"].append(f"form radius {lim.radius:.6g} mm ({lim.kind}) against the oracle's [{lo:.6g}, {hi:.6g}] "
+                            f"(jump: {jumped})")
+    if lim.kind != case.expect_kind:
+        row["notes"].append(f"flank limit {lim.kind}, expected {case.expect_kind}")
+    phi = np.linspace(-math.pi / g1.z, math.pi / g1.z, case.n)
+    res = tca.sweep(phi)
+    if g1.is_spur:
+        s1 = O.Section(*O.cut_boundary(g1.z, g1.m_n, g1.rack.alpha_n, 1.25, 0.38, x=g1.x, a_c=g1.rack.a_c), g1.r_a)
+        s2 = O.Section(*O.cut_boundary(g2.z, g2.m_n, g2.rack.alpha_n, 1.25, 0.38, x=g2.x), g2.r_a)
+        env = O.rigid_te(s1, s2, g1.z, g2.z, pair.a_w, np.r_[0.0, phi])[0]
+    else:
+        env = O.rigid_te_helical(g1, g2, pair.a_w, np.r_[0.0, phi])
+    oracle = env[1:] - env[0]
+    d = (res.te_envelope - oracle) * RAD_TO_ARCSEC
+    row["err_arcsec"] = float(np.nanmax(np.abs(d))) if np.isfinite(d).any() else math.nan
+    row["cover"] = float(np.isfinite(res.te_envelope).mean())
+    if not (row["err_arcsec"] <= 0.1 and row["cover"] == 1.0):
+        row["verified"] = False
+        row["notes"].append(f"actual TE off the oracle by {row['err_arcsec']:.3g} arcsec (cover {row['cover']:.0%})")
+    # the old rule: form radius at the tool junction (mid section) for the pinion
+    te_old = np.where(res.on_surface & (res.radius1 >= r_j - 1e-9), res.te, -np.inf).max(axis=0)
+    lost = (res.te_envelope - np.where(np.isfinite(te_old), te_old, np.nan)) * RAD_TO_ARCSEC
+    row["old_loss"] = (float(np.nanmax(np.abs(lost))) if np.isfinite(lost).any() else 0.0,
+                       int((np.abs(np.nan_to_num(lost, nan=1e9)) > 1e-6).sum()))
+    # single-position sweeps where the actual TE rests on a contact below the junction radius
+    k_d = res.driving
+    below = [i for i in range(phi.size) if k_d[i] >= 0 and res.radius1[k_d[i], i] < r_j]
+    worst = 0.0
+    for i in below[:6]:
+        one = tca.sweep(np.array([phi[i]]))
+        worst = max(worst, abs(float(one.te_envelope[0] - res.te_envelope[i])) * RAD_TO_ARCSEC)
+    row["single"] = (len(below[:6]), worst)
+    if worst > 1e-9:
+        row["verified"] = False
+        row["notes"].append(f"single-position sweep differs by {worst:.2g} arcsec")
+    row["time"] = time.perf_counter() - t0
+    row["outcome"] = ("solved accurately" if row["verified"] else "WRONG: " + "; ".join(row["notes"]))
+    return row
+
+
+def print_fold_table(rows):
+    print("\n### Large profile crowning (folded flanks)\n")
+    print("| case | flank limit | r_form [mm] | oracle bracket [mm] | r_fold [mm] | r_junction [mm] | a_c max unfolded "
+          "[1/mm] | positions | max abs(TE - oracle) [arcsec] | junction rule would lose [arcsec] (positions) | "
+          "single-position sweeps (max diff arcsec) | outcome |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
+    for r in rows:
+        lo, hi = r["r_form_oracle"]
+        print(f"| {r['name']} | {r['kind']} | {r['r_form']:.5f} | {lo:.4f}-{hi:.4f} | "
+              f"{'-' if not np.isfinite(r['r_fold']) else format(r['r_fold'], '.5f')} | {r['r_junction']:.5f} | "
+              f"{r['a_c_max']:.5g} | {r.get('n', '')} | {r['err_arcsec']:.3f} | {r['old_loss'][0]:.2f} ({r['old_loss'][1]}) | "
+              f"{r['single'][0]} ({r['single'][1]:.1e}) | {r['outcome']} |")
+
+
+# ---------------------------------------------------------------------------------------------
 def fmt(v):
     return "-" if not np.isfinite(v) else f"{v:.1e}"
 
@@ -582,7 +694,17 @@ def main(argv=None):
               f"{r['ref']} | {fmt(r['err'])} | {c.expect}{'' if match else ' (MISMATCH)'} | "
               f"{r['outcome'][:400]} |")
     print(f"\n{len(rows)} cases, {bad} silent wrong results; total {time.perf_counter() - t_start:.1f} s")
-    return 1 if bad else 0
+    fold_rows = []
+    for c in fold_cases():
+        if args.quick and not c.fast:
+            continue
+        fold_rows.append(run_fold_case(c))
+        fold_rows[-1]["n"] = c.n
+        print(f"  {c.name}: {fold_rows[-1]['outcome'][:60]} ({fold_rows[-1]['time']:.1f} s)", file=sys.stderr)
+    print_fold_table(fold_rows)
+    bad_fold = sum(not r["verified"] for r in fold_rows)
+    print(f"\n{len(fold_rows)} folded-flank cases, {bad_fold} wrong; total {time.perf_counter() - t_start:.1f} s")
+    return 1 if bad or bad_fold else 0
 
 
 if __name__ == "__main__":
