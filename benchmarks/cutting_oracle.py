@@ -59,7 +59,7 @@ def tool_outline(m, alpha, h_fP, rho_fP, a_c=0.0, u_0=0.0, h_top=1.6, n=1500, be
 
 
 def cut_boundary(z, m, alpha, h_fP, rho_fP, x=0.0, a_c=0.0, u_0=0.0, beta=0.0, depth=0.0, radii=None,
-                 with_cutter=False, chunk=64):
+                 with_cutter=False, chunk=64, kinks=None):
     """Right-flank angle phi_R(r) [rad] of the tooth left standing by the rack-cutter, at the radii
     ``radii`` [mm] (default 600 from just above the root to beyond the tip). ``depth`` [mm]: extra
     feed of the tool towards the centre (plunging in this section).
@@ -74,6 +74,8 @@ def cut_boundary(z, m, alpha, h_fP, rho_fP, x=0.0, a_c=0.0, u_0=0.0, beta=0.0, d
     r_p = m * z / (2 * math.cos(beta))
     P = tool_outline(m, alpha, h_fP, rho_fP, a_c, u_0, beta=beta)
     X, Y = P[:, 0], P[:, 1] + r_p + x * m - depth
+    if kinks is None:
+        kinks = radii is None  # default samples: add the corners of a cut-off fold exactly
     if radii is None:
         radii = np.linspace(r_p + (x - h_fP) * m - depth + 1e-3, r_p + (x + 1.5) * m, 600)
     radii = np.asarray(radii, float)
@@ -119,6 +121,26 @@ def cut_boundary(z, m, alpha, h_fP, rho_fP, x=0.0, a_c=0.0, u_0=0.0, beta=0.0, d
             tm, fm = (c, fc) if fc <= fd else (d, fd)  # the boundary minimum may sit at Y(t) = r
             if fm < best[a + row]:
                 best[a + row], cutter[a + row] = fm, tm
+    if kinks:
+        # A fold cut off by the tool leaves a corner in the section, where the cutting outline point
+        # jumps: find its radius by bisection on the jump and add it to the samples (otherwise the
+        # interpolated outline would cut the corner off).
+        extra = []
+        for k in np.flatnonzero(np.abs(np.diff(cutter)) > 20):
+            lo, hi = radii[k], radii[k + 1]
+            c_lo, c_hi = cutter[k], cutter[k + 1]
+            for _ in range(60):
+                mid = 0.5 * (lo + hi)
+                c_mid = cut_boundary(z, m, alpha, h_fP, rho_fP, x, a_c, u_0, beta, depth, [mid], True, kinks=False)[2][0]
+                if abs(c_mid - c_lo) < abs(c_mid - c_hi):
+                    lo, c_lo = mid, c_mid
+                else:
+                    hi, c_hi = mid, c_mid
+            extra += [lo, hi]
+        if extra:
+            r2, b2, c2 = cut_boundary(z, m, alpha, h_fP, rho_fP, x, a_c, u_0, beta, depth, extra, True, kinks=False)
+            order = np.argsort(np.r_[radii, r2])
+            radii, best, cutter = np.r_[radii, r2][order], np.r_[best, b2][order], np.r_[cutter, c2][order]
     if with_cutter:
         return radii, best, cutter
     return radii, best

@@ -587,9 +587,11 @@ def fold_cases() -> list[FoldCase]:
 
 
 def run_fold_case(case: FoldCase) -> dict:
-    """Flank limit against the cutting oracle, actual TE against the rigid-contact oracle, what the
-    tool-junction form radius (the old rule) would have lost, and single-position sweeps at the
-    positions that use contacts below the junction (the TE must not depend on the grid)."""
+    """Flank limit against the cutting oracle, actual TE (EdgeContact: surface, edges and the ridge
+    of a cut-off fold) against the rigid-contact oracle, the surface TCA alone (equal where defined,
+    flagged NaN where a ridge carries), what the tool-junction form radius (the old rule) would have
+    lost, and single-position sweeps at the positions that use contacts below the junction (the TE
+    must not depend on the grid)."""
     sys.path.insert(0, str(__import__("pathlib").Path(__file__).resolve().parent))
     import cutting_oracle as O
 
@@ -612,7 +614,9 @@ def run_fold_case(case: FoldCase) -> dict:
     if lim.kind != case.expect_kind:
         row["notes"].append(f"flank limit {lim.kind}, expected {case.expect_kind}")
     phi = np.linspace(-math.pi / g1.z, math.pi / g1.z, case.n)
-    res = tca.sweep(phi)
+    surf = tca.sweep(phi)
+    ec = EdgeContact(tca)
+    res = ec.sweep(phi)  # the actual TE: surface contact, tip/face edges and the ridge of a cut-off fold
     if g1.is_spur:
         s1 = O.Section(*O.cut_boundary(g1.z, g1.m_n, g1.rack.alpha_n, 1.25, 0.38, x=g1.x, a_c=g1.rack.a_c), g1.r_a)
         s2 = O.Section(*O.cut_boundary(g2.z, g2.m_n, g2.rack.alpha_n, 1.25, 0.38, x=g2.x), g2.r_a)
@@ -626,17 +630,26 @@ def run_fold_case(case: FoldCase) -> dict:
     if not (row["err_arcsec"] <= 0.1 and row["cover"] == 1.0):
         row["verified"] = False
         row["notes"].append(f"actual TE off the oracle by {row['err_arcsec']:.3g} arcsec (cover {row['cover']:.0%})")
-    # the old rule: form radius at the tool junction (mid section) for the pinion
-    te_old = np.where(res.on_surface & (res.radius1 >= r_j - 1e-9), res.te, -np.inf).max(axis=0)
+    # surface TCA alone: equal to the actual TE where defined; NaN (flagged) where a ridge carries
+    ds = (surf.te_envelope - oracle) * RAD_TO_ARCSEC
+    row["surf_err"] = float(np.nanmax(np.abs(ds))) if np.isfinite(ds).any() else math.nan
+    row["surf_cover"] = float(np.isfinite(surf.te_envelope).mean())
+    row["ridge"] = [b for b in ("pinion_limit", "gear_limit") if b in res.branches
+                    and (res.active == res.branches.index(b)).any()]
+    if row["surf_err"] > 0.1:
+        row["verified"] = False
+        row["notes"].append(f"surface TE off the oracle by {row['surf_err']:.3g} arcsec where defined")
+    # the old rule: form radius at the tool junction (mid section) for the pinion, surface contact only
+    te_old = np.where(surf.on_surface & (surf.radius1 >= r_j - 1e-9), surf.te, -np.inf).max(axis=0)
     lost = (res.te_envelope - np.where(np.isfinite(te_old), te_old, np.nan)) * RAD_TO_ARCSEC
     row["old_loss"] = (float(np.nanmax(np.abs(lost))) if np.isfinite(lost).any() else 0.0,
                        int((np.abs(np.nan_to_num(lost, nan=1e9)) > 1e-6).sum()))
     # single-position sweeps where the actual TE rests on a contact below the junction radius
     k_d = res.driving
-    below = [i for i in range(phi.size) if k_d[i] >= 0 and res.radius1[k_d[i], i] < r_j]
+    below = [i for i in range(phi.size) if k_d[i] >= 0 and res.radius1[res.active[i], k_d[i], i] < r_j]
     worst = 0.0
     for i in below[:6]:
-        one = tca.sweep(np.array([phi[i]]))
+        one = ec.sweep(np.array([phi[i]]))
         worst = max(worst, abs(float(one.te_envelope[0] - res.te_envelope[i])) * RAD_TO_ARCSEC)
     row["single"] = (len(below[:6]), worst)
     if worst > 1e-9:
@@ -650,14 +663,15 @@ def run_fold_case(case: FoldCase) -> dict:
 def print_fold_table(rows):
     print("\n### Large profile crowning (folded flanks)\n")
     print("| case | flank limit | r_form [mm] | oracle bracket [mm] | r_fold [mm] | r_junction [mm] | a_c max unfolded "
-          "[1/mm] | positions | max abs(TE - oracle) [arcsec] | junction rule would lose [arcsec] (positions) | "
-          "single-position sweeps (max diff arcsec) | outcome |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
+          "[1/mm] | positions | max abs(TE - oracle) [arcsec] | surface TCA: cover, max abs diff [arcsec] | ridge "
+          "contact | junction rule would lose [arcsec] (positions) | single-position sweeps (max diff arcsec) | outcome |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:
         lo, hi = r["r_form_oracle"]
         print(f"| {r['name']} | {r['kind']} | {r['r_form']:.5f} | {lo:.4f}-{hi:.4f} | "
               f"{'-' if not np.isfinite(r['r_fold']) else format(r['r_fold'], '.5f')} | {r['r_junction']:.5f} | "
-              f"{r['a_c_max']:.5g} | {r.get('n', '')} | {r['err_arcsec']:.3f} | {r['old_loss'][0]:.2f} ({r['old_loss'][1]}) | "
+              f"{r['a_c_max']:.5g} | {r.get('n', '')} | {r['err_arcsec']:.3f} | {r['surf_cover']:.0%}, "
+              f"{r['surf_err']:.3f} | {', '.join(r['ridge']) or '-'} | {r['old_loss'][0]:.2f} ({r['old_loss'][1]}) | "
               f"{r['single'][0]} ({r['single'][1]:.1e}) | {r['outcome']} |")
 
 

@@ -70,15 +70,18 @@ def test_largest_unfolded_profile_crowning():
     assert _gear(9, 3.0, undercut=True).a_c_max_unfolded == 0.0
 
 
-@pytest.mark.parametrize("z1, z2, m, a_c, a_pl, x1, undercut", [
-    (18, 45, 3.0, 0.012, 0.001, 0.0, False),
-    (22, 70, 1.25, 0.04, 0.002, 0.0, False),
-    (12, 50, 2.0, 0.004, 0.0015, 0.0, True),
-], ids=["18-45", "22-70", "undercut-12-50"])
-def test_te_envelope_agrees_with_rigid_contact_oracle(z1, z2, m, a_c, a_pl, x1, undercut):
+@pytest.mark.parametrize("z1, z2, m, a_c, a_pl, x1, undercut, ridge", [
+    (18, 45, 3.0, 0.012, 0.001, 0.0, False, False),
+    (22, 70, 1.25, 0.04, 0.002, 0.0, False, False),
+    (21, 45, 2.0, 0.045, 0.002, 0.0, False, True),
+    (12, 50, 2.0, 0.004, 0.0015, 0.0, True, False),
+], ids=["18-45", "22-70", "21-45-ridge", "undercut-12-50"])
+def test_te_envelope_agrees_with_rigid_contact_oracle(z1, z2, m, a_c, a_pl, x1, undercut, ridge):
     """Spur pinion with profile and longitudinal crowning (aligned: the mid section carries the
     contact): the engine's actual TE equals the rigid contact of the cut sections at every position,
-    including where the contact reaches the pinion's flank end."""
+    including where the contact reaches the pinion's flank end, and where the gear rests on the
+    ridge left where the tool cut a fold off (edge contact, EdgeContact). The surface TCA alone
+    equals it wherever it gives a value and flags (NaN) the ridge positions."""
     pair = GearPair(_gear(z1, m, a_c=a_c, x=x1, a_pl=a_pl, undercut=undercut), _gear(z2, m, name="gear"))
     g1, g2 = pair.pinion, pair.gear
     s1 = O.Section(*O.cut_boundary(z1, m, A20, 1.25, 0.38, x=x1, a_c=a_c), g1.r_a)
@@ -86,10 +89,17 @@ def test_te_envelope_agrees_with_rigid_contact_oracle(z1, z2, m, a_c, a_pl, x1, 
     phi = np.linspace(-math.pi / z1, math.pi / z1, 29)
     env, _, _ = O.rigid_te(s1, s2, z1, z2, pair.a_w, np.r_[0.0, phi])
     oracle = env[1:] - env[0]  # the engine's TE is 0 at phi1 = 0 (pair 0 at the pitch point)
-    r = TCA(pair).sweep(phi)
-    assert np.isfinite(r.te_envelope).all() and np.isfinite(oracle).all()
-    d = (r.te_envelope - oracle) * RAD_TO_ARCSEC
+    t = TCA(pair)
+    e = EdgeContact(t).sweep(phi)
+    assert np.isfinite(e.te_envelope).all() and np.isfinite(oracle).all()
+    d = (e.te_envelope - oracle) * RAD_TO_ARCSEC
     assert np.abs(d).max() < 0.1, np.round(d, 3)
+    on_ridge = e.active == e.branches.index("pinion_limit") if "pinion_limit" in e.branches else e.active < -1
+    assert on_ridge.any() == ridge
+    r = t.sweep(phi)
+    defined = np.isfinite(r.te_envelope)
+    assert np.array_equal(defined, ~on_ridge) and ("ridge_contact" in r.stats) == ridge
+    assert np.abs((r.te_envelope - oracle)[defined]).max() * RAD_TO_ARCSEC < 0.1
     # The case exercises the class: the actual TE uses contacts between the true end of the pinion
     # flank and the tool junction (which the junction's form radius used to discard).
     t = TCA(pair)
@@ -97,7 +107,7 @@ def test_te_envelope_agrees_with_rigid_contact_oracle(z1, z2, m, a_c, a_pl, x1, 
     r_junction = float(np.hypot(*t.pinion.point("right", "flank", lim.u_junction)[0][:2]))
     k0 = r.pairs.index(0)
     rad = r.radius1[k0][r.driving == k0]
-    assert lim.folded and ((rad >= lim.radius) & (rad < r_junction)).any()
+    assert lim.folded and ((rad >= lim.radius) & (rad < r_junction)).any() or ridge
 
 
 def test_folding_is_reported_in_results():

@@ -43,6 +43,10 @@ EDGES = {
     "gear_corner+": (2, "corner", 1), "gear_corner-": (2, "corner", -1),
 }
 SURFACE = "surface"
+#: Convex edges at the end of a folded flank (issue 10): where the tool cut the flank away below a
+#: fold, the crossing of the flank with the cutting surface is a ridge that can carry contact.
+#: Added automatically for a member whose flank ends at such a crossing (``FlankLimit.kink > 0``).
+LIMIT_EDGES = {"pinion_limit": (1, "limit", 0), "gear_limit": (2, "limit", 0)}
 
 
 @dataclass(frozen=True)
@@ -109,7 +113,7 @@ class EdgeContact:
         Edges to analyse (keys of :data:`EDGES`); default all.
     """
 
-    def __init__(self, tca: TCA, edges=tuple(EDGES)):
+    def __init__(self, tca: TCA, edges=tuple(EDGES), limit_edges: bool = True):
         t0 = time.perf_counter()
         for e in edges:
             if e not in EDGES:
@@ -118,6 +122,13 @@ class EdgeContact:
         pair = tca.pair
         self.members = {1: pair.pinion, 2: pair.gear}
         self.teeth = {1: tca.pinion, 2: tca.gear}
+        self._limit_u = {}
+        if limit_edges:  # convex edges where a folded flank is cut off (as built, see LIMIT_EDGES)
+            for name, (member, _, _) in LIMIT_EDGES.items():
+                U = self._limit_curve(member)
+                if U is not None:
+                    self._limit_u[member] = U
+                    self.edges += (name,)
         self.r_form = {1: tca._form_radius(tca.pinion), 2: tca._form_radius(tca.gear)}
         q = ca.SX.sym("q", 5)
         prm = ca.SX.sym("prm", tca._nprm)
@@ -128,7 +139,7 @@ class EdgeContact:
         self.branches: dict[str, Branch] = {}
         self.residuals: dict[str, ca.Function] = {}
         for name in self.edges:
-            member, kind, sign = EDGES[name]
+            member, kind, sign = _edge_kind(name)
             g_m = self.members[member]
             iu, iz = (0, 1) if member == 1 else (2, 3)
             r_own = k["r1"] if member == 1 else k["r2"]
@@ -138,7 +149,26 @@ class EdgeContact:
             a = k["nf1"] if member == 1 else k["nf2"]  # the flank's outward normal
             c_tip = k["er1"] if member == 1 else k["er2"]  # the tip cylinder's
             c_face = sign * (ez1 if member == 1 else k["ez2"])  # the face end's
-            if kind == "corner":
+            if kind == "limit":
+                # The flank's end u = U(z) (the crossing with the cutting surface, U fitted in z^2);
+                # edge tangent t = r_u U'(z) + r_z ... as for any level curve g = u - U(z).
+                g = q[iu] - self._limit_u[member](q[iz])
+                gu, gz = ca.jacobian(g, q[iu]), ca.jacobian(g, q[iz])
+                tu, tz = (k["t1u"], k["t1z"]) if member == 1 else (k["t2u"], k["t2z"])
+                t_edge = tu * gz - tz * gu
+                te = t_edge / ca.norm_2(t_edge)
+                F = ca.vertcat(k["rf1"] - k["rf2"], g, ca.dot(t_edge, n_other) / ca.norm_2(t_edge))
+                # Wedge of the ridge: the flank (outward normal a) and the cutting surface, whose normal
+                # is a turned by the kink angle towards the flank's continuation d (towards the root):
+                # c = cos(k) a + sin(k) d. Genuine touch: -n_mate = alpha a + gamma c, alpha, gamma >= 0.
+                kink = self.tca.flank_limit(member).kink
+                d = tu - ca.dot(tu, a) * a - ca.dot(tu, te) * te
+                d = d / ca.norm_2(d)
+                m_ = -n_other
+                gamma = ca.dot(m_, d) / math.sin(kink)
+                alpha = ca.dot(m_, a) - gamma * math.cos(kink)
+                cone = ca.fmin(alpha, gamma)
+            elif kind == "corner":
                 # Vertex contact: the corner point lies on the mating flank (3 + 2 equations).
                 F = ca.vertcat(k["rf1"] - k["rf2"], g_tip, g_face)
                 Mc = ca.horzcat(a, c_tip, c_face)
@@ -163,6 +193,29 @@ class EdgeContact:
                                          tca.jit)
         self._line: TCA | None = None
         self.build_time = time.perf_counter() - t0
+
+    def _limit_curve(self, member: int):
+        """U(z): the flank parameter of the convex edge where the member's folded flank is cut off
+        (as built), a polynomial in z^2 through the exact limits of 9 sections (constant without
+        plunging); None if the flank does not end at a convex crossing."""
+        tca = self.tca
+        lim0 = tca.flank_limit(member, 0.0)
+        if lim0.kind != "intersection" or not lim0.kink > 0:
+            return None
+        s_grid, u_grid = tca._limit_table(member, None)
+        kinds = [tca.flank_limit(member, math.sqrt(v)).kind for v in s_grid]
+        if any(k != "intersection" for k in kinds):
+            return None
+        zs = ca.SX.sym("z")
+        if s_grid.size == 1:
+            expr = ca.SX(float(u_grid[0])) + 0 * zs
+        else:
+            c = np.polyfit(s_grid / s_grid[-1], u_grid, min(4, s_grid.size - 1))
+            t = zs**2 / s_grid[-1]
+            expr = 0 * zs
+            for ck in c:
+                expr = expr * t + float(ck)
+        return ca.Function(f"limit_u{member}", [zs], [expr])
 
     def _accept(self, res, cone, reg):
         # Edge contact: residual small, the edge touches from outside (cone >= 0, see __init__),
@@ -231,7 +284,10 @@ class EdgeContact:
             stats["surface"] = f"no surface-to-surface contact: {e}"
         # Edge branches: anchor near where the reference touches the edge, predict, solve, continue.
         for b, name in enumerate(self.edges, start=1):
-            member, kind, sign = EDGES[name]
+            member, kind, sign = _edge_kind(name)
+            if kind == "limit" and not np.array_equal(p1 if member == 1 else p2, self.teeth[member].p0):
+                stats[name] = "skipped: the flank-limit edge is built for the member as built (p0)"
+                continue
             try:
                 i_a, q0 = self._edge_anchor_guess(name, Q[0], conv[0], phis, p1, p2)
             except ConvergenceError as e:
@@ -252,8 +308,20 @@ class EdgeContact:
 
     def _edge_anchor_guess(self, name, Qs, conv_s, phis, p1, p2):
         """Index of the anchor column and a first guess on the edge."""
-        member, kind, sign = EDGES[name]
+        member, kind, sign = _edge_kind(name)
         g_m = self.members[member]
+        if kind == "limit":
+            # The surface solution closest to the flank's end (u past it included), moved onto it.
+            iu, iz = (0, 1) if member == 1 else (2, 3)
+            if not conv_s.any():
+                raise ConvergenceError("no surface solution to start the flank-limit edge from")
+            U = self._limit_u[member]
+            zz = np.where(conv_s, Qs[iz], 0.0)
+            dist = np.where(conv_s, np.abs(Qs[iu] - np.array([float(U(v)) for v in zz])), np.inf)
+            i_a = int(np.argmin(dist))
+            q0 = Qs[:, i_a].copy()
+            q0[iu] = float(U(q0[iz]))
+            return i_a, q0
         if conv_s.any():
             # Surface solutions closest to this edge, projected onto it.
             iu, iz = (0, 1) if member == 1 else (2, 3)
@@ -384,6 +452,10 @@ class EdgeContact:
         diff = te_raw_surface.reshape(surf.te.shape) - surf.te
         vals = diff[np.isfinite(diff)]
         return float(np.median(vals)) if vals.size else 0.0
+
+
+def _edge_kind(name: str):
+    return EDGES[name] if name in EDGES else LIMIT_EDGES[name]
 
 
 def _cname(name: str) -> str:

@@ -292,14 +292,15 @@ class GeneratedTooth:
                 roots.append(brentq(lambda t: sgn * ev(t, k), lo, hi, xtol=1e-14, rtol=1e-15, maxiter=200))
         u_fold = min(roots) if roots else hi
         r_fold = math.hypot(ev(u_fold, 0), ev(u_fold, 1))
-        cut = self._crossing(fl, fi, z, p, us[i0], u_fold, u_f, phi_max)
+        cut = self._crossing(fl, fi, z, p, us[i0], u_fold, u_f, phi_max,
+                             lambda uu, zz, pp: self.surface(side, "flank")(uu, zz, pp)[1])
         if cut is not None:
             return FlankLimit(u=cut[0], radius=cut[1], kind="intersection", u_fold=u_fold, radius_fold=r_fold,
-                              u_junction=u_f, z=z)
+                              u_junction=u_f, z=z, kink=cut[2])
         return FlankLimit(u=u_fold, radius=r_fold, kind="fold", u_fold=u_fold, radius_fold=r_fold, u_junction=u_f, z=z)
 
     @staticmethod
-    def _crossing(fl, fi, z, p, u_tip, u_fold, u_f, phi_max, n: int = 400):
+    def _crossing(fl, fi, z, p, u_tip, u_fold, u_f, phi_max, fl_normal, n: int = 400):
         """First crossing (highest on the valid branch) of the valid flank branch [u_tip, u_fold]
         with the rest of the generated section (reversed flank branch [u_fold, u_f], then the fillet),
         as (u, radius), or None. Bracketed on polylines, refined by Newton on the two curves."""
@@ -348,8 +349,18 @@ class GeneratedTooth:
                 if np.abs(d).max() < 1e-13:
                     break
             if np.hypot(*F) < 1e-10 and u_tip <= ua < u_fold - 1e-9:
-                xa, ya = (float(v) for v in fl(ua, z, p)[:2])
-                return float(ua), math.hypot(xa, ya)
+                xa, ya, _, _, xua, yua = (float(v) for v in fl(ua, z, p))
+                # Turning angle of the boundary at the crossing: from the flank's direction (towards
+                # the root) to the cutting curve's, continued towards the root (radius decreasing).
+                d = np.array([xua, yua]) / math.hypot(xua, yua)
+                e = np.array([xqb, yqb]) / math.hypot(xqb, yqb)
+                if e @ np.array([xa, ya]) > 0:
+                    e = -e
+                kink = math.acos(max(-1.0, min(1.0, float(d @ e))))
+                a_n = np.asarray(fl_normal(ua, z, p)).ravel()[:2]
+                if e @ a_n > 0:  # turns away from the tooth: a concave corner, no contact edge
+                    kink = -kink
+                return float(ua), math.hypot(xa, ya), kink
         return None
 
     def max_unfolded_a_c(self, side: str = "right", z: float = 0.0, p=None, rel_tol: float = 1e-6) -> float:
@@ -427,6 +438,9 @@ class FlankLimit:
         The tool's flank/fillet junction [mm].
     z : float
         The section [mm].
+    kink : float
+        For ``kind = "intersection"``: the angle [rad] by which the tooth outline turns at the
+        crossing (towards the tooth: a convex edge, which can carry contact like a tip edge).
     """
 
     u: float
@@ -436,6 +450,7 @@ class FlankLimit:
     radius_fold: float
     u_junction: float
     z: float = 0.0
+    kink: float = math.nan
 
     @property
     def folded(self) -> bool:

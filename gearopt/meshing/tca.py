@@ -533,6 +533,21 @@ class TCA:
         drv = np.argmax(te_on, axis=0)
         env = te_on[drv, np.arange(N)]
         has = np.isfinite(env)
+        # A tangency past the end of a folded flank that the tool cut off at a ridge (a convex edge):
+        # that pair's real contact is on the ridge, at a TE between the surface one and nothing; if
+        # the surface TE is above the envelope, the surface contacts cannot tell the actual TE there.
+        ridge = np.zeros((K, N), bool)
+        for member, lim_ok, uu, pp in ((1, lim1, W[0], p1), (2, lim2, W[2], p2)):
+            if self.flank_limit(member, 0.0, pp).kind == "intersection":
+                ridge |= (ok.reshape(K, N) & ~lim_ok & np.isfinite(shp(uu)) & (np.abs(z1) <= g1.b / 2 + eps)
+                          & (np.abs(z2) <= g2.b / 2 + eps) & (radius1 <= g1.r_a + eps) & (radius2 <= g2.r_a + eps))
+        unknown = (ridge & (np.where(ridge, te, -np.inf) > np.where(has, env, -np.inf)[None, :])).any(axis=0)
+        if unknown.any():
+            has = has & ~unknown
+            stats["ridge_contact"] = (
+                f"{int(unknown.sum())} of {N} positions: a tooth pair's contact falls past the end of a folded "
+                "flank, where the tool cut it off at a ridge; that pair rests on the ridge (edge contact), "
+                "so the actual TE there is NaN here: analyse edge contact (gearopt.contact.EdgeContact)")
         env = np.where(has, env, np.nan)
         driving = np.where(has, drv, -1)
         # Curvatures and contact ellipse: eigen-decomposition of K1 + K2 in the common basis.
@@ -617,7 +632,7 @@ class TCA:
         for idx in zip(*np.nonzero(near)):
             u_lim[idx] = self.flank_limit(member, math.sqrt(s[idx]), p).u
         with np.errstate(invalid="ignore"):
-            return fin & (u <= u_lim + 1e-9)
+            return fin & (u <= u_lim + 1e-8)
 
     def folding(self, p1=None, p2=None) -> dict:
         """Members whose driving flank folds before the tool's junction (mid section), with the
