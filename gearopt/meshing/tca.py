@@ -541,7 +541,8 @@ class TCA:
             if self.flank_limit(member, 0.0, pp).kind == "intersection":
                 ridge |= (ok.reshape(K, N) & ~lim_ok & np.isfinite(shp(uu)) & (np.abs(z1) <= g1.b / 2 + eps)
                           & (np.abs(z2) <= g2.b / 2 + eps) & (radius1 <= g1.r_a + eps) & (radius2 <= g2.r_a + eps))
-        unknown = (ridge & (np.where(ridge, te, -np.inf) > np.where(has, env, -np.inf)[None, :])).any(axis=0)
+        # (a tie within round-off, e.g. conjugate line contact, changes nothing: the ridge TE <= the surface TE)
+        unknown = (ridge & (np.where(ridge, te, -np.inf) > np.where(has, env, -np.inf)[None, :] + 1e-13)).any(axis=0)
         if unknown.any():
             has = has & ~unknown
             stats["ridge_contact"] = (
