@@ -24,7 +24,13 @@ import numpy as np
 from scipy.optimize import brentq
 
 
-def tool_outline(m, alpha, h_fP, rho_fP, a_c=0.0, u_0=0.0, h_top=1.6, n=1500, beta=0.0):
+#: Flank points of the tool outline (then n/3 fillet points): the chords of a parabolic flank cut
+#: ~h^2 a_c deep; 6000 points keep the section within 1e-8 rad of the exact cut.
+N_OUTLINE = 6000
+JUMP = N_OUTLINE // 75  # a jump of the cutting outline point (another part of the tool)
+
+
+def tool_outline(m, alpha, h_fP, rho_fP, a_c=0.0, u_0=0.0, h_top=1.6, n=N_OUTLINE, beta=0.0):
     """Transverse outline of the rack-cutter tooth that cuts the right flank [mm]: (xi, eta) from
     ``h_top`` modules above the datum line down the flank, round the tip fillet and to the middle of
     the tip land. xi along the datum line (tooth centre at 0), eta towards the gear outside."""
@@ -61,7 +67,7 @@ def tool_outline(m, alpha, h_fP, rho_fP, a_c=0.0, u_0=0.0, h_top=1.6, n=1500, be
 def cut_boundary(z, m, alpha, h_fP, rho_fP, x=0.0, a_c=0.0, u_0=0.0, beta=0.0, depth=0.0, radii=None,
                  with_cutter=False, chunk=64, kinks=None):
     """Right-flank angle phi_R(r) [rad] of the tooth left standing by the rack-cutter, at the radii
-    ``radii`` [mm] (default 600 from just above the root to beyond the tip). ``depth`` [mm]: extra
+    ``radii`` [mm] (default 1500 from just above the root to beyond the tip). ``depth`` [mm]: extra
     feed of the tool towards the centre (plunging in this section).
 
     Material removal: tool point (X, Y) of the rolling rack (gear turned by psi, rack shifted by
@@ -77,7 +83,7 @@ def cut_boundary(z, m, alpha, h_fP, rho_fP, x=0.0, a_c=0.0, u_0=0.0, beta=0.0, d
     if kinks is None:
         kinks = radii is None  # default samples: add the corners of a cut-off fold exactly
     if radii is None:
-        radii = np.linspace(r_p + (x - h_fP) * m - depth + 1e-3, r_p + (x + 1.5) * m, 600)
+        radii = np.linspace(r_p + (x - h_fP) * m - depth + 1e-3, r_p + (x + 1.5) * m, 1500)
     radii = np.asarray(radii, float)
     best = np.full(radii.size, np.inf)
     cutter = np.full(radii.size, np.nan)
@@ -105,7 +111,7 @@ def cut_boundary(z, m, alpha, h_fP, rho_fP, x=0.0, a_c=0.0, u_0=0.0, beta=0.0, d
         # path touches r in a cusp, and the minimum sits on that boundary).
         for row in np.flatnonzero(np.isfinite(v)):
             rr = float(radii[a + row])
-            lo, hi = max(i[row] - 1.0, 0.0), min(i[row] + 1.0, M - 1.0)
+            lo, hi = max(i[row] - 2.0, 0.0), min(i[row] + 2.0, M - 1.0)  # the minimum may sit between i + 1 and an unreachable i + 2
             g = (math.sqrt(5) - 1) / 2
             c, d = hi - g * (hi - lo), lo + g * (hi - lo)
             fc, fd = _theta(c, X, Y, rr, r_p), _theta(d, X, Y, rr, r_p)
@@ -126,7 +132,7 @@ def cut_boundary(z, m, alpha, h_fP, rho_fP, x=0.0, a_c=0.0, u_0=0.0, beta=0.0, d
         # jumps: find its radius by bisection on the jump and add it to the samples (otherwise the
         # interpolated outline would cut the corner off).
         extra = []
-        for k in np.flatnonzero(np.abs(np.diff(cutter)) > 20):
+        for k in np.flatnonzero(np.abs(np.diff(cutter)) > JUMP):
             lo, hi = radii[k], radii[k + 1]
             c_lo, c_hi = cutter[k], cutter[k + 1]
             for _ in range(60):
@@ -276,7 +282,7 @@ def rigid_te_helical(g1, g2, a, phi1, nz=9, pairs=(-1, 0, 1)):
 JUNCTION_TOL = 0.005
 
 
-def flank_end(g, r_guess, half=0.25, n=251, n_flank=1500):
+def flank_end(g, r_guess, half=0.25, n=251, n_flank=N_OUTLINE):
     """Where the flank of the cut tooth section (mid section, ``gearopt.Gear`` data used as numbers)
     ends near ``r_guess`` [mm]: going down in radius, the first radius where the outline point that
     cuts it jumps (another part of the tool cuts the flank away below a fold: returns the bracket
@@ -287,7 +293,7 @@ def flank_end(g, r_guess, half=0.25, n=251, n_flank=1500):
                              u_0=g.rack.u_0, beta=g.beta, radii=radii, with_cutter=True)
     last = n_flank - 1
     for k in range(n - 1, 0, -1):  # from the top down
-        if cut[k - 1] - cut[k] > 20:
+        if cut[k - 1] - cut[k] > JUMP:
             return float(r[k - 1]), float(r[k]), True
         if cut[k - 1] >= last:
             f = (last - cut[k]) / (cut[k - 1] - cut[k])
