@@ -4,8 +4,10 @@ The boundaries of the active flank of each member are curves on its surface ``g(
 
 * ``tip``: the addendum edge, transverse radius = r_a (``g = (x^2 + y^2 - r_a^2) / (2 r_a)``);
 * ``face+`` / ``face-``: the face ends z = +-b/2;
-* ``limit``: the line u = u_f between the active flank and the fillet (a concave transition: it is
-  a boundary of the active flank, checked through the form radius, but not a convex edge);
+* ``limit``: the end of the active flank (``TCA.on_active_flank``, the flank limit of each section):
+  at the tool's flank/fillet junction a concave transition, not a convex edge; but where the tool
+  cut a folded flank off (``FlankLimit.kind == "intersection"``) a convex ridge, analysed as the
+  edges ``pinion_limit`` / ``gear_limit`` (:data:`LIMIT_EDGES`);
 * ``corner+`` / ``corner-``: the vertices where the tip edge meets a face end (vertex contact:
   ``r_f1 = r_f2`` with both boundary equations, the mating normal inside the vertex's normal cone).
 
