@@ -278,7 +278,7 @@ def rigid_te_helical(g1, g2, a, phi1, nz=9, pairs=(-1, 0, 1)):
 
 #: Resolution of :func:`flank_end` at a tangential flank/fillet junction [mm]: there every outline
 #: point near the junction cuts almost the same angle, so which one cut a radius is ill-conditioned
-#: (for a straight tool the junction lands 0.002 mm below the analytic r_lim, Gear.r_lim).
+#: (for a straight tool it lands 0.0004-0.0008 mm below the analytic r_lim, Gear.r_lim).
 JUNCTION_TOL = 0.005
 
 
