@@ -159,3 +159,17 @@ def test_unmodified_pair_off_face_root_is_reported_as_such():
     r = EdgeContact(t).sweep(np.linspace(-0.1, 0.1, 7), mis=mis)
     assert np.isfinite(r.te_envelope).all() and r.edge_contact()
     assert "no contact point on the face" in r.stats["surface"] and "false root" not in r.stats["surface"]
+
+
+@pytest.mark.parametrize("z, m, x, beta", [(20, 2.0, 0.0, 0.0), (31, 3.5, -0.3, 0.0), (17, 1.25, 0.2, deg(22)),
+                                           (60, 8.0, 0.5, deg(35))])
+def test_straight_tool_flank_ends_at_the_analytic_limit(z, m, x, beta):
+    """Without profile crowning and undercut the numeric flank limit is the tool junction, whose
+    radius is the closed form Gear.r_lim (the straight flank's end on the line of action)."""
+    from gearopt.geometry.generation import generate_by_rack
+
+    g = _gear(z, m, x=x, beta=beta)
+    for side in ("right", "left"):
+        lim = generate_by_rack(g).flank_limit(side, 0.0)
+        assert lim.kind == "junction" and not lim.folded
+        assert lim.radius == pytest.approx(g.r_lim, abs=1e-10)
