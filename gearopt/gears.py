@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
+from functools import lru_cache
 
 from .errors import GeometryError, out_of_range
 from .geometry.involute import inv, inv_inverse, tooth_thickness
@@ -413,8 +414,41 @@ class Gear:
     @property
     def undercut(self) -> bool:
         """True when the tool's straight flank reaches below the interference point
-        (the generating line's tangency point with the base circle)."""
+        (the generating line's tangency point with the base circle). A profile-crowned tool
+        (``rack.a_c > 0``) can fold the flank without this: see :attr:`folded`."""
         return self.x_E < self.x_min_undercut
+
+    @property
+    def flank_limit(self):
+        """Where the real generated flank ends in the mid section (rack generation, right flank):
+        a :class:`gearopt.geometry.generation.FlankLimit` (the tool's flank/fillet junction, or
+        below a fold of the flank its crossing with the reversed branch / the fillet)."""
+        return _flank_limit(self)
+
+    @property
+    def r_form(self) -> float:
+        """Form radius [mm]: the lowest radius of the real generated flank (mid section). Equals
+        :attr:`r_lim` for a straight tool without undercut; for an undercut tooth the crossing of
+        the involute with the trochoid fillet; for a folded profile-crowned flank the crossing
+        below the fold."""
+        if self.rack.a_c == 0 and not self.undercut:
+            return self.r_lim  # the straight tool's flank end generates it; the flank cannot fold
+        return self.flank_limit.radius
+
+    @property
+    def folded(self) -> bool:
+        """True when the generated flank folds (its radius has a turning point, the surface a
+        singular point) before the tool's flank/fillet junction: undercut by a straight tool, or
+        by the curvature of a profile-crowned tool (large ``rack.a_c``)."""
+        if self.rack.a_c == 0:
+            return self.undercut
+        return self.flank_limit.folded
+
+    @property
+    def a_c_max_unfolded(self) -> float:
+        """Largest profile-crowning coefficient ``rack.a_c`` [1/mm] (all else as built) for which the
+        flank does not fold; 0.0 if it folds even with the straight tool (undercut)."""
+        return _a_c_max_unfolded(self)
 
     @property
     def x_min_undercut(self) -> float:
@@ -680,11 +714,17 @@ class GearPair:
     @property
     def g_alpha(self) -> float:
         """Length of the path of contact [mm] on the transverse line of action (THEORY section 3):
-        ``sqrt(r_a1^2 - r_b1^2) + sqrt(r_a2^2 - r_b2^2) - a sin(alpha_wt)``, each tip's reach cut at
-        the mating interference point."""
+        ``sqrt(r_a1^2 - r_b1^2) + sqrt(r_a2^2 - r_b2^2) - a sin(alpha_wt)`` when the tips limit it;
+        each end is cut where the mating flank ends (its form circle :attr:`Gear.r_form`: the
+        involute/trochoid crossing of an undercut tooth, the crossing below the fold of a folded one)."""
         p, g = self.pinion, self.gear
+        # Positions along the line of action from the pinion's tangency point T1 (length ga = T1 T2).
+        # Contact runs from where the gear tip or the pinion's form circle (whichever is later)
+        # to where the pinion tip or the gear's form circle ends it.
         ga = self.a_w * math.sin(self.alpha_wt)
-        return min(math.sqrt(p.r_a**2 - p.r_b**2), ga) + min(math.sqrt(g.r_a**2 - g.r_b**2), ga) - ga
+        s_start = max(ga - math.sqrt(g.r_a**2 - g.r_b**2), math.sqrt(max(p.r_form**2 - p.r_b**2, 0.0)))
+        s_end = min(math.sqrt(p.r_a**2 - p.r_b**2), ga - math.sqrt(max(g.r_form**2 - g.r_b**2, 0.0)))
+        return s_end - s_start
 
     @property
     def tip_clearance(self) -> tuple[float, float]:
@@ -693,9 +733,8 @@ class GearPair:
 
     @property
     def eps_alpha(self) -> float:
-        """Transverse contact ratio (THEORY section 3)."""
-        # Each tip's reach along the line of action is cut at the mating base circle's tangency
-        # point (only possible for a member that is allowed to be undercut).
+        """Transverse contact ratio (THEORY section 3): the path of contact :attr:`g_alpha`, between
+        the tips and the form circles (:attr:`Gear.r_form`), over the transverse base pitch."""
         return self.g_alpha / self.pinion.p_bt
 
     @property
@@ -707,3 +746,17 @@ class GearPair:
     def eps_gamma(self) -> float:
         """Total contact ratio ``eps_alpha + eps_beta``."""
         return self.eps_alpha + self.eps_beta
+
+
+@lru_cache(maxsize=256)
+def _flank_limit(gear: Gear):
+    from .geometry.generation import generate_by_rack  # generation builds on this module
+
+    return generate_by_rack(gear).flank_limit("right", 0.0)
+
+
+@lru_cache(maxsize=256)
+def _a_c_max_unfolded(gear: Gear) -> float:
+    from .geometry.generation import generate_by_rack
+
+    return generate_by_rack(gear).max_unfolded_a_c("right", 0.0)

@@ -161,3 +161,16 @@ def test_accepted_phi2_matches_high_precision_resolve(pair):
     w = np.array([res.u1[0, i], res.z1[0, i], res.u2[0, i], res.z2[0, i], res.phi2[0, i] * tca.scale2])
     x, step = S.mp_resolve(tca.residual, w, tca.prm([res.phi1[i]])[:, 0], dps=30)
     assert abs(res.phi2[0, i] - float(x[4]) / tca.scale2) <= S.BOUND_MP
+
+
+FOLD_FAST = [c for c in S.fold_cases() if c.fast]
+
+
+@pytest.mark.parametrize("case", FOLD_FAST, ids=[c.name for c in FOLD_FAST])
+def test_large_profile_crowning_case(case):
+    """Folded flanks (issue 10): form radius where the cut tooth's flank ends, actual TE equal to the
+    rigid-contact oracle, the same TE from single-position sweeps."""
+    r = S.run_fold_case(case)
+    assert r["verified"], r["notes"]
+    assert r["kind"] == case.expect_kind
+    assert r["err_arcsec"] <= 0.1 and r["cover"] == 1.0

@@ -4,8 +4,10 @@ The boundaries of the active flank of each member are curves on its surface ``g(
 
 * ``tip``: the addendum edge, transverse radius = r_a (``g = (x^2 + y^2 - r_a^2) / (2 r_a)``);
 * ``face+`` / ``face-``: the face ends z = +-b/2;
-* ``limit``: the line u = u_f between the active flank and the fillet (a concave transition: it is
-  a boundary of the active flank, checked through the form radius, but not a convex edge);
+* ``limit``: the end of the active flank (``TCA.on_active_flank``, the flank limit of each section):
+  at the tool's flank/fillet junction a concave transition, not a convex edge; but where the tool
+  cut a folded flank off (``FlankLimit.kind == "intersection"``) a convex ridge, analysed as the
+  edges ``pinion_limit`` / ``gear_limit`` (:data:`LIMIT_EDGES`);
 * ``corner+`` / ``corner-``: the vertices where the tip edge meets a face end (vertex contact:
   ``r_f1 = r_f2`` with both boundary equations, the mating normal inside the vertex's normal cone);
 * ``pinion_X/gear_Y``: an edge X of the pinion touching an edge Y of the gear (edge on edge).
@@ -62,6 +64,10 @@ EDGES = {
     "pinion_tip/gear_tip": (0, "cross", ("pinion_tip", "gear_tip")),
 }
 SURFACE = "surface"
+#: Convex edges at the end of a folded flank (issue 10): where the tool cut the flank away below a
+#: fold, the crossing of the flank with the cutting surface is a ridge that can carry contact.
+#: Added automatically for a member whose flank ends at such a crossing (``FlankLimit.kink > 0``).
+LIMIT_EDGES = {"pinion_limit": (1, "limit", 0), "gear_limit": (2, "limit", 0)}
 
 
 @dataclass(frozen=True)
@@ -128,7 +134,7 @@ class EdgeContact:
         Edges to analyse (keys of :data:`EDGES`); default all.
     """
 
-    def __init__(self, tca: TCA, edges=tuple(EDGES)):
+    def __init__(self, tca: TCA, edges=tuple(EDGES), limit_edges: bool = True):
         t0 = time.perf_counter()
         if not isinstance(tca, TCA):
             raise ArgumentError(f"tca = {type(tca).__name__}: expected a gearopt.meshing.tca.TCA (built from the "
@@ -142,6 +148,13 @@ class EdgeContact:
         pair = tca.pair
         self.members = {1: pair.pinion, 2: pair.gear}
         self.teeth = {1: tca.pinion, 2: tca.gear}
+        self._limit_u = {}
+        if limit_edges:  # convex edges where a folded flank is cut off (as built, see LIMIT_EDGES)
+            for name, (member, _, _) in LIMIT_EDGES.items():
+                U = self._limit_curve(member)
+                if U is not None:
+                    self._limit_u[member] = U
+                    self.edges += (name,)
         self.r_form = {1: tca._form_radius(tca.pinion), 2: tca._form_radius(tca.gear)}
         q = ca.SX.sym("q", 5)
         prm = ca.SX.sym("prm", tca._nprm)
@@ -172,8 +185,30 @@ class EdgeContact:
             return ca.fmin(coef[0], coef[1])
 
         for name in self.edges:
-            member, kind, sign = EDGES[name]
-            if kind == "cross":
+            member, kind, sign = _edge_kind(name)
+            if kind == "limit":
+                # The flank's end u = U(z) (the crossing with the cutting surface, U fitted in z^2);
+                # edge tangent t = r_u U'(z) + r_z ... as for any level curve g = u - U(z).
+                iu, iz = (0, 1) if member == 1 else (2, 3)
+                n_other = k["nf2"] if member == 1 else k["nf1"]
+                a = k["nf1"] if member == 1 else k["nf2"]  # the flank's outward normal
+                g = q[iu] - self._limit_u[member](q[iz])
+                gu, gz = ca.jacobian(g, q[iu]), ca.jacobian(g, q[iz])
+                tu, tz = (k["t1u"], k["t1z"]) if member == 1 else (k["t2u"], k["t2z"])
+                t_edge = tu * gz - tz * gu
+                te = t_edge / ca.norm_2(t_edge)
+                F = ca.vertcat(k["rf1"] - k["rf2"], g, ca.dot(t_edge, n_other) / ca.norm_2(t_edge))
+                # Wedge of the ridge: the flank (outward normal a) and the cutting surface, whose normal
+                # is a turned by the kink angle towards the flank's continuation d (towards the root):
+                # c = cos(k) a + sin(k) d. Genuine touch: -n_mate = alpha a + gamma c, alpha, gamma >= 0.
+                kink = self.tca.flank_limit(member).kink
+                d = tu - ca.dot(tu, a) * a - ca.dot(tu, te) * te
+                d = d / ca.norm_2(d)
+                m_ = -n_other
+                gamma = ca.dot(m_, d) / math.sin(kink)
+                alpha = ca.dot(m_, a) - gamma * math.cos(kink)
+                cone = ca.fmin(alpha, gamma)
+            elif kind == "cross":
                 # Edge on edge (two boundary curves touching): r_f1 = r_f2 with both boundary
                 # equations, 5 equations in (u1, z1, u2, z2, r_p2 phi2). The common perpendicular of
                 # the two edges, n = t1 x t2 (orthogonal to both edge tangents), is the contact
@@ -217,6 +252,29 @@ class EdgeContact:
                                          tca.jit)
         self._line: TCA | None = None
         self.build_time = time.perf_counter() - t0
+
+    def _limit_curve(self, member: int):
+        """U(z): the flank parameter of the convex edge where the member's folded flank is cut off
+        (as built), a polynomial in z^2 through the exact limits of 9 sections (constant without
+        plunging); None if the flank does not end at a convex crossing."""
+        tca = self.tca
+        lim0 = tca.flank_limit(member, 0.0)
+        if lim0.kind != "intersection" or not lim0.kink > 0:
+            return None
+        s_grid, u_grid = tca._limit_table(member, None)
+        kinds = [tca.flank_limit(member, math.sqrt(v)).kind for v in s_grid]
+        if any(k != "intersection" for k in kinds):
+            return None
+        zs = ca.SX.sym("z")
+        if s_grid.size == 1:
+            expr = ca.SX(float(u_grid[0])) + 0 * zs
+        else:
+            c = np.polyfit(s_grid / s_grid[-1], u_grid, min(4, s_grid.size - 1))
+            t = zs**2 / s_grid[-1]
+            expr = 0 * zs
+            for ck in c:
+                expr = expr * t + float(ck)
+        return ca.Function(f"limit_u{member}", [zs], [expr])
 
     def _accept(self, res, cone, reg):
         # Edge contact: residual small, the edge touches from outside (cone >= 0, see __init__),
@@ -276,6 +334,10 @@ class EdgeContact:
         # advance among those on the finite flanks is kept (the gear rests against it).
         sections = self._sections(uphi, p1, p2)
         for b, name in enumerate(self.edges, start=1):
+            member, kind, _ = _edge_kind(name)
+            if kind == "limit" and not np.array_equal(p1 if member == 1 else p2, self.teeth[member].p0):
+                stats[name] = "skipped: the flank-limit edge is built for the member as built (p0)"
+                continue
             W0s = self._guesses(name, sections, p1, p2)
             if not W0s:
                 stats[name] = "no first guess"
@@ -351,11 +413,21 @@ class EdgeContact:
 
     def _guesses(self, name, sections, p1, p2) -> list:
         """First guesses (5, M) for branch ``name`` from the conjugate section solutions."""
-        member, kind, sign = EDGES[name]
+        member, kind, sign = _edge_kind(name)
         secs = [sections[s] for s in self._SECTIONS if s in sections]
         if not secs:
             return []
         prm_of = {1: p1, 2: p2}
+        if kind == "limit":  # the conjugate section points moved onto the flank's end u = U(z)
+            iu, iz = (0, 1) if member == 1 else (2, 3)
+            U = self._limit_u[member]
+            guesses = []
+            for S in secs:
+                q0 = S.copy()
+                zz = np.where(np.isfinite(q0[iz]), q0[iz], 0.0)
+                q0[iu] = np.asarray(U.map(zz.size)(zz[None, :])).ravel()
+                guesses.append(q0)
+            return guesses
 
         def on_face(Qs, m, sg):  # slide the conjugate point along the face width onto the face end m
             q0 = Qs.copy()
@@ -421,8 +493,9 @@ class EdgeContact:
         eps = 1e-9
         rad1, rad2 = self._radius(1, W, p1), self._radius(2, W, p2)
         with np.errstate(invalid="ignore"):
-            in1 = (np.abs(W[1]) <= g1.b / 2 + eps) & (rad1 >= self.r_form[1] - eps) & (rad1 <= g1.r_a + eps)
-            in2 = (np.abs(W[3]) <= g2.b / 2 + eps) & (rad2 >= self.r_form[2] - eps) & (rad2 <= g2.r_a + eps)
+            # Form limit: the true end of each generated flank in the point's section (TCA.on_active_flank).
+            in1 = (np.abs(W[1]) <= g1.b / 2 + eps) & self.tca.on_active_flank(1, W[0], W[1], p1) & (rad1 <= g1.r_a + eps)
+            in2 = (np.abs(W[3]) <= g2.b / 2 + eps) & self.tca.on_active_flank(2, W[2], W[3], p2) & (rad2 <= g2.r_a + eps)
             te_raw = W[4] / self.tca.scale2 - (g1.z / g2.z) * np.asarray(phis)
             reach = (te_raw < self._coast_clearance(p1, mis)) & (-te_raw < math.pi / g2.z)
         return in1 & in2 & reach
@@ -520,6 +593,10 @@ class EdgeContact:
         diff = te_raw_surface.reshape(surf.te.shape) - surf.te
         vals = diff[np.isfinite(diff)]
         return float(np.median(vals)) if vals.size else 0.0
+
+
+def _edge_kind(name: str):
+    return EDGES[name] if name in EDGES else LIMIT_EDGES[name]
 
 
 def _cname(name: str) -> str:

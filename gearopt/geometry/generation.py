@@ -202,6 +202,196 @@ class GeneratedTooth:
                 return u
         raise ConvergenceError(f"{self.gear.name}: no flank point at radius {radius:.6g} mm after 60 Newton steps.")
 
+    # --- the true limit of the generated flank ----------------------------------------------
+    def _limit_eval(self, side: str) -> tuple[ca.Function, ca.Function]:
+        """Compiled (flank, fillet) evaluators for :meth:`flank_limit` (built once per side):
+        flank ``(u, z, p) -> (x, y, (r_u x r_z) . n, d radius/du, dx/du, dy/du)``, fillet
+        ``(phi, z, p) -> (x, y, dx/dphi, dy/dphi)``."""
+        key = f"{side}_flank_limit_eval"
+        if key not in self.functions:
+            u, z = ca.SX.sym("u"), ca.SX.sym("z")
+            p = ca.SX.sym("p", len(PARAMS))
+            r, n = self.surface(side, "flank")(u, z, p)[:2]
+            r_u = ca.jacobian(r, u)
+            reg = ca.dot(_cross(r_u, ca.jacobian(r, z)), n)
+            rad = ca.sqrt(r[0] ** 2 + r[1] ** 2)
+            fl = ca.Function(f"{self.gear.name}_{side}_limit_flank", [u, z, p],
+                             [r[0], r[1], reg, ca.jacobian(rad, u), r_u[0], r_u[1]])
+            q = ca.SX.sym("phi")
+            rf = self.surface(side, "fillet")(q, z, p)[0]
+            fi = ca.Function(f"{self.gear.name}_{side}_limit_fillet", [q, z, p],
+                             [rf[0], rf[1], ca.jacobian(rf[0], q), ca.jacobian(rf[1], q)])
+            self.functions[key] = (fl, fi)
+        return self.functions[key]
+
+    def flank_limit(self, side: str = "right", z: float = 0.0, p=None, samples: int = 400) -> "FlankLimit":
+        """Where the real generated flank ends in the transverse section ``z`` [mm].
+
+        Going down the flank from the tip (u increasing towards the root), the generated surface is
+        a regular, single-sheeted part of the tooth until the first of
+
+        * the tool's flank/fillet junction ``u_f`` (``kind = "junction"``, the usual form radius);
+        * a fold: the first zero of the signed regularity ``(r_u x r_z) . n`` or of ``d radius/du``
+          (the envelope's singular point, Litvin section 6.3: the involute cusp on the base circle of
+          an undercut tooth, or higher up for a strongly profile-crowned tool, whose curvature moves
+          the singular point above the base circle); past it the flank runs back on a reversed
+          branch. When the reversed branch or the fillet that follows it cuts the valid branch
+          (a swallowtail: the trochoid of an undercut tooth cutting its involute), the material
+          below the crossing is cut away by the tool and the flank ends at the crossing
+          (``kind = "intersection"``); otherwise at the fold (``kind = "fold"``).
+
+        The zeros are brackets from samples (outside any AD graph) refined by Brent's method on the
+        smooth conditions; the crossing by Newton on the two curves' equations.
+
+        Returns
+        -------
+        FlankLimit
+
+        Raises
+        ------
+        GeometryError
+            If the flank folds at or above the tip circle (no active flank at all).
+        """
+        from scipy.optimize import brentq
+
+        p = self.p0 if p is None else np.asarray(p, float).ravel()
+        fl, fi = self._limit_eval(side)
+        g = self.gear
+        u_f, phi_max = self.junction(p)
+        # Sample from well above the tip (the tool point that cuts the tip lies (h_aP + k) m_n above
+        # the datum line) down to the junction.
+        u_a = -(g.rack.h_aP + abs(g.k) + 1.0) * g.m_n / math.cos(g.rack.alpha_n) - abs(u_f)
+        us = np.linspace(u_a, u_f, samples)
+        P = np.tile(p[:, None], samples)
+        x, y, reg, drad = (np.asarray(v).ravel() for v in fl.map(samples)(us, z, P)[:4])
+        rad = np.hypot(x, y)
+
+        def ev(uu, k):
+            return float(fl(uu, z, p)[k])
+
+        below_tip = np.flatnonzero((rad <= g.r_a) & np.isfinite(reg))
+        if below_tip.size == 0:
+            raise GeometryError(f"{g.name}: the generated flank does not reach below the tip circle r_a = {g.r_a:.6g} mm "
+                                f"in section z = {z:.6g} mm.")
+        i0 = int(below_tip[0])
+        orient = math.copysign(1.0, reg[i0]) if reg[i0] != 0 else 1.0
+        bad = (orient * reg <= 0) | (drad >= 0) | ~np.isfinite(reg)
+        bad[:i0] = False
+        j = np.flatnonzero(bad)
+        if j.size == 0:
+            r_j = math.hypot(ev(u_f, 0), ev(u_f, 1))
+            return FlankLimit(u=u_f, radius=r_j, kind="junction", u_fold=math.nan, radius_fold=math.nan, u_junction=u_f,
+                              z=z)
+        j = int(j[0])
+        if j <= i0:
+            raise GeometryError(f"{g.name}: the generated flank folds at or above the tip circle (r_a = {g.r_a:.6g} mm) "
+                                f"in section z = {z:.6g} mm: no active flank (profile crowning a_c = {p[1]:.6g} 1/mm "
+                                "is far too large, or the tooth is undercut up to the tip).")
+        lo, hi = us[j - 1], us[j]
+        roots = []
+        for k, sgn in ((2, orient), (3, -1.0)):  # orient * reg > 0 and -d radius/du > 0 on the valid branch
+            a, b = sgn * ev(lo, k), sgn * ev(hi, k)
+            if a > 0 >= b:
+                roots.append(brentq(lambda t: sgn * ev(t, k), lo, hi, xtol=1e-14, rtol=1e-15, maxiter=200))
+        u_fold = min(roots) if roots else hi
+        r_fold = math.hypot(ev(u_fold, 0), ev(u_fold, 1))
+        cut = self._crossing(fl, fi, z, p, us[i0], u_fold, u_f, phi_max,
+                             lambda uu, zz, pp: self.surface(side, "flank")(uu, zz, pp)[1])
+        if cut is not None:
+            return FlankLimit(u=cut[0], radius=cut[1], kind="intersection", u_fold=u_fold, radius_fold=r_fold,
+                              u_junction=u_f, z=z, kink=cut[2])
+        return FlankLimit(u=u_fold, radius=r_fold, kind="fold", u_fold=u_fold, radius_fold=r_fold, u_junction=u_f, z=z)
+
+    @staticmethod
+    def _crossing(fl, fi, z, p, u_tip, u_fold, u_f, phi_max, fl_normal, n: int = 400):
+        """First crossing (highest on the valid branch) of the valid flank branch [u_tip, u_fold]
+        with the rest of the generated section (reversed flank branch [u_fold, u_f], then the fillet),
+        as (u, radius), or None. Bracketed on polylines, refined by Newton on the two curves."""
+        uv = np.linspace(u_tip, u_fold, n)
+        A = np.array(fl.map(n)(uv, z, np.tile(p[:, None], n))[:2]).reshape(2, n).T
+        ur = np.linspace(u_fold, u_f, n) if u_f > u_fold else np.array([u_fold])
+        B1 = np.array(fl.map(ur.size)(ur, z, np.tile(p[:, None], ur.size))[:2]).reshape(2, ur.size).T
+        ph = np.linspace(0.0, phi_max, n)
+        B2 = np.array(fi.map(n)(ph, z, np.tile(p[:, None], n))[:2]).reshape(2, n).T
+        B = np.vstack([B1, B2])
+        params = [("flank", v) for v in ur] + [("fillet", v) for v in ph]
+        skip = 3  # segments next to the fold itself (the two branches meet there tangentially)
+        a0, d1 = A[:-1 - skip], np.diff(A, axis=0)[:-skip]
+        b0, d2 = B[skip:-1], np.diff(B, axis=0)[skip:]
+        if len(a0) == 0 or len(b0) == 0:
+            return None
+        den = d1[:, None, 0] * d2[None, :, 1] - d1[:, None, 1] * d2[None, :, 0]
+        w = b0[None, :, :] - a0[:, None, :]
+        with np.errstate(all="ignore"):
+            s = (w[..., 0] * d2[None, :, 1] - w[..., 1] * d2[None, :, 0]) / den
+            t = (w[..., 0] * d1[:, None, 1] - w[..., 1] * d1[:, None, 0]) / den
+        hit = (s >= 0) & (s <= 1) & (t >= 0) & (t <= 1) & np.isfinite(s)
+        ia, ib = np.nonzero(hit)
+        for k in np.argsort(ia):  # highest on the valid branch first
+            i, jb = int(ia[k]), int(ib[k]) + skip
+            ua = uv[i] + s[i, jb - skip] * (uv[i + 1] - uv[i])
+            seg, q0 = params[jb]
+            seg1, q1 = params[jb + 1]
+            if seg1 != seg:  # the segment joins the reversed flank to the fillet: start at its end
+                seg, q0, q1 = seg1, q1, q1
+            qb = q0 + t[i, jb - skip] * (q1 - q0)
+            other = fl if seg == "flank" else fi
+            for _ in range(30):  # Newton on r_valid(ua) - r_other(qb) = 0 (transverse plane)
+                xa, ya, _, _, xua, yua = (float(v) for v in fl(ua, z, p))
+                if seg == "flank":
+                    xb, yb, _, _, xqb, yqb = (float(v) for v in other(qb, z, p))
+                else:
+                    xb, yb, xqb, yqb = (float(v) for v in other(qb, z, p))
+                F = np.array([xa - xb, ya - yb])
+                J = np.array([[xua, -xqb], [yua, -yqb]])
+                try:
+                    d = np.linalg.solve(J, F)
+                except np.linalg.LinAlgError:
+                    break
+                ua, qb = ua - d[0], qb - d[1]
+                if np.abs(d).max() < 1e-13:
+                    break
+            if np.hypot(*F) < 1e-10 and u_tip <= ua < u_fold - 1e-9:
+                xa, ya, _, _, xua, yua = (float(v) for v in fl(ua, z, p))
+                # Turning angle of the boundary at the crossing: from the flank's direction (towards
+                # the root) to the cutting curve's, continued towards the root (radius decreasing).
+                d = np.array([xua, yua]) / math.hypot(xua, yua)
+                e = np.array([xqb, yqb]) / math.hypot(xqb, yqb)
+                if e @ np.array([xa, ya]) > 0:
+                    e = -e
+                kink = math.acos(max(-1.0, min(1.0, float(d @ e))))
+                a_n = np.asarray(fl_normal(ua, z, p)).ravel()[:2]
+                if e @ a_n > 0:  # turns away from the tooth: a concave corner, no contact edge
+                    kink = -kink
+                return float(ua), math.hypot(xa, ya), kink
+        return None
+
+    def max_unfolded_a_c(self, side: str = "right", z: float = 0.0, p=None, rel_tol: float = 1e-6) -> float:
+        """Largest profile-crowning coefficient a_c [1/mm] (other parameters as in ``p``) for which
+        the flank in section ``z`` does not fold before the tool's flank/fillet junction; 0.0 if it
+        folds even with the straight tool (an undercut tooth). Bisection on :meth:`flank_limit`."""
+        p = (self.p0 if p is None else np.asarray(p, float).ravel()).copy()
+
+        def folds(a_c):
+            q = p.copy()
+            q[1] = a_c
+            try:
+                return self.flank_limit(side, z, q).kind != "junction"
+            except GeometryError:
+                return True
+
+        if folds(0.0):
+            return 0.0
+        lo, hi = 0.0, max(p[1], 1e-4)
+        while not folds(hi):
+            lo, hi = hi, 2 * hi
+            if hi > 1e3:
+                return math.inf
+        while hi - lo > rel_tol * hi:
+            mid = 0.5 * (lo + hi)
+            lo, hi = (mid, hi) if not folds(mid) else (lo, mid)
+        return lo
+
     def transverse_profile(self, z: float = 0.0, n: int = 60, p=None) -> dict[str, np.ndarray]:
         """Sampled transverse section of one tooth (both sides, fillets, tip arc) [mm].
 
@@ -229,6 +419,46 @@ class GeneratedTooth:
         ang = np.linspace(a1, a0, 20)
         out["tip"] = g.r_a * np.c_[np.cos(ang), np.sin(ang)]
         return out
+
+
+@dataclass(frozen=True)
+class FlankLimit:
+    """The end of the real generated flank in one transverse section (see
+    :meth:`GeneratedTooth.flank_limit`).
+
+    Attributes
+    ----------
+    u : float
+        Flank parameter [mm] where the active flank ends (contacts need ``u <= u``).
+    radius : float
+        Transverse radius there [mm]: the form radius of that section.
+    kind : {"junction", "fold", "intersection"}
+        The tool's flank/fillet junction (regular flank), the fold (singular point) of the generated
+        flank, or the crossing of the valid branch with the reversed branch / fillet below the fold.
+    u_fold, radius_fold : float
+        First fold along u and its radius [mm] (NaN if the flank does not fold before ``u_junction``).
+    u_junction : float
+        The tool's flank/fillet junction [mm].
+    z : float
+        The section [mm].
+    kink : float
+        For ``kind = "intersection"``: the angle [rad] by which the tooth outline turns at the
+        crossing (towards the tooth: a convex edge, which can carry contact like a tip edge).
+    """
+
+    u: float
+    radius: float
+    kind: str
+    u_fold: float
+    radius_fold: float
+    u_junction: float
+    z: float = 0.0
+    kink: float = math.nan
+
+    @property
+    def folded(self) -> bool:
+        """True when the generated flank folds (singular point) before the tool's junction."""
+        return self.kind != "junction"
 
 
 def _helix_sigma(gear: Gear) -> float:

@@ -327,6 +327,7 @@ class TCA:
         self.pair, self.side, self.solver, self.tol = pair, side, solver, tol
         self.pinion = pinion or generate_by_rack(pair.pinion)
         self.gear = gear or generate_by_rack(pair.gear)
+        self._limits: dict = {}
         self._build()
         self.build_time = time.perf_counter() - t0
 
@@ -495,10 +496,11 @@ class TCA:
         w = self.branch.newton(w0, prm)
         res, n1n2, reg, ok = self._check(w, prm)
         at = f"TCA at phi1 = {phi1:.6g} rad"
+        g1, g2 = self.pair.pinion, self.pair.gear
+        wf = np.asarray(self._full(w, z_section)).ravel()
+        off_face = bool(np.all(np.isfinite(wf)) and (abs(wf[1]) > g1.b / 2 or abs(wf[3]) > g2.b / 2))
         if not np.isfinite(res) or res > self.tol:
-            g1, g2 = self.pair.pinion, self.pair.gear
-            wf = np.asarray(self._full(w, z_section)).ravel()
-            if np.all(np.isfinite(wf)) and (abs(wf[1]) > g1.b / 2 or abs(wf[3]) > g2.b / 2):
+            if off_face:
                 raise ConvergenceError(
                     f"{at}: no contact point on the face: the search ran off it (last iterate z1 = {wf[1]:.4g} mm, "
                     f"z2 = {wf[3]:.4g} mm; faces +-{g1.b / 2:g} / +-{g2.b / 2:g} mm). The contact leaves the "
@@ -506,10 +508,19 @@ class TCA:
                     "crown the pinion more.")
             raise ConvergenceError(f"{at}: no contact point (residual {res:.3g} mm > {self.tol:g} mm); the first "
                                    "guess may be too far or the flanks do not meet.")
+        if not ok and off_face:
+            # A root of the equations on the flanks' mathematical extension beyond the face (where the
+            # extended surfaces may also be singular or reversed): not a contact of these teeth.
+            where = self._root_facts(w, prm, wf)
+            raise ConvergenceError(
+                f"{at}: no contact point on the face: the tangency equations converge only off it, at z1 = "
+                f"{wf[1]:.4g} mm, z2 = {wf[3]:.4g} mm (faces +-{g1.b / 2:g} / +-{g2.b / 2:g} mm; {where}). The "
+                "flanks have no point contact on the teeth here: the contact is on an edge; analyse edge contact "
+                "(gearopt.contact.EdgeContact, [tca] edge_contact = true) or crown the pinion more.")
         if reg <= REGULARITY_MIN:
-            raise ConvergenceError(f"{at}: false root at a singular point of a flank ((r_u x r_z) . n = {reg:.2g}: at "
-                                   "or past the involute's base-circle cusp, on the reversed branch): the surfaces "
-                                   "cross there, they do not touch. Start from another guess.")
+            where = self._root_facts(w, prm, wf)
+            raise ConvergenceError(f"{at}: false root at a singular point of a flank ((r_u x r_z) . n = {reg:.2g}: "
+                                   f"{where}): the surfaces cross there, they do not touch. Start from another guess.")
         if n1n2 > 0:
             raise ConvergenceError(f"{at}: false root: the outward normals agree (n1 . n2 = {n1n2:.3f}, must be "
                                    "-1); typical near the involute base-circle singular point. Start from another guess.")
@@ -519,6 +530,28 @@ class TCA:
             raise ConvergenceError(f"{at}: the surfaces cross instead of touching (n1 . n2 = {n1n2:.12f}, must be "
                                    f"-1 within {NORMAL_TOL:g}).{hint}")
         return w
+
+    def _root_facts(self, w, prm, wf) -> str:
+        """What a rejected root is, in words: for each flank whose regularity (r_u x r_z) . n has
+        the wrong sign or vanishes, where the point lies (radius against base circle and fold)."""
+        k = dict(zip(self.kinematics.name_out(), self.kinematics(wf, prm)))
+        out = []
+        for member, name, orient, tu, tz, nf, r, tooth in (
+                (1, "pinion", self.orient1, "t1u", "t1z", "nf1", "r1", self.pinion),
+                (2, "gear", self.orient2, "t2u", "t2z", "nf2", "r2", self.gear)):
+            reg = orient * float(ca.dot(ca.cross(k[tu], k[tz]), k[nf]))
+            rad = float(np.hypot(*np.asarray(k[r]).ravel()[:2]))
+            if reg > REGULARITY_MIN:
+                continue
+            p = prm[1:5] if member == 1 else prm[5:9]
+            lim = self.flank_limit(member, 0.0, p)
+            fold = (f"its flank folds at radius {lim.radius_fold:.6g} mm" if lim.folded else
+                    f"its flank is regular down to the tool junction, radius {lim.radius:.6g} mm")
+            side = "reversed branch" if reg < 0 else "singular point"
+            cusp = "its fold" if lim.folded else "the involute's base-circle cusp"
+            out.append(f"{name} point at radius {rad:.6g} mm (base circle {tooth.gear.r_b:.6g} mm; {fold}) lies on "
+                       f"the {side} of its flank surface, at or past {cusp}")
+        return "; ".join(out) if out else "both flanks regular there"
 
     def sweep(self, phi1, p1=None, p2=None, mis: Misalignment | None = None, pairs=(-1, 0, 1),
               delta: float = DELTA_DEFAULT, anchor: float = 0.0, z_section: float = 0.0,
@@ -586,17 +619,21 @@ class TCA:
         w_0 = w_a if anchor == 0.0 else self.solve_point(0.0, w_a, p1, p2, mis, z_section)
         phi2_ref = float(np.asarray(self._full(w_0, z_section)).ravel()[4]) / self.scale2
         solve_time = time.perf_counter() - t0
+        stats = {"n_positions": int(phis.size), "n_fast": n_fast, "n_retry": n_retry,
+                 "n_failed": int((~ok).sum()), "build_s": self.build_time, "solver": self.solver,
+                 "contact": self.contact_type}
+        folded = self.folding(p1, p2)
+        if folded:
+            stats["folded_flanks"] = folded
         result = self._result(phi1, pairs, Wf, ok, res, n1n2, r1, r2, rf1, K1, K2, E2, E1, delta, mis, solve_time,
-                              {"n_positions": int(phis.size), "n_fast": n_fast, "n_retry": n_retry,
-                               "n_failed": int((~ok).sum()), "build_s": self.build_time, "solver": self.solver,
-                               "contact": self.contact_type}, phi2_ref)
+                              stats, phi2_ref, p1, p2)
         if not ok.any():  # all-NaN: not a result (points found off the finite flanks are kept, flagged)
             raise no_contact("TCA.sweep", phi1, pairs, g1.z)
         return result
 
     # ------------------------------------------------------------------------------------------
     def _result(self, phi1, pairs, W, ok, res, n1n2, r1, r2, rf1, K1, K2, E2, E1, delta, mis, solve_time, stats,
-                phi2_ref):
+                phi2_ref, p1=None, p2=None):
         g1, g2 = self.pair.pinion, self.pair.gear
         K, N = len(pairs), phi1.size
         shp = lambda a: a.reshape(K, N)  # noqa: E731
@@ -607,16 +644,32 @@ class TCA:
         radius1 = shp(np.hypot(r1[0], r1[1]))
         radius2 = shp(np.hypot(r2[0], r2[1]))
         z1, z2 = shp(W[1]), shp(W[3])
-        r_form1 = self._form_radius(self.pinion)
-        r_form2 = self._form_radius(self.gear)
         eps = 1e-9
+        # Above the true end of each generated flank (junction, fold or crossing; per section z).
+        lim1 = self.on_active_flank(1, shp(W[0]), z1, p1)
+        lim2 = self.on_active_flank(2, shp(W[2]), z2, p2)
         on = (ok.reshape(K, N) & (np.abs(z1) <= g1.b / 2 + eps) & (np.abs(z2) <= g2.b / 2 + eps)
-              & (radius1 >= r_form1 - eps) & (radius1 <= g1.r_a + eps)
-              & (radius2 >= r_form2 - eps) & (radius2 <= g2.r_a + eps))
+              & lim1 & (radius1 <= g1.r_a + eps) & lim2 & (radius2 <= g2.r_a + eps))
         te_on = np.where(on, te, -np.inf)
         drv = np.argmax(te_on, axis=0)
         env = te_on[drv, np.arange(N)]
         has = np.isfinite(env)
+        # A tangency past the end of a folded flank that the tool cut off at a ridge (a convex edge):
+        # that pair's real contact is on the ridge, at a TE between the surface one and nothing; if
+        # the surface TE is above the envelope, the surface contacts cannot tell the actual TE there.
+        ridge = np.zeros((K, N), bool)
+        for member, lim_ok, uu, pp in ((1, lim1, W[0], p1), (2, lim2, W[2], p2)):
+            if self.flank_limit(member, 0.0, pp).kind == "intersection":
+                ridge |= (ok.reshape(K, N) & ~lim_ok & np.isfinite(shp(uu)) & (np.abs(z1) <= g1.b / 2 + eps)
+                          & (np.abs(z2) <= g2.b / 2 + eps) & (radius1 <= g1.r_a + eps) & (radius2 <= g2.r_a + eps))
+        # (a tie within round-off, e.g. conjugate line contact, changes nothing: the ridge TE <= the surface TE)
+        unknown = (ridge & (np.where(ridge, te, -np.inf) > np.where(has, env, -np.inf)[None, :] + 1e-13)).any(axis=0)
+        if unknown.any():
+            has = has & ~unknown
+            stats["ridge_contact"] = (
+                f"{int(unknown.sum())} of {N} positions: a tooth pair's contact falls past the end of a folded "
+                "flank, where the tool cut it off at a ridge; that pair rests on the ridge (edge contact), "
+                "so the actual TE there is NaN here: analyse edge contact (gearopt.contact.EdgeContact)")
         env = np.where(has, env, np.nan)
         driving = np.where(has, drv, -1)
         # Curvatures and contact ellipse: eigen-decomposition of K1 + K2 in the common basis.
@@ -658,10 +711,68 @@ class TCA:
         f = ca.Function("o", [u, z], [ca.dot(ca.cross(ca.jacobian(r, u), ca.jacobian(r, z)), n)])
         return float(np.sign(float(f(tooth.u_at_radius(r_w, 0.0, self.side), 0.0))))
 
-    def _form_radius(self, tooth: GeneratedTooth) -> float:
-        u_f, _ = tooth.junction()
-        r = tooth.point(self.side, "flank", u_f, 0.0)[0]
-        return float(math.hypot(r[0], r[1]))
+    def _form_radius(self, tooth: GeneratedTooth, p=None) -> float:
+        """Form radius [mm] of a member's driving flank in the mid section z = 0: where the real
+        generated flank ends (:meth:`GeneratedTooth.flank_limit`: the tool's flank/fillet junction,
+        or below a fold of the flank its crossing with the reversed branch or the fillet)."""
+        return self.flank_limit(1 if tooth is self.pinion else 2, 0.0, p).radius
+
+    def flank_limit(self, member: int, z: float = 0.0, p=None):
+        """:class:`~gearopt.geometry.generation.FlankLimit` of member 1 (pinion) or 2 (gear) on the
+        driving side in section ``z`` [mm] for the parameter vector ``p`` (default: as built)."""
+        tooth = self.pinion if member == 1 else self.gear
+        p = tooth.p0 if p is None else np.asarray(p, float).ravel()
+        key = ("limit", member, float(z), tuple(p.tolist()))
+        if key not in self._limits:
+            self._limits[key] = tooth.flank_limit(self.side, float(z), p)
+        return self._limits[key]
+
+    def _limit_table(self, member: int, p):
+        """(z^2 grid, u_limit on it): the flank limit depends on z only through the plunging a_pl z^2
+        (a shift of the tool in that section), so it is tabulated in z^2 across the face."""
+        tooth = self.pinion if member == 1 else self.gear
+        p = tooth.p0 if p is None else np.asarray(p, float).ravel()
+        key = ("table", member, tuple(p.tolist()))
+        if key not in self._limits:
+            b = (self.pair.pinion if member == 1 else self.pair.gear).b
+            s = np.array([0.0]) if p[3] == 0 else (b / 2) ** 2 * np.linspace(0.0, 1.0, 9)
+            self._limits[key] = (s, np.array([self.flank_limit(member, math.sqrt(v), p).u for v in s]))
+        return self._limits[key]
+
+    def on_active_flank(self, member: int, u, z, p=None, band: float = 1e-3) -> np.ndarray:
+        """True where the flank point (u, z) [mm] of member 1 or 2 lies on the real generated flank
+        (``u`` not past the flank limit of its section; the tip and face are checked elsewhere).
+        The limit is interpolated in z^2 and recomputed exactly for points within ``band`` [mm] of it.
+        NaN points are False."""
+        u, z = np.asarray(u, float), np.asarray(z, float)
+        s_grid, u_grid = self._limit_table(member, p)
+        b = (self.pair.pinion if member == 1 else self.pair.gear).b
+        fin = np.isfinite(u) & np.isfinite(z)
+        s = np.clip(np.where(fin, z, 0.0) ** 2, 0.0, (b / 2) ** 2)
+        u_lim = np.interp(s, s_grid, u_grid) if s_grid.size > 1 else np.full(u.shape, u_grid[0])
+        near = fin & (np.abs(np.where(fin, u, 0.0) - u_lim) < band) & (s_grid.size > 1)
+        for idx in zip(*np.nonzero(near)):
+            u_lim[idx] = self.flank_limit(member, math.sqrt(s[idx]), p).u
+        with np.errstate(invalid="ignore"):
+            return fin & (u <= u_lim + 1e-8)
+
+    def folding(self, p1=None, p2=None) -> dict:
+        """Members whose driving flank folds before the tool's junction (mid section), with the
+        flank limit and the largest a_c that does not fold: ``{"pinion": {...}}``; empty if none."""
+        out = {}
+        for member, name, tooth, p in ((1, "pinion", self.pinion, p1), (2, "gear", self.gear, p2)):
+            lim = self.flank_limit(member, 0.0, p)
+            if lim.folded:
+                key = ("a_c_max", member, tuple((tooth.p0 if p is None else np.asarray(p, float)).tolist()))
+                if key not in self._limits:
+                    self._limits[key] = float(tooth.max_unfolded_a_c(self.side, 0.0, p))
+                out[name] = {"kind": lim.kind, "r_form": float(lim.radius), "u_limit": float(lim.u),
+                             "r_fold": float(lim.radius_fold),
+                             "r_junction": float(np.hypot(*tooth.point(self.side, "flank", lim.u_junction, 0.0,
+                                                                       p)[0][:2])),
+                             "a_c": float((tooth.p0 if p is None else np.asarray(p, float))[1]),
+                             "a_c_max_unfolded": self._limits[key]}
+        return out
 
 
 def _unit_perp(n):

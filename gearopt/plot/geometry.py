@@ -95,6 +95,8 @@ def plot_tooth(report, member: str = "pinion", ax=None):
     ax.set_ylim(ylo, m["r_a"] + 0.6 * m["m_n"])
     ax.set_aspect("equal")
     flag = "  UNDERCUT" if m["undercut"] else ""
+    if m.get("folded") and not m["undercut"]:  # folded by profile crowning (issue 10)
+        flag = f"  FOLDED (a_c > {m['a_c_max_unfolded']:.3g} 1/mm)"
     ax.set_title(f"{member}: z = {m['z']}, m_n = {m['m_n']:g} mm, x = {m['x']:+.3f}, "
                  f"alpha_n = {m['alpha_n_deg']:.1f} deg{flag}\n{m['generation']}-generated, "
                  f"s_a = {m['s_a']:.3f} mm, undercut margin dx = {m['undercut_margin_x']:+.3f}", fontsize=9)

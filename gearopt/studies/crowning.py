@@ -132,7 +132,8 @@ class CrowningStudy:
             "nlp_build_s": d.build_time, "nlp_solve_s": d.solve_time,
             "cases": [{"name": c.name, "te_level_arcsec": c.te_level_tca * RAD_TO_ARCSEC,
                        "fit_rms_arcsec": c.fit_rms * RAD_TO_ARCSEC, "edge_contact": c.edge_contact,
-                       "transfer_phi1": list(c.transfer_phi1)} for c in d.cases],
+                       "transfer_phi1": list(c.transfer_phi1),
+                       "corners_phi1": [float(pc) for pc, _ in c.corners]} for c in d.cases],
             "sensitivities": {c: {k: v * RAD_TO_ARCSEC * SENSITIVITY_UNITS.get(k, ("", 1.0))[1] for k, v in s.items()}
                               for c, s in d.sensitivities.items()},
             "sensitivity_units": {k: SENSITIVITY_UNITS.get(k, ("arcsec per internal unit", 1.0))[0]

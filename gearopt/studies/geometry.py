@@ -133,6 +133,13 @@ class GeometryStudy:
             prof = tooth.transverse_profile(0.0, self.points)
             u_f, _ = tooth.junction()
             r_form = float(np.hypot(*prof["right_flank"][-1]))
+            fold = {}
+            if tooth.method in ("rack", "hob"):  # the real end of the flank (junction, or crossing below a fold)
+                lim = tooth.flank_limit("right", 0.0)
+                r_form = float(lim.radius)
+                fold = {"flank_limit": lim.kind, "folded": lim.folded}
+                if lim.folded:
+                    fold["a_c_max_unfolded"] = float(tooth.max_unfolded_a_c("right", 0.0))
             r_start, _ = _active_start(a, aw, g.r_b, mate.r_b, mate.r_a)
             members[name] = {
                 "z": g.z, "m_n": g.m_n, "m_t": g.m_t, "x": g.x, "k": g.k, "b": g.b,
@@ -149,7 +156,7 @@ class GeometryStudy:
                 "s_t": g.s_t, "s_a": g.s_at(g.r_a), "s_a_over_m_n": g.s_at(g.r_a) / g.m_n,
                 "undercut": g.undercut, "x_min_undercut": g.x_min_undercut, "z_min_undercut": g.z_min_undercut,
                 "undercut_margin_x": g.x_E - g.x_min_undercut, "x_max_pointed": g.x_max_pointed,
-                "flank_u_form": u_f,
+                "flank_u_form": u_f, **fold,
             }
             profiles[name] = {k: v.tolist() for k, v in prof.items()}
             if self.rack_mesh and tooth.method in ("rack", "hob"):

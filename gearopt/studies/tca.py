@@ -341,7 +341,7 @@ class TCAStudy:
                 "pinion_a_c": p.pinion.rack.a_c, "pinion_a_pl": p.pinion.a_pl, "eps_alpha": p.eps_alpha,
                 "eps_beta": p.eps_beta, "alpha_wt_deg": p.alpha_wt / DEG, "a_minus_a_0_um": p.a_minus_a_0 * 1000,
                 "backlash_circumferential": p.backlash,
-                "edge_contact_analysis": self.edge is not None}
+                "edge_contact_analysis": self.edge is not None, "folded_flanks": self.tca.folding()}
         return TCAReport(scene=self.name, pair=pair, cases=cases,
                          timing={"build_s": self.tca.build_time, "run_s": time.perf_counter() - t0})
 

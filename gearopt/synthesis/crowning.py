@@ -102,13 +102,15 @@ class CaseReport:
     name: str
     misalignment: Misalignment
     fit_rms: float  # RMS misfit of the case's TE to the target parabola + line in the NLP [rad]
-    te_level_tca: float  # peak-to-peak of the actual TE of the verification sweep [rad]
+    te_level_tca: float  # peak-to-peak of the actual TE, at its located corners and peak [rad]
     edge_contact: bool  # edge contact anywhere in the verification sweep
-    transfer_phi1: tuple  # transfer points of the NLP fit [rad]
+    transfer_phi1: tuple  # transfer points of the NLP fit [rad] (the actual corners: ``corners``)
     phi1: np.ndarray = field(repr=False)
     te_envelope: np.ndarray = field(repr=False)  # verification sweep, actual TE [rad]
     path: dict = field(repr=False)  # central pair: {"pinion": (z, radius), "gear": (z, radius)}, valid points
     result: object = field(default=None, repr=False)  # the EdgeTCAResult of the verification sweep
+    corners: tuple = ()  # actual corners of the actual TE: ((phi1 [rad], TE [rad]), ...) where pairs cross
+    peak: tuple = ()  # (phi1, TE) of the highest point of the actual TE [rad]
 
 
 @dataclass(frozen=True)
@@ -469,32 +471,27 @@ class CrowningOptimizer:
         return "\n".join(lines)
 
     def _verify(self, pair: GearPair, X) -> list:
-        """Independent check: TCA + edge contact sweeps of the optimized drive, every case."""
+        """Independent check: TCA + edge contact sweeps of the optimized drive, every case. The TE
+        level is measured at the actual extremes of the actual TE, located on the engine's own
+        sweeps (:func:`actual_level`), not at the NLP's fitted transfer points."""
         z1 = pair.pinion.z
         pitch = 2 * math.pi / z1
-        # The grid includes the NLP's transfer points (the corners of the actual TE), so the
-        # peak-to-peak is not underestimated by sampling.
-        corners = []
-        for cname in self.cases:
-            c1 = X[self._c_index[cname] + 1] * self.target.te_level
-            t = pitch / 2 + c1 / (2 * self._A_t)
-            corners += [t - 2 * pitch, t - pitch, t, t + pitch]
         phi = np.linspace(-pitch, pitch, 4 * self.positions, endpoint=False)
-        phi = np.unique(np.concatenate([phi, [c for c in corners if -pitch <= c < pitch]]))
         ec = EdgeContact(TCA(pair, side=self.side))
         out = []
         fits = dict(zip(self.cases, (float(v) for v in self._fit_terms(X))))
         for cname, mis in self.cases.items():
             c1 = X[self._c_index[cname] + 1] * self.target.te_level
             r = ec.sweep(phi, mis=mis, pairs=(-2, -1, 0, 1, 2))
+            level, corners, peak = actual_level(ec, r, mis)
             phi_t = pitch / 2 + c1 / (2 * self._A_t)
             k0 = r.pairs.index(0)
             v = r.valid[0, k0]
             path = {"pinion": (r.z1[0, k0][v], r.radius1[0, k0][v]), "gear": (r.z2[0, k0][v], r.radius2[0, k0][v])}
             out.append(CaseReport(name=cname, misalignment=mis, fit_rms=float(np.sqrt(fits[cname])) * self.target.te_level,
-                                  te_level_tca=r.peak_to_peak, edge_contact=r.edge_contact(),
+                                  te_level_tca=level, edge_contact=r.edge_contact(),
                                   transfer_phi1=(float(phi_t - pitch), float(phi_t)), phi1=phi,
-                                  te_envelope=r.te_envelope, path=path, result=r))
+                                  te_envelope=r.te_envelope, path=path, result=r, corners=tuple(corners), peak=peak))
         return out
 
     def sensitivities(self, pair: GearPair) -> dict:
@@ -524,3 +521,106 @@ class CrowningOptimizer:
             out[cname] = {n: float(v * (pitch / 2) ** 2) for n, v in zip(names, dA)}
         del z2
         return out
+
+
+def actual_level(ec: EdgeContact, r, mis: Misalignment, zooms: int = 3, points: int = 9):
+    """Peak-to-peak of the actual TE of a sweep ``r`` (an :class:`EdgeTCAResult` of ``ec``) at its
+    true extremes, not at the sweep's samples.
+
+    The actual TE is the upper envelope of the pairs' TE curves: its minima are corners where the
+    driving contact changes, generally between two samples, so a sampled peak-to-peak is too low.
+    Each change of the driving (pair, feature) between two samples is bracketed and the bracket
+    shrunk by ``zooms`` engine sweeps of ``points`` positions of the two contacts involved; the
+    corner is then where the two TE curves cross (their difference changes sign; linear
+    interpolation in the last bracket, error ~A w^2 for a bracket w), or, where the earlier contact
+    ends without crossing, the lowest envelope value found. The peak (a smooth maximum) is
+    refined by the same zooming around the highest sample. TE values of the extra sweeps are put
+    on the zero of ``r`` through a shared reference position.
+
+    Returns
+    -------
+    level : float
+        max - min of the actual TE [rad].
+    corners : list of (phi1, te)
+        The located corners [rad].
+    peak : (phi1, te)
+    """
+    phi, env = r.phi1, r.te_envelope
+    pairs = r.pairs
+    drv, act = r.driving, r.active
+
+    def sub(grid, ks, i_ref):
+        """TE of the pairs ``ks`` at ``grid`` on the zero of r (shared positions phi[i_ref],
+        phi[i_ref + 1]: each pair is shifted where both sweeps have it)."""
+        refs = [i_ref, min(i_ref + 1, phi.size - 1)]
+        rr = ec.sweep(np.r_[phi[refs], grid], mis=mis, pairs=ks)
+        te = rr.te_pair.copy()
+        for j, k in enumerate(ks):
+            shift = math.nan
+            for c, i_r in enumerate(refs):
+                ref = r.te_pair[pairs.index(k), i_r]
+                if np.isfinite(ref) and np.isfinite(te[j, c]):
+                    shift = ref - te[j, c]
+                    break
+            te[j] += shift
+        return te[:, 2:]
+
+    corners = []
+    lows = [float(np.nanmin(env))] if np.isfinite(env).any() else []
+    for i in range(phi.size - 1):
+        if drv[i] < 0 or drv[i + 1] < 0 or (drv[i], act[i]) == (drv[i + 1], act[i + 1]):
+            continue
+        ka, kb = pairs[drv[i]], pairs[drv[i + 1]]
+        ks = (ka,) if ka == kb else (ka, kb)
+        lo, hi = phi[i], phi[i + 1]
+        best = (float(phi[i + 1]), float(env[i + 1])) if env[i + 1] < env[i] else (float(phi[i]), float(env[i]))
+        cross = None
+        for _ in range(zooms):
+            g = np.linspace(lo, hi, points)
+            te = sub(g, ks, i)
+            e = np.nanmax(np.where(np.isfinite(te), te, -np.inf), axis=0)
+            fin = np.isfinite(e)
+            if fin.any():
+                j = int(np.argmin(np.where(fin, e, np.inf)))
+                if e[j] < best[1]:
+                    best = (float(g[j]), float(e[j]))
+            if len(ks) == 1:
+                # one pair changes its feature: the corner is the envelope minimum near it
+                j = int(np.argmin(np.where(fin, e, np.inf)))
+                lo, hi = g[max(j - 1, 0)], g[min(j + 1, points - 1)]
+                continue
+            f = te[0] - te[1]
+            a_ok = np.isfinite(f) & (f >= 0)
+            if not a_ok.any() or a_ok.all():
+                break
+            j = int(np.flatnonzero(a_ok)[-1])
+            if j + 1 >= points:
+                break
+            lo, hi = g[j], g[j + 1]
+            if np.isfinite(f[j + 1]):  # both curves on the bracket: where they cross (the finest wins)
+                t = f[j] / (f[j] - f[j + 1])
+                cross = (float(lo + t * (hi - lo)), float(te[0, j] + t * (te[0, j + 1] - te[0, j])))
+        if cross is not None:
+            best = cross
+        corners.append(best)
+        lows.append(best[1])
+    # the peak: zoom around the highest sample
+    peak = (math.nan, math.nan)
+    if np.isfinite(env).any():
+        i = int(np.nanargmax(env))
+        peak = (float(phi[i]), float(env[i]))
+        if drv[i] >= 0:
+            k = (pairs[drv[i]],)
+            h = float(np.median(np.diff(phi))) if phi.size > 1 else 1e-3
+            lo, hi = phi[i] - h, phi[i] + h  # the apex may lie beyond the first or last sample
+            for _ in range(zooms):
+                g = np.linspace(lo, hi, points)
+                e = sub(g, k, i)[0]
+                if not np.isfinite(e).any():
+                    break
+                j = int(np.nanargmax(e))
+                if e[j] > peak[1]:
+                    peak = (float(g[j]), float(e[j]))
+                lo, hi = g[max(j - 1, 0)], g[min(j + 1, points - 1)]
+    level = peak[1] - min(lows) if lows else math.nan
+    return float(level), corners, peak
