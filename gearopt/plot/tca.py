@@ -366,6 +366,9 @@ def plot_crowning_comparison(before: list, after: list, axes, member: str | None
             ax.set_title(f"{when}: " + ax.get_title(), fontsize=8)
         lo = min(row[0].get_ylim()[0], row[1].get_ylim()[0])
         hi = max(row[0].get_ylim()[1], row[1].get_ylim()[1])
+        if member is None:  # a margin on the common range, so that no curve runs along a frame edge
+            pad = 0.06 * (hi - lo)
+            lo, hi = lo - pad, hi + pad
         x0 = min(row[0].get_xlim()[0], row[1].get_xlim()[0])
         x1 = max(row[0].get_xlim()[1], row[1].get_xlim()[1])
         for ax in row[:2]:
