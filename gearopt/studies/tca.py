@@ -450,9 +450,10 @@ def _register():
         ], required=False, subsections=[Section("cases", [
             Field("label", "str", doc="name of the case in plots and results (default: its misalignments)"),
             Field("dE", "length", default=0.0, check=Bounds(lo=-5, hi=5), doc="centre distance change"),
-            Field("crossing", "angle", default=0.0, check=Bounds(lo=-10, hi=10), doc="crossing angle of the axes"),
-            Field("intersecting", "angle", default=0.0, check=Bounds(lo=-10, hi=10),
-                  doc="intersecting angle of the axes"),
+            Field("crossing", "angle", default=0.0, check=Bounds(lo=-10, hi=10), bare=_BARE_MIS, typical="arcmin",
+                  doc="crossing angle of the axes (a bare number is deg: |crossing| <= 1)"),
+            Field("intersecting", "angle", default=0.0, check=Bounds(lo=-10, hi=10), bare=_BARE_MIS,
+                  typical="arcmin", doc="intersecting angle of the axes (a bare number is deg: |intersecting| <= 1)"),
             Field("axial", "length", default=0.0, check=Bounds(lo=-50, hi=50), doc="axial displacement of the gear"),
         ], array=True, doc="list of misalignment cases ([[tca.cases]]), instead of the single keys; the aligned "
                            "drive comes first unless a case is aligned")])],
