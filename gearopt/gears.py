@@ -31,7 +31,7 @@ from __future__ import annotations
 
 import math
 import numbers
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields, replace
 
 import numpy as np
 
@@ -117,6 +117,10 @@ class BasicRack:
         if key not in _ISO53:
             raise out_of_range("rack.preset", profile, "one of 'A', 'B', 'C', 'D' (ISO 53)")
         h_aP, h_fP, rho = _ISO53[key]
+        unknown = sorted(set(changes) - {f.name for f in fields(cls)})
+        if unknown:
+            raise ArgumentError(f"BasicRack.iso53: unknown field(s) {', '.join(unknown)}; valid: "
+                                f"{', '.join(f.name for f in fields(cls))}.")
         return cls(**{"alpha_n": 20 * DEG, "h_aP": h_aP, "h_fP": h_fP, "rho_fP": rho, "name": f"ISO 53 {key}", **changes})
 
     @property
