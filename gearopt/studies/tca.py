@@ -283,8 +283,28 @@ class TCAStudy:
         """``misalignment``: one case beside the aligned drive; or ``cases``: a list of
         ``(label, Misalignment)`` (or a dict label -> Misalignment) analysed in order, with the
         aligned drive first unless one of them is aligned."""
-        from ..errors import GeometryError
+        from ..errors import ArgumentError, GeometryError, check_number, out_of_range
 
+        if not isinstance(pair, GearPair):
+            raise ArgumentError(f"pair = {type(pair).__name__}: expected a gearopt.gears.GearPair (pinion, gear).")
+        if isinstance(positions, bool) or not isinstance(positions, (int, np.integer)) or not 9 <= positions <= 5000:
+            raise out_of_range("positions", positions, "an integer 9..5000 (positions per mesh cycle)")
+        positions = int(positions)
+        delta = check_number("delta", delta, "a finite elastic approach [mm]")
+        if not 0 < delta <= 0.1 * pair.pinion.m_n:
+            raise out_of_range("delta", delta, f"0 < delta <= 0.1 m_n = {0.1 * pair.pinion.m_n:.4g} mm (elastic "
+                               "approach for the contact ellipse, microns)")
+        z_section = check_number("z_section", z_section, "a finite pinion section [mm]")
+        if abs(z_section) > pair.pinion.b / 2:
+            raise out_of_range("z_section", z_section, f"|z_section| <= b1 / 2 = {pair.pinion.b / 2:.6g} mm (a "
+                               "section of the pinion face)")
+        if not isinstance(edge_contact, (bool, np.bool_)):
+            raise ArgumentError(f"edge_contact = {type(edge_contact).__name__} {edge_contact!r}: expected True or "
+                                "False.")
+        if misalignment is not None and not isinstance(misalignment, Misalignment):
+            raise ArgumentError(f"misalignment = {type(misalignment).__name__}: expected a Misalignment"
+                                + (" (use Misalignment(**d), angles in rad)." if isinstance(misalignment, dict)
+                                   else "."))
         self.pair, self.name = pair, name
         self.positions, self.delta, self.z_section = positions, delta, z_section
         self.cases = [("aligned", Misalignment())]
@@ -304,6 +324,13 @@ class TCAStudy:
                                     "'aligned').")
         elif misalignment is not None and np.any(misalignment.vector() != 0):
             self.cases.append(("misaligned", misalignment))
+        overlap = (pair.pinion.b + pair.gear.b) / 2
+        for lab, m in self.cases:  # the rules of TCA.sweep, before anything runs
+            where = "misalignment" if lab == "misaligned" and cases is None else f"cases[{lab!r}]"
+            pair.check_operating(m.dE, f"{where}.dE")
+            if abs(m.axial) >= overlap:
+                raise out_of_range(f"{where}.axial", m.axial, f"|axial| < (b1 + b2) / 2 = {overlap:.6g} mm (the "
+                                   "faces must overlap for the teeth to touch)")
         self.tca = TCA(pair, side=side, contact=contact)
         self.edge = EdgeContact(self.tca) if edge_contact else None
 
