@@ -255,3 +255,22 @@ def test_crowning_optimizer_refuses_margins_beyond_the_tooth():
         CrowningOptimizer(pair, CrowningTarget(te_level=3e-5, edge_margin=3.6), cases=cases)
     with pytest.raises(GeometryError, match=r"tip_margin"):
         CrowningOptimizer(pair, CrowningTarget(te_level=3e-5, tip_margin=2.5), cases=cases)
+
+
+def test_hob_diameter_beyond_any_lead_angle_is_refused(capsys, scene_file):
+    from gearopt.geometry.generation import Hob
+
+    geo = '[geometry]\ngeneration = "hob"\nN_h = 2\nd_p0 = {}\n'
+    err = refused(capsys, scene_file, scene(extra=geo.format('"3 m"')), r"\[geometry\] d_p0 = \"3 m\"", r"lead angle")
+    # lead angle 0.1 deg: d_p0 = N_h m_n / sin(0.1 deg)
+    assert _number_after(err, r"d_p0 <= ([\d.]+) mm") == pytest.approx(2 * 2.25 / math.sin(math.radians(0.1)),
+                                                                        rel=1e-5)
+    accepted(capsys, scene_file, scene(extra=geo.format('"90 mm"')))
+    with pytest.raises(GeometryError, match="d_p0"):
+        Hob(N_h=1, d_p0=4e5).lead_angle(4.0)
+
+
+def test_bare_planar_starting_angle_in_radians_is_a_unit_slip(capsys, scene_file):
+    planar = "[planar_tca]\nalpha_guess = {}\n"
+    refused(capsys, scene_file, scene("planar_tca", extra=planar.format("0.4")), r"alpha_guess = 0.4", r"0.4 rad")
+    accepted(capsys, scene_file, scene("planar_tca", extra=planar.format("24")))

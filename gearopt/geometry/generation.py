@@ -299,6 +299,10 @@ def generate_by_rack(gear: Gear, rack: BasicRack | None = None) -> GeneratedToot
     return _rack_generated(gear, rack or gear.rack, "rack")
 
 
+#: Smallest hob lead angle [rad] gearopt accepts (real hobs have about 1 to 6 deg).
+HOB_LEAD_MIN = 0.1 * math.pi / 180
+
+
 @dataclass(frozen=True)
 class Hob:
     """A hob whose normal section is the rack-cutter (Litvin section 10.3, Fig. 10.3.5).
@@ -328,8 +332,11 @@ class Hob:
     def lead_angle(self, m_n: float) -> float:
         """Thread lead angle on the reference cylinder [rad]: ``sin lambda = N_h m_n / d_p0``."""
         s = self.N_h * m_n / self.d_p0
-        if s >= 1:
-            raise out_of_range("hob.d_p0", self.d_p0, f"d_p0 > N_h m_n = {self.N_h * m_n:.4g} mm")
+        d_max = self.N_h * m_n / math.sin(HOB_LEAD_MIN)
+        if s >= 1 or self.d_p0 > d_max:
+            raise out_of_range("hob.d_p0", self.d_p0, f"N_h m_n = {self.N_h * m_n:.4g} < d_p0 <= {d_max:.6g} mm for "
+                               f"m_n = {m_n:g} mm, N_h = {self.N_h}: a lead angle of at least "
+                               f"{math.degrees(HOB_LEAD_MIN):g} deg (real hobs: about 1 to 6 deg)")
         return math.asin(s)
 
     def swivel_angle(self, gear: Gear) -> float:

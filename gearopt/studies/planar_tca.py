@@ -210,6 +210,7 @@ def _register():
             Field("method", "str", default="continuation", choices=("continuation", "map"),
                   doc="warm-started sequence or one mapped rootfinder call"),
             Field("alpha_guess", "angle", default=20, check=Bounds(lo=0, hi=90, lo_open=True, hi_open=True),
+                  bare=Bounds(lo=2, hi=90, hi_open=True), typical="rad",
                   doc="pressure angle of the Newton starting point"),
             Field("profiles", "int", default=3, check=Bounds(lo=0, hi=20), doc="positions drawn with both profiles"),
         ], required=False, doc="planar involute TCA (Problem 9.4.1)")],
