@@ -274,3 +274,17 @@ def test_bare_planar_starting_angle_in_radians_is_a_unit_slip(capsys, scene_file
     planar = "[planar_tca]\nalpha_guess = {}\n"
     refused(capsys, scene_file, scene("planar_tca", extra=planar.format("0.4")), r"alpha_guess = 0.4", r"0.4 rad")
     accepted(capsys, scene_file, scene("planar_tca", extra=planar.format("24")))
+
+
+def test_toml_dates_are_spelled_as_in_toml(capsys, scene_file):
+    err = refused(capsys, scene_file, scene(pinion="x = 2024-02-29T08:30:00"), r"\[pinion\] x = 2024-02-29T08:30:00:",
+                  r"got a date-time")
+    assert "datetime" not in err
+    refused(capsys, scene_file, scene(extra="[geometry]\npoints = 07:45:00\n"), r"points = 07:45:00:", r"a time of day")
+
+
+def test_scene_with_a_byte_order_mark_is_read(capsys, scene_file):
+    path = scene_file("")
+    path.write_bytes(b"\xef\xbb\xbf" + scene().encode("utf-8"))
+    capsys.readouterr()
+    assert main(["check", str(path)]) == 0, capsys.readouterr().err

@@ -21,6 +21,7 @@ Every problem (TOML syntax, unknown or missing key, wrong type or unit, impossib
 
 from __future__ import annotations
 
+import datetime as _dt
 import difflib
 import json
 import math
@@ -51,8 +52,11 @@ def _toml(value) -> str:
     """A value as it would be written in TOML (for messages), abbreviated when long."""
     if isinstance(value, float) and not math.isfinite(value):
         return "nan" if math.isnan(value) else ("inf" if value > 0 else "-inf")
+    if isinstance(value, (_dt.date, _dt.time)):  # TOML dates and times are written bare, ISO 8601
+        return shorten(value.isoformat())
     try:
-        text = json.dumps(value, ensure_ascii=False)
+        text = json.dumps(value, ensure_ascii=False,
+                          default=lambda o: o.isoformat() if isinstance(o, (_dt.date, _dt.time)) else repr(o))
     except RecursionError:
         return "<an array or table nested too deeply to show>"
     except (TypeError, ValueError):
@@ -334,7 +338,8 @@ def _same(text: str, value) -> bool:
 
 def _type(value) -> str:
     return {bool: "a boolean", int: "an integer", float: "a number", str: "a string", dict: "a table",
-            list: "an array"}.get(type(value), type(value).__name__)
+            list: "an array", _dt.date: "a date", _dt.datetime: "a date-time", _dt.time: "a time of day"}.get(
+                type(value), type(value).__name__)
 
 
 def _closest(word: str, options) -> str:
@@ -532,7 +537,7 @@ def _read_toml(path: Path, label: str) -> dict:
     except OSError as e:
         raise SceneError(f"{label}: cannot read the scene file: {e.strerror or e}.") from None
     try:
-        text = raw.decode("utf-8")
+        text = raw.decode("utf-8-sig")  # a byte-order mark (some Windows editors write one) is not content
     except UnicodeDecodeError as e:
         raise SceneError(f"{label}: not UTF-8 text ({e.reason} at byte {e.start}).") from None
     try:
