@@ -288,3 +288,15 @@ def test_scene_with_a_byte_order_mark_is_read(capsys, scene_file):
     path.write_bytes(b"\xef\xbb\xbf" + scene().encode("utf-8"))
     capsys.readouterr()
     assert main(["check", str(path)]) == 0, capsys.readouterr().err
+
+
+def test_run_error_in_a_case_shows_the_cases_as_written(capsys, scene_file, tmp_path):
+    crowned = 'a_pl = "0.0004 1/mm"\nrack = { a_c = "0.002 1/mm" }'
+    cases = '[tca]\npositions = 9\n[[tca.cases]]\nlabel = "tilted"\nintersecting = "45 arcmin"\n'
+    path = scene_file(scene("tca", pinion=crowned, extra=cases))
+    out = tmp_path / "res"
+    capsys.readouterr()
+    rc = main(["run", str(path), "--out", str(out), "-q"])
+    err = capsys.readouterr().err
+    assert rc == 2 and "Traceback" not in err and not out.exists(), err
+    assert 'cases[0] = {label = "tilted", intersecting = "45 arcmin"}' in err, err

@@ -514,6 +514,11 @@ class Scene:
                 w = self.written(sec.name, f.name)
                 if w is not None:
                     given.append(f"{f.name} = {w}")
+            for sub in sec.subsections:  # e.g. [[tca.cases]]: each case as written
+                rows = (self.raw.get(sec.name) or {}).get(sub.name) if isinstance(self.raw.get(sec.name), dict) else None
+                if sub.array and isinstance(rows, list):
+                    given += [f"{sub.name}[{i}] = {{{', '.join(f'{k} = {_toml(v)}' for k, v in row.items())}}}"
+                              for i, row in enumerate(rows) if isinstance(row, dict)]
         ctx = f" (the scene sets [{spec.sections[0].name}] {', '.join(given)})" if given and spec else ""
         return SceneError(f"{self.source}: study {self.study!r} failed{ctx}: {msg}")
 
