@@ -300,3 +300,31 @@ def test_run_error_in_a_case_shows_the_cases_as_written(capsys, scene_file, tmp_
     err = capsys.readouterr().err
     assert rc == 2 and "Traceback" not in err and not out.exists(), err
     assert 'cases[0] = {label = "tilted", intersecting = "45 arcmin"}' in err, err
+
+
+def test_line_contact_with_angular_misalignment_is_refused_at_check(capsys, scene_file):
+    # conjugate spur pinion, crossed axes: the flanks cross in every section, no line contact exists
+    refused(capsys, scene_file, scene("tca", extra='[tca]\ncontact = "line"\npositions = 9\ncrossing = "4 arcmin"\n'),
+            r"\[tca\] crossing = \"4 arcmin\" is not allowed with contact = \"line\"")
+    cases = '[tca]\ncontact = "line"\npositions = 9\n[[tca.cases]]\ndE = "0.03 mm"\n[[tca.cases]]\nintersecting = "-1.5 arcmin"\n'
+    refused(capsys, scene_file, scene("tca", pair='a = "71.3 mm"', extra=cases),
+            r"\[tca\.cases\]\[1\] intersecting = \"-1.5 arcmin\"")
+    # a centre-distance change keeps line contact; edge contact handles the crossed axes
+    accepted(capsys, scene_file, scene("tca", pair='a = "71.3 mm"', extra=cases.split("[[tca.cases]]\nint")[0]))
+    accepted(capsys, scene_file, scene("tca", extra='[tca]\ncontact = "line"\nedge_contact = true\npositions = 9\n'
+                                                    'crossing = "4 arcmin"\n'))
+
+
+def test_fea_positions_that_would_repeat_or_ignore_an_angle(capsys, scene_file):
+    fea = "[fea]\nphi1_start = \"{}\"\nphi1_end = \"{}\"\nn_positions = {}\n"
+    refused(capsys, scene_file, scene("fea", b=8, extra=fea.format("1.5 deg", "1.5 deg", 4)), r"\[fea\] n_positions = 4")
+    refused(capsys, scene_file, scene("fea", b=8, extra=fea.format("-3 deg", "4 deg", 1)),
+            r"\[fea\] phi1_end = \"4 deg\" is not used with n_positions = 1")
+
+
+def test_crowning_optimizer_with_no_cases_is_refused():
+    from gearopt.synthesis.crowning import CrowningOptimizer, CrowningTarget
+
+    pair = GearPair(pinion=Gear(z=24, m_n=2.5, b=15.0, name="pinion"), gear=Gear(z=37, m_n=2.5, b=15.0, name="gear"))
+    with pytest.raises(GeometryError, match="cases"):
+        CrowningOptimizer(pair, CrowningTarget(te_level=4e-5), cases={})

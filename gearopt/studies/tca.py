@@ -427,6 +427,17 @@ def _from_scene(scene) -> TCAStudy:
             raise scene.key_error("tca", "z_section", f"is out of range; valid: |z_section| <= b1 / 2 = "
                                   f"{scene.pair.pinion.b / 2:g} mm (a section of the pinion face, [pinion] b = "
                                   f"{scene.pair.pinion.b:g} mm).")
+        if o.get("contact") == "line" and not o.get("edge_contact"):
+            # crossed or intersecting axes turn the line contact into point or edge contact: the
+            # surfaces then cross in every section (Litvin 9.6); the line TCA has no solution
+            rows = [("tca", o)] if cases is None else [(f"tca.cases][{i}", c) for i, c in enumerate(o["cases"])]
+            for sec, row in rows:
+                for key in ("crossing", "intersecting"):
+                    if row.get(key):
+                        raise scene.key_error(sec, key, "is not allowed with contact = \"line\"; valid: 0 (line "
+                                              "contact needs aligned axes: crossed or intersecting axes give point "
+                                              "or edge contact). Use contact = \"point\" with a crowned pinion, or "
+                                              "set edge_contact = true.")
         if o.get("contact") == "point" and scene.pair.pinion.a_pl == 0 and not o.get("edge_contact"):
             raise SceneError(f"{scene.source}: [tca] contact = \"point\" needs a longitudinally crowned pinion "
                              "([pinion] a_pl > 0); for conjugate or profile-crowned spur pinions use contact = "

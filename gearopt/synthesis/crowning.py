@@ -189,7 +189,7 @@ class CrowningOptimizer:
         if cases is not None and not isinstance(cases, dict):
             raise ArgumentError(f"cases = {type(cases).__name__}: expected a dict {{name: Misalignment}}, e.g. "
                                 "misalignment_cases(crossing=3 * ARCMIN).")
-        cases = dict(cases or _default_cases())
+        cases = dict(_default_cases() if cases is None else cases)
         if not cases:
             raise out_of_range("cases", cases, "at least one misalignment case")
         overlap = (pair.pinion.b + pair.gear.b) / 2
