@@ -30,10 +30,13 @@ j_wt, j_bn  circumferential backlash on the working pitch circle, normal backlas
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+import numbers
+from dataclasses import dataclass, field, fields, replace
 from functools import lru_cache
 
-from .errors import GeometryError, out_of_range
+import numpy as np
+
+from .errors import ArgumentError, GeometryError, out_of_range, shorten
 from .geometry.involute import inv, inv_inverse, tooth_thickness
 from .units import DEG, INCH
 
@@ -115,6 +118,10 @@ class BasicRack:
         if key not in _ISO53:
             raise out_of_range("rack.preset", profile, "one of 'A', 'B', 'C', 'D' (ISO 53)")
         h_aP, h_fP, rho = _ISO53[key]
+        unknown = sorted(set(changes) - {f.name for f in fields(cls)})
+        if unknown:
+            raise ArgumentError(f"BasicRack.iso53: unknown field(s) {', '.join(unknown)}; valid: "
+                                f"{', '.join(f.name for f in fields(cls))}.")
         return cls(**{"alpha_n": 20 * DEG, "h_aP": h_aP, "h_fP": h_fP, "rho_fP": rho, "name": f"ISO 53 {key}", **changes})
 
     @property
@@ -144,6 +151,11 @@ _HANDS = ("right", "left")
 Z_MAX = 100_000
 #: Widest face, in reference diameters of the member.
 B_MAX_PER_D = 10.0
+#: Narrowest face, in normal modules (a face below a tenth of the module is a disc edge, not a tooth).
+B_MIN_PER_M = 0.1
+#: Largest tooth thickness allowance |A_sne|, |A_sni|, as a share of the reference tooth thickness
+#: pi m_n / 2 (DIN 3967 allowances are tens to hundreds of microns: a few percent of it).
+ALLOWANCE_SHARE = 0.5
 #: Range of the normal module [mm] gearopt accepts (ISO 54 modules are 0.05 to 100 mm).
 M_N_RANGE = (0.01, 1000.0)
 #: Largest share of the reference tooth thickness crowning may remove from each flank.
@@ -213,13 +225,20 @@ class Gear:
     A_sni: float | None = None
 
     def __post_init__(self):
+        if not isinstance(self.name, str):
+            raise ArgumentError(f"name = {shorten(repr(self.name))}: expected a str (e.g. 'pinion' or 'gear').")
         n = self.name
+        for f in ("allow_undercut",):
+            if not isinstance(getattr(self, f), (bool, np.bool_)):
+                raise ArgumentError(f"{n}.{f} = {shorten(repr(getattr(self, f)))}: expected True or False.")
         _finite(f"{n}.A_sne", self.A_sne)
         if self.A_sni is None:
             object.__setattr__(self, "A_sni", float(self.A_sne))
         elif _finite(f"{n}.A_sni", self.A_sni) > self.A_sne:
             raise out_of_range(f"{n}.A_sni", self.A_sni, f"A_sni <= A_sne = {self.A_sne:.6g} mm (lower thickness "
                                "allowance below the upper one)")
+        if isinstance(self.z, (numbers.Integral, np.integer)) and not isinstance(self.z, (bool, np.bool_)):
+            object.__setattr__(self, "z", int(self.z))
         if isinstance(self.z, bool) or not isinstance(self.z, int):
             raise GeometryError(f"{n}.z = {self.z!r} must be an integer number of teeth (z >= 3).")
         if self.z < 3:
@@ -237,6 +256,17 @@ class Gear:
                                "gears of ordinary size; ISO 54 modules span 0.05 to 100 mm)")
         if self.b <= 0:
             raise out_of_range(f"{n}.b", self.b, "b > 0 mm")
+        if self.b < B_MIN_PER_M * self.m_n:
+            raise out_of_range(f"{n}.b", self.b, f"b >= {B_MIN_PER_M:g} m_n = {B_MIN_PER_M * self.m_n:.6g} mm for "
+                               f"m_n = {self.m_n:g} mm (a face narrower than a tenth of the module is not a tooth; "
+                               "check the units of b)")
+        a_max = ALLOWANCE_SHARE * math.pi * self.m_n / 2
+        for f in ("A_sne", "A_sni"):
+            if abs(getattr(self, f)) > a_max:
+                raise out_of_range(f"{n}.{f}", getattr(self, f), f"|{f}| <= {a_max:.4g} mm for m_n = {self.m_n:g} "
+                                   f"mm: a thickness allowance may change the reference tooth thickness pi m_n / 2 "
+                                   f"by at most {ALLOWANCE_SHARE:.0%} (DIN 3967 allowances are tens to hundreds of "
+                                   "microns)")
         d = self.m_n * self.z / math.cos(self.beta) if abs(self.beta) < 1.5 else self.m_n * self.z
         if self.b > B_MAX_PER_D * d:
             raise out_of_range(f"{n}.b", self.b, f"0 < b <= {B_MAX_PER_D:g} d = {B_MAX_PER_D * d:.6g} mm (d = m_n z / "
@@ -254,14 +284,18 @@ class Gear:
         if self.x <= x_root:
             raise out_of_range(f"{n}.x", self.x, f"x > {x_root:.4g} for z = {self.z} (root circle r_f = r_p + m_n (x - "
                                "h_fP) above the axis)")
+        if not math.isfinite(self.k * self.m_n):
+            raise out_of_range(f"{n}.k", self.k, "a finite tip radius r_a = r_p + m_n (h_aP + x + k)")
+        if self.k > 0 and abs(self.x) < self.z and self.r_a >= self.r_b and not self.s_at(self.r_a) > 0:
+            # a lengthened tip (k > 0) that is pointed: the tip alteration is what is wrong, not the shift
+            raise self._k_error(None, self._k_max_pointed(), "(beyond it the tip is pointed)",
+                                "Shorten the tip (lower k or the tip diameter d_a).")
         if not (math.isfinite(self.r_a) and math.isfinite(self.r_f) and self.x < self.z) and self.x > 0:
             # x >= z: the tip radius exceeds twice the reference radius; long before that the tip is pointed
             raise out_of_range(f"{n}.x", self.x, f"x < {self.x_max_pointed:.4f} for z = {self.z}, k = {self.k} "
                                "(beyond it the tip is pointed)", "Lower x or shorten the tip (k < 0).")
-        if not math.isfinite(self.k * self.m_n):
-            raise out_of_range(f"{n}.k", self.k, "a finite tip radius r_a = r_p + m_n (h_aP + x + k)")
         if self.r_a <= self.r_f:
-            raise out_of_range(f"{n}.k", self.k, f"k > {-(self.rack.h_aP + self.rack.h_fP):.4g} (tip above root)")
+            raise self._k_error(-(self.rack.h_aP + self.rack.h_fP), None, "(tip above root)")
         if not self.allow_undercut and self.x_E < self.x_min_undercut - 1e-12:
             raise out_of_range(
                 f"{n}.x", self.x, f"x >= {self.x_min_undercut + self.x - self.x_E:.4f} for z = {self.z} (no undercut; z >= {self.z_min_undercut:.2f} "
@@ -274,6 +308,26 @@ class Gear:
                                f"(the tip is pointed: s_a = {s_a:.4g} mm)", "Lower x or shorten the tip (k < 0).")
 
         self._check_crowning()
+
+    def _k_error(self, lo: float | None, hi: float | None, why: str, hint: str = "") -> GeometryError:
+        """An out-of-range error on the tip alteration ``k`` with the valid range ``lo < k < hi``;
+        ``err.k_bounds = (lo, hi)`` lets a scene restate it for a tip diameter ``d_a``."""
+        rng = f"k > {lo:.4g}" if hi is None else (f"k < {hi:.4f} for x = {self.x:g}, z = {self.z}" if lo is None
+                                                  else f"{lo:.4g} < k < {hi:.4f}")
+        err = out_of_range(f"{self.name}.k", self.k, f"{rng} {why}", hint)
+        err.k_bounds = (lo, hi)
+        return err
+
+    def _k_max_pointed(self) -> float:
+        """Tip alteration at which the tip becomes pointed (s_a = 0), by bisection."""
+        def s_a(k):
+            r_a = self.r_p + self.m_n * (self.rack.h_aP + self.x + k)
+            return math.inf if r_a <= self.r_b else float(self.s_at(r_a))
+        lo, hi = -(self.rack.h_aP + self.rack.h_fP), max(self.k, 1.0)
+        for _ in range(200):
+            mid = 0.5 * (lo + hi)
+            lo, hi = (mid, hi) if s_a(mid) > 0 else (lo, mid)
+        return lo
 
     def _check_crowning(self):
         """Crowning must be a modification, not a different tooth: at the face ends (plunging

@@ -41,11 +41,17 @@ def _a(word: str) -> str:
 
 def deg(value_deg: float) -> float:
     """Degrees to radians."""
+    if isinstance(value_deg, (str, bytes)):
+        from .errors import check_number
+        check_number("value_deg", value_deg, "a number in deg")
     return value_deg * DEG
 
 
 def to_deg(value_rad: float) -> float:
     """Radians to degrees."""
+    if isinstance(value_rad, (str, bytes)):
+        from .errors import check_number
+        check_number("value_rad", value_rad, "a number in rad")
     return value_rad / DEG
 
 

@@ -35,6 +35,32 @@ _THETA_SWITCH = 1.6
 _THETA_TINY = 1e-200
 
 
+#: Largest |theta| :func:`inv_inverse` accepts as a number (alpha within 1e-15 rad of pi/2).
+THETA_MAX = 1e15
+
+
+def _check_numeric(fn: str, name: str, value, below: float | None = None) -> None:
+    """For plain numbers and arrays (not CasADi expressions): ArgumentError unless every entry is a
+    finite real number with ``|value| < below``."""
+    if isinstance(value, (ca.SX, ca.MX, ca.DM)):
+        return
+    from ..errors import ArgumentError
+
+    try:
+        if isinstance(value, (str, bytes)) or np.asarray(value).dtype.kind in "USbO":
+            raise TypeError
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ArgumentError(f"{fn}: {name} = {type(value).__name__} {str(value)[:60]!r}: expected a number [rad] "
+                            "(or an array of numbers, or a CasADi expression).") from None
+    if not np.all(np.isfinite(arr)):
+        raise ArgumentError(f"{fn}: {name} must be finite [rad]; got {str(value)[:60]}.")
+    if below is not None and np.any(np.abs(arr) > below):
+        raise ArgumentError(f"{fn}: {name} = {str(value)[:60]} is out of range; valid: |{name}| <= {below:.6g} rad "
+                            + ("(pi/2: the involute function is defined below it)." if below < 2 else
+                               "(beyond it alpha rounds to pi/2 in double precision)."))
+
+
 def select(cond, a, b):
     """``a`` where ``cond`` else ``b``.
 
@@ -66,6 +92,12 @@ def inv(alpha):
     same type as ``alpha``
         ``inv(alpha)`` [rad] (the polar angle of the involute point, eq. 10.2.8).
     """
+    _check_numeric("inv", "alpha", alpha, math.pi / 2)
+    return _inv(alpha)
+
+
+def _inv(alpha):
+    """:func:`inv` without the argument check (for internal graphs and Newton iterates)."""
     series = _sin_minus_x_cos_series(alpha) / ca.cos(alpha)
     return select(ca.fabs(alpha) < _INV_SERIES_MAX, series, ca.tan(alpha) - alpha)
 
@@ -140,6 +172,9 @@ def inv_inverse(theta, steps: int = NEWTON_STEPS):
     same type as ``theta``
         Pressure angle [rad], ``|alpha| < pi/2``. Its derivative is ``1 / tan(alpha)^2``.
     """
+    # |theta| > 1e15: pi/2 - alpha < 1e-15 is below the spacing of doubles at pi/2 (2.2e-16), so alpha
+    # rounds to pi/2 and the Newton steps diverge
+    _check_numeric("inv_inverse", "theta", theta, THETA_MAX)
     sgn = ca.sign(theta)
     t_abs = ca.fabs(theta)
     tiny = t_abs < _THETA_TINY
@@ -147,7 +182,7 @@ def inv_inverse(theta, steps: int = NEWTON_STEPS):
     alpha = select(t < _THETA_SWITCH, inv_inverse_cheng(t), _inv_inverse_asymptotic(t))
     for _ in range(steps):
         ta = ca.tan(alpha)
-        alpha = alpha - (inv(alpha) - t) / (ta * ta)
+        alpha = alpha - (_inv(alpha) - t) / (ta * ta)
     # tiny theta: alpha = (3 theta)^(1/3) - (2/5) theta to machine precision (next term ~ theta^(5/3));
     # one Newton step on c^3 = 3 theta removes the rounding of pow(., 1/3), which grows with |log theta|
     # (fmax only guards 0/0 at theta = 0: 3 c^2 > 1e-215 for any positive double).

@@ -27,7 +27,7 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
-from ..errors import ResultsError
+from ..errors import ArgumentError, ResultsError, shorten
 
 __all__ = ["write_results", "check_out_dir", "RESULTS_FILE"]
 
@@ -74,6 +74,9 @@ def check_out_dir(out_dir, scene_file=None) -> Path:
     Path
         ``out_dir`` as a Path.
     """
+    if out_dir is not None and not isinstance(out_dir, (str, os.PathLike)):
+        raise ArgumentError(f"out_dir = {type(out_dir).__name__} {shorten(repr(out_dir))}: expected a directory path "
+                            "(str or pathlib.Path).")
     if out_dir is None or str(out_dir).strip() == "":
         raise ResultsError("--out / out_dir is empty; valid: a directory path such as out/my_scene (it is created, "
                            "or replaced as a whole).")

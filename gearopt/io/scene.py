@@ -21,6 +21,7 @@ Every problem (TOML syntax, unknown or missing key, wrong type or unit, impossib
 
 from __future__ import annotations
 
+import datetime as _dt
 import difflib
 import json
 import math
@@ -51,8 +52,11 @@ def _toml(value) -> str:
     """A value as it would be written in TOML (for messages), abbreviated when long."""
     if isinstance(value, float) and not math.isfinite(value):
         return "nan" if math.isnan(value) else ("inf" if value > 0 else "-inf")
+    if isinstance(value, (_dt.date, _dt.time)):  # TOML dates and times are written bare, ISO 8601
+        return shorten(value.isoformat())
     try:
-        text = json.dumps(value, ensure_ascii=False)
+        text = json.dumps(value, ensure_ascii=False,
+                          default=lambda o: o.isoformat() if isinstance(o, (_dt.date, _dt.time)) else repr(o))
     except RecursionError:
         return "<an array or table nested too deeply to show>"
     except (TypeError, ValueError):
@@ -206,7 +210,7 @@ class Field:
                              f"{', '.join(_toml(c) for c in self.choices)}.{hint}")
         bare_number = self.kind in KINDS and isinstance(value, (int, float)) and not isinstance(value, bool)
         hint = self._unit_hint(value, self.bare) if self.bare is not None and bare_number else ""
-        if hint and not self.bare.ok(value):  # implausible as written, plausible in another unit
+        if hint and value != 0 and not self.bare.ok(value):  # implausible as written, plausible in another unit
             raise SceneError(f"{where} = {_toml(value)}: a bare number is read as {value:g} {self.scene_unit}, which "
                              f"is implausible for {self.name} (plausible without a unit: "
                              f"{self.bare.text(self.name, self.scene_unit)}). Write the unit out.{hint}")
@@ -334,7 +338,8 @@ def _same(text: str, value) -> bool:
 
 def _type(value) -> str:
     return {bool: "a boolean", int: "an integer", float: "a number", str: "a string", dict: "a table",
-            list: "an array"}.get(type(value), type(value).__name__)
+            list: "an array", _dt.date: "a date", _dt.datetime: "a date-time", _dt.time: "a time of day"}.get(
+                type(value), type(value).__name__)
 
 
 def _closest(word: str, options) -> str:
@@ -425,7 +430,9 @@ COMMON_SECTIONS: list[Section] = [
         Field("m_n", "length", check=_POS, doc="normal module (give m_n or P_n)"),
         Field("P_n", "inverse_length", unit="1/in", check=_POS,
               doc="normal diametral pitch, bare number in 1/in (give m_n or P_n)"),
-        Field("beta", "angle", default=0.0, doc="helix angle, 0 <= beta < 45 deg (0 = spur)"),
+        Field("beta", "angle", default=0.0, bare=Bounds(lo=1, hi=45, hi_open=True),
+              doc="helix angle, 0 <= beta < 45 deg (0 = spur; a bare number, in deg, must be 0 or >= 1: smaller "
+                  "helix angles need a unit)"),
         Field("hand", "str", default="right", choices=("right", "left"),
               doc="hand of the pinion's helix; the gear gets the opposite"),
         Field("a", "length", doc="centre distance; default the zero-backlash distance a_0"),
@@ -507,6 +514,11 @@ class Scene:
                 w = self.written(sec.name, f.name)
                 if w is not None:
                     given.append(f"{f.name} = {w}")
+            for sub in sec.subsections:  # e.g. [[tca.cases]]: each case as written
+                rows = (self.raw.get(sec.name) or {}).get(sub.name) if isinstance(self.raw.get(sec.name), dict) else None
+                if sub.array and isinstance(rows, list):
+                    given += [f"{sub.name}[{i}] = {{{', '.join(f'{k} = {_toml(v)}' for k, v in row.items())}}}"
+                              for i, row in enumerate(rows) if isinstance(row, dict)]
         ctx = f" (the scene sets [{spec.sections[0].name}] {', '.join(given)})" if given and spec else ""
         return SceneError(f"{self.source}: study {self.study!r} failed{ctx}: {msg}")
 
@@ -530,7 +542,7 @@ def _read_toml(path: Path, label: str) -> dict:
     except OSError as e:
         raise SceneError(f"{label}: cannot read the scene file: {e.strerror or e}.") from None
     try:
-        text = raw.decode("utf-8")
+        text = raw.decode("utf-8-sig")  # a byte-order mark (some Windows editors write one) is not content
     except UnicodeDecodeError as e:
         raise SceneError(f"{label}: not UTF-8 text ({e.reason} at byte {e.start}).") from None
     try:
@@ -804,6 +816,19 @@ def _build_pair(data: dict, parsed: dict, given: dict, label: str) -> GearPair:
                                    rack=rack, k=k, a_pl=v["a_pl"], allow_undercut=v["allow_undercut"],
                                    name=member, A_sne=v["A_sne"], A_sni=v.get("A_sni"))
         except GeometryError as e:
+            bounds = getattr(e, "k_bounds", None)
+            if bounds is not None and v.get("d_a") is not None:  # k came from d_a: restate the range for d_a
+                r_p = m_n * v["z"] / math.cos(pr["beta"]) / 2
+
+                def d_a_of(kk):
+                    return 2 * (r_p + m_n * (rack.h_aP + v["x"] + kk))
+                lo, hi = (None if b is None else d_a_of(b) for b in bounds)
+                rng = (f"d_a > {lo:.6g} mm (the root circle)" if hi is None else
+                       f"d_a < {hi:.6g} mm (beyond it the tip is pointed)" if lo is None else
+                       f"{lo:.6g} < d_a < {hi:.6g} mm")
+                raise SceneError(f"{label}: [{member}] d_a = {_toml(raw(member, 'd_a'))} is out of range (tip "
+                                 f"alteration k = {k:.4g} from it); valid: {rng} for z = {v['z']}, x = {v['x']:g}, "
+                                 f"m_n = {m_n:g} mm.") from None
             reraise(e, member, f"[{member}]")
     try:
         return GearPair(pinion=members["pinion"], gear=members["gear"], a=pr["a"])

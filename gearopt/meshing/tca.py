@@ -36,7 +36,7 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-from ..errors import ArgumentError, ConvergenceError, GeometryError, out_of_range, shorten
+from ..errors import ArgumentError, ConvergenceError, GeometryError, check_number, out_of_range, shorten
 from ..gears import GearPair
 from ..geometry.generation import PARAMS, GeneratedTooth, generate_by_rack
 from ..units import ARCMIN, RAD_TO_ARCSEC
@@ -98,6 +98,8 @@ def check_sweep_args(tca, phi1, p1=None, p2=None, mis=None, pairs=(-1, 0, 1), de
     pair = tca.pair
     g1, g2 = pair.pinion, pair.gear
     try:
+        if np.asarray(phi1).dtype.kind in "USb":  # "0.1" would convert: the API takes numbers in rad
+            raise TypeError
         arr = np.asarray(phi1, dtype=float)
     except (TypeError, ValueError):
         raise ArgumentError(f"phi1 = {_describe(phi1)}: expected a sequence of pinion angles [rad] (numbers).") from None
@@ -485,7 +487,20 @@ class TCA:
         w : ndarray
             The unknowns (u1, z1, u2, z2, r_p2 phi2) [mm]; (u1, u2, z2, r_p2 phi2) for line contact.
         """
-        w0 = self.guess(p1, p2, z_section) if w0 is None else np.asarray(w0, float)
+        phi1 = check_number("phi1", phi1, "a finite pinion angle [rad]")
+        z_section = check_number("z_section", z_section, "a finite pinion section [mm]")
+        _, p1, p2, mis, _ = check_sweep_args(self, [phi1], p1, p2, mis, pairs=(0,), z_section=z_section)
+        n_w = 4 if self.contact_type == "line" else 5
+        if w0 is None:
+            w0 = self.guess(p1, p2, z_section)
+        else:
+            try:
+                w0 = np.asarray(w0, float).ravel()
+            except (TypeError, ValueError):
+                raise ArgumentError(f"w0 = {_describe(w0)}: expected {n_w} numbers (the unknowns [mm]).") from None
+            if w0.size != n_w or not np.all(np.isfinite(w0)):
+                raise ArgumentError(f"w0 = {shorten(str(w0.tolist()))}: expected {n_w} finite numbers (the unknowns "
+                                    f"[mm] for {self.contact_type} contact), got {w0.size}.")
         prm = self.prm([phi1], p1, p2, mis, z_section)[:, 0]
         J = np.asarray(self.jacobian(w0, prm))
         if self.contact_type == "point" and np.linalg.cond(J) > 1e14:

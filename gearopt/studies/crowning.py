@@ -160,6 +160,11 @@ def _from_scene(scene) -> CrowningStudy:
         return CrowningStudy(scene.pair, target, cases, positions=o.get("positions") or 41,
                              quiet=o.get("quiet", True) is not False, name=scene.name)
     except GeometryError as e:
+        import re
+
+        m = re.match(r"^(?:target\.)?(\w+) = ", str(e))
+        if m and m.group(1) in o:  # a key of [crowning]: name it and show its value as written
+            raise scene.key_error("crowning", m.group(1), e) from e
         raise SceneError(f"{scene.source}: [crowning] {e}") from e
 
 

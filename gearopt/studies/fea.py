@@ -177,12 +177,35 @@ def _from_scene(scene) -> FEStudy:
         raise SceneError(f"{scene.source}: [fea] {e}") from e
     n = o["n_positions"]
     a, b = o["phi1_start"], o["phi1_end"]
+    if n > 1 and a == b:
+        raise scene.key_error("fea", "n_positions", f"is out of range; valid: n_positions = 1 when phi1_start = "
+                              f"phi1_end ({n} positions at the same angle would repeat one FE run), or give "
+                              "phi1_end another angle.")
+    if n == 1 and a != b and scene.written("fea", "phi1_end") is not None:
+        raise scene.key_error("fea", "phi1_end", "is not used with n_positions = 1 (only phi1_start is analysed); "
+                              "valid: n_positions >= 2 to analyse phi1_start to phi1_end, or leave phi1_end out.")
     phis = [a] if n == 1 else list(np.linspace(a, b, n))
     _check_positions(scene, phis, opt.teeth)
     keep = None
     if o.get("keep_files"):
         keep = Path("out") / f"{scene.name}_ccx"
     return FEStudy(scene.pair, opt, phis, name=scene.name, keep_dir=keep)
+
+
+#: Young's moduli [MPa] of gear materials: polymers (POM, PA: ~1000-3000) to cemented carbide (~650000).
+E_RANGE = (500.0, 1.2e6)
+
+
+def _check_E(E: float):
+    """None if ``E`` [MPa] is a gear material's modulus, else the valid range (with a unit hint)."""
+    if E_RANGE[0] <= E <= E_RANGE[1]:
+        return None
+    hint = ""
+    if E_RANGE[0] <= E * 1000 <= E_RANGE[1]:
+        hint = f" (E is in MPa: {E:g} GPa is {E * 1000:g} MPa)"
+    elif E_RANGE[0] <= E / 1e6 <= E_RANGE[1]:
+        hint = f" (E is in MPa: {E:g} Pa is {E / 1e6:g} MPa)"
+    return f"{E_RANGE[0]:g} <= E <= {E_RANGE[1]:g} MPa, the Young's moduli of gear materials{hint}"
 
 
 def _register():
@@ -195,7 +218,9 @@ def _register():
         sections=[Section("fea", [
             Field("torque", "float", default=100.0, check=Bounds(lo=0, lo_open=True, hi=1e6),
                   doc="pinion torque [N*m]"),
-            Field("E", "float", default=210000.0, check=Bounds(lo=0, lo_open=True), doc="Young's modulus [MPa]"),
+            Field("E", "float", default=210000.0, check=_check_E,
+                  doc=f"Young's modulus [MPa], {E_RANGE[0]:g} <= E <= {E_RANGE[1]:g} (gear materials, from "
+                      "polymers to carbide)"),
             Field("nu", "float", default=0.3, check=Bounds(lo=0, hi=0.5, hi_open=True), doc="Poisson's ratio"),
             Field("phi1_start", "angle", default=0.0, check=Bounds(lo=-60, hi=60),
                   doc="first pinion angle (0: tooth 0 at the pitch point)"),

@@ -227,6 +227,11 @@ def _from_scene(scene) -> GeometryStudy:
         return GeometryStudy(scene.pair, generation=gen, hob=hob, shaper=shaper, points=o.get("points") or 60,
                              rack_mesh=o.get("rack_mesh", True) is not False, name=scene.name)
     except GeometryError as e:
+        import re
+
+        m = re.match(r"^(?:hob\.|shaper\.)?(\w+) = ", str(e))
+        if m and m.group(1) in o and o.get(m.group(1)) is not None:  # a [geometry] key: name it as written
+            raise scene.key_error("geometry", m.group(1), e) from e
         raise SceneError(f"{scene.source}: [geometry] {e}") from e
 
 

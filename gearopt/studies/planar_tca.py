@@ -105,7 +105,15 @@ class PlanarTCAStudy:
                  name="planar_tca", notes=()):
         t0 = time.perf_counter()
         self.tca = PlanarTCA(r_b1, r_b2, E)
-        self.phi1 = np.asarray(phi1, dtype=float)
+        from ..errors import ArgumentError
+
+        try:
+            if np.asarray(phi1).dtype.kind in "USb":
+                raise TypeError
+            self.phi1 = np.atleast_1d(np.asarray(phi1, dtype=float))
+        except (TypeError, ValueError):
+            raise ArgumentError(f"phi1 = {type(phi1).__name__} {str(phi1)[:60]!r}: expected a 1-D array of pinion "
+                                "angles [rad] (numbers).") from None
         self.method, self.alpha_guess, self.n_profiles = method, alpha_guess, int(profiles)
         self.name, self.notes = name, list(notes)
         self.build_time = time.perf_counter() - t0
@@ -202,6 +210,7 @@ def _register():
             Field("method", "str", default="continuation", choices=("continuation", "map"),
                   doc="warm-started sequence or one mapped rootfinder call"),
             Field("alpha_guess", "angle", default=20, check=Bounds(lo=0, hi=90, lo_open=True, hi_open=True),
+                  bare=Bounds(lo=2, hi=90, hi_open=True), typical="rad",
                   doc="pressure angle of the Newton starting point"),
             Field("profiles", "int", default=3, check=Bounds(lo=0, hi=20), doc="positions drawn with both profiles"),
         ], required=False, doc="planar involute TCA (Problem 9.4.1)")],

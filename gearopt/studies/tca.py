@@ -283,8 +283,28 @@ class TCAStudy:
         """``misalignment``: one case beside the aligned drive; or ``cases``: a list of
         ``(label, Misalignment)`` (or a dict label -> Misalignment) analysed in order, with the
         aligned drive first unless one of them is aligned."""
-        from ..errors import GeometryError
+        from ..errors import ArgumentError, GeometryError, check_number, out_of_range
 
+        if not isinstance(pair, GearPair):
+            raise ArgumentError(f"pair = {type(pair).__name__}: expected a gearopt.gears.GearPair (pinion, gear).")
+        if isinstance(positions, bool) or not isinstance(positions, (int, np.integer)) or not 9 <= positions <= 5000:
+            raise out_of_range("positions", positions, "an integer 9..5000 (positions per mesh cycle)")
+        positions = int(positions)
+        delta = check_number("delta", delta, "a finite elastic approach [mm]")
+        if not 0 < delta <= 0.1 * pair.pinion.m_n:
+            raise out_of_range("delta", delta, f"0 < delta <= 0.1 m_n = {0.1 * pair.pinion.m_n:.4g} mm (elastic "
+                               "approach for the contact ellipse, microns)")
+        z_section = check_number("z_section", z_section, "a finite pinion section [mm]")
+        if abs(z_section) > pair.pinion.b / 2:
+            raise out_of_range("z_section", z_section, f"|z_section| <= b1 / 2 = {pair.pinion.b / 2:.6g} mm (a "
+                               "section of the pinion face)")
+        if not isinstance(edge_contact, (bool, np.bool_)):
+            raise ArgumentError(f"edge_contact = {type(edge_contact).__name__} {edge_contact!r}: expected True or "
+                                "False.")
+        if misalignment is not None and not isinstance(misalignment, Misalignment):
+            raise ArgumentError(f"misalignment = {type(misalignment).__name__}: expected a Misalignment"
+                                + (" (use Misalignment(**d), angles in rad)." if isinstance(misalignment, dict)
+                                   else "."))
         self.pair, self.name = pair, name
         self.positions, self.delta, self.z_section = positions, delta, z_section
         self.cases = [("aligned", Misalignment())]
@@ -304,6 +324,13 @@ class TCAStudy:
                                     "'aligned').")
         elif misalignment is not None and np.any(misalignment.vector() != 0):
             self.cases.append(("misaligned", misalignment))
+        overlap = (pair.pinion.b + pair.gear.b) / 2
+        for lab, m in self.cases:  # the rules of TCA.sweep, before anything runs
+            where = "misalignment" if lab == "misaligned" and cases is None else f"cases[{lab!r}]"
+            pair.check_operating(m.dE, f"{where}.dE")
+            if abs(m.axial) >= overlap:
+                raise out_of_range(f"{where}.axial", m.axial, f"|axial| < (b1 + b2) / 2 = {overlap:.6g} mm (the "
+                                   "faces must overlap for the teeth to touch)")
         self.tca = TCA(pair, side=side, contact=contact)
         self.edge = EdgeContact(self.tca) if edge_contact else None
 
@@ -400,6 +427,17 @@ def _from_scene(scene) -> TCAStudy:
             raise scene.key_error("tca", "z_section", f"is out of range; valid: |z_section| <= b1 / 2 = "
                                   f"{scene.pair.pinion.b / 2:g} mm (a section of the pinion face, [pinion] b = "
                                   f"{scene.pair.pinion.b:g} mm).")
+        if o.get("contact") == "line" and not o.get("edge_contact"):
+            # crossed or intersecting axes turn the line contact into point or edge contact: the
+            # surfaces then cross in every section (Litvin 9.6); the line TCA has no solution
+            rows = [("tca", o)] if cases is None else [(f"tca.cases][{i}", c) for i, c in enumerate(o["cases"])]
+            for sec, row in rows:
+                for key in ("crossing", "intersecting"):
+                    if row.get(key):
+                        raise scene.key_error(sec, key, "is not allowed with contact = \"line\"; valid: 0 (line "
+                                              "contact needs aligned axes: crossed or intersecting axes give point "
+                                              "or edge contact). Use contact = \"point\" with a crowned pinion, or "
+                                              "set edge_contact = true.")
         if o.get("contact") == "point" and scene.pair.pinion.a_pl == 0 and not o.get("edge_contact"):
             raise SceneError(f"{scene.source}: [tca] contact = \"point\" needs a longitudinally crowned pinion "
                              "([pinion] a_pl > 0); for conjugate or profile-crowned spur pinions use contact = "
@@ -450,9 +488,10 @@ def _register():
         ], required=False, subsections=[Section("cases", [
             Field("label", "str", doc="name of the case in plots and results (default: its misalignments)"),
             Field("dE", "length", default=0.0, check=Bounds(lo=-5, hi=5), doc="centre distance change"),
-            Field("crossing", "angle", default=0.0, check=Bounds(lo=-10, hi=10), doc="crossing angle of the axes"),
-            Field("intersecting", "angle", default=0.0, check=Bounds(lo=-10, hi=10),
-                  doc="intersecting angle of the axes"),
+            Field("crossing", "angle", default=0.0, check=Bounds(lo=-10, hi=10), bare=_BARE_MIS, typical="arcmin",
+                  doc="crossing angle of the axes (a bare number is deg: |crossing| <= 1)"),
+            Field("intersecting", "angle", default=0.0, check=Bounds(lo=-10, hi=10), bare=_BARE_MIS,
+                  typical="arcmin", doc="intersecting angle of the axes (a bare number is deg: |intersecting| <= 1)"),
             Field("axial", "length", default=0.0, check=Bounds(lo=-50, hi=50), doc="axial displacement of the gear"),
         ], array=True, doc="list of misalignment cases ([[tca.cases]]), instead of the single keys; the aligned "
                            "drive comes first unless a case is aligned")])],

@@ -191,10 +191,18 @@ class CrowningOptimizer:
         if cases is not None and not isinstance(cases, dict):
             raise ArgumentError(f"cases = {type(cases).__name__}: expected a dict {{name: Misalignment}}, e.g. "
                                 "misalignment_cases(crossing=3 * ARCMIN).")
-        cases = dict(cases or _default_cases())
+        cases = dict(_default_cases() if cases is None else cases)
         if not cases:
             raise out_of_range("cases", cases, "at least one misalignment case")
         overlap = (pair.pinion.b + pair.gear.b) / 2
+        b_min = min(pair.pinion.b, pair.gear.b)
+        if target.edge_margin >= b_min / 2:
+            raise out_of_range("target.edge_margin", target.edge_margin, f"0 <= edge_margin < min(b1, b2) / 2 = "
+                               f"{b_min / 2:.6g} mm (the transfer points must stay on the face)")
+        h_flank = min(g.r_a - max(g.r_lim, g.r_b) for g in (pair.pinion, pair.gear))
+        if 2 * target.tip_margin >= h_flank:
+            raise out_of_range("target.tip_margin", target.tip_margin, f"0 <= tip_margin < {h_flank / 2:.4g} mm, half "
+                               "the radial height of the shorter involute flank (form to tip circle)")
         for name, m in cases.items():
             if not isinstance(m, Misalignment):
                 hint = " Use Misalignment(**d) (angles in rad)." if isinstance(m, dict) else ""

@@ -22,7 +22,7 @@ from dataclasses import dataclass, replace
 import casadi as ca
 import numpy as np
 
-from ..errors import ArgumentError, out_of_range
+from ..errors import ArgumentError, check_number, out_of_range
 from ..gears import GearPair
 from ..meshing.tca import TCA, Misalignment
 from .crowning import SETTINGS, SynthesisError, _IDX
@@ -55,6 +55,8 @@ class LocalTarget:
     phi1_m: float = 0.0
 
     def __post_init__(self):
+        for name in ("mprime21", "major_axis", "delta", "phi1_m") + (("eta2",) if self.eta2 is not None else ()):
+            check_number(f"target.{name}", getattr(self, name))
         if not (math.isfinite(self.mprime21) and self.mprime21 < 0):
             raise out_of_range("target.mprime21", self.mprime21, "m'21 < 0 (a parabolic TE with its apex at M)")
         if not (math.isfinite(self.major_axis) and self.major_axis > 0):
@@ -133,6 +135,11 @@ def local_synthesis(pair: GearPair, target: LocalTarget, side: str = "right", ve
     mis = mis or Misalignment()
     pair.check_operating(mis.dE, "mis.dE")
     g1 = pair.pinion
+    # the ellipse's major axis lies along the contact line, which crosses the face in b / cos(beta_b)
+    b_line = min(g1.b, pair.gear.b) / math.cos(g1.beta_b)
+    if target.major_axis >= b_line:
+        raise out_of_range("target.major_axis", target.major_axis, f"2a < {b_line:.6g} mm, the length of the contact "
+                           "line across the narrower face (b / cos beta_b): a longer ellipse leaves the tooth")
     # First guess: profile crowning from m'21 through the parabolic-rack TE law, plunging from 2a.
     tan_a = math.tan(pair.alpha_wt)
     A = -target.mprime21 / 2
