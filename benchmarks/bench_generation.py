@@ -4,7 +4,7 @@
 For each tool (rack, hob, shaper) and a spur and a helical gear: graph build + compile time,
 evaluation time per surface point (one `Function.map` call over N points, and per-point Python
 calls as the baseline measured in the same run), and the largest distance of the generated flank
-from the analytic involute (THEORY section 2) over the active flank.
+from the analytic involute (docs/theory.md section 2) over the active flank.
 """
 
 from __future__ import annotations

@@ -672,7 +672,7 @@ class GearPair:
                                "drops below 1 (the teeth separate)")
 
     def eps_alpha_at(self, a: float) -> float:
-        """Transverse contact ratio at the centre distance ``a`` [mm] (THEORY section 3)."""
+        """Transverse contact ratio at the centre distance ``a`` [mm] (docs/theory.md section 3.3)."""
         p, g = self.pinion, self.gear
         ga = a * math.sqrt(max(0.0, 1.0 - ((p.r_b + g.r_b) / a) ** 2))  # a sin(alpha_wt)
         path = min(math.sqrt(p.r_a**2 - p.r_b**2), ga) + min(math.sqrt(g.r_a**2 - g.r_b**2), ga) - ga
@@ -690,7 +690,7 @@ class GearPair:
 
     @property
     def a_0(self) -> float:
-        """Zero-backlash centre distance [mm] for x1 + x2 (THEORY section 3)."""
+        """Zero-backlash centre distance [mm] for x1 + x2 (docs/theory.md section 3.2)."""
         p, g = self.pinion, self.gear
         inv_w = inv(p.alpha_t) + 2 * math.tan(p.rack.alpha_n) * (p.x + g.x) / (p.z + g.z)
         alpha_w = float(inv_inverse(inv_w))
@@ -767,7 +767,7 @@ class GearPair:
 
     @property
     def g_alpha(self) -> float:
-        """Length of the path of contact [mm] on the transverse line of action (THEORY section 3):
+        """Length of the path of contact [mm] on the transverse line of action (docs/theory.md section 3.3):
         ``sqrt(r_a1^2 - r_b1^2) + sqrt(r_a2^2 - r_b2^2) - a sin(alpha_wt)`` when the tips limit it;
         each end is cut where the mating flank ends (its form circle :attr:`Gear.r_form`: the
         involute/trochoid crossing of an undercut tooth, the crossing below the fold of a folded one)."""
@@ -787,7 +787,7 @@ class GearPair:
 
     @property
     def eps_alpha(self) -> float:
-        """Transverse contact ratio (THEORY section 3): the path of contact :attr:`g_alpha`, between
+        """Transverse contact ratio (docs/theory.md section 3.3): the path of contact :attr:`g_alpha`, between
         the tips and the form circles (:attr:`Gear.r_form`), over the transverse base pitch."""
         return self.g_alpha / self.pinion.p_bt
 

@@ -1,4 +1,4 @@
-"""Tests of edge contact (gearopt.contact.edge, Litvin & Fuentes section 9.6, THEORY sections 4, 5, 8).
+"""Tests of edge contact (gearopt.contact.edge, Litvin & Fuentes section 9.6, docs/theory.md sections 5, 7, 9).
 
 Every expectation is derived here from gear geometry or solved with our own frames; the engine's
 output is only compared with it. Conventions (gearopt.meshing.tca module docstring): S_f with the
@@ -47,7 +47,7 @@ C. Mirror symmetry (test 5). TE_loc is linear in (s, z); the point reflection
    TE(phi1; g) = TE(phi1; -g).
 
 D. Crowning (test 6): the surface TE of each pair is a parabola plus the misalignment's line
-   (THEORY 4); two neighbouring pairs' identical parabolas cross at apex + pi/z1. If the surface
+   (docs/theory.md section 5.3); two neighbouring pairs' identical parabolas cross at apex + pi/z1. If the surface
    contact point there is beyond the tip the transfer cannot happen on the flanks and an edge takes
    over.
 """

@@ -81,7 +81,7 @@ def test_members_placed_in_contact(model, pair):
 
 def test_hertz_formula():
     h = hertz_line(354.7, 10.26, 15.39, 210e3, 0.3)
-    assert h["p0"] == pytest.approx(1455, rel=2e-3)  # FE-NOTES reference value
+    assert h["p0"] == pytest.approx(1455, rel=2e-3)  # Hertz reference value of docs/fea.md (validation)
     assert h["b"] == pytest.approx(0.155, rel=5e-3)
 
 
@@ -89,7 +89,7 @@ def test_deck_lines_and_sets(model, tmp_path):
     d = model.deck()
     path = write_inp(d, tmp_path / "m.inp")
     text = path.read_text()
-    for line in text.splitlines():  # FE-NOTES pitfall 5: at most 16 entries per line
+    for line in text.splitlines():  # docs/theory.md section 12.3, rule 5: at most 16 entries per line
         if not line.startswith("*"):
             assert len(line.split(",")) <= 16
     assert "ADJUST" not in text and "*BOUNDARY, OP=NEW" in text and "*RIGID BODY" in text

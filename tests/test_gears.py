@@ -1,5 +1,5 @@
 """Tests of gearopt.gears (BasicRack, Gear, GearPair) against formulas and geometric constructions
-written out independently here (THEORY.md section 3; ISO 21771 / ISO 53). Lengths in mm, angles in rad."""
+written out independently here (docs/theory.md section 3; ISO 21771 / ISO 53). Lengths in mm, angles in rad."""
 
 from __future__ import annotations
 
@@ -40,14 +40,14 @@ def _ref_alpha_w(z1, z2, x1, x2, alpha_n, alpha_t):
 
 
 def _ref_pair(z1, z2, x1, x2, m_n=2.0, beta=0.0, alpha_n=20 * DEG, a=None):
-    """Reference centre distance, working angle and the THEORY.md contact ratio."""
+    """Reference centre distance, working angle and the contact ratio of docs/theory.md section 3.3."""
     r_p1, r_b1, r_a1, alpha_t, m_t = _ref_geometry(z1, m_n, x1, beta, alpha_n)
     r_p2, r_b2, r_a2, _, _ = _ref_geometry(z2, m_n, x2, beta, alpha_n)
     alpha_w = _ref_alpha_w(z1, z2, x1, x2, alpha_n, alpha_t)
     a_0 = (r_p1 + r_p2) * math.cos(alpha_t) / math.cos(alpha_w)
     E = a_0 if a is None else a
     alpha_w = math.acos((r_b1 + r_b2) / E)
-    # THEORY section 3, with transverse module and pressure angle for helical gears
+    # docs/theory.md section 3.3, with transverse module and pressure angle for helical gears
     eps = (math.sqrt(r_a1**2 - r_b1**2) + math.sqrt(r_a2**2 - r_b2**2) - E * math.sin(alpha_w)) / (
         math.pi * m_t * math.cos(alpha_t))
     return dict(a_0=a_0, E=E, alpha_w=alpha_w, eps=eps, r_b1=r_b1, r_b2=r_b2, r_a1=r_a1, r_a2=r_a2,

@@ -1,6 +1,6 @@
 """Each scene in problems/ runs through the CLI path and gives physically right scalars.
 
-Expected values are computed here from textbook formulas (THEORY.md section 3), independently of
+Expected values are computed here from textbook formulas (docs/theory.md section 3), independently of
 gearopt's own report code.
 """
 

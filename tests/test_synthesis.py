@@ -1,11 +1,11 @@
-"""Tests of the synthesis layer (gearopt.synthesis: crowning NLP and local synthesis; THEORY 4, 7, 8).
+"""Tests of the synthesis layer (gearopt.synthesis: crowning NLP and local synthesis; docs/theory.md sections 5, 9-11).
 
 Every claim of the optimizer is checked by measurements made here, not by its own reports:
 
 * TE level and edge contact of an optimized drive: an EdgeContact sweep of ``design.pair`` on a
   grid of our own (other positions than the optimizer's verification sweep).
 * "The optimizer made the difference": the same gears without crowning show edge contact under the
-  same misalignments (a misaligned line-contact drive rests on a face end, THEORY 8).
+  same misalignments (a misaligned line-contact drive rests on a face end, docs/theory.md section 9).
 * Sensitivities ``d level / d var``: central finite differences of the level of fresh TCA sweeps of
   freshly built drives. The level is defined as in the optimizer's docstring: least-squares fit
   ``c0 + c1 phi - A phi^2`` of the pair-0 surface TE over ``positions`` points of

@@ -1,7 +1,7 @@
 """Tests of the 3-D tooth contact analysis (gearopt.meshing.tca) against independent analysis.
 
-Every expectation is derived here from gear geometry (Litvin & Fuentes ch. 9-10, THEORY sections
-1, 4, 5, 6, 9), never read back from the engine. Conventions used (the engine's docstring, S_f):
+Every expectation is derived here from gear geometry (Litvin & Fuentes ch. 9-10, docs/theory.md sections
+1, 5, 7, 8), never read back from the engine. Conventions used (the engine's docstring, S_f):
 pinion axis z_f, gear centre O2 = (0, a + dE, axial); the pinion drives on its ``side`` flank
 (sgn = +1 right, -1 left) and turns by -sgn phi1 about z_f; phi1 = 0 puts the driving flank on the
 operating pitch point I = (0, r_w1); TE = phi2 - (z1/z2) phi1 - phi2(0).
@@ -18,7 +18,7 @@ Reference results derived below
   ``r1^2 = r_b1^2 + s^2``. The same for the gear, with ``s + s2 = E sin a'``, gives
   ``phi2 = (r_b1/r_b2) phi1 + (1 + r_b1/r_b2)(inv a_w - inv a')``: TE = 0 for every dE.
   A helical section at axial position z is turned by the helix: ``s -> s - sigma sgn z tan b_b``.
-* Parabolic rack (THEORY section 4): the tool flank is displaced by ``a_c u^2`` along its normal
+* Parabolic rack (docs/theory.md section 5.1): the tool flank is displaced by ``a_c u^2`` along its normal
   (into the pinion tooth). The tool point at distance u from the pitch line along its straight flank
   generates the pinion point that lies ``d = u cot(alpha)`` from I along the line of action, and at
   the standard centre distance the pair's line of action is the generating one, so the pinion
@@ -42,7 +42,7 @@ Reference results derived below
   minimum of the gap, so the first-order change of the minimum is the gap change at the unperturbed
   point): ``d TE = -(n1 . delta) / (n1 . (sgn e_z x (r - O2)))`` with the gear displacement
   ``delta = g e_y x (r - O2)`` (crossing). For a helical pair n_z != 0 and this is a linear
-  function of phi1 added to the parabola (THEORY section 4).
+  function of phi1 added to the parabola (docs/theory.md section 5.3).
 * Contact ellipse (Litvin ch. 9 closed form), curvatures convex-positive with outward normals
   (so Litvin's kS1 - kS2 becomes kS1 + kS2 and -2 g1 g2 cos 2s becomes +2 g1 g2 cos 2s):
   ``A, B = [kS1 + kS2 -+ sqrt(g1^2 + 2 g1 g2 cos 2 sigma + g2^2)] / 4``, semi-axes

@@ -32,7 +32,7 @@ mapped Newton and the checks, every position on its own from first guesses of th
 no contact depends on the other positions of the sweep; a branch is valid where its contact point
 lies on the finite edge and on the mating active flank. For a given phi1 the gear of
 a pair rests against the feature that gives it the largest advance, so the pair's TE is the upper
-envelope of its valid branches; the actual TE is the upper envelope over the pairs (THEORY 8).
+envelope of its valid branches; the actual TE is the upper envelope over the pairs (docs/theory.md section 9).
 """
 
 from __future__ import annotations

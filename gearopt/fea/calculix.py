@@ -1,6 +1,6 @@
 """CalculiX (``ccx``) input writer, runner and a small reader of its ``.dat`` output.
 
-Units throughout: mm, N, MPa, N*mm; rotations in rad. See ``/work/shared/FE-NOTES.md`` for the
+Units throughout: mm, N, MPa, N*mm; rotations in rad. See ``docs/theory.md`` section 12 and ``docs/fea.md`` for the
 measured behaviour this module relies on (two-step loading, LINEAR penalty ~50 E, no ADJUST).
 """
 
@@ -100,7 +100,7 @@ def write_inp(deck: Deck, path) -> Path:
         lines += ["*CONTACT PAIR, INTERACTION=SI, TYPE=SURFACE TO SURFACE", f"{slave}, {master}"]
     fix = [f"{deck.fixed_nset}, 1, 3", "NREF, 1, 3", "NROT, 1, 2"]
     d0, d1 = deck.increments
-    lines += ["** step 1: close the contact with a small prescribed pinion rotation (FE-NOTES pitfall 1)",
+    lines += ["** step 1: close the contact with a small prescribed pinion rotation (docs/theory.md 12.3 rule 1)",
               "*STEP", "*STATIC", f"{d0}, 1.0", "*BOUNDARY", *fix, f"NROT, 3, 3, {deck.close_rotation:.9e}", "*END STEP",
               "** step 2: release the rotation, apply the torque about the pinion axis",
               "*STEP", "*STATIC", f"{d1}, 1.0", "*BOUNDARY, OP=NEW", *fix,

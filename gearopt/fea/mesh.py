@@ -1,5 +1,5 @@
 """Automatic hexahedral mesh of gear teeth from the tooth surface equations (Litvin section 9.5,
-THEORY section 10).
+docs/theory.md section 12.1).
 
 One tooth of a member is the volume bounded by both flanks, both fillets, the root circle arcs to
 the middle of the neighbouring spaces, the radial lines there, a rim arc at ``r_rim = r_f - rim_depth``

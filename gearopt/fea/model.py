@@ -15,12 +15,12 @@ Boundary conditions: the gear rim (bottom arc and both sector sides) is fixed; t
 form a rigid body tied to a reference node on the pinion axis whose rotation about z is the only
 free DOF. Step 1 prescribes a small rotation in the driving direction that closes the contact;
 step 2 releases it (``*BOUNDARY, OP=NEW``) and applies the torque as a moment on the rotation
-node (FE-NOTES pitfall 1). Contact: element-face surfaces on the driving flanks, the gear master
+node (docs/theory.md section 12.3, rule 1). Contact: element-face surfaces on the driving flanks, the gear master
 and the pinion slave, surface-to-surface penalty contact with a LINEAR pressure-overclosure slope
-of ``penalty`` x E (50 E by default, FE-NOTES pitfall 2), no ADJUST (pitfall 3), no friction.
+of ``penalty`` x E (50 E by default, docs/theory.md section 12.3, rule 2), no ADJUST (rule 3), no friction.
 
 Elements are 8-node hexahedra C3D8 (full integration). C3D8I (incompatible modes) was measured to
-cost ~3.4x the equations for no gain in this contact/root-stress problem (FE-NOTES), so it is not
+cost ~3.4x the equations for no gain in this contact/root-stress problem (docs/theory.md section 12.2), so it is not
 offered by default (``element_type`` may still name it).
 
 The torque is in N*mm internally (the scene takes N*m).
@@ -424,7 +424,7 @@ class FEResult:
         if rel > 0.01:
             raise CalculixError(f"gear reaction |R| = {np.linalg.norm(R[:2]):.6g} N differs from T / r_b1 = {F_n:.6g} N "
                                 f"by {100 * rel:.3g} % (> 1 %): the load did not pass through the contact; the result "
-                                "is not valid (see FE-NOTES pitfall 1).")
+                                "is not valid (see docs/theory.md section 12.3, rule 1).")
         elems = deck.elements
         profiles, p_mid_max = cls._contact_profiles(model, run.frd)
         # stresses at integration points of the fillet elements

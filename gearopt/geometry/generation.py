@@ -1,4 +1,4 @@
-"""Tooth surfaces generated as envelopes of tool families (Litvin ch. 10.3, THEORY section 3-4).
+"""Tooth surfaces generated as envelopes of tool families (Litvin ch. 10.3, docs/theory.md sections 4-5).
 
 A tool surface ``r_c(q, z)`` (rack-cutter, the imaginary rack of a hob, or a shaper tooth) moves
 relative to the gear with one generating parameter psi (the gear's rotation angle). The gear

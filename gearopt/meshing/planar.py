@@ -60,7 +60,7 @@ clockwise in S_f while gear 1 turns counter-clockwise, see M_f2). Then ``m12 = d
 in signed z-components of the angular velocities (omega1_z = dphi1/dt, omega2_z = -dphi2/dt)
 this is ``m12 = -omega1_z / omega2_z = r_b2 / r_b1``.
 
-Transmission error (THEORY section 1): ``TE(phi1) = phi2(phi1) - phi1 / m12_nom - c``, with
+Transmission error (docs/theory.md section 1): ``TE(phi1) = phi2(phi1) - phi1 / m12_nom - c``, with
 ``m12_nom = r_b2 / r_b1`` and ``c`` the mean over the solved positions, in rad (reported in arcsec).
 """
 

@@ -11,8 +11,8 @@ input of one expression graph. Newton on exact AD Jacobians (``ca.rootfinder``) 
 through ``Function.map`` from first guesses predicted by the implicit function theorem at an anchor
 point, then every solution is checked (residual, opposite outward normals, inside the active flank).
 
-Frames and signs (THEORY section 1)
-----------------------------------
+Frames and signs (docs/theory.md section 1)
+------------------------------------------
 * S_f: pinion axis = z_f; gear centre at ``(0, a + dE, axial)``; the line of centres is y_f.
 * The pinion drives on its ``side`` flank ("right": the +x side of tooth 0) and turns clockwise,
   ``r_f1 = Rz(-phi1 + theta1) r_1``: phi1 > 0 in the driving direction; theta1 (half the tooth angle
@@ -403,7 +403,7 @@ class TCA:
         self._nprm = prm.numel()
         self.residual = ca.Function("tca_residual", [w, prm], [F], ["w", "prm"], ["F"])
         self.jacobian = ca.Function("tca_jacobian", [w, prm], [ca.jacobian(F, w)], ["w", "prm"], ["J"])
-        # Curvatures and contact ellipse (Litvin ch. 9; THEORY section 6) at a solved point.
+        # Curvatures and contact ellipse (Litvin ch. 9; docs/theory.md section 8) at a solved point.
         q1, q2 = ca.vertcat(u1, z1), ca.vertcat(u2, z2)
         e1 = r1 * 0 + _unit_perp(n1)  # tangent basis in the pinion frame
         e2 = ca.cross(n1, e1)

@@ -1,7 +1,7 @@
 """Plots of TCA results (transmission errors, bearing contact). They read the JSON-able case
 dicts of a TCA report (``report.to_dict()["cases"][i]``), take ``ax=`` and return the Axes.
 
-Conventions: TE in arcsec, positive when the gear is ahead of its conjugate position (THEORY
+Conventions: TE in arcsec, positive when the gear is ahead of its conjugate position (docs/theory.md
 section 1); flank maps show the axial position z [mm] against the transverse radius [mm] in the
 member's own frame. A conjugate drive (peak-to-peak TE at round-off level, below
 :data:`CONJUGATE_ARCSEC`) is drawn as "conjugate: TE = 0", without per-pair curves or transfers.

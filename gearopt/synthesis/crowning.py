@@ -1,6 +1,6 @@
 """Crowning optimization: IPOPT NLPs that choose the pinion's crowning so that the drive follows a
 predesigned parabolic function of transmission errors and keeps its contact on the flanks for a
-set of misalignments (THEORY sections 4, 7, 8).
+set of misalignments (docs/theory.md sections 5, 9, 11).
 
 Simultaneous formulation. For every misalignment case c and pinion angle phi_k of a mesh cycle, the
 TCA unknowns ``w_ck = (u1, z1, u2, z2, r_p2 phi2)`` are NLP variables tied by the TCA equations

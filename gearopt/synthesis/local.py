@@ -1,10 +1,10 @@
-"""Local synthesis at a mean contact point M (THEORY section 7): choose the pinion's crowning so
+"""Local synthesis at a mean contact point M (docs/theory.md section 10): choose the pinion's crowning so
 that at M the drive has the predesigned derivative of the gear ratio m'21, contact-ellipse major
 axis 2a (for an elastic approach delta) and, where the settings allow it, the direction eta2 of
 the path of contact on the gear flank.
 
 Litvin relates the three targets to the pinion's principal curvatures at M through the relations
-(I) and (II) of THEORY section 7, and the curvatures to the tool settings. Here that chain is one
+(I) and (II) of docs/theory.md section 10, and the curvatures to the tool settings. Here that chain is one
 NLP solved by IPOPT: the unknowns are the settings (``a_c``, ``a_pl``), the contact point
 ``w(phi1_M)`` and its first and second derivatives along the meshing ``w'``, ``w''``, tied by
 ``F(w) = 0``, ``dF/dphi1 = 0`` and ``d2F/dphi1^2 = 0`` (the differentiated equations of meshing; AD
