@@ -545,6 +545,7 @@ def _predicted_transfer(r, ra1):
     return phi_t, float(np.interp(phi_t, r.phi1, s.radius1[K0])), fit_err, c
 
 
+@pytest.mark.slow
 def test_crowning_avoids_edge_contact():
     g = own(helical())
     shares = []

@@ -48,6 +48,7 @@ CASES = {
 #: case whose actual TE is carried by the gear's tip/face corner at one position of the grid
 CORNER = "helical 17/56 b30 beta30 intersecting +3'"
 #: cases whose actual TE is carried by an edge crossing an edge somewhere on the 41-point grid
+SLOW_GRID = {"helical 27/63 b12 beta35 intersecting +4' left"}  #: above about 5 s (pytest marker "slow")
 EDGE_ON_EDGE = ["helical 27/63 b12 beta35 intersecting +4' left", "helical 31/43 b12 beta12 intersecting -10' axial"]
 
 
@@ -127,7 +128,7 @@ def _same(ra, ia, rb, ib):
     assert na == nb
 
 
-@pytest.mark.parametrize("name", list(CASES))
+@pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.slow) if n in SLOW_GRID else n for n in CASES])
 def test_contacts_do_not_depend_on_the_grid(name):
     ec, mis, phi = drive(name)
     r = dense(name)
@@ -212,6 +213,7 @@ def test_edge_on_edge_contact(name):
     assert checked
 
 
+@pytest.mark.slow
 def test_stability_benchmark_edge_block():
     """The edge-corner / edge-on-edge block of benchmarks/stability.py (its quick case) agrees with
     the oracle and between grids."""

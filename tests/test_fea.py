@@ -12,7 +12,12 @@ from gearopt.fea import CalculixError, FEOptions, GearFEModel, MeshOptions, hert
 from gearopt.fea.calculix import read_frd_block, write_inp
 from gearopt.gears import BasicRack, Gear, GearPair
 
-needs_ccx = pytest.mark.skipif(shutil.which("ccx") is None, reason="CalculiX (ccx) is not installed: FE runs skipped")
+_no_ccx = pytest.mark.skipif(shutil.which("ccx") is None, reason="CalculiX (ccx) is not installed: FE runs skipped")
+
+
+def needs_ccx(test):
+    """Mark a test that runs CalculiX: skipped without ccx, marker ``calculix``."""
+    return pytest.mark.calculix(_no_ccx(test))
 
 #: CI-sized mesh (~1900 C3D8 elements, ~5 s per ccx run on 2 cores).
 COARSE = dict(n_hertz=2.0, mesh=MeshOptions(n_face=2, n_half=4, n_flank=6, n_fillet=4, n_rim=3))

@@ -76,6 +76,7 @@ def test_largest_unfolded_profile_crowning():
     (21, 45, 2.0, 0.045, 0.002, 0.0, False, True),
     (12, 50, 2.0, 0.004, 0.0015, 0.0, True, False),
 ], ids=["18-45", "22-70", "21-45-ridge", "undercut-12-50"])
+@pytest.mark.slow
 def test_te_envelope_agrees_with_rigid_contact_oracle(z1, z2, m, a_c, a_pl, x1, undercut, ridge):
     """Spur pinion with profile and longitudinal crowning (aligned: the mid section carries the
     contact): the engine's actual TE equals the rigid contact of the cut sections at every position,

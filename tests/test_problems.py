@@ -20,6 +20,16 @@ from gearopt.io.scene import load_scene
 
 PROBLEMS = Path(__file__).resolve().parents[1] / "problems"
 SCENES = sorted(p for p in PROBLEMS.glob("*.toml"))
+#: pytest markers of the scene runs: IPOPT (crowning study), CalculiX (fea study), above about 5 s
+STUDY_MARKS = {"crowning": [pytest.mark.ipopt], "fea": [pytest.mark.calculix]}
+SLOW_SCENES = {"crowning_spur", "fea_spur", "edge_spur_crossed"}
+
+
+def _scene_param(scene: Path):
+    marks = list(STUDY_MARKS.get(tomllib.loads(scene.read_text())["scene"]["study"], []))
+    if scene.stem in SLOW_SCENES:
+        marks.append(pytest.mark.slow)
+    return pytest.param(scene, marks=marks, id=scene.stem)
 
 
 def _inv(a):
@@ -31,7 +41,7 @@ def _inv_inverse(t):
     return brentq(lambda a: math.tan(a) - a - t, 1e-9, 1.55, xtol=1e-15)
 
 
-@pytest.mark.parametrize("scene", SCENES, ids=[p.stem for p in SCENES])
+@pytest.mark.parametrize("scene", [_scene_param(p) for p in SCENES])
 def test_scene_runs_and_writes(scene, tmp_path):
     if tomllib.loads(scene.read_text())["scene"]["study"] == "fea" and shutil.which("ccx") is None:
         pytest.skip("CalculiX (ccx) is not installed: the FE scene cannot run (make test installs it as root)")

@@ -104,6 +104,8 @@ def test_study_case_set_is_the_default_case_set():
 
 
 @pytest.mark.parametrize("name", ["spur", "helical"])
+@pytest.mark.slow
+@pytest.mark.ipopt
 def test_optimized_drive_meets_level_without_edge_contact(name):
     pair = _drive(name)
     opt, d = _optimized(name)
@@ -122,6 +124,7 @@ def test_optimized_drive_meets_level_without_edge_contact(name):
 
 
 @pytest.mark.parametrize("name", ["spur", "helical"])
+@pytest.mark.slow
 def test_unmodified_drive_has_edge_contact_when_misaligned(name):
     pair = _drive(name)
     assert pair.pinion.rack.a_c == 0 and pair.pinion.a_pl == 0
@@ -136,6 +139,8 @@ def test_unmodified_drive_has_edge_contact_when_misaligned(name):
 
 
 @pytest.mark.parametrize("name", ["spur", "helical"])
+@pytest.mark.slow
+@pytest.mark.ipopt
 def test_verified_level_is_measured_at_the_actual_corners(name):
     """Issue 10, item 4: the verification's TE level is the peak-to-peak at the actual corners of
     the actual TE (where consecutive pairs' TE cross), not at the NLP's fitted transfer points.
@@ -165,6 +170,7 @@ def test_verified_level_is_measured_at_the_actual_corners(name):
 
 # ----------------------------------------------------------------------------------------------
 # 2. Infeasible or invalid requests
+@pytest.mark.ipopt
 def test_infeasible_ellipse_share_names_binding_constraints():
     opt = CrowningOptimizer(_drive("spur"), CrowningTarget(te_level=TE, ellipse_share=0.6),
                             cases=misalignment_cases(crossing=20 * ARCMIN), positions=21)
@@ -177,6 +183,8 @@ def test_infeasible_ellipse_share_names_binding_constraints():
     assert "Relax the request" in msg
 
 
+@pytest.mark.slow
+@pytest.mark.ipopt
 def test_tip_margin_that_misses_the_te_level_is_refused():
     pair = _drive("helical")
     opt = CrowningOptimizer(pair, CrowningTarget(te_level=TE, tip_margin=1.0), positions=21)
@@ -249,11 +257,15 @@ def _perturbed_solves(name):
 @pytest.mark.parametrize("name, setting", [
     ("spur", "a_c"), ("helical", "a_c"), ("helical", "a_pl"),
 ])
+@pytest.mark.slow
+@pytest.mark.ipopt
 def test_perturbed_start_converges_to_same_design(name, setting):
     for dev in _perturbed_solves(name):
         assert abs(dev[setting]) <= 1e-6, dev
 
 
+@pytest.mark.slow
+@pytest.mark.ipopt
 def test_perturbed_start_spur_a_pl_within_attainable_precision():
     # spur a_pl is held only by the small penalty against an active face constraint (multiplier
     # ~2e-8): at IPOPT tol 1e-10 it is determined to ~1e-5 relative ...
@@ -261,6 +273,7 @@ def test_perturbed_start_spur_a_pl_within_attainable_precision():
         assert abs(dev["a_pl"]) <= 1e-4, dev
 
 
+@pytest.mark.ipopt
 def test_perturbed_start_spur_a_pl_with_tight_tolerance():
     # ... and with tol = 1e-13 the perturbed starts agree to round-off.
     from gearopt.synthesis import CrowningOptimizer, CrowningTarget
@@ -276,6 +289,8 @@ def test_perturbed_start_spur_a_pl_with_tight_tolerance():
 # ----------------------------------------------------------------------------------------------
 # 4. Sensitivities against finite differences of independent TCA sweeps
 @pytest.mark.parametrize("name", ["spur", "helical"])
+@pytest.mark.slow
+@pytest.mark.ipopt
 def test_sensitivity_to_crowning_matches_finite_differences(name):
     opt, d = _optimized(name)
     pair, K = _drive(name), opt.positions
@@ -300,6 +315,8 @@ def _fd_crossing(pair, mis, K, h=0.1 * ARCMIN):
             - _level(pair, replace(mis, crossing=mis.crossing - h), K)) / (2 * h)
 
 
+@pytest.mark.slow
+@pytest.mark.ipopt
 def test_crossing_sensitivity_spur_flips_sign():
     opt, d = _optimized("spur")
     s = d.sensitivities
@@ -312,6 +329,8 @@ def test_crossing_sensitivity_spur_flips_sign():
         assert s[cname]["mis.crossing"] == pytest.approx(fd, rel=1e-3), cname
 
 
+@pytest.mark.slow
+@pytest.mark.ipopt
 def test_crossing_sensitivity_helical_flips_under_the_mirror():
     opt, d = _optimized("helical")
     s = d.sensitivities
@@ -344,6 +363,7 @@ def _local(name):
 
 
 @pytest.mark.parametrize("name", ["spur", "helical"])
+@pytest.mark.ipopt
 def test_local_synthesis_reproduced_at_mean_point(name):
     pair = _drive(name)
     t = _local_target(pair)
@@ -356,6 +376,7 @@ def test_local_synthesis_reproduced_at_mean_point(name):
         assert v["major_axis"] == pytest.approx(t.major_axis, rel=1e-6), (h, v)
 
 
+@pytest.mark.ipopt
 def test_local_synthesis_spur_path_along_profile():
     pair = _drive("spur")
     d = _local("spur")
@@ -367,6 +388,7 @@ def test_local_synthesis_spur_path_along_profile():
     assert np.abs(r.z2[0]).max() < 1e-9 and np.ptp(r.radius2[0]) > 0.1
 
 
+@pytest.mark.ipopt
 def test_local_synthesis_helical_eta2_target():
     pair = _drive("helical")
     free = _local("helical")
@@ -399,6 +421,8 @@ def test_local_synthesis_helical_eta2_target():
 
 # ----------------------------------------------------------------------------------------------
 # 6. The crowning study through the CLI
+@pytest.mark.slow
+@pytest.mark.ipopt
 def test_cli_crowning_study(tmp_path):
     from gearopt.cli import main
 
