@@ -147,6 +147,13 @@ class GeneratedTooth:
     extras: dict = field(default_factory=dict)
 
     @property
+    def param_names(self) -> tuple[str, ...]:
+        """Names of the entries of this member's surface parameter vector ``p``, in order:
+        :data:`PARAMS` (the generation settings), then the symbolic parameters of any flank
+        modification. Every consumer (TCA layout, synthesis, edge contact) addresses ``p`` by these."""
+        return PARAMS
+
+    @property
     def p0(self) -> np.ndarray:
         """Parameter vector of the gear as built."""
         return default_params(self.gear)
