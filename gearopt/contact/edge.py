@@ -44,7 +44,7 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-from ..errors import ConvergenceError, out_of_range
+from ..errors import ConvergenceError, LineContactError, OptionError, out_of_range
 from ..errors import ArgumentError
 from ..meshing.tca import (REGULARITY_MIN, TCA, Branch, EnvelopeTE, Misalignment, TCAResult, check_sweep_args,
                            no_contact)
@@ -315,9 +315,7 @@ class EdgeContact:
         try:
             try:
                 surf = tca.sweep(phi1, p1, p2, mis, pairs=pairs, continuation=False)
-            except ConvergenceError as e:
-                if "line contact" not in str(e):
-                    raise
+            except LineContactError:
                 stats["surface_mode"] = "line contact (mid section)"
                 surf = self._line_tca().sweep(phi1, p1, p2, mis, pairs=pairs, continuation=False)
             Q[0] = np.vstack([surf.u1.ravel(), surf.z1.ravel(), surf.u2.ravel(), surf.z2.ravel(),

@@ -36,7 +36,8 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-from ..errors import ArgumentError, ConvergenceError, GeometryError, check_number, out_of_range, shorten
+from ..errors import (ArgumentError, ConvergenceError, GeometryError, LineContactError, OptionError, check_number,
+                      out_of_range, shorten)
 from ..gears import GearPair
 from ..geometry.generation import PARAMS, GeneratedTooth, generate_by_rack
 from ..units import ARCMIN, RAD_TO_ARCSEC
@@ -504,7 +505,7 @@ class TCA:
         prm = self.prm([phi1], p1, p2, mis, z_section)[:, 0]
         J = np.asarray(self.jacobian(w0, prm))
         if self.contact_type == "point" and np.linalg.cond(J) > 1e14:
-            raise ConvergenceError(
+            raise LineContactError(
                 f"TCA: the point-contact equations are singular at phi1 = {phi1:.6g} rad (Jacobian condition "
                 f"{np.linalg.cond(J):.2g}): the flanks are in line contact (no crowning, no angular misalignment). "
                 "Use contact='line' (TCA in a given pinion section) or crown the pinion.")

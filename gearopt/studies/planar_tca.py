@@ -170,7 +170,7 @@ def _from_scene(scene) -> PlanarTCAStudy:
     try:
         cf = closed_form(r_b1, r_b2, E)
     except GeometryError as e:
-        raise SceneError(f"{src}: [planar_tca] {e}") from e
+        raise scene.study_error("planar_tca", e) from e
     lo, hi = cf["phi1_range"]
     span = hi - lo
     p_min = o.get("phi1_min")

@@ -387,9 +387,8 @@ def _check_operating(scene, section: str, o: dict, signs=(1,)) -> None:
         try:
             pair.check_operating(s * dE, "dE" if s > 0 else "-dE")
         except GeometryError as e:
-            text = str(e).split(" is out of range; ", 1)[-1]
             case = "" if s > 0 else f" (the case -dE = {-dE:g} mm)"
-            raise scene.key_error(section, "dE", f"is out of range{case}; {text}") from None
+            raise scene.key_error(section, "dE", f"is out of range{case}; valid: {e.valid}.") from None
     axial = o.get("axial") or 0.0
     overlap = (pair.pinion.b + pair.gear.b) / 2
     if abs(axial) >= overlap:
@@ -398,7 +397,7 @@ def _check_operating(scene, section: str, o: dict, signs=(1,)) -> None:
 
 
 def _from_scene(scene) -> TCAStudy:
-    from ..errors import GeometryError, SceneError
+    from ..errors import GeometryError, OptionError, SceneError
 
     o = scene.options.get("tca", {}) or {}
     try:
@@ -446,8 +445,8 @@ def _from_scene(scene) -> TCAStudy:
                         z_section=o.get("z_section") or 0.0, positions=o.get("positions") or 81,
                         delta=o.get("delta") or 0.00632, misalignment=None if cases else mis, name=scene.name,
                         edge_contact=bool(o.get("edge_contact")), cases=cases)
-    except GeometryError as e:
-        raise SceneError(f"{scene.source}: [tca] {e}") from e
+    except (GeometryError, OptionError) as e:
+        raise scene.study_error("tca", e) from e
 
 
 def _auto_label(m: Misalignment) -> str:

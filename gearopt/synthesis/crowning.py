@@ -29,7 +29,8 @@ import casadi as ca
 import numpy as np
 
 from ..contact.edge import EdgeContact
-from ..errors import ArgumentError, ConvergenceError, check_number, out_of_range
+from ..errors import ArgumentError, ConvergenceError, OptionError, SynthesisError, check_number, out_of_range  # noqa: F401
+#  (SynthesisError lives in errors.py; re-exported here)
 from ..gears import GearPair
 from ..geometry.generation import PARAMS
 from ..meshing.tca import TCA, Misalignment
@@ -37,11 +38,6 @@ from ..units import ARCMIN, ARCSEC, RAD_TO_ARCSEC
 
 SETTINGS = ("a_c", "a_pl")  #: design variables (entries of the pinion parameter vector)
 _IDX = {name: PARAMS.index(name) for name in SETTINGS}
-
-
-class SynthesisError(ConvergenceError):
-    """The NLP found no design: infeasible request or solver failure (message names the binding
-    constraints)."""
 
 
 @dataclass(frozen=True)
