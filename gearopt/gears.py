@@ -620,7 +620,8 @@ class GearPair:
             self._blame_short_tips()
             raise GeometryError(f"contact ratio eps_gamma = {self.eps_gamma:.4f} < 1: the pair does not mesh continuously "
                                 "(valid: eps_gamma >= 1). Increase the addenda ([rack] h_aP, [pinion]/[gear] k), reduce x or a, or use "
-                                "helical gears.")
+                                "helical gears.",
+                                value=self.eps_gamma, valid="eps_gamma >= 1")
 
     def _blame_short_tips(self) -> None:
         """Contact ratio below 1 at a_0: if a member's tip is shortened (k < 0), name that k and the

@@ -138,12 +138,13 @@ class EdgeContact:
         t0 = time.perf_counter()
         if not isinstance(tca, TCA):
             raise ArgumentError(f"tca = {type(tca).__name__}: expected a gearopt.meshing.tca.TCA (built from the "
-                                "GearPair: EdgeContact(TCA(pair)))")
+                                "GearPair: EdgeContact(TCA(pair)))",
+                                param="tca", value=tca, valid="a gearopt.meshing.tca.TCA")
         if isinstance(edges, str):
             edges = (edges,)
         for e in edges:
             if e not in EDGES:
-                raise out_of_range("edges", e, f"one of {list(EDGES)}")
+                raise out_of_range("edges", e, f"one of {list(EDGES)}", cls=OptionError)
         self.tca, self.edges = tca, tuple(edges)
         pair = tca.pair
         self.members = {1: pair.pinion, 2: pair.gear}

@@ -76,7 +76,8 @@ def check_out_dir(out_dir, scene_file=None) -> Path:
     """
     if out_dir is not None and not isinstance(out_dir, (str, os.PathLike)):
         raise ArgumentError(f"out_dir = {type(out_dir).__name__} {shorten(repr(out_dir))}: expected a directory path "
-                            "(str or pathlib.Path).")
+                            "(str or pathlib.Path).",
+                            param="out_dir", value=out_dir, valid="a directory path (str or pathlib.Path)")
     if out_dir is None or str(out_dir).strip() == "":
         raise ResultsError("--out / out_dir is empty; valid: a directory path such as out/my_scene (it is created, "
                            "or replaced as a whole).")
@@ -146,7 +147,8 @@ def write_results(out_dir, result, *, scene=None, run_time: float | None = None,
     if not (callable(getattr(result, "to_dict", None)) and callable(getattr(result, "save_plots", None))):
         from ..errors import ArgumentError
         raise ArgumentError(f"result = {type(result).__name__}: expected a study result with to_dict() and "
-                            "save_plots(directory) (what a study's run() returns).")
+                            "save_plots(directory) (what a study's run() returns).",
+                            param="result", value=result, valid="a study result with to_dict() and save_plots(directory)")
     say = progress or (lambda _msg: None)
     if plots is None:
         plots = bool(scene.output.get("plots", True)) if scene is not None else True

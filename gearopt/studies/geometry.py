@@ -220,7 +220,8 @@ def _from_scene(scene) -> GeometryStudy:
         for k in keys:
             if o.get(k) is not None and gen != tool:
                 raise SceneError(f"{scene.source}: [geometry] {k} applies only with generation = \"{tool}\" "
-                                 f"(generation is \"{gen}\"); remove it or change generation.")
+                                 f"(generation is \"{gen}\"); remove it or change generation.",
+                                 param=f"[geometry] {k}", value=scene.written("geometry", k), valid=f"only with generation = \"{tool}\"")
     try:
         hob = Hob(N_h=o.get("N_h") or 1, d_p0=o.get("d_p0") or 60.0) if gen == "hob" else None
         shaper = Shaper(N_s=o.get("N_s") or 25, x_s=o.get("x_s") or 0.0) if gen == "shaper" else None
