@@ -123,7 +123,7 @@ class BasicRack:
         if unknown:
             valid = ', '.join(f.name for f in fields(cls))
             raise ArgumentError(f"BasicRack.iso53: unknown field(s) {', '.join(unknown)}; valid: {valid}.",
-                                param=f"rack.{unknown[0]}", value=changes[unknown[0]], valid=valid)
+                                param=f"rack.{unknown[0]}", valid=valid)
         return cls(**{"alpha_n": 20 * DEG, "h_aP": h_aP, "h_fP": h_fP, "rho_fP": rho, "name": f"ISO 53 {key}", **changes})
 
     @property

@@ -637,7 +637,7 @@ def load_scene(path) -> Scene:
     if not isinstance(path, (str, Path)) or str(path) == "":
         from ..errors import ArgumentError
         raise ArgumentError(f"path = {type(path).__name__} {shorten(repr(path))}: expected the path of a scene file "
-                            "(str or pathlib.Path).")
+                            "(str or pathlib.Path).", param="path", value=path, valid="str or pathlib.Path")
     path = Path(path)
     label = str(path)
     data = _read_toml(path, label)

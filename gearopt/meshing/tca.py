@@ -132,7 +132,7 @@ def check_sweep_args(tca, phi1, p1=None, p2=None, mis=None, pairs=(-1, 0, 1), de
         if v.shape != (len(PARAMS),):
             raise ArgumentError(f"{name}: expected a vector of {len(PARAMS)} numbers {PARAMS} (x, a_c [1/mm], u_0 [mm], "
                                 f"a_pl [1/mm]), got shape {v.shape}.",
-                                param=name, value=v.tolist(), valid=f"a vector of {len(PARAMS)} numbers {PARAMS}")
+                                param=name, valid=f"a vector of {len(PARAMS)} numbers {PARAMS}")
         if not np.all(np.isfinite(v)):
             raise ArgumentError(f"{name} = {v.tolist()}: every entry of {PARAMS} must be finite.",
                                 param=name, value=v.tolist(), valid="finite entries")
@@ -170,7 +170,7 @@ def check_sweep_args(tca, phi1, p1=None, p2=None, mis=None, pairs=(-1, 0, 1), de
         out.append(int(k))
     if len(set(out)) != len(out):
         raise ArgumentError(f"pairs = {tuple(out)}: every tooth pair may appear once.",
-                            param="pairs", value=tuple(out), valid="every tooth pair once")
+                            param="pairs", value=tuple(out), valid="every tooth pair may appear once")
     for name, v in (("delta", delta), ("anchor", anchor), ("z_section", z_section)):
         if v is None:
             continue
