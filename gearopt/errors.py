@@ -66,24 +66,6 @@ class GearoptError(Exception):
         self.valid = valid
         self.detail = detail
 
-    @property
-    def key(self) -> str | None:
-        """The last component of :attr:`param` (``"pinion.rack.a_c"`` -> ``"a_c"``), or None."""
-        if self.param is None:
-            return None
-        return self.param.rsplit(".", 1)[-1]
-
-    def with_fields(self, param: str | None = None, value=None, valid: str | None = None):
-        """Set the fields left None (for errors built in one place and completed in another);
-        returns ``self``."""
-        if self.param is None:
-            self.param = param
-        if self.value is None:
-            self.value = value
-        if self.valid is None:
-            self.valid = valid
-        return self
-
 
 class GeometryError(GearoptError, ValueError):
     """Impossible or inconsistent gear data (undercut, pointed tip, too small centre distance, ...)."""

@@ -540,7 +540,9 @@ class Scene:
 
         msg = str(err)
         loc = self.locate(getattr(err, "param", None))
-        if loc is not None and getattr(err, "detail", None) is not None:
+        if loc is not None and getattr(err, "detail", None) is None:
+            loc = None  # the message does not start with the parameter: keep its words
+        if loc is not None:
             section, key = loc
             shown = self.written(section, key)
             msg = join_detail(f"[{section}] {key} = {shown if shown is not None else value_text(err.value)}", err.detail)
@@ -869,7 +871,8 @@ def _build_pair(data: dict, parsed: dict, given: dict, label: str) -> GearPair:
                        f"{lo:.6g} < d_a < {hi:.6g} mm")
                 raise SceneError(f"{label}: [{member}] d_a = {_toml(raw(member, 'd_a'))} is out of range (tip "
                                  f"alteration k = {k:.4g} from it); valid: {rng} for z = {v['z']}, x = {v['x']:g}, "
-                                 f"m_n = {m_n:g} mm.") from None
+                                 f"m_n = {m_n:g} mm.", param=f"[{member}] d_a", value=_toml(raw(member, "d_a")),
+                                 valid=rng) from None
             reraise(e, member, f"[{member}]")
     try:
         return GearPair(pinion=members["pinion"], gear=members["gear"], a=pr["a"])
