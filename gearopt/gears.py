@@ -51,7 +51,8 @@ _ISO53 = {
 
 def _finite(name: str, value: float) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        raise GeometryError(f"{name} = {value!r} must be a finite number.")
+        raise GeometryError(f"{name} = {value!r} must be a finite number.", param=name, value=value,
+                            valid="a finite number", detail="must be a finite number.")
     return float(value)
 
 
@@ -120,8 +121,9 @@ class BasicRack:
         h_aP, h_fP, rho = _ISO53[key]
         unknown = sorted(set(changes) - {f.name for f in fields(cls)})
         if unknown:
-            raise ArgumentError(f"BasicRack.iso53: unknown field(s) {', '.join(unknown)}; valid: "
-                                f"{', '.join(f.name for f in fields(cls))}.")
+            valid = ', '.join(f.name for f in fields(cls))
+            raise ArgumentError(f"BasicRack.iso53: unknown field(s) {', '.join(unknown)}; valid: {valid}.",
+                                param=f"rack.{unknown[0]}", valid=valid)
         return cls(**{"alpha_n": 20 * DEG, "h_aP": h_aP, "h_fP": h_fP, "rho_fP": rho, "name": f"ISO 53 {key}", **changes})
 
     @property
@@ -226,11 +228,15 @@ class Gear:
 
     def __post_init__(self):
         if not isinstance(self.name, str):
-            raise ArgumentError(f"name = {shorten(repr(self.name))}: expected a str (e.g. 'pinion' or 'gear').")
+            raise ArgumentError(f"name = {shorten(repr(self.name))}: expected a str (e.g. 'pinion' or 'gear').",
+                                param="name", value=self.name, valid="a str",
+                                detail=": expected a str (e.g. 'pinion' or 'gear').")
         n = self.name
         for f in ("allow_undercut",):
             if not isinstance(getattr(self, f), (bool, np.bool_)):
-                raise ArgumentError(f"{n}.{f} = {shorten(repr(getattr(self, f)))}: expected True or False.")
+                raise ArgumentError(f"{n}.{f} = {shorten(repr(getattr(self, f)))}: expected True or False.",
+                                    param=f"{n}.{f}", value=getattr(self, f), valid="True or False",
+                                    detail=": expected True or False.")
         _finite(f"{n}.A_sne", self.A_sne)
         if self.A_sni is None:
             object.__setattr__(self, "A_sni", float(self.A_sne))
@@ -240,7 +246,9 @@ class Gear:
         if isinstance(self.z, (numbers.Integral, np.integer)) and not isinstance(self.z, (bool, np.bool_)):
             object.__setattr__(self, "z", int(self.z))
         if isinstance(self.z, bool) or not isinstance(self.z, int):
-            raise GeometryError(f"{n}.z = {self.z!r} must be an integer number of teeth (z >= 3).")
+            raise GeometryError(f"{n}.z = {self.z!r} must be an integer number of teeth (z >= 3).", param=f"{n}.z",
+                                value=self.z, valid="an integer number of teeth (z >= 3)",
+                                detail="must be an integer number of teeth (z >= 3).")
         if self.z < 3:
             raise out_of_range(f"{n}.z", self.z, "z >= 3 teeth")
         if self.z > Z_MAX:
@@ -279,7 +287,8 @@ class Gear:
         if self.a_pl < 0:
             raise out_of_range(f"{n}.a_pl", self.a_pl, "a_pl >= 0 [1/mm] (0 = no longitudinal crowning)")
         if not isinstance(self.rack, BasicRack):
-            raise GeometryError(f"{n}.rack must be a BasicRack, got {type(self.rack).__name__}.")
+            raise GeometryError(f"{n}.rack must be a BasicRack, got {type(self.rack).__name__}.", param=f"{n}.rack",
+                                value=self.rack, valid="a BasicRack")
         x_root = self.rack.h_fP - self.r_p / self.m_n  # r_f = 0
         if self.x <= x_root:
             raise out_of_range(f"{n}.x", self.x, f"x > {x_root:.4g} for z = {self.z} (root circle r_f = r_p + m_n (x - "
@@ -611,7 +620,8 @@ class GearPair:
             self._blame_short_tips()
             raise GeometryError(f"contact ratio eps_gamma = {self.eps_gamma:.4f} < 1: the pair does not mesh continuously "
                                 "(valid: eps_gamma >= 1). Increase the addenda ([rack] h_aP, [pinion]/[gear] k), reduce x or a, or use "
-                                "helical gears.")
+                                "helical gears.",
+                                value=self.eps_gamma, valid="eps_gamma >= 1")
 
     def _blame_short_tips(self) -> None:
         """Contact ratio below 1 at a_0: if a member's tip is shortened (k < 0), name that k and the

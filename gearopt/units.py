@@ -74,21 +74,26 @@ def parse_quantity(value, kind: str, name: str) -> float:
     """
     table, default = KINDS[kind]
     if isinstance(value, bool):
-        raise SceneError(f"{name} = {_show(value)}: expected a {kind} (number or '<number> <unit>'), got a boolean.")
+        raise SceneError(f"{name} = {_show(value)}: expected a {kind} (number or '<number> <unit>'), got a boolean.",
+                         param=name, value=_show(value), valid=f"a {kind} (number or '<number> <unit>')")
     if isinstance(value, (int, float)):
         number, unit = float(value), default
     elif isinstance(value, str):
         m = _QTY.match(value)
         if not m:
-            raise SceneError(f"{name} = {_show(value)}: expected '<number> <unit>' with unit one of {sorted(table)}.")
+            raise SceneError(f"{name} = {_show(value)}: expected '<number> <unit>' with unit one of {sorted(table)}.",
+                             param=name, value=_show(value), valid=f"'<number> <unit>' with unit one of {sorted(table)}")
         number, unit = float(m.group(1)), (m.group(2) or default)
     else:
-        raise SceneError(f"{name} = {_show(value)}: expected a {kind} (number or '<number> <unit>'), got {type(value).__name__}.")
+        raise SceneError(f"{name} = {_show(value)}: expected a {kind} (number or '<number> <unit>'), got {type(value).__name__}.",
+                         param=name, value=_show(value), valid=f"a {kind} (number or '<number> <unit>')")
     if unit not in table:
         kinds = [k for k, (t, _) in KINDS.items() if unit in t]
         what = f"{_a(kinds[0])} unit" if kinds else "an unknown unit"
         raise SceneError(f"{name} = {_show(value)}: '{unit}' is {what}, but {name} is {_a(kind)}; use one of {sorted(table)} "
-                         f"(a bare number means {default}).")
+                         f"(a bare number means {default}).",
+                         param=name, value=_show(value), valid=f"one of {sorted(table)}")
     if not math.isfinite(number):
-        raise SceneError(f"{name} = {_show(value)}: not a finite number.")
+        raise SceneError(f"{name} = {_show(value)}: not a finite number.",
+                         param=name, value=_show(value), valid="a finite number")
     return number * table[unit]

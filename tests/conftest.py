@@ -145,3 +145,19 @@ def Rx(a):
     import numpy as np
     c, s = math.cos(a), math.sin(a)
     return np.array([[1.0, 0, 0], [0, c, -s], [0, s, c]])
+
+
+@pytest.fixture(autouse=True)
+def _error_fields(request):
+    """In the bad-input corpora (tests/test_bad_input*.py): every GearoptError built during a test
+    has ``param``, ``value``, ``valid`` consistent with its message, and one that names a
+    parameter (``name = value ...``) says which in ``param`` (issue 12 item 6)."""
+    if not request.module.__name__.split(".")[-1].startswith("test_bad_input"):
+        yield
+        return
+    from error_fields import check_fields, recording
+
+    with recording() as seen:
+        yield
+    problems = [p for e in seen for p in check_fields(e)]
+    assert not problems, "\n".join(problems)

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from gearopt.cli import main
-from gearopt.errors import ArgumentError, ConvergenceError, GearoptError, GeometryError, ResultsError
+from gearopt.errors import ArgumentError, ConvergenceError, GearoptError, GeometryError, OptionError, ResultsError
 from gearopt.gears import BasicRack, Gear, GearPair
 from gearopt.units import ARCMIN, DEG
 
@@ -450,7 +450,6 @@ def crowned_tca():
     (dict(phi1=[0.0], pairs=(0, 0.5)), "pairs contains float 0.5"),
     (dict(phi1=[0.0], pairs=(0, 0)), "every tooth pair may appear once"),
     (dict(phi1=[0.0], pairs=(40,)), "pairs contains 40; valid: -18 < k < 18"),
-    (dict(phi1=[0.0], delta=0.0), "delta = 0.0 is out of range"),
     (dict(phi1=[0.0], delta="6 um"), "delta = str"),
     (dict(phi1=[0.0], anchor=math.nan), "anchor"),
 ])
@@ -458,6 +457,13 @@ def test_tca_sweep_arguments(crowned_tca, kwargs, name):
     with pytest.raises(ArgumentError, match=name) as e:
         crowned_tca.sweep(**kwargs)
     assert isinstance(e.value, GearoptError)
+
+
+def test_tca_sweep_delta_out_of_range_is_an_option_error(crowned_tca):
+    """delta is a solver option (the elastic approach), not gear data (issue 12 item 6)."""
+    with pytest.raises(OptionError, match="delta = 0.0 is out of range") as e:
+        crowned_tca.sweep([0.0], delta=0.0)
+    assert not isinstance(e.value, GeometryError) and isinstance(e.value, ValueError)
 
 
 @pytest.mark.parametrize("mis, name", [

@@ -14,7 +14,7 @@ import pytest
 from scipy.optimize import brentq
 
 from gearopt.cli import main
-from gearopt.errors import ArgumentError, GearoptError, GeometryError
+from gearopt.errors import ArgumentError, GearoptError, GeometryError, OptionError
 from gearopt.gears import BasicRack, Gear, GearPair
 from gearopt.meshing.tca import TCA, Misalignment
 from gearopt.units import ARCMIN
@@ -326,5 +326,5 @@ def test_crowning_optimizer_with_no_cases_is_refused():
     from gearopt.synthesis.crowning import CrowningOptimizer, CrowningTarget
 
     pair = GearPair(pinion=Gear(z=24, m_n=2.5, b=15.0, name="pinion"), gear=Gear(z=37, m_n=2.5, b=15.0, name="gear"))
-    with pytest.raises(GeometryError, match="cases"):
+    with pytest.raises(OptionError, match="cases"):  # an option of the optimizer, not gear data (issue 12 item 6)
         CrowningOptimizer(pair, CrowningTarget(te_level=4e-5), cases={})

@@ -37,7 +37,7 @@ import pytest
 
 from gearopt import ARCMIN, ARCSEC, Gear, GearPair, deg
 from gearopt.contact.edge import EdgeContact
-from gearopt.errors import ConvergenceError, GeometryError
+from gearopt.errors import ConvergenceError, GeometryError, OptionError
 from gearopt.meshing.tca import TCA, Misalignment
 from gearopt.studies.crowning import misalignment_cases
 from gearopt.synthesis import (CrowningOptimizer, CrowningTarget, LocalTarget, SynthesisError, local_synthesis,
@@ -230,7 +230,8 @@ def test_invalid_target_raises_geometry_error_naming_parameter(kw, name):
     ({"bounds": {"a_c": (0.01, 0.001)}}, "bounds"), ({"bounds": {"x": (0.0, 1.0)}}, "bounds"),
 ])
 def test_invalid_optimizer_arguments_name_the_parameter(kw, name):
-    with pytest.raises(GeometryError, match=name):
+    # optimizer settings are options, not gear data (issue 12 item 6)
+    with pytest.raises(OptionError, match=name):
         CrowningOptimizer(_drive("spur"), CrowningTarget(te_level=TE), **kw)
 
 

@@ -44,7 +44,7 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-from ..errors import ConvergenceError, out_of_range
+from ..errors import ConvergenceError, LineContactError, OptionError, out_of_range
 from ..errors import ArgumentError
 from ..meshing.tca import (REGULARITY_MIN, TCA, Branch, EnvelopeTE, Misalignment, TCAResult, check_sweep_args,
                            no_contact)
@@ -138,12 +138,13 @@ class EdgeContact:
         t0 = time.perf_counter()
         if not isinstance(tca, TCA):
             raise ArgumentError(f"tca = {type(tca).__name__}: expected a gearopt.meshing.tca.TCA (built from the "
-                                "GearPair: EdgeContact(TCA(pair)))")
+                                "GearPair: EdgeContact(TCA(pair)))",
+                                param="tca", value=tca, valid="a gearopt.meshing.tca.TCA")
         if isinstance(edges, str):
             edges = (edges,)
         for e in edges:
             if e not in EDGES:
-                raise out_of_range("edges", e, f"one of {list(EDGES)}")
+                raise out_of_range("edges", e, f"one of {list(EDGES)}", cls=OptionError)
         self.tca, self.edges = tca, tuple(edges)
         pair = tca.pair
         self.members = {1: pair.pinion, 2: pair.gear}
@@ -315,9 +316,7 @@ class EdgeContact:
         try:
             try:
                 surf = tca.sweep(phi1, p1, p2, mis, pairs=pairs, continuation=False)
-            except ConvergenceError as e:
-                if "line contact" not in str(e):
-                    raise
+            except LineContactError:
                 stats["surface_mode"] = "line contact (mid section)"
                 surf = self._line_tca().sweep(phi1, p1, p2, mis, pairs=pairs, continuation=False)
             Q[0] = np.vstack([surf.u1.ravel(), surf.z1.ravel(), surf.u2.ravel(), surf.z2.ravel(),

@@ -17,13 +17,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import GearoptError
+from ..errors import CalculixError, GearoptError  # noqa: F401  (CalculixError lives in errors.py; re-exported)
 
 CCX_ENV = "GEAROPT_CCX"  #: environment variable naming the ccx executable (default: ``ccx`` on PATH)
-
-
-class CalculixError(GearoptError, RuntimeError):
-    """CalculiX is missing, failed, timed out, or its result fails the physical checks."""
 
 
 def ccx_path() -> str | None:

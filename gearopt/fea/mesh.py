@@ -33,7 +33,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import GeometryError, out_of_range
+from ..errors import GeometryError, option_error, out_of_range  # noqa: F401
 from ..geometry.generation import GeneratedTooth
 
 #: C3D8 faces (ccx / Abaqus numbering S1..S6) as node positions 0..7 of the element.
@@ -81,16 +81,16 @@ class MeshOptions:
         for name, lo in (("n_face", 1), ("n_half", 1), ("n_flank", 2), ("n_fillet", 1), ("n_rim", 1)):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int) or v < lo:
-                raise out_of_range(f"fea.{name}", v, f"an integer >= {lo}")
+                raise option_error(f"fea.{name}", v, f"an integer >= {lo}")
         if self.n_face % 2:
-            raise out_of_range("fea.n_face", self.n_face, "an even integer (a node layer on the middle section)")
+            raise option_error("fea.n_face", self.n_face, "an even integer (a node layer on the middle section)")
         for name in ("h_contact", "window"):
             if not (math.isfinite(getattr(self, name)) and getattr(self, name) >= 0):
-                raise out_of_range(f"fea.{name}", getattr(self, name), f"{name} >= 0 mm")
+                raise option_error(f"fea.{name}", getattr(self, name), f"{name} >= 0 mm")
         if not (0 < self.growth <= 2):
-            raise out_of_range("fea.growth", self.growth, "0 < growth <= 2 (mm per mm)")
+            raise option_error("fea.growth", self.growth, "0 < growth <= 2 (mm per mm)")
         if not (0.3 <= self.rim_depth <= 10):
-            raise out_of_range("fea.rim_depth", self.rim_depth, "0.3 <= rim_depth <= 10 (modules)")
+            raise option_error("fea.rim_depth", self.rim_depth, "0.3 <= rim_depth <= 10 (modules)")
 
 
 @dataclass
@@ -157,7 +157,8 @@ class ToothMesher:
         self.r_rim = self.r_f - options.rim_depth * g.m_n
         if self.r_rim <= 0.15 * self.r_f:
             raise GeometryError(f"{g.name}: rim_depth = {options.rim_depth} m_n leaves no hub (r_rim = "
-                                f"{self.r_rim:.4g} mm); use a smaller fea.rim_depth.")
+                                f"{self.r_rim:.4g} mm); use a smaller fea.rim_depth.", param="fea.rim_depth",
+                                value=options.rim_depth)
         self.u_f, self.phi_max = tooth.junction(self.p)
         self.z = np.linspace(-g.b / 2, g.b / 2, options.n_face + 1)
         self.pitch_angle = 2 * math.pi / g.z

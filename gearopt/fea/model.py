@@ -34,7 +34,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from ..errors import ArgumentError, GeometryError, check_number, out_of_range
+from ..errors import ArgumentError, GeometryError, check_number, option_error, out_of_range  # noqa: F401
 from ..gears import GearPair
 from ..geometry.generation import GeneratedTooth
 from ..meshing.tca import TCA
@@ -143,17 +143,17 @@ class FEOptions:
         for name in ("torque", "E"):
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-                raise out_of_range(f"fea.{name}", v, f"{name} > 0")
+                raise option_error(f"fea.{name}", v, f"{name} > 0")
         if not (0 <= self.nu < 0.5):
-            raise out_of_range("fea.nu", self.nu, "0 <= nu < 0.5")
+            raise option_error("fea.nu", self.nu, "0 <= nu < 0.5")
         if isinstance(self.teeth, bool) or not isinstance(self.teeth, int) or not 1 <= self.teeth <= 7:
-            raise out_of_range("fea.teeth", self.teeth, "an integer 1..7 (teeth of each member)")
+            raise option_error("fea.teeth", self.teeth, "an integer 1..7 (teeth of each member)")
         if not (0 <= self.n_hertz <= 50):
-            raise out_of_range("fea.n_hertz", self.n_hertz, "0 <= n_hertz <= 50")
+            raise option_error("fea.n_hertz", self.n_hertz, "0 <= n_hertz <= 50")
         if not (1 <= self.penalty <= 1000):
-            raise out_of_range("fea.penalty", self.penalty, "1 <= penalty <= 1000 (multiples of E, per mm)")
+            raise option_error("fea.penalty", self.penalty, "1 <= penalty <= 1000 (multiples of E, per mm)")
         if self.element_type not in ("C3D8", "C3D8I"):
-            raise out_of_range("fea.element_type", self.element_type, "'C3D8' or 'C3D8I'")
+            raise option_error("fea.element_type", self.element_type, "'C3D8' or 'C3D8I'")
 
 
 # ---------------------------------------------------------------------------------------------
@@ -253,16 +253,18 @@ class GearFEModel:
     def __init__(self, pair: GearPair, phi1: float, options: FEOptions | None = None, tca: TCA | None = None):
         t0 = time.perf_counter()
         if not isinstance(pair, GearPair):
-            raise ArgumentError(f"pair = {type(pair).__name__}: expected a gearopt.gears.GearPair.")
+            raise ArgumentError(f"pair = {type(pair).__name__}: expected a gearopt.gears.GearPair.",
+                                param="pair", value=pair, valid="a gearopt.gears.GearPair")
         if options is not None and not isinstance(options, FEOptions):
-            raise ArgumentError(f"options = {type(options).__name__}: expected an FEOptions.")
+            raise ArgumentError(f"options = {type(options).__name__}: expected an FEOptions.",
+                                param="options", value=options, valid="an FEOptions")
         self.pair, self.phi1 = pair, check_number("phi1", phi1, "a finite pinion angle [rad]")
         self.opt = options or FEOptions()
         if tca is None:
             crowned = any(g.a_pl != 0 or g.rack.a_c != 0 for g in (pair.pinion, pair.gear))
             tca = TCA(pair, side="right", contact="point" if crowned else "line")
         if tca.side != "right":
-            raise out_of_range("tca.side", tca.side, "'right' (the FE model drives on the pinion's right flank)")
+            raise option_error("tca.side", tca.side, "'right' (the FE model drives on the pinion's right flank)")
         self.tca = tca
         o = self.opt
         g1, g2 = pair.pinion, pair.gear
@@ -272,7 +274,8 @@ class GearFEModel:
         on = res.on_surface[:, 0]
         if not on.any():
             raise GeometryError(f"FE model at phi1 = {self.phi1:.6g} rad: no tooth pair of the {n} modelled is in "
-                                "contact on the active flanks (TCA); choose phi1 within the meshing cycle.")
+                                "contact on the active flanks (TCA); choose phi1 within the meshing cycle.",
+                                param="phi1", value=self.phi1)
         self.phi2 = float(np.nanmax(np.where(on, res.phi2[:, 0], np.nan)))
         gap = (self.phi2 - res.phi2[:, 0]) * pair.gear.r_b  # separation of each pair along the line of action
         self.loaded = [k for k, o_, gp in zip(self.tooth_ids, on, gap) if o_ and gp < 5e-3]

@@ -34,7 +34,7 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-from ..errors import ArgumentError, ConvergenceError, GeometryError, out_of_range, shorten
+from ..errors import ArgumentError, ConvergenceError, GeometryError, OptionError, out_of_range, shorten
 from ..gears import BasicRack, Gear
 from .involute import inv, inv_inverse
 
@@ -161,9 +161,9 @@ class GeneratedTooth:
     def surface(self, side: str = "right", segment: str = "flank") -> ca.Function:
         """The compiled surface Function ``(q, z, p) -> (r, n, psi)`` of a side and segment."""
         if side not in SIDES:
-            raise out_of_range("side", side, "'right' or 'left'")
+            raise out_of_range("side", side, "'right' or 'left'", cls=OptionError)
         if segment not in ("flank", "fillet"):
-            raise out_of_range("segment", segment, "'flank' or 'fillet'")
+            raise out_of_range("segment", segment, "'flank' or 'fillet'", cls=OptionError)
         return self.functions[f"{side}_{segment}"]
 
     def junction(self, p=None) -> tuple[float, float]:
@@ -513,10 +513,12 @@ def _rack_generated(gear: Gear, rack: BasicRack, method: str, N_h: int | None = 
 def _check_member(fn: str, gear, tool, tool_name: str, tool_cls) -> None:
     """ArgumentError unless ``gear`` is a Gear and ``tool`` is None or a ``tool_cls``."""
     if not isinstance(gear, Gear):
-        raise ArgumentError(f"{fn}: gear = {type(gear).__name__} {shorten(repr(gear))}: expected a gearopt.Gear.")
+        raise ArgumentError(f"{fn}: gear = {type(gear).__name__} {shorten(repr(gear))}: expected a gearopt.Gear.",
+                            param="gear", value=gear, valid="a gearopt.Gear")
     if tool is not None and not isinstance(tool, tool_cls):
         raise ArgumentError(f"{fn}: {tool_name} = {type(tool).__name__} {shorten(repr(tool))}: expected a "
-                            f"{tool_cls.__name__} or None.")
+                            f"{tool_cls.__name__} or None.",
+                            param=tool_name, value=tool, valid=f"a {tool_cls.__name__} or None")
 
 
 def generate_by_rack(gear: Gear, rack: BasicRack | None = None) -> GeneratedTooth:
@@ -642,7 +644,9 @@ def generate_by_shaper(gear: Gear, shaper: Shaper | None = None) -> GeneratedToo
                             "for spur gears only (beta = 0); use generate_by_rack or generate_by_hob for helical gears.")
     if gear.a_pl != 0 or gear.rack.a_c != 0:
         raise GeometryError(f"{gear.name}: crowning (a_pl = {gear.a_pl}, a_c = {gear.rack.a_c}) is defined for rack/hob "
-                            "generation; shaper generation needs a_pl = 0 and a_c = 0.")
+                            "generation; shaper generation needs a_pl = 0 and a_c = 0.",
+                            param=f"{gear.name}.a_pl" if gear.a_pl else f"{gear.name}.rack.a_c",
+                            value=gear.a_pl or gear.rack.a_c, valid="a_pl = 0 and a_c = 0")
     rack, m = gear.rack, gear.m_n
     al = rack.alpha_n
     N_s, N_2 = shaper.N_s, gear.z
@@ -652,7 +656,8 @@ def generate_by_shaper(gear: Gear, shaper: Shaper | None = None) -> GeneratedToo
     s_ps = m * (math.pi / 2 + 2 * shaper.x_s * math.tan(al))  # shaper tooth thickness on r_ps
     if (r_as - rho) <= r_bs:
         raise GeometryError(f"shaper.N_s = {N_s}: the tip rounding centre falls inside the shaper base circle; "
-                            "use more shaper teeth or a smaller rho_fP.")
+                            "use more shaper teeth or a smaller rho_fP.",
+                            param="shaper.N_s", value=N_s)
     gam0 = -math.pi / 2 + math.pi / N_s  # direction of the shaper tooth right of the line of centres
 
     q, z, psi_free = ca.SX.sym("q"), ca.SX.sym("z"), ca.SX.sym("psi")

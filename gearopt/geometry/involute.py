@@ -52,13 +52,16 @@ def _check_numeric(fn: str, name: str, value, below: float | None = None) -> Non
         arr = np.asarray(value, dtype=float)
     except (TypeError, ValueError):
         raise ArgumentError(f"{fn}: {name} = {type(value).__name__} {str(value)[:60]!r}: expected a number [rad] "
-                            "(or an array of numbers, or a CasADi expression).") from None
+                            "(or an array of numbers, or a CasADi expression).",
+                            param=name, value=value, valid="a number [rad]") from None
     if not np.all(np.isfinite(arr)):
-        raise ArgumentError(f"{fn}: {name} must be finite [rad]; got {str(value)[:60]}.")
+        raise ArgumentError(f"{fn}: {name} must be finite [rad]; got {str(value)[:60]}.",
+                            param=name, value=value, valid="finite [rad]")
     if below is not None and np.any(np.abs(arr) > below):
         raise ArgumentError(f"{fn}: {name} = {str(value)[:60]} is out of range; valid: |{name}| <= {below:.6g} rad "
                             + ("(pi/2: the involute function is defined below it)." if below < 2 else
-                               "(beyond it alpha rounds to pi/2 in double precision)."))
+                               "(beyond it alpha rounds to pi/2 in double precision)."),
+                            param=name, value=value, valid=f"|{name}| <= {below:.6g} rad")
 
 
 def select(cond, a, b):

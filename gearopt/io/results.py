@@ -76,33 +76,40 @@ def check_out_dir(out_dir, scene_file=None) -> Path:
     """
     if out_dir is not None and not isinstance(out_dir, (str, os.PathLike)):
         raise ArgumentError(f"out_dir = {type(out_dir).__name__} {shorten(repr(out_dir))}: expected a directory path "
-                            "(str or pathlib.Path).")
+                            "(str or pathlib.Path).",
+                            param="out_dir", value=out_dir, valid="a directory path (str or pathlib.Path)")
     if out_dir is None or str(out_dir).strip() == "":
         raise ResultsError("--out / out_dir is empty; valid: a directory path such as out/my_scene (it is created, "
-                           "or replaced as a whole).")
+                           "or replaced as a whole).",
+                           param="--out", value=out_dir, valid="a directory path such as out/my_scene")
     out = Path(out_dir)
     full = Path(os.path.abspath(out))
     cwd = Path(os.getcwd())
     if full == Path(full.anchor) or full == cwd or full in cwd.parents:
         raise ResultsError(f"--out {out}: is the working directory, one of its parents or the root; results replace "
-                           "the output directory as a whole, so give a directory of its own (e.g. out/my_scene).")
+                           "the output directory as a whole, so give a directory of its own (e.g. out/my_scene).",
+                           param="--out", value=str(out))
     if out.is_symlink() or (out.exists() and not out.is_dir()):
         raise ResultsError(f"--out {out}: exists and is not a directory; valid: a new directory or a previous "
-                           "gearopt results directory.")
+                           "gearopt results directory.",
+                           param="--out", value=str(out), valid="a new directory or a previous gearopt results directory")
     if scene_file is not None:
         scene_full = Path(os.path.abspath(scene_file))
         if full in scene_full.parents:
             raise ResultsError(f"--out {out}: contains the scene file {scene_file}; replacing it would delete the scene. "
-                               "Give another output directory.")
+                               "Give another output directory.",
+                               param="--out", value=str(out))
     base = full.parent
     while not base.exists():
         base = base.parent
     if not base.is_dir() or not os.access(base, os.W_OK | os.X_OK):
-        raise ResultsError(f"--out {out}: cannot create it: {base} is not a writable directory.")
+        raise ResultsError(f"--out {out}: cannot create it: {base} is not a writable directory.",
+                           param="--out", value=str(out))
     try:  # the real test: can a directory be made there (read-only file systems, /proc, ...)?
         os.rmdir(tempfile.mkdtemp(prefix=".gearopt-probe-", dir=base))
     except OSError as e:
-        raise ResultsError(f"--out {out}: cannot create it in {base}: {e.strerror or e}.") from None
+        raise ResultsError(f"--out {out}: cannot create it in {base}: {e.strerror or e}.",
+                           param="--out", value=str(out)) from None
     return out
 
 
@@ -146,7 +153,8 @@ def write_results(out_dir, result, *, scene=None, run_time: float | None = None,
     if not (callable(getattr(result, "to_dict", None)) and callable(getattr(result, "save_plots", None))):
         from ..errors import ArgumentError
         raise ArgumentError(f"result = {type(result).__name__}: expected a study result with to_dict() and "
-                            "save_plots(directory) (what a study's run() returns).")
+                            "save_plots(directory) (what a study's run() returns).",
+                            param="result", value=result, valid="a study result with to_dict() and save_plots(directory)")
     say = progress or (lambda _msg: None)
     if plots is None:
         plots = bool(scene.output.get("plots", True)) if scene is not None else True

@@ -31,7 +31,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Callable
 
-from ..errors import GeometryError, SceneError, shorten
+from ..errors import GearoptError, GeometryError, SceneError, join_detail, shorten, value_text
 from ..gears import BasicRack, Gear, GearPair
 from ..units import KINDS, parse_quantity
 
@@ -489,28 +489,67 @@ class Scene:
         return None
 
     def key_error(self, section: str, key: str, err) -> SceneError:
-        """A :class:`SceneError` for ``[section] key`` from an error (or text) of gear or study code:
-        its leading ``name = value`` (internal name and units) is replaced by the key and the value
-        as written in the file."""
-        msg = re.sub(r"^[\w.\[\] -]*?\b" + re.escape(key) + r" = \S+( \w+)? (?=is |must |:)", "", str(err))
+        """A :class:`SceneError` for ``[section] key`` from an error of gear or study code (whose
+        :attr:`~gearopt.errors.GearoptError.detail` follows the key and its value as written in
+        the file) or from a text that follows them (``"is out of range; valid: ..."``)."""
+        if isinstance(err, GearoptError):
+            text = err.detail if err.detail is not None else f": {err}"
+            valid = err.valid
+        else:
+            text, valid = str(err), None
         shown = self.written(section, key)
-        sep = " " if msg.startswith(("is ", "must ")) else ": "
-        return SceneError(f"{self.source}: [{section}] {key} = {shown if shown is not None else '(default)'}{sep}"
-                          f"{msg.lstrip(': ')}")
+        head = f"[{section}] {key} = {shown if shown is not None else '(default)'}"
+        if not text.startswith((":", ";", ",", ".")) and not text.startswith(("is ", "must ")):
+            text = ": " + text
+        return SceneError(f"{self.source}: {join_detail(head, text)}", param=f"[{section}] {key}", value=shown,
+                          valid=valid)
+
+    def locate(self, param: str | None, prefixes: tuple = ()) -> tuple[str, str] | None:
+        """The ``(section, key)`` of this scene's study that an error's ``param`` names: ``mis.dE``,
+        ``misalignment.dE``, ``target.te_level``, ``options.x``, ``<section>.<key>``, a bare
+        ``<key>`` or ``<prefix>.<key>`` for one of ``prefixes`` (the study's own objects, e.g.
+        ``hob``), when the key is a field of one of the study's sections; else None."""
+        from ..studies import get_study
+
+        if not param:
+            return None
+        spec = get_study(self.study)
+        head, _, key = param.rpartition(".")
+        for sec in (spec.sections if spec else []):
+            if key in [f.name for f in sec.fields] and head in ("", "mis", "misalignment", "target", "options",
+                                                                 sec.name, *prefixes):
+                return sec.name, key
+        return None
+
+    def study_error(self, section: str, err: GearoptError, prefixes: tuple = ()) -> SceneError:
+        """A :class:`SceneError` for an error raised while the study's objects are built from
+        ``[section]``: stated for the key its ``param`` names (with the value as written; see
+        :meth:`locate` for ``prefixes``) when that key is in ``[section]`` and has a value, else
+        prefixed with ``[section]``."""
+        loc = self.locate(err.param, prefixes)
+        if loc is not None and loc[0] == section and err.detail is not None \
+                and (self.options.get(section) or {}).get(loc[1]) is not None:
+            return self.key_error(section, loc[1], err)
+        return SceneError(f"{self.source}: [{section}] {err}", value=err.value, valid=err.valid)
 
     def run_error(self, err: Exception) -> SceneError:
         """An error raised while the study ran, tied to this scene: file name, the study's
-        ``[section] key`` names instead of internal ones (``mis.crossing`` -> ``[tca] crossing``) and
-        the keys the scene set, as written (deg/arcmin, not rad)."""
+        ``[section] key`` named by the error's ``param`` (``mis.crossing`` -> ``[tca] crossing``),
+        with the value as written, and the keys the scene set, as written (deg/arcmin, not rad)."""
         from ..studies import get_study
 
         msg = str(err)
+        loc = self.locate(getattr(err, "param", None))
+        if loc is not None and getattr(err, "detail", None) is None:
+            loc = None  # the message does not start with the parameter: keep its words
+        if loc is not None:
+            section, key = loc
+            shown = self.written(section, key)
+            msg = join_detail(f"[{section}] {key} = {shown if shown is not None else value_text(err.value)}", err.detail)
         spec = get_study(self.study)
         given = []
         for sec in (spec.sections if spec else []):
             for f in sec.fields:
-                msg = re.sub(r"\b(?:mis|misalignment|target|options|" + re.escape(sec.name) + r")\." + re.escape(f.name)
-                             + r"\b", f"[{sec.name}] {f.name}", msg)
                 w = self.written(sec.name, f.name)
                 if w is not None:
                     given.append(f"{f.name} = {w}")
@@ -520,7 +559,9 @@ class Scene:
                     given += [f"{sub.name}[{i}] = {{{', '.join(f'{k} = {_toml(v)}' for k, v in row.items())}}}"
                               for i, row in enumerate(rows) if isinstance(row, dict)]
         ctx = f" (the scene sets [{spec.sections[0].name}] {', '.join(given)})" if given and spec else ""
-        return SceneError(f"{self.source}: study {self.study!r} failed{ctx}: {msg}")
+        return SceneError(f"{self.source}: study {self.study!r} failed{ctx}: {msg}",
+                          param=f"[{loc[0]}] {loc[1]}" if loc else None,
+                          value=self.written(*loc) if loc else None, valid=getattr(err, "valid", None))
 
     def build(self):
         """Build the study object (``STUDIES[study].build(self)``)."""
@@ -598,7 +639,7 @@ def load_scene(path) -> Scene:
     if not isinstance(path, (str, Path)) or str(path) == "":
         from ..errors import ArgumentError
         raise ArgumentError(f"path = {type(path).__name__} {shorten(repr(path))}: expected the path of a scene file "
-                            "(str or pathlib.Path).")
+                            "(str or pathlib.Path).", param="path", value=path, valid="str or pathlib.Path")
     path = Path(path)
     label = str(path)
     data = _read_toml(path, label)
@@ -769,24 +810,26 @@ def _build_pair(data: dict, parsed: dict, given: dict, label: str) -> GearPair:
         return None
 
     def reraise(err: GeometryError, member: str | None, context: str):
+        """Restate an error of gearopt.gears for the key of the scene file its ``param`` names."""
         msg = str(err)
-        m = re.match(r"^([A-Za-z_][\w.]*) = ", msg)
-        loc = locate(member, m.group(1)) if m else None
+        loc = locate(member, err.param) if err.param else None
         if loc is not None:
             section, key = loc
             value = raw(section, key)
-            rest = msg[m.end():]
-            cut = re.search(r" (is out of range|must be)", rest)
-            if cut:
-                converted = rest[:cut.start()].strip("'\"")
+            detail = err.detail or ""
+            if detail.startswith(("is out of range", "must be")):
+                converted = value_text(err.value)
                 if value is _MISSING:
                     shown = f"{converted} (not set: the default)"
                 else:
                     shown = _toml(value)
                     if not _same(converted, value):
                         shown += f" (= {converted})"
-                raise SceneError(f"{label}: [{section}] {key} = {shown}{rest[cut.start():]}") from None
-            raise SceneError(f"{label}: [{section}] {key}: {msg}") from None
+                raise SceneError(f"{label}: " + join_detail(f"[{section}] {key} = {shown}", detail),
+                                 param=f"[{section}] {key}",
+                                 value=_toml(value) if value is not _MISSING else None, valid=err.valid) from None
+            raise SceneError(f"{label}: [{section}] {key}: {msg}", param=f"[{section}] {key}",
+                             value=_toml(value) if value is not _MISSING else None, valid=err.valid) from None
         raise SceneError(f"{label}: {context}: {msg}") from None
 
     members = {}
@@ -828,7 +871,8 @@ def _build_pair(data: dict, parsed: dict, given: dict, label: str) -> GearPair:
                        f"{lo:.6g} < d_a < {hi:.6g} mm")
                 raise SceneError(f"{label}: [{member}] d_a = {_toml(raw(member, 'd_a'))} is out of range (tip "
                                  f"alteration k = {k:.4g} from it); valid: {rng} for z = {v['z']}, x = {v['x']:g}, "
-                                 f"m_n = {m_n:g} mm.") from None
+                                 f"m_n = {m_n:g} mm.", param=f"[{member}] d_a", value=_toml(raw(member, "d_a")),
+                                 valid=rng) from None
             reraise(e, member, f"[{member}]")
     try:
         return GearPair(pinion=members["pinion"], gear=members["gear"], a=pr["a"])

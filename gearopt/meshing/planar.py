@@ -74,7 +74,7 @@ from functools import lru_cache
 import casadi as ca
 import numpy as np
 
-from ..errors import ArgumentError, ConvergenceError, GeometryError, out_of_range, shorten  # noqa: F401 (GeometryError via out_of_range)
+from ..errors import ArgumentError, ConvergenceError, GeometryError, OptionError, out_of_range, shorten  # noqa: F401 (GeometryError via out_of_range)
 from ..units import DEG, RAD_TO_ARCSEC
 
 __all__ = [
@@ -585,21 +585,26 @@ class PlanarTCA:
         PlanarTCAResult
         """
         if method not in ("continuation", "map"):
-            raise ArgumentError(f"method = {method!r}; valid: 'continuation' or 'map'")
+            raise OptionError(f"method = {method!r}; valid: 'continuation' or 'map'", param="method", value=method,
+                              valid="'continuation' or 'map'", detail="; valid: 'continuation' or 'map'")
         if on_fail not in ("raise", "flag"):
-            raise ArgumentError(f"on_fail = {on_fail!r}; valid: 'raise' or 'flag'")
+            raise OptionError(f"on_fail = {on_fail!r}; valid: 'raise' or 'flag'", param="on_fail", value=on_fail,
+                              valid="'raise' or 'flag'", detail="; valid: 'raise' or 'flag'")
         try:
             phi1 = np.asarray(phi1, dtype=float)
         except (TypeError, ValueError):
             raise ArgumentError(f"phi1 = {type(phi1).__name__} {shorten(repr(phi1))}: expected angles of gear 1 "
-                                "[rad] (numbers).") from None
+                                "[rad] (numbers).",
+                                param="phi1", value=phi1, valid="angles of gear 1 [rad] (numbers)") from None
         if phi1.ndim > 1:
-            raise ArgumentError(f"phi1: expected a number or a 1-D array of angles [rad], got shape {phi1.shape}.")
+            raise ArgumentError(f"phi1: expected a number or a 1-D array of angles [rad], got shape {phi1.shape}.",
+                                param="phi1", valid="a number or a 1-D array of angles [rad]")
         phi1 = np.atleast_1d(phi1)
         if phi1.size == 0 or not np.all(np.isfinite(phi1)):
             raise ArgumentError("phi1 must be a non-empty array of finite angles [rad]"
                                 + (f" (phi1[{int(np.flatnonzero(~np.isfinite(phi1))[0])}] is not finite)."
-                                   if phi1.size else " (it is empty)."))
+                                   if phi1.size else " (it is empty)."),
+                                param="phi1", valid="a non-empty array of finite angles [rad]")
         n = phi1.size
         if x0 is None:
             guess = initial_guess(phi1, *self.p, alpha_guess=alpha_guess)
@@ -608,9 +613,11 @@ class PlanarTCA:
                 guess = np.asarray(x0, dtype=float).reshape(3, -1)
             except (TypeError, ValueError):
                 raise ArgumentError(f"x0: expected (theta1, theta2, phi2) [rad], shape (3,) or (3, {n}); got "
-                                    f"{shorten(repr(x0))}.") from None
+                                    f"{shorten(repr(x0))}.",
+                                    param="x0", value=x0, valid=f"shape (3,) or (3, {n})") from None
             if guess.shape[1] not in (1, n):
-                raise ArgumentError(f"x0: expected shape (3,) or (3, {n}), got {np.shape(x0)}.")
+                raise ArgumentError(f"x0: expected shape (3,) or (3, {n}), got {np.shape(x0)}.",
+                                    param="x0", value=np.shape(x0), valid=f"shape (3,) or (3, {n})")
             if guess.shape[1] == 1:
                 guess = np.repeat(guess, n, axis=1)
             if guess.shape[1] != n:

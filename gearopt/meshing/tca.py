@@ -36,7 +36,8 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-from ..errors import ArgumentError, ConvergenceError, GeometryError, check_number, out_of_range, shorten
+from ..errors import (ArgumentError, ConvergenceError, GeometryError, LineContactError, OptionError, check_number,
+                      out_of_range, shorten)
 from ..gears import GearPair
 from ..geometry.generation import PARAMS, GeneratedTooth, generate_by_rack
 from ..units import ARCMIN, RAD_TO_ARCSEC
@@ -72,7 +73,8 @@ class Misalignment:
         for k in MISALIGNMENTS:
             v = getattr(self, k)
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-                raise GeometryError(f"misalignment.{k} = {v!r} must be a finite number.")
+                raise GeometryError(f"misalignment.{k} = {v!r} must be a finite number.",
+                                    param=f"misalignment.{k}", value=v, valid="a finite number", detail="must be a finite number.")
         for k in ("crossing", "intersecting"):
             if abs(getattr(self, k)) > 600 * ARCMIN:
                 raise out_of_range(f"misalignment.{k}", f"{getattr(self, k) / ARCMIN:.6g} arcmin",
@@ -102,17 +104,21 @@ def check_sweep_args(tca, phi1, p1=None, p2=None, mis=None, pairs=(-1, 0, 1), de
             raise TypeError
         arr = np.asarray(phi1, dtype=float)
     except (TypeError, ValueError):
-        raise ArgumentError(f"phi1 = {_describe(phi1)}: expected a sequence of pinion angles [rad] (numbers).") from None
+        raise ArgumentError(f"phi1 = {_describe(phi1)}: expected a sequence of pinion angles [rad] (numbers).",
+                            param="phi1", value=phi1, valid="a sequence of pinion angles [rad] (numbers)") from None
     if arr.ndim > 1:
-        raise ArgumentError(f"phi1: expected a 1-D sequence of pinion angles [rad], got shape {arr.shape}.")
+        raise ArgumentError(f"phi1: expected a 1-D sequence of pinion angles [rad], got shape {arr.shape}.",
+                            param="phi1", valid="a 1-D sequence of pinion angles [rad]")
     arr = np.atleast_1d(arr)
     if arr.size == 0:
         raise ArgumentError("phi1 is empty: a sweep needs at least one pinion angle [rad] (one mesh cycle is "
-                            f"2 pi / z1 = {2 * math.pi / g1.z:.6g} rad).")
+                            f"2 pi / z1 = {2 * math.pi / g1.z:.6g} rad).",
+                            param="phi1", valid="at least one pinion angle [rad]")
     bad = np.flatnonzero(~np.isfinite(arr))
     if bad.size:
         raise ArgumentError(f"phi1[{bad[0]}] = {arr[bad[0]]}: every pinion angle must be a finite number [rad] "
-                            f"({bad.size} of {arr.size} are not).")
+                            f"({bad.size} of {arr.size} are not).",
+                            param=f"phi1[{bad[0]}]", value=float(arr[bad[0]]), valid="a finite number [rad]")
     vecs = []
     for name, p, tooth in (("p1", p1, tca.pinion), ("p2", p2, tca.gear)):
         if p is None:
@@ -121,19 +127,23 @@ def check_sweep_args(tca, phi1, p1=None, p2=None, mis=None, pairs=(-1, 0, 1), de
         try:
             v = np.asarray(p, dtype=float)
         except (TypeError, ValueError):
-            raise ArgumentError(f"{name} = {_describe(p)}: expected {len(PARAMS)} numbers {PARAMS}.") from None
+            raise ArgumentError(f"{name} = {_describe(p)}: expected {len(PARAMS)} numbers {PARAMS}.",
+                                param=name, value=p, valid=f"{len(PARAMS)} numbers {PARAMS}") from None
         if v.shape != (len(PARAMS),):
             raise ArgumentError(f"{name}: expected a vector of {len(PARAMS)} numbers {PARAMS} (x, a_c [1/mm], u_0 [mm], "
-                                f"a_pl [1/mm]), got shape {v.shape}.")
+                                f"a_pl [1/mm]), got shape {v.shape}.",
+                                param=name, valid=f"a vector of {len(PARAMS)} numbers {PARAMS}")
         if not np.all(np.isfinite(v)):
-            raise ArgumentError(f"{name} = {v.tolist()}: every entry of {PARAMS} must be finite.")
+            raise ArgumentError(f"{name} = {v.tolist()}: every entry of {PARAMS} must be finite.",
+                                param=name, value=v.tolist(), valid="finite entries")
         vecs.append(v)
     if mis is None:
         mis = Misalignment()
     elif not isinstance(mis, Misalignment):
         hint = " Use Misalignment(**d) (angles in rad)." if isinstance(mis, dict) else ""
         raise ArgumentError(f"mis = {_describe(mis)}: expected a gearopt.meshing.tca.Misalignment (dE [mm], crossing "
-                            f"[rad], intersecting [rad], axial [mm]).{hint}")
+                            f"[rad], intersecting [rad], axial [mm]).{hint}",
+                            param="mis", value=mis, valid="a gearopt.meshing.tca.Misalignment")
     pair.check_operating(mis.dE, "mis.dE")
     overlap = (g1.b + g2.b) / 2
     if abs(mis.axial) >= overlap:
@@ -143,31 +153,37 @@ def check_sweep_args(tca, phi1, p1=None, p2=None, mis=None, pairs=(-1, 0, 1), de
         seq = list(pairs)
     except TypeError:
         raise ArgumentError(f"pairs = {_describe(pairs)}: expected a sequence of tooth-pair indices (integers), "
-                            "e.g. (-1, 0, 1).") from None
+                            "e.g. (-1, 0, 1).",
+                            param="pairs", value=pairs, valid="a sequence of tooth-pair indices (integers)") from None
     if not seq:
-        raise ArgumentError("pairs is empty: give at least one tooth-pair index, e.g. (0,) or (-1, 0, 1).")
+        raise ArgumentError("pairs is empty: give at least one tooth-pair index, e.g. (0,) or (-1, 0, 1).",
+                            param="pairs", valid="at least one tooth-pair index")
     out = []
     for k in seq:
         if isinstance(k, (bool, np.bool_)) or not isinstance(k, (int, np.integer)):
             raise ArgumentError(f"pairs contains {_describe(k)}: tooth-pair indices are integers (pinion tooth k, "
-                                f"-{g1.z} < k < {g1.z}).")
+                                f"-{g1.z} < k < {g1.z}).",
+                                param="pairs", value=k, valid=f"-{g1.z} < k < {g1.z}")
         if abs(int(k)) >= g1.z:
-            raise ArgumentError(f"pairs contains {int(k)}; valid: -{g1.z} < k < {g1.z} (pinion teeth from tooth 0).")
+            raise ArgumentError(f"pairs contains {int(k)}; valid: -{g1.z} < k < {g1.z} (pinion teeth from tooth 0).",
+                                param="pairs", value=int(k), valid=f"-{g1.z} < k < {g1.z}")
         out.append(int(k))
     if len(set(out)) != len(out):
-        raise ArgumentError(f"pairs = {tuple(out)}: every tooth pair may appear once.")
+        raise ArgumentError(f"pairs = {tuple(out)}: every tooth pair may appear once.",
+                            param="pairs", value=tuple(out), valid="every tooth pair may appear once")
     for name, v in (("delta", delta), ("anchor", anchor), ("z_section", z_section)):
         if v is None:
             continue
         if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, float, np.integer, np.floating)) \
                 or not math.isfinite(v):
-            raise ArgumentError(f"{name} = {_describe(v)}: expected a finite number.")
+            raise ArgumentError(f"{name} = {_describe(v)}: expected a finite number.",
+                                param=name, value=v, valid="a finite number", detail=": expected a finite number.")
     if delta is not None and not 0 < delta <= 0.1 * g1.m_n:
-        raise ArgumentError(f"delta = {delta!r} is out of range; valid: 0 < delta <= 0.1 m_n = {0.1 * g1.m_n:.4g} mm "
-                            "(elastic approach for the contact ellipse, microns).")
+        raise out_of_range("delta", delta, f"0 < delta <= 0.1 m_n = {0.1 * g1.m_n:.4g} mm (elastic approach for the "
+                           "contact ellipse, microns)", cls=OptionError)
     if tca.contact_type == "line" and z_section is not None and abs(z_section) > g1.b / 2:
         raise out_of_range("z_section", z_section, f"|z_section| <= b1 / 2 = {g1.b / 2:.6g} mm (a section of the "
-                           "pinion face)")
+                           "pinion face)", cls=OptionError)
     return arr, vecs[0], vecs[1], mis, tuple(out)
 
 
@@ -315,16 +331,22 @@ class TCA:
                  gear: GeneratedTooth | None = None, solver: str = "fast_newton", tol: float = 1e-10,
                  contact: str = "point", jit: bool = False):
         if not isinstance(pair, GearPair):
-            raise ArgumentError(f"pair = {_describe(pair)}: expected a gearopt.gears.GearPair (pinion, gear).")
+            raise ArgumentError(f"pair = {_describe(pair)}: expected a gearopt.gears.GearPair (pinion, gear).",
+                                param="pair", value=pair, valid="a gearopt.gears.GearPair")
         if side not in ("right", "left"):
-            raise out_of_range("side", side, "'right' or 'left'")
+            raise out_of_range("side", side, "'right' or 'left'", cls=OptionError)
         if contact not in ("point", "line"):
             raise out_of_range("contact", contact, "'point' (crowned or misaligned drives) or 'line' (conjugate "
-                               "surfaces: contact sought in the pinion section z_section)")
+                               "surfaces: contact sought in the pinion section z_section)", cls=OptionError)
+        if not isinstance(jit, (bool, np.bool_)):
+            raise out_of_range("jit", jit, "True or False (compile the sweep to C)", cls=OptionError)
         self.contact_type = contact
         self.jit = bool(jit)
         if solver not in ("fast_newton", "newton"):
-            raise out_of_range("solver", solver, "'fast_newton' or 'newton'")
+            raise out_of_range("solver", solver, "'fast_newton' or 'newton'", cls=OptionError)
+        tol = check_number("tol", tol, "a residual tolerance [mm]", cls=OptionError)
+        if not 0 < tol <= 1e-6:
+            raise out_of_range("tol", tol, "0 < tol <= 1e-6 mm (residual of the contact equations)", cls=OptionError)
         t0 = time.perf_counter()
         self.pair, self.side, self.solver, self.tol = pair, side, solver, tol
         self.pinion = pinion or generate_by_rack(pair.pinion)
@@ -497,17 +519,20 @@ class TCA:
             try:
                 w0 = np.asarray(w0, float).ravel()
             except (TypeError, ValueError):
-                raise ArgumentError(f"w0 = {_describe(w0)}: expected {n_w} numbers (the unknowns [mm]).") from None
+                raise ArgumentError(f"w0 = {_describe(w0)}: expected {n_w} numbers (the unknowns [mm]).",
+                                    param="w0", value=w0, valid=f"{n_w} numbers") from None
             if w0.size != n_w or not np.all(np.isfinite(w0)):
                 raise ArgumentError(f"w0 = {shorten(str(w0.tolist()))}: expected {n_w} finite numbers (the unknowns "
-                                    f"[mm] for {self.contact_type} contact), got {w0.size}.")
+                                    f"[mm] for {self.contact_type} contact), got {w0.size}.",
+                                    param="w0", value=w0.tolist(), valid=f"{n_w} finite numbers")
         prm = self.prm([phi1], p1, p2, mis, z_section)[:, 0]
         J = np.asarray(self.jacobian(w0, prm))
         if self.contact_type == "point" and np.linalg.cond(J) > 1e14:
-            raise ConvergenceError(
+            raise LineContactError(
                 f"TCA: the point-contact equations are singular at phi1 = {phi1:.6g} rad (Jacobian condition "
                 f"{np.linalg.cond(J):.2g}): the flanks are in line contact (no crowning, no angular misalignment). "
-                "Use contact='line' (TCA in a given pinion section) or crown the pinion.")
+                "Use contact='line' (TCA in a given pinion section) or crown the pinion.",
+                                   param="contact", value=self.contact_type, valid="'line'")
         w = self.branch.newton(w0, prm)
         res, n1n2, reg, ok = self._check(w, prm)
         at = f"TCA at phi1 = {phi1:.6g} rad"

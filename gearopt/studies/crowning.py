@@ -145,7 +145,7 @@ class CrowningStudy:
 
 
 def _from_scene(scene) -> CrowningStudy:
-    from ..errors import GeometryError, SceneError
+    from ..errors import GeometryError, OptionError
 
     from .tca import _check_operating
 
@@ -159,13 +159,8 @@ def _from_scene(scene) -> CrowningStudy:
                                    o.get("axial") or 0.0, bool(o.get("combined")))
         return CrowningStudy(scene.pair, target, cases, positions=o.get("positions") or 41,
                              quiet=o.get("quiet", True) is not False, name=scene.name)
-    except GeometryError as e:
-        import re
-
-        m = re.match(r"^(?:target\.)?(\w+) = ", str(e))
-        if m and m.group(1) in o:  # a key of [crowning]: name it and show its value as written
-            raise scene.key_error("crowning", m.group(1), e) from e
-        raise SceneError(f"{scene.source}: [crowning] {e}") from e
+    except (GeometryError, OptionError) as e:
+        raise scene.study_error("crowning", e) from e
 
 
 def _register():

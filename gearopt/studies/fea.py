@@ -163,7 +163,7 @@ def _check_positions(scene, phis, teeth: int) -> None:
 
 
 def _from_scene(scene) -> FEStudy:
-    from ..errors import GeometryError, SceneError
+    from ..errors import GeometryError, OptionError
     from ..fea.mesh import MeshOptions
     from ..fea.model import FEOptions
 
@@ -173,8 +173,8 @@ def _from_scene(scene) -> FEStudy:
                            n_rim=o["n_rim"], rim_depth=o["rim_depth"])
         opt = FEOptions(torque=o["torque"] * 1e3, E=o["E"], nu=o["nu"], teeth=o["teeth"], mesh=mesh,
                         n_hertz=o["n_hertz"], penalty=o["penalty"])
-    except GeometryError as e:
-        raise SceneError(f"{scene.source}: [fea] {e}") from e
+    except (GeometryError, OptionError) as e:
+        raise scene.study_error("fea", e) from e
     n = o["n_positions"]
     a, b = o["phi1_start"], o["phi1_end"]
     if n > 1 and a == b:

@@ -211,7 +211,7 @@ def _rack_outline(g: Gear, teeth: int = 3) -> dict:
 
 # --- scene binding ------------------------------------------------------------------------------
 def _from_scene(scene) -> GeometryStudy:
-    from ..errors import GeometryError, SceneError
+    from ..errors import GeometryError, OptionError, SceneError
 
     o = scene.options.get("geometry", {}) or {}
     gen = o.get("generation") or "rack"
@@ -220,19 +220,15 @@ def _from_scene(scene) -> GeometryStudy:
         for k in keys:
             if o.get(k) is not None and gen != tool:
                 raise SceneError(f"{scene.source}: [geometry] {k} applies only with generation = \"{tool}\" "
-                                 f"(generation is \"{gen}\"); remove it or change generation.")
+                                 f"(generation is \"{gen}\"); remove it or change generation.",
+                                 param=f"[geometry] {k}", value=scene.written("geometry", k), valid=f"only with generation = \"{tool}\"")
     try:
         hob = Hob(N_h=o.get("N_h") or 1, d_p0=o.get("d_p0") or 60.0) if gen == "hob" else None
         shaper = Shaper(N_s=o.get("N_s") or 25, x_s=o.get("x_s") or 0.0) if gen == "shaper" else None
         return GeometryStudy(scene.pair, generation=gen, hob=hob, shaper=shaper, points=o.get("points") or 60,
                              rack_mesh=o.get("rack_mesh", True) is not False, name=scene.name)
-    except GeometryError as e:
-        import re
-
-        m = re.match(r"^(?:hob\.|shaper\.)?(\w+) = ", str(e))
-        if m and m.group(1) in o and o.get(m.group(1)) is not None:  # a [geometry] key: name it as written
-            raise scene.key_error("geometry", m.group(1), e) from e
-        raise SceneError(f"{scene.source}: [geometry] {e}") from e
+    except (GeometryError, OptionError) as e:
+        raise scene.study_error("geometry", e, prefixes=("hob", "shaper")) from e
 
 
 def _register():

@@ -113,7 +113,8 @@ class PlanarTCAStudy:
             self.phi1 = np.atleast_1d(np.asarray(phi1, dtype=float))
         except (TypeError, ValueError):
             raise ArgumentError(f"phi1 = {type(phi1).__name__} {str(phi1)[:60]!r}: expected a 1-D array of pinion "
-                                "angles [rad] (numbers).") from None
+                                "angles [rad] (numbers).",
+                                param="phi1", value=phi1, valid="a 1-D array of pinion angles [rad] (numbers)") from None
         self.method, self.alpha_guess, self.n_profiles = method, alpha_guess, int(profiles)
         self.name, self.notes = name, list(notes)
         self.build_time = time.perf_counter() - t0
@@ -169,8 +170,9 @@ def _from_scene(scene) -> PlanarTCAStudy:
     r_b1, r_b2, E = vals["r_b1"], vals["r_b2"], vals["E"]
     try:
         cf = closed_form(r_b1, r_b2, E)
-    except GeometryError as e:
-        raise SceneError(f"{src}: [planar_tca] {e}") from e
+    except GeometryError as e:  # r_b1, r_b2, E: the keys of [planar_tca] (the pair's values when not set)
+        raise SceneError(f"{src}: [planar_tca] {e}", param=f"[planar_tca] {e.param}" if e.param else None,
+                         value=e.value, valid=e.valid) from e
     lo, hi = cf["phi1_range"]
     span = hi - lo
     p_min = o.get("phi1_min")
@@ -181,10 +183,12 @@ def _from_scene(scene) -> PlanarTCAStudy:
              f"T1, T2 for r_b1 = {r_b1:g}, r_b2 = {r_b2:g}, E = {E:g} mm)")
     for key, v in (("phi1_min", p_min), ("phi1_max", p_max)):
         if not lo < v < hi:
-            raise SceneError(f"{src}: [planar_tca] {key} = {v / DEG:.6g} deg is out of range; valid: {valid}.")
+            raise SceneError(f"{src}: [planar_tca] {key} = {v / DEG:.6g} deg is out of range; valid: {valid}.",
+                             param=f"[planar_tca] {key}", value=f"{v / DEG:.6g} deg", valid=valid)
     if not p_min < p_max:
         raise SceneError(f"{src}: [planar_tca] phi1_min = {p_min / DEG:.6g} deg must be < phi1_max = "
-                         f"{p_max / DEG:.6g} deg.")
+                         f"{p_max / DEG:.6g} deg.",
+                         param="[planar_tca] phi1_min", value=f"{p_min / DEG:.6g} deg", valid=f"< phi1_max = {p_max / DEG:.6g} deg")
     phi1 = np.linspace(p_min, p_max, o.get("n") or 41)
     return PlanarTCAStudy(r_b1, r_b2, E, phi1, method=o.get("method") or "continuation",
                           alpha_guess=o.get("alpha_guess") if o.get("alpha_guess") is not None else 20 * DEG,

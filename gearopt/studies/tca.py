@@ -283,45 +283,49 @@ class TCAStudy:
         """``misalignment``: one case beside the aligned drive; or ``cases``: a list of
         ``(label, Misalignment)`` (or a dict label -> Misalignment) analysed in order, with the
         aligned drive first unless one of them is aligned."""
-        from ..errors import ArgumentError, GeometryError, check_number, out_of_range
+        from ..errors import ArgumentError, OptionError, check_number, option_error, out_of_range
 
         if not isinstance(pair, GearPair):
-            raise ArgumentError(f"pair = {type(pair).__name__}: expected a gearopt.gears.GearPair (pinion, gear).")
+            raise ArgumentError(f"pair = {type(pair).__name__}: expected a gearopt.gears.GearPair (pinion, gear).",
+                                param="pair", value=pair, valid="a gearopt.gears.GearPair")
         if isinstance(positions, bool) or not isinstance(positions, (int, np.integer)) or not 9 <= positions <= 5000:
-            raise out_of_range("positions", positions, "an integer 9..5000 (positions per mesh cycle)")
+            raise option_error("positions", positions, "an integer 9..5000 (positions per mesh cycle)")
         positions = int(positions)
-        delta = check_number("delta", delta, "a finite elastic approach [mm]")
+        delta = check_number("delta", delta, "a finite elastic approach [mm]", cls=OptionError)
         if not 0 < delta <= 0.1 * pair.pinion.m_n:
-            raise out_of_range("delta", delta, f"0 < delta <= 0.1 m_n = {0.1 * pair.pinion.m_n:.4g} mm (elastic "
+            raise option_error("delta", delta, f"0 < delta <= 0.1 m_n = {0.1 * pair.pinion.m_n:.4g} mm (elastic "
                                "approach for the contact ellipse, microns)")
-        z_section = check_number("z_section", z_section, "a finite pinion section [mm]")
+        z_section = check_number("z_section", z_section, "a finite pinion section [mm]", cls=OptionError)
         if abs(z_section) > pair.pinion.b / 2:
-            raise out_of_range("z_section", z_section, f"|z_section| <= b1 / 2 = {pair.pinion.b / 2:.6g} mm (a "
+            raise option_error("z_section", z_section, f"|z_section| <= b1 / 2 = {pair.pinion.b / 2:.6g} mm (a "
                                "section of the pinion face)")
         if not isinstance(edge_contact, (bool, np.bool_)):
-            raise ArgumentError(f"edge_contact = {type(edge_contact).__name__} {edge_contact!r}: expected True or "
-                                "False.")
+            raise OptionError(f"edge_contact = {type(edge_contact).__name__} {edge_contact!r}: expected True or "
+                              "False.", param="edge_contact", value=edge_contact, valid="True or False",
+                              detail=": expected True or False.")
         if misalignment is not None and not isinstance(misalignment, Misalignment):
             raise ArgumentError(f"misalignment = {type(misalignment).__name__}: expected a Misalignment"
                                 + (" (use Misalignment(**d), angles in rad)." if isinstance(misalignment, dict)
-                                   else "."))
+                                   else "."),
+                                param="misalignment", value=misalignment, valid="a Misalignment")
         self.pair, self.name = pair, name
         self.positions, self.delta, self.z_section = positions, delta, z_section
         self.cases = [("aligned", Misalignment())]
         if cases is not None:
             if misalignment is not None and np.any(misalignment.vector() != 0):
-                raise GeometryError("TCAStudy: give misalignment or cases, not both.")
+                raise OptionError("TCAStudy: give misalignment or cases, not both.", param="cases")
             items = list(cases.items()) if isinstance(cases, dict) else [tuple(c) for c in cases]
             for item in items:
                 if len(item) != 2 or not isinstance(item[1], Misalignment):
-                    raise GeometryError(f"TCAStudy: cases = {item!r}: each case must be (label, Misalignment).")
+                    raise OptionError(f"TCAStudy: cases = {item!r}: each case must be (label, Misalignment).",
+                                      param="cases", value=item, valid="(label, Misalignment)")
             if any(np.all(m.vector() == 0) for _, m in items):
                 self.cases = []
             self.cases += [(str(lab), m) for lab, m in items]
             labels = [lab for lab, _ in self.cases]
             if len(set(labels)) != len(labels):
-                raise GeometryError(f"TCAStudy: case labels {labels} must be distinct (the aligned drive is "
-                                    "'aligned').")
+                raise OptionError(f"TCAStudy: case labels {labels} must be distinct (the aligned drive is "
+                                  "'aligned').", param="cases", value=labels, valid="distinct labels")
         elif misalignment is not None and np.any(misalignment.vector() != 0):
             self.cases.append(("misaligned", misalignment))
         overlap = (pair.pinion.b + pair.gear.b) / 2
@@ -387,9 +391,8 @@ def _check_operating(scene, section: str, o: dict, signs=(1,)) -> None:
         try:
             pair.check_operating(s * dE, "dE" if s > 0 else "-dE")
         except GeometryError as e:
-            text = str(e).split(" is out of range; ", 1)[-1]
             case = "" if s > 0 else f" (the case -dE = {-dE:g} mm)"
-            raise scene.key_error(section, "dE", f"is out of range{case}; {text}") from None
+            raise scene.key_error(section, "dE", f"is out of range{case}; valid: {e.valid}.") from None
     axial = o.get("axial") or 0.0
     overlap = (pair.pinion.b + pair.gear.b) / 2
     if abs(axial) >= overlap:
@@ -398,7 +401,7 @@ def _check_operating(scene, section: str, o: dict, signs=(1,)) -> None:
 
 
 def _from_scene(scene) -> TCAStudy:
-    from ..errors import GeometryError, SceneError
+    from ..errors import GeometryError, OptionError, SceneError
 
     o = scene.options.get("tca", {}) or {}
     try:
@@ -408,7 +411,8 @@ def _from_scene(scene) -> TCAStudy:
         if o.get("cases") is not None:
             if np.any(mis.vector() != 0):
                 raise SceneError(f"{scene.source}: [tca] cases and the single keys dE, crossing, intersecting, axial: "
-                                 "give the misalignments either as [[tca.cases]] or as the single keys, not both.")
+                                 "give the misalignments either as [[tca.cases]] or as the single keys, not both.",
+                                 param="[tca] cases")
             cases = []
             for i, c in enumerate(o["cases"]):
                 m = Misalignment(dE=c.get("dE") or 0.0, crossing=c.get("crossing") or 0.0,
@@ -416,11 +420,13 @@ def _from_scene(scene) -> TCAStudy:
                 label = c.get("label") or _auto_label(m)
                 if label in [lab for lab, _ in cases]:
                     raise SceneError(f"{scene.source}: [tca.cases][{i}] label = {label!r}: the labels of the cases "
-                                     "must be distinct.")
+                                     "must be distinct.",
+                                     param=f"[tca.cases][{i}] label", value=label, valid="distinct labels")
                 _check_operating(scene, f"tca.cases][{i}", c, signs=(1,))
                 cases.append((label, m))
             if not cases:
-                raise SceneError(f"{scene.source}: [tca] cases = []: give at least one case or leave it out.")
+                raise SceneError(f"{scene.source}: [tca] cases = []: give at least one case or leave it out.",
+                                 param="[tca] cases", value=[], valid="at least one case")
         if cases is None:
             _check_operating(scene, "tca", o, signs=(1,))
         if o.get("contact") == "line" and abs(o.get("z_section") or 0.0) > scene.pair.pinion.b / 2:
@@ -441,13 +447,14 @@ def _from_scene(scene) -> TCAStudy:
         if o.get("contact") == "point" and scene.pair.pinion.a_pl == 0 and not o.get("edge_contact"):
             raise SceneError(f"{scene.source}: [tca] contact = \"point\" needs a longitudinally crowned pinion "
                              "([pinion] a_pl > 0); for conjugate or profile-crowned spur pinions use contact = "
-                             "\"line\".")
+                             "\"line\".",
+                             param="[tca] contact", value="point")
         return TCAStudy(scene.pair, side=o.get("side") or "right", contact=o.get("contact") or "point",
                         z_section=o.get("z_section") or 0.0, positions=o.get("positions") or 81,
                         delta=o.get("delta") or 0.00632, misalignment=None if cases else mis, name=scene.name,
                         edge_contact=bool(o.get("edge_contact")), cases=cases)
-    except GeometryError as e:
-        raise SceneError(f"{scene.source}: [tca] {e}") from e
+    except (GeometryError, OptionError) as e:
+        raise scene.study_error("tca", e) from e
 
 
 def _auto_label(m: Misalignment) -> str:

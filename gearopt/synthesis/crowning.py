@@ -29,7 +29,8 @@ import casadi as ca
 import numpy as np
 
 from ..contact.edge import EdgeContact
-from ..errors import ArgumentError, ConvergenceError, check_number, out_of_range
+from ..errors import ArgumentError, ConvergenceError, OptionError, SynthesisError, check_number, out_of_range  # noqa: F401
+#  (SynthesisError lives in errors.py; re-exported here)
 from ..gears import GearPair
 from ..geometry.generation import PARAMS
 from ..meshing.tca import TCA, Misalignment
@@ -37,11 +38,6 @@ from ..units import ARCMIN, ARCSEC, RAD_TO_ARCSEC
 
 SETTINGS = ("a_c", "a_pl")  #: design variables (entries of the pinion parameter vector)
 _IDX = {name: PARAMS.index(name) for name in SETTINGS}
-
-
-class SynthesisError(ConvergenceError):
-    """The NLP found no design: infeasible request or solver failure (message names the binding
-    constraints)."""
 
 
 @dataclass(frozen=True)
@@ -185,15 +181,18 @@ class CrowningOptimizer:
     def __init__(self, pair: GearPair, target: CrowningTarget, cases: dict | None = None, positions: int = 41,
                  side: str = "right", bounds: dict | None = None, tol: float = 1e-10):
         if not isinstance(pair, GearPair):
-            raise ArgumentError(f"pair = {type(pair).__name__}: expected a gearopt.gears.GearPair.")
+            raise ArgumentError(f"pair = {type(pair).__name__}: expected a gearopt.gears.GearPair.",
+                                param="pair", value=pair, valid="a gearopt.gears.GearPair")
         if not isinstance(target, CrowningTarget):
-            raise ArgumentError(f"target = {type(target).__name__}: expected a CrowningTarget(te_level [rad], ...).")
+            raise ArgumentError(f"target = {type(target).__name__}: expected a CrowningTarget(te_level [rad], ...).",
+                                param="target", value=target, valid="a CrowningTarget")
         if cases is not None and not isinstance(cases, dict):
             raise ArgumentError(f"cases = {type(cases).__name__}: expected a dict {{name: Misalignment}}, e.g. "
-                                "misalignment_cases(crossing=3 * ARCMIN).")
+                                "misalignment_cases(crossing=3 * ARCMIN).",
+                                param="cases", value=cases, valid="a dict {name: Misalignment}")
         cases = dict(_default_cases() if cases is None else cases)
         if not cases:
-            raise out_of_range("cases", cases, "at least one misalignment case")
+            raise out_of_range("cases", cases, "at least one misalignment case", cls=OptionError)
         overlap = (pair.pinion.b + pair.gear.b) / 2
         b_min = min(pair.pinion.b, pair.gear.b)
         if target.edge_margin >= b_min / 2:
@@ -206,25 +205,28 @@ class CrowningOptimizer:
         for name, m in cases.items():
             if not isinstance(m, Misalignment):
                 hint = " Use Misalignment(**d) (angles in rad)." if isinstance(m, dict) else ""
-                raise ArgumentError(f"cases[{name!r}] = {type(m).__name__}: expected a Misalignment.{hint}")
+                raise ArgumentError(f"cases[{name!r}] = {type(m).__name__}: expected a Misalignment.{hint}",
+                                    param=f"cases[{name!r}]", value=m, valid="a Misalignment")
             pair.check_operating(m.dE, f"cases[{name!r}].dE")
             if abs(m.axial) >= overlap:
                 raise out_of_range(f"cases[{name!r}].axial", m.axial, f"|axial| < (b1 + b2) / 2 = {overlap:.6g} mm "
                                    "(the faces must overlap)")
         if "aligned" not in cases and target.ellipse_share > 0:
             cases = {"aligned": Misalignment(), **cases}
+        if side not in ("right", "left"):
+            raise out_of_range("side", side, "'right' or 'left'", cls=OptionError)
         if not (isinstance(positions, int) and 7 <= positions <= 401):
-            raise out_of_range("positions", positions, "an integer 7..401")
+            raise out_of_range("positions", positions, "an integer 7..401", cls=OptionError)
         if not (isinstance(tol, float) and 0 < tol < 1e-3):
-            raise out_of_range("tol", tol, "0 < tol < 1e-3")
+            raise out_of_range("tol", tol, "0 < tol < 1e-3", cls=OptionError)
         self.pair, self.target, self.cases, self.positions, self.side = pair, target, cases, positions, side
         self.tol = tol
         self.bounds = {"a_c": (1e-7, 0.05), "a_pl": (1e-7, 0.02), **(bounds or {})}
         for k, (lo, hi) in self.bounds.items():
             if k not in SETTINGS:
-                raise out_of_range("bounds", k, f"keys in {SETTINGS}")
+                raise out_of_range("bounds", k, f"keys in {SETTINGS}", cls=OptionError)
             if not 0 <= lo < hi:
-                raise out_of_range(f"bounds[{k!r}]", (lo, hi), "0 <= lo < hi [1/mm]")
+                raise out_of_range(f"bounds[{k!r}]", (lo, hi), "0 <= lo < hi [1/mm]", cls=OptionError)
         self._built = False
 
     # ------------------------------------------------------------------------------------------

@@ -126,12 +126,15 @@ def local_synthesis(pair: GearPair, target: LocalTarget, side: str = "right", ve
         No design reaches the targets (IPOPT status and the residuals are in the message).
     """
     if not isinstance(pair, GearPair):
-        raise ArgumentError(f"pair = {type(pair).__name__}: expected a gearopt.gears.GearPair.")
+        raise ArgumentError(f"pair = {type(pair).__name__}: expected a gearopt.gears.GearPair.",
+                            param="pair", value=pair, valid="a gearopt.gears.GearPair")
     if not isinstance(target, LocalTarget):
-        raise ArgumentError(f"target = {type(target).__name__}: expected a LocalTarget (target must be a LocalTarget).")
+        raise ArgumentError(f"target = {type(target).__name__}: expected a LocalTarget (target must be a LocalTarget).",
+                            param="target", value=target, valid="a LocalTarget")
     if mis is not None and not isinstance(mis, Misalignment):
         raise ArgumentError(f"mis = {type(mis).__name__}: expected a Misalignment"
-                            + (" (use Misalignment(**d), angles in rad)." if isinstance(mis, dict) else "."))
+                            + (" (use Misalignment(**d), angles in rad)." if isinstance(mis, dict) else "."),
+                            param="mis", value=mis, valid="a Misalignment")
     mis = mis or Misalignment()
     pair.check_operating(mis.dE, "mis.dE")
     g1 = pair.pinion
