@@ -12,10 +12,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..report import CONJUGATE_ARCSEC  # the results' own threshold (``conjugate`` in results.json)
 from .geometry import _axes
-
-#: A peak-to-peak TE below this [arcsec] is round-off: the drive is conjugate (TE = 0).
-CONJUGATE_ARCSEC = 1e-5
 
 #: Readable names and distinct colours of the contact features (edge branches) of
 #: :mod:`gearopt.contact.edge`.
