@@ -279,7 +279,7 @@ def _edge_case(label, te, active, mis=None, transfers=()):
     return {"label": label, "edge_analysis": True, "phi1": phi, "pairs": [0], "te_arcsec": [te],
             "te_envelope_arcsec": te, "active_branch": active, "edge_carries_load": any(a != "surface" for a in active),
             "transfers": [{"phi1": t} for t in transfers], "transfer_phi1": list(transfers),
-            "peak_to_peak_arcsec": float(np.ptp(te)),
+            "peak_to_peak_arcsec": float(np.ptp(te)), "conjugate": bool(np.ptp(te) < 1e-5),
             "misalignment": mis or {"dE_mm": 0.0, "crossing_arcmin": 0.0, "intersecting_arcmin": 0.0, "axial_mm": 0.0},
             "limits": {m: {"b": 20.0, "r_a": 33.0, "r_form": 28.0} for m in ("pinion", "gear")},
             "paths_central_pair": {}}

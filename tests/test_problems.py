@@ -18,6 +18,8 @@ from gearopt.cli import main
 from gearopt.errors import SceneError
 from gearopt.io.scene import load_scene
 
+from results_doc import undocumented
+
 PROBLEMS = Path(__file__).resolve().parents[1] / "problems"
 SCENES = sorted(p for p in PROBLEMS.glob("*.toml"))
 #: pytest markers of the scene runs: IPOPT (crowning study), CalculiX (fea study), above about 5 s
@@ -49,6 +51,8 @@ def test_scene_runs_and_writes(scene, tmp_path):
     assert main(["run", str(scene), "--out", str(out), "--quiet"]) == 0
     res = json.loads((out / "results.json").read_text())
     assert res["units"], "results must state units"
+    # every key is documented in docs/results.md (rows of "every study" and of this study)
+    assert undocumented(res, res["study"]) == [], "keys missing in docs/results.md"
     pngs = sorted(p.name for p in out.glob("*.png"))
     assert pngs, "plots must be written"
     for p in out.glob("*.png"):

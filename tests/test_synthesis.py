@@ -420,6 +420,41 @@ def test_local_synthesis_helical_eta2_target():
         assert np.any(np.abs(r) > np.abs(r0)), (da, dp, r, r0)
 
 
+@pytest.mark.ipopt
+def test_design_and_local_dictionaries_follow_the_documented_schema():
+    from results_doc import undocumented
+
+    _, d = _optimized("spur")
+    dd = d.to_dict()
+    assert undocumented({"design": dd}, "crowning") == []
+    assert [c["name"] for c in dd["cases"]] == list(_cases())
+    # the sensitivity to a crossing angle is per arcmin: d(level)/d(crossing [rad]) * 1 arcmin
+    for case, s in d.sensitivities.items():
+        assert dd["sensitivities"][case]["mis.crossing"] == pytest.approx(s["mis.crossing"] / ARCSEC * ARCMIN, rel=1e-12)
+    assert dd["target_te_level_arcsec"] == pytest.approx(8.0, rel=1e-12)
+    loc = _local("spur")
+    ld = loc.to_dict()
+    assert undocumented(ld, "local") == []
+    assert ld["verified"]["major_axis_mm"] == loc.verified["major_axis"]
+    assert ld["reached"]["eta2_deg"] == pytest.approx(math.degrees(loc.reached["eta2"]), abs=1e-12)
+
+
+@pytest.mark.ipopt
+def test_design_reuses_the_verified_engine():
+    """The optimized drive's TCA and edge contact are compiled once (in solve) and handed on: a
+    sweep through them equals a sweep of a freshly compiled engine, and the verification used them."""
+    _, d = _optimized("spur")
+    assert d.edge is not None and d.edge.tca.pair is d.pair
+    assert all(c.result is not None for c in d.cases)
+    phi = _phi_grid(d.pair, 12)
+    mis = Misalignment(crossing=G3)
+    mine = d.edge.sweep(phi, mis=mis, pairs=EDGE_PAIRS)
+    fresh = EdgeContact(TCA(d.pair)).sweep(phi, mis=mis, pairs=EDGE_PAIRS)
+    assert np.array_equal(np.isnan(mine.te_envelope), np.isnan(fresh.te_envelope))
+    assert np.allclose(mine.te_envelope, fresh.te_envelope, rtol=0, atol=1e-15, equal_nan=True)
+    assert np.array_equal(mine.active, fresh.active)
+
+
 # ----------------------------------------------------------------------------------------------
 # 6. The crowning study through the CLI
 @pytest.mark.slow

@@ -122,6 +122,54 @@ class EdgeTCAResult(EnvelopeTE):
         """True when an edge carries the load somewhere along the actual TE."""
         return bool(np.any(self.active[self.active >= 0] > 0))
 
+    def to_dict(self, label: str = "", z1: int | None = None, limits: dict | None = None) -> dict:
+        """This case as results.json holds it (``cases[]`` of the tca study with edge contact, and
+        ``before`` / ``after`` of the crowning study; every key, unit and meaning in
+        docs/results.md). Parameters as :meth:`gearopt.meshing.tca.TCAResult.to_dict`."""
+        from ..report import CONJUGATE_ARCSEC, arr, misalignment_dict, pair_numbers, te_harmonics
+        from ..units import RAD_TO_ARCSEC
+
+        k0 = self.pairs.index(0) if 0 in self.pairs else 0
+        env = self.te_envelope_arcsec
+        branches = list(self.branches)
+        conjugate = bool(self.peak_to_peak_arcsec < CONJUGATE_ARCSEC)
+        # A pair carries load where its TE reaches the envelope (ties: all pairs of a conjugate drive).
+        tie = CONJUGATE_ARCSEC / RAD_TO_ARCSEC
+        loads = np.isfinite(self.te_pair[k0]) & (self.te_pair[k0] >= self.te_envelope - tie)
+        paths = {}
+        for b, name in enumerate(branches):
+            v = self.valid[b, k0]
+            if not v.any():
+                continue
+            paths[name] = {"pinion": {"axial": arr(np.where(v, self.z1[b, k0], np.nan)),
+                                      "radius": arr(np.where(v, self.radius1[b, k0], np.nan))},
+                           "gear": {"axial": arr(np.where(v, self.z2[b, k0], np.nan)),
+                                    "radius": arr(np.where(v, self.radius2[b, k0], np.nan))},
+                           "carries_load": [bool(x) for x in ((self.branch[k0] == b) & loads)]}
+        return {
+            "label": label, "edge_analysis": True,  # whether an edge carries load: "edge_carries_load"
+            "misalignment": misalignment_dict(self.misalignment),
+            "phi1": arr(self.phi1), "pairs": list(self.pairs), "branches": branches,
+            "te_arcsec": arr(self.te_pair * RAD_TO_ARCSEC), "te_envelope_arcsec": arr(env),
+            "te_branches_central_arcsec": {name: arr(self.te[b, k0] * RAD_TO_ARCSEC) for b, name in enumerate(branches)},
+            "driving_pair": pair_numbers(self.driving, self.pairs),
+            "active_branch": [branches[a] if a >= 0 else None for a in self.active],
+            "edge_carries_load": self.edge_contact(),
+            "intervals_central_pair": self.intervals,
+            # a conjugate drive has no transfers: all pairs in contact tie (round-off picks a "driver")
+            "transfers": [] if conjugate else [{k: (None if isinstance(v, float) and not math.isfinite(v) else v)
+                                                for k, v in t.items()} for t in self.transfers],
+            "transfer_phi1": [] if conjugate else [t["phi1"] for t in self.transfers],
+            "peak_to_peak_arcsec": self.peak_to_peak_arcsec,
+            "conjugate": conjugate,
+            "harmonics_arcsec": None if z1 is None else te_harmonics(self.phi1, env, z1),
+            "paths_central_pair": paths,
+            "actual_te_at_every_position": bool(np.isfinite(self.te_envelope).all()),
+            "stats": {k: (v if isinstance(v, (dict, str, int, float)) else str(v)) for k, v in self.stats.items()},
+            "solve_time_s": self.solve_time,
+            "limits": limits,
+        }
+
 
 class EdgeContact:
     """Surface-to-surface and edge contact of a drive (build once, sweep many).

@@ -139,6 +139,15 @@ class FEOptions:
     timeout: float = 900.0
     keep_dir: str | None = None
 
+    def to_dict(self) -> dict:
+        """``options`` of the fea study's results.json (docs/results.md): ``torque_Nmm`` [N*mm],
+        ``E`` [MPa], ``nu``, ``teeth``, ``n_hertz``, ``penalty_times_E`` [E per mm],
+        ``element_type`` and the element counts ``mesh`` (``rim_depth`` in m_n)."""
+        return {"torque_Nmm": self.torque, "E": self.E, "nu": self.nu, "teeth": self.teeth, "n_hertz": self.n_hertz,
+                "penalty_times_E": self.penalty, "element_type": self.element_type,
+                "mesh": {k: getattr(self.mesh, k) for k in ("n_face", "n_half", "n_flank", "n_fillet", "n_rim",
+                                                            "rim_depth")}}
+
     def __post_init__(self):
         for name in ("torque", "E"):
             v = getattr(self, name)

@@ -301,6 +301,64 @@ class TCAResult(EnvelopeTE):
         """TE of every pair [arcsec]."""
         return self.te * RAD_TO_ARCSEC
 
+    def transfer_phi1(self) -> list:
+        """Pinion angles [rad] where the driving pair changes (midway between the two samples);
+        empty for a conjugate drive (the pairs in contact tie, round-off picks the "driving" one)."""
+        from ..report import CONJUGATE_ARCSEC
+
+        if self.peak_to_peak_arcsec < CONJUGATE_ARCSEC:
+            return []
+        drv = self.driving
+        return [float(0.5 * (self.phi1[i] + self.phi1[i + 1])) for i in range(len(drv) - 1)
+                if drv[i] >= 0 and drv[i + 1] >= 0 and drv[i] != drv[i + 1]]
+
+    def to_dict(self, label: str = "", z1: int | None = None, limits: dict | None = None) -> dict:
+        """This case as results.json holds it (``cases[]`` of the tca study; every key, unit and
+        meaning in docs/results.md): TE of every pair and the actual TE [arcsec], driving pair,
+        transfers, harmonics, the central pair's path of contact, curvatures and contact ellipses.
+
+        Parameters
+        ----------
+        label : str
+            Name of the case.
+        z1 : int, optional
+            Pinion tooth number, for the mesh-frequency harmonics (None: ``harmonics_arcsec`` null).
+        limits : dict, optional
+            Flank boundaries for the plots (``{"pinion": {"b", "r_a", "r_form"}, "gear": ...}`` [mm]).
+        """
+        from ..report import CONJUGATE_ARCSEC, arr, misalignment_dict, pair_numbers, te_harmonics
+
+        k0 = self.pairs.index(0) if 0 in self.pairs else 0
+        env = self.te_envelope_arcsec
+        stats = dict(self.stats)
+        if "n_failed" in stats:  # tooth pairs out of mesh at a position: not a failure of the drive
+            stats["n_pair_positions_without_contact"] = stats.pop("n_failed")
+        pp = self.peak_to_peak_arcsec
+
+        def member(z, radius, r, kappa, dirs):
+            return {"axial": arr(z[k0]), "radius": arr(radius[k0]), "xyz": arr(r[k0]), "kappa": arr(kappa[k0]),
+                    "ellipse_dirs": arr(dirs[k0].reshape(-1, 6))}
+
+        return {
+            "label": label,
+            "misalignment": misalignment_dict(self.misalignment),
+            "phi1": arr(self.phi1), "pairs": list(self.pairs),
+            "phi2": arr(self.phi2), "te_arcsec": arr(self.te_arcsec), "te_envelope_arcsec": arr(env),
+            "driving_pair": pair_numbers(self.driving, self.pairs), "transfer_phi1": self.transfer_phi1(),
+            "peak_to_peak_arcsec": pp, "conjugate": bool(pp < CONJUGATE_ARCSEC),
+            "harmonics_arcsec": None if z1 is None else te_harmonics(self.phi1, env, z1),
+            "pinion": member(self.z1, self.radius1, self.r1, self.kappa1, self.ellipse_dir1),
+            "gear": member(self.z2, self.radius2, self.r2, self.kappa2, self.ellipse_dir2),
+            "ellipse_semi_major_mm": arr(self.ellipse_a[k0]), "ellipse_semi_minor_mm": arr(self.ellipse_b[k0]),
+            "delta_mm": self.delta,
+            "converged": [bool(v) for v in self.converged[k0]], "on_surface": [bool(v) for v in self.on_surface[k0]],
+            "actual_te_at_every_position": bool(np.isfinite(self.te_envelope).all()),
+            "max_residual": float(np.max(self.residual[self.converged])),  # over the accepted points
+            "min_normal_dot": float(np.min(self.normal_dot[self.converged])),
+            "stats": stats, "solve_time_s": self.solve_time,
+            "limits": limits,
+        }
+
 
 
 class TCA:

@@ -121,7 +121,7 @@ def plot_transmission_error(report, ax=None):
     -------
     matplotlib Axes
     """
-    from .tca import CONJUGATE_ARCSEC
+    from ..report import CONJUGATE_ARCSEC
 
     ax = _axes(ax)
     t = report.tca

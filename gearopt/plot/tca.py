@@ -12,10 +12,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..report import CONJUGATE_ARCSEC  # the results' own threshold (``conjugate`` in results.json)
 from .geometry import _axes
-
-#: A peak-to-peak TE below this [arcsec] is round-off: the drive is conjugate (TE = 0).
-CONJUGATE_ARCSEC = 1e-5
 
 #: Readable names and distinct colours of the contact features (edge branches) of
 #: :mod:`gearopt.contact.edge`.
@@ -57,29 +55,21 @@ def branch_label(name: str) -> str:
     return BRANCH_NAMES.get(name, name.replace("_", " "))
 
 
-def _key(d: dict, *names):
-    for n in names:
-        if n in d:
-            return d[n]
-    raise KeyError(names[0])
-
-
 def _axial(m: dict):
-    return _f(_key(m, "axial", "z"))
+    return _f(m["axial"])
 
 
 def is_conjugate(case: dict) -> bool:
-    """True when the case's actual TE is zero up to round-off (a conjugate drive)."""
-    if "conjugate" in case:
-        return bool(case["conjugate"])
-    return abs(case["peak_to_peak_arcsec"]) < CONJUGATE_ARCSEC
+    """True when the case's actual TE is zero up to round-off (a conjugate drive): its
+    ``conjugate`` key (peak-to-peak below :data:`CONJUGATE_ARCSEC`)."""
+    return bool(case["conjugate"])
 
 
 def misalignment_text(case: dict) -> str:
     """The case's misalignment in words ("crossing 3 arcmin, dE 0.05 mm"), "" when aligned."""
     m = case["misalignment"]
-    unit = {"dE": ("dE", "mm"), "axial": ("axial", "mm"), "crossing_arcmin": ("crossing", "arcmin"),
-            "intersecting_arcmin": ("intersecting", "arcmin"), "dE_mm": ("dE", "mm"), "axial_mm": ("axial", "mm")}
+    unit = {"crossing_arcmin": ("crossing", "arcmin"), "intersecting_arcmin": ("intersecting", "arcmin"),
+            "dE_mm": ("dE", "mm"), "axial_mm": ("axial", "mm")}
     return ", ".join(f"{unit.get(k, (k, ''))[0]} {v:+g} {unit.get(k, ('', ''))[1]}".rstrip() for k, v in m.items() if v)
 
 
@@ -161,7 +151,7 @@ def plot_te(case: dict, ax=None, label_pairs: bool = True):
                 label=f"tooth pair {k:+d}" if label_pairs else None)
     ax.plot(phi, env, color="k", lw=2.2, label="actual TE (envelope)")
     _transfer_lines(ax, np.degrees(case.get("transfer_phi1", [])))
-    ok = "" if _key(case, "actual_te_at_every_position", "all_converged") else "  (some positions without contact)"
+    ok = "" if case["actual_te_at_every_position"] else "  (some positions without contact)"
     ax.set_title(f"{case_title(case)}: peak-to-peak {case['peak_to_peak_arcsec']:.2f} arcsec{ok}", fontsize=9)
     legend(ax, **_BELOW)
     return ax
@@ -204,11 +194,11 @@ def plot_bearing_contact(case: dict, member: str = "gear", ax=None, every: int =
     ax.plot(np.where(on, z, np.nan), np.where(on, r, np.nan), color="C3", lw=2, label="path of contact")
     ax.plot(np.where(~on, z, np.nan), np.where(~on, r, np.nan), color="0.6", lw=1, ls="--",
             label="solution off the active flank")
-    delta = _key(case, "delta_mm", "delta")
+    delta = case["delta_mm"]
     if ellipses and "ellipse_dirs" in m:
         xyz = np.array([[np.nan] * 3 if p is None else p for p in m["xyz"]], dtype=float)
-        A = _f(_key(case, "ellipse_semi_major_mm", "ellipse_a"))
-        B = _f(_key(case, "ellipse_semi_minor_mm", "ellipse_b"))
+        A = _f(case["ellipse_semi_major_mm"])
+        B = _f(case["ellipse_semi_minor_mm"])
         dirs = m["ellipse_dirs"]
         drawn = 0
         for i in range(0, len(z), max(1, every)):

@@ -3,7 +3,7 @@
 A study module describes the extra scene sections it reads and how to build itself, and registers
 on import::
 
-    from gearopt.io.scene import Field, Section
+    from gearopt.io.schema import Field, Section
     from gearopt.studies import StudySpec, register
 
     register(StudySpec(
@@ -33,7 +33,8 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Callable
 
 if TYPE_CHECKING:  # pragma: no cover
-    from gearopt.io.scene import Scene, Section
+    from gearopt.io.scene import Scene
+    from gearopt.io.schema import Section
 
 #: Study modules shipped with gearopt (imported lazily by :func:`_load_builtin`).
 BUILTIN_MODULES = ("gearopt.studies.geometry", "gearopt.studies.planar_tca", "gearopt.studies.tca",

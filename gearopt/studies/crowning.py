@@ -26,21 +26,13 @@ import numpy as np
 from ..contact.edge import EdgeContact
 from ..gears import GearPair
 from ..meshing.tca import TCA, Misalignment
-from ..synthesis.crowning import CrowningOptimizer, CrowningTarget
-from ..units import ARCMIN, RAD_TO_ARCSEC
-from .tca import edge_case_dict
+from ..synthesis.crowning import SENSITIVITY_UNITS, CrowningOptimizer, CrowningTarget  # noqa: F401 - re-exported
+from ..units import ARCMIN
 
 UNITS = {"length": "mm", "angle": "rad", "te": "arcsec (suffix _arcsec)", "settings": "1/mm",
          "sensitivities": "d(TE level)/d(variable), in the unit given per variable in design.sensitivity_units "
                           "(arcsec per arcmin for the misalignment angles, as the scene gives them)",
          "time": "s", "see": "docs/results.md"}
-
-#: Unit of each sensitivity d(TE level)/d(variable) in results.json, and the factor from the
-#: engine's arcsec per internal unit (1/mm, mm, rad).
-SENSITIVITY_UNITS = {"a_c": ("arcsec per 1/mm", 1.0), "a_pl": ("arcsec per 1/mm", 1.0),
-                     "mis.dE": ("arcsec per mm", 1.0), "mis.axial": ("arcsec per mm", 1.0),
-                     "mis.crossing": ("arcsec per arcmin", ARCMIN), "mis.intersecting": ("arcsec per arcmin", ARCMIN)}
-
 
 def misalignment_cases(crossing=0.0, intersecting=0.0, dE=0.0, axial=0.0, combined=False) -> dict:
     """The aligned drive plus +-each given misalignment (and their combination)."""
@@ -109,7 +101,7 @@ class CrowningStudy:
         ec0 = EdgeContact(TCA(self.pair))
         lim0 = {"pinion": {"b": self.pair.pinion.b, "r_a": self.pair.pinion.r_a, "r_form": ec0.r_form[1]},
                 "gear": {"b": self.pair.gear.b, "r_a": self.pair.gear.r_a, "r_form": ec0.r_form[2]}}
-        before = [edge_case_dict(ec0.sweep(phi, mis=m, pairs=(-2, -1, 0, 1, 2)), self.pair, c, lim0)
+        before = [ec0.sweep(phi, mis=m, pairs=(-2, -1, 0, 1, 2)).to_dict(c, z1, lim0)
                   for c, m in self.cases.items()]
         if progress:
             progress("crowning: building the NLP")
@@ -119,26 +111,12 @@ class CrowningStudy:
         d = self.optimizer.solve(verbose=not self.quiet)
         if progress:
             progress(f"crowning: {d.status} in {d.iterations} iterations, {d.solve_time:.3f} s; verifying every case")
-        ec1 = EdgeContact(TCA(d.pair))
+        ec1 = d.edge if d.edge is not None else EdgeContact(TCA(d.pair))  # compiled once, in solve()
         lim1 = {"pinion": {"b": d.pair.pinion.b, "r_a": d.pair.pinion.r_a, "r_form": ec1.r_form[1]},
                 "gear": {"b": d.pair.gear.b, "r_a": d.pair.gear.r_a, "r_form": ec1.r_form[2]}}
-        after = [edge_case_dict(ec1.sweep(phi, mis=m, pairs=(-2, -1, 0, 1, 2)), d.pair, c, lim1)
+        after = [ec1.sweep(phi, mis=m, pairs=(-2, -1, 0, 1, 2)).to_dict(c, d.pair.pinion.z, lim1)
                  for c, m in self.cases.items()]
-        design = {
-            "settings": d.settings, "status": d.status, "iterations": d.iterations, "objective": d.objective,
-            "target_te_level_arcsec": self.target.te_level * RAD_TO_ARCSEC,
-            "ellipse_share": self.target.ellipse_share, "edge_margin": self.target.edge_margin,
-            "tip_margin": self.target.tip_margin,
-            "nlp_build_s": d.build_time, "nlp_solve_s": d.solve_time,
-            "cases": [{"name": c.name, "te_level_arcsec": c.te_level_tca * RAD_TO_ARCSEC,
-                       "fit_rms_arcsec": c.fit_rms * RAD_TO_ARCSEC, "edge_contact": c.edge_contact,
-                       "transfer_phi1": list(c.transfer_phi1),
-                       "corners_phi1": [float(pc) for pc, _ in c.corners]} for c in d.cases],
-            "sensitivities": {c: {k: v * RAD_TO_ARCSEC * SENSITIVITY_UNITS.get(k, ("", 1.0))[1] for k, v in s.items()}
-                              for c, s in d.sensitivities.items()},
-            "sensitivity_units": {k: SENSITIVITY_UNITS.get(k, ("arcsec per internal unit", 1.0))[0]
-                                  for s in d.sensitivities.values() for k in s},
-        }
+        design = d.to_dict()
         self.design = d
         return CrowningReport(scene=self.name, design=design, before=before, after=after,
                               timing={"run_s": time.perf_counter() - t0})
@@ -164,7 +142,7 @@ def _from_scene(scene) -> CrowningStudy:
 
 
 def _register():
-    from ..io.scene import Bounds, Field, Section
+    from ..io.schema import Bounds, Field, Section
     from . import StudySpec, register
 
     register(StudySpec(

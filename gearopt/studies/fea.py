@@ -129,10 +129,7 @@ class FEStudy:
         o = self.options
         pair = {"z1": p.pinion.z, "z2": p.gear.z, "m_n": p.pinion.m_n, "a": p.a_w, "b1": p.pinion.b, "b2": p.gear.b,
                 "r_b1": p.pinion.r_b, "r_b2": p.gear.r_b, "eps_alpha": p.eps_alpha, "contact": tca.contact_type}
-        opts = {"torque_Nmm": o.torque, "E": o.E, "nu": o.nu, "teeth": o.teeth, "n_hertz": o.n_hertz,
-                "penalty_times_E": o.penalty, "element_type": o.element_type,
-                "mesh": {k: getattr(o.mesh, k) for k in ("n_face", "n_half", "n_flank", "n_fillet", "n_rim", "rim_depth")}}
-        return FEReport(scene=self.name, pair=pair, options=opts, positions=positions, mesh_plot=mesh_plot,
+        return FEReport(scene=self.name, pair=pair, options=o.to_dict(), positions=positions, mesh_plot=mesh_plot,
                         timing={"run_s": time.perf_counter() - t0})
 
 
@@ -209,7 +206,7 @@ def _check_E(E: float):
 
 
 def _register():
-    from ..io.scene import Bounds, Field, Section
+    from ..io.schema import Bounds, Field, Section
     from . import StudySpec, register
 
     register(StudySpec(

@@ -232,7 +232,7 @@ def _from_scene(scene) -> GeometryStudy:
 
 
 def _register():
-    from ..io.scene import Bounds, Field, Section
+    from ..io.schema import Bounds, Field, Section
     from . import StudySpec, register
 
     register(StudySpec(

@@ -197,7 +197,7 @@ def _from_scene(scene) -> PlanarTCAStudy:
 
 
 def _register():
-    from ..io.scene import Bounds, Field, Section
+    from ..io.schema import Bounds, Field, Section
     from . import StudySpec, register
 
     pos = Bounds(lo=0, lo_open=True)

@@ -32,7 +32,8 @@ import numpy as np
 from ..gears import GearPair
 from ..contact.edge import EdgeContact, EdgeTCAResult
 from ..meshing.tca import TCA, Misalignment, TCAResult
-from ..units import ARCMIN, DEG, RAD_TO_ARCSEC
+from ..report import CONJUGATE_ARCSEC, te_harmonics  # noqa: F401 - re-exported (their home: gearopt.report)
+from ..units import ARCMIN, DEG
 
 UNITS = {"length": "mm (suffix _mm where a key could be read otherwise)", "angle": "rad", "phi1": "rad",
          "te": "arcsec (suffix _arcsec); positive: the gear is ahead of its conjugate position",
@@ -41,122 +42,16 @@ UNITS = {"length": "mm (suffix _mm where a key could be read otherwise)", "angle
          "time": "s", "flank_map": "pinion/gear axial = axial position z [mm], radius = transverse radius [mm], "
                                    "member's own frame", "see": "docs/results.md"}
 
-#: A case whose actual TE has a smaller peak-to-peak [arcsec] is conjugate (TE = 0 up to round-off).
-CONJUGATE_ARCSEC = 1e-5
-
-
-def te_harmonics(phi1: np.ndarray, te: np.ndarray, z1: int, n: int = 5) -> list[float] | None:
-    """Amplitudes of the first ``n`` mesh-frequency harmonics of a TE sampled uniformly over a whole
-    number of mesh cycles ``[phi0, phi0 + c 2 pi / z1)`` (same unit as ``te``); None if the samples
-    do not span whole cycles or contain gaps."""
-    te = np.asarray(te, float)
-    phi1 = np.asarray(phi1, float)
-    span = (phi1[-1] - phi1[0]) * phi1.size / (phi1.size - 1)
-    cycles = span * z1 / (2 * math.pi)
-    c = int(round(cycles))
-    if c < 1 or abs(cycles - c) > 1e-9 or te.size < 2 * c * n + 1 or not np.all(np.isfinite(te)):
-        return None
-    f = np.fft.rfft(te - te.mean()) / te.size
-    return [float(2 * abs(f[c * k])) for k in range(1, n + 1)]
-
-
-def _arr(a, digits=None):
-    a = np.asarray(a, dtype=float)
-    return [None if not np.isfinite(v) else float(v) for v in a.ravel()] if a.ndim == 1 else \
-        [_arr(row) for row in a]
-
-
 def case_dict(res: TCAResult, pair: GearPair, label: str, limits: dict) -> dict:
-    """JSON-able summary of one TCA case (what results.json holds and the plots read)."""
-    z1 = pair.pinion.z
-    k0 = res.pairs.index(0) if 0 in res.pairs else 0
-    env = res.te_envelope_arcsec
-    # Transfer points: where the driving pair changes.
-    drv = res.driving
-    transfers = [float(0.5 * (res.phi1[i] + res.phi1[i + 1])) for i in range(len(drv) - 1)
-                 if drv[i] >= 0 and drv[i + 1] >= 0 and drv[i] != drv[i + 1]]
-    if res.peak_to_peak_arcsec < CONJUGATE_ARCSEC:
-        transfers = []  # conjugate: the pairs in contact tie, round-off picks the "driving" one
-    on0 = res.on_surface[k0]
-    stats = dict(res.stats)
-    if "n_failed" in stats:  # tooth pairs out of mesh at a position: not a failure of the drive
-        stats["n_pair_positions_without_contact"] = stats.pop("n_failed")
-    pp = res.peak_to_peak_arcsec
-    return {
-        "label": label,
-        "misalignment": _mis_dict(res.misalignment),
-        "phi1": _arr(res.phi1), "pairs": list(res.pairs),
-        "phi2": _arr(res.phi2), "te_arcsec": _arr(res.te_arcsec), "te_envelope_arcsec": _arr(env),
-        "driving_pair": _pair_numbers(drv, res.pairs), "transfer_phi1": transfers,
-        "peak_to_peak_arcsec": pp, "conjugate": bool(pp < CONJUGATE_ARCSEC),
-        "harmonics_arcsec": te_harmonics(res.phi1, env, z1),
-        "pinion": {"axial": _arr(res.z1[k0]), "radius": _arr(res.radius1[k0]), "xyz": _arr(res.r1[k0]),
-                   "kappa": _arr(res.kappa1[k0]), "ellipse_dirs": _arr(res.ellipse_dir1[k0].reshape(-1, 6))},
-        "gear": {"axial": _arr(res.z2[k0]), "radius": _arr(res.radius2[k0]), "xyz": _arr(res.r2[k0]),
-                 "kappa": _arr(res.kappa2[k0]), "ellipse_dirs": _arr(res.ellipse_dir2[k0].reshape(-1, 6))},
-        "ellipse_semi_major_mm": _arr(res.ellipse_a[k0]), "ellipse_semi_minor_mm": _arr(res.ellipse_b[k0]),
-        "delta_mm": res.delta,
-        "converged": [bool(v) for v in res.converged[k0]], "on_surface": [bool(v) for v in on0],
-        "actual_te_at_every_position": bool(np.isfinite(res.te_envelope).all()),
-        "max_residual": float(np.max(res.residual[res.converged])),  # over the accepted points
-        "min_normal_dot": float(np.min(res.normal_dot[res.converged])),
-        "stats": stats, "solve_time_s": res.solve_time,
-        "limits": limits,
-    }
-
-
-def _mis_dict(mis: Misalignment) -> dict:
-    return {"dE_mm": mis.dE, "crossing_arcmin": mis.crossing / ARCMIN,
-            "intersecting_arcmin": mis.intersecting / ARCMIN, "axial_mm": mis.axial}
-
-
-def _pair_numbers(driving, pairs) -> list:
-    """Driving tooth pair at each position as the pair number (pinion tooth, 0 = central), or None."""
-    return [int(pairs[v]) if v >= 0 else None for v in np.asarray(driving, int)]
+    """JSON-able summary of one TCA case (what results.json holds and the plots read): the
+    result's own :meth:`TCAResult.to_dict`."""
+    return res.to_dict(label, pair.pinion.z, limits)
 
 
 def edge_case_dict(res: EdgeTCAResult, pair: GearPair, label: str, limits: dict) -> dict:
-    """JSON-able summary of a TCA case with edge contact (what results.json holds; plots read it)."""
-    k0 = res.pairs.index(0) if 0 in res.pairs else 0
-    env = res.te_envelope_arcsec
-    branches = list(res.branches)
-    conjugate = bool(res.peak_to_peak_arcsec < CONJUGATE_ARCSEC)
-    # A pair carries load where its TE reaches the envelope (ties: all pairs of a conjugate drive).
-    tie = CONJUGATE_ARCSEC / RAD_TO_ARCSEC
-    loads = np.isfinite(res.te_pair[k0]) & (res.te_pair[k0] >= res.te_envelope - tie)
-    paths = {}
-    for b, name in enumerate(branches):
-        v = res.valid[b, k0]
-        if not v.any():
-            continue
-        paths[name] = {"pinion": {"axial": _arr(np.where(v, res.z1[b, k0], np.nan)),
-                                  "radius": _arr(np.where(v, res.radius1[b, k0], np.nan))},
-                       "gear": {"axial": _arr(np.where(v, res.z2[b, k0], np.nan)),
-                                "radius": _arr(np.where(v, res.radius2[b, k0], np.nan))},
-                       "carries_load": [bool(x) for x in ((res.branch[k0] == b) & loads)]}
-    return {
-        "label": label, "edge_analysis": True,  # whether an edge carries load: "edge_carries_load"
-        "misalignment": _mis_dict(res.misalignment),
-        "phi1": _arr(res.phi1), "pairs": list(res.pairs), "branches": branches,
-        "te_arcsec": _arr(res.te_pair * RAD_TO_ARCSEC), "te_envelope_arcsec": _arr(env),
-        "te_branches_central_arcsec": {name: _arr(res.te[b, k0] * RAD_TO_ARCSEC) for b, name in enumerate(branches)},
-        "driving_pair": _pair_numbers(res.driving, res.pairs),
-        "active_branch": [branches[a] if a >= 0 else None for a in res.active],
-        "edge_carries_load": res.edge_contact(),
-        "intervals_central_pair": res.intervals,
-        # a conjugate drive has no transfers: all pairs in contact tie (round-off picks a "driver")
-        "transfers": [] if conjugate else [{k: (None if isinstance(v, float) and not math.isfinite(v) else v)
-                                            for k, v in t.items()} for t in res.transfers],
-        "transfer_phi1": [] if conjugate else [t["phi1"] for t in res.transfers],
-        "peak_to_peak_arcsec": res.peak_to_peak_arcsec,
-        "conjugate": conjugate,
-        "harmonics_arcsec": te_harmonics(res.phi1, env, pair.pinion.z),
-        "paths_central_pair": paths,
-        "actual_te_at_every_position": bool(np.isfinite(res.te_envelope).all()),
-        "stats": {k: (v if isinstance(v, (dict, str, int, float)) else str(v)) for k, v in res.stats.items()},
-        "solve_time_s": res.solve_time,
-        "limits": limits,
-    }
+    """JSON-able summary of a TCA case with edge contact: the result's own
+    :meth:`EdgeTCAResult.to_dict`."""
+    return res.to_dict(label, pair.pinion.z, limits)
 
 
 @dataclass(frozen=True)
@@ -356,7 +251,7 @@ class TCAStudy:
                 progress(f"tca: {label} ({2 * self.positions} positions x 5 tooth pairs)")
             if self.edge is not None:
                 eres = self.edge.sweep(phi, mis=mis, pairs=(-2, -1, 0, 1, 2))
-                cases.append(edge_case_dict(eres, self.pair, label, lim))
+                cases.append(eres.to_dict(label, z1, lim))
                 continue
             res = self.tca.sweep(phi, mis=mis, delta=self.delta, z_section=self.z_section, pairs=(-2, -1, 0, 1, 2))
             if not np.isfinite(res.te_envelope).any():
@@ -365,7 +260,7 @@ class TCAStudy:
                                        "(beyond the face or the tip/form circles), so there is no transmission error "
                                        "to report. Analyse edge contact ([tca] edge_contact = true), crown the pinion "
                                        "more, or reduce the misalignment.")
-            cases.append(case_dict(res, self.pair, label, lim))
+            cases.append(res.to_dict(label, z1, lim))
         p = self.pair
         pair = {"z1": p.pinion.z, "z2": p.gear.z, "m_n": p.pinion.m_n, "beta_deg": p.pinion.beta / DEG,
                 "a": p.a_w, "ratio": p.ratio, "side": self.tca.side, "contact": self.tca.contact_type,
@@ -465,7 +360,7 @@ def _auto_label(m: Misalignment) -> str:
 
 
 def _register():
-    from ..io.scene import Bounds, Field, Section
+    from ..io.schema import Bounds, Field, Section
     from . import StudySpec, register
 
     # Misalignment angles of real drives are arcminutes (Litvin's examples: 3 arcmin); a bare number

@@ -108,6 +108,21 @@ class CaseReport:
     corners: tuple = ()  # actual corners of the actual TE: ((phi1 [rad], TE [rad]), ...) where pairs cross
     peak: tuple = ()  # (phi1, TE) of the highest point of the actual TE [rad]
 
+    def to_dict(self) -> dict:
+        """``design.cases[]`` of results.json (docs/results.md): ``name``, verified ``te_level_arcsec``,
+        ``fit_rms_arcsec``, ``edge_contact``, the NLP's ``transfer_phi1`` and the actual
+        ``corners_phi1`` [rad]."""
+        return {"name": self.name, "te_level_arcsec": self.te_level_tca * RAD_TO_ARCSEC,
+                "fit_rms_arcsec": self.fit_rms * RAD_TO_ARCSEC, "edge_contact": self.edge_contact,
+                "transfer_phi1": list(self.transfer_phi1), "corners_phi1": [float(pc) for pc, _ in self.corners]}
+
+
+#: Unit of each sensitivity d(TE level)/d(variable) in results.json, and the factor from the
+#: engine's arcsec per internal unit (1/mm, mm, rad).
+SENSITIVITY_UNITS = {"a_c": ("arcsec per 1/mm", 1.0), "a_pl": ("arcsec per 1/mm", 1.0),
+                     "mis.dE": ("arcsec per mm", 1.0), "mis.axial": ("arcsec per mm", 1.0),
+                     "mis.crossing": ("arcsec per arcmin", ARCMIN), "mis.intersecting": ("arcsec per arcmin", ARCMIN)}
+
 
 @dataclass(frozen=True)
 class CrowningDesign:
@@ -127,6 +142,12 @@ class CrowningDesign:
         ``d(TE level of case) / d(setting or misalignment)`` by AD through the TCA equations
         [rad per unit of the variable: 1/mm settings, rad angles, mm distances].
     objective : float
+    target : CrowningTarget or None
+        What the design was asked for (echoed in :meth:`to_dict`).
+    edge : EdgeContact or None
+        The optimized drive's compiled TCA + edge contact (``edge.tca``) that verified the cases;
+        further sweeps of the design reuse it instead of compiling it again (None without
+        verification).
     """
 
     pair: GearPair
@@ -138,6 +159,27 @@ class CrowningDesign:
     objective: float
     cases: list
     sensitivities: dict = field(default_factory=dict)
+    edge: EdgeContact | None = field(default=None, repr=False, compare=False)
+    target: CrowningTarget | None = None
+
+    def to_dict(self) -> dict:
+        """``design`` of the crowning study's results.json (every key in docs/results.md): the
+        settings [1/mm], IPOPT's status, the target, every verified case (:meth:`CaseReport.to_dict`)
+        and the sensitivities in the units of ``sensitivity_units`` (arcsec per 1/mm, mm, arcmin)."""
+        t = self.target
+        return {
+            "settings": self.settings, "status": self.status, "iterations": self.iterations,
+            "objective": self.objective,
+            "target_te_level_arcsec": None if t is None else t.te_level * RAD_TO_ARCSEC,
+            "ellipse_share": None if t is None else t.ellipse_share,
+            "edge_margin": None if t is None else t.edge_margin, "tip_margin": None if t is None else t.tip_margin,
+            "nlp_build_s": self.build_time, "nlp_solve_s": self.solve_time,
+            "cases": [c.to_dict() for c in self.cases],
+            "sensitivities": {c: {k: v * RAD_TO_ARCSEC * SENSITIVITY_UNITS.get(k, ("", 1.0))[1] for k, v in s.items()}
+                              for c, s in self.sensitivities.items()},
+            "sensitivity_units": {k: SENSITIVITY_UNITS.get(k, ("arcsec per internal unit", 1.0))[0]
+                                  for s in self.sensitivities.values() for k in s},
+        }
 
     def table(self) -> str:
         """A plain-text table of the cases: TE level of the verification sweep (peak-to-peak of the
@@ -430,7 +472,11 @@ class CrowningOptimizer:
         g1 = self.pair.pinion
         pin = g1.with_(rack=replace(g1.rack, a_c=settings["a_c"]), a_pl=settings["a_pl"])
         pair = GearPair(pin, self.pair.gear, self.pair.a)
-        cases = self._verify(pair, X) if verify else []
+        # the optimised drive's TCA and edge contact are compiled once, here, and serve the
+        # verification, the sensitivities and the caller's own sweeps (CrowningDesign.edge)
+        tca = TCA(pair, side=self.side)
+        ec = EdgeContact(tca) if verify else None
+        cases = self._verify(pair, X, ec) if verify else []
         off = [c for c in cases if abs(c.te_level_tca / self.target.te_level - 1) > self.target.level_tolerance]
         if off:
             worst = max(off, key=lambda c: abs(c.te_level_tca / self.target.te_level - 1))
@@ -440,10 +486,10 @@ class CrowningOptimizer:
                 f"{self.target.te_level * RAD_TO_ARCSEC:.3f} arcsec (tolerance "
                 f"{100 * self.target.level_tolerance:.0f} %), a_c = {settings['a_c']:.4g}, a_pl = "
                 f"{settings['a_pl']:.4g} 1/mm.\n" + self._diagnose(status, Gv, [], head=False))
-        sens = self.sensitivities(pair) if sensitivities else {}
+        sens = self.sensitivities(pair, tca) if sensitivities else {}
         return CrowningDesign(pair=pair, settings=settings, status=status, iterations=int(st.get("iter_count", -1)),
                               solve_time=solve_time, build_time=self.build_time, objective=float(sol["f"]),
-                              cases=cases, sensitivities=sens)
+                              cases=cases, sensitivities=sens, edge=ec, target=self.target)
 
     def _violations(self, Gv, tol=1e-7):
         bad = []
@@ -480,14 +526,16 @@ class CrowningOptimizer:
                      "or ellipse share, or wider bounds on the settings.")
         return "\n".join(lines)
 
-    def _verify(self, pair: GearPair, X) -> list:
+    def _verify(self, pair: GearPair, X, ec: EdgeContact | None = None) -> list:
         """Independent check: TCA + edge contact sweeps of the optimized drive, every case. The TE
         level is measured at the actual extremes of the actual TE, located on the engine's own
-        sweeps (:func:`actual_level`), not at the NLP's fitted transfer points."""
+        sweeps (:func:`actual_level`), not at the NLP's fitted transfer points. ``ec``: the
+        optimized drive's compiled edge contact (built here if not given)."""
         z1 = pair.pinion.z
         pitch = 2 * math.pi / z1
         phi = np.linspace(-pitch, pitch, 4 * self.positions, endpoint=False)
-        ec = EdgeContact(TCA(pair, side=self.side))
+        if ec is None:
+            ec = EdgeContact(TCA(pair, side=self.side))
         out = []
         fits = dict(zip(self.cases, (float(v) for v in self._fit_terms(X))))
         for cname, mis in self.cases.items():
@@ -504,10 +552,14 @@ class CrowningOptimizer:
                                   te_envelope=r.te_envelope, path=path, result=r, corners=tuple(corners), peak=peak))
         return out
 
-    def sensitivities(self, pair: GearPair) -> dict:
+    def sensitivities(self, pair: GearPair, tca: TCA | None = None) -> dict:
         """d(TE level)/d(variable) of every case by AD through the TCA equations (implicit
-        function theorem on each position, then the least-squares parabola fit of the TE)."""
-        tca = TCA(pair, side=self.side)
+        function theorem on each position, then the least-squares parabola fit of the TE).
+        ``tca``: the compiled TCA of ``pair`` (built here if not given)."""
+        if tca is None:
+            tca = TCA(pair, side=self.side)
+        elif tca.pair is not pair or tca.side != self.side:
+            raise ArgumentError("sensitivities: tca must be the TCA of this pair on the optimizer's driving side.")
         z1, z2 = pair.pinion.z, pair.gear.z
         phis = self._phis
         K = phis.size

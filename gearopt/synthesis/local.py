@@ -78,6 +78,17 @@ class LocalDesign:
     reached: dict  # {"mprime21", "major_axis", "eta2"} in the NLP
     verified: dict  # the same measured by TCA sweeps around M
 
+    def to_dict(self) -> dict:
+        """JSON-able summary (schema in docs/results.md, "local synthesis"): ``settings`` (a_c, a_pl
+        [1/mm]), IPOPT ``status`` and ``iterations``, ``solve_time_s`` [s], and ``reached`` (in the
+        NLP) / ``verified`` (by an independent TCA sweep at M): ``mprime21`` [rad/rad^2],
+        ``major_axis_mm`` [mm], ``eta2_deg`` [deg]."""
+        def q(d):
+            return {"mprime21": d["mprime21"], "major_axis_mm": d["major_axis"], "eta2_deg": math.degrees(d["eta2"])}
+
+        return {"settings": dict(self.settings), "status": self.status, "iterations": self.iterations,
+                "solve_time_s": self.solve_time, "reached": q(self.reached), "verified": q(self.verified)}
+
 
 def _quantities(tca: TCA, side: str, x_scale: dict, delta: float):
     """Symbolic m'21, 2a, eta2 at M as functions of the NLP unknowns."""

@@ -1,0 +1,356 @@
+"""The schema of scene sections: :class:`Field` (one key: kind, unit, default, checks),
+:class:`Section` (a TOML table of fields and sub-tables) and :class:`Bounds` (a range in the scene
+unit), with :func:`format_field` for ``gearopt studies``.
+
+This module imports neither :mod:`gearopt.io.scene` nor :mod:`gearopt.studies`: the study modules
+declare their sections with it, and the scene loader (which consults the studies registry) reads
+them, so there is no import cycle between the loader and the studies. ``from gearopt.io.scene import
+Field, Section, Bounds`` keeps working (re-exported there).
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import difflib
+import json
+import math
+from dataclasses import dataclass, field
+from typing import Any, Callable
+
+from ..errors import SceneError, shorten
+from ..units import KINDS, parse_quantity
+
+__all__ = ["Field", "Section", "Bounds", "KIND_UNITS", "ALIASES", "format_field"]
+
+
+#: Internal unit of each field kind (what the loaded value is in) and the unit of a bare number.
+KIND_UNITS = {
+    "int": ("", ""), "float": ("", ""), "bool": ("", ""), "str": ("", ""),
+    "length": ("mm", "mm"), "angle": ("rad", "deg"), "inverse_length": ("1/mm", "1/mm"),
+}
+
+
+
+def _toml(value) -> str:
+    """A value as it would be written in TOML (for messages), abbreviated when long."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return "nan" if math.isnan(value) else ("inf" if value > 0 else "-inf")
+    if isinstance(value, (_dt.date, _dt.time)):  # TOML dates and times are written bare, ISO 8601
+        return shorten(value.isoformat())
+    try:
+        text = json.dumps(value, ensure_ascii=False,
+                          default=lambda o: o.isoformat() if isinstance(o, (_dt.date, _dt.time)) else repr(o))
+    except RecursionError:
+        return "<an array or table nested too deeply to show>"
+    except (TypeError, ValueError):
+        text = repr(value)
+    return shorten(text)
+
+
+#: Keys that users write for a gearopt key (other standards, plain words): key -> gearopt key.
+ALIASES = {
+    "module": "m_n", "m": "m_n", "mn": "m_n", "m_t": "m_n", "normal_module": "m_n", "diametral_pitch": "P_n",
+    "P": "P_n", "teeth": "z", "n_teeth": "z", "N": "z", "number_of_teeth": "z", "face_width": "b", "width": "b",
+    "helix_angle": "beta", "pressure_angle": "alpha_n", "alpha": "alpha_n", "alpha_t": "alpha_n",
+    "profile_shift": "x", "shift": "x", "x_n": "x", "center_distance": "a", "centre_distance": "a", "a_w": "a",
+    "E_c": "a", "crowning": "a_pl", "lead_crowning": "a_pl", "profile_crowning": "a_c", "misalignment": "crossing",
+}
+
+
+@dataclass(frozen=True)
+class Bounds:
+    """A range check for :class:`Field`, with bounds in the field's *scene* unit (deg for angles,
+    mm for lengths, ``Field.unit`` if set). ``Field(check=Bounds(lo=0, lo_open=True))`` means > 0."""
+
+    lo: float | None = None
+    hi: float | None = None
+    lo_open: bool = False
+    hi_open: bool = False
+
+    def text(self, name: str, unit: str) -> str:
+        u = f" {unit}" if unit else ""
+        lo_op = "<" if self.lo_open else "<="
+        hi_op = "<" if self.hi_open else "<="
+        if self.lo is not None and self.hi is not None:
+            return f"{self.lo:g} {lo_op} {name} {hi_op} {self.hi:g}{u}"
+        if self.lo is not None:
+            return f"{name} {'>' if self.lo_open else '>='} {self.lo:g}{u}"
+        if self.hi is not None:
+            return f"{name} {hi_op} {self.hi:g}{u}"
+        return f"any {name}"
+
+    def ok(self, value_in_scene_unit: float) -> bool:
+        v = value_in_scene_unit
+        if self.lo is not None and (v <= self.lo if self.lo_open else v < self.lo):
+            return False
+        if self.hi is not None and (v >= self.hi if self.hi_open else v > self.hi):
+            return False
+        return True
+
+
+@dataclass(frozen=True)
+class Field:
+    """One key of a scene section.
+
+    Parameters
+    ----------
+    name : str
+        The TOML key.
+    kind : {"int", "float", "bool", "str", "length", "angle", "inverse_length"}
+        Value type. Quantities are converted to mm, rad, 1/mm by :func:`gearopt.units.parse_quantity`.
+    required : bool
+        Missing key is an error.
+    default
+        Value used when the key is absent, written as in a scene file (``20`` for an angle means
+        20 deg) and converted like a given value. Without a default an absent key loads as ``None``.
+    doc : str
+        One line for ``gearopt studies`` and error messages.
+    choices : sequence or None
+        Allowed values (compared after conversion; use with "str" or "int").
+    check : Bounds | callable(value) -> str | None | bool
+        Extra validation of the converted value. A :class:`Bounds` is in the scene unit. A callable
+        returns ``None``/``True`` when fine, else ``False`` or a text stating the valid range.
+    unit : str or None
+        Unit of a bare number for a quantity when it differs from the kind's default (e.g.
+        ``"1/in"`` for a diametral pitch).
+    bare : Bounds or None
+        Plausible range of a *bare* number (no unit written), in the scene unit. A bare number
+        outside it is refused as a likely unit slip (``alpha_n = 0.35`` meant in rad, ``crossing = 2``
+        meant in arcmin); the same value with its unit written out is accepted if ``check`` allows it.
+    typical : str or None
+        The unit this quantity is usually given in (``"arcsec"`` for a TE level); suggested first
+        when a bare number is out of range but would fit in that unit.
+    """
+
+    name: str
+    kind: str
+    required: bool = False
+    default: Any = None
+    doc: str = ""
+    choices: tuple | list | None = None
+    check: Bounds | Callable[[Any], Any] | None = None
+    unit: str | None = None
+    bare: Bounds | None = None
+    typical: str | None = None
+
+    def __post_init__(self):
+        if self.kind not in KIND_UNITS:
+            raise ValueError(f"Field {self.name!r}: unknown kind {self.kind!r}; one of {sorted(KIND_UNITS)}")
+        if self.unit is not None and (self.kind not in KINDS or self.unit not in KINDS[self.kind][0]):
+            raise ValueError(f"Field {self.name!r}: unit {self.unit!r} does not fit kind {self.kind!r}")
+
+    @property
+    def scene_unit(self) -> str:
+        """Unit of a bare number in the scene file ('' for plain numbers)."""
+        return self.unit or KIND_UNITS[self.kind][1]
+
+    @property
+    def internal_unit(self) -> str:
+        return KIND_UNITS[self.kind][0]
+
+    def convert(self, value, where: str) -> Any:
+        """Check and convert a TOML value; ``where`` is the key path for messages."""
+        k = self.kind
+        if k == "int":
+            if isinstance(value, bool) or not isinstance(value, int):
+                raise SceneError(f"{where} = {_toml(value)}: expected an integer, got {_type(value)}.")
+            out = value
+        elif k == "float":
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                raise SceneError(f"{where} = {_toml(value)}: expected a number, got {_type(value)}.")
+            if not math.isfinite(value):
+                raise SceneError(f"{where} = {_toml(value)}: not a finite number.")
+            out = float(value)
+        elif k == "bool":
+            if not isinstance(value, bool):
+                raise SceneError(f"{where} = {_toml(value)}: expected true or false, got {_type(value)}.")
+            out = value
+        elif k == "str":
+            if not isinstance(value, str):
+                raise SceneError(f"{where} = {_toml(value)}: expected a string (in quotes), got {_type(value)}.")
+            out = value
+        else:
+            if isinstance(value, (dict, list)):
+                raise SceneError(f"{where} = {_toml(value)}: expected a {k} (number or \"<number> <unit>\"), "
+                                 f"got {_type(value)}.")
+            if self.unit is not None and isinstance(value, (int, float)) and not isinstance(value, bool):
+                value_in = f"{value!r} {self.unit}"
+                try:
+                    out = parse_quantity(value_in, k, where)
+                except SceneError:  # e.g. inf: report the value as written
+                    raise SceneError(f"{where} = {_toml(value)}: not a finite number.") from None
+            else:
+                try:
+                    out = parse_quantity(value, k, where)
+                except SceneError as e:
+                    if self.unit is None:
+                        raise
+                    msg = str(e).replace(f"(a bare number means {KINDS[k][1]})", f"(a bare number means {self.unit})")
+                    raise SceneError(msg) from None
+        if self.choices is not None and out not in self.choices:
+            hint = _closest(str(out), [str(c) for c in self.choices])
+            raise SceneError(f"{where} = {_toml(value)} is not allowed; valid: one of "
+                             f"{', '.join(_toml(c) for c in self.choices)}.{hint}")
+        bare_number = self.kind in KINDS and isinstance(value, (int, float)) and not isinstance(value, bool)
+        hint = self._unit_hint(value, self.bare) if self.bare is not None and bare_number else ""
+        if hint and value != 0 and not self.bare.ok(value):  # implausible as written, plausible in another unit
+            raise SceneError(f"{where} = {_toml(value)}: a bare number is read as {value:g} {self.scene_unit}, which "
+                             f"is implausible for {self.name} (plausible without a unit: "
+                             f"{self.bare.text(self.name, self.scene_unit)}). Write the unit out.{hint}")
+        if self.check is not None:
+            if isinstance(self.check, Bounds):
+                shown = self.to_scene_unit(out)
+                if not self.check.ok(shown):
+                    hint = self._unit_hint(value, self.check) if bare_number else ""
+                    raise SceneError(f"{where} = {_toml(value)} is out of range; valid: "
+                                     f"{self.check.text(self.name, self.scene_unit)}."
+                                     + (f" A bare number is read as {self.scene_unit}.{hint}" if hint else ""))
+            else:
+                res = self.check(out)
+                if res is False or isinstance(res, str):
+                    valid = f"; valid: {res}" if isinstance(res, str) else ""
+                    raise SceneError(f"{where} = {_toml(value)} is out of range{valid}.")
+        return out
+
+    def _unit_hint(self, number: float, bounds: Bounds) -> str:
+        """``' Did you mean "8 arcsec"?'`` when the bare ``number`` fits ``bounds`` in another unit of
+        its kind (the :attr:`typical` unit first and alone if it fits), else ``""``."""
+        table, _ = KINDS[self.kind]
+        here = table[self.scene_unit]
+        fits = [u for u in table if u != self.scene_unit and u.isascii() and u not in ("'", '"')
+                and bounds.ok(number * table[u] / here)]
+        if self.typical in fits:
+            fits = [self.typical]
+        if not fits:
+            return ""
+        alts = " or ".join(_toml(f"{number:g} {u}") + (f" (= {number * table[u] / here:.6g} {self.scene_unit})"
+                                                        if u == "rad" else "") for u in fits[:3])
+        return f" Did you mean {alts}?"
+
+    def to_scene_unit(self, internal: float) -> float:
+        """An internal value (mm, rad, 1/mm) expressed in the scene unit of this field."""
+        if self.kind not in KINDS:
+            return internal
+        table, _ = KINDS[self.kind]
+        return internal / table[self.scene_unit]
+
+
+@dataclass(frozen=True)
+class Section:
+    """A TOML table of a scene: its fields and nested sub-tables (``[pinion] rack = {...}``)."""
+
+    name: str
+    fields: list = field(default_factory=list)
+    required: bool = False
+    doc: str = ""
+    subsections: list = field(default_factory=list)
+    array: bool = False  #: as a subsection: an array of tables (``[[a.b]]`` or ``b = [{...}, ...]``)
+
+    def __post_init__(self):
+        names = [f.name for f in self.fields] + [s.name for s in self.subsections]
+        if len(set(names)) != len(names):
+            raise ValueError(f"Section {self.name!r}: duplicate keys in {names}")
+
+    @property
+    def keys(self) -> list[str]:
+        return [f.name for f in self.fields] + [s.name for s in self.subsections]
+
+    def parse(self, table, path: str, errors: list[str], homes: dict | None = None) -> tuple[dict, set[str]]:
+        """Convert a TOML table. Returns (values, keys given); problems are appended to ``errors``.
+
+        ``values`` has every field (``None`` / default when absent) and, for each subsection, the
+        parsed sub-dict (or ``None`` when absent). Given keys of subsections appear in the set as
+        ``"sub.key"``. ``homes`` maps a key to the sections (``"[pair]"``) where it belongs, for the
+        hint on a key written in the wrong section.
+        """
+        where = f"[{path}]"
+        values: dict[str, Any] = {}
+        given: set[str] = set()
+        if not isinstance(table, dict):
+            errors.append(f"{where} must be a table (a [{path}] section or {{...}}), got {_type(table)} "
+                          f"{_toml(table)}.")
+            return values, given
+        for key in table:
+            if key not in self.keys:
+                errors.append(f"{where} {shorten(key)}: unknown key.{_key_hint(key, self.keys, homes or {})} "
+                              f"Valid keys: {', '.join(self.keys)}.")
+        for f in self.fields:
+            loc = f"{where} {f.name}"
+            if f.name in table:
+                given.add(f.name)
+                try:
+                    values[f.name] = f.convert(table[f.name], loc)
+                except SceneError as e:
+                    errors.append(str(e))
+            elif f.required:
+                errors.append(f"{loc}: missing required key ({_describe(f)}).")
+            elif f.default is not None:
+                values[f.name] = f.convert(f.default, loc + " (default)")
+            else:
+                values[f.name] = None
+        for sub in self.subsections:
+            if sub.name in table and sub.array:
+                items = table[sub.name]
+                if not isinstance(items, list):
+                    errors.append(f"[{path}.{sub.name}] must be an array of tables ([[{path}.{sub.name}]] or "
+                                  f"{sub.name} = [{{...}}, ...]), got {_type(items)} {_toml(items)}.")
+                    values[sub.name] = None
+                    continue
+                values[sub.name] = [sub.parse(item, f"{path}.{sub.name}][{i}", errors, homes)[0] for i, item in enumerate(items)]
+                given |= {sub.name}
+            elif sub.name in table:
+                vals, sub_given = sub.parse(table[sub.name], f"{path}.{sub.name}", errors, homes)
+                values[sub.name] = vals
+                given |= {f"{sub.name}.{k}" for k in sub_given} | {sub.name}
+            elif sub.required:
+                errors.append(f"{where} {sub.name}: missing required table.")
+            else:
+                values[sub.name] = None
+        return values, given
+
+
+def _type(value) -> str:
+    return {bool: "a boolean", int: "an integer", float: "a number", str: "a string", dict: "a table",
+            list: "an array", _dt.date: "a date", _dt.datetime: "a date-time", _dt.time: "a time of day"}.get(
+                type(value), type(value).__name__)
+
+
+def _closest(word: str, options) -> str:
+    m = difflib.get_close_matches(word, list(options), n=1, cutoff=0.6)
+    if not m:
+        m = [o for o in options if o.lower() == word.lower()]
+    return f" Did you mean {m[0]!r}?" if m else ""
+
+
+def _key_hint(key: str, keys, homes: dict) -> str:
+    """Hint for an unknown ``key`` in a section with ``keys``: a known alias (``module`` -> ``m_n``),
+    the section(s) where the key belongs, or the closest key by spelling."""
+    target = ALIASES.get(key) or ALIASES.get(key.lower())
+    if target is not None and target != key:
+        if target in keys:
+            return f" Did you mean {target!r} (gearopt's name for it)?"
+        if target in homes:
+            return f" Did you mean {target!r}? It belongs in {' or '.join(homes[target])}."
+    if key in homes:
+        return f" {key} belongs in {' or '.join(homes[key])}, not here."
+    return _closest(key, keys)
+
+
+def _describe(f: Field) -> str:
+    bits = [f.kind]
+    if f.scene_unit:
+        bits.append(f"bare number in {f.scene_unit}")
+    if f.choices is not None:
+        bits.append("one of " + ", ".join(_toml(c) for c in f.choices))
+    if f.doc:
+        bits.append(f.doc)
+    return "; ".join(bits)
+
+
+def format_field(f: Field) -> str:
+    """One line describing a field (for ``gearopt studies``)."""
+    req = "required" if f.required else (f"default {_toml(f.default)}" if f.default is not None else "optional")
+    unit = f" [{f.scene_unit}]" if f.scene_unit else ""
+    choices = f" one of {', '.join(_toml(c) for c in f.choices)};" if f.choices is not None else ""
+    check = f" {f.check.text(f.name, f.scene_unit)};" if isinstance(f.check, Bounds) else ""
+    return f"{f.name} ({f.kind}{unit}, {req}):{choices}{check} {f.doc}".rstrip()

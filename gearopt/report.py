@@ -1,0 +1,61 @@
+"""Helpers shared by the result objects' ``to_dict()``: the one JSON schema of results.json.
+
+Every result object (:class:`gearopt.meshing.tca.TCAResult`, :class:`gearopt.contact.edge.EdgeTCAResult`,
+:class:`gearopt.meshing.planar.PlanarTCAResult`, :class:`gearopt.synthesis.crowning.CrowningDesign`,
+:class:`gearopt.synthesis.local.LocalDesign`, :class:`gearopt.fea.model.FEResult`) builds its own
+dictionary with these conversions; the studies assemble those dictionaries and the plots read them.
+Every key, unit and meaning is documented in docs/results.md (a test walks every scene's
+results.json against it). This module imports only NumPy and :mod:`gearopt.units`.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .units import ARCMIN
+
+__all__ = ["CONJUGATE_ARCSEC", "arr", "te_harmonics", "misalignment_dict", "pair_numbers", "finite_or_none"]
+
+#: A drive whose actual TE has a smaller peak-to-peak [arcsec] is conjugate (TE = 0 up to round-off).
+CONJUGATE_ARCSEC = 1e-5
+
+
+def arr(a) -> list:
+    """An array as nested lists of floats, non-finite entries (no contact) as ``None``."""
+    a = np.asarray(a, dtype=float)
+    return [None if not np.isfinite(v) else float(v) for v in a.ravel()] if a.ndim == 1 else [arr(row) for row in a]
+
+
+def finite_or_none(v):
+    """``float(v)``, or ``None`` when it is not finite."""
+    v = float(v)
+    return v if math.isfinite(v) else None
+
+
+def te_harmonics(phi1: np.ndarray, te: np.ndarray, z1: int, n: int = 5) -> list[float] | None:
+    """Amplitudes of the first ``n`` mesh-frequency harmonics of a TE sampled uniformly over a whole
+    number of mesh cycles ``[phi0, phi0 + c 2 pi / z1)`` (same unit as ``te``); None if the samples
+    do not span whole cycles or contain gaps."""
+    te = np.asarray(te, float)
+    phi1 = np.asarray(phi1, float)
+    span = (phi1[-1] - phi1[0]) * phi1.size / (phi1.size - 1)
+    cycles = span * z1 / (2 * math.pi)
+    c = int(round(cycles))
+    if c < 1 or abs(cycles - c) > 1e-9 or te.size < 2 * c * n + 1 or not np.all(np.isfinite(te)):
+        return None
+    f = np.fft.rfft(te - te.mean()) / te.size
+    return [float(2 * abs(f[c * k])) for k in range(1, n + 1)]
+
+
+def misalignment_dict(mis) -> dict:
+    """A :class:`~gearopt.meshing.tca.Misalignment` as results.json gives it: ``dE_mm``,
+    ``crossing_arcmin``, ``intersecting_arcmin``, ``axial_mm``."""
+    return {"dE_mm": mis.dE, "crossing_arcmin": mis.crossing / ARCMIN,
+            "intersecting_arcmin": mis.intersecting / ARCMIN, "axial_mm": mis.axial}
+
+
+def pair_numbers(driving, pairs) -> list:
+    """Driving tooth pair at each position as the pair number (pinion tooth, 0 = central), or None."""
+    return [int(pairs[v]) if v >= 0 else None for v in np.asarray(driving, int)]
