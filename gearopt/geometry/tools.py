@@ -112,8 +112,8 @@ class Hob:
             raise out_of_range(name, self.d_p0, f"{lo:.6g} <= d_p0 <= {hi:.6g} mm for m_n = {m_n:g} mm, "
                                f"N_h = {self.N_h}: a lead angle from {math.degrees(HOB_LEAD_MIN):g} to "
                                f"{math.degrees(HOB_LEAD_MAX):g} deg (real hobs: about 1 to 6 deg; here "
-                               f"asin(N_h m_n / d_p0) = "
-                               f"{math.degrees(math.asin(min(1.0, self.N_h * m_n / self.d_p0))):.4g} deg)")
+                               + (f"asin(N_h m_n / d_p0) = {math.degrees(math.asin(self.N_h * m_n / self.d_p0)):.4g} deg)"
+                                  if self.N_h * m_n < self.d_p0 else "N_h m_n >= d_p0: no lead angle at all)"))
         return math.asin(self.N_h * m_n / self.d_p0)
 
     def swivel_angle(self, gear) -> float:
