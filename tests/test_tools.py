@@ -405,3 +405,11 @@ def test_python_api_bad_tools():
     # crowning synthesis needs a rack/hob-cut pinion: the shaper-cut pinion refuses crowning
     with pytest.raises(GeometryError, match=r"a_pl = 0 for a shaper-cut gear"):
         Gear(z=20, m_n=3.0, tool=Shaper()).with_(a_pl=1e-4)
+    from gearopt.synthesis.crowning import CrowningOptimizer, CrowningTarget
+    from gearopt.synthesis.local import LocalTarget, local_synthesis
+
+    pair = GearPair(Gear(z=20, m_n=3.0, name="pinion", tool=Shaper()), Gear(z=41, m_n=3.0, name="gear"))
+    with pytest.raises(GeometryError, match=r"pinion.tool = .*shaper.* valid: kind 'rack' or 'hob'"):
+        CrowningOptimizer(pair, CrowningTarget(te_level=3e-5), cases={"a": Misalignment()})
+    with pytest.raises(GeometryError, match=r"pinion.tool = .*shaper.* valid: kind 'rack' or 'hob'"):
+        local_synthesis(pair, LocalTarget(mprime21=-1e-3, major_axis=10.0))

@@ -301,3 +301,17 @@ def check_tool(gear) -> None:
         raise GeometryError(f"{gear.name}.tool = {type(tool).__name__} {tool!r:.80}: expected a RackCutter, Hob or "
                             "Shaper (gearopt.geometry.tools).")
     tool.check(gear)
+
+
+def require_rack_settings(gear, what: str) -> None:
+    """Refuse a shaper-cut ``gear`` where ``what`` sets its rack-cutter settings (profile crowning
+    ``a_c``, plunging ``a_pl``): crowning synthesis needs a rack-cutter or hob.
+
+    Raises
+    ------
+    GeometryError
+        Naming ``<gear>.tool``.
+    """
+    if isinstance(gear.tool, Shaper):
+        raise out_of_range(f"{gear.name}.tool", f"kind '{gear.tool.kind}'", f"kind 'rack' or 'hob': {what} sets the "
+                           "rack-cutter's profile crowning a_c and plunging a_pl, which a shaper does not have")

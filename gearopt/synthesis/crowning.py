@@ -32,6 +32,7 @@ from ..contact.edge import EdgeContact
 from ..errors import ArgumentError, ConvergenceError, check_number, out_of_range
 from ..gears import GearPair
 from ..geometry.generation import PARAMS
+from ..geometry.tools import require_rack_settings
 from ..meshing.tca import TCA, Misalignment
 from ..units import ARCMIN, ARCSEC, RAD_TO_ARCSEC
 
@@ -186,6 +187,7 @@ class CrowningOptimizer:
                  side: str = "right", bounds: dict | None = None, tol: float = 1e-10):
         if not isinstance(pair, GearPair):
             raise ArgumentError(f"pair = {type(pair).__name__}: expected a gearopt.gears.GearPair.")
+        require_rack_settings(pair.pinion, "crowning synthesis")
         if not isinstance(target, CrowningTarget):
             raise ArgumentError(f"target = {type(target).__name__}: expected a CrowningTarget(te_level [rad], ...).")
         if cases is not None and not isinstance(cases, dict):
