@@ -491,7 +491,7 @@ class Gear:
 
     @property
     def flank_limit(self):
-        """Where the real generated flank ends in the mid section (rack generation, right flank):
+        """Where the real generated flank ends in the mid section (cut by :attr:`tool`, right flank):
         a :class:`gearopt.geometry.generation.FlankLimit` (the tool's flank/fillet junction, or
         below a fold of the flank its crossing with the reversed branch / the fillet)."""
         return _flank_limit(self)

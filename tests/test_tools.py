@@ -413,3 +413,33 @@ def test_python_api_bad_tools():
         CrowningOptimizer(pair, CrowningTarget(te_level=3e-5), cases={"a": Misalignment()})
     with pytest.raises(GeometryError, match=r"pinion.tool = .*shaper.* valid: kind 'rack' or 'hob'"):
         local_synthesis(pair, LocalTarget(mprime21=-1e-3, major_axis=10.0))
+
+
+def test_fe_model_meshes_the_shaper_cut_tooth():
+    from gearopt.fea.model import GearFEModel
+
+    p = Gear(z=20, m_n=3.0, x=0.2, b=20.0, name="pinion", tool=Shaper(N_s=30, x_s=0.3))
+    g = Gear(z=41, m_n=3.0, b=20.0, name="gear")
+    model = GearFEModel(GearPair(p, g), 0.0)
+    assert model.pin_tooth.method == "shaper" and model.gear_tooth.method == "rack"
+    _, r_root = cutting(20, 3.0, 0.2, 0.0, 30, 0.3)
+    assert model.pinion_mesh.meta["r_f"] == pytest.approx(r_root, abs=1e-10)
+    assert abs(r_root - (30.0 + 3.0 * (0.2 - 1.25))) > 0.01  # not the rack's root
+
+
+def test_geometry_study_python_shorthand_and_studies_listing(capsys):
+    from gearopt.cli import main
+    from gearopt.studies.geometry import GeometryStudy
+
+    pair = GearPair(Gear(z=20, m_n=3.0, name="pinion"), Gear(z=41, m_n=3.0, name="gear"))
+    st = GeometryStudy(pair, generation="shaper", shaper=Shaper(N_s=30))
+    assert st.generation == {"pinion": "shaper", "gear": "shaper"}
+    assert GeometryStudy(pair).generation == {"pinion": "rack", "gear": "rack"}
+    with pytest.raises(GeometryError, match="generation"):
+        GeometryStudy(pair, generation="grinder")
+    capsys.readouterr()
+    assert main(["studies"]) == 0
+    out = capsys.readouterr().out
+    assert re.search(r"\[pinion\.tool\].*keys depend on kind", out)
+    assert re.search(r'kind = "shaper":\n\s+z \(int, default 25\): 8 <= z <= 400', out)
+    assert re.search(r"d_p0 \(length \[mm\], default 60.0\)", out)
