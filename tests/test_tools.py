@@ -443,3 +443,18 @@ def test_geometry_study_python_shorthand_and_studies_listing(capsys):
     assert re.search(r"\[pinion\.tool\].*keys depend on kind", out)
     assert re.search(r'kind = "shaper":\n\s+z \(int, default 25\): 8 <= z <= 400', out)
     assert re.search(r"d_p0 \(length \[mm\], default 60.0\)", out)
+
+
+@pytest.mark.parametrize("z,beta_deg,N_s,x_s", [(9, 10.0, 30, 0.0), (12, 0.0, 16, 0.2), (10, 25.0, 50, -0.1)])
+def test_shaper_undercut_limit_matches_the_fold_of_the_generated_flank(z, beta_deg, N_s, x_s):
+    """Gear.x_min_undercut of a shaper-cut gear (its flank/rounding junction cuts the gear at the
+    interference point, closed form) is where the numerically generated flank starts to fold."""
+    g = Gear(z=z, m_n=2.0, beta=beta_deg * DEG, allow_undercut=True, tool=Shaper(N_s=N_s, x_s=x_s))
+    x_min = g.x_min_undercut
+    assert x_min != pytest.approx(g.with_(tool=RackCutter()).x_min_undercut, abs=1e-3)
+    above, below = g.with_(x=x_min + 2e-3), g.with_(x=x_min - 2e-3)
+    assert not above.undercut and below.undercut
+    assert generate(above).flank_limit("right", 0.0).kind == "junction"
+    assert generate(below).flank_limit("right", 0.0).kind != "junction"
+    with pytest.raises(GeometryError, match=rf"x >= {x_min:.4f}"):
+        g.with_(x=x_min - 0.05, allow_undercut=False)
