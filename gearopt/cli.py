@@ -132,6 +132,10 @@ def _studies() -> int:
         print(f"{indent}{br[0]}{prefix}{section.name}{br[1]}{req}{doc}")
         for f in section.fields:
             print(f"{indent}    {format_field(f)}")
+        for kind, fs in getattr(section, "variants", {}).items():  # a tool = {kind = ...} table
+            print(f"{indent}    kind = \"{kind}\":" + ("" if fs else " (no further keys)"))
+            for f in fs:
+                print(f"{indent}        {format_field(f)}")
         for s in section.subsections:
             show(s, indent + "    ", f"{prefix}{section.name}.")
 

@@ -260,12 +260,16 @@ def test_crowning_optimizer_refuses_margins_beyond_the_tooth():
 def test_hob_diameter_beyond_any_lead_angle_is_refused(capsys, scene_file):
     from gearopt.geometry.generation import Hob
 
-    geo = '[geometry]\ngeneration = "hob"\nN_h = 2\nd_p0 = {}\n'
-    err = refused(capsys, scene_file, scene(extra=geo.format('"3 m"')), r"\[geometry\] d_p0 = \"3 m\"", r"lead angle")
-    # lead angle 0.1 deg: d_p0 = N_h m_n / sin(0.1 deg)
+    hob = 'tool = {{kind = "hob", z = 2, d_p0 = {}}}'
+    err = refused(capsys, scene_file, scene(pinion=hob.format('"3 m"')), r"\[pinion\] tool.d_p0 = \"3 m\"",
+                  r"lead angle")
+    # lead angle 0.1 deg: d_p0 = N_h m_n / sin(0.1 deg); 30 deg: N_h m_n / sin(30 deg)
     assert _number_after(err, r"d_p0 <= ([\d.]+) mm") == pytest.approx(2 * 2.25 / math.sin(math.radians(0.1)),
                                                                         rel=1e-5)
-    accepted(capsys, scene_file, scene(extra=geo.format('"90 mm"')))
+    err = refused(capsys, scene_file, scene(gear=hob.format('"6 mm"')), r"\[gear\] tool.d_p0 = \"6 mm\"",
+                  r"lead angle")
+    assert _number_after(err, r"([\d.]+) <= d_p0") == pytest.approx(2 * 2.25 / 0.5, rel=1e-5)
+    accepted(capsys, scene_file, scene(pinion=hob.format('"90 mm"'), gear=hob.format('"9.1 mm"')))
     with pytest.raises(GeometryError, match="d_p0"):
         Hob(N_h=1, d_p0=4e5).lead_angle(4.0)
 

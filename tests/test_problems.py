@@ -98,21 +98,24 @@ def test_geometry_scene_scalars(scene):
     assert 1.2 < rep.pair["eps_alpha"] < 2.0
 
 
-def test_tool_option_for_other_tool_is_rejected(tmp_path):
-    text = (PROBLEMS / "spur_geometry.toml").read_text().replace('generation = "rack"', 'generation = "rack"\nN_s = 30')
-    f = tmp_path / "bad.toml"
+def test_former_geometry_tool_keys_say_what_to_write(tmp_path):
+    # [geometry] generation / N_s / ... (one tool for both members) moved to the gear-level tool.
+    text = (PROBLEMS / "spur_geometry.toml").read_text().replace("points = 80", 'generation = "shaper"\nN_s = 30')
+    f = tmp_path / "old.toml"
     f.write_text(text)
-    with pytest.raises(SceneError, match="N_s applies only with generation"):
-        load_scene(f).build()
+    with pytest.raises(SceneError, match=r'\[geometry\] generation, N_s: .*tool = \{kind = "shaper", z = 30\} under '
+                                         r'\[pinion\] and under \[gear\]'):
+        load_scene(f)
 
 
 def test_shaper_generation_scene(tmp_path):
-    text = (PROBLEMS / "spur_geometry.toml").read_text().replace('generation = "rack"', 'generation = "shaper"\nN_s = 30')
+    text = (PROBLEMS / "spur_geometry.toml").read_text().replace('x = 0.3\n', 'x = 0.3\ntool = {kind = "shaper", z = 30}\n')
     f = tmp_path / "shaper.toml"
     f.write_text(text)
     rep = load_scene(f).build().run()
     # The shaper cuts a different root than the rack (cutting centre distance from x_s + x).
     assert rep.members["pinion"]["generation"] == "shaper"
+    assert rep.members["gear"]["generation"] == "rack"
     assert rep.members["pinion"]["r_f"] != pytest.approx(rep.members["pinion"]["r_p"] + 3 * (0.3 - 1.25), abs=1e-6)
 
 

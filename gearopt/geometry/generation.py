@@ -37,6 +37,7 @@ import numpy as np
 from ..errors import ArgumentError, ConvergenceError, GeometryError, OptionError, out_of_range, shorten
 from ..gears import BasicRack, Gear
 from .involute import inv, inv_inverse
+from .tools import HOB_LEAD_MAX, HOB_LEAD_MIN, Hob, RackCutter, Shaper  # noqa: F401  (re-exported here)
 
 #: Names of the entries of the surface parameter vector p, in order.
 PARAMS = ("x", "a_c", "u_0", "a_pl")
@@ -267,7 +268,8 @@ class GeneratedTooth:
         u_f, phi_max = self.junction(p)
         # Sample from well above the tip (the tool point that cuts the tip lies (h_aP + k) m_n above
         # the datum line) down to the junction.
-        u_a = -(g.rack.h_aP + abs(g.k) + 1.0) * g.m_n / math.cos(g.rack.alpha_n) - abs(u_f)
+        u_a = self.extras.get("q_above_tip",  # a shaper's flank coordinate is its roll angle
+                              -(g.rack.h_aP + abs(g.k) + 1.0) * g.m_n / math.cos(g.rack.alpha_n) - abs(u_f))
         us = np.linspace(u_a, u_f, samples)
         P = np.tile(p[:, None], samples)
         x, y, reg, drad = (np.asarray(v).ravel() for v in fl.map(samples)(us, z, P)[:4])
@@ -538,53 +540,30 @@ def generate_by_rack(gear: Gear, rack: BasicRack | None = None) -> GeneratedToot
     return _rack_generated(gear, rack or gear.rack, "rack")
 
 
-#: Smallest hob lead angle [rad] gearopt accepts (real hobs have about 1 to 6 deg).
-HOB_LEAD_MIN = 0.1 * math.pi / 180
+def generate(gear: Gear) -> GeneratedTooth:
+    """Tooth surfaces of ``gear`` cut by its own tool ``gear.tool``: the one dispatch every study and
+    engine uses (TCA, edge contact, synthesis, FE, :attr:`Gear.r_form`).
 
-
-@dataclass(frozen=True)
-class Hob:
-    """A hob whose normal section is the rack-cutter (Litvin section 10.3, Fig. 10.3.5).
+    :class:`~gearopt.geometry.tools.RackCutter` (the default) -> :func:`generate_by_rack`,
+    :class:`~gearopt.geometry.tools.Hob` -> :func:`generate_by_hob`,
+    :class:`~gearopt.geometry.tools.Shaper` -> :func:`generate_by_shaper`.
 
     Parameters
     ----------
-    N_h : int
-        Number of threads (usually 1).
-    d_p0 : float
-        Hob reference diameter [mm].
-    hand : {"right", "left"}
-        Hand of the hob thread.
+    gear : Gear
+
+    Returns
+    -------
+    GeneratedTooth
     """
-
-    N_h: int = 1
-    d_p0: float = 60.0
-    hand: str = "right"
-
-    def __post_init__(self):
-        if isinstance(self.N_h, bool) or not isinstance(self.N_h, int) or self.N_h < 1:
-            raise out_of_range("hob.N_h", self.N_h, "an integer >= 1 (threads)")
-        if not (isinstance(self.d_p0, (int, float)) and math.isfinite(self.d_p0) and self.d_p0 > 0):
-            raise out_of_range("hob.d_p0", self.d_p0, "d_p0 > 0 mm")
-        if self.hand not in SIDES:
-            raise out_of_range("hob.hand", self.hand, "'right' or 'left'")
-
-    def lead_angle(self, m_n: float) -> float:
-        """Thread lead angle on the reference cylinder [rad]: ``sin lambda = N_h m_n / d_p0``."""
-        s = self.N_h * m_n / self.d_p0
-        d_max = self.N_h * m_n / math.sin(HOB_LEAD_MIN)
-        if s >= 1 or self.d_p0 > d_max:
-            raise out_of_range("hob.d_p0", self.d_p0, f"N_h m_n = {self.N_h * m_n:.4g} < d_p0 <= {d_max:.6g} mm for "
-                               f"m_n = {m_n:g} mm, N_h = {self.N_h}: a lead angle of at least "
-                               f"{math.degrees(HOB_LEAD_MIN):g} deg (real hobs: about 1 to 6 deg)")
-        return math.asin(s)
-
-    def swivel_angle(self, gear: Gear) -> float:
-        """Setting angle between hob and gear axes [rad]: ``beta -+ lambda`` (same/opposite hands),
-        measured from the plane normal to the gear axis."""
-        lam = self.lead_angle(gear.m_n)
-        same = gear.is_spur or gear.hand == self.hand
-        sign = -1.0 if same else 1.0
-        return (gear.beta if not gear.is_spur else 0.0) + sign * lam
+    if not isinstance(gear, Gear):
+        raise ArgumentError(f"generate: gear = {type(gear).__name__} {shorten(repr(gear))}: expected a gearopt.Gear.")
+    tool = gear.tool
+    if isinstance(tool, Hob):
+        return generate_by_hob(gear, tool)
+    if isinstance(tool, Shaper):
+        return generate_by_shaper(gear, tool)
+    return generate_by_rack(gear)
 
 
 def generate_by_hob(gear: Gear, hob: Hob | None = None) -> GeneratedTooth:
@@ -595,76 +574,71 @@ def generate_by_hob(gear: Gear, hob: Hob | None = None) -> GeneratedTooth:
     coincide with the rack-generated ones (the feed motion along the axis is continuous).
     """
     _check_member("generate_by_hob", gear, hob, "hob", Hob)
-    hob = hob or Hob()
+    hob = hob or (gear.tool if isinstance(gear.tool, Hob) else Hob())
     tooth = _rack_generated(gear, gear.rack, "hob", N_h=hob.N_h)
     return GeneratedTooth(gear=gear, method="hob", functions=tooth.functions, r_root=tooth.r_root,
                           extras={"N_h": hob.N_h, "lead_angle": hob.lead_angle(gear.m_n),
                                   "swivel_angle": hob.swivel_angle(gear)})
 
 
-@dataclass(frozen=True)
-class Shaper:
-    """A gear-shaped cutter (Litvin section 10.3, Fig. 10.3.6) with N_s teeth.
+def generate_by_shaper(gear: Gear, shaper: Shaper | None = None) -> GeneratedTooth:
+    """Tooth surfaces of a spur or helical gear generated by a shaper (external cutting mesh).
 
-    Its teeth are involute teeth conjugate to the gear's basic rack: addendum ``h_fP m_n`` (it cuts
-    the gear's dedendum) with a tip rounding of radius ``rho_fP m_n``.
+    The shaper (:class:`~gearopt.geometry.tools.Shaper`) is an involute gear of the same normal
+    module; for a helical gear it has the same helix angle and the opposite hand, and its cutting
+    stroke is a screw motion along its own helix, which slides the tool surface along itself and so
+    does not change the envelope (Litvin section 10.3). The shaper turns by
+    ``psi_s = (N_2 / N_s) psi`` opposite to the gear about a parallel axis at the cutting centre
+    distance ``a_cut`` (``inv alpha_wt0 = inv alpha_t + 2 tan alpha_n (x_s + x) / (N_s + N_2)``,
+    transverse section). The relative motion is planar, so the equation of meshing
+    ``n_s . v^(s2) = 0`` holds section by section: the common normal passes through the pitch point I,
+    and the tool's normal line is intersected with the shaper's cutting pitch circle. In the section
+    ``z`` the shaper's transverse profile is turned by its helix, ``sigma_s z tan(beta) / r_ps``;
+    the generated section is then the mid section turned by ``sigma z tan(beta) / r_p`` (the gear's
+    helix: ``r_ps / r_p = N_s / N_2``) and the surface is a helicoid. The involute flank equals the
+    rack-generated involute helicoid; the fillet is the trochoid of the shaper's tip rounding (a
+    circle of radius ``rho_fP m_n`` in the shaper's transverse section) and tends to the rack's as
+    N_s grows (exactly so for spur gears, whose rack fillet is the same circle).
+
+    The flank coordinate ``q`` is the shaper involute's roll angle [rad] (growing towards the
+    shaper tip, i.e. the gear root), the fillet coordinate the angle on the tip rounding [rad].
 
     Parameters
     ----------
-    N_s : int
-        Number of shaper teeth (>= 8).
-    x_s : float
-        Profile shift coefficient of the shaper [-].
-    """
+    gear : Gear
+        Without crowning (``a_pl = 0``, ``rack.a_c = 0``).
+    shaper : Shaper, optional
+        Default ``gear.tool`` if that is a Shaper, else ``Shaper()``.
 
-    N_s: int = 25
-    x_s: float = 0.0
-
-    def __post_init__(self):
-        if isinstance(self.N_s, bool) or not isinstance(self.N_s, int) or self.N_s < 8:
-            raise out_of_range("shaper.N_s", self.N_s, "an integer >= 8 (teeth)")
-        if not (isinstance(self.x_s, (int, float)) and math.isfinite(self.x_s)):
-            raise out_of_range("shaper.x_s", self.x_s, "a finite profile shift")
-
-
-def generate_by_shaper(gear: Gear, shaper: Shaper | None = None) -> GeneratedTooth:
-    """Tooth surfaces of a spur gear generated by a shaper (external cutting mesh).
-
-    The shaper turns by ``psi_s = (N_2 / N_s) psi`` opposite to the gear; the cutting centre
-    distance follows from ``x_s + x`` (``inv alpha_w0 = inv alpha + 2 tan alpha (x_s + x)/(N_s + N_2)``)
-    and the equation of meshing ``n_s . v^(s2) = 0`` says that the common normal passes through the
-    pitch point I: the tool normal line is intersected with the shaper's cutting pitch circle.
-    The involute flank equals the rack-generated one; the fillet differs (and tends to the
-    rack's as N_s grows).
+    Raises
+    ------
+    GeometryError
+        If the shaper cannot cut the gear (:meth:`~gearopt.geometry.tools.Shaper.check`).
     """
     _check_member("generate_by_shaper", gear, shaper, "shaper", Shaper)
-    shaper = shaper or Shaper()
-    if not gear.is_spur:
-        raise GeometryError(f"{gear.name}.beta = {math.degrees(gear.beta):.6g} deg: shaper generation is implemented "
-                            "for spur gears only (beta = 0); use generate_by_rack or generate_by_hob for helical gears.")
+    shaper = shaper or (gear.tool if isinstance(gear.tool, Shaper) else Shaper())
     if gear.a_pl != 0 or gear.rack.a_c != 0:
         raise GeometryError(f"{gear.name}: crowning (a_pl = {gear.a_pl}, a_c = {gear.rack.a_c}) is defined for rack/hob "
                             "generation; shaper generation needs a_pl = 0 and a_c = 0.",
                             param=f"{gear.name}.a_pl" if gear.a_pl else f"{gear.name}.rack.a_c",
                             value=gear.a_pl or gear.rack.a_c, valid="a_pl = 0 and a_c = 0")
+    if shaper is not gear.tool:
+        shaper.check(gear)  # gear.tool was checked when the Gear was built
+    cut0 = shaper.cutting(gear)
     rack, m = gear.rack, gear.m_n
-    al = rack.alpha_n
+    al = cut0["alpha_t"]  # transverse pressure angle (alpha_n itself for a spur gear)
     N_s, N_2 = shaper.N_s, gear.z
-    r_ps, r_bs = m * N_s / 2, m * N_s / 2 * math.cos(al)
-    r_as = r_ps + m * (rack.h_fP + shaper.x_s)
-    rho = rack.rho_fP * m
-    s_ps = m * (math.pi / 2 + 2 * shaper.x_s * math.tan(al))  # shaper tooth thickness on r_ps
-    if (r_as - rho) <= r_bs:
-        raise GeometryError(f"shaper.N_s = {N_s}: the tip rounding centre falls inside the shaper base circle; "
-                            "use more shaper teeth or a smaller rho_fP.",
-                            param="shaper.N_s", value=N_s)
+    r_ps, r_bs, r_as, rho, s_ps = cut0["r_ps"], cut0["r_bs"], cut0["r_as"], cut0["rho"], cut0["s_ps"]
+    m_t = gear.m_t
+    sigma = _helix_sigma(gear)
+    tb = math.tan(gear.beta)
     gam0 = -math.pi / 2 + math.pi / N_s  # direction of the shaper tooth right of the line of centres
 
     q, z, psi_free = ca.SX.sym("q"), ca.SX.sym("z"), ca.SX.sym("psi")
     p = ca.SX.sym("p", len(PARAMS))
     x = p[0]
-    inv_w = inv(al) + 2 * math.tan(al) * (shaper.x_s + x) / (N_s + N_2)
-    a_cut = (m * (N_s + N_2) / 2) * math.cos(al) / ca.cos(inv_inverse(inv_w))  # cutting centre distance
+    inv_w = inv(al) + 2 * math.tan(rack.alpha_n) * (shaper.x_s + x) / (N_s + N_2)
+    a_cut = (m_t * (N_s + N_2) / 2) * math.cos(al) / ca.cos(inv_inverse(inv_w))  # cutting centre distance
     r_ws = a_cut * N_s / (N_s + N_2)  # shaper's cutting pitch radius
 
     def shaper_flank(phi_roll):  # shaper flank facing -x (decreasing polar angle), roll angle phi_roll
@@ -688,33 +662,48 @@ def generate_by_shaper(gear: Gear, shaper: Shaper | None = None) -> GeneratedToo
     funcs: dict[str, ca.Function] = {
         "junction": ca.Function("shaper_junction", [p], [phi_j, phi_max, ca.DM(C)], ["p"], ["u_f", "phi_max", "C"])}
     for seg, qname, P, n in (("flank", "u", P_fl, n_fl), ("fillet", "phi", P_rd, n_rd)):
-        # Meshing: I_s = P + t n on the circle |I_s| = r_ws, nearest root (P . n > 0 on the tool).
+        # Planar meshing in the shaper's section at its own orientation: I_s = P + t n on the circle
+        # |I_s| = r_ws, nearest root (P . n > 0 on the tool).
         b = P[0] * n[0] + P[1] * n[1]
         c = r_ws**2 - (P[0] ** 2 + P[1] ** 2)
         t = c / (b + ca.sqrt(b * b + c))
         I_s = P + t * n
-        psi_s = ca.atan2(I_s[1], I_s[0]) + math.pi / 2  # shaper rotation (clockwise positive)
-        psi = psi_s * N_s / N_2
-
-        def in_gear(ps, side_x):
-            ps_s = ps * N_2 / N_s
-            c_, s_ = ca.cos(ps_s), ca.sin(ps_s)
-            Pf = ca.vertcat(c_ * P[0] + s_ * P[1], -s_ * P[0] + c_ * P[1] + a_cut, z)  # R(-psi_s) P + O_s
-            nf = ca.vertcat(c_ * n[0] + s_ * n[1], -s_ * n[0] + c_ * n[1], 0.0)
-            r_g, n_g = _rot_z(-ps, Pf), -_rot_z(-ps, nf)
-            mirror = ca.vertcat(side_x, 1.0, 1.0)
-            return r_g * mirror, n_g * mirror
+        psi_s0 = ca.atan2(I_s[1], I_s[0]) + math.pi / 2  # shaper rotation (clockwise positive), section z = 0
 
         for side, sx in (("right", 1.0), ("left", -1.0)):
             # The shaper tooth right of the line of centres cuts the gear tooth's right flank; the
-            # left side is its mirror image (spur gears are symmetric).
-            r_g, n_g = in_gear(psi, sx)
+            # left flank is the mirror image of the right flank of the gear of the opposite hand.
+            k_s = -sx * sigma * tb / r_ps  # the shaper's helix (opposite hand): its section at z is
+            #                                turned counter-clockwise by k_s z
+            if sigma == 0:
+                n3 = ca.vertcat(n, 0.0)
+            else:
+                # Normal of the shaper's helicoid S(q, z) = Rot(k_s z) P(q) + z e_z at z = 0 orientation:
+                # the in-plane normal n plus the axial part that makes it orthogonal to dS/dz.
+                n3 = _unit(ca.vertcat(n, -k_s * (P[0] * n[1] - P[1] * n[0])))
+
+            def in_gear(ps, z_, side_x=sx, k_s=k_s, n3=n3):
+                a = ps * N_2 / N_s - k_s * z_  # the section's shaper profile turned clockwise by a
+                c_, s_ = ca.cos(a), ca.sin(a)
+                Pf = ca.vertcat(c_ * P[0] + s_ * P[1], -s_ * P[0] + c_ * P[1] + a_cut, z_)  # R(-a) P + O_s
+                nf = ca.vertcat(c_ * n3[0] + s_ * n3[1], -s_ * n3[0] + c_ * n3[1], n3[2])
+                r_g, n_g = _rot_z(-ps, Pf), -_rot_z(-ps, nf)
+                mirror = ca.vertcat(side_x, 1.0, 1.0)
+                return r_g * mirror, n_g * mirror
+
+            # psi where the section z is cut: the shaper turned on by its helix twist k_s z.
+            psi = (psi_s0 + k_s * z) * N_s / N_2
+            r_g, n_g = in_gear(psi, z)
             name = f"{gear.name}_{side}_{seg}"
             funcs[f"{side}_{seg}"] = ca.Function(name, [q, z, p], [r_g, n_g, sx * psi], [qname, "z", "p"],
                                                  ["r", "n", "psi"])
-            r_fam, n_fam = in_gear(sx * psi_free, sx)
+            r_fam, n_fam = in_gear(sx * psi_free, z)
             funcs[f"{side}_{seg}_family"] = ca.Function(
                 f"{name}_family", [q, z, psi_free, p], [r_fam, n_fam], [qname, "z", "psi", "p"], ["r", "n"])
     a_cut0 = float(ca.Function("a", [p], [a_cut])(default_params(gear)))
+    # Flank coordinate (shaper roll angle) of the point that cuts beyond the gear's tip, for
+    # GeneratedTooth.flank_limit: half the roll angle of the one that cuts the tip (> 0 by Shaper.check).
+    q_above_tip = 0.5 * max(cut0["L_tip"], 1e-3 * m) / r_bs
     return GeneratedTooth(gear=gear, method="shaper", functions=funcs, r_root=a_cut0 - r_as,
-                          extras={"N_s": N_s, "x_s": shaper.x_s, "a_cut": a_cut0, "r_as": r_as, "q_pitch": math.tan(al)})
+                          extras={"N_s": N_s, "x_s": shaper.x_s, "a_cut": a_cut0, "r_as": r_as, "q_pitch": math.tan(al),
+                                  "q_above_tip": q_above_tip})

@@ -4,8 +4,9 @@ A scene declares only what its study needs. The common sections (see :data:`COMM
 
     [scene]   name (required), description, study (required; a registered study)
     [rack]    optional, for both members: preset ("A".."D", ISO 53), alpha_n, h_aP, h_fP, rho_fP, a_c, u_0
-    [pinion]  z, b (required), x, k or d_a, A_sne, A_sni, a_pl, allow_undercut; optional subtable
-              rack = {...} (overrides [rack])
+    [pinion]  z, b (required), x, k or d_a, A_sne, A_sni, a_pl, allow_undercut; optional subtables
+              rack = {...} (overrides [rack]) and tool = {kind = "rack" | "hob" | "shaper", ...} (the
+              cutting tool; default the rack-cutter)
     [gear]    same as [pinion]
     [pair]    m_n or P_n (exactly one), beta, hand (the pinion's; the gear gets the opposite), a
     [output]  optional: plots, dpi
@@ -30,8 +31,9 @@ from typing import Any
 
 from ..errors import GearoptError, GeometryError, SceneError, join_detail, shorten, value_text
 from ..gears import BasicRack, Gear, GearPair
+from ..geometry.tools import TOOL_KINDS, TOOLS, RackCutter  # noqa: F401
 from .schema import (  # noqa: F401 - re-exported: the schema lives in gearopt.io.schema
-    ALIASES, KIND_UNITS, Bounds, Field, Section, _closest, _describe, _key_hint, _toml, _type, format_field,
+    ALIASES, KIND_UNITS, Bounds, Field, Section, ToolSection, _closest, _describe, _key_hint, _toml, _type, format_field,
 )
 
 __all__ = [
@@ -68,6 +70,35 @@ _RACK_FIELDS = [
 ]
 
 
+#: Keys of a gear's ``tool = {kind = ...}`` table for each kind (scene units: mm, deg).
+_TOOL_VARIANTS = {
+    "rack": [],
+    "hob": [
+        Field("z", "int", default=1, check=Bounds(lo=1, hi=8), doc="hob threads (starts)"),
+        Field("d_p0", "length", default=60.0, check=_POS, doc="hob reference diameter; lead angle asin(z m_n / "
+              "d_p0) from 0.1 to 30 deg"),
+        Field("hand", "str", default="right", choices=("right", "left"), doc="hand of the hob thread"),
+    ],
+    "shaper": [
+        Field("z", "int", default=25, check=Bounds(lo=8, hi=400), doc="shaper teeth (enough to reach the gear's "
+              "tip: the smallest count is stated otherwise); a helical shaper has the gear's helix angle, "
+              "opposite hand"),
+        Field("x", "float", default=0.0, check=Bounds(lo=-1, hi=2), doc="shaper profile shift coefficient"),
+    ],
+}
+#: Tool dataclass field of each tool key (kind -> scene key -> field).
+_TOOL_ATTRS = {"hob": {"z": "N_h", "d_p0": "d_p0", "hand": "hand"}, "shaper": {"z": "N_s", "x": "x_s"}}
+
+
+def _make_tool(values: dict | None):
+    """The tool dataclass from a parsed ``tool`` table (None: the rack-cutter)."""
+    if not values:
+        return RackCutter()
+    kind = values["kind"]
+    attrs = _TOOL_ATTRS.get(kind, {})
+    return TOOLS[kind](**{attrs[k]: v for k, v in values.items() if k != "kind"})
+
+
 def _member(name: str) -> Section:
     return Section(name, [
         Field("z", "int", required=True, doc="number of teeth, z >= 3"),
@@ -81,7 +112,9 @@ def _member(name: str) -> Section:
         Field("a_pl", "inverse_length", default=0.0, doc="longitudinal crowning by tool plunging, >= 0"),
         Field("allow_undercut", "bool", default=False, doc="accept an undercut gear"),
     ], required=True, doc=f"the {name}" + (" (driving member)" if name == "pinion" else " (driven member)"),
-        subsections=[Section("rack", _RACK_FIELDS, doc=f"rack-cutter of the {name}, overrides [rack] key by key")])
+        subsections=[Section("rack", _RACK_FIELDS, doc=f"rack-cutter of the {name}, overrides [rack] key by key"),
+                     ToolSection("tool", doc=f"the tool that cuts the {name} (default: its rack-cutter); the keys "
+                                 "depend on kind", variants=_TOOL_VARIANTS)])
 
 
 #: Sections every scene may have (``[scene]`` and the gear data), in order.
@@ -441,7 +474,8 @@ def _build_pair(data: dict, parsed: dict, given: dict, label: str) -> GearPair:
     def raw(section: str, key: str):
         """The value as written in the file (``section`` may be ``"pinion.rack"``)."""
         t = data
-        for part in section.split("."):
+        *parts, key = section.split(".") + key.split(".")
+        for part in parts:
             t = t.get(part, {}) if isinstance(t, dict) else {}
         return t.get(key, _MISSING) if isinstance(t, dict) else _MISSING
 
@@ -462,6 +496,10 @@ def _build_pair(data: dict, parsed: dict, given: dict, label: str) -> GearPair:
             if key in ("beta", "hand"):
                 return ("pair", key)
             return (member, key)
+        if parts[0] in ("pinion", "gear") and len(parts) == 3 and parts[1] == "tool":  # the tool's own key
+            kind = (parsed[parts[0]].get("tool") or {}).get("kind")
+            key = {v: k for k, v in _TOOL_ATTRS.get(kind, {}).items()}.get(parts[2], parts[2])
+            return (parts[0], f"tool.{key}")
         if parts[0] in ("pinion", "gear") and len(parts) == 3 and parts[1] == "rack":
             src = rack_source(parts[0], parts[2])
             return (src, parts[2]) if src else None
@@ -523,9 +561,14 @@ def _build_pair(data: dict, parsed: dict, given: dict, label: str) -> GearPair:
             r_p = m_n * v["z"] / math.cos(pr["beta"]) / 2
             k = (v["d_a"] / 2 - r_p) / m_n - rack.h_aP - v["x"]
         try:
+            tool = _make_tool(v.get("tool"))
+        except GeometryError as e:
+            raise SceneError(f"{label}: [{member}] tool = {_toml(raw(member, 'tool'))}: {e}", param=f"[{member}] tool",
+                             value=_toml(raw(member, "tool")), valid=e.valid) from None
+        try:
             members[member] = Gear(z=v["z"], m_n=m_n, x=v["x"], b=v["b"], beta=pr["beta"], hand=hands[member],
                                    rack=rack, k=k, a_pl=v["a_pl"], allow_undercut=v["allow_undercut"],
-                                   name=member, A_sne=v["A_sne"], A_sni=v.get("A_sni"))
+                                   name=member, A_sne=v["A_sne"], A_sni=v.get("A_sni"), tool=tool)
         except GeometryError as e:
             bounds = getattr(e, "k_bounds", None)
             if bounds is not None and v.get("d_a") is not None:  # k came from d_a: restate the range for d_a

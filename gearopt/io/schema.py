@@ -245,6 +245,10 @@ class Section:
     doc: str = ""
     subsections: list = field(default_factory=list)
     array: bool = False  #: as a subsection: an array of tables (``[[a.b]]`` or ``b = [{...}, ...]``)
+    #: Keys that moved elsewhere: refused with ``moved_hint(table)``, the text saying where to (one
+    #: error for all of them).
+    moved: tuple = ()
+    moved_hint: Callable[[dict], str] | None = None
 
     def __post_init__(self):
         names = [f.name for f in self.fields] + [s.name for s in self.subsections]
@@ -270,8 +274,11 @@ class Section:
             errors.append(f"{where} must be a table (a [{path}] section or {{...}}), got {_type(table)} "
                           f"{_toml(table)}.")
             return values, given
+        gone = [k for k in table if k in self.moved]
+        if gone:
+            errors.append(f"{where} {', '.join(gone)}: {self.moved_hint(table) if self.moved_hint else 'removed'}")
         for key in table:
-            if key not in self.keys:
+            if key not in self.keys and key not in self.moved:
                 errors.append(f"{where} {shorten(key)}: unknown key.{_key_hint(key, self.keys, homes or {})} "
                               f"Valid keys: {', '.join(self.keys)}.")
         for f in self.fields:
@@ -306,6 +313,64 @@ class Section:
                 errors.append(f"{where} {sub.name}: missing required table.")
             else:
                 values[sub.name] = None
+        return values, given
+
+
+
+@dataclass(frozen=True)
+class ToolSection(Section):
+    """An inline table whose keys depend on its ``kind`` (``[pinion] tool = {kind = "shaper", z = 25}``):
+    ``variants[kind]`` lists the fields of each kind. Problems are reported as ``[pinion] tool.<key>``."""
+
+    variants: dict = field(default_factory=dict)
+
+    @property
+    def keys(self) -> list[str]:
+        out = ["kind"]
+        for fs in self.variants.values():
+            out += [f.name for f in fs if f.name not in out]
+        return out
+
+    def parse(self, table, path: str, errors: list[str], homes: dict | None = None) -> tuple[dict, set[str]]:
+        owner, _, name = path.rpartition(".")
+        at = f"[{owner}] {name}" if owner else f"[{name}]"
+        kinds = ", ".join(_toml(k) for k in self.variants)
+        if not isinstance(table, dict):
+            errors.append(f"{at} = {_toml(table)}: expected an inline table such as {{kind = \"shaper\", z = 25}} "
+                          f"(kind one of {kinds}), got {_type(table)}.")
+            return {}, set()
+        if "kind" not in table:
+            errors.append(f"{at}.kind: missing; valid: one of {kinds} (the tool's keys depend on it).")
+            return {}, set()
+        kind = table["kind"]
+        if not isinstance(kind, str) or kind not in self.variants:
+            hint = _closest(str(kind), list(self.variants)) if isinstance(kind, str) else ""
+            errors.append(f"{at}.kind = {_toml(kind)} is not a tool kind; valid: one of {kinds}.{hint}")
+            return {}, set()
+        fs = self.variants[kind]
+        names = ["kind"] + [f.name for f in fs]
+        values: dict[str, Any] = {"kind": kind}
+        given = {"kind"}
+        for key in table:
+            if key in names:
+                continue
+            others = [k for k, v in self.variants.items() if any(f.name == key for f in v)]
+            hint = (f" {key} is a key of kind = {' or '.join(_toml(k) for k in others)}." if others
+                    else _closest(str(key), names))
+            errors.append(f"{at}.{shorten(str(key))}: not a key of a tool of kind = {_toml(kind)}.{hint} Valid keys: "
+                          f"{', '.join(names)}.")
+        for f in fs:
+            loc = f"{at}.{f.name}"
+            if f.name in table:
+                given.add(f.name)
+                try:
+                    values[f.name] = f.convert(table[f.name], loc)
+                except SceneError as e:
+                    errors.append(str(e))
+            elif f.required:
+                errors.append(f"{loc}: missing required key ({_describe(f)}).")
+            else:
+                values[f.name] = None if f.default is None else f.convert(f.default, loc + " (default)")
         return values, given
 
 

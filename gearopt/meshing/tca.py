@@ -39,7 +39,7 @@ import numpy as np
 from ..errors import (ArgumentError, ConvergenceError, GeometryError, LineContactError, OptionError, check_number,
                       out_of_range, shorten)
 from ..gears import GearPair
-from ..geometry.generation import PARAMS, GeneratedTooth, generate_by_rack
+from ..geometry.generation import PARAMS, GeneratedTooth, generate
 from ..units import ARCMIN, RAD_TO_ARCSEC
 
 MISALIGNMENTS = ("dE", "crossing", "intersecting", "axial")
@@ -371,7 +371,7 @@ class TCA:
     side : {"right", "left"}
         Driving flank of the pinion (the gear's contacting flank follows).
     pinion, gear : GeneratedTooth, optional
-        Generated tooth surfaces (default: rack generation of each member).
+        Generated tooth surfaces (default: each member cut by its own tool, ``generate(gear)``).
     solver : {"fast_newton", "newton"}
         CasADi rootfinder plugin for mapped sweeps (a line-search ``newton`` is the fallback).
     tol : float
@@ -407,8 +407,8 @@ class TCA:
             raise out_of_range("tol", tol, "0 < tol <= 1e-6 mm (residual of the contact equations)", cls=OptionError)
         t0 = time.perf_counter()
         self.pair, self.side, self.solver, self.tol = pair, side, solver, tol
-        self.pinion = pinion or generate_by_rack(pair.pinion)
-        self.gear = gear or generate_by_rack(pair.gear)
+        self.pinion = pinion or generate(pair.pinion)
+        self.gear = gear or generate(pair.gear)
         self._limits: dict = {}
         self._build()
         self.build_time = time.perf_counter() - t0

@@ -33,6 +33,7 @@ from ..errors import ArgumentError, ConvergenceError, OptionError, SynthesisErro
 #  (SynthesisError lives in errors.py; re-exported here)
 from ..gears import GearPair
 from ..geometry.generation import PARAMS
+from ..geometry.tools import require_rack_settings
 from ..meshing.tca import TCA, Misalignment
 from ..units import ARCMIN, ARCSEC, RAD_TO_ARCSEC
 
@@ -225,6 +226,7 @@ class CrowningOptimizer:
         if not isinstance(pair, GearPair):
             raise ArgumentError(f"pair = {type(pair).__name__}: expected a gearopt.gears.GearPair.",
                                 param="pair", value=pair, valid="a gearopt.gears.GearPair")
+        require_rack_settings(pair.pinion, "crowning synthesis")
         if not isinstance(target, CrowningTarget):
             raise ArgumentError(f"target = {type(target).__name__}: expected a CrowningTarget(te_level [rad], ...).",
                                 param="target", value=target, valid="a CrowningTarget")

@@ -24,6 +24,7 @@ import numpy as np
 
 from ..errors import ArgumentError, check_number, out_of_range
 from ..gears import GearPair
+from ..geometry.tools import require_rack_settings
 from ..meshing.tca import TCA, Misalignment
 from .crowning import SETTINGS, SynthesisError, _IDX
 
@@ -139,6 +140,7 @@ def local_synthesis(pair: GearPair, target: LocalTarget, side: str = "right", ve
     if not isinstance(pair, GearPair):
         raise ArgumentError(f"pair = {type(pair).__name__}: expected a gearopt.gears.GearPair.",
                             param="pair", value=pair, valid="a gearopt.gears.GearPair")
+    require_rack_settings(pair.pinion, "local synthesis")
     if not isinstance(target, LocalTarget):
         raise ArgumentError(f"target = {type(target).__name__}: expected a LocalTarget (target must be a LocalTarget).",
                             param="target", value=target, valid="a LocalTarget")
