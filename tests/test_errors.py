@@ -266,11 +266,13 @@ def test_study_option_error_is_reported_at_its_key(scene_file):
     assert "[tca] delta = 0.09 is out of range; valid: 0 < delta <= 0.1 m_n = 0.06 mm" in str(e), str(e)
 
 
-def test_study_object_error_is_reported_at_its_key(scene_file):
-    # the hob of the geometry study: hob.d_p0 -> [geometry] d_p0, with the value as written
-    e = _load_error(scene_file, _scene(extra='[geometry]\ngeneration = "hob"\nd_p0 = "4 m"\n'))
-    assert e.param == "[geometry] d_p0" and e.value == '"4 m"'
-    assert re.search(r'\[geometry\] d_p0 = "4 m" is out of range; valid: .* < d_p0 <= ', str(e)), str(e)
+def test_tool_error_is_reported_at_its_key(scene_file):
+    # the pinion's hob, checked against the gear (lead angle): pinion.tool.d_p0 -> [pinion] tool.d_p0,
+    # with the value as written and the valid range computed for this module
+    e = _load_error(scene_file, _scene(pinion='tool = {kind = "hob", d_p0 = "4 m"}'))
+    assert e.param == "[pinion] tool.d_p0" and e.value == '"4 m"'
+    assert e.valid.startswith("4.5 <= d_p0 <= ")  # asin(N_h m_n / d_p0) = 30 deg: d_p0 = 2 m_n = 4.5 mm
+    assert re.search(r'\[pinion\] tool.d_p0 = "4 m" \(= 4000.0\) is out of range; valid: 4.5 <= d_p0 <= ', str(e)), str(e)
 
 
 def test_run_time_error_is_reported_at_its_key(scene_file):
