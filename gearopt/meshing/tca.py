@@ -118,15 +118,17 @@ def check_sweep_args(tca, phi1, p1=None, p2=None, mis=None, pairs=(-1, 0, 1), de
         if p is None:
             vecs.append(np.asarray(tooth.p0, float))
             continue
+        names = tooth.param_names  # PARAMS, then the theta of any flank modification
         try:
             v = np.asarray(p, dtype=float)
         except (TypeError, ValueError):
-            raise ArgumentError(f"{name} = {_describe(p)}: expected {len(PARAMS)} numbers {PARAMS}.") from None
-        if v.shape != (len(PARAMS),):
-            raise ArgumentError(f"{name}: expected a vector of {len(PARAMS)} numbers {PARAMS} (x, a_c [1/mm], u_0 [mm], "
-                                f"a_pl [1/mm]), got shape {v.shape}.")
+            raise ArgumentError(f"{name} = {_describe(p)}: expected {len(names)} numbers {names}.") from None
+        if v.shape != (len(names),):
+            raise ArgumentError(f"{name}: expected a vector of {len(names)} numbers {names} (x, a_c [1/mm], u_0 [mm], "
+                                f"a_pl [1/mm], then any modification parameters), got shape {v.shape}.")
         if not np.all(np.isfinite(v)):
-            raise ArgumentError(f"{name} = {v.tolist()}: every entry of {PARAMS} must be finite.")
+            bad = [n_ for n_, x_ in zip(names, v) if not math.isfinite(x_)]
+            raise ArgumentError(f"{name} = {v.tolist()}: every entry of {names} must be finite ({bad} are not).")
         vecs.append(v)
     if mis is None:
         mis = Misalignment()
@@ -338,11 +340,11 @@ class TCA:
         pair, side = self.pair, self.side
         g1, g2 = pair.pinion, pair.gear
         sgn = 1.0 if side == "right" else -1.0  # the left flank drives the other way round
-        np_ = len(PARAMS)
         line = self.contact_type == "line"
         w = ca.SX.sym("w", 4 if line else 5)
         phi1 = ca.SX.sym("phi1")
-        p1, p2 = ca.SX.sym("p1", np_), ca.SX.sym("p2", np_)
+        # each member's own parameter count (PARAMS plus any flank modification's theta)
+        p1, p2 = ca.SX.sym("p1", len(self.pinion.param_names)), ca.SX.sym("p2", len(self.gear.param_names))
         mis = ca.SX.sym("mis", len(MISALIGNMENTS))
         zsec = ca.SX.sym("z_section")  # line contact: the pinion section where contact is sought
         self.scale2 = g2.r_p  # phi2 is carried as r_p2 * phi2 [mm]
@@ -558,7 +560,8 @@ class TCA:
             rad = float(np.hypot(*np.asarray(k[r]).ravel()[:2]))
             if reg > REGULARITY_MIN:
                 continue
-            p = prm[1:5] if member == 1 else prm[5:9]
+            n1_, n2_ = len(self.pinion.param_names), len(self.gear.param_names)
+            p = prm[1:1 + n1_] if member == 1 else prm[1 + n1_:1 + n1_ + n2_]
             lim = self.flank_limit(member, 0.0, p)
             fold = (f"its flank folds at radius {lim.radius_fold:.6g} mm" if lim.folded else
                     f"its flank is regular down to the tool junction, radius {lim.radius:.6g} mm")
