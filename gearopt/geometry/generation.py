@@ -138,6 +138,11 @@ class GeneratedTooth:
         (flank parameter where the fillet starts, fillet angle range, fillet centre of the tool).
     r_root : float
         Root radius cut by the tool [mm].
+    modifications : tuple of FlankModification
+        Flank modifications composed into the flank Functions (:meth:`with_modification`); every
+        Function then takes the longer ``p`` (:attr:`param_names`).
+    unmodified_functions : dict or None
+        The generated tooth's own Functions (for :attr:`unmodified`); None without modifications.
     """
 
     gear: Gear

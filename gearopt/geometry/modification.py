@@ -324,8 +324,9 @@ def topography(s_grid, z_grid, values, along: str = "u", name: str = "topo", par
     # the unit vector e_i). Written so, it is differentiable in V by AD (CasADi's parametric
     # interpolant gives zero derivatives with respect to its data).
     def cardinals(tag, gr):
-        eye = np.eye(gr.size)
-        return [ca.interpolant(f"{name}_{tag}{i}", "bspline", [gr.tolist()], eye[i].tolist()) for i in range(gr.size)]
+        # one interpolant with gr.size outputs: output i is the spline through e_i (values are
+        # ordered grid point first, output fastest)
+        return ca.interpolant(f"{name}_{tag}", "bspline", [gr.tolist()], np.eye(gr.size).ravel().tolist())
 
     A_f, B_f = cardinals("s", grids[0]), cardinals("z", grids[1])
     if parametric:
@@ -338,8 +339,7 @@ def topography(s_grid, z_grid, values, along: str = "u", name: str = "topo", par
         # CasADi's B-spline is zero outside its grid: hold the edge values there instead
         s = ca.fmin(ca.fmax(s, float(grids[0][0])), float(grids[0][-1]))
         z = ca.fmin(ca.fmax(z, float(grids[1][0])), float(grids[1][-1]))
-        A = ca.vertcat(*[f(s) for f in A_f])
-        B = ca.vertcat(*[f(z) for f in B_f])
+        A, B = A_f(s), B_f(z)
         Vm = ca.reshape(th, shape[0], shape[1]) if parametric else ca.DM(V)  # column-major: v_ij at i + m j
         return ca.mtimes([A.T, Vm, B])
 

@@ -90,7 +90,7 @@ def check_sweep_args(tca, phi1, p1=None, p2=None, mis=None, pairs=(-1, 0, 1), de
                      z_section=0.0):
     """Validate and normalise the arguments of :meth:`TCA.sweep` / ``EdgeContact.sweep``.
 
-    Returns ``(phi1 (N,), p1 (4,), p2 (4,), mis, pairs)``; raises :class:`~gearopt.errors.ArgumentError`
+    Returns ``(phi1 (N,), p1, p2, mis, pairs)`` (p1, p2: one entry per ``param_names`` of each member); raises :class:`~gearopt.errors.ArgumentError`
     (wrong type, shape, empty, non-finite) or :class:`~gearopt.errors.GeometryError` (a misalignment
     that jams or separates the teeth, faces that do not overlap, a section off the face), naming
     the argument and its valid range.
@@ -586,8 +586,9 @@ class TCA:
         ----------
         phi1 : array_like (N,)
             Pinion angles [rad] (0: pinion tooth 0 centred on the line of centres).
-        p1, p2 : array_like (4,), optional
-            Surface parameter vectors (:data:`gearopt.geometry.generation.PARAMS`) of pinion and gear.
+        p1, p2 : array_like, optional
+            Surface parameter vectors of pinion and gear, one entry per ``tooth.param_names``
+            (:data:`gearopt.geometry.generation.PARAMS`, then any flank modification's theta).
         mis : Misalignment, optional
         pairs : sequence of int
             Pinion teeth (tooth pairs) to analyse.
