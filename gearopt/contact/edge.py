@@ -334,7 +334,9 @@ class EdgeContact:
     def _line_tca(self) -> TCA:
         if self._line is None:
             t = self.tca
-            self._line = TCA(t.pair, side=t.side, pinion=t.pinion, gear=t.gear, solver=t.solver, contact="line")
+            # the unmodified generated teeth: first guesses come from the conjugate drive (see _sections)
+            self._line = TCA(t.pair, side=t.side, pinion=t.pinion.unmodified, gear=t.gear.unmodified, solver=t.solver,
+                             contact="line")
         return self._line
 
     def sweep(self, phi1, p1=None, p2=None, mis: Misalignment | None = None, pairs=(-1, 0, 1)) -> EdgeTCAResult:
@@ -420,7 +422,8 @@ class EdgeContact:
         none}. Each column is solved by itself (Newton from the linear prediction around phi1 = 0,
         which depends on that angle only)."""
         lt = self._line_tca()
-        flat1, flat2 = np.array(p1, float), np.array(p2, float)
+        n_gen = len(self.teeth[1].unmodified.param_names)  # generation settings only (no modification)
+        flat1, flat2 = np.array(p1[:n_gen], float), np.array(p2[:n_gen], float)
         flat1[1:], flat2[1:] = 0.0, 0.0
         b1 = self.members[1].b
         out = {}

@@ -139,6 +139,11 @@ class GeneratedTooth:
         (flank parameter where the fillet starts, fillet angle range, fillet centre of the tool).
     r_root : float
         Root radius cut by the tool [mm].
+    modifications : tuple of FlankModification
+        Flank modifications composed into the flank Functions (:meth:`with_modification`); every
+        Function then takes the longer ``p`` (:attr:`param_names`).
+    unmodified_functions : dict or None
+        The generated tooth's own Functions (for :attr:`unmodified`); None without modifications.
     """
 
     gear: Gear
@@ -146,18 +151,93 @@ class GeneratedTooth:
     functions: dict = field(repr=False)
     r_root: float
     extras: dict = field(default_factory=dict)
+    modifications: tuple = ()
+    unmodified_functions: dict | None = field(default=None, repr=False)
 
     @property
     def param_names(self) -> tuple[str, ...]:
         """Names of the entries of this member's surface parameter vector ``p``, in order:
         :data:`PARAMS` (the generation settings), then the symbolic parameters of any flank
-        modification. Every consumer (TCA layout, synthesis, edge contact) addresses ``p`` by these."""
-        return PARAMS
+        modification (``"<modification>.<theta>"``, see :meth:`with_modification`). Every consumer
+        (TCA layout, synthesis, edge contact) addresses ``p`` by these."""
+        return PARAMS + tuple(nm for m in self.modifications for nm in m.names)
 
     @property
     def p0(self) -> np.ndarray:
-        """Parameter vector of the gear as built."""
-        return default_params(self.gear)
+        """Parameter vector of the gear as built (the generation settings, then the modifications'
+        theta defaults)."""
+        return np.concatenate([default_params(self.gear)] + [m.defaults for m in self.modifications])
+
+    @property
+    def unmodified(self) -> "GeneratedTooth":
+        """The generated tooth without its flank modifications (``self`` if it has none); its
+        parameter vector is the first ``len(PARAMS)`` entries of ``p``."""
+        if not self.modifications:
+            return self
+        return GeneratedTooth(gear=self.gear, method=self.method, functions=dict(self.unmodified_functions),
+                              r_root=self.r_root, extras=self.extras)
+
+    def with_modification(self, mod) -> "GeneratedTooth":
+        """This tooth with a flank modification composed into its flank Functions (once).
+
+        ``functions["<side>_flank"]`` of each side in ``mod.sides`` becomes ``(u, z, p) ->
+        (r + delta n, n', psi[, phi_h])`` (names of inputs and outputs kept; ``n'`` the unit outward
+        normal of the modified surface, from its AD tangents); ``p`` grows by ``mod``'s theta
+        (:attr:`param_names` ends with ``"<mod.name>.<theta>"``, :attr:`p0` with their defaults).
+        The fillet, the tool families and the junction stay as generated (they take the longer
+        ``p`` and ignore theta): a deviation that does not vanish at the flank/fillet junction leaves
+        a step of ``delta`` there. Modifications stack: each one acts on the surface it is given.
+
+        Parameters
+        ----------
+        mod : gearopt.geometry.modification.FlankModification
+
+        Returns
+        -------
+        GeneratedTooth
+            A new tooth; ``self`` is unchanged. Pass it to ``TCA(pair, pinion=...)`` / ``gear=...``.
+
+        Raises
+        ------
+        ArgumentError
+            If ``mod`` is not a FlankModification or one of its parameter names is already used.
+        GeometryError
+            If the modified flank is not finite (or not regular) at the pitch point of the tooth.
+        """
+        from .modification import FlankModification, compose, extend
+
+        if not isinstance(mod, FlankModification):
+            raise ArgumentError(f"with_modification: mod = {type(mod).__name__} {shorten(repr(mod))}: expected a "
+                                "gearopt.geometry.modification.FlankModification.")
+        clash = sorted(set(mod.names) & set(self.param_names)) or (
+            [mod.name] if any(m.name == mod.name for m in self.modifications) else [])
+        if clash:
+            raise ArgumentError(f"with_modification: modification name {mod.name!r} is already used on "
+                                f"{self.gear.name} ({clash}); give each modification its own name.")
+        n_p, k = len(self.param_names), len(mod.theta)
+        funcs = {}
+        for key, f in self.functions.items():
+            if not isinstance(f, ca.Function):
+                continue  # cached evaluators (flank limits) are rebuilt for the new surfaces
+            side, _, seg = key.partition("_")
+            if seg == "flank" and side in mod.sides:
+                funcs[key] = compose(f, mod, n_p)
+            else:
+                funcs[key] = extend(f, k, f.n_in() - 1)  # p is the last input of every Function
+        base = self.unmodified_functions if self.modifications else {
+            kk: v for kk, v in self.functions.items() if isinstance(v, ca.Function)}
+        tooth = GeneratedTooth(gear=self.gear, method=self.method, functions=funcs, r_root=self.r_root,
+                               extras=self.extras, modifications=self.modifications + (mod,),
+                               unmodified_functions=base)
+        p0 = tooth.p0
+        u_p = float(self.extras.get("q_pitch", 0.0))
+        for side in mod.sides:
+            r, n, _ = tooth.point(side, "flank", u_p, 0.0, p0)
+            if not (np.all(np.isfinite(r)) and np.all(np.isfinite(n)) and abs(np.linalg.norm(n) - 1) < 1e-9):
+                raise GeometryError(f"with_modification: modification {mod.name!r} gives a {side} flank of "
+                                    f"{self.gear.name} without a finite point and unit normal at the pitch point "
+                                    f"(r = {r.tolist()}, n = {n.tolist()}, theta = {mod.defaults.tolist()}).")
+        return tooth
 
     def surface(self, side: str = "right", segment: str = "flank") -> ca.Function:
         """The compiled surface Function ``(q, z, p) -> (r, n, psi)`` of a side and segment."""
@@ -180,7 +260,7 @@ class GeneratedTooth:
     def radius_function(self, side="right") -> ca.Function:
         """Function (u, z, p) -> (transverse radius, d radius / du) on the flank."""
         u, z = ca.SX.sym("u"), ca.SX.sym("z")
-        p = ca.SX.sym("p", len(PARAMS))
+        p = ca.SX.sym("p", len(self.param_names))
         r = self.surface(side, "flank")(u, z, p)[0]
         rad = ca.sqrt(r[0] ** 2 + r[1] ** 2)
         return ca.Function("flank_radius", [u, z, p], [rad, ca.jacobian(rad, u)])
@@ -218,7 +298,7 @@ class GeneratedTooth:
         key = f"{side}_flank_limit_eval"
         if key not in self.functions:
             u, z = ca.SX.sym("u"), ca.SX.sym("z")
-            p = ca.SX.sym("p", len(PARAMS))
+            p = ca.SX.sym("p", len(self.param_names))
             r, n = self.surface(side, "flank")(u, z, p)[:2]
             r_u = ca.jacobian(r, u)
             reg = ca.dot(_cross(r_u, ca.jacobian(r, z)), n)

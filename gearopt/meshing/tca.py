@@ -92,7 +92,7 @@ def check_sweep_args(tca, phi1, p1=None, p2=None, mis=None, pairs=(-1, 0, 1), de
                      z_section=0.0):
     """Validate and normalise the arguments of :meth:`TCA.sweep` / ``EdgeContact.sweep``.
 
-    Returns ``(phi1 (N,), p1 (4,), p2 (4,), mis, pairs)``; raises :class:`~gearopt.errors.ArgumentError`
+    Returns ``(phi1 (N,), p1, p2, mis, pairs)`` (p1, p2: one entry per ``param_names`` of each member); raises :class:`~gearopt.errors.ArgumentError`
     (wrong type, shape, empty, non-finite) or :class:`~gearopt.errors.GeometryError` (a misalignment
     that jams or separates the teeth, faces that do not overlap, a section off the face), naming
     the argument and its valid range.
@@ -124,17 +124,19 @@ def check_sweep_args(tca, phi1, p1=None, p2=None, mis=None, pairs=(-1, 0, 1), de
         if p is None:
             vecs.append(np.asarray(tooth.p0, float))
             continue
+        names = tooth.param_names  # PARAMS, then the theta of any flank modification
         try:
             v = np.asarray(p, dtype=float)
         except (TypeError, ValueError):
-            raise ArgumentError(f"{name} = {_describe(p)}: expected {len(PARAMS)} numbers {PARAMS}.",
-                                param=name, value=p, valid=f"{len(PARAMS)} numbers {PARAMS}") from None
-        if v.shape != (len(PARAMS),):
-            raise ArgumentError(f"{name}: expected a vector of {len(PARAMS)} numbers {PARAMS} (x, a_c [1/mm], u_0 [mm], "
-                                f"a_pl [1/mm]), got shape {v.shape}.",
-                                param=name, valid=f"a vector of {len(PARAMS)} numbers {PARAMS}")
+            raise ArgumentError(f"{name} = {_describe(p)}: expected {len(names)} numbers {names}.",
+                                param=name, value=p, valid=f"{len(names)} numbers {names}") from None
+        if v.shape != (len(names),):
+            raise ArgumentError(f"{name}: expected a vector of {len(names)} numbers {names} (x, a_c [1/mm], u_0 [mm], "
+                                f"a_pl [1/mm], then any modification parameters), got shape {v.shape}.",
+                                param=name, valid=f"a vector of {len(names)} numbers {names}")
         if not np.all(np.isfinite(v)):
-            raise ArgumentError(f"{name} = {v.tolist()}: every entry of {PARAMS} must be finite.",
+            bad = [n_ for n_, x_ in zip(names, v) if not math.isfinite(x_)]
+            raise ArgumentError(f"{name} = {v.tolist()}: every entry of {names} must be finite ({bad} are not).",
                                 param=name, value=v.tolist(), valid="finite entries")
         vecs.append(v)
     if mis is None:
@@ -418,11 +420,11 @@ class TCA:
         pair, side = self.pair, self.side
         g1, g2 = pair.pinion, pair.gear
         sgn = 1.0 if side == "right" else -1.0  # the left flank drives the other way round
-        np_ = len(PARAMS)
         line = self.contact_type == "line"
         w = ca.SX.sym("w", 4 if line else 5)
         phi1 = ca.SX.sym("phi1")
-        p1, p2 = ca.SX.sym("p1", np_), ca.SX.sym("p2", np_)
+        # each member's own parameter count (PARAMS plus any flank modification's theta)
+        p1, p2 = ca.SX.sym("p1", len(self.pinion.param_names)), ca.SX.sym("p2", len(self.gear.param_names))
         mis = ca.SX.sym("mis", len(MISALIGNMENTS))
         zsec = ca.SX.sym("z_section")  # line contact: the pinion section where contact is sought
         self.scale2 = g2.r_p  # phi2 is carried as r_p2 * phi2 [mm]
@@ -641,7 +643,8 @@ class TCA:
             rad = float(np.hypot(*np.asarray(k[r]).ravel()[:2]))
             if reg > REGULARITY_MIN:
                 continue
-            p = prm[1:5] if member == 1 else prm[5:9]
+            n1_, n2_ = len(self.pinion.param_names), len(self.gear.param_names)
+            p = prm[1:1 + n1_] if member == 1 else prm[1 + n1_:1 + n1_ + n2_]
             lim = self.flank_limit(member, 0.0, p)
             fold = (f"its flank folds at radius {lim.radius_fold:.6g} mm" if lim.folded else
                     f"its flank is regular down to the tool junction, radius {lim.radius:.6g} mm")
@@ -666,8 +669,9 @@ class TCA:
         ----------
         phi1 : array_like (N,)
             Pinion angles [rad] (0: pinion tooth 0 centred on the line of centres).
-        p1, p2 : array_like (4,), optional
-            Surface parameter vectors (:data:`gearopt.geometry.generation.PARAMS`) of pinion and gear.
+        p1, p2 : array_like, optional
+            Surface parameter vectors of pinion and gear, one entry per ``tooth.param_names``
+            (:data:`gearopt.geometry.generation.PARAMS`, then any flank modification's theta).
         mis : Misalignment, optional
         pairs : sequence of int
             Pinion teeth (tooth pairs) to analyse.
