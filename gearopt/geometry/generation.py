@@ -36,6 +36,7 @@ import numpy as np
 
 from ..errors import ArgumentError, ConvergenceError, GeometryError, out_of_range, shorten
 from ..gears import BasicRack, Gear
+from .frames import rot_z
 from .involute import inv, inv_inverse
 
 #: Names of the entries of the surface parameter vector p, in order.
@@ -58,10 +59,7 @@ def _unit(v):
     return v / ca.norm_2(v)
 
 
-def _rot_z(angle, v):
-    """Rotate vector ``v`` (3,) by ``angle`` about z."""
-    c, s = ca.cos(angle), ca.sin(angle)
-    return ca.vertcat(c * v[0] - s * v[1], s * v[0] + c * v[1], v[2])
+_rot_z = rot_z  # (kept importable under its old name)
 
 
 # ---------------------------------------------------------------------------------------------
