@@ -123,6 +123,28 @@ class EdgeTCAResult(EnvelopeTE):
         return bool(np.any(self.active[self.active >= 0] > 0))
 
 
+@dataclass
+class _EdgeSolved:
+    """What :meth:`EdgeContact.sweep` solved, handed to ``_combine`` by name: positions ``phi1`` (N,),
+    ``pairs``, branch ``names`` (B,), full unknowns ``Q`` (B, 5, K N), flags ``conv`` and wedge
+    coefficients ``cone`` (B, K N), the parameter matrix ``prm`` (rows: ``tca.layout``), the case
+    ``mis``, the surface result ``surf`` (or None), ``stats``, the start time ``t0`` and ``p1``, ``p2``."""
+
+    phi1: np.ndarray
+    pairs: tuple
+    names: tuple
+    Q: np.ndarray
+    conv: np.ndarray
+    cone: np.ndarray
+    prm: np.ndarray
+    mis: Misalignment
+    surf: TCAResult | None
+    stats: dict
+    t0: float
+    p1: np.ndarray
+    p2: np.ndarray
+
+
 class EdgeContact:
     """Surface-to-surface and edge contact of a drive (build once, sweep many).
 
@@ -362,7 +384,8 @@ class EdgeContact:
             Wb, okb, cnb = W[:, cols], ok[cols], cn[cols]
             Q[b], conv[b], cone[b] = Wb[:, inv_idx], okb[inv_idx], cnb[inv_idx]
             stats[name] = {"n_starts": int(W0.shape[1]), "n_accepted": int(ok.sum()), "n_positions": int(okb.sum())}
-        return self._combine(phi1, pairs, names, Q, conv, cone, prm, mis, surf, stats, t0, p1, p2)
+        return self._combine(_EdgeSolved(phi1=phi1, pairs=pairs, names=names, Q=Q, conv=conv, cone=cone, prm=prm,
+                                         mis=mis, surf=surf, stats=stats, t0=t0, p1=p1, p2=p2))
 
     # ------------------------------------------------------------------------------------------
     _SECTIONS = (-0.5, -0.25, 0.0, 0.25, 0.5)  #: pinion sections of the first guesses [b1]
@@ -503,7 +526,9 @@ class EdgeContact:
             reach = (te_raw < self._coast_clearance(p1, mis)) & (-te_raw < math.pi / g2.z)
         return in1 & in2 & reach
 
-    def _combine(self, phi1, pairs, names, Q, conv, cone, prm, mis, surf, stats, t0, p1, p2):
+    def _combine(self, sv: "_EdgeSolved"):
+        phi1, pairs, names, Q, conv, cone, prm = sv.phi1, sv.pairs, sv.names, sv.Q, sv.conv, sv.cone, sv.prm
+        mis, surf, stats, t0, p1, p2 = sv.mis, sv.surf, sv.stats, sv.t0, sv.p1, sv.p2
         tca = self.tca
         g1, g2 = self.members[1], self.members[2]
         K, N = len(pairs), phi1.size

@@ -451,7 +451,7 @@ def _from_scene(scene) -> TCAStudy:
             # surfaces then cross in every section (Litvin 9.6); the line TCA has no solution
             rows = [("tca", o)] if cases is None else [(f"tca.cases][{i}", c) for i, c in enumerate(o["cases"])]
             for sec, row in rows:
-                for key in ("crossing", "intersecting"):
+                for key in Misalignment.names("angle"):
                     if row.get(key):
                         raise scene.key_error(sec, key, "is not allowed with contact = \"line\"; valid: 0 (line "
                                               "contact needs aligned axes: crossed or intersecting axes give point "

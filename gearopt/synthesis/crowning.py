@@ -231,7 +231,8 @@ class CrowningOptimizer:
         A = self.target.te_level / (math.pi / g1.z) ** 2
         tan_a = math.tan(p.alpha_wt)
         a_c = g1.rack.a_c or A * g2.r_b / (tan_a**2 * g1.r_b**2)  # parabolic-rack TE law (tests/test_tca.py)
-        gam = max([abs(m.crossing) + abs(m.intersecting) for m in self.cases.values()] + [1 * ARCMIN])
+        gam = max([sum(abs(getattr(m, k)) for k in Misalignment.names("angle")) for m in self.cases.values()]
+                  + [1 * ARCMIN])
         a_pl = g1.a_pl or 2 * gam / (g1.b * tan_a)  # path shift gamma/(2 a_pl tan a) = b/4
         lo_c, hi_c = self.bounds["a_c"]
         lo_p, hi_p = self.bounds["a_pl"]
