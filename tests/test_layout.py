@@ -55,7 +55,8 @@ def test_names_round_trip_and_cover_every_row_once():
     sym = lay.symbols(ca.SX)
     prm = lay.build(sym)
     f = ca.Function("f", list(sym.values()), [prm])
-    num = {"phi1": 0.3, "pinion": np.arange(4.0), "gear": 10 + np.arange(4.0), "mis": 20 + np.arange(float(len(Misalignment.names()))),
+    n = float(len(PARAMS))
+    num = {"phi1": 0.3, "pinion": np.arange(n), "gear": 10 + np.arange(n), "mis": 20 + np.arange(float(len(Misalignment.names()))),
            "z_section": 7.0}
     col = np.asarray(f(*num.values())).ravel()
     for g in ("pinion", "gear", "mis"):
