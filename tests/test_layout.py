@@ -70,11 +70,12 @@ def test_names_round_trip_and_cover_every_row_once():
 
 def test_layout_does_not_assume_four_surface_parameters():
     """Flank-modification parameters appended to a member's names shift everything after them."""
+    n = len(PARAMS)
     lay = ParamLayout(PARAMS + ("theta0", "theta1"), PARAMS)
-    assert lay.slice("pinion") == slice(1, 7) and lay.index("pinion.theta1") == 6
-    assert lay.index("gear.x") == 7 and lay.index("mis.dE") == 7 + len(PARAMS)
-    assert lay.size == 1 + 6 + len(PARAMS) + len(Misalignment.names()) + 1
-    assert lay.p_index("pinion", "theta0") == 4 and lay.p_index("gear", "a_pl") == 3
+    assert lay.slice("pinion") == slice(1, n + 3) and lay.index("pinion.theta1") == n + 2
+    assert lay.index("gear.x") == n + 3 and lay.index("mis.dE") == 2 * n + 3
+    assert lay.size == 1 + (n + 2) + n + len(Misalignment.names()) + 1
+    assert lay.p_index("pinion", "theta0") == n and lay.p_index("gear", "a_pl") == 3
 
 
 def test_tca_layout_equals_the_old_positional_layout(tca):
