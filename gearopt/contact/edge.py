@@ -283,7 +283,7 @@ class EdgeContact:
         lim0 = tca.flank_limit(member, 0.0)
         if lim0.kind != "intersection" or not lim0.kink > 0:
             return None
-        s_grid, u_grid = tca._limit_table(member, None)
+        s_grid, u_grid = tca.limit_table(member)
         kinds = [tca.flank_limit(member, math.sqrt(v)).kind for v in s_grid]
         if any(k != "intersection" for k in kinds):
             return None
@@ -413,7 +413,7 @@ class EdgeContact:
             W0 = lt.branch.predict(w_a, lt.prm([0.0], flat1, flat2, Misalignment(), zs)[:, 0], uphi)
             W, res, _, _ = (np.asarray(v) for v in lt.branch.mapped(uphi.size)(W0, prm_l))
             res = res.ravel()
-            Wf = np.asarray(lt._full.map(uphi.size)(W, np.full((1, uphi.size), zs)))
+            Wf = np.asarray(lt.w_full.map(uphi.size)(W, np.full((1, uphi.size), zs)))
             Wf[:, ~(np.isfinite(res) & (res <= 1e-8))] = np.nan
             out[s] = Wf
         return out

@@ -73,7 +73,7 @@ class Branch:
     jit : bool
     """
 
-    def __init__(self, name, G, checks, accept, tol, solver="fast_newton", jit=False):
+    def __init__(self, name, G, checks, accept, tol, solver=SolverSettings.solver, jit=SolverSettings.jit):
         self.name, self.G, self.checks, self.accept, self.tol = name, G, checks, accept, tol
         self.solver, self.jit = solver, jit
         nw, npr = G.size1_in(0), G.size1_in(1)

@@ -299,7 +299,8 @@ class TCA:
         else:
             u1, z1, u2, z2, phi2 = w[0], w[1], w[2], w[3], w[4] / self.scale2
         self._nw = w.numel()
-        self._full = ca.Function("w_full", [w, zsec], [ca.vertcat(u1, z1, u2, z2, phi2 * self.scale2)])
+        #: (w, z_section) -> the full unknowns (u1, z1, u2, z2, r_p2 phi2) [mm] (line contact: z1 = z_section)
+        self.w_full = self._full = ca.Function("w_full", [w, zsec], [ca.vertcat(u1, z1, u2, z2, phi2 * self.scale2)])
         # Reference positions: at phi1 = phi2 = 0 the driving flanks of pinion tooth 0 and of the
         # gear cross their operating pitch circles on the line of centres (the pitch point I).
         r_w1 = pair.r_w1
@@ -694,7 +695,7 @@ class TCA:
             self._limits[key] = tooth.flank_limit(self.side, float(z), p)
         return self._limits[key]
 
-    def _limit_table(self, member: int, p):
+    def limit_table(self, member: int, p=None):
         """(z^2 grid, u_limit on it): the flank limit depends on z only through the plunging a_pl z^2
         (a shift of the tool in that section), so it is tabulated in z^2 across the face."""
         tooth = self.pinion if member == 1 else self.gear
@@ -706,6 +707,8 @@ class TCA:
             s = np.array([0.0]) if a_pl == 0 else (b / 2) ** 2 * np.linspace(0.0, 1.0, 9)
             self._limits[key] = (s, np.array([self.flank_limit(member, math.sqrt(v), p).u for v in s]))
         return self._limits[key]
+
+    _limit_table = limit_table  # (old private name)
 
     def on_flank(self, member: int, u, z, p=None, band: float = 1e-3) -> np.ndarray:
         """True where the flank point (u, z) [mm] of member 1 or 2 lies on the real generated flank
