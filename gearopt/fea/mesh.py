@@ -145,7 +145,7 @@ class ToothMesher:
     tooth : GeneratedTooth
         Surfaces of the member.
     options : MeshOptions
-    p : array (4,), optional
+    p : array (len(tooth.param_names),), optional
         Surface parameter vector (default: the gear as built).
     """
 

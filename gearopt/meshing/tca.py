@@ -528,8 +528,10 @@ class TCA:
         ----------
         phi1 : array_like (N,)
             Pinion angles [rad] (0: pinion tooth 0 centred on the line of centres).
-        p1, p2 : array_like (4,), optional
-            Surface parameter vectors (:data:`gearopt.geometry.generation.PARAMS`) of pinion and gear.
+        p1, p2 : array_like, optional
+            Surface parameter vectors of pinion and gear, one entry per ``GeneratedTooth.param_names``
+            (:data:`gearopt.geometry.generation.PARAMS`, then any flank-modification parameters;
+            rows named in ``self.layout``).
         mis : Misalignment, optional
         pairs : sequence of int
             Pinion teeth (tooth pairs) to analyse.
