@@ -768,9 +768,20 @@ class GearPair:
         """Working transverse pressure angle [rad]: ``cos alpha_wt = (r_b1 + r_b2) / a``."""
         return math.acos((self.pinion.r_b + self.gear.r_b) / self.a_w)
 
+    @property
+    def r_w1(self) -> float:
+        """Operating pitch radius of the pinion [mm]: ``a_w z1 / (z1 + z2)`` (the pitch point I
+        divides the centre distance in the ratio of the tooth numbers)."""
+        return self.a_w * self.pinion.z / (self.pinion.z + self.gear.z)
+
+    @property
+    def r_w2(self) -> float:
+        """Operating pitch radius of the gear [mm]: ``a_w z2 / (z1 + z2)``."""
+        return self.a_w * self.gear.z / (self.pinion.z + self.gear.z)
+
     def _backlash(self, s_t1: float, s_t2: float) -> float:
         p, g = self.pinion, self.gear
-        r_w1 = self.a_w * p.z / (p.z + g.z)
+        r_w1 = self.r_w1
         r_w2 = self.a_w - r_w1
         s1 = float(tooth_thickness(r_w1, p.r_p, s_t1, p.alpha_t))
         s2 = float(tooth_thickness(r_w2, g.r_p, s_t2, g.alpha_t))

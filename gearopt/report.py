@@ -52,8 +52,7 @@ def te_harmonics(phi1: np.ndarray, te: np.ndarray, z1: int, n: int = 5) -> list[
 def misalignment_dict(mis) -> dict:
     """A :class:`~gearopt.meshing.tca.Misalignment` as results.json gives it: ``dE_mm``,
     ``crossing_arcmin``, ``intersecting_arcmin``, ``axial_mm``."""
-    return {"dE_mm": mis.dE, "crossing_arcmin": mis.crossing / ARCMIN,
-            "intersecting_arcmin": mis.intersecting / ARCMIN, "axial_mm": mis.axial}
+    return mis.to_results()  # every kind by name and unit: <kind>_mm or <kind>_arcmin
 
 
 def pair_numbers(driving, pairs) -> list:

@@ -57,7 +57,7 @@ def test_form_radius_is_where_the_cut_tooth_flank_ends(g, kind):
     # The TCA's on-flank check uses the same end of the flank (mid section).
     pair = GearPair(g, _gear(41, g.m_n, beta=g.beta, hand="left" if g.hand == "right" else "right", name="gear"))
     t = TCA(pair)
-    assert lo - tol <= t._form_radius(t.pinion) <= hi + tol
+    assert lo - tol <= t.form_radius(1) <= hi + tol
 
 
 def test_largest_unfolded_profile_crowning():

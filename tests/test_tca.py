@@ -60,15 +60,12 @@ import pytest
 
 from gearopt.errors import ConvergenceError
 from gearopt.gears import BasicRack, Gear, GearPair
-from gearopt.geometry.generation import PARAMS
 from gearopt.meshing.tca import TCA, Misalignment
 from conftest import Rx, Ry, Rz  # noqa: E402  (the tests' own rotation matrices)
 
 DEG = math.pi / 180
 ARCMIN = DEG / 60
 SGN = {"right": 1.0, "left": -1.0}
-I_AC = 1 + PARAMS.index("a_c")  # index of the pinion's a_c in prm = [phi1, p1, p2, mis, z_section]
-I_CROSS = 1 + 2 * len(PARAMS) + 1  # index of the crossing angle in prm
 
 
 # ------------------------------------------------------------------------------------------------
@@ -421,8 +418,8 @@ def test_te_sensitivities_implicit_function_vs_sweeps():
     tca = TCA(pair)
     phi = np.array([-0.15, 0.0, 0.12])
     r = tca.sweep(phi, pairs=(0,))
-    W, P = ca.SX.sym("w", 5), ca.SX.sym("p", tca.residual.size1_in(1))
-    F = tca.residual(W, P)
+    W, P = ca.SX.sym("w", 5), ca.SX.sym("p", tca.layout.size)
+    F = tca.residual(w=W, prm=P)["F"]
     dwdp = ca.Function("dwdp", [W, P], [-ca.solve(ca.jacobian(F, W), ca.jacobian(F, P))])
     sens = []
     for i in range(phi.size):
@@ -431,13 +428,14 @@ def test_te_sensitivities_implicit_function_vs_sweeps():
         sens.append(np.asarray(dwdp(w, prm))[4] / pair.gear.r_p)  # d phi2 / d prm
     sens = np.array(sens)
     k0 = 1  # phi1 = 0: TE = phi2 - ratio phi1 - phi2(0)
-    for idx, h, kw in ((I_AC, 1e-5, "p1"), (I_CROSS, 1e-6, "mis")):
+    for name, h in (("pinion.a_c", 1e-5), ("mis.crossing", 1e-6)):
+        idx = tca.layout.index(name)
         dte = sens[:, idx] - sens[k0, idx]
         fd = []
         for sgn in (1, -1):
-            if kw == "p1":
+            if name == "pinion.a_c":
                 p1 = tca.pinion.p0.copy()
-                p1[idx - 1] += sgn * h
+                p1[tca.layout.p_index("pinion", "a_c")] += sgn * h
                 fd.append(tca.sweep(phi, p1=p1, pairs=(0,)).te[0])
             else:
                 fd.append(tca.sweep(phi, mis=Misalignment(crossing=sgn * h), pairs=(0,)).te[0])
@@ -451,10 +449,10 @@ def test_te_sensitivities_implicit_function_vs_sweeps():
     d = []
     for i in range(3):
         w = np.array([rs.u1[0, i], rs.z1[0, i], rs.u2[0, i], rs.z2[0, i], rs.phi2[0, i] * sp.gear.r_p])
-        W, P = ca.SX.sym("w", 5), ca.SX.sym("p", ts.residual.size1_in(1))
-        F = ts.residual(W, P)
+        W, P = ca.SX.sym("w", 5), ca.SX.sym("p", ts.layout.size)
+        F = ts.residual(w=W, prm=P)["F"]
         f = ca.Function("s", [W, P], [-ca.solve(ca.jacobian(F, W), ca.jacobian(F, P))])
-        d.append(np.asarray(f(w, ts.prm([rs.phi1[i]])[:, 0]))[4, I_AC] / sp.gear.r_p)
+        d.append(np.asarray(f(w, ts.prm([rs.phi1[i]])[:, 0]))[4, ts.layout.index("pinion.a_c")] / sp.gear.r_p)
     # d/da_c of -a_c k/(1 + 2 a_c/K) phi^2 at a_c: coef'(a_c) = coef/a_c/(1 + 2 a_c/K)
     K = (1 / sp.pinion.r_b + 1 / sp.gear.r_b) / math.tan(sp.alpha_wt)
     expected = parabola_coefficient(sp, 0.005) / 0.005 / (1 + 2 * 0.005 / K) * 0.1**2
@@ -485,7 +483,7 @@ def test_false_root_same_normals_is_refused():
             tca.solve_point(0.0, w0=w0)
     # the proper root at the same position is found from the default first guess
     good = tca.solve_point(0.0)
-    assert float(tca.contact(good, prm)[4]) == pytest.approx(-1.0, abs=1e-12)
+    assert float(tca.contact(w=good, prm=prm)["n1n2"]) == pytest.approx(-1.0, abs=1e-12)
 
 
 def test_false_root_at_base_circle_cusp_is_refused():
@@ -504,7 +502,7 @@ def test_false_root_at_base_circle_cusp_is_refused():
     assert w[2] == pytest.approx(u_star, abs=1e-6)
     _, _, _, _, J2 = surface_geometry(tca.gear.surface("right"), w[2], w[3], tca.gear.p0)
     assert np.linalg.norm(J2[:, 0]) < 1e-9  # singular point of the gear flank
-    n1n2 = float(tca.contact(w, prm)[4])
+    n1n2 = float(tca.contact(w=w, prm=prm)["n1n2"])
     assert -0.9 < n1n2 < -0.5  # not a contact, yet below the guard's threshold
     with pytest.raises(ConvergenceError):
         tca.solve_point(phi1, w0=w)

@@ -23,7 +23,7 @@ def test_line_mode_on_profile_crowned_helical_pair_says_use_point_contact():
     # The same drive in point contact solves, with opposite normals.
     t = TCA(_helical(0.002))
     w = t.solve_point(0.0)
-    assert float(t.contact(w, t.prm([0.0])[:, 0])[4]) == pytest.approx(-1.0, abs=1e-12)
+    assert float(t.contact(w=w, prm=t.prm([0.0])[:, 0])["n1n2"]) == pytest.approx(-1.0, abs=1e-12)
 
 
 def test_line_mode_on_conjugate_helical_pair_is_accepted():

@@ -4,7 +4,7 @@ The boundaries of the active flank of each member are curves on its surface ``g(
 
 * ``tip``: the addendum edge, transverse radius = r_a (``g = (x^2 + y^2 - r_a^2) / (2 r_a)``);
 * ``face+`` / ``face-``: the face ends z = +-b/2;
-* ``limit``: the end of the active flank (``TCA.on_active_flank``, the flank limit of each section):
+* ``limit``: the end of the active flank (``TCA.on_flank``, the flank limit of each section):
   at the tool's flank/fillet junction a concave transition, not a convex edge; but where the tool
   cut a folded flank off (``FlankLimit.kind == "intersection"``) a convex ridge, analysed as the
   edges ``pinion_limit`` / ``gear_limit`` (:data:`LIMIT_EDGES`);
@@ -171,6 +171,28 @@ class EdgeTCAResult(EnvelopeTE):
         }
 
 
+@dataclass
+class _EdgeSolved:
+    """What :meth:`EdgeContact.sweep` solved, handed to ``_combine`` by name: positions ``phi1`` (N,),
+    ``pairs``, branch ``names`` (B,), full unknowns ``Q`` (B, 5, K N), flags ``conv`` and wedge
+    coefficients ``cone`` (B, K N), the parameter matrix ``prm`` (rows: ``tca.layout``), the case
+    ``mis``, the surface result ``surf`` (or None), ``stats``, the start time ``t0`` and ``p1``, ``p2``."""
+
+    phi1: np.ndarray
+    pairs: tuple
+    names: tuple
+    Q: np.ndarray
+    conv: np.ndarray
+    cone: np.ndarray
+    prm: np.ndarray
+    mis: Misalignment
+    surf: TCAResult | None
+    stats: dict
+    t0: float
+    p1: np.ndarray
+    p2: np.ndarray
+
+
 class EdgeContact:
     """Surface-to-surface and edge contact of a drive (build once, sweep many).
 
@@ -204,10 +226,10 @@ class EdgeContact:
                 if U is not None:
                     self._limit_u[member] = U
                     self.edges += (name,)
-        self.r_form = {1: tca._form_radius(tca.pinion), 2: tca._form_radius(tca.gear)}
+        self.r_form = {1: tca.form_radius(1), 2: tca.form_radius(2)}
         q = ca.SX.sym("q", 5)
-        prm = ca.SX.sym("prm", tca._nprm)
-        k = dict(zip(tca.kinematics.name_out(), tca.kinematics(q, prm)))
+        prm = ca.SX.sym("prm", tca.layout.size)  # the whole column (named rows: tca.layout)
+        k = tca.kinematics(q=q, prm=prm)
         reg = ca.fmin(tca.orient1 * ca.dot(ca.cross(k["t1u"], k["t1z"]), k["nf1"]),
                       tca.orient2 * ca.dot(ca.cross(k["t2u"], k["t2z"]), k["nf2"]))  # signed, see TCA
         ez1 = ca.DM([0.0, 0.0, 1.0])
@@ -310,7 +332,7 @@ class EdgeContact:
         lim0 = tca.flank_limit(member, 0.0)
         if lim0.kind != "intersection" or not lim0.kink > 0:
             return None
-        s_grid, u_grid = tca._limit_table(member, None)
+        s_grid, u_grid = tca.limit_table(member)
         kinds = [tca.flank_limit(member, math.sqrt(v)).kind for v in s_grid]
         if any(k != "intersection" for k in kinds):
             return None
@@ -411,7 +433,8 @@ class EdgeContact:
             Wb, okb, cnb = W[:, cols], ok[cols], cn[cols]
             Q[b], conv[b], cone[b] = Wb[:, inv_idx], okb[inv_idx], cnb[inv_idx]
             stats[name] = {"n_starts": int(W0.shape[1]), "n_accepted": int(ok.sum()), "n_positions": int(okb.sum())}
-        return self._combine(phi1, pairs, names, Q, conv, cone, prm, mis, surf, stats, t0, p1, p2)
+        return self._combine(_EdgeSolved(phi1=phi1, pairs=pairs, names=names, Q=Q, conv=conv, cone=cone, prm=prm,
+                                         mis=mis, surf=surf, stats=stats, t0=t0, p1=p1, p2=p2))
 
     # ------------------------------------------------------------------------------------------
     _SECTIONS = (-0.5, -0.25, 0.0, 0.25, 0.5)  #: pinion sections of the first guesses [b1]
@@ -422,9 +445,12 @@ class EdgeContact:
         none}. Each column is solved by itself (Newton from the linear prediction around phi1 = 0,
         which depends on that angle only)."""
         lt = self._line_tca()
-        n_gen = len(self.teeth[1].unmodified.param_names)  # generation settings only (no modification)
-        flat1, flat2 = np.array(p1[:n_gen], float), np.array(p2[:n_gen], float)
-        flat1[1:], flat2[1:] = 0.0, 0.0
+        # the unmodified teeth: the same tool shift x, no crowning, no flank modification
+        lay = self.tca.layout
+        n1, n2 = (len(self.teeth[m].unmodified.param_names) for m in (1, 2))  # generation settings only
+        flat1, flat2 = np.zeros(n1), np.zeros(n2)
+        flat1[lay.p_index("pinion", "x")] = p1[lay.p_index("pinion", "x")]
+        flat2[lay.p_index("gear", "x")] = p2[lay.p_index("gear", "x")]
         b1 = self.members[1].b
         out = {}
         for s in self._SECTIONS:
@@ -437,7 +463,7 @@ class EdgeContact:
             W0 = lt.branch.predict(w_a, lt.prm([0.0], flat1, flat2, Misalignment(), zs)[:, 0], uphi)
             W, res, _, _ = (np.asarray(v) for v in lt.branch.mapped(uphi.size)(W0, prm_l))
             res = res.ravel()
-            Wf = np.asarray(lt._full.map(uphi.size)(W, np.full((1, uphi.size), zs)))
+            Wf = np.asarray(lt.w_full.map(uphi.size)(W, np.full((1, uphi.size), zs)))
             Wf[:, ~(np.isfinite(res) & (res <= 1e-8))] = np.nan
             out[s] = Wf
         return out
@@ -543,14 +569,16 @@ class EdgeContact:
         eps = 1e-9
         rad1, rad2 = self._radius(1, W, p1), self._radius(2, W, p2)
         with np.errstate(invalid="ignore"):
-            # Form limit: the true end of each generated flank in the point's section (TCA.on_active_flank).
-            in1 = (np.abs(W[1]) <= g1.b / 2 + eps) & self.tca.on_active_flank(1, W[0], W[1], p1) & (rad1 <= g1.r_a + eps)
-            in2 = (np.abs(W[3]) <= g2.b / 2 + eps) & self.tca.on_active_flank(2, W[2], W[3], p2) & (rad2 <= g2.r_a + eps)
+            # Form limit: the true end of each generated flank in the point's section (TCA.on_flank).
+            in1 = (np.abs(W[1]) <= g1.b / 2 + eps) & self.tca.on_flank(1, W[0], W[1], p1) & (rad1 <= g1.r_a + eps)
+            in2 = (np.abs(W[3]) <= g2.b / 2 + eps) & self.tca.on_flank(2, W[2], W[3], p2) & (rad2 <= g2.r_a + eps)
             te_raw = W[4] / self.tca.scale2 - (g1.z / g2.z) * np.asarray(phis)
             reach = (te_raw < self._coast_clearance(p1, mis)) & (-te_raw < math.pi / g2.z)
         return in1 & in2 & reach
 
-    def _combine(self, phi1, pairs, names, Q, conv, cone, prm, mis, surf, stats, t0, p1, p2):
+    def _combine(self, sv: "_EdgeSolved"):
+        phi1, pairs, names, Q, conv, cone, prm = sv.phi1, sv.pairs, sv.names, sv.Q, sv.conv, sv.cone, sv.prm
+        mis, surf, stats, t0, p1, p2 = sv.mis, sv.surf, sv.stats, sv.t0, sv.p1, sv.p2
         tca = self.tca
         g1, g2 = self.members[1], self.members[2]
         K, N = len(pairs), phi1.size
@@ -558,7 +586,7 @@ class EdgeContact:
         rad1 = np.stack([self._radius(1, Q[b], p1) for b in range(B)])
         rad2 = np.stack([self._radius(2, Q[b], p2) for b in range(B)])
         z1, z2 = Q[:, 1, :], Q[:, 3, :]
-        phis = prm[0]
+        phis = prm[tca.layout.index("phi1")]
         valid = conv & np.stack([self._inside(Q[b], phis, p1, p2, mis) for b in range(B)])
         shift2 = np.concatenate([np.full(N, 2 * math.pi * k / g2.z) for k in pairs])
         phi2 = Q[:, 4, :] / tca.scale2 + shift2[None, :]
@@ -617,23 +645,21 @@ class EdgeContact:
         clearance), plus the rigid displacement of the gear by the misalignment."""
         pair, tca = self.tca.pair, self.tca
         g1 = pair.pinion
-        a_w = pair.a_w
-        r_w2 = a_w * pair.gear.z / (pair.pinion.z + pair.gear.z)
+        r_w2 = pair.r_w2
+        a_pl, a_c, u_0 = (p1[tca.layout.p_index("pinion", k)] for k in ("a_pl", "a_c", "u_0"))
         u_f, _ = tca.pinion.junction(p1)
         u_tip = tca.pinion.u_at_radius(g1.r_a, 0.0, tca.side, p1)
-        u_span = max(abs(u_tip - p1[2]), abs(u_f - p1[2]))
-        thin = 2 * (p1[3] * (g1.b / 2) ** 2 * math.tan(pair.alpha_wt) + p1[1] * u_span**2)
-        opened = 2 * abs(mis.dE) * math.tan(pair.alpha_wt) + max(g1.b, pair.gear.b) * (
-            abs(mis.crossing) + abs(mis.intersecting))
+        u_span = max(abs(u_tip - u_0), abs(u_f - u_0))
+        thin = 2 * (a_pl * (g1.b / 2) ** 2 * math.tan(pair.alpha_wt) + a_c * u_span**2)
+        opened = mis.backlash_opening(pair)
         # The misalignment also moves the gear rigidly against the conjugate position: a point P of
-        # its flank moves by at most |dE| + |axial| + (|crossing| + |intersecting|) |P - O2| (the
-        # angles turn the gear about its centre: for a helical gear that is an axial shift of the
-        # mesh, i.e. a rotation), which the gear's rotation takes up along the normal, on the
-        # lever r_b2 cos(beta_b) at least.
+        # its flank moves by at most the sum of the displacements plus the angles times |P - O2|
+        # (Misalignment.rigid_displacement; the angles turn the gear about its centre: for a helical
+        # gear that is an axial shift of the mesh, i.e. a rotation), which the gear's rotation takes
+        # up along the normal, on the lever r_b2 cos(beta_b) at least.
         g2 = pair.gear
         lever = math.hypot(g2.r_a, g2.b / 2)
-        moved = (abs(mis.dE) + abs(mis.axial) + (abs(mis.crossing) + abs(mis.intersecting)) * lever) / (
-            g2.r_b * math.cos(g2.beta_b))
+        moved = mis.rigid_displacement(lever) / (g2.r_b * math.cos(g2.beta_b))
         return (max(pair.backlash, 0.0) + thin + opened) / r_w2 + moved + 1e-9
 
     @staticmethod

@@ -34,6 +34,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import GeometryError, option_error, out_of_range  # noqa: F401
+from ..geometry.frames import rot_z_points
 from ..geometry.generation import GeneratedTooth
 
 #: C3D8 faces (ccx / Abaqus numbering S1..S6) as node positions 0..7 of the element.
@@ -144,7 +145,7 @@ class ToothMesher:
     tooth : GeneratedTooth
         Surfaces of the member.
     options : MeshOptions
-    p : array (4,), optional
+    p : array (len(tooth.param_names),), optional
         Surface parameter vector (default: the gear as built).
     """
 
@@ -264,12 +265,7 @@ class ToothMesher:
         return ToothSection(xyz=xyz, q=q, segments=segments, n_half=nh)
 
 
-def _rotz(P, a):
-    c, s = math.cos(a), math.sin(a)
-    out = P.copy()
-    out[..., 0] = c * P[..., 0] - s * P[..., 1]
-    out[..., 1] = s * P[..., 0] + c * P[..., 1]
-    return out
+_rotz = rot_z_points  # points (..., 3) about z (gearopt.geometry.frames)
 
 
 @dataclass
@@ -335,7 +331,7 @@ def build_member(mesher: ToothMesher, tooth_ids, contact_u: dict, name: str, col
     for t in teeth:
         t["nodes"] = inv[t["nodes"]]
     # orientation: positive Jacobian at the element centre
-    vol = _hex_volume_sign(P, E)
+    vol = hex_volume_sign(P, E)
     if np.any(vol <= 0):
         if np.all(vol < 0):
             E = E[:, [3, 2, 1, 0, 7, 6, 5, 4]]
@@ -352,13 +348,16 @@ def build_member(mesher: ToothMesher, tooth_ids, contact_u: dict, name: str, col
                       r_rim=mesher.r_rim, meta={"r_f": mesher.r_f, "r_a": mesher.r_a, "z": mesher.z})
 
 
-def _hex_volume_sign(P, E):
+def hex_volume_sign(P, E):
     """Jacobian determinant at the centre of each hexahedron (sign = orientation)."""
     X = P[E]  # (n, 8, 3)
     d_xi = (-X[:, 0] + X[:, 1] + X[:, 2] - X[:, 3] - X[:, 4] + X[:, 5] + X[:, 6] - X[:, 7]) / 8
     d_eta = (-X[:, 0] - X[:, 1] + X[:, 2] + X[:, 3] - X[:, 4] - X[:, 5] + X[:, 6] + X[:, 7]) / 8
     d_zeta = (-X[:, 0] - X[:, 1] - X[:, 2] - X[:, 3] + X[:, 4] + X[:, 5] + X[:, 6] + X[:, 7]) / 8
     return np.einsum("ij,ij->i", np.cross(d_xi, d_eta), d_zeta)
+
+
+_hex_volume_sign = hex_volume_sign  # (old private name)
 
 
 def hex_min_jacobian(P, E) -> np.ndarray:

@@ -36,10 +36,11 @@ import numpy as np
 
 from ..errors import ArgumentError, GeometryError, check_number, option_error, out_of_range  # noqa: F401
 from ..gears import GearPair
+from ..geometry.frames import rot_z_points
 from ..geometry.generation import GeneratedTooth
 from ..meshing.tca import TCA
 from .calculix import CalculixError, Deck, last_block, read_dat, read_frd_block, run_ccx
-from .mesh import GAUSS_C3D8, MemberMesh, MeshOptions, ToothMesher, _hex_volume_sign, build_member, face_of, shape
+from .mesh import GAUSS_C3D8, MemberMesh, MeshOptions, ToothMesher, hex_volume_sign, build_member, face_of, shape
 
 #: ISO 6336-1 single-pair mesh stiffness of steel spur gears, c' ~ 14 N/(mm um), scaled with E below.
 C_PRIME_STEEL = 14.0e3  # N/mm per mm of face width (14 N/(mm um))
@@ -54,7 +55,7 @@ PRESSURE_FACTOR = 10.0
 def check_elements(nodes: np.ndarray, elements: np.ndarray) -> None:
     """Raise :class:`CalculixError` if any hexahedron of the deck is inverted (non-positive Jacobian
     at its centre; ``elements`` 1-based C3D8 connectivity (n, 8), ``nodes`` (m, 3) [mm])."""
-    det = _hex_volume_sign(np.asarray(nodes, float), np.asarray(elements, int) - 1)
+    det = hex_volume_sign(np.asarray(nodes, float), np.asarray(elements, int) - 1)
     bad = np.flatnonzero(~(det > 0))
     if bad.size:
         raise CalculixError(f"{bad.size} inverted element(s) in the FE mesh (non-positive Jacobian at the centre; "
@@ -227,9 +228,7 @@ def root_stress_estimate(tooth: GeneratedTooth, contact_radius: float, F_n: floa
 # ---------------------------------------------------------------------------------------------
 # the model
 # ---------------------------------------------------------------------------------------------
-def _rotz(P, a):
-    c, s = math.cos(a), math.sin(a)
-    return np.c_[c * P[:, 0] - s * P[:, 1], s * P[:, 0] + c * P[:, 1], P[:, 2]]
+_rotz = rot_z_points  # points (n, 3) about z (gearopt.geometry.frames)
 
 
 def _principal_vm(S):

@@ -36,6 +36,7 @@ import numpy as np
 
 from ..errors import ArgumentError, ConvergenceError, GeometryError, OptionError, out_of_range, shorten
 from ..gears import BasicRack, Gear
+from .frames import rot_z
 from .involute import inv, inv_inverse
 from .tools import HOB_LEAD_MAX, HOB_LEAD_MIN, Hob, RackCutter, Shaper  # noqa: F401  (re-exported here)
 
@@ -59,10 +60,7 @@ def _unit(v):
     return v / ca.norm_2(v)
 
 
-def _rot_z(angle, v):
-    """Rotate vector ``v`` (3,) by ``angle`` about z."""
-    c, s = ca.cos(angle), ca.sin(angle)
-    return ca.vertcat(c * v[0] - s * v[1], s * v[0] + c * v[1], v[2])
+_rot_z = rot_z  # (kept importable under its old name)
 
 
 # ---------------------------------------------------------------------------------------------

@@ -39,50 +39,13 @@ import numpy as np
 from ..errors import (ArgumentError, ConvergenceError, GeometryError, LineContactError, OptionError, check_number,
                       out_of_range, shorten)
 from ..gears import GearPair
-from ..geometry.generation import PARAMS, GeneratedTooth, generate
+from ..geometry.frames import rot_x as _rx, rot_y as _ry, rot_z as _rz  # noqa: F401 (old private names)
+from ..geometry.generation import PARAMS, GeneratedTooth, generate, generate_by_rack  # noqa: F401
 from ..units import ARCMIN, RAD_TO_ARCSEC
-
-MISALIGNMENTS = ("dE", "crossing", "intersecting", "axial")
-DELTA_DEFAULT = 0.00632  #: elastic approach for the contact ellipse [mm]
-NORMAL_TOL = 1e-8  #: accepted contact points have n1 . n2 < -1 + NORMAL_TOL (tangency, not crossing)
-REGULARITY_MIN = 1e-6  #: and (dr/du x dr/dz) . n > REGULARITY_MIN on both flanks' valid branches (no cusp)
-
-
-@dataclass(frozen=True)
-class Misalignment:
-    """Errors of alignment of the gear (applied through the auxiliary frame S_q).
-
-    Parameters
-    ----------
-    dE : float
-        Change of centre distance [mm].
-    crossing : float
-        Crossing angle [rad]: the gear axis turned about the line of centres (skew axes).
-    intersecting : float
-        Intersecting angle [rad]: the gear axis turned in the plane of the axes.
-    axial : float
-        Axial displacement of the gear [mm].
-    """
-
-    dE: float = 0.0
-    crossing: float = 0.0
-    intersecting: float = 0.0
-    axial: float = 0.0
-
-    def __post_init__(self):
-        for k in MISALIGNMENTS:
-            v = getattr(self, k)
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-                raise GeometryError(f"misalignment.{k} = {v!r} must be a finite number.",
-                                    param=f"misalignment.{k}", value=v, valid="a finite number", detail="must be a finite number.")
-        for k in ("crossing", "intersecting"):
-            if abs(getattr(self, k)) > 600 * ARCMIN:
-                raise out_of_range(f"misalignment.{k}", f"{getattr(self, k) / ARCMIN:.6g} arcmin",
-                                   "|angle| <= 600 arcmin (10 deg)")
-
-    def vector(self) -> np.ndarray:
-        return np.array([getattr(self, k) for k in MISALIGNMENTS], dtype=float)
-
+from .layout import ParamLayout
+from .misalignment import MISALIGNMENTS, Misalignment  # noqa: F401 (re-exported)
+from .solver import (DELTA_DEFAULT, NORMAL_TOL, REGULARITY_MIN, Branch, ContactSettings,  # noqa: F401 (re-exported)
+                     SolverSettings, _jit_function)
 
 def _describe(v) -> str:
     return f"{type(v).__name__} {shorten(repr(v))}"
@@ -92,7 +55,7 @@ def check_sweep_args(tca, phi1, p1=None, p2=None, mis=None, pairs=(-1, 0, 1), de
                      z_section=0.0):
     """Validate and normalise the arguments of :meth:`TCA.sweep` / ``EdgeContact.sweep``.
 
-    Returns ``(phi1 (N,), p1, p2, mis, pairs)`` (p1, p2: one entry per ``param_names`` of each member); raises :class:`~gearopt.errors.ArgumentError`
+    Returns ``(phi1 (N,), p1, p2, mis, pairs)`` (p1, p2: each member's ``param_names`` entries); raises :class:`~gearopt.errors.ArgumentError`
     (wrong type, shape, empty, non-finite) or :class:`~gearopt.errors.GeometryError` (a misalignment
     that jams or separates the teeth, faces that do not overlap, a section off the face), naming
     the argument and its valid range.
@@ -143,14 +106,11 @@ def check_sweep_args(tca, phi1, p1=None, p2=None, mis=None, pairs=(-1, 0, 1), de
         mis = Misalignment()
     elif not isinstance(mis, Misalignment):
         hint = " Use Misalignment(**d) (angles in rad)." if isinstance(mis, dict) else ""
-        raise ArgumentError(f"mis = {_describe(mis)}: expected a gearopt.meshing.tca.Misalignment (dE [mm], crossing "
-                            f"[rad], intersecting [rad], axial [mm]).{hint}",
+        kinds = ", ".join(f"{k} [{'rad' if Misalignment.meta(k)['unit'] == 'angle' else 'mm'}]"
+                          for k in Misalignment.names())
+        raise ArgumentError(f"mis = {_describe(mis)}: expected a gearopt.meshing.tca.Misalignment ({kinds}).{hint}",
                             param="mis", value=mis, valid="a gearopt.meshing.tca.Misalignment")
-    pair.check_operating(mis.dE, "mis.dE")
-    overlap = (g1.b + g2.b) / 2
-    if abs(mis.axial) >= overlap:
-        raise out_of_range("mis.axial", mis.axial, f"|axial| < (b1 + b2) / 2 = {overlap:.6g} mm (the faces must "
-                           "overlap for the teeth to touch)")
+    mis.check(pair, "mis")
     try:
         seq = list(pairs)
     except TypeError:
@@ -196,21 +156,6 @@ def no_contact(where: str, phi1: np.ndarray, pairs, z1: int) -> ConvergenceError
         f"{phi1.max():.6g} rad (pairs {tuple(pairs)}). The angles may lie outside the meshing cycle (pair 0 meshes "
         f"around phi1 = 0; one cycle is 2 pi / z1 = {2 * math.pi / z1:.6g} rad; angles are in rad), or the flanks do "
         "not meet under this misalignment.")
-
-
-def _rx(a, v):
-    c, s = ca.cos(a), ca.sin(a)
-    return ca.vertcat(v[0], c * v[1] - s * v[2], s * v[1] + c * v[2])
-
-
-def _ry(a, v):
-    c, s = ca.cos(a), ca.sin(a)
-    return ca.vertcat(c * v[0] + s * v[2], v[1], -s * v[0] + c * v[2])
-
-
-def _rz(a, v):
-    c, s = ca.cos(a), ca.sin(a)
-    return ca.vertcat(c * v[0] - s * v[1], s * v[0] + c * v[1], v[2])
 
 
 def _shape_matrix(r, n, q, E):
@@ -388,8 +333,8 @@ class TCA:
     """
 
     def __init__(self, pair: GearPair, side: str = "right", pinion: GeneratedTooth | None = None,
-                 gear: GeneratedTooth | None = None, solver: str = "fast_newton", tol: float = 1e-10,
-                 contact: str = "point", jit: bool = False):
+                 gear: GeneratedTooth | None = None, solver: str = SolverSettings.solver,
+                 tol: float = SolverSettings.tol, contact: str = "point", jit: bool = SolverSettings.jit):
         if not isinstance(pair, GearPair):
             raise ArgumentError(f"pair = {_describe(pair)}: expected a gearopt.gears.GearPair (pinion, gear).",
                                 param="pair", value=pair, valid="a gearopt.gears.GearPair")
@@ -422,21 +367,23 @@ class TCA:
         sgn = 1.0 if side == "right" else -1.0  # the left flank drives the other way round
         line = self.contact_type == "line"
         w = ca.SX.sym("w", 4 if line else 5)
-        phi1 = ca.SX.sym("phi1")
-        # each member's own parameter count (PARAMS plus any flank modification's theta)
-        p1, p2 = ca.SX.sym("p1", len(self.pinion.param_names)), ca.SX.sym("p2", len(self.gear.param_names))
-        mis = ca.SX.sym("mis", len(MISALIGNMENTS))
-        zsec = ca.SX.sym("z_section")  # line contact: the pinion section where contact is sought
+        # Every symbolic input by name (gearopt.meshing.layout): phi1, both members' surface
+        # parameters, the misalignments, and the pinion section sought in line contact.
+        self.layout = lay = ParamLayout.for_teeth(self.pinion, self.gear)
+        sym = lay.symbols(ca.SX)
+        phi1, p1, p2, mis, zsec = sym["phi1"], sym["pinion"], sym["gear"], sym["mis"], sym["z_section"]
+        m_of = lay.named(lay.build(sym))["mis_map"]  # kind -> symbol
         self.scale2 = g2.r_p  # phi2 is carried as r_p2 * phi2 [mm]
         if line:
             u1, z1, u2, z2, phi2 = w[0], zsec, w[1], w[2], w[3] / self.scale2
         else:
             u1, z1, u2, z2, phi2 = w[0], w[1], w[2], w[3], w[4] / self.scale2
         self._nw = w.numel()
-        self._full = ca.Function("w_full", [w, zsec], [ca.vertcat(u1, z1, u2, z2, phi2 * self.scale2)])
+        #: (w, z_section) -> the full unknowns (u1, z1, u2, z2, r_p2 phi2) [mm] (line contact: z1 = z_section)
+        self.w_full = self._full = ca.Function("w_full", [w, zsec], [ca.vertcat(u1, z1, u2, z2, phi2 * self.scale2)])
         # Reference positions: at phi1 = phi2 = 0 the driving flanks of pinion tooth 0 and of the
         # gear cross their operating pitch circles on the line of centres (the pitch point I).
-        r_w1 = pair.a_w * g1.z / (g1.z + g2.z)
+        r_w1 = pair.r_w1
         r_w2 = pair.a_w - r_w1
         self.theta1 = g1.s_at(r_w1) / (2 * r_w1)  # half tooth angle on the operating pitch circle
         self.theta2 = g2.s_at(r_w2) / (2 * r_w2)
@@ -453,10 +400,7 @@ class TCA:
             def gear_to_fixed(v, point: bool):
                 v = _rz(math.pi + sgn * self.theta2, v)
                 v = _rz(sgn * phi2, v)
-                v = _ry(mis[1], _rx(mis[2], v))
-                if point:
-                    v = v + ca.vertcat(0.0, pair.a_w + mis[0], mis[3])
-                return v
+                return Misalignment.gear_to_fixed(m_of, v, pair.a_w, point)  # frame S_q
 
             rad1 = ca.vertcat(r1[0], r1[1], 0.0) / ca.sqrt(r1[0] ** 2 + r1[1] ** 2)
             rad2 = ca.vertcat(r2[0], r2[1], 0.0) / ca.sqrt(r2[0] ** 2 + r2[1] ** 2)
@@ -473,7 +417,7 @@ class TCA:
         rf1, nf1, rf2, nf2, t2u, t2z = k["rf1"], k["nf1"], k["rf2"], k["nf2"], k["t2u"], k["t2z"]
         # Kinematics of any point pair q = (u1, z1, u2, z2, r_p2 phi2) (edge contact builds on it).
         q = ca.SX.sym("q", 5)
-        prm_k = ca.vertcat(phi1, p1, p2, mis, zsec)
+        prm_k = lay.build(sym)
         kq = kin(q[0], q[1], q[2], q[3], q[4] / self.scale2, phi1, p1, p2, mis)
         names_k = ["rf1", "nf1", "t1u", "t1z", "rf2", "nf2", "t2u", "t2z", "r1", "r2", "er1", "er2", "ez2"]
         self.kinematics = ca.Function("tca_kinematics", [q, prm_k], [kq[n] for n in names_k], ["q", "prm"], names_k)
@@ -481,7 +425,7 @@ class TCA:
             F = ca.vertcat(rf1 - rf2, ca.dot(nf1, t2u))
         else:
             F = ca.vertcat(rf1 - rf2, ca.dot(nf1, t2u), ca.dot(nf1, t2z))
-        prm = ca.vertcat(phi1, p1, p2, mis, zsec)
+        prm = lay.build(sym)
         self._nprm = prm.numel()
         self.residual = ca.Function("tca_residual", [w, prm], [F], ["w", "prm"], ["F"])
         self.jacobian = ca.Function("tca_jacobian", [w, prm], [ca.jacobian(F, w)], ["w", "prm"], ["J"])
@@ -494,7 +438,7 @@ class TCA:
         # The same basis carried into the gear frame (a rotation), where surface 2 lives.
         def fixed_to_gear(v):
             v = _rz(rot1, v)  # pinion -> fixed
-            v = _rx(-mis[2], _ry(-mis[1], v))
+            v = Misalignment.fixed_to_gear_rotation(m_of, v)
             v = _rz(-sgn * phi2, v)
             return _rz(-(math.pi + sgn * self.theta2), v)
         E2 = ca.horzcat(fixed_to_gear(e1), fixed_to_gear(e2))
@@ -507,8 +451,8 @@ class TCA:
         # Signed: (r_u x r_z) . n keeps its sign on the valid branch of each flank and changes it past
         # the cusp (the reversed involute branch of an undercut tooth, whose tool normal would still
         # pass the n1 . n2 = -1 test).
-        self.orient1 = self._orientation(self.pinion, pair.a_w * g1.z / (g1.z + g2.z))
-        self.orient2 = self._orientation(self.gear, pair.a_w * g2.z / (g1.z + g2.z))
+        self.orient1 = self._orientation(self.pinion, pair.r_w1)
+        self.orient2 = self._orientation(self.gear, pair.r_w2)
         reg = ca.fmin(self.orient1 * ca.dot(ca.cross(ca.jacobian(r1, u1), ca.jacobian(r1, z1)), n1),
                       self.orient2 * ca.dot(ca.cross(ca.jacobian(r2, u2), ca.jacobian(r2, z2)), n2))
         out = [rf1, nf1, rf2, nf2, ca.dot(nf1, nf2), r1, r2, K1, K2, E2, E1, reg]
@@ -531,13 +475,12 @@ class TCA:
         return self._maps[key]
 
     def prm(self, phi1, p1=None, p2=None, mis: Misalignment | None = None, z_section: float = 0.0) -> np.ndarray:
-        """Parameter matrix (n_prm, N) for the positions ``phi1``."""
-        phi1 = np.atleast_1d(np.asarray(phi1, dtype=float))
+        """Parameter matrix (n_prm, N) for the positions ``phi1`` (:meth:`ParamLayout.pack`, rows
+        named by ``self.layout``)."""
         p1 = self.pinion.p0 if p1 is None else np.asarray(p1, float)
         p2 = self.gear.p0 if p2 is None else np.asarray(p2, float)
-        m = (mis or Misalignment()).vector()
-        const = np.concatenate([p1, p2, m, [z_section]])
-        return np.vstack([phi1[None, :], np.tile(const[:, None], phi1.size)])
+        return self.layout.pack(phi1, {"pinion": p1, "gear": p2, "mis": mis or Misalignment(),
+                                       "z_section": z_section})
 
     def _reduce(self, w_full):
         w_full = np.asarray(w_full, float)
@@ -547,7 +490,7 @@ class TCA:
         """First guess at the pitch point: both flanks at their operating pitch radii, mid face
         (the unknown vector of this TCA: 5 entries, or 4 for line contact)."""
         pair = self.pair
-        r_w1 = pair.a_w * pair.pinion.z / (pair.pinion.z + pair.gear.z)
+        r_w1 = pair.r_w1
         u1 = self.pinion.u_at_radius(r_w1, z_section, self.side, p1)
         u2 = self.gear.u_at_radius(pair.a_w - r_w1, z_section, self.side, p2)
         return self._reduce([u1, z_section, u2, z_section, 0.0])
@@ -634,7 +577,7 @@ class TCA:
     def _root_facts(self, w, prm, wf) -> str:
         """What a rejected root is, in words: for each flank whose regularity (r_u x r_z) . n has
         the wrong sign or vanishes, where the point lies (radius against base circle and fold)."""
-        k = dict(zip(self.kinematics.name_out(), self.kinematics(wf, prm)))
+        k = self.kinematics(q=wf, prm=prm)
         out = []
         for member, name, orient, tu, tz, nf, r, tooth in (
                 (1, "pinion", self.orient1, "t1u", "t1z", "nf1", "r1", self.pinion),
@@ -643,8 +586,7 @@ class TCA:
             rad = float(np.hypot(*np.asarray(k[r]).ravel()[:2]))
             if reg > REGULARITY_MIN:
                 continue
-            n1_, n2_ = len(self.pinion.param_names), len(self.gear.param_names)
-            p = prm[1:1 + n1_] if member == 1 else prm[1 + n1_:1 + n1_ + n2_]
+            p = np.asarray(prm, float).ravel()[self.layout.slice(name)]
             lim = self.flank_limit(member, 0.0, p)
             fold = (f"its flank folds at radius {lim.radius_fold:.6g} mm" if lim.folded else
                     f"its flank is regular down to the tool junction, radius {lim.radius:.6g} mm")
@@ -670,8 +612,9 @@ class TCA:
         phi1 : array_like (N,)
             Pinion angles [rad] (0: pinion tooth 0 centred on the line of centres).
         p1, p2 : array_like, optional
-            Surface parameter vectors of pinion and gear, one entry per ``tooth.param_names``
-            (:data:`gearopt.geometry.generation.PARAMS`, then any flank modification's theta).
+            Surface parameter vectors of pinion and gear, one entry per ``GeneratedTooth.param_names``
+            (:data:`gearopt.geometry.generation.PARAMS`, then any flank-modification parameters;
+            rows named in ``self.layout``).
         mis : Misalignment, optional
         pairs : sequence of int
             Pinion teeth (tooth pairs) to analyse.
@@ -713,8 +656,8 @@ class TCA:
         groups = [np.arange(k * N, (k + 1) * N) for k in range(K)] if continuation else []
         W, res, n1n2, reg, ok, st = self.branch.solve(W0, prm, groups)
         n_fast, n_retry = st["n_fast"], st["n_retry"]
-        out = self._contact_mapped(phis.size)(np.where(ok, W, W0), prm)
-        rf1, nf1, rf2, nf2, _, r1, r2, K1, K2, E2, E1, _ = (np.asarray(v) for v in out)
+        f_c = self._contact_mapped(phis.size)
+        c = {n: np.asarray(v) for n, v in zip(f_c.name_out(), f_c(np.where(ok, W, W0), prm))}  # by output name
         Wf = np.asarray(self._full.map(phis.size)(W, np.full((1, phis.size), z_section)))
         Wf[:, ~ok] = np.nan
         # TE zero: phi2 of pair 0 at phi1 = 0 (the same for every sweep of this design and case).
@@ -727,15 +670,18 @@ class TCA:
         folded = self.folding(p1, p2)
         if folded:
             stats["folded_flanks"] = folded
-        result = self._result(phi1, pairs, Wf, ok, res, n1n2, r1, r2, rf1, K1, K2, E2, E1, delta, mis, solve_time,
-                              stats, phi2_ref, p1, p2)
+        result = self._result(_Solved(phi1=phi1, pairs=pairs, W=Wf, ok=ok, res=res, n1n2=n1n2, contact=c, delta=delta,
+                                      mis=mis, solve_time=solve_time, stats=stats, phi2_ref=phi2_ref, p1=p1, p2=p2))
         if not ok.any():  # all-NaN: not a result (points found off the finite flanks are kept, flagged)
             raise no_contact("TCA.sweep", phi1, pairs, g1.z)
         return result
 
     # ------------------------------------------------------------------------------------------
-    def _result(self, phi1, pairs, W, ok, res, n1n2, r1, r2, rf1, K1, K2, E2, E1, delta, mis, solve_time, stats,
-                phi2_ref, p1=None, p2=None):
+    def _result(self, sv: "_Solved"):
+        phi1, pairs, W, ok, res, n1n2 = sv.phi1, sv.pairs, sv.W, sv.ok, sv.res, sv.n1n2
+        delta, mis, solve_time, stats, phi2_ref, p1, p2 = (sv.delta, sv.mis, sv.solve_time, sv.stats, sv.phi2_ref,
+                                                           sv.p1, sv.p2)
+        r1, r2, rf1, K1, K2, E2, E1 = (sv.contact[n] for n in ("r1", "r2", "rf1", "K1", "K2", "E2", "E1"))
         g1, g2 = self.pair.pinion, self.pair.gear
         K, N = len(pairs), phi1.size
         shp = lambda a: a.reshape(K, N)  # noqa: E731
@@ -748,8 +694,8 @@ class TCA:
         z1, z2 = shp(W[1]), shp(W[3])
         eps = 1e-9
         # Above the true end of each generated flank (junction, fold or crossing; per section z).
-        lim1 = self.on_active_flank(1, shp(W[0]), z1, p1)
-        lim2 = self.on_active_flank(2, shp(W[2]), z2, p2)
+        lim1 = self.on_flank(1, shp(W[0]), z1, p1)
+        lim2 = self.on_flank(2, shp(W[2]), z2, p2)
         on = (ok.reshape(K, N) & (np.abs(z1) <= g1.b / 2 + eps) & (np.abs(z2) <= g2.b / 2 + eps)
               & lim1 & (radius1 <= g1.r_a + eps) & lim2 & (radius2 <= g2.r_a + eps))
         te_on = np.where(on, te, -np.inf)
@@ -813,11 +759,16 @@ class TCA:
         f = ca.Function("o", [u, z], [ca.dot(ca.cross(ca.jacobian(r, u), ca.jacobian(r, z)), n)])
         return float(np.sign(float(f(tooth.u_at_radius(r_w, 0.0, self.side), 0.0))))
 
+    def form_radius(self, member: int, p=None) -> float:
+        """Form radius [mm] of member 1 (pinion) or 2 (gear) on the driving flank in the mid section
+        z = 0, for the parameter vector ``p`` (default: as built): where the real generated flank
+        ends (:meth:`GeneratedTooth.flank_limit`: the tool's flank/fillet junction, or below a fold
+        of the flank its crossing with the reversed branch or the fillet)."""
+        return self.flank_limit(member, 0.0, p).radius
+
     def _form_radius(self, tooth: GeneratedTooth, p=None) -> float:
-        """Form radius [mm] of a member's driving flank in the mid section z = 0: where the real
-        generated flank ends (:meth:`GeneratedTooth.flank_limit`: the tool's flank/fillet junction,
-        or below a fold of the flank its crossing with the reversed branch or the fillet)."""
-        return self.flank_limit(1 if tooth is self.pinion else 2, 0.0, p).radius
+        """(old private form, by tooth) :meth:`form_radius`."""
+        return self.form_radius(1 if tooth is self.pinion else 2, p)
 
     def flank_limit(self, member: int, z: float = 0.0, p=None):
         """:class:`~gearopt.geometry.generation.FlankLimit` of member 1 (pinion) or 2 (gear) on the
@@ -829,7 +780,7 @@ class TCA:
             self._limits[key] = tooth.flank_limit(self.side, float(z), p)
         return self._limits[key]
 
-    def _limit_table(self, member: int, p):
+    def limit_table(self, member: int, p=None):
         """(z^2 grid, u_limit on it): the flank limit depends on z only through the plunging a_pl z^2
         (a shift of the tool in that section), so it is tabulated in z^2 across the face."""
         tooth = self.pinion if member == 1 else self.gear
@@ -837,11 +788,14 @@ class TCA:
         key = ("table", member, tuple(p.tolist()))
         if key not in self._limits:
             b = (self.pair.pinion if member == 1 else self.pair.gear).b
-            s = np.array([0.0]) if p[3] == 0 else (b / 2) ** 2 * np.linspace(0.0, 1.0, 9)
+            a_pl = p[self.layout.p_index("pinion" if member == 1 else "gear", "a_pl")]
+            s = np.array([0.0]) if a_pl == 0 else (b / 2) ** 2 * np.linspace(0.0, 1.0, 9)
             self._limits[key] = (s, np.array([self.flank_limit(member, math.sqrt(v), p).u for v in s]))
         return self._limits[key]
 
-    def on_active_flank(self, member: int, u, z, p=None, band: float = 1e-3) -> np.ndarray:
+    _limit_table = limit_table  # (old private name)
+
+    def on_flank(self, member: int, u, z, p=None, band: float = 1e-3) -> np.ndarray:
         """True where the flank point (u, z) [mm] of member 1 or 2 lies on the real generated flank
         (``u`` not past the flank limit of its section; the tip and face are checked elsewhere).
         The limit is interpolated in z^2 and recomputed exactly for points within ``band`` [mm] of it.
@@ -858,6 +812,8 @@ class TCA:
         with np.errstate(invalid="ignore"):
             return fin & (u <= u_lim + 1e-8)
 
+    on_active_flank = on_flank  #: (the old name)
+
     def folding(self, p1=None, p2=None) -> dict:
         """Members whose driving flank folds before the tool's junction (mid section), with the
         flank limit and the largest a_c that does not fold: ``{"pinion": {...}}``; empty if none."""
@@ -872,9 +828,33 @@ class TCA:
                              "r_fold": float(lim.radius_fold),
                              "r_junction": float(np.hypot(*tooth.point(self.side, "flank", lim.u_junction, 0.0,
                                                                        p)[0][:2])),
-                             "a_c": float((tooth.p0 if p is None else np.asarray(p, float))[1]),
+                             "a_c": float((tooth.p0 if p is None else np.asarray(p, float))[
+                                 self.layout.p_index(name, "a_c")]),
                              "a_c_max_unfolded": self._limits[key]}
         return out
+
+
+@dataclass
+class _Solved:
+    """What a sweep solved, handed to :meth:`TCA._result` by name: positions ``phi1`` (N,),
+    ``pairs``, full unknowns ``W`` (5, K N) (NaN where not accepted), the per-point checks ``ok``,
+    ``res``, ``n1n2`` (K N,), the mapped contact Function's outputs by name ``contact``, and the
+    sweep's settings."""
+
+    phi1: np.ndarray
+    pairs: tuple
+    W: np.ndarray
+    ok: np.ndarray
+    res: np.ndarray
+    n1n2: np.ndarray
+    contact: dict
+    delta: float
+    mis: Misalignment
+    solve_time: float
+    stats: dict
+    phi2_ref: float
+    p1: np.ndarray | None = None
+    p2: np.ndarray | None = None
 
 
 def _unit_perp(n):
@@ -888,132 +868,3 @@ def _as_mats(M, count, rows=2):
     """Mapped matrix outputs come as (rows, 2*count); split them into (count, rows, 2)."""
     M = np.asarray(M)
     return M.reshape(rows, count, 2).transpose(1, 0, 2) if M.shape == (rows, 2 * count) else M.reshape(count, rows, 2)
-
-
-
-class Branch:
-    """A square system ``G(w, prm) = 0`` solved at many parameter columns (positions): one mapped
-    rootfinder call from predicted first guesses, the acceptance checks, and continuation from
-    solved neighbours with line-search Newton for the points that fail. Shared by the surface
-    TCA and the edge-contact branches.
-
-    Parameters
-    ----------
-    name : str
-    G : casadi.Function
-        ``(w, prm) -> F`` with ``prm[0]`` the pinion angle phi1.
-    checks : casadi.Function
-        ``(w, prm) -> (n1 . n2, regularity)`` at a solved point.
-    accept : callable(res, n1n2, reg) -> bool array
-    tol : float
-        Residual tolerance [mm] (used by ``accept``).
-    solver : {"fast_newton", "newton"}
-    jit : bool
-    """
-
-    def __init__(self, name, G, checks, accept, tol, solver="fast_newton", jit=False):
-        self.name, self.G, self.checks, self.accept, self.tol = name, G, checks, accept, tol
-        self.solver, self.jit = solver, jit
-        nw, npr = G.size1_in(0), G.size1_in(1)
-        w, p = ca.SX.sym("w", nw), ca.SX.sym("p", npr)
-        F = G(w, p)
-        J = ca.jacobian(F, w)
-        # Implicit-function predictor: dw/dphi1 = -J^-1 dF/dphi1.
-        self.dw = ca.Function(f"{name}_dw", [w, p], [-ca.solve(J, ca.jacobian(F, p)[:, 0])])
-        # abstol 1e-15 reaches the float64 floor of phi2 (1.7e-16 rad) for ~4 % more time; the step
-        # test stops after the Newton step below 1e-9 mm (saves one Jacobian). docs/work-precision.md
-        fast_opts = {"error_on_fail": False, "abstol": 1e-15, "max_iter": 30}
-        if solver == "fast_newton":
-            fast_opts["abstolStep"] = 1e-9
-        self.rf_fast = ca.rootfinder(f"{name}_fast", solver, G, fast_opts)
-        # Failed points are judged by the checks, not by CasADi's NaN warnings (off the surfaces'
-        # domain, e.g. inside a base circle, the residual is NaN and the point is simply rejected).
-        self.rf_safe = ca.rootfinder(f"{name}_newton", "newton", G, {"error_on_fail": False, "abstol": 1e-13,
-                                                                     "abstolStep": 1e-16, "max_iter": 100,
-                                                                     "line_search": True,
-                                                                     "show_eval_warnings": False})
-        self._maps: dict[int, ca.Function] = {}
-
-    def newton(self, w0, prm) -> np.ndarray:
-        """Line-search Newton from ``w0`` at one parameter column (unchecked)."""
-        return np.asarray(self.rf_safe(np.asarray(w0, float), prm)).ravel()
-
-    def check(self, w, prm):
-        """(residual norm, n1 . n2, regularity, accepted) at one point."""
-        res = float(np.linalg.norm(np.asarray(self.G(w, prm)).ravel()))
-        n1n2, reg = (float(v) for v in self.checks(w, prm))
-        return res, n1n2, reg, bool(self.accept(res, n1n2, reg))
-
-    def predict(self, w_a, prm_a, dphi) -> np.ndarray:
-        """First guesses ``w_a + dw/dphi1 * dphi`` (nw, len(dphi)) around the solved anchor."""
-        dw = np.asarray(self.dw(w_a, prm_a)).ravel()
-        return np.asarray(w_a)[:, None] + dw[:, None] * np.asarray(dphi)[None, :]
-
-    def mapped(self, n: int) -> ca.Function:
-        """(W0, P) -> (W, residual norm, n1 . n2, regularity) for n columns, compiled with jit."""
-        if n not in self._maps:
-            W0 = ca.MX.sym("W0", self.G.size1_in(0), n)
-            P = ca.MX.sym("P", self.G.size1_in(1), n)
-            W = self.rf_fast.map(n)(W0, P)
-            R = self.G.map(n)(W, P)
-            c = self.checks.map(n)(W, P)
-            args = (f"{self.name}_sweep", [W0, P], [W, ca.sqrt(ca.sum1(R * R)), c[0], c[1]], ["W0", "P"],
-                    ["W", "res", "n1n2", "reg"])
-            f = _jit_function(*args) if self.jit and self.solver == "fast_newton" else None
-            self._maps[n] = f if f is not None else ca.Function(*args)
-        return self._maps[n]
-
-    def solve(self, W0, prm, groups, max_gap: int = 4):
-        """Solve every column; ``groups`` are index arrays ordered by phi1 (continuation runs
-        within a group, forwards then backwards, from the last accepted neighbour, for at most
-        ``max_gap`` consecutive failures).
-
-        Returns
-        -------
-        W, res, n1n2, reg, ok, stats
-        """
-        W, res, n1n2, reg = (np.asarray(v) for v in self.mapped(prm.shape[1])(W0, prm))
-        res, n1n2, reg = res.ravel().copy(), n1n2.ravel().copy(), reg.ravel().copy()
-        W = W.copy()
-        ok = np.asarray(self.accept(res, n1n2, reg), bool)
-        n_fast, n_retry = int(ok.sum()), 0
-        for idx in groups:
-            for order in (idx, idx[::-1]):
-                last, misses = None, 0
-                for i in order:
-                    if ok[i]:
-                        last, misses = i, 0
-                        continue
-                    if last is None or misses >= max_gap:
-                        continue  # no accepted neighbour near: the branch has ended here
-                    n_retry += 1
-                    w = self.newton(W[:, last], prm[:, i])
-                    r, d, g, good = self.check(w, prm[:, i])
-                    if good:
-                        W[:, i], res[i], n1n2[i], reg[i], ok[i] = w, r, d, g, True
-                        last, misses = i, 0
-                    else:
-                        misses += 1
-        return W, res, n1n2, reg, ok, {"n_fast": n_fast, "n_retry": n_retry}
-
-
-def _jit_function(name, ins, outs, in_names, out_names):
-    """Compile a Function to C with the system compiler in a scratch directory; None on failure."""
-    import contextlib
-    import shutil
-    import tempfile
-    import warnings
-
-    tmp = tempfile.mkdtemp(prefix="gearopt-jit-")
-    opts = {"jit": True, "compiler": "shell", "jit_cleanup": False,
-            "jit_options": {"flags": ["-O2"], "verbose": False, "cleanup": False}}
-    try:
-        with contextlib.chdir(tmp):
-            f = ca.Function(name, ins, outs, in_names, out_names, opts)
-            f(*[np.zeros(i.shape) for i in ins])  # force the compilation now, inside tmp
-        return f
-    except Exception as e:  # noqa: BLE001 - any compiler problem: fall back to the interpreter
-        warnings.warn(f"gearopt: jit compilation failed ({e!s:.200}); using the interpreted sweep.", stacklevel=3)
-        return None
-    finally:
-        shutil.rmtree(tmp, ignore_errors=True)

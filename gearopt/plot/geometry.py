@@ -7,6 +7,8 @@ import math
 
 import numpy as np
 
+from ..geometry.frames import rot_z_points
+
 
 def _data(report) -> dict:
     return report if isinstance(report, dict) else report.to_dict()
@@ -19,9 +21,7 @@ def _axes(ax):
     return ax
 
 
-def _rot(pts, ang):
-    c, s = math.cos(ang), math.sin(ang)
-    return pts @ np.array([[c, s], [-s, c]])
+_rot = rot_z_points  # points (n, 2) about the centre (gearopt.geometry.frames)
 
 
 def tooth_outline(prof: dict) -> np.ndarray:

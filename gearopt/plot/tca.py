@@ -68,8 +68,11 @@ def is_conjugate(case: dict) -> bool:
 def misalignment_text(case: dict) -> str:
     """The case's misalignment in words ("crossing 3 arcmin, dE 0.05 mm"), "" when aligned."""
     m = case["misalignment"]
-    unit = {"crossing_arcmin": ("crossing", "arcmin"), "intersecting_arcmin": ("intersecting", "arcmin"),
-            "dE_mm": ("dE", "mm"), "axial_mm": ("axial", "mm")}
+    unit = {}
+    for k in m:  # every kind is "<kind>_mm" or "<kind>_arcmin" (Misalignment.to_results)
+        for suffix in ("_mm", "_arcmin"):
+            if k.endswith(suffix):
+                unit[k] = (k[:-len(suffix)], suffix[1:])
     return ", ".join(f"{unit.get(k, (k, ''))[0]} {v:+g} {unit.get(k, ('', ''))[1]}".rstrip() for k, v in m.items() if v)
 
 

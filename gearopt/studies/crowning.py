@@ -34,16 +34,20 @@ UNITS = {"length": "mm", "angle": "rad", "te": "arcsec (suffix _arcsec)", "setti
                           "(arcsec per arcmin for the misalignment angles, as the scene gives them)",
          "time": "s", "see": "docs/results.md"}
 
-def misalignment_cases(crossing=0.0, intersecting=0.0, dE=0.0, axial=0.0, combined=False) -> dict:
-    """The aligned drive plus +-each given misalignment (and their combination)."""
+def misalignment_cases(crossing=0.0, intersecting=0.0, dE=0.0, axial=0.0, combined=False, **more) -> dict:
+    """The aligned drive plus +-each given misalignment (and their combination); every kind of
+    :class:`Misalignment` may be given by name (values in mm or rad)."""
+    values = {"crossing": crossing, "intersecting": intersecting, "dE": dE, "axial": axial, **more}
+    unknown = set(values) - set(Misalignment.names())
+    if unknown:
+        raise TypeError(f"misalignment_cases: unknown misalignment kind(s) {sorted(unknown)}")
     cases = {"aligned": Misalignment()}
-    fmt = {"crossing": lambda v: f"{v / ARCMIN:+g}'", "intersecting": lambda v: f"{v / ARCMIN:+g}'",
-           "dE": lambda v: f"{v:+g} mm", "axial": lambda v: f"{v:+g} mm"}
-    given = {k: v for k, v in (("crossing", crossing), ("intersecting", intersecting), ("dE", dE), ("axial", axial))
-             if v}
+    order = ("crossing", "intersecting", "dE", "axial")  # the order of the cases in results.json
+    order = order + tuple(k for k in Misalignment.names() if k not in order)
+    given = {k: values[k] for k in order if values.get(k)}
     for k, v in given.items():
         for sgn in (1, -1):
-            cases[f"{k} {fmt[k](sgn * abs(v))}"] = Misalignment(**{k: sgn * abs(v)})
+            cases[f"{k} {Misalignment.display(k, sgn * abs(v))}"] = Misalignment(**{k: sgn * abs(v)})
     if combined and len(given) > 1:
         cases["combined +"] = Misalignment(**{k: abs(v) for k, v in given.items()})
     return cases
@@ -125,16 +129,16 @@ class CrowningStudy:
 def _from_scene(scene) -> CrowningStudy:
     from ..errors import GeometryError, OptionError
 
-    from .tca import _check_operating
+    from .tca import check_misalignment_keys
 
     o = scene.options.get("crowning", {}) or {}
-    _check_operating(scene, "crowning", o, signs=(1, -1))
+    check_misalignment_keys(scene, "crowning", o, signs=(1, -1))
     try:
         target = CrowningTarget(te_level=o["te_level"], ellipse_share=o.get("ellipse_share") or 0.0,
                                 edge_margin=o.get("edge_margin") or 0.0, tip_margin=o.get("tip_margin") or 0.0,
                                 objective=o.get("objective") or "sum")
-        cases = misalignment_cases(o.get("crossing") or 0.0, o.get("intersecting") or 0.0, o.get("dE") or 0.0,
-                                   o.get("axial") or 0.0, bool(o.get("combined")))
+        cases = misalignment_cases(combined=bool(o.get("combined")),
+                                   **{k: o.get(k) or 0.0 for k in Misalignment.names()})
         return CrowningStudy(scene.pair, target, cases, positions=o.get("positions") or 41,
                              quiet=o.get("quiet", True) is not False, name=scene.name)
     except (GeometryError, OptionError) as e:
@@ -144,6 +148,7 @@ def _from_scene(scene) -> CrowningStudy:
 def _register():
     from ..io.schema import Bounds, Field, Section
     from . import StudySpec, register
+    from .tca import misalignment_fields
 
     register(StudySpec(
         name="crowning",
@@ -151,12 +156,7 @@ def _register():
         sections=[Section("crowning", [
             Field("te_level", "angle", required=True, check=Bounds(lo=0, lo_open=True, hi=600 / 3600), typical="arcsec",
                   doc="predesigned TE level (e.g. \"8 arcsec\")"),
-            Field("crossing", "angle", default=0.0, check=Bounds(lo=0, hi=10), bare=Bounds(lo=0, hi=1),
-                  typical="arcmin", doc="+- crossing angle cases (a bare number is deg: <= 1)"),
-            Field("intersecting", "angle", default=0.0, check=Bounds(lo=0, hi=10), bare=Bounds(lo=0, hi=1),
-                  typical="arcmin", doc="+- intersecting angle cases (a bare number is deg: <= 1)"),
-            Field("dE", "length", default=0.0, check=Bounds(lo=0, hi=5), doc="+- centre distance change cases"),
-            Field("axial", "length", default=0.0, check=Bounds(lo=0, hi=50), doc="+- axial displacement cases"),
+            *misalignment_fields(signed=False, prefix="+- ", suffix=" cases"),
             Field("combined", "bool", default=False, doc="also all misalignments together"),
             Field("ellipse_share", "float", default=0.0, check=Bounds(lo=0, hi=1, hi_open=True),
                   doc="min contact-ellipse major axis / face width at the mean point"),

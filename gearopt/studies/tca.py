@@ -8,7 +8,7 @@ Scene section ``[tca]``:
                   contact sought in the pinion section ``z_section``).
 ``z_section``     pinion section for line contact [mm] (default 0).
 ``positions``     positions per mesh cycle (default 81, 9..5000); two cycles are analysed.
-``delta``         elastic approach for the contact ellipse [mm] (default 0.00632).
+``delta``         elastic approach for the contact ellipse [mm] (default ``ContactSettings.delta``, 0.00632).
 ``dE``, ``crossing``, ``intersecting``, ``axial``: the misalignment case analysed beside the
                   aligned drive [mm, angle, angle, mm] (all 0 by default: aligned only).
 ``[[tca.cases]]`` a list of misalignment cases instead (array of tables, each with ``label`` and
@@ -31,6 +31,7 @@ import numpy as np
 
 from ..gears import GearPair
 from ..contact.edge import EdgeContact, EdgeTCAResult
+from ..meshing.solver import ContactSettings
 from ..meshing.tca import TCA, Misalignment, TCAResult
 from ..report import CONJUGATE_ARCSEC, te_harmonics  # noqa: F401 - re-exported (their home: gearopt.report)
 from ..units import ARCMIN, DEG
@@ -173,7 +174,7 @@ class TCAStudy:
     """Compiled TCA of a pair; ``run()`` sweeps one mesh cycle for each case."""
 
     def __init__(self, pair: GearPair, side="right", contact="point", z_section=0.0, positions=81,
-                 delta=0.00632, misalignment: Misalignment | None = None, name="tca", edge_contact: bool = False,
+                 delta=ContactSettings.delta, misalignment: Misalignment | None = None, name="tca", edge_contact: bool = False,
                  cases=None):
         """``misalignment``: one case beside the aligned drive; or ``cases``: a list of
         ``(label, Misalignment)`` (or a dict label -> Misalignment) analysed in order, with the
@@ -223,21 +224,16 @@ class TCAStudy:
                                   "'aligned').", param="cases", value=labels, valid="distinct labels")
         elif misalignment is not None and np.any(misalignment.vector() != 0):
             self.cases.append(("misaligned", misalignment))
-        overlap = (pair.pinion.b + pair.gear.b) / 2
         for lab, m in self.cases:  # the rules of TCA.sweep, before anything runs
-            where = "misalignment" if lab == "misaligned" and cases is None else f"cases[{lab!r}]"
-            pair.check_operating(m.dE, f"{where}.dE")
-            if abs(m.axial) >= overlap:
-                raise out_of_range(f"{where}.axial", m.axial, f"|axial| < (b1 + b2) / 2 = {overlap:.6g} mm (the "
-                                   "faces must overlap for the teeth to touch)")
+            m.check(pair, "misalignment" if lab == "misaligned" and cases is None else f"cases[{lab!r}]")
         self.tca = TCA(pair, side=side, contact=contact)
         self.edge = EdgeContact(self.tca) if edge_contact else None
 
     def limits(self) -> dict:
         t = self.tca
         return {"pinion": {"b": self.pair.pinion.b, "r_a": self.pair.pinion.r_a,
-                           "r_form": t._form_radius(t.pinion)},
-                "gear": {"b": self.pair.gear.b, "r_a": self.pair.gear.r_a, "r_form": t._form_radius(t.gear)}}
+                           "r_form": t.form_radius(1)},
+                "gear": {"b": self.pair.gear.b, "r_a": self.pair.gear.r_a, "r_form": t.form_radius(2)}}
 
     def run(self, progress=None) -> TCAReport:
         t0 = time.perf_counter()
@@ -273,26 +269,52 @@ class TCAStudy:
 
 
 # --- scene binding ------------------------------------------------------------------------------
-def _check_operating(scene, section: str, o: dict, signs=(1,)) -> None:
-    """Refuse, before running, misalignments that make the study meaningless: a centre distance
-    change dE that jams the teeth (a + dE < a_0, the rule of [pair] a) or separates them (contact
-    ratio < 1), and an axial displacement beyond the overlap of the faces. ``signs``: the cases
-    analysed (+dE only, or +-dE)."""
+def check_misalignment_keys(scene, section: str, o: dict, signs=(1,)) -> None:
+    """Refuse, before running, misalignments that make the study meaningless
+    (:meth:`Misalignment.check`: a centre distance change dE that jams the teeth (a + dE < a_0, the
+    rule of [pair] a) or separates them (contact ratio < 1), an axial displacement beyond the
+    overlap of the faces), naming the scene key. ``o``: the section's values by kind; ``signs``:
+    the cases analysed (+v only, or +-v)."""
     from ..errors import GeometryError
 
-    pair = scene.pair
-    dE = o.get("dE") or 0.0
-    for s in signs:
-        try:
-            pair.check_operating(s * dE, "dE" if s > 0 else "-dE")
-        except GeometryError as e:
-            case = "" if s > 0 else f" (the case -dE = {-dE:g} mm)"
-            raise scene.key_error(section, "dE", f"is out of range{case}; valid: {e.valid}.") from None
-    axial = o.get("axial") or 0.0
-    overlap = (pair.pinion.b + pair.gear.b) / 2
-    if abs(axial) >= overlap:
-        raise scene.key_error(section, "axial", f"is out of range; valid: |axial| < (b1 + b2) / 2 = {overlap:g} mm "
-                              "(beyond it the faces do not overlap and the teeth cannot touch).")
+    for k in Misalignment.names():
+        v = o.get(k) or 0.0
+        for s in signs:
+            try:
+                Misalignment(**{k: s * v}).check(scene.pair, "mis")
+            except GeometryError as e:
+                case = "" if s > 0 else f" (the case -{k} = {Misalignment.display(k, -v).lstrip('+')})"
+                raise scene.key_error(section, k, f"is out of range{case}; valid: {e.valid}.") from None
+
+
+_check_operating = check_misalignment_keys  # (old private name)
+
+
+def misalignment_from(o: dict) -> Misalignment:
+    """The :class:`Misalignment` of a scene section's keys (one per kind; absent keys are 0)."""
+    return Misalignment(**{k: o.get(k) or 0.0 for k in Misalignment.names()})
+
+
+def misalignment_fields(signed: bool = True, prefix: str = "", suffix: str = "") -> list:
+    """Scene keys of every misalignment kind, from the fields of :class:`Misalignment` (unit, meaning,
+    bound): signed values, or magnitudes (``signed=False``: the +- cases of the crowning study)."""
+    from ..io.schema import Bounds, Field
+
+    out = []
+    for k in Misalignment.names():
+        meta = Misalignment.meta(k)
+        hi = meta["scene_max"]
+        lo = -hi if signed else 0.0
+        if meta["unit"] == "angle":
+            # Misalignment angles of real drives are arcminutes (Litvin's examples: 3 arcmin); a bare
+            # number above 1 deg (60 arcmin, 0.35 mm across a 20 mm face) is almost surely an arcmin
+            # value written without its unit. Refused unless the unit is written out ("2 deg" is accepted).
+            out.append(Field(k, "angle", default=0.0, check=Bounds(lo=lo, hi=hi),
+                             bare=Bounds(lo=-1 if signed else 0, hi=1), typical="arcmin",
+                             doc=f"{prefix}{meta['doc']}{suffix} (a bare number is deg: |{k}| <= 1)"))
+        else:
+            out.append(Field(k, "length", default=0.0, check=Bounds(lo=lo, hi=hi), doc=prefix + meta["doc"] + suffix))
+    return out
 
 
 def _from_scene(scene) -> TCAStudy:
@@ -300,30 +322,28 @@ def _from_scene(scene) -> TCAStudy:
 
     o = scene.options.get("tca", {}) or {}
     try:
-        mis = Misalignment(dE=o.get("dE") or 0.0, crossing=o.get("crossing") or 0.0,
-                           intersecting=o.get("intersecting") or 0.0, axial=o.get("axial") or 0.0)
+        mis = misalignment_from(o)
         cases = None
         if o.get("cases") is not None:
             if np.any(mis.vector() != 0):
-                raise SceneError(f"{scene.source}: [tca] cases and the single keys dE, crossing, intersecting, axial: "
+                raise SceneError(f"{scene.source}: [tca] cases and the single keys {', '.join(Misalignment.names())}: "
                                  "give the misalignments either as [[tca.cases]] or as the single keys, not both.",
                                  param="[tca] cases")
             cases = []
             for i, c in enumerate(o["cases"]):
-                m = Misalignment(dE=c.get("dE") or 0.0, crossing=c.get("crossing") or 0.0,
-                                 intersecting=c.get("intersecting") or 0.0, axial=c.get("axial") or 0.0)
+                m = misalignment_from(c)
                 label = c.get("label") or _auto_label(m)
                 if label in [lab for lab, _ in cases]:
                     raise SceneError(f"{scene.source}: [tca.cases][{i}] label = {label!r}: the labels of the cases "
                                      "must be distinct.",
                                      param=f"[tca.cases][{i}] label", value=label, valid="distinct labels")
-                _check_operating(scene, f"tca.cases][{i}", c, signs=(1,))
+                check_misalignment_keys(scene, f"tca.cases][{i}", c, signs=(1,))
                 cases.append((label, m))
             if not cases:
                 raise SceneError(f"{scene.source}: [tca] cases = []: give at least one case or leave it out.",
                                  param="[tca] cases", value=[], valid="at least one case")
         if cases is None:
-            _check_operating(scene, "tca", o, signs=(1,))
+            check_misalignment_keys(scene, "tca", o, signs=(1,))
         if o.get("contact") == "line" and abs(o.get("z_section") or 0.0) > scene.pair.pinion.b / 2:
             raise scene.key_error("tca", "z_section", f"is out of range; valid: |z_section| <= b1 / 2 = "
                                   f"{scene.pair.pinion.b / 2:g} mm (a section of the pinion face, [pinion] b = "
@@ -333,7 +353,7 @@ def _from_scene(scene) -> TCAStudy:
             # surfaces then cross in every section (Litvin 9.6); the line TCA has no solution
             rows = [("tca", o)] if cases is None else [(f"tca.cases][{i}", c) for i, c in enumerate(o["cases"])]
             for sec, row in rows:
-                for key in ("crossing", "intersecting"):
+                for key in Misalignment.names("angle"):
                     if row.get(key):
                         raise scene.key_error(sec, key, "is not allowed with contact = \"line\"; valid: 0 (line "
                                               "contact needs aligned axes: crossed or intersecting axes give point "
@@ -346,27 +366,19 @@ def _from_scene(scene) -> TCAStudy:
                              param="[tca] contact", value="point")
         return TCAStudy(scene.pair, side=o.get("side") or "right", contact=o.get("contact") or "point",
                         z_section=o.get("z_section") or 0.0, positions=o.get("positions") or 81,
-                        delta=o.get("delta") or 0.00632, misalignment=None if cases else mis, name=scene.name,
+                        delta=o.get("delta") or ContactSettings.delta, misalignment=None if cases else mis, name=scene.name,
                         edge_contact=bool(o.get("edge_contact")), cases=cases)
     except (GeometryError, OptionError) as e:
         raise scene.study_error("tca", e) from e
 
 
 def _auto_label(m: Misalignment) -> str:
-    parts = [f"dE {m.dE:+g} mm" if m.dE else "", f"crossing {m.crossing / ARCMIN:+g}'" if m.crossing else "",
-             f"intersecting {m.intersecting / ARCMIN:+g}'" if m.intersecting else "",
-             f"axial {m.axial:+g} mm" if m.axial else ""]
-    return ", ".join(p for p in parts if p) or "aligned"
+    return m.label()
 
 
 def _register():
     from ..io.schema import Bounds, Field, Section
     from . import StudySpec, register
-
-    # Misalignment angles of real drives are arcminutes (Litvin's examples: 3 arcmin); a bare number
-    # above 1 deg (60 arcmin, 0.35 mm across a 20 mm face) is almost surely an arcmin value written
-    # without its unit. Refused unless the unit is written out ("2 deg" is accepted).
-    _BARE_MIS = Bounds(lo=-1, hi=1)
 
     register(StudySpec(
         name="tca",
@@ -377,24 +389,14 @@ def _register():
                   doc="point (crowned pinion) or line (conjugate/profile-crowned: in section z_section)"),
             Field("z_section", "length", default=0.0, doc="pinion section for line contact"),
             Field("positions", "int", default=81, check=Bounds(lo=9, hi=5000), doc="positions per mesh cycle"),
-            Field("delta", "length", default=0.00632, check=Bounds(lo=0, lo_open=True, hi=0.1),
+            Field("delta", "length", default=ContactSettings.delta, check=Bounds(lo=0, lo_open=True, hi=0.1),
                   doc="elastic approach for the contact ellipse"),
-            Field("dE", "length", default=0.0, check=Bounds(lo=-5, hi=5), doc="centre distance change"),
-            Field("crossing", "angle", default=0.0, check=Bounds(lo=-10, hi=10), bare=_BARE_MIS,
-                  typical="arcmin", doc="crossing angle of the axes (a bare number is deg: |crossing| <= 1)"),
-            Field("intersecting", "angle", default=0.0, check=Bounds(lo=-10, hi=10), bare=_BARE_MIS,
-                  typical="arcmin", doc="intersecting angle of the axes (a bare number is deg: |intersecting| <= 1)"),
-            Field("axial", "length", default=0.0, check=Bounds(lo=-50, hi=50), doc="axial displacement of the gear"),
+            *misalignment_fields(),
             Field("edge_contact", "bool", default=False,
                   doc="also solve edge contact (tips, face ends) and combine it with the surface contact (Litvin 9.6)"),
         ], required=False, subsections=[Section("cases", [
             Field("label", "str", doc="name of the case in plots and results (default: its misalignments)"),
-            Field("dE", "length", default=0.0, check=Bounds(lo=-5, hi=5), doc="centre distance change"),
-            Field("crossing", "angle", default=0.0, check=Bounds(lo=-10, hi=10), bare=_BARE_MIS, typical="arcmin",
-                  doc="crossing angle of the axes (a bare number is deg: |crossing| <= 1)"),
-            Field("intersecting", "angle", default=0.0, check=Bounds(lo=-10, hi=10), bare=_BARE_MIS,
-                  typical="arcmin", doc="intersecting angle of the axes (a bare number is deg: |intersecting| <= 1)"),
-            Field("axial", "length", default=0.0, check=Bounds(lo=-50, hi=50), doc="axial displacement of the gear"),
+            *misalignment_fields(),
         ], array=True, doc="list of misalignment cases ([[tca.cases]]), instead of the single keys; the aligned "
                            "drive comes first unless a case is aligned")])],
         build=_from_scene,

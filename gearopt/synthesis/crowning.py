@@ -34,11 +34,11 @@ from ..errors import ArgumentError, ConvergenceError, OptionError, SynthesisErro
 from ..gears import GearPair
 from ..geometry.generation import PARAMS
 from ..geometry.tools import require_rack_settings
+from ..meshing.solver import ContactSettings
 from ..meshing.tca import TCA, Misalignment
 from ..units import ARCMIN, ARCSEC, RAD_TO_ARCSEC
 
 SETTINGS = ("a_c", "a_pl")  #: design variables (entries of the pinion parameter vector)
-_IDX = {name: PARAMS.index(name) for name in SETTINGS}
 
 
 @dataclass(frozen=True)
@@ -71,7 +71,7 @@ class CrowningTarget:
     edge_margin: float = 0.0
     tip_margin: float = 0.0
     level_tolerance: float = 0.10
-    delta: float = 0.00632
+    delta: float = ContactSettings.delta
     objective: str = "sum"
 
     def __post_init__(self):
@@ -121,8 +121,8 @@ class CaseReport:
 #: Unit of each sensitivity d(TE level)/d(variable) in results.json, and the factor from the
 #: engine's arcsec per internal unit (1/mm, mm, rad).
 SENSITIVITY_UNITS = {"a_c": ("arcsec per 1/mm", 1.0), "a_pl": ("arcsec per 1/mm", 1.0),
-                     "mis.dE": ("arcsec per mm", 1.0), "mis.axial": ("arcsec per mm", 1.0),
-                     "mis.crossing": ("arcsec per arcmin", ARCMIN), "mis.intersecting": ("arcsec per arcmin", ARCMIN)}
+                     **{f"mis.{k}": (("arcsec per arcmin", ARCMIN) if Misalignment.meta(k)["unit"] == "angle"
+                                     else ("arcsec per mm", 1.0)) for k in Misalignment.names()}}
 
 
 @dataclass(frozen=True)
@@ -237,7 +237,6 @@ class CrowningOptimizer:
         cases = dict(_default_cases() if cases is None else cases)
         if not cases:
             raise out_of_range("cases", cases, "at least one misalignment case", cls=OptionError)
-        overlap = (pair.pinion.b + pair.gear.b) / 2
         b_min = min(pair.pinion.b, pair.gear.b)
         if target.edge_margin >= b_min / 2:
             raise out_of_range("target.edge_margin", target.edge_margin, f"0 <= edge_margin < min(b1, b2) / 2 = "
@@ -251,10 +250,7 @@ class CrowningOptimizer:
                 hint = " Use Misalignment(**d) (angles in rad)." if isinstance(m, dict) else ""
                 raise ArgumentError(f"cases[{name!r}] = {type(m).__name__}: expected a Misalignment.{hint}",
                                     param=f"cases[{name!r}]", value=m, valid="a Misalignment")
-            pair.check_operating(m.dE, f"cases[{name!r}].dE")
-            if abs(m.axial) >= overlap:
-                raise out_of_range(f"cases[{name!r}].axial", m.axial, f"|axial| < (b1 + b2) / 2 = {overlap:.6g} mm "
-                                   "(the faces must overlap)")
+            m.check(pair, f"cases[{name!r}]")
         if "aligned" not in cases and target.ellipse_share > 0:
             cases = {"aligned": Misalignment(), **cases}
         if side not in ("right", "left"):
@@ -282,7 +278,8 @@ class CrowningOptimizer:
         A = self.target.te_level / (math.pi / g1.z) ** 2
         tan_a = math.tan(p.alpha_wt)
         a_c = g1.rack.a_c or A * g2.r_b / (tan_a**2 * g1.r_b**2)  # parabolic-rack TE law (tests/test_tca.py)
-        gam = max([abs(m.crossing) + abs(m.intersecting) for m in self.cases.values()] + [1 * ARCMIN])
+        gam = max([sum(abs(getattr(m, k)) for k in Misalignment.names("angle")) for m in self.cases.values()]
+                  + [1 * ARCMIN])
         a_pl = g1.a_pl or 2 * gam / (g1.b * tan_a)  # path shift gamma/(2 a_pl tan a) = b/4
         lo_c, hi_c = self.bounds["a_c"]
         lo_p, hi_p = self.bounds["a_pl"]
@@ -309,8 +306,9 @@ class CrowningOptimizer:
         SYM = ca.MX  # Function calls stay nodes of the graph: fast exact-Hessian construction
         x = SYM.sym("x", len(SETTINGS))  # scaled settings
         p1 = SYM(p1_0)
+        lay = tca.layout  # the TCA's parameter column by name
         for j, name in enumerate(SETTINGS):
-            p1[_IDX[name]] = x[j] * self.scale[name]
+            p1[lay.p_index("pinion", name)] = x[j] * self.scale[name]
         F = tca.residual
         vars_, lbx, ubx, x0 = [x], [], [], []
         for name in SETTINGS:
@@ -322,7 +320,7 @@ class CrowningOptimizer:
         self._c_index = {}
         obj_terms = []
         self._w_index = {}
-        r_form1, r_form2 = tca._form_radius(tca.pinion), tca._form_radius(tca.gear)
+        r_form1, r_form2 = tca.form_radius(1), tca.form_radius(2)
         S1 = tca.pinion.surface(self.side, "flank")
         S2 = tca.gear.surface(self.side, "flank")
         m, mt = tgt.edge_margin, tgt.tip_margin
@@ -354,9 +352,9 @@ class CrowningOptimizer:
             lbx += [-np.inf] * (5 * K)
             ubx += [np.inf] * (5 * K)
             x0 += list(W0.T.ravel())
-            PRM = ca.vertcat(ca.DM(phis).T, ca.repmat(p1, 1, K), ca.repmat(ca.DM(p2), 1, K),
-                             ca.repmat(ca.DM(mv), 1, K), ca.DM.zeros(1, K))
-            g.append(ca.vec(F.map(K)(W, PRM)))
+            PRM = lay.build({"phi1": ca.DM(phis).T, "pinion": ca.repmat(p1, 1, K), "gear": ca.repmat(ca.DM(p2), 1, K),
+                             "mis": ca.repmat(ca.DM(mv), 1, K), "z_section": ca.DM.zeros(1, K)})
+            g.append(ca.vec(F.map(K)(w=W, prm=PRM)["F"]))
             lbg += [0.0] * (5 * K)
             ubg += [0.0] * (5 * K)
             te = W[4, :] / tca.scale2 - (z1 / pair.gear.z) * ca.DM(phis).T
@@ -370,7 +368,8 @@ class CrowningOptimizer:
                 lbx += [-np.inf] * 5
                 ubx += [np.inf] * 5
                 x0 += list(w_guess)
-                g.append(F(w, ca.vertcat(ph_t, p1, p2, mv, 0.0)))
+                g.append(F(w=w, prm=lay.build({"phi1": ph_t, "pinion": p1, "gear": p2, "mis": mv,
+                                               "z_section": 0.0}))["F"])
                 lbg += [0.0] * 5
                 ubg += [0.0] * 5
                 r1 = S1(w[0], w[1], p1)[0]
@@ -392,12 +391,12 @@ class CrowningOptimizer:
                 lbx += [-np.inf] * 5
                 ubx += [np.inf] * 5
                 x0 += list(W0[:, K // 2])
-                prm_m = ca.vertcat(phis[K // 2], p1, p2, mv, 0.0)
-                g.append(F(wm, prm_m))
+                prm_m = lay.build({"phi1": phis[K // 2], "pinion": p1, "gear": p2, "mis": mv, "z_section": 0.0})
+                g.append(F(w=wm, prm=prm_m)["F"])
                 lbg += [0.0] * 5
                 ubg += [0.0] * 5
-                out = tca.contact(wm, prm_m)
-                Ks = out[7] + out[8]
+                c_m = tca.contact(w=wm, prm=prm_m)
+                Ks = c_m["K1"] + c_m["K2"]  # curvature matrices of both flanks in the common basis
                 lam_min = 0.5 * (Ks[0, 0] + Ks[1, 1] - ca.sqrt((Ks[0, 0] - Ks[1, 1]) ** 2 + 4 * Ks[0, 1] ** 2))
                 # 2 a = 2 sqrt(2 delta / lam_min) >= share b  <=>  lam_min <= 8 delta / (share b)^2
                 g.append(lam_min * (tgt.ellipse_share * g1.b) ** 2 / (8 * tgt.delta))
@@ -568,7 +567,7 @@ class CrowningOptimizer:
         V = np.c_[np.ones(K), phis, -phis**2]
         P = np.linalg.pinv(V)  # the fitted A is row 2 of P @ TE
         pitch = 2 * math.pi / z1
-        names = ["a_c", "a_pl"] + [f"mis.{m}" for m in ("dE", "crossing", "intersecting", "axial")]
+        names = list(SETTINGS) + [f"mis.{m}" for m in Misalignment.names()]
         out = {}
         for cname, mis in self.cases.items():
             res = tca.sweep(phis, mis=mis, pairs=(0,))
@@ -577,10 +576,10 @@ class CrowningOptimizer:
             W = np.vstack([res.u1[0], res.z1[0], res.u2[0], res.z2[0], res.phi2[0] * tca.scale2])
             prm = tca.prm(phis, mis=mis)
             w_s, p_s = ca.SX.sym("w", 5), ca.SX.sym("p", prm.shape[0])
-            Fw = tca.residual(w_s, p_s)
+            Fw = tca.residual(w=w_s, prm=p_s)["F"]
             dwdp = ca.Function("dwdp", [w_s, p_s], [-ca.solve(ca.jacobian(Fw, w_s), ca.jacobian(Fw, p_s))])
             D = np.stack([np.asarray(dwdp(W[:, k], prm[:, k]))[4] / tca.scale2 for k in range(K)])  # dphi2/dprm
-            cols = [1 + PARAMS.index("a_c"), 1 + PARAMS.index("a_pl")] + [1 + 2 * len(PARAMS) + i for i in range(4)]
+            cols = tca.layout.indices([f"pinion.{n}" for n in SETTINGS] + names[len(SETTINGS):])
             dA = P[2] @ D[:, cols]  # d(fitted A)/d(var)
             out[cname] = {n: float(v * (pitch / 2) ** 2) for n, v in zip(names, dA)}
         del z2

@@ -25,8 +25,9 @@ import numpy as np
 from ..errors import ArgumentError, check_number, out_of_range
 from ..gears import GearPair
 from ..geometry.tools import require_rack_settings
+from ..meshing.solver import ContactSettings
 from ..meshing.tca import TCA, Misalignment
-from .crowning import SETTINGS, SynthesisError, _IDX
+from .crowning import SETTINGS, SynthesisError
 
 
 @dataclass(frozen=True)
@@ -52,7 +53,7 @@ class LocalTarget:
     mprime21: float
     major_axis: float
     eta2: float | None = None
-    delta: float = 0.00632
+    delta: float = ContactSettings.delta
     phi1_m: float = 0.0
 
     def __post_init__(self):
@@ -96,19 +97,21 @@ def _quantities(tca: TCA, side: str, x_scale: dict, delta: float):
     x = ca.SX.sym("x", len(SETTINGS))
     w, dw, d2w = ca.SX.sym("w", 5), ca.SX.sym("dw", 5), ca.SX.sym("d2w", 5)
     phi1 = ca.SX.sym("phi1")
-    mis = ca.SX.sym("mis", 4)
+    lay = tca.layout  # the TCA's parameter column by name
+    mis = lay.symbols(ca.SX)["mis"]
     p1 = ca.SX(tca.pinion.p0)
     for j, name in enumerate(SETTINGS):
-        p1[_IDX[name]] = x[j] * x_scale[name]
+        p1[lay.p_index("pinion", name)] = x[j] * x_scale[name]
     p2 = ca.SX(tca.gear.p0)
     s = ca.SX.sym("s")
-    Hs = tca.residual(w + s * dw + 0.5 * s**2 * d2w, ca.vertcat(phi1 + s, p1, p2, mis, 0.0))
+    Hs = tca.residual(w=w + s * dw + 0.5 * s**2 * d2w,
+                      prm=lay.build({"phi1": phi1 + s, "pinion": p1, "gear": p2, "mis": mis, "z_section": 0.0}))["F"]
     H1 = ca.jacobian(Hs, s)
     H2 = ca.jacobian(H1, s)
     F0, F1, F2 = (ca.substitute(e, s, 0) for e in (Hs, H1, H2))
-    prm = ca.vertcat(phi1, p1, p2, mis, 0.0)
-    out = tca.contact(w, prm)
-    Ks = out[7] + out[8]
+    prm = lay.build({"phi1": phi1, "pinion": p1, "gear": p2, "mis": mis, "z_section": 0.0})
+    c = tca.contact(w=w, prm=prm)
+    Ks = c["K1"] + c["K2"]  # curvature matrices of both flanks in the common basis
     lam_min = 0.5 * (Ks[0, 0] + Ks[1, 1] - ca.sqrt((Ks[0, 0] - Ks[1, 1]) ** 2 + 4 * Ks[0, 1] ** 2))
     two_a = 2 * ca.sqrt(2 * delta / lam_min)
     S2 = tca.gear.surface(side, "flank")
@@ -149,7 +152,7 @@ def local_synthesis(pair: GearPair, target: LocalTarget, side: str = "right", ve
                             + (" (use Misalignment(**d), angles in rad)." if isinstance(mis, dict) else "."),
                             param="mis", value=mis, valid="a Misalignment")
     mis = mis or Misalignment()
-    pair.check_operating(mis.dE, "mis.dE")
+    mis.check(pair, "mis")
     g1 = pair.pinion
     # the ellipse's major axis lies along the contact line, which crosses the face in b / cos(beta_b)
     b_line = min(g1.b, pair.gear.b) / math.cos(g1.beta_b)
