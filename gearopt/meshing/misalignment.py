@@ -53,7 +53,9 @@ class Misalignment:
         for k in self.names():
             v = getattr(self, k)
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-                raise GeometryError(f"misalignment.{k} = {v!r} must be a finite number.")
+                raise GeometryError(f"misalignment.{k} = {v!r} must be a finite number.",
+                                    param=f"misalignment.{k}", value=v, valid="a finite number",
+                                    detail="must be a finite number.")
         for k in self.names("angle"):
             if abs(getattr(self, k)) > ANGLE_MAX:
                 raise out_of_range(f"misalignment.{k}", f"{getattr(self, k) / ARCMIN:.6g} arcmin",
