@@ -509,15 +509,16 @@ def _edge(case, tca, phi1, row, n_mp):
     captured = {}
     orig = ec._combine
 
-    def grab(*a):
-        captured["a"] = a
-        return orig(*a)
+    def grab(sv):
+        captured["sv"] = sv  # the solved bundle (contact.edge._EdgeSolved), read by name
+        return orig(sv)
 
     ec._combine = grab
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         er = ec.sweep(phi1, mis=case.mis, pairs=case.pairs)
-    _, pairs, names, Q, conv, _cone, prm = captured["a"][:7]
+    sv = captured["sv"]
+    pairs, names, Q, conv, prm = sv.pairs, sv.names, sv.Q, sv.conv, sv.prm
     N = phi1.size
     k0 = pairs.index(0) if 0 in pairs else 0
     act = [(i, er.active[i]) for i in range(N) if er.active[i] > 0]

@@ -15,6 +15,7 @@ import pytest
 from gearopt.cli import main
 from gearopt.errors import ArgumentError, ConvergenceError, GearoptError, GeometryError, OptionError, ResultsError
 from gearopt.gears import BasicRack, Gear, GearPair
+from gearopt.geometry.generation import PARAMS
 from gearopt.units import ARCMIN, DEG
 
 # A crowned spur drive 18/37, m 2.5 mm, b 24 mm (point contact), for the tca study.
@@ -444,8 +445,8 @@ def crowned_tca():
     (dict(phi1=[0.0, math.inf]), r"phi1\[1\] = inf"),
     (dict(phi1="0.1 rad"), "phi1"),
     (dict(phi1=np.zeros((2, 3))), "phi1: expected a 1-D"),
-    (dict(phi1=[0.0], p1=[0.0, 0.0]), r"p1: expected a vector of 4"),
-    (dict(phi1=[0.0], p2=np.zeros(5)), r"p2: expected a vector of 4"),
+    (dict(phi1=[0.0], p1=[0.0, 0.0]), rf"p1: expected a vector of {len(PARAMS)}"),
+    (dict(phi1=[0.0], p2=np.zeros(len(PARAMS) + 1)), rf"p2: expected a vector of {len(PARAMS)}"),
     (dict(phi1=[0.0], pairs=()), "pairs is empty"),
     (dict(phi1=[0.0], pairs=(0, 0.5)), "pairs contains float 0.5"),
     (dict(phi1=[0.0], pairs=(0, 0)), "every tooth pair may appear once"),

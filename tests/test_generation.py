@@ -263,7 +263,8 @@ JAC_CASES = [
 def test_ad_jacobians_vs_fd_and_mx(method, kw):
     T = rack_tooth(**kw) if method == "rack" else shaper_tooth(**kw)
     p0 = T.p0
-    steps = np.array([1e-6, 1e-5, 1e-6, 1e-7, 1e-6, 1e-7])  # q, z, x, a_c, u_0, a_pl
+    step_of = {"x": 1e-6, "a_c": 1e-7, "u_0": 1e-6, "a_pl": 1e-7}  # FD steps of p's entries (else 1e-6)
+    steps = np.array([1e-6, 1e-5] + [step_of.get(n, 1e-6) for n in PARAMS])  # q, z, p
     qm, zm = ca.MX.sym("q"), ca.MX.sym("z")
     pm = ca.MX.sym("p", len(PARAMS))
     u_f, phi_max = T.junction()
