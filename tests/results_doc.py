@@ -16,7 +16,9 @@ PLACEHOLDERS = {
     "<member>": r"pinion|gear",
     "<feature>": _FEATURE,
     "<k>": r"-?\d+",
-    "<variable>": r"a_c|a_pl|mis\.(?:dE|crossing|intersecting|axial)",
+    "<variable>": r"a_c|a_pl|mis\.\w+",  # a crowning setting or a misalignment kind
+    "<kind>_mm": r"\w+_mm",  # a misalignment kind of unit length
+    "<kind>_arcmin": r"\w+_arcmin",  # a misalignment kind of unit angle
     "<case>": r".+",
     "<quantity>": r".+",
 }
