@@ -107,8 +107,8 @@ def test_lead_slope_composed_point_and_normal(side):
     base = generate_by_rack(pinion)
     tooth = base.with_modification(mod)
     assert tooth.param_names == PARAMS + ("lead.c0", "lead.c_u", "lead.c_z", "lead.c_uu", "lead.c_zz")
-    np.testing.assert_array_equal(tooth.p0[:4], base.p0)
-    np.testing.assert_array_equal(tooth.p0[4:], [c0, 0.0, c_z, c_uu, 0.0])
+    np.testing.assert_array_equal(tooth.p0[:len(PARAMS)], base.p0)
+    np.testing.assert_array_equal(tooth.p0[len(PARAMS):], [c0, 0.0, c_z, c_uu, 0.0])
     def delta_of(u, z):
         return c0 + c_z * (z - 1.0) + c_uu * (u - 0.3) ** 2
 
@@ -195,7 +195,7 @@ def test_topography_interpolates_grid_and_is_smooth():
     base = generate_by_rack(g)
     for parametric in (False, True):
         tooth = base.with_modification(topography(s, zs, V, parametric=parametric))
-        assert len(tooth.param_names) == 4 + (V.size if parametric else 0)
+        assert len(tooth.param_names) == len(PARAMS) + (V.size if parametric else 0)
         for i, j in ((1, 2), (4, 0), (6, 5)):
             rb, nb, _ = base.point("right", "flank", s[i], zs[j])
             r = tooth.point("right", "flank", s[i], zs[j])[0]
