@@ -350,7 +350,7 @@ def test_bad_attachment_and_parameter_vectors():
     with pytest.raises(ArgumentError, match=re.escape(f"p1: expected a vector of {len(names)} numbers {names}")):
         tca.sweep(PHI, p1=base.p0)
     p = t.p0.copy()
-    p[4] = np.nan
+    p[len(PARAMS)] = np.nan  # the theta "a.c"
     with pytest.raises(ArgumentError, match=r"\['a.c'\] are not"):
         tca.sweep(PHI, p1=p)
 
