@@ -33,9 +33,11 @@ def _shown(value) -> list[str]:
 
 #: ``[section] key`` at the start of a scene problem as a user reads it: the section (``[pinion]``,
 #: ``[pinion.rack]``, ``[tca.cases][0]``), then optionally the key (``z``, ``tool.d_p0``; after an
-#: optional ``who: `` such as ``TCAStudy: ``) ended by `` = ``, ``:``, `` and ``, ``, `` or the
+#: optional ``who: `` such as ``TCAStudy: ``) ended by `` = ``, ``:``, `` and ``, ``, `` (or by
+#: `` (default) = ``, a field's default that fails its own check) or the
 #: section alone ended by ``:`` or `` must``. Group 1 the section, group 2 the key (or None).
-_SCENE_NAMED = re.compile(r"^(\[[^\]\n]+\](?:\[\d+\])?)(?:(?: (?:\w+: )?([A-Za-z_][\w.]*)(?= = |: |:$| and |, ))"
+_SCENE_NAMED = re.compile(r"^(\[[^\]\n]+\](?:\[\d+\])?)(?:(?: (?:\w+: )?([A-Za-z_][\w.]*)(?:(?= = |: |:$| and |, )"
+                          r"| \(default\)(?= = )))"
                           r"|(?=:| must ))")
 #: A run-time failure restated by Scene.run_error: the text after it names the key.
 _RUN_FAILED = re.compile(r"^study '[^']*' failed(?: \(the scene sets .*?\))?: ")

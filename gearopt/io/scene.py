@@ -358,10 +358,11 @@ def _fail(path: Path, errors: list[SceneError]):
     :func:`~gearopt.io.schema.problem`): the message lists them, ``problems`` holds them, and
     ``param``, ``value``, ``valid`` are those of the first."""
     label, first = str(path), errors[0]
-    fields = dict(param=first.param, value=first.value, valid=first.valid, source=path, problems=errors)
+    fields = dict(param=first.param, value=first.value, valid=first.valid, problems=errors)
     if len(errors) == 1:
-        raise SceneError(f"{label}: {first}", detail=first.detail, **fields)
-    raise SceneError(f"{label}: {len(errors)} problems:\n" + "\n".join(f"  - {e}" for e in errors), **fields)
+        raise SceneError(f"{label}: {first}", detail=first.detail, source=path, **fields)
+    raise SceneError(f"{label}: {len(errors)} problems:\n" + "\n".join(f"  - {e}" for e in errors), source=path,
+                     **fields)
 
 
 def load_scene(path) -> Scene:
