@@ -304,3 +304,6 @@ def test_run_and_study_errors_about_gear_data_name_the_gear_key(gear_scene, edit
         if "rack" not in edits and "gear_rack" not in edits else None
     if e is not None:
         assert e.param == "[dummy] pinion.rack.a_c" and "[dummy] pinion.rack.a_c = 2.0" in str(e)
+    # nor is a derived quantity a key: the tip radius stays as gearopt names it
+    e = scene.run_error(out_of_range("gear.r_a", 2.0, "r_a > 3 mm", cls=GeometryError))
+    assert e.param is None and str(e).endswith(": gear.r_a = 2.0 is out of range; valid: r_a > 3 mm.")

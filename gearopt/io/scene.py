@@ -214,8 +214,15 @@ class Scene:
         ``[pinion.rack]``...) that an error's ``param`` as :mod:`gearopt.gears` names it refers to:
         ``pinion.tool`` -> ``("pinion", "tool")``, ``gear.tool.d_p0`` -> ``("gear", "tool.d_p0")``,
         ``pinion.m_n`` -> ``("pair", "m_n")``; None when it names no key written or implied by this
-        scene."""
-        return _gear_key(self.raw, None, param) if param else None
+        scene (a derived quantity such as ``pinion.r_a`` is no key)."""
+        loc = _gear_key(self.raw, None, param) if param else None
+        if loc is None:
+            return None
+        head, _, sub = loc[0].partition(".")
+        sec = next((s for s in COMMON_SECTIONS if s.name == head), None)
+        if sec is not None and sub:
+            sec = next((s for s in sec.subsections if s.name == sub), None)
+        return loc if sec is not None and loc[1].split(".")[0] in sec.keys else None
 
     def gear_error(self, err: GearoptError) -> SceneError | None:
         """``err`` (about a gear parameter, e.g. ``pinion.tool`` refused by the crowning synthesis)
