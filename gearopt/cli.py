@@ -91,7 +91,9 @@ def _run(args) -> int:
 
 class _in_scene:
     """Context manager: a GearoptError raised while a scene's study is built or run is re-raised as
-    a SceneError that names the scene file, the study's ``[section] key`` and the keys as written."""
+    a SceneError that names the scene file, the study's ``[section] key`` and the keys as written
+    (:meth:`~gearopt.io.scene.Scene.run_error`), unless it is a SceneError already stated for this
+    scene (its ``source`` is the scene file)."""
 
     def __init__(self, scene):
         self.scene = scene
@@ -104,8 +106,8 @@ class _in_scene:
 
         if err is None or not isinstance(err, GearoptError) or isinstance(err, ResultsError):
             return False
-        if isinstance(err, SceneError) and str(err).startswith(str(self.scene.source)):
-            return False
+        if isinstance(err, SceneError) and err.source is not None and err.source == self.scene.source:
+            return False  # already stated for this scene (by Scene.key_error, study_error, run_error...)
         raise self.scene.run_error(err) from err
 
 

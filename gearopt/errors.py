@@ -89,7 +89,28 @@ class SynthesisError(ConvergenceError):
 
 class SceneError(GearoptError, ValueError):
     """A scene file is malformed: unknown or missing keys, wrong types or units, bad values.
-    ``param`` is ``"[section] key"`` when the error is about one key."""
+    ``param`` is ``"[section] key"`` when the error is about one key (``"[pinion] z"``,
+    ``"[pinion] tool.d_p0"``, ``"[tca.cases][0] dE"``; ``"[section]"`` for a whole section) and
+    ``value`` the value as written in the file (TOML text).
+
+    Parameters
+    ----------
+    *args, param, value, valid, detail
+        As for :class:`GearoptError`.
+    source : path or None
+        The scene file the error is about (set for every error the loader and the studies raise
+        for a scene; its message then starts with it).
+    problems : sequence of SceneError
+        The individual problems the loader collected into this error (one or several; each with
+        its own ``param``, ``value``, ``valid`` and a message without the file name; the message of
+        this error lists them in this order), its own ``param``, ``value``, ``valid`` being those of
+        the first. ``[]`` for an error not collected from problems.
+    """
+
+    def __init__(self, *args, source=None, problems=(), **fields):
+        super().__init__(*args, **fields)
+        self.source = source
+        self.problems = list(problems)
 
 
 class ArgumentError(GeometryError, TypeError):

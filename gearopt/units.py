@@ -55,45 +55,60 @@ def to_deg(value_rad: float) -> float:
     return value_rad / DEG
 
 
-def parse_quantity(value, kind: str, name: str) -> float:
+def parse_quantity(value, kind: str, name: str, bare_unit: str | None = None) -> float:
     """Convert a scene value to gearopt's internal unit (mm, rad or 1/mm).
 
     Parameters
     ----------
     value : float | int | str
-        A bare number (in the default unit of ``kind``) or ``"<number> <unit>"``.
+        A bare number (in ``bare_unit``) or ``"<number> <unit>"``.
     kind : {"length", "angle", "inverse_length"}
         Physical dimension expected.
     name : str
-        Parameter name used in error messages.
+        Parameter name used in error messages (the errors' ``param``).
+    bare_unit : str or None
+        Unit of a bare number (and of a string without unit), one of the units of ``kind``;
+        default the kind's default unit (mm, deg, 1/mm).
 
     Returns
     -------
     float
         The value in mm, rad or 1/mm.
+
+    Raises
+    ------
+    SceneError
+        With ``param = name``, ``value`` the value as written (TOML text), ``valid`` and ``detail``.
     """
     table, default = KINDS[kind]
+    if bare_unit is not None:
+        if bare_unit not in table:
+            raise ValueError(f"bare_unit {bare_unit!r} is not a unit of kind {kind!r}; one of {sorted(table)}")
+        default = bare_unit
+    shown = _show(value)
+
+    def fail(detail: str, valid: str):
+        return SceneError(f"{name} = {shown}{detail}", param=name, value=shown, valid=valid, detail=detail)
+
     if isinstance(value, bool):
-        raise SceneError(f"{name} = {_show(value)}: expected a {kind} (number or '<number> <unit>'), got a boolean.",
-                         param=name, value=_show(value), valid=f"a {kind} (number or '<number> <unit>')")
+        raise fail(f": expected a {kind} (number or '<number> <unit>'), got a boolean.",
+                   f"a {kind} (number or '<number> <unit>')")
     if isinstance(value, (int, float)):
         number, unit = float(value), default
     elif isinstance(value, str):
         m = _QTY.match(value)
         if not m:
-            raise SceneError(f"{name} = {_show(value)}: expected '<number> <unit>' with unit one of {sorted(table)}.",
-                             param=name, value=_show(value), valid=f"'<number> <unit>' with unit one of {sorted(table)}")
+            raise fail(f": expected '<number> <unit>' with unit one of {sorted(table)}.",
+                       f"'<number> <unit>' with unit one of {sorted(table)}")
         number, unit = float(m.group(1)), (m.group(2) or default)
     else:
-        raise SceneError(f"{name} = {_show(value)}: expected a {kind} (number or '<number> <unit>'), got {type(value).__name__}.",
-                         param=name, value=_show(value), valid=f"a {kind} (number or '<number> <unit>')")
+        raise fail(f": expected a {kind} (number or '<number> <unit>'), got {type(value).__name__}.",
+                   f"a {kind} (number or '<number> <unit>')")
     if unit not in table:
         kinds = [k for k, (t, _) in KINDS.items() if unit in t]
         what = f"{_a(kinds[0])} unit" if kinds else "an unknown unit"
-        raise SceneError(f"{name} = {_show(value)}: '{unit}' is {what}, but {name} is {_a(kind)}; use one of {sorted(table)} "
-                         f"(a bare number means {default}).",
-                         param=name, value=_show(value), valid=f"one of {sorted(table)}")
+        raise fail(f": '{unit}' is {what}, but {name} is {_a(kind)}; use one of {sorted(table)} "
+                   f"(a bare number means {default}).", f"one of {sorted(table)}")
     if not math.isfinite(number):
-        raise SceneError(f"{name} = {_show(value)}: not a finite number.",
-                         param=name, value=_show(value), valid="a finite number")
+        raise fail(": not a finite number.", "a finite number")
     return number * table[unit]

@@ -147,12 +147,19 @@ def Rx(a):
     return np.array([[1.0, 0, 0], [0, c, -s], [0, s, c]])
 
 
+#: Test modules whose every GearoptError is checked by tests/error_fields.py: the bad-input corpora,
+#: the scene loader's bad scenes (test_scene.py), the CLI and the planar study's scene errors.
+_ERROR_CORPORA = ("test_bad_input", "test_scene", "test_cli", "test_planar_tca")
+
+
 @pytest.fixture(autouse=True)
 def _error_fields(request):
-    """In the bad-input corpora (tests/test_bad_input*.py): every GearoptError built during a test
+    """In the bad-input corpora (:data:`_ERROR_CORPORA`): every GearoptError built during a test
     has ``param``, ``value``, ``valid`` consistent with its message, and one that names a
-    parameter (``name = value ...``) says which in ``param`` (issue 12 item 6)."""
-    if not request.module.__name__.split(".")[-1].startswith("test_bad_input"):
+    parameter (``name = value ...``, for a SceneError ``[section] key ...`` after the file name)
+    says which in ``param``; a SceneError that lists several problems holds them in ``problems``
+    (issue 12 item 6)."""
+    if not request.module.__name__.split(".")[-1].startswith(_ERROR_CORPORA):
         yield
         return
     from error_fields import check_fields, recording

@@ -274,7 +274,8 @@ def test_scene_far_from_standard_and_defaults(tmp_path):
 
 
 @pytest.mark.parametrize("body,text", [
-    ("[planar_tca]\nE = 90\n", "E = 90.0 is out of range; valid: E > r_b1 + r_b2"),
+    ("[planar_tca]\nE = 90\n", "[planar_tca] E = 90 is out of range; valid: E > r_b1 + r_b2"),
+    ('[planar_tca]\nE = "3.5 in"\n', '[planar_tca] E = "3.5 in" is out of range; valid: E > r_b1 + r_b2 = 97.728 mm'),
     ("[planar_tca]\nphi1_min = -30\n", "[planar_tca] phi1_min = -30 deg is out of range; valid: -20 < phi1 <"),
     ("[planar_tca]\nr_b1 = 0\n", "[planar_tca] r_b1 = 0 is out of range"),
 ])

@@ -34,6 +34,7 @@ from ..gears import BasicRack, Gear, GearPair
 from ..geometry.tools import TOOL_KINDS, TOOLS, RackCutter  # noqa: F401
 from .schema import (  # noqa: F401 - re-exported: the schema lives in gearopt.io.schema
     ALIASES, KIND_UNITS, Bounds, Field, Section, ToolSection, _closest, _describe, _key_hint, _toml, _type, format_field,
+    problem,
 )
 
 __all__ = [
@@ -176,9 +177,11 @@ class Scene:
     raw: dict = field(default_factory=dict, repr=False, compare=False)
 
     def written(self, section: str, key: str) -> str | None:
-        """The value of ``[section] key`` as written in the file (TOML text), or None if absent."""
+        """The value of ``[section] key`` as written in the file (TOML text), or None if absent
+        (``key`` may be a path into an inline table: ``tool.d_p0``)."""
         t = self.raw
-        for part in re.findall(r"[^.\[\]]+", section):  # "tca.cases][0" -> tca, cases, 0
+        *inner, key = key.split(".")
+        for part in re.findall(r"[^.\[\]]+", section) + inner:  # "tca.cases][0" -> tca, cases, 0
             if isinstance(t, list) and part.isdigit() and int(part) < len(t):
                 t = t[int(part)]
             elif isinstance(t, dict):
@@ -189,21 +192,46 @@ class Scene:
             return _toml(t[key])
         return None
 
-    def key_error(self, section: str, key: str, err) -> SceneError:
+    def key_error(self, section: str, key: str, err, valid: str | None = None) -> SceneError:
         """A :class:`SceneError` for ``[section] key`` from an error of gear or study code (whose
         :attr:`~gearopt.errors.GearoptError.detail` follows the key and its value as written in
-        the file) or from a text that follows them (``"is out of range; valid: ..."``)."""
+        the file) or from a text that follows them (``"is out of range; valid: ..."``; then
+        ``valid`` is the valid range that text states, the error's ``valid``)."""
         if isinstance(err, GearoptError):
             text = err.detail if err.detail is not None else f": {err}"
-            valid = err.valid
+            valid = err.valid if valid is None else valid
         else:
-            text, valid = str(err), None
+            text = str(err)
         shown = self.written(section, key)
         head = f"[{section}] {key} = {shown if shown is not None else '(default)'}"
         if not text.startswith((":", ";", ",", ".")) and not text.startswith(("is ", "must ")):
             text = ": " + text
         return SceneError(f"{self.source}: {join_detail(head, text)}", param=f"[{section}] {key}", value=shown,
-                          valid=valid)
+                          valid=valid, source=self.source)
+
+    def gear_key(self, param: str | None) -> tuple[str, str] | None:
+        """The ``(section, key)`` of the gear data (``[pinion]``, ``[gear]``, ``[pair]``, ``[rack]``,
+        ``[pinion.rack]``...) that an error's ``param`` as :mod:`gearopt.gears` names it refers to:
+        ``pinion.tool`` -> ``("pinion", "tool")``, ``gear.tool.d_p0`` -> ``("gear", "tool.d_p0")``,
+        ``pinion.m_n`` -> ``("pair", "m_n")``; None when it names no key written or implied by this
+        scene (a derived quantity such as ``pinion.r_a`` is no key)."""
+        loc = _gear_key(self.raw, None, param) if param else None
+        if loc is None:
+            return None
+        head, _, sub = loc[0].partition(".")
+        sec = next((s for s in COMMON_SECTIONS if s.name == head), None)
+        if sec is not None and sub:
+            sec = next((s for s in sec.subsections if s.name == sub), None)
+        return loc if sec is not None and loc[1].split(".")[0] in sec.keys else None
+
+    def gear_error(self, err: GearoptError) -> SceneError | None:
+        """``err`` (about a gear parameter, e.g. ``pinion.tool`` refused by the crowning synthesis)
+        restated for the key of the gear data the user wrote (see :meth:`gear_key`), as the loader
+        states it; None when its ``param`` names no such key."""
+        loc = self.gear_key(err.param)
+        if loc is None:
+            return None
+        return _restate(self.source, loc[0], loc[1], _raw_value(self.raw, *loc), err)
 
     def locate(self, param: str | None, prefixes: tuple = ()) -> tuple[str, str] | None:
         """The ``(section, key)`` of this scene's study that an error's ``param`` names: ``mis.dE``,
@@ -231,7 +259,13 @@ class Scene:
         if loc is not None and loc[0] == section and err.detail is not None \
                 and (self.options.get(section) or {}).get(loc[1]) is not None:
             return self.key_error(section, loc[1], err)
-        return SceneError(f"{self.source}: [{section}] {err}", value=err.value, valid=err.valid)
+        if loc is None:
+            restated = self.gear_error(err)
+            if restated is not None:
+                return restated
+        return SceneError(f"{self.source}: [{section}] {err}", value=err.value, valid=err.valid,
+                          param=f"[{section}] {err.param}" if err.param and err.detail is not None else None,
+                          source=self.source)
 
     def run_error(self, err: Exception) -> SceneError:
         """An error raised while the study ran, tied to this scene: file name, the study's
@@ -247,6 +281,9 @@ class Scene:
             section, key = loc
             shown = self.written(section, key)
             msg = join_detail(f"[{section}] {key} = {shown if shown is not None else value_text(err.value)}", err.detail)
+        elif isinstance(err, GearoptError) and self.gear_key(err.param) is not None:  # pinion.tool -> [pinion] tool
+            loc = self.gear_key(err.param)
+            msg = _restate_text(loc[0], loc[1], _raw_value(self.raw, *loc), err)
         spec = get_study(self.study)
         given = []
         for sec in (spec.sections if spec else []):
@@ -262,7 +299,8 @@ class Scene:
         ctx = f" (the scene sets [{spec.sections[0].name}] {', '.join(given)})" if given and spec else ""
         return SceneError(f"{self.source}: study {self.study!r} failed{ctx}: {msg}",
                           param=f"[{loc[0]}] {loc[1]}" if loc else None,
-                          value=self.written(*loc) if loc else None, valid=getattr(err, "valid", None))
+                          value=self.written(*loc) if loc else None, valid=getattr(err, "valid", None),
+                          source=self.source)
 
     def build(self):
         """Build the study object (``STUDIES[study].build(self)``)."""
@@ -270,7 +308,8 @@ class Scene:
 
         spec = get_study(self.study)
         if spec is None:
-            raise SceneError(f"{self.source}: [scene] study = {_toml(self.study)} is not a registered study.")
+            raise SceneError(f"{self.source}: [scene] study = {_toml(self.study)} is not a registered study.",
+                             param="[scene] study", value=_toml(self.study), source=self.source)
         return spec.build(self)
 
 
@@ -278,22 +317,22 @@ def _read_toml(path: Path, label: str) -> dict:
     try:
         raw = path.read_bytes()
     except FileNotFoundError:
-        raise SceneError(f"{label}: no such scene file.") from None
+        raise SceneError(f"{label}: no such scene file.", source=path) from None
     except IsADirectoryError:
-        raise SceneError(f"{label}: is a directory, not a scene file (.toml).") from None
+        raise SceneError(f"{label}: is a directory, not a scene file (.toml).", source=path) from None
     except OSError as e:
-        raise SceneError(f"{label}: cannot read the scene file: {e.strerror or e}.") from None
+        raise SceneError(f"{label}: cannot read the scene file: {e.strerror or e}.", source=path) from None
     try:
         text = raw.decode("utf-8-sig")  # a byte-order mark (some Windows editors write one) is not content
     except UnicodeDecodeError as e:
-        raise SceneError(f"{label}: not UTF-8 text ({e.reason} at byte {e.start}).") from None
+        raise SceneError(f"{label}: not UTF-8 text ({e.reason} at byte {e.start}).", source=path) from None
     try:
         return tomllib.loads(text)
     except RecursionError:
         raise SceneError(f"{label}: arrays or inline tables are nested too deeply to read (no scene value is "
-                         "nested more than two levels).") from None
+                         "nested more than two levels).", source=path) from None
     except tomllib.TOMLDecodeError as e:
-        raise SceneError(f"{label}: TOML syntax error: {_toml_error(e, text)}.") from None
+        raise SceneError(f"{label}: TOML syntax error: {_toml_error(e, text)}.", source=path) from None
 
 
 def _toml_error(e: Exception, text: str) -> str:
@@ -321,10 +360,16 @@ def _toml_error(e: Exception, text: str) -> str:
     return f"duplicate key {section}{shorten(key)} on line {n}{where}; a key may be given once per table"
 
 
-def _fail(label: str, errors: list[str]):
+def _fail(path: Path, errors: list[SceneError]):
+    """Raise one SceneError for the ``errors`` collected while loading ``path`` (each a
+    :func:`~gearopt.io.schema.problem`): the message lists them, ``problems`` holds them, and
+    ``param``, ``value``, ``valid`` are those of the first."""
+    label, first = str(path), errors[0]
+    fields = dict(param=first.param, value=first.value, valid=first.valid, problems=errors)
     if len(errors) == 1:
-        raise SceneError(f"{label}: {errors[0]}")
-    raise SceneError(f"{label}: {len(errors)} problems:\n" + "\n".join(f"  - {e}" for e in errors))
+        raise SceneError(f"{label}: {first}", detail=first.detail, source=path, **fields)
+    raise SceneError(f"{label}: {len(errors)} problems:\n" + "\n".join(f"  - {e}" for e in errors), source=path,
+                     **fields)
 
 
 def load_scene(path) -> Scene:
@@ -344,27 +389,29 @@ def load_scene(path) -> Scene:
     path = Path(path)
     label = str(path)
     data = _read_toml(path, label)
-    errors: list[str] = []
+    errors: list[SceneError] = []  # the problems found, each a schema.problem (message without the file name)
 
     # [scene] first: it says which study, hence which further sections are allowed.
     head = COMMON_SECTIONS[0]
     if "scene" not in data:
-        _fail(label, ["[scene]: missing required section (with name = \"...\" and study = \"...\").",
-                      *([] if data else ["the file is empty."])])
+        _fail(path, [problem("[scene]: missing required section (with name = \"...\" and study = \"...\").", "[scene]"),
+                     *([] if data else [problem("the file is empty.")])])
     scene_vals, _ = head.parse(data["scene"], "scene", errors)
     if errors:
-        _fail(label, errors)
+        _fail(path, errors)
     bad_name = _check_name(scene_vals["name"])
     if bad_name:
-        _fail(label, [f"[scene] name = {_toml(scene_vals['name'])}: {bad_name}"])
+        shown, detail = _toml(scene_vals["name"]), f": {bad_name[0]}"
+        _fail(path, [problem(f"[scene] name = {shown}{detail}", "[scene] name", shown, bad_name[1], detail)])
     study_name = scene_vals["study"]
     spec = get_study(study_name)
     if spec is None:
         known = sorted(studies())
         broken = "".join(f" (module {m} failed to import: {e!r})" for m, e in broken_modules().items())
         valid = ", ".join(_toml(k) for k in known) if known else "none registered"
-        _fail(label, [f"[scene] study = {_toml(study_name)} is not a registered study; valid: {valid}."
-                      f"{_closest(study_name, known)}{broken}"])
+        shown, detail = _toml(study_name), (f"is not a registered study; valid: {valid}."
+                                            f"{_closest(study_name, known)}{broken}")
+        _fail(path, [problem(f"[scene] study = {shown} {detail}", "[scene] study", shown, valid, detail)])
 
     sections = {s.name: s for s in COMMON_SECTIONS}
     for s in spec.sections:
@@ -395,16 +442,19 @@ def load_scene(path) -> Scene:
             target = key if key in homes else ALIASES.get(key, key)
             hint = f" It belongs in {' or '.join(homes[target])}" if target in homes else ""
             hint = (hint + (f" (as {target})" if target != key else "") + ".") if hint else ""
-            errors.append(f"{shorten(key)} = {_toml(value)}: top-level key {shorten(repr(key))} is not allowed; keys must be inside a "
-                          f"section such as [scene].{hint}")
+            detail = (f": top-level key {shorten(repr(key))} is not allowed; keys must be inside a section such as "
+                      f"[scene].{hint}")
+            errors.append(problem(f"{shorten(key)} = {_toml(value)}{detail}", shorten(key), _toml(value),
+                                  "inside a section", detail))
             continue
         owner = [n for n, st in studies().items() for s in st.sections if s.name == key]
         if owner:
-            errors.append(f"[{key}]: this section belongs to study {_toml(owner[0])}, but this scene's "
-                          f"study is {_toml(study_name)}.")
+            errors.append(problem(f"[{key}]: this section belongs to study {_toml(owner[0])}, but this scene's "
+                                  f"study is {_toml(study_name)}.", f"[{key}]"))
         else:
-            errors.append(f"[{shorten(key)}]: unknown section.{_closest(key, list(sections))} Valid sections: "
-                          f"{', '.join(f'[{n}]' for n in sections)}.")
+            valid = ", ".join(f"[{n}]" for n in sections)
+            errors.append(problem(f"[{shorten(key)}]: unknown section.{_closest(key, list(sections))} Valid sections: "
+                                  f"{valid}.", f"[{shorten(key)}]", valid=valid))
 
     parsed: dict[str, dict] = {}
     given: dict[str, set] = {}
@@ -417,22 +467,24 @@ def load_scene(path) -> Scene:
             needs = [f.name for f in sec.fields if f.required]
             what = f" ({sec.doc})" if sec.doc else ""
             keys = f"; it needs {', '.join(needs)}" if needs else ""
-            errors.append(f"[{name}]: missing required section{what}{keys} (see `gearopt studies`).")
+            errors.append(problem(f"[{name}]: missing required section{what}{keys} (see `gearopt studies`).",
+                                  f"[{name}]"))
         else:
             parsed[name], given[name] = sec.parse({}, name, errors, homes)
 
     pair_given = given.get("pair", set())
     if "pair" in data and isinstance(data["pair"], dict):
         if "m_n" in pair_given and "P_n" in pair_given:
-            errors.append("[pair] m_n and P_n: give exactly one of them (module in mm or diametral pitch in 1/in), "
-                          "not both.")
+            errors.append(problem("[pair] m_n and P_n: give exactly one of them (module in mm or diametral pitch in "
+                                  "1/in), not both.", "[pair] m_n", valid="exactly one of them"))
         elif "m_n" not in pair_given and "P_n" not in pair_given:
-            errors.append("[pair] m_n: missing; give exactly one of m_n (normal module, mm) or P_n "
-                          "(normal diametral pitch, 1/in).")
+            errors.append(problem("[pair] m_n: missing; give exactly one of m_n (normal module, mm) or P_n "
+                                  "(normal diametral pitch, 1/in).", "[pair] m_n",
+                                  valid="exactly one of m_n (normal module, mm) or P_n (normal diametral pitch, 1/in)"))
     if errors:
-        _fail(label, errors)
+        _fail(path, errors)
 
-    pair = _build_pair(data, parsed, given, label)
+    pair = _build_pair(data, parsed, given, path)
     options = {s.name: parsed[s.name] for s in spec.sections}
     return Scene(name=scene_vals["name"], description=scene_vals["description"], study=study_name, pair=pair,
                  options=options, output=dict(parsed["output"]), source=path, raw=data)
@@ -441,19 +493,23 @@ def load_scene(path) -> Scene:
 _NAME_FORBIDDEN = set('/\\:*?"<>|')
 
 
-def _check_name(name: str) -> str | None:
-    """Why a scene name cannot name files (out/<name>_ccx, ...), or None when it can."""
+def _check_name(name: str) -> tuple[str, str] | None:
+    """Why a scene name cannot name files (out/<name>_ccx, ...) as ``(text, valid)`` (``valid`` the
+    part of ``text`` after "valid: "), or None when it can."""
+    def why(what: str, valid: str, after: str = "") -> tuple[str, str]:
+        return f"{what}; valid: {valid}{after}.", valid
+
     if not name.strip():
-        return "empty; valid: a short name (letters, digits, spaces, . _ - ...) that can name a file."
+        return why("empty", "a short name (letters, digits, spaces, . _ - ...) that can name a file")
     bad = sorted({c for c in name if c in _NAME_FORBIDDEN or ord(c) < 32 or ord(c) == 127})
     if bad:
         shown = ", ".join(repr(c) for c in bad)
-        return (f"contains {shown}; valid: a name that can be a file name (no path separators /, \\, no :*?\"<>| "
-                "or control characters), since output files are named after it.")
+        return why(f"contains {shown}", "a name that can be a file name (no path separators /, \\, no :*?\"<>| "
+                   "or control characters)", ", since output files are named after it")
     if name.startswith(".") or name != name.strip():
-        return "starts with '.' or has leading/trailing spaces; valid: a plain file name (not hidden, not '..')."
+        return why("starts with '.' or has leading/trailing spaces", "a plain file name (not hidden, not '..')")
     if len(name) > 120:
-        return f"is {len(name)} characters long; valid: at most 120 (it names output files)."
+        return why(f"is {len(name)} characters long", "at most 120", " (it names output files)")
     return None
 
 
@@ -462,81 +518,102 @@ def _check_name(name: str) -> str | None:
 _RACK_KEYS = [f.name for f in _RACK_FIELDS if f.name != "preset"]
 
 
-def _build_pair(data: dict, parsed: dict, given: dict, label: str) -> GearPair:
+def _raw_value(data: dict, section: str, key: str):
+    """The value of ``[section] key`` as written in the file (``section`` may be ``"pinion.rack"``,
+    ``key`` may be ``"tool.d_p0"``), or ``_MISSING``."""
+    t = data
+    *parts, key = section.split(".") + key.split(".")
+    for part in parts:
+        t = t.get(part, {}) if isinstance(t, dict) else {}
+    return t.get(key, _MISSING) if isinstance(t, dict) else _MISSING
+
+
+def _gear_key(data: dict, member: str | None, name: str) -> tuple[str, str] | None:
+    """Map a :mod:`gearopt.gears` parameter name (an error's ``param``: ``pinion.z``, ``gear.m_n``,
+    ``pinion.rack.a_c``, ``rack.alpha_n`` for ``member``'s rack, ``pinion.tool``,
+    ``pinion.tool.d_p0``, ``pair.a``) to ``(section, key)`` in the scene file ``data`` (as read),
+    or None. A rack key maps to where the file sets it (``[pinion.rack]`` or ``[rack]``), None if it
+    sets it nowhere; a tool key to the scene's name for it (``tool.N_h`` -> ``tool.z``)."""
+
+    def rack_source(member: str, key: str) -> str | None:
+        if _raw_value(data, f"{member}.rack", key) is not _MISSING:
+            return f"{member}.rack"
+        if _raw_value(data, "rack", key) is not _MISSING:
+            return "rack"
+        return None
+
+    parts = name.split(".")
+    if parts[0] in ("pinion", "gear") and len(parts) == 2:
+        member, key = parts
+        if key in ("m_n",):
+            return ("pair", "P_n" if _raw_value(data, "pair", "m_n") is _MISSING
+                    and _raw_value(data, "pair", "P_n") is not _MISSING else "m_n")
+        if key in ("beta", "hand"):
+            return ("pair", key)
+        return (member, key)
+    if parts[0] in ("pinion", "gear") and len(parts) == 3 and parts[1] == "tool":  # the tool's own key
+        tool = _raw_value(data, parts[0], "tool")
+        kind = tool.get("kind") if isinstance(tool, dict) else None
+        key = {v: k for k, v in _TOOL_ATTRS.get(kind, {}).items()}.get(parts[2], parts[2])
+        return (parts[0], f"tool.{key}")
+    if parts[0] in ("pinion", "gear") and len(parts) == 3 and parts[1] == "rack":
+        src = rack_source(parts[0], parts[2])
+        return (src, parts[2]) if src else None
+    if parts[0] == "rack" and len(parts) == 2 and member is not None:
+        src = rack_source(member, parts[1])
+        return (src, parts[1]) if src else None
+    if name == "pair.a":
+        return ("pair", "a")
+    if name == "P_n":
+        return ("pair", "P_n")
+    return None
+
+
+def _restate_text(section: str, key: str, written, err: GearoptError) -> str:
+    """The message of ``err`` (about a gear parameter) stated for ``[section] key`` of the scene
+    file, whose value as written is ``written`` (``_MISSING`` when not set): ``[pinion] a_pl =
+    "-0.001 1/mm" (= -0.001) is out of range; valid: ...`` (the converted value in parentheses when
+    it reads differently), or ``[section] key: <message>`` when ``err`` is not a range error."""
+    detail = err.detail or ""
+    if detail.startswith(("is out of range", "must be")):
+        converted = value_text(err.value)
+        if written is _MISSING:
+            shown = f"{converted} (not set: the default)"
+        else:
+            shown = _toml(written)
+            if not _same(converted, written):
+                shown += f" (= {converted})"
+        return join_detail(f"[{section}] {key} = {shown}", detail)
+    return f"[{section}] {key}: {err}"
+
+
+def _restate(source: Path, section: str, key: str, written, err: GearoptError) -> SceneError:
+    """:func:`_restate_text` as the SceneError of the scene file ``source``, with ``param`` the
+    ``[section] key``, ``value`` as written, ``valid`` from ``err``."""
+    return SceneError(f"{source}: {_restate_text(section, key, written, err)}", param=f"[{section}] {key}",
+                      value=_toml(written) if written is not _MISSING else None, valid=err.valid, source=source)
+
+
+def _build_pair(data: dict, parsed: dict, given: dict, path: Path) -> GearPair:
+    label = str(path)
     pr = parsed["pair"]
     if pr["m_n"] is not None:
-        m_n, m_key = pr["m_n"], "m_n"
+        m_n = pr["m_n"]
     else:
-        m_n, m_key = 1.0 / pr["P_n"], "P_n"
+        m_n = 1.0 / pr["P_n"]
     pinion_hand = pr["hand"]
     hands = {"pinion": pinion_hand, "gear": "left" if pinion_hand == "right" else "right"}
 
     def raw(section: str, key: str):
         """The value as written in the file (``section`` may be ``"pinion.rack"``)."""
-        t = data
-        *parts, key = section.split(".") + key.split(".")
-        for part in parts:
-            t = t.get(part, {}) if isinstance(t, dict) else {}
-        return t.get(key, _MISSING) if isinstance(t, dict) else _MISSING
-
-    def rack_source(member: str, key: str) -> str | None:
-        if f"rack.{key}" in given[member]:
-            return f"{member}.rack"
-        if key in given["rack"]:
-            return "rack"
-        return None
-
-    def locate(member: str | None, name: str) -> tuple[str, str] | None:
-        """Map a gearopt.gears parameter name to (section, key) in the scene file."""
-        parts = name.split(".")
-        if parts[0] in ("pinion", "gear") and len(parts) == 2:
-            member, key = parts
-            if key in ("m_n",):
-                return ("pair", m_key)
-            if key in ("beta", "hand"):
-                return ("pair", key)
-            return (member, key)
-        if parts[0] in ("pinion", "gear") and len(parts) == 3 and parts[1] == "tool":  # the tool's own key
-            kind = (parsed[parts[0]].get("tool") or {}).get("kind")
-            key = {v: k for k, v in _TOOL_ATTRS.get(kind, {}).items()}.get(parts[2], parts[2])
-            return (parts[0], f"tool.{key}")
-        if parts[0] in ("pinion", "gear") and len(parts) == 3 and parts[1] == "rack":
-            src = rack_source(parts[0], parts[2])
-            return (src, parts[2]) if src else None
-        if parts[0] == "rack" and len(parts) == 2 and member is not None:
-            if parts[1] == "preset":
-                src = rack_source(member, "preset")
-                return (src, "preset") if src else None
-            src = rack_source(member, parts[1])
-            return (src, parts[1]) if src else None
-        if name == "pair.a":
-            return ("pair", "a")
-        if name == "P_n":
-            return ("pair", "P_n")
-        return None
+        return _raw_value(data, section, key)
 
     def reraise(err: GeometryError, member: str | None, context: str):
         """Restate an error of gearopt.gears for the key of the scene file its ``param`` names."""
-        msg = str(err)
-        loc = locate(member, err.param) if err.param else None
+        loc = _gear_key(data, member, err.param) if err.param else None
         if loc is not None:
-            section, key = loc
-            value = raw(section, key)
-            detail = err.detail or ""
-            if detail.startswith(("is out of range", "must be")):
-                converted = value_text(err.value)
-                if value is _MISSING:
-                    shown = f"{converted} (not set: the default)"
-                else:
-                    shown = _toml(value)
-                    if not _same(converted, value):
-                        shown += f" (= {converted})"
-                raise SceneError(f"{label}: " + join_detail(f"[{section}] {key} = {shown}", detail),
-                                 param=f"[{section}] {key}",
-                                 value=_toml(value) if value is not _MISSING else None, valid=err.valid) from None
-            raise SceneError(f"{label}: [{section}] {key}: {msg}", param=f"[{section}] {key}",
-                             value=_toml(value) if value is not _MISSING else None, valid=err.valid) from None
-        raise SceneError(f"{label}: {context}: {msg}") from None
+            raise _restate(path, *loc, raw(*loc), err) from None
+        raise SceneError(f"{label}: {context}: {err}", source=path) from None
 
     members = {}
     for member in ("pinion", "gear"):
@@ -557,14 +634,15 @@ def _build_pair(data: dict, parsed: dict, given: dict, label: str) -> GearPair:
         if v.get("d_a") is not None:
             if "k" in given[member]:
                 raise SceneError(f"{label}: [{member}] k and d_a: give at most one of them (tip alteration "
-                                 "coefficient or tip diameter).")
+                                 "coefficient or tip diameter).", param=f"[{member}] k", valid="at most one of them",
+                                 source=path)
             r_p = m_n * v["z"] / math.cos(pr["beta"]) / 2
             k = (v["d_a"] / 2 - r_p) / m_n - rack.h_aP - v["x"]
         try:
             tool = _make_tool(v.get("tool"))
         except GeometryError as e:
             raise SceneError(f"{label}: [{member}] tool = {_toml(raw(member, 'tool'))}: {e}", param=f"[{member}] tool",
-                             value=_toml(raw(member, "tool")), valid=e.valid) from None
+                             value=_toml(raw(member, "tool")), valid=e.valid, source=path) from None
         try:
             members[member] = Gear(z=v["z"], m_n=m_n, x=v["x"], b=v["b"], beta=pr["beta"], hand=hands[member],
                                    rack=rack, k=k, a_pl=v["a_pl"], allow_undercut=v["allow_undercut"],
@@ -583,7 +661,7 @@ def _build_pair(data: dict, parsed: dict, given: dict, label: str) -> GearPair:
                 raise SceneError(f"{label}: [{member}] d_a = {_toml(raw(member, 'd_a'))} is out of range (tip "
                                  f"alteration k = {k:.4g} from it); valid: {rng} for z = {v['z']}, x = {v['x']:g}, "
                                  f"m_n = {m_n:g} mm.", param=f"[{member}] d_a", value=_toml(raw(member, "d_a")),
-                                 valid=rng) from None
+                                 valid=rng, source=path) from None
             reraise(e, member, f"[{member}]")
     try:
         return GearPair(pinion=members["pinion"], gear=members["gear"], a=pr["a"])

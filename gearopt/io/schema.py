@@ -17,10 +17,10 @@ import math
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
-from ..errors import SceneError, shorten
+from ..errors import SceneError, join_detail, shorten
 from ..units import KINDS, parse_quantity
 
-__all__ = ["Field", "Section", "Bounds", "KIND_UNITS", "ALIASES", "format_field"]
+__all__ = ["Field", "Section", "Bounds", "KIND_UNITS", "ALIASES", "format_field", "problem"]
 
 
 #: Internal unit of each field kind (what the loaded value is in) and the unit of a bare number.
@@ -148,68 +148,72 @@ class Field:
     def internal_unit(self) -> str:
         return KIND_UNITS[self.kind][0]
 
-    def convert(self, value, where: str) -> Any:
-        """Check and convert a TOML value; ``where`` is the key path for messages."""
+    def convert(self, value, where: str, param: str | None = None) -> Any:
+        """Check and convert a TOML value; ``where`` is the key path for messages (``"[pinion] z"``).
+
+        Raises
+        ------
+        SceneError
+            With ``param`` (default ``where``), ``value`` the value as written (TOML text), ``valid``
+            (the type, set or range it must be in) and ``detail`` (the message after ``where = value``).
+        """
+        param = where if param is None else param
+        shown = _toml(value)
+
+        def fail(detail: str, valid: str | None) -> SceneError:
+            return SceneError(join_detail(f"{where} = {shown}", detail), param=param, value=shown, valid=valid,
+                              detail=detail)
+
         k = self.kind
         if k == "int":
             if isinstance(value, bool) or not isinstance(value, int):
-                raise SceneError(f"{where} = {_toml(value)}: expected an integer, got {_type(value)}.")
+                raise fail(f": expected an integer, got {_type(value)}.", "an integer")
             out = value
         elif k == "float":
             if isinstance(value, bool) or not isinstance(value, (int, float)):
-                raise SceneError(f"{where} = {_toml(value)}: expected a number, got {_type(value)}.")
+                raise fail(f": expected a number, got {_type(value)}.", "a number")
             if not math.isfinite(value):
-                raise SceneError(f"{where} = {_toml(value)}: not a finite number.")
+                raise fail(": not a finite number.", "a finite number")
             out = float(value)
         elif k == "bool":
             if not isinstance(value, bool):
-                raise SceneError(f"{where} = {_toml(value)}: expected true or false, got {_type(value)}.")
+                raise fail(f": expected true or false, got {_type(value)}.", "true or false")
             out = value
         elif k == "str":
             if not isinstance(value, str):
-                raise SceneError(f"{where} = {_toml(value)}: expected a string (in quotes), got {_type(value)}.")
+                raise fail(f": expected a string (in quotes), got {_type(value)}.", "a string (in quotes)")
             out = value
         else:
             if isinstance(value, (dict, list)):
-                raise SceneError(f"{where} = {_toml(value)}: expected a {k} (number or \"<number> <unit>\"), "
-                                 f"got {_type(value)}.")
-            if self.unit is not None and isinstance(value, (int, float)) and not isinstance(value, bool):
-                value_in = f"{value!r} {self.unit}"
-                try:
-                    out = parse_quantity(value_in, k, where)
-                except SceneError:  # e.g. inf: report the value as written
-                    raise SceneError(f"{where} = {_toml(value)}: not a finite number.") from None
-            else:
-                try:
-                    out = parse_quantity(value, k, where)
-                except SceneError as e:
-                    if self.unit is None:
-                        raise
-                    msg = str(e).replace(f"(a bare number means {KINDS[k][1]})", f"(a bare number means {self.unit})")
-                    raise SceneError(msg) from None
+                raise fail(f": expected a {k} (number or \"<number> <unit>\"), got {_type(value)}.",
+                           f"a {k} (number or \"<number> <unit>\")")
+            try:
+                out = parse_quantity(value, k, where, bare_unit=self.unit)
+            except SceneError as e:  # its message names where; its param is where, ours may differ
+                raise SceneError(str(e), param=param, value=e.value, valid=e.valid, detail=e.detail) from None
         if self.choices is not None and out not in self.choices:
             hint = _closest(str(out), [str(c) for c in self.choices])
-            raise SceneError(f"{where} = {_toml(value)} is not allowed; valid: one of "
-                             f"{', '.join(_toml(c) for c in self.choices)}.{hint}")
+            valid = f"one of {', '.join(_toml(c) for c in self.choices)}"
+            raise fail(f"is not allowed; valid: {valid}.{hint}", valid)
         bare_number = self.kind in KINDS and isinstance(value, (int, float)) and not isinstance(value, bool)
         hint = self._unit_hint(value, self.bare) if self.bare is not None and bare_number else ""
         if hint and value != 0 and not self.bare.ok(value):  # implausible as written, plausible in another unit
-            raise SceneError(f"{where} = {_toml(value)}: a bare number is read as {value:g} {self.scene_unit}, which "
-                             f"is implausible for {self.name} (plausible without a unit: "
-                             f"{self.bare.text(self.name, self.scene_unit)}). Write the unit out.{hint}")
+            valid = self.bare.text(self.name, self.scene_unit)
+            raise fail(f": a bare number is read as {value:g} {self.scene_unit}, which is implausible for "
+                       f"{self.name} (plausible without a unit: {valid}). Write the unit out.{hint}", valid)
         if self.check is not None:
             if isinstance(self.check, Bounds):
-                shown = self.to_scene_unit(out)
-                if not self.check.ok(shown):
+                shown_internal = self.to_scene_unit(out)
+                if not self.check.ok(shown_internal):
                     hint = self._unit_hint(value, self.check) if bare_number else ""
-                    raise SceneError(f"{where} = {_toml(value)} is out of range; valid: "
-                                     f"{self.check.text(self.name, self.scene_unit)}."
-                                     + (f" A bare number is read as {self.scene_unit}.{hint}" if hint else ""))
+                    valid = self.check.text(self.name, self.scene_unit)
+                    raise fail(f"is out of range; valid: {valid}."
+                               + (f" A bare number is read as {self.scene_unit}.{hint}" if hint else ""), valid)
             else:
                 res = self.check(out)
                 if res is False or isinstance(res, str):
-                    valid = f"; valid: {res}" if isinstance(res, str) else ""
-                    raise SceneError(f"{where} = {_toml(value)} is out of range{valid}.")
+                    valid = res if isinstance(res, str) else None
+                    raise fail("is out of range" + (f"; valid: {valid}." if valid else "."), valid)
         return out
 
     def _unit_hint(self, number: float, bounds: Bounds) -> str:
@@ -259,8 +263,10 @@ class Section:
     def keys(self) -> list[str]:
         return [f.name for f in self.fields] + [s.name for s in self.subsections]
 
-    def parse(self, table, path: str, errors: list[str], homes: dict | None = None) -> tuple[dict, set[str]]:
-        """Convert a TOML table. Returns (values, keys given); problems are appended to ``errors``.
+    def parse(self, table, path: str, errors: list, homes: dict | None = None) -> tuple[dict, set[str]]:
+        """Convert a TOML table. Returns (values, keys given); problems are appended to ``errors``
+        as :class:`~gearopt.errors.SceneError` (message without the file name; ``param`` the
+        ``[section] key`` or ``[section]``, ``value`` as written, ``valid``; see :func:`problem`).
 
         ``values`` has every field (``None`` / default when absent) and, for each subsection, the
         parsed sub-dict (or ``None`` when absent). Given keys of subsections appear in the set as
@@ -271,16 +277,20 @@ class Section:
         values: dict[str, Any] = {}
         given: set[str] = set()
         if not isinstance(table, dict):
-            errors.append(f"{where} must be a table (a [{path}] section or {{...}}), got {_type(table)} "
-                          f"{_toml(table)}.")
+            valid = f"a table (a [{path}] section or {{...}})"
+            errors.append(problem(f"{where} must be a table (a [{path}] section or {{...}}), got {_type(table)} "
+                                  f"{_toml(table)}.", where, _toml(table), valid))
             return values, given
         gone = [k for k in table if k in self.moved]
         if gone:
-            errors.append(f"{where} {', '.join(gone)}: {self.moved_hint(table) if self.moved_hint else 'removed'}")
+            errors.append(problem(f"{where} {', '.join(gone)}: "
+                                  f"{self.moved_hint(table) if self.moved_hint else 'removed'}",
+                                  f"{where} {gone[0]}"))
         for key in table:
             if key not in self.keys and key not in self.moved:
-                errors.append(f"{where} {shorten(key)}: unknown key.{_key_hint(key, self.keys, homes or {})} "
-                              f"Valid keys: {', '.join(self.keys)}.")
+                errors.append(problem(f"{where} {shorten(key)}: unknown key.{_key_hint(key, self.keys, homes or {})} "
+                                      f"Valid keys: {', '.join(self.keys)}.", f"{where} {shorten(key)}",
+                                      valid=", ".join(self.keys)))
         for f in self.fields:
             loc = f"{where} {f.name}"
             if f.name in table:
@@ -288,19 +298,20 @@ class Section:
                 try:
                     values[f.name] = f.convert(table[f.name], loc)
                 except SceneError as e:
-                    errors.append(str(e))
+                    errors.append(e)
             elif f.required:
-                errors.append(f"{loc}: missing required key ({_describe(f)}).")
+                errors.append(problem(f"{loc}: missing required key ({_describe(f)}).", loc, valid=_describe(f)))
             elif f.default is not None:
-                values[f.name] = f.convert(f.default, loc + " (default)")
+                values[f.name] = f.convert(f.default, loc + " (default)", param=loc)
             else:
                 values[f.name] = None
         for sub in self.subsections:
             if sub.name in table and sub.array:
                 items = table[sub.name]
                 if not isinstance(items, list):
-                    errors.append(f"[{path}.{sub.name}] must be an array of tables ([[{path}.{sub.name}]] or "
-                                  f"{sub.name} = [{{...}}, ...]), got {_type(items)} {_toml(items)}.")
+                    valid = f"an array of tables ([[{path}.{sub.name}]] or {sub.name} = [{{...}}, ...])"
+                    errors.append(problem(f"[{path}.{sub.name}] must be {valid}, got {_type(items)} {_toml(items)}.",
+                                          f"[{path}.{sub.name}]", _toml(items), valid))
                     values[sub.name] = None
                     continue
                 values[sub.name] = [sub.parse(item, f"{path}.{sub.name}][{i}", errors, homes)[0] for i, item in enumerate(items)]
@@ -310,7 +321,7 @@ class Section:
                 values[sub.name] = vals
                 given |= {f"{sub.name}.{k}" for k in sub_given} | {sub.name}
             elif sub.required:
-                errors.append(f"{where} {sub.name}: missing required table.")
+                errors.append(problem(f"{where} {sub.name}: missing required table.", f"{where} {sub.name}"))
             else:
                 values[sub.name] = None
         return values, given
@@ -331,21 +342,25 @@ class ToolSection(Section):
             out += [f.name for f in fs if f.name not in out]
         return out
 
-    def parse(self, table, path: str, errors: list[str], homes: dict | None = None) -> tuple[dict, set[str]]:
+    def parse(self, table, path: str, errors: list, homes: dict | None = None) -> tuple[dict, set[str]]:
         owner, _, name = path.rpartition(".")
         at = f"[{owner}] {name}" if owner else f"[{name}]"
         kinds = ", ".join(_toml(k) for k in self.variants)
         if not isinstance(table, dict):
-            errors.append(f"{at} = {_toml(table)}: expected an inline table such as {{kind = \"shaper\", z = 25}} "
-                          f"(kind one of {kinds}), got {_type(table)}.")
+            valid = f"an inline table such as {{kind = \"shaper\", z = 25}} (kind one of {kinds})"
+            detail = f": expected {valid}, got {_type(table)}."
+            errors.append(problem(f"{at} = {_toml(table)}{detail}", at, _toml(table), valid, detail))
             return {}, set()
         if "kind" not in table:
-            errors.append(f"{at}.kind: missing; valid: one of {kinds} (the tool's keys depend on it).")
+            errors.append(problem(f"{at}.kind: missing; valid: one of {kinds} (the tool's keys depend on it).",
+                                  f"{at}.kind", valid=f"one of {kinds}"))
             return {}, set()
         kind = table["kind"]
         if not isinstance(kind, str) or kind not in self.variants:
             hint = _closest(str(kind), list(self.variants)) if isinstance(kind, str) else ""
-            errors.append(f"{at}.kind = {_toml(kind)} is not a tool kind; valid: one of {kinds}.{hint}")
+            detail = f"is not a tool kind; valid: one of {kinds}.{hint}"
+            errors.append(problem(f"{at}.kind = {_toml(kind)} {detail}", f"{at}.kind", _toml(kind), f"one of {kinds}",
+                                  detail))
             return {}, set()
         fs = self.variants[kind]
         names = ["kind"] + [f.name for f in fs]
@@ -357,8 +372,9 @@ class ToolSection(Section):
             others = [k for k, v in self.variants.items() if any(f.name == key for f in v)]
             hint = (f" {key} is a key of kind = {' or '.join(_toml(k) for k in others)}." if others
                     else _closest(str(key), names))
-            errors.append(f"{at}.{shorten(str(key))}: not a key of a tool of kind = {_toml(kind)}.{hint} Valid keys: "
-                          f"{', '.join(names)}.")
+            errors.append(problem(f"{at}.{shorten(str(key))}: not a key of a tool of kind = {_toml(kind)}.{hint} "
+                                  f"Valid keys: {', '.join(names)}.", f"{at}.{shorten(str(key))}",
+                                  valid=", ".join(names)))
         for f in fs:
             loc = f"{at}.{f.name}"
             if f.name in table:
@@ -366,12 +382,22 @@ class ToolSection(Section):
                 try:
                     values[f.name] = f.convert(table[f.name], loc)
                 except SceneError as e:
-                    errors.append(str(e))
+                    errors.append(e)
             elif f.required:
-                errors.append(f"{loc}: missing required key ({_describe(f)}).")
+                errors.append(problem(f"{loc}: missing required key ({_describe(f)}).", loc, valid=_describe(f)))
             else:
-                values[f.name] = None if f.default is None else f.convert(f.default, loc + " (default)")
+                values[f.name] = None if f.default is None else f.convert(f.default, loc + " (default)", param=loc)
         return values, given
+
+
+def problem(text: str, param: str | None = None, value=None, valid: str | None = None,
+            detail: str | None = None) -> SceneError:
+    """One problem of a scene as the loader collects them (see :meth:`Section.parse`): a
+    :class:`~gearopt.errors.SceneError` with the message ``text`` (without the file name), ``param``
+    the ``[section] key`` (or ``[section]``) it is about, ``value`` the value as written (TOML
+    text), ``valid`` the valid type, set or range as ``text`` states it, ``detail`` the text after
+    ``param = value`` when ``text`` starts so."""
+    return SceneError(text, param=param, value=value, valid=valid, detail=detail)
 
 
 def _type(value) -> str:

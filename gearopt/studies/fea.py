@@ -177,10 +177,11 @@ def _from_scene(scene) -> FEStudy:
     if n > 1 and a == b:
         raise scene.key_error("fea", "n_positions", f"is out of range; valid: n_positions = 1 when phi1_start = "
                               f"phi1_end ({n} positions at the same angle would repeat one FE run), or give "
-                              "phi1_end another angle.")
+                              "phi1_end another angle.", valid="n_positions = 1 when phi1_start = phi1_end")
     if n == 1 and a != b and scene.written("fea", "phi1_end") is not None:
         raise scene.key_error("fea", "phi1_end", "is not used with n_positions = 1 (only phi1_start is analysed); "
-                              "valid: n_positions >= 2 to analyse phi1_start to phi1_end, or leave phi1_end out.")
+                              "valid: n_positions >= 2 to analyse phi1_start to phi1_end, or leave phi1_end out.",
+                              valid="n_positions >= 2")
     phis = [a] if n == 1 else list(np.linspace(a, b, n))
     _check_positions(scene, phis, opt.teeth)
     keep = None

@@ -171,8 +171,7 @@ def _from_scene(scene) -> PlanarTCAStudy:
     try:
         cf = closed_form(r_b1, r_b2, E)
     except GeometryError as e:  # r_b1, r_b2, E: the keys of [planar_tca] (the pair's values when not set)
-        raise SceneError(f"{src}: [planar_tca] {e}", param=f"[planar_tca] {e.param}" if e.param else None,
-                         value=e.value, valid=e.valid) from e
+        raise scene.study_error("planar_tca", e) from e
     lo, hi = cf["phi1_range"]
     span = hi - lo
     p_min = o.get("phi1_min")
@@ -184,11 +183,12 @@ def _from_scene(scene) -> PlanarTCAStudy:
     for key, v in (("phi1_min", p_min), ("phi1_max", p_max)):
         if not lo < v < hi:
             raise SceneError(f"{src}: [planar_tca] {key} = {v / DEG:.6g} deg is out of range; valid: {valid}.",
-                             param=f"[planar_tca] {key}", value=f"{v / DEG:.6g} deg", valid=valid)
+                             param=f"[planar_tca] {key}", value=f"{v / DEG:.6g} deg", valid=valid, source=src)
     if not p_min < p_max:
         raise SceneError(f"{src}: [planar_tca] phi1_min = {p_min / DEG:.6g} deg must be < phi1_max = "
                          f"{p_max / DEG:.6g} deg.",
-                         param="[planar_tca] phi1_min", value=f"{p_min / DEG:.6g} deg", valid=f"< phi1_max = {p_max / DEG:.6g} deg")
+                         param="[planar_tca] phi1_min", value=f"{p_min / DEG:.6g} deg", valid=f"< phi1_max = {p_max / DEG:.6g} deg",
+                         source=src)
     phi1 = np.linspace(p_min, p_max, o.get("n") or 41)
     return PlanarTCAStudy(r_b1, r_b2, E, phi1, method=o.get("method") or "continuation",
                           alpha_guess=o.get("alpha_guess") if o.get("alpha_guess") is not None else 20 * DEG,

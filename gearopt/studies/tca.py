@@ -284,7 +284,7 @@ def check_misalignment_keys(scene, section: str, o: dict, signs=(1,)) -> None:
                 Misalignment(**{k: s * v}).check(scene.pair, "mis")
             except GeometryError as e:
                 case = "" if s > 0 else f" (the case -{k} = {Misalignment.display(k, -v).lstrip('+')})"
-                raise scene.key_error(section, k, f"is out of range{case}; valid: {e.valid}.") from None
+                raise scene.key_error(section, k, f"is out of range{case}; valid: {e.valid}.", valid=e.valid) from None
 
 
 _check_operating = check_misalignment_keys  # (old private name)
@@ -328,7 +328,7 @@ def _from_scene(scene) -> TCAStudy:
             if np.any(mis.vector() != 0):
                 raise SceneError(f"{scene.source}: [tca] cases and the single keys {', '.join(Misalignment.names())}: "
                                  "give the misalignments either as [[tca.cases]] or as the single keys, not both.",
-                                 param="[tca] cases")
+                                 param="[tca] cases", source=scene.source)
             cases = []
             for i, c in enumerate(o["cases"]):
                 m = misalignment_from(c)
@@ -336,18 +336,19 @@ def _from_scene(scene) -> TCAStudy:
                 if label in [lab for lab, _ in cases]:
                     raise SceneError(f"{scene.source}: [tca.cases][{i}] label = {label!r}: the labels of the cases "
                                      "must be distinct.",
-                                     param=f"[tca.cases][{i}] label", value=label, valid="distinct labels")
+                                     param=f"[tca.cases][{i}] label", value=label, valid="distinct labels",
+                                     source=scene.source)
                 check_misalignment_keys(scene, f"tca.cases][{i}", c, signs=(1,))
                 cases.append((label, m))
             if not cases:
                 raise SceneError(f"{scene.source}: [tca] cases = []: give at least one case or leave it out.",
-                                 param="[tca] cases", value=[], valid="at least one case")
+                                 param="[tca] cases", value=[], valid="at least one case", source=scene.source)
         if cases is None:
             check_misalignment_keys(scene, "tca", o, signs=(1,))
         if o.get("contact") == "line" and abs(o.get("z_section") or 0.0) > scene.pair.pinion.b / 2:
-            raise scene.key_error("tca", "z_section", f"is out of range; valid: |z_section| <= b1 / 2 = "
-                                  f"{scene.pair.pinion.b / 2:g} mm (a section of the pinion face, [pinion] b = "
-                                  f"{scene.pair.pinion.b:g} mm).")
+            valid = f"|z_section| <= b1 / 2 = {scene.pair.pinion.b / 2:g} mm"
+            raise scene.key_error("tca", "z_section", f"is out of range; valid: {valid} (a section of the pinion "
+                                  f"face, [pinion] b = {scene.pair.pinion.b:g} mm).", valid=valid)
         if o.get("contact") == "line" and not o.get("edge_contact"):
             # crossed or intersecting axes turn the line contact into point or edge contact: the
             # surfaces then cross in every section (Litvin 9.6); the line TCA has no solution
@@ -358,12 +359,12 @@ def _from_scene(scene) -> TCAStudy:
                         raise scene.key_error(sec, key, "is not allowed with contact = \"line\"; valid: 0 (line "
                                               "contact needs aligned axes: crossed or intersecting axes give point "
                                               "or edge contact). Use contact = \"point\" with a crowned pinion, or "
-                                              "set edge_contact = true.")
+                                              "set edge_contact = true.", valid="0")
         if o.get("contact") == "point" and scene.pair.pinion.a_pl == 0 and not o.get("edge_contact"):
             raise SceneError(f"{scene.source}: [tca] contact = \"point\" needs a longitudinally crowned pinion "
                              "([pinion] a_pl > 0); for conjugate or profile-crowned spur pinions use contact = "
                              "\"line\".",
-                             param="[tca] contact", value="point")
+                             param="[tca] contact", value="point", source=scene.source)
         return TCAStudy(scene.pair, side=o.get("side") or "right", contact=o.get("contact") or "point",
                         z_section=o.get("z_section") or 0.0, positions=o.get("positions") or 81,
                         delta=o.get("delta") or ContactSettings.delta, misalignment=None if cases else mis, name=scene.name,
