@@ -61,7 +61,7 @@ def check_sweep_args(tca, phi1, p1=None, p2=None, mis=None, pairs=(-1, 0, 1), de
     the argument and its valid range.
     """
     pair = tca.pair
-    g1, g2 = pair.pinion, pair.gear
+    g1 = pair.pinion
     try:
         if np.asarray(phi1).dtype.kind in "USb":  # "0.1" would convert: the API takes numbers in rad
             raise TypeError
