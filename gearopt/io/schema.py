@@ -239,6 +239,24 @@ class Field:
         return internal / table[self.scene_unit]
 
 
+
+def _parse_fields(fields, table: dict, loc_of, values: dict, given: set, errors: list) -> None:
+    """Convert the ``fields`` of a table into ``values`` (the default, or None, when absent), adding
+    the keys given to ``given`` and each problem, a structured :class:`SceneError` stated at
+    ``loc_of(name)`` (e.g. ``"[pinion] z"``), to ``errors``."""
+    for f in fields:
+        loc = loc_of(f.name)
+        if f.name in table:
+            given.add(f.name)
+            try:
+                values[f.name] = f.convert(table[f.name], loc)
+            except SceneError as e:
+                errors.append(e)
+        elif f.required:
+            errors.append(problem(f"{loc}: missing required key ({_describe(f)}).", loc, valid=_describe(f)))
+        else:
+            values[f.name] = None if f.default is None else f.convert(f.default, loc + " (default)", param=loc)
+
 @dataclass(frozen=True)
 class Section:
     """A TOML table of a scene: its fields and nested sub-tables (``[pinion] rack = {...}``)."""
@@ -291,20 +309,7 @@ class Section:
                 errors.append(problem(f"{where} {shorten(key)}: unknown key.{_key_hint(key, self.keys, homes or {})} "
                                       f"Valid keys: {', '.join(self.keys)}.", f"{where} {shorten(key)}",
                                       valid=", ".join(self.keys)))
-        for f in self.fields:
-            loc = f"{where} {f.name}"
-            if f.name in table:
-                given.add(f.name)
-                try:
-                    values[f.name] = f.convert(table[f.name], loc)
-                except SceneError as e:
-                    errors.append(e)
-            elif f.required:
-                errors.append(problem(f"{loc}: missing required key ({_describe(f)}).", loc, valid=_describe(f)))
-            elif f.default is not None:
-                values[f.name] = f.convert(f.default, loc + " (default)", param=loc)
-            else:
-                values[f.name] = None
+        _parse_fields(self.fields, table, lambda name: f"{where} {name}", values, given, errors)
         for sub in self.subsections:
             if sub.name in table and sub.array:
                 items = table[sub.name]
@@ -375,18 +380,7 @@ class ToolSection(Section):
             errors.append(problem(f"{at}.{shorten(str(key))}: not a key of a tool of kind = {_toml(kind)}.{hint} "
                                   f"Valid keys: {', '.join(names)}.", f"{at}.{shorten(str(key))}",
                                   valid=", ".join(names)))
-        for f in fs:
-            loc = f"{at}.{f.name}"
-            if f.name in table:
-                given.add(f.name)
-                try:
-                    values[f.name] = f.convert(table[f.name], loc)
-                except SceneError as e:
-                    errors.append(e)
-            elif f.required:
-                errors.append(problem(f"{loc}: missing required key ({_describe(f)}).", loc, valid=_describe(f)))
-            else:
-                values[f.name] = None if f.default is None else f.convert(f.default, loc + " (default)", param=loc)
+        _parse_fields(fs, table, lambda name: f"{at}.{name}", values, given, errors)
         return values, given
 
 
