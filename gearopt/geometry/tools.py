@@ -298,8 +298,9 @@ def check_tool(gear) -> None:
     """Validate ``gear.tool`` (type, then against the gear); GeometryError naming ``<gear>.tool``."""
     tool = gear.tool
     if not isinstance(tool, (RackCutter, Hob, Shaper)):
-        raise GeometryError(f"{gear.name}.tool = {type(tool).__name__} {tool!r:.80}: expected a RackCutter, Hob or "
-                            "Shaper (gearopt.geometry.tools).")
+        valid = "a RackCutter, Hob or Shaper (gearopt.geometry.tools)"
+        raise GeometryError(f"{gear.name}.tool = {type(tool).__name__} {tool!r:.80}: expected {valid}.",
+                            param=f"{gear.name}.tool", value=tool, valid=valid)
     tool.check(gear)
 
 
