@@ -122,6 +122,13 @@ class ArgumentError(GeometryError, TypeError):
     either for invalid arguments keeps working."""
 
 
+class ParameterNameError(ArgumentError, KeyError):
+    """A name that the TCA parameter layout (``tca.layout``) does not have, or gives twice. Also a
+    ``KeyError``, as a failed look-up by name."""
+
+    __str__ = Exception.__str__  # the message as written (KeyError would quote it)
+
+
 class OptionError(GearoptError, ValueError):
     """A solver or study option is outside its valid set: the TCA's ``solver``, ``contact``,
     ``side``, ``delta``, ``z_section``; positions and case counts; tolerances; optimizer bounds;

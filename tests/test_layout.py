@@ -68,6 +68,23 @@ def test_names_round_trip_and_cover_every_row_once():
         lay.index("pinion.nope")
 
 
+def test_layout_errors_are_gearopt_errors_naming_the_parameter():
+    """A wrong name or size is a GearoptError (ArgumentError; a KeyError for a name) that names the
+    parameter and what is valid, so `except GearoptError` catches it like any other bad argument."""
+    from gearopt.errors import ArgumentError, GearoptError, ParameterNameError
+
+    lay = ParamLayout(PARAMS, PARAMS)
+    with pytest.raises(ParameterNameError) as e:
+        lay.index("pinion.nope")
+    assert isinstance(e.value, (GearoptError, KeyError)) and e.value.param == "pinion.nope"
+    assert "pinion.a_c" in e.value.valid and str(e.value).startswith("'pinion.nope' is not a TCA parameter")
+    with pytest.raises(ArgumentError) as e:
+        lay.pack([0.0], {"pinion": np.zeros(len(PARAMS) + 1)})
+    assert e.value.param == "pinion" and e.value.valid == f"{len(PARAMS)} numbers"
+    with pytest.raises(ParameterNameError, match="duplicate parameter name 'pinion.x'"):
+        ParamLayout(("x", "x"), PARAMS)
+
+
 def test_layout_does_not_assume_four_surface_parameters():
     """Flank-modification parameters appended to a member's names shift everything after them."""
     n = len(PARAMS)

@@ -17,6 +17,7 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
+from ..errors import ArgumentError, ParameterNameError
 from .misalignment import Misalignment
 
 
@@ -41,7 +42,8 @@ class ParamLayout:
             for e in entries:
                 name = e if group is None else f"{group}.{e}"
                 if name in self._index:
-                    raise ValueError(f"ParamLayout: duplicate parameter name {name!r}")
+                    raise ParameterNameError(f"ParamLayout: duplicate parameter name {name!r}", param=name,
+                                             valid="names that appear once")
                 self._index[name] = len(self.names)
                 self.names.append(name)
             if group is not None:
@@ -75,7 +77,8 @@ class ParamLayout:
         try:
             return self._index[name]
         except KeyError:
-            raise KeyError(f"{name!r} is not a TCA parameter; known: {', '.join(self.names)}") from None
+            raise ParameterNameError(f"{name!r} is not a TCA parameter; known: {', '.join(self.names)}",
+                                     param=name, valid=", ".join(self.names)) from None
 
     def slice(self, name: str) -> slice:
         """Rows of an entry or of a group (``"pinion"``, ``"gear"``, ``"mis"``)."""
@@ -104,13 +107,15 @@ class ParamLayout:
         col = np.zeros(self.size)
         for name, v in (values or {}).items():
             if name == "phi1":
-                raise KeyError("pack: phi1 is the first argument (one column per position)")
+                raise ParameterNameError("pack: phi1 is the first argument (one column per position)", param="phi1",
+                                         valid="the positions as pack's first argument")
             if isinstance(v, Misalignment):
                 v = v.vector()
             sl = self.slice(name)
             v = np.asarray(v, float).ravel()
             if v.size != sl.stop - sl.start:
-                raise ValueError(f"pack: {name!r} takes {sl.stop - sl.start} numbers, got {v.size}")
+                raise ArgumentError(f"pack: {name!r} takes {sl.stop - sl.start} numbers, got {v.size}", param=name,
+                                    value=v.size, valid=f"{sl.stop - sl.start} numbers")
             col[sl] = v
         out = np.tile(col[:, None], phi1.size)
         out[self.index("phi1")] = phi1
@@ -148,12 +153,14 @@ class ParamLayout:
             n = sl.stop - sl.start
             size = v.shape[0] if hasattr(v, "shape") and len(v.shape) else (len(v) if hasattr(v, "__len__") else 1)
             if size != n:
-                raise ValueError(f"build: {name!r} takes {n} rows, got {size}")
+                raise ArgumentError(f"build: {name!r} takes {n} rows, got {size}", param=name, value=size,
+                                    valid=f"{n} rows")
             covered[sl] += 1
             parts.append((sl.start, v))
         bad = [self.names[i] for i in np.flatnonzero(covered != 1)]
         if bad:
-            raise KeyError(f"build: every entry must be given exactly once: {', '.join(bad)}")
+            raise ParameterNameError(f"build: every entry must be given exactly once: {', '.join(bad)}",
+                                     param=bad[0], valid="every entry exactly once")
         return ca.vertcat(*(v for _, v in sorted(parts, key=lambda t: t[0])))
 
     def named(self, prm) -> dict:
