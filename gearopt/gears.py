@@ -38,6 +38,7 @@ import numpy as np
 
 from .errors import ArgumentError, GeometryError, out_of_range, shorten
 from .geometry.involute import inv, inv_inverse, tooth_thickness
+from .geometry.microgeometry import Microgeometry
 from .geometry.tools import Hob, RackCutter, Shaper, check_tool
 from .units import DEG, INCH
 
@@ -206,6 +207,11 @@ class Gear:
         The tool that cuts the teeth (:mod:`gearopt.geometry.tools`); default the rack-cutter of
         ``rack``. Every surface of the gear (TCA, edge contact, synthesis, FE) and :attr:`r_f`,
         :attr:`r_form`, :attr:`undercut` follow it (:func:`gearopt.geometry.generation.generate`).
+    modifications : Microgeometry or None
+        Flank modifications in ISO 21771 shop terms (:class:`gearopt.geometry.microgeometry.Microgeometry`:
+        crowning, slopes, reliefs, measured grids; mm), composed into the flanks the TCA, edge
+        contact, synthesis and FE models use (:func:`gearopt.geometry.microgeometry.modified_tooth`);
+        the generation (tool, ``a_pl``, ``rack.a_c``) is not changed by them. None: unmodified.
 
     Raises
     ------
@@ -231,6 +237,7 @@ class Gear:
     A_sne: float = 0.0
     A_sni: float | None = None
     tool: RackCutter | Hob | Shaper = field(default_factory=RackCutter)
+    modifications: Microgeometry | None = None
 
     def __post_init__(self):
         if not isinstance(self.name, str):
@@ -314,6 +321,13 @@ class Gear:
         if self.r_a <= self.r_f:
             raise self._k_error(-(self.rack.h_aP + self.rack.h_fP), None, "(tip above root)")
         check_tool(self)  # the tool against this gear (hob lead angle, shaper reach)
+        if self.modifications is not None:
+            if not isinstance(self.modifications, Microgeometry):
+                raise ArgumentError(f"{n}.modifications = {type(self.modifications).__name__}: expected a "
+                                    "gearopt.geometry.microgeometry.Microgeometry (or None).",
+                                    param=f"{n}.modifications", value=type(self.modifications).__name__,
+                                    valid="a Microgeometry or None")
+            self.modifications.check(self)
         if not self.allow_undercut and self.x_E < self.x_min_undercut - 1e-12:
             raise out_of_range(
                 f"{n}.x", self.x, f"x >= {self.x_min_undercut + self.x - self.x_E:.4f} for z = {self.z} (no undercut; z >= {self.z_min_undercut:.2f} "

@@ -117,13 +117,14 @@ def test_lead_slope_composed_point_and_normal(side):
     assert f.name_in() == ["u", "z", "p"] and f.name_out() == ["r", "n", "psi"]
     h = 1e-5
     for u, z in ((-1.5, -12.0), (0.0, 0.0), (1.2, 9.0)):
-        # foot point: the unmodified point (u, zeta) whose offset point lies in the section z
-        zeta = brentq(lambda t: base.point(side, "flank", u, t)[0][2] + delta_of(u, t) * base.point(side, "flank", u, t)[1][2]
+        # foot point: the unmodified point (u, zeta) whose offset point lies in the section z;
+        # delta is the deviation in that section z (where the modified point is)
+        zeta = brentq(lambda t: base.point(side, "flank", u, t)[0][2] + delta_of(u, z) * base.point(side, "flank", u, t)[1][2]
                       - z, z - 1, z + 1, xtol=1e-15)
         rb, nb, psib = base.point(side, "flank", u, zeta)
         assert abs(zeta - z) > 1e-5  # the helical normal's axial component matters
         r, n, psi = tooth.point(side, "flank", u, z)
-        np.testing.assert_allclose(r, rb + delta_of(u, zeta) * nb, rtol=0, atol=1e-13)
+        np.testing.assert_allclose(r, rb + delta_of(u, z) * nb, rtol=0, atol=1e-13)
         assert r[2] == pytest.approx(z, abs=1e-14)
         assert psi == pytest.approx(psib, abs=1e-14)
         tu = (tooth.point(side, "flank", u + h, z)[0] - tooth.point(side, "flank", u - h, z)[0]) / (2 * h)

@@ -57,8 +57,9 @@ class FlankModification:
         May be empty (a fixed deviation, e.g. a measured topography).
     delta : callable
         ``delta(u, z, r, theta) -> scalar`` [mm], CasADi-generic: ``u`` [mm] the flank coordinate
-        (along the tool flank from the datum line towards the root), ``z`` [mm] the axial position,
-        ``r`` (3,) the unmodified point in the gear frame [mm], ``theta`` (k,) the parameters in the
+        (along the tool flank from the datum line towards the root), ``z`` [mm] the axial position
+        of the modified point, ``r`` (3,) the unmodified (foot) point in the gear frame [mm] whose
+        offset lands in the section ``z``, ``theta`` (k,) the parameters in the
         order of ``theta``. Positive: material added (along the outward normal). Must be built
         from CasADi operations only (``ca.sqrt``, ``ca.interpolant(..., "bspline", ...)``, ...;
         not ``math``/``numpy`` functions, which cannot take symbols) and be smooth where it is used.
@@ -182,7 +183,8 @@ def compose(f: ca.Function, mod: FlankModification, n_p: int) -> ca.Function:
     ``(q, z, p') -> (r + delta n, n', psi, ...)`` where ``p' = (p, theta)`` and ``n'`` is the unit
     normal of the modified surface oriented like ``n`` (module docstring). ``r``, ``n``, ``psi`` and
     ``delta`` are taken at the foot point ``(q, zeta)`` whose modified point lies in the section
-    ``z`` (so ``z`` stays the axial coordinate, as every consumer assumes: face ends, face width).
+    ``z`` (so ``z`` stays the axial coordinate, as every consumer assumes: face ends, face width);
+    ``delta`` gets that section ``z`` and the foot point ``r``.
     Names of inputs and outputs are preserved; ``n_p`` is the length of ``p`` (``f``'s own
     parameter count)."""
     q, z = ca.SX.sym(f.name_in(0)), ca.SX.sym(f.name_in(1))
@@ -190,20 +192,22 @@ def compose(f: ca.Function, mod: FlankModification, n_p: int) -> ca.Function:
     P = ca.SX.sym("p", n_p + k)
     p, theta = P[:n_p], P[n_p:]
     # Keep z the axial position: the point of the modified surface with coordinates (u, z) is
-    # r(u, zeta) + delta(u, zeta) n(u, zeta) with zeta (the foot point's section) such that its
-    # axial coordinate is z: zeta + delta n_z = z (a helical flank's normal has an axial component).
-    # NEWTON_STEPS Newton steps from zeta = z (|delta n_z| is microns and its slope along zeta tiny:
-    # the first step leaves ~1e-11 mm, the second round-off; with delta n_z = 0, e.g. spur, zeta = z).
+    # r(u, zeta) + delta(u, z) n(u, zeta) with zeta (the foot point's section) such that its axial
+    # coordinate is z: zeta + delta n_z = z (a helical flank's normal has an axial component). delta
+    # is taken in the section z of the modified point (what a measuring machine reports there), with
+    # the foot point r(u, zeta). NEWTON_STEPS Newton steps from zeta = z (|delta n_z| is microns and
+    # its slope along zeta tiny: the first step leaves ~1e-11 mm, the second round-off; with
+    # delta n_z = 0, e.g. spur, zeta = z).
     zs = ca.SX.sym("zeta")
     o_s = f.call([q, zs, p])
-    g_s = zs + mod.expression(q, zs, o_s[0], theta) * o_s[1][2] - z
+    g_s = zs + mod.expression(q, z, o_s[0], theta) * o_s[1][2] - z
     step = ca.Function("zeta_step", [q, zs, z, P], [g_s / ca.jacobian(g_s, zs)])
     zeta = z
     for _ in range(NEWTON_STEPS):
         zeta = zeta - step(q, zeta, z, P)
     outs = f.call([q, zeta, p])
     r, n = outs[0], outs[1]
-    d = mod.expression(q, zeta, r, theta)
+    d = mod.expression(q, z, r, theta)
     r_m = r + d * n
     c = ca.cross(ca.jacobian(r_m, q), ca.jacobian(r_m, z))
     # orientation: +-1, constant on each branch of the flank (changes only across a fold, where the
@@ -319,16 +323,7 @@ def topography(s_grid, z_grid, values, along: str = "u", name: str = "topo", par
     if not np.all(np.isfinite(V)):
         i, j = np.argwhere(~np.isfinite(V))[0]
         raise ArgumentError(f"{where}: values[{i}, {j}] = {V[i, j]}: every deviation must be finite [mm].")
-    # The tensor-product interpolating cubic spline is linear in the data and separable:
-    # f(s, z) = A(s)^T V B(z) with A_i, B_j the 1-D cardinal splines of each grid (the spline through
-    # the unit vector e_i). Written so, it is differentiable in V by AD (CasADi's parametric
-    # interpolant gives zero derivatives with respect to its data).
-    def cardinals(tag, gr):
-        # one interpolant with gr.size outputs: output i is the spline through e_i (values are
-        # ordered grid point first, output fastest)
-        return ca.interpolant(f"{name}_{tag}", "bspline", [gr.tolist()], np.eye(gr.size).ravel().tolist())
-
-    A_f, B_f = cardinals("s", grids[0]), cardinals("z", grids[1])
+    spline = grid_spline(name, grids[0], grids[1])
     if parametric:
         theta = tuple((f"v{i}_{j}", float(V[i, j]), "mm") for j in range(shape[1]) for i in range(shape[0]))
     else:
@@ -336,11 +331,35 @@ def topography(s_grid, z_grid, values, along: str = "u", name: str = "topo", par
 
     def delta(u, z, r, th):
         s = u if along == "u" else ca.sqrt(r[0] ** 2 + r[1] ** 2)
-        # CasADi's B-spline is zero outside its grid: hold the edge values there instead
-        s = ca.fmin(ca.fmax(s, float(grids[0][0])), float(grids[0][-1]))
-        z = ca.fmin(ca.fmax(z, float(grids[1][0])), float(grids[1][-1]))
-        A, B = A_f(s), B_f(z)
-        Vm = ca.reshape(th, shape[0], shape[1]) if parametric else ca.DM(V)  # column-major: v_ij at i + m j
-        return ca.mtimes([A.T, Vm, B])
+        Vm = ca.reshape(th, shape[0], shape[1]) if parametric else V  # column-major: v_ij at i + m j
+        return spline(s, z, Vm)
 
     return FlankModification(name, theta, delta, sides)
+
+
+def grid_spline(name: str, s_grid, z_grid):
+    """The tensor-product interpolating cubic spline of a grid, as a CasADi-generic callable
+    ``spline(s, z, V) -> scalar`` with ``V`` (m, k) the values (numpy or a CasADi matrix: symbols
+    allowed), held at the edge values outside the grid (CasADi's B-spline is zero there).
+
+    The spline is linear in the data and separable: ``f(s, z) = A(s)^T V B(z)`` with ``A_i``, ``B_j``
+    the 1-D cardinal splines of each grid (the spline through the unit vector e_i), from
+    ``ca.interpolant(..., "bspline", ...)``. Written so, it is differentiable in V by AD (CasADi's
+    parametric interpolant gives zero derivatives with respect to its data)."""
+    s_grid = np.asarray(s_grid, dtype=float)
+    z_grid = np.asarray(z_grid, dtype=float)
+
+    def cardinals(tag, gr):
+        # one interpolant with gr.size outputs: output i is the spline through e_i (values are
+        # ordered grid point first, output fastest)
+        return ca.interpolant(f"{name}_{tag}", "bspline", [gr.tolist()], np.eye(gr.size).ravel().tolist())
+
+    A_f, B_f = cardinals("s", s_grid), cardinals("z", z_grid)
+
+    def spline(s, z, V):
+        s = ca.fmin(ca.fmax(s, float(s_grid[0])), float(s_grid[-1]))
+        z = ca.fmin(ca.fmax(z, float(z_grid[0])), float(z_grid[-1]))
+        Vm = ca.DM(V) if isinstance(V, np.ndarray) else V
+        return ca.mtimes([A_f(s).T, Vm, B_f(z)])
+
+    return spline

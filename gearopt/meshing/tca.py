@@ -41,6 +41,7 @@ from ..errors import (ArgumentError, ConvergenceError, GeometryError, LineContac
 from ..gears import GearPair
 from ..geometry.frames import rot_x as _rx, rot_y as _ry, rot_z as _rz  # noqa: F401 (old private names)
 from ..geometry.generation import PARAMS, GeneratedTooth, generate, generate_by_rack  # noqa: F401
+from ..geometry.microgeometry import modified_tooth
 from ..units import ARCMIN, RAD_TO_ARCSEC
 from .layout import ParamLayout
 from .misalignment import MISALIGNMENTS, Misalignment  # noqa: F401 (re-exported)
@@ -354,8 +355,9 @@ class TCA:
             raise out_of_range("tol", tol, "0 < tol <= 1e-6 mm (residual of the contact equations)", cls=OptionError)
         t0 = time.perf_counter()
         self.pair, self.side, self.solver, self.tol = pair, side, solver, tol
-        self.pinion = pinion or generate(pair.pinion)
-        self.gear = gear or generate(pair.gear)
+        # each member's generated tooth with its ISO micro-geometry (Gear.modifications) composed in
+        self.pinion = pinion or modified_tooth(pair, "pinion")
+        self.gear = gear or modified_tooth(pair, "gear")
         self._limits: dict = {}
         self._build()
         self.build_time = time.perf_counter() - t0
