@@ -331,3 +331,34 @@ def test_relief_start_outside_the_evaluated_profile_is_refused():
     with pytest.raises(GeometryError) as e:
         TCA(pair_of("spur", mg), contact="line")
     assert e.value.param == "pinion.modifications.d_Cf"
+
+
+# ------------------------------------------------------------------------------------------------
+# Litvin's settings <-> ISO amounts
+# ------------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("kind", ["spur", "helical"])
+def test_iso_from_litvin_and_back(kind):
+    from gearopt.geometry.microgeometry import iso_from_litvin, litvin_from_iso
+
+    base = pair_of(kind)
+    g = base.pinion
+    a_c, a_pl = 0.002, 0.0003
+    pair = GearPair(g.with_(a_pl=a_pl, rack=BasicRack(a_c=a_c)), base.gear)
+    iso = iso_from_litvin(pair)
+    # lead: exact (the plunged tool's offset, module docstring)
+    assert iso["C_beta"] == pytest.approx(a_pl * (g.b / 2) ** 2 * math.sin(g.alpha_t), rel=1e-14)
+    assert iso["f_H_beta"] == 0.0
+    # profile: the first-order transfer of the tool parabola (|dL/du| = cos alpha_n / sin alpha_t,
+    # normal = cos(beta_b) transverse) gives the sagitta within a few per cent
+    r_s, r_e = active_profile(pair, "pinion")
+    L_al = math.sqrt(r_e**2 - g.r_b**2) - math.sqrt(r_s**2 - g.r_b**2)
+    q = math.sin(g.alpha_t) / math.cos(g.rack.alpha_n)
+    first_order = a_c * q**2 * (L_al / 2) ** 2 / math.cos(g.beta_b)
+    assert iso["C_alpha"] == pytest.approx(first_order, rel=0.05)
+    assert abs(iso["f_H_alpha"]) < iso["C_alpha"]
+    back = litvin_from_iso(pair, C_alpha=iso["C_alpha"], C_beta=iso["C_beta"], f_H_alpha=iso["f_H_alpha"])
+    assert back["a_pl"] == pytest.approx(a_pl, rel=1e-13)
+    assert back["a_c"] == pytest.approx(a_c, rel=1e-6)
+    assert back["u_0"] == pytest.approx(g.rack.u_0, abs=1e-6)
+    none = iso_from_litvin(base)
+    assert none == {"C_alpha": 0.0, "f_H_alpha": 0.0, "C_beta": 0.0, "f_H_beta": 0.0}

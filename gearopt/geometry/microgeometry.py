@@ -531,3 +531,119 @@ def modified_tooth(pair, member: str, tooth=None):
     for mod in flank_modifications(mg, tooth, pair, member):
         tooth = tooth.with_modification(mod)
     return tooth
+
+
+# ---------------------------------------------------------------------------------------------
+# Litvin's settings <-> ISO amounts
+# ---------------------------------------------------------------------------------------------
+def _polar_angle(tooth, side, R, z, p) -> float:
+    u = tooth.u_at_radius(R, z, side, p)
+    r = tooth.point(side, "flank", u, z, p)[0]
+    return math.atan2(r[0], r[1])
+
+
+def _profile_trace_of_settings(pair, member, a_c, u_0, side="right", n=41):
+    """Roll lengths (n,) over the active profile (midpoints of n equal intervals) and the ISO
+    transverse deviation [mm] of the flank
+    cut by the member's tool with profile crowning (a_c, u_0) from the flank of the straight tool
+    (same shift x_E), at mid face."""
+    from .generation import generate
+
+    g = getattr(pair, member)
+    tooth = generate(g).unmodified
+    r_s, r_e = active_profile(pair, member)
+    L_s, L_e = math.sqrt(r_s**2 - g.r_b**2), math.sqrt(r_e**2 - g.r_b**2)
+    L = L_s + (np.arange(n) + 0.5) / n * (L_e - L_s)  # interval midpoints: symmetric, inside the flank
+    p0 = np.array(tooth.p0[:4], dtype=float)
+    p_ref, p = p0.copy(), p0.copy()
+    p_ref[1:] = 0.0
+    p[1], p[2], p[3] = a_c, u_0, 0.0
+    s = 1.0 if side == "right" else -1.0
+    dev = np.array([s * g.r_b * (_polar_angle(tooth, side, math.hypot(g.r_b, x), 0.0, p)
+                                 - _polar_angle(tooth, side, math.hypot(g.r_b, x), 0.0, p_ref)) for x in L])
+    return L, dev
+
+
+def profile_fit(L, dev) -> tuple[float, float]:
+    """(C, f_H) [mm] of a trace over its range: the sagitta of its least-squares parabola (positive
+    when material is removed at both ends) and the rise of its least-squares line over the range
+    (ISO 1328-1 crowning and slope; exact for ``dev = -C (2t)^2 + f_H t + c`` with
+    ``t = (L - L_m) / (L_e - L_s)`` on a grid symmetric about L_m)."""
+    L = np.asarray(L, dtype=float)
+    t = (L - (L[0] + L[-1]) / 2) / (L[-1] - L[0])
+    c2 = np.polyfit(t, dev, 2)[0]
+    c1 = np.polyfit(t, dev, 1)[0]
+    return -c2 / 4, c1
+
+
+def iso_from_litvin(pair, member: str = "pinion") -> dict:
+    """A member's Litvin crowning settings in ISO shop terms [mm] over the active profile and face:
+    ``C_beta = a_pl (b/2)^2 sin(alpha_t)`` (exact: the tool fed ``a_pl z^2`` deeper offsets the flank
+    by ``a_pl z^2 sin(alpha_n)`` along the normal, ``a_pl z^2 sin(alpha_t)`` transverse) with
+    ``f_H_beta = 0``; ``C_alpha``, ``f_H_alpha`` of the flank cut by the parabolic tool
+    (``rack.a_c``, ``rack.u_0``), evaluated from the surface at mid face (:func:`profile_fit` of the
+    deviation from the straight tool's flank at the midpoints of 41 equal intervals of the active
+    profile's roll length)."""
+    g = getattr(pair, member)
+    out = {"C_beta": g.a_pl * (g.b / 2) ** 2 * math.sin(g.alpha_t), "f_H_beta": 0.0}
+    if g.rack.a_c == 0:
+        out.update(C_alpha=0.0, f_H_alpha=0.0)
+    else:
+        C, fH = profile_fit(*_profile_trace_of_settings(pair, member, g.rack.a_c, g.rack.u_0))
+        out.update(C_alpha=C, f_H_alpha=fH)
+    return {k: out[k] for k in ("C_alpha", "f_H_alpha", "C_beta", "f_H_beta")}
+
+
+def litvin_from_iso(pair, member: str = "pinion", C_alpha: float = 0.0, C_beta: float = 0.0,
+                    f_H_alpha: float = 0.0, tol: float = 1e-9) -> dict:
+    """Litvin's settings ``a_c`` [1/mm], ``u_0`` [mm] (parabolic tool) and ``a_pl`` [1/mm] (plunging)
+    that give the ISO amounts ``C_alpha``, ``f_H_alpha``, ``C_beta`` [mm] (the inverse of
+    :func:`iso_from_litvin`): ``a_pl`` in closed form; ``a_c``, ``u_0`` by Newton's method on the
+    evaluated profile from the first-order transfer of the tool parabola (the tool point ``u`` cuts
+    the roll length ``L`` with ``|dL/du| = cos(alpha_n) / sin(alpha_t)``, and a normal deviation is
+    ``cos(beta_b)`` times the transverse one).
+
+    Raises
+    ------
+    ArgumentError
+        For a negative crowning.
+    ConvergenceError
+        If the profile amounts are not met to ``tol`` [mm] in 12 Newton steps.
+    """
+    from ..errors import ConvergenceError
+
+    g = getattr(pair, member)
+    for nm, v in (("C_alpha", C_alpha), ("C_beta", C_beta)):
+        if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
+            raise out_of_range(nm, v, f"{nm} >= 0 mm", cls=ArgumentError)
+    a_pl = C_beta / ((g.b / 2) ** 2 * math.sin(g.alpha_t))
+    if C_alpha == 0 and f_H_alpha == 0:
+        return {"a_c": 0.0, "u_0": 0.0, "a_pl": a_pl}
+    if C_alpha <= 0:
+        raise out_of_range("C_alpha", C_alpha, "C_alpha > 0 mm with a profile slope (a parabolic tool slopes the "
+                           "profile only by moving the parabola's vertex)", cls=ArgumentError)
+    from .generation import generate
+
+    r_s, r_e = active_profile(pair, member)
+    L_s, L_e = math.sqrt(r_s**2 - g.r_b**2), math.sqrt(r_e**2 - g.r_b**2)
+    L_al, L_m = L_e - L_s, (L_s + L_e) / 2
+    k = C_alpha / (L_al / 2) ** 2  # delta_t = -k (L - L0)^2
+    q = math.sin(g.alpha_t) / math.cos(g.rack.alpha_n)
+    a_c = k * math.cos(g.beta_b) / q**2
+    L0 = L_m + f_H_alpha / (2 * k * L_al)
+    tooth = generate(g).unmodified
+    p_ref = np.array(tooth.p0[:4], dtype=float)
+    p_ref[1:] = 0.0
+    u_0 = tooth.u_at_radius(math.hypot(g.r_b, L0), 0.0, "right", p_ref)
+    x = np.array([a_c, u_0])
+    target = np.array([C_alpha, f_H_alpha])
+    F = lambda v: np.array(profile_fit(*_profile_trace_of_settings(pair, member, v[0], v[1]))) - target  # noqa: E731
+    for _ in range(12):
+        r = F(x)
+        if np.abs(r).max() < tol:
+            return {"a_c": float(x[0]), "u_0": float(x[1]), "a_pl": a_pl}
+        h = np.array([1e-6 * max(abs(x[0]), 1e-6), 1e-4])
+        J = np.column_stack([(F(x + np.eye(2)[i] * h[i]) - r) / h[i] for i in range(2)])
+        x = x - np.linalg.solve(J, r)
+    raise ConvergenceError(f"litvin_from_iso: no parabolic tool (a_c, u_0) gives C_alpha = {C_alpha * 1e3:.4g} um, "
+                           f"f_H_alpha = {f_H_alpha * 1e3:.4g} um on {g.name} (residual {np.abs(F(x)).max():.2g} mm).")
