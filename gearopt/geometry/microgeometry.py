@@ -498,7 +498,8 @@ def measured_modification(grid, fr: Frame, name: str = "measured") -> FlankModif
     """A measured grid (``FlankGrid``: ISO transverse deviations [mm] over roll length ``L_y`` or
     diameter ``d_y`` x axial position) as a FlankModification of its flank: the tensor-product cubic
     B-spline through the grid (:func:`gearopt.geometry.modification.grid_spline`) over roll length and
-    z, held at the edge values outside the grid, composed like the ISO terms (``cos(beta_b) delta_t``
+    z, continued along its edge tangents outside the grid (so a relief or crowning keeps growing past
+    the last measured point, as a flank evaluated up to its tip needs), composed like the ISO terms (``cos(beta_b) delta_t``
     at the modified point's roll length)."""
     from .modification import grid_spline
 
@@ -509,7 +510,7 @@ def measured_modification(grid, fr: Frame, name: str = "measured") -> FlankModif
                             "strictly increasing above the base circle (diameters below d_b?).",
                             param="measured.s", value=list(s[:4]), valid=f"diameters above d_b = {2 * fr.r_b:.6g} mm")
     V = np.asarray(grid.deviation, dtype=float)
-    spline = grid_spline(name, L, np.asarray(grid.z, dtype=float))
+    spline = grid_spline(name, L, np.asarray(grid.z, dtype=float), extrapolate="linear")
 
     def delta(u, z, r, th):
         f = lambda LL, zz: spline(LL, zz, V)  # noqa: E731

@@ -337,29 +337,41 @@ def topography(s_grid, z_grid, values, along: str = "u", name: str = "topo", par
     return FlankModification(name, theta, delta, sides)
 
 
-def grid_spline(name: str, s_grid, z_grid):
+def grid_spline(name: str, s_grid, z_grid, extrapolate: str = "hold"):
     """The tensor-product interpolating cubic spline of a grid, as a CasADi-generic callable
     ``spline(s, z, V) -> scalar`` with ``V`` (m, k) the values (numpy or a CasADi matrix: symbols
-    allowed), held at the edge values outside the grid (CasADi's B-spline is zero there).
+    allowed). Outside the grid (CasADi's B-spline is zero there): ``extrapolate = "hold"`` holds the
+    edge values (continuous, the slope jumps at the edge), ``"linear"`` continues along the edge
+    tangent (C1 across the edge: ``f(s_c) + f'(s_c) (s - s_c)`` with ``s_c`` the nearest grid value,
+    in each coordinate).
 
     The spline is linear in the data and separable: ``f(s, z) = A(s)^T V B(z)`` with ``A_i``, ``B_j``
     the 1-D cardinal splines of each grid (the spline through the unit vector e_i), from
     ``ca.interpolant(..., "bspline", ...)``. Written so, it is differentiable in V by AD (CasADi's
     parametric interpolant gives zero derivatives with respect to its data)."""
+    if extrapolate not in ("hold", "linear"):
+        raise ArgumentError(f"grid_spline: extrapolate = {shorten(repr(extrapolate))} is out of range; valid: 'hold' "
+                            "or 'linear'.", param="extrapolate", value=extrapolate, valid="'hold' or 'linear'")
     s_grid = np.asarray(s_grid, dtype=float)
     z_grid = np.asarray(z_grid, dtype=float)
 
     def cardinals(tag, gr):
         # one interpolant with gr.size outputs: output i is the spline through e_i (values are
         # ordered grid point first, output fastest)
-        return ca.interpolant(f"{name}_{tag}", "bspline", [gr.tolist()], np.eye(gr.size).ravel().tolist())
+        f = ca.interpolant(f"{name}_{tag}", "bspline", [gr.tolist()], np.eye(gr.size).ravel().tolist())
+        x = ca.SX.sym("x")
+        return f, ca.Function(f"{name}_{tag}_d", [x], [ca.jacobian(f(x), x)])
 
-    A_f, B_f = cardinals("s", s_grid), cardinals("z", z_grid)
+    (A_f, dA_f), (B_f, dB_f) = cardinals("s", s_grid), cardinals("z", z_grid)
 
     def spline(s, z, V):
-        s = ca.fmin(ca.fmax(s, float(s_grid[0])), float(s_grid[-1]))
-        z = ca.fmin(ca.fmax(z, float(z_grid[0])), float(z_grid[-1]))
+        s_c = ca.fmin(ca.fmax(s, float(s_grid[0])), float(s_grid[-1]))
+        z_c = ca.fmin(ca.fmax(z, float(z_grid[0])), float(z_grid[-1]))
+        A, B = A_f(s_c), B_f(z_c)
+        if extrapolate == "linear":
+            A = A + dA_f(s_c) * (s - s_c)
+            B = B + dB_f(z_c) * (z - z_c)
         Vm = ca.DM(V) if isinstance(V, np.ndarray) else V
-        return ca.mtimes([A_f(s).T, Vm, B_f(z)])
+        return ca.mtimes([A.T, Vm, B])
 
     return spline
