@@ -362,3 +362,39 @@ def test_iso_from_litvin_and_back(kind):
     assert back["u_0"] == pytest.approx(g.rack.u_0, abs=1e-6)
     none = iso_from_litvin(base)
     assert none == {"C_alpha": 0.0, "f_H_alpha": 0.0, "C_beta": 0.0, "f_H_beta": 0.0}
+
+
+@pytest.mark.slow
+def test_an_ipopt_nlp_chooses_an_amount_through_the_tca():
+    """The amounts are symbolic TCA inputs: IPOPT, with the contact points of K positions as
+    unknowns tied by the TCA equations, chooses the pinion's lead crowning C_beta so that the TE under
+    a crossing of the axes matches that of the drive plunged by a_pl; the answer must be the
+    equivalent C_beta = a_pl (b/2)^2 sin(alpha_t) (module docstring)."""
+    base = pair_of("helical")
+    g = base.pinion
+    a_pl = 4e-4
+    want = a_pl * (g.b / 2) ** 2 * math.sin(g.alpha_t)
+    mis = Misalignment(crossing=3 * ARCMIN)
+    phis = np.linspace(-0.12, 0.12, 7)
+    ref = TCA(pair_of("helical", a_pl=a_pl)).sweep(phis, mis=mis, pairs=(0,))
+    assert ref.converged.all()
+    te_ref = ref.phi2[0] - ref.phi2[0][3]
+    tca = TCA(pair_of("helical", Microgeometry(C_beta=0.5 * want)))
+    lay = tca.layout
+    guess = tca.sweep(phis, mis=mis, pairs=(0,))
+    x = ca.MX.sym("x")  # C_beta / want
+    p1 = ca.MX(tca.pinion.p0)
+    p1[lay.p_index("pinion", "iso.C_beta")] = x * want
+    K = phis.size
+    W = ca.MX.sym("W", 5, K)
+    PRM = lay.build({"phi1": ca.DM(phis).T, "pinion": ca.repmat(p1, 1, K), "gear": ca.repmat(ca.DM(tca.gear.p0), 1, K),
+                     "mis": ca.repmat(ca.DM(mis.vector()), 1, K), "z_section": ca.DM.zeros(1, K)})
+    g_eq = ca.vec(tca.residual.map(K)(w=W, prm=PRM)["F"])
+    phi2 = W[4, :] / tca.scale2
+    f = ca.sumsqr((phi2 - phi2[3] - ca.DM(te_ref).T) * RAD_TO_ARCSEC)
+    W0 = np.vstack([guess.u1[0], guess.z1[0], guess.u2[0], guess.z2[0], guess.phi2[0] * tca.scale2])
+    solver = ca.nlpsol("s", "ipopt", {"x": ca.vertcat(x, ca.vec(W)), "f": f, "g": g_eq},
+                       {"ipopt.print_level": 0, "print_time": False, "ipopt.tol": 1e-12})
+    sol = solver(x0=np.r_[0.5, W0.T.ravel()], lbg=0, ubg=0)
+    assert solver.stats()["success"]
+    assert float(sol["x"][0]) * want == pytest.approx(want, rel=1e-6)
