@@ -7,7 +7,10 @@ zeta, see gearopt/geometry/modification.py). The pinion carries
 
 * none (the generated flank),
 * ``polynomial`` (lead slope + profile parabola, 5 symbolic theta),
-* ``topography`` 12 x 8 grid, fixed values (no theta), and with the 96 values symbolic.
+* ``topography`` 12 x 8 grid, fixed values (no theta), and with the 96 values symbolic;
+* ISO 21771 micro-geometry (``Gear.modifications``, gearopt/geometry/microgeometry.py): every term
+  (crowning, slopes, bias, tip, root and both end reliefs: 9 symbolic amounts), and a measured
+  grid 40 x 20 per flank (both flanks) as the imported cubic B-spline.
 
 For each: TCA build time [s], size of the residual graph (SX instructions), and the wall time of
 ``TCA.sweep`` over N = 1000 positions and 3 tooth pairs (median of 3; interpreted, no jit).
@@ -23,6 +26,7 @@ import numpy as np
 
 from gearopt import ARCMIN, BasicRack, Gear, GearPair
 from gearopt.geometry.generation import generate_by_rack
+from gearopt.geometry.microgeometry import FIXED_POINT_STEPS, Microgeometry, modified_tooth
 from gearopt.geometry.modification import polynomial, topography
 from gearopt.meshing.tca import TCA, Misalignment
 
@@ -42,10 +46,32 @@ def mods(g):
     return {"none": None,
             "polynomial": polynomial(c_z=1e-4, c_uu=-2e-4, name="poly"),
             "topography": topography(s, z, V, name="topo"),
-            "topography (96 theta)": topography(s, z, V, name="topo", parametric=True)}
+            "topography (96 theta)": topography(s, z, V, name="topo", parametric=True),
+            "ISO, every term": "iso", "measured 2 x 40 x 20": "measured"}
+
+
+def iso_mods(pr, which):
+    """The pinion tooth with ISO micro-geometry: every term, or a synthetic measured grid per flank."""
+    from collections import namedtuple
+
+    Grid = namedtuple("Grid", "side profile s z deviation source")  # (the fields of inspection.FlankGrid)
+    g = pr.pinion
+    if which == "iso":
+        mg = Microgeometry(C_alpha=0.004, f_H_alpha=0.002, C_beta=0.008, f_H_beta=0.003, S_alpha=0.002,
+                           C_alpha_a=0.01, d_Ca=2 * (g.r_a - 0.25 * g.m_n), C_alpha_f=0.006, d_Cf=2 * (g.r_p - 0.3 * g.m_n),
+                           C_beta_I=0.01, b_I=3.0, C_beta_II=0.01, b_II=3.0)
+    else:
+        d = np.linspace(2 * g.r_form + 0.01, 2 * g.r_a, 40)
+        z = np.linspace(-g.b / 2, g.b / 2, 20)
+        D, Z = np.meshgrid(d, z, indexing="ij")
+        V = -0.008 * (2 * Z / g.b) ** 2 + 3e-4 * np.sin(3 * D)
+        mg = Microgeometry(measured=tuple(Grid(sd, "d_y", tuple(d), tuple(z), tuple(map(tuple, V)), "bench")
+                                          for sd in ("right", "left")))
+    return modified_tooth(GearPair(g.with_(modifications=mg), pr.gear, pr.a), "pinion")
 
 
 def main(n=1000, repeats=3):
+    print(f"(ISO terms: {FIXED_POINT_STEPS} fixed-point steps for the modified point's roll length)")
     mis = Misalignment(crossing=3 * ARCMIN, intersecting=2 * ARCMIN, dE=0.05)
     print(f"{'case':10s} {'modification':24s} {'build s':>8s} {'SX instr':>9s} {'sweep s':>8s} {'us/pos':>7s}")
     for label, beta in (("spur", 0.0), ("helical", 15 * math.pi / 180)):
@@ -53,7 +79,10 @@ def main(n=1000, repeats=3):
         phi = np.linspace(-math.pi / pr.pinion.z, math.pi / pr.pinion.z, n)
         for name, mod in mods(pr.pinion).items():
             tooth = generate_by_rack(pr.pinion)
-            tooth = tooth if mod is None else tooth.with_modification(mod)
+            if isinstance(mod, str):
+                tooth = iso_mods(pr, mod)
+            elif mod is not None:
+                tooth = tooth.with_modification(mod)
             t0 = time.perf_counter()
             tca = TCA(pr, pinion=tooth)
             build = time.perf_counter() - t0

@@ -494,14 +494,29 @@ def flank_modifications(mg: Microgeometry, tooth, pair=None, member: str | None 
     return tuple(mods)
 
 
+#: extra grid nodes on each side of a measured grid, on the edge's osculating parabola (value, slope
+#: and curvature of the spline at the edge): at 1 and 2 edge spacings, then at 1/4 ... 4 of the grid's
+#: length beyond its edge (held constant further out)
+GHOST_STEPS = (1.0, 2.0)
+GHOST_SPANS = (0.25, 0.5, 1.0, 2.0, 4.0)
+
+
 def measured_modification(grid, fr: Frame, name: str = "measured") -> FlankModification:
     """A measured grid (``FlankGrid``: ISO transverse deviations [mm] over roll length ``L_y`` or
-    diameter ``d_y`` x axial position) as a FlankModification of its flank: the tensor-product cubic
-    B-spline through the grid (:func:`gearopt.geometry.modification.grid_spline`) over roll length and
-    z, continued along its edge tangents outside the grid (so a relief or crowning keeps growing past
-    the last measured point, as a flank evaluated up to its tip needs), composed like the ISO terms (``cos(beta_b) delta_t``
-    at the modified point's roll length)."""
-    from .modification import grid_spline
+    diameter ``d_y`` x axial position) as a FlankModification of its flank, composed like the ISO
+    terms (``cos(beta_b) delta_t`` at the modified point's roll length):
+
+    * the deviation ``d_ij`` measured at roll length ``L_i`` (the actual point's) is turned, outside
+      any graph, into the deviation at the foot point's roll length ``L_i``: ``e_ij = d(L_i + k e_ij,
+      z_j)`` (``k = s cos^2(beta_b)``, fixed point on the not-a-knot cubic spline of column j), so the
+      flank needs one spline evaluation per point;
+    * the grid gets extra nodes on each side on the osculating parabola of its edge (GHOST_STEPS,
+      GHOST_SPANS: up to four grid lengths beyond each edge), so a relief or a crowning keeps growing
+      past the last measured point as the designed one does (a flank held flat beyond its tip or
+      face would offer the TCA a false tangency out there), and the
+      tensor-product cubic B-spline of ``ca.interpolant(..., "bspline")`` through all nodes is
+      evaluated with its coordinates held inside the extended grid."""
+    from scipy.interpolate import make_interp_spline
 
     s = np.asarray(grid.s, dtype=float)
     L = s if grid.profile == "L_y" else np.sqrt(np.maximum((s / 2) ** 2 - fr.r_b**2, 0.0))
@@ -509,12 +524,40 @@ def measured_modification(grid, fr: Frame, name: str = "measured") -> FlankModif
         raise ArgumentError(f"measured grid {getattr(grid, 'source', '') or grid.side}: its profile positions are not "
                             "strictly increasing above the base circle (diameters below d_b?).",
                             param="measured.s", value=list(s[:4]), valid=f"diameters above d_b = {2 * fr.r_b:.6g} mm")
+    z = np.asarray(grid.z, dtype=float)
     V = np.asarray(grid.deviation, dtype=float)
-    spline = grid_spline(name, L, np.asarray(grid.z, dtype=float), extrapolate="linear")
+    k = fr.sign_L * math.cos(fr.beta_b) ** 2
+    E = V.copy()
+    for j in range(z.size):  # deviation at the foot point's roll length (module docstring)
+        d = make_interp_spline(L, V[:, j], k=3)
+        e = V[:, j].copy()
+        for _ in range(8):
+            e = d(L + k * e)
+        E[:, j] = e
 
-    def delta(u, z, r, th):
-        f = lambda LL, zz: spline(LL, zz, V)  # noqa: E731
-        return math.cos(fr.beta_b) * _with_actual_roll_length(f, fr, roll_length_of(r, fr.r_b), z)
+    def ghosts(x, Y, axis):
+        """x extended on each side (GHOST_STEPS, GHOST_SPANS), Y along ``axis`` on the edge parabolas."""
+        h0, h1, span = x[1] - x[0], x[-1] - x[-2], x[-1] - x[0]
+        off0 = np.unique(np.r_[np.array(GHOST_STEPS) * h0, [t * span for t in GHOST_SPANS if t * span > 2 * h0]])
+        off1 = np.unique(np.r_[np.array(GHOST_STEPS) * h1, [t * span for t in GHOST_SPANS if t * span > 2 * h1]])
+        lo = x[0] - off0[::-1]
+        hi = x[-1] + off1
+        sp = make_interp_spline(x, Y, k=3, axis=axis)
+        at = lambda f, xe: np.take(f(np.array([xe])), 0, axis=axis)  # noqa: E731
+        taylor = [[at(sp.derivative(m) if m else sp, xe) for m in range(3)] for xe in (x[0], x[-1])]
+        (y0, d0, c0), (y1, d1, c1) = taylor
+        lo_v = np.stack([y0 + d0 * (t - x[0]) + c0 * (t - x[0]) ** 2 / 2 for t in lo], axis=axis)
+        hi_v = np.stack([y1 + d1 * (t - x[-1]) + c1 * (t - x[-1]) ** 2 / 2 for t in hi], axis=axis)
+        return np.r_[lo, x, hi], np.concatenate([lo_v, Y, hi_v], axis=axis)
+
+    Lx, E1 = ghosts(L, E, 0)
+    zx, E2 = ghosts(z, E1, 1)
+    f = ca.interpolant(f"{name}_spline", "bspline", [Lx.tolist(), zx.tolist()], E2.ravel(order="F").tolist())
+
+    def delta(u, zz, r, th):
+        L_foot = ca.fmin(ca.fmax(roll_length_of(r, fr.r_b), float(Lx[0])), float(Lx[-1]))
+        z_c = ca.fmin(ca.fmax(zz, float(zx[0])), float(zx[-1]))
+        return math.cos(fr.beta_b) * f(ca.vertcat(L_foot, z_c))
 
     return FlankModification(name, (), delta, (grid.side,))
 

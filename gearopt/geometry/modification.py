@@ -363,15 +363,32 @@ def grid_spline(name: str, s_grid, z_grid, extrapolate: str = "hold"):
         return f, ca.Function(f"{name}_{tag}_d", [x], [ca.jacobian(f(x), x)])
 
     (A_f, dA_f), (B_f, dB_f) = cardinals("s", s_grid), cardinals("z", z_grid)
+    direct = {}  # fixed numeric values: one 2-D interpolant of the data (the same spline, far cheaper)
 
     def spline(s, z, V):
         s_c = ca.fmin(ca.fmax(s, float(s_grid[0])), float(s_grid[-1]))
         z_c = ca.fmin(ca.fmax(z, float(z_grid[0])), float(z_grid[-1]))
+        if isinstance(V, np.ndarray):
+            key = V.tobytes()
+            if key not in direct:
+                f = ca.interpolant(f"{name}_2d", "bspline", [s_grid.tolist(), z_grid.tolist()],
+                                   np.asarray(V, dtype=float).ravel(order="F").tolist())
+                x = ca.SX.sym("x", 2)
+                g = ca.jacobian(f(x), x)
+                direct[key] = (f, ca.Function(f"{name}_2d_d", [x], [g, ca.jacobian(g[0], x)[1]]))
+            f, df = direct[key]
+            x_c = ca.vertcat(s_c, z_c)
+            out = f(x_c)
+            if extrapolate == "linear":  # the tensor product of the 1-D tangent lines, as below
+                g, f_sz = df(x_c)
+                ds, dz = s - s_c, z - z_c
+                out = out + g[0] * ds + g[1] * dz + f_sz * ds * dz
+            return out
         A, B = A_f(s_c), B_f(z_c)
         if extrapolate == "linear":
             A = A + dA_f(s_c) * (s - s_c)
             B = B + dB_f(z_c) * (z - z_c)
-        Vm = ca.DM(V) if isinstance(V, np.ndarray) else V
-        return ca.mtimes([A.T, Vm, B])
+        return ca.mtimes([A.T, V, B])
 
     return spline
+
