@@ -67,7 +67,7 @@ from dataclasses import dataclass, field, fields
 import casadi as ca
 import numpy as np
 
-from ..errors import ArgumentError, GeometryError, out_of_range, shorten
+from ..errors import ArgumentError, out_of_range, shorten
 from .modification import SIDES, FlankModification
 
 #: amounts (theta entries, mm) that are always part of a member's ISO modification, in this order
@@ -580,44 +580,30 @@ def modified_tooth(pair, member: str, tooth=None):
 # ---------------------------------------------------------------------------------------------
 # Litvin's settings <-> ISO amounts
 # ---------------------------------------------------------------------------------------------
-def _polar_angle(tooth, side, R, z, p) -> float:
-    u = tooth.u_at_radius(R, z, side, p)
-    r = tooth.point(side, "flank", u, z, p)[0]
-    return math.atan2(r[0], r[1])
-
-
 def _profile_trace_of_settings(pair, member, a_c, u_0, side="right", n=41):
     """Roll lengths (n,) over the active profile (midpoints of n equal intervals) and the ISO
-    transverse deviation [mm] of the flank
-    cut by the member's tool with profile crowning (a_c, u_0) from the flank of the straight tool
-    (same shift x_E), at mid face."""
+    transverse deviation [mm] (:func:`gearopt.geometry.inspection.flank_deviation`) of the flank cut by
+    the member's tool with profile crowning (a_c, u_0) and no plunging, at mid face."""
     from .generation import generate
+    from .inspection import flank_deviation
 
     g = getattr(pair, member)
     tooth = generate(g).unmodified
     r_s, r_e = active_profile(pair, member)
     L_s, L_e = math.sqrt(r_s**2 - g.r_b**2), math.sqrt(r_e**2 - g.r_b**2)
     L = L_s + (np.arange(n) + 0.5) / n * (L_e - L_s)  # interval midpoints: symmetric, inside the flank
-    p0 = np.array(tooth.p0[:4], dtype=float)
-    p_ref, p = p0.copy(), p0.copy()
-    p_ref[1:] = 0.0
+    p = np.array(tooth.p0[:4], dtype=float)
     p[1], p[2], p[3] = a_c, u_0, 0.0
-    s = 1.0 if side == "right" else -1.0
-    dev = np.array([s * g.r_b * (_polar_angle(tooth, side, math.hypot(g.r_b, x), 0.0, p)
-                                 - _polar_angle(tooth, side, math.hypot(g.r_b, x), 0.0, p_ref)) for x in L])
-    return L, dev
+    return L, flank_deviation(tooth, side, np.sqrt(L**2 + g.r_b**2), 0.0, p)
 
 
 def profile_fit(L, dev) -> tuple[float, float]:
-    """(C, f_H) [mm] of a trace over its range: the sagitta of its least-squares parabola (positive
-    when material is removed at both ends) and the rise of its least-squares line over the range
-    (ISO 1328-1 crowning and slope; exact for ``dev = -C (2t)^2 + f_H t + c`` with
-    ``t = (L - L_m) / (L_e - L_s)`` on a grid symmetric about L_m)."""
-    L = np.asarray(L, dtype=float)
-    t = (L - (L[0] + L[-1]) / 2) / (L[-1] - L[0])
-    c2 = np.polyfit(t, dev, 2)[0]
-    c1 = np.polyfit(t, dev, 1)[0]
-    return -c2 / 4, c1
+    """(C_alpha, f_H_alpha) [mm] of a profile trace over its whole range
+    (:func:`gearopt.geometry.inspection.profile_chart`)."""
+    from .inspection import profile_chart
+
+    ch = profile_chart(L, dev)
+    return ch["C_alpha"], ch["f_H_alpha"]
 
 
 def iso_from_litvin(pair, member: str = "pinion") -> dict:
