@@ -100,6 +100,34 @@ def _make_tool(values: dict | None):
     return TOOLS[kind](**{attrs[k]: v for k, v in values.items() if k != "kind"})
 
 
+def _modification_fields() -> list:
+    """Keys of ``[<member>.modifications]``: the fields of :class:`Microgeometry` (amounts in um, a
+    bare number is um; positions in mm), with ``d_alpha_start``/``d_alpha_end`` for the profile
+    evaluation range and ``sides``."""
+    from dataclasses import fields as dc_fields
+
+    from ..geometry.microgeometry import SHAPES, Microgeometry
+
+    out = []
+    for f in dc_fields(Microgeometry):
+        meta, doc = f.metadata, f.metadata.get("doc", "")
+        if f.name in ("measured", "d_alpha", "sides"):
+            continue
+        if meta.get("scene") == "um":
+            removed = f.name.startswith("C_")
+            out.append(Field(f.name, "length", unit="um", default=0.0, check=Bounds(lo=0) if removed else None,
+                             doc=doc + (" (>= 0: material removed)" if removed else "")))
+        elif meta.get("unit") == "mm":
+            out.append(Field(f.name, "length", doc=doc))
+        else:
+            out.append(Field(f.name, "str", default="linear", choices=SHAPES, doc=doc))
+    out += [Field("d_alpha_start", "length", check=_POS, doc="start of the profile evaluation range (diameter; "
+                  "default: the start of the active profile d_Nf)"),
+            Field("d_alpha_end", "length", check=_POS, doc="end of the profile evaluation range (diameter; default d_a)"),
+            Field("sides", "str", default="both", choices=("both", "right", "left"), doc="flanks modified")]
+    return out
+
+
 def _member(name: str) -> Section:
     return Section(name, [
         Field("z", "int", required=True, doc="number of teeth, z >= 3"),
@@ -115,7 +143,15 @@ def _member(name: str) -> Section:
     ], required=True, doc=f"the {name}" + (" (driving member)" if name == "pinion" else " (driven member)"),
         subsections=[Section("rack", _RACK_FIELDS, doc=f"rack-cutter of the {name}, overrides [rack] key by key"),
                      ToolSection("tool", doc=f"the tool that cuts the {name} (default: its rack-cutter); the keys "
-                                 "depend on kind", variants=_TOOL_VARIANTS)])
+                                 "depend on kind", variants=_TOOL_VARIANTS),
+                     Section("modifications", _modification_fields(),
+                             doc=f"flank modifications of the {name} in ISO 21771 shop terms (amounts in um, "
+                             "transverse, + = material added; docs/microgeometry.md)"),
+                     Section("measured", [Field("right", "str", doc="topography CSV of the right flank (path relative "
+                                                "to the scene file)"),
+                                          Field("left", "str", doc="topography CSV of the left flank")],
+                             doc=f"measured flank topographies of the {name} (gearopt CSV grids, "
+                             "docs/microgeometry.md), added to its flanks")])
 
 
 #: Sections every scene may have (``[scene]`` and the gear data), in order.
@@ -556,6 +592,9 @@ def _gear_key(data: dict, member: str | None, name: str) -> tuple[str, str] | No
         kind = tool.get("kind") if isinstance(tool, dict) else None
         key = {v: k for k, v in _TOOL_ATTRS.get(kind, {}).items()}.get(parts[2], parts[2])
         return (parts[0], f"tool.{key}")
+    if parts[0] in ("pinion", "gear") and len(parts) == 3 and parts[1] == "modifications":
+        key = {"d_alpha": "d_alpha_start"}.get(parts[2], parts[2])
+        return (f"{parts[0]}.modifications", key)
     if parts[0] in ("pinion", "gear") and len(parts) == 3 and parts[1] == "rack":
         src = rack_source(parts[0], parts[2])
         return (src, parts[2]) if src else None
@@ -592,6 +631,58 @@ def _restate(source: Path, section: str, key: str, written, err: GearoptError) -
     ``[section] key``, ``value`` as written, ``valid`` from ``err``."""
     return SceneError(f"{source}: {_restate_text(section, key, written, err)}", param=f"[{section}] {key}",
                       value=_toml(written) if written is not _MISSING else None, valid=err.valid, source=source)
+
+
+def _make_microgeometry(v: dict, given: set, member: str, path: Path):
+    """The member's :class:`Microgeometry` from ``[<member>.modifications]`` (None when absent)."""
+    from ..geometry.microgeometry import Microgeometry
+
+    m = v.get("modifications")
+    if not m:
+        return None
+    kw = {k: val for k, val in m.items() if f"modifications.{k}" in given
+          and k not in ("d_alpha_start", "d_alpha_end", "sides")}
+    if m.get("d_alpha_start") is not None or m.get("d_alpha_end") is not None:
+        if m.get("d_alpha_start") is None or m.get("d_alpha_end") is None:
+            raise SceneError(f"{path}: [{member}.modifications] d_alpha_start and d_alpha_end: give both ends of the "
+                             "profile evaluation range, or neither (the active profile).",
+                             param=f"[{member}.modifications] d_alpha_end", valid="both or neither", source=path)
+        kw["d_alpha"] = (m["d_alpha_start"], m["d_alpha_end"])
+    side = m.get("sides") or "both"
+    kw["sides"] = ("right", "left") if side == "both" else (side,)
+    try:
+        return Microgeometry(**kw)
+    except GearoptError as e:
+        key = (e.param or "").split(".", 1)[-1]
+        key = {"d_alpha": "d_alpha_start"}.get(key, key)
+        raise SceneError(f"{path}: [{member}.modifications] {key}: {e}", param=f"[{member}.modifications] {key}",
+                         value=e.value, valid=e.valid, source=path) from None
+
+
+def _with_measured(gear: Gear, files: dict, member: str, path: Path) -> Gear:
+    """``gear`` with the topography grids of ``[<member>.measured]`` added to its modifications."""
+    from ..geometry.inspection import check_grid_on_flank, read_grid_csv
+    from ..geometry.microgeometry import Microgeometry
+
+    grids = []
+    for side in ("right", "left"):
+        name = files.get(side)
+        if not name:
+            continue
+        f = (path.parent / name) if not Path(name).is_absolute() else Path(name)
+        try:
+            grid = read_grid_csv(f, side=side)
+            if grid.side != side:
+                raise SceneError(f"{f.name}: # side = {grid.side!r} but the file is given as the {side} flank.",
+                                 param="# side", value=grid.side, valid=repr(side))
+            check_grid_on_flank(grid, gear)
+        except GearoptError as e:
+            raise SceneError(f"{path}: [{member}.measured] {side} = {_toml(name)}: {e}",
+                             param=f"[{member}.measured] {side}", value=_toml(name), valid=e.valid,
+                             source=path) from None
+        grids.append(grid)
+    mg = gear.modifications or Microgeometry()
+    return gear.with_(modifications=replace(mg, measured=tuple(grids)))
 
 
 def _build_pair(data: dict, parsed: dict, given: dict, path: Path) -> GearPair:
@@ -643,10 +734,14 @@ def _build_pair(data: dict, parsed: dict, given: dict, path: Path) -> GearPair:
         except GeometryError as e:
             raise SceneError(f"{label}: [{member}] tool = {_toml(raw(member, 'tool'))}: {e}", param=f"[{member}] tool",
                              value=_toml(raw(member, "tool")), valid=e.valid, source=path) from None
+        mods = _make_microgeometry(v, given[member], member, path)
         try:
             members[member] = Gear(z=v["z"], m_n=m_n, x=v["x"], b=v["b"], beta=pr["beta"], hand=hands[member],
                                    rack=rack, k=k, a_pl=v["a_pl"], allow_undercut=v["allow_undercut"],
-                                   name=member, A_sne=v["A_sne"], A_sni=v.get("A_sni"), tool=tool)
+                                   name=member, A_sne=v["A_sne"], A_sni=v.get("A_sni"), tool=tool,
+                                   modifications=mods)
+            if v.get("measured"):
+                members[member] = _with_measured(members[member], v["measured"], member, path)
         except GeometryError as e:
             bounds = getattr(e, "k_bounds", None)
             if bounds is not None and v.get("d_a") is not None:  # k came from d_a: restate the range for d_a

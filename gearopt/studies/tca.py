@@ -63,10 +63,14 @@ class TCAReport:
     pair: dict
     cases: list
     timing: dict = field(default_factory=dict)
+    inspection: dict = field(default_factory=dict)
 
     def to_dict(self) -> dict:
-        return {"study": "tca", "scene": self.scene, "units": UNITS, "pair": self.pair, "cases": self.cases,
-                "timing": self.timing}
+        out = {"study": "tca", "scene": self.scene, "units": UNITS, "pair": self.pair, "cases": self.cases,
+               "timing": self.timing}
+        if self.inspection:
+            out["inspection"] = self.inspection
+        return out
 
     def save_plots(self, out_dir, dpi: int = 120) -> list[str]:
         """``te.png`` (TE per pair and envelope, every case), ``bearing_contact.png`` (paths of
@@ -110,6 +114,23 @@ class TCAReport:
             fig, axes = plt.subplots(1, 2, figsize=(12, 4.5), layout="constrained")
             plot_compare({c["label"]: c for c in self.cases}, axes=axes)
             files.append(save("compare.png", fig, "cases compared (actual TE, path of contact on the gear flank)"))
+        if self.inspection:
+            from ..plot.topography import plot_lead_chart, plot_profile_chart, plot_topography
+
+            flanks = [(m, sd, d) for m, sides in self.inspection.items() for sd, d in sides.items()]
+            rows = len(flanks)
+            fig, axes = plt.subplots((rows + 1) // 2, 2, figsize=(12, 4.2 * ((rows + 1) // 2)), squeeze=False,
+                                     layout="constrained")
+            for ax, (m, sd, d) in zip(axes.ravel(), flanks):
+                plot_topography(d["grid"], ax=ax)
+            for ax in axes.ravel()[rows:]:
+                ax.set_visible(False)
+            files.append(save("topography.png", fig, "flank topography (ISO transverse deviation from the involute)"))
+            fig, axes = plt.subplots(rows, 2, figsize=(12, 3.4 * rows), squeeze=False, layout="constrained")
+            for row, (m, sd, d) in zip(axes, flanks):
+                plot_profile_chart(d["grid"], d["charts_um"], ax=row[0])
+                plot_lead_chart(d["grid"], d["charts_um"], ax=row[1])
+            files.append(save("k_charts.png", fig, "profile and lead charts (ISO 1328-1, evaluated from the flanks)"))
         return files
 
     def save_tables(self, out_dir) -> list[str]:
@@ -128,6 +149,17 @@ class TCAReport:
             text = ",".join(cols) + "\n" + "".join(",".join(_cell(v) for v in row) + "\n" for row in rows)
             (Path(out_dir) / name).write_text(text, encoding="utf-8")
             files.append(name)
+        if self.inspection:
+            from ..geometry.inspection import FlankGrid, write_grid_csv
+
+            for m, sides in self.inspection.items():
+                for sd, d in sides.items():
+                    g = d["grid"]
+                    grid = FlankGrid(side=sd, profile=g["profile"], s=tuple(g["s_mm"]), z=tuple(g["z_mm"]),
+                                     deviation=tuple(tuple(v / 1000 for v in row) for row in g["deviation_um"]),
+                                     member=m)
+                    write_grid_csv(grid, Path(out_dir) / d["csv"])
+                    files.append(d["csv"])
         return files
 
 
@@ -175,7 +207,7 @@ class TCAStudy:
 
     def __init__(self, pair: GearPair, side="right", contact="point", z_section=0.0, positions=81,
                  delta=ContactSettings.delta, misalignment: Misalignment | None = None, name="tca", edge_contact: bool = False,
-                 cases=None):
+                 cases=None, inspection: bool | None = None):
         """``misalignment``: one case beside the aligned drive; or ``cases``: a list of
         ``(label, Misalignment)`` (or a dict label -> Misalignment) analysed in order, with the
         aligned drive first unless one of them is aligned."""
@@ -228,6 +260,9 @@ class TCAStudy:
             m.check(pair, "misalignment" if lab == "misaligned" and cases is None else f"cases[{lab!r}]")
         self.tca = TCA(pair, side=side, contact=contact)
         self.edge = EdgeContact(self.tca) if edge_contact else None
+        # inspect the flanks of the members that carry micro-geometry (default), or of both
+        self.inspect = [m for m in ("pinion", "gear") if getattr(pair, m).modifications is not None] \
+            if inspection is None else (["pinion", "gear"] if inspection else [])
 
     def limits(self) -> dict:
         t = self.tca
@@ -258,14 +293,43 @@ class TCAStudy:
                                        "more, or reduce the misalignment.")
             cases.append(res.to_dict(label, z1, lim))
         p = self.pair
+        inspection = self.inspection(progress)
         pair = {"z1": p.pinion.z, "z2": p.gear.z, "m_n": p.pinion.m_n, "beta_deg": p.pinion.beta / DEG,
                 "a": p.a_w, "ratio": p.ratio, "side": self.tca.side, "contact": self.tca.contact_type,
                 "pinion_a_c": p.pinion.rack.a_c, "pinion_a_pl": p.pinion.a_pl, "eps_alpha": p.eps_alpha,
                 "eps_beta": p.eps_beta, "alpha_wt_deg": p.alpha_wt / DEG, "a_minus_a_0_um": p.a_minus_a_0 * 1000,
                 "backlash_circumferential": p.backlash,
                 "edge_contact_analysis": self.edge is not None, "folded_flanks": self.tca.folding()}
+        for m in ("pinion", "gear"):
+            mg = getattr(p, m).modifications
+            if mg is not None:
+                pair[f"{m}_modifications"] = mg.to_dict()
         return TCAReport(scene=self.name, pair=pair, cases=cases,
-                         timing={"build_s": self.tca.build_time, "run_s": time.perf_counter() - t0})
+                         timing={"build_s": self.tca.build_time, "run_s": time.perf_counter() - t0},
+                         inspection=inspection)
+
+    def inspection(self, progress=None) -> dict:
+        """Per inspected member and flank: the deviation grid over the active profile and the face
+        (:func:`gearopt.geometry.inspection.inspect_flank`, ``grid``), its chart values in um
+        (``charts_um``: ISO 1328-1 F, f_f, f_H, C of profile and lead, S_alpha) and its CSV name."""
+        from ..geometry.inspection import chart_values, inspect_flank
+        from ..geometry.microgeometry import active_profile
+
+        out = {}
+        for m in self.inspect:
+            tooth = self.tca.pinion if m == "pinion" else self.tca.gear
+            g = getattr(self.pair, m)
+            r_s, r_e = active_profile(self.pair, m)
+            out[m] = {}
+            for sd in ("right", "left"):
+                if progress:
+                    progress(f"tca: inspecting the {m} {sd} flank")
+                grid = inspect_flank(tooth, sd, d_range=(2 * r_s, 2 * r_e), member=m)
+                cv = chart_values(grid, g.r_b)
+                charts = {k: 1000 * v for k, v in cv.items() if k not in ("z_profile", "L_lead")}
+                charts.update(z_profile_mm=cv["z_profile"], L_lead_mm=cv["L_lead"])
+                out[m][sd] = {"grid": grid.to_dict(), "charts_um": charts, "csv": f"topography_{m}_{sd}.csv"}
+        return out
 
 
 # --- scene binding ------------------------------------------------------------------------------
@@ -360,15 +424,18 @@ def _from_scene(scene) -> TCAStudy:
                                               "contact needs aligned axes: crossed or intersecting axes give point "
                                               "or edge contact). Use contact = \"point\" with a crowned pinion, or "
                                               "set edge_contact = true.", valid="0")
-        if o.get("contact") == "point" and scene.pair.pinion.a_pl == 0 and not o.get("edge_contact"):
+        mg1 = scene.pair.pinion.modifications
+        lead_crowned = mg1 is not None and (mg1.C_beta > 0 or bool(mg1.measured) or "C_beta_I" in mg1.reliefs)
+        if o.get("contact") == "point" and scene.pair.pinion.a_pl == 0 and not lead_crowned \
+                and not o.get("edge_contact"):
             raise SceneError(f"{scene.source}: [tca] contact = \"point\" needs a longitudinally crowned pinion "
-                             "([pinion] a_pl > 0); for conjugate or profile-crowned spur pinions use contact = "
+                             "([pinion] a_pl > 0 or [pinion.modifications] C_beta > 0); for conjugate or profile-crowned spur pinions use contact = "
                              "\"line\".",
                              param="[tca] contact", value="point", source=scene.source)
         return TCAStudy(scene.pair, side=o.get("side") or "right", contact=o.get("contact") or "point",
                         z_section=o.get("z_section") or 0.0, positions=o.get("positions") or 81,
                         delta=o.get("delta") or ContactSettings.delta, misalignment=None if cases else mis, name=scene.name,
-                        edge_contact=bool(o.get("edge_contact")), cases=cases)
+                        edge_contact=bool(o.get("edge_contact")), cases=cases, inspection=o.get("inspection"))
     except (GeometryError, OptionError) as e:
         raise scene.study_error("tca", e) from e
 
@@ -395,6 +462,8 @@ def _register():
             *misalignment_fields(),
             Field("edge_contact", "bool", default=False,
                   doc="also solve edge contact (tips, face ends) and combine it with the surface contact (Litvin 9.6)"),
+            Field("inspection", "bool", doc="inspect the flanks (topography CSV, profile and lead charts): default "
+                  "true for the members with [<member>.modifications] or [<member>.measured]"),
         ], required=False, subsections=[Section("cases", [
             Field("label", "str", doc="name of the case in plots and results (default: its misalignments)"),
             *misalignment_fields(),
