@@ -359,6 +359,7 @@ def write_grid_csv(grid: FlankGrid, path) -> Path:
     try:
         with os.fdopen(fd, "w", encoding="utf-8") as fh:
             fh.write("\n".join(lines) + "\n")
+        os.chmod(tmp, 0o644)  # mkstemp creates 0600: give the file the usual permissions
         os.replace(tmp, path)
     except BaseException:
         if os.path.exists(tmp):

@@ -499,6 +499,7 @@ def flank_modifications(mg: Microgeometry, tooth, pair=None, member: str | None 
 #: length beyond its edge (held constant further out)
 GHOST_STEPS = (1.0, 2.0)
 GHOST_SPANS = (0.25, 0.5, 1.0, 2.0, 4.0)
+RECEDE = 1e-3  #: [1/mm] beyond the extended grid the flank recedes by RECEDE * excess^2 (no contact out there)
 
 
 def measured_modification(grid, fr: Frame, name: str = "measured") -> FlankModification:
@@ -513,7 +514,9 @@ def measured_modification(grid, fr: Frame, name: str = "measured") -> FlankModif
     * the grid gets extra nodes on each side on the osculating parabola of its edge (GHOST_STEPS,
       GHOST_SPANS: up to four grid lengths beyond each edge), so a relief or a crowning keeps growing
       past the last measured point as the designed one does (a flank held flat beyond its tip or
-      face would offer the TCA a false tangency out there), and the
+      face would offer the TCA a false tangency out there); beyond those the spline is held at the
+      last ghost node and the flank recedes by ``RECEDE * excess^2`` (a rootfinder wandering far
+      off the tooth finds no false contact there), and the
       tensor-product cubic B-spline of ``ca.interpolant(..., "bspline")`` through all nodes is
       evaluated with its coordinates held inside the extended grid."""
     from scipy.interpolate import make_interp_spline
@@ -555,9 +558,11 @@ def measured_modification(grid, fr: Frame, name: str = "measured") -> FlankModif
     f = ca.interpolant(f"{name}_spline", "bspline", [Lx.tolist(), zx.tolist()], E2.ravel(order="F").tolist())
 
     def delta(u, zz, r, th):
-        L_foot = ca.fmin(ca.fmax(roll_length_of(r, fr.r_b), float(Lx[0])), float(Lx[-1]))
+        L = roll_length_of(r, fr.r_b)
+        L_c = ca.fmin(ca.fmax(L, float(Lx[0])), float(Lx[-1]))
         z_c = ca.fmin(ca.fmax(zz, float(zx[0])), float(zx[-1]))
-        return math.cos(fr.beta_b) * f(ca.vertcat(L_foot, z_c))
+        far = RECEDE * ((L - L_c) ** 2 + (zz - z_c) ** 2)
+        return math.cos(fr.beta_b) * (f(ca.vertcat(L_c, z_c)) - far)
 
     return FlankModification(name, (), delta, (grid.side,))
 
