@@ -14,6 +14,8 @@ DOC = Path(__file__).resolve().parents[1] / "docs" / "results.md"
 _FEATURE = r"surface|(?:pinion|gear)_(?:tip|limit|face[+-]|corner[+-])|pinion_tip/gear_face[+-]|pinion_face[+-]/gear_tip|pinion_tip/gear_tip"
 PLACEHOLDERS = {
     "<member>": r"pinion|gear",
+    "<side>": r"right|left",
+    "<member>_modifications": r"(?:pinion|gear)_modifications",
     "<feature>": _FEATURE,
     "<k>": r"-?\d+",
     "<variable>": r"a_c|a_pl|mis\.\w+",  # a crowning setting or a misalignment kind

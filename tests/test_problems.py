@@ -119,11 +119,17 @@ def test_shaper_generation_scene(tmp_path):
     assert rep.members["pinion"]["r_f"] != pytest.approx(rep.members["pinion"]["r_p"] + 3 * (0.3 - 1.25), abs=1e-6)
 
 
+#: tca scenes with their own physics tests below (tip relief, measured flanks: not the parabolic TE
+#: with symmetric transfers that test_tca_scene_physics expects)
+MICRO = {"microgeometry_helical", "measured_flank"}
+
+
 def _tca_scenes(edge=False):
     out = []
     for p in SCENES:
         raw = tomllib.loads(p.read_text())
-        if raw["scene"]["study"] == "tca" and bool(raw.get("tca", {}).get("edge_contact", False)) == edge:
+        if raw["scene"]["study"] == "tca" and bool(raw.get("tca", {}).get("edge_contact", False)) == edge \
+                and p.stem not in MICRO:
             out.append(p)
     return out
 
@@ -196,3 +202,115 @@ def test_edge_scene_physics(scene):
     if rep["pair"]["pinion_a_c"] == 0 and rep["pair"]["pinion_a_pl"] == 0:
         # Unmodified gears: the aligned drive is conjugate, TE identically zero.
         assert max(abs(v) for v in aligned["te_envelope_arcsec"]) < 1e-7  # 5e-13 rad
+
+
+# ------------------------------------------------------------------------------------------------
+# Micro-geometry scenes (docs/microgeometry.md)
+# ------------------------------------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def micro_reports():
+    return {s: load_scene(PROBLEMS / f"{s}.toml").build().run().to_dict()
+            for s in ("microgeometry_spur", "microgeometry_helical", "measured_flank", "tca_spur_crowned")}
+
+
+def test_microgeometry_spur_is_tca_spur_crowned_in_shop_terms(micro_reports):
+    """The ISO amounts of the scene are Litvin's settings of tca_spur_crowned converted (to the 0.01
+    um the scene writes), and the two drives' TE agree: lead crowning = plunging exactly, the tool
+    parabola ~ a parabola in roll length (a few per cent of the TE level)."""
+    from gearopt.geometry.microgeometry import iso_from_litvin
+
+    iso = iso_from_litvin(load_scene(PROBLEMS / "tca_spur_crowned.toml").pair)
+    mods = micro_reports["microgeometry_spur"]["pair"]["pinion_modifications"]
+    for k in ("C_alpha", "f_H_alpha", "C_beta"):
+        assert mods[f"{k}_um"] == pytest.approx(1000 * iso[k], abs=0.005)
+    for a, b in zip(micro_reports["microgeometry_spur"]["cases"], micro_reports["tca_spur_crowned"]["cases"]):
+        env_a = [v for v in a["te_envelope_arcsec"] if v is not None]
+        env_b = [v for v in b["te_envelope_arcsec"] if v is not None]
+        assert len(env_a) == len(env_b) == len(a["phi1"])
+        assert max(abs(x - y) for x, y in zip(env_a, env_b)) < 0.06 * b["peak_to_peak_arcsec"]
+        assert a["peak_to_peak_arcsec"] == pytest.approx(b["peak_to_peak_arcsec"], rel=0.05)
+
+
+def test_microgeometry_helical_charts_and_tip_relief(micro_reports):
+    rep = micro_reports["microgeometry_helical"]
+    raw = tomllib.loads((PROBLEMS / "microgeometry_helical.toml").read_text())["pinion"]["modifications"]
+    d_Ca = float(raw["d_Ca"].split()[0])
+    for side in ("right", "left"):
+        ch = rep["inspection"]["pinion"][side]["charts_um"]
+        assert ch["C_beta"] == pytest.approx(12.0, abs=1e-3)  # the lead trace at mid profile: C_beta alone
+        assert abs(ch["f_H_beta"]) < 1e-6
+        grid = rep["inspection"]["pinion"][side]["grid"]
+        tip = [row[grid["z_mm"].index(0.0)] for row in grid["deviation_um"]][-1]
+        # at the tip: profile crowning at the end of the evaluation range plus the full tip relief
+        assert tip == pytest.approx(-6.0 - 8.0, abs=1e-6)
+    s = load_scene(PROBLEMS / "microgeometry_helical.toml")
+    r_b = s.pair.pinion.r_b
+    L_Ca = math.sqrt((d_Ca / 2) ** 2 - r_b**2)
+    for case in rep["cases"]:
+        # the driving contact stays below the relief start (within its smooth start, a tenth of the
+        # relief length): the tip relief shortens the path of contact there
+        radii = [r for r, d, on in zip(case["pinion"]["radius"], case["driving_pair"], case["on_surface"])
+                 if d == 0 and on and r is not None]
+        L_max = max(math.sqrt(r**2 - r_b**2) for r in radii)
+        L_a = math.sqrt(s.pair.pinion.r_a**2 - r_b**2)
+        assert L_max <= L_Ca + 0.05 * (L_a - L_Ca) + 1e-6
+        # the central pair's contact climbs the pinion flank up to the relief start, never past it
+        # (without the relief it would run on to the tip): the path of contact ends at d_Ca
+        L_all = [math.sqrt(r**2 - r_b**2) for r, on in zip(case["pinion"]["radius"], case["on_surface"])
+                 if on and r is not None]
+        assert L_Ca - 0.05 * (L_a - L_Ca) <= max(L_all) <= L_Ca + 0.05 * (L_a - L_Ca)
+
+
+def test_measured_flank_reports_its_deviations(micro_reports):
+    rep, design = micro_reports["measured_flank"], micro_reports["microgeometry_helical"]
+    for side, slope in (("right", 2.0), ("left", -1.0)):  # measured_flank_make.py
+        ch = rep["inspection"]["pinion"][side]["charts_um"]
+        assert ch["f_H_beta"] == pytest.approx(slope, abs=0.01)
+        assert ch["C_beta"] == pytest.approx(12.0, abs=0.01)
+    assert rep["pair"]["pinion_modifications"]["measured"][0]["source"] == "measured_flank_right.csv"
+    # the measured deviations differ from the design by at most 1.3 um (slope 1 um at the face ends
+    # + 0.3 um bulge): the TE by at most 1.3 um / r_b2 (transverse, along the line of action)
+    r_b2 = load_scene(PROBLEMS / "measured_flank.toml").pair.gear.r_b
+    bound = 1.3e-3 / r_b2 * 206264.806
+    for a, b in zip(rep["cases"], design["cases"]):
+        d = [abs(x - y) for x, y in zip(a["te_envelope_arcsec"], b["te_envelope_arcsec"]) if x is not None and y is not None]
+        assert len(d) == len(a["phi1"])
+        assert 0.01 < max(d) < bound
+
+
+@pytest.mark.parametrize("edit, param", [
+    (('C_beta = "12 um"', 'C_beta = "12 deg"'), "[pinion.modifications] C_beta"),
+    (('C_beta = "12 um"', 'C_beta = -3'), "[pinion.modifications] C_beta"),
+    (('d_Ca = "59.2 mm"', 'd_Ca = "70 mm"'), "[pinion.modifications] d_Ca"),
+    (('d_Ca = "59.2 mm"', 'd_Cx = "59.2 mm"'), "[pinion.modifications] d_Cx"),
+    (('tip_shape = "linear"', 'tip_shape = "round"'), "[pinion.modifications] tip_shape"),
+    (('C_beta = "12 um"', 'C_beta = "500 um"'), "[pinion.modifications] C_beta"),
+])
+def test_bad_modification_keys_name_the_key(tmp_path, edit, param):
+    text = (PROBLEMS / "microgeometry_helical.toml").read_text()
+    assert edit[0] in text
+    f = tmp_path / "bad.toml"
+    f.write_text(text.replace(edit[0], edit[1]))
+    with pytest.raises(SceneError) as e:
+        load_scene(f)
+    assert e.value.param == param or param in [getattr(p, "param", None) for p in getattr(e.value, "problems", [])]
+
+
+def test_bad_measured_files_name_the_file_and_row(tmp_path):
+    text = (PROBLEMS / "measured_flank.toml").read_text()
+    good = (PROBLEMS / "measured_flank_right.csv").read_text().splitlines()
+    (tmp_path / "measured_flank_left.csv").write_text((PROBLEMS / "measured_flank_left.csv").read_text())
+    bad = good[:10] + [good[10].replace(",", ",nan,", 1).replace(",nan,", ",", 0)] + good[11:]
+    row = good[10].split(",")
+    row[3] = "nan"
+    (tmp_path / "measured_flank_right.csv").write_text("\n".join(good[:10] + [",".join(row)] + good[11:]) + "\n")
+    f = tmp_path / "m.toml"
+    f.write_text(text)
+    with pytest.raises(SceneError) as e:
+        load_scene(f)
+    assert e.value.param == "[pinion.measured] right" and "line 11" in str(e.value) and "column 3" in str(e.value)
+    (tmp_path / "measured_flank_right.csv").unlink()
+    with pytest.raises(SceneError) as e:
+        load_scene(f)
+    assert e.value.param == "[pinion.measured] right"
+    del bad
