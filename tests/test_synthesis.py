@@ -432,6 +432,11 @@ def test_design_and_local_dictionaries_follow_the_documented_schema():
     for case, s in d.sensitivities.items():
         assert dd["sensitivities"][case]["mis.crossing"] == pytest.approx(s["mis.crossing"] / ARCSEC * ARCMIN, rel=1e-12)
     assert dd["target_te_level_arcsec"] == pytest.approx(8.0, rel=1e-12)
+    # the optimized crowning in shop terms: lead crowning of the plunged tool a_pl (b/2)^2 sin(alpha_t)
+    g = d.pair.pinion
+    assert dd["iso_um"]["C_beta"] == pytest.approx(1000 * d.settings["a_pl"] * (g.b / 2) ** 2 * math.sin(g.alpha_t),
+                                                   rel=1e-12)
+    assert dd["iso_um"]["f_H_beta"] == 0.0 and dd["iso_um"]["C_alpha"] > 0
     loc = _local("spur")
     ld = loc.to_dict()
     assert undocumented(ld, "local") == []

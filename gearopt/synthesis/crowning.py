@@ -163,13 +163,23 @@ class CrowningDesign:
     edge: EdgeContact | None = field(default=None, repr=False, compare=False)
     target: CrowningTarget | None = None
 
+    def iso(self) -> dict:
+        """The optimized crowning as a drawing states it: ISO 21771 amounts [mm] of the pinion over its
+        active profile and face (:func:`gearopt.geometry.microgeometry.iso_from_litvin`): ``C_alpha``,
+        ``f_H_alpha`` (the parabolic tool's flank), ``C_beta``, ``f_H_beta`` (the plunging)."""
+        from ..geometry.microgeometry import iso_from_litvin
+
+        return iso_from_litvin(self.pair, "pinion")
+
     def to_dict(self) -> dict:
         """``design`` of the crowning study's results.json (every key in docs/results.md): the
-        settings [1/mm], IPOPT's status, the target, every verified case (:meth:`CaseReport.to_dict`)
-        and the sensitivities in the units of ``sensitivity_units`` (arcsec per 1/mm, mm, arcmin)."""
+        settings [1/mm] and the same crowning in ISO shop terms [um] (:meth:`iso`), IPOPT's status,
+        the target, every verified case (:meth:`CaseReport.to_dict`) and the sensitivities in the
+        units of ``sensitivity_units`` (arcsec per 1/mm, mm, arcmin)."""
         t = self.target
         return {
-            "settings": self.settings, "status": self.status, "iterations": self.iterations,
+            "settings": self.settings, "iso_um": {k: 1000 * v for k, v in self.iso().items()},
+            "status": self.status, "iterations": self.iterations,
             "objective": self.objective,
             "target_te_level_arcsec": None if t is None else t.te_level * RAD_TO_ARCSEC,
             "ellipse_share": None if t is None else t.ellipse_share,
