@@ -175,3 +175,38 @@ def test_design_export_import_reproduces_the_te(tmp_path):
             a, b = a_tca.sweep(phi, mis=mis), b_tca.sweep(phi, mis=mis)
             assert np.nanmax(np.abs(a.te_envelope - b.te_envelope)) * RAD_TO_ARCSEC < 0.01
             assert np.nanmax(np.abs(a.te_envelope)) * RAD_TO_ARCSEC > 1.0
+
+
+@pytest.mark.slow
+@pytest.mark.ipopt
+def test_measured_gear_runs_through_edge_contact_and_synthesis_like_the_designed_one(tmp_path):
+    """A gear whose flanks are imported from the inspection of its design (a helix slope, profile
+    crowning) gives the same edge-contact TE and the same local synthesis of the pinion as the
+    designed gear."""
+    from gearopt.contact.edge import EdgeContact
+    from gearopt.synthesis.local import LocalTarget, local_synthesis
+
+    mg = Microgeometry(f_H_beta=0.003, C_alpha=0.004)
+    p = Gear(z=21, m_n=2.5, x=0.2, b=30, beta=18 * DEG, hand="right", name="pinion", a_pl=2e-4,
+             rack=BasicRack(a_c=0.002))
+
+    def pair_with(gear_mods):
+        return GearPair(p, Gear(z=53, m_n=2.5, b=30, beta=18 * DEG, hand="left", name="gear", modifications=gear_mods))
+
+    design = pair_with(mg)
+    tooth = modified_tooth(design, "gear")
+    g = design.gear
+    grids = tuple(read_grid_csv(write_grid_csv(inspect_flank(tooth, sd, n_profile=61, n_face=21,
+                                                             d_range=(2 * g.r_form + 0.01, 2 * g.r_a)),
+                                               tmp_path / f"{sd}.csv")) for sd in ("right", "left"))
+    measured = pair_with(Microgeometry(measured=grids))
+    phi = np.linspace(-0.25, 0.25, 13)
+    mis = Misalignment(crossing=3 * ARCMIN)
+    a = EdgeContact(TCA(design)).sweep(phi, mis=mis, pairs=(-1, 0, 1))
+    b = EdgeContact(TCA(measured)).sweep(phi, mis=mis, pairs=(-1, 0, 1))
+    assert np.nanmax(np.abs(a.te_envelope - b.te_envelope)) * RAD_TO_ARCSEC < 0.01
+    target = LocalTarget(mprime21=-0.006, major_axis=12.0)
+    la, lb = local_synthesis(design, target), local_synthesis(measured, target)
+    assert la.status == lb.status == "Solve_Succeeded"
+    for k in ("a_c", "a_pl"):  # (curvatures and their derivatives from a 61 x 21 grid: 1e-3)
+        assert lb.settings[k] == pytest.approx(la.settings[k], rel=2e-3)

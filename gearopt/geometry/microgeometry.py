@@ -499,6 +499,7 @@ def flank_modifications(mg: Microgeometry, tooth, pair=None, member: str | None 
 #: length beyond its edge (held constant further out)
 GHOST_STEPS = (1.0, 2.0)
 GHOST_SPANS = (0.25, 0.5, 1.0, 2.0, 4.0)
+SPLINE_DEGREE = 5  #: B-spline degree of a measured grid (quintic: the synthesis NLPs differentiate the flank up to 5 times)
 RECEDE = 1e-3  #: [1/mm] beyond the extended grid the flank recedes by RECEDE * excess^2 (no contact out there)
 
 
@@ -555,7 +556,8 @@ def measured_modification(grid, fr: Frame, name: str = "measured") -> FlankModif
 
     Lx, E1 = ghosts(L, E, 0)
     zx, E2 = ghosts(z, E1, 1)
-    f = ca.interpolant(f"{name}_spline", "bspline", [Lx.tolist(), zx.tolist()], E2.ravel(order="F").tolist())
+    f = ca.interpolant(f"{name}_spline", "bspline", [Lx.tolist(), zx.tolist()], E2.ravel(order="F").tolist(),
+                       {"degree": [SPLINE_DEGREE, SPLINE_DEGREE]})
 
     def delta(u, zz, r, th):
         L = roll_length_of(r, fr.r_b)

@@ -300,6 +300,10 @@ class TCAStudy:
                 "eps_beta": p.eps_beta, "alpha_wt_deg": p.alpha_wt / DEG, "a_minus_a_0_um": p.a_minus_a_0 * 1000,
                 "backlash_circumferential": p.backlash,
                 "edge_contact_analysis": self.edge is not None, "folded_flanks": self.tca.folding()}
+        from ..geometry.microgeometry import iso_from_litvin
+
+        # the pinion's generation crowning as a drawing states it (docs/microgeometry.md)
+        pair["pinion_iso_um"] = {k: 1000 * v for k, v in iso_from_litvin(p, "pinion").items()}
         for m in ("pinion", "gear"):
             mg = getattr(p, m).modifications
             if mg is not None:
