@@ -25,7 +25,7 @@ __all__ = ["Field", "Section", "Bounds", "KIND_UNITS", "ALIASES", "format_field"
 
 #: Internal unit of each field kind (what the loaded value is in) and the unit of a bare number.
 KIND_UNITS = {
-    "int": ("", ""), "float": ("", ""), "bool": ("", ""), "str": ("", ""),
+    "int": ("", ""), "float": ("", ""), "bool": ("", ""), "str": ("", ""), "floats": ("", ""),
     "length": ("mm", "mm"), "angle": ("rad", "deg"), "inverse_length": ("1/mm", "1/mm"),
 }
 
@@ -96,8 +96,9 @@ class Field:
     ----------
     name : str
         The TOML key.
-    kind : {"int", "float", "bool", "str", "length", "angle", "inverse_length"}
-        Value type. Quantities are converted to mm, rad, 1/mm by :func:`gearopt.units.parse_quantity`.
+    kind : {"int", "float", "floats", "bool", "str", "length", "angle", "inverse_length"}
+        Value type ("floats": a non-empty TOML array of numbers, checked by a callable). Quantities are
+        converted to mm, rad, 1/mm by :func:`gearopt.units.parse_quantity`.
     required : bool
         Missing key is an error.
     default
@@ -175,6 +176,14 @@ class Field:
             if not math.isfinite(value):
                 raise fail(": not a finite number.", "a finite number")
             out = float(value)
+        elif k == "floats":
+            if (not isinstance(value, list) or not value
+                    or any(isinstance(v, bool) or not isinstance(v, (int, float)) for v in value)):
+                raise fail(f": expected a non-empty array of numbers such as [10, 50, 100], got {_type(value)}.",
+                           "a non-empty array of numbers")
+            if not all(math.isfinite(v) for v in value):
+                raise fail(": every entry must be a finite number.", "an array of finite numbers")
+            out = [float(v) for v in value]
         elif k == "bool":
             if not isinstance(value, bool):
                 raise fail(f": expected true or false, got {_type(value)}.", "true or false")

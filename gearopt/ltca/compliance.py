@@ -1,0 +1,246 @@
+"""Tooth compliance of the analytical thin-slice model of loaded TCA (docs/ltca.md, section 2).
+
+A tooth pair in mesh is cut into transverse slices across the face. The deflection of a slice
+along the contact normal is the sum of
+
+* bending, shear and radial compression of each tooth as a cantilever of variable thickness
+  clamped at the root circle (Weber 1949; the energy form of Cornell 1981, plane strain),
+  integrated over the member's own generated transverse section (flank and fillet, as cut by
+  its tool: :meth:`~gearopt.geometry.generation.GeneratedTooth.transverse_profile`);
+* the gear-body (fillet-foundation) term of Sainsot, Velex & Duverger (2004), with their fitted
+  coefficients;
+* the local contact approach of Weber & Banaschek (1953) for two cylinders in line contact,
+  measured to the tooth centrelines (nonlinear in the load);
+
+and the slices of one tooth pair are coupled across the face by the discrete Green's function of
+``w - lambda^2 w'' = c f`` with free face ends (a Pasternak foundation): a load uniform over the
+face deflects every slice by the plane-strain value ``c f``; a concentrated load spreads over about
+``2 lambda``. Different tooth pairs are not coupled (the rim is taken as rigid beyond the
+foundation term).
+
+Units: mm, N, MPa. A compliance per unit face width ``c`` [mm^2/N] gives the deflection [mm] of
+a line load [N/mm].
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import check_number, out_of_range
+from ..geometry.generation import GeneratedTooth
+
+#: Sainsot, Velex & Duverger (2004), Table 1: coefficients (A, B, C, D, E, F) of
+#: ``X = A / theta_f^2 + B h_fi^2 + C h_fi / theta_f + D / theta_f + E h_fi + F`` for X = L, M, P, Q.
+SAINSOT = {
+    "L": (-5.574e-5, -1.9986e-3, -2.3015e-4, 4.7702e-3, 0.0271, 6.8045),
+    "M": (60.111e-5, 28.100e-3, -83.431e-4, -9.9256e-3, 0.1624, 0.9086),
+    "P": (-50.952e-5, 185.50e-3, 0.0538e-4, 53.300e-3, 0.2895, 0.9236),
+    "Q": (-6.2042e-5, 9.0889e-3, -4.0964e-4, 7.8297e-3, -0.1472, 0.6904),
+}
+SHEAR_FACTOR = 1.2  #: shear correction of a rectangular section (energy method)
+
+
+@dataclass(frozen=True)
+class Material:
+    """Elastic constants of both members (same material).
+
+    Parameters
+    ----------
+    E : float
+        Young's modulus [MPa] (steel 206000), 500 <= E <= 1.2e6.
+    nu : float
+        Poisson's ratio, 0 < nu < 0.5.
+    """
+
+    E: float = 206000.0
+    nu: float = 0.3
+
+    def __post_init__(self):
+        E = check_number("E", self.E, "Young's modulus [MPa]")
+        if not 500.0 <= E <= 1.2e6:
+            raise out_of_range("E", E, "500 <= E <= 1.2e6 MPa, the Young's moduli of gear materials (steel 206000 MPa)")
+        nu = check_number("nu", self.nu, "Poisson's ratio")
+        if not 0.0 < nu < 0.5:
+            raise out_of_range("nu", nu, "0 < nu < 0.5 (steel 0.3)")
+
+    @property
+    def E_plane(self) -> float:
+        """Plane-strain modulus E / (1 - nu^2) [MPa]."""
+        return self.E / (1.0 - self.nu**2)
+
+    @property
+    def E_star(self) -> float:
+        """Contact modulus of the pair, ``1/E* = 2 (1 - nu^2) / E`` [MPa]."""
+        return self.E / (2.0 * (1.0 - self.nu**2))
+
+
+class ToothCompliance:
+    """Bending, shear, compression and foundation compliance of one member's tooth per unit face
+    width, for a load anywhere on its flank (transverse plane).
+
+    Parameters
+    ----------
+    tooth : GeneratedTooth
+        The member's generated tooth (its transverse section at mid face is the beam).
+    material : Material
+    r_int : float
+        Inner radius of the gear body [mm] (bore or rim inside), 0 < r_int < r_f; Sainsot's
+        formula is fitted for ``1.4 <= r_f / r_int <= 7``.
+    n : int
+        Points of the beam quadrature.
+    """
+
+    def __init__(self, tooth: GeneratedTooth, material: Material, r_int: float, n: int = 600):
+        g = tooth.gear
+        self.material = material
+        pr = tooth.transverse_profile(z=0.0, n=n // 2)
+        P = np.vstack([pr["right_flank"], pr["right_fillet"][1:]])
+        # the root circle and the angle where the fillet reaches it (Sainsot's theta_f)
+        end = pr["right_fillet"][-1]
+        self.r_f = float(np.hypot(*end))
+        self.theta_f = float(math.atan2(abs(end[0]), end[1]))
+        if not 0.0 < r_int < self.r_f:
+            raise out_of_range(f"{g.name or 'gear'}.r_int", r_int, f"0 < r_int < r_f = {self.r_f:.6g} mm "
+                               "(inner radius of the gear body)")
+        self.r_int = float(r_int)
+        self.h_fi = self.r_f / self.r_int
+        self.S_f = 2.0 * self.r_f * math.sin(self.theta_f)
+        coef = {k: a / self.theta_f**2 + b * self.h_fi**2 + c * self.h_fi / self.theta_f + d / self.theta_f
+                + e * self.h_fi + f for k, (a, b, c, d, e, f) in SAINSOT.items()}
+        self.sainsot = coef
+        # half thickness x(y) along the tooth centreline (the +y axis), from the root circle up
+        y, x = P[:, 1], np.abs(P[:, 0])
+        order = np.argsort(y)
+        y, x = y[order], x[order]
+        self.y_tip = float(y[-1])
+        eta = np.linspace(0.0, self.y_tip - self.r_f, n)  # height above the root circle
+        xe = np.interp(eta + self.r_f, y, x)
+        w3 = 1.0 / (2.0 * xe) ** 3
+        w1 = 1.0 / (2.0 * xe)
+
+        def cum(f):
+            return np.concatenate([[0.0], np.cumsum(0.5 * (f[1:] + f[:-1]) * np.diff(eta))])
+
+        self._eta = eta
+        self._I = [cum(w3), cum(eta * w3), cum(eta**2 * w3)]
+        self._J = cum(w1)
+
+    def per_width(self, xy, n_xy) -> dict:
+        """Compliances per unit face width [mm^2/N] for loads at points of the flank.
+
+        Parameters
+        ----------
+        xy : (M, 2) array
+            Load points in the tooth's transverse frame (tooth centred on +y) [mm].
+        n_xy : (M, 2) array
+            Outward flank normals there (transverse components; normalised here).
+
+        Returns
+        -------
+        dict of (M,) arrays
+            ``bending``, ``shear``, ``compression``, ``foundation``, ``total`` [mm^2/N], and
+            ``h`` [mm], the distance from the load point to the centreline along the load line
+            (Weber's contact term), ``eta_F`` [mm], the height above the root circle where the
+            load line crosses the centreline.
+        """
+        xy = np.atleast_2d(np.asarray(xy, float))
+        nv = np.atleast_2d(np.asarray(n_xy, float))
+        nv = nv / np.linalg.norm(nv, axis=1, keepdims=True)
+        xP, yP = np.abs(xy[:, 0]), xy[:, 1]
+        nx, ny = np.abs(nv[:, 0]), nv[:, 1]
+        cos_g, sin_g = nx, np.abs(ny)
+        # the load -n meets the centreline at y_F (above the point: the outward normal points down)
+        yF = yP - xP * ny / nx
+        etaP = np.clip(yP - self.r_f, 0.0, self._eta[-1])
+        etaF = yF - self.r_f
+        I0, I1, I2 = (np.interp(etaP, self._eta, Ik) for Ik in self._I)
+        J = np.interp(etaP, self._eta, self._J)
+        m = self.material
+        bend = cos_g**2 / m.E_plane * 12.0 * (etaF**2 * I0 - 2.0 * etaF * I1 + I2)
+        shear = cos_g**2 * SHEAR_FACTOR * 2.0 * (1.0 + m.nu) / m.E * J
+        comp = sin_g**2 / m.E_plane * J
+        c = self.sainsot
+        ratio = etaF / self.S_f
+        found = cos_g**2 / m.E * (c["L"] * ratio**2 + c["M"] * ratio + c["P"] * (1.0 + c["Q"] * (sin_g / cos_g) ** 2))
+        return {"bending": bend, "shear": shear, "compression": comp, "foundation": found,
+                "total": bend + shear + comp + found, "h": xP / cos_g, "eta_F": etaF}
+
+
+def weber_contact(f, R_star, h1, h2, material: Material, f_min: float):
+    """Weber & Banaschek's contact approach of two cylinders in line contact, each measured to
+    depth ``h`` (the tooth centreline) [mm], and the Hertz values.
+
+    ``delta = 2 f (1 - nu^2) / (pi E) (ln(2 h1 / b_H) + ln(2 h2 / b_H) - nu / (1 - nu))`` with the
+    Hertz half-width ``b_H = sqrt(4 f R* / (pi E*))``, peak pressure ``p0 = sqrt(f E* / (pi R*))``.
+
+    Parameters
+    ----------
+    f : array
+        Load per unit length of contact line [N/mm]; values below ``f_min`` use ``f_min`` for the
+        logarithm (the compliance stays finite at vanishing load).
+    R_star : array
+        Reduced radius of curvature across the contact line [mm].
+
+    Returns
+    -------
+    compliance : array
+        ``delta / f`` [mm^2/N] (per unit contact length).
+    b_H, p0 : arrays [mm], [MPa] at the load ``f``.
+    """
+    f = np.asarray(f, float)
+    fl = np.maximum(f, f_min)
+    Es = material.E_star
+    b_l = np.sqrt(4.0 * fl * R_star / (math.pi * Es))
+    nu = material.nu
+    c = 2.0 * (1.0 - nu**2) / (math.pi * material.E) * (np.log(2.0 * h1 / b_l) + np.log(2.0 * h2 / b_l)
+                                                        - nu / (1.0 - nu))
+    fp = np.maximum(f, 0.0)
+    return c, np.sqrt(4.0 * fp * R_star / (math.pi * Es)), np.sqrt(fp * Es / (math.pi * R_star))
+
+
+def coupling(z, widths, lam: float) -> np.ndarray:
+    """Discrete Green's function of ``w - lam^2 w'' = f`` on the face with free ends [1/mm].
+
+    Nodes ``z`` (ascending) [mm] with tributary ``widths`` [mm]; linear elements between nodes.
+    ``A = diag(widths) + lam^2 K`` (K: stiffness of the elements); returns ``A^-1`` (symmetric
+    positive definite), so that nodal forces F give deflections ``c A^-1 F`` and a uniform line
+    load ``f`` (``F = widths f``) gives exactly ``c f`` at every node.
+    """
+    z = np.asarray(z, float)
+    n = z.size
+    A = np.diag(np.asarray(widths, float))
+    if lam > 0 and n > 1:
+        h = np.diff(z)
+        k = lam**2 / h
+        i = np.arange(n - 1)
+        A[i, i] += k
+        A[i + 1, i + 1] += k
+        A[i, i + 1] -= k
+        A[i + 1, i] -= k
+    return np.linalg.inv(A)
+
+
+def iso6336_stiffness(pair) -> dict:
+    """ISO 6336-1 (method B) single-pair and mesh stiffness of a spur or helical steel pair.
+
+    ``q' = 0.04723 + 0.15551/z_n1 + 0.25791/z_n2 - 0.00635 x1 - 0.11654 x1/z_n1 - 0.00193 x2
+    - 0.24188 x2/z_n2 + 0.00529 x1^2 + 0.00182 x2^2`` [mm um/N], ``c'_th = 1/q'``,
+    ``c' = c'_th C_M C_R C_B cos(beta)`` (C_M = 0.8 solid disc, C_R = 1 solid gears,
+    ``C_B = (1 + 0.5 (1.2 - h_fP/m_n)) (1 - 0.02 (20 deg - alpha_n))``),
+    ``c_gamma_alpha = c' (0.75 eps_alpha + 0.25)`` [N/(mm um)] (for E = 206 GPa).
+    """
+    p, g = pair.pinion, pair.gear
+    zn = [m.z / (math.cos(m.beta_b) ** 2 * math.cos(m.beta)) for m in (p, g)]
+    x1, x2 = p.x, g.x
+    q = (0.04723 + 0.15551 / zn[0] + 0.25791 / zn[1] - 0.00635 * x1 - 0.11654 * x1 / zn[0] - 0.00193 * x2
+         - 0.24188 * x2 / zn[1] + 0.00529 * x1**2 + 0.00182 * x2**2)
+    rack = p.rack
+    C_B = (1 + 0.5 * (1.2 - rack.h_fP)) * (1 - 0.02 * (20.0 - math.degrees(rack.alpha_n)))
+    c_th = 1.0 / q
+    c_p = c_th * 0.8 * 1.0 * C_B * math.cos(p.beta)
+    eps = pair.eps_alpha
+    return {"q_prime": q, "c_th": c_th, "C_B": C_B, "c_prime": c_p, "eps_alpha": eps,
+            "c_gamma_alpha": c_p * (0.75 * eps + 0.25)}

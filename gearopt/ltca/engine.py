@@ -1,0 +1,484 @@
+"""Loaded tooth contact analysis (docs/ltca.md): load sharing, loaded TE, contact pressure and mesh
+stiffness of a spur or helical drive with its modifications and misalignments.
+
+At each pinion angle the slices of every tooth pair (:mod:`gearopt.ltca.slices`) carry point loads
+``F_i >= 0`` along the contact normal; with the compliance matrix ``C`` (:mod:`gearopt.ltca.compliance`)
+and the unloaded separations ``s`` the gaps are ``g = s + C F - delta`` and the contact conditions
+``F >= 0, g >= 0, F g = 0, sum F = W`` (W: the normal load) are the optimality conditions of the
+convex QP
+
+    min_F  1/2 F^T C F + s^T F    s.t.  F >= 0,  sum F = W,
+
+whose equality multiplier is the loaded approach ``delta`` [mm] (the gear's rigid lag along the
+contact normal). CasADi's conic solver (daqp, a dual active-set method) solves it; the Hertz
+part of C depends on the load (Weber's logarithm), so the QP is re-solved with the compliance of
+the last loads until the loads stop changing (a fixed point: the nonlinear contact law holds at
+the solution). Each solution is checked against the contact conditions (``kkt_error_mm``).
+
+Loaded TE = unloaded TE - delta / (r_b2 cos(beta_b)) [rad] (the gear lags); at zero load
+delta = 0 and the loaded TE is the unloaded TE of the slices, which at the point contact equals
+the TCA's (the grid of each pair passes through its unloaded point contact).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+import os
+import sys
+import time
+from dataclasses import dataclass, field
+
+import casadi as ca
+import numpy as np
+
+from ..errors import ArgumentError, ConvergenceError, GeometryError, OptionError, check_number, out_of_range
+from ..gears import GearPair
+from ..meshing.misalignment import Misalignment
+from ..meshing.tca import TCA
+from ..units import RAD_TO_ARCSEC
+from .compliance import Material, ToothCompliance, coupling, weber_contact
+from .slices import SliceSet, SliceSolver
+
+HERTZ_TOL = 1e-7  #: the Hertz fixed point stops when no slice load changes by more than this x W
+HERTZ_MAX_ITER = 30
+QP_SOLVER = "qpoases"  #: CasADi conic plugin of the contact QP
+F_MIN_SHARE = 1e-3  #: Weber's logarithm uses at least this share of the mean line load
+
+
+@contextlib.contextmanager
+def _quiet_stdout():
+    """Silence writes to the process's stdout (file descriptor 1) from C code."""
+    sys.stdout.flush()
+    saved = os.dup(1)
+    try:
+        with open(os.devnull, "w") as dn:
+            os.dup2(dn.fileno(), 1)
+            yield
+    finally:
+        os.dup2(saved, 1)
+        os.close(saved)
+
+
+@dataclass(frozen=True)
+class LoadedResult:
+    """Loaded TCA at one torque over the positions ``phi1`` (arrays (K, N, M): K tooth pairs, N
+    positions, M slice nodes; see :class:`~gearopt.ltca.slices.SliceSet`).
+
+    Attributes
+    ----------
+    torque : pinion torque [N m]; W : total normal load [N].
+    phi1 : (N,) [rad]; pairs : tuple.
+    te_unloaded, te_loaded : (N,) unloaded and loaded TE [rad].
+    delta : (N,) loaded approach along the contact normal [mm].
+    load : (K, N, M) slice loads [N]; line_load : (K, N, M) load per unit face width [N/mm].
+    p0, b_H : (K, N, M) Hertz peak pressure [MPa] and half-width [mm] of each slice.
+    pair_load : (K, N) load of each pair [N]; share : (K, N) its share of W.
+    stiffness : (N,) mesh stiffness W / delta [N/um] (secant, including the separations closed).
+    kkt_error : (N,) largest violation of the contact conditions [mm].
+    hertz_iterations : (N,) fixed-point iterations; solve_time [s].
+    """
+
+    torque: float
+    W: float
+    phi1: np.ndarray
+    pairs: tuple
+    te_unloaded: np.ndarray
+    te_loaded: np.ndarray
+    delta: np.ndarray
+    load: np.ndarray
+    line_load: np.ndarray
+    p0: np.ndarray
+    b_H: np.ndarray
+    pair_load: np.ndarray
+    share: np.ndarray
+    stiffness: np.ndarray
+    kkt_error: np.ndarray
+    hertz_iterations: np.ndarray
+    solve_time: float
+    face_width: float
+    stats: dict = field(default_factory=dict)
+
+    @property
+    def te_loaded_arcsec(self) -> np.ndarray:
+        return self.te_loaded * RAD_TO_ARCSEC
+
+    @property
+    def peak_to_peak_arcsec(self) -> float:
+        """Peak-to-peak loaded TE [arcsec]."""
+        t = self.te_loaded_arcsec
+        return float(np.nanmax(t) - np.nanmin(t))
+
+    @property
+    def p_max(self) -> float:
+        """Largest Hertz peak pressure over positions and slices [MPa]."""
+        return float(np.nanmax(self.p0))
+
+    @property
+    def c_gamma(self) -> float:
+        """Mean mesh stiffness per unit face width [N/(mm um)]."""
+        return float(np.nanmean(self.stiffness)) / self.face_width
+
+
+class LTCA:
+    """Loaded tooth contact analysis of a gear pair (build once, solve many torques).
+
+    Parameters
+    ----------
+    pair : GearPair
+    side : {"right", "left"}
+        Driving flank of the pinion.
+    material : Material
+        Elastic constants (both members).
+    n_slices : int
+        Slices across the face (grid spacing b / (n_slices - 1); the face ends are slices too).
+    r_int : (float, float), optional
+        Inner radii of the pinion and gear bodies [mm] (default: half the root radius, a solid
+        gear on its shaft).
+    coupling : float, optional
+        Coupling length of the slices across the face [mm] (default: half the tooth height of the
+        pinion, r_a - r_f).
+    tca : TCA, optional
+        The unloaded TCA (default: point contact with the members' modifications).
+    """
+
+    def __init__(self, pair: GearPair, side: str = "right", material: Material | None = None, n_slices: int = 21,
+                 r_int=None, coupling: float | None = None, tca: TCA | None = None):
+        if not isinstance(pair, GearPair):
+            raise ArgumentError(f"pair = {pair!r:.60}: expected a gearopt.gears.GearPair.", param="pair", value=pair,
+                                valid="a gearopt.gears.GearPair")
+        material = material or Material()
+        if not isinstance(material, Material):
+            raise ArgumentError(f"material = {material!r:.60}: expected a gearopt.ltca.Material (E, nu).",
+                                param="material", value=material, valid="a Material")
+        if isinstance(n_slices, bool) or not isinstance(n_slices, (int, np.integer)) or not 3 <= n_slices <= 201:
+            raise out_of_range("n_slices", n_slices, "an integer, 3 <= n_slices <= 201 (slices across the face)",
+                               cls=OptionError)
+        t0 = time.perf_counter()
+        self.pair, self.material, self.n_slices = pair, material, int(n_slices)
+        self.tca = tca or TCA(pair, side=side)
+        self.side = self.tca.side
+        self.slicer = SliceSolver(self.tca)
+        g1, g2 = pair.pinion, pair.gear
+        if r_int is None:
+            r_int = (0.5 * g1.r_f, 0.5 * g2.r_f)
+        self.r_int = tuple(float(check_number(f"{n}.r_int", v, "inner radius of the gear body [mm]"))
+                           for n, v in zip(("pinion", "gear"), r_int))
+        self.teeth = (ToothCompliance(self.tca.pinion.unmodified, material, self.r_int[0]),
+                      ToothCompliance(self.tca.gear.unmodified, material, self.r_int[1]))
+        lam = 0.5 * (g1.r_a - g1.r_f) if coupling is None else check_number("coupling", coupling,
+                                                                            "coupling length [mm]", cls=OptionError)
+        if not 0.0 <= lam <= 10 * g1.b:
+            raise out_of_range("coupling", lam, f"0 <= coupling <= {10 * g1.b:g} mm (10 face widths)", cls=OptionError)
+        self.coupling_length = float(lam)
+        self.cos_bb = math.cos(g1.beta_b)
+        self._qp: dict = {}
+        self.build_time = time.perf_counter() - t0
+
+    # ------------------------------------------------------------------------------------------
+    def default_pairs(self) -> tuple:
+        """Tooth pairs that can be in mesh over one mesh cycle around phi1 = 0."""
+        m = int(math.floor((self.pair.eps_gamma + 1.0) / 2.0 + 0.3))
+        return tuple(range(-m, m + 1))
+
+    def mesh_cycle(self, n: int = 64) -> np.ndarray:
+        """``n`` pinion angles over one mesh cycle, ``[-pi/z1, pi/z1)`` [rad]."""
+        z1 = self.pair.pinion.z
+        return np.linspace(-math.pi / z1, math.pi / z1, int(n), endpoint=False)
+
+    def slices(self, phi1=None, p1=None, p2=None, mis: Misalignment | None = None, pairs=None) -> SliceSet:
+        """Unloaded slices (the separations) at ``phi1`` [rad] (default: one mesh cycle of 64)."""
+        phi1 = self.mesh_cycle() if phi1 is None else phi1
+        pairs = self.default_pairs() if pairs is None else pairs
+        return self.slicer.solve(phi1, p1, p2, mis, pairs, self.n_slices)
+
+    @staticmethod
+    def validate_torques(torque) -> np.ndarray:
+        """The torque(s) [N m] as an array; :class:`OptionError` naming ``torque`` unless each is a
+        finite number > 0 and a list strictly increases."""
+        try:
+            T = np.atleast_1d(np.asarray(torque, dtype=float))
+        except (TypeError, ValueError):
+            T = None
+        if T is None or T.ndim != 1 or T.size == 0 or isinstance(torque, (str, bytes, bool)):
+            raise out_of_range("torque", torque, "a pinion torque [N m] > 0 or a strictly increasing list of them",
+                               cls=OptionError)
+        for v in T:
+            if not (np.isfinite(v) and v > 0):
+                raise out_of_range("torque", float(v), "0 < torque < inf [N m] (pinion torque)", cls=OptionError)
+        if T.size > 1 and np.any(np.diff(T) <= 0):
+            raise out_of_range("torque", T.tolist(), "a strictly increasing list of pinion torques [N m]",
+                               cls=OptionError)
+        return T
+
+    def _structure(self, S: SliceSet) -> dict:
+        """Load-independent parts: tooth compliance matrices per pair and position, Hertz data."""
+        g1, g2 = self.pair.pinion, self.pair.gear
+        K, N, M = S.z.shape
+        cb = self.cos_bb
+
+        def tooth_frame(r, n, zsec, gear):
+            # rotate each section's tooth back onto +y (helix: the section z is turned by sigma z tan(beta) / r_p)
+            ang = -gear.helix_sign * np.tan(gear.beta) / gear.r_p * zsec if not gear.is_spur else np.zeros_like(zsec)
+            c, s = np.cos(ang), np.sin(ang)
+            rot = lambda v: np.stack([c * v[..., 0] - s * v[..., 1], s * v[..., 0] + c * v[..., 1]], -1)  # noqa: E731
+            return rot(r), rot(n)
+
+        used = np.isfinite(S.z)
+        z1 = np.where(used, S.z, 0.0)
+        z2 = np.where(np.isfinite(S.z2), S.z2, z1)
+        xy1, n1 = tooth_frame(S.r1, S.n1, z1, g1)
+        xy2, n2 = tooth_frame(S.r2, S.n2, z2, g2)
+        c1 = self.teeth[0].per_width(xy1.reshape(-1, 2), n1.reshape(-1, 2))
+        c2 = self.teeth[1].per_width(xy2.reshape(-1, 2), n2.reshape(-1, 2))
+        ct = (c1["total"] + c2["total"]).reshape(K, N, M)
+        act = S.active
+        ct_ok = np.where(act & np.isfinite(ct) & (ct > 0), ct, np.nan)
+        fill = np.nanmean(ct_ok) if np.isfinite(ct_ok).any() else 1e-4
+        ct = np.where(np.isfinite(ct_ok), ct_ok, fill)
+        # bending/shear/foundation matrix of each pair: cos^2(beta_b) D A^-1 D over the used nodes
+        Cs = np.zeros((N, K * M, K * M))
+        for k in range(K):
+            for n in range(N):
+                u = np.flatnonzero(used[k, n])
+                G = coupling(S.z[k, n, u], S.width[k, n, u], self.coupling_length)
+                d = np.sqrt(ct[k, n, u])
+                idx = k * M + u
+                Cs[n][np.ix_(idx, idx)] = cb**2 * d[:, None] * G * d[None, :]
+        # Hertz data per node: normal-section reduced radius, depths to the centrelines, line length
+        rad1 = np.hypot(S.r1[..., 0], S.r1[..., 1])
+        rad2 = np.hypot(S.r2[..., 0], S.r2[..., 1])
+        rho1 = np.sqrt(np.maximum(rad1**2 - g1.r_b**2, 1e-12)) / cb
+        rho2 = np.sqrt(np.maximum(rad2**2 - g2.r_b**2, 1e-12)) / cb
+        R = rho1 * rho2 / (rho1 + rho2)
+        h1 = c1["h"].reshape(K, N, M)
+        h2 = c2["h"].reshape(K, N, M)
+        length = S.width / cb
+        return {"Cs": Cs, "R": np.where(act, R, 1.0), "h1": np.where(act, h1, 1.0), "h2": np.where(act, h2, 1.0),
+                "length": np.where(act, length, 1.0), "radius1": rad1, "radius2": rad2}
+
+    def _solver(self, n: int, N: int) -> ca.Function:
+        key = (n, N)
+        if key not in self._qp:
+            # qpOASES: an exact active-set method (daqp leaves loads of ~1e-8 W on slices that are
+            # out of contact when the separations dominate, i.e. at light loads)
+            with _quiet_stdout():
+                qp = ca.conic("ltca_qp", QP_SOLVER, {"h": ca.Sparsity.dense(n, n), "a": ca.Sparsity.dense(1, n)},
+                              {"error_on_fail": False, "printLevel": "none"})
+                self._qp[key] = (qp, qp.map(N))
+        return self._qp[key][1]
+
+    def solve(self, torque, phi1=None, p1=None, p2=None, mis: Misalignment | None = None, pairs=None,
+              slices: SliceSet | None = None) -> "LoadedSweep":
+        """Loaded TCA at one or several pinion torques.
+
+        Parameters
+        ----------
+        torque : float or sequence of float
+            Pinion torque(s) [N m], each > 0 and finite; a list must be strictly increasing.
+        phi1 : array_like, optional
+            Pinion angles [rad] (default: one mesh cycle of 64 positions).
+        p1, p2, mis, pairs
+            As :meth:`TCA.sweep` (default pairs: every pair that can mesh in the cycle).
+        slices : SliceSet, optional
+            Precomputed unloaded slices (:meth:`slices`) of the same positions and design.
+
+        Returns
+        -------
+        LoadedSweep
+        """
+        T = self.validate_torques(torque)
+        t0 = time.perf_counter()
+        S = slices if slices is not None else self.slices(phi1, p1, p2, mis, pairs)
+        t_sep = time.perf_counter() - t0
+        st = self._structure(S)
+        results = [self._solve_one(float(t), S, st) for t in T]
+        return LoadedSweep(slices=S, results=results, separation_time=t_sep, structure=st,
+                           te_zero_rad=S.phi2_ref, ltca=self)
+
+    def _solve_one(self, torque: float, S: SliceSet, st: dict) -> LoadedResult:
+        t0 = time.perf_counter()
+        g1, g2 = self.pair.pinion, self.pair.gear
+        cb = self.cos_bb
+        K, N, M = S.z.shape
+        n = K * M
+        W = torque * 1e3 / (g1.r_b * cb)  # normal load [N]
+        act = S.active
+        te0 = S.te_unloaded  # (N,)
+        has = np.isfinite(te0)
+        if not has.all():
+            bad = S.phi1[~has]
+            raise ConvergenceError(f"loaded TCA: no tooth pair in contact at {bad.size} of {N} positions (e.g. phi1 = "
+                                   f"{bad[0]:.6g} rad): the positions must lie where the pair meshes.",
+                                   param="phi1", value=float(bad[0]))
+        lever = g2.r_b * cb
+        s = np.where(act, (te0[None, :, None] - S.te) * lever, 0.0)  # (K, N, M) [mm]
+        s = np.transpose(s, (1, 0, 2)).reshape(N, n)
+        A = np.transpose(act, (1, 0, 2)).reshape(N, n)
+        f_min = F_MIN_SHARE * W * cb / g1.b
+        length = np.transpose(st["length"], (1, 0, 2)).reshape(N, n)
+        R = np.transpose(st["R"], (1, 0, 2)).reshape(N, n)
+        h1 = np.transpose(st["h1"], (1, 0, 2)).reshape(N, n)
+        h2 = np.transpose(st["h2"], (1, 0, 2)).reshape(N, n)
+        # the QP over the active slices of each position only (padded to the largest count)
+        nc = int(max(A.sum(axis=1).max(), 1))
+        gi = np.zeros((N, nc), int)
+        valid = np.zeros((N, nc), bool)
+        for j in range(N):
+            a = np.flatnonzero(A[j])
+            gi[j, :a.size], valid[j, :a.size] = a, True
+        rows = np.arange(N)[:, None]
+        take = lambda a: np.where(valid, a[rows, gi], 0.0)  # noqa: E731
+        Cc = st["Cs"][rows[:, :, None], gi[:, :, None], gi[:, None, :]]
+        Cc = np.where(valid[:, :, None] & valid[:, None, :], Cc, 0.0)
+        sc, lc, Rc, h1c, h2c = (take(v) for v in (s, length, R, h1, h2))
+        lc = np.where(valid, lc, 1.0)
+        Rc, h1c, h2c = (np.where(valid, v, 1.0) for v in (Rc, h1c, h2c))
+        eye = np.eye(nc)
+        # start: the load spread over the active contact length
+        Fc = np.where(valid, W * lc / np.maximum((lc * valid).sum(axis=1, keepdims=True), 1e-12), 0.0)
+        qp = self._solver(nc, N)
+        ubx = np.where(valid, np.inf, 0.0).T
+        it = np.zeros(N, int)
+        done = np.zeros(N, bool)
+        for i in range(HERTZ_MAX_ITER):
+            cH, _, _ = weber_contact(Fc / lc, Rc, h1c, h2c, self.material, f_min)
+            C = Cc + np.einsum("ni,ij->nij", np.where(valid, cH / lc, 1.0), eye)
+            # scaled: min 1/2 x^T (C / c_ref) x + (s / (W c_ref))^T x, x = F / W (same minimiser)
+            cref = np.einsum("nii->n", C) / nc
+            H = C / cref[:, None, None]
+            with _quiet_stdout():  # qpOASES prints its banner on stdout whatever its printLevel
+                r = qp(h=np.hstack(list(H)), g=(sc / (W * cref[:, None])).T, a=np.ones((1, nc * N)), lba=1.0,
+                       uba=1.0, lbx=0.0, ubx=ubx)
+            Fn = np.where(valid, np.maximum(W * np.asarray(r["x"]).T, 0.0), 0.0)
+            change = np.max(np.abs(Fn - Fc), axis=1) / W
+            it = np.where(done, it, i + 1)
+            done = change <= HERTZ_TOL
+            Fc = Fn
+            if done.all():
+                break
+        F = np.zeros((N, n))
+        jj, cc = np.nonzero(valid)
+        F[jj, gi[jj, cc]] = Fc[jj, cc]
+        Cs = st["Cs"]
+        if not done.all():
+            raise ConvergenceError(f"loaded TCA at {torque:g} N m: the Hertz fixed point did not settle in "
+                                   f"{HERTZ_MAX_ITER} QP solves at {int((~done).sum())} positions (largest load change "
+                                   f"{float(np.max(change)):.3g} W).", param="torque", value=torque)
+        cH, bH, p0 = weber_contact(F / length, R, h1, h2, self.material, f_min)
+        C = Cs + np.einsum("ni,ij->nij", np.where(A, cH / length, 1.0), np.eye(n))
+        d = s + np.einsum("nij,nj->ni", C, F)  # s + C F [mm]
+        loaded = A & (F > 1e-9 * W)
+        delta = np.array([np.median(d[j, loaded[j]]) if loaded[j].any() else np.nan for j in range(N)])
+        err_on = np.where(loaded, np.abs(d - delta[:, None]), 0.0).max(axis=1)
+        err_off = np.where(A & ~loaded, np.maximum(delta[:, None] - d, 0.0), 0.0).max(axis=1)
+        kkt = np.maximum(err_on, err_off)
+        sum_err = np.abs(F.sum(axis=1) - W) / W
+        if not np.all(np.isfinite(delta)) or np.any(sum_err > 1e-6):
+            raise ConvergenceError(f"loaded TCA at {torque:g} N m: the contact QP failed (load balance error "
+                                   f"{float(np.nanmax(sum_err)):.3g} W).", param="torque", value=torque)
+        back = lambda a: np.transpose(a.reshape(N, K, M), (1, 0, 2))  # noqa: E731
+        Fk = back(F)
+        te_l = te0 - delta / lever
+        pair_load = Fk.sum(axis=2)
+        width = np.where(S.width > 0, S.width, np.nan)
+        return LoadedResult(
+            torque=torque, W=W, phi1=S.phi1, pairs=S.pairs, te_unloaded=te0, te_loaded=te_l, delta=delta,
+            load=Fk, line_load=np.where(np.isfinite(S.z), Fk / width, np.nan),
+            p0=np.where(back(A), back(p0), 0.0), b_H=np.where(back(A), back(bH), 0.0), pair_load=pair_load,
+            share=pair_load / W, stiffness=W / delta / 1e3, kkt_error=kkt, hertz_iterations=it,
+            solve_time=time.perf_counter() - t0, face_width=g1.b, stats={"qp_solver": QP_SOLVER})
+
+
+@dataclass
+class LoadedSweep:
+    """Loaded TCA over a list of torques (one :class:`LoadedResult` each) on one set of slices."""
+
+    slices: SliceSet
+    results: list
+    separation_time: float
+    structure: dict
+    te_zero_rad: float
+    ltca: LTCA
+
+    @property
+    def torques(self) -> np.ndarray:
+        return np.array([r.torque for r in self.results])
+
+    def te_vs_torque(self, z1: int) -> dict:
+        """Peak-to-peak loaded TE and its first mesh harmonic against torque [arcsec]."""
+        from ..report import te_harmonics
+
+        pp = [r.peak_to_peak_arcsec for r in self.results]
+        h1 = []
+        for r in self.results:
+            h = te_harmonics(r.phi1, r.te_loaded_arcsec, z1)
+            h1.append(None if h is None else h[0])
+        return {"torque_Nm": self.torques.tolist(), "peak_to_peak_arcsec": pp, "harmonic1_arcsec": h1}
+
+    def to_dict(self, z1: int, nominal: float | None = None) -> dict:
+        """The sweep as results.json holds it (every key, unit and meaning in docs/results.md):
+        unloaded TE, one entry per torque (loaded TE, harmonics, load sharing, mesh stiffness,
+        peak pressure, errors), the TE-vs-torque curve, and the slice maps (loads, pressure,
+        contact bands on both flanks) at the ``nominal`` torque (default: the largest)."""
+        from ..report import arr, te_harmonics
+
+        S = self.slices
+        res = self.results
+        nom = res[-1] if nominal is None else min(res, key=lambda r: abs(r.torque - nominal))
+        g1, g2 = self.ltca.pair.pinion, self.ltca.pair.gear
+        per = []
+        for r in res:
+            env = r.te_loaded_arcsec
+            ll = np.where(r.load > 0, r.line_load, np.nan)
+            mean_ll = r.pair_load / np.maximum(np.nansum(np.where(np.isfinite(S.z), S.width, 0.0), axis=2), 1e-12)
+            with np.errstate(invalid="ignore", divide="ignore"):
+                khb = np.nanmax(ll, axis=2) / np.where(r.pair_load > 0, mean_ll, np.nan)
+            kp, nphi, mm = np.unravel_index(int(np.nanargmax(r.p0)), r.p0.shape)
+            per.append({
+                "torque_Nm": r.torque, "normal_load_N": r.W,
+                "te_loaded_arcsec": arr(env), "peak_to_peak_arcsec": r.peak_to_peak_arcsec,
+                "harmonics_arcsec": te_harmonics(r.phi1, env, z1),
+                "pair_share": arr(r.share), "pair_load_N": arr(r.pair_load),
+                "stiffness_N_per_um": arr(r.stiffness), "stiffness_mean_N_per_um": float(np.mean(r.stiffness)),
+                "c_gamma_N_per_mm_um": r.c_gamma,
+                "delta_mm": arr(r.delta),
+                "p_max_MPa": r.p_max, "p_max_at": {"phi1": float(r.phi1[nphi]), "pair": int(S.pairs[kp]),
+                                                   "z_mm": float(S.z[kp, nphi, mm]),
+                                                   "radius_mm": float(self.structure["radius1"][kp, nphi, mm])},
+                "p_max_per_position_MPa": arr(np.max(r.p0, axis=(0, 2))),
+                "line_load_max_N_per_mm": float(np.nanmax(ll)) if np.isfinite(ll).any() else 0.0,
+                "K_Hbeta": float(np.nanmax(khb)) if np.isfinite(khb).any() else None,
+                "kkt_error_max_mm": float(np.max(r.kkt_error)), "hertz_iterations_max": int(np.max(r.hertz_iterations)),
+                "solve_time_s": r.solve_time,
+            })
+        used = np.isfinite(S.z)
+        loaded = used & (nom.load > 0)
+        st = self.structure
+
+        def flat(a):
+            return arr(np.asarray(a)[loaded])
+
+        pattern = {
+            "torque_Nm": nom.torque,
+            "pair": [int(S.pairs[k]) for k in np.nonzero(loaded)[0]],
+            "phi1": [float(S.phi1[n]) for n in np.nonzero(loaded)[1]],
+            "load_N": flat(nom.load), "line_load_N_per_mm": flat(nom.line_load), "p0_MPa": flat(nom.p0),
+            "b_H_mm": flat(nom.b_H), "width_mm": flat(S.width),
+            "pinion": {"axial": flat(S.z), "radius": flat(st["radius1"]), "r_b": g1.r_b},
+            "gear": {"axial": flat(S.z2), "radius": flat(st["radius2"]), "r_b": g2.r_b},
+        }
+        n_pk = int(np.argmax(np.max(nom.p0, axis=(0, 2))))
+        face = {"phi1": float(S.phi1[n_pk]), "pairs": list(S.pairs),
+                "axial": arr(S.z[:, n_pk, :]), "line_load_N_per_mm": arr(np.where(used[:, n_pk], nom.line_load[:, n_pk],
+                                                                                   np.nan)),
+                "p0_MPa": arr(np.where(used[:, n_pk], nom.p0[:, n_pk], np.nan))}
+        return {
+            "phi1": arr(S.phi1), "pairs": list(S.pairs), "te_zero_rad": self.te_zero_rad,
+            "te_unloaded_arcsec": arr(S.te_unloaded * RAD_TO_ARCSEC),
+            "unloaded_peak_to_peak_arcsec": float(np.ptp(S.te_unloaded) * RAD_TO_ARCSEC),
+            "torques": per, "te_vs_torque": self.te_vs_torque(z1), "nominal_torque_Nm": nom.torque,
+            "pattern": pattern, "face_load": face,
+            "slices": {"n_slices": self.ltca.n_slices, "n_active": int(S.active.sum()), "stats": S.stats},
+            "separation_time_s": self.separation_time,
+        }

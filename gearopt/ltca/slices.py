@@ -1,0 +1,338 @@
+"""Unloaded separations of the potential contact, slice by slice (docs/ltca.md, section 1).
+
+At a pinion angle phi1 the potential contact of each tooth pair is cut by transverse pinion
+sections ``z1 = z_j`` (slices). In each slice the gear angle ``phi2_j`` at which the pinion's
+profile curve in that section first touches the gear flank solves, with the unknowns
+``w = (u1, u2, z2, r_p2 phi2)`` [mm],
+
+    r_f1(u1, z_j, phi1) - r_f2(u2, z2, phi2) = 0      (the slice's point lies on the gear flank)
+    n_f2 . dr_f1/du1 = 0                              (the profile curve is tangent to the flank)
+
+built on the TCA's own kinematics Function, so every flank modification, tool setting and
+misalignment of the TCA is in it (the same symbolic parameter column). Where the surfaces are in
+line contact these are the line-contact TCA equations; for a crowned pinion the slice through the
+point contact gives the unloaded TCA's phi2 exactly and every other slice touches later. A slice
+carries load only where its point lies on both active flanks (below both tips, above both flank
+limits, on both faces); the face ends are slices themselves, so contact at a face end (edge
+contact of a crowned or misaligned drive) is a slice at ``z = +-b/2``.
+
+The transmission error of slice j is ``te_j = phi2_j - (z1/z2) phi1 - phi2_ref`` [rad]; at zero
+load the gear rests on the slice with the largest te (the unloaded TE), and the separation of
+slice j along the contact normal is ``s_j = (te_max - te_j) r_b2 cos(beta_b)`` [mm] (the normal
+displacement of an involute helicoid turned by an angle about its axis).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+
+from ..errors import ConvergenceError, LineContactError
+from ..meshing.misalignment import Misalignment
+from ..meshing.solver import REGULARITY_MIN, Branch
+from ..meshing.tca import TCA, check_sweep_args
+
+SLICE_NORMAL_TOL = 0.05  #: accepted slice points have n1 . n2 < -1 + this (crowning tilts the normals)
+CENTRE_ON_POINT = True  #: centre each pair's grid on its unloaded point contact
+_SECTIONS = (-0.5, -0.25, 0.0, 0.25, 0.5)  #: pinion sections of the conjugate first guesses [b1]
+
+
+@dataclass
+class SliceSet:
+    """Slices of every tooth pair at every position, shape (K, N, M): K pairs, N positions, M
+    slice nodes (unused nodes: ``z`` NaN, ``active`` False).
+
+    Attributes
+    ----------
+    phi1 : (N,) pinion angles [rad]; pairs : tuple of pinion tooth numbers.
+    z : (K, N, M) pinion section of each slice node [mm] (ascending over M), NaN if unused.
+    width : (K, N, M) tributary axial width of the node [mm] (face ends: half a gap).
+    te : (K, N, M) TE at which the slice touches [rad] (NaN where unsolved).
+    active : (K, N, M) the slice's point lies on both active flanks.
+    converged : (K, N, M) the slice equations were solved.
+    r1, n1, r2, n2 : (K, N, M, 3) point and outward unit normal on pinion / gear in their own frames.
+    rf : (K, N, M, 3) the point in the fixed frame [mm].
+    u1, u2, z2 : (K, N, M) surface coordinates [mm].
+    z_center : (K, N) where the grid of the pair is centred (the unloaded point contact, else 0).
+    """
+
+    phi1: np.ndarray
+    pairs: tuple
+    z: np.ndarray
+    width: np.ndarray
+    te: np.ndarray
+    active: np.ndarray
+    converged: np.ndarray
+    r1: np.ndarray
+    n1: np.ndarray
+    r2: np.ndarray
+    n2: np.ndarray
+    rf: np.ndarray
+    u1: np.ndarray
+    u2: np.ndarray
+    z2: np.ndarray
+    z_center: np.ndarray
+    phi2_ref: float
+    stats: dict
+
+    @property
+    def te_unloaded(self) -> np.ndarray:
+        """(N,) unloaded TE [rad]: the largest TE of the active slices (NaN: no contact)."""
+        t = np.max(np.where(self.active, self.te, -np.inf), axis=(0, 2))
+        return np.where(np.isfinite(t), t, np.nan)
+
+
+def slice_nodes(b: float, n_slices: int, z_center) -> tuple[np.ndarray, np.ndarray]:
+    """Slice nodes across a face of width ``b`` [mm]: a uniform grid of spacing ``b/(n_slices-1)``
+    through ``z_center`` (one node on it) plus both face ends, nodes closer than a thousandth of a
+    spacing to an end dropped. Returns ``z`` and tributary ``width`` as (..., n_slices + 2) arrays
+    (unused nodes NaN / 0), for every entry of ``z_center``."""
+    zc = np.asarray(z_center, float)
+    dz = b / (n_slices - 1)
+    M = n_slices + 2
+    flat = zc.ravel()
+    Z = np.full((flat.size, M), np.nan)
+    W = np.zeros((flat.size, M))
+    j = np.arange(-n_slices, n_slices + 1)
+    for i, c in enumerate(flat):
+        g = c + j * dz
+        g = g[np.abs(g) < b / 2 - 1e-3 * dz]
+        nodes = np.concatenate([[-b / 2], g, [b / 2]])
+        mid = 0.5 * (nodes[1:] + nodes[:-1])
+        edges = np.concatenate([[-b / 2], mid, [b / 2]])
+        Z[i, :nodes.size] = nodes
+        W[i, :nodes.size] = np.diff(edges)
+    return Z.reshape(zc.shape + (M,)), W.reshape(zc.shape + (M,))
+
+
+class SliceSolver:
+    """The slice equations of a TCA, compiled once (see the module docstring).
+
+    Parameters
+    ----------
+    tca : TCA
+        The drive (point or line contact), with its modifications and symbolic parameters.
+    """
+
+    def __init__(self, tca: TCA):
+        self.tca = tca
+        lay = tca.layout
+        w = ca.SX.sym("w", 4)
+        prm = ca.SX.sym("prm", lay.size)
+        zs = prm[lay.index("z_section")]
+        q = ca.vertcat(w[0], zs, w[1], w[2], w[3])
+        k = dict(zip(tca.kinematics.name_out(), tca.kinematics(q, prm)))
+        F = ca.vertcat(k["rf1"] - k["rf2"], ca.dot(k["nf2"], k["t1u"]))
+        self.G = ca.Function("ltca_slice", [w, prm], [F], ["w", "prm"], ["F"])
+        reg = ca.fmin(tca.orient1 * ca.dot(ca.cross(k["t1u"], k["t1z"]), k["nf1"]),
+                      tca.orient2 * ca.dot(ca.cross(k["t2u"], k["t2z"]), k["nf2"]))
+        checks = ca.Function("ltca_slice_checks", [w, prm], [ca.dot(k["nf1"], k["nf2"]), reg], ["w", "prm"],
+                             ["n1n2", "reg"])
+        # both flanks in their own frames (compliance), the point in the fixed frame
+        p1, p2 = prm[lay.slice("pinion")], prm[lay.slice("gear")]
+        r1, n1 = tca.pinion.surface(tca.side, "flank")(w[0], zs, p1)[:2]
+        r2, n2 = tca.gear.surface(tca.side, "flank")(w[1], w[2], p2)[:2]
+        self.geometry = ca.Function("ltca_slice_geometry", [w, prm], [r1, n1, r2, n2, k["rf1"]], ["w", "prm"],
+                                    ["r1", "n1", "r2", "n2", "rf"])
+        self.branch = Branch("ltca_slice", self.G, checks, self._accept, tca.tol, tca.solver, tca.jit)
+        self._line = None
+
+    def _accept(self, res, n1n2, reg):
+        return np.isfinite(res) & (res <= self.tca.tol) & (n1n2 < -1 + SLICE_NORMAL_TOL) & (reg > REGULARITY_MIN)
+
+    def _line_tca(self) -> TCA:
+        if self._line is None:
+            t = self.tca
+            self._line = TCA(t.pair, side=t.side, pinion=t.pinion.unmodified, gear=t.gear.unmodified,
+                             solver=t.solver, contact="line")
+        return self._line
+
+    def _conjugate(self, phis, p1, p2) -> dict:
+        """Conjugate contact of the aligned, unmodified drive in the sections ``s b1`` at the angles
+        ``phis``: {z: (4, P) unknowns (u1, u2, z2, r_p2 phi2), NaN where none} (first guesses)."""
+        lt = self._line_tca()
+        lay = self.tca.layout
+        n1, n2 = (len(t.unmodified.param_names) for t in (self.tca.pinion, self.tca.gear))
+        flat1, flat2 = np.zeros(n1), np.zeros(n2)
+        flat1[lay.p_index("pinion", "x")] = p1[lay.p_index("pinion", "x")]
+        flat2[lay.p_index("gear", "x")] = p2[lay.p_index("gear", "x")]
+        b1 = self.tca.pair.pinion.b
+        out = {}
+        for s in _SECTIONS:
+            zs = s * b1
+            try:
+                w_a = lt.solve_point(0.0, None, flat1, flat2, Misalignment(), zs)
+            except ConvergenceError:
+                continue
+            prm_l = lt.prm(phis, flat1, flat2, Misalignment(), zs)
+            W0 = lt.branch.predict(w_a, lt.prm([0.0], flat1, flat2, Misalignment(), zs)[:, 0], phis)
+            W, res, _, _ = (np.asarray(v) for v in lt.branch.mapped(phis.size)(W0, prm_l))
+            W = W.copy()
+            W[:, ~(np.isfinite(res.ravel()) & (res.ravel() <= 1e-8))] = np.nan
+            out[zs] = W
+        return out
+
+    def solve(self, phi1, p1=None, p2=None, mis: Misalignment | None = None, pairs=(-1, 0, 1),
+              n_slices: int = 21) -> SliceSet:
+        """Slices of every pair at the pinion angles ``phi1`` [rad] (argument checks as
+        :meth:`TCA.sweep`); the TE zero is the unloaded gear angle of pair 0 at phi1 = 0."""
+        t_start = time.perf_counter()
+        tca = self.tca
+        pair = tca.pair
+        g1, g2 = pair.pinion, pair.gear
+        phi1, p1, p2, mis, pairs = check_sweep_args(tca, phi1, p1, p2, mis, pairs, z_section=None)
+        pairs = tuple(int(k) for k in pairs)
+        stats: dict = {}
+        # where each pair's grid is centred: the unloaded point contact on the face, else mid face
+        K, N = len(pairs), phi1.size
+        zc = np.zeros((K, N))
+        if tca.contact_type == "point" and CENTRE_ON_POINT:
+            try:
+                surf = tca.sweep(phi1, p1, p2, mis, pairs=pairs, continuation=True)
+                good = surf.converged & (np.abs(surf.z1) <= g1.b / 2)
+                zc = np.where(good, surf.z1, 0.0)
+                stats["centred_on_point_contact"] = int(good.sum())
+            except (LineContactError, ConvergenceError) as e:
+                stats["point_contact"] = f"no point contact ({str(e)[:120]}): grids centred at mid face"
+        Z, Wd = slice_nodes(g1.b, n_slices, zc)
+        M = Z.shape[2]
+        # every column: (pair k, position n, node m), plus pair 0 at phi1 = 0 for the TE zero
+        phis = (phi1[None, :] - 2 * math.pi * np.array(pairs)[:, None] / g1.z)  # (K, N)
+        zero_Z, zero_W = slice_nodes(g1.b, n_slices, 0.0 if tca.contact_type == "line" else self._zero_centre(
+            p1, p2, mis, g1))
+        col_phi = np.concatenate([np.repeat(phis.ravel(), M), np.zeros(M)])
+        col_z = np.concatenate([Z.ravel(), zero_Z])
+        used = np.isfinite(col_z)
+        zz = np.where(used, col_z, 0.0)
+        prm = tca.prm(col_phi, p1, p2, mis)
+        prm[tca.layout.index("z_section"), :] = zz
+        # first guesses: conjugate contact of the aligned, unmodified drive, interpolated in z
+        uphi, inv = np.unique(np.round(col_phi, 13), return_inverse=True)
+        conj = self._conjugate(uphi, p1, p2)
+        if not conj:
+            raise ConvergenceError("loaded TCA: the unmodified drive has no conjugate contact in any pinion section; "
+                                   "the pair does not mesh (check the gear data).")
+        zsec = np.array(sorted(conj))
+        Wsec = np.stack([conj[s] for s in zsec])  # (S, 4, U)
+        W0 = _interp_sections(zsec, Wsec[:, :, inv], zz)
+        have = np.all(np.isfinite(W0), axis=0) & used
+        W0 = np.where(have, W0, 0.0)
+        groups = [np.flatnonzero(have[g * M:(g + 1) * M]) + g * M for g in range(K * N + 1)]
+        W, res, n1n2, reg, ok, st = self.branch.solve(W0, prm, groups)
+        ok = ok & have
+        stats.update(st)
+        geo = {n: np.asarray(v) for n, v in zip(self.geometry.name_out(),
+                                                 self.geometry.map(col_z.size)(np.where(ok, W, W0), prm))}
+        r1, n1, r2, n2, rf = (geo[n].T for n in ("r1", "n1", "r2", "n2", "rf"))
+        t = W[3] / g2.r_p  # phi2 of the column's own tooth pair
+        shift2 = np.concatenate([np.repeat(np.repeat(2 * math.pi * np.array(pairs) / g2.z, N), M), np.zeros(M)])
+        ratio = g1.z / g2.z
+        te_raw = np.where(ok, t + shift2 - ratio * np.concatenate([np.repeat(np.tile(phi1, K), M), np.zeros(M)]),
+                          np.nan)
+        # the slice's point on both active flanks (and both faces, below both tips)
+        eps = 1e-9
+        rad1 = np.hypot(r1[:, 0], r1[:, 1])
+        rad2 = np.hypot(r2[:, 0], r2[:, 1])
+        on1 = tca.on_flank(1, np.where(ok, W[0], np.nan), zz, p1)
+        on2 = tca.on_flank(2, np.where(ok, W[1], np.nan), np.where(ok, W[2], 0.0), p2)
+        act = (ok & on1 & on2 & (rad1 <= g1.r_a + eps) & (rad2 <= g2.r_a + eps)
+               & (np.abs(W[2]) <= g2.b / 2 + eps))
+        # Where a pair's contact line leaves the active flanks between two slices, the active slice's
+        # tributary width ends at the crossing (a linear interpolation of the signed margin to the
+        # flank boundaries), so the contact length changes continuously with phi1.
+        form1, form2 = tca.form_radius(1, p1), tca.form_radius(2, p2)
+        margin = np.stack([g1.r_a - rad1, rad1 - form1, g2.r_a - rad2, rad2 - form2, g2.b / 2 - np.abs(W[2])])
+        margin = np.where(ok, margin, np.nan)
+        n = K * N * M
+        Wd = _partial_widths(Z.reshape(-1, M), Wd.reshape(-1, M), act[:n].reshape(-1, M),
+                             margin[:, :n].reshape(5, -1, M), g1.b).reshape(K, N, M)
+        # TE zero: the unloaded gear angle of pair 0 at phi1 = 0 (its largest active slice)
+        z_act = act[-M:]
+        if not z_act.any():
+            z_act = ok[-M:]
+        phi2_ref = float(np.max(te_raw[-M:][z_act])) if z_act.any() else 0.0
+        te = te_raw - phi2_ref
+        shp = lambda a: a[:n].reshape(K, N, M)  # noqa: E731
+        shp3 = lambda a: a[:n].reshape(K, N, M, 3)  # noqa: E731
+        stats["n_columns"] = int(n)
+        stats["n_active"] = int(act[:n].sum())
+        stats["time_s"] = time.perf_counter() - t_start
+        if not act[:n].any():
+            raise ConvergenceError(
+                f"loaded TCA: no slice of any tooth pair {list(pairs)} is in contact on the active flanks at "
+                f"phi1 = {phi1.min():.6g} ... {phi1.max():.6g} rad; the positions must lie in the mesh cycle "
+                "(e.g. -pi/z1 ... pi/z1) of a pair that meshes.")
+        return SliceSet(phi1=phi1, pairs=pairs, z=Z, width=Wd, te=shp(te), active=shp(act), converged=shp(ok),
+                        r1=shp3(r1), n1=shp3(n1), r2=shp3(r2), n2=shp3(n2), rf=shp3(rf), u1=shp(W[0]), u2=shp(W[1]),
+                        z2=shp(W[2]), z_center=zc, phi2_ref=phi2_ref, stats=stats)
+
+    def _zero_centre(self, p1, p2, mis, g1) -> float:
+        """Pinion section of the unloaded point contact of pair 0 at phi1 = 0 (0 if none on the face)."""
+        try:
+            w = self.tca.solve_point(0.0, None, p1, p2, mis)
+        except (LineContactError, ConvergenceError):
+            return 0.0
+        z = float(w[1])
+        return z if abs(z) <= g1.b / 2 else 0.0
+
+
+def _interp_sections(zsec, vals, zz) -> np.ndarray:
+    """Piecewise-linear interpolation in z of section values (S, 4, P) at ``zz`` (P,), held
+    constant beyond the outer sections; columns with missing sections use the finite ones."""
+    S = zsec.size
+    if S == 1:
+        return vals[0].copy()
+    out = np.full(vals.shape[1:], np.nan)
+    full = np.all(np.isfinite(vals), axis=(0, 1))
+    zc = np.clip(zz, zsec[0], zsec[-1])
+    i = np.clip(np.searchsorted(zsec, zc) - 1, 0, S - 2)
+    t = (zc - zsec[i]) / (zsec[i + 1] - zsec[i])
+    cols = np.arange(zz.size)
+    out[:, full] = ((1 - t) * vals[i, :, cols].T + t * vals[i + 1, :, cols].T)[:, full]
+    for c in np.flatnonzero(~full):
+        ok = np.all(np.isfinite(vals[:, :, c]), axis=1)
+        if ok.sum() >= 2:
+            out[:, c] = [np.interp(zz[c], zsec[ok], vals[ok, r, c]) for r in range(vals.shape[1])]
+        elif ok.sum() == 1:
+            out[:, c] = vals[ok, :, c][0]
+    return out
+
+
+def _partial_widths(Z, Wd, act, margin, b) -> np.ndarray:
+    """Tributary widths (rows of slice nodes) with the contact ending between an active and an
+    inactive neighbour where one of the signed margins (B, rows, M) to the flank boundaries
+    (> 0 inside) crosses zero between them (linear interpolation; the nearest crossing)."""
+    out = Wd.copy()
+    for r in range(Z.shape[0]):
+        z, a = Z[r], act[r]
+        used = np.flatnonzero(np.isfinite(z))
+        if a[used].all() or not a[used].any():
+            continue
+        zz = z[used]
+        lo = np.concatenate([[-b / 2], 0.5 * (zz[1:] + zz[:-1])])
+        hi = np.concatenate([0.5 * (zz[1:] + zz[:-1]), [b / 2]])
+        for j, i in enumerate(used):
+            if not a[i]:
+                continue
+            for nb, side in ((j - 1, 0), (j + 1, 1)):
+                if nb < 0 or nb >= used.size or a[used[nb]]:
+                    continue
+                o = used[nb]
+                mi, mo = margin[:, r, i], margin[:, r, o]
+                cross = np.isfinite(mi) & np.isfinite(mo) & (mi >= 0) & (mo < 0)
+                if not cross.any():
+                    continue
+                t = np.min(mi[cross] / (mi[cross] - mo[cross]))
+                zs = z[i] + (z[o] - z[i]) * t
+                # the active node takes the contact up to the crossing (also past the midpoint: the
+                # inactive neighbour carries none of it), so the contact length is continuous
+                if side == 0:
+                    lo[j] = zs
+                else:
+                    hi[j] = zs
+            out[r, i] = max(hi[j] - lo[j], 1e-9)
+    return out
