@@ -314,3 +314,69 @@ def test_bad_measured_files_name_the_file_and_row(tmp_path):
         load_scene(f)
     assert e.value.param == "[pinion.measured] right"
     del bad
+
+
+# --- loaded TCA scenes ----------------------------------------------------------------------------
+LTCA_SCENES = ("ltca_spur", "ltca_crowned", "ltca_helical")
+
+
+@pytest.fixture(scope="module")
+def ltca_reports():
+    return {s: load_scene(PROBLEMS / f"{s}.toml").build().run().to_dict() for s in LTCA_SCENES}
+
+
+def test_ltca_spur_scene(ltca_reports):
+    d = ltca_reports["ltca_spur"]
+    assert d["unloaded_peak_to_peak_arcsec"] < 1e-6  # conjugate
+    T = [t["torque_Nm"] for t in d["torques"]]
+    assert T[0] == pytest.approx(0.1 * d["nominal_torque_Nm"]) and T[-1] == pytest.approx(1.5 * d["nominal_torque_Nm"])
+    pp = [t["peak_to_peak_arcsec"] for t in d["torques"]]
+    assert all(b > a for a, b in zip(pp, pp[1:]))  # an unmodified pair: TE grows with load
+    # ISO 6336-1 mean mesh stiffness of this standard steel pair, computed here from the standard
+    z1, z2 = d["pair"]["z1"], d["pair"]["z2"]
+    q = 0.04723 + 0.15551 / z1 + 0.25791 / z2
+    c_gamma = 1 / q * 0.8 * 0.975 * (0.75 * d["pair"]["eps_alpha"] + 0.25)
+    assert d["iso6336"]["c_gamma_alpha"] == pytest.approx(c_gamma, rel=1e-9)
+    assert 0.85 < d["iso6336"]["ltca_c_gamma_at_nominal"] / c_gamma < 1.15
+    for t in d["torques"]:
+        assert t["kkt_error_max_mm"] < 1e-7
+        share = [[v or 0.0 for v in row] for row in t["pair_share"]]
+        assert all(abs(sum(col) - 1) < 1e-9 for col in zip(*share))
+
+
+def test_ltca_crowned_and_helical_scenes(ltca_reports):
+    c = ltca_reports["ltca_crowned"]
+    assert c["unloaded_peak_to_peak_arcsec"] > 5  # the crossing's TE, absorbed by the parabola
+    t20, t200 = c["torques"][0], c["torques"][4]
+    assert t200["torque_Nm"] == 200.0 and t20["torque_Nm"] == 20.0
+    # light load: the loaded TE follows the unloaded one; at 200 N m the pattern has spread
+    assert abs(t20["peak_to_peak_arcsec"] - c["unloaded_peak_to_peak_arcsec"]) < 0.5 * c["unloaded_peak_to_peak_arcsec"]
+    assert 1000 < t200["p_max_MPa"] < 2500
+    h = ltca_reports["ltca_helical"]
+    nom = [t for t in h["torques"] if t["torque_Nm"] == h["nominal_torque_Nm"]][0]
+    spur_nom = [t for t in ltca_reports["ltca_spur"]["torques"] if t["torque_Nm"] == 200.0][0]
+    assert nom["peak_to_peak_arcsec"] < 0.25 * spur_nom["peak_to_peak_arcsec"]
+    shares = [[v or 0.0 for v in row] for row in nom["pair_share"]]
+    assert min(sum(1 for v in col if v > 0.01) for col in zip(*shares)) >= 2
+
+
+@pytest.mark.parametrize("edit, param", [
+    (("torque = 200.0", "torque = 200.0\ntorques = [100.0, 50.0]"), "[ltca] torques"),
+    (("torque = 200.0", "torque = 200.0\ntorques = [0.0, 50.0]"), "[ltca] torques"),
+    (("torque = 200.0", "torque = -1.0"), "[ltca] torque"),
+    (("E = 206000.0", "E = 206.0"), "[ltca] E"),
+    (("nu = 0.3", "nu = 0.6"), "[ltca] nu"),
+    (("torque = 200.0", "torque = 200.0\nr_int_pinion = \"29 mm\""), "[ltca] r_int_pinion"),
+    (("torque = 200.0", "torque = 200.0\nslices = 11"), "[ltca] slices"),
+])
+def test_bad_ltca_keys_name_the_key_and_write_nothing(tmp_path, edit, param):
+    text = (PROBLEMS / "ltca_spur.toml").read_text()
+    assert edit[0] in text
+    f = tmp_path / "bad.toml"
+    f.write_text(text.replace(edit[0], edit[1], 1))
+    with pytest.raises(SceneError) as e:
+        load_scene(f).build()
+    assert e.value.param == param or param in [getattr(p, "param", None) for p in getattr(e.value, "problems", [])]
+    out = tmp_path / "out"
+    assert main(["run", str(f), "--out", str(out), "--quiet"]) != 0
+    assert not out.exists()

@@ -40,6 +40,7 @@ SAINSOT = {
     "P": (-50.952e-5, 185.50e-3, 0.0538e-4, 53.300e-3, 0.2895, 0.9236),
     "Q": (-6.2042e-5, 9.0889e-3, -4.0964e-4, 7.8297e-3, -0.1472, 0.6904),
 }
+H_FI_RANGE = (1.4, 7.0)  #: r_f / r_int range of Sainsot's fit
 SHEAR_FACTOR = 1.2  #: shear correction of a rectangular section (energy method)
 
 
@@ -87,14 +88,17 @@ class ToothCompliance:
         The member's generated tooth (its transverse section at mid face is the beam).
     material : Material
     r_int : float
-        Inner radius of the gear body [mm] (bore or rim inside), 0 < r_int < r_f; Sainsot's
-        formula is fitted for ``1.4 <= r_f / r_int <= 7``.
+        Inner radius of the gear body [mm], where it is held (the bore); Sainsot's formula is
+        fitted for ``1.4 <= r_f / r_int <= 7``. The body deflects more the deeper it is (its
+        bore is the fixed reference).
+    member : str
+        "pinion" or "gear" (for messages).
     n : int
         Points of the beam quadrature.
     """
 
-    def __init__(self, tooth: GeneratedTooth, material: Material, r_int: float, n: int = 600):
-        g = tooth.gear
+    def __init__(self, tooth: GeneratedTooth, material: Material, r_int: float, n: int = 600,
+                 member: str = "gear"):
         self.material = material
         pr = tooth.transverse_profile(z=0.0, n=n // 2)
         P = np.vstack([pr["right_flank"], pr["right_fillet"][1:]])
@@ -102,9 +106,11 @@ class ToothCompliance:
         end = pr["right_fillet"][-1]
         self.r_f = float(np.hypot(*end))
         self.theta_f = float(math.atan2(abs(end[0]), end[1]))
-        if not 0.0 < r_int < self.r_f:
-            raise out_of_range(f"{g.name or 'gear'}.r_int", r_int, f"0 < r_int < r_f = {self.r_f:.6g} mm "
-                               "(inner radius of the gear body)")
+        lo, hi = self.r_f / H_FI_RANGE[1], self.r_f / H_FI_RANGE[0]
+        if not lo <= r_int <= hi:
+            raise out_of_range(f"{member}.r_int", r_int, f"{lo:.6g} <= r_int <= {hi:.6g} mm (inner radius of the "
+                               f"gear body: Sainsot's foundation term is fitted for {H_FI_RANGE[0]} <= r_f / r_int <= "
+                               f"{H_FI_RANGE[1]}, r_f = {self.r_f:.6g} mm)")
         self.r_int = float(r_int)
         self.h_fi = self.r_f / self.r_int
         self.S_f = 2.0 * self.r_f * math.sin(self.theta_f)

@@ -164,8 +164,8 @@ class LTCA:
             r_int = (0.5 * g1.r_f, 0.5 * g2.r_f)
         self.r_int = tuple(float(check_number(f"{n}.r_int", v, "inner radius of the gear body [mm]"))
                            for n, v in zip(("pinion", "gear"), r_int))
-        self.teeth = (ToothCompliance(self.tca.pinion.unmodified, material, self.r_int[0]),
-                      ToothCompliance(self.tca.gear.unmodified, material, self.r_int[1]))
+        self.teeth = (ToothCompliance(self.tca.pinion.unmodified, material, self.r_int[0], member="pinion"),
+                      ToothCompliance(self.tca.gear.unmodified, material, self.r_int[1], member="gear"))
         lam = 0.5 * (g1.r_a - g1.r_f) if coupling is None else check_number("coupling", coupling,
                                                                             "coupling length [mm]", cls=OptionError)
         if not 0.0 <= lam <= 10 * g1.b:
@@ -432,8 +432,9 @@ class LoadedSweep:
             env = r.te_loaded_arcsec
             ll = np.where(r.load > 0, r.line_load, np.nan)
             mean_ll = r.pair_load / np.maximum(np.nansum(np.where(np.isfinite(S.z), S.width, 0.0), axis=2), 1e-12)
+            peak = np.max(np.where(np.isfinite(ll), ll, 0.0), axis=2)
             with np.errstate(invalid="ignore", divide="ignore"):
-                khb = np.nanmax(ll, axis=2) / np.where(r.pair_load > 0, mean_ll, np.nan)
+                khb = np.where(r.pair_load > 0, peak / mean_ll, np.nan)
             kp, nphi, mm = np.unravel_index(int(np.nanargmax(r.p0)), r.p0.shape)
             per.append({
                 "torque_Nm": r.torque, "normal_load_N": r.W,
@@ -465,8 +466,10 @@ class LoadedSweep:
             "phi1": [float(S.phi1[n]) for n in np.nonzero(loaded)[1]],
             "load_N": flat(nom.load), "line_load_N_per_mm": flat(nom.line_load), "p0_MPa": flat(nom.p0),
             "b_H_mm": flat(nom.b_H), "width_mm": flat(S.width),
-            "pinion": {"axial": flat(S.z), "radius": flat(st["radius1"]), "r_b": g1.r_b},
-            "gear": {"axial": flat(S.z2), "radius": flat(st["radius2"]), "r_b": g2.r_b},
+            "pinion": {"axial": flat(S.z), "from": flat(S.z_lo), "to": flat(S.z_hi), "radius": flat(st["radius1"]),
+                       "r_b": g1.r_b},
+            "gear": {"axial": flat(S.z2), "from": flat(S.z_lo + S.z2 - S.z), "to": flat(S.z_hi + S.z2 - S.z),
+                     "radius": flat(st["radius2"]), "r_b": g2.r_b},
         }
         n_pk = int(np.argmax(np.max(nom.p0, axis=(0, 2))))
         face = {"phi1": float(S.phi1[n_pk]), "pairs": list(S.pairs),

@@ -50,7 +50,9 @@ class SliceSet:
     ----------
     phi1 : (N,) pinion angles [rad]; pairs : tuple of pinion tooth numbers.
     z : (K, N, M) pinion section of each slice node [mm] (ascending over M), NaN if unused.
-    width : (K, N, M) tributary axial width of the node [mm] (face ends: half a gap).
+    width : (K, N, M) tributary axial width of the node [mm] (face ends: half a gap; where the
+        contact line leaves the active flanks, up to the crossing).
+    z_lo, z_hi : (K, N, M) the node's tributary interval [mm] (its contact where active).
     te : (K, N, M) TE at which the slice touches [rad] (NaN where unsolved).
     active : (K, N, M) the slice's point lies on both active flanks.
     converged : (K, N, M) the slice equations were solved.
@@ -64,6 +66,8 @@ class SliceSet:
     pairs: tuple
     z: np.ndarray
     width: np.ndarray
+    z_lo: np.ndarray
+    z_hi: np.ndarray
     te: np.ndarray
     active: np.ndarray
     converged: np.ndarray
@@ -248,8 +252,9 @@ class SliceSolver:
         margin = np.stack([g1.r_a - rad1, rad1 - form1, g2.r_a - rad2, rad2 - form2, g2.b / 2 - np.abs(W[2])])
         margin = np.where(ok, margin, np.nan)
         n = K * N * M
-        Wd = _partial_widths(Z.reshape(-1, M), Wd.reshape(-1, M), act[:n].reshape(-1, M),
-                             margin[:, :n].reshape(5, -1, M), g1.b).reshape(K, N, M)
+        Wd, z_lo, z_hi = _partial_widths(Z.reshape(-1, M), Wd.reshape(-1, M), act[:n].reshape(-1, M),
+                                         margin[:, :n].reshape(5, -1, M), g1.b)
+        Wd, z_lo, z_hi = (v.reshape(K, N, M) for v in (Wd, z_lo, z_hi))
         # TE zero: the unloaded gear angle of pair 0 at phi1 = 0 (its largest active slice)
         z_act = act[-M:]
         if not z_act.any():
@@ -266,7 +271,7 @@ class SliceSolver:
                 f"loaded TCA: no slice of any tooth pair {list(pairs)} is in contact on the active flanks at "
                 f"phi1 = {phi1.min():.6g} ... {phi1.max():.6g} rad; the positions must lie in the mesh cycle "
                 "(e.g. -pi/z1 ... pi/z1) of a pair that meshes.")
-        return SliceSet(phi1=phi1, pairs=pairs, z=Z, width=Wd, te=shp(te), active=shp(act), converged=shp(ok),
+        return SliceSet(phi1=phi1, pairs=pairs, z=Z, width=Wd, z_lo=z_lo, z_hi=z_hi, te=shp(te), active=shp(act), converged=shp(ok),
                         r1=shp3(r1), n1=shp3(n1), r2=shp3(r2), n2=shp3(n2), rf=shp3(rf), u1=shp(W[0]), u2=shp(W[1]),
                         z2=shp(W[2]), z_center=zc, phi2_ref=phi2_ref, stats=stats)
 
@@ -302,37 +307,40 @@ def _interp_sections(zsec, vals, zz) -> np.ndarray:
     return out
 
 
-def _partial_widths(Z, Wd, act, margin, b) -> np.ndarray:
-    """Tributary widths (rows of slice nodes) with the contact ending between an active and an
+def _partial_widths(Z, Wd, act, margin, b):
+    """Tributary intervals (rows of slice nodes) with the contact ending between an active and an
     inactive neighbour where one of the signed margins (B, rows, M) to the flank boundaries
-    (> 0 inside) crosses zero between them (linear interpolation; the nearest crossing)."""
+    (> 0 inside) crosses zero between them (linear interpolation; the nearest crossing).
+    Returns ``(width, lo, hi)`` (rows, M) [mm] (NaN bounds for unused nodes)."""
     out = Wd.copy()
+    LO = np.full(Z.shape, np.nan)
+    HI = np.full(Z.shape, np.nan)
     for r in range(Z.shape[0]):
         z, a = Z[r], act[r]
         used = np.flatnonzero(np.isfinite(z))
-        if a[used].all() or not a[used].any():
-            continue
         zz = z[used]
         lo = np.concatenate([[-b / 2], 0.5 * (zz[1:] + zz[:-1])])
         hi = np.concatenate([0.5 * (zz[1:] + zz[:-1]), [b / 2]])
-        for j, i in enumerate(used):
-            if not a[i]:
-                continue
-            for nb, side in ((j - 1, 0), (j + 1, 1)):
-                if nb < 0 or nb >= used.size or a[used[nb]]:
+        if not (a[used].all() or not a[used].any()):
+            for j, i in enumerate(used):
+                if not a[i]:
                     continue
-                o = used[nb]
-                mi, mo = margin[:, r, i], margin[:, r, o]
-                cross = np.isfinite(mi) & np.isfinite(mo) & (mi >= 0) & (mo < 0)
-                if not cross.any():
-                    continue
-                t = np.min(mi[cross] / (mi[cross] - mo[cross]))
-                zs = z[i] + (z[o] - z[i]) * t
-                # the active node takes the contact up to the crossing (also past the midpoint: the
-                # inactive neighbour carries none of it), so the contact length is continuous
-                if side == 0:
-                    lo[j] = zs
-                else:
-                    hi[j] = zs
-            out[r, i] = max(hi[j] - lo[j], 1e-9)
-    return out
+                for nb, side in ((j - 1, 0), (j + 1, 1)):
+                    if nb < 0 or nb >= used.size or a[used[nb]]:
+                        continue
+                    o = used[nb]
+                    mi, mo = margin[:, r, i], margin[:, r, o]
+                    cross = np.isfinite(mi) & np.isfinite(mo) & (mi >= 0) & (mo < 0)
+                    if not cross.any():
+                        continue
+                    t = np.min(mi[cross] / (mi[cross] - mo[cross]))
+                    zs = z[i] + (z[o] - z[i]) * t
+                    # the active node takes the contact up to the crossing (also past the midpoint:
+                    # the inactive neighbour carries none of it), so the contact length is continuous
+                    if side == 0:
+                        lo[j] = zs
+                    else:
+                        hi[j] = zs
+                out[r, i] = max(hi[j] - lo[j], 1e-9)
+        LO[r, used], HI[r, used] = lo, hi
+    return out, LO, HI

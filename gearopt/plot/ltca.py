@@ -157,22 +157,24 @@ def plot_face_load(d: dict, ax=None):
 def contact_pattern(d: dict, member: str, nz: int = 160, nr: int = 160):
     """Raster of the largest contact pressure [MPa] over the mesh cycle on one member's flank:
     (z edges, radius edges, (nr, nz) pressures; 0 where never in contact). Each loaded slice marks
-    its tributary width across the face and its Hertz band ``+- b_H r_b / r`` along the radius with
+    its interval of the face (``from`` ... ``to``) and its Hertz band ``+- b_H r_b / r`` along the radius with
     the semi-elliptic pressure ``p0 sqrt(1 - s^2 / b^2)``."""
     p = d["pattern"]
     m = p[member]
-    z, r = _arr(m["axial"]), _arr(m["radius"])
-    w, b, p0 = _arr(p["width_mm"]), _arr(p["b_H_mm"]), _arr(p["p0_MPa"])
+    r, z0, z1 = _arr(m["radius"]), _arr(m["from"]), _arr(m["to"])
+    b, p0 = _arr(p["b_H_mm"]), _arr(p["p0_MPa"])
     lim = d["limits"][member]
     ze = np.linspace(-lim["b"] / 2, lim["b"] / 2, nz + 1)
     re = np.linspace(lim["r_form"], lim["r_a"], nr + 1)
     zc, rc = 0.5 * (ze[1:] + ze[:-1]), 0.5 * (re[1:] + re[:-1])
     img = np.zeros((nr, nz))
     dr = b * m["r_b"] / np.where(r > 0, r, 1.0)
-    for zi, wi, ri, di, pi in zip(z, w, r, dr, p0):
-        if not (np.isfinite(zi) and np.isfinite(ri) and pi > 0 and di > 0):
+    for za, zb, ri, di, pi in zip(z0, z1, r, dr, p0):
+        if not (np.isfinite(za) and np.isfinite(zb) and np.isfinite(ri) and pi > 0 and di > 0):
             continue
-        cols = np.flatnonzero(np.abs(zc - zi) <= max(wi / 2, (ze[1] - ze[0]) / 2))
+        cols = np.flatnonzero((zc >= za - 1e-9) & (zc <= zb + 1e-9))
+        if cols.size == 0:  # narrower than a pixel: the nearest column
+            cols = np.array([int(np.argmin(np.abs(zc - 0.5 * (za + zb))))])
         rows = np.flatnonzero(np.abs(rc - ri) <= max(di, (re[1] - re[0]) / 2))
         if cols.size == 0 or rows.size == 0:
             continue

@@ -209,7 +209,7 @@ class LTCAStudy:
 
 def _from_scene(scene) -> LTCAStudy:
     from ..errors import GeometryError, OptionError
-    from ..ltca.compliance import Material
+    from ..ltca.compliance import H_FI_RANGE, Material
     from .tca import check_misalignment_keys, misalignment_from
 
     o = scene.options.get("ltca", {}) or {}
@@ -227,8 +227,10 @@ def _from_scene(scene) -> LTCAStudy:
     g1, g2 = scene.pair.pinion, scene.pair.gear
     r_int = (o.get("r_int_pinion") or 0.5 * g1.r_f, o.get("r_int_gear") or 0.5 * g2.r_f)
     for key, v, g in (("r_int_pinion", r_int[0], g1), ("r_int_gear", r_int[1], g2)):
-        if not 0 < v < g.r_f:
-            valid = f"0 < {key} < r_f = {g.r_f:.6g} mm (inside the root circle)"
+        lo, hi = g.r_f / H_FI_RANGE[1], g.r_f / H_FI_RANGE[0]
+        if not lo <= v <= hi:
+            valid = (f"{lo:.4g} mm <= {key} <= {hi:.4g} mm (the bore of the body: {H_FI_RANGE[0]} <= r_f / r_int <= "
+                     f"{H_FI_RANGE[1]} with r_f = {g.r_f:.6g} mm, the range of Sainsot's body term)")
             raise scene.key_error("ltca", key, f"is out of range; valid: {valid}.", valid=valid)
     try:
         return LTCAStudy(scene.pair, torque, torques=torques, positions=o.get("positions") or 64,

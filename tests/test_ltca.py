@@ -1,0 +1,273 @@
+"""Loaded TCA (gearopt.ltca): analytic invariants of the compliance model, the contact QP against an
+independent solver, zero load against the unloaded TCA, physics of conjugate, crowned and helical
+drives, bad input."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from gearopt.errors import ConvergenceError, GeometryError, OptionError
+from gearopt.fea.model import hertz_line
+from gearopt.gears import BasicRack, Gear, GearPair
+from gearopt.ltca.compliance import Material, ToothCompliance, coupling, iso6336_stiffness, weber_contact
+from gearopt.ltca.engine import LTCA
+from gearopt.meshing.misalignment import Misalignment
+from gearopt.meshing.tca import TCA
+from gearopt.units import ARCMIN, RAD_TO_ARCSEC
+
+DEG = math.pi / 180
+
+
+def spur(**kw):
+    return GearPair(Gear(z=20, m_n=3.0, b=20.0, **kw), Gear(z=40, m_n=3.0, b=20.0))
+
+
+def crowned():
+    return GearPair(Gear(z=20, m_n=3.0, b=20.0, a_pl=0.0004, rack=BasicRack.iso53("A", a_c=0.002)),
+                    Gear(z=40, m_n=3.0, b=20.0))
+
+
+def helical(a_pl=0.0002):
+    return GearPair(Gear(z=21, m_n=2.5, b=30.0, beta=18 * DEG, a_pl=a_pl),
+                    Gear(z=53, m_n=2.5, b=30.0, beta=18 * DEG, hand="left"))
+
+
+@pytest.fixture(scope="module")
+def spur_sweep():
+    L = LTCA(spur(), n_slices=11)
+    return L, L.solve([1e-7, 100.0, 200.0], phi1=L.mesh_cycle(32))
+
+
+# --- compliance model: analytic invariants ---------------------------------------------------
+def test_coupling_is_symmetric_positive_and_exact_for_a_uniform_load():
+    rng = np.random.default_rng(1)
+    z = np.sort(rng.uniform(-10, 10, 9))
+    z = np.concatenate([[-10.0], z, [10.0]])
+    mids = 0.5 * (z[1:] + z[:-1])
+    w = np.diff(np.concatenate([[-10.0], mids, [10.0]]))
+    for lam in (0.0, 0.7, 3.0, 30.0):
+        G = coupling(z, w, lam)
+        assert np.allclose(G, G.T, atol=1e-14)
+        assert np.linalg.eigvalsh(G).min() > 0
+        # a uniform line load f (nodal forces w f) deflects every node by exactly c f (here c = 1)
+        assert np.allclose(G @ w, 1.0, atol=1e-12)
+    # no coupling: each node alone
+    assert np.allclose(coupling(z, w, 0.0), np.diag(1 / w))
+    # a concentrated load spreads wider with a longer coupling length
+    G1, G2 = coupling(z, w, 1.0), coupling(z, w, 5.0)
+    i = z.size // 2
+    assert G2[i, 0] / G2[i, i] > G1[i, 0] / G1[i, i]
+
+
+def test_beam_terms_match_a_rectangular_cantilever():
+    """With a constant half thickness the bending term is 4 L^3 / (E' (2x)^3) for a load normal to
+    the centreline at the free end (cantilever of unit width), the shear term 1.2 * 2 (1 + nu) L / (2x E)."""
+    L_tooth = generate_tooth()
+    tc = ToothCompliance(L_tooth, Material(), r_int=10.0)
+    x, L = 2.0, 5.0
+    eta = np.linspace(0.0, 8.0, 4001)
+    w3 = np.full_like(eta, 1 / (2 * x) ** 3)
+    cum = lambda f: np.concatenate([[0.0], np.cumsum(0.5 * (f[1:] + f[:-1]) * np.diff(eta))])  # noqa: E731
+    tc._eta, tc._I, tc._J = eta, [cum(w3), cum(eta * w3), cum(eta**2 * w3)], cum(np.full_like(eta, 1 / (2 * x)))
+    m = tc.material
+    c = tc.per_width([[x, tc.r_f + L]], [[1.0, 0.0]])
+    assert c["bending"][0] == pytest.approx(4 * L**3 / (m.E_plane * (2 * x) ** 3), rel=1e-6)
+    assert c["shear"][0] == pytest.approx(1.2 * 2 * (1 + m.nu) * L / (2 * x * m.E), rel=1e-6)
+    assert c["compression"][0] == pytest.approx(0.0, abs=1e-20)
+    # a load inclined by gamma: bending with the moment arm to where its line meets the centreline
+    g = 20 * DEG
+    n = [math.cos(g), -math.sin(g)]
+    yP = tc.r_f + 3.0
+    c = tc.per_width([[x, yP]], [n])
+    etaF = 3.0 + x * math.tan(g)
+    expect = math.cos(g) ** 2 * 4 * (etaF**3 - (etaF - 3.0) ** 3) / (m.E_plane * (2 * x) ** 3)
+    assert c["bending"][0] == pytest.approx(expect, rel=1e-6)
+
+
+def generate_tooth():
+    from gearopt.geometry.generation import generate
+    return generate(Gear(z=20, m_n=3.0, b=20.0))
+
+
+def test_tooth_compliance_grows_towards_the_tip_and_with_a_deeper_body():
+    """Higher loads bend more; Sainsot's body term grows with the body depth (its bore is fixed)."""
+    t = generate_tooth()
+    tc = ToothCompliance(t, Material(), r_int=0.5 * t.gear.r_f)
+    deep = ToothCompliance(t, Material(), r_int=0.25 * t.gear.r_f)
+    pts, nrm = [], []
+    for r in np.linspace(t.gear.r_b + 0.3, t.gear.r_a - 0.05, 8):
+        u = t.u_at_radius(r)
+        p, n, _ = t.point("right", "flank", u)
+        pts.append(p[:2])
+        nrm.append(n[:2])
+    c = tc.per_width(np.array(pts), np.array(nrm))["total"]
+    assert np.all(np.diff(c) > 0)
+    assert np.all(deep.per_width(np.array(pts), np.array(nrm))["foundation"] > tc.per_width(np.array(pts),
+                                                                                             np.array(nrm))["foundation"])
+    with pytest.raises(GeometryError) as e:
+        ToothCompliance(t, Material(), r_int=0.9 * t.gear.r_f, member="pinion")
+    assert e.value.param == "pinion.r_int" and "1.4" in str(e.value)
+
+
+def test_hertz_values_match_the_fe_module_reference():
+    m = Material(E=210000.0, nu=0.3)
+    f, r1, r2 = 350.0, 8.0, 15.0
+    R = r1 * r2 / (r1 + r2)
+    _, b, p0 = weber_contact(np.array([f]), R, 3.0, 4.0, m, 1.0)
+    ref = hertz_line(f, r1, r2, m.E, m.nu)
+    assert p0[0] == pytest.approx(ref["p0"], rel=1e-12)
+    assert b[0] == pytest.approx(ref["b"], rel=1e-12)
+    # Weber's approach grows less than linearly with the load (the logarithm) and stays finite at zero
+    c, _, _ = weber_contact(np.array([0.0, 10.0, 100.0, 1000.0]), R, 3.0, 4.0, m, 1.0)
+    d = c * np.array([0.0, 10.0, 100.0, 1000.0])
+    assert np.all(np.isfinite(c)) and np.all(np.diff(d) > 0) and np.all(np.diff(c[1:]) < 0)
+
+
+def test_iso6336_reference_values():
+    iso = iso6336_stiffness(spur())
+    # standard steel spur pair: c' ~ 14, c_gamma ~ 20 N/(mm um) (ISO 6336-1 typical values)
+    assert 11 < iso["c_prime"] < 16 and 16 < iso["c_gamma_alpha"] < 22
+    q = 0.04723 + 0.15551 / 20 + 0.25791 / 40
+    assert iso["q_prime"] == pytest.approx(q, rel=1e-12)
+
+
+# --- zero load: the unloaded TCA ---------------------------------------------------------------
+@pytest.mark.parametrize("make, mis", [(crowned, Misalignment(crossing=3 * ARCMIN)), (helical, Misalignment()),
+                                       (crowned, Misalignment(intersecting=2 * ARCMIN, dE=0.02))],
+                         ids=["crowned-crossing", "helical", "crowned-intersecting"])
+def test_zero_torque_gives_the_unloaded_tca(make, mis):
+    pair = make()
+    L = LTCA(pair, n_slices=11)
+    phi = L.mesh_cycle(24)
+    res = L.solve(1e-7, phi1=phi, mis=mis).results[0]
+    tca = TCA(pair)
+    ref = tca.sweep(phi, mis=mis, pairs=L.default_pairs())
+    on = np.isfinite(ref.te_envelope_arcsec)
+    assert on.sum() >= 12
+    assert np.max(np.abs(res.te_loaded_arcsec[on] - ref.te_envelope_arcsec[on])) < 1e-6
+
+
+def test_conjugate_spur_unloaded_te_is_zero_and_loaded_te_negative(spur_sweep):
+    L, sw = spur_sweep
+    assert np.max(np.abs(sw.slices.te_unloaded)) * RAD_TO_ARCSEC < 1e-6
+    for r in sw.results[1:]:
+        assert np.all(r.te_loaded < 0)
+    # more torque, more deflection, at every position
+    assert np.all(sw.results[2].te_loaded < sw.results[1].te_loaded)
+
+
+# --- the contact problem ------------------------------------------------------------------------
+def test_contact_conditions_and_an_independent_qp_solver(spur_sweep):
+    """Loads >= 0, gaps >= 0 and complementary, sum = W, checked here from the compliance law; and the
+    QP of one position solved again by scipy (SLSQP) from the same matrices gives the same loads."""
+    from scipy.optimize import minimize
+
+    L, sw = spur_sweep
+    S, st = sw.slices, sw.structure
+    r = sw.results[2]
+    K, N, M = S.z.shape
+    lever = L.pair.gear.r_b * L.cos_bb
+    for j in (3, 16):
+        act = S.active[:, j, :].ravel()
+        s = ((S.te_unloaded[j] - S.te[:, j, :]) * lever).ravel()[act]
+        F = r.load[:, j, :].ravel()[act]
+        length = st["length"][:, j, :].ravel()[act]
+        cH, _, _ = weber_contact(F / length, st["R"][:, j, :].ravel()[act], st["h1"][:, j, :].ravel()[act],
+                                 st["h2"][:, j, :].ravel()[act], L.material, 1e-3 * r.W * L.cos_bb / L.pair.pinion.b)
+        C = st["Cs"][j][np.ix_(np.flatnonzero(act), np.flatnonzero(act))] + np.diag(cH / length)
+        gap = s + C @ F - r.delta[j]
+        assert F.sum() == pytest.approx(r.W, rel=1e-9)
+        assert F.min() >= 0
+        assert gap.min() > -1e-8
+        assert np.max(np.abs(F * gap)) / r.W < 1e-9
+        # the same QP (compliance frozen at the solution) by an independent method
+        x0 = np.full(F.size, r.W / F.size)
+        sol = minimize(lambda x: 0.5 * x @ C @ x + s @ x, x0, jac=lambda x: C @ x + s, method="SLSQP",
+                       bounds=[(0, None)] * F.size, constraints=[{"type": "eq", "fun": lambda x: x.sum() - r.W,
+                                                                  "jac": lambda x: np.ones_like(x)}],
+                       options={"ftol": 1e-14, "maxiter": 500})
+        assert np.max(np.abs(sol.x - F)) / r.W < 1e-4
+
+
+def test_spur_load_sharing_and_hertz_pressure(spur_sweep):
+    L, sw = spur_sweep
+    r = sw.results[2]
+    S = sw.slices
+    share = r.share
+    assert np.allclose(share.sum(axis=0), 1.0, atol=1e-9)
+    single = (share.max(axis=0) > 1 - 1e-9)
+    assert 0.2 < single.mean() < 0.6  # eps_alpha = 1.64: about 36 % single-pair contact
+    # single-pair contact of a conjugate spur pair: uniform line load W/b, the Hertz pressure of the
+    # involute radii there (independent formula)
+    j = int(np.flatnonzero(single)[len(np.flatnonzero(single)) // 2])
+    k = int(np.argmax(share[:, j]))
+    i = int(np.nanargmin(np.abs(S.z[k, j])))
+    rad1 = sw.structure["radius1"][k, j, i]
+    rad2 = sw.structure["radius2"][k, j, i]
+    g1, g2 = L.pair.pinion, L.pair.gear
+    ref = hertz_line(r.W / g1.b, math.sqrt(rad1**2 - g1.r_b**2), math.sqrt(rad2**2 - g2.r_b**2), L.material.E,
+                     L.material.nu)
+    assert r.line_load[k, j, i] == pytest.approx(r.W / g1.b, rel=1e-6)
+    assert r.p0[k, j, i] == pytest.approx(ref["p0"], rel=1e-6)
+
+
+def test_spur_mesh_stiffness_near_iso6336(spur_sweep):
+    """The mean mesh stiffness of a standard steel spur pair lies within 15 % of ISO 6336-1's
+    c_gamma_alpha (the gap is stated in docs/ltca.md)."""
+    L, sw = spur_sweep
+    iso = iso6336_stiffness(L.pair)
+    cg = sw.results[2].c_gamma
+    assert 0.85 < cg / iso["c_gamma_alpha"] < 1.15
+
+
+def test_crowned_pattern_widens_with_load_and_pressure_follows_hertz_scaling():
+    L = LTCA(crowned(), n_slices=21)
+    sw = L.solve([50.0, 200.0], phi1=[0.0])
+    lo, hi = sw.results
+    n_lo = (lo.load > 0).sum()
+    n_hi = (hi.load > 0).sum()
+    assert n_hi > n_lo  # the contact ellipse grows across the face
+    # point contact: p0 ~ W^(1/3) (Hertz); the slice model follows within a few percent
+    ratio = hi.p_max / lo.p_max
+    assert ratio == pytest.approx(4 ** (1 / 3), rel=0.08)
+
+
+def test_helical_pairs_share_the_load_and_te_is_smaller_than_spur():
+    L = LTCA(helical(), n_slices=11)
+    r = L.solve(150.0, phi1=L.mesh_cycle(24)).results[0]
+    assert (r.share > 0.01).sum(axis=0).min() >= 2  # always two or more pairs (eps_gamma > 2)
+    Ls = LTCA(spur(), n_slices=11)
+    rs = Ls.solve(150.0, phi1=Ls.mesh_cycle(24)).results[0]
+    assert r.peak_to_peak_arcsec < 0.5 * rs.peak_to_peak_arcsec
+
+
+# --- bad input ----------------------------------------------------------------------------------
+@pytest.mark.parametrize("torque", [0.0, -5.0, float("nan"), [10.0, 5.0], [10.0, 10.0], "100", []])
+def test_bad_torques_name_the_parameter(spur_sweep, torque):
+    L, sw = spur_sweep
+    with pytest.raises(OptionError) as e:
+        L.solve(torque, slices=sw.slices)
+    assert e.value.param == "torque"
+
+
+@pytest.mark.parametrize("kw, param", [({"E": 206.0}, "E"), ({"E": float("nan")}, "E"), ({"nu": 0.5}, "nu"),
+                                       ({"nu": -0.1}, "nu")])
+def test_bad_material_names_the_parameter(kw, param):
+    with pytest.raises(GeometryError) as e:
+        Material(**kw)
+    assert e.value.param == param
+
+
+def test_bad_options_and_positions_without_contact():
+    with pytest.raises(OptionError) as e:
+        LTCA(spur(), n_slices=2)
+    assert e.value.param == "n_slices"
+    with pytest.raises(GeometryError) as e:
+        LTCA(spur(), r_int=(15.0, 80.0))
+    assert e.value.param == "gear.r_int"
+    L = LTCA(spur(), n_slices=5)
+    with pytest.raises(ConvergenceError):
+        L.solve(100.0, phi1=[0.0, 1.0], pairs=(0,))  # phi1 = 1 rad: tooth 0 is far out of mesh
