@@ -142,3 +142,106 @@ def test_run_pitch_point_against_hertz_and_reaction(model, pair):
     # loaded TE: the pinion turns further in its driving (clockwise) direction under load
     rot = res["pinion_rotation_rad"]
     assert rot < 0 and abs(rot) * pair.pinion.r_b == pytest.approx(0.019, rel=0.3)  # ~19 um along the line of action
+
+
+# --- crowned (point contact) and helical drives -----------------------------------------------------
+def _crowned_pair(a_pl, a_c):
+    return GearPair(Gear(z=20, m_n=3, b=20, a_pl=a_pl, rack=BasicRack.iso53("A", a_c=a_c), name="pinion"),
+                    Gear(z=40, m_n=3, b=20, name="gear"))
+
+
+def _helical_pair(beta_deg, a_pl=0.0):
+    import math
+    b = math.radians(beta_deg)
+    return GearPair(Gear(z=21, m_n=2.5, b=24, beta=b, a_pl=a_pl, name="pinion"),
+                    Gear(z=45, m_n=2.5, b=24, beta=b, hand="left", name="gear"))
+
+
+@pytest.mark.parametrize("a_pl, a_c", [(1e-4, 0.0), (3e-4, 0.0), (2e-3, 0.0), (4e-4, 2e-3), (3e-3, 4e-3)])
+def test_crowned_pinion_default_mesh_has_no_inverted_element(a_pl, a_c):
+    """The plunged pinion's root circle is deeper at the face ends: the root arc and the rim follow
+    each section's own root (before: hundreds of inverted elements at every crowning)."""
+    m = GearFEModel(_crowned_pair(a_pl, a_c), 0.0, FEOptions(torque=100e3))
+    for mesh in (m.pinion_mesh, m.gear_mesh):
+        assert hex_min_jacobian(mesh.nodes, mesh.elements).min() > 0  # all 8 corners of every element
+    # the face layers are graded towards the contact ellipse (one layer on its centre)
+    z = np.unique(np.round(m.pinion_mesh.nodes[:, 2], 9))
+    z_c = m.contact[0]["z1"]
+    assert np.min(np.abs(z - z_c)) < 1e-6
+    assert np.min(np.diff(z)) <= min(20 / 4, m.hertz[0]["a"] / 2) + 1e-9  # n_ellipse = 2 per semi-axis
+
+
+@pytest.mark.parametrize("beta_deg, a_pl", [(10, 0.0), (15, 0.0), (25, 0.0), (18, 2e-4)])
+def test_helical_default_mesh_follows_the_inclined_contact_line(beta_deg, a_pl):
+    m = GearFEModel(_helical_pair(beta_deg, a_pl), 0.0, FEOptions(torque=100e3))
+    for mesh in (m.pinion_mesh, m.gear_mesh):
+        assert hex_min_jacobian(mesh.nodes, mesh.elements).min() > 0
+    # each face layer of the loaded pinion tooth is graded at its own contact point: the finest rows
+    # sit at different radii in the end layers (the contact line crosses the profile along the face)
+    t = [t for t in m.pinion_mesh.teeth if t["k"] == 0][0]
+    r0, r1 = t["section"].segments["flank"]
+    rad = []
+    for layer in (0, t["nodes"].shape[0] - 1):
+        X = m.pinion_mesh.nodes[t["nodes"][layer, r0:r1 + 1, -1]]
+        rr = np.hypot(X[:, 0], X[:, 1])
+        i = int(np.argmin(np.abs(np.diff(rr))))
+        rad.append(0.5 * (rr[i] + rr[i + 1]))
+    assert abs(rad[0] - rad[1]) > 0.5  # mm: b tan(beta_b) moves the contact along the profile
+
+
+def test_hertz_point_limits():
+    import math
+
+    from gearopt.fea.model import hertz_point
+    E, nu, F = 210e3, 0.3, 1000.0
+    # sphere on sphere: a^3 = 3 F R_eff / (4 E*), p0 = 3F/(2 pi a^2)
+    R1, R2 = 20.0, 30.0
+    Reff = 1 / (1 / R1 + 1 / R2)
+    h = hertz_point(F, (1 / Reff, 1 / Reff), E, nu)
+    a = (3 * F * Reff / (4 * E / (2 * (1 - nu**2)))) ** (1 / 3)
+    assert h["k"] == pytest.approx(1.0) and h["a"] == pytest.approx(a, rel=1e-9)
+    assert h["p0"] == pytest.approx(3 * F / (2 * math.pi * a * a), rel=1e-9)
+    # a long ellipse approaches line contact: p0 -> the line-contact value of the load per length at
+    # the centre, (pi/2) p0 b = f0 with the parabolic line load of a semi-ellipsoid
+    h = hertz_point(F, (2e-5, 0.2), E, nu)
+    f0 = 0.5 * math.pi * h["p0"] * h["b"]
+    line = hertz_line(f0, 1 / 0.2, 1e12, E, nu)
+    assert h["k"] > 30 and h["p0"] == pytest.approx(line["p0"], rel=0.03)
+
+
+@needs_ccx
+def test_crowned_and_helical_runs_pass_the_checks():
+    """A crowned spur pinion (point contact, Hertz ellipse) and a helical pair (normal-section line
+    contact) run with coarse meshes; reaction = T / r_b1, pressure near its Hertz reference."""
+    coarse = dict(n_hertz=2.0, mesh=MeshOptions(n_face=4, n_half=4, n_flank=6, n_fillet=4, n_rim=3))
+    d = GearFEModel(_crowned_pair(4e-4, 2e-3), 0.0, FEOptions(torque=100e3, **coarse)).run().to_dict()
+    assert d["reaction"]["rel_error"] < 0.01
+    assert d["contact"]["hertz_kind"] == "ellipse"
+    assert 0.8 < d["contact"]["ratio_mid_to_hertz"] < 1.3
+    d = GearFEModel(_helical_pair(15), 0.0, FEOptions(torque=100e3, **coarse)).run().to_dict()
+    assert d["reaction"]["rel_error"] < 0.01
+    assert d["contact"]["hertz_kind"] == "line"
+    assert 0.7 < d["contact"]["ratio_mid_to_hertz"] < 1.3
+
+
+@needs_ccx
+def test_vtu_round_trip(model, tmp_path):
+    """The .vtu (meshio) holds the deck's nodes and elements, the displacement field and the nodal
+    contact pressure of the .frd; read back with meshio."""
+    import meshio
+
+    from gearopt.fea.calculix import read_frd_block
+
+    res = model.run()
+    path = res.write_vtu(tmp_path / "pos.vtu")
+    m = meshio.read(path)
+    assert m.points.shape == res.deck.nodes.shape and np.allclose(m.points, res.deck.nodes)
+    assert m.cells_dict["hexahedron"].shape == res.deck.elements.shape
+    U = m.point_data["displacement"]
+    assert U.shape == (len(res.deck.nodes), 3)
+    disp = read_frd_block(res.frd, "DISP")
+    umax = max(np.linalg.norm(v[:3]) for v in disp.values())
+    assert np.linalg.norm(U, axis=1).max() == pytest.approx(umax, rel=1e-9)
+    cp = max(v[3] for v in read_frd_block(res.frd, "CONTACT").values())
+    assert m.point_data["contact_pressure"].max() == pytest.approx(cp, rel=1e-12) and cp > 0
+    assert np.all(m.point_data["von_mises"] >= 0)

@@ -104,7 +104,8 @@ def write_inp(deck: Deck, path) -> Path:
               f"*NODE PRINT, NSET={deck.fixed_nset}, TOTALS=ONLY", "RF",
               "*NODE PRINT, NSET=NREF, TOTALS=ONLY", "RF",
               "*NODE PRINT, NSET=NROT", "U",
-              "*CONTACT PRINT", "CSTR", "*CONTACT FILE", "CSTR"]
+              "*CONTACT PRINT", "CSTR", "*CONTACT FILE", "CSTR",
+              "*NODE FILE", "U", "*EL FILE", "S"]  # displacements and nodal stresses (the .vtu for ParaView)
     for es in deck.print_elsets:
         lines += [f"*EL PRINT, ELSET={es}", "S"]
     lines += ["*END STEP", ""]

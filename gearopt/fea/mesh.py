@@ -147,9 +147,12 @@ class ToothMesher:
     options : MeshOptions
     p : array (len(tooth.param_names),), optional
         Surface parameter vector (default: the gear as built).
+    z_layers : array, optional
+        Axial positions of the face layers [mm], ascending from -b/2 to b/2 (default: ``n_face``
+        uniform elements).
     """
 
-    def __init__(self, tooth: GeneratedTooth, options: MeshOptions, p=None):
+    def __init__(self, tooth: GeneratedTooth, options: MeshOptions, p=None, z_layers=None):
         self.tooth, self.opt = tooth, options
         self.p = tooth.p0 if p is None else np.asarray(p, float)
         g = tooth.gear
@@ -161,7 +164,8 @@ class ToothMesher:
                                 f"{self.r_rim:.4g} mm); use a smaller fea.rim_depth.", param="fea.rim_depth",
                                 value=options.rim_depth)
         self.u_f, self.phi_max = tooth.junction(self.p)
-        self.z = np.linspace(-g.b / 2, g.b / 2, options.n_face + 1)
+        self.z = (np.linspace(-g.b / 2, g.b / 2, options.n_face + 1) if z_layers is None
+                  else np.asarray(z_layers, float))
         self.pitch_angle = 2 * math.pi / g.z
         self._maps = {}
 
@@ -180,17 +184,30 @@ class ToothMesher:
         s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(r, axis=0), axis=1))])
         return u, s
 
-    def profile_rows(self, contact_u: float | None, first_layer: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+    def profile_rows(self, contact_u, first_layer: float | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Flank parameters u (tip -> junction) of the node rows and the phi values of the fillet rows.
 
-        ``contact_u``: flank parameter of the contact point on this tooth (None: uniform rows)."""
+        ``contact_u``: flank parameter of the contact point on this tooth (None: uniform rows), or
+        one per face layer (an inclined contact line: each layer graded at its own contact point;
+        then ``u_rows`` is (layers, rows)). The number of rows is the same in every layer."""
         o = self.opt
         u, s = self.flank_arclength("right", 0.0)
+        phi_rows = np.linspace(0.0, self.phi_max, o.n_fillet + 1)
+        if contact_u is not None and np.ndim(contact_u) == 1:
+            cu = np.asarray(contact_u, float)
+            if cu.size != len(self.z):
+                raise ValueError(f"contact_u: one value per face layer ({len(self.z)}), got {cu.size}")
+            sc = np.interp(cu, u[::-1], s[::-1]) if u[0] > u[-1] else np.interp(cu, u, s)
+            rows = [_graded_params(s, o.n_flank, float(c), o.h_contact, o.window, o.growth) for c in sc]
+            n = max(len(r) for r in rows)
+            rows = [r if len(r) == n else np.interp(np.linspace(0, 1, n), np.linspace(0, 1, len(r)), r) for r in rows]
+            out = np.array([np.interp(r, s, u) for r in rows])
+            out[:, 0], out[:, -1] = u[0], u[-1]
+            return out, phi_rows
         s_c = None if contact_u is None else float(np.interp(contact_u, u, s))
         sn = _graded_params(s, o.n_flank, s_c, o.h_contact, o.window, o.growth)
         u_rows = np.interp(sn, s, u)
         u_rows[0], u_rows[-1] = u[0], u[-1]
-        phi_rows = np.linspace(0.0, self.phi_max, o.n_fillet + 1)
         return u_rows, phi_rows
 
     def section(self, u_rows, phi_rows, col_first: float = 0.0) -> ToothSection:
@@ -204,40 +221,50 @@ class ToothMesher:
             for side in ("right", "left"):
                 # u_tip depends on z for a crowned / helical flank: rescale the tip row only.
                 u_tip = self.tooth.u_at_radius(self.r_a, z, side, self.p)
-                us = u_rows.copy()
+                us = (u_rows[list(self.z).index(z)] if np.ndim(u_rows) == 2 else u_rows).copy()
                 us[0] = u_tip
                 fl = self._eval(side, "flank", us, z)
                 fi = self._eval(side, "fillet", phi_rows[1:], z)
                 rows_xyz[side].append(np.vstack([fl, fi]))
-        n_fl, n_fi = len(u_rows), len(phi_rows) - 1
+        n_fl, n_fi = np.shape(u_rows)[-1], len(phi_rows) - 1
         seg_fl = (0, n_fl - 1)
         seg_fi = (n_fl - 1, n_fl - 1 + n_fi)
         # Root arc and radial line (the same for every tooth and both sides: shared nodes).
         grid = []
-        for k, z in enumerate(self.z):
+        half_pitch = self.pitch_angle / 2
+
+        def polar(k):
             R, Lf = rows_xyz["right"][k], rows_xyz["left"][k]
             th_R = np.arctan2(R[:, 0], R[:, 1])  # angle from +y towards +x
             th_L = np.arctan2(Lf[:, 0], Lf[:, 1])
-            rad_R, rad_L = np.hypot(R[:, 0], R[:, 1]), np.hypot(Lf[:, 0], Lf[:, 1])
             mid = 0.5 * (th_R[n_fl // 2] + th_L[n_fl // 2])  # middle line of this section
-            half_pitch = self.pitch_angle / 2
+            return R, Lf, th_R, th_L, np.hypot(R[:, 0], R[:, 1]), np.hypot(Lf[:, 0], Lf[:, 1]), mid
+
+        # nodes on the root arc: chosen in the middle section, the same in every layer
+        _, _, th_R, _, rad_R, _, mid = polar(nz // 2)
+        arc0 = rad_R[-1] * (mid + half_pitch - th_R[-1])
+        n_arc = 0 if arc0 < 1e-6 * g.m_n else min(2, max(1, int(round(o.n_rim * arc0 / (self.r_f - self.r_rim)))))
+        for k, z in enumerate(self.z):
+            R, Lf, th_R, th_L, rad_R, rad_L, mid = polar(k)
+            # the root circle of this section: where its fillets end (deeper at the face ends of a
+            # plunged, longitudinally crowned member)
+            r_root = 0.5 * (rad_R[-1] + rad_L[-1])
             # root arc from the fillet end to the middle of the space, then down the radial line
-            arc_len = self.r_f * (mid + half_pitch - th_R[-1])
-            n_arc = 0 if arc_len < 1e-6 * g.m_n else max(1, int(round(o.n_rim * arc_len / (self.r_f - self.r_rim))))
-            n_arc = min(n_arc, 2)
+            arc_len = r_root * (mid + half_pitch - th_R[-1])
             thR_arc = np.linspace(th_R[-1], mid + half_pitch, n_arc + 1)[1:]
             thL_arc = np.linspace(th_L[-1], mid - half_pitch, n_arc + 1)[1:]
-            r_rad = np.linspace(self.r_f, self.r_rim, o.n_rim + 1)[1:]
+            r_rad = np.linspace(r_root, self.r_rim, o.n_rim + 1)[1:]
             th_side_R = np.concatenate([th_R, thR_arc, np.full(o.n_rim, mid + half_pitch)])
             th_side_L = np.concatenate([th_L, thL_arc, np.full(o.n_rim, mid - half_pitch)])
-            r_side_R = np.concatenate([rad_R, np.full(n_arc, self.r_f), r_rad])
-            r_side_L = np.concatenate([rad_L, np.full(n_arc, self.r_f), r_rad])
+            r_side_R = np.concatenate([rad_R, np.full(n_arc, r_root), r_rad])
+            r_side_L = np.concatenate([rad_L, np.full(n_arc, r_root), r_rad])
             # middle line: the rows' mean radius on flank and fillet, then linearly (by the side chain's
             # length) down to the rim
             r_mid_top = 0.5 * (r_side_R[: n_fl + n_fi] + r_side_L[: n_fl + n_fi])
-            lens = np.concatenate([[0.0], np.full(n_arc, arc_len / max(n_arc, 1)), np.diff(-r_rad, prepend=-self.r_f)])
+            lens = np.concatenate([[0.0], np.full(n_arc, max(arc_len, 0.0) / max(n_arc, 1)),
+                                   np.diff(-r_rad, prepend=-r_root)])
             cum = np.cumsum(lens)
-            r_mid_bot = self.r_f - (self.r_f - self.r_rim) * cum[1:] / cum[-1]
+            r_mid_bot = r_root - (r_root - self.r_rim) * cum[1:] / cum[-1]
             r_mid = np.concatenate([r_mid_top, r_mid_bot])
             nr = len(r_mid)
             sec = np.empty((nr, 2 * nh + 1, 3))
@@ -332,12 +359,14 @@ def build_member(mesher: ToothMesher, tooth_ids, contact_u: dict, name: str, col
         t["nodes"] = inv[t["nodes"]]
     # orientation: positive Jacobian at the element centre
     vol = hex_volume_sign(P, E)
+    if np.sum(vol < 0) > np.sum(vol > 0):  # the node order of the grid turns the other way: flip all
+        E = E[:, [3, 2, 1, 0, 7, 6, 5, 4]]
+        vol = -vol
     if np.any(vol <= 0):
-        if np.all(vol < 0):
-            E = E[:, [3, 2, 1, 0, 7, 6, 5, 4]]
-        else:
-            raise GeometryError(f"{name}: {int(np.sum(vol <= 0))} inverted elements in the tooth mesh; "
-                                "change the element counts (fea.n_half, fea.n_rim) or the grading.")
+        bad = np.flatnonzero(vol <= 0)
+        raise GeometryError(f"{name}: {bad.size} of {len(E)} elements of the tooth mesh are inverted (first at "
+                            f"{np.round(P[E[bad[0]]].mean(axis=0), 3).tolist()} mm); change the element counts "
+                            "(fea.n_half, fea.n_rim) or the grading.")
     bottom = np.unique(np.concatenate([t["nodes"][:, -1, :].ravel() for t in teeth]))
     # sector sides: the radial lines of the rim segment on both ends of the sector (tooth k is turned
     # counter-clockwise by k pitches, so the first tooth's right column and the last tooth's left one)

@@ -38,10 +38,21 @@ class FEReport:
     positions: list
     mesh_plot: dict
     timing: dict = field(default_factory=dict)
+    fe_results: list = field(default_factory=list, repr=False)  # FEResult per position (for the .vtu files)
 
     def to_dict(self) -> dict:
         return {"study": "fea", "scene": self.scene, "units": UNITS, "pair": self.pair, "options": self.options,
                 "positions": self.positions, "mesh": self.mesh_plot, "timing": self.timing}
+
+    def save_tables(self, out_dir) -> list[str]:
+        """``fea_<i>.vtu`` per position i (0, 1, ...): the model with displacements, stresses (von Mises)
+        and contact pressure for ParaView (meshio)."""
+        files = []
+        for i, r in enumerate(self.fe_results):
+            name = f"fea_{i}.vtu"
+            r.write_vtu(Path(out_dir) / name)
+            files.append(name)
+        return files
 
     def save_plots(self, out_dir, dpi: int = 120) -> list[str]:
         """``fea_mesh.png`` (transverse section of the model at the first position, element edges),
@@ -115,7 +126,7 @@ class FEStudy:
         p = self.pair
         crowned = any(g.a_pl != 0 or g.rack.a_c != 0 for g in (p.pinion, p.gear))
         tca = TCA(p, side="right", contact="point" if crowned else "line")
-        positions, mesh_plot = [], None
+        positions, mesh_plot, fe_results = [], None, []
         for i, phi1 in enumerate(self.phi1s):
             if progress:
                 progress(f"fea: position {i + 1}/{len(self.phi1s)} (phi1 = {math.degrees(phi1):.3f} deg)")
@@ -125,12 +136,14 @@ class FEStudy:
             model = GearFEModel(p, phi1, opt, tca=tca)
             if mesh_plot is None:
                 mesh_plot = mesh_section(model)
-            positions.append(model.run().to_dict())
+            res = model.run()
+            fe_results.append(res)
+            positions.append(res.to_dict())
         o = self.options
         pair = {"z1": p.pinion.z, "z2": p.gear.z, "m_n": p.pinion.m_n, "a": p.a_w, "b1": p.pinion.b, "b2": p.gear.b,
                 "r_b1": p.pinion.r_b, "r_b2": p.gear.r_b, "eps_alpha": p.eps_alpha, "contact": tca.contact_type}
         return FEReport(scene=self.name, pair=pair, options=o.to_dict(), positions=positions, mesh_plot=mesh_plot,
-                        timing={"run_s": time.perf_counter() - t0})
+                        timing={"run_s": time.perf_counter() - t0}, fe_results=fe_results)
 
 
 def _check_positions(scene, phis, teeth: int) -> None:
