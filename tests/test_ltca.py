@@ -271,3 +271,72 @@ def test_bad_options_and_positions_without_contact():
     L = LTCA(spur(), n_slices=5)
     with pytest.raises(ConvergenceError):
         L.solve(100.0, phi1=[0.0, 1.0], pairs=(0,))  # phi1 = 1 rad: tooth 0 is far out of mesh
+
+
+# --- FE influence coefficients (CalculiX) ---------------------------------------------------------
+_needs_ccx = pytest.mark.skipif(__import__("shutil").which("ccx") is None, reason="CalculiX (ccx) is not installed")
+
+
+@pytest.fixture(scope="module")
+def fe_cache(tmp_path_factory):
+    return tmp_path_factory.mktemp("gearopt_cache")
+
+
+def _coarse_member_mesh():
+    from gearopt.fea.mesh import MeshOptions
+    return MeshOptions(n_face=2, n_half=3, n_flank=4, n_fillet=3, n_rim=2)
+
+
+@pytest.mark.calculix
+@_needs_ccx
+def test_influence_coefficients_are_a_compliance_and_are_cached(fe_cache, monkeypatch):
+    import json
+    import os
+    import subprocess
+    import sys
+
+    from gearopt.fea.influence import influence_grid
+    from gearopt.geometry.generation import generate
+
+    monkeypatch.setenv("GEAROPT_CACHE", str(fe_cache))
+    tooth = generate(Gear(z=20, m_n=3.0, b=20.0, name="pinion"))
+    ig = influence_grid(tooth, mesh=_coarse_member_mesh())
+    assert not ig.cached
+    nr, nz = ig.radius.size, ig.z.size
+    G = ig.G.reshape(nr * nz, nr * nz)
+    assert np.allclose(G, G.T) and np.linalg.eigvalsh(G).min() > 0
+    assert ig.asymmetry < 0.3
+    # a load higher on the tooth bends it more (mid face)
+    diag = [ig.G[i, nz // 2, i, nz // 2] for i in range(nr)]
+    assert np.all(np.diff(diag) > 0)
+    # the same order as the analytical model's tooth pair compliance per unit width / face width
+    assert 1e-7 < diag[nr // 2] < 1e-4
+    again = influence_grid(tooth, mesh=_coarse_member_mesh())
+    assert again.cached and np.array_equal(again.G, ig.G)
+    # a new process reads the cache (no CalculiX run)
+    code = ("import json; from gearopt.gears import Gear; from gearopt.geometry.generation import generate; "
+            "from gearopt.fea.influence import influence_grid; from gearopt.fea.mesh import MeshOptions; "
+            "ig = influence_grid(generate(Gear(z=20, m_n=3.0, b=20.0, name='pinion')), mesh=MeshOptions(n_face=2, "
+            "n_half=3, n_flank=4, n_fillet=3, n_rim=2)); print(json.dumps([ig.cached, float(ig.G.sum())]))")
+    env = dict(os.environ, GEAROPT_CACHE=str(fe_cache), PATH="/nonexistent",
+               PYTHONPATH=os.pathsep.join(sys.path))
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=300)
+    cached, total = json.loads(out.stdout.strip().splitlines()[-1])
+    assert cached and total == pytest.approx(float(ig.G.sum()), rel=1e-12)
+
+
+@pytest.mark.calculix
+@_needs_ccx
+def test_loaded_tca_with_fe_compliance(fe_cache, monkeypatch):
+    monkeypatch.setenv("GEAROPT_CACHE", str(fe_cache))
+    pair = spur()
+    La = LTCA(pair, n_slices=11)
+    Lf = LTCA(pair, n_slices=11, compliance="fe", fe_mesh=_coarse_member_mesh())
+    phi = La.mesh_cycle(16)
+    ra, rf = (L.solve([1e-7, 200.0], phi1=phi).results for L in (La, Lf))
+    assert np.max(np.abs(rf[0].te_loaded_arcsec - ra[0].te_loaded_arcsec)) < 1e-6  # zero load: geometry only
+    assert rf[1].kkt_error.max() < 1e-7
+    assert 0.6 < rf[1].c_gamma / ra[1].c_gamma < 1.8
+    with pytest.raises(OptionError) as e:
+        LTCA(pair, compliance="beam")
+    assert e.value.param == "compliance"

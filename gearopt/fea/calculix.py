@@ -125,10 +125,11 @@ class CcxRun:
     frd: str = ""
 
 
-def run_ccx(deck: Deck, jobname: str = "gear", threads: int = 2, timeout: float = 900.0,
-            keep_dir=None) -> CcxRun:
-    """Write the deck and run ``ccx -i jobname`` in a temporary directory (or ``keep_dir``, which
-    keeps the files). Raises :class:`CalculixError` on a missing executable, timeout or failure."""
+def run_ccx(deck: Deck | None, jobname: str = "gear", threads: int = 2, timeout: float = 900.0,
+            keep_dir=None, inp: str | None = None) -> CcxRun:
+    """Write the deck (or the input text ``inp``) and run ``ccx -i jobname`` in a temporary directory
+    (or ``keep_dir``, which keeps the files). Raises :class:`CalculixError` on a missing executable,
+    timeout or failure."""
     exe = require_ccx()
     tmp = None
     if keep_dir is None:
@@ -138,14 +139,18 @@ def run_ccx(deck: Deck, jobname: str = "gear", threads: int = 2, timeout: float 
         wd = Path(keep_dir)
         wd.mkdir(parents=True, exist_ok=True)
     try:
-        write_inp(deck, wd / f"{jobname}.inp")
+        if inp is not None:
+            (wd / f"{jobname}.inp").write_text(inp)
+        else:
+            write_inp(deck, wd / f"{jobname}.inp")
         env = dict(os.environ, OMP_NUM_THREADS=str(threads), CCX_NPROC_EQUATION_SOLVER=str(threads))
         t0 = time.perf_counter()
         try:
             proc = subprocess.run([exe, "-i", jobname], cwd=wd, env=env, capture_output=True, text=True,
                                   timeout=timeout)
         except subprocess.TimeoutExpired as e:
-            raise CalculixError(f"ccx did not finish within {timeout:g} s ({len(deck.elements)} elements); "
+            size = f"{len(deck.elements)} elements" if deck is not None else "its input"
+            raise CalculixError(f"ccx did not finish within {timeout:g} s ({size}); "
                                 "coarsen the mesh or raise the timeout.") from e
         secs = time.perf_counter() - t0
         log = proc.stdout + proc.stderr

@@ -140,10 +140,17 @@ class LTCA:
         pinion, r_a - r_f).
     tca : TCA, optional
         The unloaded TCA (default: point contact with the members' modifications).
+    compliance : {"analytical", "fe"}
+        Tooth compliance: the analytical thin-slice model, or influence coefficients of each member's
+        CalculiX model (:func:`gearopt.fea.influence.influence_grid`, cached on disk; right flank),
+        with the same Weber-Banaschek contact term.
+    fe_mesh : MeshOptions, optional
+        Member mesh of the FE influence coefficients (default: that of ``influence_grid``).
     """
 
     def __init__(self, pair: GearPair, side: str = "right", material: Material | None = None, n_slices: int = 21,
-                 r_int=None, coupling: float | None = None, tca: TCA | None = None):
+                 r_int=None, coupling: float | None = None, tca: TCA | None = None, compliance: str = "analytical",
+                 fe_mesh=None):
         if not isinstance(pair, GearPair):
             raise ArgumentError(f"pair = {pair!r:.60}: expected a gearopt.gears.GearPair.", param="pair", value=pair,
                                 valid="a gearopt.gears.GearPair")
@@ -172,6 +179,20 @@ class LTCA:
             raise out_of_range("coupling", lam, f"0 <= coupling <= {10 * g1.b:g} mm (10 face widths)", cls=OptionError)
         self.coupling_length = float(lam)
         self.cos_bb = math.cos(g1.beta_b)
+        if compliance not in ("analytical", "fe"):
+            raise out_of_range("compliance", compliance, "'analytical' or 'fe' (CalculiX influence coefficients)",
+                               cls=OptionError)
+        self.compliance = compliance
+        self.influence = None
+        if compliance == "fe":
+            from ..fea.influence import influence_grid
+
+            if self.side != "right":
+                raise out_of_range("side", self.side, "'right' with compliance = 'fe' (the FE model loads the right "
+                                   "flank)", cls=OptionError)
+            self.influence = tuple(influence_grid(t.unmodified, material.E, material.nu, mesh=fe_mesh,
+                                                  r_form=self.tca.form_radius(m))
+                                   for m, t in ((1, self.tca.pinion), (2, self.tca.gear)))
         self._qp: dict = {}
         self.build_time = time.perf_counter() - t0
 
@@ -236,18 +257,24 @@ class LTCA:
         ct_ok = np.where(act & np.isfinite(ct) & (ct > 0), ct, np.nan)
         fill = np.nanmean(ct_ok) if np.isfinite(ct_ok).any() else 1e-4
         ct = np.where(np.isfinite(ct_ok), ct_ok, fill)
-        # bending/shear/foundation matrix of each pair: cos^2(beta_b) D A^-1 D over the used nodes
+        rad1 = np.hypot(S.r1[..., 0], S.r1[..., 1])
+        rad2 = np.hypot(S.r2[..., 0], S.r2[..., 1])
+        # bending/shear/foundation matrix of each pair over the used nodes: cos^2(beta_b) D A^-1 D
+        # (analytical), or both members' FE influence coefficients at the slices' points
         Cs = np.zeros((N, K * M, K * M))
         for k in range(K):
             for n in range(N):
                 u = np.flatnonzero(used[k, n])
+                idx = k * M + u
+                if self.influence is not None:
+                    G1, G2 = self.influence
+                    Cs[n][np.ix_(idx, idx)] = (G1.matrix(rad1[k, n, u], z1[k, n, u])
+                                               + G2.matrix(rad2[k, n, u], z2[k, n, u]))
+                    continue
                 G = coupling(S.z[k, n, u], S.width[k, n, u], self.coupling_length)
                 d = np.sqrt(ct[k, n, u])
-                idx = k * M + u
                 Cs[n][np.ix_(idx, idx)] = cb**2 * d[:, None] * G * d[None, :]
         # Hertz data per node: normal-section reduced radius, depths to the centrelines, line length
-        rad1 = np.hypot(S.r1[..., 0], S.r1[..., 1])
-        rad2 = np.hypot(S.r2[..., 0], S.r2[..., 1])
         rho1 = np.sqrt(np.maximum(rad1**2 - g1.r_b**2, 1e-12)) / cb
         rho2 = np.sqrt(np.maximum(rad2**2 - g2.r_b**2, 1e-12)) / cb
         R = rho1 * rho2 / (rho1 + rho2)

@@ -12,6 +12,7 @@ Scene section ``[ltca]``:
 ``E``, ``nu``   Young's modulus [MPa] and Poisson's ratio (206000, 0.3).
 ``coupling``    coupling length of the slices across the face [mm] (default half the pinion tooth height).
 ``r_int_pinion``, ``r_int_gear``: inner radii of the gear bodies [mm] (default half the root radius).
+``compliance``  "analytical" (default) or "fe" (CalculiX influence coefficients, cached on disk).
 ``dE``, ``crossing``, ``intersecting``, ``axial``: the misalignment of the drive (default aligned).
 
 results.json keys: docs/results.md; ``ltca_positions.csv`` (per torque and position) and
@@ -195,7 +196,7 @@ class LTCAStudy:
                 "pinion_a_c": p.pinion.rack.a_c, "pinion_a_pl": p.pinion.a_pl, "side": L.side}
         m = L.material
         options = {"E_MPa": m.E, "nu": m.nu, "n_slices": L.n_slices, "positions": self.positions,
-                   "coupling_mm": L.coupling_length, "r_int_mm": list(L.r_int), "compliance": "analytical",
+                   "coupling_mm": L.coupling_length, "r_int_mm": list(L.r_int), "compliance": L.compliance,
                    "qp_solver": "qpoases", "torques_Nm": self.torques}
         iso = iso6336_stiffness(p)
         nom = min(data["torques"], key=lambda r: abs(r["torque_Nm"] - self.torque))
@@ -236,7 +237,7 @@ def _from_scene(scene) -> LTCAStudy:
         return LTCAStudy(scene.pair, torque, torques=torques, positions=o.get("positions") or 64,
                          misalignment=misalignment_from(o), name=scene.name, side=o.get("side") or "right",
                          n_slices=o.get("n_slices") or 21, material=Material(E=o["E"], nu=o["nu"]),
-                         coupling=o.get("coupling"), r_int=r_int)
+                         coupling=o.get("coupling"), r_int=r_int, compliance=o.get("compliance") or "analytical")
     except (GeometryError, OptionError) as e:
         raise scene.study_error("ltca", e) from e
 
@@ -275,6 +276,9 @@ def _register():
                   doc="inner radius of the pinion body (default half its root radius)"),
             Field("r_int_gear", "length", check=Bounds(lo=0, lo_open=True, hi=1e5),
                   doc="inner radius of the gear body (default half its root radius)"),
+            Field("compliance", "str", default="analytical", choices=("analytical", "fe"),
+                  doc="tooth compliance: the analytical thin-slice model, or influence coefficients of each member's "
+                      "CalculiX model (needs ccx; cached in $GEAROPT_CACHE or ~/.cache/gearopt)"),
             *misalignment_fields(),
         ], required=True)],
         build=_from_scene,

@@ -1,0 +1,79 @@
+"""Loaded TCA against the CalculiX contact model (docs/ltca.md, validation table).
+
+    python benchmarks/validate_ltca_fe.py            # conjugate spur, crowned spur (3' crossing... aligned here), helical
+    python benchmarks/validate_ltca_fe.py --spur     # the conjugate spur drive only
+
+For each drive and three pinion angles (single and double contact), at 200 N m (E 210 GPa, nu 0.3):
+the loaded approach along the line of action (FE: the loaded pinion rotation times r_b1; loaded TCA:
+delta / cos(beta_b)), and the peak contact pressure in the section through each loaded pair's contact
+(FE: nodal pressure along the profile; loaded TCA: the largest slice p0 of that pair), with the
+analytical compliance and with the FE influence coefficients of the same members (default member
+mesh of gearopt.fea.influence; cached in $GEAROPT_CACHE or ~/.cache/gearopt).
+"""
+
+from __future__ import annotations
+
+import math
+import shutil
+import sys
+import time
+
+import numpy as np
+
+from gearopt.fea import FEOptions, GearFEModel
+from gearopt.gears import BasicRack, Gear, GearPair
+from gearopt.ltca.compliance import Material
+from gearopt.ltca.engine import LTCA
+
+T = 200.0
+
+
+def drives():
+    b = math.radians(15)
+    return {
+        "spur 20/40 conjugate": GearPair(Gear(z=20, m_n=3.0, b=20.0, name="pinion"), Gear(z=40, m_n=3.0, b=20.0, name="gear")),
+        "spur crowned": GearPair(Gear(z=20, m_n=3.0, b=20.0, a_pl=4e-4, rack=BasicRack.iso53("A", a_c=2e-3), name="pinion"),
+                                 Gear(z=40, m_n=3.0, b=20.0, name="gear")),
+        "helical 15 deg": GearPair(Gear(z=21, m_n=2.5, b=24, beta=b, name="pinion"),
+                                   Gear(z=45, m_n=2.5, b=24, beta=b, hand="left", name="gear")),
+    }
+
+
+def main(argv):
+    if shutil.which("ccx") is None:
+        print("ccx (CalculiX) not installed: nothing to validate")
+        return 0
+    names = ["spur 20/40 conjugate"] if "--spur" in argv else list(drives())
+    mat = Material(E=210000.0, nu=0.3)
+    print(f"{'drive':<22} {'phi1 deg':>8} {'pairs':>7} {'FE approach um':>14} {'LTCA-an':>8} {'LTCA-fe':>8} "
+          f"{'err an %':>8} {'err fe %':>8} {'FE p MPa':>9} {'LTCA-fe p':>9} {'err %':>6} {'FE s':>6}")
+    for name in names:
+        pair = drives()[name]
+        z1 = pair.pinion.z
+        step = 2 * math.pi / z1
+        phis = [0.0, -0.3 * step, 0.3 * step]
+        cb = math.cos(pair.pinion.beta_b)
+        lt = {}
+        for c in ("analytical", "fe"):
+            L = LTCA(pair, material=mat, compliance=c)
+            lt[c] = L.solve(T, phi1=phis).results[0]
+        for j, ph in enumerate(phis):
+            t0 = time.perf_counter()
+            m = GearFEModel(pair, ph, FEOptions(torque=T * 1e3, E=mat.E, nu=mat.nu))
+            d = m.run().to_dict()
+            t_fe = time.perf_counter() - t0
+            fe_app = abs(d["pinion_rotation_rad"]) * pair.pinion.r_b
+            an = lt["analytical"].delta[j] / cb
+            fe = lt["fe"].delta[j] / cb
+            k0 = d["contact"]["hertz_pair"]
+            kk = lt["fe"].pairs.index(k0)
+            p_lt = float(np.max(lt["fe"].p0[kk, j]))
+            p_fe = d["contact"]["p_max_mid"]
+            print(f"{name:<22} {math.degrees(ph):8.3f} {str(d['loaded_pairs']):>7} {1000 * fe_app:14.3f} "
+                  f"{1000 * an:8.3f} {1000 * fe:8.3f} {100 * (an / fe_app - 1):8.1f} {100 * (fe / fe_app - 1):8.1f} "
+                  f"{p_fe:9.1f} {p_lt:9.1f} {100 * (p_lt / p_fe - 1):6.1f} {t_fe:6.1f}", flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))

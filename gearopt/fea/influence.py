@@ -1,0 +1,199 @@
+"""Influence coefficients of a member's teeth from its CalculiX model, for loaded TCA (docs/ltca.md).
+
+One member (``teeth`` teeth, rim of ``rim_depth`` modules held at its bottom) is meshed by the FE
+mesher (section 9.5). A unit normal force is applied, one load case (``*STEP``) each, at every node
+of a grid on the driving flank of the central tooth (its flank rows within the active profile, every
+face layer). The response at grid point i is the displacement along the flank normal of the tooth's
+middle-surface node in the same row and layer. This is the deflection of the tooth (bending, shear,
+body) without the local flattening under the load, which loaded TCA adds analytically (Weber &
+Banaschek, measured to the centreline). The matrix is symmetrised (Maxwell), and its asymmetry is
+reported.
+
+Coefficients are cached on disk per geometry (a hash of the gear data, the generated tooth's
+parameters, the material, the grid and the mesh), so a new process reuses them. The cache directory
+is ``$GEAROPT_CACHE`` or ``~/.cache/gearopt``; files are written atomically.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import tempfile
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import GeometryError, out_of_range
+from ..geometry.generation import GeneratedTooth
+from .calculix import CalculixError, read_dat, run_ccx
+from .mesh import MeshOptions, ToothMesher, build_member
+
+CACHE_VERSION = 1
+
+
+def cache_dir() -> Path:
+    """Directory of the influence-coefficient cache (``$GEAROPT_CACHE`` or ``~/.cache/gearopt``)."""
+    base = os.environ.get("GEAROPT_CACHE") or os.path.join(os.path.expanduser("~"), ".cache", "gearopt")
+    return Path(base) / "influence"
+
+
+@dataclass(frozen=True)
+class InfluenceGrid:
+    """Normal compliance of one member's tooth between points of its flank grid.
+
+    Attributes
+    ----------
+    radius : (nr,) radii of the grid rows, ascending [mm]; z : (nz,) face positions [mm].
+    G : (nr, nz, nr, nz) displacement along the normal at (radius_i, z_i) per unit normal force at
+        (radius_j, z_j) [mm/N] (symmetric).
+    asymmetry : largest |G - G^T| / max G before symmetrising; ccx_s : CalculiX time [s];
+    cached : read from the cache; key : the cache key.
+    """
+
+    radius: np.ndarray
+    z: np.ndarray
+    G: np.ndarray
+    asymmetry: float
+    ccx_s: float
+    cached: bool
+    key: str
+
+    def matrix(self, radius, z) -> np.ndarray:
+        """Compliance matrix [mm/N] between points ``(radius[i], z[i])`` of the flank (multilinear
+        interpolation on the grid; points beyond it are clamped onto its edge)."""
+        from scipy.interpolate import RegularGridInterpolator
+
+        r = np.clip(np.asarray(radius, float), self.radius[0], self.radius[-1])
+        zz = np.clip(np.asarray(z, float), self.z[0], self.z[-1])
+        f = RegularGridInterpolator((self.radius, self.z, self.radius, self.z), self.G)
+        n = r.size
+        pts = np.stack([np.repeat(r, n), np.repeat(zz, n), np.tile(r, n), np.tile(zz, n)], axis=1)
+        C = f(pts).reshape(n, n)
+        return 0.5 * (C + C.T)
+
+
+def _key(tooth: GeneratedTooth, E: float, nu: float, mesh: MeshOptions, teeth: int) -> str:
+    g = tooth.gear
+    d = {"v": CACHE_VERSION, "gear": repr(g), "p": np.round(tooth.p0, 15).tolist(), "names": list(tooth.param_names),
+         "E": E, "nu": nu, "mesh": repr(mesh), "teeth": teeth}
+    return hashlib.sha256(json.dumps(d, sort_keys=True).encode()).hexdigest()[:24]
+
+
+def influence_grid(tooth: GeneratedTooth, E: float = 206000.0, nu: float = 0.3, mesh: MeshOptions | None = None,
+                   teeth: int = 3, side: str = "right", r_form: float | None = None, use_cache: bool = True,
+                   threads: int = 2) -> InfluenceGrid:
+    """Influence coefficients of ``tooth``'s driving flank (see the module docstring).
+
+    Parameters
+    ----------
+    tooth : GeneratedTooth
+    E, nu : float
+        Young's modulus [MPa] and Poisson's ratio.
+    mesh : MeshOptions
+        Element counts of the member mesh; its flank rows (``n_flank``) and face layers (``n_face``)
+        are the load grid (default: ``n_flank = 8``, ``n_face = 6``).
+    teeth : int
+        Teeth of the member in the model (the central one loaded).
+    r_form : float, optional
+        Lowest radius of the grid [mm] (default: the flank's end).
+    use_cache : bool
+        Read and write the on-disk cache.
+
+    Returns
+    -------
+    InfluenceGrid
+    """
+    if side != "right":
+        raise out_of_range("side", side, "'right' (the FE model loads the right flank)")
+    mesh = mesh or MeshOptions(n_face=6, n_half=4, n_flank=8, n_fillet=4, n_rim=3)
+    key = _key(tooth, E, nu, mesh, teeth)
+    path = cache_dir() / f"{key}.npz"
+    if use_cache and path.exists():
+        try:
+            d = np.load(path)
+            return InfluenceGrid(radius=d["radius"], z=d["z"], G=d["G"], asymmetry=float(d["asymmetry"]),
+                                 ccx_s=float(d["ccx_s"]), cached=True, key=key)
+        except (OSError, KeyError, ValueError):
+            pass  # a damaged file: compute again
+    m = ToothMesher(tooth, mesh)
+    ids = tuple(range(-(teeth // 2), teeth - teeth // 2))
+    mm = build_member(m, ids, {}, tooth.gear.name or "member", 0.0)
+    t = [t for t in mm.teeth if t["k"] == 0][0]
+    nodes = t["nodes"]  # (layers, rows, cols)
+    r0, r1 = t["section"].segments["flank"]
+    nh = t["section"].n_half
+    X = mm.nodes
+    rows = [r for r in range(r0, r1 + 1) if r_form is None
+            or np.hypot(*X[nodes[nodes.shape[0] // 2, r, -1], :2]) >= r_form - 1e-9]
+    if len(rows) < 2:
+        raise GeometryError(f"influence_grid: fewer than 2 flank rows above r_form = {r_form:.6g} mm; refine n_flank.",
+                            param="mesh.n_flank", value=mesh.n_flank)
+    L = nodes.shape[0]
+    load = np.array([[nodes[layer, r, -1] for layer in range(L)] for r in rows])  # (nr, nz)
+    resp = np.array([[nodes[layer, r, nh] for layer in range(L)] for r in rows])
+    # outward unit normals of the flank at the load nodes, from the surface itself
+    surf = tooth.surface("right", "flank")
+    u_rows = t["u_rows"]
+    normals = np.zeros(load.shape + (3,))
+    for i, r in enumerate(rows):
+        for layer in range(L):
+            zl = X[load[i, layer], 2]
+            uu = u_rows[r] if np.ndim(u_rows) == 1 else u_rows[layer][r]
+            if r == r0:
+                uu = tooth.u_at_radius(tooth.gear.r_a, zl, "right", tooth.p0)
+            normals[i, layer] = np.asarray(surf(uu, zl, tooth.p0)[1]).ravel()
+    fixed = np.unique(mm.rim_bottom) + 1
+    lines = ["** gearopt: influence coefficients of a tooth flank (unit normal loads)", "*NODE, NSET=NALL"]
+    lines += [f"{i + 1}, {x:.12e}, {y:.12e}, {z:.12e}" for i, (x, y, z) in enumerate(X)]
+    lines.append("*ELEMENT, TYPE=C3D8, ELSET=EALL")
+    lines += [f"{i + 1}, " + ", ".join(str(int(n) + 1) for n in e) for i, e in enumerate(mm.elements)]
+    lines += ["*NSET, NSET=FIX"] + [", ".join(str(int(v)) for v in fixed[i:i + 16]) for i in range(0, fixed.size, 16)]
+    ridx = resp.ravel() + 1
+    lines += ["*NSET, NSET=RESP"] + [", ".join(str(int(v)) for v in ridx[i:i + 16]) for i in range(0, ridx.size, 16)]
+    lines += ["*MATERIAL, NAME=STEEL", "*ELASTIC", f"{E:.6e}, {nu:.6f}", "*SOLID SECTION, ELSET=EALL, MATERIAL=STEEL",
+              "*BOUNDARY", "FIX, 1, 3"]
+    flat_load = load.ravel()
+    flat_n = normals.reshape(-1, 3)
+    for j, (nid, nv) in enumerate(zip(flat_load, flat_n)):
+        f = -nv  # a unit force into the tooth
+        lines += ["*STEP", "*STATIC", "*CLOAD, OP=NEW"] + [f"{nid + 1}, {c + 1}, {f[c]:.12e}" for c in range(3)]
+        lines += ["*NODE PRINT, NSET=RESP", "U", "*END STEP"]
+    t0 = time.perf_counter()
+    run = run_ccx(None, jobname="influence", threads=threads, inp="\n".join(lines) + "\n")
+    ccx_s = time.perf_counter() - t0
+    blocks = [b for b in read_dat(run.dat) if b.what.startswith("displacements") and (b.set or "").upper() == "RESP"]
+    n = flat_load.size
+    if len(blocks) != n:
+        raise CalculixError(f"influence_grid: ccx wrote {len(blocks)} displacement blocks for {n} load cases.")
+    pos = {int(v): i for i, v in enumerate(ridx)}
+    G = np.zeros((n, n))
+    for j, b in enumerate(blocks):
+        U = np.zeros((n, 3))
+        for row in b.rows:
+            U[pos[int(row[0])]] = row[1:4]
+        G[:, j] = -np.einsum("ij,ij->i", U, flat_n)  # displacement into the tooth along the normal
+    if not np.all(np.isfinite(G)) or np.any(np.diag(G) <= 0):
+        raise CalculixError("influence_grid: non-finite or non-positive self-compliance in the ccx results.")
+    asym = float(np.max(np.abs(G - G.T)) / np.max(np.abs(G)))
+    G = 0.5 * (G + G.T)
+    radius = np.array([np.hypot(*X[load[i, L // 2], :2]) for i in range(len(rows))])
+    z = X[load[0], 2]
+    order = np.argsort(radius)
+    nr, nz = len(rows), L
+    G4 = G.reshape(nr, nz, nr, nz)[order][:, :, order]
+    out = InfluenceGrid(radius=radius[order], z=z, G=G4, asymmetry=asym, ccx_s=ccx_s, cached=False, key=key)
+    if use_cache:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(suffix=".npz", dir=path.parent)
+        os.close(fd)
+        try:
+            with open(tmp, "wb") as fh:
+                np.savez(fh, radius=out.radius, z=out.z, G=out.G, asymmetry=asym, ccx_s=ccx_s)
+            os.replace(tmp, path)
+        finally:
+            if os.path.exists(tmp):
+                os.unlink(tmp)
+    return out
