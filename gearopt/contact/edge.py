@@ -442,31 +442,10 @@ class EdgeContact:
     def _sections(self, uphi, p1, p2) -> dict:
         """Conjugate contact of the aligned drive with the crowning removed in the pinion sections
         z = s b1 (s in _SECTIONS) at each angle of ``uphi``: {s: (5, M) full unknowns, NaN where
-        none}. Each column is solved by itself (Newton from the linear prediction around phi1 = 0,
-        which depends on that angle only)."""
-        lt = self._line_tca()
-        # the unmodified teeth: the same tool shift x, no crowning, no flank modification
-        lay = self.tca.layout
-        n1, n2 = (len(self.teeth[m].unmodified.param_names) for m in (1, 2))  # generation settings only
-        flat1, flat2 = np.zeros(n1), np.zeros(n2)
-        flat1[lay.p_index("pinion", "x")] = p1[lay.p_index("pinion", "x")]
-        flat2[lay.p_index("gear", "x")] = p2[lay.p_index("gear", "x")]
+        none} (:func:`conjugate_sections`)."""
         b1 = self.members[1].b
-        out = {}
-        for s in self._SECTIONS:
-            zs = s * b1
-            try:
-                w_a = lt.solve_point(0.0, None, flat1, flat2, Misalignment(), zs)
-            except ConvergenceError:
-                continue
-            prm_l = lt.prm(uphi, flat1, flat2, Misalignment(), zs)
-            W0 = lt.branch.predict(w_a, lt.prm([0.0], flat1, flat2, Misalignment(), zs)[:, 0], uphi)
-            W, res, _, _ = (np.asarray(v) for v in lt.branch.mapped(uphi.size)(W0, prm_l))
-            res = res.ravel()
-            Wf = np.asarray(lt.w_full.map(uphi.size)(W, np.full((1, uphi.size), zs)))
-            Wf[:, ~(np.isfinite(res) & (res <= 1e-8))] = np.nan
-            out[s] = Wf
-        return out
+        secs = conjugate_sections(self.tca, self._line_tca(), uphi, p1, p2, [s * b1 for s in self._SECTIONS])
+        return {s: secs[s * b1] for s in self._SECTIONS if s * b1 in secs}
 
     def _u_at(self, member, radius, z, p):
         """Vectorised flank parameter u at transverse ``radius`` and axial ``z`` (Newton; NaN where
@@ -669,6 +648,36 @@ class EdgeContact:
         diff = te_raw_surface.reshape(surf.te.shape) - surf.te
         vals = diff[np.isfinite(diff)]
         return float(np.median(vals)) if vals.size else 0.0
+
+
+def conjugate_sections(tca: TCA, line_tca: TCA, phis, p1, p2, z_sections) -> dict:
+    """Conjugate contact of the aligned drive of ``tca`` with its crowning and flank modifications
+    removed (``line_tca``: a line-contact TCA of the unmodified teeth; only the tool shifts x of
+    ``p1``, ``p2`` kept) in the pinion sections ``z_sections`` [mm] at the angles ``phis`` [rad]:
+    {z: (5, M) full unknowns (u1, z1, u2, z2, r_p2 phi2), NaN where none}. Each column is solved by
+    itself (Newton from the linear prediction around phi1 = 0, which depends on that angle only); a
+    section without a solution at phi1 = 0 is left out. First guesses of edge contact and of the
+    loaded-TCA slices."""
+    lay = tca.layout
+    n1, n2 = (len(t.unmodified.param_names) for t in (tca.pinion, tca.gear))  # generation settings only
+    flat1, flat2 = np.zeros(n1), np.zeros(n2)
+    flat1[lay.p_index("pinion", "x")] = p1[lay.p_index("pinion", "x")]
+    flat2[lay.p_index("gear", "x")] = p2[lay.p_index("gear", "x")]
+    phis = np.asarray(phis, float)
+    out = {}
+    for zs in z_sections:
+        try:
+            w_a = line_tca.solve_point(0.0, None, flat1, flat2, Misalignment(), zs)
+        except ConvergenceError:
+            continue
+        prm_l = line_tca.prm(phis, flat1, flat2, Misalignment(), zs)
+        W0 = line_tca.branch.predict(w_a, line_tca.prm([0.0], flat1, flat2, Misalignment(), zs)[:, 0], phis)
+        W, res, _, _ = (np.asarray(v) for v in line_tca.branch.mapped(phis.size)(W0, prm_l))
+        res = res.ravel()
+        Wf = np.asarray(line_tca.w_full.map(phis.size)(W, np.full((1, phis.size), zs)))
+        Wf[:, ~(np.isfinite(res) & (res <= 1e-8))] = np.nan
+        out[zs] = Wf
+    return out
 
 
 def _edge_kind(name: str):

@@ -616,7 +616,7 @@ class FEResult:
         out.deck, out.frd = deck, run.frd  # for write_vtu (not part of the results dictionary)
         return out
 
-    def write_vtu(self, path) -> "Path":
+    def write_vtu(self, path):
         """The mesh with displacements, stresses and contact pressure as ``.vtu`` (ParaView),
         :func:`gearopt.fea.vtu.write_vtu`."""
         from .vtu import write_vtu

@@ -1,5 +1,5 @@
 """Loaded tooth contact analysis (docs/ltca.md): slices of the potential contact, tooth
 compliance, and the contact problem as a convex QP solved by a CasADi conic solver."""
 
-from .compliance import Material, iso6336_stiffness  # noqa: F401
+from .compliance import Material, iso6336_stiffness  # noqa: F401 (public API)
 from .engine import LTCA, LoadedResult, LoadedSweep  # noqa: F401

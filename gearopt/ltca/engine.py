@@ -32,7 +32,7 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-from ..errors import ArgumentError, ConvergenceError, GeometryError, OptionError, check_number, out_of_range
+from ..errors import ArgumentError, ConvergenceError, OptionError, check_number, out_of_range
 from ..gears import GearPair
 from ..meshing.misalignment import Misalignment
 from ..meshing.tca import TCA

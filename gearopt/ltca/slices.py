@@ -158,27 +158,11 @@ class SliceSolver:
     def _conjugate(self, phis, p1, p2) -> dict:
         """Conjugate contact of the aligned, unmodified drive in the sections ``s b1`` at the angles
         ``phis``: {z: (4, P) unknowns (u1, u2, z2, r_p2 phi2), NaN where none} (first guesses)."""
-        lt = self._line_tca()
-        lay = self.tca.layout
-        n1, n2 = (len(t.unmodified.param_names) for t in (self.tca.pinion, self.tca.gear))
-        flat1, flat2 = np.zeros(n1), np.zeros(n2)
-        flat1[lay.p_index("pinion", "x")] = p1[lay.p_index("pinion", "x")]
-        flat2[lay.p_index("gear", "x")] = p2[lay.p_index("gear", "x")]
+        from ..contact.edge import conjugate_sections
+
         b1 = self.tca.pair.pinion.b
-        out = {}
-        for s in _SECTIONS:
-            zs = s * b1
-            try:
-                w_a = lt.solve_point(0.0, None, flat1, flat2, Misalignment(), zs)
-            except ConvergenceError:
-                continue
-            prm_l = lt.prm(phis, flat1, flat2, Misalignment(), zs)
-            W0 = lt.branch.predict(w_a, lt.prm([0.0], flat1, flat2, Misalignment(), zs)[:, 0], phis)
-            W, res, _, _ = (np.asarray(v) for v in lt.branch.mapped(phis.size)(W0, prm_l))
-            W = W.copy()
-            W[:, ~(np.isfinite(res.ravel()) & (res.ravel() <= 1e-8))] = np.nan
-            out[zs] = W
-        return out
+        secs = conjugate_sections(self.tca, self._line_tca(), phis, p1, p2, [s * b1 for s in _SECTIONS])
+        return {z: W[[0, 2, 3, 4]] for z, W in secs.items()}
 
     def solve(self, phi1, p1=None, p2=None, mis: Misalignment | None = None, pairs=(-1, 0, 1),
               n_slices: int = 21) -> SliceSet:
