@@ -1,6 +1,6 @@
 """Loaded TCA against the CalculiX contact model (docs/ltca.md, validation table).
 
-    python benchmarks/validate_ltca_fe.py            # conjugate spur, crowned spur (3' crossing... aligned here), helical
+    python benchmarks/validate_ltca_fe.py            # conjugate spur, crowned spur, helical (about 10 minutes)
     python benchmarks/validate_ltca_fe.py --spur     # the conjugate spur drive only
 
 For each drive and three pinion angles (single and double contact), at 200 N m (E 210 GPa, nu 0.3):
@@ -8,7 +8,8 @@ the loaded approach along the line of action (FE: the loaded pinion rotation tim
 delta / cos(beta_b)), and the peak contact pressure in the section through each loaded pair's contact
 (FE: nodal pressure along the profile; loaded TCA: the largest slice p0 of that pair), with the
 analytical compliance and with the FE influence coefficients of the same members (default member
-mesh of gearopt.fea.influence; cached in $GEAROPT_CACHE or ~/.cache/gearopt).
+mesh of gearopt.fea.influence; cached in $GEAROPT_CACHE or ~/.cache/gearopt), and the load share of that
+pair (FE: its contact force over the sum of all pairs', from the ccx contact statistics).
 """
 
 from __future__ import annotations
@@ -46,7 +47,8 @@ def main(argv):
     names = ["spur 20/40 conjugate"] if "--spur" in argv else list(drives())
     mat = Material(E=210000.0, nu=0.3)
     print(f"{'drive':<22} {'phi1 deg':>8} {'pairs':>7} {'FE approach um':>14} {'LTCA-an':>8} {'LTCA-fe':>8} "
-          f"{'err an %':>8} {'err fe %':>8} {'FE p MPa':>9} {'LTCA-fe p':>9} {'err %':>6} {'FE s':>6}")
+          f"{'err an %':>8} {'err fe %':>8} {'FE p MPa':>9} {'LTCA-fe p':>9} {'err %':>6} {'FE share':>8} "
+          f"{'LTCA-fe':>7} {'FE s':>6}")
     for name in names:
         pair = drives()[name]
         z1 = pair.pinion.z
@@ -69,9 +71,12 @@ def main(argv):
             kk = lt["fe"].pairs.index(k0)
             p_lt = float(np.max(lt["fe"].p0[kk, j]))
             p_fe = d["contact"]["p_max_mid"]
+            sh_fe = d["pair_share"].get(str(k0)) or 0.0
+            sh_lt = float(lt["fe"].share[kk, j])
             print(f"{name:<22} {math.degrees(ph):8.3f} {str(d['loaded_pairs']):>7} {1000 * fe_app:14.3f} "
                   f"{1000 * an:8.3f} {1000 * fe:8.3f} {100 * (an / fe_app - 1):8.1f} {100 * (fe / fe_app - 1):8.1f} "
-                  f"{p_fe:9.1f} {p_lt:9.1f} {100 * (p_lt / p_fe - 1):6.1f} {t_fe:6.1f}", flush=True)
+                  f"{p_fe:9.1f} {p_lt:9.1f} {100 * (p_lt / p_fe - 1):6.1f} {sh_fe:8.3f} {sh_lt:7.3f} {t_fe:6.1f}",
+                  flush=True)
     return 0
 
 

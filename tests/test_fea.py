@@ -130,6 +130,9 @@ def test_run_pitch_point_against_hertz_and_reaction(model, pair):
     res = model.run().to_dict()
     R = res["reaction"]
     assert R["rel_error"] < 0.01  # gear reaction = T / r_b1 (measured 0.01 %)
+    # the contact force of each pair: all of it on pair 0 at the pitch point (single contact)
+    assert res["pair_force_N"]["0"] == pytest.approx(R["T_over_rb1"], rel=0.01)
+    assert res["pair_share"]["0"] == pytest.approx(1.0, abs=1e-3)
     c = res["contact"]
     assert c["n_positive"] > 0 and c["p_max_mid"] > 0
     # CI mesh (2 elements per Hertz half-width): +8.7 % measured; the 3-4 per b_H mesh of the

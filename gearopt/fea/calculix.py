@@ -106,6 +106,8 @@ def write_inp(deck: Deck, path) -> Path:
               "*NODE PRINT, NSET=NROT", "U",
               "*CONTACT PRINT", "CSTR", "*CONTACT FILE", "CSTR",
               "*NODE FILE", "U", "*EL FILE", "S"]  # displacements and nodal stresses (the .vtu for ParaView)
+    for slave, master in deck.contact_pairs:  # total contact force of each tooth pair (load sharing)
+        lines += [f"*CONTACT PRINT, SLAVE={slave}, MASTER={master}, TOTALS=ONLY", "CF"]
     for es in deck.print_elsets:
         lines += [f"*EL PRINT, ELSET={es}", "S"]
     lines += ["*END STEP", ""]
@@ -230,4 +232,33 @@ def read_frd_block(text: str, name: str) -> dict[int, list[float]] | None:
             nid = int(line[3:13])
             vals = [float(line[13 + 12 * k: 25 + 12 * k]) for k in range((len(line.rstrip()) - 13) // 12)]
             cur[nid] = vals
+    return out
+
+
+_STATS = re.compile(r"^\s*statistics for slave set (?P<slave>\S+), master set (?P<master>\S+) and time\s+(?P<time>\S+)", re.I)
+
+
+def read_contact_statistics(text: str) -> dict:
+    """Per contact pair, the last ``*CONTACT PRINT, SLAVE=, MASTER=, TOTALS=ONLY`` statistics of a
+    ``.dat``: {slave: {"master", "time", "area" [mm^2], "normal_force" [N] (+ = tension, so a pressed
+    contact is negative), "shear_force" [N]}}; pairs out of contact have area and forces 0."""
+    out: dict = {}
+    lines = text.splitlines()
+    for i, line in enumerate(lines):
+        m = _STATS.match(line)
+        if not m:
+            continue
+        rec = {"master": m.group("master"), "time": float(m.group("time"))}
+        for j in range(i + 1, min(i + 30, len(lines))):
+            if lines[j].strip().startswith("area,"):
+                vals = [v for k in range(j + 1, min(j + 4, len(lines))) for v in lines[k].split()][:3]
+                try:
+                    a, fn, fs = (float(v) for v in vals)
+                except ValueError:
+                    a, fn, fs = 0.0, 0.0, 0.0
+                rec.update(area=a, normal_force=fn, shear_force=fs)
+                break
+            if _STATS.match(lines[j]):
+                break
+        out[m.group("slave")] = rec
     return out

@@ -39,7 +39,7 @@ from ..gears import GearPair
 from ..geometry.frames import rot_z_points
 from ..geometry.generation import GeneratedTooth
 from ..meshing.tca import TCA
-from .calculix import CalculixError, Deck, last_block, read_dat, read_frd_block, run_ccx
+from .calculix import CalculixError, Deck, last_block, read_contact_statistics, read_dat, read_frd_block, run_ccx
 from .mesh import GAUSS_C3D8, MemberMesh, MeshOptions, ToothMesher, hex_volume_sign, build_member, face_of, shape
 
 #: ISO 6336-1 single-pair mesh stiffness of steel spur gears, c' ~ 14 N/(mm um), scaled with E below.
@@ -216,7 +216,7 @@ def hertz_point(force: float, lam: tuple, E: float, nu: float) -> dict:
         m = 1.0 - 1.0 / k**2
         return ((k**2 + 1) * ellipe(m) - 2 * ellipk(m)) / ((k**2 - 1) * ellipe(m)) - Fr
 
-    k = 1.0 if Fr < 1e-12 else brentq(f, 1.0 + 1e-9, 1e4, xtol=1e-14)
+    k = 1.0 if Fr < 1e-12 else brentq(f, 1.0 + 1e-9, 1e8, xtol=1e-12)
     Ee = float(ellipe(1.0 - 1.0 / k**2))
     R = 1.0 / (l1 + l2)
     Ep = E / (1 - nu**2)
@@ -586,6 +586,11 @@ class FEResult:
         # also holds the stress singularities where a contact line meets a tip edge or a face end)
         check_physics(phi1=model.phi1, rotation=rotation, r_b1=g1.r_b, F_n=F_n, b=min(g1.b, g2.b), E=o.E,
                       p_max=p_max_mid if math.isfinite(p_max_mid) else float(press.max()), p0=hz["p0"])
+        # normal contact force of each tooth pair (load sharing), from the contact statistics per pair
+        stats = read_contact_statistics(run.dat)
+        fn = {k: -float(stats.get(f"SP{k + 10}", {}).get("normal_force", 0.0)) for k in model.tooth_ids}
+        pair_force = {str(k): (v if math.isfinite(v) and v > 0 else 0.0) for k, v in fn.items()}
+        tot = sum(pair_force.values())
         te_arcsec = rotation * (g1.z / g2.z) * 206264.806  # gear lag equivalent of the pinion's extra rotation
         data = {
             "phi1": model.phi1, "phi2": model.phi2, "loaded_pairs": model.loaded,
@@ -595,6 +600,7 @@ class FEResult:
             "n_elements": model.n_elements, "n_nodes": model.n_nodes, "element_type": o.element_type,
             "reaction": {"gear_rim_force": R.tolist(), "magnitude": float(np.linalg.norm(R[:2])),
                          "T_over_rb1": F_n, "rel_error": float(rel)},
+            "pair_force_N": pair_force, "pair_share": {k: (v / tot if tot > 0 else None) for k, v in pair_force.items()},
             "pinion_rotation_rad": rotation,
             "loaded_te_arcsec": float(te_arcsec),
             "contact": {"p_max": float(press.max()), "p_max_mid": p_max_mid,

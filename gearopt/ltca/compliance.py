@@ -250,3 +250,4 @@ def iso6336_stiffness(pair) -> dict:
     eps = pair.eps_alpha
     return {"q_prime": q, "c_th": c_th, "C_B": C_B, "c_prime": c_p, "eps_alpha": eps,
             "c_gamma_alpha": c_p * (0.75 * eps + 0.25)}
+
