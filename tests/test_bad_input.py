@@ -557,7 +557,9 @@ def test_fe_physics_accepts_the_validated_model():
     from gearopt.fea.model import check_physics
 
     check_physics(**GOOD_FE)
-    check_physics(**{**GOOD_FE, "p_max": 4 * 1454.7})  # a crowned point contact is allowed a higher peak
+    # the reference is the case's own Hertz value (the ellipse for a crowned point contact): a mesh
+    # error of up to 3x is tolerated, not more
+    check_physics(**{**GOOD_FE, "p_max": 2.9 * 1454.7})
 
 
 @pytest.mark.parametrize("change, needle", [
@@ -565,6 +567,7 @@ def test_fe_physics_accepts_the_validated_model():
     (dict(rotation=0.35), "not an elastic deflection"),
     (dict(rotation=math.nan), "non-finite pinion rotation"),
     (dict(p_max=2.9e5), "peak contact pressure 2.9e\\+05 MPa"),
+    (dict(p_max=3.2 * 1454.7), "more than 3 x the Hertz"),
     (dict(p_max=math.inf), "non-finite"),
 ])
 def test_fe_garbage_raises_calculix_error(change, needle):
