@@ -343,7 +343,10 @@ class GearFEModel:
                                 param="phi1", value=self.phi1)
         self.phi2 = float(np.nanmax(np.where(on, res.phi2[:, 0], np.nan)))
         gap = (self.phi2 - res.phi2[:, 0]) * pair.gear.r_b  # separation of each pair along the line of action
-        self.loaded = [k for k, o_, gp in zip(self.tooth_ids, on, gap) if o_ and gp < 5e-3]
+        # pairs that the load can close: within twice the estimated loaded approach (ISO 6336-1 c'), at
+        # least 5 um; their contact zones are graded (a coarse faceted flank would keep them open)
+        reach = max(5e-3, 2.0 * o.torque / g1.r_b / (MESH_STIFFNESS * min(g1.b, g2.b)))
+        self.loaded = [k for k, o_, gp in zip(self.tooth_ids, on, gap) if o_ and gp < reach]
         self.contact = {k: {"u1": float(res.u1[i, 0]), "u2": float(res.u2[i, 0]), "z1": float(res.z1[i, 0]),
                             "radius1": float(res.radius1[i, 0]), "radius2": float(res.radius2[i, 0]),
                             "gap": float(gap[i]), "on_surface": bool(on[i])}
