@@ -347,6 +347,8 @@ class GearFEModel:
         # least 5 um; their contact zones are graded (a coarse faceted flank would keep them open)
         reach = max(5e-3, 2.0 * o.torque / g1.r_b / (MESH_STIFFNESS * min(g1.b, g2.b)))
         self.loaded = [k for k, o_, gp in zip(self.tooth_ids, on, gap) if o_ and gp < reach]
+        if not (g1.is_spur and g2.is_spur):  # inclined contact lines: a pair may touch off the middle section
+            self.loaded = sorted(self.loaded + self._helical_reach(reach))
         self.contact = {k: {"u1": float(res.u1[i, 0]), "u2": float(res.u2[i, 0]), "z1": float(res.z1[i, 0]),
                             "radius1": float(res.radius1[i, 0]), "radius2": float(res.radius2[i, 0]),
                             "gap": float(gap[i]), "on_surface": bool(on[i])}
@@ -360,7 +362,7 @@ class GearFEModel:
         cb = math.cos(g1.beta_b)
         point = tca.contact_type == "point"
         for i, k in enumerate(self.tooth_ids):
-            if k not in self.loaded:
+            if k not in self.loaded or not on[i]:  # the Hertz references: pairs touching in the middle section
                 continue
             c = self.contact[k]
             if point and np.isfinite(res.ellipse_a[i, 0]) and np.isfinite(res.ellipse_b[i, 0]):
@@ -412,34 +414,73 @@ class GearFEModel:
         self.nodes_gear = Xg
         self.build_time = time.perf_counter() - t0
 
-    def _layer_contact(self, m1: ToothMesher, m2: ToothMesher, k: int):
-        """Contact parameters (u1 per pinion layer, u2 per gear layer) of pair k: the line contact of
-        the aligned, unmodified teeth in each pinion section (None if a section has none)."""
+    def _section_contacts(self, k: int, zs):
+        """The line contact of pair k of the aligned, unmodified teeth in the pinion sections ``zs``
+        [mm]: (u1, u2, z2, phi2, radius1, radius2) arrays (phi2 with the pair's shift, as the TCA's),
+        or None if a section has none."""
         tca, pair = self.tca, self.pair
-        lt = TCA(pair, side="right", pinion=tca.pinion.unmodified, gear=tca.gear.unmodified, contact="line")
+        if getattr(self, "_lt", None) is None:
+            self._lt = TCA(pair, side="right", pinion=tca.pinion.unmodified, gear=tca.gear.unmodified, contact="line")
+        lt = self._lt
         lay = tca.layout
         flat1, flat2 = np.zeros(len(tca.pinion.unmodified.param_names)), np.zeros(len(tca.gear.unmodified.param_names))
         flat1[lay.p_index("pinion", "x")] = tca.pinion.p0[lay.p_index("pinion", "x")]
         flat2[lay.p_index("gear", "x")] = tca.gear.p0[lay.p_index("gear", "x")]
         phi = self.phi1 - 2 * math.pi * k / pair.pinion.z
-        u1, u2, z2 = [], [], []
+        S1, S2 = tca.pinion.unmodified.surface("right", "flank"), tca.gear.unmodified.surface("right", "flank")
+        rows = []
         w = None
-        for z in m1.z:
+        for z in zs:
             try:
                 w = lt.solve_point(phi, w, flat1, flat2, None, float(z))
             except GearoptError:
-                return None
-            u1.append(w[0])
-            u2.append(w[1])
-            z2.append(w[2])
+                rows.append((np.nan,) * 6)  # no contact in this section (e.g. below a base circle)
+                w = None
+                continue
+            r1 = np.asarray(S1(w[0], float(z), flat1)[0]).ravel()
+            r2 = np.asarray(S2(w[1], w[2], flat2)[0]).ravel()
+            rows.append((w[0], w[1], w[2], w[3] / lt.scale2 + 2 * math.pi * k / pair.gear.z, np.hypot(r1[0], r1[1]),
+                         np.hypot(r2[0], r2[1])))
+        out = tuple(np.array(c, float) for c in zip(*rows))
+        return out if np.isfinite(out[0]).any() else None
+
+    def _layer_contact(self, m1: ToothMesher, m2: ToothMesher, k: int):
+        """Contact parameters (u1 per pinion layer, u2 per gear layer) of pair k: the line contact of
+        the aligned, unmodified teeth in each pinion section (None if a section has none)."""
+        sol = self._section_contacts(k, m1.z)
+        if sol is None or not np.isfinite(sol[0]).all():
+            return None
+        u1, u2, z2 = sol[:3]
         order = np.argsort(z2)
-        return np.array(u1), np.interp(m2.z, np.array(z2)[order], np.array(u2)[order])
+        return u1, np.interp(m2.z, z2[order], u2[order])
+
+    def _helical_reach(self, reach: float) -> list:
+        """Helical pairs not touching in the middle section whose contact line lies on both active
+        flanks in some section within ``reach`` [mm] of closing (they carry load)."""
+        pair, tca = self.pair, self.tca
+        g1, g2 = pair.pinion, pair.gear
+        zs = np.linspace(-g1.b / 2, g1.b / 2, 9)
+        f1, f2 = tca.form_radius(1), tca.form_radius(2)
+        out = []
+        for k in self.tooth_ids:
+            if k in self.loaded:
+                continue
+            sol = self._section_contacts(k, zs)
+            if sol is None:
+                continue
+            _, _, z2, phi2, rad1, rad2 = sol
+            with np.errstate(invalid="ignore"):
+                on = (rad1 >= f1) & (rad1 <= g1.r_a) & (rad2 >= f2) & (rad2 <= g2.r_a) & (np.abs(z2) <= g2.b / 2)
+            on &= np.isfinite(phi2)
+            if on.any() and float(np.min((self.phi2 - phi2[on]) * g2.r_b)) < reach:
+                out.append(k)
+        return out
 
     @staticmethod
     def _first_layer(g, radii, mo) -> float:
         if mo.h_contact <= 0 or not radii:
             return 0.0
-        half = min(g.s_at(max(r, g.r_b)) / 2 for r in radii)
+        half = min(g.s_at(min(max(r, g.r_b), g.r_a)) / 2 for r in radii if math.isfinite(r))
         return mo.h_contact / half
 
     # ------------------------------------------------------------------------------------------
@@ -574,7 +615,7 @@ class FEResult:
                              "radius_at_max_mid": float(rad[i_mid]), "z_at_max_mid": float(X[i_mid, 2]),
                              "max_von_mises": float(vm.max()), "n_points": int(len(s1))}
         # the pair nearest the pitch point: its Hertz reference and the FE pressure at mid face
-        k0 = min(model.loaded, key=lambda k: abs(model.contact[k]["radius1"] - g1.r_p))
+        k0 = min(model.hertz, key=lambda k: abs(model.contact[k]["radius1"] - g1.r_p))
         hz = model.hertz[k0]
         p_max_mid = p_mid_max.get(k0, float("nan"))
         # ISO / Lewis estimates of the root stress for the whole load on the loaded pair (single contact)
