@@ -1,13 +1,17 @@
 """Influence coefficients of a member's teeth from its CalculiX model, for loaded TCA (docs/ltca.md).
 
-One member (``teeth`` teeth, rim of ``rim_depth`` modules held at its bottom) is meshed by the FE
-mesher (section 9.5). A unit normal force is applied, one load case (``*STEP``) each, at every node
-of a grid on the driving flank of the central tooth (its flank rows within the active profile, every
-face layer). The response at grid point i is the displacement along the flank normal of the tooth's
-middle-surface node in the same row and layer. This is the deflection of the tooth (bending, shear,
-body) without the local flattening under the load, which loaded TCA adds analytically (Weber &
-Banaschek, measured to the centreline). The matrix is symmetrised (Maxwell), and its asymmetry is
-reported.
+One member (``teeth`` teeth, rim of ``rim_depth`` modules held at its bottom arc and both sector
+sides, as the contact model holds its members) is meshed by the FE mesher (section 9.5). A unit
+normal force is applied, one load case (``*STEP``) each, at every node of a grid on the driving flank
+of the central tooth (its flank rows within the active profile, every face layer). The response at
+grid point i is the displacement along the flank normal at the point where the load line of i (the
+flank normal through it) meets the tooth's middle line in the same layer, interpolated between the
+two middle-line nodes there. This is the deflection of the tooth (bending, shear, body) without the
+local flattening between the flank and that point, which loaded TCA adds analytically (Weber &
+Banaschek, measured to the centreline along the same line). The middle node of the same row lies
+about 0.8 mm further up the tooth (20/40 spur pinion, pitch point); taking the response there made the
+loaded approach 10 % larger, through the tooth's bending slope over that distance. The matrix is
+symmetrised (Maxwell), and its asymmetry is reported.
 
 Coefficients are cached on disk per geometry (a hash of the gear data, the generated tooth's
 parameters, the material, the grid and the mesh), so a new process reuses them. The cache directory
@@ -31,7 +35,7 @@ from ..geometry.generation import GeneratedTooth
 from .calculix import CalculixError, read_dat, run_ccx
 from .mesh import MeshOptions, ToothMesher, build_member
 
-CACHE_VERSION = 1
+CACHE_VERSION = 3
 
 
 def cache_dir() -> Path:
@@ -82,6 +86,35 @@ def _key(tooth: GeneratedTooth, E: float, nu: float, mesh: MeshOptions, teeth: i
     return hashlib.sha256(json.dumps(d, sort_keys=True).encode()).hexdigest()[:24]
 
 
+def _middle_points(X, nodes, load, normals, mid_rows, nh):
+    """For each load node, the two middle-line nodes (same layer) between which its load line crosses
+    the middle line, and the interpolation weight: ``(pairs (n, 2), w (n,))`` (flattened like ``load``)."""
+    pairs, w = [], []
+    for i in range(load.shape[0]):
+        for layer in range(load.shape[1]):
+            P = X[nodes[layer, mid_rows, nh], :2]
+            x0 = X[load[i, layer], :2]
+            d = -normals[i, layer, :2]
+            d = d / np.linalg.norm(d)
+            hit = None
+            for q in range(len(P) - 1):
+                e = P[q + 1] - P[q]
+                A = np.column_stack([d, -e])
+                if abs(np.linalg.det(A)) < 1e-14:
+                    continue
+                s_, t_ = np.linalg.solve(A, P[q] - x0)
+                if s_ > 0 and -1e-9 <= t_ <= 1 + 1e-9 and (hit is None or s_ < hit[2]):
+                    hit = (q, min(max(t_, 0.0), 1.0), s_)
+            if hit is None:
+                raise GeometryError(f"influence_grid: the load line of flank row {i}, face layer {layer} does not "
+                                    "meet the tooth's middle line above the fillet end; the member mesh is not a "
+                                    "tooth (check the gear data).", param="mesh", value=None)
+            q, t_, _ = hit
+            pairs.append((nodes[layer, mid_rows[q], nh], nodes[layer, mid_rows[q + 1], nh]))
+            w.append(t_)
+    return np.array(pairs, int), np.array(w, float)
+
+
 def influence_grid(tooth: GeneratedTooth, E: float = 206000.0, nu: float = 0.3, mesh: MeshOptions | None = None,
                    teeth: int = 3, side: str = "right", r_form: float | None = None, use_cache: bool = True,
                    threads: int = 2) -> InfluenceGrid:
@@ -94,7 +127,8 @@ def influence_grid(tooth: GeneratedTooth, E: float = 206000.0, nu: float = 0.3, 
         Young's modulus [MPa] and Poisson's ratio.
     mesh : MeshOptions
         Element counts of the member mesh; its flank rows (``n_flank``) and face layers (``n_face``)
-        are the load grid (default: ``n_flank = 8``, ``n_face = 6``).
+        are the load grid (default: ``n_flank = 8``, ``n_face = 6``; ``n_half = 6``, ``n_fillet = 5``,
+        ``n_rim = 4`` as the contact model's default mesh).
     teeth : int
         Teeth of the member in the model (the central one loaded).
     r_form : float, optional
@@ -108,7 +142,7 @@ def influence_grid(tooth: GeneratedTooth, E: float = 206000.0, nu: float = 0.3, 
     """
     if side != "right":
         raise out_of_range("side", side, "'right' (the FE model loads the right flank)")
-    mesh = mesh or MeshOptions(n_face=6, n_half=4, n_flank=8, n_fillet=4, n_rim=3)
+    mesh = mesh or MeshOptions(n_face=6, n_half=6, n_flank=8, n_fillet=5, n_rim=4)
     key = _key(tooth, E, nu, mesh, teeth)
     path = cache_dir() / f"{key}.npz"
     if use_cache and path.exists():
@@ -133,7 +167,7 @@ def influence_grid(tooth: GeneratedTooth, E: float = 206000.0, nu: float = 0.3, 
                             param="mesh.n_flank", value=mesh.n_flank)
     L = nodes.shape[0]
     load = np.array([[nodes[layer, r, -1] for layer in range(L)] for r in rows])  # (nr, nz)
-    resp = np.array([[nodes[layer, r, nh] for layer in range(L)] for r in rows])
+    mid_rows = np.arange(0, t["section"].segments["fillet"][1] + 1)  # the middle line, tip to fillet end
     # outward unit normals of the flank at the load nodes, from the surface itself
     surf = tooth.surface("right", "flank")
     u_rows = t["u_rows"]
@@ -145,13 +179,18 @@ def influence_grid(tooth: GeneratedTooth, E: float = 206000.0, nu: float = 0.3, 
             if r == r0:
                 uu = tooth.u_at_radius(tooth.gear.r_a, zl, "right", tooth.p0)
             normals[i, layer] = np.asarray(surf(uu, zl, tooth.p0)[1]).ravel()
-    fixed = np.unique(mm.rim_bottom) + 1
+    # held like the contact model's members (docs/fea.md): the rim's bottom arc and both sector sides
+    # response point of each load: where the load line meets the tooth's middle line in its layer
+    # (Weber's depth h is measured to there; the middle node of the same row lies off the load line, and
+    # the bending slope between the two points is of the order of the whole local term)
+    resp_pair, resp_w = _middle_points(X, nodes, load, normals, mid_rows, nh)
+    fixed = np.unique(np.r_[mm.rim_bottom, mm.rim_sides]) + 1
     lines = ["** gearopt: influence coefficients of a tooth flank (unit normal loads)", "*NODE, NSET=NALL"]
     lines += [f"{i + 1}, {x:.12e}, {y:.12e}, {z:.12e}" for i, (x, y, z) in enumerate(X)]
     lines.append("*ELEMENT, TYPE=C3D8, ELSET=EALL")
     lines += [f"{i + 1}, " + ", ".join(str(int(n) + 1) for n in e) for i, e in enumerate(mm.elements)]
     lines += ["*NSET, NSET=FIX"] + [", ".join(str(int(v)) for v in fixed[i:i + 16]) for i in range(0, fixed.size, 16)]
-    ridx = resp.ravel() + 1
+    ridx = np.unique(resp_pair) + 1
     lines += ["*NSET, NSET=RESP"] + [", ".join(str(int(v)) for v in ridx[i:i + 16]) for i in range(0, ridx.size, 16)]
     lines += ["*MATERIAL, NAME=STEEL", "*ELASTIC", f"{E:.6e}, {nu:.6f}", "*SOLID SECTION, ELSET=EALL, MATERIAL=STEEL",
               "*BOUNDARY", "FIX, 1, 3"]
@@ -169,11 +208,14 @@ def influence_grid(tooth: GeneratedTooth, E: float = 206000.0, nu: float = 0.3, 
     if len(blocks) != n:
         raise CalculixError(f"influence_grid: ccx wrote {len(blocks)} displacement blocks for {n} load cases.")
     pos = {int(v): i for i, v in enumerate(ridx)}
+    ia = np.array([pos[int(v) + 1] for v in resp_pair[:, 0]])
+    ib = np.array([pos[int(v) + 1] for v in resp_pair[:, 1]])
     G = np.zeros((n, n))
     for j, b in enumerate(blocks):
-        U = np.zeros((n, 3))
+        Um = np.zeros((ridx.size, 3))
         for row in b.rows:
-            U[pos[int(row[0])]] = row[1:4]
+            Um[pos[int(row[0])]] = row[1:4]
+        U = (1.0 - resp_w)[:, None] * Um[ia] + resp_w[:, None] * Um[ib]
         G[:, j] = -np.einsum("ij,ij->i", U, flat_n)  # displacement into the tooth along the normal
     if not np.all(np.isfinite(G)) or np.any(np.diag(G) <= 0):
         raise CalculixError("influence_grid: non-finite or non-positive self-compliance in the ccx results.")
