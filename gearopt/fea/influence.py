@@ -35,7 +35,7 @@ from ..geometry.generation import GeneratedTooth
 from .calculix import CalculixError, read_dat, run_ccx
 from .mesh import MeshOptions, ToothMesher, build_member
 
-CACHE_VERSION = 3
+CACHE_VERSION = 4
 
 
 def cache_dir() -> Path:
@@ -55,6 +55,8 @@ class InfluenceGrid:
         (radius_j, z_j) [mm/N] (symmetric).
     asymmetry : largest |G - G^T| / max G before symmetrising; ccx_s : CalculiX time [s];
     cached : read from the cache; key : the cache key.
+    depth : (nr, nz) distance from each grid point along its load line to the response point on the
+        tooth's middle line [mm] (Weber's depth ``h``).
     """
 
     radius: np.ndarray
@@ -64,6 +66,7 @@ class InfluenceGrid:
     ccx_s: float
     cached: bool
     key: str
+    depth: np.ndarray | None = None
 
     def matrix(self, radius, z) -> np.ndarray:
         """Compliance matrix [mm/N] between points ``(radius[i], z[i])`` of the flank (multilinear
@@ -79,17 +82,18 @@ class InfluenceGrid:
         return 0.5 * (C + C.T)
 
 
-def _key(tooth: GeneratedTooth, E: float, nu: float, mesh: MeshOptions, teeth: int) -> str:
+def _key(tooth: GeneratedTooth, E: float, nu: float, mesh: MeshOptions, teeth: int, r_form) -> str:
     g = tooth.gear
     d = {"v": CACHE_VERSION, "gear": repr(g), "p": np.round(tooth.p0, 15).tolist(), "names": list(tooth.param_names),
-         "E": E, "nu": nu, "mesh": repr(mesh), "teeth": teeth}
+         "E": E, "nu": nu, "mesh": repr(mesh), "teeth": teeth, "r_form": None if r_form is None else round(r_form, 9)}
     return hashlib.sha256(json.dumps(d, sort_keys=True).encode()).hexdigest()[:24]
 
 
 def _middle_points(X, nodes, load, normals, mid_rows, nh):
     """For each load node, the two middle-line nodes (same layer) between which its load line crosses
-    the middle line, and the interpolation weight: ``(pairs (n, 2), w (n,))`` (flattened like ``load``)."""
-    pairs, w = [], []
+    the middle line, the interpolation weight and the distance to the crossing [mm]:
+    ``(pairs (n, 2), w (n,), depth (n,))`` (flattened like ``load``)."""
+    pairs, w, depth = [], [], []
     for i in range(load.shape[0]):
         for layer in range(load.shape[1]):
             P = X[nodes[layer, mid_rows, nh], :2]
@@ -109,10 +113,11 @@ def _middle_points(X, nodes, load, normals, mid_rows, nh):
                 raise GeometryError(f"influence_grid: the load line of flank row {i}, face layer {layer} does not "
                                     "meet the tooth's middle line above the fillet end; the member mesh is not a "
                                     "tooth (check the gear data).", param="mesh", value=None)
-            q, t_, _ = hit
+            q, t_, s_ = hit
             pairs.append((nodes[layer, mid_rows[q], nh], nodes[layer, mid_rows[q + 1], nh]))
             w.append(t_)
-    return np.array(pairs, int), np.array(w, float)
+            depth.append(s_)
+    return np.array(pairs, int), np.array(w, float), np.array(depth, float)
 
 
 def influence_grid(tooth: GeneratedTooth, E: float = 206000.0, nu: float = 0.3, mesh: MeshOptions | None = None,
@@ -143,13 +148,13 @@ def influence_grid(tooth: GeneratedTooth, E: float = 206000.0, nu: float = 0.3, 
     if side != "right":
         raise out_of_range("side", side, "'right' (the FE model loads the right flank)")
     mesh = mesh or MeshOptions(n_face=6, n_half=6, n_flank=8, n_fillet=5, n_rim=4)
-    key = _key(tooth, E, nu, mesh, teeth)
+    key = _key(tooth, E, nu, mesh, teeth, r_form)
     path = cache_dir() / f"{key}.npz"
     if use_cache and path.exists():
         try:
             d = np.load(path)
             return InfluenceGrid(radius=d["radius"], z=d["z"], G=d["G"], asymmetry=float(d["asymmetry"]),
-                                 ccx_s=float(d["ccx_s"]), cached=True, key=key)
+                                 ccx_s=float(d["ccx_s"]), cached=True, key=key, depth=d["depth"])
         except (OSError, KeyError, ValueError):
             pass  # a damaged file: compute again
     m = ToothMesher(tooth, mesh)
@@ -183,7 +188,7 @@ def influence_grid(tooth: GeneratedTooth, E: float = 206000.0, nu: float = 0.3, 
     # response point of each load: where the load line meets the tooth's middle line in its layer
     # (Weber's depth h is measured to there; the middle node of the same row lies off the load line, and
     # the bending slope between the two points is of the order of the whole local term)
-    resp_pair, resp_w = _middle_points(X, nodes, load, normals, mid_rows, nh)
+    resp_pair, resp_w, depth = _middle_points(X, nodes, load, normals, mid_rows, nh)
     fixed = np.unique(np.r_[mm.rim_bottom, mm.rim_sides]) + 1
     lines = ["** gearopt: influence coefficients of a tooth flank (unit normal loads)", "*NODE, NSET=NALL"]
     lines += [f"{i + 1}, {x:.12e}, {y:.12e}, {z:.12e}" for i, (x, y, z) in enumerate(X)]
@@ -226,14 +231,15 @@ def influence_grid(tooth: GeneratedTooth, E: float = 206000.0, nu: float = 0.3, 
     order = np.argsort(radius)
     nr, nz = len(rows), L
     G4 = G.reshape(nr, nz, nr, nz)[order][:, :, order]
-    out = InfluenceGrid(radius=radius[order], z=z, G=G4, asymmetry=asym, ccx_s=ccx_s, cached=False, key=key)
+    out = InfluenceGrid(radius=radius[order], z=z, G=G4, asymmetry=asym, ccx_s=ccx_s, cached=False, key=key,
+                        depth=depth.reshape(nr, nz)[order])
     if use_cache:
         path.parent.mkdir(parents=True, exist_ok=True)
         fd, tmp = tempfile.mkstemp(suffix=".npz", dir=path.parent)
         os.close(fd)
         try:
             with open(tmp, "wb") as fh:
-                np.savez(fh, radius=out.radius, z=out.z, G=out.G, asymmetry=asym, ccx_s=ccx_s)
+                np.savez(fh, radius=out.radius, z=out.z, G=out.G, asymmetry=asym, ccx_s=ccx_s, depth=out.depth)
             os.replace(tmp, path)
         finally:
             if os.path.exists(tmp):
