@@ -199,7 +199,11 @@ def test_spur_load_sharing_and_hertz_pressure(spur_sweep):
     share = r.share
     assert np.allclose(share.sum(axis=0), 1.0, atol=1e-9)
     single = (share.max(axis=0) > 1 - 1e-9)
-    assert 0.2 < single.mean() < 0.6  # eps_alpha = 1.64: about 36 % single-pair contact
+    single0 = (sw.results[0].share.max(axis=0) > 1 - 1e-9)
+    assert 0.3 < single0.mean() < 0.42  # unloaded: eps_alpha = 1.64, about 36 % single-pair contact
+    # under load the tip edges touch before the next flank contact starts (premature contact of
+    # unrelieved teeth): the single-pair zone shrinks but remains
+    assert 0.0 < single.mean() < single0.mean()
     # single-pair contact of a conjugate spur pair: uniform line load W/b, the Hertz pressure of the
     # involute radii there (independent formula)
     j = int(np.flatnonzero(single)[len(np.flatnonzero(single)) // 2])
@@ -242,6 +246,43 @@ def test_helical_pairs_share_the_load_and_te_is_smaller_than_spur():
     Ls = LTCA(spur(), n_slices=11)
     rs = Ls.solve(150.0, phi1=Ls.mesh_cycle(24)).results[0]
     assert r.peak_to_peak_arcsec < 0.5 * rs.peak_to_peak_arcsec
+
+
+def test_tip_edge_slices_close_beyond_the_contact_line_and_carry_load_only_under_it():
+    # unmodified helical pair at three pairs in mesh: the contact lines of pairs -1 and +1 leave the
+    # flanks at a tip; beyond, the tip edges are slices (pinion tip: edge 1, gear tip: edge 2)
+    pair = GearPair(Gear(z=21, m_n=2.5, b=24.0, beta=15 * DEG), Gear(z=45, m_n=2.5, b=24.0, beta=15 * DEG,
+                                                                     hand="left"))
+    L = LTCA(pair)
+    S = L.slices(phi1=np.array([0.0]))
+    assert {1, 2} <= set(np.unique(S.edge[S.active]).tolist())
+    g1, g2 = pair.pinion, pair.gear
+    lever = g2.r_b * math.cos(g1.beta_b)
+    for k in range(len(S.pairs)):
+        e = S.edge[k, 0]
+        on = S.active[k, 0] & (e > 0)
+        if not on.any():
+            continue
+        # the edge point is on its tip and on the mating flank inside its limits
+        tip = g1 if e[on][0] == 1 else g2
+        r_own = S.r1 if e[on][0] == 1 else S.r2
+        assert np.allclose(np.hypot(r_own[k, 0, on, 0], r_own[k, 0, on, 1]), tip.r_a, atol=1e-7)
+        # separations: >= 0, zero only at the end of the contact line, growing away from it (convex flanks)
+        sep = (S.te_unloaded[0] - S.te[k, 0, on]) * lever
+        z = S.z[k, 0, on]
+        flank = S.active[k, 0] & (S.edge[k, 0] == 0)
+        z_end = S.z[k, 0, flank]
+        d = np.min(np.abs(z[:, None] - z_end[None, :]), axis=1)
+        order = np.argsort(d)
+        assert np.all(sep > -1e-9) and np.all(np.diff(sep[order]) > 0)
+    # the unloaded TE is the flank contact's (the edges do not touch at zero load) ...
+    flank_only = np.max(np.where(S.active & (S.edge == 0), S.te, -np.inf))
+    assert S.te_unloaded[0] == flank_only
+    # ... and under load the edges next to the contact lines close
+    light, heavy = L.solve([1.0, 400.0], slices=S).results
+    edge_load = lambda r: float(np.sum(np.where(S.edge > 0, r.load, 0.0)))  # noqa: E731
+    assert edge_load(light) == 0.0 and edge_load(heavy) > 0.01 * heavy.W
+    assert heavy.kkt_error.max() < 1e-7
 
 
 # --- bad input ----------------------------------------------------------------------------------

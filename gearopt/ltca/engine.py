@@ -42,6 +42,7 @@ from .slices import SliceSet, SliceSolver
 
 HERTZ_TOL = 1e-7  #: the Hertz fixed point stops when no slice load changes by more than this x W
 HERTZ_MAX_ITER = 30
+EDGE_RADIUS = 0.05  #: rounding of an unrelieved tip edge [m_n]: the Hertz radius of a tip-edge slice
 QP_SOLVER = "qpoases"  #: CasADi conic plugin of the contact QP
 F_MIN_SHARE = 1e-3  #: Weber's logarithm uses at least this share of the mean line load
 
@@ -77,6 +78,7 @@ class LoadedResult:
     stiffness : (N,) mesh stiffness W / delta [N/um] (secant, including the separations closed).
     kkt_error : (N,) largest violation of the contact conditions [mm].
     hertz_iterations : (N,) fixed-point iterations; solve_time [s].
+    edge : (K, N, M) tip-edge slices (1 pinion tip, 2 gear tip, 0 flank; ``SliceSet.edge``).
     """
 
     torque: float
@@ -98,6 +100,7 @@ class LoadedResult:
     solve_time: float
     face_width: float
     stats: dict = field(default_factory=dict)
+    edge: np.ndarray | None = None
 
     @property
     def te_loaded_arcsec(self) -> np.ndarray:
@@ -110,9 +113,29 @@ class LoadedResult:
         return float(np.nanmax(t) - np.nanmin(t))
 
     @property
+    def p0_flank(self) -> np.ndarray:
+        """(K, N, M) Hertz peak pressure of the flank slices [MPa] (0 on tip-edge slices)."""
+        return self.p0 if self.edge is None else np.where(self.edge > 0, 0.0, self.p0)
+
+    @property
     def p_max(self) -> float:
-        """Largest Hertz peak pressure over positions and slices [MPa]."""
-        return float(np.nanmax(self.p0))
+        """Largest Hertz peak pressure of the flank contact over positions and slices [MPa] (tip-edge
+        slices excluded: see :attr:`edge_share` and :attr:`p_max_edge`)."""
+        return float(np.nanmax(self.p0_flank))
+
+    @property
+    def edge_share(self) -> np.ndarray:
+        """(N,) share of the normal load carried by tip edges (edge loading of unrelieved tips)."""
+        if self.edge is None:
+            return np.zeros(self.phi1.size)
+        return np.sum(np.where(self.edge > 0, self.load, 0.0), axis=(0, 2)) / self.W
+
+    @property
+    def p_max_edge(self) -> float:
+        """Largest Hertz pressure on a tip edge of rounding ``EDGE_RADIUS`` m_n [MPa] (0: none loaded)."""
+        if self.edge is None:
+            return 0.0
+        return float(np.max(np.where((self.edge > 0) & (self.load > 0), self.p0, 0.0)))
 
     @property
     def c_gamma(self) -> float:
@@ -277,6 +300,9 @@ class LTCA:
         # Hertz data per node: normal-section reduced radius, depths to the centrelines, line length
         rho1 = np.sqrt(np.maximum(rad1**2 - g1.r_b**2, 1e-12)) / cb
         rho2 = np.sqrt(np.maximum(rad2**2 - g2.r_b**2, 1e-12)) / cb
+        if S.edge is not None:  # a tip edge: its rounding radius instead of the involute's curvature
+            rho1 = np.where(S.edge == 1, EDGE_RADIUS * g1.m_n, rho1)
+            rho2 = np.where(S.edge == 2, EDGE_RADIUS * g2.m_n, rho2)
         R = rho1 * rho2 / (rho1 + rho2)
         h1 = c1["h"].reshape(K, N, M)
         h2 = c2["h"].reshape(K, N, M)
@@ -414,7 +440,7 @@ class LTCA:
             load=Fk, line_load=np.where(np.isfinite(S.z), Fk / width, np.nan),
             p0=np.where(back(A), back(p0), 0.0), b_H=np.where(back(A), back(bH), 0.0), pair_load=pair_load,
             share=pair_load / W, stiffness=W / delta / 1e3, kkt_error=kkt, hertz_iterations=it,
-            solve_time=time.perf_counter() - t0, face_width=g1.b, stats={"qp_solver": QP_SOLVER})
+            solve_time=time.perf_counter() - t0, face_width=g1.b, stats={"qp_solver": QP_SOLVER}, edge=S.edge)
 
 
 @dataclass
@@ -462,7 +488,7 @@ class LoadedSweep:
             peak = np.max(np.where(np.isfinite(ll), ll, 0.0), axis=2)
             with np.errstate(invalid="ignore", divide="ignore"):
                 khb = np.where(r.pair_load > 0, peak / mean_ll, np.nan)
-            kp, nphi, mm = np.unravel_index(int(np.nanargmax(r.p0)), r.p0.shape)
+            kp, nphi, mm = np.unravel_index(int(np.nanargmax(r.p0_flank)), r.p0.shape)
             per.append({
                 "torque_Nm": r.torque, "normal_load_N": r.W,
                 "te_loaded_arcsec": arr(env), "peak_to_peak_arcsec": r.peak_to_peak_arcsec,
@@ -474,7 +500,9 @@ class LoadedSweep:
                 "p_max_MPa": r.p_max, "p_max_at": {"phi1": float(r.phi1[nphi]), "pair": int(S.pairs[kp]),
                                                    "z_mm": float(S.z[kp, nphi, mm]),
                                                    "radius_mm": float(self.structure["radius1"][kp, nphi, mm])},
-                "p_max_per_position_MPa": arr(np.max(r.p0, axis=(0, 2))),
+                "p_max_per_position_MPa": arr(np.max(r.p0_flank, axis=(0, 2))),
+                "edge_share": arr(r.edge_share), "edge_share_max": float(np.max(r.edge_share)),
+                "p_max_edge_MPa": r.p_max_edge,
                 "line_load_max_N_per_mm": float(np.nanmax(ll)) if np.isfinite(ll).any() else 0.0,
                 "K_Hbeta": float(np.nanmax(khb)) if np.isfinite(khb).any() else None,
                 "kkt_error_max_mm": float(np.max(r.kkt_error)), "hertz_iterations_max": int(np.max(r.hertz_iterations)),
@@ -492,17 +520,20 @@ class LoadedSweep:
             "pair": [int(S.pairs[k]) for k in np.nonzero(loaded)[0]],
             "phi1": [float(S.phi1[n]) for n in np.nonzero(loaded)[1]],
             "load_N": flat(nom.load), "line_load_N_per_mm": flat(nom.line_load), "p0_MPa": flat(nom.p0),
+            "edge": flat(nom.edge if nom.edge is not None else np.zeros(S.z.shape)),
             "b_H_mm": flat(nom.b_H), "width_mm": flat(S.width),
             "pinion": {"axial": flat(S.z), "from": flat(S.z_lo), "to": flat(S.z_hi), "radius": flat(st["radius1"]),
                        "r_b": g1.r_b},
             "gear": {"axial": flat(S.z2), "from": flat(S.z_lo + S.z2 - S.z), "to": flat(S.z_hi + S.z2 - S.z),
                      "radius": flat(st["radius2"]), "r_b": g2.r_b},
         }
-        n_pk = int(np.argmax(np.max(nom.p0, axis=(0, 2))))
+        n_pk = int(np.argmax(np.max(nom.p0_flank, axis=(0, 2))))  # the largest flank pressure
         face = {"phi1": float(S.phi1[n_pk]), "pairs": list(S.pairs),
                 "axial": arr(S.z[:, n_pk, :]), "line_load_N_per_mm": arr(np.where(used[:, n_pk], nom.line_load[:, n_pk],
                                                                                    np.nan)),
-                "p0_MPa": arr(np.where(used[:, n_pk], nom.p0[:, n_pk], np.nan))}
+                "p0_MPa": arr(np.where(used[:, n_pk], nom.p0[:, n_pk], np.nan)),
+                "edge": arr(np.where(used[:, n_pk], nom.edge[:, n_pk], 0) if nom.edge is not None
+                            else np.zeros(S.z[:, n_pk].shape))}
         return {
             "phi1": arr(S.phi1), "pairs": list(S.pairs), "te_zero_rad": self.te_zero_rad,
             "te_unloaded_arcsec": arr(S.te_unloaded * RAD_TO_ARCSEC),

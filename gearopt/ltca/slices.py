@@ -60,6 +60,8 @@ class SliceSet:
     rf : (K, N, M, 3) the point in the fixed frame [mm].
     u1, u2, z2 : (K, N, M) surface coordinates [mm].
     z_center : (K, N) where the grid of the pair is centred (the unloaded point contact, else 0).
+    edge : (K, N, M) int: 0 surface contact, 1 the pinion's tip edge on the gear flank, 2 the gear's
+        tip edge on the pinion flank (slices whose conjugate point lies beyond that tip).
     """
 
     phi1: np.ndarray
@@ -82,6 +84,7 @@ class SliceSet:
     z_center: np.ndarray
     phi2_ref: float
     stats: dict
+    edge: np.ndarray | None = None
 
     @property
     def te_unloaded(self) -> np.ndarray:
@@ -143,10 +146,32 @@ class SliceSolver:
         self.geometry = ca.Function("ltca_slice_geometry", [w, prm], [r1, n1, r2, n2, k["rf1"]], ["w", "prm"],
                                     ["r1", "n1", "r2", "n2", "rf"])
         self.branch = Branch("ltca_slice", self.G, checks, self._accept, tca.tol, tca.solver, tca.jit)
+        # tip-edge slices (Litvin section 9.6 in a slice): where the slice's conjugate point lies beyond
+        # a member's tip, that member's tip edge in the section touches the mating flank,
+        #   r_f1 - r_f2 = 0,  (x^2 + y^2 - r_a^2) / (2 r_a) = 0 on the tip member,
+        # a genuine touch when the mating flank's inward normal lies in the edge's wedge (between the
+        # flank's and the tip cylinder's outward normals)
+        self.edge_branch = {}
+        for member, g_m in ((1, tca.pair.pinion), (2, tca.pair.gear)):
+            r_own = k["r1"] if member == 1 else k["r2"]
+            g_tip = (r_own[0] ** 2 + r_own[1] ** 2 - g_m.r_a**2) / (2 * g_m.r_a)
+            a, c = (k["nf1"], k["er1"]) if member == 1 else (k["nf2"], k["er2"])
+            n_other = k["nf2"] if member == 1 else k["nf1"]
+            Mc = ca.horzcat(a, c)
+            coef = ca.solve(ca.mtimes(Mc.T, Mc), ca.mtimes(Mc.T, -n_other))
+            Ge = ca.Function(f"ltca_tip{member}", [w, prm], [ca.vertcat(k["rf1"] - k["rf2"], g_tip)], ["w", "prm"],
+                             ["F"])
+            ce = ca.Function(f"ltca_tip{member}_checks", [w, prm], [ca.fmin(coef[0], coef[1]), reg], ["w", "prm"],
+                             ["cone", "reg"])
+            self.edge_branch[member] = Branch(f"ltca_tip{member}", Ge, ce, self._accept_edge, tca.tol, tca.solver,
+                                              tca.jit)
         self._line = None
 
     def _accept(self, res, n1n2, reg):
         return np.isfinite(res) & (res <= self.tca.tol) & (n1n2 < -1 + SLICE_NORMAL_TOL) & (reg > REGULARITY_MIN)
+
+    def _accept_edge(self, res, cone, reg):
+        return np.isfinite(res) & (res <= self.tca.tol) & (cone >= -1e-9) & (reg > REGULARITY_MIN)
 
     def _line_tca(self) -> TCA:
         if self._line is None:
@@ -213,6 +238,8 @@ class SliceSolver:
         W, res, n1n2, reg, ok, st = self.branch.solve(W0, prm, groups)
         ok = ok & have
         stats.update(st)
+        W, ok, edge = self._tip_edges(W, ok, prm, groups, g1, g2, n_keep=K * N * M)
+        stats["n_edge"] = int((edge > 0).sum())
         geo = {n: np.asarray(v) for n, v in zip(self.geometry.name_out(),
                                                  self.geometry.map(col_z.size)(np.where(ok, W, W0), prm))}
         r1, n1, r2, n2, rf = (geo[n].T for n in ("r1", "n1", "r2", "n2", "rf"))
@@ -227,13 +254,17 @@ class SliceSolver:
         rad2 = np.hypot(r2[:, 0], r2[:, 1])
         on1 = tca.on_flank(1, np.where(ok, W[0], np.nan), zz, p1)
         on2 = tca.on_flank(2, np.where(ok, W[1], np.nan), np.where(ok, W[2], 0.0), p2)
-        act = (ok & on1 & on2 & (rad1 <= g1.r_a + eps) & (rad2 <= g2.r_a + eps)
+        on1 = on1 | (edge == 1)  # a tip-edge slice lies on its own tip by construction
+        on2 = on2 | (edge == 2)
+        act = (ok & on1 & on2 & ((rad1 <= g1.r_a + eps) | (edge == 1)) & ((rad2 <= g2.r_a + eps) | (edge == 2))
                & (np.abs(W[2]) <= g2.b / 2 + eps))
         # Where a pair's contact line leaves the active flanks between two slices, the active slice's
         # tributary width ends at the crossing (a linear interpolation of the signed margin to the
         # flank boundaries), so the contact length changes continuously with phi1.
         form1, form2 = tca.form_radius(1, p1), tca.form_radius(2, p2)
         margin = np.stack([g1.r_a - rad1, rad1 - form1, g2.r_a - rad2, rad2 - form2, g2.b / 2 - np.abs(W[2])])
+        margin[0] = np.where(edge == 1, 1.0, margin[0])  # an edge slice lies on its own tip
+        margin[2] = np.where(edge == 2, 1.0, margin[2])
         margin = np.where(ok, margin, np.nan)
         n = K * N * M
         Wd, z_lo, z_hi = _partial_widths(Z.reshape(-1, M), Wd.reshape(-1, M), act[:n].reshape(-1, M),
@@ -257,7 +288,36 @@ class SliceSolver:
                 "(e.g. -pi/z1 ... pi/z1) of a pair that meshes.")
         return SliceSet(phi1=phi1, pairs=pairs, z=Z, width=Wd, z_lo=z_lo, z_hi=z_hi, te=shp(te), active=shp(act), converged=shp(ok),
                         r1=shp3(r1), n1=shp3(n1), r2=shp3(r2), n2=shp3(n2), rf=shp3(rf), u1=shp(W[0]), u2=shp(W[1]),
-                        z2=shp(W[2]), z_center=zc, phi2_ref=phi2_ref, stats=stats)
+                        z2=shp(W[2]), z_center=zc, phi2_ref=phi2_ref, stats=stats, edge=shp(edge))
+
+    def _tip_edges(self, W, ok, prm, groups, g1, g2, n_keep):
+        """Replace the solved slices whose point lies beyond one member's tip (the first ``n_keep``
+        columns; the TE-zero columns stay surface contact) by that tip edge's contact in the same
+        section. Returns ``(W, ok, edge)``; ``edge`` 1/2 marks the pinion's/gear's tip edge, and an
+        edge slice whose equations fail keeps ``ok`` False (it carries no load)."""
+        geo = self.geometry.map(W.shape[1])(W, prm)
+        r1, r2 = np.asarray(geo[0]), np.asarray(geo[2])
+        rad1, rad2 = np.hypot(r1[0], r1[1]), np.hypot(r2[0], r2[1])
+        eps = 1e-9
+        edge = np.zeros(W.shape[1], int)
+        keep = np.arange(W.shape[1]) < n_keep
+        W, ok = W.copy(), ok.copy()
+        for member, beyond in ((1, ok & keep & (rad1 > g1.r_a + eps) & (rad2 <= g2.r_a + eps)),
+                               (2, ok & keep & (rad2 > g2.r_a + eps) & (rad1 <= g1.r_a + eps))):
+            if not beyond.any():
+                continue
+            grp = [g[beyond[g]] for g in groups if beyond[g].any()]
+            We, _, _, _, oke, _ = self.edge_branch[member].solve(W, prm, grp)
+            # the gear angle on the conjugate slice's branch (Newton may land a revolution away), and
+            # within a gear pitch of it (else another tooth's flank: rejected)
+            rev = 2 * math.pi * g2.r_p
+            with np.errstate(invalid="ignore"):  # NaN where the edge equations failed
+                We[3] -= rev * np.round((We[3] - W[3]) / rev)
+                good = beyond & oke & (np.abs(We[3] - W[3]) < rev / g2.z)
+            W[:, beyond] = np.where(good[beyond], We[:, beyond], W[:, beyond])
+            ok = np.where(beyond, good, ok)
+            edge = np.where(good, member, edge)
+        return W, ok, edge
 
     def _zero_centre(self, p1, p2, mis, g1) -> float:
         """Pinion section of the unloaded point contact of pair 0 at phi1 = 0 (0 if none on the face)."""

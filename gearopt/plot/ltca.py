@@ -143,10 +143,18 @@ def plot_face_load(d: dict, ax=None):
     ax.set_ylim(bottom=0)
     ax.grid(alpha=0.3)
     ax2 = ax.twinx()
-    for k, z, p in zip(f["pairs"], f["axial"], f["p0_MPa"]):
+    edges = f.get("edge") or [None] * len(f["pairs"])
+    for k, z, p, e in zip(f["pairs"], f["axial"], f["p0_MPa"], edges):
         p = _arr(p)
-        if np.nanmax(np.nan_to_num(p)) > 0:
-            ax2.plot(_arr(z), np.where(p > 0, p, np.nan), "--", color="C3", lw=1)
+        e = np.zeros(p.shape) if e is None else _arr(e)
+        if np.nanmax(np.nan_to_num(p)) > 0:  # flank contact only: tip edges are marked on the line load
+            ax2.plot(_arr(z), np.where((p > 0) & (e == 0), p, np.nan), "--", color="C3", lw=1)
+    labelled = False
+    for z, q, e in zip(f["axial"], f["line_load_N_per_mm"], edges):
+        on = (np.zeros(len(z), bool) if e is None else _arr(e) > 0) & (np.nan_to_num(_arr(q)) > 0)
+        if np.any(on):
+            ax.plot(_arr(z)[on], _arr(q)[on], "kx", ms=6, label=None if labelled else "tip-edge contact")
+            labelled = True
     ax2.set_ylabel("Hertz peak pressure [MPa] (dashed)", color="C3")
     ax2.set_ylim(bottom=0)
     ax.set_title(f"load across the face at phi1 = {math.degrees(f['phi1']):.3f} deg (peak pressure)")
@@ -163,6 +171,8 @@ def contact_pattern(d: dict, member: str, nz: int = 160, nr: int = 160):
     m = p[member]
     r, z0, z1 = _arr(m["radius"]), _arr(m["from"]), _arr(m["to"])
     b, p0 = _arr(p["b_H_mm"]), _arr(p["p0_MPa"])
+    if "edge" in p:  # tip edges: marked by plot_contact_pattern, not rastered (their pressure is nominal)
+        p0 = np.where(_arr(p["edge"]) > 0, 0.0, p0)
     lim = d["limits"][member]
     ze = np.linspace(-lim["b"] / 2, lim["b"] / 2, nz + 1)
     re = np.linspace(lim["r_form"], lim["r_a"], nr + 1)
@@ -199,6 +209,15 @@ def plot_contact_pattern(d: dict, member: str = "pinion", ax=None, vmax: float |
         ax.text(ze[0], y, f" {lab}", va="bottom" if lab == "form circle" else "top", fontsize=7, color="0.3")
     ax.axvline(ze[0], color="0.3", lw=0.8)
     ax.axvline(ze[-1], color="0.3", lw=0.8)
+    pat = d["pattern"]
+    if "edge" in pat:
+        e = _arr(pat["edge"])
+        on = e > 0
+        if on.any():
+            m = pat[member]
+            ax.plot(_arr(m["axial"])[on], _arr(m["radius"])[on], "x", color="C0", ms=4,
+                    label="loaded tip edge (edge loading)")
+            ax.legend(fontsize=7, loc="lower right")
     ax.set_xlabel("face width position z [mm]")
     ax.set_ylabel("radius [mm]")
     nom = d["pattern"]["torque_Nm"]

@@ -89,7 +89,10 @@ class LTCAReport:
         plot_face_load(d, ax=axes[2])
         files.append(save("ltca_sharing.png", fig, "load sharing, mesh stiffness, load across the face"))
         fig, axes = plt.subplots(1, 2, figsize=(13, 5), layout="constrained")
-        vmax = max(float(np.nanmax(np.array(d["pattern"]["p0_MPa"], float))), 1.0) if d["pattern"]["p0_MPa"] else 1.0
+        pat = d["pattern"]
+        p_flank = np.where(np.array(pat.get("edge", [0] * len(pat["p0_MPa"]))) > 0, 0.0,
+                           np.array(pat["p0_MPa"], float))  # one scale for both flanks; tip edges are marked
+        vmax = max(float(np.nanmax(p_flank)), 1.0) if p_flank.size else 1.0
         plot_contact_pattern(d, "pinion", ax=axes[0], vmax=vmax)
         plot_contact_pattern(d, "gear", ax=axes[1], vmax=vmax)
         files.append(save("ltca_pattern.png", fig, "loaded contact pattern (largest pressure over the mesh cycle)"))
@@ -97,16 +100,16 @@ class LTCAReport:
 
     def save_tables(self, out_dir) -> list[str]:
         """``ltca_positions.csv``: per torque and position the loaded and unloaded TE, mesh
-        stiffness, peak pressure and every pair's load share; ``ltca_te_vs_torque.csv``."""
+        stiffness, peak flank pressure, the tip edges' load share and every pair's load share; ``ltca_te_vs_torque.csv``."""
         d = self.to_dict()
         pairs = d["pairs"]
         head = (["torque_Nm", "phi1_deg", "te_unloaded_arcsec", "te_loaded_arcsec", "stiffness_N_per_um",
-                 "p_max_MPa"] + [f"share_pair_{k}" for k in pairs])
+                 "p_max_MPa", "edge_share"] + [f"share_pair_{k}" for k in pairs])
         lines = [",".join(head)]
         for t in d["torques"]:
             for i, phi in enumerate(d["phi1"]):
                 row = [t["torque_Nm"], math.degrees(phi), d["te_unloaded_arcsec"][i], t["te_loaded_arcsec"][i],
-                       t["stiffness_N_per_um"][i], t["p_max_per_position_MPa"][i]]
+                       t["stiffness_N_per_um"][i], t["p_max_per_position_MPa"][i], t["edge_share"][i]]
                 row += [t["pair_share"][k][i] for k in range(len(pairs))]
                 lines.append(",".join(_cell(v) for v in row))
         (Path(out_dir) / "ltca_positions.csv").write_text("\n".join(lines) + "\n", encoding="utf-8")
