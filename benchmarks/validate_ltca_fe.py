@@ -79,10 +79,10 @@ def main(argv):
             kk = lt["fe"].pairs.index(k0)
             # the slice pressure in the FE's section (through the contact: mid face for line contact)
             z_sec = m.contact[k0]["z1"]
-            ok = np.isfinite(S.z[kk, j]) & S.active[kk, j]
+            ok = np.isfinite(S.z[kk, j]) & S.active[kk, j] & (S.edge[kk, j] == 0)  # flank slices
             o = np.argsort(S.z[kk, j][ok])
             p_lt = float(np.interp(z_sec, S.z[kk, j][ok][o], lt["fe"].p0[kk, j][ok][o]))
-            p_lt_max = float(np.max(lt["fe"].p0[kk, j]))
+            p_lt_max = float(np.max(lt["fe"].p0_flank[kk, j]))
             p_fe = d["contact"]["p_max_mid"]
             sh_fe = d["pair_share"].get(str(k0)) or 0.0
             sh_lt = float(lt["fe"].share[kk, j])

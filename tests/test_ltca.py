@@ -285,6 +285,23 @@ def test_tip_edge_slices_close_beyond_the_contact_line_and_carry_load_only_under
     assert heavy.kkt_error.max() < 1e-7
 
 
+@pytest.mark.parametrize("guess", [0.0, 1e6])
+def test_tip_edge_working_set_gives_the_full_qp(monkeypatch, guess):
+    # the first QP round's set of tip edges only changes how many rounds it takes: none (0: every edge
+    # is found by the gap check and added) or all of them (1e6: the full QP at once) give the same loads
+    import gearopt.ltca.engine as engine
+
+    pair = GearPair(Gear(z=20, m_n=3.0, b=20.0), Gear(z=40, m_n=3.0, b=20.0))
+    L = LTCA(pair, n_slices=11)
+    S = L.slices(phi1=L.mesh_cycle(16))
+    ref = L.solve(300.0, slices=S).results[0]
+    assert np.sum(np.where(S.edge > 0, ref.load, 0.0)) > 0.01 * ref.W  # edges carry load here
+    monkeypatch.setattr(engine, "EDGE_GUESS", guess)
+    r = L.solve(300.0, slices=S).results[0]
+    assert np.max(np.abs(r.load - ref.load)) < 1e-6 * ref.W
+    assert r.kkt_error.max() < 1e-7
+
+
 # --- bad input ----------------------------------------------------------------------------------
 @pytest.mark.parametrize("torque", [0.0, -5.0, float("nan"), [10.0, 5.0], [10.0, 10.0], "100", []])
 def test_bad_torques_name_the_parameter(spur_sweep, torque):

@@ -39,6 +39,7 @@ from ..meshing.tca import TCA, check_sweep_args
 SLICE_NORMAL_TOL = 0.05  #: accepted slice points have n1 . n2 < -1 + this (crowning tilts the normals)
 CENTRE_ON_POINT = True  #: centre each pair's grid on its unloaded point contact
 _SECTIONS = (-0.5, -0.25, 0.0, 0.25, 0.5)  #: pinion sections of the conjugate first guesses [b1]
+EDGE_CHUNK = 256  #: columns per mapped tip-edge solve (one compiled size)
 
 
 @dataclass
@@ -306,8 +307,19 @@ class SliceSolver:
                                (2, ok & keep & (rad2 > g2.r_a + eps) & (rad1 <= g1.r_a + eps))):
             if not beyond.any():
                 continue
-            grp = [g[beyond[g]] for g in groups if beyond[g].any()]
-            We, _, _, _, oke, _ = self.edge_branch[member].solve(W, prm, grp)
+            # mapped solves from the conjugate slices, in chunks of a fixed size (one compiled map);
+            # no continuation retries: a slice whose edge equations fail from there lies far beyond
+            # the contact line's end
+            br = self.edge_branch[member]
+            cols = np.flatnonzero(beyond)
+            We = np.full(W.shape, np.nan)
+            oke = np.zeros(W.shape[1], bool)
+            for i in range(0, cols.size, EDGE_CHUNK):
+                idx = cols[i:i + EDGE_CHUNK]
+                pad = np.concatenate([idx, np.full(EDGE_CHUNK - idx.size, idx[0])])
+                Wc, rc, cc, gc = (np.asarray(v) for v in br.mapped(EDGE_CHUNK)(W[:, pad], prm[:, pad]))
+                We[:, idx] = Wc[:, :idx.size]
+                oke[idx] = br.accept(rc.ravel()[:idx.size], cc.ravel()[:idx.size], gc.ravel()[:idx.size])
             # the gear angle on the conjugate slice's branch (Newton may land a revolution away), and
             # within a gear pitch of it (else another tooth's flank: rejected)
             rev = 2 * math.pi * g2.r_p
