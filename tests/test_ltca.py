@@ -62,6 +62,22 @@ def test_coupling_is_symmetric_positive_and_exact_for_a_uniform_load():
     assert G2[i, 0] / G2[i, i] > G1[i, 0] / G1[i, i]
 
 
+def test_coupling_batch_equals_each_row_alone():
+    """Rows of different lengths (unused nodes NaN) in one batch give each row's own coupling."""
+    from gearopt.ltca.compliance import coupling_batch
+
+    rng = np.random.default_rng(4)
+    M = 7
+    Z, W = np.full((3, M), np.nan), np.zeros((3, M))
+    for r, n in enumerate((7, 4, 1)):
+        z = np.sort(rng.uniform(-5, 5, n))
+        Z[r, :n], W[r, :n] = z, rng.uniform(0.2, 2.0, n)
+    G = coupling_batch(Z, W, 1.3)
+    for r, n in enumerate((7, 4, 1)):
+        np.testing.assert_allclose(G[r, :n, :n], coupling(Z[r, :n], W[r, :n], 1.3), rtol=1e-12, atol=1e-14)
+        assert not G[r, n:, :].any() and not G[r, :, n:].any()
+
+
 def test_beam_terms_match_a_rectangular_cantilever():
     """With a constant half thickness the bending term is 4 L^3 / (E' (2x)^3) for a load normal to
     the centreline at the free end (cantilever of unit width), the shear term 1.2 * 2 (1 + nu) L / (2x E)."""
@@ -124,6 +140,25 @@ def test_hertz_values_match_the_fe_module_reference():
     c, _, _ = weber_contact(np.array([0.0, 10.0, 100.0, 1000.0]), R, 3.0, 4.0, m, 1.0)
     d = c * np.array([0.0, 10.0, 100.0, 1000.0])
     assert np.all(np.isfinite(c)) and np.all(np.diff(d) > 0) and np.all(np.diff(c[1:]) < 0)
+
+
+def test_weber_tangent_is_the_approach_derivative():
+    """The Newton step's tangent (AD) against central differences of Weber's approach c(f) f, and its
+    compliance equal to weber_contact's; below f_min the approach is linear (tangent = c)."""
+    from gearopt.ltca.compliance import weber_tangent
+
+    m = Material(E=210000.0, nu=0.3)
+    wt = weber_tangent(m)
+    R, h1, h2, fmin = 5.2, 3.0, 4.0, 2.0
+    for f in (5.0, 80.0, 900.0):
+        c, dc = (float(v) for v in wt(f, R, h1, h2, fmin))
+        assert c == pytest.approx(float(weber_contact(np.array([f]), R, h1, h2, m, fmin)[0][0]), rel=1e-14)
+        h = 1e-4 * f
+        app = [float(weber_contact(np.array([x]), R, h1, h2, m, fmin)[0][0]) * x for x in (f - h, f + h)]
+        assert dc == pytest.approx((app[1] - app[0]) / (2 * h), rel=1e-7)
+        assert 0 < dc < c  # the logarithm: the tangent is below the secant
+    c, dc = (float(v) for v in wt(0.5, R, h1, h2, fmin))
+    assert dc == pytest.approx(c, rel=1e-14)
 
 
 def test_iso6336_reference_values():

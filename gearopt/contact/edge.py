@@ -672,7 +672,7 @@ def conjugate_sections(tca: TCA, line_tca: TCA, phis, p1, p2, z_sections) -> dic
             continue
         prm_l = line_tca.prm(phis, flat1, flat2, Misalignment(), zs)
         W0 = line_tca.branch.predict(w_a, line_tca.prm([0.0], flat1, flat2, Misalignment(), zs)[:, 0], phis)
-        W, res, _, _ = (np.asarray(v) for v in line_tca.branch.mapped(phis.size)(W0, prm_l))
+        W, res, _, _ = (np.asarray(v) for v in line_tca.branch.mapped(phis.size, phis.size * len(z_sections))(W0, prm_l))
         res = res.ravel()
         Wf = np.asarray(line_tca.w_full.map(phis.size)(W, np.full((1, phis.size), zs)))
         Wf[:, ~(np.isfinite(res) & (res <= 1e-8))] = np.nan

@@ -38,12 +38,12 @@ from ..errors import ArgumentError, GearoptError, GeometryError, check_number, o
 from ..gears import GearPair
 from ..geometry.frames import rot_z_points
 from ..geometry.generation import GeneratedTooth
+from ..ltca.compliance import C_PRIME_STEEL
 from ..meshing.tca import TCA
 from .calculix import CalculixError, Deck, last_block, read_contact_statistics, read_dat, read_frd_block, run_ccx
 from .mesh import GAUSS_C3D8, MemberMesh, MeshOptions, ToothMesher, hex_volume_sign, build_member, face_of, shape
 
-#: ISO 6336-1 single-pair mesh stiffness of steel spur gears, c' ~ 14 N/(mm um), scaled with E below.
-C_PRIME_STEEL = 14.0e3  # N/mm per mm of face width (14 N/(mm um))
+# c' = C_PRIME_STEEL (ISO 6336-1 single-pair stiffness of steel spur gears, ~14 N/(mm um)), scaled with E below.
 #: A loaded approach along the line of action more than this many times the ISO estimate F / (c' b)
 #: is not an elastic deflection (the docs/fea.md model measures ~0.75x: 19 N/(mm um) with its rims).
 DEFLECTION_FACTOR = 20.0
@@ -98,7 +98,7 @@ def check_physics(*, phi1: float, rotation: float, r_b1: float, F_n: float, b: f
                             f"estimate p0 = {p0:.4g} MPa: the load sits on a few nodes (penetration or a bad contact "
                             "mesh); the result is not valid. Refine the contact (n_hertz) or raise the penalty.")
 
-MESH_STIFFNESS = 14.0e3  #: single-pair mesh stiffness estimate c' [N/mm per mm of face] (ISO 6336-1 order)
+MESH_STIFFNESS = C_PRIME_STEEL  #: single-pair mesh stiffness estimate c' [N/mm per mm of face] (ISO 6336-1 order)
 
 
 @dataclass(frozen=True)

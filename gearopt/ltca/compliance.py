@@ -27,6 +27,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import casadi as ca
 import numpy as np
 
 from ..errors import check_number, out_of_range
@@ -207,6 +208,19 @@ def weber_contact(f, R_star, h1, h2, material: Material, f_min: float):
     return c, np.sqrt(4.0 * fp * R_star / (math.pi * Es)), np.sqrt(fp * Es / (math.pi * R_star))
 
 
+def weber_tangent(material: Material) -> ca.Function:
+    """Weber's contact compliance and its tangent, elementwise: ``(f, R_star, h1, h2, f_min) ->
+    (c, dc)`` with ``c = delta / f`` as :func:`weber_contact` [mm^2/N] and ``dc = d(c f)/df`` (the
+    approach's derivative by AD; the Newton step of the Hertz fixed point, docs/ltca.md section 3)."""
+    f, R, h1, h2, f_min = (ca.SX.sym(n) for n in ("f", "R_star", "h1", "h2", "f_min"))
+    nu = material.nu
+    b_l = ca.sqrt(4.0 * ca.fmax(f, f_min) * R / (math.pi * material.E_star))
+    c = 2.0 * (1.0 - nu**2) / (math.pi * material.E) * (ca.log(2.0 * h1 / b_l) + ca.log(2.0 * h2 / b_l)
+                                                        - nu / (1.0 - nu))
+    return ca.Function("weber_tangent", [f, R, h1, h2, f_min], [c, ca.jacobian(c * f, f)],
+                       ["f", "R_star", "h1", "h2", "f_min"], ["c", "dc"])
+
+
 def coupling(z, widths, lam: float) -> np.ndarray:
     """Discrete Green's function of ``w - lam^2 w'' = f`` on the face with free ends [1/mm].
 
@@ -216,17 +230,32 @@ def coupling(z, widths, lam: float) -> np.ndarray:
     load ``f`` (``F = widths f``) gives exactly ``c f`` at every node.
     """
     z = np.asarray(z, float)
-    n = z.size
-    A = np.diag(np.asarray(widths, float))
-    if lam > 0 and n > 1:
-        h = np.diff(z)
-        k = lam**2 / h
-        i = np.arange(n - 1)
-        A[i, i] += k
-        A[i + 1, i + 1] += k
-        A[i, i + 1] -= k
-        A[i + 1, i] -= k
-    return np.linalg.inv(A)
+    return coupling_batch(z[None, :], np.asarray(widths, float)[None, :], lam)[0]
+
+
+def coupling_batch(z, widths, lam: float) -> np.ndarray:
+    """:func:`coupling` of many slice rows at once: ``z``, ``widths`` (B, M) [mm], each row's used
+    nodes first (unused: ``z`` NaN); returns (B, M, M) with zero rows/columns at unused nodes."""
+    z = np.asarray(z, float)
+    used = np.isfinite(z)
+    B, M = z.shape
+    A = np.zeros((B, M, M))
+    i = np.arange(M)
+    A[:, i, i] = np.where(used, widths, 1.0)  # an unused node: a decoupled unit entry (dropped below)
+    if lam > 0 and M > 1:
+        both = used[:, 1:] & used[:, :-1]
+        h = np.where(both, np.diff(np.where(used, z, 0.0), axis=1), 1.0)
+        k = np.where(both, lam**2 / h, 0.0)
+        j = np.arange(M - 1)
+        A[:, j, j] += k
+        A[:, j + 1, j + 1] += k
+        A[:, j, j + 1] -= k
+        A[:, j + 1, j] -= k
+    G = np.linalg.inv(A)
+    return np.where(used[:, :, None] & used[:, None, :], G, 0.0)
+
+
+C_PRIME_STEEL = 14.0e3  #: ISO 6336-1's typical single-pair stiffness c' of steel spur gears [N/mm per mm of face] (14 N/(mm um))
 
 
 def iso6336_stiffness(pair) -> dict:

@@ -10,10 +10,11 @@ convex QP
     min_F  1/2 F^T C F + s^T F    s.t.  F >= 0,  sum F = W,
 
 whose equality multiplier is the loaded approach ``delta`` [mm] (the gear's rigid lag along the
-contact normal). CasADi's conic solver (daqp, a dual active-set method) solves it; the Hertz
-part of C depends on the load (Weber's logarithm), so the QP is re-solved with the compliance of
-the last loads until the loads stop changing (a fixed point: the nonlinear contact law holds at
-the solution). Each solution is checked against the contact conditions (``kkt_error_mm``).
+contact normal). CasADi's conic solver (qpOASES, an active-set method) solves it; the Hertz
+part of C depends on the load (Weber's logarithm), so the QP is re-solved with the Hertz approach
+linearised at the last loads (a Newton step, tangent by AD) until the loads stop changing (the
+nonlinear contact law holds at the solution). Each solution is checked against the contact
+conditions (``kkt_error_mm``).
 
 Loaded TE = unloaded TE - delta / (r_b2 cos(beta_b)) [rad] (the gear lags); at zero load
 delta = 0 and the loaded TE is the unloaded TE of the slices, which at the point contact equals
@@ -37,7 +38,7 @@ from ..gears import GearPair
 from ..meshing.misalignment import Misalignment
 from ..meshing.tca import TCA
 from ..units import RAD_TO_ARCSEC
-from .compliance import Material, ToothCompliance, coupling, weber_contact
+from .compliance import C_PRIME_STEEL, Material, ToothCompliance, coupling_batch, weber_contact, weber_tangent
 from .slices import SliceSet, SliceSolver
 
 HERTZ_TOL = 1e-7  #: the Hertz fixed point stops when no slice load changes by more than this x W
@@ -288,18 +289,21 @@ class LTCA:
         # bending/shear/foundation matrix of each pair over the used nodes: cos^2(beta_b) D A^-1 D
         # (analytical), or both members' FE influence coefficients at the slices' points
         Cs = np.zeros((N, K * M, K * M))
-        for k in range(K):
-            for n in range(N):
-                u = np.flatnonzero(used[k, n])
-                idx = k * M + u
-                if self.influence is not None:
-                    G1, G2 = self.influence
+        if self.influence is not None:
+            G1, G2 = self.influence
+            for k in range(K):
+                for n in range(N):
+                    u = np.flatnonzero(used[k, n])
+                    idx = k * M + u
                     Cs[n][np.ix_(idx, idx)] = (G1.matrix(rad1[k, n, u], z1[k, n, u])
                                                + G2.matrix(rad2[k, n, u], z2[k, n, u]))
-                    continue
-                G = coupling(S.z[k, n, u], S.width[k, n, u], self.coupling_length)
-                d = np.sqrt(ct[k, n, u])
-                Cs[n][np.ix_(idx, idx)] = cb**2 * d[:, None] * G * d[None, :]
+        else:
+            G = coupling_batch(S.z.reshape(K * N, M), S.width.reshape(K * N, M), self.coupling_length)
+            d = np.sqrt(ct).reshape(K * N, M)
+            blocks = (cb**2 * d[:, :, None] * G * d[:, None, :]).reshape(K, N, M, M)
+            Cv = Cs.reshape(N, K, M, K, M)
+            for k in range(K):
+                Cv[:, k, :, k, :] = blocks[k]
         # Hertz data per node: normal-section reduced radius, depths to the centrelines, line length
         rho1 = np.sqrt(np.maximum(rad1**2 - g1.r_b**2, 1e-12)) / cb
         rho2 = np.sqrt(np.maximum(rad2**2 - g2.r_b**2, 1e-12)) / cb
@@ -312,6 +316,12 @@ class LTCA:
         length = S.width / cb
         return {"Cs": Cs, "R": np.where(act, R, 1.0), "h1": np.where(act, h1, 1.0), "h2": np.where(act, h2, 1.0),
                 "length": np.where(act, length, 1.0), "radius1": rad1, "radius2": rad2}
+
+    def _weber_tangent(self, n: int) -> ca.Function:
+        key = ("weber", n)
+        if key not in self._qp:
+            self._qp[key] = weber_tangent(self.material).map(n)
+        return self._qp[key]
 
     def _solver(self, n: int, N: int) -> ca.Function:
         key = (n, N)
@@ -379,14 +389,21 @@ class LTCA:
         it = np.zeros(N, int)
         done = np.zeros(N, bool)
         change = np.zeros(N)
+        wt = self._weber_tangent(N * nc)
         for i in range(HERTZ_MAX_ITER):
-            cH, _, _ = weber_contact(Fc / lc, Rc, h1c, h2c, self.material, f_min)
-            C = Cc + np.einsum("ni,ij->nij", np.where(valid, cH / lc, 1.0), eye)
-            # scaled: min 1/2 x^T (C / c_ref) x + (s / (W c_ref))^T x, x = F / W (same minimiser)
+            # Newton step of the Hertz law (Josephy-Newton: the QP with the approach linearised at the
+            # last loads, delta_H(F) ~ c F_k + dc (F - F_k), dc = d(c f)/df by AD); its fixed point is the
+            # contact law's, reached quadratically (the secant compliance c alone converges linearly)
+            cH, dc = (np.asarray(v).reshape(N, nc) for v in wt((Fc / lc).ravel()[None, :], Rc.ravel()[None, :],
+                                                                 h1c.ravel()[None, :], h2c.ravel()[None, :], f_min))
+            dc = np.maximum(dc, 0.5 * cH)  # keeps the QP convex far from the solution (a damped step)
+            C = Cc + np.einsum("ni,ij->nij", np.where(valid, dc / lc, 1.0), eye)
+            sk = sc + np.where(valid, (cH - dc) / lc * Fc, 0.0)
+            # scaled: min 1/2 x^T (C / c_ref) x + (s_k / (W c_ref))^T x, x = F / W (same minimiser)
             cref = np.einsum("nii->n", C) / nc
             H = C / cref[:, None, None]
             with _quiet_stdout():  # qpOASES prints its banner on stdout whatever its printLevel
-                r = qp(h=np.hstack(list(H)), g=(sc / (W * cref[:, None])).T, a=np.ones((1, nc * N)), lba=1.0,
+                r = qp(h=np.hstack(list(H)), g=(sk / (W * cref[:, None])).T, a=np.ones((1, nc * N)), lba=1.0,
                        uba=1.0, lbx=0.0, ubx=ubx)
             Fn = np.where(valid, np.maximum(W * np.asarray(r["x"]).T, 0.0), 0.0)
             change = np.max(np.abs(Fn - Fc), axis=1) / W
@@ -433,8 +450,8 @@ class LTCA:
                 else np.transpose(S.edge > 0, (1, 0, 2)).reshape(N, n))
         # first round: the tip edges within twice the approach that ISO 6336-1's c' = 14 N/(mm um)
         # (steel, scaled by E) suggests; the check below makes the result independent of this guess
-        guess = EDGE_GUESS * W / (14.0e3 * self.material.E / 210000.0 * g1.b)
-        A = A_all & (~edge | (s <= guess))
+        guess = EDGE_GUESS * W / (C_PRIME_STEEL * self.material.E / 210000.0 * g1.b)
+        A = A_all & (s <= guess)
         Cs = st["Cs"]
         F = None
         for _outer in range(OUTER_MAX):

@@ -31,6 +31,7 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
+from ..compiled import mapped
 from ..errors import ConvergenceError, LineContactError
 from ..meshing.misalignment import Misalignment
 from ..meshing.solver import REGULARITY_MIN, Branch
@@ -239,10 +240,14 @@ class SliceSolver:
         W, res, n1n2, reg, ok, st = self.branch.solve(W0, prm, groups)
         ok = ok & have
         stats.update(st)
-        W, ok, edge = self._tip_edges(W, ok, prm, groups, g1, g2, n_keep=K * N * M)
+        geo = self._geometry(np.where(ok, W, W0), prm)
+        ok_fl = ok
+        W, ok, edge = self._tip_edges(W, ok, prm, geo, g1, g2, n_keep=K * N * M)
         stats["n_edge"] = int((edge > 0).sum())
-        geo = {n: np.asarray(v) for n, v in zip(self.geometry.name_out(),
-                                                 self.geometry.map(col_z.size)(np.where(ok, W, W0), prm))}
+        redo = np.flatnonzero((edge > 0) | (ok != ok_fl))  # columns the tip edges changed
+        if redo.size:
+            for name, v in self._geometry(np.where(ok, W, W0)[:, redo], prm[:, redo]).items():
+                geo[name][:, redo] = v
         r1, n1, r2, n2, rf = (geo[n].T for n in ("r1", "n1", "r2", "n2", "rf"))
         t = W[3] / g2.r_p  # phi2 of the column's own tooth pair
         shift2 = np.concatenate([np.repeat(np.repeat(2 * math.pi * np.array(pairs) / g2.z, N), M), np.zeros(M)])
@@ -291,13 +296,19 @@ class SliceSolver:
                         r1=shp3(r1), n1=shp3(n1), r2=shp3(r2), n2=shp3(n2), rf=shp3(rf), u1=shp(W[0]), u2=shp(W[1]),
                         z2=shp(W[2]), z_center=zc, phi2_ref=phi2_ref, stats=stats, edge=shp(edge))
 
-    def _tip_edges(self, W, ok, prm, groups, g1, g2, n_keep):
+    def _geometry(self, W, prm) -> dict:
+        """Both flanks' points and normals and the fixed-frame point at the columns of ``W``:
+        {name: (3, columns)}."""
+        f = mapped(self.geometry, W.shape[1], self.tca.jit)
+        return {n: np.array(v) for n, v in zip(self.geometry.name_out(), f(W, prm))}
+
+    def _tip_edges(self, W, ok, prm, geo, g1, g2, n_keep):
         """Replace the solved slices whose point lies beyond one member's tip (the first ``n_keep``
         columns; the TE-zero columns stay surface contact) by that tip edge's contact in the same
-        section. Returns ``(W, ok, edge)``; ``edge`` 1/2 marks the pinion's/gear's tip edge, and an
-        edge slice whose equations fail keeps ``ok`` False (it carries no load)."""
-        geo = self.geometry.map(W.shape[1])(W, prm)
-        r1, r2 = np.asarray(geo[0]), np.asarray(geo[2])
+        section; ``geo`` is :meth:`_geometry` at the solved columns. Returns ``(W, ok, edge)``;
+        ``edge`` 1/2 marks the pinion's/gear's tip edge, and an edge slice whose equations fail keeps
+        ``ok`` False (it carries no load)."""
+        r1, r2 = geo["r1"], geo["r2"]
         rad1, rad2 = np.hypot(r1[0], r1[1]), np.hypot(r2[0], r2[1])
         eps = 1e-9
         edge = np.zeros(W.shape[1], int)
@@ -317,7 +328,7 @@ class SliceSolver:
             for i in range(0, cols.size, EDGE_CHUNK):
                 idx = cols[i:i + EDGE_CHUNK]
                 pad = np.concatenate([idx, np.full(EDGE_CHUNK - idx.size, idx[0])])
-                Wc, rc, cc, gc = (np.asarray(v) for v in br.mapped(EDGE_CHUNK)(W[:, pad], prm[:, pad]))
+                Wc, rc, cc, gc = (np.asarray(v) for v in br.mapped(EDGE_CHUNK, W.shape[1])(W[:, pad], prm[:, pad]))
                 We[:, idx] = Wc[:, :idx.size]
                 oke[idx] = br.accept(rc.ravel()[:idx.size], cc.ravel()[:idx.size], gc.ravel()[:idx.size])
             # the gear angle on the conjugate slice's branch (Newton may land a revolution away), and

@@ -13,6 +13,8 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
+from ..compiled import compile_function, use_compiled
+
 NORMAL_TOL = 1e-8  #: accepted contact points have n1 . n2 < -1 + NORMAL_TOL (tangency, not crossing)
 REGULARITY_MIN = 1e-6  #: and (dr/du x dr/dz) . n > REGULARITY_MIN on both flanks' valid branches (no cusp)
 
@@ -28,13 +30,16 @@ class SolverSettings:
         CasADi rootfinder plugin for mapped sweeps (a line-search ``newton`` is the fallback).
     tol : float
         Acceptance threshold on the residual norm [mm].
-    jit : bool
-        Compile the mapped sweep to C with the system compiler (falls back to the interpreter).
+    jit : {"auto", True, False}
+        Run mapped sweeps as compiled C (:mod:`gearopt.compiled`: generated once per graph, cached on
+        disk across processes): "auto" from :data:`gearopt.compiled.MIN_COLUMNS` columns on when a C
+        compiler works, True always (a warning and the interpreter when none works), False never.
+        Compiled and interpreted sweeps agree to round-off (tests/test_tca_jit.py).
     """
 
     solver: str = "fast_newton"
     tol: float = 1e-10
-    jit: bool = False
+    jit: bool | str = "auto"
 
 
 @dataclass(frozen=True)
@@ -95,6 +100,13 @@ class Branch:
                                                                      "line_search": True,
                                                                      "show_eval_warnings": False})
         self._maps: dict[int, ca.Function] = {}
+        # one column: solve from W0, then the residual norm and the checks (the compiled unit)
+        w0 = ca.MX.sym("W0", nw)
+        pp = ca.MX.sym("P", npr)
+        wf = self.rf_fast(w0, pp)
+        cf = checks(wf, pp)
+        self.one = ca.Function(f"{name}_one", [w0, pp], [wf, ca.norm_2(G(wf, pp)), cf[0], cf[1]], ["W0", "P"],
+                               ["W", "res", "n1n2", "reg"])
 
     def newton(self, w0, prm) -> np.ndarray:
         """Line-search Newton from ``w0`` at one parameter column (unchecked)."""
@@ -111,24 +123,56 @@ class Branch:
         dw = np.asarray(self.dw(w_a, prm_a)).ravel()
         return np.asarray(w_a)[:, None] + dw[:, None] * np.asarray(dphi)[None, :]
 
-    def mapped(self, n: int) -> ca.Function:
-        """(W0, P) -> (W, residual norm, n1 . n2, regularity) for n columns, compiled with jit."""
-        if n not in self._maps:
+    def mapped(self, n: int, n_total: int | None = None) -> ca.Function:
+        """(W0, P) -> (W, residual norm, n1 . n2, regularity) for n columns: the compiled column
+        mapped (:func:`gearopt.compiled.use_compiled` for ``n_total`` columns in all, default n)
+        or the interpreted map."""
+        fast = self.solver == "fast_newton" and use_compiled(self.jit, n if n_total is None else n_total)
+        key = (n, fast)
+        if key not in self._maps:
+            f = compile_function(self.one) if fast else None
+            if f is not None:
+                self._maps[key] = f.map(n)
+            else:
+                W0 = ca.MX.sym("W0", self.G.size1_in(0), n)
+                P = ca.MX.sym("P", self.G.size1_in(1), n)
+                W = self.rf_fast.map(n)(W0, P)
+                R = self.G.map(n)(W, P)
+                c = self.checks.map(n)(W, P)
+                self._maps[key] = ca.Function(f"{self.name}_sweep", [W0, P], [W, ca.sqrt(ca.sum1(R * R)), c[0], c[1]],
+                                              ["W0", "P"], ["W", "res", "n1n2", "reg"])
+        return self._maps[key]
+
+    def _safe_mapped(self, n: int) -> ca.Function:
+        """Line-search Newton from given guesses at n columns, with the residual norm and checks
+        (interpreted: CasADi's ``newton`` has no C code generation)."""
+        key = ("safe", n)
+        if key not in self._maps:
             W0 = ca.MX.sym("W0", self.G.size1_in(0), n)
             P = ca.MX.sym("P", self.G.size1_in(1), n)
-            W = self.rf_fast.map(n)(W0, P)
+            W = self.rf_safe.map(n)(W0, P)
             R = self.G.map(n)(W, P)
             c = self.checks.map(n)(W, P)
-            args = (f"{self.name}_sweep", [W0, P], [W, ca.sqrt(ca.sum1(R * R)), c[0], c[1]], ["W0", "P"],
-                    ["W", "res", "n1n2", "reg"])
-            f = _jit_function(*args) if self.jit and self.solver == "fast_newton" else None
-            self._maps[n] = f if f is not None else ca.Function(*args)
-        return self._maps[n]
+            self._maps[key] = ca.Function(f"{self.name}_retry", [W0, P], [W, ca.sqrt(ca.sum1(R * R)), c[0], c[1]],
+                                          ["W0", "P"], ["W", "res", "n1n2", "reg"])
+        return self._maps[key]
+
+    @staticmethod
+    def _from(fun, cols, anchors, W, prm, n_total):
+        """``fun(m, n_total)`` (a mapped solve) at the columns ``cols`` from the solutions at
+        ``anchors``, padded to a power of two (few distinct map sizes): (W, res, n1n2, reg)."""
+        m = max(8, 1 << int(cols.size - 1).bit_length())
+        pad = np.concatenate([np.arange(cols.size), np.zeros(m - cols.size, int)])
+        Wr, rr, dr, gr = (np.asarray(v) for v in fun(m, n_total)(W[:, anchors[pad]], prm[:, cols[pad]]))
+        return Wr[:, :cols.size].copy(), rr.ravel()[:cols.size].copy(), dr.ravel()[:cols.size].copy(), \
+            gr.ravel()[:cols.size].copy()
 
     def solve(self, W0, prm, groups, max_gap: int = 4):
-        """Solve every column; ``groups`` are index arrays ordered by phi1 (continuation runs
-        within a group, forwards then backwards, from the last accepted neighbour, for at most
-        ``max_gap`` consecutive failures).
+        """Solve every column; ``groups`` are index arrays ordered by phi1. Columns that fail the
+        checks are re-solved by continuation within their group, forwards then backwards: from the
+        last accepted column before them, if at most ``max_gap`` columns back (Newton, and
+        line-search Newton where that does not converge); all such columns of a round in one mapped
+        call, rounds until no column is rescued (a rescued column is the anchor of the next ones).
 
         Returns
         -------
@@ -139,43 +183,39 @@ class Branch:
         W = W.copy()
         ok = np.asarray(self.accept(res, n1n2, reg), bool)
         n_fast, n_retry = int(ok.sum()), 0
-        for idx in groups:
-            for order in (idx, idx[::-1]):
-                last, misses = None, 0
-                for i in order:
-                    if ok[i]:
-                        last, misses = i, 0
+        groups = [np.asarray(g, int) for g in groups if len(g) > 1]
+        for forward in (True, False):
+            orders = groups if forward else [g[::-1] for g in groups]
+            tried: set = set()
+            while True:
+                cols, anchors = [], []
+                for o in orders:
+                    okv = ok[o]
+                    if okv.all() or not okv.any():
                         continue
-                    if last is None or misses >= max_gap:
-                        continue  # no accepted neighbour near: the branch has ended here
-                    n_retry += 1
-                    w = self.newton(W[:, last], prm[:, i])
-                    r, d, g, good = self.check(w, prm[:, i])
-                    if good:
-                        W[:, i], res[i], n1n2[i], reg[i], ok[i] = w, r, d, g, True
-                        last, misses = i, 0
-                    else:
-                        misses += 1
+                    pos = np.arange(o.size)
+                    last = np.maximum.accumulate(np.where(okv, pos, -1))
+                    j = np.flatnonzero(~okv & (last >= 0) & (pos - last <= max_gap))
+                    for c, a in zip(o[j], o[last[j]]):
+                        if (c, a) not in tried:
+                            tried.add((c, a))
+                            cols.append(c)
+                            anchors.append(a)
+                if not cols:
+                    break
+                cols, anchors = np.array(cols), np.array(anchors)
+                n_retry += cols.size
+                # Newton from the anchors (the sweep's own Function); line-search Newton where that
+                # did not converge (a converged point that fails the checks is a root off the flank)
+                Wr, rr, dr, gr = self._from(self.mapped, cols, anchors, W, prm, prm.shape[1])
+                slow = ~(np.isfinite(rr) & (rr <= self.tol))
+                if slow.any():
+                    out = self._from(lambda m, _: self._safe_mapped(m), cols[slow], anchors[slow], W, prm, None)
+                    for a, b in zip((Wr, rr, dr, gr), out):
+                        a[..., slow] = b
+                good = np.asarray(self.accept(rr, dr, gr), bool) & ~ok[cols]
+                g = cols[good]
+                W[:, g], res[g], n1n2[g], reg[g], ok[g] = Wr[:, good], rr[good], dr[good], gr[good], True
+                if not good.any():
+                    break
         return W, res, n1n2, reg, ok, {"n_fast": n_fast, "n_retry": n_retry}
-
-
-def _jit_function(name, ins, outs, in_names, out_names):
-    """Compile a Function to C with the system compiler in a scratch directory; None on failure."""
-    import contextlib
-    import shutil
-    import tempfile
-    import warnings
-
-    tmp = tempfile.mkdtemp(prefix="gearopt-jit-")
-    opts = {"jit": True, "compiler": "shell", "jit_cleanup": False,
-            "jit_options": {"flags": ["-O2"], "verbose": False, "cleanup": False}}
-    try:
-        with contextlib.chdir(tmp):
-            f = ca.Function(name, ins, outs, in_names, out_names, opts)
-            f(*[np.zeros(i.shape) for i in ins])  # force the compilation now, inside tmp
-        return f
-    except Exception as e:  # noqa: BLE001 - any compiler problem: fall back to the interpreter
-        warnings.warn(f"gearopt: jit compilation failed ({e!s:.200}); using the interpreted sweep.", stacklevel=3)
-        return None
-    finally:
-        shutil.rmtree(tmp, ignore_errors=True)

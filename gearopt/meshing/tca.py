@@ -36,6 +36,7 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
+from ..compiled import compile_function, use_compiled
 from ..errors import (ArgumentError, ConvergenceError, GeometryError, LineContactError, OptionError, check_number,
                       out_of_range, shorten)
 from ..gears import GearPair
@@ -46,7 +47,8 @@ from ..units import ARCMIN, RAD_TO_ARCSEC
 from .layout import ParamLayout
 from .misalignment import MISALIGNMENTS, Misalignment  # noqa: F401 (re-exported)
 from .solver import (DELTA_DEFAULT, NORMAL_TOL, REGULARITY_MIN, Branch, ContactSettings,  # noqa: F401 (re-exported)
-                     SolverSettings, _jit_function)
+                     SolverSettings)
+
 
 def _describe(v) -> str:
     return f"{type(v).__name__} {shorten(repr(v))}"
@@ -327,15 +329,17 @@ class TCA:
     contact : {"point", "line"}
         Point contact (crowned pinion) or line contact (conjugate surfaces, solved in a given
         pinion section ``z_section``).
-    jit : bool
-        Compile the mapped sweep (rootfinder + checks) to C with the system compiler (about 0.5 s
-        per sweep size, then ~10x faster; see benchmarks/bench_tca.py). Falls back to the
-        interpreted Function, with a warning, when no compiler works.
+    jit : {"auto", True, False}
+        Run the mapped sweep (rootfinder + checks, and the contact outputs) as compiled C
+        (:mod:`gearopt.compiled`: compiled once per graph, 0.2-0.8 s, cached on disk across
+        processes, then ~10x faster; see benchmarks/bench_tca.py): "auto" (default) for sweeps of
+        at least :data:`gearopt.compiled.MIN_COLUMNS` columns, True for every sweep, False never.
+        Without a working C compiler the interpreted Functions run, after a one-line warning.
     """
 
     def __init__(self, pair: GearPair, side: str = "right", pinion: GeneratedTooth | None = None,
                  gear: GeneratedTooth | None = None, solver: str = SolverSettings.solver,
-                 tol: float = SolverSettings.tol, contact: str = "point", jit: bool = SolverSettings.jit):
+                 tol: float = SolverSettings.tol, contact: str = "point", jit: bool | str = SolverSettings.jit):
         if not isinstance(pair, GearPair):
             raise ArgumentError(f"pair = {_describe(pair)}: expected a gearopt.gears.GearPair (pinion, gear).",
                                 param="pair", value=pair, valid="a gearopt.gears.GearPair")
@@ -344,10 +348,10 @@ class TCA:
         if contact not in ("point", "line"):
             raise out_of_range("contact", contact, "'point' (crowned or misaligned drives) or 'line' (conjugate "
                                "surfaces: contact sought in the pinion section z_section)", cls=OptionError)
-        if not isinstance(jit, (bool, np.bool_)):
-            raise out_of_range("jit", jit, "True or False (compile the sweep to C)", cls=OptionError)
+        if not (isinstance(jit, (bool, np.bool_)) or (isinstance(jit, str) and jit == "auto")):
+            raise out_of_range("jit", jit, "'auto', True or False (run the sweeps as compiled C)", cls=OptionError)
         self.contact_type = contact
-        self.jit = bool(jit)
+        self.jit = jit if isinstance(jit, str) else bool(jit)
         if solver not in ("fast_newton", "newton"):
             raise out_of_range("solver", solver, "'fast_newton' or 'newton'", cls=OptionError)
         tol = check_number("tol", tol, "a residual tolerance [mm]", cls=OptionError)
@@ -465,15 +469,11 @@ class TCA:
         self._maps: dict = {}
 
     def _contact_mapped(self, n: int) -> ca.Function:
-        key = ("contact", n)
+        fast = use_compiled(self.jit, n)
+        key = ("contact", n, fast)
         if key not in self._maps:
-            f = None
-            if self.jit:
-                W = ca.MX.sym("W", self._nw, n)
-                P = ca.MX.sym("P", self._nprm, n)
-                f = _jit_function("tca_contact_map", [W, P], self.contact.map(n)(W, P), ["W", "P"],
-                                  self.contact.name_out())
-            self._maps[key] = f if f is not None else self.contact.map(n)
+            f = compile_function(self.contact) if fast else None
+            self._maps[key] = (f if f is not None else self.contact).map(n)
         return self._maps[key]
 
     def prm(self, phi1, p1=None, p2=None, mis: Misalignment | None = None, z_section: float = 0.0) -> np.ndarray:
