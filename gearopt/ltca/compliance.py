@@ -221,6 +221,70 @@ def weber_tangent(material: Material) -> ca.Function:
                        ["f", "R_star", "h1", "h2", "f_min"], ["c", "dc"])
 
 
+def flattening_coupling(z, z_lo, z_hi, h, material: Material, cos_bb: float = 1.0, t_min: float = 0.0) -> np.ndarray:
+    """Half-space coupling of the slices' local flattening along the contact line, one body [mm/N].
+
+    Weber's term (:func:`weber_contact`) is the approach between the surface and the depth ``h``
+    under an infinitely long, uniform line load. Along a real contact line the load varies: each
+    slice's flattening also moves its neighbours. With Boussinesq's point-load solution, a uniform
+    line load ``q`` on a segment ``[t1, t2]`` of the surface line (t measured along the contact line
+    from the receiving point) moves the surface point relative to the point at depth ``h`` below it by
+
+        q (1 + nu) / (2 pi E) [2 (1 - nu) (|ln(t2 / t1)| - asinh(t2/h) + asinh(t1/h)) - t2/rho2 + t1/rho1]
+
+    (``rho = sqrt(t^2 + h^2)``; the surface term is the limit h -> 0 of the depth term). Returned:
+    that kernel between different slices (per newton of the source slice: ``q = F / l``), and on the
+    diagonal minus the same kernel summed over the whole line outside the slice's own segment, so
+    that a uniform line load along an infinitely long line gives Weber's approach unchanged (each row
+    sums to zero there) and only non-uniform loads (crowning, line ends, edges) feel the coupling.
+
+    Parameters
+    ----------
+    z : (B, M) slice nodes [mm] (NaN: unused); z_lo, z_hi : (B, M) their tributary intervals [mm].
+    h : (B, M) depth of the receiving slice's reference point (Weber's h of this body) [mm].
+    cos_bb : cos of the base helix angle (distances along the contact line are ``dz / cos_bb``).
+    t_min : distances below this [mm] count as this (the kernel is a line load's: it holds beyond the
+        Hertz half-width; loaded TCA passes half the nominal slice spacing), for the segments' ends
+        seen from a slice and for the own segment's tails.
+
+    Returns
+    -------
+    (B, M, M) array, symmetrised, zero at unused nodes.
+    """
+    z = np.asarray(z, float)
+    used = np.isfinite(z) & np.isfinite(z_lo) & np.isfinite(z_hi)
+    zc, lo, hi = (np.where(used, v, 0.0) / cos_bb for v in (z, z_lo, z_hi))
+    hh = np.where(used, np.maximum(h, 1e-6), 1.0)[:, :, None]  # depth below the receiving slice j
+    nu, E = material.nu, material.E
+    k0 = (1.0 + nu) / (2.0 * math.pi * E)
+    t1 = lo[:, None, :] - zc[:, :, None]  # (B, j, i): source segment i seen from slice j
+    t2 = hi[:, None, :] - zc[:, :, None]
+    if t_min > 0:
+        t1 = np.where(t1 >= 0, np.maximum(t1, t_min), np.minimum(t1, -t_min))
+        t2 = np.where(t2 > 0, np.maximum(t2, t_min), np.minimum(t2, -t_min))
+    length = np.maximum(hi - lo, 1e-12)[:, None, :]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        surf = np.abs(np.log(np.abs(t2) / np.abs(t1)))
+        depth = np.arcsinh(t2 / hh) - np.arcsinh(t1 / hh)
+        tip = t2 / np.hypot(t2, hh) - t1 / np.hypot(t1, hh)
+        K = k0 * (2.0 * (1.0 - nu) * (surf - depth) - tip) / length
+        # own segment: the line outside it, both tails [T, inf) (T > 0 the distances to its ends)
+        Ta, Tb = np.abs(t1[:, np.arange(z.shape[1]), np.arange(z.shape[1])]), t2[:, np.arange(z.shape[1]),
+                                                                                  np.arange(z.shape[1])]
+        hd = hh[:, :, 0]
+
+        def tail(T):
+            return k0 * (2.0 * (1.0 - nu) * (np.arcsinh(T / hd) - np.log(2.0 * T / hd)) - (1.0 - T / np.hypot(T, hd)))
+
+        own = (tail(np.maximum(Ta, max(t_min, 1e-9))) + tail(np.maximum(Tb, max(t_min, 1e-9)))) / np.maximum(hi - lo, 1e-12)
+    M = z.shape[1]
+    i = np.arange(M)
+    K[:, i, i] = -own
+    pair = used[:, :, None] & used[:, None, :]
+    K = np.where(pair & np.isfinite(K), K, 0.0)
+    return 0.5 * (K + np.swapaxes(K, 1, 2))
+
+
 def coupling(z, widths, lam: float) -> np.ndarray:
     """Discrete Green's function of ``w - lam^2 w'' = f`` on the face with free ends [1/mm].
 
