@@ -161,38 +161,6 @@ def test_weber_tangent_is_the_approach_derivative():
     assert dc == pytest.approx(c, rel=1e-14)
 
 
-def test_flattening_coupling_against_boussinesq_and_uniform_line():
-    """Half-space coupling of the slices' flattening: an off-diagonal entry against Boussinesq's
-    point-load solution integrated by quadrature, and a uniform line load on a long line unchanged
-    (interior rows sum to zero: Weber's term already is the uniform line)."""
-    from scipy.integrate import quad
-
-    from gearopt.ltca.compliance import flattening_coupling
-
-    m = Material(E=210000.0, nu=0.3)
-    G = m.E / (2 * (1 + m.nu))
-    n, dz, h = 401, 1.0, 3.0
-    z = (np.arange(n) - n // 2) * dz
-    lo, hi = z - dz / 2, z + dz / 2
-    K = flattening_coupling(z[None], lo[None], hi[None], np.full((1, n), h), m)[0]
-    j, i = n // 2, n // 2 + 3
-
-    def w(t, depth):  # Boussinesq: vertical displacement at depth under a unit point load at distance t
-        rho = math.hypot(t, depth)
-        return (2 * (1 - m.nu) / rho + depth**2 / rho**3) / (4 * math.pi * G)
-
-    ref = quad(lambda t: w(t, 1e-12) - w(t, h), lo[i] - z[j], hi[i] - z[j], epsabs=1e-16)[0] / dz
-    assert K[j, i] == pytest.approx(ref, rel=1e-9)
-    assert np.allclose(K, K.T, atol=0)
-    row = K[j] @ (hi - lo)  # a uniform line load q = 1 N/mm on every slice
-    assert abs(row) < 1e-4 * abs(K[j, j]) * dz
-    # unused nodes: zero rows and columns
-    z2 = z[:5].copy()
-    z2[3:] = np.nan
-    K2 = flattening_coupling(z2[None], lo[None, :5], hi[None, :5], np.full((1, 5), h), m)[0]
-    assert not K2[3:].any() and not K2[:, 3:].any()
-
-
 def test_iso6336_reference_values():
     iso = iso6336_stiffness(spur())
     # standard steel spur pair: c' ~ 14, c_gamma ~ 20 N/(mm um) (ISO 6336-1 typical values)

@@ -38,7 +38,7 @@ from ..gears import GearPair
 from ..meshing.misalignment import Misalignment
 from ..meshing.tca import TCA
 from ..units import RAD_TO_ARCSEC
-from .compliance import C_PRIME_STEEL, Material, ToothCompliance, coupling_batch, flattening_coupling, weber_contact, weber_tangent
+from .compliance import C_PRIME_STEEL, Material, ToothCompliance, coupling_batch, weber_contact, weber_tangent
 from .slices import SliceSet, SliceSolver
 
 HERTZ_TOL = 1e-7  #: the Hertz fixed point stops when no slice load changes by more than this x W
@@ -48,7 +48,6 @@ EDGE_GUESS = 2.0  #: first QP round: tip edges within this many times the ISO-es
 OUTER_MAX = 10  #: QP rounds that add tip-edge slices found closed after a solve
 KKT_ADD_TOL = 1e-12  #: a left-out slice whose gap falls below the approach by more than this [mm] is added
 QP_SOLVER = "qpoases"  #: CasADi conic plugin of the contact QP
-FLATTENING_COUPLING = True  #: couple the slices' local flattening along the line (half-space, docs/ltca.md section 2)
 F_MIN_SHARE = 1e-3  #: Weber's logarithm uses at least this share of the mean line load
 
 
@@ -305,19 +304,6 @@ class LTCA:
             Cv = Cs.reshape(N, K, M, K, M)
             for k in range(K):
                 Cv[:, k, :, k, :] = blocks[k]
-        h1 = c1["h"].reshape(K, N, M)
-        h2 = c2["h"].reshape(K, N, M)
-        if FLATTENING_COUPLING:
-            # the local flattening of each body spreads along the contact line (half-space; Weber's
-            # term stays the uniform-line part): flattening_coupling
-            zz = np.where(act, S.z, np.nan).reshape(K * N, M)
-            lo, hi = S.z_lo.reshape(K * N, M), S.z_hi.reshape(K * N, M)
-            t_min = 0.5 * g1.b / (self.n_slices - 1) / cb
-            Kf = (flattening_coupling(zz, lo, hi, h1.reshape(K * N, M), self.material, cb, t_min)
-                  + flattening_coupling(zz, lo, hi, h2.reshape(K * N, M), self.material, cb, t_min)).reshape(K, N, M, M)
-            Cv = Cs.reshape(N, K, M, K, M)
-            for k in range(K):
-                Cv[:, k, :, k, :] += Kf[k]
         # Hertz data per node: normal-section reduced radius, depths to the centrelines, line length
         rho1 = np.sqrt(np.maximum(rad1**2 - g1.r_b**2, 1e-12)) / cb
         rho2 = np.sqrt(np.maximum(rad2**2 - g2.r_b**2, 1e-12)) / cb
@@ -325,6 +311,8 @@ class LTCA:
             rho1 = np.where(S.edge == 1, EDGE_RADIUS * g1.m_n, rho1)
             rho2 = np.where(S.edge == 2, EDGE_RADIUS * g2.m_n, rho2)
         R = rho1 * rho2 / (rho1 + rho2)
+        h1 = c1["h"].reshape(K, N, M)
+        h2 = c2["h"].reshape(K, N, M)
         length = S.width / cb
         return {"Cs": Cs, "R": np.where(act, R, 1.0), "h1": np.where(act, h1, 1.0), "h2": np.where(act, h2, 1.0),
                 "length": np.where(act, length, 1.0), "radius1": rad1, "radius2": rad2}
