@@ -1,7 +1,8 @@
-"""Two checks of the FE influence coefficients behind loaded TCA (docs/ltca.md section 7):
+"""Checks of the FE side of loaded TCA's validation (docs/ltca.md section 7):
 
-    python benchmarks/influence_checks.py refine   # influence-grid refinement, helical pair (~20 min uncached)
-    python benchmarks/influence_checks.py cross    # tooth-to-tooth coupling through the rim (~1 min)
+    python benchmarks/fe_reference_checks.py refine   # influence-grid refinement, helical pair (~20 min uncached)
+    python benchmarks/fe_reference_checks.py cross    # tooth-to-tooth coupling through the rim (~1 min)
+    python benchmarks/fe_reference_checks.py penalty  # the contact model's penalty stiffness (~6 min)
 
 refine: the helical pair of benchmarks/validate_ltca_fe.py at its three positions, 200 N m: loaded TCA's
 approach with the FE influence coefficients of grids with 6 / 12 face layers and 8 / 14 flank rows,
@@ -11,6 +12,9 @@ cross: one unit normal load on the middle tooth's flank (mid face, mid flank) of
 three-tooth model (held as for the influence grid); the displacement along each tooth's own normal at
 the middle-line node of the same row and layer of the neighbouring teeth over that of the loaded tooth.
 Loaded TCA treats the pairs' teeth as uncoupled; this ratio bounds what that leaves out.
+
+penalty: the FE contact model of the validation (spur at the pitch point, helical at phi1 = 0) with the
+default penalty slope 50 E and with 500 E: loaded approach and peak pressure in the contact section.
 """
 
 from __future__ import annotations
@@ -89,9 +93,24 @@ def cross():
                   f"{u[-1] / u[0]:.4f} / {u[1] / u[0]:.4f} of it", flush=True)
 
 
+def penalty():
+    from gearopt.fea import FEOptions, GearFEModel
+
+    from validate_ltca_fe import FE_MESH
+
+    for name in ("spur 20/40 conjugate", "helical 15 deg"):
+        pair = drives()[name]
+        for pen in (50.0, 500.0):
+            m = GearFEModel(pair, 0.0, FEOptions(torque=T * 1e3, E=210000.0, nu=0.3, mesh=FE_MESH, penalty=pen))
+            d = m.run().to_dict()
+            shares = {k: round(v, 3) for k, v in d["pair_share"].items() if v}
+            print(f"{name:<22} penalty {pen:5.0f} E: approach {abs(d['pinion_rotation_rad']) * pair.pinion.r_b * 1e3:.3f} "
+                  f"um, p in the contact section {d['contact']['p_max_mid']:.1f} MPa, shares {shares}", flush=True)
+
+
 if __name__ == "__main__":
     if shutil.which("ccx") is None:
         print("ccx (CalculiX) not installed")
         sys.exit(0)
     what = sys.argv[1] if len(sys.argv) > 1 else "cross"
-    {"refine": refine, "cross": cross}[what]()
+    {"refine": refine, "cross": cross, "penalty": penalty}[what]()
