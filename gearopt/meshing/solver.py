@@ -131,30 +131,26 @@ class Branch:
         key = (n, fast)
         if key not in self._maps:
             f = compile_function(self.one) if fast else None
-            if f is not None:
-                self._maps[key] = f.map(n)
-            else:
-                W0 = ca.MX.sym("W0", self.G.size1_in(0), n)
-                P = ca.MX.sym("P", self.G.size1_in(1), n)
-                W = self.rf_fast.map(n)(W0, P)
-                R = self.G.map(n)(W, P)
-                c = self.checks.map(n)(W, P)
-                self._maps[key] = ca.Function(f"{self.name}_sweep", [W0, P], [W, ca.sqrt(ca.sum1(R * R)), c[0], c[1]],
-                                              ["W0", "P"], ["W", "res", "n1n2", "reg"])
+            self._maps[key] = f.map(n) if f is not None else self._interpreted(self.rf_fast, n, "sweep")
         return self._maps[key]
+
+    def _interpreted(self, rf, n: int, what: str) -> ca.Function:
+        """(W0, P) -> (W, residual norm, n1 . n2, regularity): the rootfinder ``rf`` mapped over n
+        columns, interpreted."""
+        W0 = ca.MX.sym("W0", self.G.size1_in(0), n)
+        P = ca.MX.sym("P", self.G.size1_in(1), n)
+        W = rf.map(n)(W0, P)
+        R = self.G.map(n)(W, P)
+        c = self.checks.map(n)(W, P)
+        return ca.Function(f"{self.name}_{what}", [W0, P], [W, ca.sqrt(ca.sum1(R * R)), c[0], c[1]], ["W0", "P"],
+                           ["W", "res", "n1n2", "reg"])
 
     def _safe_mapped(self, n: int) -> ca.Function:
         """Line-search Newton from given guesses at n columns, with the residual norm and checks
         (interpreted: CasADi's ``newton`` has no C code generation)."""
         key = ("safe", n)
         if key not in self._maps:
-            W0 = ca.MX.sym("W0", self.G.size1_in(0), n)
-            P = ca.MX.sym("P", self.G.size1_in(1), n)
-            W = self.rf_safe.map(n)(W0, P)
-            R = self.G.map(n)(W, P)
-            c = self.checks.map(n)(W, P)
-            self._maps[key] = ca.Function(f"{self.name}_retry", [W0, P], [W, ca.sqrt(ca.sum1(R * R)), c[0], c[1]],
-                                          ["W0", "P"], ["W", "res", "n1n2", "reg"])
+            self._maps[key] = self._interpreted(self.rf_safe, n, "retry")
         return self._maps[key]
 
     @staticmethod
