@@ -451,7 +451,7 @@ class LTCA:
         # first round: the tip edges within twice the approach that ISO 6336-1's c' = 14 N/(mm um)
         # (steel, scaled by E) suggests; the check below makes the result independent of this guess
         guess = EDGE_GUESS * W / (C_PRIME_STEEL * self.material.E / 210000.0 * g1.b)
-        A = A_all & (s <= guess)
+        A = A_all & (~edge | (s <= guess))
         Cs = st["Cs"]
         F = None
         for _outer in range(OUTER_MAX):

@@ -36,7 +36,7 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-from ..compiled import compile_function, use_compiled
+from ..compiled import mapped
 from ..errors import (ArgumentError, ConvergenceError, GeometryError, LineContactError, OptionError, check_number,
                       out_of_range, shorten)
 from ..gears import GearPair
@@ -469,11 +469,9 @@ class TCA:
         self._maps: dict = {}
 
     def _contact_mapped(self, n: int) -> ca.Function:
-        fast = use_compiled(self.jit, n)
-        key = ("contact", n, fast)
+        key = ("contact", n)
         if key not in self._maps:
-            f = compile_function(self.contact) if fast else None
-            self._maps[key] = (f if f is not None else self.contact).map(n)
+            self._maps[key] = mapped(self.contact, n, self.jit)
         return self._maps[key]
 
     def prm(self, phi1, p1=None, p2=None, mis: Misalignment | None = None, z_section: float = 0.0) -> np.ndarray:
