@@ -460,23 +460,19 @@ class LTCA:
                 raise ConvergenceError(f"loaded TCA at {torque:g} N m: the Hertz fixed point did not settle in "
                                        f"{HERTZ_MAX_ITER} QP solves at {int((~done).sum())} positions (largest load "
                                        f"change {float(np.max(change)):.3g} W).", param="torque", value=torque)
-            d_out = s + np.einsum("nij,nj->ni", Cs, F)  # gaps of the slices left out (no load, no Hertz term)
-            loaded0 = A & (F > 1e-9 * W)
-            cH0, _, _ = weber_contact(F / length, R, h1, h2, self.material, f_min)  # loaded: with their Hertz term
-            d_in = d_out + np.where(A, cH0 / length * F, 0.0)
-            delta0 = np.array([np.median(d_in[j][loaded0[j]]) if loaded0[j].any() else np.inf for j in range(N)])
-            add = A_all & ~A & (d_out < delta0[:, None] - KKT_ADD_TOL)
+            # s + C F [mm] with the final compliance: no load (no Hertz term) outside the working set
+            cH, bH, p0 = weber_contact(F / length, R, h1, h2, self.material, f_min)
+            d = s + np.einsum("nij,nj->ni", Cs, F) + np.where(A, cH / length * F, 0.0)
+            loaded = A & (F > 1e-9 * W)
+            delta = np.array([np.median(d[j, loaded[j]]) if loaded[j].any() else np.nan for j in range(N)])
+            add = A_all & ~A & (d < np.where(np.isfinite(delta), delta, np.inf)[:, None] - KKT_ADD_TOL)
             if not add.any():
                 break
             A = A | add
         else:
             raise ConvergenceError(f"loaded TCA at {torque:g} N m: the set of loaded tip edges did not settle in "
                                    f"{OUTER_MAX} QP rounds.", param="torque", value=torque)
-        cH, bH, p0 = weber_contact(F / length, R, h1, h2, self.material, f_min)
-        C = Cs + np.einsum("ni,ij->nij", np.where(A_all, cH / length, 1.0), np.eye(n))
-        d = s + np.einsum("nij,nj->ni", C, F)  # s + C F [mm]
-        loaded = A_all & (F > 1e-9 * W)
-        delta = np.array([np.median(d[j, loaded[j]]) if loaded[j].any() else np.nan for j in range(N)])
+        # the contact conditions over every active slice (the gaps d above are those of the full QP)
         err_on = np.where(loaded, np.abs(d - delta[:, None]), 0.0).max(axis=1)
         err_off = np.where(A_all & ~loaded, np.maximum(delta[:, None] - d, 0.0), 0.0).max(axis=1)
         kkt = np.maximum(err_on, err_off)
