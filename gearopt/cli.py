@@ -2,7 +2,10 @@
 
 ::
 
-    gearopt run SCENE.toml [--out DIR] [--quiet]   run the scene's study, write results.json + plots
+    gearopt run SCENE.toml [--out DIR] [--quiet] [--scheduler ADDRESS]
+                                                   run the scene's study, write results.json + plots
+                                                   (--scheduler: a Dask cluster for the montecarlo
+                                                   and sweep studies)
     gearopt check SCENE.toml                       validate a scene (and build its study), write nothing
     gearopt studies                                list the studies and the keys of their sections
 
@@ -34,7 +37,9 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("scene", type=Path, help="scene file (.toml)")
     r.add_argument("--out", "-o", dest="out_text", type=str, default=None,
                    help="output directory (replaced on success; default out/<scene file stem>)")
-    r.add_argument("--quiet", "-q", action="store_true", help="no progress lines on stderr")
+    r.add_argument("--quiet", "-q", action="store_true", help="no progress lines or bars on stderr")
+    r.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="Dask scheduler (tcp://host:port) that runs the samples of a montecarlo or sweep study")
     c = sub.add_parser("check", help="validate a scene without running or writing anything")
     c.add_argument("scene", type=Path, help="scene file (.toml)")
     sub.add_parser("studies", help="list the studies and their scene sections")
@@ -76,11 +81,21 @@ def _run(args) -> int:
     t0 = time.perf_counter()
     run = study.run
     try:
-        takes_progress = "progress" in inspect.signature(run).parameters
+        params = inspect.signature(run).parameters
     except (TypeError, ValueError):
-        takes_progress = False
+        params = {}
+    kwargs = {}
+    if "progress" in params:
+        kwargs["progress"] = None if args.quiet else say
+    if args.scheduler is not None:
+        if "scheduler" not in params:
+            from .errors import OptionError
+            raise OptionError(f"--scheduler {args.scheduler}: study {scene.study!r} runs in this process; only the "
+                              "montecarlo and sweep studies run on a Dask cluster.", param="--scheduler",
+                              value=args.scheduler, valid="a montecarlo or sweep scene")
+        kwargs["scheduler"] = args.scheduler
     with _in_scene(scene):
-        result = run(progress=say) if takes_progress else run()
+        result = run(**kwargs)
     run_time = time.perf_counter() - t0
     say(f"done in {run_time:.2f} s; writing {out}")
     paths = write_results(out, result, scene=scene, run_time=run_time, progress=say)

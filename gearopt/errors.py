@@ -34,6 +34,7 @@ SynthesisError         the crowning / local synthesis NLP found no design
 SceneError             a malformed scene file
 ResultsError           results cannot be written
 CalculixError          CalculiX is missing, failed, or its results fail the physical checks
+ExecutionError         a study's executor failed: no Dask scheduler answers, workers keep dying
 =====================  =========================================================================
 """
 
@@ -143,6 +144,10 @@ class ResultsError(GearoptError, ValueError):
 
 class CalculixError(GearoptError, RuntimeError):
     """CalculiX is missing, failed, timed out, or its result fails the physical checks."""
+
+
+class ExecutionError(GearoptError, RuntimeError):
+    """A study's executor failed: the Dask scheduler cannot be reached, or workers keep dying."""
 
 
 #: Longest value text echoed in a message; longer values are abbreviated (see :func:`shorten`).

@@ -453,11 +453,13 @@ def _with_actual_roll_length(f, fr: Frame, L_foot, z):
     return d
 
 
-def flank_modifications(mg: Microgeometry, tooth, pair=None, member: str | None = None) -> tuple:
+def flank_modifications(mg: Microgeometry, tooth, pair=None, member: str | None = None, force_iso: bool = False) -> tuple:
     """The :class:`FlankModification` s of a member's :class:`Microgeometry`: ``"iso"`` (the ISO terms,
     theta = :attr:`Microgeometry.theta_names` [mm]) on ``mg.sides`` unless every term is absent, and
     one ``"measured_<side>"`` per measured grid (no theta). ``tooth``: the member's generated tooth
-    (unmodified); ``pair``/``member`` set the profile evaluation range (active profile).
+    (unmodified); ``pair``/``member`` set the profile evaluation range (active profile);
+    ``force_iso``: the ``"iso"`` modification even when every amount is 0 (its theta entries are
+    then inputs of the graphs, e.g. deviations sampled by a Monte Carlo study).
 
     The normal deviation composed into the flank is ``cos(beta_b) delta_t`` with ``delta_t`` taken
     at the modified point's own roll length (:func:`_with_actual_roll_length`)."""
@@ -466,7 +468,7 @@ def flank_modifications(mg: Microgeometry, tooth, pair=None, member: str | None 
     mg.check(gear)
     mods = []
     names = mg.theta_names
-    if any(getattr(mg, a) != 0 for a in GLOBAL_AMOUNTS) or mg.reliefs:
+    if force_iso or any(getattr(mg, a) != 0 for a in GLOBAL_AMOUNTS) or mg.reliefs:
         frames = {side: frame(tooth, side, pair, member, mg) for side in mg.sides}
         for fr in frames.values():
             _check_reliefs(mg, fr, where)
@@ -569,17 +571,21 @@ def measured_modification(grid, fr: Frame, name: str = "measured") -> FlankModif
     return FlankModification(name, (), delta, (grid.side,))
 
 
-def modified_tooth(pair, member: str, tooth=None):
+def modified_tooth(pair, member: str, tooth=None, force_iso: bool = False):
     """The member's generated tooth with its gear's :class:`Microgeometry` composed in (the tooth
-    itself when the gear has none). ``tooth``: the generated tooth (default ``generate(gear)``)."""
+    itself when the gear has none). ``tooth``: the generated tooth (default ``generate(gear)``);
+    ``force_iso``: compose the ISO terms (zero when the gear has none) so that their amounts
+    ``iso.<name>`` are parameters of the tooth (see :func:`flank_modifications`)."""
     from .generation import generate
 
     gear = getattr(pair, member)
     tooth = tooth if tooth is not None else generate(gear)
     mg = getattr(gear, "modifications", None)
-    if mg is None or mg.is_zero:
+    if mg is None and force_iso:
+        mg = Microgeometry()
+    if mg is None or (mg.is_zero and not force_iso):
         return tooth
-    for mod in flank_modifications(mg, tooth, pair, member):
+    for mod in flank_modifications(mg, tooth, pair, member, force_iso):
         tooth = tooth.with_modification(mod)
     return tooth
 

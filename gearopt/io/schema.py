@@ -348,6 +348,8 @@ class ToolSection(Section):
     ``variants[kind]`` lists the fields of each kind. Problems are reported as ``[pinion] tool.<key>``."""
 
     variants: dict = field(default_factory=dict)
+    noun: str = "tool"  #: what the table describes, in messages ("tool", "distribution")
+    example: str = '{kind = "shaper", z = 25}'  #: an example table for the messages
 
     @property
     def keys(self) -> list[str]:
@@ -361,18 +363,18 @@ class ToolSection(Section):
         at = f"[{owner}] {name}" if owner else f"[{name}]"
         kinds = ", ".join(_toml(k) for k in self.variants)
         if not isinstance(table, dict):
-            valid = f"an inline table such as {{kind = \"shaper\", z = 25}} (kind one of {kinds})"
+            valid = f"an inline table such as {self.example} (kind one of {kinds})"
             detail = f": expected {valid}, got {_type(table)}."
             errors.append(problem(f"{at} = {_toml(table)}{detail}", at, _toml(table), valid, detail))
             return {}, set()
         if "kind" not in table:
-            errors.append(problem(f"{at}.kind: missing; valid: one of {kinds} (the tool's keys depend on it).",
+            errors.append(problem(f"{at}.kind: missing; valid: one of {kinds} (the {self.noun}'s keys depend on it).",
                                   f"{at}.kind", valid=f"one of {kinds}"))
             return {}, set()
         kind = table["kind"]
         if not isinstance(kind, str) or kind not in self.variants:
             hint = _closest(str(kind), list(self.variants)) if isinstance(kind, str) else ""
-            detail = f"is not a tool kind; valid: one of {kinds}.{hint}"
+            detail = f"is not a {self.noun} kind; valid: one of {kinds}.{hint}"
             errors.append(problem(f"{at}.kind = {_toml(kind)} {detail}", f"{at}.kind", _toml(kind), f"one of {kinds}",
                                   detail))
             return {}, set()
@@ -386,7 +388,7 @@ class ToolSection(Section):
             others = [k for k, v in self.variants.items() if any(f.name == key for f in v)]
             hint = (f" {key} is a key of kind = {' or '.join(_toml(k) for k in others)}." if others
                     else _closest(str(key), names))
-            errors.append(problem(f"{at}.{shorten(str(key))}: not a key of a tool of kind = {_toml(kind)}.{hint} "
+            errors.append(problem(f"{at}.{shorten(str(key))}: not a key of a {self.noun} of kind = {_toml(kind)}.{hint} "
                                   f"Valid keys: {', '.join(names)}.", f"{at}.{shorten(str(key))}",
                                   valid=", ".join(names)))
         _parse_fields(fs, table, lambda name: f"{at}.{name}", values, given, errors)

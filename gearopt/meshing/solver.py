@@ -58,6 +58,13 @@ class ContactSettings:
 DELTA_DEFAULT = ContactSettings.delta  #: elastic approach for the contact ellipse [mm]
 
 
+def accept_tangency(res, n1n2, reg, tol):
+    """Acceptance of solved points: residual norm <= ``tol`` [mm], outward normals opposite
+    (n1 . n2 < -1 + NORMAL_TOL: tangency, not crossing) and both surfaces regular (reg >
+    REGULARITY_MIN: not at a singular point)."""
+    return np.isfinite(res) & (res <= tol) & (n1n2 < -1 + NORMAL_TOL) & (reg > REGULARITY_MIN)
+
+
 class Branch:
     """A square system ``G(w, prm) = 0`` solved at many parameter columns (positions): one mapped
     rootfinder call from predicted first guesses, the acceptance checks, and continuation from
@@ -107,6 +114,16 @@ class Branch:
         cf = checks(wf, pp)
         self.one = ca.Function(f"{name}_one", [w0, pp], [wf, ca.norm_2(G(wf, pp)), cf[0], cf[1]], ["W0", "P"],
                                ["W", "res", "n1n2", "reg"])
+
+    def __getstate__(self):
+        # picklable (the robust-design studies ship it to worker processes): the Functions
+        # serialise; the mapped/compiled ones are rebuilt on demand where it lands
+        state = dict(self.__dict__)
+        state["_maps"] = {}
+        return state
+
+    def __setstate__(self, state):
+        self.__dict__.update(state)
 
     def newton(self, w0, prm) -> np.ndarray:
         """Line-search Newton from ``w0`` at one parameter column (unchecked)."""

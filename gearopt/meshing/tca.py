@@ -29,6 +29,7 @@ Frames and signs (docs/theory.md section 1)
 
 from __future__ import annotations
 
+import functools
 import math
 import time
 from dataclasses import dataclass, field
@@ -46,7 +47,7 @@ from ..geometry.microgeometry import modified_tooth
 from ..units import ARCMIN, RAD_TO_ARCSEC
 from .layout import ParamLayout
 from .misalignment import MISALIGNMENTS, Misalignment  # noqa: F401 (re-exported)
-from .solver import (DELTA_DEFAULT, NORMAL_TOL, REGULARITY_MIN, Branch, ContactSettings,  # noqa: F401 (re-exported)
+from .solver import (DELTA_DEFAULT, NORMAL_TOL, REGULARITY_MIN, Branch, ContactSettings, accept_tangency,  # noqa: F401 (re-exported)
                      SolverSettings)
 
 
@@ -465,7 +466,8 @@ class TCA:
         names = ["rf1", "nf1", "rf2", "nf2", "n1n2", "r1", "r2", "K1", "K2", "E2", "E1", "reg"]
         self.contact = ca.Function("tca_contact", [w, prm], out, ["w", "prm"], names)
         checks = ca.Function("tca_checks", [w, prm], [ca.dot(nf1, nf2), reg], ["w", "prm"], ["n1n2", "reg"])
-        self.branch = Branch("tca", self.residual, checks, self._accept, self.tol, self.solver, self.jit)
+        self.branch = Branch("tca", self.residual, checks, functools.partial(accept_tangency, tol=self.tol), self.tol,
+                             self.solver, self.jit)
         self._maps: dict = {}
 
     def _contact_mapped(self, n: int) -> ca.Function:
@@ -498,7 +500,7 @@ class TCA:
     def _accept(self, res, n1n2, reg):
         """Acceptance of solved points: residual below tol, outward normals opposite (n1 . n2 = -1
         to NORMAL_TOL: tangency, not crossing) and both surfaces regular (not at a singular point)."""
-        return np.isfinite(res) & (res <= self.tol) & (n1n2 < -1 + NORMAL_TOL) & (reg > REGULARITY_MIN)
+        return accept_tangency(res, n1n2, reg, self.tol)
 
     def _check(self, w, prm):
         return self.branch.check(w, prm)

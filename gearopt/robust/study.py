@@ -1,0 +1,587 @@
+"""Monte Carlo of tolerances and misalignments, and design sweeps (DOE), of unloaded TCA.
+
+:class:`MonteCarlo` samples a crowned drive as built: misalignments from distributions, the
+manufacturing deviations of an ISO 1328-1 flank tolerance class (helix slope f_Hbeta, profile slope
+f_Halpha, single pitch f_pt of the teeth in mesh) and a centre-distance tolerance.
+:class:`DesignSweep` runs a design of experiments over design variables (the TCA's parameters, e.g.
+the pinion's a_c, a_pl, and misalignments as noise). Both evaluate every sample by one mesh cycle
+of TCA through :class:`~gearopt.robust.batch.TCAKernel` in chunks, on any executor
+(:mod:`gearopt.robust.execution`), and return a :class:`RobustResult` (per-sample table,
+statistics, ranked sensitivities, plots).
+
+Deviations act on the drive as one relative deviation carried by the pinion flank: the TCA sees the
+gap between the flanks, which to first order is the sum of both members' normal deviations at the
+contact point. Helix slopes add as ``f_Hb1 + f_Hb2 b1 / b2``; profile slopes, whose roll lengths
+run opposite along the line of action, as ``f_Ha1 - f_Ha2 L_a1 / L_a2`` (L_a: the evaluation
+ranges), plus a constant that moves every pair alike (no TE variation). Pitch deviations are exact
+rigid offsets of the teeth in mesh (:mod:`gearopt.robust.batch`).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import ArgumentError, OptionError, out_of_range
+from ..meshing.misalignment import Misalignment
+from ..meshing.solver import DELTA_DEFAULT
+from ..units import ARCMIN, RAD_TO_ARCSEC
+from .sampling import Distribution, check_count, design, within_tolerance
+
+#: the deviation inputs a Monte Carlo can sample, with their unit (internal mm) and meaning
+DEVIATIONS = {
+    "pinion.f_H_alpha": "profile slope deviation of the pinion [mm]",
+    "pinion.f_H_beta": "helix slope deviation of the pinion [mm]",
+    "gear.f_H_alpha": "profile slope deviation of the gear [mm]",
+    "gear.f_H_beta": "helix slope deviation of the gear [mm]",
+    "pinion.f_pt_0": "single pitch deviation between pinion teeth -1 and 0 [mm]",
+    "pinion.f_pt_1": "single pitch deviation between pinion teeth 0 and +1 [mm]",
+    "gear.f_pt_0": "single pitch deviation between gear teeth -1 and 0 [mm]",
+    "gear.f_pt_1": "single pitch deviation between gear teeth 0 and +1 [mm]",
+}
+PAIRS = (-1, 0, 1)
+#: units of results.json of the montecarlo and sweep studies
+UNITS = {"length": "mm", "angle": "rad (inputs in the CSV: arcmin)", "deviation": "um (suffix _um)",
+         "te": "arcsec (suffix _arcsec)", "probability": "-", "time": "s", "see": "docs/results.md"}
+
+
+def display(name: str, values):
+    """(values in the display unit, unit): arcmin for angles, um for deviations, 1/mm settings."""
+    v = np.asarray(values, float)
+    kind = name.split(".")[-1]
+    if name.startswith("mis."):
+        return (v / ARCMIN, "arcmin") if Misalignment.meta(kind)["unit"] == "angle" else (v, "mm")
+    if name in DEVIATIONS or kind in ("C_alpha", "C_beta", "f_H_alpha", "f_H_beta", "S_alpha"):
+        return v * 1000.0, "um"
+    if kind in ("a_c", "a_pl"):
+        return v, "1/mm"
+    return v, "mm"
+
+
+def _deviation_mod(pair):
+    """The pinion's relative deviation modification ``dev``: theta (f_H_alpha, f_H_beta) [mm],
+    transverse deviation ``f_H_alpha (L - L_m) / L_alpha + f_H_beta z / b`` on both flanks at the
+    foot point's roll length (the fixed-point correction of microgeometry is below 1e-3 of it)."""
+    from ..geometry.generation import generate
+    from ..geometry.microgeometry import frame, roll_length_of
+    from ..geometry.modification import FlankModification
+
+    tooth = generate(pair.pinion)
+    fr = frame(tooth, "right", pair, "pinion")
+    c = math.cos(fr.beta_b)
+
+    def delta(u, z, r, th):
+        L = roll_length_of(r, fr.r_b)
+        return c * (th[0] * (L - fr.L_m) / fr.L_alpha + th[1] * z / fr.b)
+
+    return FlankModification("dev", (("f_H_alpha", 0.0, "mm"), ("f_H_beta", 0.0, "mm")), delta), fr
+
+
+@dataclass
+class RobustResult:
+    """Per-sample table and statistics of a Monte Carlo or a design sweep (the one numeric
+    output of :meth:`MonteCarlo.run` / :meth:`DesignSweep.run`)."""
+
+    study: str
+    scene: str
+    inputs: dict  #: name -> values (n,) [internal units]
+    distributions: dict  #: name -> Distribution.to_dict() (internal units)
+    figures: dict  #: te_p2p, h1..hH [rad], edge_contact, pattern_at_edge, pattern_z/r (n, 2) [mm], ok, n_failed
+    pattern_count: np.ndarray  #: (rows radius, cols face) samples whose pattern covers the cell
+    grid_z: np.ndarray
+    grid_r: np.ndarray
+    limits: dict  #: pinion b, r_a, r_form [mm]
+    options: dict
+    timing: dict = field(default_factory=dict)
+    nominal: dict = field(default_factory=dict)  #: the nominal drive's figures (same kernel)
+
+    @property
+    def n(self) -> int:
+        return int(self.figures["te_p2p"].size)
+
+    def table(self) -> dict:
+        """Columns of the per-sample CSV (name -> list): ``sample``, each input in its display unit
+        (``<name>_<unit>``), ``te_p2p_arcsec``, ``h<k>_arcsec``, ``edge_contact``,
+        ``pattern_at_edge``, the pattern extents on the pinion flank, ``feasible`` (0: the
+        misalignment jams or separates the teeth; not solved), ``converged``."""
+        cols = {"sample": list(range(self.n))}
+        for nm, v in self.inputs.items():
+            d, unit = display(nm, v)
+            cols[f"{nm}_{unit.replace('/', '_per_')}"] = d.tolist()
+        f = self.figures
+        cols["te_p2p_arcsec"] = (f["te_p2p"] * RAD_TO_ARCSEC).tolist()
+        for k in range(f["harmonics"].shape[1]):
+            cols[f"h{k + 1}_arcsec"] = (f["harmonics"][:, k] * RAD_TO_ARCSEC).tolist()
+        cols["edge_contact"] = f["edge_contact"].astype(int).tolist()
+        cols["pattern_at_edge"] = f["pattern_at_edge"].astype(int).tolist()
+        for j, end in enumerate(("min", "max")):
+            cols[f"pattern_z_{end}_mm"] = f["pattern_z"][:, j].tolist()
+        for j, end in enumerate(("min", "max")):
+            cols[f"pattern_radius_{end}_mm"] = f["pattern_r"][:, j].tolist()
+        cols["feasible"] = f["feasible"].astype(int).tolist()
+        cols["converged"] = f["ok"].astype(int).tolist()
+        return cols
+
+    def statistics(self) -> dict:
+        """Percentiles, mean and sd of TE p2p and of each harmonic [arcsec] (over samples whose
+        TE is defined), probabilities of edge contact and of a truncated pattern (with Wilson 95 %
+        intervals), and the number of failed samples."""
+        f = self.figures
+        feas = f["feasible"]
+        out = {"n_samples": self.n, "n_failed": int((~f["ok"] & feas).sum()), "n_infeasible": int((~feas).sum()),
+               "p_infeasible": _wilson(int((~feas).sum()), self.n)}
+        qs = (1, 5, 50, 95, 99)
+
+        def stats(v):
+            v = v[np.isfinite(v)] * RAD_TO_ARCSEC
+            if not v.size:
+                return None
+            return {"n": int(v.size), "mean": float(v.mean()), "sd": float(v.std(ddof=1)) if v.size > 1 else 0.0,
+                    "min": float(v.min()), "max": float(v.max()),
+                    **{f"p{q}": float(np.percentile(v, q)) for q in qs}}
+
+        out["te_p2p_arcsec"] = stats(f["te_p2p"])
+        for k in range(f["harmonics"].shape[1]):
+            out[f"h{k + 1}_arcsec"] = stats(f["harmonics"][:, k])
+        ok = f["ok"]
+        for key in ("edge_contact", "pattern_at_edge"):
+            out[f"p_{key}"] = _wilson(int(f[key][ok].sum()), int(ok.sum()))
+        return out
+
+    def sensitivities(self) -> dict:
+        """Inputs ranked by their influence on TE p2p (and on the first harmonic and on edge
+        contact): ``{"te_p2p": [{"input", "spearman", "spearman_abs", "src"}, ...], ...}``.
+
+        ``spearman``: rank correlation of the output with the input (monotonic effects);
+        ``spearman_abs``: with the input's distance from its median (even effects, e.g. a pitch
+        deviation of either sign raising TE); ``src``: standardised regression coefficient of a
+        linear fit on all varied inputs. Ranked by the larger of the two |rho|."""
+        from scipy.stats import spearmanr
+
+        f = self.figures
+        names = [nm for nm, v in self.inputs.items() if np.ptp(v) > 0]
+        out = {}
+        for key, y in (("te_p2p", f["te_p2p"]), ("h1", f["harmonics"][:, 0]),
+                       ("edge_contact", f["edge_contact"].astype(float))):
+            m = np.isfinite(y) & f["ok"]
+            if m.sum() < 3 or not names or np.ptp(y[m]) == 0:
+                out[key] = []
+                continue
+            X = np.stack([self.inputs[nm][m] for nm in names], 1)
+            Xs = (X - X.mean(0)) / X.std(0)
+            ys = (y[m] - y[m].mean()) / y[m].std()
+            src = np.linalg.lstsq(np.c_[Xs, np.ones(len(ys))], ys, rcond=None)[0][:-1]
+            rows = []
+            for j, nm in enumerate(names):
+                rho = spearmanr(X[:, j], y[m]).statistic
+                rho_abs = spearmanr(np.abs(X[:, j] - np.median(X[:, j])), y[m]).statistic
+                rows.append({"input": nm, "spearman": float(rho) if np.isfinite(rho) else 0.0,
+                             "spearman_abs": float(rho_abs) if np.isfinite(rho_abs) else 0.0, "src": float(src[j])})
+            out[key] = sorted(rows, key=lambda r: -max(abs(r["spearman"]), abs(r["spearman_abs"])))
+        return out
+
+    def to_dict(self) -> dict:
+        ins = {nm: {"distribution": self.distributions.get(nm), "unit": display(nm, 0.0)[1]} for nm in self.inputs}
+        return {"study": self.study, "scene": self.scene, "units": UNITS, "options": self.options,
+                "inputs": ins, "statistics": self.statistics(), "sensitivities": self.sensitivities(),
+                "nominal": self.nominal, "limits": self.limits,
+                "pattern": {"grid_z_mm": self.grid_z.tolist(), "grid_radius_mm": self.grid_r.tolist(),
+                            "probability": (self.pattern_count / max(int(self.figures["ok"].sum()), 1)).tolist()},
+                "samples_csv": "samples.csv", "timing": self.timing}
+
+    def save_tables(self, out_dir) -> list[str]:
+        """``samples.csv``: one row per sample (:meth:`table`)."""
+        from pathlib import Path
+
+        from ..studies.tca import _cell
+        cols = self.table()
+        text = ",".join(cols) + "\n" + "".join(",".join(_cell(v) for v in row) + "\n" for row in zip(*cols.values()))
+        (Path(out_dir) / "samples.csv").write_text(text, encoding="utf-8")
+        return ["samples.csv"]
+
+    def save_plots(self, out_dir, dpi: int = 120) -> list[str]:
+        """``distribution.png`` (histograms and CDFs of TE p2p and first harmonic),
+        ``scatter.png`` (TE p2p against the four most influential inputs, edge contact marked),
+        ``pattern.png`` (probability of each pinion flank point being in the contact pattern) and
+        ``sensitivity.png`` (ranked Spearman correlations)."""
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+        from pathlib import Path
+
+        from ..plot.robust import plot_cdf, plot_histogram, plot_pattern_probability, plot_scatter, plot_sensitivity
+
+        out = Path(out_dir)
+
+        def save(name, fig, title):
+            fig.suptitle(f"{self.scene}: {title}")
+            fig.savefig(out / name, dpi=dpi, bbox_inches="tight")
+            plt.close(fig)
+            return name
+
+        d = {"figures": self.figures, "inputs": self.inputs, "statistics": self.statistics(),
+             "sensitivities": self.sensitivities(), "nominal": self.nominal}
+        fig, axes = plt.subplots(2, 2, figsize=(12, 8), layout="constrained")
+        plot_histogram(d, "te_p2p", ax=axes[0, 0])
+        plot_cdf(d, "te_p2p", ax=axes[0, 1])
+        plot_histogram(d, "h1", ax=axes[1, 0])
+        plot_cdf(d, "h1", ax=axes[1, 1])
+        what = "Monte Carlo" if self.study == "montecarlo" else "design sweep"
+        files = [save("distribution.png", fig, f"{what} of {self.n} samples: TE peak-to-peak and first mesh harmonic")]
+        ranked = [r["input"] for r in d["sensitivities"].get("te_p2p", [])][:4]
+        if ranked:
+            fig, axes = plt.subplots(1, len(ranked), figsize=(4 * len(ranked), 3.8), squeeze=False,
+                                     layout="constrained")
+            for ax, nm in zip(axes[0], ranked):
+                plot_scatter(d, nm, "te_p2p", ax=ax)
+            files.append(save("scatter.png", fig, "TE peak-to-peak against the most influential inputs"))
+            fig, ax = plt.subplots(figsize=(8, 0.5 + 0.45 * len(d["sensitivities"]["te_p2p"]) + 1.5),
+                                   layout="constrained")
+            plot_sensitivity(d, "te_p2p", ax=ax)
+            files.append(save("sensitivity.png", fig, "sensitivities (Spearman rank correlation with TE p2p)"))
+        fig, ax = plt.subplots(figsize=(9, 5.5), layout="constrained")
+        plot_pattern_probability({"pattern_count": self.pattern_count, "grid_z": self.grid_z, "grid_r": self.grid_r,
+                                  "n": int(self.figures["ok"].sum()), "limits": self.limits,
+                                  "nominal": self.nominal}, ax=ax)
+        files.append(save("pattern.png", fig, "contact pattern envelope on the pinion flank (every pair over the cycle)"))
+        return files
+
+
+def _wilson(k: int, n: int, z: float = 1.959963984540054) -> dict:
+    """Proportion k/n with its Wilson score 95 % interval."""
+    if n == 0:
+        return {"p": None, "lo": None, "hi": None, "k": k, "n": n}
+    p = k / n
+    den = 1 + z * z / n
+    c = (p + z * z / (2 * n)) / den
+    h = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / den
+    return {"p": p, "lo": 0.0 if k == 0 else max(0.0, c - h), "hi": 1.0 if k == n else min(1.0, c + h), "k": k, "n": n}
+
+
+class _Robust:
+    """What the Monte Carlo and the design sweep share: the kernel, chunks and the run."""
+
+    study = "robust"
+
+    def _setup(self, pair, positions, delta, side, chunk, executor, workers, name):
+        from ..gears import GearPair
+        if not isinstance(pair, GearPair):
+            raise ArgumentError(f"pair = {type(pair).__name__}: expected a gearopt.gears.GearPair.", param="pair",
+                                value=type(pair).__name__, valid="a gearopt.gears.GearPair")
+        self.pair, self.name, self.side = pair, name, side
+        self.positions = check_count("positions", positions, 16, 2000)
+        self.chunk = check_count("chunk", chunk, 1, 100_000)
+        if not 0 < delta <= 0.1 * pair.pinion.m_n:
+            raise out_of_range("delta", delta, f"0 < delta <= 0.1 m_n mm", cls=OptionError)
+        self.delta = float(delta)
+        from .execution import check_executor
+        self.executor, self.workers = check_executor(executor, workers)
+
+    def _kernel(self, tca, n_samples):
+        from .batch import TCAKernel
+        return TCAKernel(tca, positions=self.positions, pairs=PAIRS, delta=self.delta,
+                         n_total=n_samples * self.positions * len(PAIRS))
+
+    def _chunks(self, values: dict, n: int) -> list[dict]:
+        raise NotImplementedError
+
+    def _execute(self, values: dict, n: int, progress=None, scheduler=None) -> tuple:
+        from .execution import run_chunks
+        t0 = time.perf_counter()
+        tca = self._tca()
+        kernel = self._kernel(tca, n).prepare()
+        t_build = time.perf_counter() - t0
+        chunks = self._chunks(values, n, kernel, tca)
+        nominal = kernel.evaluate(self._nominal_chunk(kernel, tca))
+        t1 = time.perf_counter()
+        executor = "dask" if scheduler else self.executor
+        parts = run_chunks(kernel, chunks, executor=executor, workers=self.workers, scheduler=scheduler,
+                           progress=progress, label=self.study)
+        t_run = time.perf_counter() - t1
+        figs = {k: np.concatenate([p[k] for p in parts]) for k in parts[0] if k != "pattern_count"}
+        count = sum(p["pattern_count"] for p in parts)
+        figs["feasible"] = self._ok_mis.copy()
+        nom = {"te_p2p_arcsec": _num(nominal["te_p2p"][0] * RAD_TO_ARCSEC),
+               "h1_arcsec": _num(nominal["harmonics"][0, 0] * RAD_TO_ARCSEC),
+               "edge_contact": bool(nominal["edge_contact"][0]),
+               "pattern_z_mm": [_num(v) for v in nominal["pattern_z"][0]],
+               "pattern_radius_mm": [_num(v) for v in nominal["pattern_r"][0]]}
+        limits = {"b": self.pair.pinion.b, "r_a": self.pair.pinion.r_a, "r_form": float(tca.form_radius(1))}
+        timing = {"build_s": t_build, "run_s": t_run, "n_columns": int(n * kernel.n_per_sample),
+                  "us_per_position_pair": t_run / (n * kernel.n_per_sample) * 1e6, "executor": executor,
+                  "workers": self.workers, "compiled": kernel.jit, "chunks": len(chunks)}
+        return figs, count, kernel, nom, limits, timing
+
+    def _nominal_chunk(self, kernel, tca):
+        return {"p1": kernel.p1_0[None, :], "p2": kernel.p2_0[None, :], "mis": self.base_mis.vector()[None, :]}
+
+
+def _feasible(pair, MIS) -> np.ndarray:
+    """Per sample: the misalignment neither jams nor separates the teeth (the rules of
+    :meth:`Misalignment.check`: dE within the operating range, faces overlapping)."""
+    from ..errors import GeometryError
+    out = np.ones(len(MIS), bool)
+    seen: dict = {}
+    for i, v in enumerate(MIS):
+        key = (v[Misalignment.names().index("dE")], v[Misalignment.names().index("axial")])
+        if key not in seen:
+            try:
+                Misalignment(*v).check(pair)
+                seen[key] = True
+            except GeometryError:
+                seen[key] = False
+        out[i] = seen[key]
+    return out
+
+
+def _num(v):
+    v = float(v)
+    return v if math.isfinite(v) else None
+
+
+class MonteCarlo(_Robust):
+    """Tolerance and misalignment Monte Carlo of a crowned drive's unloaded TCA.
+
+    Parameters
+    ----------
+    pair : GearPair
+        The drive (point contact: a crowned pinion).
+    samples : int
+        Number of samples (>= 1).
+    seed : int
+        Seed of the sampling (>= 0); the same seed gives the same samples and figures.
+    misalignment : dict, optional
+        Misalignment kind (``"crossing"``, ``"intersecting"``, ``"dE"``, ``"axial"``) ->
+        :class:`~gearopt.robust.sampling.Distribution` [rad or mm].
+    iso_grade : int, optional
+        ISO 1328-1:2013 flank tolerance class 1 ... 11 of both members; samples the helix slope,
+        profile slope and single pitch deviations within the tolerances (``spread``).
+    spread : {"normal", "uniform"}
+        How a deviation with tolerance +-T is distributed: N(0, (T/3)^2) truncated at +-T
+        (a capable, centred process; default) or uniform on +-T.
+    f_a : float
+        Centre-distance tolerance +-f_a [mm] (ISO 1328-1 has none): dE sampled like a deviation.
+    sampling : {"random", "lhs"}
+        Monte Carlo (PCG64) or Latin hypercube.
+    positions : int
+        Positions per mesh cycle (default 64).
+    delta : float
+        Elastic approach of the contact ellipse [mm].
+    chunk : int
+        Samples per chunk (the unit of work of an executor; results do not depend on it).
+    executor : {"serial", "processes", "dask"} or dask.distributed.Client
+    workers : int, optional
+        Processes (``"processes"``) or local Dask workers (``"dask"`` without a scheduler).
+    """
+
+    study = "montecarlo"
+
+    def __init__(self, pair, samples: int, seed: int = 0, misalignment: dict | None = None, iso_grade=None,
+                 spread: str = "normal", f_a: float = 0.0, sampling: str = "random", positions: int = 64,
+                 delta: float = DELTA_DEFAULT, side: str = "right", chunk: int = 64, executor="serial",
+                 workers=None, name: str = "montecarlo"):
+        self._setup(pair, positions, delta, side, chunk, executor, workers, name)
+        self.samples = check_count("samples", samples)
+        self.seed = check_count("seed", seed, 0, 2**63 - 1)
+        if sampling not in ("random", "lhs"):
+            raise out_of_range("sampling", sampling, "'random' (Monte Carlo) or 'lhs' (Latin hypercube)",
+                               cls=OptionError)
+        self.sampling = sampling
+        self.base_mis = Misalignment()
+        inputs: dict[str, Distribution] = {}
+        for kind, dist in (misalignment or {}).items():
+            if kind not in Misalignment.names():
+                raise out_of_range("misalignment", kind, f"one of {', '.join(Misalignment.names())}",
+                                   cls=OptionError)
+            if not isinstance(dist, Distribution):
+                raise ArgumentError(f"misalignment[{kind!r}] = {type(dist).__name__}: expected a "
+                                    "gearopt.robust.sampling.Distribution.", param=f"misalignment.{kind}")
+            inputs[f"mis.{kind}"] = dist
+        f_a = float(f_a)
+        if not (math.isfinite(f_a) and 0 <= f_a <= 5.0):
+            raise out_of_range("f_a", f_a, "0 <= f_a <= 5 mm (centre-distance tolerance)", cls=OptionError)
+        if f_a > 0:
+            if "mis.dE" in inputs:
+                raise OptionError("f_a and a dE distribution are both given: the centre-distance deviation is "
+                                  "sampled from one of them; remove one.", param="f_a", value=f_a,
+                                  valid="f_a or dE, not both")
+            inputs["mis.dE"] = within_tolerance(f_a, spread, "f_a")
+        self.tolerances = None
+        if iso_grade is not None:
+            from .tolerances import tolerances
+            tol = {m: tolerances(iso_grade, 2 * g.r_p, g.m_n, g.b) for m, g in (("pinion", pair.pinion),
+                                                                                   ("gear", pair.gear))}
+            self.tolerances = tol
+            for m in ("pinion", "gear"):
+                inputs[f"{m}.f_H_alpha"] = within_tolerance(tol[m]["f_HalphaT"] / 1000, spread, f"{m}.f_H_alpha")
+                inputs[f"{m}.f_H_beta"] = within_tolerance(tol[m]["f_HbetaT"] / 1000, spread, f"{m}.f_H_beta")
+                for j in (0, 1):
+                    inputs[f"{m}.f_pt_{j}"] = within_tolerance(tol[m]["f_pT"] / 1000, spread, f"{m}.f_pt_{j}")
+        else:
+            within_tolerance(1.0, spread, "spread")  # checks the name
+        self.spread, self.iso_grade, self.f_a = spread, iso_grade, f_a
+        if not inputs:
+            raise OptionError("MonteCarlo: nothing to sample: give misalignment distributions, iso_grade or f_a.",
+                              param="misalignment", valid="at least one random input")
+        self.inputs = inputs
+        for nm, d in inputs.items():
+            if nm.startswith("mis."):
+                lo, hi = d.support
+                kind = nm[4:]
+                lim = Misalignment.meta(kind)["scene_max"] * (ARCMIN if Misalignment.meta(kind)["unit"] == "angle" else 1)
+                if d.kind in ("fixed", "uniform", "truncnormal", "triangular") and max(abs(lo), abs(hi)) > lim:
+                    raise out_of_range(f"misalignment.{kind}", (lo, hi), f"values within +-{display(nm, lim)[0]:g} "
+                                       f"{display(nm, 0)[1]}", cls=OptionError)
+
+    def _tca(self):
+        from ..geometry.microgeometry import modified_tooth
+        from ..meshing.tca import TCA
+        pinion = modified_tooth(self.pair, "pinion")
+        if any(nm in self.inputs for nm in DEVIATIONS if "f_H" in nm):
+            mod, self._frame1 = _deviation_mod(self.pair)
+            pinion = pinion.with_modification(mod)
+            from ..geometry.generation import generate
+            from ..geometry.microgeometry import frame
+            self._frame2 = frame(generate(self.pair.gear), "right", self.pair, "gear")
+        return TCA(self.pair, side=self.side, pinion=pinion, contact="point")
+
+    def values(self) -> dict:
+        """The sampled inputs (name -> (samples,) [internal units])."""
+        return design(self.inputs, self.sampling, self.samples, self.seed)
+
+    def _chunks(self, values, n, kernel, tca):
+        lay = kernel.layout
+        P1 = np.tile(kernel.p1_0, (n, 1))
+        P2 = np.tile(kernel.p2_0, (n, 1))
+        MIS = np.tile(self.base_mis.vector(), (n, 1))
+        for j, kind in enumerate(Misalignment.names()):
+            if f"mis.{kind}" in values:
+                MIS[:, j] = values[f"mis.{kind}"]
+        z0 = np.zeros(n)
+        g = lambda k: values.get(k, z0)  # noqa: E731
+        if "pinion.dev.f_H_alpha" in lay:
+            off = lay.groups["pinion"].start
+            f1, f2 = self._frame1, self._frame2
+            P1[:, lay.index("pinion.dev.f_H_alpha") - off] += g("pinion.f_H_alpha") - g("gear.f_H_alpha") * f1.L_alpha / f2.L_alpha
+            P1[:, lay.index("pinion.dev.f_H_beta") - off] += g("pinion.f_H_beta") + g("gear.f_H_beta") * f1.b / f2.b
+        # pitch: tooth positions relative to tooth 0 of each member (pairs -1, 0, +1), as angles
+        r1, r2 = self.pair.pinion.r_p, self.pair.gear.r_p
+        e1 = np.stack([-g("pinion.f_pt_0"), z0, g("pinion.f_pt_1")], 1) / r1
+        e2 = np.stack([-g("gear.f_pt_0"), z0, g("gear.f_pt_1")], 1) / r2
+        self._ok_mis = _feasible(self.pair, MIS)
+        return [{"p1": P1[s:s + self.chunk], "p2": P2[s:s + self.chunk], "mis": MIS[s:s + self.chunk],
+                 "e1": e1[s:s + self.chunk], "e2": e2[s:s + self.chunk], "skip": ~self._ok_mis[s:s + self.chunk]}
+                for s in range(0, n, self.chunk)]
+
+    def run(self, progress=None, scheduler=None) -> RobustResult:
+        """Sample, solve every sample's mesh cycle, reduce. ``progress``: callable(str) for
+        progress lines (a progress bar is shown on stderr when given); ``scheduler``: a Dask
+        scheduler address that overrides the executor."""
+        if progress:
+            progress(f"montecarlo: {self.samples} samples x {self.positions} positions x {len(PAIRS)} pairs")
+        values = self.values()
+        figs, count, kernel, nom, limits, timing = self._execute(values, self.samples, progress, scheduler)
+        opts = {"samples": self.samples, "seed": self.seed, "sampling": self.sampling, "positions": self.positions,
+                "pairs": list(PAIRS), "iso_grade": self.iso_grade, "spread": self.spread, "f_a_mm": self.f_a,
+                "delta_mm": self.delta, "side": self.side, "chunk": self.chunk}
+        if self.tolerances is not None:
+            opts["tolerances_um"] = self.tolerances
+        return RobustResult("montecarlo", self.name, values, {k: d.to_dict() for k, d in self.inputs.items()}, figs,
+                            count, kernel.grid_z, kernel.grid_r, limits, opts, timing, nom)
+
+
+class DesignSweep(_Robust):
+    """Design sweep / DOE of a crowned drive's unloaded TCA over design variables.
+
+    Parameters
+    ----------
+    pair : GearPair
+    variables : dict
+        name -> (lo, hi) [internal units]: any entry of the TCA's parameter vector
+        (``"pinion.a_c"``, ``"pinion.a_pl"``, ``"pinion.iso.C_beta"``... see
+        :class:`~gearopt.meshing.layout.ParamLayout`) or a misalignment ``"mis.<kind>"``.
+    design : {"lhs", "full_factorial", "random"}
+    samples : int
+        Points of an LHS / random design.
+    levels : int
+        Levels per variable of a full factorial (ends included).
+    misalignment : Misalignment
+        The drive's misalignment besides the swept kinds.
+    """
+
+    study = "sweep"
+
+    def __init__(self, pair, variables: dict, design: str = "lhs", samples: int = 64, levels: int = 3, seed: int = 0,
+                 misalignment: Misalignment | None = None, positions: int = 64, delta: float = DELTA_DEFAULT,
+                 side: str = "right", chunk: int = 64, executor="serial", workers=None, name: str = "sweep"):
+        self._setup(pair, positions, delta, side, chunk, executor, workers, name)
+        if design not in ("lhs", "full_factorial", "random"):
+            raise out_of_range("design", design, "'lhs', 'full_factorial' or 'random'", cls=OptionError)
+        self.design, self.seed = design, check_count("seed", seed, 0, 2**63 - 1)
+        self.samples = check_count("samples", samples) if design != "full_factorial" else None
+        self.levels = check_count("levels", levels, 2, 101) if design == "full_factorial" else None
+        if misalignment is not None and not isinstance(misalignment, Misalignment):
+            raise ArgumentError("misalignment: expected a Misalignment.", param="misalignment")
+        self.base_mis = misalignment or Misalignment()
+        self.base_mis.check(pair, "misalignment")
+        if not variables:
+            raise OptionError("DesignSweep: no variables to sweep.", param="variables", valid="at least one variable")
+        self.variables = {}
+        for nm, rng in variables.items():
+            try:
+                lo, hi = (float(v) for v in rng)
+            except (TypeError, ValueError):
+                raise out_of_range(f"variables.{nm}", rng, "(lo, hi)", cls=OptionError) from None
+            self.variables[nm] = Distribution("uniform", lo=lo, hi=hi, name=f"variables.{nm}")
+        self._probe = None
+
+    def _tca(self):
+        from ..meshing.tca import TCA
+        tca = TCA(self.pair, side=self.side, contact="point")
+        for nm in self.variables:
+            if nm.startswith("mis."):
+                if nm[4:] not in Misalignment.names():
+                    raise out_of_range("variables", nm, f"mis.<kind> with kind one of {', '.join(Misalignment.names())}",
+                                       cls=OptionError)
+            elif nm not in tca.layout or nm in ("phi1", "z_section") or nm in tca.layout.groups:
+                valid = [x for x in tca.layout.names if x not in ("phi1", "z_section") and not x.startswith("mis.")]
+                raise out_of_range("variables", nm, f"a TCA parameter ({', '.join(valid)}) or mis.<kind>",
+                                   cls=OptionError)
+        return tca
+
+    def values(self) -> dict:
+        n = self.samples if self.samples is not None else 0
+        return design(self.variables, self.design, n, self.seed, self.levels)
+
+    def _chunks(self, values, n, kernel, tca):
+        lay = kernel.layout
+        P1 = np.tile(kernel.p1_0, (n, 1))
+        P2 = np.tile(kernel.p2_0, (n, 1))
+        MIS = np.tile(self.base_mis.vector(), (n, 1))
+        for nm, v in values.items():
+            if nm.startswith("mis."):
+                MIS[:, Misalignment.names().index(nm[4:])] = v
+            elif nm.startswith("pinion."):
+                P1[:, lay.index(nm) - lay.groups["pinion"].start] = v
+            else:
+                P2[:, lay.index(nm) - lay.groups["gear"].start] = v
+        ulim = kernel.limit_tables(tca, P1, P2)
+        self._ok_mis = _feasible(self.pair, MIS)
+        return [{"p1": P1[s:s + self.chunk], "p2": P2[s:s + self.chunk], "mis": MIS[s:s + self.chunk],
+                 "ulim": ulim[s:s + self.chunk], "skip": ~self._ok_mis[s:s + self.chunk]}
+                for s in range(0, n, self.chunk)]
+
+    def run(self, progress=None, scheduler=None) -> RobustResult:
+        values = self.values()
+        n = len(next(iter(values.values())))
+        if progress:
+            progress(f"sweep: {n} design points ({self.design}) x {self.positions} positions x {len(PAIRS)} pairs")
+        figs, count, kernel, nom, limits, timing = self._execute(values, n, progress, scheduler)
+        opts = {"design": self.design, "samples": n, "levels": self.levels, "seed": self.seed,
+                "positions": self.positions, "pairs": list(PAIRS), "delta_mm": self.delta, "side": self.side,
+                "chunk": self.chunk, "misalignment": self.base_mis.to_results()}
+        return RobustResult("sweep", self.name, values, {k: d.to_dict() for k, d in self.variables.items()}, figs,
+                            count, kernel.grid_z, kernel.grid_r, limits, opts, timing, nom)

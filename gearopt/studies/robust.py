@@ -1,0 +1,167 @@
+"""Robust-design studies (docs/scale.md): ``montecarlo`` (tolerances of an ISO 1328-1 class and
+misalignments sampled) and ``sweep`` (a design of experiments over design variables), both by
+unloaded TCA of one mesh cycle per sample.
+
+Scene section ``[montecarlo]``:
+
+``samples``     number of samples (required); ``seed`` (default 0); ``sampling`` "random" or "lhs".
+``iso_grade``   ISO 1328-1:2013 flank tolerance class 1 ... 11 of both members (helix slope, profile
+                slope and single pitch deviations sampled within the tolerances).
+``spread``      "normal" (N(0, (T/3)^2) within +-T, default) or "uniform" (on +-T).
+``f_a``         centre-distance tolerance +-f_a (dE sampled like a deviation).
+``crossing``, ``intersecting``, ``dE``, ``axial``: a distribution of that misalignment, an inline
+                table ``{kind = "normal", mean = "0 arcmin", sd = "1 arcmin"}`` (kinds: fixed
+                value; uniform lo, hi; normal mean, sd; truncnormal mean, sd, lo, hi; triangular lo,
+                mode, hi).
+``positions``, ``side``, ``chunk`` (samples per task), ``executor`` ("serial", "processes",
+                "dask"), ``workers``.
+
+Scene section ``[sweep]``: ``design`` ("lhs", "full_factorial", "random"), ``samples`` (lhs,
+random), ``levels`` (full factorial), ``seed``, and ``[sweep.vary]`` with a ``{lo, hi}`` table per
+variable: ``a_c``, ``a_pl`` (the pinion's crowning settings), ``crossing``, ``intersecting``,
+``dE``, ``axial``; plus ``positions``, ``side``, ``chunk``, ``executor``, ``workers``.
+
+Results: ``results.json`` (statistics, ranked sensitivities, the pattern probability map),
+``samples.csv`` (one row per sample) and the plots; docs/results.md.
+"""
+
+from __future__ import annotations
+
+from ..robust.study import UNITS  # noqa: F401 (the units of results.json, owned by the result)
+
+SCHEDULER_NOTE = "run it with `gearopt run SCENE --scheduler tcp://HOST:PORT` for a Dask cluster"
+
+
+def _dist_section(name: str, kind: str):
+    """A ``{kind = ..., ...}`` distribution table of a misalignment in its unit."""
+    from ..io.schema import Field, ToolSection
+    from ..meshing.misalignment import Misalignment
+
+    meta = Misalignment.meta(name)
+    fk = "angle" if meta["unit"] == "angle" else "length"
+    extra = {"typical": "arcmin"} if fk == "angle" else {}
+    F = lambda n, doc, **kw: Field(n, fk, doc=doc, **extra, **kw)  # noqa: E731
+    variants = {
+        "fixed": [F("value", "the value", required=True)],
+        "uniform": [F("lo", "lower bound", required=True), F("hi", "upper bound", required=True)],
+        "normal": [F("mean", "mean", default=0.0), F("sd", "standard deviation", required=True)],
+        "truncnormal": [F("mean", "mean", default=0.0), F("sd", "standard deviation (before truncation)", required=True),
+                        F("lo", "lower bound", required=True), F("hi", "upper bound", required=True)],
+        "triangular": [F("lo", "lower bound", required=True), F("mode", "mode", required=True),
+                       F("hi", "upper bound", required=True)],
+    }
+    ex = '{kind = "normal", sd = "1 arcmin"}' if fk == "angle" else '{kind = "uniform", lo = "-0.02 mm", hi = "0.02 mm"}'
+    return ToolSection(name, variants=variants, noun="distribution", example=ex,
+                       doc=f"distribution of the {meta['doc']}")
+
+
+def _range_section(name: str, kind: str, doc: str):
+    from ..io.schema import Field, Section
+    extra = {"typical": "arcmin"} if kind == "angle" else {}
+    return Section(name, [Field("lo", kind, required=True, doc="lower end", **extra),
+                          Field("hi", kind, required=True, doc="upper end", **extra)], doc=doc)
+
+
+def _common_fields():
+    from ..io.schema import Bounds, Field
+    return [
+        Field("positions", "int", default=64, check=Bounds(lo=16, hi=2000), doc="positions per mesh cycle"),
+        Field("side", "str", default="right", choices=("right", "left"), doc="driving flank of the pinion"),
+        Field("chunk", "int", default=64, check=Bounds(lo=1, hi=100000),
+              doc="samples per task (the results do not depend on it)"),
+        Field("executor", "str", default="serial", choices=("serial", "processes", "dask"),
+              doc=f"where the chunks run: this process, local processes, or Dask ({SCHEDULER_NOTE})"),
+        Field("workers", "int", check=Bounds(lo=1, hi=1024), doc="worker processes (default: the CPU count for processes, 2 for a local Dask cluster)"),
+        Field("seed", "int", default=0, check=Bounds(lo=0, hi=2**63 - 1), doc="seed of the sampling"),
+    ]
+
+
+def _distribution(name: str, d: dict):
+    from ..robust.sampling import Distribution
+    kw = {k: v for k, v in d.items() if k != "kind" and v is not None}
+    return Distribution(d["kind"], name=name, **kw)
+
+
+def _montecarlo(scene):
+    from ..errors import GeometryError, OptionError
+    from ..meshing.misalignment import Misalignment
+    from ..robust.study import MonteCarlo
+
+    o = scene.options.get("montecarlo", {}) or {}
+    mis = {}
+    try:
+        for kind in Misalignment.names():
+            if o.get(kind):
+                mis[kind] = _distribution(kind, o[kind])
+        return MonteCarlo(scene.pair, o["samples"], seed=o["seed"], misalignment=mis, iso_grade=o.get("iso_grade"),
+                          spread=o["spread"], f_a=o.get("f_a") or 0.0, sampling=o["sampling"],
+                          positions=o["positions"], side=o["side"], chunk=o["chunk"], executor=o["executor"],
+                          workers=o.get("workers"), name=scene.name)
+    except (GeometryError, OptionError) as e:
+        raise scene.study_error("montecarlo", e) from e
+
+
+def _sweep(scene):
+    from ..errors import GeometryError, OptionError
+    from ..robust.study import DesignSweep
+
+    o = scene.options.get("sweep", {}) or {}
+    vary = o.get("vary") or {}
+    variables = {}
+    for key, v in vary.items():
+        if v:
+            name = f"pinion.{key}" if key in ("a_c", "a_pl") else f"mis.{key}"
+            variables[name] = (v["lo"], v["hi"])
+    if not variables:
+        raise scene.key_error("sweep", "vary", "is missing: give at least one variable, e.g. [sweep.vary] "
+                              "a_pl = {lo = \"0.0002 1/mm\", hi = \"0.001 1/mm\"}.", valid="at least one variable")
+    try:
+        return DesignSweep(scene.pair, variables, design=o["design"], samples=o["samples"], levels=o["levels"],
+                           seed=o["seed"], positions=o["positions"], side=o["side"], chunk=o["chunk"],
+                           executor=o["executor"], workers=o.get("workers"), name=scene.name)
+    except (GeometryError, OptionError) as e:
+        raise scene.study_error("sweep", e) from e
+
+
+def _register():
+    from ..io.schema import Bounds, Field, Section
+    from ..meshing.misalignment import Misalignment
+    from . import StudySpec, register
+
+    register(StudySpec(
+        name="montecarlo",
+        doc="Tolerance (ISO 1328-1 class) and misalignment Monte Carlo of the unloaded TCA: TE spread, "
+            "probability of edge contact, contact-pattern envelope, ranked sensitivities",
+        sections=[Section("montecarlo", [
+            Field("samples", "int", required=True, check=Bounds(lo=1, hi=10_000_000), doc="number of samples"),
+            Field("sampling", "str", default="random", choices=("random", "lhs"),
+                  doc="Monte Carlo (PCG64) or Latin hypercube"),
+            Field("iso_grade", "int", check=Bounds(lo=1, hi=11),
+                  doc="ISO 1328-1:2013 flank tolerance class of both members (helix/profile slope, pitch sampled)"),
+            Field("spread", "str", default="normal", choices=("normal", "uniform"),
+                  doc="deviations within +-T: N(0, (T/3)^2) truncated, or uniform"),
+            Field("f_a", "length", check=Bounds(lo=0, hi=5), doc="centre-distance tolerance +-f_a (dE sampled)"),
+            *_common_fields(),
+        ], subsections=[_dist_section(k, None) for k in Misalignment.names()], required=True)],
+        build=_montecarlo,
+    ))
+    register(StudySpec(
+        name="sweep",
+        doc="Design sweep / DOE (Latin hypercube, full factorial) of the unloaded TCA over the pinion's crowning "
+            "settings and misalignments: TE, edge contact, pattern, sensitivities",
+        sections=[Section("sweep", [
+            Field("design", "str", default="lhs", choices=("lhs", "full_factorial", "random"), doc="the design"),
+            Field("samples", "int", default=32, check=Bounds(lo=1, hi=1_000_000), doc="points (lhs, random)"),
+            Field("levels", "int", default=3, check=Bounds(lo=2, hi=101), doc="levels per variable (full factorial)"),
+            *_common_fields(),
+        ], subsections=[Section("vary", [], subsections=[
+            _range_section("a_c", "inverse_length", "pinion profile crowning a_c range"),
+            _range_section("a_pl", "inverse_length", "pinion plunging (longitudinal crowning) a_pl range"),
+            *[_range_section(k, "angle" if Misalignment.meta(k)["unit"] == "angle" else "length",
+                             f"{Misalignment.meta(k)['doc']} range") for k in Misalignment.names()],
+        ], doc="the variables and their ranges", required=True)], required=True)],
+        build=_sweep,
+    ))
+
+
+_register()
