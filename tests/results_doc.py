@@ -23,7 +23,7 @@ PLACEHOLDERS = {
     "<kind>_arcmin": r"\w+_arcmin",  # a misalignment kind of unit angle
     "<case>": r".+",
     "<quantity>": r".+",
-    "<input>": r"(?:mis|pinion|gear)\.[\w.]+",  # a sampled input or design variable
+    "<input>": r"(?:mis|pinion|gear)\.[\w.]+|torque",  # a sampled input or design variable
     "<stat>": r"n|mean|sd|min|max|p\d+",
 }
 #: Sections of the crowning study that hold tca cases: checked against the tca study's ``cases[]``.

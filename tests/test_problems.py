@@ -24,7 +24,7 @@ PROBLEMS = Path(__file__).resolve().parents[1] / "problems"
 SCENES = sorted(p for p in PROBLEMS.glob("*.toml"))
 #: pytest markers of the scene runs: IPOPT (crowning study), CalculiX (fea study), above about 5 s
 STUDY_MARKS = {"crowning": [pytest.mark.ipopt], "fea": [pytest.mark.calculix]}
-SLOW_SCENES = {"crowning_spur", "fea_spur", "edge_spur_crossed"}
+SLOW_SCENES = {"crowning_spur", "fea_spur", "edge_spur_crossed", "montecarlo_spur", "montecarlo_loaded"}
 
 
 def _scene_param(scene: Path):

@@ -234,11 +234,13 @@ class LTCA:
         z1 = self.pair.pinion.z
         return np.linspace(-math.pi / z1, math.pi / z1, int(n), endpoint=False)
 
-    def slices(self, phi1=None, p1=None, p2=None, mis: Misalignment | None = None, pairs=None) -> SliceSet:
-        """Unloaded slices (the separations) at ``phi1`` [rad] (default: one mesh cycle of 64)."""
+    def slices(self, phi1=None, p1=None, p2=None, mis: Misalignment | None = None, pairs=None,
+               offsets=None) -> SliceSet:
+        """Unloaded slices (the separations) at ``phi1`` [rad] (default: one mesh cycle of 64);
+        ``offsets``: pitch deviations of the pairs' teeth (:meth:`SliceSolver.solve`)."""
         phi1 = self.mesh_cycle() if phi1 is None else phi1
         pairs = self.default_pairs() if pairs is None else pairs
-        return self.slicer.solve(phi1, p1, p2, mis, pairs, self.n_slices)
+        return self.slicer.solve(phi1, p1, p2, mis, pairs, self.n_slices, offsets=offsets)
 
     @staticmethod
     def validate_torques(torque) -> np.ndarray:
@@ -335,7 +337,7 @@ class LTCA:
         return self._qp[key][1]
 
     def solve(self, torque, phi1=None, p1=None, p2=None, mis: Misalignment | None = None, pairs=None,
-              slices: SliceSet | None = None) -> "LoadedSweep":
+              slices: SliceSet | None = None, offsets=None) -> "LoadedSweep":
         """Loaded TCA at one or several pinion torques.
 
         Parameters
@@ -348,6 +350,9 @@ class LTCA:
             As :meth:`TCA.sweep` (default pairs: every pair that can mesh in the cycle).
         slices : SliceSet, optional
             Precomputed unloaded slices (:meth:`slices`) of the same positions and design.
+        offsets : (e1, e2), optional
+            Angular position deviations of the pinion and gear teeth of each pair [rad] (pitch
+            deviations, :meth:`SliceSolver.solve`).
 
         Returns
         -------
@@ -355,7 +360,7 @@ class LTCA:
         """
         T = self.validate_torques(torque)
         t0 = time.perf_counter()
-        S = slices if slices is not None else self.slices(phi1, p1, p2, mis, pairs)
+        S = slices if slices is not None else self.slices(phi1, p1, p2, mis, pairs, offsets)
         t_sep = time.perf_counter() - t0
         st = self._structure(S)
         results = [self._solve_one(float(t), S, st) for t in T]

@@ -32,7 +32,7 @@ import casadi as ca
 import numpy as np
 
 from ..compiled import mapped
-from ..errors import ConvergenceError, LineContactError
+from ..errors import ArgumentError, ConvergenceError, LineContactError
 from ..meshing.misalignment import Misalignment
 from ..meshing.solver import REGULARITY_MIN, Branch
 from ..meshing.tca import TCA, check_sweep_args
@@ -192,15 +192,25 @@ class SliceSolver:
         return {z: W[[0, 2, 3, 4]] for z, W in secs.items()}
 
     def solve(self, phi1, p1=None, p2=None, mis: Misalignment | None = None, pairs=(-1, 0, 1),
-              n_slices: int = 21) -> SliceSet:
+              n_slices: int = 21, offsets=None) -> SliceSet:
         """Slices of every pair at the pinion angles ``phi1`` [rad] (argument checks as
-        :meth:`TCA.sweep`); the TE zero is the unloaded gear angle of pair 0 at phi1 = 0."""
+        :meth:`TCA.sweep`); the TE zero is the unloaded gear angle of pair 0 at phi1 = 0.
+
+        ``offsets``: optional ``(e1, e2)``, each (K,) [rad]: angular position deviations of the
+        pinion and gear teeth of each pair (pitch deviations; positive: the tooth ahead in the
+        direction of rotation). Pair k's pinion tooth is solved at ``phi1 + e1[k]`` and its gear
+        angle gains ``e2[k]`` (exact rigid offsets)."""
         t_start = time.perf_counter()
         tca = self.tca
         pair = tca.pair
         g1, g2 = pair.pinion, pair.gear
         phi1, p1, p2, mis, pairs = check_sweep_args(tca, phi1, p1, p2, mis, pairs, z_section=None)
         pairs = tuple(int(k) for k in pairs)
+        e1, e2 = (np.zeros(len(pairs)), np.zeros(len(pairs))) if offsets is None else \
+            (np.asarray(offsets[0], float).ravel(), np.asarray(offsets[1], float).ravel())
+        if e1.shape != (len(pairs),) or e2.shape != (len(pairs),) or not np.all(np.isfinite(e1) & np.isfinite(e2)):
+            raise ArgumentError(f"offsets: expected two arrays of {len(pairs)} finite angles [rad] (one per pair).",
+                                param="offsets", valid=f"(e1, e2), each {len(pairs)} finite angles [rad]")
         stats: dict = {}
         # where each pair's grid is centred: the unloaded point contact on the face, else mid face
         K, N = len(pairs), phi1.size
@@ -216,7 +226,7 @@ class SliceSolver:
         Z, Wd = slice_nodes(g1.b, n_slices, zc)
         M = Z.shape[2]
         # every column: (pair k, position n, node m), plus pair 0 at phi1 = 0 for the TE zero
-        phis = (phi1[None, :] - 2 * math.pi * np.array(pairs)[:, None] / g1.z)  # (K, N)
+        phis = (phi1[None, :] - 2 * math.pi * np.array(pairs)[:, None] / g1.z) + e1[:, None]  # (K, N)
         zero_Z, zero_W = slice_nodes(g1.b, n_slices, 0.0 if tca.contact_type == "line" else self._zero_centre(
             p1, p2, mis, g1))
         col_phi = np.concatenate([np.repeat(phis.ravel(), M), np.zeros(M)])
@@ -250,7 +260,7 @@ class SliceSolver:
                 geo[name][:, redo] = v
         r1, n1, r2, n2, rf = (geo[n].T for n in ("r1", "n1", "r2", "n2", "rf"))
         t = W[3] / g2.r_p  # phi2 of the column's own tooth pair
-        shift2 = np.concatenate([np.repeat(np.repeat(2 * math.pi * np.array(pairs) / g2.z, N), M), np.zeros(M)])
+        shift2 = np.concatenate([np.repeat(np.repeat(2 * math.pi * np.array(pairs) / g2.z + e2, N), M), np.zeros(M)])
         ratio = g1.z / g2.z
         te_raw = np.where(ok, t + shift2 - ratio * np.concatenate([np.repeat(np.tile(phi1, K), M), np.zeros(M)]),
                           np.nan)

@@ -9,13 +9,18 @@ import numpy as np
 
 from ..units import RAD_TO_ARCSEC
 
-LABELS = {"te_p2p": "TE peak-to-peak [arcsec]", "h1": "1st mesh harmonic of TE [arcsec]"}
+LABELS = {"te_p2p": "TE peak-to-peak [arcsec]", "h1": "1st mesh harmonic of TE [arcsec]",
+          "loaded_te_p2p": "loaded TE peak-to-peak [arcsec]", "p_max": "peak Hertz pressure, flank [MPa]"}
+NOMINAL = {"loaded_te_p2p": "loaded_te_p2p_arcsec", "p_max": "p_max_MPa"}  #: key of the nominal value
 
 
 def _values(d: dict, key: str) -> np.ndarray:
     f = d["figures"]
-    v = f["te_p2p"] if key == "te_p2p" else f["harmonics"][:, int(key[1:]) - 1]
-    return v * RAD_TO_ARCSEC
+    if key == "p_max":
+        return np.asarray(f["p_max"], float)
+    if key in ("te_p2p", "loaded_te_p2p"):
+        return f[key] * RAD_TO_ARCSEC
+    return f["harmonics"][:, int(key[1:]) - 1] * RAD_TO_ARCSEC
 
 
 def _ax(ax):
@@ -25,7 +30,7 @@ def _ax(ax):
     return ax
 
 
-def plot_histogram(d: dict, key: str = "te_p2p", ax=None, bins: int = 40):
+def plot_histogram(d: dict, key: str = "te_p2p", ax=None, bins: int | None = None):
     """Histogram of ``key`` ("te_p2p", "h1", ...) over the samples, samples with edge contact
     stacked in their own colour; the 50 / 95 % percentiles and the nominal drive marked."""
     ax = _ax(ax)
@@ -35,12 +40,13 @@ def plot_histogram(d: dict, key: str = "te_p2p", ax=None, bins: int = 40):
     if not fin.any():
         ax.text(0.5, 0.5, "no sample with a defined value", ha="center", transform=ax.transAxes)
         return ax
+    bins = bins or int(min(40, max(8, fin.sum() // 5)))
     ax.hist([v[fin & ~edge], v[fin & edge]], bins=bins, stacked=True, color=["tab:blue", "tab:red"],
             label=[f"surface contact ({int((fin & ~edge).sum())})", f"edge contact ({int((fin & edge).sum())})"])
     for q, ls in ((50, "--"), (95, ":")):
         x = np.percentile(v[fin], q)
         ax.axvline(x, color="k", ls=ls, lw=1, label=f"{q} %: {x:.3g}")
-    nom = d.get("nominal", {}).get(f"{key}_arcsec")
+    nom = d.get("nominal", {}).get(NOMINAL.get(key, f"{key}_arcsec"))
     if nom is not None:
         ax.axvline(nom, color="tab:green", lw=1.5, label=f"nominal: {nom:.3g}")
     ax.set_xlabel(LABELS.get(key, key))

@@ -51,6 +51,8 @@ UNITS = {"length": "mm", "angle": "rad (inputs in the CSV: arcmin)", "deviation"
 def display(name: str, values):
     """(values in the display unit, unit): arcmin for angles, um for deviations, 1/mm settings."""
     v = np.asarray(values, float)
+    if name == "torque":
+        return v, "N m"
     kind = name.split(".")[-1]
     if name.startswith("mis."):
         return (v / ARCMIN, "arcmin") if Misalignment.meta(kind)["unit"] == "angle" else (v, "mm")
@@ -121,6 +123,12 @@ class RobustResult:
             cols[f"pattern_z_{end}_mm"] = f["pattern_z"][:, j].tolist()
         for j, end in enumerate(("min", "max")):
             cols[f"pattern_radius_{end}_mm"] = f["pattern_r"][:, j].tolist()
+        if "loaded_te_p2p" in f:
+            cols["loaded_te_p2p_arcsec"] = (f["loaded_te_p2p"] * RAD_TO_ARCSEC).tolist()
+            cols["loaded_h1_arcsec"] = (f["loaded_harmonics"][:, 0] * RAD_TO_ARCSEC).tolist()
+            cols["p_max_MPa"] = f["p_max"].tolist()
+            cols["edge_share_max"] = f["edge_share_max"].tolist()
+            cols["stiffness_mean_N_per_um"] = f["stiffness_mean"].tolist()
         cols["feasible"] = f["feasible"].astype(int).tolist()
         cols["converged"] = f["ok"].astype(int).tolist()
         return cols
@@ -135,8 +143,8 @@ class RobustResult:
                "p_infeasible": _wilson(int((~feas).sum()), self.n)}
         qs = (1, 5, 50, 95, 99)
 
-        def stats(v):
-            v = v[np.isfinite(v)] * RAD_TO_ARCSEC
+        def stats(v, scale=RAD_TO_ARCSEC):
+            v = v[np.isfinite(v)] * scale
             if not v.size:
                 return None
             return {"n": int(v.size), "mean": float(v.mean()), "sd": float(v.std(ddof=1)) if v.size > 1 else 0.0,
@@ -149,6 +157,12 @@ class RobustResult:
         ok = f["ok"]
         for key in ("edge_contact", "pattern_at_edge"):
             out[f"p_{key}"] = _wilson(int(f[key][ok].sum()), int(ok.sum()))
+        if "loaded_te_p2p" in f:
+            out["loaded"] = {"n_failed": int((~f["loaded_ok"] & feas).sum()),
+                             "te_p2p_arcsec": stats(f["loaded_te_p2p"]),
+                             "h1_arcsec": stats(f["loaded_harmonics"][:, 0]),
+                             "p_max_MPa": stats(f["p_max"], 1.0), "edge_share_max": stats(f["edge_share_max"], 1.0),
+                             "stiffness_mean_N_per_um": stats(f["stiffness_mean"], 1.0)}
         return out
 
     def sensitivities(self) -> dict:
@@ -164,8 +178,11 @@ class RobustResult:
         f = self.figures
         names = [nm for nm, v in self.inputs.items() if np.ptp(v) > 0]
         out = {}
-        for key, y in (("te_p2p", f["te_p2p"]), ("h1", f["harmonics"][:, 0]),
-                       ("edge_contact", f["edge_contact"].astype(float))):
+        targets = [("te_p2p", f["te_p2p"]), ("h1", f["harmonics"][:, 0]),
+                   ("edge_contact", f["edge_contact"].astype(float))]
+        if "loaded_te_p2p" in f:
+            targets += [("loaded_te_p2p", f["loaded_te_p2p"]), ("p_max", f["p_max"])]
+        for key, y in targets:
             m = np.isfinite(y) & f["ok"]
             if m.sum() < 3 or not names or np.ptp(y[m]) == 0:
                 out[key] = []
@@ -224,13 +241,18 @@ class RobustResult:
 
         d = {"figures": self.figures, "inputs": self.inputs, "statistics": self.statistics(),
              "sensitivities": self.sensitivities(), "nominal": self.nominal}
-        fig, axes = plt.subplots(2, 2, figsize=(12, 8), layout="constrained")
+        loaded = "loaded_te_p2p" in self.figures
+        fig, axes = plt.subplots(3 if loaded else 2, 2, figsize=(12, 12 if loaded else 8), layout="constrained")
         plot_histogram(d, "te_p2p", ax=axes[0, 0])
         plot_cdf(d, "te_p2p", ax=axes[0, 1])
         plot_histogram(d, "h1", ax=axes[1, 0])
         plot_cdf(d, "h1", ax=axes[1, 1])
+        if loaded:
+            plot_histogram(d, "loaded_te_p2p", ax=axes[2, 0])
+            plot_histogram(d, "p_max", ax=axes[2, 1])
         what = "Monte Carlo" if self.study == "montecarlo" else "design sweep"
-        files = [save("distribution.png", fig, f"{what} of {self.n} samples: TE peak-to-peak and first mesh harmonic")]
+        files = [save("distribution.png", fig, f"{what} of {self.n} samples: TE peak-to-peak and first mesh harmonic"
+                      + ("; loaded TE and peak pressure" if loaded else ""))]
         ranked = [r["input"] for r in d["sensitivities"].get("te_p2p", [])][:4]
         if ranked:
             fig, axes = plt.subplots(1, len(ranked), figsize=(4 * len(ranked), 3.8), squeeze=False,
@@ -304,15 +326,37 @@ class _Robust:
         figs = {k: np.concatenate([p[k] for p in parts]) for k in parts[0] if k != "pattern_count"}
         count = sum(p["pattern_count"] for p in parts)
         figs["feasible"] = self._ok_mis.copy()
+        t_loaded = None
+        if getattr(self, "torque", None) is not None:
+            from .batch import LTCAKernel
+            t2 = time.perf_counter()
+            lk = LTCAKernel(self.pair, kernel.phi, PAIRS, deviation_mod="pinion.dev.f_H_alpha" in kernel.layout,
+                            side=self.side, n_slices=self.n_slices, material=self.material)
+            lparts = run_chunks(lk, chunks, executor=executor, workers=self.workers, scheduler=scheduler,
+                                progress=progress, label=f"{self.study} (loaded)")
+            figs.update({k: np.concatenate([p[k] for p in lparts]) for k in lparts[0]})
+            T0 = float(self.torque_dist.ppf(0.5))
+            ln = lk.evaluate({**self._nominal_chunk(kernel, tca), "torque": np.array([T0])})
+            nominal.update({"loaded_" + k: v for k, v in ln.items()})
+            nominal["torque"] = T0
+            t_loaded = time.perf_counter() - t2
+        if t_loaded is not None:
+            nom_loaded = {"torque_Nm": nominal["torque"],
+                          "loaded_te_p2p_arcsec": _num(nominal["loaded_loaded_te_p2p"][0] * RAD_TO_ARCSEC),
+                          "p_max_MPa": _num(nominal["loaded_p_max"][0])}
         nom = {"te_p2p_arcsec": _num(nominal["te_p2p"][0] * RAD_TO_ARCSEC),
                "h1_arcsec": _num(nominal["harmonics"][0, 0] * RAD_TO_ARCSEC),
                "edge_contact": bool(nominal["edge_contact"][0]),
                "pattern_z_mm": [_num(v) for v in nominal["pattern_z"][0]],
                "pattern_radius_mm": [_num(v) for v in nominal["pattern_r"][0]]}
+        if t_loaded is not None:
+            nom.update(nom_loaded)
         limits = {"b": self.pair.pinion.b, "r_a": self.pair.pinion.r_a, "r_form": float(tca.form_radius(1))}
         timing = {"build_s": t_build, "run_s": t_run, "n_columns": int(n * kernel.n_per_sample),
                   "us_per_position_pair": t_run / (n * kernel.n_per_sample) * 1e6, "executor": executor,
                   "workers": self.workers, "compiled": kernel.jit, "chunks": len(chunks)}
+        if t_loaded is not None:
+            timing["loaded_s"] = t_loaded
         return figs, count, kernel, nom, limits, timing
 
     def _nominal_chunk(self, kernel, tca):
@@ -382,7 +426,7 @@ class MonteCarlo(_Robust):
     def __init__(self, pair, samples: int, seed: int = 0, misalignment: dict | None = None, iso_grade=None,
                  spread: str = "normal", f_a: float = 0.0, sampling: str = "random", positions: int = 64,
                  delta: float = DELTA_DEFAULT, side: str = "right", chunk: int = 64, executor="serial",
-                 workers=None, name: str = "montecarlo"):
+                 workers=None, name: str = "montecarlo", torque=None, n_slices: int = 21, material=None):
         self._setup(pair, positions, delta, side, chunk, executor, workers, name)
         self.samples = check_count("samples", samples)
         self.seed = check_count("seed", seed, 0, 2**63 - 1)
@@ -423,10 +467,28 @@ class MonteCarlo(_Robust):
         else:
             within_tolerance(1.0, spread, "spread")  # checks the name
         self.spread, self.iso_grade, self.f_a = spread, iso_grade, f_a
+        self.torque, self.n_slices, self.material = torque, int(n_slices), material
+        if torque is not None:
+            if not isinstance(torque, Distribution):
+                t = float(torque) if isinstance(torque, (int, float)) and not isinstance(torque, bool) else math.nan
+                if not (math.isfinite(t) and t > 0):
+                    raise out_of_range("torque", torque, "a pinion torque > 0 N m or a Distribution of it",
+                                       cls=OptionError)
+                torque = Distribution("fixed", value=t, name="torque")
+            lo, _ = torque.support
+            if not lo > 0:
+                raise out_of_range("torque", torque.to_dict(), "a distribution of pinion torques > 0 N m (bounded "
+                                   "below by a positive torque: uniform, truncnormal, triangular or fixed)",
+                                   cls=OptionError)
+            self.torque_dist = torque
+            if not 3 <= self.n_slices <= 201:
+                raise out_of_range("n_slices", n_slices, "an integer 3 ... 201", cls=OptionError)
         if not inputs:
             raise OptionError("MonteCarlo: nothing to sample: give misalignment distributions, iso_grade or f_a.",
                               param="misalignment", valid="at least one random input")
         self.inputs = inputs
+        if torque is not None:
+            self.inputs["torque"] = self.torque_dist
         for nm, d in inputs.items():
             if nm.startswith("mis."):
                 lo, hi = d.support
@@ -472,9 +534,10 @@ class MonteCarlo(_Robust):
         e1 = np.stack([-g("pinion.f_pt_0"), z0, g("pinion.f_pt_1")], 1) / r1
         e2 = np.stack([-g("gear.f_pt_0"), z0, g("gear.f_pt_1")], 1) / r2
         self._ok_mis = _feasible(self.pair, MIS)
+        T = values.get("torque", np.full(n, np.nan))
         return [{"p1": P1[s:s + self.chunk], "p2": P2[s:s + self.chunk], "mis": MIS[s:s + self.chunk],
-                 "e1": e1[s:s + self.chunk], "e2": e2[s:s + self.chunk], "skip": ~self._ok_mis[s:s + self.chunk]}
-                for s in range(0, n, self.chunk)]
+                 "e1": e1[s:s + self.chunk], "e2": e2[s:s + self.chunk], "skip": ~self._ok_mis[s:s + self.chunk],
+                 "torque": T[s:s + self.chunk]} for s in range(0, n, self.chunk)]
 
     def run(self, progress=None, scheduler=None) -> RobustResult:
         """Sample, solve every sample's mesh cycle, reduce. ``progress``: callable(str) for

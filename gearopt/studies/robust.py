@@ -13,6 +13,10 @@ Scene section ``[montecarlo]``:
                 table ``{kind = "normal", mean = "0 arcmin", sd = "1 arcmin"}`` (kinds: fixed
                 value; uniform lo, hi; normal mean, sd; truncnormal mean, sd, lo, hi; triangular lo,
                 mode, hi).
+``torque``      a distribution of the pinion torque [N m] (``{kind = "uniform", lo = 50, hi = 150}``,
+                or ``fixed`` value, ``truncnormal``, ``triangular``): every sample also runs the loaded
+                TCA (analytical compliance, ``n_slices`` slices): loaded TE, peak pressure, tip-edge
+                load share, mesh stiffness.
 ``positions``, ``side``, ``chunk`` (samples per task), ``executor`` ("serial", "processes",
                 "dask"), ``workers``.
 
@@ -55,6 +59,22 @@ def _dist_section(name: str, kind: str):
                        doc=f"distribution of the {meta['doc']}")
 
 
+def _torque_section():
+    """``torque = {kind = ..., ...}``: the pinion torque of the loaded TCA per sample [N m]."""
+    from ..io.schema import Field, ToolSection
+    F = lambda n, doc, **kw: Field(n, "float", doc=doc + " [N*m]", **kw)  # noqa: E731
+    variants = {
+        "fixed": [F("value", "the torque", required=True)],
+        "uniform": [F("lo", "lower bound", required=True), F("hi", "upper bound", required=True)],
+        "truncnormal": [F("mean", "mean", required=True), F("sd", "standard deviation (before truncation)", required=True),
+                        F("lo", "lower bound", required=True), F("hi", "upper bound", required=True)],
+        "triangular": [F("lo", "lower bound", required=True), F("mode", "mode", required=True),
+                       F("hi", "upper bound", required=True)],
+    }
+    return ToolSection("torque", variants=variants, noun="distribution", example='{kind = "uniform", lo = 50, hi = 150}',
+                       doc="pinion torque per sample [N*m]: runs the loaded TCA of every sample (analytical compliance)")
+
+
 def _range_section(name: str, kind: str, doc: str):
     from ..io.schema import Field, Section
     extra = {"typical": "arcmin"} if kind == "angle" else {}
@@ -93,10 +113,11 @@ def _montecarlo(scene):
         for kind in Misalignment.names():
             if o.get(kind):
                 mis[kind] = _distribution(kind, o[kind])
+        torque = _distribution("torque", o["torque"]) if o.get("torque") else None
         return MonteCarlo(scene.pair, o["samples"], seed=o["seed"], misalignment=mis, iso_grade=o.get("iso_grade"),
                           spread=o["spread"], f_a=o.get("f_a") or 0.0, sampling=o["sampling"],
                           positions=o["positions"], side=o["side"], chunk=o["chunk"], executor=o["executor"],
-                          workers=o.get("workers"), name=scene.name)
+                          workers=o.get("workers"), name=scene.name, torque=torque, n_slices=o["n_slices"])
     except (GeometryError, OptionError) as e:
         raise scene.study_error("montecarlo", e) from e
 
@@ -141,8 +162,10 @@ def _register():
             Field("spread", "str", default="normal", choices=("normal", "uniform"),
                   doc="deviations within +-T: N(0, (T/3)^2) truncated, or uniform"),
             Field("f_a", "length", check=Bounds(lo=0, hi=5), doc="centre-distance tolerance +-f_a (dE sampled)"),
+            Field("n_slices", "int", default=21, check=Bounds(lo=3, hi=201),
+                  doc="slices across the face of the loaded TCA (with torque)"),
             *_common_fields(),
-        ], subsections=[_dist_section(k, None) for k in Misalignment.names()], required=True)],
+        ], subsections=[*[_dist_section(k, None) for k in Misalignment.names()], _torque_section()], required=True)],
         build=_montecarlo,
     ))
     register(StudySpec(
