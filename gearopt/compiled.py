@@ -196,3 +196,63 @@ def mapped(f: ca.Function, n: int, jit="auto", n_total: int | None = None) -> ca
     (for ``n_total`` columns in all, default n) and it builds, else the interpreted map."""
     g = compile_function(f) if use_compiled(jit, n if n_total is None else n_total) else None
     return (g if g is not None else f).map(n)
+
+
+def nlpsol(name: str, plugin: str, nlp: dict, opts: dict, jit: bool = False) -> ca.Function:
+    """``casadi.nlpsol(name, plugin, nlp, opts)``; with ``jit`` the NLP's Functions (objective,
+    constraints and their derivatives, Hessian of the Lagrangian) run as C compiled once and cached
+    on disk like the sweeps' columns (:func:`compile_function`).
+
+    The key is the SHA-256 of the generated C source (``Function.generate_dependencies``), the
+    CasADi version, the compiler and the flags; a warm cache loads the library in milliseconds, a
+    cold one compiles it (large NLPs: tens of seconds, e.g. the crowning NLP of
+    problems/crowning_spur.toml, a 4 MB source: about 80 s, then 8x faster IPOPT iterations; see
+    benchmarks/bench_nlp_cache.py). Without a working compiler: one warning, the interpreted
+    solver. ``jit=False`` (the default of the NLP builders) is the interpreted solver.
+    """
+    solver = ca.nlpsol(name, plugin, nlp, opts)
+    if not jit:
+        return solver
+    cc = compiler()
+    if cc is None:
+        _note("cc", "gearopt: no C compiler found (cc, gcc or clang; or set CC): the NLP runs interpreted.")
+        return solver
+    try:
+        base = cache_dir()
+        base.mkdir(parents=True, exist_ok=True)
+        tmp = tempfile.mkdtemp(prefix=".gen-", dir=base)
+    except OSError as e:
+        _note("build", f"gearopt: cache directory not writable ({e}); {name} runs interpreted.")
+        return solver
+    try:
+        src = f"{name}_nlp.c"
+        cwd = os.getcwd()
+        os.chdir(tmp)  # generate_dependencies writes into the working directory
+        try:
+            solver.generate_dependencies(src, {})
+        finally:
+            os.chdir(cwd)
+        h = hashlib.sha256(Path(tmp, src).read_bytes())
+        for part in (ca.__version__, cc[1], " ".join(FLAGS)):
+            h.update(part.encode())
+        path = base / f"{name}_nlp-{h.hexdigest()[:24]}.so"
+        key = f"{path}|{sorted((k, repr(v)) for k, v in opts.items())}"
+        if key not in _loaded:
+            built = False
+            if not path.exists():
+                so = os.path.join(tmp, "lib.so")
+                out = subprocess.run([cc[0], *FLAGS, "-o", so, os.path.join(tmp, src), "-lm"], capture_output=True,
+                                     text=True, timeout=3600)
+                if out.returncode != 0:
+                    _note("build", f"gearopt: compiling {name} failed ({out.stderr.strip()[:200]}); it runs interpreted.")
+                    return solver
+                os.replace(so, path)
+                built = True
+            _loaded[key] = ca.nlpsol(name, plugin, str(path), opts)
+            _counts["built" if built else "loaded"] += 1
+        return _loaded[key]
+    except (OSError, subprocess.SubprocessError, RuntimeError) as e:
+        _note("build", f"gearopt: compiling {name} failed ({str(e)[:200]}); it runs interpreted.")
+        return solver
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)

@@ -141,3 +141,41 @@ def test_loaded_tca_slices_compiled_equal_interpreted():
     assert np.array_equal(Sa.active, Sb.active) and np.array_equal(Sa.edge, Sb.edge)
     np.testing.assert_allclose(Sa.te[Sa.active], Sb.te[Sb.active], rtol=0, atol=1e-13)
     np.testing.assert_allclose(ra.te_loaded_arcsec, rb.te_loaded_arcsec, rtol=0, atol=1e-6)
+
+
+def test_nlpsol_compiled_once_cached_and_equal(tmp_path, monkeypatch):
+    """An NLP through gearopt.compiled.nlpsol(jit=True): compiled on the first build, loaded from the
+    disk cache on the next (new key lookups, no compilation), and IPOPT finds the same optimum as
+    the interpreted solver; the optimum is checked against the KKT conditions of the constrained
+    Rosenbrock problem min (1-x)^2 + 100 (y-x^2)^2 s.t. x + y <= 0.75 (active constraint, gradient
+    parallel to (1, 1))."""
+    import casadi as ca
+    import numpy as np
+
+    from gearopt import compiled
+
+    if not compiled.available():
+        pytest.skip("no C compiler")
+    monkeypatch.setenv("GEAROPT_CACHE_DIR", str(tmp_path))
+    monkeypatch.setattr(compiled, "_loaded", {})
+    x = ca.SX.sym("x", 2)
+    nlp = {"x": x, "f": (1 - x[0]) ** 2 + 100 * (x[1] - x[0] ** 2) ** 2, "g": x[0] + x[1]}
+    opts = {"ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes", "ipopt.tol": 1e-12}
+    args = {"x0": [0.0, 0.0], "lbg": -np.inf, "ubg": 0.75}
+    ref = compiled.nlpsol("rosen", "ipopt", nlp, opts)(**args)
+    before = compiled.counts()
+    s1 = compiled.nlpsol("rosen", "ipopt", nlp, opts, jit=True)
+    assert compiled.counts()["built"] == before["built"] + 1
+    assert len(list(tmp_path.glob("rosen_nlp-*.so"))) == 1
+    out = s1(**args)
+    np.testing.assert_allclose(np.array(out["x"]).ravel(), np.array(ref["x"]).ravel(), atol=1e-10)
+    # the constraint is active: x + y = 0.75 and the gradient of f is parallel to (1, 1)
+    xs = np.array(out["x"]).ravel()
+    assert xs.sum() == pytest.approx(0.75, abs=1e-7)  # IPOPT relaxes bounds by 1e-8
+    gx = -2 * (1 - xs[0]) - 400 * xs[0] * (xs[1] - xs[0] ** 2)
+    gy = 200 * (xs[1] - xs[0] ** 2)
+    assert gx == pytest.approx(gy, rel=1e-6) and gx < 0
+    monkeypatch.setattr(compiled, "_loaded", {})  # a new process: the library is on disk
+    compiled.nlpsol("rosen", "ipopt", nlp, opts, jit=True)
+    after = compiled.counts()
+    assert after["built"] == before["built"] + 1 and after["loaded"] == before["loaded"] + 1

@@ -28,6 +28,7 @@ from dataclasses import dataclass, field, replace
 import casadi as ca
 import numpy as np
 
+from ..compiled import nlpsol
 from ..contact.edge import EdgeContact
 from ..errors import ArgumentError, ConvergenceError, OptionError, SynthesisError, check_number, out_of_range  # noqa: F401
 #  (SynthesisError lives in errors.py; re-exported here)
@@ -229,10 +230,15 @@ class CrowningOptimizer:
         IPOPT's convergence tolerance. For a spur pinion a_pl is held only by the small penalty against
         the active face constraint (multiplier ~1e-8), so at the default 1e-10 it is determined to
         ~1e-5 relative; 1e-13 pins it to round-off at ~2.5x the iterations.
+    jit : bool
+        Run the NLP's Functions as C compiled once and cached on disk (:func:`gearopt.compiled.nlpsol`):
+        the first build compiles (about 80 s for problems/crowning_spur.toml), later builds of the
+        same NLP in any process load it and IPOPT runs about 8x faster (benchmarks/bench_nlp_cache.py).
+        Default False: interpreted.
     """
 
     def __init__(self, pair: GearPair, target: CrowningTarget, cases: dict | None = None, positions: int = 41,
-                 side: str = "right", bounds: dict | None = None, tol: float = 1e-10):
+                 side: str = "right", bounds: dict | None = None, tol: float = 1e-10, jit: bool = False):
         if not isinstance(pair, GearPair):
             raise ArgumentError(f"pair = {type(pair).__name__}: expected a gearopt.gears.GearPair.",
                                 param="pair", value=pair, valid="a gearopt.gears.GearPair")
@@ -271,6 +277,9 @@ class CrowningOptimizer:
             raise out_of_range("tol", tol, "0 < tol < 1e-3", cls=OptionError)
         self.pair, self.target, self.cases, self.positions, self.side = pair, target, cases, positions, side
         self.tol = tol
+        if not isinstance(jit, (bool, np.bool_)):
+            raise out_of_range("jit", jit, "True or False (compile the NLP, cached on disk)", cls=OptionError)
+        self.jit = bool(jit)
         self.bounds = {"a_c": (1e-7, 0.05), "a_pl": (1e-7, 0.02), **(bounds or {})}
         for k, (lo, hi) in self.bounds.items():
             if k not in SETTINGS:
@@ -438,7 +447,7 @@ class CrowningOptimizer:
         self._fit_terms = ca.Function("fit_terms", [X], obj_terms)
         opts = {"ipopt.print_level": 5 if verbose else 0, "print_time": False, "ipopt.sb": "yes",
                 "ipopt.tol": self.tol, "ipopt.max_iter": 300, "ipopt.mu_strategy": "adaptive"}
-        self._solver = ca.nlpsol("crowning", "ipopt", self._nlp, opts)
+        self._solver = nlpsol("crowning", "ipopt", self._nlp, opts, jit=self.jit)
         self.build_time = time.perf_counter() - t0
         self._built = True
         return self
