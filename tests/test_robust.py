@@ -534,3 +534,12 @@ def test_bad_torque_names_the_key(pair, torque):
     with pytest.raises(OptionError) as e:
         MonteCarlo(pair, 4, misalignment=MIS, torque=torque)
     assert e.value.param == "torque"
+
+
+def test_bad_side_and_delta_name_the_key(pair):
+    with pytest.raises(OptionError) as e:
+        MonteCarlo(pair, 4, misalignment=MIS, side="up")
+    assert e.value.param == "side"
+    with pytest.raises(OptionError) as e:
+        MonteCarlo(pair, 4, misalignment=MIS, delta=1.0)
+    assert e.value.param == "delta" and "0.3 mm" in e.value.valid

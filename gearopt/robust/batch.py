@@ -180,8 +180,10 @@ class TCAKernel:
             Per sample (n,): ``te_p2p`` [rad], ``harmonics`` (n, H) [rad], ``edge_contact``,
             ``pattern_at_edge``, ``ok`` (anchor solved, or its search left the face: then edge
             contact and no TE), ``n_failed`` (columns not converged),
-            ``pattern_z`` / ``pattern_r`` (n, 2) extents [mm] (NaN without contact); and the
-            chunk's ``pattern_count`` (rows radius, cols face) of samples covering each cell.
+            ``pattern_z`` / ``pattern_r`` (n, 2) extents [mm] (NaN without contact), ``envelope``
+            (n, positions) the TE envelope [rad] (its zero: phi2 = 0 of pair 0's solution frame, a
+            constant per sample; NaN where no surface contact); and the chunk's ``pattern_count``
+            (rows radius, cols face) of samples covering each cell.
         """
         P1, P2, MIS = (np.atleast_2d(np.asarray(chunk[k], float)) for k in ("p1", "p2", "mis"))
         n, K, P = P1.shape[0], len(self.pairs), self.positions

@@ -293,11 +293,14 @@ class _Robust:
         if not isinstance(pair, GearPair):
             raise ArgumentError(f"pair = {type(pair).__name__}: expected a gearopt.gears.GearPair.", param="pair",
                                 value=type(pair).__name__, valid="a gearopt.gears.GearPair")
+        if side not in ("right", "left"):
+            raise out_of_range("side", side, "'right' or 'left' (the driving flank of the pinion)", cls=OptionError)
         self.pair, self.name, self.side = pair, name, side
         self.positions = check_count("positions", positions, 16, 2000)
         self.chunk = check_count("chunk", chunk, 1, 100_000)
         if not 0 < delta <= 0.1 * pair.pinion.m_n:
-            raise out_of_range("delta", delta, f"0 < delta <= 0.1 m_n mm", cls=OptionError)
+            raise out_of_range("delta", delta, f"0 < delta <= 0.1 m_n = {0.1 * pair.pinion.m_n:.4g} mm (elastic approach "
+                               "of the contact ellipse)", cls=OptionError)
         self.delta = float(delta)
         from .execution import check_executor
         self.executor, self.workers = check_executor(executor, workers)
@@ -307,7 +310,8 @@ class _Robust:
         return TCAKernel(tca, positions=self.positions, pairs=PAIRS, delta=self.delta,
                          n_total=n_samples * self.positions * len(PAIRS))
 
-    def _chunks(self, values: dict, n: int) -> list[dict]:
+    def _chunks(self, values: dict, n: int, kernel, tca) -> list[dict]:
+        """The samples as chunks of parameter arrays (:meth:`TCAKernel.evaluate`'s keys)."""
         raise NotImplementedError
 
     def _execute(self, values: dict, n: int, progress=None, scheduler=None) -> tuple:
@@ -337,13 +341,9 @@ class _Robust:
             figs.update({k: np.concatenate([p[k] for p in lparts]) for k in lparts[0]})
             T0 = float(self.torque_dist.ppf(0.5))
             ln = lk.evaluate({**self._nominal_chunk(kernel, tca), "torque": np.array([T0])})
-            nominal.update({"loaded_" + k: v for k, v in ln.items()})
-            nominal["torque"] = T0
+            nom_loaded = {"torque_Nm": T0, "loaded_te_p2p_arcsec": _num(ln["loaded_te_p2p"][0] * RAD_TO_ARCSEC),
+                          "p_max_MPa": _num(ln["p_max"][0])}
             t_loaded = time.perf_counter() - t2
-        if t_loaded is not None:
-            nom_loaded = {"torque_Nm": nominal["torque"],
-                          "loaded_te_p2p_arcsec": _num(nominal["loaded_loaded_te_p2p"][0] * RAD_TO_ARCSEC),
-                          "p_max_MPa": _num(nominal["loaded_p_max"][0])}
         nom = {"te_p2p_arcsec": _num(nominal["te_p2p"][0] * RAD_TO_ARCSEC),
                "h1_arcsec": _num(nominal["harmonics"][0, 0] * RAD_TO_ARCSEC),
                "edge_contact": bool(nominal["edge_contact"][0]),
