@@ -203,12 +203,13 @@ def nlpsol(name: str, plugin: str, nlp: dict, opts: dict, jit: bool = False) -> 
     constraints and their derivatives, Hessian of the Lagrangian) run as C compiled once and cached
     on disk like the sweeps' columns (:func:`compile_function`).
 
-    The key is the SHA-256 of the generated C source (``Function.generate_dependencies``), the
-    CasADi version, the compiler and the flags; a warm cache loads the library in milliseconds, a
-    cold one compiles it (large NLPs: tens of seconds, e.g. the crowning NLP of
-    problems/crowning_spur.toml, a 4 MB source: about 80 s, then 8x faster IPOPT iterations; see
-    benchmarks/bench_nlp_cache.py). Without a working compiler: one warning, the interpreted
-    solver. ``jit=False`` (the default of the NLP builders) is the interpreted solver.
+    The key is the SHA-256 of the NLP (``x``, ``p`` -> ``f``, ``g`` as a serialised Function), the
+    plugin and its options, the CasADi version, the compiler and the flags, so a warm cache loads
+    the library without generating anything; a cold one generates the source
+    (``generate_dependencies``) and compiles it (large NLPs: tens of seconds, e.g. the crowning NLP
+    of problems/crowning_spur.toml, a 4 MB source: about 80 s, then 8x faster IPOPT iterations; see
+    benchmarks/bench_nlp_cache.py). Without a working compiler: one warning, the interpreted solver.
+    ``jit=False`` (the default of the NLP builders) is the interpreted solver.
     """
     solver = ca.nlpsol(name, plugin, nlp, opts)
     if not jit:
@@ -217,13 +218,39 @@ def nlpsol(name: str, plugin: str, nlp: dict, opts: dict, jit: bool = False) -> 
     if cc is None:
         _note("cc", "gearopt: no C compiler found (cc, gcc or clang; or set CC): the NLP runs interpreted.")
         return solver
+    ins = [nlp["x"]] + ([nlp["p"]] if "p" in nlp else [])
+    outs = [nlp.get("f", 0), nlp.get("g", ca.DM.zeros(0, 1))]
+    h = hashlib.sha256(ca.Function(f"{name}_nlp", ins, outs).serialize().encode())
+    for part in (plugin, repr(sorted((k, repr(v)) for k, v in opts.items())), ca.__version__, cc[1], " ".join(FLAGS)):
+        h.update(b"\0" + part.encode())
+    base = cache_dir()
+    path = base / f"{name}_nlp-{h.hexdigest()[:24]}.so"
+    key = str(path)
+    if key in _loaded:
+        return _loaded[key]
+    built = False
+    if not path.exists():
+        err = _build_nlp(solver, name, path, cc[0])
+        if err is not None:
+            _note("build", f"gearopt: compiling {name} failed ({err:.200}); it runs interpreted.")
+            return solver
+        built = True
     try:
-        base = cache_dir()
-        base.mkdir(parents=True, exist_ok=True)
-        tmp = tempfile.mkdtemp(prefix=".gen-", dir=base)
-    except OSError as e:
-        _note("build", f"gearopt: cache directory not writable ({e}); {name} runs interpreted.")
+        _loaded[key] = ca.nlpsol(name, plugin, str(path), opts)
+    except RuntimeError as e:
+        _note("load", f"gearopt: loading {path} failed ({e!s:.160}); {name} runs interpreted.")
         return solver
+    _counts["built" if built else "loaded"] += 1
+    return _loaded[key]
+
+
+def _build_nlp(solver, name: str, path: Path, cc: str) -> str | None:
+    """Generate the NLP's Functions and compile them into ``path`` (atomic rename); None on success."""
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = tempfile.mkdtemp(prefix=".gen-", dir=path.parent)
+    except OSError as e:
+        return f"cache directory {path.parent} not writable: {e}"
     try:
         src = f"{name}_nlp.c"
         cwd = os.getcwd()
@@ -232,27 +259,14 @@ def nlpsol(name: str, plugin: str, nlp: dict, opts: dict, jit: bool = False) -> 
             solver.generate_dependencies(src, {})
         finally:
             os.chdir(cwd)
-        h = hashlib.sha256(Path(tmp, src).read_bytes())
-        for part in (ca.__version__, cc[1], " ".join(FLAGS)):
-            h.update(part.encode())
-        path = base / f"{name}_nlp-{h.hexdigest()[:24]}.so"
-        key = f"{path}|{sorted((k, repr(v)) for k, v in opts.items())}"
-        if key not in _loaded:
-            built = False
-            if not path.exists():
-                so = os.path.join(tmp, "lib.so")
-                out = subprocess.run([cc[0], *FLAGS, "-o", so, os.path.join(tmp, src), "-lm"], capture_output=True,
-                                     text=True, timeout=3600)
-                if out.returncode != 0:
-                    _note("build", f"gearopt: compiling {name} failed ({out.stderr.strip()[:200]}); it runs interpreted.")
-                    return solver
-                os.replace(so, path)
-                built = True
-            _loaded[key] = ca.nlpsol(name, plugin, str(path), opts)
-            _counts["built" if built else "loaded"] += 1
-        return _loaded[key]
+        so = os.path.join(tmp, "lib.so")
+        out = subprocess.run([cc, *FLAGS, "-o", so, os.path.join(tmp, src), "-lm"], capture_output=True, text=True,
+                             timeout=3600)
+        if out.returncode != 0:
+            return f"{cc} exited with {out.returncode}: {out.stderr.strip()[:300]}"
+        os.replace(so, path)
+        return None
     except (OSError, subprocess.SubprocessError, RuntimeError) as e:
-        _note("build", f"gearopt: compiling {name} failed ({str(e)[:200]}); it runs interpreted.")
-        return solver
+        return str(e)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
