@@ -158,19 +158,26 @@ def compile_function(f: ca.Function) -> ca.Function | None:
 
 def _build(f: ca.Function, path: Path, cc: str) -> str | None:
     """Generate and compile ``f`` into ``path`` (atomic rename); None on success, else the reason."""
+    def generate(tmp, src):
+        cg = ca.CodeGenerator(src, {"with_header": False})
+        cg.add(f)
+        cg.generate(tmp + os.sep)
+    return _compile_into(generate, f"{f.name()}.c", path, cc)
+
+
+def _compile_into(generate, src: str, path: Path, cc: str) -> str | None:
+    """``generate(tmp, src)`` writes the C source ``src`` into a scratch directory inside the cache;
+    it is compiled and moved into ``path`` by an atomic rename. None on success, else the reason."""
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         tmp = tempfile.mkdtemp(prefix=".build-", dir=path.parent)
     except OSError as e:
         return f"cache directory {path.parent} not writable: {e}"
     try:
-        src = f"{f.name()}.c"
-        cg = ca.CodeGenerator(src, {"with_header": False})
-        cg.add(f)
-        cg.generate(tmp + os.sep)
+        generate(tmp, src)
         so = os.path.join(tmp, "lib.so")
         out = subprocess.run([cc, *FLAGS, "-o", so, os.path.join(tmp, src), "-lm"], capture_output=True, text=True,
-                             timeout=600)
+                             timeout=3600)
         if out.returncode != 0:
             return f"{cc} exited with {out.returncode}: {out.stderr.strip()[:300]}"
         os.replace(so, path)  # atomic: a concurrent reader sees the old file or the whole new one
@@ -246,27 +253,11 @@ def nlpsol(name: str, plugin: str, nlp: dict, opts: dict, jit: bool = False) -> 
 
 def _build_nlp(solver, name: str, path: Path, cc: str) -> str | None:
     """Generate the NLP's Functions and compile them into ``path`` (atomic rename); None on success."""
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = tempfile.mkdtemp(prefix=".gen-", dir=path.parent)
-    except OSError as e:
-        return f"cache directory {path.parent} not writable: {e}"
-    try:
-        src = f"{name}_nlp.c"
+    def generate(tmp, src):
         cwd = os.getcwd()
         os.chdir(tmp)  # generate_dependencies writes into the working directory
         try:
             solver.generate_dependencies(src, {})
         finally:
             os.chdir(cwd)
-        so = os.path.join(tmp, "lib.so")
-        out = subprocess.run([cc, *FLAGS, "-o", so, os.path.join(tmp, src), "-lm"], capture_output=True, text=True,
-                             timeout=3600)
-        if out.returncode != 0:
-            return f"{cc} exited with {out.returncode}: {out.stderr.strip()[:300]}"
-        os.replace(so, path)
-        return None
-    except (OSError, subprocess.SubprocessError, RuntimeError) as e:
-        return str(e)
-    finally:
-        shutil.rmtree(tmp, ignore_errors=True)
+    return _compile_into(generate, f"{name}_nlp.c", path, cc)
