@@ -12,8 +12,10 @@ includes code generation and gcc. "us/pos-pair" is the warm wall time of ``TCA.s
 does: anchor solve, predictor, mapped solve, checks, continuation, contact ellipses) divided by the
 columns, best of 5. fsolve: ``scipy.optimize.fsolve`` (finite-difference Jacobian, default xtol) on
 the same equations (called through CasADi's buffer API) from the same first guesses, per column,
-on 200 positions of pair 0. The new-process row starts a
-Python process with the warm cache and times its first sweep (after building the TCA).
+on 200 positions of pair 0 (one thread). The default sweep splits its compiled columns over
+``gearopt.compiled.threads()`` threads (the CPUs of the process); the 1-thread row is the same
+sweep with ``set_threads(1)``. The new-process row starts a Python process with the warm cache and
+times its first sweep (after building the TCA).
 """
 
 from __future__ import annotations
@@ -93,7 +95,15 @@ def main(argv):
     both = ref.converged & sw.converged
     err = float(np.max(np.abs(sw.phi2[both] - ref.phi2[both])))
     same = bool(np.array_equal(ref.converged, sw.converged))
-    rows.append(("TCA.sweep, default (compiled, disk cache)", t_cold, t_c / cols * 1e6, err))
+    n_threads = compiled.threads()
+    rows.append((f"TCA.sweep, default (compiled, {n_threads} threads)", t_cold, t_c / cols * 1e6, err))
+    compiled.set_threads(1)
+    t_1 = best(lambda: tca_c.sweep(phi, mis=mis))
+    sw1 = tca_c.sweep(phi, mis=mis)
+    compiled.set_threads(None)
+    same1 = bool(np.array_equal(sw1.phi2, sw.phi2, equal_nan=True))
+    err1 = float(np.max(np.abs(sw1.phi2[both] - ref.phi2[both])))
+    rows.append(("TCA.sweep, compiled, 1 thread (GEAROPT_THREADS=1)", 0.0, t_1 / cols * 1e6, err1))
 
     # fsolve per column on pair 0 (a subset), same equations and first guesses as the sweep's
     m = 200
@@ -132,7 +142,7 @@ def main(argv):
     print(f"|{'-' * 50}|----------------|-------------|-----------|-------------------------------|")
     for name, tc, us, e in rows:
         print(f"| {name:48s} | {tc:14.2f} | {us:11.2f} | {t_fs * 1e6 / us:8.1f}x | {e:29.1e} |")
-    print(f"same accepted points, compiled vs interpreted: {same}")
+    print(f"same accepted points, compiled vs interpreted: {same}; 1 thread vs {n_threads}: bit-identical {same1}")
     if child:
         print(f"new process, warm cache: TCA build {child['build']:.3f} s, first sweep {child['first']:.3f} s "
               f"(libraries compiled {child['counts']['built']}, loaded {child['counts']['loaded']})")

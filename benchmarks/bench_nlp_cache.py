@@ -1,9 +1,10 @@
 """The crowning NLP through the compiled-function cache (issue 15: "the NLP builders reuse the
 same cache"): problems/crowning_spur.toml's CrowningOptimizer built and solved interpreted
 (default), with jit=True on a cold cache (code generation + compilation), and with jit=True in a
-new process whose cache is warm.
+new process whose cache is warm; then the same three for the local synthesis NLP
+(``local_synthesis(..., jit=...)``, the spur drive of tests/test_synthesis.py).
 
-    python benchmarks/bench_nlp_cache.py
+    python benchmarks/bench_nlp_cache.py     # about 2 minutes
 
 Prints a markdown table: build s, IPOPT solve s, iterations, max |x - x_interpreted|.
 """
@@ -39,15 +40,29 @@ def one(jit: bool) -> dict:
             "x": np.array(r["x"]).ravel().tolist()}
 
 
+def local(jit: bool) -> dict:
+    sys.path.insert(0, str(ROOT / "tests"))
+    from test_synthesis import _drive, _local_target
+
+    from gearopt.synthesis.local import local_synthesis
+    pair = _drive("spur")
+    t0 = time.perf_counter()
+    d = local_synthesis(pair, _local_target(pair), jit=jit)
+    return {"total": time.perf_counter() - t0, "x": [d.settings["a_c"], d.settings["a_pl"]]}
+
+
 def main():
     if len(sys.argv) > 1 and sys.argv[1] == "--child":
         print(json.dumps(one(sys.argv[2] == "1")))
         return
+    if len(sys.argv) > 1 and sys.argv[1] == "--local":
+        print(json.dumps(local(sys.argv[2] == "1")))
+        return
     cache = tempfile.mkdtemp(prefix="gearopt-nlp-cache-")
     env = dict(os.environ, GEAROPT_CACHE_DIR=cache)
 
-    def run(jit):
-        out = subprocess.run([sys.executable, __file__, "--child", "1" if jit else "0"], env=env, capture_output=True,
+    def run(jit, mode="--child"):
+        out = subprocess.run([sys.executable, __file__, mode, "1" if jit else "0"], env=env, capture_output=True,
                              text=True, check=True)
         return json.loads(out.stdout.strip().splitlines()[-1])
 
@@ -58,6 +73,14 @@ def main():
     print("|---|---|---|---|---|")
     for name, r in rows:
         print(f"| {name} | {r['build']:.2f} | {r['solve']:.3f} | {r['iter']} | {np.abs(np.array(r['x']) - x0).max():.1e} |")
+    rows = [("interpreted (default)", run(False, "--local")), ("jit=True, cold cache", run(True, "--local")),
+            ("jit=True, new process, warm cache", run(True, "--local"))]
+    x0 = np.array(rows[0][1]["x"])
+    print()
+    print("| local synthesis NLP (spur drive of tests/test_synthesis.py) | build + solve s | max rel. d(a_c, a_pl) |")
+    print("|---|---|---|")
+    for name, r in rows:
+        print(f"| {name} | {r['total']:.2f} | {np.abs(np.array(r['x']) / x0 - 1).max():.1e} |")
 
 
 if __name__ == "__main__":

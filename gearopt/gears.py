@@ -32,7 +32,7 @@ from __future__ import annotations
 import math
 import numbers
 from dataclasses import dataclass, field, fields, replace
-from functools import lru_cache
+from functools import cached_property, lru_cache
 
 import numpy as np
 
@@ -736,7 +736,7 @@ class GearPair:
     def alpha_t(self) -> float:
         return self.pinion.alpha_t
 
-    @property
+    @cached_property  # (frozen: computed once)
     def a_0(self) -> float:
         """Zero-backlash centre distance [mm] for x1 + x2 (docs/theory.md section 3.2)."""
         p, g = self.pinion, self.gear
@@ -750,13 +750,13 @@ class GearPair:
         alpha_w = float(inv_inverse(inv_w))
         return (p.r_p + g.r_p) * math.cos(p.alpha_t) / math.cos(alpha_w)
 
-    @property
+    @cached_property  # (frozen: computed once)
     def a_0_generated(self) -> float:
         """Zero-backlash centre distance [mm] of the generated teeth (upper thickness allowances,
         generating shifts ``x_E1 + x_E2``); equals :attr:`a_0` without allowances."""
         return self._a_of_shift(self.pinion, self.gear, self.pinion.x_E + self.gear.x_E)
 
-    @property
+    @cached_property  # (frozen: computed once)
     def a_0_tolerance(self) -> float:
         """How far [mm] ``a`` may lie below the zero-backlash distance: the change of ``a_0`` caused
         by :attr:`X_ROUNDING` in ``x1 + x2``, ``X_ROUNDING * da_0/d(x1 + x2)`` with
@@ -839,7 +839,7 @@ class GearPair:
         s_end = min(math.sqrt(p.r_a**2 - p.r_b**2), ga - math.sqrt(max(g.r_form**2 - g.r_b**2, 0.0)))
         return s_end - s_start
 
-    @property
+    @cached_property  # (frozen: computed once)
     def tip_clearance(self) -> tuple[float, float]:
         """Radial clearance [mm] between each tip and the mating root: (pinion tip, gear tip)."""
         return self.a_w - self.pinion.r_a - self.gear.r_f, self.a_w - self.gear.r_a - self.pinion.r_f

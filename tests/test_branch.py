@@ -43,3 +43,77 @@ def test_continuation_rescues_runs_of_bad_guesses_from_accepted_neighbours(jit):
     W0c[0, 12:] *= -1.0
     _, _, _, _, okc, _ = br.solve(W0c, prm, [np.arange(12), np.arange(12, n)], max_gap=4)
     assert okc[:12].all() and not okc[12:].any()
+
+
+def _p_of(phi):
+    phi = np.atleast_1d(np.asarray(phi, float))
+    return np.vstack([phi, 1.0 + phi + 0.3 * np.sin(3 * phi)])  # p[1] > 0 on [-0.5, 1]: w = sqrt(p[1])
+
+
+def _branch_phi(jit):
+    # w^2 = 1 + phi + 0.3 sin(3 phi) with phi = prm[0] (the implicit-function predictor
+    # differentiates with respect to prm[0]); prm[1] carries the same value for the test
+    w, p = ca.SX.sym("w"), ca.SX.sym("p", 2)
+    G = ca.Function("toy_phi", [w, p], [w**2 - (1.0 + p[0] + 0.3 * ca.sin(3 * p[0]))])
+    checks = ca.Function("toy_phi_checks", [w, p], [w, ca.DM(1.0)])
+    return Branch("toy_phi", G, checks, lambda res, s, reg: np.isfinite(res) & (res <= 1e-10) & (s > 0), 1e-10,
+                  jit=jit)
+
+
+@pytest.mark.parametrize("jit", [False, pytest.param(True, marks=pytest.mark.skipif(
+    not compiled.available(), reason="no C compiler"))])
+def test_predict_knots_hermite_guesses(jit):
+    """First guesses from solved knots (cubic Hermite with the implicit-function derivatives):
+    error O(h^4) -- far below the anchor's linear prediction --, the same guess for a position in
+    any sweep that covers it (the knots lie on a grid fixed by the anchor), and linear from the
+    nearest solved knot where the branch ends (no root past it)."""
+    br = _branch_phi(jit)
+    w_a = np.array([1.0])
+    phi = np.linspace(-0.5, 1.0, 400)
+    exact = np.sqrt(_p_of(phi)[1])
+    errs = []
+    for h in (0.1, 0.05):
+        W0 = br.predict_knots(w_a, _p_of(0.0)[:, 0], phi, 0.0, _p_of, h)
+        errs.append(np.abs(W0[0] - exact).max())
+    lin = np.abs(br.predict(w_a, _p_of(0.0)[:, 0], phi)[0] - exact).max()
+    assert errs[1] < 1e-5 < 0.1 < lin
+    assert 10 < errs[0] / errs[1] < 40  # fourth order: 16x per halving
+    # the same guesses at the same positions from a sweep over a sub-range (interior positions)
+    sub = phi[100:250]
+    W_sub = br.predict_knots(w_a, _p_of(0.0)[:, 0], sub, 0.0, _p_of, 0.05)
+    W_all = br.predict_knots(w_a, _p_of(0.0)[:, 0], phi, 0.0, _p_of, 0.05)
+    assert np.array_equal(W_sub, W_all[:, 100:250])
+    # past the end of the branch (p < 0 beyond phi = -0.68...): nearest solved knot, linearly
+    far = np.linspace(-1.2, 0.5, 300)
+    W_far = br.predict_knots(w_a, _p_of(0.0)[:, 0], far, 0.0, _p_of, 0.05)
+    assert np.all(np.isfinite(W_far))
+    sel = (_p_of(far)[1] > 0.05) & (far > -0.5)
+    np.testing.assert_allclose(W_far[0, sel], np.sqrt(_p_of(far[sel])[1]), atol=1e-4)
+    # a coarse sweep (fewer than 4 positions per knot) keeps the anchor's linear prediction
+    few = np.linspace(-0.5, 1.0, 20)
+    assert np.array_equal(br.predict_knots(w_a, _p_of(0.0)[:, 0], few, 0.0, _p_of, 0.05),
+                          br.predict(w_a, _p_of(0.0)[:, 0], few))
+
+
+@pytest.mark.parametrize("jit", [False, pytest.param(True, marks=pytest.mark.skipif(
+    not compiled.available(), reason="no C compiler"))])
+def test_solve_with_extra_outputs_and_line_search_rescue(jit):
+    """solve(extra=True): the caller's outputs at every solved point come from the first pass, and
+    the columns that continuation changed afterwards -- here through line-search Newton, where plain
+    Newton diverges on atan -- are listed in stats["rescued"]."""
+    w, p = ca.SX.sym("w"), ca.SX.sym("p", 2)
+    G = ca.Function("atan_toy", [w, p], [ca.atan(w - p[1])])
+    checks = ca.Function("atan_checks", [w, p], [ca.DM(1.0), ca.DM(1.0)])
+    extra = ca.Function("atan_extra", [w, p], [2 * w, ca.vertcat(w, p[1])], ["w", "prm"], ["dbl", "pair"])
+    br = Branch("atan", G, checks, lambda res, s, reg: np.isfinite(res) & (res <= 1e-10), 1e-10, jit=jit,
+                extra=extra)
+    prm = np.vstack([np.arange(6.0), [0, 0, 0, 3, 3, 3]])
+    W0 = np.array([[0.1, -0.1, 0.0, 10.0, 10.0, 10.0]])  # plain Newton on atan diverges from 7 away
+    W, res, s, reg, ok, st = br.solve(W0, prm, [np.arange(6)], extra=True)
+    assert ok.all()
+    np.testing.assert_allclose(W[0], prm[1], atol=1e-10)
+    assert set(st["rescued"].tolist()) == {3, 4, 5}
+    first = np.setdiff1d(np.arange(6), st["rescued"])
+    np.testing.assert_allclose(st["extra"]["dbl"][0, first], 2 * W[0, first], atol=1e-12)
+    assert st["extra"]["pair"].shape == (2, 6)
+    np.testing.assert_allclose(st["extra"]["pair"][:, first], np.vstack([W[0, first], prm[1, first]]), atol=1e-12)

@@ -174,3 +174,29 @@ def test_straight_tool_flank_ends_at_the_analytic_limit(z, m, x, beta):
         lim = generate_by_rack(g).flank_limit(side, 0.0)
         assert lim.kind == "junction" and not lim.folded
         assert lim.radius == pytest.approx(g.r_lim, abs=1e-10)
+
+
+@pytest.mark.parametrize("z, x, a_c, a_pl", [(12, 0.3, 0.0, 0.0002), (17, 0.3, 0.002, 0.01), (25, -0.2, 0.0, 0.01),
+                                             (14, 0.1, 0.004, 0.003), (30, 0.0, 0.0, 0.0005)])
+def test_flank_limit_table_shortcut_matches_every_section(z, x, a_c, a_pl):
+    """TCA.limit_table computes only the end sections when both end at the tool's junction (a fold
+    grows with the plunging shift, monotone in z^2): every section of the face is then regular and
+    ends at the same u; otherwise the table holds 9 sections. Checked against each section's own
+    GeneratedTooth.flank_limit (independent of the table)."""
+    g1 = _gear(z, 3.0, a_c=a_c, x=x, a_pl=a_pl, undercut=True)
+    tca = TCA(GearPair(g1, _gear(40, 3.0, name="gear")))
+    s, u = tca.limit_table(1)
+    zs = np.linspace(0.0, g1.b / 2, 13)
+    lims = [tca.pinion.flank_limit("right", float(v), tca.pinion.p0) for v in zs]
+    if all(lim.kind == "junction" for lim in lims[::12]):  # both ends regular
+        assert s.size == 1
+        assert all(lim.kind == "junction" for lim in lims)
+        assert max(abs(lim.u - u[0]) for lim in lims) < 1e-12
+    else:
+        assert s.size == 9
+        # the table interpolates each section's limit in z^2
+        u_tab = np.interp(zs ** 2, s, u)
+        assert np.all(np.isfinite(u_tab))
+        for v, lim in zip(zs[::3], lims[::3]):
+            assert tca.on_flank(1, np.array([lim.u - 1e-6]), np.array([v]))[0]
+            assert not tca.on_flank(1, np.array([lim.u + 1e-3]), np.array([v]))[0]

@@ -600,3 +600,25 @@ def test_multi_pair_envelope_double_crowned_spur():
     level = -parabola_coefficient(pair, 0.002) * (math.pi / z1) ** 2
     assert arms[0] - 1e-3 * level <= r.peak_to_peak <= arms[1] + 1e-3 * level
     assert r.peak_to_peak == pytest.approx(level, rel=0.02)
+
+
+def test_closed_form_2x2_eigen_against_lapack():
+    """eigh2_sym (the sweep's compiled ellipse eigen-decomposition) against numpy.linalg.eigh on random
+    symmetric matrices and the degenerate ones (isotropic, diagonal both ways, off-diagonal only)."""
+    import casadi as ca
+
+    from gearopt.meshing.tca import eigh2_sym
+    K = ca.SX.sym("K", 2, 2)
+    lam, vec = eigh2_sym(K)
+    f = ca.Function("e", [K], [lam, vec])
+    rng = np.random.default_rng(7)
+    mats = [m + m.T for m in rng.normal(size=(200, 2, 2))]
+    mats += [np.eye(2) * 0.3, np.diag([2.0, 1.0]), np.diag([1.0, 2.0]), np.array([[0.0, 1.0], [1.0, 0.0]]),
+             np.array([[1.0, 1e-14], [1e-14, 1.0]])]
+    for M in mats:
+        lv, V = (np.asarray(v) for v in f(M))
+        ref = np.linalg.eigvalsh(M)
+        np.testing.assert_allclose(lv.ravel(), ref, rtol=0, atol=1e-14 * max(1.0, np.abs(ref).max()))
+        assert lv[0, 0] <= lv[1, 0]
+        np.testing.assert_allclose(V.T @ V, np.eye(2), atol=1e-15)
+        np.testing.assert_allclose(M @ V, V * lv.ravel()[None, :], atol=1e-14 * max(1.0, np.abs(ref).max()))

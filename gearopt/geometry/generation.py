@@ -256,12 +256,16 @@ class GeneratedTooth:
         return np.asarray(r).ravel(), np.asarray(n).ravel(), float(psi)
 
     def radius_function(self, side="right") -> ca.Function:
-        """Function (u, z, p) -> (transverse radius, d radius / du) on the flank."""
-        u, z = ca.SX.sym("u"), ca.SX.sym("z")
-        p = ca.SX.sym("p", len(self.param_names))
-        r = self.surface(side, "flank")(u, z, p)[0]
-        rad = ca.sqrt(r[0] ** 2 + r[1] ** 2)
-        return ca.Function("flank_radius", [u, z, p], [rad, ca.jacobian(rad, u)])
+        """Function (u, z, p) -> (transverse radius, d radius / du) on the flank (built once per side)."""
+        key = f"{side}_flank_radius"
+        if key not in self.functions:
+            u, z = ca.SX.sym("u"), ca.SX.sym("z")
+            p = ca.SX.sym("p", len(self.param_names))
+            r = self.surface(side, "flank")(u, z, p)[0]
+            rad = ca.sqrt(r[0] ** 2 + r[1] ** 2)
+            # (kept in a tuple: with_modification rebuilds cached evaluators, it composes only Functions)
+            self.functions[key] = (ca.Function("flank_radius", [u, z, p], [rad, ca.jacobian(rad, u)]),)
+        return self.functions[key][0]
 
     def u_at_radius(self, radius: float, z: float = 0.0, side: str = "right", p=None, tol: float = 1e-12) -> float:
         """Flank parameter u [mm] of the point at transverse radius ``radius`` (Newton).

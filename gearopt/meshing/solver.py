@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
-from ..compiled import compile_function, use_compiled
+from ..compiled import ColumnMap, call, compile_function, map_columns, mapped, use_compiled
 
 NORMAL_TOL = 1e-8  #: accepted contact points have n1 . n2 < -1 + NORMAL_TOL (tangency, not crossing)
 REGULARITY_MIN = 1e-6  #: and (dr/du x dr/dz) . n > REGULARITY_MIN on both flanks' valid branches (no cusp)
@@ -85,7 +85,8 @@ class Branch:
     jit : bool
     """
 
-    def __init__(self, name, G, checks, accept, tol, solver=SolverSettings.solver, jit=SolverSettings.jit):
+    def __init__(self, name, G, checks, accept, tol, solver=SolverSettings.solver, jit=SolverSettings.jit,
+                 extra: ca.Function | None = None):
         self.name, self.G, self.checks, self.accept, self.tol = name, G, checks, accept, tol
         self.solver, self.jit = solver, jit
         nw, npr = G.size1_in(0), G.size1_in(1)
@@ -96,7 +97,10 @@ class Branch:
         self.dw = ca.Function(f"{name}_dw", [w, p], [-ca.solve(J, ca.jacobian(F, p)[:, 0])])
         # abstol 1e-15 reaches the float64 floor of phi2 (1.7e-16 rad) for ~4 % more time; the step
         # test stops after the Newton step below 1e-9 mm (saves one Jacobian). docs/work-precision.md
-        fast_opts = {"error_on_fail": False, "abstol": 1e-15, "max_iter": 30}
+        # the residual and its Jacobian as one graph, common subexpressions eliminated (the Newton
+        # step's whole cost)
+        jac = ca.Function(f"{name}_jac", [w, p], [J, F], {"cse": True})
+        fast_opts = {"error_on_fail": False, "abstol": 1e-15, "max_iter": 30, "jacobian_function": jac}
         if solver == "fast_newton":
             fast_opts["abstolStep"] = 1e-9
         self.rf_fast = ca.rootfinder(f"{name}_fast", solver, G, fast_opts)
@@ -105,15 +109,28 @@ class Branch:
         self.rf_safe = ca.rootfinder(f"{name}_newton", "newton", G, {"error_on_fail": False, "abstol": 1e-13,
                                                                      "abstolStep": 1e-16, "max_iter": 100,
                                                                      "line_search": True,
-                                                                     "show_eval_warnings": False})
+                                                                     "show_eval_warnings": False,
+                                                                     "jacobian_function": jac})
         self._maps: dict[int, ca.Function] = {}
-        # one column: solve from W0, then the residual norm and the checks (the compiled unit)
+        # one column: solve from W0, then the residual norm and the checks at the solution (the
+        # compiled unit); what is evaluated there is one SX graph with common subexpressions
+        # eliminated (the checks and the caller's extra outputs share the surfaces' derivatives)
+        c = checks(w, p)
+        post = [ca.norm_2(F), c[0], c[1]]
+        self.extra = extra
         w0 = ca.MX.sym("W0", nw)
         pp = ca.MX.sym("P", npr)
         wf = self.rf_fast(w0, pp)
-        cf = checks(wf, pp)
-        self.one = ca.Function(f"{name}_one", [w0, pp], [wf, ca.norm_2(G(wf, pp)), cf[0], cf[1]], ["W0", "P"],
+        at = ca.Function(f"{name}_post", [w, p], post, {"cse": True})
+        self.one = ca.Function(f"{name}_one", [w0, pp], [wf] + list(at(wf, pp)), ["W0", "P"],
                                ["W", "res", "n1n2", "reg"])
+        # the same column with the caller's outputs at the solved point (``extra(w, prm)``, e.g. the
+        # sweep's contact quantities): one compiled pass instead of two (solve(..., extra=True))
+        self.one_x = None
+        if extra is not None:
+            at_x = ca.Function(f"{name}_postx", [w, p], post + list(extra(w, p)), {"cse": True})
+            self.one_x = ca.Function(f"{name}_onex", [w0, pp], [wf] + list(at_x(wf, pp)), ["W0", "P"],
+                                     ["W", "res", "n1n2", "reg"] + extra.name_out())
 
     def __getstate__(self):
         # picklable (the robust-design studies ship it to worker processes): the Functions
@@ -140,15 +157,102 @@ class Branch:
         dw = np.asarray(self.dw(w_a, prm_a)).ravel()
         return np.asarray(w_a)[:, None] + dw[:, None] * np.asarray(dphi)[None, :]
 
-    def mapped(self, n: int, n_total: int | None = None) -> ca.Function:
-        """(W0, P) -> (W, residual norm, n1 . n2, regularity) for n columns: the compiled column
-        mapped (:func:`gearopt.compiled.use_compiled` for ``n_total`` columns in all, default n)
-        or the interpreted map."""
+    def predict_knots(self, w_a, prm_a, phi, anchor: float, prm_of, spacing: float, n_total: int | None = None):
+        """First guesses (nw, len(phi)) for the positions ``phi`` [rad] of one smooth solution branch
+        from solved knots: the branch is solved on a fixed grid ``anchor + j * spacing`` covering
+        ``phi`` (:meth:`solve`, from the anchor's prediction), and each position is predicted by the
+        cubic Hermite interpolant of the knot solutions and their implicit-function derivatives
+        dw/dphi1 (error O(spacing^4): Newton then converges in one or two steps instead of four to
+        nine from the anchor's linear prediction), or linearly from the nearest solved knot where a
+        knot of its interval failed, or from the anchor where none was solved.
+
+        The grid depends only on ``anchor`` and ``spacing`` (not on the other positions), so a
+        position's guess is the same in any sweep that covers it.
+
+        Parameters
+        ----------
+        w_a, prm_a : array_like
+            The solved anchor and its parameter column.
+        phi : ndarray (n,)
+        prm_of : callable(phi) -> (n_prm, m) parameter matrix
+        spacing : float
+            Knot spacing [rad].
+        n_total : int, optional
+            Columns of the whole sweep (chooses compiled or interpreted for the knots' solve).
+        """
+        phi = np.asarray(phi, float)
+        lin = self.predict(w_a, prm_a, phi - anchor)
+        if phi.size == 0:
+            return lin
+        j0 = int(np.floor((phi.min() - anchor) / spacing))
+        j1 = int(np.ceil((phi.max() - anchor) / spacing))
+        knots = anchor + spacing * np.arange(j0, max(j1, j0 + 1) + 1)
+        if knots.size * 4 > phi.size:  # a coarse sweep: the knots would cost as much as the positions
+            return lin
+        prm_k = prm_of(knots)
+        n_all = phi.size if n_total is None else n_total
+        Wk, res, n1n2, reg = call(self.mapped(knots.size, n_all), self.predict(w_a, prm_a, knots - anchor), prm_k)
+        okk = np.asarray(self.accept(res.ravel(), n1n2.ravel(), reg.ravel()), bool)
+        if not okk.any():
+            return lin
+        key = ("dw",)
+        if key not in self._maps:  # interpreted: a few dozen knots (compiling would cost more on a cold cache)
+            self._maps[key] = mapped(self.dw, knots.size, False)
+        dWk = np.full(Wk.shape, np.nan)
+        g = np.flatnonzero(okk)
+        dWk[:, g] = call(self._maps[key], Wk[:, g], prm_k[:, g])[0]
+        # knots that failed from the anchor's prediction: again from a solved neighbour knot (Newton
+        # only; rounds while any is rescued)
+        tried = np.zeros(knots.size, bool)
+        while True:
+            left = np.r_[False, okk[:-1]]
+            right = np.r_[okk[1:], False]
+            cand = np.flatnonzero(~okk & ~tried & (left | right))
+            if cand.size == 0:
+                break
+            tried[cand] = True
+            src = np.where(left[cand], cand - 1, cand + 1)
+            guess = Wk[:, src] + dWk[:, src] * (knots[cand] - knots[src])[None, :]
+            Wc, rc, dc, gc = call(self.mapped(cand.size, n_all), guess, prm_k[:, cand])
+            good = np.asarray(self.accept(rc.ravel(), dc.ravel(), gc.ravel()), bool)
+            if not good.any():
+                break
+            g = cand[good]
+            Wk[:, g], okk[g] = Wc[:, good], True
+            dWk[:, g] = call(self._maps[key], Wc[:, good], prm_k[:, g])[0]
+        i = np.clip(np.floor((phi - knots[0]) / spacing).astype(int), 0, knots.size - 2)
+        t = (phi - knots[i]) / spacing
+        both = okk[i] & okk[i + 1]
+        W0 = lin.copy()
+        if both.any():  # cubic Hermite on [knot i, knot i + 1], by interval coefficients (Horner)
+            d0, d1 = spacing * dWk[:, :-1], spacing * dWk[:, 1:]
+            jump = Wk[:, 1:] - Wk[:, :-1]
+            c2, c3 = 3 * jump - 2 * d0 - d1, d0 + d1 - 2 * jump
+            a, tt = i[both], t[both]
+            W0[:, both] = ((c3[:, a] * tt + c2[:, a]) * tt + d0[:, a]) * tt + Wk[:, a]
+        one = ~both
+        if one.any():  # the nearest solved knot, linearly
+            good = np.flatnonzero(okk)
+            near = good[np.abs(knots[good][None, :] - phi[one][:, None]).argmin(axis=1)]
+            W0[:, one] = Wk[:, near] + dWk[:, near] * (phi[one] - knots[near])[None, :]
+        return W0
+
+    def mapped(self, n: int, n_total: int | None = None, extra: bool = False) -> ColumnMap:
+        """(W0, P) -> (W, residual norm, n1 . n2, regularity[, the extra outputs]) on columns (any
+        number; numpy in and out): the compiled column (:func:`gearopt.compiled.use_compiled` for
+        ``n_total`` columns in all, default n) or the interpreted one."""
         fast = self.solver == "fast_newton" and use_compiled(self.jit, n if n_total is None else n_total)
-        key = (n, fast)
+        extra = bool(extra) and self.one_x is not None
+        key = ("columns", fast, extra)
         if key not in self._maps:
-            f = compile_function(self.one) if fast else None
-            self._maps[key] = f.map(n) if f is not None else self._interpreted(self.rf_fast, n, "sweep")
+            col = self.one_x if extra else self.one
+            f = compile_function(col) if fast else None
+            if f is not None:
+                self._maps[key] = ColumnMap(col, lambda m: map_columns(f, m))
+            elif extra:
+                self._maps[key] = ColumnMap(col, col.map)
+            else:
+                self._maps[key] = ColumnMap(col, lambda m: self._interpreted(self.rf_fast, m, "sweep"))
         return self._maps[key]
 
     def _interpreted(self, rf, n: int, what: str) -> ca.Function:
@@ -165,9 +269,9 @@ class Branch:
     def _safe_mapped(self, n: int) -> ca.Function:
         """Line-search Newton from given guesses at n columns, with the residual norm and checks
         (interpreted: CasADi's ``newton`` has no C code generation)."""
-        key = ("safe", n)
+        key = ("safe",)
         if key not in self._maps:
-            self._maps[key] = self._interpreted(self.rf_safe, n, "retry")
+            self._maps[key] = ColumnMap(self.one, lambda m: self._interpreted(self.rf_safe, m, "retry"))
         return self._maps[key]
 
     @staticmethod
@@ -176,26 +280,36 @@ class Branch:
         ``anchors``, padded to a power of two (few distinct map sizes): (W, res, n1n2, reg)."""
         m = max(8, 1 << int(cols.size - 1).bit_length())
         pad = np.concatenate([np.arange(cols.size), np.zeros(m - cols.size, int)])
-        Wr, rr, dr, gr = (np.asarray(v) for v in fun(m, n_total)(W[:, anchors[pad]], prm[:, cols[pad]]))
+        Wr, rr, dr, gr = call(fun(m, n_total), W[:, anchors[pad]], prm[:, cols[pad]])[:4]
         return Wr[:, :cols.size].copy(), rr.ravel()[:cols.size].copy(), dr.ravel()[:cols.size].copy(), \
             gr.ravel()[:cols.size].copy()
 
-    def solve(self, W0, prm, groups, max_gap: int = 4):
+    def solve(self, W0, prm, groups, max_gap: int = 4, n_total: int | None = None, extra: bool = False):
         """Solve every column; ``groups`` are index arrays ordered by phi1. Columns that fail the
         checks are re-solved by continuation within their group, forwards then backwards: from the
         last accepted column before them, if at most ``max_gap`` columns back (Newton, and
         line-search Newton where that does not converge); all such columns of a round in one mapped
         call, rounds until no column is rescued (a rescued column is the anchor of the next ones).
 
+        ``n_total``: columns of the whole job these belong to (chooses compiled or interpreted,
+        :func:`gearopt.compiled.use_compiled`; default the columns given). ``extra``: the first
+        pass also returns the ``extra`` Function's outputs at every column's solved point, in
+        ``stats["extra"]`` (by name), and the columns that continuation changed afterwards in
+        ``stats["rescued"]`` (their extra outputs are those of the first pass: recompute them).
+
         Returns
         -------
         W, res, n1n2, reg, ok, stats
         """
-        W, res, n1n2, reg = (np.asarray(v) for v in self.mapped(prm.shape[1])(W0, prm))
+        n_total = prm.shape[1] if n_total is None else n_total
+        extra = bool(extra) and self.one_x is not None
+        first = call(self.mapped(prm.shape[1], n_total, extra), W0, prm)
+        W, res, n1n2, reg = first[:4]
         res, n1n2, reg = res.ravel().copy(), n1n2.ravel().copy(), reg.ravel().copy()
         W = W.copy()
         ok = np.asarray(self.accept(res, n1n2, reg), bool)
         n_fast, n_retry = int(ok.sum()), 0
+        rescued: list = []
         groups = [np.asarray(g, int) for g in groups if len(g) > 1]
         for forward in (True, False):
             orders = groups if forward else [g[::-1] for g in groups]
@@ -220,7 +334,7 @@ class Branch:
                 n_retry += cols.size
                 # Newton from the anchors (the sweep's own Function); line-search Newton where that
                 # did not converge (a converged point that fails the checks is a root off the flank)
-                Wr, rr, dr, gr = self._from(self.mapped, cols, anchors, W, prm, prm.shape[1])
+                Wr, rr, dr, gr = self._from(self.mapped, cols, anchors, W, prm, n_total)
                 slow = ~(np.isfinite(rr) & (rr <= self.tol))
                 if slow.any():
                     out = self._from(lambda m, _: self._safe_mapped(m), cols[slow], anchors[slow], W, prm, None)
@@ -229,6 +343,11 @@ class Branch:
                 good = np.asarray(self.accept(rr, dr, gr), bool) & ~ok[cols]
                 g = cols[good]
                 W[:, g], res[g], n1n2[g], reg[g], ok[g] = Wr[:, good], rr[good], dr[good], gr[good], True
+                rescued.append(g)
                 if not good.any():
                     break
-        return W, res, n1n2, reg, ok, {"n_fast": n_fast, "n_retry": n_retry}
+        stats = {"n_fast": n_fast, "n_retry": n_retry}
+        if extra:
+            stats["extra"] = dict(zip(self.extra.name_out(), first[4:]))
+            stats["rescued"] = np.unique(np.concatenate(rescued)) if rescued else np.zeros(0, int)
+        return W, res, n1n2, reg, ok, stats

@@ -37,7 +37,7 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-from ..compiled import mapped
+from ..compiled import call, mapped, matrix_columns
 from ..errors import (ArgumentError, ConvergenceError, GeometryError, LineContactError, OptionError, check_number,
                       out_of_range, shorten)
 from ..gears import GearPair
@@ -49,6 +49,9 @@ from .layout import ParamLayout
 from .misalignment import MISALIGNMENTS, Misalignment  # noqa: F401 (re-exported)
 from .solver import (DELTA_DEFAULT, NORMAL_TOL, REGULARITY_MIN, Branch, ContactSettings, accept_tangency,  # noqa: F401 (re-exported)
                      SolverSettings)
+
+
+KNOTS_PER_PITCH = 16  #: knots of the sweep's first guesses per angular pitch of the pinion (Branch.predict_knots)
 
 
 def _describe(v) -> str:
@@ -434,7 +437,7 @@ class TCA:
             F = ca.vertcat(rf1 - rf2, ca.dot(nf1, t2u), ca.dot(nf1, t2z))
         prm = lay.build(sym)
         self._nprm = prm.numel()
-        self.residual = ca.Function("tca_residual", [w, prm], [F], ["w", "prm"], ["F"])
+        self.residual = ca.Function("tca_residual", [w, prm], [F], ["w", "prm"], ["F"], {"cse": True})
         self.jacobian = ca.Function("tca_jacobian", [w, prm], [ca.jacobian(F, w)], ["w", "prm"], ["J"])
         # Curvatures and contact ellipse (Litvin ch. 9; docs/theory.md section 8) at a solved point.
         q1, q2 = ca.vertcat(u1, z1), ca.vertcat(u2, z2)
@@ -465,15 +468,25 @@ class TCA:
         out = [rf1, nf1, rf2, nf2, ca.dot(nf1, nf2), r1, r2, K1, K2, E2, E1, reg]
         names = ["rf1", "nf1", "rf2", "nf2", "n1n2", "r1", "r2", "K1", "K2", "E2", "E1", "reg"]
         self.contact = ca.Function("tca_contact", [w, prm], out, ["w", "prm"], names)
+        # What a sweep reports per point (compiled with the sweep): points, principal curvatures, and
+        # the contact ellipse's eigenvalues lam (ascending: the major axis has the smaller one) and
+        # its [major, minor] unit directions in the gear and pinion frames (closed-form symmetric
+        # 2 x 2 eigen-decomposition, eigh2_sym; numbers only, never differentiated).
+        lam_s, vec_s = eigh2_sym(K1 + K2)
+        self.sweep_outputs = ca.Function(
+            "tca_sweep_out", [w, prm], [r1, r2, rf1, eigh2_sym(K1)[0], eigh2_sym(K2)[0], lam_s, ca.mtimes(E2, vec_s),
+                                        ca.mtimes(E1, vec_s)],
+            ["w", "prm"], ["r1", "r2", "rf1", "kappa1", "kappa2", "lam", "dir2", "dir1"])
         checks = ca.Function("tca_checks", [w, prm], [ca.dot(nf1, nf2), reg], ["w", "prm"], ["n1n2", "reg"])
         self.branch = Branch("tca", self.residual, checks, functools.partial(accept_tangency, tol=self.tol), self.tol,
-                             self.solver, self.jit)
+                             self.solver, self.jit, extra=self.sweep_outputs)
         self._maps: dict = {}
 
-    def _contact_mapped(self, n: int) -> ca.Function:
-        key = ("contact", n)
+    def _contact_mapped(self, n: int):
+        """The sweep's contact quantities on the few columns continuation rescued (interpreted)."""
+        key = ("contact",)
         if key not in self._maps:
-            self._maps[key] = mapped(self.contact, n, self.jit)
+            self._maps[key] = mapped(self.sweep_outputs, n, False)
         return self._maps[key]
 
     def prm(self, phi1, p1=None, p2=None, mis: Misalignment | None = None, z_section: float = 0.0) -> np.ndarray:
@@ -483,6 +496,13 @@ class TCA:
         p2 = self.gear.p0 if p2 is None else np.asarray(p2, float)
         return self.layout.pack(phi1, {"pinion": p1, "gear": p2, "mis": mis or Misalignment(),
                                        "z_section": z_section})
+
+    def _full_numeric(self, W, z_section: float) -> np.ndarray:
+        """:attr:`w_full` of the solved columns W (nw, n) in numpy: (5, n) (u1, z1, u2, z2, r_p2 phi2)."""
+        W = np.asarray(W, float)
+        if self.contact_type != "line":
+            return W.copy()
+        return np.vstack([W[:1], np.full((1, W.shape[1]), float(z_section)), W[1:]])
 
     def _reduce(self, w_full):
         w_full = np.asarray(w_full, float)
@@ -654,13 +674,23 @@ class TCA:
         prm = self.prm(phis, p1, p2, mis, z_section)
         w_a = self.solve_point(anchor, None, p1, p2, mis, z_section)
         prm_a = self.prm([anchor], p1, p2, mis, z_section)[:, 0]
-        W0 = self.branch.predict(w_a, prm_a, phis - anchor)
+        if continuation:  # every pair is the same branch w(phi1 - 2 pi k / z1): guesses from its knots
+            W0 = self.branch.predict_knots(w_a, prm_a, phis, anchor, lambda v: self.prm(v, p1, p2, mis, z_section),
+                                           2 * math.pi / g1.z / KNOTS_PER_PITCH, n_total=phis.size)
+        else:
+            W0 = self.branch.predict(w_a, prm_a, phis - anchor)
         groups = [np.arange(k * N, (k + 1) * N) for k in range(K)] if continuation else []
-        W, res, n1n2, reg, ok, st = self.branch.solve(W0, prm, groups)
+        # solved with the contact quantities at each point in the same compiled pass
+        W, res, n1n2, reg, ok, st = self.branch.solve(W0, prm, groups, extra=True)
         n_fast, n_retry = st["n_fast"], st["n_retry"]
-        f_c = self._contact_mapped(phis.size)
-        c = {n: np.asarray(v) for n, v in zip(f_c.name_out(), f_c(np.where(ok, W, W0), prm))}  # by output name
-        Wf = np.asarray(self._full.map(phis.size)(W, np.full((1, phis.size), z_section)))
+        c = st.pop("extra")
+        fix = st.pop("rescued")
+        if fix.size:  # columns solved by continuation after the first pass
+            f_c = self._contact_mapped(fix.size)
+            for name, v in zip(f_c.name_out(), call(f_c, W[:, fix], prm[:, fix])):
+                width = v.shape[1] // fix.size
+                c[name][:, matrix_columns(fix, width)] = v
+        Wf = self._full_numeric(W, z_section)
         Wf[:, ~ok] = np.nan
         # TE zero: phi2 of pair 0 at phi1 = 0 (the same for every sweep of this design and case).
         w_0 = w_a if anchor == 0.0 else self.solve_point(0.0, w_a, p1, p2, mis, z_section)
@@ -683,7 +713,7 @@ class TCA:
         phi1, pairs, W, ok, res, n1n2 = sv.phi1, sv.pairs, sv.W, sv.ok, sv.res, sv.n1n2
         delta, mis, solve_time, stats, phi2_ref, p1, p2 = (sv.delta, sv.mis, sv.solve_time, sv.stats, sv.phi2_ref,
                                                            sv.p1, sv.p2)
-        r1, r2, rf1, K1, K2, E2, E1 = (sv.contact[n] for n in ("r1", "r2", "rf1", "K1", "K2", "E2", "E1"))
+        r1, r2, rf1 = (np.where(ok, sv.contact[n], np.nan) for n in ("r1", "r2", "rf1"))
         g1, g2 = self.pair.pinion, self.pair.gear
         K, N = len(pairs), phi1.size
         shp = lambda a: a.reshape(K, N)  # noqa: E731
@@ -722,27 +752,19 @@ class TCA:
                 "so the actual TE there is NaN here: analyse edge contact (gearopt.contact.EdgeContact)")
         env = np.where(has, env, np.nan)
         driving = np.where(has, drv, -1)
-        # Curvatures and contact ellipse: eigen-decomposition of K1 + K2 in the common basis.
-        kap1 = np.full((K * N, 2), np.nan)
-        kap2 = np.full((K * N, 2), np.nan)
-        ea = np.full(K * N, np.nan)
-        eb = np.full(K * N, np.nan)
-        edir = np.full((K * N, 2, 3), np.nan)  # [major, minor] unit directions, gear frame
-        edir1 = np.full((K * N, 2, 3), np.nan)  # the same in the pinion frame
-        K1a = _as_mats(K1, K * N)
-        K2a = _as_mats(K2, K * N)
-        E2a = _as_mats(E2, K * N, rows=3)
-        E1a = _as_mats(E1, K * N, rows=3)
-        good = np.flatnonzero(ok)
-        if good.size:
-            kap1[good] = np.linalg.eigvalsh(K1a[good])
-            kap2[good] = np.linalg.eigvalsh(K2a[good])
-            lam, vec = np.linalg.eigh(K1a[good] + K2a[good])  # ascending: major axis with the smaller lambda
-            with np.errstate(divide="ignore", invalid="ignore"):
-                ax_len = np.where(lam > 0, np.sqrt(2 * delta / np.where(lam > 0, lam, 1.0)), np.inf)
-            ea[good], eb[good] = ax_len[:, 0], ax_len[:, 1]
-            edir[good] = np.transpose(E2a[good] @ vec, (0, 2, 1))
-            edir1[good] = np.transpose(E1a[good] @ vec, (0, 2, 1))
+        # Curvatures and contact ellipse (eigen-decomposition of K1 + K2 in the common basis, in the
+        # compiled sweep outputs): semi-axes sqrt(2 delta / lam), NaN where not converged.
+        bad = ~ok
+        kap1 = sv.contact["kappa1"].T.copy()
+        kap2 = sv.contact["kappa2"].T.copy()
+        lam = sv.contact["lam"].T
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ax_len = np.where(lam > 0, np.sqrt(2 * delta / np.where(lam > 0, lam, 1.0)), np.inf)
+        ea, eb = ax_len[:, 0].copy(), ax_len[:, 1].copy()
+        edir = sv.contact["dir2"].reshape(3, K * N, 2).transpose(1, 2, 0).copy()  # [major, minor] x (3,), gear frame
+        edir1 = sv.contact["dir1"].reshape(3, K * N, 2).transpose(1, 2, 0).copy()  # the same in the pinion frame
+        for a in (kap1, kap2, ea, eb, edir, edir1):
+            a[bad] = np.nan
         return TCAResult(
             phi1=phi1, pairs=pairs, phi2=np.where(ok.reshape(K, N), phi2, np.nan), te=np.where(ok.reshape(K, N), te, np.nan),
             te_envelope=env, driving=driving, u1=shp(W[0]), z1=z1, u2=shp(W[2]), z2=z2,
@@ -792,6 +814,12 @@ class TCA:
             b = (self.pair.pinion if member == 1 else self.pair.gear).b
             a_pl = p[self.layout.p_index("pinion" if member == 1 else "gear", "a_pl")]
             s = np.array([0.0]) if a_pl == 0 else (b / 2) ** 2 * np.linspace(0.0, 1.0, 9)
+            ends = [self.flank_limit(member, math.sqrt(v), p) for v in (s[0], s[-1])]
+            if all(e.kind == "junction" for e in ends) and ends[0].u == ends[1].u:
+                # The plunging shifts the tool monotonically in z^2, and a fold (undercut) grows with
+                # the shift: regular at both ends means regular in between, and the flank ends at
+                # the tool's junction, the same u in every section (checked: tests/test_flank_limit.py).
+                s = s[:1]
             self._limits[key] = (s, np.array([self.flank_limit(member, math.sqrt(v), p).u for v in s]))
         return self._limits[key]
 
@@ -800,7 +828,9 @@ class TCA:
     def on_flank(self, member: int, u, z, p=None, band: float = 1e-3) -> np.ndarray:
         """True where the flank point (u, z) [mm] of member 1 or 2 lies on the real generated flank
         (``u`` not past the flank limit of its section; the tip and face are checked elsewhere).
-        The limit is interpolated in z^2 and recomputed exactly for points within ``band`` [mm] of it.
+        The limit is interpolated in z^2 (:meth:`limit_table`) and recomputed exactly for points
+        within ``band`` [mm] of it or within the limit's change across their table interval (the
+        interpolation's error bound: the limit moves monotonically with the plunging shift).
         NaN points are False."""
         u, z = np.asarray(u, float), np.asarray(z, float)
         s_grid, u_grid = self._limit_table(member, p)
@@ -808,7 +838,13 @@ class TCA:
         fin = np.isfinite(u) & np.isfinite(z)
         s = np.clip(np.where(fin, z, 0.0) ** 2, 0.0, (b / 2) ** 2)
         u_lim = np.interp(s, s_grid, u_grid) if s_grid.size > 1 else np.full(u.shape, u_grid[0])
-        near = fin & (np.abs(np.where(fin, u, 0.0) - u_lim) < band) & (s_grid.size > 1)
+        if s_grid.size > 1:  # within the table interval's own variation of the limit (the
+            # interpolation's error bound), or within band of it: the exact limit of that section
+            k = np.clip(np.searchsorted(s_grid, s, side="right") - 1, 0, s_grid.size - 2)
+            width = np.maximum(band, np.abs(np.diff(u_grid))[k])
+            near = fin & (np.abs(np.where(fin, u, 0.0) - u_lim) < width)
+        else:
+            near = np.zeros(u.shape, bool)
         for idx in zip(*np.nonzero(near)):
             u_lim[idx] = self.flank_limit(member, math.sqrt(s[idx]), p).u
         with np.errstate(invalid="ignore"):
@@ -866,7 +902,15 @@ def _unit_perp(n):
     return v / ca.norm_2(v)
 
 
-def _as_mats(M, count, rows=2):
-    """Mapped matrix outputs come as (rows, 2*count); split them into (count, rows, 2)."""
-    M = np.asarray(M)
-    return M.reshape(rows, count, 2).transpose(1, 0, 2) if M.shape == (rows, 2 * count) else M.reshape(count, rows, 2)
+def eigh2_sym(K):
+    """Eigenvalues (ascending, (2, 1)) and unit eigenvectors (columns, (2, 2)) of a symmetric 2 x 2
+    matrix in closed form (CasADi-generic): with ``m = (a + d) / 2``, ``h = (a - d) / 2``,
+    ``r = sqrt(h^2 + b^2)``, the eigenvalues are ``m -+ r`` and the eigenvector of ``m - r`` is
+    ``(-sin t, cos t)`` with ``t = atan2(b, h) / 2`` (no cancellation; a multiple of the identity gives
+    the axes). Not differentiable where r = 0: for numbers only."""
+    a, d, b = K[0, 0], K[1, 1], 0.5 * (K[0, 1] + K[1, 0])
+    m, h = 0.5 * (a + d), 0.5 * (a - d)
+    r = ca.sqrt(h * h + b * b)
+    t = 0.5 * ca.atan2(b, h)
+    c, s = ca.cos(t), ca.sin(t)
+    return ca.vertcat(m - r, m + r), ca.horzcat(ca.vertcat(-s, c), ca.vertcat(c, s))

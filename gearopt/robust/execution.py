@@ -41,6 +41,8 @@ def check_executor(executor, workers):
 
 
 def _evaluate(kernel, chunk: dict) -> dict:
+    from .. import compiled
+    compiled.set_threads(1)  # a worker is one process per core: its compiled maps run in one thread
     return kernel.evaluate(chunk)
 
 
@@ -95,6 +97,8 @@ def run_chunks(kernel, chunks: list, executor="serial", workers=None, scheduler=
 def _worker(blob: bytes, tasks, results) -> None:
     """A local worker process: the kernel once, then chunks until None."""
     import traceback
+    from .. import compiled
+    compiled.set_threads(1)  # one process per core
     kernel = pickle.loads(blob)
     while True:
         item = tasks.get()

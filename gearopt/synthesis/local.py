@@ -22,6 +22,7 @@ from dataclasses import dataclass, replace
 import casadi as ca
 import numpy as np
 
+from ..compiled import nlpsol
 from ..errors import ArgumentError, check_number, out_of_range
 from ..gears import GearPair
 from ..geometry.tools import require_rack_settings
@@ -128,8 +129,12 @@ def _quantities(tca: TCA, side: str, x_scale: dict, delta: float):
 
 
 def local_synthesis(pair: GearPair, target: LocalTarget, side: str = "right", verbose: bool = False,
-                    mis: Misalignment | None = None) -> LocalDesign:
+                    mis: Misalignment | None = None, jit: bool = False) -> LocalDesign:
     """Local synthesis of the pinion crowning at M (see module docstring).
+
+    ``jit=True`` runs the NLP's Functions as C compiled once into the disk cache
+    (:func:`gearopt.compiled.nlpsol`, shared with the sweeps and the crowning NLP); the default
+    interpreted solver is the cheaper choice for a single solve.
 
     Returns
     -------
@@ -178,9 +183,12 @@ def local_synthesis(pair: GearPair, target: LocalTarget, side: str = "right", ve
     X = ca.vertcat(x, w, dw, d2w)
     Gs = ca.substitute(G, ca.vertcat(phi1, mis_s), ca.vertcat(target.phi1_m, mis.vector()))
     fs = ca.substitute(f, ca.vertcat(phi1, mis_s), ca.vertcat(target.phi1_m, mis.vector()))
-    solver = ca.nlpsol("local_synthesis", "ipopt", {"x": X, "f": fs, "g": Gs},
+    if not isinstance(jit, (bool, np.bool_)):
+        raise out_of_range("jit", jit, "True or False (compile the NLP's Functions into the disk cache)",
+                           cls=ArgumentError)
+    solver = nlpsol("local_synthesis", "ipopt", {"x": X, "f": fs, "g": Gs},
                        {"ipopt.print_level": 5 if verbose else 0, "print_time": False, "ipopt.sb": "yes",
-                        "ipopt.tol": 1e-12, "ipopt.max_iter": 200})
+                        "ipopt.tol": 1e-12, "ipopt.max_iter": 200}, jit=bool(jit))
     x0 = np.concatenate([[1.0, 1.0], w0, dw0, np.zeros(5)])
     lbx = np.r_[[1e-4, 1e-4], [-np.inf] * 15]
     ubx = np.r_[[1e3, 1e3], [np.inf] * 15]
