@@ -3,6 +3,8 @@
     python benchmarks/validate_ltca_fe.py            # conjugate spur, crowned spur, helical (about 10 minutes)
     python benchmarks/validate_ltca_fe.py --spur     # the conjugate spur drive only
     python benchmarks/validate_ltca_fe.py --only helical
+    python benchmarks/validate_ltca_fe.py --fine     # the FE reference at the refinement study's fine
+                                                      # level (benchmarks/bench_fea_refine.py; ~40 min)
 
 For each drive and three pinion angles (single and double contact), at 200 N m (E 210 GPa, nu 0.3):
 the loaded approach along the line of action (FE: the loaded pinion rotation times r_b1; loaded TCA:
@@ -10,7 +12,7 @@ delta / cos(beta_b)), and the peak contact pressure in the section through each 
 (FE: nodal pressure along the profile; loaded TCA: the slice p0 of that pair interpolated to the same
 section, and the largest slice p0 of the pair, "max p"), with the
 analytical compliance and with the FE influence coefficients of the same members (default member
-mesh of gearopt.fea.influence; cached in $GEAROPT_CACHE or ~/.cache/gearopt), and the load share of that
+mesh of gearopt.fea.influence; cached in $GEAROPT_CACHE/influence, default ~/.cache/gearopt), and the load share of that
 pair (FE: its contact force over the sum of all pairs', from the ccx contact statistics).
 """
 
@@ -53,6 +55,12 @@ def main(argv):
     if "--only" in argv:  # --only WORD: the drives whose name holds WORD (e.g. crowned, helical)
         names = [n for n in drives() if argv[argv.index("--only") + 1] in n]
     mat = Material(E=210000.0, nu=0.3)
+    fe_level = dict(mesh=FE_MESH)
+    if "--fine" in argv:
+        sys.path.insert(0, __file__.rsplit("/", 1)[0])
+        from bench_fea_refine import LEVELS
+        fe_level = LEVELS["fine"]
+    print(f"FE reference mesh: {fe_level}")
     print(f"{'drive':<22} {'phi1 deg':>8} {'pairs':>7} {'FE approach um':>14} {'LTCA-an':>8} {'LTCA-fe':>8} "
           f"{'err an %':>8} {'err fe %':>8} {'FE p MPa':>9} {'LTCA-fe p':>9} {'err %':>6} {'max p':>9} {'FE share':>8} "
           f"{'LTCA-fe':>7} {'FE s':>6}")
@@ -69,7 +77,7 @@ def main(argv):
             lt[c] = L.solve(T, slices=S).results[0]
         for j, ph in enumerate(phis):
             t0 = time.perf_counter()
-            m = GearFEModel(pair, ph, FEOptions(torque=T * 1e3, E=mat.E, nu=mat.nu, mesh=FE_MESH))
+            m = GearFEModel(pair, ph, FEOptions(torque=T * 1e3, E=mat.E, nu=mat.nu, **fe_level))
             d = m.run().to_dict()
             t_fe = time.perf_counter() - t0
             fe_app = abs(d["pinion_rotation_rad"]) * pair.pinion.r_b

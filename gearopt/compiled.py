@@ -15,8 +15,11 @@ an atomic rename.
 
 Settings (environment):
 
+``GEAROPT_CACHE``
+    Root of gearopt's disk caches (default ``$XDG_CACHE_HOME/gearopt``, else ``~/.cache/gearopt``):
+    the compiled libraries go to ``compiled/`` in it, the FE influence coefficients to ``influence/``.
 ``GEAROPT_CACHE_DIR``
-    Cache directory (default ``$XDG_CACHE_HOME/gearopt/compiled``, else ``~/.cache/gearopt/compiled``).
+    The compiled libraries' directory alone (overrides ``GEAROPT_CACHE``/compiled).
 ``CC``
     The C compiler (default the first of ``cc``, ``gcc``, ``clang`` on the ``PATH``).
 ``GEAROPT_THREADS``
@@ -41,6 +44,8 @@ from pathlib import Path
 import casadi as ca
 import numpy as np
 
+from .errors import ArgumentError, OptionError
+
 FLAGS = ("-O2", "-shared", "-fPIC")  #: compiler flags (part of the cache key)
 MIN_COLUMNS = 1024  #: jit="auto": mapped solves of at least this many columns run compiled
 
@@ -57,13 +62,24 @@ def counts() -> dict:
     return dict(_counts)
 
 
-def cache_dir() -> Path:
-    """The directory of the compiled libraries (``GEAROPT_CACHE_DIR`` or the user cache)."""
-    env = os.environ.get("GEAROPT_CACHE_DIR")
+def cache_root() -> Path:
+    """Root of gearopt's disk caches: ``GEAROPT_CACHE``, else ``$XDG_CACHE_HOME/gearopt``, else
+    ``~/.cache/gearopt`` (compiled libraries in ``compiled/``, FE influence coefficients in
+    ``influence/``)."""
+    env = os.environ.get("GEAROPT_CACHE")
     if env:
         return Path(env).expanduser()
     base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
-    return Path(base) / "gearopt" / "compiled"
+    return Path(base) / "gearopt"
+
+
+def cache_dir() -> Path:
+    """The directory of the compiled libraries: ``GEAROPT_CACHE_DIR``, else ``compiled/`` in
+    :func:`cache_root`."""
+    env = os.environ.get("GEAROPT_CACHE_DIR")
+    if env:
+        return Path(env).expanduser()
+    return cache_root() / "compiled"
 
 
 @functools.lru_cache(maxsize=None)
@@ -217,8 +233,9 @@ def threads() -> int:
 def set_threads(n: int | None) -> None:
     """Threads of the compiled mapped calls of this process (None: back to the default of
     :func:`threads`). The robust-design workers use 1 (one process per core)."""
-    if n is not None and (not isinstance(n, int) or n < 1):
-        raise ValueError(f"threads = {n!r}: expected a whole number >= 1 (or None for the default)")
+    if n is not None and (isinstance(n, bool) or not isinstance(n, int) or n < 1):
+        raise OptionError(f"threads = {n!r}: expected a whole number >= 1 (or None for the default)",
+                          param="threads", value=n, valid="an int >= 1 or None")
     _threads[0] = n
 
 
@@ -266,14 +283,15 @@ class ColumnMap:
         sig = self._sig
         a = [np.asarray(v, dtype=float) for v in args]
         if len(a) != len(sig.shape_in):
-            raise ValueError(f"{self.column.name()} takes {len(sig.shape_in)} inputs, {len(a)} given")
+            raise ArgumentError(f"{self.column.name()} takes {len(sig.shape_in)} inputs, {len(a)} given",
+                                param="args", value=len(a), valid=f"{len(sig.shape_in)} arrays")
         cin = [c for _, c in sig.shape_in]
         a = [v.reshape(r, -1, order="F") if v.ndim != 2 else v for v, (r, _) in zip(a, sig.shape_in)]
         n = a[0].shape[1] // cin[0]
         for v, (r, c), name in zip(a, sig.shape_in, self.column.name_in()):
             if v.shape != (r, c * n):
-                raise ValueError(f"{self.column.name()}: input {name} of {n} columns must be ({r}, {c * n}), "
-                                 f"got {v.shape}")
+                raise ArgumentError(f"{self.column.name()}: input {name} of {n} columns must be ({r}, {c * n}), "
+                                    f"got {v.shape}", param=name, value=v.shape, valid=f"shape ({r}, {c * n})")
         outs = [np.empty((r, c * n), order="F") for r, c in sig.shape_out]
         cout = [c for _, c in sig.shape_out]
         start = 0
@@ -336,7 +354,8 @@ class _Signature:
     def __call__(self, *args) -> list[np.ndarray]:
         f = self.f
         if len(args) != len(self.shape_in):
-            raise ValueError(f"{f.name()} takes {len(self.shape_in)} inputs, {len(args)} given")
+            raise ArgumentError(f"{f.name()} takes {len(self.shape_in)} inputs, {len(args)} given",
+                                param="args", value=len(args), valid=f"{len(self.shape_in)} arrays")
         if not self.dense:
             return [np.asarray(v) for v in f.call(list(args))]
         buf, trigger = f.buffer()
@@ -349,7 +368,8 @@ class _Signature:
                 elif a.size == 1:
                     a = np.full(shape, float(a.ravel()[0]))
                 else:
-                    raise ValueError(f"{f.name()}: input {f.name_in(i)} has shape {shape}, got {a.shape}")
+                    raise ArgumentError(f"{f.name()}: input {f.name_in(i)} has shape {shape}, got {a.shape}",
+                                        param=f.name_in(i), value=a.shape, valid=f"shape {shape}")
             a = np.ascontiguousarray(a.T)  # CasADi's column-major layout
             keep.append(a)
             buf.set_arg(i, memoryview(a))

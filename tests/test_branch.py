@@ -10,12 +10,12 @@ from gearopt import compiled
 from gearopt.meshing.solver import Branch
 
 
-def _branch(jit):
-    # w^2 = p: two roots +-sqrt(p); the checks accept the positive one only (a "valid branch")
+def _branch(jit, name="toy", rhs=lambda p: p[1]):
+    # w^2 = rhs(p): two roots +-sqrt(rhs); the checks accept the positive one only (a "valid branch")
     w, p = ca.SX.sym("w"), ca.SX.sym("p", 2)
-    G = ca.Function("toy", [w, p], [w**2 - p[1]])
-    checks = ca.Function("toy_checks", [w, p], [w, ca.DM(1.0)])
-    return Branch("toy", G, checks, lambda res, s, reg: np.isfinite(res) & (res <= 1e-10) & (s > 0), 1e-10,
+    G = ca.Function(name, [w, p], [w**2 - rhs(p)])
+    checks = ca.Function(f"{name}_checks", [w, p], [w, ca.DM(1.0)])
+    return Branch(name, G, checks, lambda res, s, reg: np.isfinite(res) & (res <= 1e-10) & (s > 0), 1e-10,
                   jit=jit)
 
 
@@ -53,11 +53,7 @@ def _p_of(phi):
 def _branch_phi(jit):
     # w^2 = 1 + phi + 0.3 sin(3 phi) with phi = prm[0] (the implicit-function predictor
     # differentiates with respect to prm[0]); prm[1] carries the same value for the test
-    w, p = ca.SX.sym("w"), ca.SX.sym("p", 2)
-    G = ca.Function("toy_phi", [w, p], [w**2 - (1.0 + p[0] + 0.3 * ca.sin(3 * p[0]))])
-    checks = ca.Function("toy_phi_checks", [w, p], [w, ca.DM(1.0)])
-    return Branch("toy_phi", G, checks, lambda res, s, reg: np.isfinite(res) & (res <= 1e-10) & (s > 0), 1e-10,
-                  jit=jit)
+    return _branch(jit, "toy_phi", lambda p: 1.0 + p[0] + 0.3 * ca.sin(3 * p[0]))
 
 
 @pytest.mark.parametrize("jit", [False, pytest.param(True, marks=pytest.mark.skipif(

@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 
 from gearopt import compiled
+from gearopt.errors import ArgumentError, OptionError
 from gearopt.gears import BasicRack, Gear, GearPair
 from gearopt.meshing.tca import TCA
 
@@ -206,7 +207,7 @@ def test_column_map_equals_plain_map(cache, n):
         for o, r in zip(out, ref):
             np.testing.assert_allclose(o, r, rtol=1e-15, atol=1e-15)
         assert cm.name_out() == ["s", "M"]
-    with pytest.raises(ValueError, match="input p"):
+    with pytest.raises(ArgumentError, match="input p"):
         compiled.mapped(f, n, False)(X, P[:, :-1] if n > 1 else np.zeros((3, 1)))
 
 
@@ -228,8 +229,9 @@ def test_threads_split_columns_bit_identical(cache):
         compiled.set_threads(None)
     for a, b in zip(one, two):
         assert np.array_equal(a, b)
-    with pytest.raises(ValueError, match="whole number"):
-        compiled.set_threads(0)
+    for bad in (0, 1.5, True):
+        with pytest.raises(OptionError, match="threads"):
+            compiled.set_threads(bad)
 
 
 def test_threads_setting_from_environment(monkeypatch):
@@ -250,7 +252,25 @@ def test_call_buffer_equals_casadi_call_and_checks_shapes():
     out = compiled.call(f, X, P)  # (2,) for a (2, 1) input: as many values as entries
     for o, r in zip(out, ref):
         np.testing.assert_allclose(o, r, rtol=1e-15, atol=0)
-    with pytest.raises(ValueError, match="input x"):
+    with pytest.raises(ArgumentError, match="input x"):
         compiled.call(f, np.zeros(4), P)
-    with pytest.raises(ValueError, match="takes 2 inputs"):
+    with pytest.raises(ArgumentError, match="takes 2 inputs"):
         compiled.call(f, X)
+
+
+def test_one_cache_root_for_compiled_libraries_and_influence_coefficients(monkeypatch, tmp_path):
+    """GEAROPT_CACHE is the root of both disk caches; GEAROPT_CACHE_DIR overrides the compiled one;
+    without either, $XDG_CACHE_HOME/gearopt."""
+    from gearopt.fea import influence
+    monkeypatch.delenv("GEAROPT_CACHE_DIR", raising=False)
+    monkeypatch.setenv("GEAROPT_CACHE", str(tmp_path / "root"))
+    assert compiled.cache_dir() == tmp_path / "root" / "compiled"
+    assert influence.cache_dir() == tmp_path / "root" / "influence"
+    monkeypatch.setenv("GEAROPT_CACHE_DIR", str(tmp_path / "libs"))
+    assert compiled.cache_dir() == tmp_path / "libs"
+    assert influence.cache_dir() == tmp_path / "root" / "influence"
+    monkeypatch.delenv("GEAROPT_CACHE")
+    monkeypatch.delenv("GEAROPT_CACHE_DIR")
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
+    assert compiled.cache_dir() == tmp_path / "xdg" / "gearopt" / "compiled"
+    assert influence.cache_dir() == tmp_path / "xdg" / "gearopt" / "influence"

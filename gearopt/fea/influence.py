@@ -15,7 +15,8 @@ symmetrised (Maxwell), and its asymmetry is reported.
 
 Coefficients are cached on disk per geometry (a hash of the gear data, the generated tooth's
 parameters, the material, the grid and the mesh), so a new process reuses them. The cache directory
-is ``$GEAROPT_CACHE`` or ``~/.cache/gearopt``; files are written atomically.
+is ``influence/`` in ``$GEAROPT_CACHE`` (else ``$XDG_CACHE_HOME/gearopt`` or ``~/.cache/gearopt``);
+files are written atomically.
 """
 
 from __future__ import annotations
@@ -39,9 +40,11 @@ CACHE_VERSION = 4
 
 
 def cache_dir() -> Path:
-    """Directory of the influence-coefficient cache (``$GEAROPT_CACHE`` or ``~/.cache/gearopt``)."""
-    base = os.environ.get("GEAROPT_CACHE") or os.path.join(os.path.expanduser("~"), ".cache", "gearopt")
-    return Path(base) / "influence"
+    """Directory of the influence-coefficient cache: ``influence/`` in gearopt's cache root
+    (:func:`gearopt.compiled.cache_root`: ``$GEAROPT_CACHE``, else ``$XDG_CACHE_HOME/gearopt``, else
+    ``~/.cache/gearopt``)."""
+    from ..compiled import cache_root
+    return cache_root() / "influence"
 
 
 @dataclass(frozen=True)

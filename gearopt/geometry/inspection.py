@@ -57,17 +57,18 @@ def reference_angle(gear, side: str, R, z) -> np.ndarray:
 
 
 def _flank_eval(tooth, side):
+    # (u, z, p) -> (radius, d radius/du, angle of the point from the y axis); cached in a tuple like
+    # every evaluator (with_modification composes only the surface Functions)
     key = f"{side}_inspect_eval"
     if key not in tooth.functions:
         import casadi as ca
 
         u, z = ca.SX.sym("u"), ca.SX.sym("z")
         p = ca.SX.sym("p", len(tooth.param_names))
+        rad, drad = tooth.radius_function(side)(u, z, p)
         r = tooth.surface(side, "flank")(u, z, p)[0]
-        rad = ca.sqrt(r[0] ** 2 + r[1] ** 2)
-        tooth.functions[key] = ca.Function(f"{side}_inspect", [u, z, p], [rad, ca.jacobian(rad, u),
-                                                                          ca.atan2(r[0], r[1])])
-    return tooth.functions[key]
+        tooth.functions[key] = (ca.Function(f"{side}_inspect", [u, z, p], [rad, drad, ca.atan2(r[0], r[1])]),)
+    return tooth.functions[key][0]
 
 
 def flank_deviation(tooth, side: str, R, z, p=None) -> np.ndarray:

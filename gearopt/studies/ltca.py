@@ -281,7 +281,7 @@ def _register():
                   doc="inner radius of the gear body (default half its root radius)"),
             Field("compliance", "str", default="analytical", choices=("analytical", "fe"),
                   doc="tooth compliance: the analytical thin-slice model, or influence coefficients of each member's "
-                      "CalculiX model (needs ccx; cached in $GEAROPT_CACHE or ~/.cache/gearopt)"),
+                      "CalculiX model (needs ccx; cached in $GEAROPT_CACHE/influence, default ~/.cache/gearopt)"),
             *misalignment_fields(),
         ], required=True)],
         build=_from_scene,
