@@ -1,8 +1,7 @@
 """FE model of crowned and helical drives (Litvin 9.5, CalculiX): mesh refinement at the pitch point.
 
-    python benchmarks/bench_fea_refine.py            # 3 levels per drive (about 20 minutes on 2 cores)
+    python benchmarks/bench_fea_refine.py            # 3 levels per drive (about 25 minutes on 2 cores)
     python benchmarks/bench_fea_refine.py --quick    # the two coarser levels
-    python benchmarks/bench_fea_refine.py --finer    # and a fourth level for the crowned drives (+30 min)
 
 Drives: a double-crowned spur pinion (20/40, m 3, b 20, a_pl 0.0004 1/mm, a_c 0.002 1/mm; point contact:
 reference the Hertz ellipse from the TCA curvatures; the ellipse's major semi-axis, 7.7 mm, spans most
@@ -28,9 +27,6 @@ LEVELS = {
     "coarse (CI)": dict(n_hertz=2.0, n_ellipse=2.0, mesh=MeshOptions(n_face=4, n_half=4, n_flank=6, n_fillet=4, n_rim=3)),
     "default": dict(),
     "fine": dict(n_hertz=4.0, n_ellipse=4.0, mesh=MeshOptions(n_face=8, n_half=8, n_flank=10, n_fillet=6, n_rim=4)),
-    # --finer only (crowned drives): about 85,000 elements, 15 minutes each
-    "finer": dict(n_hertz=6.0, n_ellipse=6.0, timeout=3000.0,
-                  mesh=MeshOptions(n_face=10, n_half=10, n_flank=12, n_fillet=6, n_rim=4)),
 }
 
 
@@ -49,12 +45,11 @@ def main(argv):
     if shutil.which("ccx") is None:
         print("ccx (CalculiX) not installed: nothing to benchmark")
         return 0
-    levels = list(LEVELS.items())[:2] if "--quick" in argv else list(LEVELS.items())[:3]
+    levels = list(LEVELS.items())[:2] if "--quick" in argv else list(LEVELS.items())
     print(f"{'drive':<18} {'level':<12} {'elements':>8} {'ccx s':>7} {'p_sec MPa':>9} {'Hertz':>7} {'kind':>7} "
           f"{'p/Hertz':>7} {'share':>6} {'p/H(share)':>10} {'R err %':>8} {'rotation rad':>13}")
     for dname, pair in drives().items():
-        extra = [("finer", LEVELS["finer"])] if "--finer" in argv and dname.startswith("crowned") else []
-        for lname, kw in levels + extra:
+        for lname, kw in levels:
             t0 = time.perf_counter()
             m = GearFEModel(pair, 0.0, FEOptions(torque=100e3, **kw))
             d = m.run().to_dict()

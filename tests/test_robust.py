@@ -265,6 +265,39 @@ def test_processes_and_local_dask_are_bit_identical_and_survive_a_killed_worker(
         assert _same(r, serial_run), executor
 
 
+@pytest.mark.slow
+def test_dask_resubmits_a_lost_chunk(pair, serial_run, tmp_path):
+    """A chunk whose task the cluster lost (CancelledError) is resubmitted with the kernel scattered
+    again: same numbers; a chunk lost every time gives an ExecutionError naming it."""
+    from faulty_kernel import LoseOnceKernel
+
+    from gearopt.robust import execution
+
+    mc = MonteCarlo(pair, 96, seed=5, misalignment=MIS, iso_grade=6, f_a=0.02, chunk=16, executor="dask", workers=2)
+    base = mc._kernel
+    marker = tmp_path / "lost-once"
+
+    def loser(tca, n):
+        k = base(tca, n)
+        k.__class__ = LoseOnceKernel
+        k.marker, k.parent_pid = str(marker), os.getpid()
+        return k
+    mc._kernel = loser
+    r = mc.run()
+    assert marker.exists()
+    assert _same(r, serial_run)
+
+    class Always(LoseOnceKernel):
+        def evaluate(self, chunk):
+            marker.unlink(missing_ok=True)
+            return super().evaluate(chunk)
+
+    kernel = loser(mc._tca(), 1)
+    kernel.__class__ = Always
+    with pytest.raises(ExecutionError, match="lost"):
+        execution.run_chunks(kernel, [{"p1": np.zeros((1, 1))}], executor="dask", workers=1)
+
+
 def _free_port():
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))

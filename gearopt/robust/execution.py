@@ -206,14 +206,35 @@ def _dask(kernel, chunks, executor, workers, scheduler, bar) -> list:
         own += [client, cluster]
     else:
         client = executor
+    from concurrent.futures import CancelledError
+
+    from distributed import KilledWorker
+
     try:
         k = client.scatter(kernel, broadcast=True)
         futs = [client.submit(_evaluate, k, c, pure=False, retries=RETRIES) for c in chunks]
         index = {f.key: i for i, f in enumerate(futs)}
+        resubmitted = [0] * len(chunks)
         results: dict[int, dict] = {}
-        for f in as_completed(futs):
+        done = as_completed(futs)
+        for f in done:
             i = index[f.key]
-            results[i] = f.result()
+            try:
+                results[i] = f.result()
+            except (CancelledError, KilledWorker) as e:
+                # the chunk's task was lost with its workers (or the scattered kernel with all the
+                # workers that held it, e.g. when a loaded machine misses heartbeats): scatter the
+                # kernel again and resubmit the chunk, RETRIES times at most
+                if resubmitted[i] >= RETRIES:
+                    raise ExecutionError(f"chunk {i} of {len(chunks)} was lost {RETRIES + 1} times on the Dask "
+                                         f"cluster ({type(e).__name__}: {e!s:.200}); the workers keep dying: check "
+                                         "their memory and logs.") from e
+                resubmitted[i] += 1
+                k = client.scatter(kernel, broadcast=True)
+                nf = client.submit(_evaluate, k, chunks[i], pure=False, retries=RETRIES)
+                index[nf.key] = i
+                done.add(nf)
+                continue
             if bar is not None:
                 bar.update(len(chunks[i]["p1"]))
         return [results[i] for i in range(len(chunks))]
