@@ -243,6 +243,21 @@ def test_monte_carlo_statistics(pair, serial_run):
     assert _same(r, MonteCarlo(pair, 96, seed=5, misalignment=MIS, iso_grade=6, f_a=0.02, chunk=40).run())
 
 
+def _swap_kernel(mc, cls, marker):
+    """Make the study build its kernel as ``cls`` (a faulty kernel of tests/faulty_kernel.py) that
+    acts once across processes (the ``marker`` file), never in this test process; returns the
+    kernel factory."""
+    base = mc._kernel
+
+    def factory(tca, n):
+        k = base(tca, n)
+        k.__class__ = cls
+        k.marker, k.parent_pid = str(marker), os.getpid()
+        return k
+    mc._kernel = factory
+    return factory
+
+
 @pytest.mark.slow
 def test_processes_and_local_dask_are_bit_identical_and_survive_a_killed_worker(pair, serial_run, tmp_path):
     from faulty_kernel import DieOnceKernel
@@ -250,15 +265,8 @@ def test_processes_and_local_dask_are_bit_identical_and_survive_a_killed_worker(
     for executor in ("processes", "dask"):
         mc = MonteCarlo(pair, 96, seed=5, misalignment=MIS, iso_grade=6, f_a=0.02, chunk=16, executor=executor,
                         workers=2)
-        base = mc._kernel
         marker = tmp_path / f"died-{executor}"
-
-        def killer(tca, n, base=base, marker=marker):
-            k = base(tca, n)
-            k.__class__ = DieOnceKernel
-            k.marker, k.parent_pid = str(marker), os.getpid()
-            return k
-        mc._kernel = killer
+        _swap_kernel(mc, DieOnceKernel, marker)
         r = mc.run()
         assert marker.exists(), "a worker process died mid-run"
         assert int(marker.read_text()) != os.getpid()
@@ -274,15 +282,8 @@ def test_dask_resubmits_a_lost_chunk(pair, serial_run, tmp_path):
     from gearopt.robust import execution
 
     mc = MonteCarlo(pair, 96, seed=5, misalignment=MIS, iso_grade=6, f_a=0.02, chunk=16, executor="dask", workers=2)
-    base = mc._kernel
     marker = tmp_path / "lost-once"
-
-    def loser(tca, n):
-        k = base(tca, n)
-        k.__class__ = LoseOnceKernel
-        k.marker, k.parent_pid = str(marker), os.getpid()
-        return k
-    mc._kernel = loser
+    loser = _swap_kernel(mc, LoseOnceKernel, marker)
     r = mc.run()
     assert marker.exists()
     assert _same(r, serial_run)
@@ -324,15 +325,8 @@ def test_real_dask_scheduler_and_two_workers(pair, serial_run, tmp_path):
         with Client(addr, timeout="30s") as c:
             c.wait_for_workers(2, timeout=60)
         mc = MonteCarlo(pair, 96, seed=5, misalignment=MIS, iso_grade=6, f_a=0.02, chunk=16)
-        base = mc._kernel
         marker = tmp_path / "died-cli"
-
-        def killer(tca, n):
-            k = base(tca, n)
-            k.__class__ = DieOnceKernel
-            k.marker, k.parent_pid = str(marker), os.getpid()
-            return k
-        mc._kernel = killer
+        _swap_kernel(mc, DieOnceKernel, marker)
         r = mc.run(scheduler=addr)
         assert marker.exists()
         assert _same(r, serial_run)
