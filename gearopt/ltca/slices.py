@@ -64,6 +64,8 @@ class SliceSet:
     z_center : (K, N) where the grid of the pair is centred (the unloaded point contact, else 0).
     edge : (K, N, M) int: 0 surface contact, 1 the pinion's tip edge on the gear flank, 2 the gear's
         tip edge on the pinion flank (slices whose conjugate point lies beyond that tip).
+    w : (K, N, M, 4) the solved unknowns ``(u1, u2, z2, r_p2 phi2)`` [mm] of each slice's equations
+        (flank or tip-edge; NaN where unsolved), for sensitivities of the slices.
     """
 
     phi1: np.ndarray
@@ -87,6 +89,7 @@ class SliceSet:
     phi2_ref: float
     stats: dict
     edge: np.ndarray | None = None
+    w: np.ndarray | None = None
 
     @property
     def te_unloaded(self) -> np.ndarray:
@@ -248,7 +251,13 @@ class SliceSolver:
         W0 = np.where(have, W0, 0.0)
         groups = [np.flatnonzero(have[g * M:(g + 1) * M]) + g * M for g in range(K * N + 1)]
         W, res, n1n2, reg, ok, st = self.branch.solve(W0, prm, groups)
-        ok = ok & have
+        # the gear angle on the guess's revolution (the kinematics are 2 pi periodic in phi2, and
+        # Newton from a distant start may land a revolution away); farther than a gear pitch from the
+        # conjugate guess is another tooth's flank: rejected
+        rev = 2 * math.pi * g2.r_p
+        with np.errstate(invalid="ignore"):
+            W[3] -= rev * np.round((W[3] - W0[3]) / rev)
+            ok = ok & have & (np.abs(W[3] - W0[3]) < rev / g2.z)
         stats.update(st)
         geo = self._geometry(np.where(ok, W, W0), prm)
         ok_fl = ok
@@ -304,7 +313,8 @@ class SliceSolver:
                 "(e.g. -pi/z1 ... pi/z1) of a pair that meshes.")
         return SliceSet(phi1=phi1, pairs=pairs, z=Z, width=Wd, z_lo=z_lo, z_hi=z_hi, te=shp(te), active=shp(act), converged=shp(ok),
                         r1=shp3(r1), n1=shp3(n1), r2=shp3(r2), n2=shp3(n2), rf=shp3(rf), u1=shp(W[0]), u2=shp(W[1]),
-                        z2=shp(W[2]), z_center=zc, phi2_ref=phi2_ref, stats=stats, edge=shp(edge))
+                        z2=shp(W[2]), z_center=zc, phi2_ref=phi2_ref, stats=stats, edge=shp(edge),
+                        w=np.where(ok, W, np.nan)[:, :n].T.reshape(K, N, M, 4))
 
     def _geometry(self, W, prm) -> dict:
         """Both flanks' points and normals and the fixed-frame point at the columns of ``W``:
