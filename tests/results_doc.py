@@ -27,7 +27,9 @@ PLACEHOLDERS = {
     "<stat>": r"n|mean|sd|min|max|p\d+",
 }
 #: Sections of the crowning study that hold tca cases: checked against the tca study's ``cases[]``.
-ALIASES = {("crowning", "before[]"): ("tca", "cases[]"), ("crowning", "after[]"): ("tca", "cases[]")}
+ALIASES = {("crowning", "before[]"): ("tca", "cases[]"), ("crowning", "after[]"): ("tca", "cases[]"),
+           # each case of the loaded micro-geometry study is an ltca result (its top-level keys)
+           ("loaded_microgeometry", "before[]"): ("ltca", None), ("loaded_microgeometry", "after[]"): ("ltca", None)}
 
 
 def _split(token: str) -> list[str]:
@@ -101,7 +103,7 @@ def undocumented(results: dict, study: str, doc: Path = DOC) -> list[str]:
         scope, p = study, path
         for (st, head), (st2, head2) in ALIASES.items():
             if st == study and path and path[0] == head:
-                scope, p = st2, (head2,) + path[1:]
+                scope, p = st2, ((head2,) if head2 else ()) + path[1:]
         rows = docs.get("every", []) + docs.get(scope, [])
         empty = isinstance(value, (dict, list)) and not value  # an empty container: documented by its contents
         # an empty list may be a list of entries (no transfers: ``transfers[]``) or of numbers

@@ -23,8 +23,9 @@ from results_doc import undocumented
 PROBLEMS = Path(__file__).resolve().parents[1] / "problems"
 SCENES = sorted(p for p in PROBLEMS.glob("*.toml"))
 #: pytest markers of the scene runs: IPOPT (crowning study), CalculiX (fea study), above about 5 s
-STUDY_MARKS = {"crowning": [pytest.mark.ipopt], "fea": [pytest.mark.calculix]}
-SLOW_SCENES = {"crowning_spur", "fea_spur", "edge_spur_crossed", "montecarlo_spur", "montecarlo_loaded"}
+STUDY_MARKS = {"crowning": [pytest.mark.ipopt], "fea": [pytest.mark.calculix], "loaded_microgeometry": [pytest.mark.ipopt]}
+SLOW_SCENES = {"crowning_spur", "fea_spur", "edge_spur_crossed", "montecarlo_spur", "montecarlo_loaded",
+               "microgeometry_loaded"}
 
 
 def _scene_param(scene: Path):
@@ -57,6 +58,25 @@ def test_scene_runs_and_writes(scene, tmp_path):
     assert pngs, "plots must be written"
     for p in out.glob("*.png"):
         assert p.stat().st_size > 10_000
+    if res["study"] == "loaded_microgeometry":
+        _loaded_microgeometry_scalars(res, out)
+
+
+def _loaded_microgeometry_scalars(res, out):
+    """The micro-geometry optimisation under load (problems/microgeometry_loaded.toml): the start design
+    loads its tip edges at every torque and case; the optimum loads none (verification grid, exact
+    loaded TCA), agrees with the exact loaded TCA within 0.01 arcsec, lowers the objective by a third,
+    keeps the pressure limit, and stays within its bounds."""
+    d = res["design"]
+    assert min(min(r) for r in d["before"]["edge_share"]) > 0.2
+    assert max(max(r) for r in d["after"]["edge_share"]) < 1e-4
+    assert d["error"]["te_pp"] < 0.01
+    assert d["after"]["objective_arcsec"] < 0.67 * d["before"]["objective_arcsec"]
+    assert max(max(r) for r in d["after"]["p_max_MPa"]) <= res["options"]["p_limit_MPa"] * 1.001
+    for k, v in d["theta_um"].items():
+        lo, hi = res["options"]["free"][k]
+        assert lo - 1e-6 <= v <= hi + 1e-6
+    assert (out / "loaded_microgeometry.csv").read_text().count("\n") == 1 + len(res["cases"]) * len(res["torques_Nm"])
 
 
 @pytest.mark.parametrize("scene", [p for p in SCENES if tomllib.loads(p.read_text())["scene"]["study"] == "geometry"],

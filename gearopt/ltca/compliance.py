@@ -236,6 +236,14 @@ def coupling(z, widths, lam: float) -> np.ndarray:
 def coupling_batch(z, widths, lam: float) -> np.ndarray:
     """:func:`coupling` of many slice rows at once: ``z``, ``widths`` (B, M) [mm], each row's used
     nodes first (unused: ``z`` NaN); returns (B, M, M) with zero rows/columns at unused nodes."""
+    used = np.isfinite(np.asarray(z, float))
+    G = np.linalg.inv(coupling_stiffness_batch(z, widths, lam))
+    return np.where(used[:, :, None] & used[:, None, :], G, 0.0)
+
+
+def coupling_stiffness_batch(z, widths, lam: float) -> np.ndarray:
+    """The tridiagonal ``A = diag(widths) + lam^2 K`` [mm] of :func:`coupling_batch` (whose inverse
+    that is), (B, M, M); an unused node has a decoupled unit diagonal entry."""
     z = np.asarray(z, float)
     used = np.isfinite(z)
     B, M = z.shape
@@ -251,8 +259,7 @@ def coupling_batch(z, widths, lam: float) -> np.ndarray:
         A[:, j + 1, j + 1] += k
         A[:, j, j + 1] -= k
         A[:, j + 1, j] -= k
-    G = np.linalg.inv(A)
-    return np.where(used[:, :, None] & used[:, None, :], G, 0.0)
+    return A
 
 
 C_PRIME_STEEL = 14.0e3  #: ISO 6336-1's typical single-pair stiffness c' of steel spur gears [N/mm per mm of face] (14 N/(mm um))

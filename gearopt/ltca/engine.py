@@ -317,7 +317,7 @@ class LTCA:
         h2 = c2["h"].reshape(K, N, M)
         length = S.width / cb
         return {"Cs": Cs, "R": np.where(act, R, 1.0), "h1": np.where(act, h1, 1.0), "h2": np.where(act, h2, 1.0),
-                "length": np.where(act, length, 1.0), "radius1": rad1, "radius2": rad2}
+                "length": np.where(act, length, 1.0), "radius1": rad1, "radius2": rad2, "ct": ct}
 
     def _weber_tangent(self, n: int) -> ca.Function:
         key = ("weber", n)

@@ -1,0 +1,83 @@
+"""Plots of the loaded micro-geometry optimisation (they read the loaded_microgeometry study's results
+dictionary only; ``ax=`` in, Axes out)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .ltca import _arr, _torque_colors
+
+
+def plot_te_before_after(before: dict, after: dict, ax=None, which: str = "after"):
+    """Loaded TE [arcsec] over phi1 [deg] at every torque of one case (``before`` / ``after``: the
+    case's loaded-TCA dictionaries), for the design named by ``which``; the other design's curves thin
+    and grey for comparison."""
+    import matplotlib.pyplot as plt
+
+    ax = ax or plt.gca()
+    main, other = (after, before) if which == "after" else (before, after)
+    phi = np.degrees(_arr(main["phi1"]))
+    for t in other["torques"]:
+        ax.plot(np.degrees(_arr(other["phi1"])), _arr(t["te_loaded_arcsec"]), color="0.75", lw=0.9)
+    for c, t in zip(_torque_colors(len(main["torques"])), main["torques"]):
+        ax.plot(phi, _arr(t["te_loaded_arcsec"]), color=c, lw=1.6,
+                label=f"{t['torque_Nm']:.4g} N m: p-p {t['peak_to_peak_arcsec']:.2f}\"")
+    ax.plot([], [], color="0.75", lw=0.9, label="before" if which == "after" else "after")
+    ax.set_xlabel("pinion angle phi1 [deg]")
+    ax.set_ylabel("loaded transmission error [arcsec]")
+    ax.set_title(f"{which} the optimisation")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, loc="best")
+    return ax
+
+
+def plot_te_vs_torque_before_after(d: dict, ax=None):
+    """Peak-to-peak loaded TE [arcsec] against torque [N m] for every misalignment case, before
+    (dashed) and after (solid) the optimisation (verification grid)."""
+    import matplotlib.pyplot as plt
+
+    ax = ax or plt.gca()
+    T = np.array(d["torques_Nm"], float)
+    des = d["design"]
+    for c, case in enumerate(d["cases"]):
+        col = f"C{c % 10}"
+        ax.plot(T, [row[c] for row in des["before"]["te_pp_arcsec"]], "o--", color=col, lw=1.0, ms=4)
+        ax.plot(T, [row[c] for row in des["after"]["te_pp_arcsec"]], "s-", color=col, lw=1.6, ms=4,
+                label=case["name"])
+    ax.plot([], [], "k--", lw=1.0, label="before")
+    ax.plot([], [], "k-", lw=1.6, label="after")
+    ax.set_xlabel("pinion torque [N m]")
+    ax.set_ylabel("loaded TE peak-to-peak [arcsec]")
+    ax.set_xlim(0, T.max() * 1.08)
+    ax.set_ylim(bottom=0)
+    ax.set_title("TE against load, every case")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7)
+    return ax
+
+
+def plot_rounds(design: dict, ax=None):
+    """The trust-region rounds: the true objective of each accepted design and the model's prediction
+    of each trial [arcsec] (rejected trials marked x)."""
+    import matplotlib.pyplot as plt
+
+    ax = ax or plt.gca()
+    rounds = design["rounds"]
+    k = np.arange(len(rounds))
+    ax.plot(k, [r["merit"] for r in rounds], "o-", color="C0", label="true objective at the round's design")
+    ax.plot(k, [r["model_objective"] for r in rounds], "s", mfc="none", color="C2", label="NLP (linearised) optimum")
+    rej = [i for i, r in enumerate(rounds) if r.get("accepted") is False]
+    if rej:
+        ax.plot(rej, [rounds[i]["true_merit"] for i in rej], "x", color="C3", ms=8, label="rejected trial (true)")
+    grid = [r.get("n_positions") for r in rounds]
+    for i in range(1, len(grid)):
+        if grid[i] != grid[i - 1]:
+            ax.axvline(i - 0.5, color="0.5", ls=":", lw=1)
+            ax.text(i - 0.45, ax.get_ylim()[1], f" NLP grid {grid[i - 1]} -> {grid[i]} positions", fontsize=7,
+                    va="top", color="0.3")
+    ax.set_xlabel("round")
+    ax.set_ylabel("objective (weighted TE p-p + penalties) [arcsec]")
+    ax.set_yscale("log")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=7)
+    return ax

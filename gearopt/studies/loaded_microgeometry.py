@@ -1,0 +1,241 @@
+"""Micro-geometry optimisation under load (docs/loaded_synthesis.md): choose ISO flank modifications
+that minimise the loaded TE over a duty cycle of torques x misalignment cases, with a pressure limit
+and no edge loading; before/after loaded TCA of every case.
+
+Scene section ``[loaded_microgeometry]``:
+
+``torque``        nominal pinion torque [N m] (required); the maps are drawn there.
+``torques``       duty-cycle torques [N m], increasing (default 50, 100, 150 % of ``torque``).
+``weights``       weight of each torque in the objective (default all 1; every case weighs the same).
+``p_limit``       peak Hertz pressure limit of the flank [MPa] (default none).
+``edge_margin``   smallest gap of every tip edge and face end under load (default "0.5 um").
+``positions``     positions per mesh cycle in the NLP (default 24); ``verify_positions`` of the
+                  before/after loaded TCA (default 64).
+``n_slices``      slices across the face (default 15). ``side``, ``E``, ``nu`` as [ltca].
+``crossing``, ``intersecting`` (angles), ``dE``, ``axial`` (lengths): each non-zero value adds the
+                  cases +value and -value to the aligned drive.
+
+``[loaded_microgeometry.free.pinion]`` / ``.gear``: the free amounts with their manufacturing bounds,
+``C_alpha = { lo = "0 um", hi = "40 um" }``; the start design is the member's
+``[<member>.modifications]`` (a free relief needs its start there, e.g. ``d_Ca``).
+
+results.json: docs/results.md; ``loaded_microgeometry.csv`` beside it.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..geometry.microgeometry import GLOBAL_AMOUNTS, RELIEF_AMOUNTS
+
+UNITS = {"amounts": "um (suffix _um)", "te": "arcsec (suffix _arcsec)", "pressure": "MPa", "torque": "N m",
+         "angle": "rad", "length": "mm", "time": "s", "see": "docs/results.md"}
+DEFAULT_SHARES = (0.5, 1.0, 1.5)
+
+
+@dataclass
+class LoadedMicroReport:
+    scene: str
+    design: dict
+    cases: list
+    torques: list
+    before: list  # per case: LoadedSweep.to_dict on the verification grid
+    after: list
+    options: dict
+    timing: dict = field(default_factory=dict)
+
+    def to_dict(self) -> dict:
+        return {"study": "loaded_microgeometry", "scene": self.scene, "units": UNITS, "options": self.options,
+                "cases": self.cases, "torques_Nm": self.torques, "design": self.design, "before": self.before,
+                "after": self.after, "timing": self.timing}
+
+    def save_plots(self, out_dir, dpi: int = 120) -> list[str]:
+        """``loaded_micro_te.png`` (loaded TE over the mesh cycle at every torque, before and after, in
+        the aligned case; TE peak-to-peak against torque for every case), ``loaded_micro_pattern.png``
+        (loaded contact pattern on the pinion flank at the nominal torque, before and after) and
+        ``loaded_micro_rounds.png`` (the trust-region rounds)."""
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        from ..plot.loaded_synthesis import plot_rounds, plot_te_before_after, plot_te_vs_torque_before_after
+        from ..plot.ltca import plot_contact_pattern
+
+        out = Path(out_dir)
+        d = self.to_dict()
+
+        def save(name, fig, title):
+            fig.suptitle(f"{self.scene}: {title}")
+            fig.savefig(out / name, dpi=dpi, bbox_inches="tight")
+            plt.close(fig)
+            return name
+
+        fig, axes = plt.subplots(1, 3, figsize=(18, 5), layout="constrained")
+        plot_te_before_after(d["before"][0], d["after"][0], ax=axes[0], which="before")
+        plot_te_before_after(d["before"][0], d["after"][0], ax=axes[1], which="after")
+        lo = min(axes[0].get_ylim()[0], axes[1].get_ylim()[0])
+        hi = max(axes[0].get_ylim()[1], axes[1].get_ylim()[1])
+        axes[0].set_ylim(lo, hi)
+        axes[1].set_ylim(lo, hi)
+        plot_te_vs_torque_before_after(d, ax=axes[2])
+        files = [save("loaded_micro_te.png", fig, "loaded TE before and after the micro-geometry optimisation")]
+        fig, axes = plt.subplots(1, 2, figsize=(13, 5), layout="constrained")
+        pmax = max(max(t["p_max_MPa"] for t in d["before"][0]["torques"]),
+                   max(t["p_max_MPa"] for t in d["after"][0]["torques"]))
+        plot_contact_pattern(d["before"][0], "pinion", ax=axes[0], vmax=pmax)
+        axes[0].set_title("before: " + axes[0].get_title())
+        plot_contact_pattern(d["after"][0], "pinion", ax=axes[1], vmax=pmax)
+        axes[1].set_title("after: " + axes[1].get_title())
+        files.append(save("loaded_micro_pattern.png", fig, f"loaded contact pattern, {d['cases'][0]['name']}"))
+        fig, ax = plt.subplots(figsize=(7, 4.5), layout="constrained")
+        plot_rounds(d["design"], ax=ax)
+        files.append(save("loaded_micro_rounds.png", fig, "trust-region rounds"))
+        return files
+
+    def save_tables(self, out_dir) -> list[str]:
+        """``loaded_microgeometry.csv``: per case and torque the loaded TE peak-to-peak, peak pressure and
+        edge-load share before and after (verification grid)."""
+        des = self.design
+        rows = ["case,torque_Nm,te_pp_before_arcsec,te_pp_after_arcsec,p_max_before_MPa,p_max_after_MPa,"
+                "edge_share_before,edge_share_after"]
+        for c, case in enumerate(self.cases):
+            for t, T in enumerate(self.torques):
+                b, a = des["before"], des["after"]
+                rows.append(",".join([case["name"], f"{T:.10g}"] + [f"{v:.10g}" for v in (
+                    b["te_pp_arcsec"][t][c], a["te_pp_arcsec"][t][c], b["p_max_MPa"][t][c], a["p_max_MPa"][t][c],
+                    b["edge_share"][t][c], a["edge_share"][t][c])]))
+        (Path(out_dir) / "loaded_microgeometry.csv").write_text("\n".join(rows) + "\n", encoding="utf-8")
+        return ["loaded_microgeometry.csv"]
+
+
+class LoadedMicroStudy:
+    """The loaded_microgeometry study: :class:`~gearopt.synthesis.loaded.LoadedMicroOptimizer` over the
+    scene's duty cycle, then the before/after loaded TCA of every case on the verification grid."""
+
+    def __init__(self, pair, free: dict, torque: float, torques, cases: dict, weights=None, name="loaded_microgeometry",
+                 **options):
+        from ..synthesis.loaded import LoadedMicroOptimizer
+
+        self.pair, self.name, self.torque = pair, name, float(torque)
+        self.case_names = list(cases)
+        C = len(cases)
+        w = None if weights is None else np.outer(np.asarray(weights, float), np.ones(C))
+        self.optimizer = LoadedMicroOptimizer(pair, free, torques, cases=list(cases.values()), weights=w, **options)
+
+    def run(self, progress=None) -> LoadedMicroReport:
+        from ..report import misalignment_dict
+
+        t0 = time.perf_counter()
+        opt = self.optimizer
+        if progress:
+            progress(f"loaded micro-geometry: {len(opt.free)} free amounts, {opt.torques.size} torques x "
+                     f"{len(opt.cases)} cases x {opt.phi1.size} positions")
+        d = opt.solve(progress=progress)
+        if progress:
+            progress(f"loaded micro-geometry: objective {d.before.objective:.4g} -> {d.after.objective:.4g} arcsec "
+                     f"(verification grid); NLP vs loaded TCA {d.error['te_pp']:.2g} arcsec")
+        z1 = self.pair.pinion.z
+        t = opt.tca
+        limits = {"pinion": {"b": self.pair.pinion.b, "r_a": self.pair.pinion.r_a, "r_form": t.form_radius(1)},
+                  "gear": {"b": self.pair.gear.b, "r_a": self.pair.gear.r_a, "r_form": t.form_radius(2)}}
+        before = [{**sw.to_dict(z1, nominal=self.torque), "limits": limits} for sw in d.before.sweeps]
+        after = [{**sw.to_dict(z1, nominal=self.torque), "limits": limits} for sw in d.after.sweeps]
+        cases = [{"name": n, **misalignment_dict(m)} for n, m in zip(self.case_names, opt.cases)]
+        options = {"free": {k: [lo * 1e3, hi * 1e3] for k, lo, hi in zip(opt.free, opt.lo, opt.hi)},
+                   "weights": opt.weights.tolist(), "p_limit_MPa": opt.p_limit,
+                   "edge_margin_um": None if opt.edge_margin is None else opt.edge_margin * 1e3,
+                   "positions": int(opt.phi1.size), "verify_positions": opt.n_verify, "n_slices": opt.ltca.n_slices,
+                   "E_MPa": opt.material.E, "nu": opt.material.nu}
+        return LoadedMicroReport(scene=self.name, design=d.to_dict(), cases=cases, torques=opt.torques.tolist(),
+                                 before=before, after=after, options=options,
+                                 timing={"run_s": time.perf_counter() - t0, "optimise_s": d.time})
+
+
+def _from_scene(scene):
+    from ..errors import GeometryError, OptionError
+    from ..ltca.compliance import Material
+    from ..meshing.misalignment import Misalignment
+    from .crowning import misalignment_cases
+    from .tca import check_misalignment_keys
+
+    o = scene.options.get("loaded_microgeometry", {}) or {}
+    check_misalignment_keys(scene, "loaded_microgeometry", o, signs=(1, -1))
+    torque = o["torque"]
+    torques = o.get("torques") or [s * torque for s in DEFAULT_SHARES]
+    weights = o.get("weights")
+    if weights is not None and len(weights) != len(torques):
+        raise scene.key_error("loaded_microgeometry", "weights", f"is out of range; valid: one weight per torque "
+                              f"({len(torques)} numbers >= 0).", valid=f"{len(torques)} numbers >= 0")
+    free = {}
+    for member in ("pinion", "gear"):
+        for amount, rng in ((o.get("free") or {}).get(member) or {}).items():
+            if rng is not None:
+                free[f"{member}.{amount}"] = (rng["lo"], rng["hi"])
+    if not free:
+        raise scene.key_error("loaded_microgeometry", "free", "is missing; valid: at least one free amount, e.g. "
+                              "[loaded_microgeometry.free.pinion] C_alpha = { lo = \"0 um\", hi = \"40 um\" }.",
+                              valid="at least one free amount")
+    cases = misalignment_cases(**{k: o.get(k) or 0.0 for k in Misalignment.names()})
+    try:
+        return LoadedMicroStudy(scene.pair, free, torque, torques, cases, weights=weights, name=scene.name,
+                                p_limit=o.get("p_limit"), edge_margin=o.get("edge_margin"),
+                                n_positions=o.get("positions") or 24, n_verify=o.get("verify_positions") or 64,
+                                n_slices=o.get("n_slices") or 15, side=o.get("side") or "right",
+                                material=Material(E=o["E"], nu=o["nu"]))
+    except (GeometryError, OptionError) as e:
+        raise scene.study_error("loaded_microgeometry", e) from e
+
+
+def _register():
+    from ..io.schema import Bounds, Field, Section
+    from . import StudySpec, register
+    from .fea import _check_E
+    from .robust import _range_section
+    from .tca import misalignment_fields
+
+    def check_torques(v):
+        if any(not t > 0 for t in v):
+            return "every torque > 0 N m"
+        if any(b <= a for a, b in zip(v, v[1:])):
+            return "a strictly increasing list of pinion torques [N m]"
+        return None
+
+    def amounts(member):
+        return Section(member, [], subsections=[_range_section(a, "length", f"bounds of the {member}'s {a}")
+                                                for a in GLOBAL_AMOUNTS + RELIEF_AMOUNTS],
+                       doc=f"free amounts of the {member} with their bounds")
+
+    register(StudySpec(
+        name="loaded_microgeometry",
+        doc="Optimise ISO micro-geometry for the loaded TE over torques x misalignments, with a pressure limit "
+            "and no edge loading; before/after loaded TCA",
+        sections=[Section("loaded_microgeometry", [
+            Field("torque", "float", required=True, check=Bounds(lo=0, lo_open=True, hi=1e7),
+                  doc="nominal pinion torque [N*m] (maps drawn there)"),
+            Field("torques", "floats", check=check_torques,
+                  doc="duty-cycle torques [N*m], increasing (default 50, 100, 150 % of torque)"),
+            Field("weights", "floats", check=lambda v: None if all(x >= 0 for x in v) and sum(v) > 0
+                  else "weights >= 0, not all 0", doc="weight of each torque in the objective (default all 1)"),
+            Field("p_limit", "float", check=Bounds(lo=100, hi=1e4), doc="peak Hertz pressure limit [MPa] (default none)"),
+            Field("edge_margin", "length", default="0.5 um", check=Bounds(lo=0, lo_open=True, hi=0.1),
+                  doc="smallest gap of every tip edge and face end under load"),
+            Field("positions", "int", default=24, check=Bounds(lo=8, hi=256), doc="positions per mesh cycle in the NLP"),
+            Field("verify_positions", "int", default=64, check=Bounds(lo=8, hi=2000),
+                  doc="positions per mesh cycle of the before/after loaded TCA"),
+            Field("n_slices", "int", default=15, check=Bounds(lo=3, hi=201), doc="slices across the face"),
+            Field("side", "str", default="right", choices=("right", "left"), doc="driving flank of the pinion"),
+            Field("E", "float", default=206000.0, check=_check_E, doc="Young's modulus [MPa]"),
+            Field("nu", "float", default=0.3, check=Bounds(lo=0, lo_open=True, hi=0.5, hi_open=True),
+                  doc="Poisson's ratio"),
+            *misalignment_fields(signed=False, prefix="+- ", suffix=" cases"),
+        ], subsections=[Section("free", [], subsections=[amounts("pinion"), amounts("gear")], required=True,
+                                doc="the free amounts and their bounds")], required=True)],
+        build=_from_scene,
+    ))
+
+
+_register()

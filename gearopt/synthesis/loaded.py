@@ -1,0 +1,862 @@
+"""Micro-geometry optimisation under load (docs/loaded_synthesis.md).
+
+The design ``theta`` is a set of ISO 21771 amounts of either member (``"pinion.C_alpha"``,
+``"pinion.C_alpha_a"``...; :class:`gearopt.geometry.microgeometry.Microgeometry`), each with
+manufacturing bounds. The duty cycle is a list of pinion torques times a list of misalignment cases,
+each (torque, case) with a weight. The objective is the weighted sum of the loaded TE's
+peak-to-peak [arcsec] over one mesh cycle; the constraints are a peak Hertz pressure limit on the
+flank slices at every torque and case, and no edge loading: every tip-edge slice and every
+face-end slice keeps a gap of at least ``edge_margin`` [mm] under load.
+
+One IPOPT NLP holds the whole duty cycle. Its unknowns are the design, every slice load ``x = F / W``
+(share of the normal load), every slice gap ``y`` [um] and every position's approach, for every
+(torque, case, position). The loaded-contact conditions of :mod:`gearopt.ltca.engine` are
+constraints of the NLP:
+
+    y = (a(theta) + W C x + delta_H(W x) - delta) / g_ref     (the gap of every slice)
+    x + y - sqrt(x^2 + y^2 + 2 mu) = 0                         (Fischer-Burmeister, smoothed)
+    sum x = 1                                                  (the load balance)
+
+The smoothed Fischer-Burmeister function is zero exactly where ``x >= 0, y >= 0, x y = mu``. So the
+complementarity ``F g = 0`` of the contact problem is relaxed to ``x y = mu``: an open slice at a gap
+of 1 um carries ``mu`` of the load, and a loaded slice's gap is ``mu / x`` um. With the default
+``mu = 1e-8`` that changes the loaded TE by less than 1e-3 arcsec; each optimum reports the
+difference to the exact loaded TCA (below). Why one NLP and not a bilevel scheme: the contact
+problem's active set changes with the design (slices open and close as relief grows), which makes
+the loaded TE only piecewise smooth in theta for an outer solver; the smoothed NLP is smooth, IPOPT
+sees every load and gap, and its exact Hessian is sparse (every nonlinearity acts on one slice).
+
+The separations ``a`` [mm] of the slices are linear in the design: ``a(theta) = a_k + J_k (theta -
+theta_k)`` with ``J_k`` the exact sensitivity of every slice's TE at ``theta_k`` (the implicit
+function theorem on the slice equations, by AD). The slices' positions, compliance and Hertz
+radii are those of ``theta_k``. Micro-geometry amounts move the contact by microns, so this is
+accurate; the optimiser still re-linearises at each optimum (solving the slices of the new design
+exactly) until the design stops moving, and then verifies the optimum with independent loaded TCA
+sweeps of :class:`gearopt.ltca.engine.LTCA` (exact slices, the QP contact solver) at every torque and
+case. The result reports both, and their difference.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import casadi as ca
+import numpy as np
+
+from ..errors import ArgumentError, OptionError, out_of_range
+from ..gears import GearPair
+from ..geometry.microgeometry import AMOUNT_MAX_PER_M, RELIEF_AMOUNTS, Microgeometry, modified_tooth
+from ..ltca.compliance import Material, coupling_stiffness_batch
+from ..ltca.engine import F_MIN_SHARE, LTCA, LoadedSweep
+from ..meshing.misalignment import Misalignment
+from ..meshing.tca import TCA
+from ..units import RAD_TO_ARCSEC
+from .crowning import SynthesisError
+
+G_REF = 1e-3  #: [mm] unit of the gap unknowns y (1 um)
+MU = 1e-8  #: smoothing of the complementarity: x y = MU (x: load share, y: gap in um)
+RHO = 1000.0  #: first exact-penalty weight of the constraint slacks [arcsec per unit share of the load on an edge slice / per unit p^2/p_limit^2], times the mean weight
+RHO_MAX = 1e5  #: the weight grows tenfold while a converged design leaves a slack, up to this
+SLACK_TOL = 1e-3  #: a pressure slack above this is a violated limit (0.05 % of the pressure limit)
+EDGE_TOL = 1e-4  #: an edge slack above this (share of the normal load on one edge slice, 0.01 %) is edge loading
+MAX_ROUNDS = 30  #: trust-region rounds at most
+MAX_REFINE = 3  #: times the NLP's grid may grow by the verification positions that violate a constraint
+TR_START = 0.25  #: first trust radius, times the widest bound interval
+F_TOL = 1e-4  #: ... or when the NLP predicts a decrease of the objective below this share of it
+THETA_TOL = 1e-4  #: [mm] the design has settled when no amount moves by more than this (0.1 um: below any grinding machine's resolution)
+TIP_BAND = 0.02  #: [m_n] contact within this radial distance of a tip circle counts as tip (edge) contact
+NONNEG = ("C_alpha", "C_beta", "C_alpha_a", "C_alpha_f", "C_beta_I", "C_beta_II")  #: amounts >= 0
+
+
+@dataclass(frozen=True)
+class LoadedCheck:
+    """Loaded TCA of one design over the duty cycle (arrays (T, C): torques x cases).
+
+    Attributes
+    ----------
+    te_pp : peak-to-peak loaded TE over the mesh cycle [arcsec].
+    p_max : largest Hertz peak pressure of the flank slices [MPa].
+    edge_share : largest share of the normal load on tip-edge or face-end slices at any position.
+    edge_gap : smallest gap of a tip-edge or face-end slice under load [mm] (0: loaded).
+    edge_load : largest share of the normal load on one tip-edge or face-end slice.
+    objective : weighted sum of ``te_pp`` [arcsec].
+    sweeps : (C,) the :class:`~gearopt.ltca.engine.LoadedSweep` of each case.
+    """
+
+    te_pp: np.ndarray
+    p_max: np.ndarray
+    edge_share: np.ndarray
+    edge_gap: np.ndarray
+    edge_load: np.ndarray
+    objective: float
+    sweeps: tuple = field(repr=False)
+
+
+@dataclass(frozen=True)
+class MicroDesign:
+    """Result of :meth:`LoadedMicroOptimizer.solve`.
+
+    Attributes
+    ----------
+    theta : dict name -> amount [mm] (the optimum); theta0 : the start design.
+    predicted : dict of the NLP's own values at the optimum: ``te_pp`` (T, C) [arcsec], ``p_max``
+        (T, C) [MPa], ``objective`` [arcsec], ``slack_p``, ``slack_e`` (T, C).
+    verified : :class:`LoadedCheck` of the optimum by loaded TCA at the NLP's positions (exact slices
+        of the modified flanks and the QP contact solver, nothing of the NLP).
+    error : dict: largest |predicted - verified| of ``te_pp`` [arcsec], ``p_max`` [MPa] and the
+        ``objective`` [arcsec] (the linearisation and the smoothing together).
+    before, after : :class:`LoadedCheck` of the start design and of the optimum on the verification
+        grid (``n_verify`` positions per mesh cycle, independent of the NLP's grid).
+    rounds : list of dicts per trust-region round (design, model and true objective, radius, IPOPT
+        iterations and status, times).
+    iterations : IPOPT iterations in all; time : wall time [s]; status : IPOPT's last return status.
+    binding : the bounds and constraints active at the optimum.
+    """
+
+    theta: dict
+    theta0: dict
+    predicted: dict
+    verified: LoadedCheck
+    error: dict
+    before: LoadedCheck
+    after: LoadedCheck
+    rounds: list
+    iterations: int
+    time: float
+    status: str
+    binding: tuple
+
+    def theta_um(self) -> dict:
+        """The optimum's amounts [um]."""
+        return {k: v * 1e3 for k, v in self.theta.items()}
+
+    def to_dict(self) -> dict:
+        """JSON-able summary (amounts in um, TE in arcsec, pressures in MPa)."""
+        from ..report import arr
+
+        def chk(c: LoadedCheck) -> dict:
+            return {"te_pp_arcsec": arr(c.te_pp), "p_max_MPa": arr(c.p_max), "edge_share": arr(c.edge_share),
+                    "edge_gap_um": arr(c.edge_gap * 1e3), "edge_load": arr(c.edge_load), "objective_arcsec": c.objective}
+
+        return {"theta_um": self.theta_um(), "theta0_um": {k: v * 1e3 for k, v in self.theta0.items()},
+                "predicted": {"te_pp_arcsec": arr(self.predicted["te_pp"]), "p_max_MPa": arr(self.predicted["p_max"]),
+                              "objective_arcsec": self.predicted["objective"]},
+                "verified": chk(self.verified), "error": dict(self.error), "before": chk(self.before),
+                "after": chk(self.after), "rounds": self.rounds, "iterations": self.iterations,
+                "time_s": self.time, "status": self.status, "binding": list(self.binding)}
+
+
+class LoadedMicroOptimizer:
+    """Choose flank modifications that minimise the loaded TE over a duty cycle (module docstring).
+
+    Parameters
+    ----------
+    pair : GearPair
+        The drive; each member's :class:`Microgeometry` (``Gear.modifications``) is the start
+        design, and gives the relief starts (``d_Ca``, ``d_Cf``, ``b_I``...) of any free relief.
+    free : dict
+        ``{"pinion.C_alpha": (lo, hi), ...}``: the free amounts with their bounds [mm]. Names are
+        ``<member>.<amount>`` with an amount of ``Microgeometry.amount_names()``; a relief amount
+        needs its start in the member's modifications.
+    torques : sequence of float
+        Pinion torques of the duty cycle [N m], strictly increasing.
+    cases : sequence of Misalignment, optional
+        Misalignment cases (default: the aligned drive).
+    weights : array (T, C), optional
+        Weight of each (torque, case) in the objective (default: all 1).
+    p_limit : float, optional
+        Peak Hertz pressure limit of the flank slices [MPa] at every torque and case (None: none).
+    edge_margin : float or None
+        Smallest gap [mm] of every tip-edge and face-end slice under load (default 5e-4 mm; None:
+        edge loading allowed).
+    n_positions : int
+        Positions per mesh cycle in the NLP (default 32).
+    n_verify : int
+        Positions per mesh cycle of the before/after loaded TCA (default 64).
+
+    Call :meth:`solve` (``progress``: a callable taking one line of text per trust-region round).
+    n_slices, material, side
+        As :class:`gearopt.ltca.engine.LTCA`.
+    """
+
+    def __init__(self, pair: GearPair, free: dict, torques, cases=None, weights=None, p_limit: float | None = None,
+                 edge_margin: float | None = 5e-4, n_positions: int = 32, n_verify: int = 64, n_slices: int = 15,
+                 material: Material | None = None, side: str = "right"):
+        if not isinstance(pair, GearPair):
+            raise ArgumentError(f"pair = {pair!r:.60}: expected a gearopt.gears.GearPair.", param="pair", value=pair,
+                                valid="a gearopt.gears.GearPair")
+        self.pair = pair
+        self.torques = LTCA.validate_torques(torques)
+        cases = [Misalignment()] if cases is None else list(cases)
+        if not cases or not all(isinstance(c, Misalignment) for c in cases):
+            raise ArgumentError("cases: expected a non-empty list of gearopt Misalignment.", param="cases",
+                                value=cases, valid="a list of Misalignment")
+        self.cases = tuple(cases)
+        T, C = self.torques.size, len(self.cases)
+        w = np.ones((T, C)) if weights is None else np.asarray(weights, float)
+        if w.shape != (T, C) or not np.all(np.isfinite(w)) or np.any(w < 0) or not w.sum() > 0:
+            raise ArgumentError(f"weights: expected a ({T}, {C}) array (torques x cases) of finite weights >= 0, "
+                                "not all 0.", param="weights", value=np.shape(w), valid=f"shape ({T}, {C}), >= 0")
+        self.weights = w
+        if p_limit is not None and not (isinstance(p_limit, (int, float)) and math.isfinite(p_limit)
+                                        and 100.0 <= p_limit <= 1e4):
+            raise out_of_range("p_limit", p_limit, "100 <= p_limit <= 10000 MPa (peak Hertz pressure)",
+                               cls=OptionError)
+        self.p_limit = None if p_limit is None else float(p_limit)
+        if edge_margin is not None and not (isinstance(edge_margin, (int, float)) and 0 < edge_margin <= 0.1):
+            raise out_of_range("edge_margin", edge_margin, "0 < edge_margin <= 0.1 mm (or None)", cls=OptionError)
+        self.edge_margin = None if edge_margin is None else float(edge_margin)
+        if isinstance(n_positions, bool) or not isinstance(n_positions, (int, np.integer)) or not 8 <= n_positions <= 256:
+            raise out_of_range("n_positions", n_positions, "an integer, 8 <= n_positions <= 256", cls=OptionError)
+        if isinstance(n_verify, bool) or not isinstance(n_verify, (int, np.integer)) or not 8 <= n_verify <= 2000:
+            raise out_of_range("n_verify", n_verify, "an integer, 8 <= n_verify <= 2000", cls=OptionError)
+        self.n_verify = int(n_verify)
+        self.free, self.lo, self.hi = self._check_free(free)
+        self.tca = TCA(pair, side=side, pinion=modified_tooth(pair, "pinion", force_iso=True),
+                       gear=modified_tooth(pair, "gear", force_iso=True))
+        self.ltca = LTCA(pair, side=side, material=material, n_slices=n_slices, tca=self.tca)
+        self.material = self.ltca.material
+        self.n_positions = int(n_positions)
+        self.phi1 = self.ltca.mesh_cycle(self.n_positions)
+        lay = self.tca.layout
+        self._prm_index = [lay.index(f"{m}.iso.{a}") for m, a in (n.split(".", 1) for n in self.free)]
+        self.p0 = (np.array(self.tca.pinion.p0, float), np.array(self.tca.gear.p0, float))
+        self.theta0 = np.array([self.p0[0 if m == "pinion" else 1][lay.member_names[m].index(f"iso.{a}")]
+                                for m, a in (n.split(".", 1) for n in self.free)])
+        bad = [(n, t) for n, t, a, b in zip(self.free, self.theta0, self.lo, self.hi) if not a <= t <= b]
+        if bad:
+            n, t = bad[0]
+            i = self.free.index(n)
+            raise out_of_range(f"free.{n}", t * 1e3, f"the start design's {n} must lie within its bounds "
+                               f"{self.lo[i] * 1e3:g} ... {self.hi[i] * 1e3:g} um", cls=OptionError)
+        self._sens = {}
+
+    # ------------------------------------------------------------------------------------------
+    def _check_free(self, free):
+        if not isinstance(free, dict) or not free:
+            raise ArgumentError("free: expected a dict {'pinion.C_alpha': (lo, hi), ...} of free amounts [mm].",
+                                param="free", value=free, valid="a non-empty dict name -> (lo, hi) [mm]")
+        names, lo, hi = [], [], []
+        for name, b in free.items():
+            member, _, amount = str(name).partition(".")
+            gear = getattr(self.pair, member, None) if member in ("pinion", "gear") else None
+            valid = [f"{m}.{a}" for m in ("pinion", "gear") for a in self._amounts(getattr(self.pair, m))]
+            if gear is None or amount not in self._amounts(gear):
+                hint = ""
+                if gear is not None and amount in RELIEF_AMOUNTS:
+                    hint = " (a relief needs its start, e.g. d_Ca, in the member's modifications)"
+                raise out_of_range(f"free.{name}", name, f"one of {valid}{hint}", cls=OptionError)
+            try:
+                a, c = (float(v) for v in b)
+            except (TypeError, ValueError):
+                raise out_of_range(f"free.{name}", b, "a pair (lo, hi) of amounts [mm]", cls=OptionError) from None
+            cap = AMOUNT_MAX_PER_M * gear.m_n
+            low = 0.0 if amount in NONNEG else -cap
+            if not (math.isfinite(a) and math.isfinite(c) and low <= a < c <= cap):
+                raise out_of_range(f"free.{name}", (a, c), f"{low:g} <= lo < hi <= {cap:g} mm", cls=OptionError)
+            names.append(f"{member}.{amount}")
+            lo.append(a)
+            hi.append(c)
+        return tuple(names), np.array(lo), np.array(hi)
+
+    @staticmethod
+    def _amounts(gear) -> tuple:
+        mg = getattr(gear, "modifications", None) or Microgeometry()
+        return mg.theta_names
+
+    def params(self, theta) -> tuple[np.ndarray, np.ndarray]:
+        """Both members' parameter vectors with the design ``theta`` [mm] set."""
+        p = {"pinion": self.p0[0].copy(), "gear": self.p0[1].copy()}
+        for n, t in zip(self.free, np.asarray(theta, float)):
+            m, a = n.split(".", 1)
+            p[m][self.tca.layout.member_names[m].index(f"iso.{a}")] = t
+        return p["pinion"], p["gear"]
+
+    # -- loaded TCA of one design (the verification) ----------------------------------------------
+    def check(self, theta, phi1=None) -> LoadedCheck:
+        """Independent loaded TCA of the design ``theta`` [mm] at every torque and case (exact slices of
+        the modified flanks, :class:`~gearopt.ltca.engine.LTCA`'s QP contact solver) at the positions
+        ``phi1`` [rad] (default: the NLP's)."""
+        p1, p2 = self.params(np.asarray(theta, float))
+        phi1 = self.phi1 if phi1 is None else phi1
+        return self._check_of([self.ltca.solve(self.torques, phi1=phi1, p1=p1, p2=p2, mis=mis)
+                               for mis in self.cases])
+
+    def _check_of(self, sweeps) -> LoadedCheck:
+        T, C = self.torques.size, len(self.cases)
+        pp, pm, es, eg, el = (np.zeros((T, C)) for _ in range(5))
+        for c, sw in enumerate(sweeps):
+            S = sw.slices
+            ends = _edge_mask(S, self.pair)
+            for t, r in enumerate(sw.results):
+                pp[t, c] = r.peak_to_peak_arcsec
+                pm[t, c] = r.p_max
+                es[t, c] = float(np.max(np.sum(np.where(ends, r.load, 0.0), axis=(0, 2)) / r.W))
+                el[t, c] = float(np.max(_edge_weight(S, self.pair) * r.load) / r.W)
+                gap = _gaps(sw, r)
+                eg[t, c] = float(np.min(np.where(ends & S.active, gap, np.inf)))
+        return LoadedCheck(te_pp=pp, p_max=pm, edge_share=es, edge_gap=eg, edge_load=el,
+                           objective=float(np.sum(self.weights * pp)), sweeps=tuple(sweeps))
+
+    def _merit(self, chk: LoadedCheck, rho: float = RHO) -> float:
+        """The NLP's objective for an exact loaded TCA: weighted TE peak-to-peak plus the penalised
+        constraint violations (the slacks the NLP would need)."""
+        pen = 0.0
+        if self.p_limit is not None:
+            pen += float(np.sum(np.maximum(chk.p_max**2 / self.p_limit**2 - 1.0, 0.0)))
+        if self.edge_margin is not None:
+            pen += float(np.sum(np.maximum(chk.edge_load - MU * G_REF / self.edge_margin, 0.0)))
+        return chk.objective + rho * float(np.mean(self.weights)) * pen
+
+    # -- linearisation --------------------------------------------------------------------------
+    def _sensitivity(self, kind: int) -> ca.Function:
+        """d(r_p2 phi2)/d theta of a slice (kind 0: flank, 1/2: a tip edge), implicit function theorem."""
+        if kind not in self._sens:
+            G = self.ltca.slicer.G if kind == 0 else self.ltca.slicer.edge_branch[kind].G
+            w = ca.SX.sym("w", 4)
+            prm = ca.SX.sym("prm", self.tca.layout.size)
+            F = G(w, prm)
+            dw = -ca.solve(ca.jacobian(F, w), ca.jacobian(F, prm)[:, self._prm_index])
+            self._sens[kind] = ca.Function(f"ltca_dphi2_{kind}", [w, prm], [dw[3, :].T], ["w", "prm"], ["dw3"])
+        return self._sens[kind]
+
+    def linearise(self, theta) -> list:
+        """Slices, compliance and the separations' sensitivities of the design ``theta`` [mm], per case:
+        a list of dicts (``S``: SliceSet, ``st``: structure, ``a`` (K, N, M) separations [mm],
+        ``J`` (K, N, M, P) [mm/mm])."""
+        p1, p2 = self.params(theta)
+        lever = self.pair.gear.r_b * self.ltca.cos_bb
+        z1 = self.pair.pinion.z
+        out = []
+        for mis in self.cases:
+            S = self.ltca.slices(self.phi1, p1, p2, mis)
+            st = self.ltca._structure(S)
+            K, N, M = S.z.shape
+            J = np.zeros((K, N, M, len(self.free)))
+            phis = (S.phi1[None, :] - 2 * math.pi * np.array(S.pairs)[:, None] / z1)
+            kinds = np.zeros((K, N, M), int) if S.edge is None else S.edge
+            for kind in (0, 1, 2):
+                sel = S.active & (kinds == kind)
+                if not sel.any():
+                    continue
+                kk, nn, mm = np.nonzero(sel)
+                prm = self.tca.prm(phis[kk, nn], p1, p2, mis)
+                prm[self.tca.layout.index("z_section"), :] = S.z[kk, nn, mm]
+                wv = S.w[kk, nn, mm].T
+                f = self._sensitivity(kind).map(wv.shape[1])
+                J[kk, nn, mm] = np.asarray(f(wv, prm)).T / self.pair.gear.r_p * (-lever)
+            a = np.where(S.active, -S.te * lever, 0.0)
+            out.append({"S": S, "st": st, "a": a, "J": J, "mis": mis})
+        return out
+
+    # -- the NLP --------------------------------------------------------------------------------
+    def _keep(self, lin, sweeps, radius: float) -> list:
+        """Per case (T, K, N, M): the active slices the NLP holds at each torque. A slice is left out
+        when it stays open for every design within ``radius`` of the linearisation: its separation,
+        lowered by the most the design can change it there (``sum_j |J_ij| radius``, twice over), still
+        exceeds 1.5 times the largest loaded approach of its case and torque plus the edge margin. The
+        trust-region loop evaluates every trial design exactly, so a slice that would close anyway shows
+        as a model miss there."""
+        out = []
+        lever = self.pair.gear.r_b * self.ltca.cos_bb
+        margin = self.edge_margin or 0.0
+        for L, sw in zip(lin, sweeps):
+            S = L["S"]
+            reach = (2.0 * radius * np.sum(np.abs(L["J"]), axis=-1) if np.isfinite(radius)
+                     else np.full(S.z.shape, np.inf))  # no radius: every active slice stays
+            keep = []
+            for r in sw.results:
+                s = (r.te_unloaded[None, :, None] - S.te) * lever
+                bound = 1.5 * float(np.nanmax(r.delta)) + margin
+                with np.errstate(invalid="ignore"):
+                    keep.append(S.active & ~(s - reach > bound))
+            out.append(np.array(keep))
+        return out
+
+    def _nlp(self, lin, theta_k, keep=None):
+        """Build the duty-cycle NLP around the linearisation ``lin`` (module docstring).
+
+        With the analytical compliance the deflections ``w`` [um] of every slice node are unknowns too,
+        tied to the loads by the sparse stiffness form of the face coupling (``A (w / D) = cos^2(beta_b) D F``,
+        A tridiagonal, docs/ltca.md section 2), so the NLP's Jacobian grows with the slice count and not
+        its square; with FE influence coefficients the dense compliance blocks enter the gaps."""
+        g1 = self.pair.pinion
+        cb = self.ltca.cos_bb
+        lever = self.pair.gear.r_b * cb
+        mat = self.material
+        T, C = self.torques.size, len(self.cases)
+        P = len(self.free)
+        Wt = self.torques * 1e3 / (g1.r_b * cb)
+        sparse = self.ltca.compliance == "analytical"
+        lam = self.ltca.coupling_length
+        trip_C = ([], [], [])  # dense compliance (FE): gap rows x load columns [mm/N]
+        trip_A = ([], [], [])  # stiffness rows x deflection columns
+        trip_D = ([], [], [])  # stiffness rows x load-share columns
+        w_of_x = []  # deflection unknown of each slice (sparse path)
+        w_keys = []  # (torque, case, position, flat slice index) of each deflection unknown
+        a0, Jx, ln, Rx, h1x, h2x, edge, tix, blk, keys, tipe = [], [], [], [], [], [], [], [], [], [], []
+        blocks = []  # (t, c, n, first x, count)
+        nx = nw = 0
+        for c, L in enumerate(lin):
+            S, st = L["S"], L["st"]
+            K, N, M = S.z.shape
+            acts = [np.transpose(S.active if keep is None else keep[c][t], (1, 0, 2)).reshape(N, K * M)
+                    for t in range(T)]
+            flat = lambda v: np.transpose(v, (1, 0, 2)).reshape(N, K * M)  # noqa: E731
+            a_n, l_n, R_n, h1_n, h2_n = (flat(v) for v in (L["a"], st["length"], st["R"], st["h1"], st["h2"]))
+            J_n = np.transpose(L["J"], (1, 0, 2, 3)).reshape(N, K * M, P)
+            e_n = flat(_edge_weight(S, self.pair))
+            tp_n = flat(np.zeros(S.z.shape, bool) if S.edge is None else S.edge > 0)
+            if sparse:
+                Acoup = coupling_stiffness_batch(S.z.reshape(K * N, M), S.width.reshape(K * N, M),
+                                                 lam).reshape(K, N, M, M)
+                Dn = np.sqrt(st["ct"])
+            for t in range(T):
+                act = acts[t]
+                for n in range(N):
+                    A = np.flatnonzero(act[n])
+                    cnt = A.size
+                    pos = {int(i): nx + j for j, i in enumerate(A)}
+                    if sparse:
+                        wi = np.full(cnt, -1)
+                        for k in range(K):
+                            U = np.flatnonzero(np.isfinite(S.z[k, n]))
+                            if not any((k * M + m) in pos for m in U):
+                                continue
+                            Ak = Acoup[k, n][np.ix_(U, U)]
+                            Dk = Dn[k, n, U]
+                            rows = nw + np.arange(U.size)
+                            w_keys.append(np.stack([np.full(U.size, t), np.full(U.size, c), np.full(U.size, n),
+                                                    k * M + U], axis=1))
+                            ii, jj = np.nonzero(Ak)
+                            # row i: sum_j A_ij (D_i / D_j) w_j - cos^2(beta_b) D_i^2 W x_i / G_REF = 0
+                            trip_A[0].append(rows[ii])
+                            trip_A[1].append(rows[jj])
+                            trip_A[2].append(Ak[ii, jj] * Dk[ii] / Dk[jj])
+                            for j, m in enumerate(U):
+                                q = pos.get(int(k * M + m))
+                                if q is not None:
+                                    trip_D[0].append([rows[j]])
+                                    trip_D[1].append([q])
+                                    trip_D[2].append([cb**2 * Dk[j] ** 2 * Wt[t] / G_REF])
+                                    wi[q - nx] = rows[j]
+                            nw += U.size
+                        w_of_x.append(wi)
+                    else:
+                        Cb = st["Cs"][n][np.ix_(A, A)]
+                        ii, jj = np.nonzero(Cb)
+                        trip_C[0].append(ii + nx)
+                        trip_C[1].append(jj + nx)
+                        trip_C[2].append(Cb[ii, jj])
+                    a0.append(a_n[n, A])
+                    Jx.append(J_n[n, A])
+                    ln.append(l_n[n, A])
+                    Rx.append(R_n[n, A])
+                    h1x.append(h1_n[n, A])
+                    h2x.append(h2_n[n, A])
+                    edge.append(e_n[n, A])
+                    tipe.append(tp_n[n, A])
+                    tix.append(np.full(cnt, t))
+                    blk.append(np.full(cnt, len(blocks)))
+                    keys.append(np.stack([np.full(cnt, t), np.full(cnt, c), np.full(cnt, n), A], axis=1))
+                    blocks.append((t, c, n, nx, cnt))
+                    nx += cnt
+        a0, Jx, ln, Rx, h1x, h2x = (np.concatenate(v) for v in (a0, Jx, ln, Rx, h1x, h2x))
+        ew, tix, blk, keys, tipe = (np.concatenate(v) for v in (edge, tix, blk, keys, tipe))
+        edge = ew > 0  # rows of the edge-loading constraint; the pressure limit holds on every non-tip-edge slice
+        nB = len(blocks)
+
+        def triplet(tr, n_rows, n_cols):
+            cat = lambda v: np.concatenate(v).astype(int).tolist() if v else []  # noqa: E731
+            return ca.DM.triplet(cat(tr[0]), cat(tr[1]), ca.DM(np.concatenate(tr[2]) if tr[2] else np.zeros(0)),
+                                 n_rows, n_cols)
+
+        Ex_t = ca.DM.triplet(list(range(nx)), tix.tolist(), ca.DM.ones(nx), nx, T)  # x -> torque
+        Ex_b = ca.DM.triplet(list(range(nx)), blk.tolist(), ca.DM.ones(nx), nx, nB)  # x -> block
+        ct = np.array([b[0] * C + b[1] for b in blocks])
+        Eb_ct = ca.DM.triplet(list(range(nB)), ct.tolist(), ca.DM.ones(nB), nB, T * C)
+        # unknowns (scaled): design [um], loads x [share], gaps y [um], approach d [um], TE bounds, slacks,
+        # and (analytical compliance) the deflections w [um] of every slice node
+        th = ca.MX.sym("theta_um", P)
+        x = ca.MX.sym("x", nx)
+        y = ca.MX.sym("y", nx)
+        d = ca.MX.sym("d", nB)
+        u = ca.MX.sym("te_hi", T * C)
+        v = ca.MX.sym("te_lo", T * C)
+        sp = ca.MX.sym("slack_p", T * C)
+        se = ca.MX.sym("slack_e", T * C)
+        w = ca.MX.sym("w", nw)
+        plim = ca.MX.sym("p_limit")
+        marg = ca.MX.sym("edge_margin_um")
+        mu = ca.MX.sym("mu")
+        rho = ca.MX.sym("rho")
+        W = ca.mtimes(Ex_t, ca.DM(Wt))
+        F = x * W
+        f = F / ln
+        fmin = F_MIN_SHARE * W * cb / g1.b
+        fl = ca.sqrt(f**2 + fmin**2)
+        bH = ca.sqrt(4.0 * fl * Rx / (math.pi * mat.E_star))
+        nu = mat.nu
+        cH = 2.0 * (1.0 - nu**2) / (math.pi * mat.E) * (ca.log(2.0 * h1x / bH) + ca.log(2.0 * h2x / bH)
+                                                        - nu / (1.0 - nu))
+        dth = th * 1e-3 - ca.DM(theta_k)
+        gap = (ca.DM(a0) + ca.mtimes(ca.DM(Jx), dth) + cH * f) / G_REF - ca.mtimes(Ex_b, d)
+        g_list = []
+        if sparse:
+            wi = np.concatenate(w_of_x)
+            gap = gap + w[wi.tolist()]
+            g_list.append(ca.mtimes(triplet(trip_A, nw, nw), w) - ca.mtimes(triplet(trip_D, nw, nx), x))
+        else:
+            gap = gap + ca.mtimes(triplet(trip_C, nx, nx), F) / G_REF
+        fb = x + y - ca.sqrt(x**2 + y**2 + 2 * mu)  # zero where x >= 0, y >= 0, x y = mu
+        te = -d * G_REF / lever * RAD_TO_ARCSEC  # (nB) loaded TE [arcsec] (up to each case's constant)
+        g_list += [y - gap, fb, ca.mtimes(Ex_b.T, x) - 1.0, ca.mtimes(Eb_ct, u) - te, te - ca.mtimes(Eb_ct, v)]
+        n_eq = (nw if sparse else 0) + 2 * nx + nB
+        lbg = [np.zeros(n_eq), np.zeros(2 * nB)]
+        ubg = [np.zeros(n_eq), np.full(2 * nB, np.inf)]
+        ct_x = ct[blk]
+        flank = np.flatnonzero(~tipe)
+        ends = np.flatnonzero(edge)
+        if self.p_limit is not None and flank.size:
+            # p0^2 = f E* / (pi R*) <= p_limit^2, per flank slice, relative
+            k = mat.E_star / (math.pi * Rx[flank] * ln[flank])
+            E_f = ca.DM.triplet(list(range(flank.size)), ct_x[flank].tolist(), ca.DM.ones(flank.size), flank.size,
+                                T * C)
+            g_list.append(x[flank.tolist()] * W[flank.tolist()] * ca.DM(k) / plim**2 - 1.0 - ca.mtimes(E_f, sp))
+            lbg.append(np.full(flank.size, -np.inf))
+            ubg.append(np.zeros(flank.size))
+        if self.edge_margin is not None and ends.size:
+            E_e = ca.DM.triplet(list(range(ends.size)), ct_x[ends].tolist(), ca.DM.ones(ends.size), ends.size, T * C)
+            # a gap of at least the margin is, with x y = mu, a load share of at most mu / margin: the
+            # constraint is stated in the load (the smoothed complementarity pins the gap of a loaded slice
+            # to first order, so a gap bound would leave no direction that opens it)
+            g_list.append(ca.DM(ew[ends]) * x[ends.tolist()] - mu / marg - ca.mtimes(E_e, se))
+            lbg.append(np.full(ends.size, -np.inf))
+            ubg.append(np.zeros(ends.size))
+        wv = ca.DM(self.weights.ravel())  # (T, C) row-major: index t * C + c
+        obj = ca.dot(wv, u - v) + rho * float(np.mean(self.weights)) * ca.sum1(sp + se)
+        z = ca.vertcat(th, x, y, d, u, v, sp, se, w)
+        nlp = {"x": z, "p": ca.vertcat(plim, marg, mu, rho), "f": obj, "g": ca.vertcat(*g_list)}
+        opts = {"ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes", "ipopt.tol": 1e-9,
+                "ipopt.max_iter": 1000, "ipopt.mu_strategy": "adaptive", "error_on_fail": False,
+                **getattr(self, "_extra_opts", {})}
+        solver = ca.nlpsol("loaded_microgeometry", "ipopt", nlp, opts)
+        sizes = dict(P=P, nx=nx, nB=nB, TC=T * C, nw=nw)
+        return dict(solver=solver, gap=ca.Function("gap", [z], [gap]), lbg=np.concatenate(lbg),
+                    ubg=np.concatenate(ubg), sizes=sizes, blocks=blocks, ct=ct, edge=tipe, ew=ew, lever=lever, Wt=Wt,
+                    ln=ln, Rx=Rx, keys=keys, w_keys=np.concatenate(w_keys) if w_keys else np.zeros((0, 4), int))
+
+    def _start(self, nlp, lin, theta_k, sw):
+        """Initial point: the exact loaded TCA of the linearisation's design (its loads, deflections and
+        approach), with the smoothed complementarity x y = MU made to hold."""
+        P, nx, nB, TC, nw = (nlp["sizes"][k] for k in ("P", "nx", "nB", "TC", "nw"))
+        x0 = np.zeros(nx)
+        d0 = np.zeros(nB)
+        w0 = np.zeros(nw)
+        lever = nlp["lever"]
+        CF = {}
+        for b, (t, c, n, first, cnt) in enumerate(nlp["blocks"]):
+            S = lin[c]["S"]
+            K, N, M = S.z.shape
+            r = sw[c].results[t]
+            A = nlp["keys"][first:first + cnt, 3]
+            Ff = np.transpose(r.load, (1, 0, 2)).reshape(N, K * M)[n]
+            x0[first:first + cnt] = Ff[A] / r.W
+            CF[(t, c, n)] = lin[c]["st"]["Cs"][n] @ Ff / G_REF
+            # delta' = delta - te0 lever (absolute separations a = -te lever)
+            d0[b] = (r.delta[n] - r.te_unloaded[n] * lever) / G_REF
+        for j, (t, c, n, i) in enumerate(nlp["w_keys"]):
+            w0[j] = CF[(t, c, n)][i]
+        te = -d0 * G_REF / lever * RAD_TO_ARCSEC
+        u0 = np.full(TC, -np.inf)
+        v0 = np.full(TC, np.inf)
+        np.maximum.at(u0, nlp["ct"], te)
+        np.minimum.at(v0, nlp["ct"], te)
+        z0 = np.concatenate([np.asarray(theta_k) * 1e3, x0, np.ones(nx), d0, u0, v0, np.zeros(2 * TC), w0])
+        gap = np.asarray(nlp["gap"](z0)).ravel()
+        loaded = x0 > 1e3 * MU
+        y0 = np.where(loaded, MU / np.maximum(x0, 1e-300), np.maximum(gap, 1e-3))
+        x0 = np.where(loaded, x0, MU / y0)
+        z0[P:P + nx] = x0
+        z0[P + nx:P + 2 * nx] = y0
+        # slacks that make the start feasible for the pressure and edge constraints
+        ct_x = np.repeat(nlp["ct"], [b[4] for b in nlp["blocks"]])
+        s_p = np.zeros(TC)
+        s_e = np.zeros(TC)
+        if self.p_limit is not None:
+            W = nlp["Wt"][np.repeat([b[0] for b in nlp["blocks"]], [b[4] for b in nlp["blocks"]])]
+            p2 = np.where(nlp["edge"], 0.0, x0 * W * self.material.E_star / (math.pi * nlp["Rx"] * nlp["ln"]))
+            np.maximum.at(s_p, ct_x, p2 / self.p_limit**2 - 1.0)
+        if self.edge_margin is not None:
+            np.maximum.at(s_e, ct_x, nlp["ew"] * x0 - MU * G_REF / self.edge_margin)
+        z0[P + 2 * nx + nB + 2 * TC:P + 2 * nx + nB + 4 * TC] = np.concatenate([s_p, s_e]) * 1.01 + 1e-6
+        return z0
+
+    def _bounds(self, nlp):
+        P, nx, nB, TC, nw = (nlp["sizes"][k] for k in ("P", "nx", "nB", "TC", "nw"))
+        free = 2 * nx + nB + 2 * TC
+        lbx = np.concatenate([self.lo * 1e3, np.full(free, -np.inf), np.zeros(2 * TC), np.full(nw, -np.inf)])
+        ubx = np.concatenate([self.hi * 1e3, np.full(free, np.inf), np.full(2 * TC + nw, np.inf)])
+        return lbx, ubx
+
+    def solve(self, progress=None) -> MicroDesign:
+        """Optimise and verify (docs/loaded_synthesis.md).
+
+        The trust-region loop (:meth:`_trust_region`) optimises on the NLP's grid of positions. The
+        optimum is then checked by the exact loaded TCA on the verification grid (``n_verify``
+        positions); where that shows edge loading or a pressure above the limit between the NLP's
+        positions, those positions join the NLP's grid and the loop goes on from the optimum (at most
+        ``MAX_REFINE`` times)."""
+        t_start = time.perf_counter()
+        theta = self.theta0.copy()
+        rounds, iters = [], 0
+        fine = self.ltca.mesh_cycle(self.n_verify)
+        self.phi1 = self.ltca.mesh_cycle(self.n_positions)
+        for refine in range(MAX_REFINE + 1):
+            theta, cur, pred, it, status = self._trust_region(theta, rounds, progress)
+            iters += it
+            after = self.check(theta, fine)
+            add = self._violated_positions(after, fine)
+            add = add[~np.any(np.isclose(add[:, None], self.phi1[None, :], rtol=0.0, atol=1e-12), axis=1)]
+            if not add.size:
+                break
+            if refine == MAX_REFINE:
+                raise SynthesisError(
+                    f"loaded micro-geometry: the optimum on {self.phi1.size} positions per cycle still loads an edge "
+                    f"or exceeds the pressure limit at {add.size} of the {self.n_verify} verification positions after "
+                    f"{MAX_REFINE} refinements; raise n_positions.", param="n_positions", value=self.phi1.size)
+            self.phi1 = np.sort(np.concatenate([self.phi1, add]))
+            if progress:
+                progress(f"loaded micro-geometry: {add.size} verification positions load an edge or exceed the pressure "
+                         f"limit between the NLP's positions; the NLP's grid grows to {self.phi1.size}")
+        ver = cur["check"]  # the exact loaded TCA of the final design (LTCA.solve on its own slices)
+        err = {"te_pp": float(np.max(np.abs(pred["te_pp"] - ver.te_pp))),
+               "objective": abs(pred["objective"] - ver.objective)}
+        if self.p_limit is not None:
+            err["p_max"] = float(np.max(np.abs(pred["p_max"] - ver.p_max)))
+        before = self.check(self.theta0, fine)
+        return MicroDesign(theta=dict(zip(self.free, theta.tolist())), theta0=dict(zip(self.free, self.theta0.tolist())),
+                           predicted=pred, verified=ver, error=err, before=before, after=after, rounds=rounds,
+                           iterations=iters, time=time.perf_counter() - t_start, status=status,
+                           binding=self._binding(theta, pred, ver))
+
+    def _violated_positions(self, chk: LoadedCheck, phi1) -> np.ndarray:
+        """Positions of ``phi1`` where the exact loaded TCA ``chk`` loads an edge (a weighted slice load
+        share above ``EDGE_TOL``) or exceeds the pressure limit, at any torque and case."""
+        bad = np.zeros(phi1.size, bool)
+        for sw in chk.sweeps:
+            w = _edge_weight(sw.slices, self.pair)
+            for r in sw.results:
+                if self.edge_margin is not None:
+                    bad |= np.max(w * r.load, axis=(0, 2)) / r.W > EDGE_TOL
+                if self.p_limit is not None:
+                    bad |= np.max(r.p0_flank, axis=(0, 2)) > self.p_limit * (1 + SLACK_TOL)
+        return np.asarray(phi1)[bad]
+
+    def _trust_region(self, theta, rounds: list, progress=None):
+        """Optimise and verify (module docstring).
+
+        A trust-region loop of linearisations: the NLP around the design ``theta_k`` is solved with
+        every amount within ``radius`` of ``theta_k``; the new design's slices are solved exactly and
+        its loaded TCA gives the true objective. The step is accepted when the true objective falls by
+        at least a tenth of what the NLP predicted (the radius doubles when the prediction was good
+        and the step reached it), else the radius shrinks to a quarter of the step. It stops when the
+        NLP's step is below ``THETA_TOL`` (the linearised optimum is the design itself: a stationary
+        point of the exact problem, whose first derivatives the linearisation shares)."""
+        rho = RHO
+        p = [self.p_limit or 1.0, (self.edge_margin or 0.0) / G_REF, MU, rho]
+        radius = TR_START * float(np.max(self.hi - self.lo))
+        iters, status, pred = 0, "", None
+        cur = self._around(theta, 2 * radius)
+        for rnd in range(MAX_ROUNDS):
+            nlp = cur["nlp"]
+            lbx, ubx = self._bounds(nlp)
+            P = len(self.free)
+            lbx[:P] = np.maximum(self.lo, theta - radius) * 1e3
+            ubx[:P] = np.minimum(self.hi, theta + radius) * 1e3
+            t1 = time.perf_counter()
+            r = nlp["solver"](x0=cur["z0"], lbx=lbx, ubx=ubx, lbg=nlp["lbg"], ubg=nlp["ubg"], p=p)
+            st = nlp["solver"].stats()
+            status = st["return_status"]
+            iters += int(st["iter_count"])
+            zs = np.asarray(r["x"]).ravel()
+            new = np.clip(zs[:P] * 1e-3, self.lo, self.hi)
+            model = float(r["f"])
+            info = {"theta_um": (new * 1e3).tolist(), "model_objective": model, "merit": cur["merit"],
+                    "radius_um": radius * 1e3, "status": status, "iterations": int(st["iter_count"]),
+                    "nlp_s": time.perf_counter() - t1, "linearise_s": cur["time"], "n_loads": nlp["sizes"]["nx"],
+                    "n_positions": int(self.phi1.size)}
+            rounds.append(info)
+            if not st["success"]:
+                raise SynthesisError(f"loaded micro-geometry NLP: IPOPT stopped with {status} in round {rnd} "
+                                     f"(design {dict(zip(self.free, (new * 1e3).round(3)))} um).",
+                                     param="ipopt", value=status)
+            pred = self._predicted(nlp, zs)
+            step = float(np.max(np.abs(new - theta)))
+            if step <= THETA_TOL or cur["merit"] - model <= F_TOL * max(cur["merit"], 1.0):
+                if (np.max(pred["slack_p"]) > SLACK_TOL or np.max(pred["slack_e"]) > EDGE_TOL) and rho < RHO_MAX:
+                    # a constraint still violated at a stationary point of the penalised objective: a
+                    # heavier penalty (the exact penalty needs a weight above the constraint's multiplier)
+                    rho *= 10.0
+                    p[3] = rho
+                    cur["merit"] = self._merit(cur["check"], rho)
+                    info["accepted"] = f"penalty x10 ({rho:g})"
+                    if progress:
+                        progress(_round_text(rnd, info))
+                    continue
+                info["accepted"] = "converged"
+                if progress:
+                    progress(_round_text(rnd, info))
+                break
+            trial = self._around(new, 2 * radius, rho)
+            gain = cur["merit"] - trial["merit"]
+            ratio = gain / max(cur["merit"] - model, 1e-12)
+            info.update(true_merit=trial["merit"], ratio=ratio)
+            if ratio >= 0.1:
+                info["accepted"] = True
+                if ratio > 0.75 and step >= 0.9 * radius:
+                    radius *= 2.0
+                theta, cur = new, trial
+            else:
+                info["accepted"] = False
+                radius = 0.25 * step
+            if progress:
+                progress(_round_text(rnd, info))
+            if radius <= THETA_TOL:
+                break
+        else:
+            raise SynthesisError(f"loaded micro-geometry: no stationary design after {MAX_ROUNDS} linearisations "
+                                 f"(last step {step * 1e3:.3g} um, trust radius {radius * 1e3:.3g} um).",
+                                 param="theta", value=step)
+        # the NLP's own values at the final design (its linearisation there, the design fixed): what the
+        # verification below is compared with
+        nlp = cur["nlp"]
+        lbx, ubx = self._bounds(nlp)
+        lbx[:len(self.free)] = ubx[:len(self.free)] = theta * 1e3
+        r = nlp["solver"](x0=cur["z0"], lbx=lbx, ubx=ubx, lbg=nlp["lbg"], ubg=nlp["ubg"], p=p)
+        if not nlp["solver"].stats()["success"]:
+            raise SynthesisError(f"loaded micro-geometry: the NLP at the final design failed "
+                                 f"({nlp['solver'].stats()['return_status']}).", param="ipopt",
+                                 value=nlp["solver"].stats()["return_status"])
+        pred = self._predicted(nlp, np.asarray(r["x"]).ravel())
+        self._raise_if_infeasible(pred)
+        return theta, cur, pred, iters, status
+    def _around(self, theta, radius: float = np.inf, rho: float = RHO) -> dict:
+        """Linearisation, NLP and start point at ``theta``, with the exact loaded TCA there; the NLP
+        leaves out the slices that stay open within ``radius`` [mm] of ``theta`` (:meth:`_keep`)."""
+        t0 = time.perf_counter()
+        lin = self.linearise(theta)
+        sweeps = [self.ltca.solve(self.torques, slices=L["S"]) for L in lin]
+        nlp = self._nlp(lin, theta, self._keep(lin, sweeps, radius))
+        z0 = self._start(nlp, lin, theta, sweeps)
+        chk = self._check_of(sweeps)
+        return {"nlp": nlp, "z0": z0, "check": chk, "merit": self._merit(chk, rho), "time": time.perf_counter() - t0}
+
+    def _predicted(self, nlp, z):
+        P, nx, nB, TC = (nlp["sizes"][k] for k in ("P", "nx", "nB", "TC"))
+        x = z[P:P + nx]
+        d = z[P + 2 * nx:P + 2 * nx + nB]
+        te = -d * G_REF / nlp["lever"] * RAD_TO_ARCSEC
+        hi = np.full(TC, -np.inf)
+        lo = np.full(TC, np.inf)
+        np.maximum.at(hi, nlp["ct"], te)
+        np.minimum.at(lo, nlp["ct"], te)
+        T, C = self.torques.size, len(self.cases)
+        pp = (hi - lo).reshape(T, C)
+        # flank pressure of the NLP's loads
+        W = nlp["Wt"][np.repeat([b[0] for b in nlp["blocks"]], [b[4] for b in nlp["blocks"]])]
+        f = np.maximum(x, 0.0) * W / nlp["ln"]
+        p0 = np.where(nlp["edge"], 0.0, np.sqrt(f * self.material.E_star / (math.pi * nlp["Rx"])))
+        pm = np.full(TC, 0.0)
+        blk_ct = np.repeat(nlp["ct"], [b[4] for b in nlp["blocks"]])
+        np.maximum.at(pm, blk_ct, p0)
+        slack = z[P + 2 * nx + nB + 2 * TC:P + 2 * nx + nB + 4 * TC]
+        return {"te_pp": pp, "p_max": pm.reshape(T, C), "objective": float(np.sum(self.weights * pp)),
+                "slack_p": slack[:TC].reshape(T, C), "slack_e": slack[TC:].reshape(T, C)}
+
+    def _raise_if_infeasible(self, pred):
+        for kind, what, tol in (("slack_p", "p_max", SLACK_TOL), ("slack_e", "edge", EDGE_TOL)):
+            s = pred[kind]
+            if np.max(s) > tol:
+                t, c = np.unravel_index(int(np.argmax(s)), s.shape)
+                if what == "p_max":
+                    val = pred["p_max"][t, c]
+                    raise SynthesisError(
+                        f"loaded micro-geometry: the pressure limit p_limit = {self.p_limit:g} MPa cannot be met "
+                        f"within the bounds of {list(self.free)}: at {self.torques[t]:g} N m, case {c} "
+                        f"({_case_text(self.cases[c])}) the lowest peak pressure reached is {val:.1f} MPa. Raise p_limit, widen "
+                        "the bounds or free more modifications.", param="p_limit", value=val)
+                raise SynthesisError(
+                    f"loaded micro-geometry: the optimiser found no design within the bounds of {list(self.free)} that keeps every tip edge "
+                    f"and face end {self.edge_margin * 1e3:g} um open at {self.torques[t]:g} N m, case {c} "
+                    f"({_case_text(self.cases[c])}): a tip edge or face end still carries {100 * s[t, c]:.3g} % of the "
+                    "normal load. Free a relief, widen its bounds or lower edge_margin.", param="edge_margin",
+                    value=float(s[t, c]))
+
+    def _binding(self, theta, pred, ver) -> tuple:
+        out = []
+        for n, t, a, b in zip(self.free, theta, self.lo, self.hi):
+            if abs(t - a) <= 1e-7:
+                out.append(f"{n} at its lower bound")
+            elif abs(t - b) <= 1e-7:
+                out.append(f"{n} at its upper bound")
+        if self.p_limit is not None and np.max(pred["p_max"]) >= self.p_limit * (1 - 1e-4):
+            out.append("p_max")
+        if self.edge_margin is not None and np.min(ver.edge_gap) <= self.edge_margin * (1 + 1e-3):
+            out.append("edge")
+        return tuple(out)
+
+
+def _case_text(mis: Misalignment) -> str:
+    """``"aligned"`` or the misalignment's non-zero kinds in the scene's units (``"crossing 2'"``)."""
+    given = [f"{k} {Misalignment.display(k, getattr(mis, k))}" for k in Misalignment.names() if getattr(mis, k)]
+    return ", ".join(given) or "aligned"
+
+
+def _round_text(rnd: int, info: dict) -> str:
+    th = ", ".join(f"{v:.2f}" for v in info["theta_um"])
+    true = f", true {info['true_merit']:.4g}" if "true_merit" in info else ""
+    return (f"loaded micro-geometry round {rnd}: design [{th}] um, model {info['model_objective']:.4g}{true} "
+            f"(from {info['merit']:.4g}), radius {info['radius_um']:.3g} um, {info['iterations']} IPOPT iterations, "
+            f"{'accepted' if info.get('accepted') is True else info.get('accepted')}")
+
+
+def _edge_weight(S, pair) -> np.ndarray:
+    """(K, N, M) weight of each slice in the edge-loading constraint: 1 on the tip-edge slices and the
+    face ends z = +-b/2; on flank slices it grows linearly from 0 to 1 over the last ``TIP_BAND`` m_n
+    (radial) below either member's tip circle (a contact there reaches the tip corner). Graded, so that
+    the constraint does not jump when the design moves a loaded slice towards the tip, or when a slice
+    turns from flank contact just below the tip into tip-edge contact."""
+    e = np.zeros(S.z.shape, bool) if S.edge is None else S.edge > 0
+    g1, g2 = pair.pinion, pair.gear
+    with np.errstate(invalid="ignore"):
+        ends = np.abs(np.abs(S.z) - g1.b / 2) < 1e-9
+        w1 = (np.hypot(S.r1[..., 0], S.r1[..., 1]) - (g1.r_a - TIP_BAND * g1.m_n)) / (TIP_BAND * g1.m_n)
+        w2 = (np.hypot(S.r2[..., 0], S.r2[..., 1]) - (g2.r_a - TIP_BAND * g2.m_n)) / (TIP_BAND * g2.m_n)
+        w = np.clip(np.fmax(np.nan_to_num(w1, nan=0.0), np.nan_to_num(w2, nan=0.0)), 0.0, 1.0)
+    return np.where(e | ends, 1.0, w)
+
+
+def _edge_mask(S, pair) -> np.ndarray:
+    """(K, N, M) slices that count in the edge loading (weight > 0, :func:`_edge_weight`)."""
+    return _edge_weight(S, pair) > 0
+
+
+def _gaps(sw: LoadedSweep, r) -> np.ndarray:
+    """(K, N, M) gaps g = s + C F - delta [mm] of a loaded result (every active slice, exact compliance)."""
+    from ..ltca.compliance import weber_contact
+
+    S = sw.slices
+    st = sw.structure
+    K, N, M = S.z.shape
+    lever = sw.ltca.pair.gear.r_b * sw.ltca.cos_bb
+    s = np.where(S.active, (r.te_unloaded[None, :, None] - S.te) * lever, 0.0)
+    F = np.transpose(r.load, (1, 0, 2)).reshape(N, K * M)
+    CF = np.einsum("nij,nj->ni", st["Cs"], F)
+    CF = np.transpose(CF.reshape(N, K, M), (1, 0, 2))
+    g1 = sw.ltca.pair.pinion
+    f_min = F_MIN_SHARE * r.W * sw.ltca.cos_bb / g1.b
+    cH = weber_contact(r.load / st["length"], st["R"], st["h1"], st["h2"], sw.ltca.material, f_min)[0]
+    return s + CF + cH * r.load / st["length"] - r.delta[None, :, None]

@@ -1,0 +1,151 @@
+"""Micro-geometry optimisation under load (gearopt.synthesis.loaded, docs/loaded_synthesis.md):
+the separations' AD sensitivities against finite differences of the exact slices, the smoothed
+contact NLP against the exact loaded TCA (QP), an optimum checked by the exact loaded TCA alone
+(its constraints, and no better design within a micron of it), infeasible requests and bad input."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from gearopt.errors import ArgumentError, OptionError, SynthesisError
+from gearopt.gears import Gear, GearPair
+from gearopt.geometry.microgeometry import Microgeometry
+from gearopt.meshing.misalignment import Misalignment
+from gearopt.synthesis.loaded import EDGE_TOL, MU, LoadedMicroOptimizer
+from gearopt.units import ARCMIN
+
+FREE = {"pinion.C_alpha": (0.0, 0.04), "pinion.C_beta": (0.0, 0.04), "pinion.C_alpha_a": (0.0, 0.04),
+        "pinion.C_alpha_f": (0.0, 0.04)}
+
+
+def drive(**mg):
+    mg = {"C_alpha": 0.005, "C_beta": 0.010, "d_Ca": 64.0, "d_Cf": 58.5, **mg}
+    return GearPair(Gear(z=20, m_n=3.0, b=20.0, modifications=Microgeometry(**mg)), Gear(z=40, m_n=3.0, b=20.0))
+
+
+def optimizer(**kw):
+    opts = dict(torques=[100.0, 250.0], cases=[Misalignment(), Misalignment(crossing=2 * ARCMIN)], n_positions=16,
+                n_verify=32, n_slices=11)
+    opts.update(kw)
+    return LoadedMicroOptimizer(drive(), FREE, **opts)
+
+
+@pytest.fixture(scope="module")
+def opt():
+    return optimizer()
+
+
+@pytest.fixture(scope="module")
+def design(opt):
+    return opt.solve()
+
+
+def test_separation_sensitivities_match_finite_differences(opt, monkeypatch):
+    """J = d a / d theta (implicit function theorem by AD) against central differences of the exact
+    slices of the modified flanks, on flank and tip-edge slices of both cases. The slice grids are
+    held at fixed sections (the NLP's model keeps its slices where they are; by default each grid
+    follows the unloaded point contact, which moves with the design)."""
+    import gearopt.ltca.slices as slices
+
+    monkeypatch.setattr(slices, "CENTRE_ON_POINT", False)
+    th = opt.theta0 + np.array([0.010, 0.005, 0.012, 0.008])
+    lin = opt.linearise(th)
+    h = 1e-4  # 0.1 um
+    for j in range(th.size):
+        e = np.zeros(th.size)
+        e[j] = h
+        lp, lm = opt.linearise(th + e), opt.linearise(th - e)
+        for c in range(len(opt.cases)):
+            S = lin[c]["S"]
+            both = S.active & lp[c]["S"].active & lm[c]["S"].active
+            fd = (lp[c]["a"] - lm[c]["a"]) / (2 * h)
+            # the TE zero moves with the design (a constant per case): compare differences between slices
+            ref = np.flatnonzero(both.ravel())[0]
+            d_fd = (fd - fd.ravel()[ref])[both]
+            d_ad = (lin[c]["J"][..., j] - lin[c]["J"][..., j].ravel()[ref])[both]
+            assert both.sum() > 100
+            assert np.max(np.abs(d_ad - d_fd)) < 2e-4 * max(1.0, np.max(np.abs(d_ad)))
+            if j == 2:  # the tip relief moves the pinion's tip-edge slices, the root relief the gear's
+                assert np.any(both & (S.edge == 1))
+            if j == 3:
+                assert np.any(both & (S.edge == 2))
+
+
+def test_the_smoothed_nlp_reproduces_the_exact_loaded_tca(opt):
+    """At a fixed design (bounds closed on it) the NLP's loads solve the smoothed contact problem; its
+    loaded TE equals the exact QP's within the smoothing's effect (1e-3 arcsec)."""
+    th = opt.theta0.copy()
+    cur = opt._around(th)
+    nlp = cur["nlp"]
+    lbx, ubx = opt._bounds(nlp)
+    P = th.size
+    lbx[:P] = ubx[:P] = th * 1e3
+    r = nlp["solver"](x0=cur["z0"], lbx=lbx, ubx=ubx, lbg=nlp["lbg"], ubg=nlp["ubg"],
+                      p=[1.0, 0.5, MU, 1000.0])
+    assert nlp["solver"].stats()["success"]
+    pred = opt._predicted(nlp, np.asarray(r["x"]).ravel())
+    exact = cur["check"].te_pp
+    assert np.max(np.abs(pred["te_pp"] - exact)) < 1e-3
+    assert exact.min() > 5.0  # a real loaded TE, not a trivial match
+
+
+def test_optimum_is_verified_by_the_exact_loaded_tca(opt, design):
+    d = design
+    # the exact loaded TCA (nothing of the NLP) agrees with the NLP's prediction
+    assert d.error["te_pp"] < 0.01
+    # better than the start, and edge loading gone: no tip edge, face end or slice at a tip carries
+    # more than EDGE_TOL (0.01 %) of the load, on the NLP's grid and on the finer verification grid
+    assert d.verified.objective < 0.8 * opt.check(opt.theta0, d.verified.sweeps[0].slices.phi1).objective
+    assert np.all(d.verified.edge_load <= EDGE_TOL) and np.all(d.after.edge_load <= EDGE_TOL)
+    assert np.all(d.verified.edge_share <= 2 * EDGE_TOL)
+    assert np.all(d.before.edge_share > 0.05)  # the start design loads its edges at every torque and case
+    # no better feasible design within a micron of the optimum (coordinate probes, exact loaded TCA)
+    th = np.array(list(d.theta.values()))
+    best = opt._merit(d.verified)
+    for j in range(th.size):
+        for step in (-1e-3, 1e-3):
+            t = th.copy()
+            t[j] = np.clip(t[j] + step, opt.lo[j], opt.hi[j])
+            if t[j] == th[j]:
+                continue
+            assert opt._merit(opt.check(t)) > best - 0.05
+    # the verification grid (finer than the NLP's) shows the same improvement
+    assert d.after.objective < 0.8 * d.before.objective
+
+
+def test_unreachable_limits_name_the_constraint_and_the_case():
+    """A pressure limit below what any design reaches, and edges that only a relief left fixed could
+    open, stop with SynthesisError naming the constraint, the torque, the case and the value."""
+    opt = LoadedMicroOptimizer(drive(), {"pinion.C_beta": (0.0, 0.04)}, torques=[250.0], n_positions=12,
+                               n_slices=9, p_limit=600.0, edge_margin=None)
+    with pytest.raises(SynthesisError) as e:
+        opt.solve()
+    assert e.value.param == "p_limit" and e.value.value > 600.0
+    assert "250 N m" in str(e.value) and "aligned" in str(e.value)
+    opt = LoadedMicroOptimizer(drive(), {"pinion.C_beta": (0.0, 0.04)}, torques=[250.0], n_positions=12, n_slices=9)
+    with pytest.raises(SynthesisError) as e:
+        opt.solve()
+    assert e.value.param == "edge_margin" and e.value.value > 0
+    assert "250 N m" in str(e.value)
+
+
+@pytest.mark.parametrize("kw, param", [
+    (dict(free={"pinion.C_gamma": (0, 0.01)}), "free.pinion.C_gamma"),
+    (dict(free={"pinion.C_beta_I": (0, 0.01)}), "free.pinion.C_beta_I"),  # no b_I: no end relief amount
+    (dict(free={"pinion.C_alpha": (0.02, 0.01)}), "free.pinion.C_alpha"),
+    (dict(free={"pinion.C_alpha": (-0.01, 0.01)}), "free.pinion.C_alpha"),
+    (dict(free={"pinion.C_alpha": (0.0, 0.001)}), "free.pinion.C_alpha"),  # start 5 um outside
+    (dict(p_limit=-5.0), "p_limit"),
+    (dict(edge_margin=0.0), "edge_margin"),
+    (dict(n_positions=4), "n_positions"),
+    (dict(torques=[200.0, 100.0]), "torque"),
+    (dict(weights=np.ones((3, 2))), "weights"),
+])
+def test_bad_input_names_the_parameter(kw, param):
+    args = dict(torques=[100.0], n_positions=16, n_slices=11)
+    free = kw.pop("free", FREE)
+    args.update(kw)
+    with pytest.raises((OptionError, ArgumentError)) as e:
+        LoadedMicroOptimizer(drive(), free, **args)
+    assert e.value.param == param
