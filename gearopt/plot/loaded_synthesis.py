@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .ltca import _arr, _torque_colors
+from .ltca import _arr, _torque_colors, torque_axes
 
 
 def plot_te_before_after(before: dict, after: dict, ax=None, which: str = "after"):
@@ -46,14 +46,7 @@ def plot_te_vs_torque_before_after(d: dict, ax=None):
                 label=case["name"])
     ax.plot([], [], "k--", lw=1.0, label="before")
     ax.plot([], [], "k-", lw=1.6, label="after")
-    ax.set_xlabel("pinion torque [N m]")
-    ax.set_ylabel("loaded TE peak-to-peak [arcsec]")
-    ax.set_xlim(0, T.max() * 1.08)
-    ax.set_ylim(bottom=0)
-    ax.set_title("TE against load, every case")
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=7)
-    return ax
+    return torque_axes(ax, T, "loaded TE peak-to-peak [arcsec]", "TE against load, every case", pad=1.08)
 
 
 def plot_rounds(design: dict, ax=None):

@@ -49,13 +49,18 @@ def plot_te_vs_torque(d: dict, ax=None):
     nom = d.get("nominal_torque_Nm")
     if nom is not None:
         ax.axvline(nom, color="0.5", ls=":", lw=1, label=f"nominal {nom:.4g} N m")
+    return torque_axes(ax, T, "loaded TE [arcsec]", "TE against load", legend_size=8)
+
+
+def torque_axes(ax, T, ylabel: str, title: str, legend_size: float = 7, pad: float = 1.05):
+    """Finish an axes over pinion torque ``T`` [N m] (from 0, values from 0): labels, grid, legend."""
     ax.set_xlabel("pinion torque [N m]")
-    ax.set_ylabel("loaded TE [arcsec]")
-    ax.set_xlim(0, T.max() * 1.05)
+    ax.set_ylabel(ylabel)
+    ax.set_xlim(0, float(np.max(T)) * pad)
     ax.set_ylim(bottom=0)
-    ax.set_title("TE against load")
+    ax.set_title(title)
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=legend_size)
     return ax
 
 

@@ -64,15 +64,13 @@ class LoadedMicroReport:
 
         from ..plot.loaded_synthesis import plot_rounds, plot_te_before_after, plot_te_vs_torque_before_after
         from ..plot.ltca import plot_contact_pattern
+        from .ltca import save_figure
 
         out = Path(out_dir)
         d = self.to_dict()
 
         def save(name, fig, title):
-            fig.suptitle(f"{self.scene}: {title}")
-            fig.savefig(out / name, dpi=dpi, bbox_inches="tight")
-            plt.close(fig)
-            return name
+            return save_figure(out, self.scene, name, fig, title, dpi)
 
         fig, axes = plt.subplots(1, 3, figsize=(18, 5), layout="constrained")
         plot_te_before_after(d["before"][0], d["after"][0], ax=axes[0], which="before")
@@ -193,16 +191,9 @@ def _from_scene(scene):
 def _register():
     from ..io.schema import Bounds, Field, Section
     from . import StudySpec, register
-    from .fea import _check_E
+    from .ltca import material_fields, torque_fields
     from .robust import _range_section
     from .tca import misalignment_fields
-
-    def check_torques(v):
-        if any(not t > 0 for t in v):
-            return "every torque > 0 N m"
-        if any(b <= a for a, b in zip(v, v[1:])):
-            return "a strictly increasing list of pinion torques [N m]"
-        return None
 
     def amounts(member):
         return Section(member, [], subsections=[_range_section(a, "length", f"bounds of the {member}'s {a}")
@@ -214,10 +205,7 @@ def _register():
         doc="Optimise ISO micro-geometry for the loaded TE over torques x misalignments, with a pressure limit "
             "and no edge loading; before/after loaded TCA",
         sections=[Section("loaded_microgeometry", [
-            Field("torque", "float", required=True, check=Bounds(lo=0, lo_open=True, hi=1e7),
-                  doc="nominal pinion torque [N*m] (maps drawn there)"),
-            Field("torques", "floats", check=check_torques,
-                  doc="duty-cycle torques [N*m], increasing (default 50, 100, 150 % of torque)"),
+            *torque_fields("maps drawn there", "duty-cycle torques (default 50, 100, 150 % of torque)"),
             Field("weights", "floats", check=lambda v: None if all(x >= 0 for x in v) and sum(v) > 0
                   else "weights >= 0, not all 0", doc="weight of each torque in the objective (default all 1)"),
             Field("p_limit", "float", check=Bounds(lo=100, hi=1e4), doc="peak Hertz pressure limit [MPa] (default none)"),
@@ -228,9 +216,7 @@ def _register():
                   doc="positions per mesh cycle of the before/after loaded TCA"),
             Field("n_slices", "int", default=15, check=Bounds(lo=3, hi=201), doc="slices across the face"),
             Field("side", "str", default="right", choices=("right", "left"), doc="driving flank of the pinion"),
-            Field("E", "float", default=206000.0, check=_check_E, doc="Young's modulus [MPa]"),
-            Field("nu", "float", default=0.3, check=Bounds(lo=0, lo_open=True, hi=0.5, hi_open=True),
-                  doc="Poisson's ratio"),
+            *material_fields(),
             *misalignment_fields(signed=False, prefix="+- ", suffix=" cases"),
         ], subsections=[Section("free", [], subsections=[amounts("pinion"), amounts("gear")], required=True,
                                 doc="the free amounts and their bounds")], required=True)],

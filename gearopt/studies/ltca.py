@@ -72,10 +72,7 @@ class LTCAReport:
         d = self.to_dict()
 
         def save(name, fig, title):
-            fig.suptitle(f"{self.scene}: {title}")
-            fig.savefig(out / name, dpi=dpi, bbox_inches="tight")
-            plt.close(fig)
-            return name
+            return save_figure(out, self.scene, name, fig, title, dpi)
 
         fig = plt.figure(figsize=(13, 8), layout="constrained")
         gs = fig.add_gridspec(2, 2)
@@ -245,34 +242,60 @@ def _from_scene(scene) -> LTCAStudy:
         raise scene.study_error("ltca", e) from e
 
 
+def check_torques(v):
+    """Scene check of a torque list: every torque > 0, strictly increasing (None when fine)."""
+    if any(not t > 0 for t in v):
+        return "every torque > 0 N m"
+    if any(b <= a for a, b in zip(v, v[1:])):
+        return "a strictly increasing list of pinion torques [N m]"
+    return None
+
+
+def torque_fields(nominal: str, listed: str) -> list:
+    """Scene keys ``torque`` (the nominal pinion torque, required) and ``torques`` (an increasing list);
+    ``nominal`` and ``listed`` complete their one-line docs."""
+    from ..io.schema import Bounds, Field
+
+    return [Field("torque", "float", required=True, check=Bounds(lo=0, lo_open=True, hi=1e7),
+                  doc=f"nominal pinion torque [N*m] ({nominal})"),
+            Field("torques", "floats", check=check_torques, doc=f"{listed} [N*m], increasing")]
+
+
+def material_fields() -> list:
+    """Scene keys of the elastic constants of both members (``E`` [MPa], ``nu``)."""
+    from ..io.schema import Bounds, Field
+    from .fea import _check_E
+
+    return [Field("E", "float", default=206000.0, check=_check_E, doc="Young's modulus [MPa]"),
+            Field("nu", "float", default=0.3, check=Bounds(lo=0, lo_open=True, hi=0.5, hi_open=True),
+                  doc="Poisson's ratio")]
+
+
+def save_figure(out: Path, scene: str, name: str, fig, title: str, dpi: int) -> str:
+    """Title ``fig`` with the scene, write it as ``out/name`` and close it; returns ``name``."""
+    import matplotlib.pyplot as plt
+
+    fig.suptitle(f"{scene}: {title}")
+    fig.savefig(out / name, dpi=dpi, bbox_inches="tight")
+    plt.close(fig)
+    return name
+
+
 def _register():
     from ..io.schema import Bounds, Field, Section
     from . import StudySpec, register
-    from .fea import _check_E
     from .tca import misalignment_fields
-
-    def check_torques(v):
-        if any(not t > 0 for t in v):
-            return "every torque > 0 N m"
-        if any(b <= a for a, b in zip(v, v[1:])):
-            return "a strictly increasing list of pinion torques [N m]"
-        return None
 
     register(StudySpec(
         name="ltca",
         doc="Loaded TCA: loaded TE over the mesh cycle and against torque, load sharing, mesh stiffness, "
             "contact pressure and pattern",
         sections=[Section("ltca", [
-            Field("torque", "float", required=True, check=Bounds(lo=0, lo_open=True, hi=1e7),
-                  doc="nominal pinion torque [N*m] (contact pattern drawn there)"),
-            Field("torques", "floats", check=check_torques,
-                  doc="pinion torques analysed [N*m], increasing (default 10 ... 150 % of torque)"),
+            *torque_fields("contact pattern drawn there", "pinion torques analysed (default 10 ... 150 % of torque)"),
             Field("side", "str", default="right", choices=("right", "left"), doc="driving flank of the pinion"),
             Field("positions", "int", default=64, check=Bounds(lo=16, hi=2000), doc="positions per mesh cycle"),
             Field("n_slices", "int", default=21, check=Bounds(lo=3, hi=201), doc="slices across the face"),
-            Field("E", "float", default=206000.0, check=_check_E, doc="Young's modulus [MPa]"),
-            Field("nu", "float", default=0.3, check=Bounds(lo=0, lo_open=True, hi=0.5, hi_open=True),
-                  doc="Poisson's ratio"),
+            *material_fields(),
             Field("coupling", "length", check=Bounds(lo=0, hi=1000),
                   doc="coupling length of the slices across the face (default half the pinion tooth height)"),
             Field("r_int_pinion", "length", check=Bounds(lo=0, lo_open=True, hi=1e5),
