@@ -400,3 +400,33 @@ def test_bad_ltca_keys_name_the_key_and_write_nothing(tmp_path, edit, param):
     out = tmp_path / "out"
     assert main(["run", str(f), "--out", str(out), "--quiet"]) != 0
     assert not out.exists()
+
+
+@pytest.mark.parametrize("edit, param", [
+    (('C_alpha = { lo = "0 um", hi = "40 um" }', 'C_gamma = { lo = "0 um", hi = "40 um" }'),
+     "[loaded_microgeometry.free.pinion] C_gamma"),
+    (('C_alpha = { lo = "0 um", hi = "40 um" }', 'C_alpha = { lo = "30 um", hi = "20 um" }'), None),
+    (('C_alpha = { lo = "0 um", hi = "40 um" }', 'C_alpha = { lo = "0 um", hi = "2 um" }'), None),  # start 5 um
+    (('d_Ca = "64 mm"      # tip relief from d = 64 mm to the tip (d_a = 66 mm)', ''), None),  # no tip relief start
+    (("torques = [100.0, 250.0]", "torques = [250.0, 100.0]"), "[loaded_microgeometry] torques"),
+    (("torques = [100.0, 250.0]", "torques = [100.0, 250.0]\nweights = [1.0]"), "[loaded_microgeometry] weights"),
+    (("p_limit = 2200.0", "p_limit = 20.0"), "[loaded_microgeometry] p_limit"),
+    (('edge_margin = "0.5 um"', 'edge_margin = "0 um"'), "[loaded_microgeometry] edge_margin"),
+])
+def test_bad_loaded_microgeometry_keys_name_the_key_and_write_nothing(tmp_path, edit, param):
+    """Bad keys of the loaded micro-geometry scene stop before the optimisation, naming the key (the
+    bounds of a free amount, as checked by the optimiser, name the amount), and write nothing."""
+    text = (PROBLEMS / "microgeometry_loaded.toml").read_text()
+    assert edit[0] in text
+    f = tmp_path / "bad.toml"
+    f.write_text(text.replace(edit[0], edit[1], 1))
+    with pytest.raises(SceneError) as e:
+        load_scene(f).build()
+    params = [e.value.param] + [getattr(p, "param", None) for p in getattr(e.value, "problems", [])]
+    if param is not None:
+        assert param in params
+    else:
+        assert any(p and ("C_alpha" in p or "free" in p) for p in params) or "C_alpha" in str(e.value)
+    out = tmp_path / "out"
+    assert main(["run", str(f), "--out", str(out), "--quiet"]) != 0
+    assert not out.exists()

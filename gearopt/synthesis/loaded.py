@@ -229,7 +229,7 @@ class LoadedMicroOptimizer:
         if bad:
             n, t = bad[0]
             i = self.free.index(n)
-            raise out_of_range(f"free.{n}", t * 1e3, f"the start design's {n} must lie within its bounds "
+            raise out_of_range(f"free.{n}", f"{float(t) * 1e3:g} um", f"the start design's {n} must lie within its bounds "
                                f"{self.lo[i] * 1e3:g} ... {self.hi[i] * 1e3:g} um", cls=OptionError)
         self._sens = {}
 
@@ -255,7 +255,8 @@ class LoadedMicroOptimizer:
             cap = AMOUNT_MAX_PER_M * gear.m_n
             low = 0.0 if amount in NONNEG else -cap
             if not (math.isfinite(a) and math.isfinite(c) and low <= a < c <= cap):
-                raise out_of_range(f"free.{name}", (a, c), f"{low:g} <= lo < hi <= {cap:g} mm", cls=OptionError)
+                raise out_of_range(f"free.{name}", f"({a * 1e3:g}, {c * 1e3:g}) um",
+                                   f"{low * 1e3:g} um <= lo < hi <= {cap * 1e3:g} um", cls=OptionError)
             names.append(f"{member}.{amount}")
             lo.append(a)
             hi.append(c)

@@ -1,0 +1,92 @@
+"""Micro-geometry optimisation under load (docs/loaded_synthesis.md) against a grid search of the
+kind commercial tools run, in one run, on the same objective.
+
+The drive and duty cycle of problems/optimize_microgeometry.py: 20/40 spur, 4 free pinion amounts
+(C_alpha, C_beta, C_alpha_a, C_alpha_f, 0 ... 40 um), 100 and 250 N m x aligned and 2 arcmin crossing,
+no edge loading. Both are scored on the optimiser's final grid of positions by the exact loaded TCA,
+with the same merit: the weighted loaded-TE peak-to-peak plus the exact penalty of edge loading
+(`LoadedMicroOptimizer._merit`, the weight the optimiser ended with).
+
+    python benchmarks/bench_loaded_synthesis.py              # about 3 minutes (grid of 3^4 = 81)
+    python benchmarks/bench_loaded_synthesis.py --levels 5   # 625 grid points, about 15 minutes
+
+Prints a markdown table: objective reached, edge load, loaded-TCA evaluations, wall time.
+"""
+
+from __future__ import annotations
+
+import argparse
+import itertools
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "tests"))
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--levels", type=int, default=3, help="grid levels per amount (default 3)")
+    args = ap.parse_args(argv)
+
+    from gearopt.meshing.misalignment import Misalignment
+    from gearopt.synthesis.loaded import RHO, LoadedMicroOptimizer
+    from gearopt.units import ARCMIN
+    from test_loaded_synthesis import FREE, drive
+
+    def make():
+        return LoadedMicroOptimizer(drive(), FREE, torques=[100.0, 250.0],
+                                    cases=[Misalignment(), Misalignment(crossing=2 * ARCMIN)],
+                                    n_positions=16, n_verify=32, n_slices=11)
+
+    opt = make()
+    calls = {"n": 0}
+    solve_one = opt.ltca.solve
+
+    def counted(*a, **k):  # one loaded-TCA evaluation = one design x one case, every torque
+        calls["n"] += 1
+        return solve_one(*a, **k)
+
+    opt.ltca.solve = counted
+    t0 = time.perf_counter()
+    d = opt.solve()
+    t_opt = time.perf_counter() - t0
+    n_opt = calls["n"]
+    rho = max([RHO] + [float(r["accepted"].split("(")[1].rstrip(")")) for r in d.rounds
+                       if isinstance(r["accepted"], str) and r["accepted"].startswith("penalty")])
+    phi = opt.phi1  # the optimiser's final grid
+    best_opt = opt._merit(opt.check(np.array(list(d.theta.values())), phi), rho)
+
+    calls["n"] = 0
+    levels = np.linspace(0.0, 1.0, args.levels)
+    t0 = time.perf_counter()
+    best = (np.inf, None, None)
+    for combo in itertools.product(levels, repeat=len(opt.free)):
+        th = opt.lo + np.array(combo) * (opt.hi - opt.lo)
+        chk = opt.check(th, phi)
+        m = opt._merit(chk, rho)
+        if m < best[0]:
+            best = (m, th, chk)
+    t_grid = time.perf_counter() - t0
+    n_grid = calls["n"]
+    chk_opt = opt.check(np.array(list(d.theta.values())), phi)
+    print(f"grid of positions: {phi.size} per cycle; cases x torques: {len(opt.cases)} x {opt.torques.size}; "
+          f"penalty weight {rho:g}\n")
+    print("| method | merit [arcsec] | weighted TE p-p [arcsec] | largest edge load [% of W] | design C_alpha / C_beta / "
+          "C_alpha_a / C_alpha_f [um] | loaded-TCA evaluations (design x case) | wall time [s] |")
+    print("|---|---|---|---|---|---|---|")
+    for name, m, th, chk, n, t in (("trust-region NLP (AD)", best_opt, np.array(list(d.theta.values())), chk_opt,
+                                    n_opt, t_opt),
+                                   (f"grid {args.levels}^{len(opt.free)}", best[0], best[1], best[2], n_grid, t_grid)):
+        print(f"| {name} | {m:.2f} | {chk.objective:.2f} | {100 * chk.edge_load.max():.3g} | "
+              f"{' / '.join(f'{v * 1e3:.2f}' for v in th)} | {n} | {t:.1f} |")
+    print(f"\nevaluations: grid / NLP = {n_grid / max(n_opt, 1):.1f}; time: grid / NLP = {t_grid / t_opt:.2f}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
