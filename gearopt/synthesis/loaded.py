@@ -5,8 +5,10 @@ The design ``theta`` is a set of ISO 21771 amounts of either member (``"pinion.C
 manufacturing bounds. The duty cycle is a list of pinion torques times a list of misalignment cases,
 each (torque, case) with a weight. The objective is the weighted sum of the loaded TE's
 peak-to-peak [arcsec] over one mesh cycle; the constraints are a peak Hertz pressure limit on the
-flank slices at every torque and case, and no edge loading: every tip-edge slice and every
-face-end slice keeps a gap of at least ``edge_margin`` [mm] under load.
+flank slices at every torque and case, and no edge loading: every tip-edge slice, every face-end
+slice and every flank slice near a tip (graded weight, :func:`_edge_weight`) keeps its load share below
+``mu / edge_margin`` (a gap of at least ``edge_margin`` on the smoothed manifold); the exact loaded TCA
+of the optimum must show at most ``EDGE_TOL`` of the load on any of them.
 
 One IPOPT NLP holds the whole duty cycle. Its unknowns are the design, every slice load ``x = F / W``
 (share of the normal load), every slice gap ``y`` [um] and every position's approach, for every
@@ -29,11 +31,11 @@ sees every load and gap, and its exact Hessian is sparse (every nonlinearity act
 The separations ``a`` [mm] of the slices are linear in the design: ``a(theta) = a_k + J_k (theta -
 theta_k)`` with ``J_k`` the exact sensitivity of every slice's TE at ``theta_k`` (the implicit
 function theorem on the slice equations, by AD). The slices' positions, compliance and Hertz
-radii are those of ``theta_k``. Micro-geometry amounts move the contact by microns, so this is
-accurate; the optimiser still re-linearises at each optimum (solving the slices of the new design
-exactly) until the design stops moving, and then verifies the optimum with independent loaded TCA
-sweeps of :class:`gearopt.ltca.engine.LTCA` (exact slices, the QP contact solver) at every torque and
-case. The result reports both, and their difference.
+radii are those of ``theta_k``. A trust-region loop moves the design: every trial design's slices
+are solved exactly and its loaded TCA (:class:`gearopt.ltca.engine.LTCA`, exact slices, the QP contact
+solver) decides whether the step is taken. The optimum is verified by the same loaded TCA on the
+NLP's positions and on a finer grid; positions of the finer grid that violate a constraint join the
+NLP's grid. The result reports the NLP's values, the loaded TCA's, and their difference.
 """
 
 from __future__ import annotations
