@@ -390,16 +390,24 @@ def test_ltca_crowned_and_helical_scenes(ltca_reports):
     (("torque = 200.0", "torque = 200.0\nslices = 11"), "[ltca] slices"),
 ])
 def test_bad_ltca_keys_name_the_key_and_write_nothing(tmp_path, edit, param):
-    text = (PROBLEMS / "ltca_spur.toml").read_text()
+    params, _ = _bad_scene(tmp_path, "ltca_spur", edit)
+    assert param in params
+
+
+def _bad_scene(tmp_path, scene: str, edit) -> tuple[list, str]:
+    """Write ``problems/<scene>.toml`` with ``edit = (old, new)`` applied; check that building it raises
+    SceneError and that ``gearopt run`` fails writing nothing. Returns the error's params (its own and
+    its problems') and its message."""
+    text = (PROBLEMS / f"{scene}.toml").read_text()
     assert edit[0] in text
     f = tmp_path / "bad.toml"
     f.write_text(text.replace(edit[0], edit[1], 1))
     with pytest.raises(SceneError) as e:
         load_scene(f).build()
-    assert e.value.param == param or param in [getattr(p, "param", None) for p in getattr(e.value, "problems", [])]
     out = tmp_path / "out"
     assert main(["run", str(f), "--out", str(out), "--quiet"]) != 0
     assert not out.exists()
+    return [e.value.param] + [getattr(p, "param", None) for p in getattr(e.value, "problems", [])], str(e.value)
 
 
 @pytest.mark.parametrize("edit, param", [
@@ -416,17 +424,8 @@ def test_bad_ltca_keys_name_the_key_and_write_nothing(tmp_path, edit, param):
 def test_bad_loaded_microgeometry_keys_name_the_key_and_write_nothing(tmp_path, edit, param):
     """Bad keys of the loaded micro-geometry scene stop before the optimisation, naming the key (the
     bounds of a free amount, as checked by the optimiser, name the amount), and write nothing."""
-    text = (PROBLEMS / "microgeometry_loaded.toml").read_text()
-    assert edit[0] in text
-    f = tmp_path / "bad.toml"
-    f.write_text(text.replace(edit[0], edit[1], 1))
-    with pytest.raises(SceneError) as e:
-        load_scene(f).build()
-    params = [e.value.param] + [getattr(p, "param", None) for p in getattr(e.value, "problems", [])]
+    params, msg = _bad_scene(tmp_path, "microgeometry_loaded", edit)
     if param is not None:
         assert param in params
     else:
-        assert any(p and ("C_alpha" in p or "free" in p) for p in params) or "C_alpha" in str(e.value)
-    out = tmp_path / "out"
-    assert main(["run", str(f), "--out", str(out), "--quiet"]) != 0
-    assert not out.exists()
+        assert any(p and ("C_alpha" in p or "free" in p) for p in params) or "C_alpha" in msg
