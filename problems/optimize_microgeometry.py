@@ -53,6 +53,13 @@ def main(argv=None):
             b, a = d["before"], d["after"]
             print(f"{case['name']:14s} {T:7.0f} {b['te_pp_arcsec'][t][c]:10.2f}\" {a['te_pp_arcsec'][t][c]:9.2f}\" "
                   f"{100 * b['edge_share'][t][c]:16.1f}% {100 * a['edge_share'][t][c]:5.1f}%")
+    sens = d["sensitivities"]  # of the optimum, by AD (docs/loaded_synthesis.md section 6)
+    print("\nsensitivity of the optimum      objective [arcsec]   " + "  ".join(f"{k.split('.')[1]:>10s}" for k in d["theta_um"]))
+    for t, T in enumerate(report.torques):
+        print(f"per N m at {T:5.0f} N m        {sens['objective_arcsec_per_Nm'][t]:12.4f}        "
+              + "  ".join(f"{sens['theta_um_per_Nm'][k][t]:10.4f}" for k in d["theta_um"]) + "  [um]")
+    print(f"per arcmin of crossing         {sens['objective_arcsec_per_mis']['crossing_arcmin']:12.4f}        "
+          + "  ".join(f"{sens['theta_um_per_mis'][k]['crossing_arcmin']:10.4f}" for k in d["theta_um"]) + "  [um]")
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     for f in report.save_plots(out):

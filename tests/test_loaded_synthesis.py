@@ -12,7 +12,7 @@ from gearopt.errors import ArgumentError, OptionError, SynthesisError
 from gearopt.gears import Gear, GearPair
 from gearopt.geometry.microgeometry import Microgeometry
 from gearopt.meshing.misalignment import Misalignment
-from gearopt.synthesis.loaded import EDGE_TOL, MU, LoadedMicroOptimizer
+from gearopt.synthesis.loaded import EDGE_TOL, LoadedMicroOptimizer
 from gearopt.units import ARCMIN
 
 FREE = {"pinion.C_alpha": (0.0, 0.04), "pinion.C_beta": (0.0, 0.04), "pinion.C_alpha_a": (0.0, 0.04),
@@ -82,7 +82,7 @@ def test_the_smoothed_nlp_reproduces_the_exact_loaded_tca(opt):
     P = th.size
     lbx[:P] = ubx[:P] = th * 1e3
     r = nlp["solver"](x0=cur["z0"], lbx=lbx, ubx=ubx, lbg=nlp["lbg"], ubg=nlp["ubg"],
-                      p=[1.0, 0.5, MU, 1000.0])
+                      p=opt._pvec(1000.0))
     assert nlp["solver"].stats()["success"]
     pred = opt._predicted(nlp, np.asarray(r["x"]).ravel())
     exact = cur["check"].te_pp
@@ -128,6 +128,79 @@ def test_unreachable_limits_name_the_constraint_and_the_case():
         opt.solve()
     assert e.value.param == "edge_margin" and e.value.value > 0
     assert "250 N m" in str(e.value)
+
+
+def test_pareto_front_is_verified_monotone_and_meets_its_limits():
+    """Epsilon-constraint sweep of the pressure limit (profile and lead crowning, 250 N m, 2 arcmin
+    crossing, edge loading allowed): every point's peak pressure, from the loaded TCA on the
+    verification grid, meets its limit; the weighted loaded TE does not fall as the limit tightens;
+    the limits bind (each point within 0.5 % of its limit, or the front would be one design); a limit
+    below reach has no design and says why, and lower limits are not tried."""
+    free = {"pinion.C_alpha": (0.0, 0.04), "pinion.C_beta": (0.0, 0.04)}
+    opt = LoadedMicroOptimizer(drive(), free, torques=[250.0], cases=[Misalignment(crossing=2 * ARCMIN)],
+                               n_positions=12, n_verify=24, n_slices=9, edge_margin=None)
+    anchor = opt.solve()
+    p0 = float(anchor.after.p_max.max())
+    lims = [0.99 * p0, 0.96 * p0, 0.6 * p0, 0.5 * p0]
+    front = opt.pareto(lims, anchor=anchor)
+    pts = front.points()
+    assert pts[0]["p_limit_MPa"] is None and pts[0]["feasible"]
+    ok = [p for p in pts[1:] if p["feasible"]]
+    assert len(ok) == 2 and [p["p_limit_MPa"] for p in ok] == lims[:2]
+    for p in ok:
+        assert p["p_max_MPa"] <= p["p_limit_MPa"] * (1 + 1e-3)
+        assert p["p_max_MPa"] >= p["p_limit_MPa"] * 0.995
+    te = [p["objective_arcsec"] for p in [pts[0]] + ok]
+    assert all(b >= a - 1e-6 for a, b in zip(te, te[1:]))
+    assert te[-1] > te[0] + 0.5  # a real trade-off
+    # each point is the optimiser's verified design (an independent loaded TCA of it agrees)
+    d = front.designs[1]
+    assert opt.check(np.array(list(d.theta.values())), opt.ltca.mesh_cycle(opt.n_verify)).p_max.max() == \
+        pytest.approx(ok[1]["p_max_MPa"], rel=1e-9)
+    assert not pts[3]["feasible"] and "p_limit" in pts[3]["message"]
+    assert not pts[4]["feasible"] and "not solved" in pts[4]["message"]
+    with pytest.raises(OptionError):
+        opt.pareto([1800.0, 1800.0], anchor=anchor)
+    with pytest.raises(OptionError):
+        opt.pareto([50.0], anchor=anchor)
+
+
+def test_sensitivities_of_the_optimum_match_finite_differences(opt, design):
+    """d(optimum)/d(torque) and d(optimum)/d(misalignment) by AD (the perturbed KKT system of the NLP
+    at the optimum, the envelope theorem for the objective) against central differences of the same
+    NLP solved again at perturbed parameters: every torque, every misalignment kind."""
+    from gearopt.meshing.misalignment import Misalignment as Mis
+
+    S = opt.sensitivities(design)
+    assert S["model_step"] < 1e-4  # the NLP's optimum is the design (converged)
+    nlp = S["nlp"]
+    lbx, ubx = S["bounds"]
+    P, T = len(opt.free), opt.torques.size
+
+    def solve(p):
+        r = nlp["solver"](x0=S["z"], lbx=lbx, ubx=ubx, lbg=nlp["lbg"], ubg=nlp["ubg"], p=p)
+        assert nlp["solver"].stats()["success"]
+        return np.asarray(r["x"]).ravel()[:P] * 1e-3, float(r["f"])
+
+    kinds = Mis.names()
+    moved = 0
+    for j in range(T + len(kinds)):
+        angle = j >= T and Mis.meta(kinds[j - T])["unit"] == "angle"
+        # small steps: the optimum is smooth in the parameters only until the active set of its max/min
+        # (the TE's peak positions) changes, within about 0.01 arcmin of crossing here
+        h = 1e-4 if j < T else (1e-3 * ARCMIN if angle else 1e-4)
+        pp, pm = S["p"].copy(), S["p"].copy()
+        pp[4 + j] += h
+        pm[4 + j] -= h
+        (tp, fp), (tm, fm) = solve(pp), solve(pm)
+        scale = opt.torques[j] if j < T else 1.0
+        fd_t, fd_f = (tp - tm) / (2 * h) / scale, (fp - fm) / (2 * h) / scale
+        ad_t = S["d_theta_d_torque"][:, j] if j < T else S["d_theta_d_mis"][:, j - T]
+        ad_f = S["d_objective_d_torque"][j] if j < T else S["d_objective_d_mis"][j - T]
+        assert ad_f == pytest.approx(fd_f, rel=1e-3, abs=1e-6 * max(1.0, abs(fd_f)))
+        assert np.max(np.abs(ad_t - fd_t)) <= 1e-3 * np.max(np.abs(fd_t)) + 1e-9
+        moved += np.max(np.abs(fd_t)) > 1e-6
+    assert moved >= 3  # the optimal design does move with the torques and misalignments
 
 
 @pytest.mark.parametrize("kw, param", [

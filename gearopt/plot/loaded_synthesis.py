@@ -74,3 +74,39 @@ def plot_rounds(design: dict, ax=None):
     ax.grid(alpha=0.3, which="both")
     ax.legend(fontsize=7)
     return ax
+
+
+def plot_pareto(front: dict, ax=None, before: dict | None = None):
+    """The Pareto front of the loaded micro-geometry (``front``: ``ParetoFront.to_dict()``): weighted
+    loaded TE peak-to-peak [arcsec] against the largest peak pressure over the duty cycle [MPa], both
+    verified by loaded TCA; each point labelled with its pressure limit, the optimum without a limit
+    as an open circle, limits without a design as vertical dotted lines. ``before``: the start design's
+    ``{"objective_arcsec", "p_max_MPa"}`` (drawn as a grey square)."""
+    import matplotlib.pyplot as plt
+
+    ax = ax or plt.gca()
+    pts = [p for p in front["points"] if p["feasible"]]
+    p = np.array([q["p_max_MPa"] for q in pts], float)
+    f = np.array([q["objective_arcsec"] for q in pts], float)
+    order = np.argsort(p)
+    ax.plot(p[order], f[order], "-", color="C0", lw=1.2, zorder=1)
+    for q in pts:
+        if q["p_limit_MPa"] is None:
+            ax.plot(q["p_max_MPa"], q["objective_arcsec"], "o", mfc="white", mec="C0", ms=8, zorder=3,
+                    label="no pressure limit")
+        else:
+            ax.plot(q["p_max_MPa"], q["objective_arcsec"], "o", color="C0", ms=6, zorder=3)
+            ax.annotate(f"p <= {q['p_limit_MPa']:.0f}", (q["p_max_MPa"], q["objective_arcsec"]), fontsize=7,
+                        xytext=(4, 4), textcoords="offset points")
+    ax.plot([], [], "o", color="C0", ms=6, label="optimum under a pressure limit")
+    bad = [q["p_limit_MPa"] for q in front["points"] if not q["feasible"]]
+    for i, lim in enumerate(bad):
+        ax.axvline(lim, color="C3", ls=":", lw=1.0, label="limit without a design" if i == 0 else None)
+    if before is not None:
+        ax.plot(before["p_max_MPa"], before["objective_arcsec"], "s", color="0.6", ms=7, label="start design")
+    ax.set_xlabel("largest peak Hertz pressure over the duty cycle [MPa]")
+    ax.set_ylabel("weighted loaded TE peak-to-peak [arcsec]")
+    ax.set_title("Pareto front: loaded TE against pressure (verified by loaded TCA)")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, loc="best")
+    return ax

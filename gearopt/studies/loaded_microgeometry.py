@@ -8,7 +8,10 @@ Scene section ``[loaded_microgeometry]``:
 ``torques``       duty-cycle torques [N m], increasing (default 50, 100, 150 % of ``torque``).
 ``weights``       weight of each torque in the objective (default all 1; every case weighs the same).
 ``p_limit``       peak Hertz pressure limit of the flank [MPa] (default none).
+``pareto``        pressure limits [MPa] of a Pareto front (loaded TE against peak pressure, an
+                  epsilon-constraint sweep from the optimum without a limit; default none).
 ``edge_margin``   smallest gap of every tip edge and face end under load (default "0.5 um").
+``edge_loading``  true: edge loading allowed (no edge constraint; default false).
 ``positions``     positions per mesh cycle in the NLP (default 24); ``verify_positions`` of the
                   before/after loaded TCA (default 64).
 ``n_slices``      slices across the face (default 15). ``side``, ``E``, ``nu`` as [ltca].
@@ -47,22 +50,27 @@ class LoadedMicroReport:
     after: list
     options: dict
     timing: dict = field(default_factory=dict)
+    pareto: dict | None = None  # ParetoFront.to_dict() when the scene asks for a front
 
     def to_dict(self) -> dict:
-        return {"study": "loaded_microgeometry", "scene": self.scene, "units": UNITS, "options": self.options,
-                "cases": self.cases, "torques_Nm": self.torques, "design": self.design, "before": self.before,
-                "after": self.after, "timing": self.timing}
+        out = {"study": "loaded_microgeometry", "scene": self.scene, "units": UNITS, "options": self.options,
+               "cases": self.cases, "torques_Nm": self.torques, "design": self.design, "before": self.before,
+               "after": self.after, "timing": self.timing}
+        if self.pareto is not None:
+            out["pareto"] = self.pareto
+        return out
 
     def save_plots(self, out_dir, dpi: int = 120) -> list[str]:
         """``loaded_micro_te.png`` (loaded TE over the mesh cycle at every torque, before and after, in
         the aligned case; TE peak-to-peak against torque for every case), ``loaded_micro_pattern.png``
         (loaded contact pattern on the pinion flank at the nominal torque, before and after) and
-        ``loaded_micro_rounds.png`` (the trust-region rounds)."""
+        ``loaded_micro_rounds.png`` (the trust-region rounds); with a Pareto front,
+        ``loaded_micro_pareto.png``."""
         import matplotlib
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
 
-        from ..plot.loaded_synthesis import plot_rounds, plot_te_before_after, plot_te_vs_torque_before_after
+        from ..plot.loaded_synthesis import plot_pareto, plot_rounds, plot_te_before_after, plot_te_vs_torque_before_after
         from ..plot.ltca import plot_contact_pattern
         from .ltca import save_figure
 
@@ -92,6 +100,12 @@ class LoadedMicroReport:
         fig, ax = plt.subplots(figsize=(7, 4.5), layout="constrained")
         plot_rounds(d["design"], ax=ax)
         files.append(save("loaded_micro_rounds.png", fig, "trust-region rounds"))
+        if self.pareto is not None:
+            fig, ax = plt.subplots(figsize=(7.5, 5), layout="constrained")
+            b = d["design"]["before"]
+            plot_pareto(self.pareto, ax=ax, before={"objective_arcsec": b["objective_arcsec"],
+                                                    "p_max_MPa": float(np.max(b["p_max_MPa"]))})
+            files.append(save("loaded_micro_pareto.png", fig, "Pareto front"))
         return files
 
     def save_tables(self, out_dir) -> list[str]:
@@ -107,7 +121,20 @@ class LoadedMicroReport:
                     b["te_pp_arcsec"][t][c], a["te_pp_arcsec"][t][c], b["p_max_MPa"][t][c], a["p_max_MPa"][t][c],
                     b["edge_share"][t][c], a["edge_share"][t][c])]))
         (Path(out_dir) / "loaded_microgeometry.csv").write_text("\n".join(rows) + "\n", encoding="utf-8")
-        return ["loaded_microgeometry.csv"]
+        files = ["loaded_microgeometry.csv"]
+        if self.pareto is not None:
+            names = list(self.design["theta_um"])
+            rows = ["p_limit_MPa,feasible,objective_arcsec,p_max_MPa," + ",".join(f"{n}_um" for n in names)]
+            for q in self.pareto["points"]:
+                lim = "" if q["p_limit_MPa"] is None else f"{q['p_limit_MPa']:.10g}"
+                if q["feasible"]:
+                    rows.append(",".join([lim, "1", f"{q['objective_arcsec']:.10g}", f"{q['p_max_MPa']:.10g}"]
+                                         + [f"{q['theta_um'][n]:.10g}" for n in names]))
+                else:
+                    rows.append(",".join([lim, "0", "", ""] + [""] * len(names)))
+            (Path(out_dir) / "loaded_micro_pareto.csv").write_text("\n".join(rows) + "\n", encoding="utf-8")
+            files.append("loaded_micro_pareto.csv")
+        return files
 
 
 class LoadedMicroStudy:
@@ -115,10 +142,11 @@ class LoadedMicroStudy:
     scene's duty cycle, then the before/after loaded TCA of every case on the verification grid."""
 
     def __init__(self, pair, free: dict, torque: float, torques, cases: dict, weights=None, name="loaded_microgeometry",
-                 **options):
+                 pareto=None, **options):
         from ..synthesis.loaded import LoadedMicroOptimizer
 
         self.pair, self.name, self.torque = pair, name, float(torque)
+        self.pareto = None if pareto is None else list(pareto)
         self.case_names = list(cases)
         C = len(cases)
         w = None if weights is None else np.outer(np.asarray(weights, float), np.ones(C))
@@ -133,6 +161,18 @@ class LoadedMicroStudy:
             progress(f"loaded micro-geometry: {len(opt.free)} free amounts, {opt.torques.size} torques x "
                      f"{len(opt.cases)} cases x {opt.phi1.size} positions")
         d = opt.solve(progress=progress)
+        front = None
+        if self.pareto is not None:
+            # the front's anchor is the optimum without a pressure limit: this design when there is none
+            fr = opt.pareto(self.pareto, progress=progress, anchor=d if opt.p_limit is None else None)
+            if opt.p_limit is None:
+                d = fr.anchor  # solved again from a better point of the front, if one was
+            front = fr.to_dict()
+        sens = sensitivity_dict(opt, opt.sensitivities(d))
+        if progress and not sens["at_design"]:
+            progress(f"loaded micro-geometry: warning: the NLP's optimum lies {sens['model_step_um']:.3g} um from the "
+                     "design (the trust-region loop stopped on its radius, not converged): the sensitivities are "
+                     "those of that point")
         if progress:
             progress(f"loaded micro-geometry: objective {d.before.objective:.4g} -> {d.after.objective:.4g} arcsec "
                      f"(verification grid); NLP vs loaded TCA {d.error['te_pp']:.2g} arcsec")
@@ -148,9 +188,26 @@ class LoadedMicroStudy:
                    "edge_margin_um": None if opt.edge_margin is None else opt.edge_margin * 1e3,
                    "positions": int(opt.phi1.size), "verify_positions": opt.n_verify, "n_slices": opt.ltca.n_slices,
                    "E_MPa": opt.material.E, "nu": opt.material.nu}
-        return LoadedMicroReport(scene=self.name, design=d.to_dict(), cases=cases, torques=opt.torques.tolist(),
-                                 before=before, after=after, options=options,
+        return LoadedMicroReport(scene=self.name, design={**d.to_dict(), "sensitivities": sens}, cases=cases, torques=opt.torques.tolist(),
+                                 before=before, after=after, options=options, pareto=front,
                                  timing={"run_s": time.perf_counter() - t0, "optimise_s": d.time})
+
+
+def sensitivity_dict(opt, S: dict) -> dict:
+    """:meth:`LoadedMicroOptimizer.sensitivities` in the results' units: per N m of each torque, per
+    arcmin (angles) or per mm (lengths) of a misalignment added to every case; amounts in um."""
+    from ..meshing.misalignment import Misalignment
+    from ..units import ARCMIN
+
+    kinds = Misalignment.names()
+    unit = {k: (ARCMIN, f"{k}_arcmin") if Misalignment.meta(k)["unit"] == "angle" else (1.0, f"{k}_mm") for k in kinds}
+    return {"objective_arcsec_per_Nm": [float(v) for v in S["d_objective_d_torque"]],
+            "theta_um_per_Nm": {n: [float(v) * 1e3 for v in S["d_theta_d_torque"][i]] for i, n in enumerate(opt.free)},
+            "objective_arcsec_per_mis": {unit[k][1]: float(S["d_objective_d_mis"][j]) * unit[k][0]
+                                         for j, k in enumerate(kinds)},
+            "theta_um_per_mis": {n: {unit[k][1]: float(S["d_theta_d_mis"][i, j]) * unit[k][0] * 1e3
+                                     for j, k in enumerate(kinds)} for i, n in enumerate(opt.free)},
+            "model_step_um": S["model_step"] * 1e3, "at_design": bool(S["at_design"])}
 
 
 def _from_scene(scene):
@@ -180,7 +237,8 @@ def _from_scene(scene):
     cases = misalignment_cases(**{k: o.get(k) or 0.0 for k in Misalignment.names()})
     try:
         return LoadedMicroStudy(scene.pair, free, torque, torques, cases, weights=weights, name=scene.name,
-                                p_limit=o.get("p_limit"), edge_margin=o.get("edge_margin"),
+                                pareto=o.get("pareto"), p_limit=o.get("p_limit"),
+                                edge_margin=None if o.get("edge_loading") else o.get("edge_margin"),
                                 n_positions=o.get("positions") or 24, n_verify=o.get("verify_positions") or 64,
                                 n_slices=o.get("n_slices") or 15, side=o.get("side") or "right",
                                 material=Material(E=o["E"], nu=o["nu"]))
@@ -209,8 +267,13 @@ def _register():
             Field("weights", "floats", check=lambda v: None if all(x >= 0 for x in v) and sum(v) > 0
                   else "weights >= 0, not all 0", doc="weight of each torque in the objective (default all 1)"),
             Field("p_limit", "float", check=Bounds(lo=100, hi=1e4), doc="peak Hertz pressure limit [MPa] (default none)"),
+            Field("pareto", "floats", check=lambda v: None if v and all(100 <= x <= 1e4 for x in v)
+                  and len(set(v)) == len(v) else "distinct pressure limits, 100 ... 10000 MPa each",
+                  doc="pressure limits [MPa] of a Pareto front, loaded TE against peak pressure (default none)"),
             Field("edge_margin", "length", default="0.5 um", check=Bounds(lo=0, lo_open=True, hi=0.1),
                   doc="smallest gap of every tip edge and face end under load"),
+            Field("edge_loading", "bool", default=False,
+                  doc="allow edge loading (no edge constraint; edge_margin is then not used)"),
             Field("positions", "int", default=24, check=Bounds(lo=8, hi=256), doc="positions per mesh cycle in the NLP"),
             Field("verify_positions", "int", default=64, check=Bounds(lo=8, hi=2000),
                   doc="positions per mesh cycle of the before/after loaded TCA"),

@@ -40,6 +40,7 @@ NLP's grid. The result reports the NLP's values, the loaded TCA's, and their dif
 
 from __future__ import annotations
 
+import copy
 import math
 import time
 from dataclasses import dataclass, field
@@ -47,6 +48,7 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
+from ..compiled import available
 from ..errors import ArgumentError, OptionError, out_of_range
 from ..gears import GearPair
 from ..geometry.microgeometry import AMOUNT_MAX_PER_M, RELIEF_AMOUNTS, Microgeometry, modified_tooth
@@ -115,6 +117,7 @@ class MicroDesign:
         iterations and status, times).
     iterations : IPOPT iterations in all; time : wall time [s]; status : IPOPT's last return status.
     binding : the bounds and constraints active at the optimum.
+    rho, phi1 : the penalty weight and the NLP's positions [rad] at the end (:meth:`LoadedMicroOptimizer.sensitivities`).
     """
 
     theta: dict
@@ -129,6 +132,8 @@ class MicroDesign:
     time: float
     status: str
     binding: tuple
+    rho: float = RHO  #: the exact-penalty weight the loop ended with
+    phi1: np.ndarray | None = field(default=None, repr=False)  #: the NLP's final positions [rad]
 
     def theta_um(self) -> dict:
         """The optimum's amounts [um]."""
@@ -148,6 +153,43 @@ class MicroDesign:
                 "verified": chk(self.verified), "error": dict(self.error), "before": chk(self.before),
                 "after": chk(self.after), "rounds": self.rounds, "iterations": self.iterations,
                 "time_s": self.time, "status": self.status, "binding": list(self.binding)}
+
+
+@dataclass(frozen=True)
+class ParetoFront:
+    """Result of :meth:`LoadedMicroOptimizer.pareto`: loaded TE against peak pressure by an
+    epsilon-constraint sweep of the pressure limit.
+
+    Attributes
+    ----------
+    anchor : :class:`MicroDesign` without a pressure limit (the lowest loaded TE of the design space).
+    p_limits : (L,) the pressure limits asked for [MPa], decreasing.
+    designs : (L,) the :class:`MicroDesign` at each limit, None where none meets it.
+    messages : (L,) why a limit has no design (the :class:`SynthesisError`'s text), else "".
+    """
+
+    anchor: MicroDesign
+    p_limits: tuple
+    designs: tuple
+    messages: tuple
+
+    def points(self) -> list[dict]:
+        """The front's points, the anchor first: the limit [MPa] (None for the anchor), the verified
+        weighted loaded TE [arcsec] and largest peak pressure over the duty cycle [MPa] (loaded TCA on
+        the verification grid), and the design [um]; limits without a design give ``feasible: False``."""
+        out = []
+        for lim, d, msg in zip((None,) + tuple(self.p_limits), (self.anchor,) + tuple(self.designs),
+                               ("",) + tuple(self.messages)):
+            if d is None:
+                out.append({"p_limit_MPa": lim, "feasible": False, "message": msg})
+                continue
+            out.append({"p_limit_MPa": lim, "feasible": True, "objective_arcsec": d.after.objective,
+                        "p_max_MPa": float(np.max(d.after.p_max)), "edge_load": float(np.max(d.after.edge_load)),
+                        "theta_um": d.theta_um(), "rounds": len(d.rounds), "time_s": d.time})
+        return out
+
+    def to_dict(self) -> dict:
+        return {"points": self.points()}
 
 
 class LoadedMicroOptimizer:
@@ -177,15 +219,18 @@ class LoadedMicroOptimizer:
         Positions per mesh cycle in the NLP (default 32).
     n_verify : int
         Positions per mesh cycle of the before/after loaded TCA (default 64).
-
-    Call :meth:`solve` (``progress``: a callable taking one line of text per trust-region round).
     n_slices, material, side
         As :class:`gearopt.ltca.engine.LTCA`.
+    jit : bool or "auto"
+        Solve the slices as compiled C (:mod:`gearopt.compiled`); "auto" (default): whenever a C
+        compiler is present.
+
+    Call :meth:`solve` (``progress``: a callable taking one line of text per trust-region round).
     """
 
     def __init__(self, pair: GearPair, free: dict, torques, cases=None, weights=None, p_limit: float | None = None,
                  edge_margin: float | None = 5e-4, n_positions: int = 32, n_verify: int = 64, n_slices: int = 15,
-                 material: Material | None = None, side: str = "right"):
+                 material: Material | None = None, side: str = "right", jit: bool | str = "auto"):
         if not isinstance(pair, GearPair):
             raise ArgumentError(f"pair = {pair!r:.60}: expected a gearopt.gears.GearPair.", param="pair", value=pair,
                                 valid="a gearopt.gears.GearPair")
@@ -216,14 +261,20 @@ class LoadedMicroOptimizer:
             raise out_of_range("n_verify", n_verify, "an integer, 8 <= n_verify <= 2000", cls=OptionError)
         self.n_verify = int(n_verify)
         self.free, self.lo, self.hi = self._check_free(free)
+        if not (isinstance(jit, (bool, np.bool_)) or (isinstance(jit, str) and jit == "auto")):
+            raise out_of_range("jit", jit, "'auto', True or False (solve the slices as compiled C)", cls=OptionError)
+        # the loop solves the slices of every case several hundred columns at a time, dozens of times:
+        # compiled whenever a C compiler is present (8x faster than interpreted at 500 columns)
+        jit = available() if jit == "auto" else bool(jit)
         self.tca = TCA(pair, side=side, pinion=modified_tooth(pair, "pinion", force_iso=True),
-                       gear=modified_tooth(pair, "gear", force_iso=True))
+                       gear=modified_tooth(pair, "gear", force_iso=True), jit=jit)
         self.ltca = LTCA(pair, side=side, material=material, n_slices=n_slices, tca=self.tca)
         self.material = self.ltca.material
         self.n_positions = int(n_positions)
         self.phi1 = self.ltca.mesh_cycle(self.n_positions)
         lay = self.tca.layout
         self._prm_index = [lay.index(f"{m}.iso.{a}") for m, a in (n.split(".", 1) for n in self.free)]
+        self._prm_index += [lay.index(f"mis.{k}") for k in Misalignment.names()]  # then the misalignments
         self.p0 = (np.array(self.tca.pinion.p0, float), np.array(self.tca.gear.p0, float))
         self.theta0 = np.array([self.p0[0 if m == "pinion" else 1][lay.member_names[m].index(f"iso.{a}")]
                                 for m, a in (n.split(".", 1) for n in self.free)])
@@ -315,7 +366,8 @@ class LoadedMicroOptimizer:
 
     # -- linearisation --------------------------------------------------------------------------
     def _sensitivity(self, kind: int) -> ca.Function:
-        """d(r_p2 phi2)/d theta of a slice (kind 0: flank, 1/2: a tip edge), implicit function theorem."""
+        """d(r_p2 phi2)/d(theta, misalignment) of a slice (kind 0: flank, 1/2: a tip edge), implicit
+        function theorem."""
         if kind not in self._sens:
             G = self.ltca.slicer.G if kind == 0 else self.ltca.slicer.edge_branch[kind].G
             w = ca.SX.sym("w", 4)
@@ -328,7 +380,8 @@ class LoadedMicroOptimizer:
     def linearise(self, theta) -> list:
         """Slices, compliance and the separations' sensitivities of the design ``theta`` [mm], per case:
         a list of dicts (``S``: SliceSet, ``st``: structure, ``a`` (K, N, M) separations [mm],
-        ``J`` (K, N, M, P) [mm/mm])."""
+        ``J`` (K, N, M, P) [mm/mm], ``Jm`` (K, N, M, 4) per misalignment kind of
+        ``Misalignment.names()`` [mm/rad or mm/mm])."""
         p1, p2 = self.params(theta)
         lever = self.pair.gear.r_b * self.ltca.cos_bb
         z1 = self.pair.pinion.z
@@ -337,7 +390,7 @@ class LoadedMicroOptimizer:
             S = self.ltca.slices(self.phi1, p1, p2, mis)
             st = self.ltca._structure(S)
             K, N, M = S.z.shape
-            J = np.zeros((K, N, M, len(self.free)))
+            J = np.zeros((K, N, M, len(self._prm_index)))
             phis = (S.phi1[None, :] - 2 * math.pi * np.array(S.pairs)[:, None] / z1)
             kinds = np.zeros((K, N, M), int) if S.edge is None else S.edge
             for kind in (0, 1, 2):
@@ -351,7 +404,8 @@ class LoadedMicroOptimizer:
                 f = self._sensitivity(kind).map(wv.shape[1])
                 J[kk, nn, mm] = np.asarray(f(wv, prm)).T / self.pair.gear.r_p * (-lever)
             a = np.where(S.active, -S.te * lever, 0.0)
-            out.append({"S": S, "st": st, "a": a, "J": J, "mis": mis})
+            P = len(self.free)
+            out.append({"S": S, "st": st, "a": a, "J": J[..., :P], "Jm": J[..., P:], "mis": mis})
         return out
 
     # -- the NLP --------------------------------------------------------------------------------
@@ -399,7 +453,7 @@ class LoadedMicroOptimizer:
         trip_D = ([], [], [])  # stiffness rows x load-share columns
         w_of_x = []  # deflection unknown of each slice (sparse path)
         w_keys = []  # (torque, case, position, flat slice index) of each deflection unknown
-        a0, Jx, ln, Rx, h1x, h2x, edge, tix, blk, keys, tipe = [], [], [], [], [], [], [], [], [], [], []
+        a0, Jx, Jmx, ln, Rx, h1x, h2x, edge, tix, blk, keys, tipe = [], [], [], [], [], [], [], [], [], [], [], []
         blocks = []  # (t, c, n, first x, count)
         nx = nw = 0
         for c, L in enumerate(lin):
@@ -410,6 +464,7 @@ class LoadedMicroOptimizer:
             flat = lambda v: np.transpose(v, (1, 0, 2)).reshape(N, K * M)  # noqa: E731
             a_n, l_n, R_n, h1_n, h2_n = (flat(v) for v in (L["a"], st["length"], st["R"], st["h1"], st["h2"]))
             J_n = np.transpose(L["J"], (1, 0, 2, 3)).reshape(N, K * M, P)
+            Jm_n = np.transpose(L["Jm"], (1, 0, 2, 3)).reshape(N, K * M, -1)
             e_n = flat(_edge_weight(S, self.pair))
             tp_n = flat(np.zeros(S.z.shape, bool) if S.edge is None else S.edge > 0)
             if sparse:
@@ -455,6 +510,7 @@ class LoadedMicroOptimizer:
                         trip_C[2].append(Cb[ii, jj])
                     a0.append(a_n[n, A])
                     Jx.append(J_n[n, A])
+                    Jmx.append(Jm_n[n, A])
                     ln.append(l_n[n, A])
                     Rx.append(R_n[n, A])
                     h1x.append(h1_n[n, A])
@@ -466,7 +522,7 @@ class LoadedMicroOptimizer:
                     keys.append(np.stack([np.full(cnt, t), np.full(cnt, c), np.full(cnt, n), A], axis=1))
                     blocks.append((t, c, n, nx, cnt))
                     nx += cnt
-        a0, Jx, ln, Rx, h1x, h2x = (np.concatenate(v) for v in (a0, Jx, ln, Rx, h1x, h2x))
+        a0, Jx, Jmx, ln, Rx, h1x, h2x = (np.concatenate(v) for v in (a0, Jx, Jmx, ln, Rx, h1x, h2x))
         ew, tix, blk, keys, tipe = (np.concatenate(v) for v in (edge, tix, blk, keys, tipe))
         edge = ew > 0  # rows of the edge-loading constraint; the pressure limit holds on every non-tip-edge slice
         nB = len(blocks)
@@ -495,7 +551,11 @@ class LoadedMicroOptimizer:
         marg = ca.MX.sym("edge_margin_um")
         mu = ca.MX.sym("mu")
         rho = ca.MX.sym("rho")
-        W = ca.mtimes(Ex_t, ca.DM(Wt))
+        # parameters of the sensitivities (:meth:`sensitivities`): each torque's scale (1: the duty
+        # cycle's) and a misalignment added to every case (Misalignment.names() order, rad / mm)
+        tq = ca.MX.sym("torque_scale", T)
+        dm = ca.MX.sym("mis_offset", Jmx.shape[1])
+        W = ca.mtimes(Ex_t, ca.DM(Wt) * tq)
         F = x * W
         f = F / ln
         fmin = F_MIN_SHARE * W * cb / g1.b
@@ -505,12 +565,15 @@ class LoadedMicroOptimizer:
         cH = 2.0 * (1.0 - nu**2) / (math.pi * mat.E) * (ca.log(2.0 * h1x / bH) + ca.log(2.0 * h2x / bH)
                                                         - nu / (1.0 - nu))
         dth = th * 1e-3 - ca.DM(theta_k)
-        gap = (ca.DM(a0) + ca.mtimes(ca.DM(Jx), dth) + cH * f) / G_REF - ca.mtimes(Ex_b, d)
+        gap = (ca.DM(a0) + ca.mtimes(ca.DM(Jx), dth) + ca.mtimes(ca.DM(Jmx), dm) + cH * f) / G_REF - ca.mtimes(Ex_b, d)
         g_list = []
         if sparse:
             wi = np.concatenate(w_of_x)
             gap = gap + w[wi.tolist()]
-            g_list.append(ca.mtimes(triplet(trip_A, nw, nw), w) - ca.mtimes(triplet(trip_D, nw, nx), x))
+            w_t = np.concatenate(w_keys)[:, 0]
+            E_wt = ca.DM.triplet(list(range(nw)), w_t.tolist(), ca.DM.ones(nw), nw, T)  # w row -> torque
+            g_list.append(ca.mtimes(triplet(trip_A, nw, nw), w) - ca.mtimes(triplet(trip_D, nw, nx), x)
+                          * ca.mtimes(E_wt, tq))
         else:
             gap = gap + ca.mtimes(triplet(trip_C, nx, nx), F) / G_REF
         fb = x + y - ca.sqrt(x**2 + y**2 + 2 * mu)  # zero where x >= 0, y >= 0, x y = mu
@@ -541,13 +604,15 @@ class LoadedMicroOptimizer:
         wv = ca.DM(self.weights.ravel())  # (T, C) row-major: index t * C + c
         obj = ca.dot(wv, u - v) + rho * float(np.mean(self.weights)) * ca.sum1(sp + se)
         z = ca.vertcat(th, x, y, d, u, v, sp, se, w)
-        nlp = {"x": z, "p": ca.vertcat(plim, marg, mu, rho), "f": obj, "g": ca.vertcat(*g_list)}
+        nlp = {"x": z, "p": ca.vertcat(plim, marg, mu, rho, tq, dm), "f": obj, "g": ca.vertcat(*g_list)}
+        # the start is the exact loaded TCA of the linearisation's design, close to the optimum: a
+        # monotone barrier from mu = 0.01 (up to 3x fewer iterations than the adaptive strategy from 0.1)
         opts = {"ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes", "ipopt.tol": 1e-9,
-                "ipopt.max_iter": 1000, "ipopt.mu_strategy": "adaptive", "error_on_fail": False,
+                "ipopt.max_iter": 1000, "ipopt.mu_strategy": "monotone", "ipopt.mu_init": 1e-2, "error_on_fail": False,
                 **getattr(self, "_extra_opts", {})}
         solver = ca.nlpsol("loaded_microgeometry", "ipopt", nlp, opts)
         sizes = dict(P=P, nx=nx, nB=nB, TC=T * C, nw=nw)
-        return dict(solver=solver, gap=ca.Function("gap", [z], [gap]), lbg=np.concatenate(lbg),
+        return dict(solver=solver, problem=nlp, gap=ca.Function("gap", [z, tq, dm], [gap]), lbg=np.concatenate(lbg),
                     ubg=np.concatenate(ubg), sizes=sizes, blocks=blocks, ct=ct, edge=tipe, ew=ew, lever=lever, Wt=Wt,
                     ln=ln, Rx=Rx, keys=keys, w_keys=np.concatenate(w_keys) if w_keys else np.zeros((0, 4), int))
 
@@ -578,7 +643,7 @@ class LoadedMicroOptimizer:
         np.maximum.at(u0, nlp["ct"], te)
         np.minimum.at(v0, nlp["ct"], te)
         z0 = np.concatenate([np.asarray(theta_k) * 1e3, x0, np.ones(nx), d0, u0, v0, np.zeros(2 * TC), w0])
-        gap = np.asarray(nlp["gap"](z0)).ravel()
+        gap = np.asarray(nlp["gap"](z0, np.ones(self.torques.size), np.zeros(len(Misalignment.names())))).ravel()
         loaded = x0 > 1e3 * MU
         y0 = np.where(loaded, MU / np.maximum(x0, 1e-300), np.maximum(gap, 1e-3))
         x0 = np.where(loaded, x0, MU / y0)
@@ -604,8 +669,10 @@ class LoadedMicroOptimizer:
         ubx = np.concatenate([self.hi * 1e3, np.full(free, np.inf), np.full(2 * TC + nw, np.inf)])
         return lbx, ubx
 
-    def solve(self, progress=None) -> MicroDesign:
-        """Optimise and verify (docs/loaded_synthesis.md).
+    def solve(self, progress=None, start=None, grid=None) -> MicroDesign:
+        """Optimise and verify (docs/loaded_synthesis.md); ``start``: the first design [mm] (default
+        the pair's own, which stays the "before" design); ``grid``: the NLP's first positions [rad]
+        (default ``n_positions`` over the mesh cycle).
 
         The trust-region loop (:meth:`_trust_region`) optimises on the NLP's grid of positions. The
         optimum is then checked by the exact loaded TCA on the verification grid (``n_verify``
@@ -613,12 +680,12 @@ class LoadedMicroOptimizer:
         positions, those positions join the NLP's grid and the loop goes on from the optimum (at most
         ``MAX_REFINE`` times)."""
         t_start = time.perf_counter()
-        theta = self.theta0.copy()
+        theta = self.theta0.copy() if start is None else np.clip(np.asarray(start, float), self.lo, self.hi)
         rounds, iters = [], 0
         fine = self.ltca.mesh_cycle(self.n_verify)
-        self.phi1 = self.ltca.mesh_cycle(self.n_positions)
+        self.phi1 = self.ltca.mesh_cycle(self.n_positions) if grid is None else np.sort(np.asarray(grid, float))
         for refine in range(MAX_REFINE + 1):
-            theta, cur, pred, it, status = self._trust_region(theta, rounds, progress)
+            theta, cur, pred, it, status, rho = self._trust_region(theta, rounds, progress)
             iters += it
             after = self.check(theta, fine)
             add = self._violated_positions(after, fine)
@@ -643,7 +710,186 @@ class LoadedMicroOptimizer:
         return MicroDesign(theta=dict(zip(self.free, theta.tolist())), theta0=dict(zip(self.free, self.theta0.tolist())),
                            predicted=pred, verified=ver, error=err, before=before, after=after, rounds=rounds,
                            iterations=iters, time=time.perf_counter() - t_start, status=status,
-                           binding=self._binding(theta, pred, ver))
+                           binding=self._binding(theta, pred, ver), rho=rho, phi1=self.phi1.copy())
+
+    def pareto(self, p_limits, progress=None, anchor: MicroDesign | None = None) -> ParetoFront:
+        """Loaded TE against peak pressure: the epsilon-constraint sweep of the pressure limit.
+
+        The anchor is the optimum without a pressure limit; then each limit of ``p_limits`` [MPa]
+        (taken in decreasing order) is solved from the previous optimum, with the edge-loading
+        constraint and everything else of this optimiser. Every point is verified by loaded TCA on the
+        verification grid (:meth:`solve`). A limit no design within the bounds meets (with the
+        edge-loading constraint) ends the sweep: it and every lower limit get no design and the reason.
+        Where a tighter limit's optimum has the lower loaded TE (the looser one stopped in a local
+        optimum), the looser limit is solved again from it, so the front is monotone.
+
+        Parameters
+        ----------
+        p_limits : sequence of float
+            Peak Hertz pressure limits [MPa], each 100 ... 10000, distinct.
+        progress : callable, optional
+            Takes one line of text per trust-region round and per point.
+        anchor : MicroDesign, optional
+            The optimum without a pressure limit, if already solved (by this optimiser with
+            ``p_limit=None``): not solved again.
+
+        Returns
+        -------
+        ParetoFront
+        """
+        try:
+            lims = sorted((float(v) for v in p_limits), reverse=True)
+        except (TypeError, ValueError):
+            raise out_of_range("p_limits", p_limits, "a list of pressure limits [MPa]", cls=OptionError) from None
+        if not lims or len(set(lims)) != len(lims) or not all(math.isfinite(v) and 100.0 <= v <= 1e4 for v in lims):
+            raise out_of_range("p_limits", p_limits, "a non-empty list of distinct limits, 100 ... 10000 MPa each",
+                               cls=OptionError)
+
+        def at(limit):
+            o = copy.copy(self)  # shares the compiled slices, the LTCA and the sensitivities
+            o.p_limit = limit
+            return o
+
+        say = progress or (lambda m: None)
+        first = at(None)
+        if anchor is None:
+            anchor = first.solve(progress=progress)
+            grid = first.phi1  # with the positions the verification added: the next points start there
+        else:
+            if self.p_limit is not None:
+                raise ArgumentError("anchor: given for an optimiser with a pressure limit; the anchor is the "
+                                    "optimum without one (p_limit=None).", param="anchor", value=self.p_limit,
+                                    valid="an optimiser with p_limit=None")
+            grid = self.phi1
+        say(f"loaded micro-geometry Pareto: no pressure limit: {anchor.after.objective:.4g} arcsec at "
+            f"{np.max(anchor.after.p_max):.1f} MPa")
+        designs, msgs = [], []
+        theta = np.array(list(anchor.theta.values()))
+        for lim in lims:
+            if designs and designs[-1] is None:
+                designs.append(None)
+                msgs.append(f"not solved: a higher limit ({lims[len(designs) - 2]:g} MPa) has no design")
+                continue
+            o = at(lim)
+            try:
+                d = o.solve(progress=progress, start=theta, grid=grid)
+            except SynthesisError as e:
+                if getattr(e, "param", None) not in ("p_limit", "edge_margin"):
+                    raise  # a solver failure, not an infeasible limit
+                designs.append(None)
+                msgs.append(str(e))
+                say(f"loaded micro-geometry Pareto: p_limit {lim:g} MPa: no design ({e})")
+                continue
+            designs.append(d)
+            msgs.append("")
+            theta, grid = np.array(list(d.theta.values())), o.phi1
+            say(f"loaded micro-geometry Pareto: p_limit {lim:g} MPa: {d.after.objective:.4g} arcsec at "
+                f"{np.max(d.after.p_max):.1f} MPa")
+        # A design meeting a limit meets every looser one: where a tighter limit's optimum has the lower
+        # loaded TE, the looser limit's (a local optimum) is solved again from it, tightest first, so
+        # the front comes out monotone.
+        solved = [(None, anchor)] + [(lim, d) for lim, d in zip(lims, designs) if d is not None]
+        for i in range(len(solved) - 2, -1, -1):
+            lim, d = solved[i]
+            better = solved[i + 1][1]
+            if better.after.objective < d.after.objective - 1e-3 * max(d.after.objective, 1.0):
+                o = at(lim)
+                d2 = o.solve(progress=progress, start=np.array(list(better.theta.values())), grid=grid)
+                if d2.after.objective < d.after.objective:
+                    solved[i] = (lim, d2)
+                    what = "no pressure limit" if lim is None else f"p_limit {lim:g} MPa"
+                    say(f"loaded micro-geometry Pareto: {what}: solved again from the tighter limit's optimum: "
+                        f"{d.after.objective:.4g} -> {d2.after.objective:.4g} arcsec")
+        anchor = solved[0][1]
+        again = {lim: d for lim, d in solved[1:]}
+        designs = [again.get(lim) if d is not None else None for lim, d in zip(lims, designs)]
+        return ParetoFront(anchor=anchor, p_limits=tuple(lims), designs=tuple(designs), messages=tuple(msgs))
+
+    def sensitivities(self, design: MicroDesign) -> dict:
+        """Sensitivities of the optimum to the torques and to a misalignment, by AD (docs/loaded_synthesis.md).
+
+        The NLP is built around ``design`` (its final positions, every active slice) with the torque
+        scales and a misalignment offset added to every case as parameters, and solved with the design
+        free within its bounds. Its first-order optimality conditions, differentiated by CasADi and
+        solved as one sparse system (the interior point's perturbed KKT system, as sIPOPT: each
+        inequality enters with its multiplier over its slack, so no active set is guessed), give the
+        derivatives of the optimal design; the optimal objective's are those of the Lagrangian in
+        the parameters (the envelope theorem).
+
+        Returns
+        -------
+        dict
+            ``d_objective_d_torque`` (T,) [arcsec per N m] and ``d_theta_d_torque`` (P, T) [mm per N m]
+            (one torque of the duty cycle changed at a time); ``d_objective_d_mis`` (4,) and
+            ``d_theta_d_mis`` (P, 4), per kind of ``Misalignment.names()`` [per rad or per mm],
+            the same offset added to every case; ``model_step`` [mm]: how far the NLP's optimum lies
+            from ``design`` (a converged design: below ``THETA_TOL``) and ``at_design`` (it is within
+            ten times that: else the loop stopped on its trust radius and the derivatives are those
+            of the NLP's optimum, not of the design); ``objective`` [arcsec]: the
+            NLP's optimum; ``nlp`` / ``z`` / ``p``: the NLP, its solution and parameters (for checks).
+        """
+        import scipy.sparse as sp_
+        import scipy.sparse.linalg as spla
+
+        theta = np.array([design.theta[n] for n in self.free])
+        if design.phi1 is not None:
+            self.phi1 = np.asarray(design.phi1, float)
+        cur = self._around(theta, np.inf, design.rho)
+        nlp = cur["nlp"]
+        lbx, ubx = self._bounds(nlp)
+        p = np.array(self._pvec(design.rho), float)
+        r = nlp["solver"](x0=cur["z0"], lbx=lbx, ubx=ubx, lbg=nlp["lbg"], ubg=nlp["ubg"], p=p)
+        st = nlp["solver"].stats()
+        if not st["success"]:
+            raise SynthesisError(f"loaded micro-geometry sensitivities: the NLP at the optimum failed "
+                                 f"({st['return_status']}).", param="ipopt", value=st["return_status"])
+        z, lam_g, lam_x = (np.asarray(r[k]).ravel() for k in ("x", "lam_g", "lam_x"))
+        pr = nlp["problem"]
+        zs, ps, g, f = pr["x"], pr["p"], pr["g"], pr["f"]
+        lam = ca.MX.sym("lam", g.shape[0])
+        L = f + ca.dot(lam, g)
+        sel = slice(4, ps.shape[0])  # the torque scales and misalignment offsets
+        gz = ca.gradient(L, zs)
+        fun = ca.Function("loaded_kkt", [zs, ps, lam],
+                          [ca.hessian(L, zs)[0], g, ca.jacobian(g, zs), ca.jacobian(g, ps)[:, sel],
+                           ca.jacobian(gz, ps)[:, sel], ca.gradient(L, ps)[sel]])
+        H, gv, Jg, Gp, Lzp, Lp = fun(z, p, lam_g)
+
+        def csc(m):
+            m = ca.DM(m)
+            i, j = m.sparsity().get_triplet()
+            return sp_.csc_matrix((np.array(m.nonzeros()), (i, j)), shape=m.shape)
+
+        H, Jg, Gp, Lzp = csc(H), csc(Jg), csc(Gp), csc(Lzp)
+        gv = np.asarray(gv).ravel()
+        lbg, ubg = nlp["lbg"], nlp["ubg"]
+        # IPOPT's perturbed KKT system at its final barrier parameter mu: each inequality (and bound)
+        # with multiplier lam and slack s = mu / |lam| enters through lam / s = lam^2 / mu; mu is the
+        # median complementarity lam * s of the solution (every product is near it at convergence)
+        eq = lbg == ubg
+        dist = np.abs(np.where(lam_g > 0, ubg - gv, gv - lbg))
+        prod = np.abs(lam_g) * dist
+        mu_g = float(np.median(prod[~eq & np.isfinite(prod)])) if np.any(~eq) else 1.0
+        sig_g = np.where(eq, 0.0, lam_g**2 / max(mu_g, 1e-300))
+        dx = np.abs(np.where(lam_x > 0, ubx - z, z - lbx))
+        bx = np.isfinite(dx)
+        mu_x = float(np.median(np.abs(lam_x[bx]) * dx[bx])) if bx.any() else 1.0
+        sig_x = np.where(bx, lam_x**2 / max(mu_x, 1e-300), 0.0)
+        E = np.flatnonzero(eq)
+        I_ = np.flatnonzero(~eq & (sig_g > 0))
+        JI = Jg[I_]
+        SI = sp_.diags(sig_g[I_])
+        K = sp_.bmat([[H + JI.T @ SI @ JI + sp_.diags(sig_x), Jg[E].T], [Jg[E], None]], format="csc")
+        rhs = -sp_.vstack([Lzp + JI.T @ SI @ Gp[I_], Gp[E]]).toarray()
+        sol = spla.splu(K).solve(rhs)
+        P, T = len(self.free), self.torques.size
+        dth = sol[:P] * 1e-3  # theta is in um in the NLP
+        dfdp = np.asarray(Lp).ravel()
+        step = float(np.max(np.abs(z[:P] * 1e-3 - theta)))
+        return {"d_objective_d_torque": dfdp[:T] / self.torques, "d_theta_d_torque": dth[:, :T] / self.torques[None, :],
+                "d_objective_d_mis": dfdp[T:], "d_theta_d_mis": dth[:, T:],
+                "model_step": step, "at_design": step <= 10 * THETA_TOL, "objective": float(r["f"]),
+                "nlp": nlp, "z": z, "p": p, "bounds": (lbx, ubx), "z0": cur["z0"]}
 
     def _violated_positions(self, chk: LoadedCheck, phi1) -> np.ndarray:
         """Positions of ``phi1`` where the exact loaded TCA ``chk`` loads an edge (a weighted slice load
@@ -669,7 +915,7 @@ class LoadedMicroOptimizer:
         NLP's step is below ``THETA_TOL`` (the linearised optimum is the design itself: a stationary
         point of the exact problem, whose first derivatives the linearisation shares)."""
         rho = RHO
-        p = [self.p_limit or 1.0, (self.edge_margin or 0.0) / G_REF, MU, rho]
+        p = self._pvec(rho)
         radius = TR_START * float(np.max(self.hi - self.lo))
         iters, status, pred = 0, "", None
         cur = self._around(theta, 2 * radius)
@@ -728,6 +974,14 @@ class LoadedMicroOptimizer:
             if progress:
                 progress(_round_text(rnd, info))
             if radius <= THETA_TOL:
+                if (np.max(pred["slack_p"]) > SLACK_TOL or np.max(pred["slack_e"]) > EDGE_TOL) and rho < RHO_MAX:
+                    # no better design nearby, but a constraint still violated: a heavier penalty, and
+                    # the radius of the last accepted step again
+                    rho *= 10.0
+                    p[3] = rho
+                    cur["merit"] = self._merit(cur["check"], rho)
+                    radius = 16.0 * THETA_TOL
+                    continue
                 break
         else:
             raise SynthesisError(f"loaded micro-geometry: no stationary design after {MAX_ROUNDS} linearisations "
@@ -745,7 +999,13 @@ class LoadedMicroOptimizer:
                                  value=nlp["solver"].stats()["return_status"])
         pred = self._predicted(nlp, np.asarray(r["x"]).ravel())
         self._raise_if_infeasible(pred)
-        return theta, cur, pred, iters, status
+        return theta, cur, pred, iters, status, rho
+    def _pvec(self, rho: float) -> list:
+        """The NLP's parameters: pressure limit, edge margin [um], smoothing, penalty weight, the torque
+        scales (1) and the misalignment offsets (0)."""
+        return ([self.p_limit or 1.0, (self.edge_margin or 0.0) / G_REF, MU, rho] + [1.0] * self.torques.size
+                + [0.0] * len(Misalignment.names()))
+
     def _around(self, theta, radius: float = np.inf, rho: float = RHO) -> dict:
         """Linearisation, NLP and start point at ``theta``, with the exact loaded TCA there; the NLP
         leaves out the slices that stay open within ``radius`` [mm] of ``theta`` (:meth:`_keep`)."""
