@@ -446,6 +446,9 @@ def _bad_scene(tmp_path, scene: str, edit) -> tuple[list, str]:
     (("torques = [100.0, 250.0]", "torques = [250.0, 100.0]"), "[loaded_microgeometry] torques"),
     (("torques = [100.0, 250.0]", "torques = [100.0, 250.0]\nweights = [1.0]"), "[loaded_microgeometry] weights"),
     (("p_limit = 2200.0", "p_limit = 20.0"), "[loaded_microgeometry] p_limit"),
+    (("p_limit = 2200.0", "p_limit = 2200.0\nharmonics = [1.0, -0.5]"), "[loaded_microgeometry] harmonics"),
+    (("p_limit = 2200.0", "p_limit = 2200.0\npareto = [2000.0, 2000.0]"), "[loaded_microgeometry] pareto"),
+    (("p_limit = 2200.0", "p_limit = 2200.0\npareto = [50.0]"), "[loaded_microgeometry] pareto"),
     (('edge_margin = "0.5 um"', 'edge_margin = "0 um"'), "[loaded_microgeometry] edge_margin"),
 ])
 def test_bad_loaded_microgeometry_keys_name_the_key_and_write_nothing(tmp_path, edit, param):

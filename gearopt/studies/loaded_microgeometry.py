@@ -8,6 +8,8 @@ Scene section ``[loaded_microgeometry]``:
 ``torques``       duty-cycle torques [N m], increasing (default 50, 100, 150 % of ``torque``).
 ``weights``       weight of each torque in the objective (default all 1; every case weighs the same).
 ``p_limit``       peak Hertz pressure limit of the flank [MPa] (default none).
+``harmonics``     weights of the loaded TE's first mesh harmonics: the objective is their weighted
+                  amplitudes instead of the peak-to-peak (default none: peak-to-peak).
 ``pareto``        pressure limits [MPa] of a Pareto front (loaded TE against peak pressure, an
                   epsilon-constraint sweep from the optimum without a limit; default none).
 ``edge_margin``   smallest gap of every tip edge and face end under load (default "0.5 um").
@@ -185,6 +187,7 @@ class LoadedMicroStudy:
         cases = [{"name": n, **misalignment_dict(m)} for n, m in zip(self.case_names, opt.cases)]
         options = {"free": {k: [lo * 1e3, hi * 1e3] for k, lo, hi in zip(opt.free, opt.lo, opt.hi)},
                    "weights": opt.weights.tolist(), "p_limit_MPa": opt.p_limit,
+                   "harmonics": None if opt.harmonics is None else opt.harmonics.tolist(),
                    "edge_margin_um": None if opt.edge_margin is None else opt.edge_margin * 1e3,
                    "positions": int(opt.phi1.size), "verify_positions": opt.n_verify, "n_slices": opt.ltca.n_slices,
                    "E_MPa": opt.material.E, "nu": opt.material.nu}
@@ -237,7 +240,7 @@ def _from_scene(scene):
     cases = misalignment_cases(**{k: o.get(k) or 0.0 for k in Misalignment.names()})
     try:
         return LoadedMicroStudy(scene.pair, free, torque, torques, cases, weights=weights, name=scene.name,
-                                pareto=o.get("pareto"), p_limit=o.get("p_limit"),
+                                pareto=o.get("pareto"), p_limit=o.get("p_limit"), harmonics=o.get("harmonics"),
                                 edge_margin=None if o.get("edge_loading") else o.get("edge_margin"),
                                 n_positions=o.get("positions") or 24, n_verify=o.get("verify_positions") or 64,
                                 n_slices=o.get("n_slices") or 15, side=o.get("side") or "right",
@@ -267,6 +270,9 @@ def _register():
             Field("weights", "floats", check=lambda v: None if all(x >= 0 for x in v) and sum(v) > 0
                   else "weights >= 0, not all 0", doc="weight of each torque in the objective (default all 1)"),
             Field("p_limit", "float", check=Bounds(lo=100, hi=1e4), doc="peak Hertz pressure limit [MPa] (default none)"),
+            Field("harmonics", "floats", check=lambda v: None if v and len(v) <= 10 and all(x >= 0 for x in v)
+                  and sum(v) > 0 else "1 ... 10 weights >= 0, not all 0",
+                  doc="weights of the loaded TE's first mesh harmonics as the objective (default: peak-to-peak)"),
             Field("pareto", "floats", check=lambda v: None if v and all(100 <= x <= 1e4 for x in v)
                   and len(set(v)) == len(v) else "distinct pressure limits, 100 ... 10000 MPa each",
                   doc="pressure limits [MPa] of a Pareto front, loaded TE against peak pressure (default none)"),

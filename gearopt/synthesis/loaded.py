@@ -69,6 +69,7 @@ MAX_ROUNDS = 30  #: trust-region rounds at most
 MAX_REFINE = 3  #: times the NLP's grid may grow by the verification positions that violate a constraint
 TR_START = 0.25  #: first trust radius, times the widest bound interval
 F_TOL = 1e-4  #: ... or when the NLP predicts a decrease of the objective below this share of it
+HARM_EPS = 1e-3  #: [arcsec] smoothing of a harmonic amplitude at zero, sqrt(a^2 + b^2 + eps^2)
 THETA_TOL = 1e-4  #: [mm] the design has settled when no amount moves by more than this (0.1 um: below any grinding machine's resolution)
 TIP_BAND = 0.02  #: [m_n] contact within this radial distance of a tip circle counts as tip (edge) contact
 NONNEG = ("C_alpha", "C_beta", "C_alpha_a", "C_alpha_f", "C_beta_I", "C_beta_II")  #: amounts >= 0
@@ -85,8 +86,10 @@ class LoadedCheck:
     edge_share : largest share of the normal load on tip-edge or face-end slices at any position.
     edge_gap : smallest gap of a tip-edge or face-end slice under load [mm] (0: loaded).
     edge_load : largest share of the normal load on one tip-edge or face-end slice.
-    objective : weighted sum of ``te_pp`` [arcsec].
+    objective : the weighted objective [arcsec]: sum of ``te_pp``, or of the weighted harmonics.
     sweeps : (C,) the :class:`~gearopt.ltca.engine.LoadedSweep` of each case.
+    harmonics : (T, C, H) amplitudes of the loaded TE's first H mesh harmonics [arcsec] (least squares
+        on the positions; the DFT on a uniform grid), when the objective is the harmonics.
     """
 
     te_pp: np.ndarray
@@ -96,6 +99,7 @@ class LoadedCheck:
     edge_load: np.ndarray
     objective: float
     sweeps: tuple = field(repr=False)
+    harmonics: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -144,8 +148,11 @@ class MicroDesign:
         from ..report import arr
 
         def chk(c: LoadedCheck) -> dict:
-            return {"te_pp_arcsec": arr(c.te_pp), "p_max_MPa": arr(c.p_max), "edge_share": arr(c.edge_share),
-                    "edge_gap_um": arr(c.edge_gap * 1e3), "edge_load": arr(c.edge_load), "objective_arcsec": c.objective}
+            out = {"te_pp_arcsec": arr(c.te_pp), "p_max_MPa": arr(c.p_max), "edge_share": arr(c.edge_share),
+                   "edge_gap_um": arr(c.edge_gap * 1e3), "edge_load": arr(c.edge_load), "objective_arcsec": c.objective}
+            if c.harmonics is not None:
+                out["harmonics_arcsec"] = arr(c.harmonics)
+            return out
 
         return {"theta_um": self.theta_um(), "theta0_um": {k: v * 1e3 for k, v in self.theta0.items()},
                 "predicted": {"te_pp_arcsec": arr(self.predicted["te_pp"]), "p_max_MPa": arr(self.predicted["p_max"]),
@@ -224,13 +231,17 @@ class LoadedMicroOptimizer:
     jit : bool or "auto"
         Solve the slices as compiled C (:mod:`gearopt.compiled`); "auto" (default): whenever a C
         compiler is present.
+    harmonics : sequence of float, optional
+        Weights of the loaded TE's first mesh harmonics: the objective is then
+        ``sum_(t,c) w_tc sum_h harmonics[h] A_h`` with ``A_h`` [arcsec] the amplitude of harmonic h + 1
+        (least squares on the NLP's positions) instead of the peak-to-peak. ``2 len + 1 <= n_positions``.
 
     Call :meth:`solve` (``progress``: a callable taking one line of text per trust-region round).
     """
 
     def __init__(self, pair: GearPair, free: dict, torques, cases=None, weights=None, p_limit: float | None = None,
                  edge_margin: float | None = 5e-4, n_positions: int = 32, n_verify: int = 64, n_slices: int = 15,
-                 material: Material | None = None, side: str = "right", jit: bool | str = "auto"):
+                 material: Material | None = None, side: str = "right", jit: bool | str = "auto", harmonics=None):
         if not isinstance(pair, GearPair):
             raise ArgumentError(f"pair = {pair!r:.60}: expected a gearopt.gears.GearPair.", param="pair", value=pair,
                                 valid="a gearopt.gears.GearPair")
@@ -260,6 +271,17 @@ class LoadedMicroOptimizer:
         if isinstance(n_verify, bool) or not isinstance(n_verify, (int, np.integer)) or not 8 <= n_verify <= 2000:
             raise out_of_range("n_verify", n_verify, "an integer, 8 <= n_verify <= 2000", cls=OptionError)
         self.n_verify = int(n_verify)
+        self.harmonics = None
+        if harmonics is not None:
+            try:
+                hw = np.asarray(harmonics, float).ravel()
+            except (TypeError, ValueError):
+                hw = np.array([np.nan])
+            if not (1 <= hw.size <= 10 and np.all(np.isfinite(hw)) and np.all(hw >= 0) and hw.sum() > 0
+                    and 2 * hw.size + 1 <= n_positions):
+                raise out_of_range("harmonics", harmonics, "1 ... 10 weights >= 0, not all 0, one per mesh harmonic, "
+                                   f"at most (n_positions - 1) / 2 = {(n_positions - 1) // 2} of them", cls=OptionError)
+            self.harmonics = hw
         self.free, self.lo, self.hi = self._check_free(free)
         if not (isinstance(jit, (bool, np.bool_)) or (isinstance(jit, str) and jit == "auto")):
             raise out_of_range("jit", jit, "'auto', True or False (solve the slices as compiled C)", cls=OptionError)
@@ -341,18 +363,25 @@ class LoadedMicroOptimizer:
     def _check_of(self, sweeps) -> LoadedCheck:
         T, C = self.torques.size, len(self.cases)
         pp, pm, es, eg, el = (np.zeros((T, C)) for _ in range(5))
+        H = 0 if self.harmonics is None else self.harmonics.size
+        hm = np.zeros((T, C, H))
         for c, sw in enumerate(sweeps):
             S = sw.slices
+            R = _harmonic_rows(S.phi1, self.pair.pinion.z, H) if H else None
             ends = _edge_mask(S, self.pair)
             for t, r in enumerate(sw.results):
                 pp[t, c] = r.peak_to_peak_arcsec
+                if H:
+                    ab = (R @ r.te_loaded_arcsec).reshape(H, 2)
+                    hm[t, c] = np.hypot(ab[:, 0], ab[:, 1])
                 pm[t, c] = r.p_max
                 es[t, c] = float(np.max(np.sum(np.where(ends, r.load, 0.0), axis=(0, 2)) / r.W))
                 el[t, c] = float(np.max(_edge_weight(S, self.pair) * r.load) / r.W)
                 gap = _gaps(sw, r)
                 eg[t, c] = float(np.min(np.where(ends & S.active, gap, np.inf)))
-        return LoadedCheck(te_pp=pp, p_max=pm, edge_share=es, edge_gap=eg, edge_load=el,
-                           objective=float(np.sum(self.weights * pp)), sweeps=tuple(sweeps))
+        obj = float(np.sum(self.weights * pp)) if not H else float(np.sum(self.weights[..., None] * hm * self.harmonics))
+        return LoadedCheck(te_pp=pp, p_max=pm, edge_share=es, edge_gap=eg, edge_load=el, objective=obj,
+                           sweeps=tuple(sweeps), harmonics=hm if H else None)
 
     def _merit(self, chk: LoadedCheck, rho: float = RHO) -> float:
         """The NLP's objective for an exact loaded TCA: weighted TE peak-to-peak plus the penalised
@@ -602,7 +631,16 @@ class LoadedMicroOptimizer:
             lbg.append(np.full(ends.size, -np.inf))
             ubg.append(np.zeros(ends.size))
         wv = ca.DM(self.weights.ravel())  # (T, C) row-major: index t * C + c
-        obj = ca.dot(wv, u - v) + rho * float(np.mean(self.weights)) * ca.sum1(sp + se)
+        hmap = self._harmonic_map(blocks, nB)
+        if hmap is None:
+            fit = ca.dot(wv, u - v)
+        else:  # weighted amplitudes of the first mesh harmonics (smooth: sqrt(a^2 + b^2 + eps^2))
+            ab = ca.mtimes(hmap, te)
+            H = self.harmonics.size
+            a2 = ab[0::2] ** 2 + ab[1::2] ** 2
+            amp_w = ca.DM(np.repeat(self.weights.ravel(), H) * np.tile(self.harmonics, T * C))
+            fit = ca.dot(amp_w, ca.sqrt(a2 + HARM_EPS**2))
+        obj = fit + rho * float(np.mean(self.weights)) * ca.sum1(sp + se)
         z = ca.vertcat(th, x, y, d, u, v, sp, se, w)
         nlp = {"x": z, "p": ca.vertcat(plim, marg, mu, rho, tq, dm), "f": obj, "g": ca.vertcat(*g_list)}
         # the start is the exact loaded TCA of the linearisation's design, close to the optimum: a
@@ -614,7 +652,7 @@ class LoadedMicroOptimizer:
         sizes = dict(P=P, nx=nx, nB=nB, TC=T * C, nw=nw)
         return dict(solver=solver, problem=nlp, gap=ca.Function("gap", [z, tq, dm], [gap]), lbg=np.concatenate(lbg),
                     ubg=np.concatenate(ubg), sizes=sizes, blocks=blocks, ct=ct, edge=tipe, ew=ew, lever=lever, Wt=Wt,
-                    ln=ln, Rx=Rx, keys=keys, w_keys=np.concatenate(w_keys) if w_keys else np.zeros((0, 4), int))
+                    ln=ln, Rx=Rx, keys=keys, hmap=hmap, w_keys=np.concatenate(w_keys) if w_keys else np.zeros((0, 4), int))
 
     def _start(self, nlp, lin, theta_k, sw):
         """Initial point: the exact loaded TCA of the linearisation's design (its loads, deflections and
@@ -1000,6 +1038,23 @@ class LoadedMicroOptimizer:
         pred = self._predicted(nlp, np.asarray(r["x"]).ravel())
         self._raise_if_infeasible(pred)
         return theta, cur, pred, iters, status, rho
+    def _harmonic_map(self, blocks, nB):
+        """Sparse (T C 2H, nB) map of the blocks' loaded TE to the cosine and sine coefficients of the
+        first H mesh harmonics of each (torque, case) (:func:`_harmonic_rows`); None for the
+        peak-to-peak objective."""
+        if self.harmonics is None:
+            return None
+        H = self.harmonics.size
+        C = len(self.cases)
+        R = _harmonic_rows(self.phi1, self.pair.pinion.z, H)
+        rows, cols, vals = [], [], []
+        for b, (t, c, n, _, _) in enumerate(blocks):
+            base = (t * C + c) * 2 * H
+            rows.extend(range(base, base + 2 * H))
+            cols.extend([b] * (2 * H))
+            vals.extend(R[:, n])
+        return _sparse_dm(rows, cols, vals, self.torques.size * C * 2 * H, nB)
+
     def _pvec(self, rho: float) -> list:
         """The NLP's parameters: pressure limit, edge margin [um], smoothing, penalty weight, the torque
         scales (1) and the misalignment offsets (0)."""
@@ -1036,7 +1091,12 @@ class LoadedMicroOptimizer:
         blk_ct = np.repeat(nlp["ct"], [b[4] for b in nlp["blocks"]])
         np.maximum.at(pm, blk_ct, p0)
         slack = z[P + 2 * nx + nB + 2 * TC:P + 2 * nx + nB + 4 * TC]
-        return {"te_pp": pp, "p_max": pm.reshape(T, C), "objective": float(np.sum(self.weights * pp)),
+        obj = float(np.sum(self.weights * pp))
+        if nlp["hmap"] is not None:
+            H = self.harmonics.size
+            ab = np.asarray(ca.mtimes(nlp["hmap"], ca.DM(te))).ravel().reshape(T, C, H, 2)
+            obj = float(np.sum(self.weights[..., None] * np.hypot(ab[..., 0], ab[..., 1]) * self.harmonics))
+        return {"te_pp": pp, "p_max": pm.reshape(T, C), "objective": obj,
                 "slack_p": slack[:TC].reshape(T, C), "slack_e": slack[TC:].reshape(T, C)}
 
     def _raise_if_infeasible(self, pred):
@@ -1070,6 +1130,21 @@ class LoadedMicroOptimizer:
         if self.edge_margin is not None and np.min(ver.edge_gap) <= self.edge_margin * (1 + 1e-3):
             out.append("edge")
         return tuple(out)
+
+
+def _sparse_dm(rows, cols, vals, n_rows, n_cols) -> ca.DM:
+    return ca.DM.triplet(list(rows), list(cols), ca.DM(np.asarray(vals, float)), n_rows, n_cols)
+
+
+def _harmonic_rows(phi1, z1: int, H: int) -> np.ndarray:
+    """(2H, N) least-squares map of a TE sampled at the pinion angles ``phi1`` [rad] (one mesh cycle or
+    more) to the coefficients (a_1, b_1, ..., a_H, b_H) of ``te ~ c0 + sum_h a_h cos(h z1 phi1) + b_h
+    sin(h z1 phi1)``; on a uniform grid over whole cycles this is the DFT."""
+    phi1 = np.asarray(phi1, float)
+    cols = [np.ones_like(phi1)]
+    for h in range(1, H + 1):
+        cols += [np.cos(h * z1 * phi1), np.sin(h * z1 * phi1)]
+    return np.linalg.pinv(np.stack(cols, axis=1))[1:]
 
 
 def _case_text(mis: Misalignment) -> str:
