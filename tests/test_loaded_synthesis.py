@@ -72,6 +72,39 @@ def test_separation_sensitivities_match_finite_differences(opt, monkeypatch):
                 assert np.any(both & (S.edge == 2))
 
 
+def test_litvin_settings_as_design_variables(monkeypatch):
+    """Litvin's settings a_c (parabolic rack) and a_pl (plunging) free with the tip and root relief:
+    their separation sensitivities match central differences of the exact slices, and the optimum
+    is verified by the exact loaded TCA (objective lowered, no edge loading, NLP within 0.01 arcsec)."""
+    import gearopt.ltca.slices as slices
+
+    free = {"pinion.a_c": (0.0, 0.01), "pinion.a_pl": (0.0, 0.002), "pinion.C_alpha_a": (0.0, 0.04),
+            "pinion.C_alpha_f": (0.0, 0.04)}
+    opt = LoadedMicroOptimizer(drive(C_alpha=0.0, C_beta=0.0), free, torques=[100.0, 250.0],
+                               cases=[Misalignment(), Misalignment(crossing=2 * ARCMIN)], n_positions=16,
+                               n_verify=32, n_slices=11)
+    d = opt.solve()
+    assert d.error["te_pp"] < 0.01
+    assert d.after.objective < 0.6 * d.before.objective
+    assert np.all(d.after.edge_load <= EDGE_TOL)
+    assert 1e-3 < d.theta["pinion.a_c"] < 0.01 and 1e-4 < d.theta["pinion.a_pl"] < 0.002  # interior: both move
+    monkeypatch.setattr(slices, "CENTRE_ON_POINT", False)
+    th = np.array(list(d.theta.values()))
+    lin = opt.linearise(th)
+    for j, h in ((0, 1e-6), (1, 1e-6)):
+        e = np.zeros(th.size)
+        e[j] = h
+        lp, lm = opt.linearise(th + e), opt.linearise(th - e)
+        S = lin[1]["S"]
+        both = S.active & lp[1]["S"].active & lm[1]["S"].active
+        fd = (lp[1]["a"] - lm[1]["a"]) / (2 * h)
+        ref = np.flatnonzero(both.ravel())[0]
+        d_fd = (fd - fd.ravel()[ref])[both]
+        d_ad = (lin[1]["J"][..., j] - lin[1]["J"][..., j].ravel()[ref])[both]
+        assert np.max(np.abs(d_ad - d_fd)) < 1e-3 * np.max(np.abs(d_ad))
+        assert np.max(np.abs(d_ad)) > 0.1  # mm of separation per 1/mm: the setting does move the flank
+
+
 def test_the_smoothed_nlp_reproduces_the_exact_loaded_tca(opt):
     """At a fixed design (bounds closed on it) the NLP's loads solve the smoothed contact problem; its
     loaded TE equals the exact QP's within the smoothing's effect (1e-3 arcsec)."""
@@ -232,6 +265,8 @@ def test_harmonics_objective_matches_the_fft_of_the_exact_loaded_te():
 
 
 @pytest.mark.parametrize("kw, param", [
+    (dict(free={"pinion.a_c": (0.0, 0.2)}), "free.pinion.a_c"),  # above 0.05 1/mm
+    (dict(free={"pinion.a_pl": (-0.001, 0.001)}), "free.pinion.a_pl"),
     (dict(harmonics=[]), "harmonics"),
     (dict(harmonics=[1.0, -1.0]), "harmonics"),
     (dict(harmonics=[1.0] * 8), "harmonics"),  # 2 * 8 + 1 > 16 positions

@@ -22,7 +22,8 @@ Scene section ``[loaded_microgeometry]``:
 
 ``[loaded_microgeometry.free.pinion]`` / ``.gear``: the free amounts with their manufacturing bounds,
 ``C_alpha = { lo = "0 um", hi = "40 um" }``; the start design is the member's
-``[<member>.modifications]`` (a free relief needs its start there, e.g. ``d_Ca``).
+``[<member>.modifications]`` (a free relief needs its start there, e.g. ``d_Ca``). Litvin's settings
+``a_c`` (parabolic rack) and ``a_pl`` (plunging) may be free too: ``a_c = { lo = "0 1/mm", hi = "0.01 1/mm" }``.
 
 results.json: docs/results.md; ``loaded_microgeometry.csv`` beside it.
 """
@@ -258,7 +259,9 @@ def _register():
 
     def amounts(member):
         return Section(member, [], subsections=[_range_section(a, "length", f"bounds of the {member}'s {a}")
-                                                for a in GLOBAL_AMOUNTS + RELIEF_AMOUNTS],
+                                                for a in GLOBAL_AMOUNTS + RELIEF_AMOUNTS]
+                       + [_range_section(a, "inverse_length", f"bounds of the {member}'s Litvin setting {a} [1/mm]")
+                          for a in ("a_c", "a_pl")],
                        doc=f"free amounts of the {member} with their bounds")
 
     register(StudySpec(

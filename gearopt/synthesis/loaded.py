@@ -72,6 +72,7 @@ F_TOL = 1e-4  #: ... or when the NLP predicts a decrease of the objective below 
 HARM_EPS = 1e-3  #: [arcsec] smoothing of a harmonic amplitude at zero, sqrt(a^2 + b^2 + eps^2)
 THETA_TOL = 1e-4  #: [mm] the design has settled when no amount moves by more than this (0.1 um: below any grinding machine's resolution)
 TIP_BAND = 0.02  #: [m_n] contact within this radial distance of a tip circle counts as tip (edge) contact
+SETTINGS = {"a_c": 0.05, "a_pl": 0.02}  #: Litvin's settings a design may free, with their largest value [1/mm]
 NONNEG = ("C_alpha", "C_beta", "C_alpha_a", "C_alpha_f", "C_beta_I", "C_beta_II")  #: amounts >= 0
 
 
@@ -210,7 +211,9 @@ class LoadedMicroOptimizer:
     free : dict
         ``{"pinion.C_alpha": (lo, hi), ...}``: the free amounts with their bounds [mm]. Names are
         ``<member>.<amount>`` with an amount of ``Microgeometry.amount_names()``; a relief amount
-        needs its start in the member's modifications.
+        needs its start in the member's modifications. Litvin's settings ``<member>.a_c`` (parabolic
+        rack-cutter profile) and ``<member>.a_pl`` (plunging: lead crowning) may be free too, bounds
+        in 1/mm (0 ... 0.05 and 0 ... 0.02); the start is the member's ``rack.a_c`` / ``a_pl``.
     torques : sequence of float
         Pinion torques of the duty cycle [N m], strictly increasing.
     cases : sequence of Misalignment, optional
@@ -295,17 +298,18 @@ class LoadedMicroOptimizer:
         self.n_positions = int(n_positions)
         self.phi1 = self.ltca.mesh_cycle(self.n_positions)
         lay = self.tca.layout
-        self._prm_index = [lay.index(f"{m}.iso.{a}") for m, a in (n.split(".", 1) for n in self.free)]
+        self._prm_index = [lay.index(f"{m}.{_entry(a)}") for m, a in (n.split(".", 1) for n in self.free)]
         self._prm_index += [lay.index(f"mis.{k}") for k in Misalignment.names()]  # then the misalignments
         self.p0 = (np.array(self.tca.pinion.p0, float), np.array(self.tca.gear.p0, float))
-        self.theta0 = np.array([self.p0[0 if m == "pinion" else 1][lay.member_names[m].index(f"iso.{a}")]
+        self.theta0 = np.array([self.p0[0 if m == "pinion" else 1][lay.member_names[m].index(_entry(a))]
                                 for m, a in (n.split(".", 1) for n in self.free)])
         bad = [(n, t) for n, t, a, b in zip(self.free, self.theta0, self.lo, self.hi) if not a <= t <= b]
         if bad:
             n, t = bad[0]
             i = self.free.index(n)
-            raise out_of_range(f"free.{n}", f"{float(t) * 1e3:g} um", f"the start design's {n} must lie within its bounds "
-                               f"{self.lo[i] * 1e3:g} ... {self.hi[i] * 1e3:g} um", cls=OptionError)
+            k, u = (1.0, "1/mm") if n.split(".", 1)[1] in SETTINGS else (1e3, "um")
+            raise out_of_range(f"free.{n}", f"{float(t) * k:g} {u}", f"the start design's {n} must lie within its bounds "
+                               f"{self.lo[i] * k:g} ... {self.hi[i] * k:g} {u}", cls=OptionError)
         self._sens = {}
 
     # ------------------------------------------------------------------------------------------
@@ -317,7 +321,20 @@ class LoadedMicroOptimizer:
         for name, b in free.items():
             member, _, amount = str(name).partition(".")
             gear = getattr(self.pair, member, None) if member in ("pinion", "gear") else None
-            valid = [f"{m}.{a}" for m in ("pinion", "gear") for a in self._amounts(getattr(self.pair, m))]
+            valid = [f"{m}.{a}" for m in ("pinion", "gear") for a in self._amounts(getattr(self.pair, m)) + tuple(SETTINGS)]
+            if amount in SETTINGS and gear is not None:
+                # Litvin's settings [1/mm]: parabolic rack-cutter profile a_c, plunging (lead crowning) a_pl
+                try:
+                    a, c = (float(v) for v in b)
+                except (TypeError, ValueError):
+                    raise out_of_range(f"free.{name}", b, "a pair (lo, hi) [1/mm]", cls=OptionError) from None
+                if not (math.isfinite(a) and math.isfinite(c) and 0.0 <= a < c <= SETTINGS[amount]):
+                    raise out_of_range(f"free.{name}", f"({a:g}, {c:g}) 1/mm",
+                                       f"0 <= lo < hi <= {SETTINGS[amount]:g} 1/mm", cls=OptionError)
+                names.append(f"{member}.{amount}")
+                lo.append(a)
+                hi.append(c)
+                continue
             if gear is None or amount not in self._amounts(gear):
                 hint = ""
                 if gear is not None and amount in RELIEF_AMOUNTS:
@@ -347,7 +364,7 @@ class LoadedMicroOptimizer:
         p = {"pinion": self.p0[0].copy(), "gear": self.p0[1].copy()}
         for n, t in zip(self.free, np.asarray(theta, float)):
             m, a = n.split(".", 1)
-            p[m][self.tca.layout.member_names[m].index(f"iso.{a}")] = t
+            p[m][self.tca.layout.member_names[m].index(_entry(a))] = t
         return p["pinion"], p["gear"]
 
     # -- loaded TCA of one design (the verification) ----------------------------------------------
@@ -974,7 +991,7 @@ class LoadedMicroOptimizer:
             info = {"theta_um": (new * 1e3).tolist(), "model_objective": model, "merit": cur["merit"],
                     "radius_um": radius * 1e3, "status": status, "iterations": int(st["iter_count"]),
                     "nlp_s": time.perf_counter() - t1, "linearise_s": cur["time"], "n_loads": nlp["sizes"]["nx"],
-                    "n_positions": int(self.phi1.size)}
+                    "n_positions": int(self.phi1.size), "settings": any(n.split(".", 1)[1] in SETTINGS for n in self.free)}
             rounds.append(info)
             if not st["success"]:
                 raise SynthesisError(f"loaded micro-geometry NLP: IPOPT stopped with {status} in round {rnd} "
@@ -1132,6 +1149,11 @@ class LoadedMicroOptimizer:
         return tuple(out)
 
 
+def _entry(amount: str) -> str:
+    """The member parameter of a free name: ``iso.<amount>`` for an ISO amount, the setting itself."""
+    return amount if amount in SETTINGS else f"iso.{amount}"
+
+
 def _sparse_dm(rows, cols, vals, n_rows, n_cols) -> ca.DM:
     return ca.DM.triplet(list(rows), list(cols), ca.DM(np.asarray(vals, float)), n_rows, n_cols)
 
@@ -1154,7 +1176,7 @@ def _case_text(mis: Misalignment) -> str:
 
 
 def _round_text(rnd: int, info: dict) -> str:
-    th = ", ".join(f"{v:.2f}" for v in info["theta_um"])
+    th = ", ".join(f"{v:.2f}" for v in info["theta_um"]) + ("] um (settings: 1e-3/mm" if info.get("settings") else "")
     true = f", true {info['true_merit']:.4g}" if "true_merit" in info else ""
     return (f"loaded micro-geometry round {rnd}: design [{th}] um, model {info['model_objective']:.4g}{true} "
             f"(from {info['merit']:.4g}), radius {info['radius_um']:.3g} um, {info['iterations']} IPOPT iterations, "
