@@ -34,7 +34,7 @@ def main(argv=None):
     args = ap.parse_args(argv)
 
     from gearopt.meshing.misalignment import Misalignment
-    from gearopt.synthesis.loaded import RHO, LoadedMicroOptimizer
+    from gearopt.synthesis.loaded import LoadedMicroOptimizer
     from gearopt.units import ARCMIN
     from test_loaded_synthesis import FREE, drive
 
@@ -56,8 +56,7 @@ def main(argv=None):
     d = opt.solve()
     t_opt = time.perf_counter() - t0
     n_opt = calls["n"]
-    rho = max([RHO] + [float(r["accepted"].split("(")[1].rstrip(")")) for r in d.rounds
-                       if isinstance(r["accepted"], str) and r["accepted"].startswith("penalty")])
+    rho = d.rho  # the penalty weight the optimiser ended with
     phi = opt.phi1  # the optimiser's final grid
     best_opt = opt._merit(opt.check(np.array(list(d.theta.values())), phi), rho)
 

@@ -49,9 +49,9 @@ def plot_te_vs_torque_before_after(d: dict, ax=None):
     return torque_axes(ax, T, "loaded TE peak-to-peak [arcsec]", "TE against load, every case", pad=1.08)
 
 
-def plot_rounds(design: dict, ax=None):
+def plot_rounds(design: dict, ax=None, objective: str = "weighted TE p-p"):
     """The trust-region rounds: the true objective of each accepted design and the model's prediction
-    of each trial [arcsec] (rejected trials marked x)."""
+    of each trial [arcsec] (rejected trials marked x); ``objective`` names it on the y axis."""
     import matplotlib.pyplot as plt
 
     ax = ax or plt.gca()
@@ -69,19 +69,19 @@ def plot_rounds(design: dict, ax=None):
             ax.text(i - 0.45, ax.get_ylim()[1], f" NLP grid {grid[i - 1]} -> {grid[i]} positions", fontsize=7,
                     va="top", color="0.3")
     ax.set_xlabel("round")
-    ax.set_ylabel("objective (weighted TE p-p + penalties) [arcsec]")
+    ax.set_ylabel(f"objective ({objective} + penalties) [arcsec]")
     ax.set_yscale("log")
     ax.grid(alpha=0.3, which="both")
     ax.legend(fontsize=7)
     return ax
 
 
-def plot_pareto(front: dict, ax=None, before: dict | None = None):
+def plot_pareto(front: dict, ax=None, before: dict | None = None, objective: str = "weighted loaded TE peak-to-peak"):
     """The Pareto front of the loaded micro-geometry (``front``: ``ParetoFront.to_dict()``): weighted
     loaded TE peak-to-peak [arcsec] against the largest peak pressure over the duty cycle [MPa], both
     verified by loaded TCA; each point labelled with its pressure limit, the optimum without a limit
     as an open circle, limits without a design as vertical dotted lines. ``before``: the start design's
-    ``{"objective_arcsec", "p_max_MPa"}`` (drawn as a grey square)."""
+    ``{"objective_arcsec", "p_max_MPa"}`` (drawn as a grey square); ``objective`` names the y axis."""
     import matplotlib.pyplot as plt
 
     ax = ax or plt.gca()
@@ -105,7 +105,7 @@ def plot_pareto(front: dict, ax=None, before: dict | None = None):
     if before is not None:
         ax.plot(before["p_max_MPa"], before["objective_arcsec"], "s", color="0.6", ms=7, label="start design")
     ax.set_xlabel("largest peak Hertz pressure over the duty cycle [MPa]")
-    ax.set_ylabel("weighted loaded TE peak-to-peak [arcsec]")
+    ax.set_ylabel(f"{objective} [arcsec]")
     ax.set_title("Pareto front: loaded TE against pressure (verified by loaded TCA)")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7, loc="best")

@@ -101,13 +101,15 @@ class LoadedMicroReport:
         axes[1].set_title("after: " + axes[1].get_title())
         files.append(save("loaded_micro_pattern.png", fig, f"loaded contact pattern, {d['cases'][0]['name']}"))
         fig, ax = plt.subplots(figsize=(7, 4.5), layout="constrained")
-        plot_rounds(d["design"], ax=ax)
+        harm = self.options.get("harmonics") is not None
+        plot_rounds(d["design"], ax=ax, objective="weighted mesh harmonics" if harm else "weighted TE p-p")
         files.append(save("loaded_micro_rounds.png", fig, "trust-region rounds"))
         if self.pareto is not None:
             fig, ax = plt.subplots(figsize=(7.5, 5), layout="constrained")
             b = d["design"]["before"]
             plot_pareto(self.pareto, ax=ax, before={"objective_arcsec": b["objective_arcsec"],
-                                                    "p_max_MPa": float(np.max(b["p_max_MPa"]))})
+                                                    "p_max_MPa": float(np.max(b["p_max_MPa"]))},
+                        objective="weighted loaded TE harmonics" if harm else "weighted loaded TE peak-to-peak")
             files.append(save("loaded_micro_pareto.png", fig, "Pareto front"))
         return files
 

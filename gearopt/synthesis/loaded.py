@@ -1,10 +1,11 @@
 """Micro-geometry optimisation under load (docs/loaded_synthesis.md).
 
 The design ``theta`` is a set of ISO 21771 amounts of either member (``"pinion.C_alpha"``,
-``"pinion.C_alpha_a"``...; :class:`gearopt.geometry.microgeometry.Microgeometry`), each with
-manufacturing bounds. The duty cycle is a list of pinion torques times a list of misalignment cases,
-each (torque, case) with a weight. The objective is the weighted sum of the loaded TE's
-peak-to-peak [arcsec] over one mesh cycle; the constraints are a peak Hertz pressure limit on the
+``"pinion.C_alpha_a"``...; :class:`gearopt.geometry.microgeometry.Microgeometry`) and/or Litvin's
+settings (``"pinion.a_c"``, ``"pinion.a_pl"``), each with manufacturing bounds. The duty cycle is a
+list of pinion torques times a list of misalignment cases, each (torque, case) with a weight. The
+objective is the weighted sum of the loaded TE's peak-to-peak [arcsec] over one mesh cycle (or of
+its first mesh harmonics' weighted amplitudes); the constraints are a peak Hertz pressure limit on the
 flank slices at every torque and case, and no edge loading: every tip-edge slice, every face-end
 slice and every flank slice near a tip (graded weight, :func:`_edge_weight`) keeps its load share below
 ``mu / edge_margin`` (a gap of at least ``edge_margin`` on the smoothed manifold); the exact loaded TCA
@@ -36,6 +37,10 @@ are solved exactly and its loaded TCA (:class:`gearopt.ltca.engine.LTCA`, exact 
 solver) decides whether the step is taken. The optimum is verified by the same loaded TCA on the
 NLP's positions and on a finer grid; positions of the finer grid that violate a constraint join the
 NLP's grid. The result reports the NLP's values, the loaded TCA's, and their difference.
+
+:meth:`LoadedMicroOptimizer.sensitivities` differentiates the optimum with respect to the torques and
+a misalignment (IPOPT's perturbed KKT system at the solution, by CasADi); :meth:`LoadedMicroOptimizer.pareto`
+sweeps the pressure limit (epsilon-constraint) for the front of loaded TE against peak pressure.
 """
 
 from __future__ import annotations
@@ -311,6 +316,7 @@ class LoadedMicroOptimizer:
             raise out_of_range(f"free.{n}", f"{float(t) * k:g} {u}", f"the start design's {n} must lie within its bounds "
                                f"{self.lo[i] * k:g} ... {self.hi[i] * k:g} {u}", cls=OptionError)
         self._sens = {}
+        self._has_settings = any(n.split(".", 1)[1] in SETTINGS for n in self.free)
 
     # ------------------------------------------------------------------------------------------
     def _check_free(self, free):
@@ -991,7 +997,7 @@ class LoadedMicroOptimizer:
             info = {"theta_um": (new * 1e3).tolist(), "model_objective": model, "merit": cur["merit"],
                     "radius_um": radius * 1e3, "status": status, "iterations": int(st["iter_count"]),
                     "nlp_s": time.perf_counter() - t1, "linearise_s": cur["time"], "n_loads": nlp["sizes"]["nx"],
-                    "n_positions": int(self.phi1.size), "settings": any(n.split(".", 1)[1] in SETTINGS for n in self.free)}
+                    "n_positions": int(self.phi1.size)}
             rounds.append(info)
             if not st["success"]:
                 raise SynthesisError(f"loaded micro-geometry NLP: IPOPT stopped with {status} in round {rnd} "
@@ -1008,11 +1014,11 @@ class LoadedMicroOptimizer:
                     cur["merit"] = self._merit(cur["check"], rho)
                     info["accepted"] = f"penalty x10 ({rho:g})"
                     if progress:
-                        progress(_round_text(rnd, info))
+                        progress(_round_text(rnd, info, self._has_settings))
                     continue
                 info["accepted"] = "converged"
                 if progress:
-                    progress(_round_text(rnd, info))
+                    progress(_round_text(rnd, info, self._has_settings))
                 break
             trial = self._around(new, 2 * radius, rho)
             gain = cur["merit"] - trial["merit"]
@@ -1027,7 +1033,7 @@ class LoadedMicroOptimizer:
                 info["accepted"] = False
                 radius = 0.25 * step
             if progress:
-                progress(_round_text(rnd, info))
+                progress(_round_text(rnd, info, self._has_settings))
             if radius <= THETA_TOL:
                 if (np.max(pred["slack_p"]) > SLACK_TOL or np.max(pred["slack_e"]) > EDGE_TOL) and rho < RHO_MAX:
                     # no better design nearby, but a constraint still violated: a heavier penalty, and
@@ -1175,8 +1181,8 @@ def _case_text(mis: Misalignment) -> str:
     return ", ".join(given) or "aligned"
 
 
-def _round_text(rnd: int, info: dict) -> str:
-    th = ", ".join(f"{v:.2f}" for v in info["theta_um"]) + ("] um (settings: 1e-3/mm" if info.get("settings") else "")
+def _round_text(rnd: int, info: dict, settings: bool = False) -> str:
+    th = ", ".join(f"{v:.2f}" for v in info["theta_um"]) + ("] um (settings: 1e-3/mm" if settings else "")
     true = f", true {info['true_merit']:.4g}" if "true_merit" in info else ""
     return (f"loaded micro-geometry round {rnd}: design [{th}] um, model {info['model_objective']:.4g}{true} "
             f"(from {info['merit']:.4g}), radius {info['radius_um']:.3g} um, {info['iterations']} IPOPT iterations, "
