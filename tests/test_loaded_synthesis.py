@@ -161,6 +161,9 @@ def test_unreachable_limits_name_the_constraint_and_the_case():
         opt.solve()
     assert e.value.param == "edge_margin" and e.value.value > 0
     assert "250 N m" in str(e.value)
+    # it says which edge and where, and what would open it
+    assert ("face end" in str(e.value) and "C_beta" in str(e.value)) or "tip edge (pair" in str(e.value)
+    assert "phi1 = " in str(e.value)
 
 
 def test_pareto_front_is_verified_monotone_and_meets_its_limits():

@@ -1059,8 +1059,9 @@ class LoadedMicroOptimizer:
                                  f"({nlp['solver'].stats()['return_status']}).", param="ipopt",
                                  value=nlp["solver"].stats()["return_status"])
         pred = self._predicted(nlp, np.asarray(r["x"]).ravel())
-        self._raise_if_infeasible(pred)
+        self._raise_if_infeasible(pred, cur["check"])
         return theta, cur, pred, iters, status, rho
+
     def _harmonic_map(self, blocks, nB):
         """Sparse (T C 2H, nB) map of the blocks' loaded TE to the cosine and sine coefficients of the
         first H mesh harmonics of each (torque, case) (:func:`_harmonic_rows`); None for the
@@ -1122,7 +1123,7 @@ class LoadedMicroOptimizer:
         return {"te_pp": pp, "p_max": pm.reshape(T, C), "objective": obj,
                 "slack_p": slack[:TC].reshape(T, C), "slack_e": slack[TC:].reshape(T, C)}
 
-    def _raise_if_infeasible(self, pred):
+    def _raise_if_infeasible(self, pred, chk: LoadedCheck | None = None):
         for kind, what, tol in (("slack_p", "p_max", SLACK_TOL), ("slack_e", "edge", EDGE_TOL)):
             s = pred[kind]
             if np.max(s) > tol:
@@ -1134,11 +1135,14 @@ class LoadedMicroOptimizer:
                         f"within the bounds of {list(self.free)}: at {self.torques[t]:g} N m, case {c} "
                         f"({_case_text(self.cases[c])}) the lowest peak pressure reached is {val:.1f} MPa. Raise p_limit, widen "
                         "the bounds or free more modifications.", param="p_limit", value=val)
+                where, hint = "a tip edge or face end", "Free a relief or widen its bounds"
+                if chk is not None:
+                    where, hint = _edge_where(chk.sweeps[c], t, self.pair)
                 raise SynthesisError(
                     f"loaded micro-geometry: the optimiser found no design within the bounds of {list(self.free)} that keeps every tip edge "
                     f"and face end {self.edge_margin * 1e3:g} um open at {self.torques[t]:g} N m, case {c} "
-                    f"({_case_text(self.cases[c])}): a tip edge or face end still carries {100 * s[t, c]:.3g} % of the "
-                    "normal load. Free a relief, widen its bounds or lower edge_margin.", param="edge_margin",
+                    f"({_case_text(self.cases[c])}): {where} still carries {100 * s[t, c]:.3g} % of the "
+                    f"normal load. {hint}, or lower edge_margin.", param="edge_margin",
                     value=float(s[t, c]))
 
     def _binding(self, theta, pred, ver) -> tuple:
@@ -1203,6 +1207,23 @@ def _edge_weight(S, pair) -> np.ndarray:
         w2 = (np.hypot(S.r2[..., 0], S.r2[..., 1]) - (g2.r_a - TIP_BAND * g2.m_n)) / (TIP_BAND * g2.m_n)
         w = np.clip(np.fmax(np.nan_to_num(w1, nan=0.0), np.nan_to_num(w2, nan=0.0)), 0.0, 1.0)
     return np.where(e | ends, 1.0, w)
+
+
+def _edge_where(sw: LoadedSweep, t: int, pair) -> tuple[str, str]:
+    """Which edge carries the most weighted load at torque ``t`` of a loaded sweep, in words, and the
+    modification that would open it: ``(where, hint)``."""
+    S, r = sw.slices, sw.results[t]
+    w = _edge_weight(S, pair) * r.load
+    k, n, m = np.unravel_index(int(np.argmax(np.nan_to_num(w))), w.shape)
+    at = f" (pair {S.pairs[k]}, phi1 = {math.degrees(S.phi1[n]):.3g} deg, z = {S.z[k, n, m]:.3g} mm)"
+    kind = 0 if S.edge is None else int(S.edge[k, n, m])
+    if kind == 1:
+        return "the pinion's tip edge" + at, "Free or widen the pinion's tip relief (C_alpha_a)"
+    if kind == 2:
+        return "the gear's tip edge" + at, "Free or widen the pinion's root relief (C_alpha_f) or the gear's tip relief"
+    if abs(abs(S.z[k, n, m]) - pair.pinion.b / 2) < 1e-9:
+        return "a face end" + at, "Free or widen the lead crowning (C_beta) or an end relief (C_beta_I/II)"
+    return "a flank slice at a tip" + at, "Free or widen a tip or root relief"
 
 
 def _edge_mask(S, pair) -> np.ndarray:
