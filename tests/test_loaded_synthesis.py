@@ -43,7 +43,8 @@ def design(opt):
 
 def test_separation_sensitivities_match_finite_differences(opt, monkeypatch):
     """J = d a / d theta (implicit function theorem by AD) against central differences of the exact
-    slices of the modified flanks, on flank and tip-edge slices of both cases. The slice grids are
+    slices of the modified flanks, on flank and tip-edge slices of both cases; and so the radius of
+    every flank slice's point on each member (Jr, which moves the edge weight's tip band). The slice grids are
     held at fixed sections (the NLP's model keeps its slices where they are; by default each grid
     follows the unloaded point contact, which moves with the design)."""
     import gearopt.ltca.slices as slices
@@ -70,6 +71,15 @@ def test_separation_sensitivities_match_finite_differences(opt, monkeypatch):
                 assert np.any(both & (S.edge == 1))
             if j == 3:
                 assert np.any(both & (S.edge == 2))
+            # the flank slices' points move along the profile (the edge weight's tip band): their
+            # radius on each member against central differences
+            fl = both & (S.edge == 0) & (lp[c]["S"].edge == 0) & (lm[c]["S"].edge == 0)
+            for mem, r in ((0, "r1"), (1, "r2")):
+                rad = [np.hypot(getattr(L[c]["S"], r)[..., 0], getattr(L[c]["S"], r)[..., 1]) for L in (lp, lm)]
+                fd_r = ((rad[0] - rad[1]) / (2 * h))[fl]
+                ad_r = lin[c]["Jr"][..., mem, j][fl]
+                assert np.max(np.abs(fd_r)) > 0.1  # mm of radius per mm of amount: the point does move
+                assert np.max(np.abs(ad_r - fd_r)) < 2e-3 * np.max(np.abs(fd_r))
 
 
 def test_litvin_settings_as_design_variables(monkeypatch):
@@ -220,6 +230,7 @@ def test_sensitivities_of_the_optimum_match_finite_differences(opt, design):
 
     kinds = Mis.names()
     moved = 0
+    rows = []
     for j in range(T + len(kinds)):
         angle = j >= T and Mis.meta(kinds[j - T])["unit"] == "angle"
         # small steps: the optimum is smooth in the parameters only until the active set of its max/min
@@ -234,9 +245,16 @@ def test_sensitivities_of_the_optimum_match_finite_differences(opt, design):
         ad_t = S["d_theta_d_torque"][:, j] if j < T else S["d_theta_d_mis"][:, j - T]
         ad_f = S["d_objective_d_torque"][j] if j < T else S["d_objective_d_mis"][j - T]
         assert ad_f == pytest.approx(fd_f, rel=1e-3, abs=1e-6 * max(1.0, abs(fd_f)))
-        assert np.max(np.abs(ad_t - fd_t)) <= 1e-3 * np.max(np.abs(fd_t)) + 1e-9
+        rows.append((j < T, fd_t, ad_t))
         moved += np.max(np.abs(fd_t)) > 1e-6
     assert moved >= 3  # the optimal design does move with the torques and misalignments
+    # the design's derivatives within 0.1 % (or 0.01 % of the largest of their kind, torques or
+    # misalignments, where a derivative is below a tenth of that): a
+    # light torque barely moves the design (1e-7 mm per N m), where the re-solved NLPs differ at
+    # their own accuracy
+    for torque, fd_t, ad_t in rows:
+        ref = max(np.max(np.abs(f)) for t, f, _ in rows if t == torque)
+        assert np.max(np.abs(ad_t - fd_t)) <= 1e-3 * max(np.max(np.abs(fd_t)), 0.1 * ref) + 1e-9
 
 
 def test_harmonics_objective_matches_the_fft_of_the_exact_loaded_te():
@@ -291,3 +309,44 @@ def test_bad_input_names_the_parameter(kw, param):
     with pytest.raises((OptionError, ArgumentError)) as e:
         LoadedMicroOptimizer(drive(), free, **args)
     assert e.value.param == param
+
+
+def test_mirror_image_cases_are_solved_once():
+    """A spur drive with flanks symmetric in z meshes under (dE, crossing, intersecting, axial) as under
+    (dE, -crossing, -intersecting, -axial): the exact loaded TCA of the two cases agrees, so the loop
+    solves one of each pair with the summed weight and the penalty counted twice; at any design its
+    merit and its NLP's objective equal the full duty cycle's. A drive or a free amount that breaks
+    the symmetry keeps every case."""
+    from gearopt.meshing.misalignment import Misalignment as Mis
+
+    cases = [Mis(), Mis(crossing=2 * ARCMIN, axial=0.3), Mis(intersecting=-1 * ARCMIN), Mis(crossing=-2 * ARCMIN, axial=-0.3),
+             Mis(intersecting=1 * ARCMIN, dE=0.01)]
+    w = np.array([[1.0, 2.0, 0.5, 1.0, 1.0], [0.5, 1.0, 1.0, 3.0, 1.0]])
+    opt = LoadedMicroOptimizer(drive(C_alpha_a=0.01, d_Ca=64.0), FREE, torques=[100.0, 250.0], cases=cases, weights=w,
+                               n_positions=12, n_verify=24, n_slices=11, p_limit=1500.0)
+    assert opt.mirror_classes() == [[0], [1, 3], [2], [4]]  # (intersecting +1', dE) is no mirror of (-1', 0)
+    th = opt.theta0 + np.array([0.010, 0.008, 0.004, 0.006])
+    full = opt.check(th)
+    assert np.allclose(full.te_pp[:, 1], full.te_pp[:, 3], rtol=1e-9, atol=1e-9)
+    assert np.allclose(full.p_max[:, 1], full.p_max[:, 3], rtol=1e-9)
+    assert abs(full.te_pp[0, 2] - full.te_pp[0, 4]) > 1e-3  # the control pair differs
+    red = opt._reduced()
+    assert len(red.cases) == 4 and red.weights[1, 1] == 4.0
+    a_full, a_red = opt._around(th, 0.002), red._around(th, 0.002)
+    assert a_red["merit"] == pytest.approx(a_full["merit"], rel=1e-9)
+    assert a_full["merit"] > a_full["check"].objective + 1.0  # the pressure penalty is part of it
+    f = []
+    for o, a in ((opt, a_full), (red, a_red)):
+        nlp = a["nlp"]
+        lbx, ubx = o._bounds(nlp)
+        lbx[:4] = ubx[:4] = th * 1e3
+        f.append(float(nlp["solver"](x0=a["z0"], lbx=lbx, ubx=ubx, lbg=nlp["lbg"], ubg=nlp["ubg"], p=o._pvec(1000.0))["f"]))
+    assert f[1] == pytest.approx(f[0], rel=1e-6)
+    # what breaks the symmetry keeps every case
+    assert LoadedMicroOptimizer(drive(f_H_beta=0.005), FREE, torques=[100.0], cases=cases).mirror_classes() is None
+    assert LoadedMicroOptimizer(drive(C_beta_I=0.005, b_I=3.0), FREE, torques=[100.0], cases=cases).mirror_classes() is None
+    free = dict(FREE, **{"pinion.C_beta_I": (0.0, 0.02)})
+    assert LoadedMicroOptimizer(drive(b_I=3.0), free, torques=[100.0], cases=cases).mirror_classes() is None
+    helical = GearPair(Gear(z=20, m_n=3.0, b=20.0, beta=np.radians(15.0), modifications=Microgeometry(C_beta=0.01)),
+                       Gear(z=40, m_n=3.0, b=20.0, beta=np.radians(15.0), hand="left"))
+    assert LoadedMicroOptimizer(helical, {"pinion.C_beta": (0.0, 0.04)}, torques=[100.0], cases=cases).mirror_classes() is None

@@ -468,3 +468,26 @@ def test_every_slice_lies_on_its_own_gear_revolution():
     te = np.where(S.converged, S.te, 0.0)
     assert np.max(np.abs(te - S.te_unloaded[None, :, None])) < pitch2
     assert sw.results[0].peak_to_peak_arcsec < 60.0
+
+
+def test_relieved_pair_keeps_its_slices_where_newton_stalls():
+    """A deep tip relief puts the contact of an approaching pair on the relief's steep smooth start,
+    far from the unmodified drive's conjugate guess: plain Newton stalls on every slice of that pair,
+    and line-search Newton must take over (else the pair silently drops out and the loaded TE jumps;
+    this drive lost pair -1 at C_alpha_a 27 um, 68 arcsec at 300 N m). The pair's slices stay active
+    and its separations continuous as the relief deepens through that value."""
+    from gearopt.geometry.microgeometry import Microgeometry
+
+    phi1 = np.array([-math.pi / 24])
+    te, n_act = [], []
+    for c_a in (0.0265, 0.0270, 0.0275):
+        mg = Microgeometry(C_alpha=0.02952, C_beta=0.03247, C_alpha_a=c_a, C_alpha_f=0.03253, d_Ca=64.0, d_Cf=58.5)
+        pair = GearPair(Gear(z=20, m_n=3.0, b=20.0, modifications=mg), Gear(z=40, m_n=3.0, b=20.0))
+        S = LTCA(pair, n_slices=11).slices(phi1, pairs=(-1, 0, 1))
+        k = S.pairs.index(-1)
+        n_act.append(int(S.active[k, 0].sum()))
+        te.append(S.te[k, 0, :11] * RAD_TO_ARCSEC)
+    assert n_act == [11, 11, 11]
+    # the deepest point of the relief moves the contact by microns: separations change smoothly
+    assert np.max(np.abs(te[1] - 0.5 * (te[0] + te[2]))) < 0.05
+    assert np.max(np.abs(te[2] - te[0])) < 5.0

@@ -17,6 +17,7 @@ from ..compiled import ColumnMap, call, compile_function, map_columns, mapped, u
 
 NORMAL_TOL = 1e-8  #: accepted contact points have n1 . n2 < -1 + NORMAL_TOL (tangency, not crossing)
 REGULARITY_MIN = 1e-6  #: and (dr/du x dr/dz) . n > REGULARITY_MIN on both flanks' valid branches (no cusp)
+STALL_RES = 0.5  #: [mm or 1] a Newton residual below this, above the tolerance, stalled near a root (line-search Newton retries it)
 
 
 @dataclass(frozen=True)
@@ -290,6 +291,9 @@ class Branch:
         last accepted column before them, if at most ``max_gap`` columns back (Newton, and
         line-search Newton where that does not converge); all such columns of a round in one mapped
         call, rounds until no column is rescued (a rescued column is the anchor of the next ones).
+        A group with no accepted column at all is first tried with line-search Newton from its own
+        guesses where Newton stalled (three columns at most, ``stats["n_line_search"]``): else a whole
+        tooth pair's slices, or a whole branch, would drop out without a word.
 
         ``n_total``: columns of the whole job these belong to (chooses compiled or interpreted,
         :func:`gearopt.compiled.use_compiled`; default the columns given). ``extra``: the first
@@ -310,7 +314,28 @@ class Branch:
         ok = np.asarray(self.accept(res, n1n2, reg), bool)
         n_fast, n_retry = int(ok.sum()), 0
         rescued: list = []
-        groups = [np.asarray(g, int) for g in groups if len(g) > 1]
+        groups = [np.asarray(g, int) for g in groups if len(g) > 0]
+        # a group none of whose columns was accepted has no anchor for continuation: where Newton
+        # stalled near a root (a residual above the tolerance but below STALL_RES, e.g. a guess across
+        # the steep start of a relief; where it diverged, the residual is orders larger and there is
+        # no root nearby), line-search Newton from the same guesses (interpreted, about 0.3 s a column),
+        # at three of its columns at most (the first, middle and last; continuation below takes the
+        # rest from any that is rescued)
+        stalled = []
+        for g in groups:
+            if not ok[g].any():
+                s = g[np.isfinite(res[g]) & (res[g] > self.tol) & (res[g] < STALL_RES)]
+                stalled.append(s[np.unique([0, s.size // 2, s.size - 1])] if s.size > 3 else s)
+        stalled = np.concatenate(stalled) if stalled else np.zeros(0, int)
+        n_line = int(stalled.size)
+        if stalled.size:
+            Wr, rr, dr, gr = self._from(lambda m, _: self._safe_mapped(m), stalled, np.arange(W0.shape[1])[stalled],
+                                        W0, prm, None)
+            good = np.asarray(self.accept(rr, dr, gr), bool)
+            g = stalled[good]
+            W[:, g], res[g], n1n2[g], reg[g], ok[g] = Wr[:, good], rr[good], dr[good], gr[good], True
+            rescued.append(g)
+        groups = [g for g in groups if g.size > 1]
         for forward in (True, False):
             orders = groups if forward else [g[::-1] for g in groups]
             tried: set = set()
@@ -346,7 +371,7 @@ class Branch:
                 rescued.append(g)
                 if not good.any():
                     break
-        stats = {"n_fast": n_fast, "n_retry": n_retry}
+        stats = {"n_fast": n_fast, "n_retry": n_retry, "n_line_search": n_line}
         if extra:
             stats["extra"] = dict(zip(self.extra.name_out(), first[4:]))
             stats["rescued"] = np.unique(np.concatenate(rescued)) if rescued else np.zeros(0, int)
