@@ -67,7 +67,7 @@ from .crowning import SynthesisError
 G_REF = 1e-3  #: [mm] unit of the gap unknowns y (1 um)
 MU = 1e-8  #: smoothing of the complementarity: x y = MU (x: load share, y: gap in um)
 RHO = 1000.0  #: first exact-penalty weight of the constraint slacks [arcsec per unit share of the load on an edge slice / per unit p^2/p_limit^2], times the mean weight
-RHO_MAX = 1e5  #: the weight grows tenfold while a converged design leaves a slack, up to this
+RHO_MAX = 1e5  #: the weight grows tenfold while a converged design, or the NLP's optimum well inside the trust region, leaves a slack, up to this
 SLACK_TOL = 1e-3  #: a pressure slack above this is a violated limit (0.05 % of the pressure limit)
 EDGE_TOL = 1e-4  #: an edge slack above this (share of the normal load on one edge slice, 0.01 %) is edge loading
 MAX_ROUNDS = 30  #: trust-region rounds at most
@@ -1074,7 +1074,9 @@ class LoadedMicroOptimizer:
         at least a tenth of what the NLP predicted (the radius doubles when the prediction was good
         and the step reached it), else the radius shrinks to a quarter of the step. It stops when the
         NLP's step is below ``THETA_TOL`` (the linearised optimum is the design itself: a stationary
-        point of the exact problem, whose first derivatives the linearisation shares)."""
+        point of the exact problem, whose first derivatives the linearisation shares). Where the
+        NLP's optimum, well inside the radius or at a stationary design, still needs a slack, the
+        penalty weight grows tenfold (up to ``RHO_MAX``) and the same NLP is solved again."""
         rho = RHO
         p = self._pvec(rho)
         radius = TR_START * float(np.max(self.hi - self.lo))
@@ -1120,6 +1122,18 @@ class LoadedMicroOptimizer:
                 if progress:
                     progress(_round_text(rnd, info, self._has_settings))
                 break
+            if (step < 0.5 * radius and rho < RHO_MAX
+                    and (np.max(pred["slack_p"]) > SLACK_TOL or np.max(pred["slack_e"]) > EDGE_TOL)):
+                # the model's own optimum, inside the trust region, still violates a constraint: the
+                # penalty is too light for this model (an exact penalty needs a weight above the
+                # multiplier); heavier, and the same model again
+                rho *= 10.0
+                p[3] = rho
+                cur["merit"] = self._merit(cur["check"], rho)
+                info["accepted"] = f"penalty x10 ({rho:g})"
+                if progress:
+                    progress(_round_text(rnd, info, self._has_settings))
+                continue
             trial = self._around(new, 2 * radius, rho)
             gain = cur["merit"] - trial["merit"]
             ratio = gain / max(cur["merit"] - model, 1e-12)
