@@ -1107,26 +1107,13 @@ class LoadedMicroOptimizer:
                                      param="ipopt", value=status)
             pred = self._predicted(nlp, zs)
             step = float(np.max(np.abs(new - theta)))
-            if step <= THETA_TOL or cur["merit"] - model <= F_TOL * max(cur["merit"], 1.0):
-                if (np.max(pred["slack_p"]) > SLACK_TOL or np.max(pred["slack_e"]) > EDGE_TOL) and rho < RHO_MAX:
-                    # a constraint still violated at a stationary point of the penalised objective: a
-                    # heavier penalty (the exact penalty needs a weight above the constraint's multiplier)
-                    rho *= 10.0
-                    p[3] = rho
-                    cur["merit"] = self._merit(cur["check"], rho)
-                    info["accepted"] = f"penalty x10 ({rho:g})"
-                    if progress:
-                        progress(_round_text(rnd, info, self._has_settings))
-                    continue
-                info["accepted"] = "converged"
-                if progress:
-                    progress(_round_text(rnd, info, self._has_settings))
-                break
-            if (step < 0.5 * radius and rho < RHO_MAX
-                    and (np.max(pred["slack_p"]) > SLACK_TOL or np.max(pred["slack_e"]) > EDGE_TOL)):
-                # the model's own optimum, inside the trust region, still violates a constraint: the
-                # penalty is too light for this model (an exact penalty needs a weight above the
-                # multiplier); heavier, and the same model again
+            stationary = step <= THETA_TOL or cur["merit"] - model <= F_TOL * max(cur["merit"], 1.0)
+            violated = np.max(pred["slack_p"]) > SLACK_TOL or np.max(pred["slack_e"]) > EDGE_TOL
+            if violated and rho < RHO_MAX and (stationary or step < 0.5 * radius):
+                # a constraint still violated at a stationary point of the penalised objective, or at
+                # the model's own optimum well inside the trust region: the penalty is too light (an
+                # exact penalty needs a weight above the constraint's multiplier); heavier, and the
+                # same model again
                 rho *= 10.0
                 p[3] = rho
                 cur["merit"] = self._merit(cur["check"], rho)
@@ -1134,6 +1121,11 @@ class LoadedMicroOptimizer:
                 if progress:
                     progress(_round_text(rnd, info, self._has_settings))
                 continue
+            if stationary:
+                info["accepted"] = "converged"
+                if progress:
+                    progress(_round_text(rnd, info, self._has_settings))
+                break
             trial = self._around(new, 2 * radius, rho)
             gain = cur["merit"] - trial["merit"]
             ratio = gain / max(cur["merit"] - model, 1e-12)
