@@ -742,12 +742,11 @@ class LoadedMicroOptimizer:
         z = ca.vertcat(th, x, y, d, u, v, sp, se, w)
         nlp = {"x": z, "p": ca.vertcat(plim, marg, mu, rho, tq, dm), "f": obj, "g": ca.vertcat(*g_list)}
         # the start is the exact loaded TCA of the linearisation's design, close to the optimum: a
-        # monotone barrier from mu = 0.01 (up to 3x fewer iterations than the adaptive strategy from 0.1);
-        # the unknowns are scaled already (um, load shares): IPOPT's gradient scaling only shrank the
-        # penalised objective, 2-6x more iterations near a stationary design with a heavy penalty
+        # monotone barrier from mu = 0.01 (up to 3x fewer iterations than the adaptive strategy from 0.1).
+        # (Without IPOPT's gradient scaling some rounds took 2-6x fewer iterations, but the
+        # sensitivities' small derivatives, from the final barrier point, lost their accuracy.)
         opts = {"ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes", "ipopt.tol": 1e-9,
                 "ipopt.max_iter": 1000, "ipopt.mu_strategy": "monotone", "ipopt.mu_init": 1e-2, "error_on_fail": False,
-                "ipopt.nlp_scaling_method": "none",
                 **getattr(self, "_extra_opts", {})}
         solver = ca.nlpsol("loaded_microgeometry", "ipopt", nlp, opts)
         sizes = dict(P=P, nx=nx, nB=nB, TC=T * C, nw=nw)
