@@ -74,6 +74,12 @@ MAX_ROUNDS = 30  #: trust-region rounds at most
 MAX_REFINE = 3  #: times the NLP's grid may grow by the verification positions that violate a constraint
 TR_START = 0.25  #: first trust radius, times the widest bound interval
 F_TOL = 1e-4  #: ... or when the NLP predicts a decrease of the objective below this share of it
+#: IPOPT from an earlier NLP's multipliers (:meth:`LoadedMicroOptimizer._solve_nlp`): a small first barrier
+#: parameter and bound push, so the start point and multipliers are kept; a warm solve that fails or
+#: takes longer than this falls back to the cold start
+WARM_OPTS = {"ipopt.warm_start_init_point": "yes", "ipopt.mu_init": 1e-4, "ipopt.warm_start_bound_push": 1e-9,
+             "ipopt.warm_start_mult_bound_push": 1e-9, "ipopt.warm_start_slack_bound_push": 1e-9,
+             "ipopt.max_iter": 300}
 HARM_EPS = 1e-3  #: [arcsec] smoothing of a harmonic amplitude at zero, sqrt(a^2 + b^2 + eps^2)
 THETA_TOL = 1e-4  #: [mm] the design has settled when no amount moves by more than this (0.1 um: below any grinding machine's resolution)
 TIP_BAND = 0.02  #: [m_n] contact within this radial distance of a tip circle counts as tip (edge) contact
@@ -750,7 +756,9 @@ class LoadedMicroOptimizer:
                 **getattr(self, "_extra_opts", {})}
         solver = ca.nlpsol("loaded_microgeometry", "ipopt", nlp, opts)
         sizes = dict(P=P, nx=nx, nB=nB, TC=T * C, nw=nw)
-        return dict(solver=solver, problem=nlp, gap=ca.Function("gap", [z, tq, dm], [gap]), lbg=np.concatenate(lbg),
+        rows = dict(flank=flank if self.p_limit is not None else flank[:0],
+                    ends=ends if self.edge_margin is not None else ends[:0])
+        return dict(solver=solver, problem=nlp, opts=opts, phi1=self.phi1.copy(), rows=rows, gap=ca.Function("gap", [z, tq, dm], [gap]), lbg=np.concatenate(lbg),
                     ubg=np.concatenate(ubg), sizes=sizes, blocks=blocks, ct=ct, edge=tipe, ew=np.clip(ew, 0.0, 1.0),
                     lever=lever, Wt=Wt,
                     ln=ln, Rx=Rx, keys=keys, hmap=hmap, w_keys=np.concatenate(w_keys) if w_keys else np.zeros((0, 4), int))
@@ -1079,7 +1087,7 @@ class LoadedMicroOptimizer:
         rho = RHO
         p = self._pvec(rho)
         radius = TR_START * float(np.max(self.hi - self.lo))
-        iters, status, pred = 0, "", None
+        iters, status, pred, prev = 0, "", None, None
         cur = self._around(theta, 2 * radius)
         for rnd in range(MAX_ROUNDS):
             nlp = cur["nlp"]
@@ -1088,15 +1096,17 @@ class LoadedMicroOptimizer:
             lbx[:P] = np.maximum(self.lo, theta - radius) * 1e3
             ubx[:P] = np.minimum(self.hi, theta + radius) * 1e3
             t1 = time.perf_counter()
-            r = nlp["solver"](x0=cur["z0"], lbx=lbx, ubx=ubx, lbg=nlp["lbg"], ubg=nlp["ubg"], p=p)
-            st = nlp["solver"].stats()
+            # from the last NLP's multipliers unless the radius grew (its step reached the region's
+            # bound and the next optimum may lie far: there the cold start took 2-3x fewer iterations)
+            warm = prev if prev is not None and prev[3] >= radius else None
+            r, st, it = self._solve_nlp(nlp, cur["z0"], lbx, ubx, p, warm)
             status = st["return_status"]
-            iters += int(st["iter_count"])
+            iters += it
             zs = np.asarray(r["x"]).ravel()
             new = np.clip(zs[:P] * 1e-3, self.lo, self.hi)
             model = float(r["f"])
             info = {"theta_um": (new * 1e3).tolist(), "model_objective": model, "merit": cur["merit"],
-                    "radius_um": radius * 1e3, "status": status, "iterations": int(st["iter_count"]),
+                    "radius_um": radius * 1e3, "status": status, "iterations": it,
                     "nlp_s": time.perf_counter() - t1, "linearise_s": cur["time"], "n_loads": nlp["sizes"]["nx"],
                     "n_positions": int(self.phi1.size)}
             rounds.append(info)
@@ -1106,6 +1116,7 @@ class LoadedMicroOptimizer:
                                      param="ipopt", value=status)
             pred = self._predicted(nlp, zs)
             step = float(np.max(np.abs(new - theta)))
+            prev = (nlp, r, np.array(p, float), radius)
             stationary = step <= THETA_TOL or cur["merit"] - model <= F_TOL * max(cur["merit"], 1.0)
             violated = np.max(pred["slack_p"]) > SLACK_TOL or np.max(pred["slack_e"]) > EDGE_TOL
             if violated and rho < RHO_MAX and (stationary or step < 0.5 * radius):
@@ -1158,14 +1169,74 @@ class LoadedMicroOptimizer:
         nlp = cur["nlp"]
         lbx, ubx = self._bounds(nlp)
         lbx[:len(self.free)] = ubx[:len(self.free)] = theta * 1e3
-        r = nlp["solver"](x0=cur["z0"], lbx=lbx, ubx=ubx, lbg=nlp["lbg"], ubg=nlp["ubg"], p=p)
-        if not nlp["solver"].stats()["success"]:
+        r, st, _ = self._solve_nlp(nlp, cur["z0"], lbx, ubx, p, prev)
+        if not st["success"]:
             raise SynthesisError(f"loaded micro-geometry: the NLP at the final design failed "
-                                 f"({nlp['solver'].stats()['return_status']}).", param="ipopt",
-                                 value=nlp["solver"].stats()["return_status"])
+                                 f"({st['return_status']}).", param="ipopt", value=st["return_status"])
         pred = self._predicted(nlp, np.asarray(r["x"]).ravel())
         self._raise_if_infeasible(pred, cur["check"])
         return theta, cur, pred, iters, status, rho
+
+    def _multipliers(self, prev, nlp):
+        """The multipliers of an earlier NLP's solution ``prev = (nlp, solution)`` carried to ``nlp``,
+        row by row: a row of a slice, a block or a torque-case keeps its multiplier where the earlier
+        NLP had the same row (the same torque, case, position and slice), else 0. ``None`` when the
+        two grids of positions differ."""
+        pn, r = prev
+        if not np.array_equal(pn["phi1"], nlp["phi1"]):
+            return None
+        lg, lx = (np.asarray(r[k]).ravel() for k in ("lam_g", "lam_x"))
+
+        def code(k):  # (torque, case, position, slice) -> one key
+            k = np.asarray(k, np.int64).reshape(-1, 4)
+            return ((k[:, 0] * 1000 + k[:, 1]) * 100000 + k[:, 2]) * 1000000 + k[:, 3]
+
+        def rows(n):  # the constraint rows' segments in order, each by its keys
+            kx = code(n["keys"])
+            kb = code([(b[0], b[1], b[2], 0) for b in n["blocks"]])
+            return [code(n["w_keys"]), kx, kx, kb, kb, kb, kx[n["rows"]["flank"]], kx[n["rows"]["ends"]]]
+
+        def carry(kp, vp, kn):
+            out = np.zeros(kn.size)
+            if kp.size and kn.size:
+                o = np.argsort(kp)
+                j = np.minimum(np.searchsorted(kp[o], kn), kp.size - 1)
+                hit = kp[o][j] == kn
+                out[hit] = vp[o[j[hit]]]
+            return out
+
+        old, new, parts, i = rows(pn), rows(nlp), [], 0
+        for kp, kn in zip(old, new):
+            parts.append(carry(kp, lg[i:i + kp.size], kn))
+            i += kp.size
+        sz, szp = nlp["sizes"], pn["sizes"]
+        lam_x = np.zeros(nlp["problem"]["x"].shape[0])
+        P, TC = sz["P"], sz["TC"]
+        # (the design's bounds: none, the new design is the centre of its trust region)
+        s0 = P + 2 * sz["nx"] + sz["nB"] + 2 * TC  # the slacks' bounds
+        s0p = P + 2 * szp["nx"] + szp["nB"] + 2 * TC
+        lam_x[s0:s0 + 2 * TC] = lx[s0p:s0p + 2 * TC]
+        return lam_x, np.concatenate(parts)
+
+    def _solve_nlp(self, nlp, z0, lbx, ubx, p, prev=None):
+        """Solve ``nlp`` from ``z0``. With ``prev`` (an earlier NLP of the same positions and its
+        solution), first from its multipliers (:meth:`_multipliers`) and a small barrier parameter
+        (``WARM_OPTS``): near the earlier optimum a few tens of iterations instead of hundreds; where
+        that fails, from the cold start. Returns the solution, IPOPT's stats and the iterations of both."""
+        args = dict(x0=z0, lbx=lbx, ubx=ubx, lbg=nlp["lbg"], ubg=nlp["ubg"], p=p)
+        its = 0
+        lam = None if prev is None or not np.array_equal(prev[2], p) else self._multipliers(prev[:2], nlp)
+        if lam is not None:
+            if "warm" not in nlp:
+                nlp["warm"] = ca.nlpsol("loaded_microgeometry_warm", "ipopt", nlp["problem"], {**nlp["opts"], **WARM_OPTS})
+            r = nlp["warm"](lam_x0=lam[0], lam_g0=lam[1], **args)
+            st = nlp["warm"].stats()
+            its += int(st["iter_count"])
+            if st["success"]:
+                return r, st, its
+        r = nlp["solver"](**args)
+        st = nlp["solver"].stats()
+        return r, st, its + int(st["iter_count"])
 
     def _harmonic_map(self, blocks, nB):
         """Sparse (T C 2H, nB) map of the blocks' loaded TE to the cosine and sine coefficients of the
