@@ -39,6 +39,7 @@ import shutil
 import subprocess
 import tempfile
 import warnings
+import weakref
 from pathlib import Path
 
 import casadi as ca
@@ -52,6 +53,7 @@ MIN_COLUMNS = 1024  #: jit="auto": mapped solves of at least this many columns r
 MIN_PER_THREAD = 512  #: a compiled mapped call is split over threads only with at least this many columns each
 
 _loaded: dict[str, ca.Function] = {}
+_keys: dict[tuple, tuple] = {}  # (id of a Function, compiler) -> (weak reference, cache key)
 _threads: list[int | None] = [None]
 _noted: set[str] = set()
 _counts = {"built": 0, "loaded": 0}
@@ -125,8 +127,13 @@ def cache_key(f: ca.Function) -> str:
 
 
 def library_path(f: ca.Function) -> Path:
-    """Where ``f``'s compiled library lives in the cache (whether or not it exists yet)."""
-    return cache_dir() / f"{f.name()}-{cache_key(f)[:24]}.so"
+    """Where ``f``'s compiled library lives in the cache (whether or not it exists yet). The key is
+    computed once per Function object and compiler (serialising a large graph takes ~20 ms)."""
+    memo = (id(f), compiler())
+    hit = _keys.get(memo)
+    if hit is None or hit[0]() is not f:
+        hit = _keys[memo] = (weakref.ref(f), cache_key(f))
+    return cache_dir() / f"{f.name()}-{hit[1][:24]}.so"
 
 
 def compile_function(f: ca.Function) -> ca.Function | None:

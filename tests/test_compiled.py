@@ -36,6 +36,23 @@ def cache(tmp_path, monkeypatch):
     return tmp_path / "cache"
 
 
+def test_library_key_is_memoised_per_live_function_object(cache):
+    """The cache key (a serialisation of the graph) is computed once per Function object; a new
+    Function that reuses a dead one's identity gets its own key."""
+    import gc
+
+    f = _fun(1.5)
+    path = compiled.library_path(f)
+    assert path == compiled.library_path(f) == cache / f"cmp_test-{compiled.cache_key(f)[:24]}.so"
+    memo = (id(f), compiled.compiler())
+    assert memo in compiled._keys
+    del f
+    gc.collect()
+    g = _fun(2.5)
+    compiled._keys[(id(g), compiled.compiler())] = compiled._keys.pop(memo)  # as if g took f's identity
+    assert compiled.library_path(g) == cache / f"cmp_test-{compiled.cache_key(g)[:24]}.so" != path
+
+
 def test_compiled_equals_interpreted_and_keys_differ(cache):
     f, g = _fun(1.5), _fun(2.5)
     cf, cg = compiled.compile_function(f), compiled.compile_function(g)

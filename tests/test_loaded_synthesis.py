@@ -133,6 +133,54 @@ def test_the_smoothed_nlp_reproduces_the_exact_loaded_tca(opt):
     assert exact.min() > 5.0  # a real loaded TE, not a trivial match
 
 
+def test_warm_start_carries_the_multipliers_by_slice_and_reaches_the_cold_optimum(opt):
+    """The trust-region rounds start IPOPT from the last NLP's multipliers: each constraint row keeps
+    the multiplier of the row of the same torque, case, position and slice (0 for a row the last NLP
+    did not hold), and the warm solve reaches the cold solve's optimum."""
+    th = opt.theta0.copy()
+    P = th.size
+    p = opt._pvec(1000.0)
+
+    def solve(cur, centre, radius, prev=None):
+        nlp = cur["nlp"]
+        lbx, ubx = opt._bounds(nlp)
+        lbx[:P] = np.maximum(opt.lo, centre - radius) * 1e3
+        ubx[:P] = np.minimum(opt.hi, centre + radius) * 1e3
+        return opt._solve_nlp(nlp, cur["z0"], lbx, ubx, p, prev)
+
+    a = opt._around(th, 0.002)  # a narrow trust region: fewer slices held
+    ra, st, _ = solve(a, th, 0.002)
+    assert st["success"]
+    lam_a = np.asarray(ra["lam_g"]).ravel()
+    # onto itself: every row keeps its own multiplier; the design's bound multipliers are dropped
+    lx, lg = opt._multipliers((a["nlp"], ra), a["nlp"])
+    assert np.array_equal(lg, lam_a)
+    assert np.all(lx[:P] == 0.0) and np.count_nonzero(lx) > 0
+    # onto the NLP around the new design with every active slice: matched rows keep theirs, new rows 0
+    th2 = np.clip(np.asarray(ra["x"]).ravel()[:P] * 1e-3, opt.lo, opt.hi)
+    b = opt._around(th2)
+    _, lg = opt._multipliers((a["nlp"], ra), b["nlp"])
+    na, nb = a["nlp"], b["nlp"]
+    off = lambda n: n["sizes"]["nw"]  # noqa: E731 - the complementarity rows follow the stiffness rows
+    ka = {tuple(k): lam_a[off(na) + na["sizes"]["nx"] + i] for i, k in enumerate(na["keys"])}
+    fb_b = lg[off(nb) + nb["sizes"]["nx"]:off(nb) + 2 * nb["sizes"]["nx"]]
+    keys_b = [tuple(k) for k in nb["keys"]]
+    assert nb["sizes"]["nx"] > na["sizes"]["nx"]  # the wider NLP holds slices the narrow one left out
+    assert sum(k in ka for k in keys_b) > 0.5 * len(keys_b)
+    for k, v in zip(keys_b, fb_b):
+        assert v == ka.get(k, 0.0)
+    # the warm solve reaches the cold solve's optimum
+    cold, st_c, it_c = solve(b, th2, 0.002)
+    warm, st_w, it_w = solve(b, th2, 0.002, prev=(a["nlp"], ra, np.array(p, float)))
+    assert st_c["success"] and st_w["success"]
+    assert it_w == nb["warm"].stats()["iter_count"]  # the warm solve itself converged (no cold fallback)
+    assert abs(float(warm["f"]) - float(cold["f"])) < 1e-6 * abs(float(cold["f"]))
+    assert np.max(np.abs(np.asarray(warm["x"])[:P] - np.asarray(cold["x"])[:P])) < 1e-3  # [um]
+    # positions that differ: nothing to carry
+    other = dict(na, phi1=na["phi1"] + 1e-3)
+    assert opt._multipliers((other, ra), nb) is None
+
+
 def test_optimum_is_verified_by_the_exact_loaded_tca(opt, design):
     d = design
     # the exact loaded TCA (nothing of the NLP) agrees with the NLP's prediction
@@ -247,6 +295,24 @@ def test_sensitivities_of_the_optimum_match_finite_differences(opt, design):
         assert np.max(np.abs(ad_t - fd_t)) <= 1e-3 * np.max(np.abs(fd_t)) + 1e-9
         moved += np.max(np.abs(fd_t)) > 1e-6
     assert moved >= 3  # the optimal design does move with the torques and misalignments
+
+
+def test_sensitivities_use_the_slacks_of_a_solution_inside_its_bounds(opt, design):
+    """The perturbed KKT system takes each inequality's slack from the solution: IPOPT must not relax
+    the bounds (by default it moves each out by 1e-8, the edge rows' own scale MU / margin, and
+    returned 12 rows and 7 variables beyond their bounds, whose slacks then came out with the wrong
+    sign: a design derivative 0.2 % off in one test order)."""
+    import casadi as ca
+
+    S = opt.sensitivities(design)
+    nlp, z = S["nlp"], S["z"]
+    pr = nlp["problem"]
+    g = np.asarray(ca.Function("g", [pr["x"], pr["p"]], [pr["g"]])(z, S["p"])).ravel()
+    ineq = nlp["lbg"] < nlp["ubg"]
+    assert ineq.sum() > 100
+    assert np.all(g[ineq] <= nlp["ubg"][ineq]) and np.all(g[ineq] >= nlp["lbg"][ineq])
+    lbx, ubx = S["bounds"]
+    assert np.all(z >= lbx) and np.all(z <= ubx)
 
 
 def test_harmonics_objective_matches_the_fft_of_the_exact_loaded_te():

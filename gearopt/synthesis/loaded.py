@@ -1004,6 +1004,11 @@ class LoadedMicroOptimizer:
             self.phi1 = np.asarray(design.phi1, float)
         cur = self._around(theta, np.inf, design.rho)
         nlp = cur["nlp"]
+        # IPOPT without its bound relaxation (by default every bound moves out by 1e-8, the scale of
+        # the edge rows' own allowance MU / margin): the slacks below are then IPOPT's own, and so are
+        # the complementarity products the perturbed KKT system is built from
+        nlp["solver"] = ca.nlpsol("loaded_microgeometry_kkt", "ipopt", nlp["problem"],
+                                  {**nlp["opts"], "ipopt.bound_relax_factor": 0.0})
         lbx, ubx = self._bounds(nlp)
         p = np.array(self._pvec(design.rho), float)
         r = nlp["solver"](x0=cur["z0"], lbx=lbx, ubx=ubx, lbg=nlp["lbg"], ubg=nlp["ubg"], p=p)
