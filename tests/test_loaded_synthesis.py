@@ -181,6 +181,95 @@ def test_warm_start_carries_the_multipliers_by_slice_and_reaches_the_cold_optimu
     assert opt._multipliers((other, ra), nb) is None
 
 
+class _PenaltyToy(LoadedMicroOptimizer):
+    """The trust-region loop (``_trust_region`` and ``solve``, unchanged) on a one-amount problem whose
+    NLP is exact and solved in closed form: merit (t - 80)^2 + rho 1e-2 max(0, t - 20) [t in um]; the
+    constraint t <= 20 um needs a penalty weight above 4000. Every NLP solve is recorded with its
+    weight and the number of NLP positions; the verification grid finds ``refine`` positions to add
+    once."""
+
+    def __init__(self, refine=()):  # none of the drive's machinery: the loop alone
+        self.free, self.lo, self.hi = ("pinion.C_alpha",), np.array([0.0]), np.array([0.1])
+        self.theta0, self.cases, self.p_limit = np.array([0.0]), (Misalignment(),), None
+        self.n_positions, self.n_verify, self.refine = 2, 4, list(refine)
+        self.ltca = type("LTCA", (), {"mesh_cycle": staticmethod(lambda n: np.linspace(0.0, 1.0, n, endpoint=False))})
+        self._has_settings, self.phi1, self.solves = False, np.zeros(2), []
+
+    def _reduced(self):
+        return self
+
+    def _pvec(self, rho):
+        return [1.0, 0.0, 1e-8, rho]
+
+    def _bounds(self, nlp):
+        return np.array([0.0]), np.array([100.0])
+
+    def check(self, theta, phi1=None, known=None):
+        t = float(theta[0]) * 1e3
+        return type("Check", (), {"t": t, "te_pp": np.array([[(t - 80.0) ** 2]]), "objective": (t - 80.0) ** 2})
+
+    def _violated_positions(self, chk, phi1):
+        add, self.refine = np.array(self.refine), []
+        return add
+
+    def _binding(self, theta, pred, ver):
+        return ()
+
+    def _merit(self, chk, rho=1000.0):
+        return chk.objective + rho * 1e-2 * max(0.0, chk.t - 20.0)
+
+    def _around(self, theta, radius=np.inf, rho=1000.0):
+        chk = self.check(theta)
+        return {"nlp": {"sizes": {"nx": 1}}, "z0": theta * 1e3, "check": chk, "merit": self._merit(chk, rho),
+                "time": 0.0}
+
+    def _solve_nlp(self, nlp, z0, lbx, ubx, p, prev=None):
+        rho = p[3]
+        self.solves.append((rho, self.phi1.size))
+        t = float(np.clip(max(20.0, 80.0 - rho * 1e-2 / 2), lbx[0], ubx[0]))
+        return ({"x": [t], "f": self._merit(self.check([t * 1e-3]), rho)},
+                {"return_status": "Solve_Succeeded", "success": True}, 1)
+
+    def _predicted(self, nlp, zs):
+        t = float(zs[0])
+        return {"slack_p": np.array([[-1.0]]), "slack_e": np.array([[max(0.0, t - 20.0) * 1e-3]]),
+                "te_pp": np.array([[(t - 80.0) ** 2]]), "objective": (t - 80.0) ** 2}
+
+    def _raise_if_infeasible(self, pred, chk=None):
+        pass
+
+
+def test_penalty_grows_after_two_accepted_steps_that_needed_a_slack():
+    """The first accepted step whose model optimum needs a slack keeps the weight; the second in a
+    row (its violation not tenfold smaller) raises it tenfold for the next round, with no re-solve
+    of the same NLP; the loop still ends at the constrained optimum t = 20 um."""
+    toy = _PenaltyToy()
+    rounds = []
+    theta, cur, pred, iters, status, rho = toy._trust_region(np.array([0.0]), rounds)
+    # rounds: [0, 25] -> 25 (violated, kept), [0, 75] -> 75 (violated again: x10 after it),
+    # at 1e4 -> 30 well inside the radius (x10, the same NLP again), at 1e5 -> 20, converged
+    assert [w for w, _ in toy.solves[:4]] == [1000.0, 1000.0, 10000.0, 100000.0]
+    assert rounds[0]["accepted"] is True and rounds[1]["accepted"] == "accepted, penalty x10 (10000)"
+    assert rounds[2]["accepted"] == "penalty x10 (100000)"
+    assert rho == 1e5 and theta[0] == pytest.approx(0.020, abs=1e-9)
+    assert rounds[-1]["accepted"] == "converged" and len(rounds) == 5
+
+
+def test_a_refined_grid_goes_on_with_the_last_penalty_weight():
+    """Where the verification grid adds positions to the NLP's, the loop goes on from the optimum
+    with the penalty weight the last pass ended with (its merit too), not from the first weight."""
+    toy = _PenaltyToy(refine=[0.125])
+    d = LoadedMicroOptimizer.solve(toy)
+    assert toy.phi1.size == 3 and d.rho == 1e5
+    second = [w for w, n in toy.solves if n == 3]
+    assert second and all(w == 1e5 for w in second)
+    assert d.theta["pinion.C_alpha"] == pytest.approx(0.020, abs=1e-9)
+    # the loop's first merit is taken with the weight it starts from: at t = 30 um, 50^2 + 1e4 1e-2 10
+    rounds = []
+    toy._trust_region(np.array([0.030]), rounds, rho=1e4)
+    assert rounds[0]["merit"] == pytest.approx(2500.0 + 1000.0)
+
+
 def test_optimum_is_verified_by_the_exact_loaded_tca(opt, design):
     d = design
     # the exact loaded TCA (nothing of the NLP) agrees with the NLP's prediction

@@ -427,14 +427,16 @@ class LoadedMicroOptimizer:
         return p["pinion"], p["gear"]
 
     # -- loaded TCA of one design (the verification) ----------------------------------------------
-    def check(self, theta, phi1=None) -> LoadedCheck:
+    def check(self, theta, phi1=None, known=None) -> LoadedCheck:
         """Independent loaded TCA of the design ``theta`` [mm] at every torque and case (exact slices of
         the modified flanks, :class:`~gearopt.ltca.engine.LTCA`'s QP contact solver) at the positions
-        ``phi1`` [rad] (default: the NLP's)."""
+        ``phi1`` [rad] (default: the NLP's); ``known``: {case index: its sweep of this design at these
+        positions, already solved}."""
         p1, p2 = self.params(np.asarray(theta, float))
         phi1 = self.phi1 if phi1 is None else phi1
-        return self._check_of([self.ltca.solve(self.torques, phi1=phi1, p1=p1, p2=p2, mis=mis)
-                               for mis in self.cases])
+        known = known or {}
+        return self._check_of([known[c] if c in known else self.ltca.solve(self.torques, phi1=phi1, p1=p1, p2=p2, mis=mis)
+                               for c, mis in enumerate(self.cases)])
 
     def _check_of(self, sweeps) -> LoadedCheck:
         T, C = self.torques.size, len(self.cases)
@@ -838,9 +840,11 @@ class LoadedMicroOptimizer:
         of = np.zeros(len(self.cases), int)
         for i, k in enumerate(classes):
             of[k] = i
+        rho = RHO
         for refine in range(MAX_REFINE + 1):
             red.phi1 = self.phi1
-            theta, cur, pred, it, status, rho = red._trust_region(theta, rounds, progress)
+            # (a refinement goes on from the optimum with the penalty weight the last pass needed)
+            theta, cur, pred, it, status, rho = red._trust_region(theta, rounds, progress, rho)
             iters += it
             after = self.check(theta, fine)
             add = self._violated_positions(after, fine)
@@ -858,7 +862,9 @@ class LoadedMicroOptimizer:
                          f"limit between the NLP's positions; the NLP's grid grows to {self.phi1.size}")
         ver = cur["check"]  # the exact loaded TCA of the final design (LTCA.solve on its own slices)
         if red is not self:  # every case, and the NLP's prediction of each mirror image by its twin's
-            ver = self.check(theta)
+            # (the loop's own loaded TCA of the final design is that of one case per class: the others
+            # are solved here)
+            ver = self.check(theta, known={k[0]: sw for k, sw in zip(classes, ver.sweeps)})
             pred = {k: (v[:, of] if isinstance(v, np.ndarray) and v.ndim == 2 else v) for k, v in pred.items()}
         err = {"te_pp": float(np.max(np.abs(pred["te_pp"] - ver.te_pp))),
                "objective": abs(pred["objective"] - ver.objective)}
@@ -1077,7 +1083,7 @@ class LoadedMicroOptimizer:
                     bad |= np.max(r.p0_flank, axis=(0, 2)) > self.p_limit * (1 + SLACK_TOL)
         return np.asarray(phi1)[bad]
 
-    def _trust_region(self, theta, rounds: list, progress=None):
+    def _trust_region(self, theta, rounds: list, progress=None, rho: float = RHO):
         """Optimise and verify (module docstring).
 
         A trust-region loop of linearisations: the NLP around the design ``theta_k`` is solved with
@@ -1088,12 +1094,16 @@ class LoadedMicroOptimizer:
         NLP's step is below ``THETA_TOL`` (the linearised optimum is the design itself: a stationary
         point of the exact problem, whose first derivatives the linearisation shares). Where the
         NLP's optimum, well inside the radius or at a stationary design, still needs a slack, the
-        penalty weight grows tenfold (up to ``RHO_MAX``) and the same NLP is solved again."""
-        rho = RHO
+        penalty weight grows tenfold (up to ``RHO_MAX``) and the same NLP is solved again. Where the
+        NLP's optima of two accepted steps in a row needed a slack (the second's not tenfold smaller
+        than the first's), the weight grows tenfold after the second step, for the next round.
+        ``rho``: the first weight (a refinement of the grid starts from the weight the last pass ended
+        with)."""
         p = self._pvec(rho)
         radius = TR_START * float(np.max(self.hi - self.lo))
         iters, status, pred, prev = 0, "", None, None
-        cur = self._around(theta, 2 * radius)
+        last_viol = 0.0  # the model's constraint violation (relative, > 1: violated) at the last accepted step
+        cur = self._around(theta, 2 * radius, rho)
         for rnd in range(MAX_ROUNDS):
             nlp = cur["nlp"]
             lbx, ubx = self._bounds(nlp)
@@ -1123,7 +1133,8 @@ class LoadedMicroOptimizer:
             step = float(np.max(np.abs(new - theta)))
             prev = (nlp, r, np.array(p, float), radius)
             stationary = step <= THETA_TOL or cur["merit"] - model <= F_TOL * max(cur["merit"], 1.0)
-            violated = np.max(pred["slack_p"]) > SLACK_TOL or np.max(pred["slack_e"]) > EDGE_TOL
+            viol = max(np.max(pred["slack_p"]) / SLACK_TOL, np.max(pred["slack_e"]) / EDGE_TOL)  # > 1: violated
+            violated = viol > 1.0
             if violated and rho < RHO_MAX and (stationary or step < 0.5 * radius):
                 # a constraint still violated at a stationary point of the penalised objective, or at
                 # the model's own optimum well inside the trust region: the penalty is too light (an
@@ -1150,6 +1161,15 @@ class LoadedMicroOptimizer:
                 if ratio > 0.75 and step >= 0.9 * radius:
                     radius *= 2.0
                 theta, cur = new, trial
+                if violated and last_viol > 1.0 and viol > 0.1 * last_viol and rho < RHO_MAX:
+                    # the model's optimum needed a slack after the last accepted step too, and not
+                    # tenfold less: the penalty is too light for this drive; heavier from the next
+                    # round on (the test above would raise it there, after one more solve)
+                    rho *= 10.0
+                    p[3] = rho
+                    cur["merit"] = self._merit(cur["check"], rho)
+                    info["accepted"] = f"accepted, penalty x10 ({rho:g})"
+                last_viol = viol
             else:
                 info["accepted"] = False
                 radius = 0.25 * step
