@@ -249,7 +249,9 @@ def test_penalty_grows_after_two_accepted_steps_that_needed_a_slack():
     # rounds: [0, 25] -> 25 (violated, kept), [0, 75] -> 75 (violated again: x10 after it),
     # at 1e4 -> 30 well inside the radius (x10, the same NLP again), at 1e5 -> 20, converged
     assert [w for w, _ in toy.solves[:4]] == [1000.0, 1000.0, 10000.0, 100000.0]
-    assert rounds[0]["accepted"] is True and rounds[1]["accepted"] == "accepted, penalty x10 (10000)"
+    assert rounds[0]["accepted"] is True and rounds[1]["accepted"] is True
+    assert "rho_next" not in rounds[0] and rounds[1]["rho_next"] == 1e4
+    assert [r["rho"] for r in rounds] == [1e3, 1e3, 1e4, 1e5, 1e5]
     assert rounds[2]["accepted"] == "penalty x10 (100000)"
     assert rho == 1e5 and theta[0] == pytest.approx(0.020, abs=1e-9)
     assert rounds[-1]["accepted"] == "converged" and len(rounds) == 5

@@ -1121,7 +1121,7 @@ class LoadedMicroOptimizer:
             new = np.clip(zs[:P] * 1e-3, self.lo, self.hi)
             model = float(r["f"])
             info = {"theta_um": (new * 1e3).tolist(), "model_objective": model, "merit": cur["merit"],
-                    "radius_um": radius * 1e3, "status": status, "iterations": it,
+                    "radius_um": radius * 1e3, "rho": float(p[3]), "status": status, "iterations": it,
                     "nlp_s": time.perf_counter() - t1, "linearise_s": cur["time"], "n_loads": nlp["sizes"]["nx"],
                     "n_positions": int(self.phi1.size)}
             rounds.append(info)
@@ -1168,7 +1168,7 @@ class LoadedMicroOptimizer:
                     rho *= 10.0
                     p[3] = rho
                     cur["merit"] = self._merit(cur["check"], rho)
-                    info["accepted"] = f"accepted, penalty x10 ({rho:g})"
+                    info["rho_next"] = rho
                 last_viol = viol
             else:
                 info["accepted"] = False
@@ -1391,7 +1391,8 @@ def _round_text(rnd: int, info: dict, settings: bool = False) -> str:
     true = f", true {info['true_merit']:.4g}" if "true_merit" in info else ""
     return (f"loaded micro-geometry round {rnd}: design [{th}] um, model {info['model_objective']:.4g}{true} "
             f"(from {info['merit']:.4g}), radius {info['radius_um']:.3g} um, {info['iterations']} IPOPT iterations, "
-            f"{'accepted' if info.get('accepted') is True else info.get('accepted')}")
+            f"{'accepted' if info.get('accepted') is True else info.get('accepted')}"
+            + (f", penalty x10 ({info['rho_next']:g}) from the next round" if "rho_next" in info else ""))
 
 
 def _edge_weight(S, pair) -> np.ndarray:
