@@ -159,6 +159,7 @@ def test_warm_start_carries_the_multipliers_by_slice_and_reaches_the_cold_optimu
     # onto the NLP around the new design with every active slice: matched rows keep theirs, new rows 0
     th2 = np.clip(np.asarray(ra["x"]).ravel()[:P] * 1e-3, opt.lo, opt.hi)
     b = opt._around(th2)
+    assert "solver" not in b["nlp"] and "warm" not in b["nlp"]  # IPOPT is built for the NLP only when it is solved
     _, lg = opt._multipliers((a["nlp"], ra), b["nlp"])
     na, nb = a["nlp"], b["nlp"]
     off = lambda n: n["sizes"]["nw"]  # noqa: E731 - the complementarity rows follow the stiffness rows

@@ -756,11 +756,10 @@ class LoadedMicroOptimizer:
         opts = {"ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes", "ipopt.tol": 1e-9,
                 "ipopt.max_iter": 1000, "ipopt.mu_strategy": "monotone", "ipopt.mu_init": 1e-2, "error_on_fail": False,
                 **getattr(self, "_extra_opts", {})}
-        solver = ca.nlpsol("loaded_microgeometry", "ipopt", nlp, opts)
         sizes = dict(P=P, nx=nx, nB=nB, TC=T * C, nw=nw)
         rows = dict(flank=flank if self.p_limit is not None else flank[:0],
                     ends=ends if self.edge_margin is not None else ends[:0])
-        return dict(solver=solver, problem=nlp, opts=opts, phi1=self.phi1.copy(), rows=rows, gap=ca.Function("gap", [z, tq, dm], [gap]), lbg=np.concatenate(lbg),
+        return _NLP(problem=nlp, opts=opts, phi1=self.phi1.copy(), rows=rows, gap=ca.Function("gap", [z, tq, dm], [gap]), lbg=np.concatenate(lbg),
                     ubg=np.concatenate(ubg), sizes=sizes, blocks=blocks, ct=ct, edge=tipe, ew=np.clip(ew, 0.0, 1.0),
                     lever=lever, Wt=Wt,
                     ln=ln, Rx=Rx, keys=keys, hmap=hmap, w_keys=np.concatenate(w_keys) if w_keys else np.zeros((0, 4), int))
@@ -1384,6 +1383,17 @@ def _case_text(mis: Misalignment) -> str:
     """``"aligned"`` or the misalignment's non-zero kinds in the scene's units (``"crossing 2'"``)."""
     given = [f"{k} {Misalignment.display(k, getattr(mis, k))}" for k in Misalignment.names() if getattr(mis, k)]
     return ", ".join(given) or "aligned"
+
+
+class _NLP(dict):
+    """One linearisation's NLP (its parts by name); its cold-start IPOPT solver, ``"solver"``, is built
+    on first use (a round solved warm, or a trial never solved, needs none)."""
+
+    def __missing__(self, key):
+        if key != "solver":
+            raise KeyError(key)
+        self[key] = ca.nlpsol("loaded_microgeometry", "ipopt", self["problem"], self["opts"])
+        return self[key]
 
 
 def _round_text(rnd: int, info: dict, settings: bool = False) -> str:
