@@ -132,7 +132,8 @@ def library_path(f: ca.Function) -> Path:
     memo = (id(f), compiler())
     hit = _keys.get(memo)
     if hit is None or hit[0]() is not f:
-        hit = _keys[memo] = (weakref.ref(f), cache_key(f))
+        # (the entry leaves with its Function: a new one that reuses the id finds none)
+        hit = _keys[memo] = (weakref.ref(f, lambda _, m=memo: _keys.pop(m, None)), cache_key(f))
     return cache_dir() / f"{f.name()}-{hit[1][:24]}.so"
 
 

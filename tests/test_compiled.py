@@ -37,19 +37,22 @@ def cache(tmp_path, monkeypatch):
 
 
 def test_library_key_is_memoised_per_live_function_object(cache):
-    """The cache key (a serialisation of the graph) is computed once per Function object; a new
-    Function that reuses a dead one's identity gets its own key."""
+    """The cache key (a serialisation of the graph) is computed once per Function object and leaves
+    with it; a new Function that finds a dead one's entry under its identity gets its own key."""
     import gc
+    import weakref
 
     f = _fun(1.5)
     path = compiled.library_path(f)
     assert path == compiled.library_path(f) == cache / f"cmp_test-{compiled.cache_key(f)[:24]}.so"
     memo = (id(f), compiled.compiler())
     assert memo in compiled._keys
+    stale = (weakref.ref(f), compiled._keys[memo][1])
     del f
     gc.collect()
+    assert memo not in compiled._keys  # evicted with its Function
     g = _fun(2.5)
-    compiled._keys[(id(g), compiled.compiler())] = compiled._keys.pop(memo)  # as if g took f's identity
+    compiled._keys[(id(g), compiled.compiler())] = stale  # as if g took f's identity before the eviction
     assert compiled.library_path(g) == cache / f"cmp_test-{compiled.cache_key(g)[:24]}.so" != path
 
 

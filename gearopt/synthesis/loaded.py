@@ -1175,7 +1175,7 @@ class LoadedMicroOptimizer:
             if progress:
                 progress(_round_text(rnd, info, self._has_settings))
             if radius <= THETA_TOL:
-                if (np.max(pred["slack_p"]) > SLACK_TOL or np.max(pred["slack_e"]) > EDGE_TOL) and rho < RHO_MAX:
+                if violated and rho < RHO_MAX:
                     # no better design nearby, but a constraint still violated: a heavier penalty, and
                     # the radius of the last accepted step again
                     rho *= 10.0
