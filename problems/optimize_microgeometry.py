@@ -60,6 +60,7 @@ def main(argv=None):
               + "  ".join(f"{sens['theta_um_per_Nm'][k][t]:10.4f}" for k in d["theta_um"]) + "  [um]")
     print(f"per arcmin of crossing         {sens['objective_arcsec_per_mis']['crossing_arcmin']:12.4f}        "
           + "  ".join(f"{sens['theta_um_per_mis'][k]['crossing_arcmin']:10.4f}" for k in d["theta_um"]) + "  [um]")
+    print(f"(at {sens['active']} active constraints and bounds, {sens['degenerate']} degenerate)")
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     for f in report.save_plots(out):

@@ -41,6 +41,11 @@ def design(opt):
     return opt.solve()
 
 
+@pytest.fixture(scope="module")
+def sens(opt, design):
+    return opt.sensitivities(design)
+
+
 def test_separation_sensitivities_match_finite_differences(opt, monkeypatch):
     """J = d a / d theta (implicit function theorem by AD) against central differences of the exact
     slices of the modified flanks, on flank and tip-edge slices of both cases; and so the radius of
@@ -351,13 +356,13 @@ def test_pareto_front_is_verified_monotone_and_meets_its_limits():
         opt.pareto([50.0], anchor=anchor)
 
 
-def test_sensitivities_of_the_optimum_match_finite_differences(opt, design):
+def test_sensitivities_of_the_optimum_match_finite_differences(opt, sens):
     """d(optimum)/d(torque) and d(optimum)/d(misalignment) by AD (the perturbed KKT system of the NLP
     at the optimum, the envelope theorem for the objective) against central differences of the same
     NLP solved again at perturbed parameters: every torque, every misalignment kind."""
     from gearopt.meshing.misalignment import Misalignment as Mis
 
-    S = opt.sensitivities(design)
+    S = sens
     assert S["model_step"] < 1e-4  # the NLP's optimum is the design (converged)
     nlp = S["nlp"]
     lbx, ubx = S["bounds"]
@@ -389,14 +394,14 @@ def test_sensitivities_of_the_optimum_match_finite_differences(opt, design):
     assert moved >= 3  # the optimal design does move with the torques and misalignments
 
 
-def test_sensitivities_use_the_slacks_of_a_solution_inside_its_bounds(opt, design):
+def test_sensitivities_use_the_slacks_of_a_solution_inside_its_bounds(sens):
     """The perturbed KKT system takes each inequality's slack from the solution: IPOPT must not relax
     the bounds (by default it moves each out by 1e-8, the edge rows' own scale MU / margin, and
     returned 12 rows and 7 variables beyond their bounds, whose slacks then came out with the wrong
     sign: a design derivative 0.2 % off in one test order)."""
     import casadi as ca
 
-    S = opt.sensitivities(design)
+    S = sens
     nlp, z = S["nlp"], S["z"]
     pr = nlp["problem"]
     g = np.asarray(ca.Function("g", [pr["x"], pr["p"]], [pr["g"]])(z, S["p"])).ravel()
@@ -405,6 +410,25 @@ def test_sensitivities_use_the_slacks_of_a_solution_inside_its_bounds(opt, desig
     assert np.all(g[ineq] <= nlp["ubg"][ineq]) and np.all(g[ineq] >= nlp["lbg"][ineq])
     lbx, ubx = S["bounds"]
     assert np.all(z >= lbx) and np.all(z <= ubx)
+
+
+def test_sensitivities_do_not_depend_on_how_tightly_the_nlp_is_solved(opt, design, sens, monkeypatch):
+    """The derivatives are the limit of IPOPT's barrier (mu -> 0) at the active set that the central
+    path's tangent identifies, so the NLP behind them solved to a tolerance of 1e-12 instead of 1e-9
+    gives the same ones, within 0.1 % of each column's largest (the perturbed KKT system at IPOPT's
+    final barrier point, lam^2 / mu, counted a thousand open edge slices as nearly active, with
+    multipliers that fall with the barrier: 1-100 % off at 1e-12). Every inequality and bound is
+    told active or inactive, none degenerate, the same at both tolerances."""
+    monkeypatch.setattr(opt, "_extra_opts", {"ipopt.tol": 1e-12}, raising=False)
+    tight = opt.sensitivities(design)
+    assert sens["degenerate"] == tight["degenerate"] == 0
+    assert sens["active"] == tight["active"] > opt.torques.size
+    for k in ("d_theta_d_torque", "d_theta_d_mis"):
+        a, b = sens[k], tight[k]
+        for j in range(b.shape[1]):
+            assert np.max(np.abs(a[:, j] - b[:, j])) <= 1e-3 * np.max(np.abs(b[:, j])) + 1e-12
+    for k in ("d_objective_d_torque", "d_objective_d_mis"):
+        assert sens[k] == pytest.approx(tight[k], rel=1e-3, abs=1e-9)
 
 
 def test_harmonics_objective_matches_the_fft_of_the_exact_loaded_te():

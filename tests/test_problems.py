@@ -79,6 +79,8 @@ def _loaded_microgeometry_scalars(res, out):
         assert d["sensitivities"]["model_step_um"] < 0.1 and d["sensitivities"]["at_design"]
     sens = d["sensitivities"]
     assert sens["at_design"] == (sens["model_step_um"] <= 1.0)
+    # the active set is read cleanly from IPOPT's central path (no degenerate constraint: unique derivatives)
+    assert sens["degenerate"] == 0 and sens["active"] >= 1
     assert all(math.isfinite(v) for v in sens["objective_arcsec_per_Nm"]) and len(sens["objective_arcsec_per_Nm"]) == \
         len(res["torques_Nm"])
     for k, v in d["theta_um"].items():

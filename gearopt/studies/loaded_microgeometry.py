@@ -178,6 +178,9 @@ class LoadedMicroStudy:
             progress(f"loaded micro-geometry: warning: the NLP's optimum lies {sens['model_step_um']:.3g} um from the "
                      "design (the trust-region loop stopped on its radius, not converged): the sensitivities are "
                      "those of that point")
+        if progress and sens["degenerate"]:
+            progress(f"loaded micro-geometry: warning: {sens['degenerate']} constraints are degenerate at the optimum "
+                     "(active with a zero multiplier): the sensitivities are one-sided, for the active set chosen")
         if progress:
             progress(f"loaded micro-geometry: objective {d.before.objective:.4g} -> {d.after.objective:.4g} arcsec "
                      f"(verification grid); NLP vs loaded TCA {d.error['te_pp']:.2g} arcsec")
@@ -213,7 +216,8 @@ def sensitivity_dict(opt, S: dict) -> dict:
                                          for j, k in enumerate(kinds)},
             "theta_um_per_mis": {n: {unit[k][1]: float(S["d_theta_d_mis"][i, j]) * unit[k][0] * 1e3
                                      for j, k in enumerate(kinds)} for i, n in enumerate(opt.free)},
-            "model_step_um": S["model_step"] * 1e3, "at_design": bool(S["at_design"])}
+            "model_step_um": S["model_step"] * 1e3, "at_design": bool(S["at_design"]),
+            "active": int(S["active"]), "degenerate": int(S["degenerate"])}
 
 
 def _from_scene(scene):

@@ -39,7 +39,7 @@ NLP's positions and on a finer grid; positions of the finer grid that violate a 
 NLP's grid. The result reports the NLP's values, the loaded TCA's, and their difference.
 
 :meth:`LoadedMicroOptimizer.sensitivities` differentiates the optimum with respect to the torques and
-a misalignment (IPOPT's perturbed KKT system at the solution, by CasADi); :meth:`LoadedMicroOptimizer.pareto`
+a misalignment (the KKT system of its active set, read from IPOPT's central path, by CasADi); :meth:`LoadedMicroOptimizer.pareto`
 sweeps the pressure limit (epsilon-constraint) for the front of loaded TE against peak pressure.
 """
 
@@ -983,11 +983,14 @@ class LoadedMicroOptimizer:
 
         The NLP is built around ``design`` (its final positions, every active slice) with the torque
         scales and a misalignment offset added to every case as parameters, and solved with the design
-        free within its bounds. Its first-order optimality conditions, differentiated by CasADi and
-        solved as one sparse system (the interior point's perturbed KKT system, as sIPOPT: each
-        inequality enters with its multiplier over its slack, so no active set is guessed), give the
-        derivatives of the optimal design; the optimal objective's are those of the Lagrangian in
-        the parameters (the envelope theorem).
+        free within its bounds. The derivatives are those of the exact NLP (the limit mu -> 0 of IPOPT's
+        barrier) at its active set, by CasADi: which inequalities and bounds are active is read from
+        the tangent of IPOPT's central path at the solution (each slack's d log s / d log mu: 1 active,
+        0 inactive, scale-free; rows between 0.1 and 0.9 are degenerate and counted); then the KKT
+        system of the equalities and the active rows, with the inactive multipliers zero, is solved
+        as one sparse system for all parameters (the optimum's derivatives at a fixed active set,
+        Fiacco). The optimal objective's derivatives are those of the Lagrangian in the parameters
+        (the envelope theorem).
 
         Returns
         -------
@@ -999,10 +1002,18 @@ class LoadedMicroOptimizer:
             from ``design`` (a converged design: below ``THETA_TOL``) and ``at_design`` (it is within
             ten times that: else the loop stopped on its trust radius and the derivatives are those
             of the NLP's optimum, not of the design); ``objective`` [arcsec]: the
-            NLP's optimum; ``nlp`` / ``z`` / ``p``: the NLP, its solution and parameters (for checks).
+            NLP's optimum; ``active``: the inequalities and bounds active at it; ``degenerate``: those
+            neither clearly active nor inactive (0: the derivatives are unique; else they hold on the
+            side of the active set chosen, each such row counted active when its indicator is above
+            1/2); ``nlp`` / ``z`` / ``p``: the NLP, its solution and parameters (for checks).
+
+        Raises
+        ------
+        SynthesisError
+            When the NLP at the optimum fails, or the active set's KKT system is singular (dependent
+            active constraints: the derivatives are not unique).
         """
         import scipy.sparse as sp_
-        import scipy.sparse.linalg as spla
 
         theta = np.array([design.theta[n] for n in self.free])
         if design.phi1 is not None:
@@ -1031,35 +1042,45 @@ class LoadedMicroOptimizer:
         fun = ca.Function("loaded_kkt", [zs, ps, lam],
                           [ca.hessian(L, zs)[0], g, ca.jacobian(g, zs), ca.jacobian(g, ps)[:, sel],
                            ca.jacobian(gz, ps)[:, sel], ca.gradient(L, ps)[sel]])
-        H, gv, Jg, Gp, Lzp, Lp = fun(z, p, lam_g)
-
-        def csc(m):
-            m = ca.DM(m)
-            i, j = m.sparsity().get_triplet()
-            return sp_.csc_matrix((np.array(m.nonzeros()), (i, j)), shape=m.shape)
-
-        H, Jg, Gp, Lzp = csc(H), csc(Jg), csc(Gp), csc(Lzp)
+        H, gv, Jg, Gp, _, _ = fun(z, p, lam_g)
+        H, Jg, Gp = _csc(H), _csc(Jg), _csc(Gp)
         gv = np.asarray(gv).ravel()
         lbg, ubg = nlp["lbg"], nlp["ubg"]
-        # IPOPT's perturbed KKT system at its final barrier parameter mu: each inequality (and bound)
-        # with multiplier lam and slack s = mu / |lam| enters through lam / s = lam^2 / mu; mu is the
-        # median complementarity lam * s of the solution (every product is near it at convergence)
         eq = lbg == ubg
-        dist = np.abs(np.where(lam_g > 0, ubg - gv, gv - lbg))
-        prod = np.abs(lam_g) * dist
-        mu_g = float(np.median(prod[~eq & np.isfinite(prod)])) if np.any(~eq) else 1.0
-        sig_g = np.where(eq, 0.0, lam_g**2 / max(mu_g, 1e-300))
-        dx = np.abs(np.where(lam_x > 0, ubx - z, z - lbx))
-        bx = np.isfinite(dx)
-        mu_x = float(np.median(np.abs(lam_x[bx]) * dx[bx])) if bx.any() else 1.0
-        sig_x = np.where(bx, lam_x**2 / max(mu_x, 1e-300), 0.0)
+        I_ = np.flatnonzero(~eq)
         E = np.flatnonzero(eq)
-        I_ = np.flatnonzero(~eq & (sig_g > 0))
+        s_g = np.abs(np.where(lam_g[I_] > 0, ubg[I_] - gv[I_], gv[I_] - lbg[I_]))
+        s_x = np.abs(np.where(lam_x > 0, ubx - z, z - lbx))
+        bx = np.isfinite(s_x)
+        # Which inequalities and bounds are active in the limit mu -> 0 of IPOPT's barrier. Their slacks
+        # and multipliers say it only relative to each row's own scale (the edge rows' slacks are of the
+        # order of MU / margin = 2e-8, and at IPOPT's final barrier parameter their barrier multipliers
+        # are 0.05: lam / s or lam^2 / mu then count a thousand open slices as nearly active). Scale-free:
+        # the tangent of IPOPT's central path (every product lam s = mu_i scaled together, the same
+        # perturbed KKT system) gives each slack's d log s / d log mu: 1 for an active row (s ~ mu),
+        # 0 for an inactive one (lam ~ mu); about 1/2 where both vanish (a degenerate row).
+        sig_g = np.abs(lam_g[I_]) / np.maximum(s_g, 1e-300)
+        sig_x = np.where(bx, np.abs(lam_x) / np.where(bx, np.maximum(s_x, 1e-300), 1.0), 0.0)
         JI = Jg[I_]
-        SI = sp_.diags(sig_g[I_])
-        K = sp_.bmat([[H + JI.T @ SI @ JI + sp_.diags(sig_x), Jg[E].T], [Jg[E], None]], format="csc")
-        rhs = -sp_.vstack([Lzp + JI.T @ SI @ Gp[I_], Gp[E]]).toarray()
-        sol = spla.splu(K).solve(rhs)
+        K = sp_.bmat([[H + JI.T @ sp_.diags(sig_g) @ JI + sp_.diags(sig_x), Jg[E].T], [Jg[E], None]], format="csc")
+        dz = _lu(K, "IPOPT's perturbed KKT system").solve(
+            np.concatenate([-(JI.T @ lam_g[I_]) - np.where(bx, lam_x, 0.0), np.zeros(E.size)]))[:z.size]
+        ind_g = -np.sign(lam_g[I_]) * (JI @ dz) / np.maximum(s_g, 1e-300)
+        ind_x = np.where(bx, -np.sign(lam_x) * dz / np.where(bx, np.maximum(s_x, 1e-300), 1.0), 0.0)
+        act_g, act_x = ind_g > 0.5, bx & (ind_x > 0.5)
+        degenerate = int(np.sum(np.abs(ind_g - 0.5) < 0.4) + np.sum(bx & (np.abs(ind_x - 0.5) < 0.4)))
+        # the limit's multipliers (inactive ones zero) and the active set's KKT system: the derivatives
+        # of the optimum at fixed active set (Fiacco), one sparse LU for all parameters
+        lam_a = lam_g.copy()
+        lam_a[I_[~act_g]] = 0.0
+        H, _, _, _, Lzp, Lp = fun(z, p, lam_a)
+        H, Lzp = _csc(H), _csc(Lzp)
+        rows = np.concatenate([E, I_[act_g]])
+        B = np.flatnonzero(act_x)
+        A = sp_.vstack([Jg[rows], sp_.csc_matrix((np.ones(B.size), (np.arange(B.size), B)), shape=(B.size, z.size))])
+        K = sp_.bmat([[H, A.T], [A, None]], format="csc")
+        rhs = -sp_.vstack([Lzp, Gp[rows], sp_.csc_matrix((B.size, Lzp.shape[1]))]).toarray()
+        sol = _lu(K, "the active set's KKT system").solve(rhs)
         P, T = len(self.free), self.torques.size
         dth = sol[:P] * 1e-3  # theta is in um in the NLP
         dfdp = np.asarray(Lp).ravel()
@@ -1067,6 +1088,7 @@ class LoadedMicroOptimizer:
         return {"d_objective_d_torque": dfdp[:T] / self.torques, "d_theta_d_torque": dth[:, :T] / self.torques[None, :],
                 "d_objective_d_mis": dfdp[T:], "d_theta_d_mis": dth[:, T:],
                 "model_step": step, "at_design": step <= 10 * THETA_TOL, "objective": float(r["f"]),
+                "active": int(act_g.sum() + act_x.sum()), "degenerate": degenerate,
                 "nlp": nlp, "z": z, "p": p, "bounds": (lbx, ubx), "z0": cur["z0"]}
 
     def _violated_positions(self, chk: LoadedCheck, phi1) -> np.ndarray:
@@ -1394,6 +1416,25 @@ class _NLP(dict):
             raise KeyError(key)
         self[key] = ca.nlpsol("loaded_microgeometry", "ipopt", self["problem"], self["opts"])
         return self[key]
+
+
+def _csc(m):
+    import scipy.sparse as sp_
+
+    m = ca.DM(m)
+    i, j = m.sparsity().get_triplet()
+    return sp_.csc_matrix((np.array(m.nonzeros()), (i, j)), shape=m.shape)
+
+
+def _lu(K, what: str):
+    import scipy.sparse.linalg as spla
+
+    try:
+        return spla.splu(K)
+    except RuntimeError as exc:  # singular: the active constraints' gradients are dependent (no LICQ)
+        raise SynthesisError(f"loaded micro-geometry sensitivities: {what} is singular ({exc}); the active "
+                             "constraints' gradients are linearly dependent at this optimum, so its "
+                             "derivatives are not unique.", param="sensitivities", value=what) from exc
 
 
 def _round_text(rnd: int, info: dict, settings: bool = False) -> str:
