@@ -749,12 +749,13 @@ class LoadedMicroOptimizer:
         obj = fit + rho * self._w_mean * ca.dot(mult, sp + se)
         z = ca.vertcat(th, x, y, d, u, v, sp, se, w)
         nlp = {"x": z, "p": ca.vertcat(plim, marg, mu, rho, tq, dm), "f": obj, "g": ca.vertcat(*g_list)}
-        # the start is the exact loaded TCA of the linearisation's design, close to the optimum: a
-        # monotone barrier from mu = 0.01 (up to 3x fewer iterations than the adaptive strategy from 0.1).
-        # (Without IPOPT's gradient scaling some rounds took 2-6x fewer iterations, but the
-        # sensitivities' small derivatives, from the final barrier point, lost their accuracy.)
+        # the start is the exact loaded TCA of the linearisation's design, close to the optimum: IPOPT's
+        # adaptive barrier from mu = 0.01 (the target case 647 -> 529 iterations, 10 % faster, than the
+        # monotone barrier from 0.01; docs/loaded_synthesis.md section 5). (Without IPOPT's gradient
+        # scaling some rounds took 2-6x fewer iterations, but the smallest design derivatives of the
+        # sensitivities lost their accuracy.)
         opts = {"ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes", "ipopt.tol": 1e-9,
-                "ipopt.max_iter": 1000, "ipopt.mu_strategy": "monotone", "ipopt.mu_init": 1e-2, "error_on_fail": False,
+                "ipopt.max_iter": 1000, "ipopt.mu_strategy": "adaptive", "ipopt.mu_init": 1e-2, "error_on_fail": False,
                 **getattr(self, "_extra_opts", {})}
         sizes = dict(P=P, nx=nx, nB=nB, TC=T * C, nw=nw)
         rows = dict(flank=flank if self.p_limit is not None else flank[:0],
