@@ -524,3 +524,43 @@ def test_mirror_image_cases_are_solved_once():
     helical = GearPair(Gear(z=20, m_n=3.0, b=20.0, beta=np.radians(15.0), modifications=Microgeometry(C_beta=0.01)),
                        Gear(z=40, m_n=3.0, b=20.0, beta=np.radians(15.0), hand="left"))
     assert LoadedMicroOptimizer(helical, {"pinion.C_beta": (0.0, 0.04)}, torques=[100.0], cases=cases).mirror_classes() is None
+
+
+def test_central_path_indicators_tell_active_inactive_and_degenerate_constraints():
+    """d log s / d log mu on IPOPT's central path, on a separable problem whose answer is known:
+    min sum (x_i - c_i)^2 with x_0 <= 0.5 (active, multiplier 1), x_1 <= 5 (inactive), x_2 <= 2 at
+    c_2 = 2 (degenerate: active with a zero multiplier, slack and multiplier both sqrt(mu / 2)), the
+    same three kinds as bounds x >= 0 (c = -1, 3, 0), and an equality row. Rows scaled by 1e-8 (the
+    loaded NLP's edge rows) tell the same: the indicator is scale-free."""
+    import casadi as ca
+
+    from gearopt.synthesis.loaded import central_path_indicators
+
+    c = np.array([1.0, 0.0, 2.0, -1.0, 3.0, 0.0, 0.7])
+    for scale in (1.0, 1e-8):
+        x = ca.MX.sym("x", 7)
+        f = ca.sumsqr(x - c)
+        g = ca.vertcat(scale * x[0], scale * x[1], scale * x[2], x[6] - 0.7 * 2.0)
+        lbg = np.array([-np.inf, -np.inf, -np.inf, 0.0])
+        ubg = np.array([0.5, 5.0, 2.0, 0.0]) * np.array([scale, scale, scale, 1.0])
+        lbx = np.array([-np.inf] * 3 + [0.0] * 3 + [-np.inf])
+        ubx = np.full(7, np.inf)
+        solver = ca.nlpsol("ind", "ipopt", {"x": x, "f": f, "g": g},
+                           {"ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes", "ipopt.tol": 1e-10,
+                            "ipopt.bound_relax_factor": 0.0})
+        r = solver(x0=np.ones(7), lbg=lbg, ubg=ubg, lbx=lbx, ubx=ubx)
+        assert solver.stats()["success"]
+        lam = ca.MX.sym("lam", 4)
+        L = f + ca.dot(lam, g)
+        H, J, gv = ca.Function("kkt", [x, lam], [ca.hessian(L, x)[0], ca.jacobian(g, x), g])(r["x"], r["lam_g"])
+        to_sp = lambda m: np.asarray(ca.DM(m).full())  # noqa: E731
+        ind_g, ind_x = central_path_indicators(to_sp(H), to_sp(J), lbg, ubg, np.asarray(gv).ravel(),
+                                               np.asarray(r["lam_g"]).ravel(), lbx, ubx,
+                                               np.asarray(r["x"]).ravel(), np.asarray(r["lam_x"]).ravel())
+        assert ind_g[0] == pytest.approx(1.0, abs=0.05)  # active
+        assert abs(ind_g[1]) < 0.05  # inactive
+        assert ind_g[2] == pytest.approx(0.5, abs=0.05)  # degenerate
+        assert np.isnan(ind_g[3])  # an equality row
+        assert ind_x[3] == pytest.approx(1.0, abs=0.05) and abs(ind_x[4]) < 0.05
+        assert ind_x[5] == pytest.approx(0.5, abs=0.05)
+        assert np.isnan(ind_x[[0, 1, 2, 6]]).all()  # no finite bound

@@ -1050,26 +1050,15 @@ class LoadedMicroOptimizer:
         eq = lbg == ubg
         I_ = np.flatnonzero(~eq)
         E = np.flatnonzero(eq)
-        s_g = np.abs(np.where(lam_g[I_] > 0, ubg[I_] - gv[I_], gv[I_] - lbg[I_]))
-        s_x = np.abs(np.where(lam_x > 0, ubx - z, z - lbx))
-        bx = np.isfinite(s_x)
-        # Which inequalities and bounds are active in the limit mu -> 0 of IPOPT's barrier. Their slacks
-        # and multipliers say it only relative to each row's own scale (the edge rows' slacks are of the
-        # order of MU / margin = 2e-8, and at IPOPT's final barrier parameter their barrier multipliers
-        # are 0.05: lam / s or lam^2 / mu then count a thousand open slices as nearly active). Scale-free:
-        # the tangent of IPOPT's central path (every product lam s = mu_i scaled together, the same
-        # perturbed KKT system) gives each slack's d log s / d log mu: 1 for an active row (s ~ mu),
-        # 0 for an inactive one (lam ~ mu); about 1/2 where both vanish (a degenerate row).
-        sig_g = np.abs(lam_g[I_]) / np.maximum(s_g, 1e-300)
-        sig_x = np.where(bx, np.abs(lam_x) / np.where(bx, np.maximum(s_x, 1e-300), 1.0), 0.0)
-        JI = Jg[I_]
-        K = sp_.bmat([[H + JI.T @ sp_.diags(sig_g) @ JI + sp_.diags(sig_x), Jg[E].T], [Jg[E], None]], format="csc")
-        dz = _lu(K, "IPOPT's perturbed KKT system").solve(
-            np.concatenate([-(JI.T @ lam_g[I_]) - np.where(bx, lam_x, 0.0), np.zeros(E.size)]))[:z.size]
-        ind_g = -np.sign(lam_g[I_]) * (JI @ dz) / np.maximum(s_g, 1e-300)
-        ind_x = np.where(bx, -np.sign(lam_x) * dz / np.where(bx, np.maximum(s_x, 1e-300), 1.0), 0.0)
+        # which inequalities and bounds are active in the limit mu -> 0 of IPOPT's barrier (the edge
+        # rows' slacks are of the order of MU / margin = 2e-8, and at IPOPT's final barrier parameter
+        # their barrier multipliers are 0.05: lam / s or lam^2 / mu would count a thousand open slices as
+        # nearly active; the central path's tangent is scale-free)
+        ind_g, ind_x = central_path_indicators(H, Jg, lbg, ubg, gv, lam_g, lbx, ubx, z, lam_x)
+        ind_g = ind_g[I_]
+        bx = np.isfinite(ind_x)
         act_g, act_x = ind_g > 0.5, bx & (ind_x > 0.5)
-        degenerate = int(np.sum(np.abs(ind_g - 0.5) < 0.4) + np.sum(bx & (np.abs(ind_x - 0.5) < 0.4)))
+        degenerate = int(np.sum(np.abs(ind_g - 0.5) < 0.4) + np.sum(np.abs(ind_x[bx] - 0.5) < 0.4))
         # the limit's multipliers (inactive ones zero) and the active set's KKT system: the derivatives
         # of the optimum at fixed active set (Fiacco), one sparse LU for all parameters
         lam_a = lam_g.copy()
@@ -1417,6 +1406,48 @@ class _NLP(dict):
             raise KeyError(key)
         self[key] = ca.nlpsol("loaded_microgeometry", "ipopt", self["problem"], self["opts"])
         return self[key]
+
+
+def central_path_indicators(H, Jg, lbg, ubg, g, lam_g, lbx, ubx, x, lam_x):
+    """How each inequality and bound of an interior-point solution behaves as the barrier vanishes.
+
+    At IPOPT's solution ``x`` (multipliers ``lam_g``, ``lam_x`` in CasADi's signs: positive at an
+    upper bound) of ``min f(x)`` s.t. ``lbg <= g(x) <= ubg``, ``lbx <= x <= ubx``, the tangent of the
+    central path (every complementarity product lam s scaled together with the barrier parameter
+    mu; the perturbed KKT system with ``H`` the Hessian of the Lagrangian and ``Jg`` the constraint
+    Jacobian, sparse) gives each slack's d log s / d log mu: about 1 for an active constraint (its
+    slack vanishes like mu), 0 for an inactive one (its multiplier does), 1/2 for a degenerate one
+    (active with a zero multiplier: both vanish like sqrt(mu)). Scale-free, unlike lam / s.
+
+    Returns
+    -------
+    ind_g : (m,) array
+        Indicator of every constraint row (NaN for equality rows).
+    ind_x : (n,) array
+        Indicator of every variable's bound (NaN for a variable without finite bounds).
+    """
+    import scipy.sparse as sp_
+
+    lbg, ubg, g, lam_g = (np.asarray(v, float).ravel() for v in (lbg, ubg, g, lam_g))
+    lbx, ubx, x, lam_x = (np.asarray(v, float).ravel() for v in (lbx, ubx, x, lam_x))
+    H, Jg = sp_.csc_matrix(H), sp_.csr_matrix(Jg)
+    eq = lbg == ubg
+    I_, E = np.flatnonzero(~eq), np.flatnonzero(eq)
+    s_g = np.abs(np.where(lam_g[I_] > 0, ubg[I_] - g[I_], g[I_] - lbg[I_]))
+    s_x = np.abs(np.where(lam_x > 0, ubx - x, x - lbx))
+    bx = np.isfinite(s_x)
+    tiny = 1e-300
+    sig_g = np.abs(lam_g[I_]) / np.maximum(s_g, tiny)
+    sig_x = np.where(bx, np.abs(lam_x) / np.where(bx, np.maximum(s_x, tiny), 1.0), 0.0)
+    JI = Jg[I_]
+    K = sp_.bmat([[H + JI.T @ sp_.diags(sig_g) @ JI + sp_.diags(sig_x), Jg[E].T], [Jg[E], None]], format="csc")
+    # d(lam_i s_i) = lam_i s_i d(log mu): the stationarity's right-hand side is -(J^T lam + lam_x)
+    dx = _lu(K, "IPOPT's perturbed KKT system").solve(
+        np.concatenate([-(JI.T @ lam_g[I_]) - np.where(bx, lam_x, 0.0), np.zeros(E.size)]))[:x.size]
+    ind_g = np.full(lbg.size, np.nan)
+    ind_g[I_] = -np.sign(lam_g[I_]) * (JI @ dx) / np.maximum(s_g, tiny)
+    ind_x = np.where(bx, -np.sign(lam_x) * dx / np.where(bx, np.maximum(s_x, tiny), 1.0), np.nan)
+    return ind_g, ind_x
 
 
 def _csc(m):
