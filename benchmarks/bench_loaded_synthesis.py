@@ -10,6 +10,10 @@ with the same merit: the weighted loaded-TE peak-to-peak plus the exact penalty 
     python benchmarks/bench_loaded_synthesis.py              # grid of 5^4 = 625 designs, about 6 minutes
     python benchmarks/bench_loaded_synthesis.py --levels 3   # 81 designs, about 1 minute
     python benchmarks/bench_loaded_synthesis.py --duty target   # the target, about 10 minutes
+    python benchmarks/bench_loaded_synthesis.py --search de     # scipy's differential evolution instead
+
+``--search de``: scipy.optimize.differential_evolution on the same merit (population 15 x 4, seed 0,
+no gradient polish, ``--de-maxiter`` generations: 600 designs with the default 9, the grid's budget).
 
 ``--duty target``: the issue's target duty cycle on the same drive and free amounts: 100, 200, 300
 N m x 5 misalignment cases (aligned, crossing +-2', intersecting +-2'), 12 positions (24 to verify).
@@ -39,6 +43,9 @@ def main(argv=None):
     ap.add_argument("--levels", type=int, default=5, help="grid levels per amount (default 5)")
     ap.add_argument("--duty", choices=("script", "target"), default="script",
                     help="duty cycle: that of problems/optimize_microgeometry.py (default) or the issue's target")
+    ap.add_argument("--search", choices=("grid", "de", "both"), default="grid",
+                    help="derivative-free search: the grid (default), scipy's differential evolution, or both")
+    ap.add_argument("--de-maxiter", type=int, default=9, help="differential evolution: generations (default 9)")
     args = ap.parse_args(argv)
 
     from gearopt.meshing.misalignment import Misalignment
@@ -73,35 +80,61 @@ def main(argv=None):
     phi = opt.phi1  # the optimiser's final grid
     best_opt = opt._merit(opt.check(np.array(list(d.theta.values())), phi), rho)
 
-    calls["n"] = 0
-    levels = np.linspace(0.0, 1.0, args.levels)
     red = opt._reduced()  # one case per mirror-image pair, as the optimiser's loop (the same merit)
-    t0 = time.perf_counter()
-    best = (np.inf, None, None)
-    for combo in itertools.product(levels, repeat=len(opt.free)):
-        th = opt.lo + np.array(combo) * (opt.hi - opt.lo)
+    searches = []  # (name, merit, design, check, evaluations, time)
+
+    def scored(th):
         chk = red.check(th, phi)
-        m = red._merit(chk, rho)
-        if m < best[0]:
-            best = (m, th, chk)
-    t_grid = time.perf_counter() - t0
-    n_grid = calls["n"]
+        return red._merit(chk, rho), chk
+
+    if args.search in ("grid", "both"):
+        calls["n"] = 0
+        levels = np.linspace(0.0, 1.0, args.levels)
+        t0 = time.perf_counter()
+        best = (np.inf, None, None)
+        for combo in itertools.product(levels, repeat=len(opt.free)):
+            th = opt.lo + np.array(combo) * (opt.hi - opt.lo)
+            m, chk = scored(th)
+            if m < best[0]:
+                best = (m, th, chk)
+        searches.append((f"grid {args.levels}^{len(opt.free)}", *best, calls["n"], time.perf_counter() - t0))
+    if args.search in ("de", "both"):
+        from scipy.optimize import differential_evolution
+
+        calls["n"] = 0
+        seen = {}
+
+        def merit(th):
+            m, chk = scored(np.asarray(th, float))
+            seen[tuple(th)] = (m, chk)
+            return m
+
+        t0 = time.perf_counter()
+        res = differential_evolution(merit, list(zip(opt.lo, opt.hi)), maxiter=args.de_maxiter, popsize=15, seed=0,
+                                     polish=False, init="latinhypercube")
+        t_de = time.perf_counter() - t0
+        m, chk = seen[tuple(res.x)]
+        searches.append((f"differential evolution ({res.nit} generations, {res.nfev} designs)", m, np.asarray(res.x),
+                         chk, calls["n"], t_de))
     chk_opt = red.check(np.array(list(d.theta.values())), phi)
-    if red is not opt:  # the grid's best design scored on the full duty cycle too (the same merit)
-        full = opt._merit(opt.check(best[1], phi), rho)
-        if not np.isclose(full, best[0], rtol=1e-9, atol=1e-9):
-            raise RuntimeError(f"the mirror-reduced merit {best[0]} differs from the full one {full}")
+    for name, m, th, _, _, _ in searches:
+        if red is not opt:  # each search's best design scored on the full duty cycle too (the same merit)
+            full = opt._merit(opt.check(th, phi), rho)
+            if not np.isclose(full, m, rtol=1e-9, atol=1e-9):
+                raise RuntimeError(f"{name}: the mirror-reduced merit {m} differs from the full one {full}")
     print(f"grid of positions: {phi.size} per cycle; cases x torques: {len(opt.cases)} x {opt.torques.size}; "
           f"penalty weight {rho:g}\n")
     print("| method | merit [arcsec] | weighted TE p-p [arcsec] | largest edge load [% of W] | design C_alpha / C_beta / "
           "C_alpha_a / C_alpha_f [um] | loaded-TCA evaluations (design x case) | wall time [s] |")
     print("|---|---|---|---|---|---|---|")
-    for name, m, th, chk, n, t in (("trust-region NLP (AD)", best_opt, np.array(list(d.theta.values())), chk_opt,
-                                    n_opt, t_opt),
-                                   (f"grid {args.levels}^{len(opt.free)}", best[0], best[1], best[2], n_grid, t_grid)):
+    for name, m, th, chk, n, t in [("trust-region NLP (AD)", best_opt, np.array(list(d.theta.values())), chk_opt,
+                                    n_opt, t_opt)] + searches:
         print(f"| {name} | {m:.2f} | {chk.objective:.2f} | {100 * chk.edge_load.max():.3g} | "
               f"{' / '.join(f'{v * 1e3:.2f}' for v in th)} | {n} | {t:.1f} |")
-    print(f"\nevaluations: grid / NLP = {n_grid / max(n_opt, 1):.1f}; time: grid / NLP = {t_grid / t_opt:.2f}")
+    print()
+    for name, m, _, _, n, t in searches:
+        print(f"{name}: evaluations / NLP's = {n / max(n_opt, 1):.1f}; time / NLP's = {t / t_opt:.2f}; "
+              f"merit - NLP's = {m - best_opt:+.2f} arcsec")
     return 0
 
 
