@@ -1419,6 +1419,19 @@ def central_path_indicators(H, Jg, lbg, ubg, g, lam_g, lbx, ubx, x, lam_x):
     slack vanishes like mu), 0 for an inactive one (its multiplier does), 1/2 for a degenerate one
     (active with a zero multiplier: both vanish like sqrt(mu)). Scale-free, unlike lam / s.
 
+    Parameters
+    ----------
+    H : (n, n) array or sparse matrix
+        Hessian of the Lagrangian ``f + lam_g' g`` in ``x`` at the solution.
+    Jg : (m, n) array or sparse matrix
+        Jacobian of ``g`` at the solution.
+    lbg, ubg, g, lam_g : (m,) arrays
+        Constraint bounds (equal for an equality row), values and multipliers.
+    lbx, ubx, x, lam_x : (n,) arrays
+        Variable bounds (+-inf where none), the solution and the bounds' multipliers. The solve
+        should run without IPOPT's bound relaxation (``bound_relax_factor`` 0), so that every slack
+        is the solution's own.
+
     Returns
     -------
     ind_g : (m,) array
