@@ -39,6 +39,8 @@ def main(argv=None):
     cases = {k: v for k, v in misalignment_cases(crossing=2 * ARCMIN).items() if not k.startswith("crossing -")}
     study = LoadedMicroStudy(pair, free, torque=250.0, torques=[100.0, 250.0], cases=cases, edge_margin=0.5 * UM,
                              n_positions=16, n_verify=32, n_slices=11, name="optimize_microgeometry")
+    # (Litvin's unloaded parabolic TE as a second term of the objective: add te_level=8 * ARCSEC,
+    # te_weight=1.0 above; docs/loaded_synthesis.md section 9.)
     # 3. Optimise, verify with independent loaded TCA sweeps, plot.
     report = study.run(progress=say)
     d = report.design

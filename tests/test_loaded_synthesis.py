@@ -13,7 +13,7 @@ from gearopt.gears import Gear, GearPair
 from gearopt.geometry.microgeometry import Microgeometry
 from gearopt.meshing.misalignment import Misalignment
 from gearopt.synthesis.loaded import EDGE_TOL, LoadedMicroOptimizer
-from gearopt.units import ARCMIN
+from gearopt.units import ARCMIN, RAD_TO_ARCSEC
 
 FREE = {"pinion.C_alpha": (0.0, 0.04), "pinion.C_beta": (0.0, 0.04), "pinion.C_alpha_a": (0.0, 0.04),
         "pinion.C_alpha_f": (0.0, 0.04)}
@@ -196,7 +196,7 @@ class _PenaltyToy(LoadedMicroOptimizer):
 
     def __init__(self, refine=()):  # none of the drive's machinery: the loop alone
         self.free, self.lo, self.hi = ("pinion.C_alpha",), np.array([0.0]), np.array([0.1])
-        self.theta0, self.cases, self.p_limit = np.array([0.0]), (Misalignment(),), None
+        self.theta0, self.cases, self.p_limit, self.te_level = np.array([0.0]), (Misalignment(),), None, None
         self.n_positions, self.n_verify, self.refine = 2, 4, list(refine)
         self.ltca = type("LTCA", (), {"mesh_cycle": staticmethod(lambda n: np.linspace(0.0, 1.0, n, endpoint=False))})
         self._has_settings, self.phi1, self.solves = False, np.zeros(2), []
@@ -360,9 +360,12 @@ def test_sensitivities_of_the_optimum_match_finite_differences(opt, sens):
     """d(optimum)/d(torque) and d(optimum)/d(misalignment) by AD (the perturbed KKT system of the NLP
     at the optimum, the envelope theorem for the objective) against central differences of the same
     NLP solved again at perturbed parameters: every torque, every misalignment kind."""
+    _assert_sensitivities_match_finite_differences(opt, sens)
+
+
+def _assert_sensitivities_match_finite_differences(opt, S):
     from gearopt.meshing.misalignment import Misalignment as Mis
 
-    S = sens
     assert S["model_step"] < 1e-4  # the NLP's optimum is the design (converged)
     nlp = S["nlp"]
     lbx, ubx = S["bounds"]
@@ -459,7 +462,81 @@ def test_harmonics_objective_matches_the_fft_of_the_exact_loaded_te():
                 assert opt._merit(opt.check(t), d.rho) > best - 0.05
 
 
+@pytest.fixture(scope="module")
+def te0_designs():
+    """Optima with the unloaded parabolic-TE target (8 arcsec) at a light and a heavy weight; edge
+    loading allowed, so that the profile crowning is free to serve either term."""
+    return {w: optimizer(te_level=8.0 / RAD_TO_ARCSEC, te_weight=w, edge_margin=None).solve() for w in (0.1, 10.0)}
+
+
+def test_unloaded_te_target_is_the_tcas_unloaded_te_against_its_parabola(te0_designs):
+    """The unloaded-TE term: at the optimum, each case's RMS misfit (verified by the exact slices and
+    predicted by the NLP) equals a numpy least-squares fit of c0 + c1 psi - 8" psi^2 to the TCA's own
+    unloaded TE (the rootfinder sweep of pair 0 over the NLP's positions, nothing of the loaded
+    model); the NLP's term at its solution (its own c0, c1) equals the weighted sum of those fits; the
+    pair centred on each position is found on any grid (shifted by one pitch: pair 1)."""
+    d = te0_designs[0.1]
+    opt = optimizer(te_level=8.0 / RAD_TO_ARCSEC, te_weight=0.1, edge_margin=None)
+    th = np.array(list(d.theta.values()))
+    p1, p2 = opt.params(th)
+    z1 = opt.pair.pinion.z
+    rms = []
+    for c, mis in enumerate(opt.cases):
+        res = opt.tca.sweep(d.phi1, p1, p2, mis=mis, pairs=(0,))
+        assert res.converged.all()
+        te = np.asarray(res.te[0]) * RAD_TO_ARCSEC
+        psi = d.phi1 / (np.pi / z1)
+        V = np.stack([np.ones_like(psi), psi], axis=1)
+        coef, *_ = np.linalg.lstsq(V, te + 8.0 * psi**2, rcond=None)
+        rms.append(np.sqrt(np.mean((te + 8.0 * psi**2 - V @ coef) ** 2)))
+    rms = np.array(rms)
+    assert rms.min() > 1.0  # a real misfit: the loaded TE pulls the design off the parabola
+    assert np.allclose(d.verified.te0_rms, rms, rtol=0, atol=1e-5)
+    assert np.allclose(d.predicted["te0_rms"], rms, rtol=0, atol=1e-5)
+    assert d.error["te0_rms"] < 1e-5
+    # the NLP's own term, the design fixed at the optimum
+    opt.phi1 = d.phi1
+    a = opt._around(th)
+    nlp = a["nlp"]
+    lbx, ubx = opt._bounds(nlp)
+    lbx[:th.size] = ubx[:th.size] = th * 1e3
+    r = nlp["solver"](x0=a["z0"], lbx=lbx, ubx=ubx, lbg=nlp["lbg"], ubg=nlp["ubg"], p=opt._pvec(d.rho))
+    assert nlp["solver"].stats()["success"]
+    term = float(nlp["te0_term"](r["x"]))
+    W = opt.weights.sum(axis=0)
+    assert term == pytest.approx(0.1 * float(np.sum(W * np.sqrt(rms**2 + 1e-6))), rel=1e-6)
+    # any grid: one pitch on, pair 1 is the one centred there
+    S = opt.ltca.slices(d.phi1, p1, p2, opt.cases[1])
+    S1 = opt.ltca.slices(d.phi1 + 2 * np.pi / z1, p1, p2, opt.cases[1])
+    assert opt.te0_misfit(S1, 1)[0] == pytest.approx(opt.te0_misfit(S, 1)[0], abs=1e-6)
+
+
+def test_sensitivities_with_the_unloaded_te_target_match_finite_differences():
+    """With the unloaded-TE target in the objective (its zero-load contact blocks and the projection
+    of the least-squares fit in the NLP), the AD sensitivities of the optimum (weight 1, no edge
+    loading) still match central differences of the NLP."""
+    opt = optimizer(te_level=8.0 / RAD_TO_ARCSEC, te_weight=1.0)
+    S = opt.sensitivities(opt.solve())
+    assert S["degenerate"] == 0
+    _assert_sensitivities_match_finite_differences(opt, S)
+
+
+def test_heavier_unloaded_te_weight_lowers_the_misfit(te0_designs):
+    """A heavier weight of the unloaded-TE target brings the unloaded TE onto its parabola (verified on
+    the independent grid) at the price of the loaded TE."""
+    lo, hi = te0_designs[0.1], te0_designs[10.0]
+    assert hi.after.te0_rms.max() < 0.1 * lo.after.te0_rms.min()
+    assert hi.after.objective > lo.after.objective
+    for d in (lo, hi):
+        assert d.error["te0_rms"] < 1e-5 and d.error["objective"] < 0.01
+
+
 @pytest.mark.parametrize("kw, param", [
+    (dict(te_level=-1e-5), "te_level"),
+    (dict(te_level=700.0 / RAD_TO_ARCSEC), "te_level"),
+    (dict(te_level=True), "te_level"),
+    (dict(te_level=4e-5, te_weight=0.0), "te_weight"),
+    (dict(te_level=4e-5, te_weight=float("nan")), "te_weight"),
     (dict(free={"pinion.a_c": (0.0, 0.2)}), "free.pinion.a_c"),  # above 0.05 1/mm
     (dict(free={"pinion.a_pl": (-0.001, 0.001)}), "free.pinion.a_pl"),
     (dict(harmonics=[]), "harmonics"),

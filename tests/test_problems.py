@@ -12,6 +12,7 @@ import shutil
 import tomllib
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from gearopt.cli import main
@@ -25,7 +26,7 @@ SCENES = sorted(p for p in PROBLEMS.glob("*.toml"))
 #: pytest markers of the scene runs: IPOPT (crowning study), CalculiX (fea study), above about 5 s
 STUDY_MARKS = {"crowning": [pytest.mark.ipopt], "fea": [pytest.mark.calculix], "loaded_microgeometry": [pytest.mark.ipopt]}
 SLOW_SCENES = {"crowning_spur", "fea_spur", "edge_spur_crossed", "montecarlo_spur", "montecarlo_loaded",
-               "microgeometry_loaded", "microgeometry_pareto"}
+               "microgeometry_loaded", "microgeometry_pareto", "microgeometry_te_target"}
 
 
 def _scene_param(scene: Path):
@@ -89,6 +90,36 @@ def _loaded_microgeometry_scalars(res, out):
     assert (out / "loaded_microgeometry.csv").read_text().count("\n") == 1 + len(res["cases"]) * len(res["torques_Nm"])
     if "pareto" in res:
         _pareto_scalars(res, out)
+    if res["options"]["unloaded_te"] is not None:
+        _unloaded_te_scalars(res, out)
+
+
+def _unloaded_te_scalars(res, out):
+    """The unloaded parabolic-TE target (problems/microgeometry_te_target.toml): the NLP's misfit is the
+    exact slices'; each case's misfit recomputed here from the written unloaded TE (numpy least squares
+    of the parabola plus a line) is the reported one; the term of the objective is the weighted sum
+    of the smoothed misfits; the mirror-image cases (crossing +-2') have the same unloaded TE."""
+    d, u = res["design"], res["design"]["unloaded_te"]
+    assert d["error"]["te0_rms"] < 1e-4
+    lvl = res["options"]["unloaded_te"]["level_arcsec"]
+    W = np.sum(np.array(res["options"]["weights"]), axis=0)
+    for key in ("before", "after"):
+        rms = []
+        for c, case in enumerate(u["cases"]):
+            e = case[key]
+            psi, te = np.array(e["psi"]), np.array(e["te_arcsec"])
+            assert psi.size >= 0.9 * res["options"]["verify_positions"] and np.all(np.abs(psi) <= 1.0)
+            V = np.stack([np.ones_like(psi), psi], axis=1)
+            coef, *_ = np.linalg.lstsq(V, te + lvl * psi**2, rcond=None)
+            rms.append(float(np.sqrt(np.mean((te + lvl * psi**2 - V @ coef) ** 2))))
+            assert e["rms_arcsec"] == pytest.approx(rms[-1], abs=1e-9)
+            assert d[key]["te0_rms_arcsec"][c] == pytest.approx(rms[-1], abs=1e-9)
+        weight = res["options"]["unloaded_te"]["weight"]
+        assert d[key]["te0_term_arcsec"] == pytest.approx(weight * float(np.sum(W * np.sqrt(np.array(rms) ** 2 + 1e-6))),
+                                                          rel=1e-9)
+        names = [c["name"] for c in u["cases"]]
+        assert rms[names.index("crossing +2'")] == pytest.approx(rms[names.index("crossing -2'")], abs=1e-6)
+    assert (out / "loaded_micro_unloaded_te.png").stat().st_size > 10_000
 
 
 def _pareto_scalars(res, out):
@@ -452,6 +483,14 @@ def _bad_scene(tmp_path, scene: str, edit) -> tuple[list, str]:
     (("p_limit = 2200.0", "p_limit = 2200.0\npareto = [2000.0, 2000.0]"), "[loaded_microgeometry] pareto"),
     (("p_limit = 2200.0", "p_limit = 2200.0\npareto = [50.0]"), "[loaded_microgeometry] pareto"),
     (('edge_margin = "0.5 um"', 'edge_margin = "0 um"'), "[loaded_microgeometry] edge_margin"),
+    (('edge_margin = "0.5 um"', 'edge_margin = "0.5 um"\nunloaded_te = { level = "-8 arcsec" }'),
+     "[loaded_microgeometry.unloaded_te] level"),
+    (('edge_margin = "0.5 um"', 'edge_margin = "0.5 um"\nunloaded_te = { level = "8 arcsec", weight = 0.0 }'),
+     "[loaded_microgeometry.unloaded_te] weight"),
+    (('edge_margin = "0.5 um"', 'edge_margin = "0.5 um"\nunloaded_te = { weight = 2.0 }'),
+     "[loaded_microgeometry.unloaded_te] level"),
+    (('edge_margin = "0.5 um"', 'edge_margin = "0.5 um"\nunloaded_te = { level = "8 arcsec", wieght = 2.0 }'),
+     "[loaded_microgeometry.unloaded_te] wieght"),
 ])
 def test_bad_loaded_microgeometry_keys_name_the_key_and_write_nothing(tmp_path, edit, param):
     """Bad keys of the loaded micro-geometry scene stop before the optimisation, naming the key (the

@@ -110,3 +110,32 @@ def plot_pareto(front: dict, ax=None, before: dict | None = None, objective: str
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7, loc="best")
     return ax
+
+
+def plot_unloaded_te(d: dict, ax=None, case: int = 0):
+    """The unloaded-TE target of one case: the unloaded TE [arcsec] of the pair centred on each position
+    over pinion angle [deg] before (open) and after (filled) the optimisation, each with its fitted
+    target parabola ``c0 + c1 psi - level psi^2`` (``d``: the study's results dictionary with
+    ``design.unloaded_te``)."""
+    import matplotlib.pyplot as plt
+
+    ax = ax or plt.gca()
+    u = d["design"]["unloaded_te"]
+    z1 = u["z1"]
+    lvl = u["level_arcsec"]
+    c = u["cases"][case]
+    for key, mk, col in (("before", "o", "0.45"), ("after", "s", "C3")):
+        e = c[key]
+        psi = _arr(e["psi"])
+        deg = psi * 180.0 / z1
+        fine = np.linspace(-1.0, 1.0, 201)
+        ax.plot(fine * 180.0 / z1, e["c0_arcsec"] + e["c1_arcsec"] * fine - lvl * fine**2, "-", color=col, lw=1.0)
+        ax.plot(deg, _arr(e["te_arcsec"]), mk, color=col, ms=4, mfc="none" if key == "before" else col,
+                label=f"{key}: RMS misfit {e['rms_arcsec']:.3g}\"")
+    ax.plot([], [], "k-", lw=1.0, label=f"target parabola, level {lvl:.3g}\" (best line added)")
+    ax.set_xlabel("pinion angle of the pair from its mesh-cycle centre [deg]")
+    ax.set_ylabel("unloaded transmission error [arcsec]")
+    ax.set_title(f"unloaded TE against its parabola, {c['name']} (weight {u['weight']:g})")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, loc="best")
+    return ax

@@ -12,6 +12,9 @@ Scene section ``[loaded_microgeometry]``:
                   amplitudes instead of the peak-to-peak (default none: peak-to-peak).
 ``pareto``        pressure limits [MPa] of a Pareto front (loaded TE against peak pressure, an
                   epsilon-constraint sweep from the optimum without a limit; default none).
+``unloaded_te``   ``{ level = "8 arcsec", weight = 1.0 }``: the unloaded drive's predesigned parabolic TE
+                  (Litvin's target of the crowning study) as a second term of the objective, weighted
+                  (default none; docs/loaded_synthesis.md section 9).
 ``edge_margin``   smallest gap of every tip edge and face end under load (default "0.5 um").
 ``edge_loading``  true: edge loading allowed (no edge constraint; default false).
 ``positions``     positions per mesh cycle in the NLP (default 24); ``verify_positions`` of the
@@ -37,6 +40,7 @@ from pathlib import Path
 import numpy as np
 
 from ..geometry.microgeometry import GLOBAL_AMOUNTS, RELIEF_AMOUNTS
+from ..units import RAD_TO_ARCSEC
 
 UNITS = {"amounts": "um (suffix _um)", "te": "arcsec (suffix _arcsec)", "pressure": "MPa", "torque": "N m",
          "angle": "rad", "length": "mm", "time": "s", "see": "docs/results.md"}
@@ -66,15 +70,18 @@ class LoadedMicroReport:
     def save_plots(self, out_dir, dpi: int = 120) -> list[str]:
         """``loaded_micro_te.png`` (loaded TE over the mesh cycle at every torque, before and after, in
         the aligned case; TE peak-to-peak against torque for every case), ``loaded_micro_pattern.png``
-        (loaded contact pattern on the pinion flank at the nominal torque, before and after) and
+        (loaded contact pattern on the pinion flank at the nominal torque, before and after),
+        ``loaded_micro_sharing.png`` (load sharing of the tooth pairs at the nominal torque, before and after) and
         ``loaded_micro_rounds.png`` (the trust-region rounds); with a Pareto front,
-        ``loaded_micro_pareto.png``."""
+        ``loaded_micro_pareto.png``; with an unloaded-TE target, ``loaded_micro_unloaded_te.png`` (the
+        unloaded TE of every case before and after, against its target parabola)."""
         import matplotlib
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
 
-        from ..plot.loaded_synthesis import plot_pareto, plot_rounds, plot_te_before_after, plot_te_vs_torque_before_after
-        from ..plot.ltca import plot_contact_pattern
+        from ..plot.loaded_synthesis import (plot_pareto, plot_rounds, plot_te_before_after,
+                                             plot_te_vs_torque_before_after, plot_unloaded_te)
+        from ..plot.ltca import plot_contact_pattern, plot_load_sharing
         from .ltca import save_figure
 
         out = Path(out_dir)
@@ -100,6 +107,11 @@ class LoadedMicroReport:
         plot_contact_pattern(d["after"][0], "pinion", ax=axes[1], vmax=pmax)
         axes[1].set_title("after: " + axes[1].get_title())
         files.append(save("loaded_micro_pattern.png", fig, f"loaded contact pattern, {d['cases'][0]['name']}"))
+        fig, axes = plt.subplots(1, 2, figsize=(13, 4.5), layout="constrained")
+        for ax, key in zip(axes, ("before", "after")):
+            plot_load_sharing(d[key][0], ax=ax)
+            ax.set_title(f"{key}: " + ax.get_title())
+        files.append(save("loaded_micro_sharing.png", fig, f"load sharing of the tooth pairs, {d['cases'][0]['name']}"))
         fig, ax = plt.subplots(figsize=(7, 4.5), layout="constrained")
         harm = self.options.get("harmonics") is not None
         plot_rounds(d["design"], ax=ax, objective="weighted mesh harmonics" if harm else "weighted TE p-p")
@@ -111,6 +123,12 @@ class LoadedMicroReport:
                                                     "p_max_MPa": float(np.max(b["p_max_MPa"]))},
                         objective="weighted loaded TE harmonics" if harm else "weighted loaded TE peak-to-peak")
             files.append(save("loaded_micro_pareto.png", fig, "Pareto front"))
+        if d["design"].get("unloaded_te") is not None:
+            C = len(d["cases"])
+            fig, axes = plt.subplots(1, C, figsize=(6 * C, 4.5), layout="constrained", squeeze=False)
+            for c in range(C):
+                plot_unloaded_te(d, ax=axes[0, c], case=c)
+            files.append(save("loaded_micro_unloaded_te.png", fig, "unloaded TE against its target parabola"))
         return files
 
     def save_tables(self, out_dir) -> list[str]:
@@ -174,6 +192,7 @@ class LoadedMicroStudy:
                 d = fr.anchor  # solved again from a better point of the front, if one was
             front = fr.to_dict()
         sens = sensitivity_dict(opt, opt.sensitivities(d))
+        unloaded = None if opt.te_level is None else unloaded_te_dict(opt, d, self.case_names)
         if progress and not sens["at_design"]:
             progress(f"loaded micro-geometry: warning: the NLP's optimum lies {sens['model_step_um']:.3g} um from the "
                      "design (the trust-region loop stopped on its radius, not converged): the sensitivities are "
@@ -184,6 +203,10 @@ class LoadedMicroStudy:
         if progress:
             progress(f"loaded micro-geometry: objective {d.before.objective:.4g} -> {d.after.objective:.4g} arcsec "
                      f"(verification grid); NLP vs loaded TCA {d.error['te_pp']:.2g} arcsec")
+            if opt.te_level is not None:
+                progress(f"loaded micro-geometry: unloaded TE against its {opt.te_level * RAD_TO_ARCSEC:.3g} arcsec parabola, "
+                         f"largest RMS misfit of a case {np.max(d.before.te0_rms):.3g} -> {np.max(d.after.te0_rms):.3g} "
+                         "arcsec (verification grid)")
         z1 = self.pair.pinion.z
         t = opt.tca
         limits = {"pinion": {"b": self.pair.pinion.b, "r_a": self.pair.pinion.r_a, "r_form": t.form_radius(1)},
@@ -196,10 +219,29 @@ class LoadedMicroStudy:
                    "harmonics": None if opt.harmonics is None else opt.harmonics.tolist(),
                    "edge_margin_um": None if opt.edge_margin is None else opt.edge_margin * 1e3,
                    "positions": int(opt.phi1.size), "verify_positions": opt.n_verify, "n_slices": opt.ltca.n_slices,
-                   "E_MPa": opt.material.E, "nu": opt.material.nu}
-        return LoadedMicroReport(scene=self.name, design={**d.to_dict(), "sensitivities": sens}, cases=cases, torques=opt.torques.tolist(),
+                   "E_MPa": opt.material.E, "nu": opt.material.nu,
+                   "unloaded_te": None if opt.te_level is None else {"level_arcsec": opt.te_level * RAD_TO_ARCSEC,
+                                                                     "weight": opt.te_weight}}
+        design = {**d.to_dict(), "sensitivities": sens}
+        if unloaded is not None:
+            design["unloaded_te"] = unloaded
+        return LoadedMicroReport(scene=self.name, design=design, cases=cases, torques=opt.torques.tolist(),
                                  before=before, after=after, options=options, pareto=front,
                                  timing={"run_s": time.perf_counter() - t0, "optimise_s": d.time})
+
+
+def unloaded_te_dict(opt, d, names) -> dict:
+    """``design.unloaded_te`` of results.json: the target (level [arcsec], weight, the pinion's z1)
+    and per case, before and after (verification grid), the unloaded TE of the pair centred on each
+    position [arcsec] at its angle over pi/z1 (``psi``), the fitted line (c0, c1 [arcsec]) and the RMS
+    misfit [arcsec]."""
+    def one(chk, c):
+        rms, psi, te, coef = opt.te0_misfit(chk.sweeps[c].slices, c)
+        return {"psi": psi.tolist(), "te_arcsec": te.tolist(), "c0_arcsec": float(coef[0]),
+                "c1_arcsec": float(coef[1]), "rms_arcsec": rms}
+
+    return {"level_arcsec": opt.te_level * RAD_TO_ARCSEC, "weight": opt.te_weight, "z1": opt.pair.pinion.z,
+            "cases": [{"name": n, "before": one(d.before, c), "after": one(d.after, c)} for c, n in enumerate(names)]}
 
 
 def sensitivity_dict(opt, S: dict) -> dict:
@@ -245,8 +287,10 @@ def _from_scene(scene):
                               "[loaded_microgeometry.free.pinion] C_alpha = { lo = \"0 um\", hi = \"40 um\" }.",
                               valid="at least one free amount")
     cases = misalignment_cases(**{k: o.get(k) or 0.0 for k in Misalignment.names()})
+    te0 = o.get("unloaded_te") or {}
     try:
         return LoadedMicroStudy(scene.pair, free, torque, torques, cases, weights=weights, name=scene.name,
+                                te_level=te0.get("level"), te_weight=te0.get("weight") or 1.0,
                                 pareto=o.get("pareto"), p_limit=o.get("p_limit"), harmonics=o.get("harmonics"),
                                 edge_margin=None if o.get("edge_loading") else o.get("edge_margin"),
                                 n_positions=o.get("positions") or 24, n_verify=o.get("verify_positions") or 64,
@@ -297,7 +341,14 @@ def _register():
             *material_fields(),
             *misalignment_fields(signed=False, prefix="+- ", suffix=" cases"),
         ], subsections=[Section("free", [], subsections=[amounts("pinion"), amounts("gear")], required=True,
-                                doc="the free amounts and their bounds")], required=True)],
+                                doc="the free amounts and their bounds"),
+                        Section("unloaded_te", [
+                            Field("level", "angle", required=True, check=Bounds(lo=0, lo_open=True, hi=600 / 3600),
+                                  typical="arcsec", doc="predesigned parabolic TE level of the unloaded drive"),
+                            Field("weight", "float", default=1.0, check=Bounds(lo=0, lo_open=True, hi=1e3),
+                                  doc="weight of its RMS misfit against the loaded TE objective"),
+                        ], doc="the unloaded parabolic-TE target as a second term of the objective (default none)")],
+                required=True)],
         build=_from_scene,
     ))
 

@@ -41,6 +41,11 @@ NLP's grid. The result reports the NLP's values, the loaded TCA's, and their dif
 :meth:`LoadedMicroOptimizer.sensitivities` differentiates the optimum with respect to the torques and
 a misalignment (the KKT system of its active set, read from IPOPT's central path, by CasADi); :meth:`LoadedMicroOptimizer.pareto`
 sweeps the pressure limit (epsilon-constraint) for the front of loaded TE against peak pressure.
+
+Optionally (``te_level``, ``te_weight``) Litvin's predesigned parabolic TE of the unloaded drive is a
+second term of the objective: the RMS misfit of each case's unloaded TE (the pair centred on each
+position, its smallest separation by the same smoothed complementarity at zero load) to the parabola
+plus its least-squares line (docs/loaded_synthesis.md section 9).
 """
 
 from __future__ import annotations
@@ -81,6 +86,7 @@ WARM_OPTS = {"ipopt.warm_start_init_point": "yes", "ipopt.mu_init": 1e-4, "ipopt
              "ipopt.warm_start_mult_bound_push": 1e-9, "ipopt.warm_start_slack_bound_push": 1e-9,
              "ipopt.max_iter": 300}
 HARM_EPS = 1e-3  #: [arcsec] smoothing of a harmonic amplitude at zero, sqrt(a^2 + b^2 + eps^2)
+TE0_EPS = 1e-3  #: [arcsec] smoothing of the unloaded TE's RMS misfit to its parabola at zero, sqrt(rms^2 + eps^2)
 THETA_TOL = 1e-4  #: [mm] the design has settled when no amount moves by more than this (0.1 um: below any grinding machine's resolution)
 TIP_BAND = 0.02  #: [m_n] contact within this radial distance of a tip circle counts as tip (edge) contact
 SETTINGS = {"a_c": 0.05, "a_pl": 0.02}  #: Litvin's settings a design may free, with their largest value [1/mm]
@@ -102,6 +108,11 @@ class LoadedCheck:
     sweeps : (C,) the :class:`~gearopt.ltca.engine.LoadedSweep` of each case.
     harmonics : (T, C, H) amplitudes of the loaded TE's first H mesh harmonics [arcsec] (least squares
         on the positions; the DFT on a uniform grid), when the objective is the harmonics.
+    te0_rms : (C,) with an unloaded-TE target (``te_level``): the RMS misfit [arcsec] of each case's
+        unloaded TE (one pair over one mesh cycle centred on it, the smallest separation of its
+        slices) to the target parabola plus its best line (:meth:`LoadedMicroOptimizer.te0_misfit`).
+    te0_term : the target's term of the objective [arcsec] (0 without a target); the trust-region
+        loop's merit is ``objective + te0_term`` plus the penalties.
     """
 
     te_pp: np.ndarray
@@ -112,6 +123,8 @@ class LoadedCheck:
     objective: float
     sweeps: tuple = field(repr=False)
     harmonics: np.ndarray | None = None
+    te0_rms: np.ndarray | None = None
+    te0_term: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -164,11 +177,19 @@ class MicroDesign:
                    "edge_gap_um": arr(c.edge_gap * 1e3), "edge_load": arr(c.edge_load), "objective_arcsec": c.objective}
             if c.harmonics is not None:
                 out["harmonics_arcsec"] = arr(c.harmonics)
+            if c.te0_rms is not None:
+                out["te0_rms_arcsec"] = arr(c.te0_rms)
+                out["te0_term_arcsec"] = c.te0_term
             return out
 
+        pred = {"te_pp_arcsec": arr(self.predicted["te_pp"]), "p_max_MPa": arr(self.predicted["p_max"]),
+                "objective_arcsec": self.predicted["objective"]}
+        if self.predicted.get("te0_rms") is not None:
+            pred["te0_rms_arcsec"] = arr(self.predicted["te0_rms"])
+            pred["te0_term_arcsec"] = self.predicted["te0_term"]
+
         return {"theta_um": self.theta_um(), "theta0_um": {k: v * 1e3 for k, v in self.theta0.items()},
-                "predicted": {"te_pp_arcsec": arr(self.predicted["te_pp"]), "p_max_MPa": arr(self.predicted["p_max"]),
-                              "objective_arcsec": self.predicted["objective"]},
+                "predicted": pred,
                 "verified": chk(self.verified), "error": dict(self.error), "before": chk(self.before),
                 "after": chk(self.after), "rounds": self.rounds, "iterations": self.iterations,
                 "time_s": self.time, "status": self.status, "binding": list(self.binding)}
@@ -195,7 +216,8 @@ class ParetoFront:
     def points(self) -> list[dict]:
         """The front's points, the anchor first: the limit [MPa] (None for the anchor), the verified
         weighted loaded TE [arcsec] and largest peak pressure over the duty cycle [MPa] (loaded TCA on
-        the verification grid), and the design [um]; limits without a design give ``feasible: False``."""
+        the verification grid), the unloaded-TE target's term [arcsec] (0 without one), and the design
+        [um]; limits without a design give ``feasible: False``."""
         out = []
         for lim, d, msg in zip((None,) + tuple(self.p_limits), (self.anchor,) + tuple(self.designs),
                                ("",) + tuple(self.messages)):
@@ -203,6 +225,7 @@ class ParetoFront:
                 out.append({"p_limit_MPa": lim, "feasible": False, "message": msg})
                 continue
             out.append({"p_limit_MPa": lim, "feasible": True, "objective_arcsec": d.after.objective,
+                        "te0_term_arcsec": d.after.te0_term,
                         "p_max_MPa": float(np.max(d.after.p_max)), "edge_load": float(np.max(d.after.edge_load)),
                         "theta_um": d.theta_um(), "rounds": len(d.rounds), "time_s": d.time})
         return out
@@ -249,13 +272,25 @@ class LoadedMicroOptimizer:
         Weights of the loaded TE's first mesh harmonics: the objective is then
         ``sum_(t,c) w_tc sum_h harmonics[h] A_h`` with ``A_h`` [arcsec] the amplitude of harmonic h + 1
         (least squares on the NLP's positions) instead of the peak-to-peak. ``2 len + 1 <= n_positions``.
+    te_level : float, optional
+        The unloaded drive's predesigned parabolic TE level [rad] (Litvin's target of
+        :class:`gearopt.synthesis.crowning.CrowningOptimizer`: the parabola's drop from its apex over
+        half a mesh cycle, ``A = te_level / (pi/z1)^2``) as a second term of the objective:
+        ``te_weight * sum_c W_c sqrt(rms_c^2 + eps^2)``, with ``rms_c`` [arcsec] the RMS misfit of case
+        c's unloaded TE over the NLP's positions to ``c0 + c1 phi - A phi^2`` (c0, c1 free per case,
+        so a misalignment's line is absorbed) and ``W_c`` the case's weight summed over the torques.
+        0 < te_level < 600 arcsec (default None: no such term).
+    te_weight : float
+        Weight of that term (default 1: an arcsec of a case's RMS misfit counts as much as an arcsec
+        of its loaded TE objective at every torque); 0 < te_weight <= 1000.
 
     Call :meth:`solve` (``progress``: a callable taking one line of text per trust-region round).
     """
 
     def __init__(self, pair: GearPair, free: dict, torques, cases=None, weights=None, p_limit: float | None = None,
                  edge_margin: float | None = 5e-4, n_positions: int = 32, n_verify: int = 64, n_slices: int = 15,
-                 material: Material | None = None, side: str = "right", jit: bool | str = "auto", harmonics=None):
+                 material: Material | None = None, side: str = "right", jit: bool | str = "auto", harmonics=None,
+                 te_level: float | None = None, te_weight: float = 1.0):
         if not isinstance(pair, GearPair):
             raise ArgumentError(f"pair = {pair!r:.60}: expected a gearopt.gears.GearPair.", param="pair", value=pair,
                                 valid="a gearopt.gears.GearPair")
@@ -296,6 +331,18 @@ class LoadedMicroOptimizer:
                 raise out_of_range("harmonics", harmonics, "1 ... 10 weights >= 0, not all 0, one per mesh harmonic, "
                                    f"at most (n_positions - 1) / 2 = {(n_positions - 1) // 2} of them", cls=OptionError)
             self.harmonics = hw
+        if te_level is not None and not (isinstance(te_level, (int, float)) and not isinstance(te_level, bool)
+                                         and math.isfinite(te_level) and 0.0 < te_level < 600.0 / RAD_TO_ARCSEC):
+            raise out_of_range("te_level", te_level if not isinstance(te_level, (int, float)) or isinstance(te_level, bool)
+                               else f"{te_level * RAD_TO_ARCSEC:.6g} arcsec",
+                               "0 < te_level < 600 arcsec (the unloaded parabolic TE level, in rad), or None",
+                               cls=OptionError)
+        self.te_level = None if te_level is None else float(te_level)
+        if not (isinstance(te_weight, (int, float)) and not isinstance(te_weight, bool) and math.isfinite(te_weight)
+                and 0.0 < te_weight <= 1e3):
+            raise out_of_range("te_weight", te_weight, "0 < te_weight <= 1000 (weight of the unloaded-TE target)",
+                               cls=OptionError)
+        self.te_weight = float(te_weight)
         self.free, self.lo, self.hi = self._check_free(free)
         if not (isinstance(jit, (bool, np.bool_)) or (isinstance(jit, str) and jit == "auto")):
             raise out_of_range("jit", jit, "'auto', True or False (solve the slices as compiled C)", cls=OptionError)
@@ -323,7 +370,9 @@ class LoadedMicroOptimizer:
                                f"{self.lo[i] * k:g} ... {self.hi[i] * k:g} {u}", cls=OptionError)
         self._sens = {}
         self._has_settings = any(n.split(".", 1)[1] in SETTINGS for n in self.free)
-        self._w_mean = float(np.mean(self.weights))  #: the penalty's weight scale (that of the full duty cycle)
+        #: the penalty's weight scale (that of the full duty cycle; an unloaded-TE target adds its weight: its
+        #: term weighs te_weight times the loaded objective's per case, and so may its multipliers)
+        self._w_mean = float(np.mean(self.weights)) * (1.0 + (self.te_weight if self.te_level is not None else 0.0))
         self._mult = np.ones((T, C))  #: how many cases of the duty cycle each (torque, case) stands for
 
     def mirror_classes(self) -> list[list[int]] | None:
@@ -458,8 +507,61 @@ class LoadedMicroOptimizer:
                 gap = _gaps(sw, r)
                 eg[t, c] = float(np.min(np.where(ends & S.active, gap, np.inf)))
         obj = float(np.sum(self.weights * pp)) if not H else float(np.sum(self.weights[..., None] * hm * self.harmonics))
+        rms, term = None, 0.0
+        if self.te_level is not None:
+            rms = np.array([self.te0_misfit(sw.slices, c)[0] for c, sw in enumerate(sweeps)])
+            term = self._te0_term(rms)
         return LoadedCheck(te_pp=pp, p_max=pm, edge_share=es, edge_gap=eg, edge_load=el, objective=obj,
-                           sweeps=tuple(sweeps), harmonics=hm if H else None)
+                           sweeps=tuple(sweeps), harmonics=hm if H else None, te0_rms=rms, te0_term=term)
+
+    # -- the unloaded-TE target ------------------------------------------------------------------
+    def _te0_pairs(self, S) -> tuple[np.ndarray, np.ndarray]:
+        """Per position of the slice set ``S``: the index into ``S.pairs`` of the pair whose own angle
+        ``phi1 - 2 pi k / z1`` lies in [-pi/z1, pi/z1) (-1: that pair is not among ``S.pairs``), and that
+        angle over pi/z1 (in [-1, 1)): Litvin's one pair over one mesh cycle centred on it."""
+        half = math.pi / self.pair.pinion.z
+        phi1 = np.asarray(S.phi1, float)
+        k = np.floor((phi1 + half) / (2.0 * half) + 1e-9).astype(int)
+        pairs = [int(v) for v in S.pairs]
+        return np.array([pairs.index(v) if v in pairs else -1 for v in k], int), (phi1 - 2.0 * half * k) / half
+
+    def te0_misfit(self, S, case: int = 0) -> tuple[float, np.ndarray, np.ndarray, np.ndarray]:
+        """The unloaded TE of the slice set ``S`` (exact slices of one case) against the target parabola.
+
+        At every position the pair centred there (:meth:`_te0_pairs`) touches where its slices' TE is
+        largest (their smallest separation); that TE [arcsec] is fitted by least squares with
+        ``c0 + c1 psi - te_level psi^2`` (``psi``: the pair's angle over pi/z1, c0 and c1 free).
+
+        Returns
+        -------
+        rms : float
+            RMS misfit [arcsec].
+        psi, te : (n,) arrays
+            The positions' pair angles over pi/z1 and the unloaded TE [arcsec] (positions where the
+            pair has no active slice left out).
+        coef : (2,) c0, c1 [arcsec].
+        """
+        idx, psi = self._te0_pairs(S)
+        te = np.full(psi.size, np.nan)
+        for n, i in enumerate(idx):
+            if i >= 0 and S.active[i, n].any():
+                te[n] = np.max(S.te[i, n][S.active[i, n]]) * RAD_TO_ARCSEC
+        ok = np.isfinite(te)
+        self._te0_enough(int(ok.sum()), psi.size, case)
+        psi, te = psi[ok], te[ok]
+        rms, coef = _parabola_fit(psi, te, self.te_level * RAD_TO_ARCSEC)
+        return rms, psi, te, coef
+
+    def _te0_enough(self, n: int, N: int, case: int):
+        if n < 4:
+            raise SynthesisError(
+                f"loaded micro-geometry: the unloaded-TE target needs the pair centred on each position in contact, "
+                f"but in case {case} ({_case_text(self.cases[case])}) it touches at only {n} of the {N} positions "
+                "of the mesh cycle; raise n_positions, or drop te_level.", param="te_level", value=n)
+
+    def _te0_term(self, rms) -> float:
+        Wc = self.weights.sum(axis=0)
+        return float(self.te_weight * np.sum(Wc * np.sqrt(np.asarray(rms) ** 2 + TE0_EPS**2)))
 
     def _merit(self, chk: LoadedCheck, rho: float = RHO) -> float:
         """The NLP's objective for an exact loaded TCA: weighted TE peak-to-peak plus the penalised
@@ -469,7 +571,7 @@ class LoadedMicroOptimizer:
             pen += float(np.sum(self._mult * np.maximum(chk.p_max**2 / self.p_limit**2 - 1.0, 0.0)))
         if self.edge_margin is not None:
             pen += float(np.sum(self._mult * np.maximum(chk.edge_load - MU * G_REF / self.edge_margin, 0.0)))
-        return chk.objective + rho * self._w_mean * pen
+        return chk.objective + chk.te0_term + rho * self._w_mean * pen
 
     # -- linearisation --------------------------------------------------------------------------
     def _sensitivity(self, kind: int) -> ca.Function:
@@ -735,6 +837,42 @@ class LoadedMicroOptimizer:
             g_list.append(w_e * x[ends.tolist()] - mu / marg - ca.mtimes(E_e, se))
             lbg.append(np.full(ends.size, -np.inf))
             ubg.append(np.zeros(ends.size))
+        te0 = self._te0_blocks(lin, radius, lever) if self.te_level is not None else None
+        n0 = nB0 = 0
+        te0_vars = []
+        if te0 is not None:
+            # the unloaded TE (zero load: no compliance, no Hertz flattening) of the pair centred on each
+            # position, by the same smoothed complementarity: its approach d0 is the smallest separation
+            # of the pair's slices to O(MU) (a sampled min would not be smooth); appended at the end of the
+            # unknowns and rows, so the loaded NLP's indices stay as they are
+            n0, nB0 = te0["a"].size, len(te0["blocks"])
+            x0s, y0s, d0s = (ca.MX.sym(k, n) for k, n in (("x0", n0), ("y0", n0), ("d0", nB0)))
+            te0_vars = [x0s, y0s, d0s]
+            E0 = ca.DM.triplet(list(range(n0)), te0["blk"].tolist(), ca.DM.ones(n0), n0, nB0)
+            gap0 = ((ca.DM(te0["a"]) + ca.mtimes(ca.DM(te0["J"]), dth) + ca.mtimes(ca.DM(te0["Jm"]), dm)) / G_REF
+                    - ca.mtimes(E0, d0s))
+            g_list += [y0s - gap0, x0s + y0s - ca.sqrt(x0s**2 + y0s**2 + 2 * mu), ca.mtimes(E0.T, x0s) - 1.0]
+            lbg.append(np.zeros(2 * n0 + nB0))
+            ubg.append(np.zeros(2 * n0 + nB0))
+            # misfit of each block's unloaded TE [arcsec] to the case's parabola c0 + c1 psi - level psi^2
+            # (Litvin's predesigned function, as synthesis/crowning.py), c0 and c1 by least squares: the
+            # residual is the projection of te0 + level psi^2 off the span of (1, psi), one matrix per
+            # case (no fit unknowns: free c0, c1 in the NLP let IPOPT diverge along the null direction
+            # they share with the approaches); its RMS per case smoothed at 0
+            te_b = -d0s * G_REF / lever * RAD_TO_ARCSEC + self.te_level * RAD_TO_ARCSEC * ca.DM(te0["psi"]) ** 2
+            rows, cols, vals = [], [], []
+            for c in range(C):
+                k = np.flatnonzero(te0["case"] == c)
+                V = np.stack([np.ones(k.size), te0["psi"][k]], axis=1)
+                Pc = (np.eye(k.size) - V @ np.linalg.pinv(V)) / math.sqrt(k.size)  # residual / sqrt(n)
+                ii, jj = np.meshgrid(k, k, indexing="ij")
+                rows.append(ii.ravel())
+                cols.append(jj.ravel())
+                vals.append(Pc.ravel())
+            res = ca.mtimes(_sparse_dm(np.concatenate(rows), np.concatenate(cols), np.concatenate(vals), nB0, nB0), te_b)
+            Ec = ca.DM.triplet(list(range(nB0)), te0["case"].tolist(), ca.DM.ones(nB0), nB0, C)
+            ms = ca.mtimes(Ec.T, res**2)
+            te0_obj = self.te_weight * ca.dot(ca.DM(self.weights.sum(axis=0)), ca.sqrt(ms + TE0_EPS**2))
         wv = ca.DM(self.weights.ravel())  # (T, C) row-major: index t * C + c
         hmap = self._harmonic_map(blocks, nB)
         if hmap is None:
@@ -747,7 +885,9 @@ class LoadedMicroOptimizer:
             fit = ca.dot(amp_w, ca.sqrt(a2 + HARM_EPS**2))
         mult = ca.DM(self._mult.ravel())  # (T C): cases standing for their mirror images count twice
         obj = fit + rho * self._w_mean * ca.dot(mult, sp + se)
-        z = ca.vertcat(th, x, y, d, u, v, sp, se, w)
+        if te0 is not None:
+            obj = obj + te0_obj
+        z = ca.vertcat(th, x, y, d, u, v, sp, se, w, *te0_vars)
         nlp = {"x": z, "p": ca.vertcat(plim, marg, mu, rho, tq, dm), "f": obj, "g": ca.vertcat(*g_list)}
         # the start is the exact loaded TCA of the linearisation's design, close to the optimum: IPOPT's
         # adaptive barrier from mu = 0.01 (the target case 647 -> 529 iterations, 10 % faster, than the
@@ -757,13 +897,55 @@ class LoadedMicroOptimizer:
         opts = {"ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes", "ipopt.tol": 1e-9,
                 "ipopt.max_iter": 1000, "ipopt.mu_strategy": "adaptive", "ipopt.mu_init": 1e-2, "error_on_fail": False,
                 **getattr(self, "_extra_opts", {})}
-        sizes = dict(P=P, nx=nx, nB=nB, TC=T * C, nw=nw)
+        sizes = dict(P=P, nx=nx, nB=nB, TC=T * C, nw=nw, n0=n0, nB0=nB0)
         rows = dict(flank=flank if self.p_limit is not None else flank[:0],
                     ends=ends if self.edge_margin is not None else ends[:0])
         return _NLP(problem=nlp, opts=opts, phi1=self.phi1.copy(), rows=rows, gap=ca.Function("gap", [z, tq, dm], [gap]), lbg=np.concatenate(lbg),
                     ubg=np.concatenate(ubg), sizes=sizes, blocks=blocks, ct=ct, edge=tipe, ew=np.clip(ew, 0.0, 1.0),
                     lever=lever, Wt=Wt,
-                    ln=ln, Rx=Rx, keys=keys, hmap=hmap, w_keys=np.concatenate(w_keys) if w_keys else np.zeros((0, 4), int))
+                    ln=ln, Rx=Rx, keys=keys, hmap=hmap, w_keys=np.concatenate(w_keys) if w_keys else np.zeros((0, 4), int),
+                    te0=te0, te0_term=ca.Function("te0_term", [z], [te0_obj if te0 is not None else ca.MX(0.0)],
+                                                  ["z"], ["te0_term"]))
+
+    def _te0_blocks(self, lin, radius: float, lever: float) -> dict:
+        """The unloaded-TE target's slices in the NLP: per case and position, the active slices of the
+        pair centred there (:meth:`_te0_pairs`) that may become its contact within ``radius`` of the
+        linearisation (separation lowered by ``2 radius sum_j |J_ij|`` not above the smallest
+        separation raised by its own; every active slice without a radius). Arrays ``a`` [mm], ``J``,
+        ``Jm`` of the slices; ``blk`` (block of each slice), ``blocks`` (c, n, first, count), ``case``,
+        ``psi`` (pair angle over pi/z1) per block, ``keys`` (T, c, n, flat slice) per slice."""
+        T = self.torques.size
+        out = {k: [] for k in ("a", "J", "Jm", "blk", "case", "psi", "keys")}
+        blocks, first = [], 0
+        for c, L in enumerate(lin):
+            S = L["S"]
+            K, N, M = S.z.shape
+            idx, psi = self._te0_pairs(S)
+            reach = 2.0 * radius * np.sum(np.abs(L["J"]), axis=-1) if np.isfinite(radius) else None
+            used = 0
+            for n in range(N):
+                i = idx[n]
+                if i < 0 or not S.active[i, n].any():
+                    continue
+                m = np.flatnonzero(S.active[i, n])
+                if reach is not None:
+                    s = (np.max(S.te[i, n, m]) - S.te[i, n, m]) * lever
+                    r = reach[i, n, m]
+                    m = m[s - r <= np.min(s + r)]
+                out["a"].append(L["a"][i, n, m])
+                out["J"].append(L["J"][i, n, m])
+                out["Jm"].append(L["Jm"][i, n, m])
+                out["blk"].append(np.full(m.size, len(blocks)))
+                out["keys"].append(np.stack([np.full(m.size, T), np.full(m.size, c), np.full(m.size, n), i * M + m], 1))
+                out["case"].append(c)
+                out["psi"].append(psi[n])
+                blocks.append((c, n, first, m.size))
+                first += m.size
+                used += 1
+            self._te0_enough(used, N, c)
+        res = {k: np.concatenate(v) for k, v in out.items() if k not in ("case", "psi")}
+        res.update(case=np.array(out["case"], int), psi=np.array(out["psi"]), blocks=blocks)
+        return res
 
     def _start(self, nlp, lin, theta_k, sw):
         """Initial point: the exact loaded TCA of the linearisation's design (its loads, deflections and
@@ -791,7 +973,8 @@ class LoadedMicroOptimizer:
         v0 = np.full(TC, np.inf)
         np.maximum.at(u0, nlp["ct"], te)
         np.minimum.at(v0, nlp["ct"], te)
-        z0 = np.concatenate([np.asarray(theta_k) * 1e3, x0, np.ones(nx), d0, u0, v0, np.zeros(2 * TC), w0])
+        z0 = np.concatenate([np.asarray(theta_k) * 1e3, x0, np.ones(nx), d0, u0, v0, np.zeros(2 * TC), w0,
+                             self._te0_start(nlp["te0"], lever) if nlp["te0"] is not None else []])
         gap = np.asarray(nlp["gap"](z0, np.ones(self.torques.size), np.zeros(len(Misalignment.names())))).ravel()
         loaded = x0 > 1e3 * MU
         y0 = np.where(loaded, MU / np.maximum(x0, 1e-300), np.maximum(gap, 1e-3))
@@ -811,11 +994,30 @@ class LoadedMicroOptimizer:
         z0[P + 2 * nx + nB + 2 * TC:P + 2 * nx + nB + 4 * TC] = np.concatenate([s_p, s_e]) * 1.01 + 1e-6
         return z0
 
+    def _te0_start(self, te0, lever) -> np.ndarray:
+        """Start of the unloaded-TE target's unknowns at the linearisation's design: each block's
+        smallest separation carries the load, every other slice x = MU / y."""
+        aa = te0["a"] / G_REF
+        n0, nB0 = aa.size, len(te0["blocks"])
+        x0, y0, d0 = np.zeros(n0), np.zeros(n0), np.zeros(nB0)
+        for b, (_, _, first, cnt) in enumerate(te0["blocks"]):
+            s = slice(first, first + cnt)
+            y = aa[s] - np.min(aa[s])
+            j = int(np.argmin(aa[s]))
+            x = MU / np.maximum(y, 1e-3)
+            x[j] = 1.0 - (np.sum(x) - x[j])
+            d0[b] = np.min(aa[s]) - MU / x[j]
+            y = aa[s] - d0[b]
+            x = np.where(np.arange(cnt) == j, x[j], MU / y)
+            x0[s], y0[s] = x, y
+        return np.concatenate([x0, y0, d0])
+
     def _bounds(self, nlp):
-        P, nx, nB, TC, nw = (nlp["sizes"][k] for k in ("P", "nx", "nB", "TC", "nw"))
+        P, nx, nB, TC, nw, n0, nB0 = (nlp["sizes"][k] for k in ("P", "nx", "nB", "TC", "nw", "n0", "nB0"))
         free = 2 * nx + nB + 2 * TC
-        lbx = np.concatenate([self.lo * 1e3, np.full(free, -np.inf), np.zeros(2 * TC), np.full(nw, -np.inf)])
-        ubx = np.concatenate([self.hi * 1e3, np.full(free, np.inf), np.full(2 * TC + nw, np.inf)])
+        tail = nw + 2 * n0 + nB0  # deflections and the unloaded-TE target's unknowns: free
+        lbx = np.concatenate([self.lo * 1e3, np.full(free, -np.inf), np.zeros(2 * TC), np.full(tail, -np.inf)])
+        ubx = np.concatenate([self.hi * 1e3, np.full(free, np.inf), np.full(2 * TC + tail, np.inf)])
         return lbx, ubx
 
     def solve(self, progress=None, start=None, grid=None) -> MicroDesign:
@@ -866,10 +1068,15 @@ class LoadedMicroOptimizer:
             # are solved here)
             ver = self.check(theta, known={k[0]: sw for k, sw in zip(classes, ver.sweeps)})
             pred = {k: (v[:, of] if isinstance(v, np.ndarray) and v.ndim == 2 else v) for k, v in pred.items()}
+            if "te0_rms" in pred:
+                pred["te0_rms"] = pred["te0_rms"][of]
+                pred["te0_term"] = self._te0_term(pred["te0_rms"])
         err = {"te_pp": float(np.max(np.abs(pred["te_pp"] - ver.te_pp))),
                "objective": abs(pred["objective"] - ver.objective)}
         if self.p_limit is not None:
             err["p_max"] = float(np.max(np.abs(pred["p_max"] - ver.p_max)))
+        if self.te_level is not None:
+            err["te0_rms"] = float(np.max(np.abs(pred["te0_rms"] - ver.te0_rms)))
         before = self.check(self.theta0, fine)
         return MicroDesign(theta=dict(zip(self.free, theta.tolist())), theta0=dict(zip(self.free, self.theta0.tolist())),
                            predicted=pred, verified=ver, error=err, before=before, after=after, rounds=rounds,
@@ -966,10 +1173,12 @@ class LoadedMicroOptimizer:
         for i in range(len(solved) - 2, -1, -1):
             lim, d = solved[i]
             better = solved[i + 1][1]
-            if better.after.objective < d.after.objective - 1e-3 * max(d.after.objective, 1.0):
+            # (with an unloaded-TE target its term counts too: the objective the designs minimise)
+            tot = lambda m: m.after.objective + m.after.te0_term  # noqa: E731
+            if tot(better) < tot(d) - 1e-3 * max(tot(d), 1.0):
                 o = at(lim)
                 d2 = o.solve(progress=progress, start=np.array(list(better.theta.values())), grid=grid)
-                if d2.after.objective < d.after.objective:
+                if tot(d2) < tot(d):
                     solved[i] = (lim, d2)
                     what = "no pressure limit" if lim is None else f"p_limit {lim:g} MPa"
                     say(f"loaded micro-geometry Pareto: {what}: solved again from the tighter limit's optimum: "
@@ -1230,7 +1439,11 @@ class LoadedMicroOptimizer:
         def rows(n):  # the constraint rows' segments in order, each by its keys
             kx = code(n["keys"])
             kb = code([(b[0], b[1], b[2], 0) for b in n["blocks"]])
-            return [code(n["w_keys"]), kx, kx, kb, kb, kb, kx[n["rows"]["flank"]], kx[n["rows"]["ends"]]]
+            out = [code(n["w_keys"]), kx, kx, kb, kb, kb, kx[n["rows"]["flank"]], kx[n["rows"]["ends"]]]
+            if n["te0"] is not None:  # the unloaded-TE target's rows (torque index T: zero load)
+                k0 = code(n["te0"]["keys"])
+                out += [k0, k0, code([(self.torques.size, c, m, 0) for c, m, _, _ in n["te0"]["blocks"]])]
+            return out
 
         def carry(kp, vp, kn):
             out = np.zeros(kn.size)
@@ -1332,8 +1545,16 @@ class LoadedMicroOptimizer:
             H = self.harmonics.size
             ab = np.asarray(ca.mtimes(nlp["hmap"], ca.DM(te))).ravel().reshape(T, C, H, 2)
             obj = float(np.sum(self.weights[..., None] * np.hypot(ab[..., 0], ab[..., 1]) * self.harmonics))
-        return {"te_pp": pp, "p_max": pm.reshape(T, C), "objective": obj,
-                "slack_p": slack[:TC].reshape(T, C), "slack_e": slack[TC:].reshape(T, C)}
+        out = {"te_pp": pp, "p_max": pm.reshape(T, C), "objective": obj,
+               "slack_p": slack[:TC].reshape(T, C), "slack_e": slack[TC:].reshape(T, C)}
+        if nlp["te0"] is not None:  # the NLP's unloaded TE, its misfit by least squares (as in the NLP)
+            sz, t0 = nlp["sizes"], nlp["te0"]
+            off = P + 2 * nx + nB + 4 * TC + sz["nw"] + 2 * sz["n0"]
+            te = -z[off:off + sz["nB0"]] * G_REF / nlp["lever"] * RAD_TO_ARCSEC
+            rms = np.array([_parabola_fit(t0["psi"][t0["case"] == c], te[t0["case"] == c],
+                                          self.te_level * RAD_TO_ARCSEC)[0] for c in range(C)])
+            out.update(te0_rms=rms, te0_term=self._te0_term(rms), te0=te)
+        return out
 
     def _raise_if_infeasible(self, pred, chk: LoadedCheck | None = None):
         for kind, what, tol in (("slack_p", "p_max", SLACK_TOL), ("slack_e", "edge", EDGE_TOL)):
@@ -1389,6 +1610,15 @@ def _harmonic_rows(phi1, z1: int, H: int) -> np.ndarray:
     for h in range(1, H + 1):
         cols += [np.cos(h * z1 * phi1), np.sin(h * z1 * phi1)]
     return np.linalg.pinv(np.stack(cols, axis=1))[1:]
+
+
+def _parabola_fit(psi, te, level: float) -> tuple[float, np.ndarray]:
+    """RMS misfit [arcsec] of ``te`` [arcsec] at ``psi`` to ``c0 + c1 psi - level psi^2`` (least squares
+    in c0, c1) and (c0, c1)."""
+    V = np.stack([np.ones_like(psi), psi], axis=1)
+    rhs = te + level * psi**2
+    coef = np.linalg.lstsq(V, rhs, rcond=None)[0]
+    return float(np.sqrt(np.mean((rhs - V @ coef) ** 2))), coef
 
 
 def _case_text(mis: Misalignment) -> str:
