@@ -23,9 +23,13 @@ def plot_te_before_after(before: dict, after: dict, ax=None, which: str = "after
         ax.plot(phi, _arr(t["te_loaded_arcsec"]), color=c, lw=1.6,
                 label=f"{t['torque_Nm']:.4g} N m: p-p {t['peak_to_peak_arcsec']:.2f}\"")
     ax.plot([], [], color="0.75", lw=0.9, label="before" if which == "after" else "after")
-    ax.set_xlabel("pinion angle phi1 [deg]")
-    ax.set_ylabel("loaded transmission error [arcsec]")
-    ax.set_title(f"{which} the optimisation")
+    return _finish(ax, "pinion angle phi1 [deg]", "loaded transmission error [arcsec]", f"{which} the optimisation")
+
+
+def _finish(ax, xlabel: str, ylabel: str, title: str):
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.set_title(title)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7, loc="best")
     return ax
@@ -133,9 +137,5 @@ def plot_unloaded_te(d: dict, ax=None, case: int = 0):
         ax.plot(deg, _arr(e["te_arcsec"]), mk, color=col, ms=4, mfc="none" if key == "before" else col,
                 label=f"{key}: RMS misfit {e['rms_arcsec']:.3g}\"")
     ax.plot([], [], "k-", lw=1.0, label=f"target parabola, level {lvl:.3g}\" (best line added)")
-    ax.set_xlabel("pinion angle of the pair from its mesh-cycle centre [deg]")
-    ax.set_ylabel("unloaded transmission error [arcsec]")
-    ax.set_title(f"unloaded TE against its parabola, {c['name']} (weight {u['weight']:g})")
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=7, loc="best")
-    return ax
+    return _finish(ax, "pinion angle of the pair from its mesh-cycle centre [deg]", "unloaded transmission error [arcsec]",
+                   f"unloaded TE against its parabola, {c['name']} (weight {u['weight']:g})")
