@@ -135,11 +135,13 @@ class MicroDesign:
     ----------
     theta : dict name -> amount [mm] (the optimum); theta0 : the start design.
     predicted : dict of the NLP's own values at the optimum: ``te_pp`` (T, C) [arcsec], ``p_max``
-        (T, C) [MPa], ``objective`` [arcsec], ``slack_p``, ``slack_e`` (T, C).
+        (T, C) [MPa], ``objective`` [arcsec], ``slack_p``, ``slack_e`` (T, C); with an unloaded-TE
+        target ``te0_rms`` (C,) [arcsec], ``te0_term`` [arcsec] and ``te0`` (the NLP's unloaded TE per block).
     verified : :class:`LoadedCheck` of the optimum by loaded TCA at the NLP's positions (exact slices
         of the modified flanks and the QP contact solver, nothing of the NLP).
     error : dict: largest |predicted - verified| of ``te_pp`` [arcsec], ``p_max`` [MPa] and the
-        ``objective`` [arcsec] (the linearisation and the smoothing together).
+        ``objective`` [arcsec] (the linearisation and the smoothing together), and of ``te0_rms``
+        [arcsec] with an unloaded-TE target.
     before, after : :class:`LoadedCheck` of the start design and of the optimum on the verification
         grid (``n_verify`` positions per mesh cycle, independent of the NLP's grid).
     rounds : list of dicts per trust-region round (design, model and true objective, radius, IPOPT
@@ -1212,7 +1214,8 @@ class LoadedMicroOptimizer:
             from ``design`` (a converged design: below ``THETA_TOL``) and ``at_design`` (it is within
             ten times that: else the loop stopped on its trust radius and the derivatives are those
             of the NLP's optimum, not of the design); ``objective`` [arcsec]: the
-            NLP's optimum; ``active``: the inequalities and bounds active at it; ``degenerate``: those
+            NLP's optimum (with an unloaded-TE target, its term included, and so in the derivatives
+            of the objective); ``active``: the inequalities and bounds active at it; ``degenerate``: those
             neither clearly active nor inactive (0: the derivatives are unique; else they hold on the
             side of the active set chosen, each such row counted active when its indicator is above
             1/2); ``nlp`` / ``z`` / ``p``: the NLP, its solution and parameters (for checks).
