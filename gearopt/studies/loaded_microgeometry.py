@@ -114,7 +114,8 @@ class LoadedMicroReport:
         files.append(save("loaded_micro_sharing.png", fig, f"load sharing of the tooth pairs, {d['cases'][0]['name']}"))
         fig, ax = plt.subplots(figsize=(7, 4.5), layout="constrained")
         harm = self.options.get("harmonics") is not None
-        plot_rounds(d["design"], ax=ax, objective="weighted mesh harmonics" if harm else "weighted TE p-p")
+        what = "weighted mesh harmonics" if harm else "weighted TE p-p"
+        plot_rounds(d["design"], ax=ax, objective=what + (" + unloaded TE" if self.options.get("unloaded_te") else ""))
         files.append(save("loaded_micro_rounds.png", fig, "trust-region rounds"))
         if self.pareto is not None:
             fig, ax = plt.subplots(figsize=(7.5, 5), layout="constrained")
