@@ -5,12 +5,17 @@
     python benchmarks/validate_ltca_fe.py --only helical
     python benchmarks/validate_ltca_fe.py --fine     # the FE reference at the refinement study's fine
                                                       # level (benchmarks/bench_fea_refine.py; ~40 min)
+    python benchmarks/validate_ltca_fe.py --only scene  # the drives of problems/ltca_crowned.toml
+                                                      # (crowned spur, 3' crossing) and ltca_helical.toml
+                                                      # (lead-crowned helical 21/53), with their misalignment
 
 For each drive and three pinion angles (single and double contact), at 200 N m (E 210 GPa, nu 0.3):
 the loaded approach along the line of action (FE: the loaded pinion rotation times r_b1; loaded TCA:
 delta / cos(beta_b)), and the peak contact pressure in the section through each loaded pair's contact
 (FE: nodal pressure along the profile; loaded TCA: the slice p0 of that pair interpolated to the same
-section, and the largest slice p0 of the pair, "max p"), with the
+section, and the largest slice p0 of the pair, "max p"), the centre of that pair's contact pattern
+along the face (FE: its nodal pressure integrated over the pinion flank; loaded TCA: its slice loads;
+"z_c" [mm]), with the
 analytical compliance and with the FE influence coefficients of the same members (default member
 mesh of gearopt.fea.influence; cached in $GEAROPT_CACHE/influence, default ~/.cache/gearopt), and the load share of that
 pair (FE: its contact force over the sum of all pairs', from the ccx contact statistics).
@@ -22,6 +27,7 @@ import math
 import shutil
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -30,21 +36,37 @@ from gearopt.gears import BasicRack, Gear, GearPair
 from gearopt.ltca.compliance import Material
 from gearopt.ltca.engine import LTCA
 
+ROOT = Path(__file__).resolve().parents[1]
+
 T = 200.0
 # the contact model's default mesh with 8 face layers instead of 4: the helical pair's approach moves by
 # 3 % from 4 to 8 layers and by 0.4 % from 8 to 12 (docs/ltca.md section 7)
 FE_MESH = MeshOptions(n_face=8)
 
 
+def _scene(name):
+    """(pair, misalignment) of a scene of problems/ (its [ltca] misalignment keys)."""
+    from gearopt.io.scene import load_scene
+    from gearopt.studies.tca import misalignment_from
+
+    sc = load_scene(ROOT / "problems" / f"{name}.toml")
+    return sc.pair, misalignment_from(sc.options.get("ltca", {}) or {})
+
+
 def drives():
+    """{name: (pair, misalignment or None)}."""
     b = math.radians(15)
-    return {
+    plain = {
         "spur 20/40 conjugate": GearPair(Gear(z=20, m_n=3.0, b=20.0, name="pinion"), Gear(z=40, m_n=3.0, b=20.0, name="gear")),
         "spur crowned": GearPair(Gear(z=20, m_n=3.0, b=20.0, a_pl=4e-4, rack=BasicRack.iso53("A", a_c=2e-3), name="pinion"),
                                  Gear(z=40, m_n=3.0, b=20.0, name="gear")),
         "helical 15 deg": GearPair(Gear(z=21, m_n=2.5, b=24, beta=b, name="pinion"),
                                    Gear(z=45, m_n=2.5, b=24, beta=b, hand="left", name="gear")),
     }
+    out = {k: (v, None) for k, v in plain.items()}
+    out["scene ltca_crowned (crossing 3')"] = _scene("ltca_crowned")
+    out["scene ltca_helical (crowned)"] = _scene("ltca_helical")
+    return out
 
 
 def main(argv):
@@ -63,9 +85,9 @@ def main(argv):
     print(f"FE reference mesh: {fe_level}")
     print(f"{'drive':<22} {'phi1 deg':>8} {'pairs':>7} {'FE approach um':>14} {'LTCA-an':>8} {'LTCA-fe':>8} "
           f"{'err an %':>8} {'err fe %':>8} {'FE p MPa':>9} {'LTCA-fe p':>9} {'err %':>6} {'max p':>9} {'FE share':>8} "
-          f"{'LTCA-fe':>7} {'FE s':>6}")
+          f"{'LTCA-fe':>7} {'FE z_c':>7} {'LTCA z_c':>8} {'FE s':>6}")
     for name in names:
-        pair = drives()[name]
+        pair, mis = drives()[name]
         z1 = pair.pinion.z
         step = 2 * math.pi / z1
         phis = [0.0, -0.3 * step, 0.3 * step]
@@ -73,11 +95,11 @@ def main(argv):
         lt = {}
         for c in ("analytical", "fe"):
             L = LTCA(pair, material=mat, compliance=c)
-            S = L.slices(phi1=np.array(phis))
+            S = L.slices(phi1=np.array(phis), mis=mis)
             lt[c] = L.solve(T, slices=S).results[0]
         for j, ph in enumerate(phis):
             t0 = time.perf_counter()
-            m = GearFEModel(pair, ph, FEOptions(torque=T * 1e3, E=mat.E, nu=mat.nu, **fe_level))
+            m = GearFEModel(pair, ph, FEOptions(torque=T * 1e3, E=mat.E, nu=mat.nu, **fe_level), mis=mis)
             d = m.run().to_dict()
             t_fe = time.perf_counter() - t0
             fe_app = abs(d["pinion_rotation_rad"]) * pair.pinion.r_b
@@ -94,10 +116,13 @@ def main(argv):
             p_fe = d["contact"]["p_max_mid"]
             sh_fe = d["pair_share"].get(str(k0)) or 0.0
             sh_lt = float(lt["fe"].share[kk, j])
+            zc_fe = d["contact"]["pattern"][str(k0)]["z_centroid"]
+            F_lt = lt["fe"].load[kk, j][ok]
+            zc_lt = float((F_lt * S.z[kk, j][ok]).sum() / F_lt.sum())
             print(f"{name:<22} {math.degrees(ph):8.3f} {str(d['loaded_pairs']):>7} {1000 * fe_app:14.3f} "
                   f"{1000 * an:8.3f} {1000 * fe:8.3f} {100 * (an / fe_app - 1):8.1f} {100 * (fe / fe_app - 1):8.1f} "
                   f"{p_fe:9.1f} {p_lt:9.1f} {100 * (p_lt / p_fe - 1):6.1f} {p_lt_max:9.1f} {sh_fe:8.3f} {sh_lt:7.3f} "
-                  f"{t_fe:6.1f}",
+                  f"{zc_fe:7.2f} {zc_lt:8.2f} {t_fe:6.1f}",
                   flush=True)
     return 0
 

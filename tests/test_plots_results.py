@@ -340,6 +340,32 @@ def test_fe_plots_distinct_curves_and_loaded_te():
     plt.close(fig)
 
 
+def test_fe_line_load_plot_reads_the_pattern():
+    """fea_pattern.png: one curve per loaded pair and position (its load per mm of face), its centre
+    marked, the face ends at +-b1/2, the misalignment in the title."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from gearopt.plot.fea import plot_line_load
+
+    def pos(phi, pairs):
+        pat = {str(k): {"z": [-7.5, -2.5, 2.5, 7.5], "q": [100.0, 300.0 + 10 * k, 200.0, 50.0], "force": 3000.0,
+                        "z_centroid": -1.0 + k} for k in pairs}
+        return {"phi1": phi, "loaded_pairs": pairs, "contact": {"pattern": pat}}
+    rep = {"positions": [pos(-0.1, [-1, 0]), pos(0.0, [0])], "pair": {"b1": 20.0},
+           "options": {"misalignment": {"dE_mm": 0.0, "crossing_arcmin": 3.0}}}
+    fig, ax = plt.subplots()
+    plot_line_load(rep, ax=ax)
+    curves = [ln for ln in ax.get_lines() if ln.get_label().startswith("phi1")]
+    assert sorted(float(np.max(ln.get_ydata())) for ln in curves) == [290.0, 300.0, 300.0]
+    xs = sorted(float(ln.get_xdata()[0]) for ln in ax.get_lines() if not ln.get_label().startswith("phi1"))
+    assert xs == [-10.0, -2.0, -1.0, -1.0, 10.0]  # face ends and the three centres
+    assert "crossing +3 arcmin" in ax.get_title() and "N/mm" in ax.get_ylabel()
+    _check_legend(ax)
+    plt.close(fig)
+
+
 def test_fe_study_writes_the_loaded_te_plot():
     import inspect
     from gearopt.studies.fea import FEReport

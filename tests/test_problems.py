@@ -25,7 +25,7 @@ PROBLEMS = Path(__file__).resolve().parents[1] / "problems"
 SCENES = sorted(p for p in PROBLEMS.glob("*.toml"))
 #: pytest markers of the scene runs: IPOPT (crowning study), CalculiX (fea study), above about 5 s
 STUDY_MARKS = {"crowning": [pytest.mark.ipopt], "fea": [pytest.mark.calculix], "loaded_microgeometry": [pytest.mark.ipopt]}
-SLOW_SCENES = {"crowning_spur", "fea_spur", "edge_spur_crossed", "montecarlo_spur", "montecarlo_loaded",
+SLOW_SCENES = {"crowning_spur", "fea_spur", "fea_crowned", "edge_spur_crossed", "montecarlo_spur", "montecarlo_loaded",
                "microgeometry_loaded", "microgeometry_pareto", "microgeometry_te_target"}
 
 
@@ -61,6 +61,26 @@ def test_scene_runs_and_writes(scene, tmp_path):
         assert p.stat().st_size > 10_000
     if res["study"] == "loaded_microgeometry":
         _loaded_microgeometry_scalars(res, out)
+    if res["scene"] == "fea_crowned":
+        _fea_crowned_scalars(res)
+
+
+def _fea_crowned_scalars(res):
+    """The crowned spur pinion under a 3 arcmin crossing (problems/fea_crowned.toml): one pair at the
+    pitch point, two at +-5.4 deg; the reaction is T / r_b1; every loaded pair's pattern integrates to
+    its contact force and its centre lies off mid face on the side the crossing moves the TCA contact
+    to (z1 < 0), by more than a millimetre at the pitch point."""
+    assert res["options"]["misalignment"]["crossing_arcmin"] == pytest.approx(3.0)
+    assert [len(p["loaded_pairs"]) for p in res["positions"]] == [2, 1, 2]
+    for p in res["positions"]:
+        assert p["reaction"]["rel_error"] < 0.01
+        for k in p["loaded_pairs"]:
+            pat = p["contact"]["pattern"][str(k)]
+            q, zl = np.array(pat["q"]), np.array(pat["z_layers"])
+            assert zl[0] == pytest.approx(-10.0) and zl[-1] == pytest.approx(10.0)  # the whole face
+            assert np.sum(q * np.diff(zl)) == pytest.approx(p["pair_force_N"][str(k)], rel=1e-6)
+            assert pat["z_centroid"] < -0.5 and p["contact_points"][str(k)]["z1"] < 0
+    assert res["positions"][1]["contact"]["pattern"]["0"]["z_centroid"] < -1.0
 
 
 def _loaded_microgeometry_scalars(res, out):

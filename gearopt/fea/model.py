@@ -9,6 +9,12 @@ places the surfaces:
 
     pinion: r_f = Rz(-phi1 + theta1) r_1          gear: r_f = (0, a, 0) + Rz(phi2) Rz(pi + theta2) r_2
 
+A misalignment of the gear (``mis``: centre distance change, crossing and intersecting angles, axial
+displacement) places the gear as the TCA does (:meth:`~gearopt.meshing.misalignment.Misalignment.gear_to_fixed`:
+the axis turned by ``intersecting`` about x_f, then by ``crossing`` about y_f, the centre moved to
+``(0, a + dE, axial)``); the gear is held at its rim in that position, so the pinion's rotation about
+its own axis stays the one free degree of freedom.
+
 Pinion tooth k (turned by ``k 2 pi / z1`` in its frame) meshes with gear tooth ``-k``.
 
 Boundary conditions: the gear rim (bottom arc and both sector sides) is fixed; the pinion rim nodes
@@ -32,6 +38,7 @@ import math
 import time
 from dataclasses import dataclass, field, replace
 
+import casadi as ca
 import numpy as np
 
 from ..errors import ArgumentError, GearoptError, GeometryError, check_number, option_error, out_of_range  # noqa: F401
@@ -39,6 +46,7 @@ from ..gears import GearPair
 from ..geometry.frames import rot_z_points
 from ..geometry.generation import GeneratedTooth
 from ..ltca.compliance import C_PRIME_STEEL
+from ..meshing.misalignment import Misalignment
 from ..meshing.tca import TCA
 from .calculix import CalculixError, Deck, last_block, read_contact_statistics, read_dat, read_frd_block, run_ccx
 from .mesh import GAUSS_C3D8, MemberMesh, MeshOptions, ToothMesher, hex_volume_sign, build_member, face_of, shape
@@ -301,6 +309,15 @@ def _face_layers(b: float, n_face: int, z_c: float, h: float, window: float, gro
     return np.unique(np.round(out, 12))
 
 
+def model_tca(pair: GearPair, mis: Misalignment | None = None) -> TCA:
+    """The TCA that places the FE model's members: right flank driving, line contact for unmodified,
+    aligned (or only dE/axially displaced) members, point contact for a crowned pinion or gear or an
+    angular misalignment."""
+    crowned = any(g.a_pl != 0 or g.rack.a_c != 0 for g in (pair.pinion, pair.gear))
+    angular = mis is not None and any(getattr(mis, k) != 0 for k in Misalignment.names("angle"))
+    return TCA(pair, side="right", contact="point" if crowned or angular else "line")
+
+
 class GearFEModel:
     """FE model of ``pair`` at the pinion angle ``phi1`` [rad] (see the module docstring).
 
@@ -312,10 +329,14 @@ class GearFEModel:
     options : FEOptions
     tca : TCA, optional
         A compiled TCA of the pair (right flank driving); built if omitted (line contact for
-        unmodified members, point contact for a crowned pinion).
+        unmodified, aligned members, point contact for a crowned pinion or a misaligned drive).
+    mis : Misalignment, optional
+        Misalignment of the gear (mm, rad); default aligned. Checked as the TCA checks it (a centre
+        distance that jams or separates the teeth, faces that do not overlap: an error naming the key).
     """
 
-    def __init__(self, pair: GearPair, phi1: float, options: FEOptions | None = None, tca: TCA | None = None):
+    def __init__(self, pair: GearPair, phi1: float, options: FEOptions | None = None, tca: TCA | None = None,
+                 mis: Misalignment | None = None):
         t0 = time.perf_counter()
         if not isinstance(pair, GearPair):
             raise ArgumentError(f"pair = {type(pair).__name__}: expected a gearopt.gears.GearPair.",
@@ -323,11 +344,16 @@ class GearFEModel:
         if options is not None and not isinstance(options, FEOptions):
             raise ArgumentError(f"options = {type(options).__name__}: expected an FEOptions.",
                                 param="options", value=options, valid="an FEOptions")
+        if mis is not None and not isinstance(mis, Misalignment):
+            raise ArgumentError(f"mis = {type(mis).__name__}: expected a gearopt.meshing.misalignment.Misalignment.",
+                                param="mis", value=mis, valid="a Misalignment")
         self.pair, self.phi1 = pair, check_number("phi1", phi1, "a finite pinion angle [rad]")
         self.opt = options or FEOptions()
+        self.mis = mis or Misalignment()
+        self.mis.check(pair, "mis")
+        misaligned = bool(np.any(self.mis.vector() != 0))
         if tca is None:
-            crowned = any(g.a_pl != 0 or g.rack.a_c != 0 for g in (pair.pinion, pair.gear))
-            tca = TCA(pair, side="right", contact="point" if crowned else "line")
+            tca = model_tca(pair, self.mis)
         if tca.side != "right":
             raise option_error("tca.side", tca.side, "'right' (the FE model drives on the pinion's right flank)")
         self.tca = tca
@@ -335,7 +361,7 @@ class GearFEModel:
         g1, g2 = pair.pinion, pair.gear
         n = o.teeth
         self.tooth_ids = list(range(-(n // 2), n - n // 2))
-        res = tca.sweep(np.array([self.phi1]), pairs=self.tooth_ids)
+        res = tca.sweep(np.array([self.phi1]), pairs=self.tooth_ids, mis=self.mis if misaligned else None)
         on = res.on_surface[:, 0]
         if not on.any():
             raise GeometryError(f"FE model at phi1 = {self.phi1:.6g} rad: no tooth pair of the {n} modelled is in "
@@ -350,6 +376,7 @@ class GearFEModel:
         if not (g1.is_spur and g2.is_spur):  # inclined contact lines: a pair may touch off the middle section
             self.loaded = sorted(self.loaded + self._helical_reach(reach))
         self.contact = {k: {"u1": float(res.u1[i, 0]), "u2": float(res.u2[i, 0]), "z1": float(res.z1[i, 0]),
+                            "z2": float(res.z2[i, 0]),
                             "radius1": float(res.radius1[i, 0]), "radius2": float(res.radius2[i, 0]),
                             "gap": float(gap[i]), "on_surface": bool(on[i])}
                         for i, k in enumerate(self.tooth_ids)}
@@ -383,11 +410,12 @@ class GearFEModel:
             mo = replace(mo, h_contact=b_H / o.n_hertz, window=mo.window or 1.5 * b_H)
         # point contact: face layers graded towards the ellipse centre (n_ellipse elements per major semi-axis)
         z_layers = None
-        ell = [(self.contact[k]["z1"], h["a"]) for k, h in self.hertz.items() if h["kind"] == "ellipse"]
+        ell = [(self.contact[k]["z1"], self.contact[k]["z2"], h["a"]) for k, h in self.hertz.items()
+               if h["kind"] == "ellipse"]
         if ell and o.n_ellipse > 0:
-            z_c, a_e = min(ell, key=lambda t: abs(t[0]))
-            z_layers = {m: _face_layers(g.b, mo.n_face, z_c, a_e / o.n_ellipse, a_e, mo.growth) for m, g in
-                        (("pinion", g1), ("gear", g2))}
+            z_c1, z_c2, a_e = min(ell, key=lambda t: abs(t[0]))  # the ellipse centre in each member's frame
+            z_layers = {m: _face_layers(g.b, mo.n_face, z_c, a_e / o.n_ellipse, a_e, mo.growth) for m, g, z_c in
+                        (("pinion", g1, z_c1), ("gear", g2, z_c2))}
         self.mesh_options = mo
         self.b_H = b_H
         # meshes (member frames), then placement in S_f
@@ -404,15 +432,27 @@ class GearFEModel:
                 lay = self._layer_contact(m1, m2, k)
                 if lay is not None:
                     cu1[k], cu2[-k] = lay
+        # a pair the load can close but with no contact point to grade at (none in the middle section nor
+        # in two face layers): uniform rows on its flanks
+        cu1 = {k: v for k, v in cu1.items() if np.all(np.isfinite(v))}
+        cu2 = {k: v for k, v in cu2.items() if np.all(np.isfinite(v))}
         first1 = self._first_layer(g1, [self.contact[k]["radius1"] for k in self.loaded], mo)
         first2 = self._first_layer(g2, [self.contact[k]["radius2"] for k in self.loaded], mo)
         self.pinion_mesh = build_member(m1, self.tooth_ids, cu1, "pinion", first1)
         self.gear_mesh = build_member(m2, sorted(-k for k in self.tooth_ids), cu2, "gear", first2)
         self.nodes_pinion = _rotz(self.pinion_mesh.nodes, -self.phi1 + tca.theta1)
-        Xg = _rotz(_rotz(self.gear_mesh.nodes, math.pi + tca.theta2), self.phi2)
-        Xg[:, 1] += pair.a_w
-        self.nodes_gear = Xg
+        self.nodes_gear = self.place_gear(self.gear_mesh.nodes)
         self.build_time = time.perf_counter() - t0
+
+    def place_gear(self, X) -> np.ndarray:
+        """Points ``X`` (n, 3) of the gear's own frame [mm] placed in the fixed frame S_f at the model's
+        gear angle, as the TCA places the gear surface: ``Rz(phi2) Rz(pi + theta2)``, then the
+        misalignment (:meth:`Misalignment.gear_to_fixed`)."""
+        Xa = _rotz(_rotz(np.asarray(X, float).reshape(-1, 3), math.pi + self.tca.theta2), self.phi2)
+        m = self.mis.as_dict()
+        R = np.column_stack([np.asarray(Misalignment.gear_to_fixed(m, ca.DM(e), 0.0, False), float).ravel()
+                             for e in np.eye(3)])
+        return Xa @ R.T + np.array([0.0, self.pair.a_w + self.mis.dE, self.mis.axial])
 
     def _section_contacts(self, k: int, zs):
         """The line contact of pair k of the aligned, unmodified teeth in the pinion sections ``zs``
@@ -448,11 +488,15 @@ class GearFEModel:
         """Contact parameters (u1 per pinion layer, u2 per gear layer) of pair k: the line contact of
         the aligned, unmodified teeth in each pinion section (None if a section has none)."""
         sol = self._section_contacts(k, m1.z)
-        if sol is None or not np.isfinite(sol[0]).all():
+        if sol is None:
             return None
         u1, u2, z2 = sol[:3]
-        order = np.argsort(z2)
-        return u1, np.interp(m2.z, z2[order], u2[order])
+        ok = np.isfinite(u1) & np.isfinite(u2) & np.isfinite(z2)
+        if ok.sum() < 2:
+            return None
+        # sections without a contact (the line runs below a base circle there): the nearest section's
+        order = np.argsort(z2[ok])
+        return np.interp(m1.z, m1.z[ok], u1[ok]), np.interp(m2.z, z2[ok][order], u2[ok][order])
 
     def _helical_reach(self, reach: float) -> list:
         """Helical pairs not touching in the middle section whose contact line lies on both active
@@ -635,6 +679,14 @@ class FEResult:
         fn = {k: -float(stats.get(f"SP{k + 10}", {}).get("normal_force", 0.0)) for k in model.tooth_ids}
         pair_force = {str(k): (v if math.isfinite(v) and v > 0 else 0.0) for k, v in fn.items()}
         tot = sum(pair_force.values())
+        # the contact pattern across the face, its level set by the pair's contact force
+        pattern = cls._line_loads(model, run.frd)
+        for k, pat in pattern.items():
+            f = pair_force.get(k, 0.0)
+            pat["nodal_over_force"] = pat["force"] / f if f > 0 else None
+            if f > 0 and pat["force"] > 0:
+                pat["q"] = [q * f / pat["force"] for q in pat["q"]]
+            pat["force"] = f
         te_arcsec = rotation * (g1.z / g2.z) * 206264.806  # gear lag equivalent of the pinion's extra rotation
         data = {
             "phi1": model.phi1, "phi2": model.phi2, "loaded_pairs": model.loaded,
@@ -651,7 +703,7 @@ class FEResult:
                         "hertz_p0": hz["p0"], "hertz_b": hz["b"], "R_star": hz["R_star"], "hertz_kind": hz["kind"],
                         "hertz_a": hz["a"] if math.isfinite(hz["a"]) else None,
                         "ratio_mid_to_hertz": p_max_mid / hz["p0"], "hertz_pair": k0,
-                        "profiles": profiles,
+                        "profiles": profiles, "pattern": pattern,
                         "n_points": int(len(press)), "n_positive": int((press > 0).sum())},
             "root": roots, "root_estimate": est,
             "timing": {"build_s": model.build_time, "ccx_s": run.seconds},
@@ -700,6 +752,43 @@ class FEResult:
             out[str(k)] = {"s": (s0 - arc).tolist(), "radius": np.hypot(X[:, 0], X[:, 1]).tolist(), "p": p.tolist()}
             pmax[k] = float(p.max())
         return out, pmax
+
+    @staticmethod
+    def _line_loads(model, frd: str) -> dict:
+        """The contact pattern of each loaded pair across the face, from the nodal contact pressure on
+        the whole driving flank of its pinion tooth: ``{tooth: {"z", "q", "force", "z_centroid",
+        "p_max", "z_at_p_max"}}``. The pressure is integrated over each flank quadrilateral of the mesh
+        (its area times the mean of its four nodal pressures); ``q`` [N/mm] is the normal load per mm of
+        face between two face layers (``z_layers``) at their mid ``z`` [mm] (pinion frame = S_f z), ``force`` [N]
+        their sum and ``z_centroid`` [mm] the force-weighted centre of the pattern. (The nodal
+        pressures of ccx integrate to more than the pair's contact force, 10 % on the default mesh of a
+        spur pair: :meth:`from_run` scales ``q`` to the contact force and reports the ratio.)"""
+        blk = read_frd_block(frd, "CONTACT")
+        pm = model.pinion_mesh
+        out = {}
+        for t in pm.teeth:
+            k = t["k"]
+            if k not in model.loaded:
+                continue
+            r0, r1 = t["section"].segments["flank"]
+            ids = t["nodes"][:, r0:r1 + 1, -1]  # (layers, rows)
+            X = pm.nodes[ids]
+            p = np.array([[blk.get(int(i) + 1, [0, 0, 0, 0])[3] for i in row] for row in ids])
+            # quadrilateral (L, R): corners (L, R), (L, R+1), (L+1, R+1), (L+1, R); area from its diagonals
+            d1 = X[1:, 1:] - X[:-1, :-1]
+            d2 = X[1:, :-1] - X[:-1, 1:]
+            area = 0.5 * np.linalg.norm(np.cross(d1, d2), axis=-1)
+            pq = 0.25 * (p[:-1, :-1] + p[:-1, 1:] + p[1:, :-1] + p[1:, 1:])
+            F = area * pq
+            zq = 0.25 * (X[:-1, :-1, 2] + X[:-1, 1:, 2] + X[1:, :-1, 2] + X[1:, 1:, 2])
+            zl = X[:, :, 2].mean(axis=1)
+            tot = float(F.sum())
+            i, j = np.unravel_index(int(np.argmax(p)), p.shape)
+            out[str(k)] = {"z": (0.5 * (zl[1:] + zl[:-1])).tolist(), "z_layers": zl.tolist(),
+                           "q": (F.sum(axis=1) / np.diff(zl)).tolist(),
+                           "force": tot, "z_centroid": float((F * zq).sum() / tot) if tot > 0 else None,
+                           "p_max": float(p.max()), "z_at_p_max": float(X[i, j, 2])}
+        return out
 
     def to_dict(self) -> dict:
         return self.data

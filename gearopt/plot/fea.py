@@ -41,7 +41,8 @@ def plot_mesh(report: dict, ax=None, zoom: bool = False):
 
 
 def plot_contact_pressure(report: dict, ax=None):
-    """Nodal contact pressure along the pinion's driving flank at mid face (arc length from the TCA
+    """Nodal contact pressure along the pinion's driving flank in the section through the contact (mid
+    face for line contact; arc length from the TCA
     contact point, positive towards the tip) for every position and loaded pair, with the Hertz
     ellipse p0 sqrt(1 - (s/b)^2) of the full load on one pair."""
     ax = _axes(ax)
@@ -66,7 +67,7 @@ def plot_contact_pressure(report: dict, ax=None):
                           f"(FE/Hertz {c['ratio_mid_to_hertz']:.3f})")
     ax.set_xlabel("distance along the profile from the contact point [mm]")
     ax.set_ylabel("contact pressure [MPa]")
-    ax.set_title("contact pressure on the pinion flank, middle section", fontsize=9)
+    ax.set_title("contact pressure on the pinion flank, section through the contact", fontsize=9)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7)
     return ax
@@ -119,4 +120,40 @@ def plot_loaded_te(report: dict, ax=None):
     keep = [(hh, ll) for hh, ll in zip(h, lab) if np.isfinite(np.asarray(hh.get_xydata(), float)).all(axis=1).any()]
     if keep:
         ax.legend(*zip(*keep), fontsize=7)
+    return ax
+
+
+def plot_line_load(report: dict, ax=None):
+    """The FE contact pattern across the face: normal load per mm of face [N/mm] of every loaded
+    tooth pair against the face coordinate z [mm] (nodal pressure integrated over the pinion flank,
+    scaled to the pair's contact force), its centre marked, the face ends dashed."""
+    ax = _axes(ax)
+    markers = ("o", "s", "^", "D", "v")
+    curve = 0
+    for pos in report["positions"]:
+        pat = pos["contact"].get("pattern") or {}
+        for j, k in enumerate(pos["loaded_pairs"]):
+            pt = pat.get(str(k))
+            if not pt or not pt["force"]:
+                continue
+            color = f"C{curve % 10}"
+            ax.plot(pt["z"], pt["q"], "-", marker=markers[j % len(markers)], ms=3.5, lw=1, color=color,
+                    label=f"phi1 = {math.degrees(pos['phi1']):.2f} deg, pair {int(k):+d}: {pt['force']:.0f} N, "
+                          f"centre z = {pt['z_centroid']:+.2f} mm")
+            ax.axvline(pt["z_centroid"], color=color, lw=0.8, ls=":")
+            curve += 1
+    half = 0.5 * report["pair"]["b1"]
+    for z in (-half, half):
+        ax.axvline(z, color="k", lw=0.8, ls="--")
+    ax.set_xlim(-1.08 * half, 1.08 * half)
+    ax.set_ylim(bottom=0)
+    ax.set_xlabel("face coordinate z [mm] (pinion; dashed: face ends)")
+    ax.set_ylabel("load per mm of face [N/mm]")
+    mis = report["options"].get("misalignment") or {}
+    lab = ", ".join(f"{k.rsplit('_', 1)[0]} {v:+g} {'arcmin' if k.endswith('arcmin') else 'mm'}"
+                    for k, v in mis.items() if v)
+    ax.set_title(f"FE contact pattern across the face ({lab or 'aligned'})", fontsize=9)
+    ax.grid(alpha=0.3)
+    if curve:
+        ax.legend(fontsize=7)
     return ax

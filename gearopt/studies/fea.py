@@ -12,6 +12,8 @@ Scene section ``[fea]`` (torque in N*m; lengths mm; see :mod:`gearopt.fea.model`
 ``n_face``, ``n_half``, ``n_flank``, ``n_fillet``, ``n_rim``: element counts of the six sub-volumes
 ``rim_depth``         rim thickness below the root circle [m_n]
 ``penalty``           contact stiffness [multiples of E per mm] (50)
+``dE``, ``crossing``, ``intersecting``, ``axial``: misalignment of the gear (default aligned), placed as
+                      the TCA places it
 ``keep_files``        keep the ccx input and output in ``out/<scene name>_ccx/pos<i>`` (relative to the cwd)
 
 Each position is an independent ccx run; the study needs ``ccx`` on PATH (a clear error otherwise).
@@ -58,12 +60,12 @@ class FEReport:
         """``fea_mesh.png`` (transverse section of the model at the first position, element edges),
         ``fea_contact.png`` (contact pressure along the profile at mid face vs Hertz),
         ``fea_root.png`` (root stress and pressure vs position), ``fea_te.png`` (loaded TE vs
-        position)."""
+        position), ``fea_pattern.png`` (load per mm of face of each loaded pair across the face)."""
         import matplotlib
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
 
-        from ..plot.fea import plot_contact_pressure, plot_loaded_te, plot_mesh, plot_root_stress
+        from ..plot.fea import plot_contact_pressure, plot_line_load, plot_loaded_te, plot_mesh, plot_root_stress
 
         out = Path(out_dir)
         d = self.to_dict()
@@ -88,7 +90,12 @@ class FEReport:
         fig.tight_layout()
         fig.savefig(out / "fea_te.png", dpi=dpi, bbox_inches="tight")
         plt.close(fig)
-        return ["fea_mesh.png", "fea_contact.png", "fea_root.png", "fea_te.png"]
+        fig, ax = plt.subplots(figsize=(9, 5))
+        plot_line_load(d, ax=ax)
+        fig.tight_layout()
+        fig.savefig(out / "fea_pattern.png", dpi=dpi, bbox_inches="tight")
+        plt.close(fig)
+        return ["fea_mesh.png", "fea_contact.png", "fea_root.png", "fea_te.png", "fea_pattern.png"]
 
 
 def mesh_section(model, layer: int | None = None) -> dict:
@@ -111,21 +118,23 @@ def mesh_section(model, layer: int | None = None) -> dict:
 
 
 class FEStudy:
-    def __init__(self, pair, options, phi1s, name="fea", keep_dir=None):
+    def __init__(self, pair, options, phi1s, name="fea", keep_dir=None, misalignment=None):
+        from ..meshing.misalignment import Misalignment
+
         self.pair, self.options, self.phi1s, self.name, self.keep_dir = pair, options, list(phi1s), name, keep_dir
+        self.misalignment = misalignment or Misalignment()
 
     def run(self, progress=None) -> FEReport:
         from dataclasses import replace
 
         from ..fea.calculix import require_ccx
-        from ..fea.model import GearFEModel
-        from ..meshing.tca import TCA
+        from ..fea.model import GearFEModel, model_tca
+        from ..report import misalignment_dict
 
         require_ccx()
         t0 = time.perf_counter()
         p = self.pair
-        crowned = any(g.a_pl != 0 or g.rack.a_c != 0 for g in (p.pinion, p.gear))
-        tca = TCA(p, side="right", contact="point" if crowned else "line")
+        tca = model_tca(p, self.misalignment)
         positions, mesh_plot, fe_results = [], None, []
         for i, phi1 in enumerate(self.phi1s):
             if progress:
@@ -133,7 +142,7 @@ class FEStudy:
             opt = self.options
             if self.keep_dir is not None:
                 opt = replace(opt, keep_dir=str(Path(self.keep_dir) / f"pos{i}"))
-            model = GearFEModel(p, phi1, opt, tca=tca)
+            model = GearFEModel(p, phi1, opt, tca=tca, mis=self.misalignment)
             if mesh_plot is None:
                 mesh_plot = mesh_section(model)
             res = model.run()
@@ -142,23 +151,25 @@ class FEStudy:
         o = self.options
         pair = {"z1": p.pinion.z, "z2": p.gear.z, "m_n": p.pinion.m_n, "a": p.a_w, "b1": p.pinion.b, "b2": p.gear.b,
                 "r_b1": p.pinion.r_b, "r_b2": p.gear.r_b, "eps_alpha": p.eps_alpha, "contact": tca.contact_type}
-        return FEReport(scene=self.name, pair=pair, options=o.to_dict(), positions=positions, mesh_plot=mesh_plot,
+        return FEReport(scene=self.name, pair=pair, options={**o.to_dict(), "misalignment":
+                                                                   misalignment_dict(self.misalignment)},
+                        positions=positions, mesh_plot=mesh_plot,
                         timing={"run_s": time.perf_counter() - t0}, fe_results=fe_results)
 
 
-def _check_positions(scene, phis, teeth: int) -> None:
+def _check_positions(scene, phis, teeth: int, mis=None) -> None:
     """Before running: every FE position must have a tooth pair of the modelled ones in contact on
     the active flanks (the same TCA the model uses), else a SceneError naming phi1_start/phi1_end."""
     from ..errors import ConvergenceError
-    from ..meshing.tca import TCA
+    from ..fea.model import model_tca
 
     p = scene.pair
-    crowned = any(g.a_pl != 0 or g.rack.a_c != 0 for g in (p.pinion, p.gear))
-    tca = TCA(p, side="right", contact="point" if crowned else "line")
+    tca = model_tca(p, mis)
     ids = tuple(range(-(teeth // 2), teeth - teeth // 2))
     phis = np.asarray(phis, float)
+    misaligned = mis is not None and bool(np.any(mis.vector() != 0))
     try:
-        on = tca.sweep(phis, pairs=ids).on_surface.any(axis=0)
+        on = tca.sweep(phis, pairs=ids, mis=mis if misaligned else None).on_surface.any(axis=0)
     except ConvergenceError:
         on = np.zeros(phis.size, bool)
     if on.all():
@@ -176,8 +187,11 @@ def _from_scene(scene) -> FEStudy:
     from ..errors import GeometryError, OptionError
     from ..fea.mesh import MeshOptions
     from ..fea.model import FEOptions
+    from .tca import check_misalignment_keys, misalignment_from
 
     o = scene.options.get("fea", {}) or {}
+    check_misalignment_keys(scene, "fea", o, signs=(1,))
+    mis = misalignment_from(o)
     try:
         mesh = MeshOptions(n_face=o["n_face"], n_half=o["n_half"], n_flank=o["n_flank"], n_fillet=o["n_fillet"],
                            n_rim=o["n_rim"], rim_depth=o["rim_depth"])
@@ -196,11 +210,11 @@ def _from_scene(scene) -> FEStudy:
                               "valid: n_positions >= 2 to analyse phi1_start to phi1_end, or leave phi1_end out.",
                               valid="n_positions >= 2")
     phis = [a] if n == 1 else list(np.linspace(a, b, n))
-    _check_positions(scene, phis, opt.teeth)
+    _check_positions(scene, phis, opt.teeth, mis)
     keep = None
     if o.get("keep_files"):
         keep = Path("out") / f"{scene.name}_ccx"
-    return FEStudy(scene.pair, opt, phis, name=scene.name, keep_dir=keep)
+    return FEStudy(scene.pair, opt, phis, name=scene.name, keep_dir=keep, misalignment=mis)
 
 
 #: Young's moduli [MPa] of gear materials: polymers (POM, PA: ~1000-3000) to cemented carbide (~650000).
@@ -222,6 +236,7 @@ def _check_E(E: float):
 def _register():
     from ..io.schema import Bounds, Field, Section
     from . import StudySpec, register
+    from .tca import misalignment_fields
 
     register(StudySpec(
         name="fea",
@@ -249,6 +264,7 @@ def _register():
             Field("penalty", "float", default=50.0, check=Bounds(lo=1, hi=1000),
                   doc="contact penalty stiffness [multiples of E per mm]"),
             Field("keep_files", "bool", default=False, doc="keep the ccx files (out/<scene name>_ccx/pos<i>)"),
+            *misalignment_fields(suffix=" (the gear, placed as the TCA places it)"),
         ], required=False)],
         build=_from_scene,
     ))
