@@ -1,6 +1,6 @@
 """Loaded TCA against the CalculiX contact model (docs/ltca.md, validation table).
 
-    python benchmarks/validate_ltca_fe.py            # conjugate spur, crowned spur, helical (about 10 minutes)
+    python benchmarks/validate_ltca_fe.py            # every drive below (about 25 minutes)
     python benchmarks/validate_ltca_fe.py --spur     # the conjugate spur drive only
     python benchmarks/validate_ltca_fe.py --only helical
     python benchmarks/validate_ltca_fe.py --fine     # the FE reference at the refinement study's fine
@@ -8,6 +8,9 @@
     python benchmarks/validate_ltca_fe.py --only scene  # the drives of problems/ltca_crowned.toml
                                                       # (crowned spur, 3' crossing) and ltca_helical.toml
                                                       # (lead-crowned helical 21/53), with their misalignment
+                                                      # (default level ~8 min, --fine ~25 min)
+    python benchmarks/validate_ltca_fe.py --only "tip relief"  # the crowned helical with 20 um tip relief on
+                                                      # both members (no tip-edge contact)
 
 For each drive and three pinion angles (single and double contact), at 200 N m (E 210 GPa, nu 0.3):
 the loaded approach along the line of action (FE: the loaded pinion rotation times r_b1; loaded TCA:
@@ -66,6 +69,16 @@ def drives():
     out = {k: (v, None) for k, v in plain.items()}
     out["scene ltca_crowned (crossing 3')"] = _scene("ltca_crowned")
     out["scene ltca_helical (crowned)"] = _scene("ltca_helical")
+    # the same with 20 um linear tip relief from 1 mm below the tip diameter on both members: no tip-edge
+    # contact at 200 N m (the unrelieved pair's tips press on the mating flanks in both models, each
+    # with its own corner: docs/ltca.md section 7)
+    from dataclasses import replace
+
+    from gearopt.geometry.microgeometry import Microgeometry
+
+    hp, hm = out["scene ltca_helical (crowned)"]
+    relieved = [replace(g, modifications=Microgeometry(C_alpha_a=0.020, d_Ca=2 * g.r_a - 1.0)) for g in (hp.pinion, hp.gear)]
+    out["helical crowned, tip relief 20 um"] = (GearPair(*relieved), hm)
     return out
 
 
