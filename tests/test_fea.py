@@ -380,3 +380,48 @@ def test_crowned_helical_meshes_at_every_position_of_the_cycle():
             assert hex_min_jacobian(mesh.nodes, mesh.elements).min() > 0
             for t in mesh.teeth:  # graded, finite rows on every tooth
                 assert np.all(np.isfinite(mesh.nodes[t["nodes"]]))
+
+
+def test_misalignment_that_takes_the_contact_off_the_flanks_says_so(tmp_path):
+    """An unmodified spur pair under a crossing touches at a face end (edge contact): no contact on the
+    flanks, and the error says so and what to do (the TCA's), before any ccx run; a scene names the
+    position key and the misalignment."""
+    from pathlib import Path
+
+    from gearopt.errors import GearoptError, SceneError
+    from gearopt.io.scene import load_scene
+    from gearopt.meshing.misalignment import Misalignment
+    from gearopt.units import ARCMIN
+
+    pair = GearPair(Gear(z=20, m_n=3, b=20, name="pinion"), Gear(z=40, m_n=3, b=20, name="gear"))
+    with pytest.raises(GearoptError, match=r"leaves the tooth.*crown the pinion"):
+        GearFEModel(pair, 0.0, FEOptions(torque=100e3), mis=Misalignment(crossing=3 * ARCMIN))
+    text = (Path(__file__).resolve().parents[1] / "problems" / "fea_spur.toml").read_text()
+    bad = tmp_path / "edge.toml"
+    bad.write_text(text + 'crossing = "3 arcmin"\n')
+    with pytest.raises(SceneError, match=r"phi1_start.*crossing \+3'.*crowned"):
+        load_scene(bad).build()
+
+
+@pytest.mark.parametrize("b1, axial", [(24.0, 0.0), (20.0, 2.0), (20.0, -7.3)])
+def test_the_mates_face_ends_are_face_layers(b1, axial):
+    """Where the mating member's face ends inside a member's face (unequal face widths, an axial
+    displacement), that member has a face layer there (the contact ends on it), crowned or not; no
+    sliver layers (every layer at least 0.3 of the uniform spacing, unless graded)."""
+    from gearopt.meshing.misalignment import Misalignment
+
+    for a_pl in (0.0, 4e-4):
+        pair = GearPair(Gear(z=20, m_n=3, b=b1, a_pl=a_pl, name="pinion"), Gear(z=40, m_n=3, b=20.0, name="gear"))
+        m = GearFEModel(pair, 0.0, FEOptions(torque=100e3), mis=Misalignment(axial=axial) if axial else None)
+        zp = np.unique(np.round(m.pinion_mesh.nodes[:, 2], 9))
+        zg = np.unique(np.round(m.gear_mesh.nodes[:, 2], 9))
+        for e in (axial - 10.0, axial + 10.0):  # the gear's face ends in the pinion's z
+            if abs(e) < b1 / 2:
+                assert np.min(np.abs(zp - e)) < 1e-9
+        for e in (-b1 / 2 - axial, b1 / 2 - axial):  # the pinion's face ends in the gear's own z
+            if abs(e) < 10.0:
+                assert np.min(np.abs(zg - e)) < 1e-9
+        if a_pl == 0.0:
+            assert np.diff(zp).min() > 0.3 * b1 / m.mesh_options.n_face - 1e-9
+        for mesh in (m.pinion_mesh, m.gear_mesh):
+            assert hex_min_jacobian(mesh.nodes, mesh.elements).min() > 0

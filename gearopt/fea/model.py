@@ -309,6 +309,25 @@ def _face_layers(b: float, n_face: int, z_c: float, h: float, window: float, gro
     return np.unique(np.round(out, 12))
 
 
+def _with_breaks(z, breaks, keep=None) -> np.ndarray:
+    """Face layers ``z`` [mm] (increasing, ends included) with a layer on every ``breaks`` value: the
+    nearest interior layer moves there when it is within 0.3 of its element's length (no sliver),
+    unless it is ``keep`` (the ellipse centre's layer); otherwise a layer is inserted."""
+    z = np.array(z, float)
+    for e in sorted(breaks):
+        if np.min(np.abs(z - e)) < 1e-9:
+            continue
+        j = int(np.searchsorted(z, e))
+        lo, hi = z[j - 1], z[j]
+        near = j - 1 if e - lo <= hi - e else j
+        movable = 0 < near < len(z) - 1 and (keep is None or abs(z[near] - keep) > 1e-9)
+        if movable and abs(z[near] - e) < 0.3 * (hi - lo):
+            z[near] = e
+        else:
+            z = np.insert(z, j, e)
+    return z
+
+
 def model_tca(pair: GearPair, mis: Misalignment | None = None) -> TCA:
     """The TCA that places the FE model's members: right flank driving, line contact for unmodified,
     aligned (or only dE/axially displaced) members, point contact for a crowned pinion or gear or an
@@ -364,9 +383,13 @@ class GearFEModel:
         res = tca.sweep(np.array([self.phi1]), pairs=self.tooth_ids, mis=self.mis if misaligned else None)
         on = res.on_surface[:, 0]
         if not on.any():
+            why = "choose phi1 within the meshing cycle"
+            if misaligned:
+                why += (f", or a smaller misalignment ({self.mis.label()}): under it the contact may leave the "
+                        "flanks (edge contact at a face end or a tip, which the FE model does not place); crowning "
+                        "the pinion keeps the contact on the flanks")
             raise GeometryError(f"FE model at phi1 = {self.phi1:.6g} rad: no tooth pair of the {n} modelled is in "
-                                "contact on the active flanks (TCA); choose phi1 within the meshing cycle.",
-                                param="phi1", value=self.phi1)
+                                f"contact on the active flanks (TCA); {why}.", param="phi1", value=self.phi1)
         self.phi2 = float(np.nanmax(np.where(on, res.phi2[:, 0], np.nan)))
         gap = (self.phi2 - res.phi2[:, 0]) * pair.gear.r_b  # separation of each pair along the line of action
         # pairs that the load can close: within twice the estimated loaded approach (ISO 6336-1 c'), at
@@ -411,8 +434,8 @@ class GearFEModel:
         # point contact: face layers graded towards the ellipse centre (n_ellipse elements per major semi-axis)
         z_layers = None
         ell = [(self.contact[k]["z1"], self.contact[k]["z2"], h["a"]) for k, h in self.hertz.items()
-               if h["kind"] == "ellipse"]
-        if ell and o.n_ellipse > 0:
+               if h["kind"] == "ellipse"] if o.n_ellipse > 0 else []
+        if ell:
             z_c1, z_c2, a_e = min(ell, key=lambda t: abs(t[0]))  # the ellipse centre in each member's frame
             z_layers = {m: _face_layers(g.b, mo.n_face, z_c, a_e / o.n_ellipse, a_e, mo.growth) for m, g, z_c in
                         (("pinion", g1, z_c1), ("gear", g2, z_c2))}
@@ -421,8 +444,20 @@ class GearFEModel:
         # meshes (member frames), then placement in S_f
         self.pin_tooth = tca.pinion
         self.gear_tooth = tca.gear
-        m1 = ToothMesher(self.pin_tooth, mo, z_layers=None if z_layers is None else z_layers["pinion"])
-        m2 = ToothMesher(self.gear_tooth, mo, z_layers=None if z_layers is None else z_layers["gear"])
+        z_layers = dict(z_layers or {})
+        # the mate's face ends inside a member's face (unequal face widths, an axial displacement) are
+        # layers of that member: the contact ends there, and a layer across it would smear the end of
+        # the pattern and its edge pressure over an element (gear frame: z - axial)
+        ax = self.mis.axial
+        for name, g, ends, keep in (("pinion", g1, (ax - g2.b / 2, ax + g2.b / 2), z_c1 if ell else None),
+                                    ("gear", g2, (-g1.b / 2 - ax, g1.b / 2 - ax), z_c2 if ell else None)):
+            inner = [e for e in ends if abs(e) < g.b / 2 - 1e-6]
+            if inner:
+                base = z_layers.get(name)
+                z_layers[name] = _with_breaks(np.linspace(-g.b / 2, g.b / 2, mo.n_face + 1) if base is None else base,
+                                              inner, keep)
+        m1 = ToothMesher(self.pin_tooth, mo, z_layers=z_layers.get("pinion"))
+        m2 = ToothMesher(self.gear_tooth, mo, z_layers=z_layers.get("gear"))
         cu1 = {k: self.contact[k]["u1"] for k in self.loaded}
         cu2 = {-k: self.contact[k]["u2"] for k in self.loaded}
         if not (g1.is_spur and g2.is_spur):

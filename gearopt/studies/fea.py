@@ -180,7 +180,9 @@ def _check_positions(scene, phis, teeth: int, mis=None) -> None:
     raise scene.key_error("fea", key, f"is out of range: at phi1 = {math.degrees(phis[i]):.4g} deg none of the {teeth} "
                           f"modelled tooth pairs is in contact on the active flanks (one mesh cycle is 360 / z1 = "
                           f"{pitch:.4g} deg; phi1 = 0 puts tooth 0 at the pitch point). Choose positions within the "
-                          "meshing of the modelled teeth or model more teeth.")
+                          "meshing of the modelled teeth or model more teeth"
+                          + (f"; or reduce the misalignment ({mis.label()}): under it the contact may leave the "
+                             "flanks (edge contact), unless the pinion is crowned." if misaligned else "."))
 
 
 def _from_scene(scene) -> FEStudy:
