@@ -350,7 +350,8 @@ def test_fe_line_load_plot_reads_the_pattern():
     from gearopt.plot.fea import plot_line_load
 
     def pos(phi, pairs):
-        pat = {str(k): {"z": [-7.5, -2.5, 2.5, 7.5], "q": [100.0, 300.0 + 10 * k, 200.0, 50.0], "force": 3000.0,
+        pat = {str(k): {"z": [-7.5, -2.5, 2.5, 7.5], "z_layers": [-10.0, -5.0, 0.0, 5.0, 10.0],
+                        "q": [100.0, 300.0 + 10 * k, 200.0, 50.0], "force": 3000.0,
                         "z_centroid": -1.0 + k} for k in pairs}
         return {"phi1": phi, "loaded_pairs": pairs, "contact": {"pattern": pat}}
     rep = {"positions": [pos(-0.1, [-1, 0]), pos(0.0, [0])], "pair": {"b1": 20.0},
@@ -362,6 +363,8 @@ def test_fe_line_load_plot_reads_the_pattern():
     xs = sorted(float(ln.get_xdata()[0]) for ln in ax.get_lines() if not ln.get_label().startswith("phi1"))
     assert xs == [-10.0, -2.0, -1.0, -1.0, 10.0]  # face ends and the three centres
     assert "crossing +3 arcmin" in ax.get_title() and "N/mm" in ax.get_ylabel()
+    steps = [p for p in ax.patches if type(p).__name__ == "StepPatch"]
+    assert len(steps) == 3 and list(steps[0].get_data().edges) == [-10.0, -5.0, 0.0, 5.0, 10.0]
     _check_legend(ax)
     plt.close(fig)
 

@@ -125,8 +125,9 @@ def plot_loaded_te(report: dict, ax=None):
 
 def plot_line_load(report: dict, ax=None):
     """The FE contact pattern across the face: normal load per mm of face [N/mm] of every loaded
-    tooth pair against the face coordinate z [mm] (nodal pressure integrated over the pinion flank,
-    scaled to the pair's contact force), its centre marked, the face ends dashed."""
+    tooth pair against the face coordinate z [mm] (nodal pressure integrated over the pinion flank
+    between two face layers, scaled to the pair's contact force: one step per strip, marked at its
+    middle), its centre marked, the face ends dashed."""
     ax = _axes(ax)
     markers = ("o", "s", "^", "D", "v")
     curve = 0
@@ -137,9 +138,11 @@ def plot_line_load(report: dict, ax=None):
             if not pt or not pt["force"]:
                 continue
             color = f"C{curve % 10}"
-            ax.plot(pt["z"], pt["q"], "-", marker=markers[j % len(markers)], ms=3.5, lw=1, color=color,
+            # the load of each strip between two face layers is its mean over the strip: steps
+            ax.stairs(pt["q"], pt["z_layers"], color=color, lw=1.2, baseline=None)
+            ax.plot(pt["z"], pt["q"], ls="none", marker=markers[j % len(markers)], ms=4, color=color,
                     label=f"phi1 = {math.degrees(pos['phi1']):.2f} deg, pair {int(k):+d}: {pt['force']:.0f} N, "
-                          f"centre z = {pt['z_centroid']:+.2f} mm")
+                          f"centre z = {round(pt['z_centroid'], 2) + 0.0:+.2f} mm")
             ax.axvline(pt["z_centroid"], color=color, lw=0.8, ls=":")
             curve += 1
     half = 0.5 * report["pair"]["b1"]

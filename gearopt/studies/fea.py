@@ -266,7 +266,7 @@ def _register():
             Field("penalty", "float", default=50.0, check=Bounds(lo=1, hi=1000),
                   doc="contact penalty stiffness [multiples of E per mm]"),
             Field("keep_files", "bool", default=False, doc="keep the ccx files (out/<scene name>_ccx/pos<i>)"),
-            *misalignment_fields(suffix=" (the gear, placed as the TCA places it)"),
+            *misalignment_fields(suffix="; placed as in the TCA"),
         ], required=False)],
         build=_from_scene,
     ))
