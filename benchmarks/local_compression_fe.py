@@ -118,7 +118,8 @@ def main(argv):
         b_H = hertz_line(f, rho1, rho2, E, NU)["b"]
         for member in ("pinion", "gear"):
             r = local_compression(m, member, f, b_H)
-            print(f"{T:g} N m, n_hertz {n_hertz:g} n_half {n_half} n_flank {n_flank} {member:<7} f {r['load_N_per_mm']:.1f} N/mm, b_H {b_H:.4f} mm, h {r['h_mm']:.3f} mm: "
+            print(f"{T:g} N m, n_hertz {n_hertz:g} n_half {n_half} n_flank {n_flank} {member:<7} "
+                  f"f {r['load_N_per_mm']:.1f} N/mm, b_H {b_H:.4f} mm, h {r['h_mm']:.3f} mm: "
                   f"flank {r['flank_um']:.3f} um, C {r['C_um']:.3f} um, flank - C {r['local_um']:.3f} um, Weber "
                   f"{r['weber_um']:.3f} um (FE / Weber {r['local_um'] / r['weber_um']:.3f}, (FE - Weber) / f "
                   f"{1e3 * (r['local_um'] - r['weber_um']) / f:.3f} um per N/mm x 1000); {r['elements']} elements",
