@@ -11,6 +11,11 @@
                                                       # (default level ~8 min, --fine ~25 min)
     python benchmarks/validate_ltca_fe.py --only "tip relief"  # the crowned helical with 20 um tip relief on
                                                       # both members (no tip-edge contact)
+    python benchmarks/validate_ltca_fe.py --recorded [--fine]  # loaded TCA only, against the FE results
+                                                      # recorded in benchmarks/data/fe_reference.json (~2 min)
+
+Every CalculiX run records its results in benchmarks/data/fe_reference.json (per FE level, drive and
+position), which --recorded reads back: a change of loaded TCA is validated without the FE runs.
 
 For each drive and three pinion angles (single and double contact), at 200 N m (E 210 GPa, nu 0.3):
 the loaded approach along the line of action (FE: the loaded pinion rotation times r_b1; loaded TCA:
@@ -26,6 +31,7 @@ pair (FE: its contact force over the sum of all pairs', from the ccx contact sta
 
 from __future__ import annotations
 
+import json
 import math
 import shutil
 import sys
@@ -40,6 +46,7 @@ from gearopt.ltca.compliance import Material
 from gearopt.ltca.engine import LTCA
 
 ROOT = Path(__file__).resolve().parents[1]
+RECORD = ROOT / "benchmarks" / "data" / "fe_reference.json"
 
 T = 200.0
 # the contact model's default mesh with 8 face layers instead of 4: the helical pair's approach moves by
@@ -83,7 +90,7 @@ def drives():
 
 
 def main(argv):
-    if shutil.which("ccx") is None:
+    if shutil.which("ccx") is None and "--recorded" not in argv:
         print("ccx (CalculiX) not installed: nothing to validate")
         return 0
     names = ["spur 20/40 conjugate"] if "--spur" in argv else list(drives())
@@ -99,11 +106,15 @@ def main(argv):
     print(f"{'drive':<22} {'phi1 deg':>8} {'pairs':>7} {'FE approach um':>14} {'LTCA-an':>8} {'LTCA-fe':>8} "
           f"{'err an %':>8} {'err fe %':>8} {'FE p MPa':>9} {'LTCA-fe p':>9} {'err %':>6} {'max p':>9} {'FE share':>8} "
           f"{'LTCA-fe':>7} {'FE z_c':>7} {'LTCA z_c':>8} {'FE s':>6}")
+    recorded = "--recorded" in argv
+    level = "fine" if "--fine" in argv else "default"
+    record = json.loads(RECORD.read_text()) if RECORD.exists() else {}
     for name in names:
         pair, mis = drives()[name]
         z1 = pair.pinion.z
         step = 2 * math.pi / z1
-        phis = [0.0, -0.3 * step, 0.3 * step]
+        fracs = ("0", "-0.3", "+0.3")
+        phis = [float(f) * step for f in fracs]
         cb = math.cos(pair.pinion.beta_b)
         lt = {}
         for c in ("analytical", "fe"):
@@ -113,12 +124,25 @@ def main(argv):
         for j, ph in enumerate(phis):
             t0 = time.perf_counter()
             m = GearFEModel(pair, ph, FEOptions(torque=T * 1e3, E=mat.E, nu=mat.nu, **fe_level), mis=mis)
-            d = m.run().to_dict()
+            k0 = min(m.hertz, key=lambda k: abs(m.contact[k]["radius1"] - pair.pinion.r_p))  # as GearFEModel.run
+            if recorded:
+                rec = record.get(level, {}).get(name, {}).get(fracs[j])
+                if rec is None:
+                    print(f"{name:<22} {math.degrees(ph):8.3f}: no FE result recorded at the {level} level")
+                    continue
+                loaded = m.loaded
+            else:
+                d = m.run().to_dict()
+                k0 = d["contact"]["hertz_pair"]
+                rec = {"approach_um": 1000 * abs(d["pinion_rotation_rad"]) * pair.pinion.r_b,
+                       "p_max_mid_MPa": d["contact"]["p_max_mid"], "share": d["pair_share"].get(str(k0)) or 0.0,
+                       "z_c_mm": d["contact"]["pattern"][str(k0)]["z_centroid"], "date": time.strftime("%Y-%m-%d")}
+                record.setdefault(level, {}).setdefault(name, {})[fracs[j]] = rec
+                loaded = d["loaded_pairs"]
             t_fe = time.perf_counter() - t0
-            fe_app = abs(d["pinion_rotation_rad"]) * pair.pinion.r_b
+            fe_app = rec["approach_um"] / 1000
             an = lt["analytical"].delta[j] / cb
             fe = lt["fe"].delta[j] / cb
-            k0 = d["contact"]["hertz_pair"]
             kk = lt["fe"].pairs.index(k0)
             # the slice pressure in the FE's section (through the contact: mid face for line contact)
             z_sec = m.contact[k0]["z1"]
@@ -126,17 +150,20 @@ def main(argv):
             o = np.argsort(S.z[kk, j][ok])
             p_lt = float(np.interp(z_sec, S.z[kk, j][ok][o], lt["fe"].p0[kk, j][ok][o]))
             p_lt_max = float(np.max(lt["fe"].p0_flank[kk, j]))
-            p_fe = d["contact"]["p_max_mid"]
-            sh_fe = d["pair_share"].get(str(k0)) or 0.0
+            p_fe = rec["p_max_mid_MPa"]
+            sh_fe = rec["share"]
             sh_lt = float(lt["fe"].share[kk, j])
-            zc_fe = d["contact"]["pattern"][str(k0)]["z_centroid"]
+            zc_fe = rec["z_c_mm"] if rec["z_c_mm"] is not None else float("nan")
             F_lt = lt["fe"].load[kk, j][ok]
             zc_lt = float((F_lt * S.z[kk, j][ok]).sum() / F_lt.sum())
-            print(f"{name:<22} {math.degrees(ph):8.3f} {str(d['loaded_pairs']):>7} {1000 * fe_app:14.3f} "
+            print(f"{name:<22} {math.degrees(ph):8.3f} {str(loaded):>7} {1000 * fe_app:14.3f} "
                   f"{1000 * an:8.3f} {1000 * fe:8.3f} {100 * (an / fe_app - 1):8.1f} {100 * (fe / fe_app - 1):8.1f} "
                   f"{p_fe:9.1f} {p_lt:9.1f} {100 * (p_lt / p_fe - 1):6.1f} {p_lt_max:9.1f} {sh_fe:8.3f} {sh_lt:7.3f} "
-                  f"{zc_fe:7.2f} {zc_lt:8.2f} {t_fe:6.1f}",
+                  f"{zc_fe:7.2f} {zc_lt:8.2f} {'rec' if recorded else f'{t_fe:.1f}':>6}",
                   flush=True)
+            if not recorded:
+                RECORD.parent.mkdir(parents=True, exist_ok=True)
+                RECORD.write_text(json.dumps(record, indent=1) + "\n")
     return 0
 
 

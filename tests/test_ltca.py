@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from gearopt.errors import ConvergenceError, GeometryError, OptionError
+from gearopt.errors import ConvergenceError, GearoptError, GeometryError, OptionError
 from gearopt.fea.model import hertz_line
 from gearopt.gears import BasicRack, Gear, GearPair
 from gearopt.ltca.compliance import Material, ToothCompliance, coupling, iso6336_stiffness, weber_contact
@@ -450,6 +450,61 @@ def test_loaded_tca_with_fe_compliance(fe_cache, monkeypatch):
     with pytest.raises(OptionError) as e:
         LTCA(pair, compliance="beam")
     assert e.value.param == "compliance"
+
+
+@pytest.mark.calculix
+@_needs_ccx
+def test_local_compression_of_the_tooth_section():
+    """The plane-strain FE model of the tooth section under a Hertz strip reproduces the half-space's
+    logarithm: its excess over Weber's term, kappa, stays put while the strip width (and Weber's
+    bracket, by ln(8/3) = 0.98) changes; the finite section is softer than a half-space to the same
+    depth (kappa > 0), by about what the 3-D contact model's split says (docs/ltca.md section 5: flank
+    minus C 3.30 um against Weber's 3.07 um at h 2.44 mm, b_H 0.164 mm: kappa = 0.24). A strip that
+    does not fit on the flank is refused."""
+    from gearopt.fea.local import local_excess, section_compression, section_tooth
+    from gearopt.geometry.generation import generate
+
+    g = Gear(z=20, m_n=3.0, b=20.0, name="pinion")
+    tooth = generate(g)
+    r = [section_compression(tooth, g.r_p, b * g.m_n, 210000.0, 0.3) for b in (0.03, 0.08)]
+    assert 0.15 < r[0]["kappa"] < 0.35
+    assert abs(r[0]["kappa"] - r[1]["kappa"]) < 0.05
+    for x in r:  # the compression is Weber's plus kappa: FE / Weber of the size measured in docs/ltca.md
+        assert x["local"] > x["weber"] > 0 and abs(x["h"] - g.s_at(g.r_p) / 2 / math.cos(g.rack.alpha_n)) < 0.1
+    with pytest.raises(GeometryError) as e:
+        section_compression(tooth, g.r_a - 0.01, 0.15)
+    assert e.value.param == "radius"
+    with pytest.raises(GearoptError) as e:
+        local_excess(tooth, [g.r_p], b_rel=0.5, use_cache=False)
+    assert e.value.param == "b_rel"
+    # a helical member's section: the virtual spur gear of its normal section
+    h = Gear(z=21, m_n=2.5, b=24.0, beta=math.radians(15), name="pinion")
+    vt, dr = section_tooth(generate(h))
+    beta_b = math.asin(math.sin(h.beta) * math.cos(h.rack.alpha_n))
+    assert vt.gear.is_spur and vt.gear.z == round(21 / (math.cos(beta_b) ** 2 * math.cos(h.beta)))
+    assert vt.gear.m_n == h.m_n and dr == pytest.approx(vt.gear.m_n * vt.gear.z / 2 - h.r_p, abs=1e-12)
+
+
+@pytest.mark.calculix
+@_needs_ccx
+def test_fe_compliance_adds_the_local_excess_of_both_members(fe_cache, monkeypatch):
+    """At the pitch point (single pair, uniform line load f = W / b) the FE-coefficient model's
+    approach with the local excess is the one without it plus 2 (1 - nu^2) / (pi E) (kappa1 + kappa2) f."""
+    from dataclasses import replace
+
+    monkeypatch.setenv("GEAROPT_CACHE", str(fe_cache))
+    pair = spur()
+    mat = Material()
+    L = LTCA(pair, n_slices=11, compliance="fe", fe_mesh=_coarse_member_mesh())
+    S = L.slices(phi1=np.array([0.0]), pairs=(0,))
+    with_k = L.solve(200.0, slices=S).results[0]
+    k1, k2 = (float(G.local_excess(r)) for G, r in zip(L.influence, (pair.pinion.r_p, pair.gear.r_p)))
+    assert k1 > 0 and k2 > 0
+    L.influence = tuple(replace(G, kappa=None) for G in L.influence)
+    without = L.solve(200.0, slices=S).results[0]
+    f = 200.0e3 / pair.pinion.r_b / pair.pinion.b
+    expected = 2 * (1 - mat.nu**2) / (math.pi * mat.E) * (k1 + k2) * f
+    assert with_k.delta[0] - without.delta[0] == pytest.approx(expected, rel=0.02)
 
 
 def test_every_slice_lies_on_its_own_gear_revolution():

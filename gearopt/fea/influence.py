@@ -60,6 +60,8 @@ class InfluenceGrid:
     cached : read from the cache; key : the cache key.
     depth : (nr, nz) distance from each grid point along its load line to the response point on the
         tooth's middle line [mm] (Weber's depth ``h``).
+    kappa : (nr,) the excess of the tooth's local compression over Weber's half-space term at the grid
+        rows, in Weber's bracket (:func:`gearopt.fea.local.local_excess`), or None.
     """
 
     radius: np.ndarray
@@ -70,6 +72,15 @@ class InfluenceGrid:
     cached: bool
     key: str
     depth: np.ndarray | None = None
+    kappa: np.ndarray | None = None
+
+    def local_excess(self, radius) -> np.ndarray:
+        """``kappa`` at flank radii ``radius`` [mm] (linear between the grid rows, constant beyond;
+        zeros without it)."""
+        r = np.asarray(radius, float)
+        if self.kappa is None:
+            return np.zeros(r.shape)
+        return np.interp(r, self.radius, self.kappa)
 
     def matrix(self, radius, z) -> np.ndarray:
         """Compliance matrix [mm/N] between points ``(radius[i], z[i])`` of the flank (multilinear
@@ -125,7 +136,7 @@ def _middle_points(X, nodes, load, normals, mid_rows, nh):
 
 def influence_grid(tooth: GeneratedTooth, E: float = 206000.0, nu: float = 0.3, mesh: MeshOptions | None = None,
                    teeth: int = 3, side: str = "right", r_form: float | None = None, use_cache: bool = True,
-                   threads: int = 2) -> InfluenceGrid:
+                   threads: int = 2, local: bool = True) -> InfluenceGrid:
     """Influence coefficients of ``tooth``'s driving flank (see the module docstring).
 
     Parameters
@@ -143,6 +154,9 @@ def influence_grid(tooth: GeneratedTooth, E: float = 206000.0, nu: float = 0.3, 
         Lowest radius of the grid [mm] (default: the flank's end).
     use_cache : bool
         Read and write the on-disk cache.
+    local : bool
+        Also compute the local-compression excess ``kappa`` at the grid rows
+        (:func:`gearopt.fea.local.local_excess`, cached on its own).
 
     Returns
     -------
@@ -156,10 +170,12 @@ def influence_grid(tooth: GeneratedTooth, E: float = 206000.0, nu: float = 0.3, 
     if use_cache and path.exists():
         try:
             d = np.load(path)
-            return InfluenceGrid(radius=d["radius"], z=d["z"], G=d["G"], asymmetry=float(d["asymmetry"]),
-                                 ccx_s=float(d["ccx_s"]), cached=True, key=key, depth=d["depth"])
+            out = InfluenceGrid(radius=d["radius"], z=d["z"], G=d["G"], asymmetry=float(d["asymmetry"]),
+                                ccx_s=float(d["ccx_s"]), cached=True, key=key, depth=d["depth"])
         except (OSError, KeyError, ValueError):
-            pass  # a damaged file: compute again
+            out = None  # a damaged file: compute again
+        if out is not None:
+            return _with_local(out, tooth, E, nu, use_cache, threads) if local else out
     m = ToothMesher(tooth, mesh)
     ids = tuple(range(-(teeth // 2), teeth - teeth // 2))
     mm = build_member(m, ids, {}, tooth.gear.name or "member", 0.0)
@@ -247,4 +263,11 @@ def influence_grid(tooth: GeneratedTooth, E: float = 206000.0, nu: float = 0.3, 
         finally:
             if os.path.exists(tmp):
                 os.unlink(tmp)
-    return out
+    return _with_local(out, tooth, E, nu, use_cache, threads) if local else out
+
+
+def _with_local(grid: InfluenceGrid, tooth, E, nu, use_cache, threads) -> InfluenceGrid:
+    from dataclasses import replace
+
+    from .local import local_excess
+    return replace(grid, kappa=local_excess(tooth, grid.radius, E, nu, use_cache=use_cache, threads=threads))

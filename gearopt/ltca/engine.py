@@ -315,6 +315,15 @@ class LTCA:
         R = rho1 * rho2 / (rho1 + rho2)
         h1 = c1["h"].reshape(K, N, M)
         h2 = c2["h"].reshape(K, N, M)
+        if self.influence is not None:
+            # FE coefficients: the local compression of each member's actual tooth section from FE, Weber's
+            # bracket + kappa = ln(2 h e^kappa / b_H) (gearopt.fea.local, docs/ltca.md section 5), on the flank
+            # slices; the depth measured in the plane across the contact line, where the local problem is
+            # plane strain: the transverse depth h projects to h cos(beta_b) there
+            flank = np.ones((K, N, M), bool) if S.edge is None else S.edge == 0
+            G1, G2 = self.influence
+            h1 = np.where(flank, h1 * cb * np.exp(G1.local_excess(rad1)), h1)
+            h2 = np.where(flank, h2 * cb * np.exp(G2.local_excess(rad2)), h2)
         length = S.width / cb
         return {"Cs": Cs, "R": np.where(act, R, 1.0), "h1": np.where(act, h1, 1.0), "h2": np.where(act, h2, 1.0),
                 "length": np.where(act, length, 1.0), "radius1": rad1, "radius2": rad2, "ct": ct}
