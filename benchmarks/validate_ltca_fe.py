@@ -13,6 +13,9 @@
                                                       # both members (no tip-edge contact)
     python benchmarks/validate_ltca_fe.py --recorded [--fine]  # loaded TCA only, against the FE results
                                                       # recorded in benchmarks/data/fe_reference.json (~2 min)
+    python benchmarks/validate_ltca_fe.py --very-fine --only "spur crowned" --pos -0.3  # one position
+                                                      # (0, -0.3 or +0.3 pitches) at bench_fea_refine's very
+                                                      # fine level (about an hour per position)
 
 Every CalculiX run records its results in benchmarks/data/fe_reference.json (per FE level, drive and
 position), which --recorded reads back: a change of loaded TCA is validated without the FE runs.
@@ -98,16 +101,17 @@ def main(argv):
         names = [n for n in drives() if argv[argv.index("--only") + 1] in n]
     mat = Material(E=210000.0, nu=0.3)
     fe_level = dict(mesh=FE_MESH)
-    if "--fine" in argv:
+    if "--fine" in argv or "--very-fine" in argv:
         sys.path.insert(0, __file__.rsplit("/", 1)[0])
-        from bench_fea_refine import LEVELS
-        fe_level = LEVELS["fine"]
+        from bench_fea_refine import LEVELS, VERY_FINE
+        fe_level = dict(VERY_FINE["very fine"], timeout=7200.0) if "--very-fine" in argv else LEVELS["fine"]
     print(f"FE reference mesh: {fe_level}")
     print(f"{'drive':<22} {'phi1 deg':>8} {'pairs':>7} {'FE approach um':>14} {'LTCA-an':>8} {'LTCA-fe':>8} "
           f"{'err an %':>8} {'err fe %':>8} {'FE p MPa':>9} {'LTCA-fe p':>9} {'err %':>6} {'max p':>9} {'FE share':>8} "
           f"{'LTCA-fe':>7} {'FE z_c':>7} {'LTCA z_c':>8} {'FE s':>6}")
     recorded = "--recorded" in argv
-    level = "fine" if "--fine" in argv else "default"
+    level = "very fine" if "--very-fine" in argv else "fine" if "--fine" in argv else "default"
+    only_pos = argv[argv.index("--pos") + 1] if "--pos" in argv else None  # --pos 0, -0.3 or +0.3 (pitches)
     record = json.loads(RECORD.read_text()) if RECORD.exists() else {}
     for name in names:
         pair, mis = drives()[name]
@@ -122,6 +126,8 @@ def main(argv):
             S = L.slices(phi1=np.array(phis), mis=mis)
             lt[c] = L.solve(T, slices=S).results[0]
         for j, ph in enumerate(phis):
+            if only_pos is not None and fracs[j] != only_pos:
+                continue
             t0 = time.perf_counter()
             m = GearFEModel(pair, ph, FEOptions(torque=T * 1e3, E=mat.E, nu=mat.nu, **fe_level), mis=mis)
             k0 = min(m.hertz, key=lambda k: abs(m.contact[k]["radius1"] - pair.pinion.r_p))  # as GearFEModel.run

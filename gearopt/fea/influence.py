@@ -96,6 +96,20 @@ class InfluenceGrid:
         return 0.5 * (C + C.T)
 
 
+def save_npz(path: Path, **arrays) -> None:
+    """Write ``arrays`` to ``path`` (.npz) atomically (a temporary file in the same directory, renamed)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(suffix=".npz", dir=path.parent)
+    os.close(fd)
+    try:
+        with open(tmp, "wb") as fh:
+            np.savez(fh, **arrays)
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+
+
 def _key(tooth: GeneratedTooth, E: float, nu: float, mesh: MeshOptions, teeth: int, r_form) -> str:
     g = tooth.gear
     d = {"v": CACHE_VERSION, "gear": repr(g), "p": np.round(tooth.p0, 15).tolist(), "names": list(tooth.param_names),
@@ -253,16 +267,7 @@ def influence_grid(tooth: GeneratedTooth, E: float = 206000.0, nu: float = 0.3, 
     out = InfluenceGrid(radius=radius[order], z=z, G=G4, asymmetry=asym, ccx_s=ccx_s, cached=False, key=key,
                         depth=depth.reshape(nr, nz)[order])
     if use_cache:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(suffix=".npz", dir=path.parent)
-        os.close(fd)
-        try:
-            with open(tmp, "wb") as fh:
-                np.savez(fh, radius=out.radius, z=out.z, G=out.G, asymmetry=asym, ccx_s=ccx_s, depth=out.depth)
-            os.replace(tmp, path)
-        finally:
-            if os.path.exists(tmp):
-                os.unlink(tmp)
+        save_npz(path, radius=out.radius, z=out.z, G=out.G, asymmetry=asym, ccx_s=ccx_s, depth=out.depth)
     return _with_local(out, tooth, E, nu, use_cache, threads) if local else out
 
 

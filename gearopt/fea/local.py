@@ -34,8 +34,6 @@ from __future__ import annotations
 import hashlib
 import json
 import math
-import os
-import tempfile
 import time
 from dataclasses import replace
 
@@ -191,7 +189,7 @@ def local_excess(tooth: GeneratedTooth, radius, E: float = 206000.0, nu: float =
     -------
     (n,) array of ``kappa`` (dimensionless).
     """
-    from .influence import cache_dir
+    from .influence import cache_dir, save_npz
 
     if not 0.005 <= b_rel <= 0.2:
         raise out_of_range("b_rel", b_rel, "0.005 <= b_rel <= 0.2 (strip half-width in modules)")
@@ -223,14 +221,5 @@ def local_excess(tooth: GeneratedTooth, radius, E: float = 206000.0, nu: float =
             done[k] = section_compression(sec, float(r), b_H, E, nu, n_hertz, n_half, threads)["kappa"]
         kappa[i] = done[k]
     if use_cache:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(suffix=".npz", dir=path.parent)
-        os.close(fd)
-        try:
-            with open(tmp, "wb") as fh:
-                np.savez(fh, kappa=kappa, radius=radius)
-            os.replace(tmp, path)
-        finally:
-            if os.path.exists(tmp):
-                os.unlink(tmp)
+        save_npz(path, kappa=kappa, radius=radius)
     return kappa
