@@ -452,6 +452,41 @@ def test_loaded_tca_with_fe_compliance(fe_cache, monkeypatch):
     assert e.value.param == "compliance"
 
 
+def test_slice_curvature_is_the_flank_surface_s():
+    """The Hertz term's curvature of each flank (SliceSet.kappa1/2, by AD of the surface): the
+    involute helicoid's cos(beta_b) / rho_t exactly on unmodified spur and helical flanks; on a
+    profile-crowned pinion (rack a_c) the curvature of the generated transverse profile, measured
+    independently by the circle through three neighbouring profile points."""
+    from gearopt.geometry.generation import generate
+
+    for pair in (spur(), GearPair(Gear(z=21, m_n=2.5, b=24.0, beta=math.radians(15), name="pinion"),
+                                  Gear(z=45, m_n=2.5, b=24.0, beta=math.radians(15), hand="left", name="gear"))):
+        L = LTCA(pair, n_slices=5)
+        S = L.slices(phi1=np.array([-0.1, 0.0, 0.1]), pairs=(0,))
+        ok = S.active & (S.edge == 0)
+        cb = math.cos(pair.pinion.beta_b)
+        for k, r, g in ((S.kappa1, S.r1, pair.pinion), (S.kappa2, S.r2, pair.gear)):
+            rho_t = np.sqrt(np.hypot(r[..., 0], r[..., 1]) ** 2 - g.r_b**2)
+            assert ok.sum() >= 9 and np.allclose(k[ok], cb / rho_t[ok], rtol=1e-9)
+    pair = spur(rack=BasicRack.iso53("A", a_c=2e-3))
+    L = LTCA(pair, n_slices=5)
+    S = L.slices(phi1=np.array([-0.15, 0.0, 0.15]), pairs=(0,))
+    tooth = generate(pair.pinion)
+    f = tooth.surface("right", "flank")
+    ok = np.flatnonzero((S.active & (S.edge == 0) & (np.abs(S.z) < 1e-9)).ravel())
+    assert ok.size >= 3
+    for i in ok:
+        u = S.u1.ravel()[i]
+        P = [np.asarray(f(u + d, 0.0, tooth.p0)[0]).ravel()[:2] for d in (-1e-3, 0.0, 1e-3)]
+        a, b, c = (np.linalg.norm(P[1] - P[0]), np.linalg.norm(P[2] - P[1]), np.linalg.norm(P[2] - P[0]))
+        d1, d2 = P[1] - P[0], P[2] - P[0]
+        area = 0.5 * abs(d1[0] * d2[1] - d1[1] * d2[0])
+        kappa_fd = 4 * area / (a * b * c)  # 1 / circumradius
+        rho_t = math.sqrt(np.hypot(*P[1]) ** 2 - pair.pinion.r_b**2)
+        assert S.kappa1.ravel()[i] == pytest.approx(kappa_fd, rel=1e-4)
+        assert S.kappa1.ravel()[i] > 1.02 / rho_t  # profile crowning: more curved than the involute
+
+
 @pytest.mark.calculix
 @_needs_ccx
 def test_local_compression_of_the_tooth_section():

@@ -173,11 +173,15 @@ class LTCA:
         with the same Weber-Banaschek contact term.
     fe_mesh : MeshOptions, optional
         Member mesh of the FE influence coefficients (default: that of ``influence_grid``).
+    curvature : {"surface", "involute"}
+        The flanks' curvature across the contact line in the Hertz term: each modified surface's own
+        at the slice's point (by AD; profile crowning, reliefs and their smooth starts raise it), or
+        the unmodified involute's ``cos(beta_b) / rho_t`` (the loaded micro-geometry optimiser's model).
     """
 
     def __init__(self, pair: GearPair, side: str = "right", material: Material | None = None, n_slices: int = 21,
                  r_int=None, coupling: float | None = None, tca: TCA | None = None, compliance: str = "analytical",
-                 fe_mesh=None):
+                 fe_mesh=None, curvature: str = "surface"):
         if not isinstance(pair, GearPair):
             raise ArgumentError(f"pair = {pair!r:.60}: expected a gearopt.gears.GearPair.", param="pair", value=pair,
                                 valid="a gearopt.gears.GearPair")
@@ -210,6 +214,9 @@ class LTCA:
             raise out_of_range("compliance", compliance, "'analytical' or 'fe' (CalculiX influence coefficients)",
                                cls=OptionError)
         self.compliance = compliance
+        if curvature not in ("surface", "involute"):
+            raise out_of_range("curvature", curvature, "'surface' (each flank's own) or 'involute'", cls=OptionError)
+        self.curvature = curvature
         self.influence = None
         if compliance == "fe":
             from ..fea.influence import influence_grid
@@ -306,13 +313,19 @@ class LTCA:
             Cv = Cs.reshape(N, K, M, K, M)
             for k in range(K):
                 Cv[:, k, :, k, :] = blocks[k]
-        # Hertz data per node: normal-section reduced radius, depths to the centrelines, line length
-        rho1 = np.sqrt(np.maximum(rad1**2 - g1.r_b**2, 1e-12)) / cb
-        rho2 = np.sqrt(np.maximum(rad2**2 - g2.r_b**2, 1e-12)) / cb
-        if S.edge is not None:  # a tip edge: its rounding radius instead of the involute's curvature
-            rho1 = np.where(S.edge == 1, EDGE_RADIUS * g1.m_n, rho1)
-            rho2 = np.where(S.edge == 2, EDGE_RADIUS * g2.m_n, rho2)
-        R = rho1 * rho2 / (rho1 + rho2)
+        # Hertz data per node: reduced radius across the contact line, depths to the centrelines, line
+        # length. The curvature of each flank is its own surface's at the point (SliceSet.kappa: profile
+        # crowning, reliefs and every modification change it); the involute's cos(beta_b) / rho_t where
+        # that is missing, a tip edge's rounding radius on an edge
+        k1 = np.sqrt(np.maximum(rad1**2 - g1.r_b**2, 1e-12)) ** -1 * cb
+        k2 = np.sqrt(np.maximum(rad2**2 - g2.r_b**2, 1e-12)) ** -1 * cb
+        if S.kappa1 is not None and self.curvature == "surface":
+            k1 = np.where(np.isfinite(S.kappa1), S.kappa1, k1)
+            k2 = np.where(np.isfinite(S.kappa2), S.kappa2, k2)
+        if S.edge is not None:
+            k1 = np.where(S.edge == 1, 1.0 / (EDGE_RADIUS * g1.m_n), k1)
+            k2 = np.where(S.edge == 2, 1.0 / (EDGE_RADIUS * g2.m_n), k2)
+        R = 1.0 / np.maximum(k1 + k2, 1e-6)  # (a flat or concave-convex pair beyond: 1 m)
         h1 = c1["h"].reshape(K, N, M)
         h2 = c2["h"].reshape(K, N, M)
         if self.influence is not None:

@@ -66,6 +66,9 @@ class SliceSet:
         tip edge on the pinion flank (slices whose conjugate point lies beyond that tip).
     w : (K, N, M, 4) the solved unknowns ``(u1, u2, z2, r_p2 phi2)`` [mm] of each slice's equations
         (flank or tip-edge; NaN where unsolved), for sensitivities of the slices.
+    kappa1, kappa2 : (K, N, M) normal curvature of the pinion / gear flank across the contact line at
+        the slice's point [1/mm] (:func:`across_line_curvatures`; at a tip-edge slice, of the flank
+        surface continued to the edge), NaN where unsolved.
     """
 
     phi1: np.ndarray
@@ -90,12 +93,31 @@ class SliceSet:
     stats: dict
     edge: np.ndarray | None = None
     w: np.ndarray | None = None
+    kappa1: np.ndarray | None = None
+    kappa2: np.ndarray | None = None
 
     @property
     def te_unloaded(self) -> np.ndarray:
         """(N,) unloaded TE [rad]: the largest TE of the active slices (NaN: no contact)."""
         t = np.max(np.where(self.active, self.te, -np.inf), axis=(0, 2))
         return np.where(np.isfinite(t), t, np.nan)
+
+
+def across_line_curvatures(rf1, nf1, q1, rf2, nf2, q2):
+    """Normal curvatures [1/mm] of both flanks across the contact line at a contact point (convex
+    positive, each with its own outward normal): with ``K1``, ``K2`` the surfaces' curvature matrices
+    in one orthonormal tangent basis (:func:`gearopt.meshing.tca._shape_matrix`; ``rf``, ``nf`` in the
+    fixed frame as CasADi expressions of the surface coordinates ``q``), the direction ``v`` of the
+    larger eigenvalue of ``K1 + K2`` (the relative curvature ``1 / R*``; the smaller one lies along
+    the contact line, zero for line contact) gives ``(v^T K1 v, v^T K2 v)``."""
+    from ..meshing.tca import _shape_matrix, _unit_perp, eigh2_sym
+
+    e1 = _unit_perp(nf1)
+    E = ca.horzcat(e1, ca.cross(nf1, e1))
+    K1, K2 = (_shape_matrix(r, n, q, E) for r, n, q in ((rf1, nf1, q1), (rf2, nf2, q2)))
+    K1, K2 = 0.5 * (K1 + K1.T), 0.5 * (K2 + K2.T)
+    v = eigh2_sym(K1 + K2)[1][:, 1]
+    return ca.mtimes([v.T, K1, v]), ca.mtimes([v.T, K2, v])
 
 
 def slice_nodes(b: float, n_slices: int, z_center) -> tuple[np.ndarray, np.ndarray]:
@@ -148,8 +170,15 @@ class SliceSolver:
         p1, p2 = prm[lay.slice("pinion")], prm[lay.slice("gear")]
         r1, n1 = tca.pinion.surface(tca.side, "flank")(w[0], zs, p1)[:2]
         r2, n2 = tca.gear.surface(tca.side, "flank")(w[1], w[2], p2)[:2]
-        self.geometry = ca.Function("ltca_slice_geometry", [w, prm], [r1, n1, r2, n2, k["rf1"]], ["w", "prm"],
-                                    ["r1", "n1", "r2", "n2", "rf"])
+        # each flank's normal curvature across the contact line at the point, for the Hertz term:
+        # both surfaces' curvature matrices in one tangent basis of the fixed frame (by AD, as the TCA's
+        # contact ellipse), the direction across the line the one of their sum's larger eigenvalue
+        # (1 / R*); the involute's cos(beta_b) / rho_t on an unmodified flank, changed by profile
+        # crowning, reliefs and every modification
+        k1, k2 = across_line_curvatures(k["rf1"], k["nf1"], ca.vertcat(w[0], zs), k["rf2"], k["nf2"],
+                                        ca.vertcat(w[1], w[2]))
+        self.geometry = ca.Function("ltca_slice_geometry", [w, prm], [r1, n1, r2, n2, k["rf1"], k1, k2], ["w", "prm"],
+                                    ["r1", "n1", "r2", "n2", "rf", "kappa1", "kappa2"])
         self.branch = Branch("ltca_slice", self.G, checks, self._accept, tca.tol, tca.solver, tca.jit)
         # tip-edge slices (Litvin section 9.6 in a slice): where the slice's conjugate point lies beyond
         # a member's tip, that member's tip edge in the section touches the mating flank,
@@ -268,6 +297,7 @@ class SliceSolver:
             for name, v in self._geometry(np.where(ok, W, W0)[:, redo], prm[:, redo]).items():
                 geo[name][:, redo] = v
         r1, n1, r2, n2, rf = (geo[n].T for n in ("r1", "n1", "r2", "n2", "rf"))
+        kap1, kap2 = (np.where(ok, geo[n].ravel(), np.nan) for n in ("kappa1", "kappa2"))
         t = W[3] / g2.r_p  # phi2 of the column's own tooth pair
         shift2 = np.concatenate([np.repeat(np.repeat(2 * math.pi * np.array(pairs) / g2.z + e2, N), M), np.zeros(M)])
         ratio = g1.z / g2.z
@@ -314,7 +344,7 @@ class SliceSolver:
         return SliceSet(phi1=phi1, pairs=pairs, z=Z, width=Wd, z_lo=z_lo, z_hi=z_hi, te=shp(te), active=shp(act), converged=shp(ok),
                         r1=shp3(r1), n1=shp3(n1), r2=shp3(r2), n2=shp3(n2), rf=shp3(rf), u1=shp(W[0]), u2=shp(W[1]),
                         z2=shp(W[2]), z_center=zc, phi2_ref=phi2_ref, stats=stats, edge=shp(edge),
-                        w=np.where(ok, W, np.nan)[:, :n].T.reshape(K, N, M, 4))
+                        w=np.where(ok, W, np.nan)[:, :n].T.reshape(K, N, M, 4), kappa1=shp(kap1), kappa2=shp(kap2))
 
     def _geometry(self, W, prm) -> dict:
         """Both flanks' points and normals and the fixed-frame point at the columns of ``W``:

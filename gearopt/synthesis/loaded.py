@@ -353,7 +353,9 @@ class LoadedMicroOptimizer:
         jit = available() if jit == "auto" else bool(jit)
         self.tca = TCA(pair, side=side, pinion=modified_tooth(pair, "pinion", force_iso=True),
                        gear=modified_tooth(pair, "gear", force_iso=True), jit=jit)
-        self.ltca = LTCA(pair, side=side, material=material, n_slices=n_slices, tca=self.tca)
+        # the involute's curvature in the Hertz term: the pressure limit does not see the curvature of the
+        # reliefs' smooth starts (docs/loaded_synthesis.md section 8)
+        self.ltca = LTCA(pair, side=side, material=material, n_slices=n_slices, tca=self.tca, curvature="involute")
         self.material = self.ltca.material
         self.n_positions = int(n_positions)
         self.phi1 = self.ltca.mesh_cycle(self.n_positions)
