@@ -494,7 +494,7 @@ def test_local_compression_of_the_tooth_section():
     logarithm: its excess over Weber's term, kappa, stays put while the strip width (and Weber's
     bracket, by ln(8/3) = 0.98) changes; the finite section is softer than a half-space to the same
     depth (kappa > 0), by about what the 3-D contact model's split says (docs/ltca.md section 5: flank
-    minus C 3.30 um against Weber's 3.07 um at h 2.44 mm, b_H 0.164 mm: kappa = 0.24). A strip that
+    minus C 3.30 um against Weber's 3.07 um at h 2.44 mm, b_H 0.164 mm: kappa about 0.2-0.24). A strip that
     does not fit on the flank is refused."""
     from gearopt.fea.local import local_excess, section_compression, section_tooth
     from gearopt.geometry.generation import generate
