@@ -485,6 +485,13 @@ def test_slice_curvature_is_the_flank_surface_s():
         rho_t = math.sqrt(np.hypot(*P[1]) ** 2 - pair.pinion.r_b**2)
         assert S.kappa1.ravel()[i] == pytest.approx(kappa_fd, rel=1e-4)
         assert S.kappa1.ravel()[i] > 1.02 / rho_t  # profile crowning: more curved than the involute
+    # the Hertz pressure follows: higher on the more curved flank than with the involute's curvature
+    p_s, p_i = (LTCA(pair, n_slices=5, curvature=c).solve(200.0, slices=S).results[0].p_max
+                for c in ("surface", "involute"))
+    assert p_s > 1.005 * p_i
+    with pytest.raises(OptionError) as e:
+        LTCA(pair, curvature="principal")
+    assert e.value.param == "curvature"
 
 
 @pytest.mark.calculix
