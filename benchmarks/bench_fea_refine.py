@@ -4,6 +4,7 @@
     python benchmarks/bench_fea_refine.py --quick    # the two coarser levels
     python benchmarks/bench_fea_refine.py --very-fine   # one more level, the a_pl 2e-3 pinion only
                                                         # (85 000 elements, about 22 minutes)
+    python benchmarks/bench_fea_refine.py --very-fine --only "helical 15 deg"   # that level, another drive
 
 Drives: a double-crowned spur pinion (20/40, m 3, b 20, a_pl 0.0004 1/mm, a_c 0.002 1/mm; point contact:
 reference the Hertz ellipse from the TCA curvatures; the ellipse's major semi-axis, 7.7 mm, spans most
@@ -53,8 +54,9 @@ def main(argv):
         return 0
     levels = list(LEVELS.items())[:2] if "--quick" in argv else list(LEVELS.items())
     only = None
-    if "--very-fine" in argv:
-        levels, only = list(VERY_FINE.items()), "crowned a_pl 2e-3"
+    if "--very-fine" in argv:  # --very-fine [--only DRIVE]: default the crowned a_pl 2e-3 pinion
+        levels = list(VERY_FINE.items())
+        only = argv[argv.index("--only") + 1] if "--only" in argv else "crowned a_pl 2e-3"
     print(f"{'drive':<18} {'level':<12} {'elements':>8} {'ccx s':>7} {'p_sec MPa':>9} {'Hertz':>7} {'kind':>7} "
           f"{'p/Hertz':>7} {'share':>6} {'p/H(share)':>10} {'R err %':>8} {'rotation rad':>13}")
     for dname, pair in drives().items():
