@@ -15,6 +15,15 @@ Loaded TCA treats the pairs' teeth as uncoupled; this ratio bounds what that lea
 
 penalty: the FE contact model of the validation (spur at the pitch point, helical at phi1 = 0) with the
 default penalty slope 50 E and with 500 E: loaded approach and peak pressure in the contact section.
+
+    python benchmarks/fe_reference_checks.py penalty --fine [--only spur] [--pen 50,200,1000]
+
+at the refinement study's fine level (benchmarks/bench_fea_refine.py), the conjugate spur 20/40 at the pitch
+point (200 N m, line contact: Hertz applies) and the crowned a_pl 2e-3 pinion (100 N m, the Hertz ellipse
+inside the face), each penalty beside what the penalty layer alone does to a Hertz line contact: an
+independent boundary-element solution of two elastic half-spaces in plane strain with a linear
+pressure-overclosure layer p = K g between them, whose peak over Hertz's depends on E* / (K b) only
+(`gearopt.fea.model.penalty_layer_factor`).
 """
 
 from __future__ import annotations
@@ -40,7 +49,7 @@ GRID = dict(n_half=6, n_fillet=5, n_rim=4)
 
 
 def refine():
-    pair = drives()["helical 15 deg"]
+    pair = drives()["helical 15 deg"][0]
     step = 2 * math.pi / pair.pinion.z
     phis = np.array([0.0, -0.3 * step, 0.3 * step])
     cb = math.cos(pair.pinion.beta_b)
@@ -56,7 +65,7 @@ def refine():
 
 def cross():
     for name in ("spur 20/40 conjugate", "helical 15 deg"):
-        pair = drives()[name]
+        pair = drives()[name][0]
         tca = TCA(pair)
         for member, tooth in (("pinion", tca.pinion.unmodified), ("gear", tca.gear.unmodified)):
             m = ToothMesher(tooth, MeshOptions(n_face=6, n_flank=8, **GRID))
@@ -93,13 +102,46 @@ def cross():
                   f"{u[-1] / u[0]:.4f} / {u[1] / u[0]:.4f} of it", flush=True)
 
 
+def penalty_fine(argv):
+    """The penalty study at a refined contact mesh (module docstring)."""
+    from gearopt.fea import FEOptions, GearFEModel
+
+    sys.path.insert(0, __file__.rsplit("/", 1)[0])
+    from bench_fea_refine import LEVELS, VERY_FINE
+    from bench_fea_refine import drives as refine_drives
+
+    level = dict(VERY_FINE["very fine"]) if "--very-fine" in argv else LEVELS["fine"]
+    pens = [float(v) for v in argv[argv.index("--pen") + 1].split(",")] if "--pen" in argv else [50.0, 200.0, 1000.0]
+    cases = {"spur 20/40 conjugate": (drives()["spur 20/40 conjugate"][0], T),
+             "crowned a_pl 2e-3": (refine_drives()["crowned a_pl 2e-3"], 100.0)}
+    if "--only" in argv:
+        cases = {k: v for k, v in cases.items() if argv[argv.index("--only") + 1] in k}
+    print(f"FE mesh: {level}")
+    print(f"{'case':<22} {'penalty E':>9} {'elements':>8} {'ccx s':>6} {'approach um':>11} {'p MPa':>8} {'Hertz':>7} "
+          f"{'p/Hertz':>7} {'b mm':>6} {'E*/(Kb)':>8} {'layer only':>10} {'(p/layer)/Hertz':>15}")
+    for name, (pair, torque) in cases.items():
+        for pen in pens:
+            t0 = time.perf_counter()
+            m = GearFEModel(pair, 0.0, FEOptions(torque=torque * 1e3, E=210000.0, nu=0.3, penalty=pen,
+                                                 timeout=7200.0, **level))
+            d = m.run().to_dict()
+            c = d["contact"]
+            lam = c["penalty_lambda"]  # at the half-width of the FE's own peak
+            print(f"{name:<22} {pen:9.0f} {m.n_elements:8d} {time.perf_counter() - t0:6.0f} "
+                  f"{abs(d['pinion_rotation_rad']) * pair.pinion.r_b * 1e3:11.4f} {c['p_max_mid']:8.1f} "
+                  f"{c['hertz_p0']:7.1f} {c['ratio_mid_to_hertz']:7.4f} {c['hertz_b']:6.4f} {lam:8.4f} "
+                  f"{c['penalty_layer_factor']:10.4f} {c['p_max_mid_penalty_free'] / c['hertz_p0']:15.4f}", flush=True)
+
+
 def penalty():
     from gearopt.fea import FEOptions, GearFEModel
 
     from validate_ltca_fe import FE_MESH
 
+    if "--fine" in sys.argv or "--very-fine" in sys.argv:
+        return penalty_fine(sys.argv)
     for name in ("spur 20/40 conjugate", "helical 15 deg"):
-        pair = drives()[name]
+        pair = drives()[name][0]
         for pen in (50.0, 500.0):
             m = GearFEModel(pair, 0.0, FEOptions(torque=T * 1e3, E=210000.0, nu=0.3, mesh=FE_MESH, penalty=pen))
             d = m.run().to_dict()

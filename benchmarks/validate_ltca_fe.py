@@ -30,6 +30,9 @@ along the face (FE: its nodal pressure integrated over the pinion flank; loaded 
 analytical compliance and with the FE influence coefficients of the same members (default member
 mesh of gearopt.fea.influence; cached in $GEAROPT_CACHE/influence, default ~/.cache/gearopt), and the load share of that
 pair (FE: its contact force over the sum of all pairs', from the ccx contact statistics).
+"FE p/lay": the FE's section peak divided by what its penalty contact's compliant layer leaves of a Hertz
+peak at that half-width (gearopt.fea.model.penalty_layer_factor, 0.97-0.99 at the default 50 E; docs/fea.md),
+the reference loaded TCA, which has no such layer, is compared with in the last column.
 """
 
 from __future__ import annotations
@@ -43,7 +46,7 @@ from pathlib import Path
 
 import numpy as np
 
-from gearopt.fea import FEOptions, GearFEModel, MeshOptions
+from gearopt.fea import FEOptions, GearFEModel, MeshOptions, penalty_layer_estimate
 from gearopt.gears import BasicRack, Gear, GearPair
 from gearopt.ltca.compliance import Material
 from gearopt.ltca.engine import LTCA
@@ -108,7 +111,7 @@ def main(argv):
     print(f"FE reference mesh: {fe_level}")
     print(f"{'drive':<22} {'phi1 deg':>8} {'pairs':>7} {'FE approach um':>14} {'LTCA-an':>8} {'LTCA-fe':>8} "
           f"{'err an %':>8} {'err fe %':>8} {'FE p MPa':>9} {'LTCA-fe p':>9} {'err %':>6} {'max p':>9} {'FE share':>8} "
-          f"{'LTCA-fe':>7} {'FE z_c':>7} {'LTCA z_c':>8} {'FE s':>6}")
+          f"{'LTCA-fe':>7} {'FE z_c':>7} {'LTCA z_c':>8} {'FE s':>6} {'FE p/lay':>9} {'err %':>6}")
     recorded = "--recorded" in argv
     level = "very fine" if "--very-fine" in argv else "fine" if "--fine" in argv else "default"
     only_pos = argv[argv.index("--pos") + 1] if "--pos" in argv else None  # --pos 0, -0.3 or +0.3 (pitches)
@@ -129,7 +132,8 @@ def main(argv):
             if only_pos is not None and fracs[j] != only_pos:
                 continue
             t0 = time.perf_counter()
-            m = GearFEModel(pair, ph, FEOptions(torque=T * 1e3, E=mat.E, nu=mat.nu, **fe_level), mis=mis)
+            opts = FEOptions(torque=T * 1e3, E=mat.E, nu=mat.nu, **fe_level)
+            m = GearFEModel(pair, ph, opts, mis=mis)
             k0 = min(m.hertz, key=lambda k: abs(m.contact[k]["radius1"] - pair.pinion.r_p))  # as GearFEModel.run
             if recorded:
                 rec = record.get(level, {}).get(name, {}).get(fracs[j])
@@ -157,6 +161,8 @@ def main(argv):
             p_lt = float(np.interp(z_sec, S.z[kk, j][ok][o], lt["fe"].p0[kk, j][ok][o]))
             p_lt_max = float(np.max(lt["fe"].p0_flank[kk, j]))
             p_fe = rec["p_max_mid_MPa"]
+            # the FE peak without its penalty layer's compliance (docs/fea.md, "Penalty")
+            p_fe0 = penalty_layer_estimate(p_fe, m.hertz[k0], opts)["p_max_mid_penalty_free"]
             sh_fe = rec["share"]
             sh_lt = float(lt["fe"].share[kk, j])
             zc_fe = rec["z_c_mm"] if rec["z_c_mm"] is not None else float("nan")
@@ -165,7 +171,7 @@ def main(argv):
             print(f"{name:<22} {math.degrees(ph):8.3f} {str(loaded):>7} {1000 * fe_app:14.3f} "
                   f"{1000 * an:8.3f} {1000 * fe:8.3f} {100 * (an / fe_app - 1):8.1f} {100 * (fe / fe_app - 1):8.1f} "
                   f"{p_fe:9.1f} {p_lt:9.1f} {100 * (p_lt / p_fe - 1):6.1f} {p_lt_max:9.1f} {sh_fe:8.3f} {sh_lt:7.3f} "
-                  f"{zc_fe:7.2f} {zc_lt:8.2f} {'rec' if recorded else f'{t_fe:.1f}':>6}",
+                  f"{zc_fe:7.2f} {zc_lt:8.2f} {'rec' if recorded else f'{t_fe:.1f}':>6} {p_fe0:9.1f} {100 * (p_lt / p_fe0 - 1):6.1f}",
                   flush=True)
             if not recorded:
                 RECORD.parent.mkdir(parents=True, exist_ok=True)

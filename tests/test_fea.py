@@ -139,6 +139,11 @@ def test_run_pitch_point_against_hertz_and_reaction(model, pair):
     # benchmark gives +1.5 % (docs/fea.md)
     assert c["ratio_mid_to_hertz"] == pytest.approx(1.0, abs=0.15)
     assert c["hertz_p0"] == pytest.approx(1454.7, rel=1e-3)
+    # the penalty layer (50 E): lam = E* / (K b) at the FE peak's half-width, a few per cent off the peak
+    lam = 210000.0 / (2 * (1 - 0.3**2)) / (50 * 210000.0 * c["hertz_b"] * c["p_max_mid"] / c["hertz_p0"])
+    assert c["penalty_lambda"] == pytest.approx(lam, rel=1e-9)
+    assert 0.95 < c["penalty_layer_factor"] < 0.99
+    assert c["p_max_mid_penalty_free"] == pytest.approx(c["p_max_mid"] / c["penalty_layer_factor"], rel=1e-12)
     # root stress: the same order as ISO 6336-3 (method B geometry, load at the pitch point)
     for member in ("pinion", "gear"):
         assert 0.7 < res["root"][member]["ratio_to_iso"] < 1.3
@@ -210,6 +215,29 @@ def test_hertz_point_limits():
     f0 = 0.5 * math.pi * h["p0"] * h["b"]
     line = hertz_line(f0, 1 / 0.2, 1e12, E, nu)
     assert h["k"] > 30 and h["p0"] == pytest.approx(line["p0"], rel=0.03)
+
+
+def test_penalty_layer_factor_between_hertz_and_winkler():
+    import math
+
+    from gearopt.errors import GeometryError
+    from gearopt.fea.model import _layered_line_contact, penalty_layer_factor
+    # without the layer the boundary-element line contact is Hertz's: p0 = 1 and b = 1 in its units
+    p, b = _layered_line_contact(0.0, 300)
+    assert p == pytest.approx(1.0, abs=1e-4) and b == pytest.approx(1.0, abs=0.011)
+    # the layer widens the contact and lowers its peak, monotonically; converged in the cells
+    lams = (0.0, 0.005, 0.05, 0.2, 1.0)
+    f = [penalty_layer_factor(v) for v in lams]
+    assert f[0] == 1.0 and all(a > c for a, c in zip(f, f[1:]))
+    assert _layered_line_contact(0.2, 300)[1] > 1.05
+    assert penalty_layer_factor(0.067, n=600) == pytest.approx(penalty_layer_factor(0.067), abs=2e-4)
+    # a soft layer carries the load alone (Winkler): p = K (delta - x^2 / (2 R)), load (4/3) K delta sqrt(2 R delta)
+    lam = 2000.0
+    p_winkler = (3 * lam * math.pi / 8) ** (2 / 3) / lam
+    assert penalty_layer_factor(lam) == pytest.approx(p_winkler, rel=0.01)
+    for bad in (-0.1, float("nan")):
+        with pytest.raises(GeometryError, match="lam"):
+            penalty_layer_factor(bad)
 
 
 @needs_ccx
