@@ -529,6 +529,32 @@ def test_local_compression_of_the_tooth_section():
 
 @pytest.mark.calculix
 @_needs_ccx
+def test_local_excess_is_cached_per_section_not_per_design():
+    """The section model sees the member's mid-face transverse (spur) or normal (helical) section:
+    designs that differ only in face width, lengthwise crowning or flank modifications share one
+    cache entry; a different section (profile crowning of the rack, profile shift, helix angle) does
+    not. The crowned spur's section is generated without its lengthwise crowning."""
+    import math
+
+    from gearopt.fea.local import _key, section_tooth
+    from gearopt.geometry.generation import generate
+    from gearopt.geometry.microgeometry import Microgeometry
+
+    r = [29.0, 30.0]
+    key = lambda g: _key(generate(g), r, 210000.0, 0.3, 0.05, 8.0, 24)  # noqa: E731
+    rack = BasicRack.iso53("A", a_c=2e-3)
+    base = Gear(z=20, m_n=3.0, b=20.0, rack=rack)
+    assert key(base) == key(Gear(z=20, m_n=3.0, b=25.0, a_pl=2e-3, rack=rack,
+                                 modifications=Microgeometry(C_alpha_a=0.02, d_Ca=62.0)))
+    assert key(base) != key(Gear(z=20, m_n=3.0, b=20.0, rack=BasicRack.iso53("A")))
+    assert key(base) != key(Gear(z=20, m_n=3.0, b=20.0, x=0.2, rack=rack))
+    hel = lambda **kw: Gear(z=21, m_n=2.5, b=24.0, **kw)  # noqa: E731
+    assert key(hel(beta=math.radians(15))) == key(hel(beta=math.radians(15), a_pl=2e-4))
+    assert key(hel(beta=math.radians(15))) != key(hel(beta=math.radians(18)))
+    sec, dr = section_tooth(generate(Gear(z=20, m_n=3.0, b=20.0, a_pl=2e-3, rack=rack)))
+    assert sec.gear.a_pl == 0.0 and dr == 0.0 and sec.gear.rack == rack
+
+
 def test_fe_compliance_adds_the_local_excess_of_both_members(fe_cache, monkeypatch):
     """At the pitch point (single pair, uniform line load f = W / b) the FE-coefficient model's
     approach with the local excess is the one without it plus 2 (1 - nu^2) / (pi E) (kappa1 + kappa2) f."""

@@ -53,10 +53,11 @@ def section_tooth(tooth: GeneratedTooth) -> tuple[GeneratedTooth, float]:
     """The tooth whose transverse section is the plane-strain section of ``tooth``, and the radial
     offset [mm] to add to ``tooth``'s radii: ``tooth`` itself for a spur member; for a helical one
     the virtual spur gear of its normal section (``z_n`` rounded, same ``m_n``, ``x``, rack, no
-    crowning), its reference circle at the helical member's."""
+    crowning), its reference circle at the helical member's. A spur member with lengthwise crowning
+    (a_pl) is generated without it (the section is at mid face, where it is zero)."""
     g = tooth.gear
-    if g.is_spur:
-        return tooth, 0.0
+    if g.is_spur:  # the slab of 1 mm about mid face: without lengthwise crowning
+        return (tooth, 0.0) if g.a_pl == 0.0 else (generate(replace(g, a_pl=0.0, modifications=None)), 0.0)
     zn = g.z / (math.cos(g.beta_b) ** 2 * math.cos(g.beta))
     vg = replace(g, z=max(3, int(round(zn))), beta=0.0, b=1.0, a_pl=0.0, modifications=None, tool=RackCutter(),
                  name=f"{g.name}_virtual_spur")
@@ -159,7 +160,12 @@ def section_compression(tooth: GeneratedTooth, radius: float, b_H: float, E: flo
 
 
 def _key(tooth: GeneratedTooth, radius, E, nu, b_rel, n_hertz, n_half) -> str:
-    d = {"v": LOCAL_VERSION, "gear": repr(tooth.gear), "p": np.round(tooth.p0, 15).tolist(), "E": E, "nu": nu,
+    # what the section depends on: not the face width, lengthwise crowning or modifications
+    # (section_tooth), so the designs of one member share their cache entry
+    g = replace(tooth.gear, a_pl=0.0, modifications=None, b=1.0)
+    u = tooth.unmodified
+    p = [v for n, v in zip(u.param_names, np.round(u.p0, 15).tolist()) if n != "a_pl"]
+    d = {"v": LOCAL_VERSION, "gear": repr(g), "p": p, "E": E, "nu": nu,
          "radius": np.round(np.asarray(radius, float), 9).tolist(), "b_rel": b_rel, "n_hertz": n_hertz,
          "n_half": n_half}
     return hashlib.sha256(json.dumps(d, sort_keys=True).encode()).hexdigest()[:24]
@@ -173,7 +179,8 @@ def local_excess(tooth: GeneratedTooth, radius, E: float = 206000.0, nu: float =
     Parameters
     ----------
     tooth : GeneratedTooth
-        The member (spur or helical; its modifications are ignored: the section is the generated one).
+        The member (spur or helical; its face width, lengthwise crowning and modifications are ignored:
+        the section is the generated one at mid face, :func:`section_tooth`).
     radius : array_like (n,)
         Transverse radii on the flank [mm]; each is moved inside the flank by 1.5 strip half-widths
         where the strip would reach past the tip or the flank's end (its value there is the nearest
