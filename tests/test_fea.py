@@ -220,7 +220,7 @@ def test_hertz_point_limits():
 def test_penalty_layer_factor_between_hertz_and_winkler():
     import math
 
-    from gearopt.errors import GeometryError
+    from gearopt.errors import ArgumentError
     from gearopt.fea.model import _layered_line_contact, penalty_layer_factor
     # without the layer the boundary-element line contact is Hertz's: p0 = 1 and b = 1 in its units
     p, b = _layered_line_contact(0.0, 300)
@@ -236,7 +236,7 @@ def test_penalty_layer_factor_between_hertz_and_winkler():
     p_winkler = (3 * lam * math.pi / 8) ** (2 / 3) / lam
     assert penalty_layer_factor(lam) == pytest.approx(p_winkler, rel=0.01)
     for bad in (-0.1, float("nan")):
-        with pytest.raises(GeometryError, match="lam"):
+        with pytest.raises(ArgumentError, match="lam"):
             penalty_layer_factor(bad)
 
 

@@ -34,6 +34,7 @@ The torque is in N*mm internally (the scene takes N*m).
 
 from __future__ import annotations
 
+import functools
 import math
 import time
 from dataclasses import dataclass, field, replace
@@ -41,7 +42,8 @@ from dataclasses import dataclass, field, replace
 import casadi as ca
 import numpy as np
 
-from ..errors import ArgumentError, ConvergenceError, GearoptError, GeometryError, check_number, option_error, out_of_range  # noqa: F401
+from ..errors import (ArgumentError, ConvergenceError, GearoptError, GeometryError, check_number,  # noqa: F401
+                      option_error, out_of_range)
 from ..gears import GearPair
 from ..geometry.frames import rot_z_points
 from ..geometry.generation import GeneratedTooth
@@ -259,11 +261,12 @@ def penalty_layer_factor(lam: float, n: int = 300) -> float:
     """
     lam = float(lam)
     if not (math.isfinite(lam) and lam >= 0):
-        raise GeometryError(f"penalty_layer_factor: lam = {lam!r} must be finite and >= 0.", param="lam", value=lam,
+        raise ArgumentError(f"penalty_layer_factor: lam = {lam!r} must be finite and >= 0.", param="lam", value=lam,
                             valid=">= 0")
     return _layered_line_contact(lam, n)[0] / _layered_line_contact(0.0, n)[0]
 
 
+@functools.lru_cache(maxsize=16)
 def _layered_line_contact(lay, n):
     """(peak pressure, contact half-width) in Hertz units (b = 1, R = 1/2, E* = 1, p0 = 1) with the layer
     ``lay`` = E* / (K b) (penalty_layer_factor)."""
