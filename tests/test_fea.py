@@ -238,6 +238,9 @@ def test_penalty_layer_factor_between_hertz_and_winkler():
     for bad in (-0.1, float("nan")):
         with pytest.raises(ArgumentError, match="lam"):
             penalty_layer_factor(bad)
+    for bad in (0, 2.5, True):
+        with pytest.raises(ArgumentError, match="n = "):
+            penalty_layer_factor(0.05, n=bad)
 
 
 @needs_ccx

@@ -263,7 +263,10 @@ def penalty_layer_factor(lam: float, n: int = 300) -> float:
     if not (math.isfinite(lam) and lam >= 0):
         raise ArgumentError(f"penalty_layer_factor: lam = {lam!r} must be finite and >= 0.", param="lam", value=lam,
                             valid=">= 0")
-    return _layered_line_contact(lam, n)[0] / _layered_line_contact(0.0, n)[0]
+    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or not 20 <= n <= 4000:
+        raise ArgumentError(f"penalty_layer_factor: n = {n!r} must be an integer, 20 <= n <= 4000 (cells).", param="n",
+                            value=n, valid="an integer in [20, 4000]")
+    return _layered_line_contact(lam, int(n))[0] / _layered_line_contact(0.0, int(n))[0]
 
 
 @functools.lru_cache(maxsize=16)
