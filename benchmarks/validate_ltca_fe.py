@@ -95,7 +95,41 @@ def drives():
     return out
 
 
+FLAGS = ("--spur", "--fine", "--very-fine", "--recorded")
+VALUED = {"--only": None, "--pos": ("0", "-0.3", "+0.3")}
+
+
+def check_args(argv) -> str | None:
+    """The first problem with the command line (unknown flag, missing or invalid value), or None."""
+    i = 0
+    while i < len(argv):
+        a = argv[i]
+        if a in VALUED:
+            if i + 1 >= len(argv):
+                return f"{a} needs a value"
+            valid = VALUED[a]
+            if valid is not None and argv[i + 1] not in valid:
+                return f"{a} {argv[i + 1]!r}: expected one of {', '.join(valid)}"
+            i += 2
+            continue
+        if a not in FLAGS:
+            return f"unknown argument {a!r}: expected {', '.join(FLAGS + tuple(VALUED))}"
+        i += 1
+    return None
+
+
 def main(argv):
+    if "-h" in argv or "--help" in argv:
+        print(__doc__)
+        return 0
+    problem = check_args(argv)
+    if problem is not None:
+        print(f"validate_ltca_fe.py: {problem} (see --help)", file=sys.stderr)
+        return 2
+    if "--only" in argv and not any(argv[argv.index("--only") + 1] in n for n in drives()):
+        print(f"validate_ltca_fe.py: --only {argv[argv.index('--only') + 1]!r} matches no drive: {', '.join(drives())}",
+              file=sys.stderr)
+        return 2
     if shutil.which("ccx") is None and "--recorded" not in argv:
         print("ccx (CalculiX) not installed: nothing to validate")
         return 0
