@@ -95,6 +95,13 @@ def drives():
     return out
 
 
+def section_line_load(profile) -> float:
+    """The FE's nodal pressure integrated along the profile of the contact section [N/mm] (trapezoids)."""
+    s, p = np.asarray(profile["s"], float), np.asarray(profile["p"], float)
+    o = np.argsort(s)
+    return float(np.trapezoid(p[o], s[o]))
+
+
 FLAGS = ("--spur", "--fine", "--very-fine", "--recorded")
 VALUED = {"--only": None, "--pos": ("0", "-0.3", "+0.3")}
 
@@ -180,7 +187,11 @@ def main(argv):
                 k0 = d["contact"]["hertz_pair"]
                 rec = {"approach_um": 1000 * abs(d["pinion_rotation_rad"]) * pair.pinion.r_b,
                        "p_max_mid_MPa": d["contact"]["p_max_mid"], "share": d["pair_share"].get(str(k0)) or 0.0,
-                       "z_c_mm": d["contact"]["pattern"][str(k0)]["z_centroid"], "date": time.strftime("%Y-%m-%d")}
+                       "z_c_mm": d["contact"]["pattern"][str(k0)]["z_centroid"], "date": time.strftime("%Y-%m-%d"),
+                       # the nodal pressure integrated over the pair's flank over its contact force, and
+                       # over the section's profile [N/mm]: how far the nodal field is from equilibrium
+                       "nodal_over_force": d["contact"]["pattern"][str(k0)]["nodal_over_force"],
+                       "w_section_Nmm": section_line_load(d["contact"]["profiles"][str(k0)])}
                 record.setdefault(level, {}).setdefault(name, {})[fracs[j]] = rec
                 loaded = d["loaded_pairs"]
             t_fe = time.perf_counter() - t0
