@@ -32,7 +32,9 @@ mesh of gearopt.fea.influence; cached in $GEAROPT_CACHE/influence, default ~/.ca
 pair (FE: its contact force over the sum of all pairs', from the ccx contact statistics).
 "FE p/lay": the FE's section peak divided by what its penalty contact's compliant layer leaves of a Hertz
 peak at that half-width (gearopt.fea.model.penalty_layer_factor, 0.97-0.99 at the default 50 E; docs/fea.md),
-the reference loaded TCA, which has no such layer, is compared with in the last column.
+the reference loaded TCA, which has no such layer, is compared with in the "err %" column after it.
+"max dsh": the largest difference between FE and loaded TCA in the share of any pair in mesh (of the
+total; FE runs recorded since 2026-11-28 keep every pair's share).
 """
 
 from __future__ import annotations
@@ -152,7 +154,7 @@ def main(argv):
     print(f"FE reference mesh: {fe_level}")
     print(f"{'drive':<22} {'phi1 deg':>8} {'pairs':>7} {'FE approach um':>14} {'LTCA-an':>8} {'LTCA-fe':>8} "
           f"{'err an %':>8} {'err fe %':>8} {'FE p MPa':>9} {'LTCA-fe p':>9} {'err %':>6} {'max p':>9} {'FE share':>8} "
-          f"{'LTCA-fe':>7} {'FE z_c':>7} {'LTCA z_c':>8} {'FE s':>6} {'FE p/lay':>9} {'err %':>6}")
+          f"{'LTCA-fe':>7} {'FE z_c':>7} {'LTCA z_c':>8} {'FE s':>6} {'FE p/lay':>9} {'err %':>6} {'max dsh':>7}")
     recorded = "--recorded" in argv
     level = "very fine" if "--very-fine" in argv else "fine" if "--fine" in argv else "default"
     only_pos = argv[argv.index("--pos") + 1] if "--pos" in argv else None  # --pos 0, -0.3 or +0.3 (pitches)
@@ -191,7 +193,8 @@ def main(argv):
                        # the nodal pressure integrated over the pair's flank over its contact force, and
                        # over the section's profile [N/mm]: how far the nodal field is from equilibrium
                        "nodal_over_force": d["contact"]["pattern"][str(k0)]["nodal_over_force"],
-                       "w_section_Nmm": section_line_load(d["contact"]["profiles"][str(k0)])}
+                       "w_section_Nmm": section_line_load(d["contact"]["profiles"][str(k0)]),
+                       "shares": d["pair_share"]}  # every pair's (tooth id: share)
                 record.setdefault(level, {}).setdefault(name, {})[fracs[j]] = rec
                 loaded = d["loaded_pairs"]
             t_fe = time.perf_counter() - t0
@@ -213,10 +216,15 @@ def main(argv):
             zc_fe = rec["z_c_mm"] if rec["z_c_mm"] is not None else float("nan")
             F_lt = lt["fe"].load[kk, j][ok]
             zc_lt = float((F_lt * S.z[kk, j][ok]).sum() / F_lt.sum())
+            # every pair's share (recorded since 2026-11-28): the largest difference [share of the total]
+            d_sh = float("nan")
+            if rec.get("shares"):
+                d_sh = max(abs((v or 0.0) - (float(lt["fe"].share[lt["fe"].pairs.index(int(k)), j])
+                                             if int(k) in lt["fe"].pairs else 0.0)) for k, v in rec["shares"].items())
             print(f"{name:<22} {math.degrees(ph):8.3f} {str(loaded):>7} {1000 * fe_app:14.3f} "
                   f"{1000 * an:8.3f} {1000 * fe:8.3f} {100 * (an / fe_app - 1):8.1f} {100 * (fe / fe_app - 1):8.1f} "
                   f"{p_fe:9.1f} {p_lt:9.1f} {100 * (p_lt / p_fe - 1):6.1f} {p_lt_max:9.1f} {sh_fe:8.3f} {sh_lt:7.3f} "
-                  f"{zc_fe:7.2f} {zc_lt:8.2f} {'rec' if recorded else f'{t_fe:.1f}':>6} {p_fe0:9.1f} {100 * (p_lt / p_fe0 - 1):6.1f}",
+                  f"{zc_fe:7.2f} {zc_lt:8.2f} {'rec' if recorded else f'{t_fe:.1f}':>6} {p_fe0:9.1f} {100 * (p_lt / p_fe0 - 1):6.1f} {d_sh:7.3f}",
                   flush=True)
             if not recorded:
                 RECORD.parent.mkdir(parents=True, exist_ok=True)
