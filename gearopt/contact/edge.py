@@ -44,7 +44,7 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-from ..errors import ConvergenceError, LineContactError, OptionError, out_of_range
+from ..errors import ConvergenceError, GearoptError, GeometryError, LineContactError, OptionError, out_of_range
 from ..errors import ArgumentError
 from ..meshing.tca import (REGULARITY_MIN, TCA, Branch, EnvelopeTE, Misalignment, TCAResult, check_sweep_args,
                            no_contact)
@@ -322,6 +322,7 @@ class EdgeContact:
             self.branches[name] = Branch(f"edge_{_cname(name)}", G, checks, self._accept, tca.tol, tca.solver,
                                          tca.jit)
         self._line: TCA | None = None
+        self._line_modified: TCA | None = None
         self.build_time = time.perf_counter() - t0
 
     def _limit_curve(self, member: int):
@@ -361,6 +362,18 @@ class EdgeContact:
                              contact="line")
         return self._line
 
+    def _surface_line_tca(self) -> TCA:
+        """Line-contact TCA of the teeth as they are (every modification and crowning kept): the
+        surface branch of a drive whose point-contact TCA is singular (line contact)."""
+        if self._line_modified is None:
+            t = self.tca
+            if t.pinion is t.pinion.unmodified and t.gear is t.gear.unmodified:
+                self._line_modified = self._line_tca()
+            else:
+                self._line_modified = TCA(t.pair, side=t.side, pinion=t.pinion, gear=t.gear, solver=t.solver,
+                                          contact="line")
+        return self._line_modified
+
     def sweep(self, phi1, p1=None, p2=None, mis: Misalignment | None = None, pairs=(-1, 0, 1)) -> EdgeTCAResult:
         """Surface and edge contact over ``phi1`` [rad] for the tooth pairs ``pairs``.
 
@@ -371,6 +384,7 @@ class EdgeContact:
         t0 = time.perf_counter()
         tca = self.tca
         phi1, p1, p2, mis, pairs = check_sweep_args(tca, phi1, p1, p2, mis, pairs, z_section=None)
+        self._check_not_jammed(p1, p2)
         z1 = self.members[1].z
         phis = np.concatenate([phi1 - 2 * math.pi * k / z1 for k in pairs])
         prm = tca.prm(phis, p1, p2, mis)
@@ -390,7 +404,7 @@ class EdgeContact:
                 surf = tca.sweep(phi1, p1, p2, mis, pairs=pairs, continuation=False)
             except LineContactError:
                 stats["surface_mode"] = "line contact (mid section)"
-                surf = self._line_tca().sweep(phi1, p1, p2, mis, pairs=pairs, continuation=False)
+                surf = self._surface_line_tca().sweep(phi1, p1, p2, mis, pairs=pairs, continuation=False)
             Q[0] = np.vstack([surf.u1.ravel(), surf.z1.ravel(), surf.u2.ravel(), surf.z2.ravel(),
                               (surf.phi2 - np.array([2 * math.pi * k / self.members[2].z for k in pairs])[:, None]
                                ).ravel() * tca.scale2])
@@ -552,7 +566,7 @@ class EdgeContact:
             in1 = (np.abs(W[1]) <= g1.b / 2 + eps) & self.tca.on_flank(1, W[0], W[1], p1) & (rad1 <= g1.r_a + eps)
             in2 = (np.abs(W[3]) <= g2.b / 2 + eps) & self.tca.on_flank(2, W[2], W[3], p2) & (rad2 <= g2.r_a + eps)
             te_raw = W[4] / self.tca.scale2 - (g1.z / g2.z) * np.asarray(phis)
-            reach = (te_raw < self._coast_clearance(p1, mis)) & (-te_raw < math.pi / g2.z)
+            reach = (te_raw < self._coast_clearance(p1, p2, mis)) & (-te_raw < math.pi / g2.z)
         return in1 & in2 & reach
 
     def _combine(self, sv: "_EdgeSolved"):
@@ -617,7 +631,7 @@ class EdgeContact:
             intervals=intervals, transfers=transfers, misalignment=mis, surface=surf,
             solve_time=time.perf_counter() - t0, stats={"build_s": self.build_time, "te_zero_rad": ref, **stats})
 
-    def _coast_clearance(self, p1, mis: Misalignment) -> float:
+    def _coast_clearance(self, p1, p2, mis: Misalignment) -> float:
         """Upper bound of the gear's advance over the conjugate position of the aligned drive [rad]:
         circumferential backlash plus the pinion thinning by crowning plus what the misalignment can
         open, on the operating pitch circle of the gear (a generous bound of the coast-side
@@ -639,7 +653,65 @@ class EdgeContact:
         g2 = pair.gear
         lever = math.hypot(g2.r_a, g2.b / 2)
         moved = mis.rigid_displacement(lever) / (g2.r_b * math.cos(g2.beta_b))
-        return (max(pair.backlash, 0.0) + thin + opened) / r_w2 + moved + 1e-9
+        mods = self.modification_extent(p1, p2)
+        # ISO/measured modifications: material added on a driving flank lets the gear advance past the
+        # conjugate position by that much along the normal; material removed on a coast flank widens
+        # the coast-side gap (both on the normal lever r_b2 cos(beta_b)).
+        iso = (mods.added_drive + mods.removed_coast) / (g2.r_b * math.cos(g2.beta_b))
+        return (max(pair.backlash, 0.0) + thin + opened) / r_w2 + moved + iso + 1e-9
+
+    #: grid of the modification check: flank points along the profile and sections across the face
+    _MOD_GRID = (13, 41)
+
+    def modification_extent(self, p1, p2) -> "ModificationExtent":
+        """Extremes of the flank modifications (ISO amounts, measured topographies, any
+        :class:`~gearopt.geometry.modification.FlankModification`) of both members for ``p1``,
+        ``p2``, sampled on the active flanks (``_MOD_GRID`` points along the profile from the form
+        to the tip circle, times sections across the common face width). Cached per (p1, p2)."""
+        key = (tuple(np.round(np.asarray(p1, float), 15)), tuple(np.round(np.asarray(p2, float), 15)))
+        cache = self.__dict__.setdefault("_mod_cache", {})
+        if key in cache:
+            return cache[key]
+        tca = self.tca
+        nu, nz = self._MOD_GRID
+        half = 0.5 * min(self.members[1].b, self.members[2].b)
+        zs = np.linspace(-half, half, nz)
+        drive, coast = tca.side, ("left" if tca.side == "right" else "right")
+        added_drive = removed_coast = 0.0
+        thick = np.zeros(nz)  # tooth thickening at each section, both members [mm, along the normal]
+        for member, tooth, p in ((1, tca.pinion, p1), (2, tca.gear, p2)):
+            if not tooth.modifications:
+                continue
+            d = {side: _flank_deviation_grid(tooth, side, p, zs, nu) for side in (drive, coast)}
+            added_drive = added_drive + max(0.0, float(np.nanmax(d[drive])))
+            removed_coast = removed_coast + max(0.0, -float(np.nanmin(d[coast])))
+            thick = thick + np.nanmax(d[drive], axis=0) + np.nanmax(d[coast], axis=0)
+        j = int(np.argmax(thick))
+        t_max, z_max = float(thick[j]), float(zs[j])
+        if 0 < j < nz - 1:  # the vertex of the parabola through the largest sample and its neighbours
+            a, b_, c = thick[j - 1], thick[j], thick[j + 1]
+            den = a - 2 * b_ + c
+            if den < 0:
+                s = 0.5 * (a - c) / den
+                t_max, z_max = float(b_ - 0.25 * (a - c) * s), float(zs[j] + s * (zs[1] - zs[0]))
+        out = ModificationExtent(added_drive=added_drive, removed_coast=removed_coast, thickening=t_max,
+                                 z_thickest=z_max)
+        cache[key] = out
+        return out
+
+    def _check_not_jammed(self, p1, p2) -> None:
+        """A pair whose modified teeth are thicker, in some section, than the normal backlash
+        leaves room for cannot turn: both flanks of a tooth touch the mating teeth (GeometryError)."""
+        ext = self.modification_extent(p1, p2)
+        j_bn = self.tca.pair.backlash_normal[0]
+        if ext.thickening > max(j_bn, 0.0) + JAM_TOL:
+            raise GeometryError(
+                f"the pair jams: the flank modifications make the teeth {ext.thickening * 1e3:.3g} um thicker "
+                f"(drive plus coast flank, along the normal, both members) at z = {ext.z_thickest:.3g} mm than the "
+                f"unmodified teeth, while the smallest normal backlash j_bn is {max(j_bn, 0.0) * 1e3:.3g} um; the coast "
+                "flanks would be in contact as well. Increase the backlash (thinner teeth: A_sne, or a larger "
+                "centre distance) or remove material instead of adding it (modification amounts, sides = "
+                "\"right\"/\"left\" for one flank only).")
 
     @staticmethod
     def _surface_zero(surf: TCAResult, te_raw_surface, k0) -> float:
@@ -677,6 +749,49 @@ def conjugate_sections(tca: TCA, line_tca: TCA, phis, p1, p2, z_sections) -> dic
         Wf = np.asarray(line_tca.w_full.map(phis.size)(W, np.full((1, phis.size), zs)))
         Wf[:, ~(np.isfinite(res) & (res <= 1e-8))] = np.nan
         out[zs] = Wf
+    return out
+
+
+@dataclass(frozen=True)
+class ModificationExtent:
+    """Extremes of the flank modifications of a drive (:meth:`EdgeContact.modification_extent`).
+
+    Attributes
+    ----------
+    added_drive : float
+        Largest material added on the driving flanks, pinion plus gear [mm, along the normal].
+    removed_coast : float
+        Largest material removed from the coast flanks, pinion plus gear [mm].
+    thickening : float
+        Largest thickening of the teeth in one section: added on the drive plus the coast flank,
+        both members [mm]; > normal backlash: the pair jams.
+    z_thickest : float
+        Section of ``thickening`` [mm].
+    """
+
+    added_drive: float
+    removed_coast: float
+    thickening: float
+    z_thickest: float
+
+
+#: tolerance of the jam check [mm] (1 nm: round-off of the sampled deviations)
+JAM_TOL = 1e-6
+
+
+def _flank_deviation_grid(tooth, side: str, p, zs, n_u: int) -> np.ndarray:
+    """Normal deviation [mm] of ``tooth``'s modified ``side`` flank, (n_u, len(zs)): ``n_u`` points
+    from the form circle (the fillet junction) to the tip circle in each section of ``zs`` [mm]."""
+    p = np.asarray(p, float)
+    u_f, _ = tooth.junction(p)
+    out = np.full((n_u, len(zs)), np.nan)
+    for j, z in enumerate(zs):
+        try:
+            u_a = tooth.u_at_radius(tooth.gear.r_a, float(z), side, p)
+        except GearoptError:
+            u_a = float(tooth.extras.get("q_pitch", 0.0))
+        u = np.linspace(u_a, u_f, n_u)
+        out[:, j] = tooth.normal_deviation(side, u, np.full(n_u, float(z)), p)
     return out
 
 

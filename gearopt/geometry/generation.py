@@ -255,6 +255,23 @@ class GeneratedTooth:
         r, n, psi = self.surface(side, segment)(q, z, self.p0 if p is None else p)[:3]
         return np.asarray(r).ravel(), np.asarray(n).ravel(), float(psi)
 
+    def normal_deviation(self, side, u, z, p=None) -> np.ndarray:
+        """Normal deviation of the modified flank from the generated one [mm] (+: material added)
+        at flank coordinates ``u`` [mm] and sections ``z`` [mm] (arrays of one length): the sum of
+        every :class:`~gearopt.geometry.modification.FlankModification` on that side, measured along
+        the unmodified flank's outward normal. Zeros without modifications."""
+        u, z = np.atleast_1d(np.asarray(u, float)), np.atleast_1d(np.asarray(z, float))
+        if not self.modifications:
+            return np.zeros(np.broadcast(u, z).size)
+        p = self.p0 if p is None else np.asarray(p, float)
+        n_base = len(PARAMS)
+        u, z = np.broadcast_arrays(u, z)
+        f_m = self.surface(side, "flank").map(u.size)
+        f_0 = self.unmodified_functions[f"{side}_flank"].map(u.size)
+        r_m = np.asarray(f_m(u[None, :], z[None, :], np.tile(p[:, None], (1, u.size)))[0])
+        r_0, n_0 = (np.asarray(v) for v in f_0(u[None, :], z[None, :], np.tile(p[:n_base, None], (1, u.size)))[:2])
+        return np.sum((r_m - r_0) * n_0, axis=0)
+
     def radius_function(self, side="right") -> ca.Function:
         """Function (u, z, p) -> (transverse radius, d radius / du) on the flank (built once per side)."""
         key = f"{side}_flank_radius"
