@@ -35,8 +35,10 @@ def _parser() -> argparse.ArgumentParser:
     sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
     r = sub.add_parser("run", help="run a scene's study and write results.json and plots")
     r.add_argument("scene", type=Path, help="scene file (.toml)")
-    r.add_argument("--out", "-o", dest="out_text", type=str, default=None,
-                   help="output directory (replaced on success; default out/<scene file stem>)")
+    r.add_argument("--out", "-o", dest="out_text", type=str, default=None, metavar="DIR",
+                   help="output directory (default out/<scene file stem>): created, or, when it is a previous "
+                        "gearopt output, its files are replaced on success; a directory holding other files is "
+                        "refused (gearopt never removes a file it did not write)")
     r.add_argument("--quiet", "-q", action="store_true", help="no progress lines or bars on stderr")
     r.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="Dask scheduler (tcp://host:port) that runs the samples of a montecarlo or sweep study")

@@ -13,7 +13,7 @@ import pytest
 
 from conftest import GOOD_SCENE
 from gearopt.cli import main
-from gearopt.io.results import write_results
+from gearopt.io.results import MANIFEST, write_results
 
 REPO = Path(__file__).resolve().parents[1]
 TESTS = Path(__file__).resolve().parent
@@ -62,29 +62,33 @@ def test_run_quiet_and_no_plots(dummy_study, scene_file, tmp_path, capsys):
     captured = capsys.readouterr()
     assert captured.err == ""
     assert captured.out.split() == [str(out / "results.json")]
-    assert sorted(p.name for p in out.iterdir()) == ["results.json"]
+    assert sorted(p.name for p in out.iterdir()) == [MANIFEST, "results.json"]
 
 
-def test_run_replaces_existing_output_only_on_success(dummy_study, scene_file, tmp_path, capsys):
+def test_run_replaces_previous_output_only_on_success(dummy_study, scene_file, tmp_path, capsys):
     out = tmp_path / "o"
-    out.mkdir()
-    (out / "old.txt").write_text("previous run")
-    # failure while plotting (a bug, not an input error): propagates, old results stay untouched
+    scene = scene_file(GOOD_SCENE.replace("n = 4", "n = 3"))
+    assert main(["run", str(scene), "--out", str(out), "-q"]) == 0
+    first = (out / "results.json").read_text()
+    assert json.loads(first)["n"] == 3
+    # failure while plotting (a bug, not an input error): propagates, the previous results stay untouched
     scene = scene_file(GOOD_SCENE.replace("n = 4", "n = 4\nfail_plots = true"))
     with pytest.raises(RuntimeError, match="on purpose"):
         main(["run", str(scene), "--out", str(out), "-q"])
-    assert sorted(p.name for p in out.iterdir()) == ["old.txt"]
+    assert sorted(p.name for p in out.iterdir()) == [MANIFEST, "dummy.png", "results.json"]
+    assert (out / "results.json").read_text() == first
     assert leftovers(tmp_path) == []
     # NaN in the results: a clear error (exit 2, no traceback), nothing written either
     scene = scene_file(GOOD_SCENE.replace("n = 4", "n = 4\nnan = true"))
     capsys.readouterr()
     assert main(["run", str(scene), "--out", str(out), "-q"]) == 2
     assert re.search(r"error: .*non-finite.*angle", capsys.readouterr().err)
-    assert sorted(p.name for p in out.iterdir()) == ["old.txt"]
-    # success replaces the directory as a whole
+    assert (out / "results.json").read_text() == first
+    # success replaces the previous output's files
     scene = scene_file(GOOD_SCENE)
     assert main(["run", str(scene), "--out", str(out), "-q"]) == 0
-    assert sorted(p.name for p in out.iterdir()) == ["dummy.png", "results.json"]
+    assert sorted(p.name for p in out.iterdir()) == [MANIFEST, "dummy.png", "results.json"]
+    assert json.loads((out / "results.json").read_text())["n"] == 4
     assert leftovers(tmp_path) == []
 
 
