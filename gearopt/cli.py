@@ -7,7 +7,8 @@
                                                    (--scheduler: a Dask cluster for the montecarlo
                                                    and sweep studies)
     gearopt check SCENE.toml                       validate a scene (and build its study), write nothing
-    gearopt studies                                list the studies and the keys of their sections
+    gearopt studies [NAME]                         list the studies, one line each; with NAME (a study
+                                                   or "common"), the keys of its scene sections
 
 Errors in the input (any :class:`~gearopt.errors.GearoptError`) print ``error: <message>`` to
 stderr and exit with status 2, without a traceback; anything else is a bug and propagates.
@@ -44,7 +45,10 @@ def _parser() -> argparse.ArgumentParser:
                    help="Dask scheduler (tcp://host:port) that runs the samples of a montecarlo or sweep study")
     c = sub.add_parser("check", help="validate a scene without running or writing anything")
     c.add_argument("scene", type=Path, help="scene file (.toml)")
-    sub.add_parser("studies", help="list the studies and their scene sections")
+    st = sub.add_parser("studies", help="list the studies (one line each); with NAME, the keys of that study's "
+                        "scene sections")
+    st.add_argument("name", nargs="?", default=None, metavar="NAME",
+                    help="a study (e.g. tca) or 'common' (the sections of every scene): list its keys")
     return p
 
 
@@ -56,7 +60,7 @@ def main(argv: list[str] | None = None) -> int:
             return _run(args)
         if args.command == "check":
             return _check(args)
-        return _studies()
+        return _studies(args.name)
     except GearoptError as e:
         print(f"error: {e}", file=sys.stderr)
         return EXIT_USAGE
@@ -140,7 +144,7 @@ def _check(args) -> int:
     return 0
 
 
-def _studies() -> int:
+def _studies(name: str | None = None) -> int:
     from .io.scene import COMMON_SECTIONS, format_field
     from .studies import broken_modules, studies
 
@@ -159,19 +163,35 @@ def _studies() -> int:
             show(s, indent + "    ", f"{prefix}{section.name}.")
 
     specs = studies()
-    if not specs:
-        print("no studies registered")
-    for name in sorted(specs):
-        spec = specs[name]
-        print(f"{name}: {spec.doc}".rstrip(": "))
-        for s in spec.sections:
-            show(s)
-        if not spec.sections:
-            print("  (no extra sections)")
-        print()
     for mod, err in broken_modules().items():
         print(f"warning: study module {mod} failed to import: {err!r}", file=sys.stderr)
-    print("common sections (every scene; lengths in mm, angles in deg unless written as \"<number> <unit>\"):")
-    for s in COMMON_SECTIONS:
+    units = ("lengths in mm, angles in deg unless written as \"<number> <unit>\"; micro-geometry amounts "
+             "always with their unit (\"12 um\")")
+    if name is None:  # the compact listing
+        if not specs:
+            print("no studies registered")
+        width = max((len(n) for n in specs), default=0)
+        for n in sorted(specs):
+            print(f"  {n:<{width}}  {specs[n].doc}".rstrip())
+        print(f"\ngearopt studies NAME for a study's keys; gearopt studies common for the sections of every scene "
+              f"({', '.join(s.name for s in COMMON_SECTIONS)}). Units: {units}.")
+        return 0
+    if name == "common":
+        print(f"common sections (every scene; {units}):")
+        for s in COMMON_SECTIONS:
+            show(s)
+        return 0
+    if name not in specs:
+        from .errors import OptionError
+        valid = ", ".join(sorted(specs)) + ", common"
+        raise OptionError(f"gearopt studies {name}: no such study; valid: {valid}.", param="NAME", value=name,
+                          valid=valid)
+    spec = specs[name]
+    print(f"{name}: {spec.doc}".rstrip(": "))
+    print(f"(scene: [scene] study = \"{name}\"; {units})")
+    for s in spec.sections:
         show(s)
+    if not spec.sections:
+        print("  (no extra sections)")
+    print("\ngearopt studies common for the sections of every scene.")
     return 0

@@ -117,8 +117,14 @@ def test_missing_scene_file(tmp_path, capsys):
 def test_studies_lists_sections(dummy_study, capsys):
     assert main(["studies"]) == 0
     out = capsys.readouterr().out
+    assert re.search(r"^  dummy +dummy study for tests$", out, re.M)
+    assert "[dummy]" not in out and "gearopt studies NAME" in out  # compact: no keys
+    assert main(["studies", "dummy"]) == 0
+    out = capsys.readouterr().out
     assert "dummy: dummy study for tests" in out
     assert "[dummy]" in out and "angle (angle [deg], default 10)" in out
+    assert main(["studies", "common"]) == 0
+    out = capsys.readouterr().out
     assert "[pair]" in out and "P_n (inverse_length [1/in]" in out
     assert "[pinion.rack]" in out
 

@@ -309,8 +309,11 @@ def _register():
     from .tca import misalignment_fields
 
     def amounts(member):
-        return Section(member, [], subsections=[_range_section(a, "length", f"bounds of the {member}'s {a}")
-                                                for a in GLOBAL_AMOUNTS + RELIEF_AMOUNTS]
+        um = [Section(a, [Field("lo", "length", required=True, unit="um", doc="lower end"),
+                          Field("hi", "length", required=True, unit="um", doc="upper end")],
+                      doc=f"bounds of the {member}'s {a} (with their unit, \"40 um\")")
+              for a in GLOBAL_AMOUNTS + RELIEF_AMOUNTS]
+        return Section(member, [], subsections=um
                        + [_range_section(a, "inverse_length", f"bounds of the {member}'s Litvin setting {a} [1/mm]")
                           for a in ("a_c", "a_pl")],
                        doc=f"free amounts of the {member} with their bounds")
