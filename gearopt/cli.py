@@ -70,6 +70,7 @@ def _run(args) -> int:
     os.environ.setdefault("MPLBACKEND", "Agg")  # plots go to files; never open a window
     from .io.results import write_results
     from .io.scene import load_scene
+    from .progress import reporting
 
     def say(msg: str) -> None:
         if not args.quiet:
@@ -81,7 +82,8 @@ def _run(args) -> int:
     scene = load_scene(args.scene)
     out = check_out_dir(args.out_text if args.out_text is not None else Path("out") / args.scene.stem, args.scene)
     say(f"building study {scene.study!r} for scene {scene.name!r}")
-    with _in_scene(scene):
+    sink = None if args.quiet else say  # long work deep in the library reports here (gearopt.progress)
+    with _in_scene(scene), reporting(sink):
         study = scene.build()
     say("running")
     t0 = time.perf_counter()
@@ -100,7 +102,7 @@ def _run(args) -> int:
                               "montecarlo and sweep studies run on a Dask cluster.", param="--scheduler",
                               value=args.scheduler, valid="a montecarlo or sweep scene")
         kwargs["scheduler"] = args.scheduler
-    with _in_scene(scene):
+    with _in_scene(scene), reporting(sink):
         result = run(**kwargs)
     run_time = time.perf_counter() - t0
     say(f"done in {run_time:.2f} s; writing {out}")

@@ -186,3 +186,83 @@ def test_subprocess_good_scene_with_plugin_study(scene_file, tmp_path):
     assert r.returncode == 0, r.stderr
     assert (out / "results.json").is_file() and (out / "dummy.png").is_file()
     assert r.stdout.split() == [str(out / "results.json"), str(out / "dummy.png")]
+
+
+# ----------------------------------------------------------------------------------------------
+# Progress of long work (gearopt.progress): lines on stderr, none with --quiet
+# ----------------------------------------------------------------------------------------------
+def test_heartbeat_reports_silence_and_nothing_without_progress():
+    import time
+
+    from gearopt.progress import current, heartbeat, reporting
+
+    lines = []
+    with heartbeat(lines.append, "solve", every=0.05) as say:
+        say("own line")
+        time.sleep(0.4)
+    n = len(lines)
+    time.sleep(0.1)
+    assert len(lines) == n  # the thread stopped with the block
+    assert lines[0] == "own line" and len(lines) >= 3
+    assert all(re.fullmatch(r"solve: \d+ s", x) for x in lines[1:]), lines
+    with heartbeat(None, "solve", every=0.01) as say:
+        assert say is None
+        time.sleep(0.05)
+    assert current() is None
+    with reporting(lines.append):
+        current()("deep")
+    assert lines[-1] == "deep" and current() is None
+
+
+def _fake_fe(monkeypatch, tmp_path):
+    """problems/fea_spur.toml with CalculiX and the FE model replaced by fast stand-ins."""
+    import time
+
+    import gearopt.fea.calculix as calculix
+    import gearopt.fea.model as model
+    import gearopt.progress as progress
+    import gearopt.studies.fea as fea
+
+    class Res:
+        def __init__(self, phi1):
+            self.phi1 = phi1
+
+        def to_dict(self):
+            return {"phi1": self.phi1}
+
+        def write_vtu(self, path):
+            Path(path).write_text("vtu")
+
+    class Model:
+        def __init__(self, pair, phi1, opt, tca=None, mis=None):
+            import numpy as np
+
+            self.phi1, self.build_time = phi1, 0.01
+            self.nodes_pinion = self.nodes_gear = np.zeros((5, 3))
+            self.pinion_mesh = self.gear_mesh = type("M", (), {"elements": np.zeros((2, 8))})()
+
+        def run(self):
+            time.sleep(0.3)
+            return Res(self.phi1)
+
+    real = progress.heartbeat
+    monkeypatch.setattr(calculix, "require_ccx", lambda: "ccx")
+    monkeypatch.setattr(model, "GearFEModel", Model)
+    monkeypatch.setattr(fea, "mesh_section", lambda m: {})
+    monkeypatch.setattr(progress, "heartbeat", lambda p, label, every=15.0: real(p, label, every=0.05))
+    scene = tmp_path / "fea.toml"
+    scene.write_text((REPO / "problems" / "fea_spur.toml").read_text() + "\n[output]\nplots = false\n")
+    return scene
+
+
+def test_fe_positions_report_progress_and_quiet_silences_it(monkeypatch, tmp_path, capsys):
+    scene = _fake_fe(monkeypatch, tmp_path)
+    assert main(["run", str(scene), "--out", str(tmp_path / "o")]) == 0
+    err = capsys.readouterr().err
+    for i in (1, 2, 3):
+        assert re.search(rf"gearopt: fea: position {i}/3 \(phi1 = -?\d+\.\d+ deg\): building the model", err)
+        assert f"gearopt: fea: position {i}/3: 10 nodes, 4 elements" in err
+        assert re.search(rf"gearopt: fea: position {i}/3: CalculiX running: \d+ s", err)  # the heartbeat
+        assert re.search(rf"gearopt: fea: position {i}/3: done in \d+\.\d s", err)
+    assert main(["run", str(scene), "--out", str(tmp_path / "o"), "--quiet"]) == 0
+    assert capsys.readouterr().err == ""

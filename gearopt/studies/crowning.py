@@ -26,6 +26,7 @@ import numpy as np
 from ..contact.edge import EdgeContact
 from ..gears import GearPair
 from ..meshing.tca import TCA, Misalignment
+from ..progress import heartbeat
 from ..synthesis.crowning import SENSITIVITY_UNITS, CrowningOptimizer, CrowningTarget  # noqa: F401 - re-exported
 from ..units import ARCMIN
 
@@ -109,10 +110,13 @@ class CrowningStudy:
                   for c, m in self.cases.items()]
         if progress:
             progress("crowning: building the NLP")
-        self.optimizer.build(verbose=not self.quiet)
+        with heartbeat(progress, "crowning: building the NLP", every=15.0):
+            self.optimizer.build(verbose=not self.quiet)
         if progress:
-            progress(f"crowning: solving (IPOPT, {self.optimizer._x0.size} variables)")
-        d = self.optimizer.solve(verbose=not self.quiet)
+            progress(f"crowning: NLP built in {self.optimizer.build_time:.1f} s; solving (IPOPT, "
+                     f"{self.optimizer._x0.size} variables)")
+        with heartbeat(progress, "crowning: IPOPT solving", every=15.0):
+            d = self.optimizer.solve(verbose=not self.quiet)
         if progress:
             progress(f"crowning: {d.status} in {d.iterations} iterations, {d.solve_time:.3f} s; verifying every case")
         ec1 = d.edge if d.edge is not None else EdgeContact(TCA(d.pair))  # compiled once, in solve()
