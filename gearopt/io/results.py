@@ -37,6 +37,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import ArgumentError, ResultsError, shorten
+from ..progress import heartbeat
 
 __all__ = ["write_results", "check_out_dir", "install_output", "output_files", "RESULTS_FILE", "MANIFEST"]
 
@@ -281,7 +282,8 @@ def write_results(out_dir, result, *, scene=None, run_time: float | None = None,
             kwargs = {}
             if scene is not None and _accepts(result.save_plots, "dpi"):
                 kwargs["dpi"] = scene.output.get("dpi", 120)
-            written += _reported(tmp, result.save_plots(str(tmp), **kwargs), "save_plots")
+            with heartbeat(progress, "writing plots", every=15.0):
+                written += _reported(tmp, result.save_plots(str(tmp), **kwargs), "save_plots")
         install_output(tmp, out_dir)
     except OSError as e:
         shutil.rmtree(tmp, ignore_errors=True)
