@@ -163,3 +163,15 @@ def test_manifest_api(tmp_path):
     assert install_output(new, tmp_path / "t") == ["sub/f.csv"]
     assert json.loads((tmp_path / "t" / MANIFEST).read_text())["files"] == ["sub/f.csv"]
     assert not new.exists()
+
+
+def test_output_of_an_earlier_gearopt_without_manifest_is_refused_with_a_hint(dummy_study, scene_file, tmp_path,
+                                                                              capsys):
+    out = tmp_path / "o"
+    out.mkdir()
+    (out / "results.json").write_text('{"meta": {"gearopt_version": "0.0.9"}, "units": {}}')
+    (out / "te.png").write_bytes(b"png")
+    before = tree(out)
+    rc, err = run(capsys, scene_file(GOOD_SCENE), "--out", out)
+    assert rc == 2 and "from an earlier gearopt that wrote no .gearopt-output.json" in err
+    assert tree(out) == before

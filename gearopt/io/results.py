@@ -121,8 +121,15 @@ def _foreign(out: Path, owned: list[str]) -> list[str]:
 
 def _refuse_foreign(out: Path, found: list[str]) -> ResultsError:
     shown = ", ".join(found[:3]) + (f" and {len(found) - 3} more" if len(found) > 3 else "")
-    return ResultsError(f"--out {out}: the directory exists and holds files gearopt did not write ({shown}); gearopt "
-                        f"writes only into a new or empty directory or a previous gearopt output (one with "
+    old = ""
+    try:  # results of a gearopt from before the manifest: say so, the user may delete them
+        if RESULTS_FILE in found and "gearopt_version" in json.loads((out / RESULTS_FILE).read_text())["meta"]:
+            old = (f" (its {RESULTS_FILE} is from an earlier gearopt that wrote no {MANIFEST}; if nothing else in it "
+                   "is yours, delete the directory)")
+    except (OSError, ValueError, KeyError, TypeError):
+        pass
+    return ResultsError(f"--out {out}: the directory exists and holds files gearopt did not write ({shown}){old}; "
+                        f"gearopt writes only into a new or empty directory or a previous gearopt output (one with "
                         f"{MANIFEST}), and never removes a file it did not write. Choose another --out (e.g. "
                         f"out/<scene name>) or empty this directory.",
                         param="--out", value=str(out),
