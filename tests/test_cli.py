@@ -266,3 +266,41 @@ def test_fe_positions_report_progress_and_quiet_silences_it(monkeypatch, tmp_pat
         assert re.search(rf"gearopt: fea: position {i}/3: done in \d+\.\d s", err)
     assert main(["run", str(scene), "--out", str(tmp_path / "o"), "--quiet"]) == 0
     assert capsys.readouterr().err == ""
+
+
+def test_fe_influence_cache_build_reports_to_the_installed_receiver(monkeypatch, tmp_path):
+    """The influence coefficients are built below a study (with the LTCA engine); they report to the
+    receiver the CLI installs (gearopt.progress.reporting). CalculiX itself is replaced: it stops the
+    build right after the lines before it."""
+    import gearopt.fea.influence as influence
+    from gearopt import Gear
+    from gearopt.fea.mesh import MeshOptions
+    from gearopt.geometry.generation import generate
+    from gearopt.progress import reporting
+
+    class Stop(Exception):
+        pass
+
+    def ccx(*a, **k):
+        raise Stop
+
+    monkeypatch.setenv("GEAROPT_CACHE", str(tmp_path))
+    monkeypatch.setattr(influence, "run_ccx", ccx)
+    tooth = generate(Gear(z=20, m_n=3.0, b=20.0, name="pinion"))
+    mesh = MeshOptions(n_face=2, n_half=3, n_flank=4, n_fillet=3, n_rim=2)
+    with pytest.raises(Stop):
+        influence.influence_grid(tooth, mesh=mesh, use_cache=False)  # no receiver: silent
+    lines = []
+    with reporting(lines.append), pytest.raises(Stop):
+        influence.influence_grid(tooth, mesh=mesh, use_cache=False)
+    assert len(lines) == 1, lines
+    assert re.fullmatch(r"FE influence coefficients of the pinion: CalculiX, \d+ unit loads on \d+ nodes "
+                        r"\(cached afterwards in .+\)", lines[0]), lines
+    import gearopt.fea.local as local
+
+    monkeypatch.setattr(local, "section_compression", ccx)
+    lines.clear()
+    with reporting(lines.append), pytest.raises(Stop):
+        local.local_excess(tooth, [tooth.gear.r_p, tooth.gear.r_p + 1.0], use_cache=False)
+    assert len(lines) == 1 and re.fullmatch(r"FE local compression of the pinion: CalculiX section 1/2 "
+                                            r"\(r = \d+\.\d{3} mm, 0 s so far\)", lines[0]), lines
