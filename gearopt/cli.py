@@ -4,8 +4,11 @@
 
     gearopt run SCENE.toml [--out DIR] [--quiet] [--scheduler ADDRESS]
                                                    run the scene's study, write results.json + plots
-                                                   (--scheduler: a Dask cluster for the montecarlo
-                                                   and sweep studies)
+                                                   into DIR: a new or empty directory or a previous
+                                                   gearopt output (only its own files are replaced;
+                                                   gearopt.io.results); progress lines on stderr
+                                                   unless --quiet (--scheduler: a Dask cluster for
+                                                   the montecarlo and sweep studies)
     gearopt check SCENE.toml                       validate a scene (and build its study), write nothing
     gearopt studies [NAME]                         list the studies, one line each; with NAME (a study
                                                    or "common"), the keys of its scene sections
