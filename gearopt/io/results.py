@@ -102,21 +102,10 @@ def output_files(out_dir) -> list[str] | None:
     return good
 
 
-def _foreign(out: Path, owned: list[str]) -> list[str]:
-    """Entries of ``out`` (relative paths, directories with a trailing ``/``) that no listed file
-    accounts for: files gearopt did not write."""
-    mine = set(owned) | {MANIFEST}
-    dirs = {str(Path(*Path(f).parts[:i])) for f in owned for i in range(1, len(Path(f).parts))}
-    found = []
-    for root, dnames, fnames in os.walk(out):
-        rel = Path(root).relative_to(out)
-        for d in sorted(dnames):
-            r = str(rel / d)
-            if r not in dirs or (Path(root) / d).is_symlink():
-                found.append(r + "/")
-        dnames[:] = [d for d in dnames if str(rel / d) in dirs and not (Path(root) / d).is_symlink()]
-        found += [str(rel / f) for f in sorted(fnames) if str(rel / f) not in mine]
-    return found
+def _foreign(out: Path) -> list[str]:
+    """Entries of ``out`` other than the manifest (directories with a trailing ``/``), sorted."""
+    return sorted(p.name + ("/" if p.is_dir() and not p.is_symlink() else "") for p in out.iterdir()
+                  if p.name != MANIFEST)
 
 
 def _refuse_foreign(out: Path, found: list[str]) -> ResultsError:
@@ -184,7 +173,7 @@ def check_out_dir(out_dir, scene_file=None) -> Path:
                                param="--out", value=str(out))
     if out.is_dir():
         owned = output_files(out)
-        found = (_foreign(out, []) or [MANIFEST]) if owned is None else []
+        found = (_foreign(out) or [MANIFEST]) if owned is None else []
         if found:
             raise _refuse_foreign(out, found)
     base = full.parent
@@ -387,14 +376,16 @@ def install_output(new, target) -> list[str]:
         return files
     owned = output_files(target)
     if owned is None:
-        raise _refuse_foreign(target, _foreign(target, []) or [MANIFEST])
+        raise _refuse_foreign(target, _foreign(target) or [MANIFEST])
     clash = [f for f in files if (target / f).exists() or (target / f).is_symlink()]
     clash = [f for f in clash if f not in owned]
     if clash:
         raise ResultsError(f"--out {target}: the new results would overwrite {', '.join(clash[:3])}, which gearopt "
                            "did not write; nothing was changed. Move that file or choose another --out.",
                            param="--out", value=str(target))
-    old = [f for f in owned if (target / f).is_file() or (target / f).is_symlink()]
+    inside = target.resolve()
+    old = [f for f in owned if ((target / f).is_file() or (target / f).is_symlink())
+           and (target / f).parent.resolve().is_relative_to(inside)]  # never through a linked directory
     # both lists in the manifest while the files move: after an interruption every file gearopt wrote is
     # listed, so the next run still recognises this directory and replaces them
     _write_manifest(target, old + files)
