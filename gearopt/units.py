@@ -119,9 +119,14 @@ def parse_quantity(value, kind: str, name: str, bare_unit: str | None = None,
         unit_required = bare_unit in UNIT_REQUIRED
     if unit_required and (isinstance(value, (int, float)) or not m.group(2)) and number != 0:
         v = f"{number:g}"
-        alt = f" (or \"{number * table[default] / table['mm']:g} mm\")" if kind == "length" else ""
+        if kind == "length" and default == "um" and abs(number) < 1:  # below a micron: mm was probably meant
+            fix = f"\"{v} mm\" (= {number * 1000:g} um) or \"{v} um\""
+        elif kind == "length":
+            fix = f"\"{v} {default}\" (or \"{number * table[default] / table['mm']:g} mm\")"
+        else:
+            fix = f"\"{v} {default}\""
         raise fail(f": a bare number is refused for a micro-geometry amount (a bare length is mm everywhere "
-                   f"else; amounts are microns): write \"{v} {default}\"{alt}.",
+                   f"else; amounts are microns): write {fix}.",
                    f"a number with its unit, e.g. \"{v} {default}\"")
     if unit not in table:
         kinds = [k for k, (t, _) in KINDS.items() if unit in t]

@@ -122,3 +122,16 @@ def test_out_metavar_is_dir(capsys):
         main(["run", "--help"])
     out = capsys.readouterr().out
     assert "--out DIR" in out and "OUT_TEXT" not in out
+
+
+def test_a_sub_micron_bare_amount_suggests_mm_first(tmp_path):
+    """Bounds of the loaded optimiser used to be bare mm: 0.04 there meant 40 um."""
+    text = (PROBLEMS / "microgeometry_loaded.toml").read_text()
+    old = 'C_alpha = { lo = "0 um", hi = "40 um" }'
+    f = tmp_path / "loaded.toml"
+    f.write_text(text.replace(old, "C_alpha = { lo = 0, hi = 0.04 }"))
+    with pytest.raises(SceneError) as e:
+        load_scene(f)
+    msgs = [str(e.value)] + [str(p) for p in getattr(e.value, "problems", [])]
+    assert any('hi = 0.04: a bare number is refused' in m and 'write "0.04 mm" (= 40 um) or "0.04 um"' in m
+               for m in msgs), msgs
