@@ -27,6 +27,8 @@ $(STAMP): pyproject.toml | $(VPY)
 
 demo: $(STAMP)
 	$(VENV)/bin/gearopt run $(SCENE) --out $(OUT)
+	@command -v ccx >/dev/null 2>&1 || echo "note: the FE scenes (problems/fea_spur.toml, problems/fea_crowned.toml) need \
+	CalculiX (ccx), which is not installed: run 'make ccx' as root, or 'sudo apt-get install calculix-ccx' (Debian/Ubuntu)."
 
 test: ccx $(STAMP)
 	$(VPY) -m pytest -q

@@ -4,10 +4,14 @@
 
     gearopt run SCENE.toml [--out DIR] [--quiet] [--scheduler ADDRESS]
                                                    run the scene's study, write results.json + plots
-                                                   (--scheduler: a Dask cluster for the montecarlo
-                                                   and sweep studies)
+                                                   into DIR: a new or empty directory or a previous
+                                                   gearopt output (only its own files are replaced;
+                                                   gearopt.io.results); progress lines on stderr
+                                                   unless --quiet (--scheduler: a Dask cluster for
+                                                   the montecarlo and sweep studies)
     gearopt check SCENE.toml                       validate a scene (and build its study), write nothing
-    gearopt studies                                list the studies and the keys of their sections
+    gearopt studies [NAME]                         list the studies, one line each; with NAME (a study
+                                                   or "common"), the keys of its scene sections
 
 Errors in the input (any :class:`~gearopt.errors.GearoptError`) print ``error: <message>`` to
 stderr and exit with status 2, without a traceback; anything else is a bug and propagates.
@@ -35,14 +39,19 @@ def _parser() -> argparse.ArgumentParser:
     sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
     r = sub.add_parser("run", help="run a scene's study and write results.json and plots")
     r.add_argument("scene", type=Path, help="scene file (.toml)")
-    r.add_argument("--out", "-o", dest="out_text", type=str, default=None,
-                   help="output directory (replaced on success; default out/<scene file stem>)")
+    r.add_argument("--out", "-o", dest="out_text", type=str, default=None, metavar="DIR",
+                   help="output directory (default out/<scene file stem>): created, or, when it is a previous "
+                        "gearopt output, its files are replaced on success; a directory holding other files is "
+                        "refused (gearopt never removes a file it did not write)")
     r.add_argument("--quiet", "-q", action="store_true", help="no progress lines or bars on stderr")
     r.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="Dask scheduler (tcp://host:port) that runs the samples of a montecarlo or sweep study")
     c = sub.add_parser("check", help="validate a scene without running or writing anything")
     c.add_argument("scene", type=Path, help="scene file (.toml)")
-    sub.add_parser("studies", help="list the studies and their scene sections")
+    st = sub.add_parser("studies", help="list the studies (one line each); with NAME, the keys of that study's "
+                        "scene sections")
+    st.add_argument("name", nargs="?", default=None, metavar="NAME",
+                    help="a study (e.g. tca) or 'common' (the sections of every scene): list its keys")
     return p
 
 
@@ -54,7 +63,7 @@ def main(argv: list[str] | None = None) -> int:
             return _run(args)
         if args.command == "check":
             return _check(args)
-        return _studies()
+        return _studies(args.name)
     except GearoptError as e:
         print(f"error: {e}", file=sys.stderr)
         return EXIT_USAGE
@@ -64,6 +73,7 @@ def _run(args) -> int:
     os.environ.setdefault("MPLBACKEND", "Agg")  # plots go to files; never open a window
     from .io.results import write_results
     from .io.scene import load_scene
+    from .progress import reporting
 
     def say(msg: str) -> None:
         if not args.quiet:
@@ -75,7 +85,8 @@ def _run(args) -> int:
     scene = load_scene(args.scene)
     out = check_out_dir(args.out_text if args.out_text is not None else Path("out") / args.scene.stem, args.scene)
     say(f"building study {scene.study!r} for scene {scene.name!r}")
-    with _in_scene(scene):
+    sink = None if args.quiet else say  # long work deep in the library reports here (gearopt.progress)
+    with _in_scene(scene), reporting(sink):
         study = scene.build()
     say("running")
     t0 = time.perf_counter()
@@ -94,7 +105,7 @@ def _run(args) -> int:
                               "montecarlo and sweep studies run on a Dask cluster.", param="--scheduler",
                               value=args.scheduler, valid="a montecarlo or sweep scene")
         kwargs["scheduler"] = args.scheduler
-    with _in_scene(scene):
+    with _in_scene(scene), reporting(sink):
         result = run(**kwargs)
     run_time = time.perf_counter() - t0
     say(f"done in {run_time:.2f} s; writing {out}")
@@ -138,7 +149,7 @@ def _check(args) -> int:
     return 0
 
 
-def _studies() -> int:
+def _studies(name: str | None = None) -> int:
     from .io.scene import COMMON_SECTIONS, format_field
     from .studies import broken_modules, studies
 
@@ -157,19 +168,35 @@ def _studies() -> int:
             show(s, indent + "    ", f"{prefix}{section.name}.")
 
     specs = studies()
-    if not specs:
-        print("no studies registered")
-    for name in sorted(specs):
-        spec = specs[name]
-        print(f"{name}: {spec.doc}".rstrip(": "))
-        for s in spec.sections:
-            show(s)
-        if not spec.sections:
-            print("  (no extra sections)")
-        print()
     for mod, err in broken_modules().items():
         print(f"warning: study module {mod} failed to import: {err!r}", file=sys.stderr)
-    print("common sections (every scene; lengths in mm, angles in deg unless written as \"<number> <unit>\"):")
-    for s in COMMON_SECTIONS:
+    units = ("lengths in mm, angles in deg unless written as \"<number> <unit>\"; micro-geometry amounts "
+             "always with their unit (\"12 um\")")
+    if name is None:  # the compact listing
+        if not specs:
+            print("no studies registered")
+        width = max((len(n) for n in specs), default=0)
+        for n in sorted(specs):
+            print(f"  {n:<{width}}  {specs[n].doc}".rstrip())
+        print(f"\ngearopt studies NAME for a study's keys; gearopt studies common for the sections of every scene "
+              f"({', '.join(s.name for s in COMMON_SECTIONS)}). Units: {units}.")
+        return 0
+    if name == "common":
+        print(f"common sections (every scene; {units}):")
+        for s in COMMON_SECTIONS:
+            show(s)
+        return 0
+    if name not in specs:
+        from .errors import OptionError
+        valid = ", ".join(sorted(specs)) + ", common"
+        raise OptionError(f"gearopt studies {name}: no such study; valid: {valid}.", param="NAME", value=name,
+                          valid=valid)
+    spec = specs[name]
+    print(f"{name}: {spec.doc}".rstrip(": "))
+    print(f"(scene: [scene] study = \"{name}\"; {units})")
+    for s in spec.sections:
         show(s)
+    if not spec.sections:
+        print("  (no extra sections)")
+    print("\ngearopt studies common for the sections of every scene.")
     return 0

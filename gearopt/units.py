@@ -3,6 +3,11 @@
 A scene may give a length or an angle either as a bare number (taken in the documented default
 unit: mm for lengths, deg for angles) or as a string with a unit, e.g. ``"20 deg"``, ``"3 arcmin"``,
 ``"0.5 in"``. A unit of the wrong kind (``"20 mm"`` for an angle) is an error.
+
+One exception, and it is a refusal, not another default: a quantity whose scene unit is one of
+:data:`UNIT_REQUIRED` (micro-geometry amounts, in um) must be written with its unit (``"12 um"``);
+a bare number there is refused with that hint (only a bare ``0`` is accepted, the same in every
+unit), so that a bare number never means anything but mm for a length.
 """
 
 from __future__ import annotations
@@ -21,6 +26,8 @@ INCH = 25.4  #: one inch in mm
 _LENGTH = {"mm": 1.0, "m": 1000.0, "cm": 10.0, "um": 1e-3, "µm": 1e-3, "in": INCH}
 _ANGLE = {"rad": 1.0, "deg": DEG, "°": DEG, "arcmin": ARCMIN, "'": ARCMIN, "arcsec": ARCSEC, '"': ARCSEC}
 _INV_LENGTH = {"1/mm": 1.0, "1/m": 1e-3, "1/in": 1.0 / INCH}
+#: Scene units in which a bare number is refused (the unit must be written: ``"12 um"``).
+UNIT_REQUIRED = ("um",)
 KINDS = {"length": (_LENGTH, "mm"), "angle": (_ANGLE, "deg"), "inverse_length": (_INV_LENGTH, "1/mm")}
 
 _QTY = re.compile(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*(\S+)?\s*$")
@@ -55,7 +62,8 @@ def to_deg(value_rad: float) -> float:
     return value_rad / DEG
 
 
-def parse_quantity(value, kind: str, name: str, bare_unit: str | None = None) -> float:
+def parse_quantity(value, kind: str, name: str, bare_unit: str | None = None,
+                   unit_required: bool | None = None) -> float:
     """Convert a scene value to gearopt's internal unit (mm, rad or 1/mm).
 
     Parameters
@@ -69,6 +77,9 @@ def parse_quantity(value, kind: str, name: str, bare_unit: str | None = None) ->
     bare_unit : str or None
         Unit of a bare number (and of a string without unit), one of the units of ``kind``;
         default the kind's default unit (mm, deg, 1/mm).
+    unit_required : bool, optional
+        Refuse a number without a unit (a bare ``0`` excepted); default: ``bare_unit`` is one of
+        :data:`UNIT_REQUIRED` (a micro-geometry amount in um).
 
     Returns
     -------
@@ -104,6 +115,19 @@ def parse_quantity(value, kind: str, name: str, bare_unit: str | None = None) ->
     else:
         raise fail(f": expected a {kind} (number or '<number> <unit>'), got {type(value).__name__}.",
                    f"a {kind} (number or '<number> <unit>')")
+    if unit_required is None:
+        unit_required = bare_unit in UNIT_REQUIRED
+    if unit_required and (isinstance(value, (int, float)) or not m.group(2)) and number != 0:
+        v = f"{number:g}"
+        if kind == "length" and default == "um" and abs(number) < 1:  # below a micron: mm was probably meant
+            fix = f"\"{v} mm\" (= {number * 1000:g} um) or \"{v} um\""
+        elif kind == "length":
+            fix = f"\"{v} {default}\" (or \"{number * table[default] / table['mm']:g} mm\")"
+        else:
+            fix = f"\"{v} {default}\""
+        raise fail(f": a bare number is refused for a micro-geometry amount (a bare length is mm everywhere "
+                   f"else; amounts are microns): write {fix}.",
+                   f"a number with its unit, e.g. \"{v} {default}\"")
     if unit not in table:
         kinds = [k for k, (t, _) in KINDS.items() if unit in t]
         what = f"{_a(kinds[0])} unit" if kinds else "an unknown unit"

@@ -1,4 +1,7 @@
-"""Make the measured flanks of problems/measured_flank.toml (run: `PYTHONPATH=. python problems/measured_flank_make.py`).
+"""Make the measured flanks of problems/measured_flank.toml.
+
+Run (from the repository root, with the venv `make` creates, where gearopt is installed):
+`.venv/bin/python problems/measured_flank_make.py`
 
 A stand-in for a measuring machine's report: the pinion of problems/microgeometry_helical.toml as
 designed (C_alpha 6 um, C_beta 12 um, tip relief 8 um from d_Ca = 59.2 mm), inspected on both
@@ -16,13 +19,20 @@ same files every run.
 from __future__ import annotations
 
 import math
+import sys
 from pathlib import Path
 
-import numpy as np
+try:  # gearopt as an installed package (`make venv`: pip install -e .), not a path relative to here
+    import numpy as np
 
-from gearopt.geometry.inspection import FlankGrid, inspect_flank, write_grid_csv
-from gearopt.geometry.microgeometry import modified_tooth
-from gearopt.io.scene import load_scene
+    from gearopt.geometry.inspection import FlankGrid, inspect_flank, write_grid_csv
+    from gearopt.geometry.microgeometry import modified_tooth
+    from gearopt.io.scene import load_scene
+except ModuleNotFoundError as e:
+    if e.name not in ("gearopt", "numpy"):
+        raise
+    sys.exit(f"{Path(__file__).name}: gearopt is not installed in this Python ({sys.executable}); run `make venv`, "
+             f"then `.venv/bin/python problems/measured_flank_make.py` from the repository root.")
 
 HERE = Path(__file__).resolve().parent
 SLOPE_UM = {"right": 2.0, "left": -1.0}

@@ -13,7 +13,7 @@ import pytest
 
 from conftest import GOOD_SCENE
 from gearopt.cli import main
-from gearopt.io.results import write_results
+from gearopt.io.results import MANIFEST, write_results
 
 REPO = Path(__file__).resolve().parents[1]
 TESTS = Path(__file__).resolve().parent
@@ -62,29 +62,33 @@ def test_run_quiet_and_no_plots(dummy_study, scene_file, tmp_path, capsys):
     captured = capsys.readouterr()
     assert captured.err == ""
     assert captured.out.split() == [str(out / "results.json")]
-    assert sorted(p.name for p in out.iterdir()) == ["results.json"]
+    assert sorted(p.name for p in out.iterdir()) == [MANIFEST, "results.json"]
 
 
-def test_run_replaces_existing_output_only_on_success(dummy_study, scene_file, tmp_path, capsys):
+def test_run_replaces_previous_output_only_on_success(dummy_study, scene_file, tmp_path, capsys):
     out = tmp_path / "o"
-    out.mkdir()
-    (out / "old.txt").write_text("previous run")
-    # failure while plotting (a bug, not an input error): propagates, old results stay untouched
+    scene = scene_file(GOOD_SCENE.replace("n = 4", "n = 3"))
+    assert main(["run", str(scene), "--out", str(out), "-q"]) == 0
+    first = (out / "results.json").read_text()
+    assert json.loads(first)["n"] == 3
+    # failure while plotting (a bug, not an input error): propagates, the previous results stay untouched
     scene = scene_file(GOOD_SCENE.replace("n = 4", "n = 4\nfail_plots = true"))
     with pytest.raises(RuntimeError, match="on purpose"):
         main(["run", str(scene), "--out", str(out), "-q"])
-    assert sorted(p.name for p in out.iterdir()) == ["old.txt"]
+    assert sorted(p.name for p in out.iterdir()) == [MANIFEST, "dummy.png", "results.json"]
+    assert (out / "results.json").read_text() == first
     assert leftovers(tmp_path) == []
     # NaN in the results: a clear error (exit 2, no traceback), nothing written either
     scene = scene_file(GOOD_SCENE.replace("n = 4", "n = 4\nnan = true"))
     capsys.readouterr()
     assert main(["run", str(scene), "--out", str(out), "-q"]) == 2
     assert re.search(r"error: .*non-finite.*angle", capsys.readouterr().err)
-    assert sorted(p.name for p in out.iterdir()) == ["old.txt"]
-    # success replaces the directory as a whole
+    assert (out / "results.json").read_text() == first
+    # success replaces the previous output's files
     scene = scene_file(GOOD_SCENE)
     assert main(["run", str(scene), "--out", str(out), "-q"]) == 0
-    assert sorted(p.name for p in out.iterdir()) == ["dummy.png", "results.json"]
+    assert sorted(p.name for p in out.iterdir()) == [MANIFEST, "dummy.png", "results.json"]
+    assert json.loads((out / "results.json").read_text())["n"] == 4
     assert leftovers(tmp_path) == []
 
 
@@ -113,8 +117,14 @@ def test_missing_scene_file(tmp_path, capsys):
 def test_studies_lists_sections(dummy_study, capsys):
     assert main(["studies"]) == 0
     out = capsys.readouterr().out
+    assert re.search(r"^  dummy +dummy study for tests$", out, re.M)
+    assert "[dummy]" not in out and "gearopt studies NAME" in out  # compact: no keys
+    assert main(["studies", "dummy"]) == 0
+    out = capsys.readouterr().out
     assert "dummy: dummy study for tests" in out
     assert "[dummy]" in out and "angle (angle [deg], default 10)" in out
+    assert main(["studies", "common"]) == 0
+    out = capsys.readouterr().out
     assert "[pair]" in out and "P_n (inverse_length [1/in]" in out
     assert "[pinion.rack]" in out
 
@@ -176,3 +186,121 @@ def test_subprocess_good_scene_with_plugin_study(scene_file, tmp_path):
     assert r.returncode == 0, r.stderr
     assert (out / "results.json").is_file() and (out / "dummy.png").is_file()
     assert r.stdout.split() == [str(out / "results.json"), str(out / "dummy.png")]
+
+
+# ----------------------------------------------------------------------------------------------
+# Progress of long work (gearopt.progress): lines on stderr, none with --quiet
+# ----------------------------------------------------------------------------------------------
+def test_heartbeat_reports_silence_and_nothing_without_progress():
+    import time
+
+    from gearopt.progress import current, heartbeat, reporting
+
+    lines = []
+    with heartbeat(lines.append, "solve", every=0.05) as say:
+        say("own line")
+        time.sleep(0.4)
+    n = len(lines)
+    time.sleep(0.1)
+    assert len(lines) == n  # the thread stopped with the block
+    assert lines[0] == "own line" and len(lines) >= 3
+    assert all(re.fullmatch(r"solve: \d+ s", x) for x in lines[1:]), lines
+    with heartbeat(None, "solve", every=0.01) as say:
+        assert say is None
+        time.sleep(0.05)
+    assert current() is None
+    with reporting(lines.append):
+        current()("deep")
+    assert lines[-1] == "deep" and current() is None
+
+
+def _fake_fe(monkeypatch, tmp_path):
+    """problems/fea_spur.toml with CalculiX and the FE model replaced by fast stand-ins."""
+    import time
+
+    import gearopt.fea.calculix as calculix
+    import gearopt.fea.model as model
+    import gearopt.progress as progress
+    import gearopt.studies.fea as fea
+
+    class Res:
+        def __init__(self, phi1):
+            self.phi1 = phi1
+
+        def to_dict(self):
+            return {"phi1": self.phi1}
+
+        def write_vtu(self, path):
+            Path(path).write_text("vtu")
+
+    class Model:
+        def __init__(self, pair, phi1, opt, tca=None, mis=None):
+            import numpy as np
+
+            self.phi1, self.build_time = phi1, 0.01
+            self.nodes_pinion = self.nodes_gear = np.zeros((5, 3))
+            self.pinion_mesh = self.gear_mesh = type("M", (), {"elements": np.zeros((2, 8))})()
+
+        def run(self):
+            time.sleep(0.3)
+            return Res(self.phi1)
+
+    real = progress.heartbeat
+    monkeypatch.setattr(calculix, "require_ccx", lambda: "ccx")
+    monkeypatch.setattr(model, "GearFEModel", Model)
+    monkeypatch.setattr(fea, "mesh_section", lambda m: {})
+    monkeypatch.setattr(progress, "heartbeat", lambda p, label, every=15.0: real(p, label, every=0.05))
+    scene = tmp_path / "fea.toml"
+    scene.write_text((REPO / "problems" / "fea_spur.toml").read_text() + "\n[output]\nplots = false\n")
+    return scene
+
+
+def test_fe_positions_report_progress_and_quiet_silences_it(monkeypatch, tmp_path, capsys):
+    scene = _fake_fe(monkeypatch, tmp_path)
+    assert main(["run", str(scene), "--out", str(tmp_path / "o")]) == 0
+    err = capsys.readouterr().err
+    for i in (1, 2, 3):
+        assert re.search(rf"gearopt: fea: position {i}/3 \(phi1 = -?\d+\.\d+ deg\): building the model", err)
+        assert f"gearopt: fea: position {i}/3: 10 nodes, 4 elements" in err
+        assert re.search(rf"gearopt: fea: position {i}/3: CalculiX running: \d+ s", err)  # the heartbeat
+        assert re.search(rf"gearopt: fea: position {i}/3: done in \d+\.\d s", err)
+    assert main(["run", str(scene), "--out", str(tmp_path / "o"), "--quiet"]) == 0
+    assert capsys.readouterr().err == ""
+
+
+def test_fe_influence_cache_build_reports_to_the_installed_receiver(monkeypatch, tmp_path):
+    """The influence coefficients are built below a study (with the LTCA engine); they report to the
+    receiver the CLI installs (gearopt.progress.reporting). CalculiX itself is replaced: it stops the
+    build right after the lines before it."""
+    import gearopt.fea.influence as influence
+    from gearopt import Gear
+    from gearopt.fea.mesh import MeshOptions
+    from gearopt.geometry.generation import generate
+    from gearopt.progress import reporting
+
+    class Stop(Exception):
+        pass
+
+    def ccx(*a, **k):
+        raise Stop
+
+    monkeypatch.setenv("GEAROPT_CACHE", str(tmp_path))
+    monkeypatch.setattr(influence, "run_ccx", ccx)
+    tooth = generate(Gear(z=20, m_n=3.0, b=20.0, name="pinion"))
+    mesh = MeshOptions(n_face=2, n_half=3, n_flank=4, n_fillet=3, n_rim=2)
+    with pytest.raises(Stop):
+        influence.influence_grid(tooth, mesh=mesh, use_cache=False)  # no receiver: silent
+    lines = []
+    with reporting(lines.append), pytest.raises(Stop):
+        influence.influence_grid(tooth, mesh=mesh, use_cache=False)
+    assert len(lines) == 1, lines
+    assert re.fullmatch(r"FE influence coefficients of the pinion: CalculiX, \d+ unit loads on \d+ nodes "
+                        r"\(cached afterwards in .+\)", lines[0]), lines
+    import gearopt.fea.local as local
+
+    monkeypatch.setattr(local, "section_compression", ccx)
+    lines.clear()
+    with reporting(lines.append), pytest.raises(Stop):
+        local.local_excess(tooth, [tooth.gear.r_p, tooth.gear.r_p + 1.0], use_cache=False)
+    assert len(lines) == 1 and re.fullmatch(r"FE local compression of the pinion: CalculiX section 1/2 "
+                                            r"\(r = \d+\.\d{3} mm, 0 s so far\)", lines[0]), lines

@@ -414,7 +414,7 @@ def test_scene_list_of_cases(tmp_path):
     f.write_text(CASES_SCENE.format(extra="").replace('crossing = "3 arcmin"', 'crossing = "3 mm"'))
     with pytest.raises(SceneError, match=r"\[tca\.cases\]\[0\] crossing"):
         load_scene(f)
-    out = subprocess.run([sys.executable, "-m", "gearopt", "studies"], capture_output=True, text=True, cwd=ROOT,
+    out = subprocess.run([sys.executable, "-m", "gearopt", "studies", "tca"], capture_output=True, text=True, cwd=ROOT,
                          env={"PYTHONPATH": str(ROOT), "PATH": "/usr/bin:/bin"})
     assert "[[tca.cases]]" in out.stdout
 

@@ -380,7 +380,7 @@ def test_measured_flank_reports_its_deviations(micro_reports):
 
 @pytest.mark.parametrize("edit, param", [
     (('C_beta = "12 um"', 'C_beta = "12 deg"'), "[pinion.modifications] C_beta"),
-    (('C_beta = "12 um"', 'C_beta = -3'), "[pinion.modifications] C_beta"),
+    (('C_beta = "12 um"', 'C_beta = "-3 um"'), "[pinion.modifications] C_beta"),
     (('d_Ca = "59.2 mm"', 'd_Ca = "70 mm"'), "[pinion.modifications] d_Ca"),
     (('d_Ca = "59.2 mm"', 'd_Cx = "59.2 mm"'), "[pinion.modifications] d_Cx"),
     (('tip_shape = "linear"', 'tip_shape = "round"'), "[pinion.modifications] tip_shape"),

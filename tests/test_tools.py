@@ -438,7 +438,7 @@ def test_geometry_study_python_shorthand_and_studies_listing(capsys):
     with pytest.raises(GeometryError, match="generation"):
         GeometryStudy(pair, generation="grinder")
     capsys.readouterr()
-    assert main(["studies"]) == 0
+    assert main(["studies", "common"]) == 0
     out = capsys.readouterr().out
     assert re.search(r"\[pinion\.tool\].*keys depend on kind", out)
     assert re.search(r'kind = "shaper":\n\s+z \(int, default 25\): 8 <= z <= 400', out)

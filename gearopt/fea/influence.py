@@ -32,6 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import GeometryError, out_of_range
+from ..progress import current, heartbeat
 from ..geometry.generation import GeneratedTooth
 from .calculix import CalculixError, read_dat, run_ccx
 from .mesh import MeshOptions, ToothMesher, build_member
@@ -238,9 +239,16 @@ def influence_grid(tooth: GeneratedTooth, E: float = 206000.0, nu: float = 0.3, 
         f = -nv  # a unit force into the tooth
         lines += ["*STEP", "*STATIC", "*CLOAD, OP=NEW"] + [f"{nid + 1}, {c + 1}, {f[c]:.12e}" for c in range(3)]
         lines += ["*NODE PRINT, NSET=RESP", "U", "*END STEP"]
+    say = current()  # the caller's progress (gearopt.progress.reporting); None: silent
+    label = f"FE influence coefficients of the {tooth.gear.name or 'member'}"
+    if say:
+        say(f"{label}: CalculiX, {flat_load.size} unit loads on {len(X)} nodes (cached afterwards in {cache_dir()})")
     t0 = time.perf_counter()
-    run = run_ccx(None, jobname="influence", threads=threads, inp="\n".join(lines) + "\n")
+    with heartbeat(say, f"{label}: CalculiX running", every=15.0):
+        run = run_ccx(None, jobname="influence", threads=threads, inp="\n".join(lines) + "\n")
     ccx_s = time.perf_counter() - t0
+    if say:
+        say(f"{label}: done in {ccx_s:.1f} s")
     blocks = [b for b in read_dat(run.dat) if b.what.startswith("displacements") and (b.set or "").upper() == "RESP"]
     n = flat_load.size
     if len(blocks) != n:

@@ -42,6 +42,7 @@ import numpy as np
 from ..errors import GeometryError, out_of_range
 from ..geometry.generation import GeneratedTooth, generate
 from ..geometry.tools import RackCutter
+from ..progress import current
 from .calculix import read_dat, run_ccx
 from .mesh import MeshOptions, ToothMesher, build_member
 
@@ -222,9 +223,15 @@ def local_excess(tooth: GeneratedTooth, radius, E: float = 206000.0, nu: float =
     rv = np.clip(radius + dr, r_min, r_max)
     kappa = np.empty(radius.size)
     done = {}
+    say = current()  # the caller's progress (gearopt.progress.reporting); None: silent
+    n_runs = len({round(float(r), 9) for r in rv})
+    t0 = time.perf_counter()
     for i, r in enumerate(rv):
         k = round(float(r), 9)
         if k not in done:
+            if say:
+                say(f"FE local compression of the {g.name or 'member'}: CalculiX section {len(done) + 1}/{n_runs} "
+                    f"(r = {r:.3f} mm, {time.perf_counter() - t0:.0f} s so far)")
             done[k] = section_compression(sec, float(r), b_H, E, nu, n_hertz, n_half, threads)["kappa"]
         kappa[i] = done[k]
     if use_cache:

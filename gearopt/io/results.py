@@ -10,9 +10,18 @@ A study's ``run()`` returns a result object with
 * optionally ``save_tables(directory) -> list[str]``: writes data tables (CSV) beside
   ``results.json``, whether or not plots are written; same path rules.
 
-:func:`write_results` writes into a temporary sibling of the output directory and renames it into
-place at the end: an existing output directory is replaced only when everything succeeded, and a
-failure leaves no half-written directory behind.
+:func:`write_results` writes into a temporary sibling of the output directory and moves the files
+into place at the end: a previous output is replaced only when everything succeeded, and a failure
+leaves no half-written directory behind.
+
+**gearopt never removes a file it did not write.** Every output directory holds a manifest,
+:data:`MANIFEST` (``.gearopt-output.json``), listing the files gearopt wrote there. An existing
+``--out`` directory is used only when it is empty or a previous gearopt output (it has the
+manifest); a directory holding anything else is refused (:func:`check_out_dir`, before the study
+runs). Replacing a previous output removes only the files its manifest lists; any other file found
+in it (a note added since) is kept where it is, and a new result file that would overwrite such a
+file is refused. Other commands that write a results directory call :func:`check_out_dir` before
+their work and :func:`write_results` (or :func:`install_output`) at the end.
 """
 
 from __future__ import annotations
@@ -28,10 +37,13 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import ArgumentError, ResultsError, shorten
+from ..progress import heartbeat
 
-__all__ = ["write_results", "check_out_dir", "RESULTS_FILE"]
+__all__ = ["write_results", "check_out_dir", "install_output", "output_files", "RESULTS_FILE", "MANIFEST"]
 
 RESULTS_FILE = "results.json"
+#: The manifest of an output directory: the files gearopt wrote there (JSON, ``{"files": [...]}``).
+MANIFEST = ".gearopt-output.json"
 
 
 def _jsonable(obj):
@@ -62,12 +74,72 @@ def _find_nonfinite(obj, path="") -> str | None:
     return None
 
 
+def output_files(out_dir) -> list[str] | None:
+    """The files a previous gearopt run wrote into ``out_dir``, from its :data:`MANIFEST`.
+
+    Returns
+    -------
+    list[str] or None
+        Paths relative to ``out_dir`` (``"results.json"``, ``"te.png"``...); ``[]`` for an empty
+        directory; ``None`` when ``out_dir`` holds anything but is no gearopt output (no manifest,
+        or one that cannot be read).
+    """
+    out = Path(out_dir)
+    man = out / MANIFEST
+    if not man.is_file():
+        return [] if out.is_dir() and not any(out.iterdir()) else None
+    try:
+        data = json.loads(man.read_text(encoding="utf-8"))
+        files = data["files"]
+        if data.get("written_by") != "gearopt" or not isinstance(files, list):
+            return None
+    except (OSError, ValueError, KeyError, TypeError, AttributeError):
+        return None
+    good = []
+    for f in files:  # only plain relative paths inside the directory count as gearopt's
+        if isinstance(f, str) and f and not Path(f).is_absolute() and ".." not in Path(f).parts and f != MANIFEST:
+            good.append(f)
+    return good
+
+
+def _foreign(out: Path) -> list[str]:
+    """Entries of ``out`` other than the manifest (directories with a trailing ``/``), sorted."""
+    return sorted(p.name + ("/" if p.is_dir() and not p.is_symlink() else "") for p in out.iterdir()
+                  if p.name != MANIFEST)
+
+
+def _refuse_foreign(out: Path, found: list[str]) -> ResultsError:
+    shown = ", ".join(found[:3]) + (f" and {len(found) - 3} more" if len(found) > 3 else "")
+    old = ""
+    try:  # results of a gearopt from before the manifest: say so, the user may delete them
+        if RESULTS_FILE in found and "gearopt_version" in json.loads((out / RESULTS_FILE).read_text())["meta"]:
+            old = (f" (its {RESULTS_FILE} is from an earlier gearopt that wrote no {MANIFEST}; if nothing else in it "
+                   "is yours, delete the directory)")
+    except (OSError, ValueError, KeyError, TypeError):
+        pass
+    return ResultsError(f"--out {out}: the directory exists and holds files gearopt did not write ({shown}){old}; "
+                        f"gearopt writes only into a new or empty directory or a previous gearopt output (one with "
+                        f"{MANIFEST}), and never removes a file it did not write. Choose another --out (e.g. "
+                        f"out/<scene name>) or empty this directory.",
+                        param="--out", value=str(out),
+                        valid="a new or empty directory, or a previous gearopt output")
+
+
 def check_out_dir(out_dir, scene_file=None) -> Path:
     """Check, before anything runs, that ``out_dir`` can become the results directory.
 
-    Refused (:class:`~gearopt.errors.ResultsError`): the empty path; an existing file or symlink;
-    the working directory, one of its parents or the root, or a directory holding the scene file
-    (the output directory is replaced as a whole); a place where the directory cannot be created.
+    Refused (:class:`~gearopt.errors.ResultsError`), nothing written: the empty path; an existing file
+    or symlink; the working directory, one of its parents or the root, or a directory holding the
+    scene file; an existing directory that holds anything and is not a previous gearopt output (no
+    :data:`MANIFEST`: the user's own files; see the module docstring); a place where the directory
+    cannot be created.
+
+    Parameters
+    ----------
+    out_dir : str or path
+        The output directory (``--out``).
+    scene_file : str or path, optional
+        The scene file that is run (a directory holding it is refused).
 
     Returns
     -------
@@ -79,15 +151,15 @@ def check_out_dir(out_dir, scene_file=None) -> Path:
                             "(str or pathlib.Path).",
                             param="out_dir", value=out_dir, valid="a directory path (str or pathlib.Path)")
     if out_dir is None or str(out_dir).strip() == "":
-        raise ResultsError("--out / out_dir is empty; valid: a directory path such as out/my_scene (it is created, "
-                           "or replaced as a whole).",
+        raise ResultsError("--out / out_dir is empty; valid: a directory path such as out/my_scene (it is created; "
+                           "a previous gearopt output there is replaced).",
                            param="--out", value=out_dir, valid="a directory path such as out/my_scene")
     out = Path(out_dir)
     full = Path(os.path.abspath(out))
     cwd = Path(os.getcwd())
     if full == Path(full.anchor) or full == cwd or full in cwd.parents:
-        raise ResultsError(f"--out {out}: is the working directory, one of its parents or the root; results replace "
-                           "the output directory as a whole, so give a directory of its own (e.g. out/my_scene).",
+        raise ResultsError(f"--out {out}: is the working directory, one of its parents or the root; give the results "
+                           "a directory of their own (e.g. out/my_scene).",
                            param="--out", value=str(out))
     if out.is_symlink() or (out.exists() and not out.is_dir()):
         raise ResultsError(f"--out {out}: exists and is not a directory; valid: a new directory or a previous "
@@ -96,9 +168,14 @@ def check_out_dir(out_dir, scene_file=None) -> Path:
     if scene_file is not None:
         scene_full = Path(os.path.abspath(scene_file))
         if full in scene_full.parents:
-            raise ResultsError(f"--out {out}: contains the scene file {scene_file}; replacing it would delete the scene. "
-                               "Give another output directory.",
+            raise ResultsError(f"--out {out}: contains the scene file {scene_file}; gearopt does not write beside "
+                               "your own files. Give another output directory (e.g. out/<scene name>).",
                                param="--out", value=str(out))
+    if out.is_dir():
+        owned = output_files(out)
+        found = (_foreign(out) or [MANIFEST]) if owned is None else []
+        if found:
+            raise _refuse_foreign(out, found)
     base = full.parent
     while not base.exists():
         base = base.parent
@@ -120,7 +197,8 @@ def write_results(out_dir, result, *, scene=None, run_time: float | None = None,
     Parameters
     ----------
     out_dir : path
-        Output directory; created, or replaced as a whole if it exists.
+        Output directory: created; or, when it exists, empty or a previous gearopt output, whose
+        listed files are replaced on success (module docstring; anything else is refused).
     result
         Object with ``to_dict()`` and ``save_plots(directory)`` (see module docstring).
     scene : Scene, optional
@@ -136,7 +214,8 @@ def write_results(out_dir, result, *, scene=None, run_time: float | None = None,
     Returns
     -------
     list[Path]
-        The written files in their final place: ``results.json`` first, then the plots.
+        The written files in their final place: ``results.json`` first, then the tables and the
+        plots (the manifest :data:`MANIFEST` is written too, not listed).
 
     Raises
     ------
@@ -199,8 +278,9 @@ def write_results(out_dir, result, *, scene=None, run_time: float | None = None,
             kwargs = {}
             if scene is not None and _accepts(result.save_plots, "dpi"):
                 kwargs["dpi"] = scene.output.get("dpi", 120)
-            written += _reported(tmp, result.save_plots(str(tmp), **kwargs), "save_plots")
-        _replace_dir(tmp, out_dir)
+            with heartbeat(progress, "writing plots", every=15.0):
+                written += _reported(tmp, result.save_plots(str(tmp), **kwargs), "save_plots")
+        install_output(tmp, out_dir)
     except OSError as e:
         shutil.rmtree(tmp, ignore_errors=True)
         raise ResultsError(f"cannot write the results to {out_dir}: {e.strerror or e}; nothing was written.") from None
@@ -239,19 +319,107 @@ def _umask() -> int:
     return mask
 
 
-def _replace_dir(new: Path, target: Path) -> None:
-    """Move directory ``new`` to ``target``, replacing an existing ``target`` only at the end."""
+def _files_under(d: Path) -> list[str]:
+    return sorted(str(Path(r, f).relative_to(d)) for r, _, fs in os.walk(d) for f in fs)
+
+
+def _write_manifest(out: Path, files: list[str]) -> None:
+    """Write :data:`MANIFEST` of ``out`` listing ``files`` (atomically: a temporary file renamed)."""
+    from .. import __version__
+
+    data = {"written_by": "gearopt", "gearopt_version": __version__,
+            "note": "gearopt replaces or removes only the files listed here; any other file in this directory is "
+                    "left alone.",
+            "files": sorted(set(files) - {MANIFEST})}
+    tmp = out / f"{MANIFEST}.tmp"
+    tmp.write_text(json.dumps(data, indent=1) + "\n", encoding="utf-8")
+    os.replace(tmp, out / MANIFEST)
+
+
+def install_output(new, target) -> list[str]:
+    """Move the files of the finished directory ``new`` into the output directory ``target``.
+
+    ``target`` is created when absent (``new`` renamed to it). An existing ``target`` must be empty or
+    a previous gearopt output (see the module docstring): the files its manifest lists are replaced
+    (removed when the new output does not have them), every other file in it is kept, and a new
+    file that would overwrite one of those is refused before anything moves. The manifest of
+    ``target`` lists the new files at the end. ``new`` is consumed (removed) on success.
+
+    Parameters
+    ----------
+    new : path
+        The complete new output (a temporary directory on the same file system as ``target``).
+    target : path
+        The output directory.
+
+    Returns
+    -------
+    list[str]
+        The installed files, relative to ``target``.
+
+    Raises
+    ------
+    ResultsError
+        ``target`` holds files gearopt did not write (and is no gearopt output), or a new file would
+        overwrite one; ``target`` is unchanged.
+    OSError
+        Moving failed; the previous output is put back as far as the file system allows.
+    """
+    new, target = Path(new), Path(target)
+    files = _files_under(new)
     if target.is_symlink() or (target.exists() and not target.is_dir()):
-        raise FileExistsError(f"{target} exists and is not a directory; not replacing it")
+        raise ResultsError(f"--out {target}: exists and is not a directory; not replacing it.",
+                           param="--out", value=str(target))
     if not target.exists():
+        _write_manifest(new, files)
         os.replace(new, target)
-        return
-    old = Path(tempfile.mkdtemp(prefix=f".{target.name}.old-", dir=target.parent))
-    os.rmdir(old)
-    os.replace(target, old)
+        return files
+    owned = output_files(target)
+    if owned is None:
+        raise _refuse_foreign(target, _foreign(target) or [MANIFEST])
+    clash = [f for f in files if (target / f).exists() or (target / f).is_symlink()]
+    clash = [f for f in clash if f not in owned]
+    if clash:
+        raise ResultsError(f"--out {target}: the new results would overwrite {', '.join(clash[:3])}, which gearopt "
+                           "did not write; nothing was changed. Move that file or choose another --out.",
+                           param="--out", value=str(target))
+    inside = target.resolve()
+    old = [f for f in owned if ((target / f).is_file() or (target / f).is_symlink())
+           and (target / f).parent.resolve().is_relative_to(inside)]  # never through a linked directory
+    # both lists in the manifest while the files move: after an interruption every file gearopt wrote is
+    # listed, so the next run still recognises this directory and replaces them
+    _write_manifest(target, old + files)
+    backup = Path(tempfile.mkdtemp(prefix=f".{target.name}.old-", dir=target.parent))
+    moved_old, moved_new = [], []
     try:
-        os.replace(new, target)
+        for f in old:
+            (backup / f).parent.mkdir(parents=True, exist_ok=True)
+            os.replace(target / f, backup / f)
+            moved_old.append(f)
+        for f in files:
+            (target / f).parent.mkdir(parents=True, exist_ok=True)
+            os.replace(new / f, target / f)
+            moved_new.append(f)
     except BaseException:
-        os.replace(old, target)  # put the previous results back
+        for f in moved_new:  # undo: the new files back, the previous output in place again
+            try:
+                os.replace(target / f, new / f)
+            except OSError:
+                pass
+        for f in moved_old:
+            try:
+                os.replace(backup / f, target / f)
+            except OSError:
+                pass
+        _write_manifest(target, owned)
+        shutil.rmtree(backup, ignore_errors=True)
         raise
-    shutil.rmtree(old, ignore_errors=True)
+    _write_manifest(target, files)
+    shutil.rmtree(backup, ignore_errors=True)
+    for f in old:  # directories that only held previous output files
+        d = (target / f).parent
+        while d != target and d.is_dir() and not any(d.iterdir()):
+            d.rmdir()
+            d = d.parent
+    shutil.rmtree(new, ignore_errors=True)
+    return files

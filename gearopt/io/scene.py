@@ -101,8 +101,9 @@ def _make_tool(values: dict | None):
 
 
 def _modification_fields() -> list:
-    """Keys of ``[<member>.modifications]``: the fields of :class:`Microgeometry` (amounts in um, a
-    bare number is um; positions in mm), with ``d_alpha_start``/``d_alpha_end`` for the profile
+    """Keys of ``[<member>.modifications]``: the fields of :class:`Microgeometry` (amounts in um,
+    written with their unit: ``"12 um"``, a bare number refused, see :data:`gearopt.units.UNIT_REQUIRED`;
+    positions in mm), with ``d_alpha_start``/``d_alpha_end`` for the profile
     evaluation range and ``sides``."""
     from dataclasses import fields as dc_fields
 
@@ -115,7 +116,7 @@ def _modification_fields() -> list:
             continue
         if meta.get("scene") == "um":
             removed = f.name.startswith("C_")
-            out.append(Field(f.name, "length", unit="um", default=0.0, check=Bounds(lo=0) if removed else None,
+            out.append(Field(f.name, "length", unit="um", default="0 um", check=Bounds(lo=0) if removed else None,
                              doc=doc + (" (>= 0: material removed)" if removed else "")))
         elif meta.get("unit") == "mm":
             out.append(Field(f.name, "length", doc=doc))

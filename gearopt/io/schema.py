@@ -445,8 +445,21 @@ def _describe(f: Field) -> str:
 
 def format_field(f: Field) -> str:
     """One line describing a field (for ``gearopt studies``)."""
+    from ..units import UNIT_REQUIRED
+
     req = "required" if f.required else (f"default {_toml(f.default)}" if f.default is not None else "optional")
     unit = f" [{f.scene_unit}]" if f.scene_unit else ""
+    shown, bounds = f.scene_unit, f.check
+    if f.kind == "angle" and f.typical == "arcsec":  # TE levels: in the unit users write them
+        table, _ = KINDS["angle"]
+        k = table[f.scene_unit] / table["arcsec"]
+        shown = "arcsec"
+        unit = f' [arcsec: write "8 arcsec"; a bare number is {f.scene_unit}]'
+        if isinstance(bounds, Bounds):
+            bounds = Bounds(*(None if v is None else v * k for v in (bounds.lo, bounds.hi)), bounds.lo_open,
+                            bounds.hi_open)
+    elif f.scene_unit in UNIT_REQUIRED:
+        unit = f' [{f.scene_unit}, written with its unit: "12 {f.scene_unit}"]'
     choices = f" one of {', '.join(_toml(c) for c in f.choices)};" if f.choices is not None else ""
-    check = f" {f.check.text(f.name, f.scene_unit)};" if isinstance(f.check, Bounds) else ""
+    check = f" {bounds.text(f.name, shown)};" if isinstance(bounds, Bounds) else ""
     return f"{f.name} ({f.kind}{unit}, {req}):{choices}{check} {f.doc}".rstrip()

@@ -26,6 +26,7 @@ import numpy as np
 from ..contact.edge import EdgeContact
 from ..gears import GearPair
 from ..meshing.tca import TCA, Misalignment
+from ..progress import heartbeat
 from ..synthesis.crowning import SENSITIVITY_UNITS, CrowningOptimizer, CrowningTarget  # noqa: F401 - re-exported
 from ..units import ARCMIN
 
@@ -102,24 +103,30 @@ class CrowningStudy:
         phi = np.linspace(-pitch, pitch, 162, endpoint=False)
         if progress:
             progress(f"crowning: TCA of the drive before optimization ({len(self.cases)} cases)")
-        ec0 = EdgeContact(TCA(self.pair))
-        lim0 = {"pinion": {"b": self.pair.pinion.b, "r_a": self.pair.pinion.r_a, "r_form": ec0.r_form[1]},
-                "gear": {"b": self.pair.gear.b, "r_a": self.pair.gear.r_a, "r_form": ec0.r_form[2]}}
-        before = [ec0.sweep(phi, mis=m, pairs=(-2, -1, 0, 1, 2)).to_dict(c, z1, lim0)
-                  for c, m in self.cases.items()]
+        with heartbeat(progress, "crowning: TCA of the drive before optimization", every=15.0):
+            ec0 = EdgeContact(TCA(self.pair))
+            lim0 = {"pinion": {"b": self.pair.pinion.b, "r_a": self.pair.pinion.r_a, "r_form": ec0.r_form[1]},
+                    "gear": {"b": self.pair.gear.b, "r_a": self.pair.gear.r_a, "r_form": ec0.r_form[2]}}
+            before = [ec0.sweep(phi, mis=m, pairs=(-2, -1, 0, 1, 2)).to_dict(c, z1, lim0)
+                      for c, m in self.cases.items()]
         if progress:
             progress("crowning: building the NLP")
-        self.optimizer.build(verbose=not self.quiet)
+        with heartbeat(progress, "crowning: building the NLP", every=15.0):
+            self.optimizer.build(verbose=not self.quiet)
         if progress:
-            progress(f"crowning: solving (IPOPT, {self.optimizer._x0.size} variables)")
-        d = self.optimizer.solve(verbose=not self.quiet)
+            progress(f"crowning: NLP built in {self.optimizer.build_time:.1f} s; solving (IPOPT, "
+                     f"{self.optimizer._x0.size} variables)")
+        with heartbeat(progress, "crowning: solving (IPOPT), then verifying the design by TCA", every=15.0):
+            d = self.optimizer.solve(verbose=not self.quiet)
         if progress:
-            progress(f"crowning: {d.status} in {d.iterations} iterations, {d.solve_time:.3f} s; verifying every case")
+            progress(f"crowning: IPOPT {d.status} in {d.iterations} iterations, {d.solve_time:.3f} s; design verified; "
+                     f"TCA of the optimised drive ({len(self.cases)} cases)")
         ec1 = d.edge if d.edge is not None else EdgeContact(TCA(d.pair))  # compiled once, in solve()
         lim1 = {"pinion": {"b": d.pair.pinion.b, "r_a": d.pair.pinion.r_a, "r_form": ec1.r_form[1]},
                 "gear": {"b": d.pair.gear.b, "r_a": d.pair.gear.r_a, "r_form": ec1.r_form[2]}}
-        after = [ec1.sweep(phi, mis=m, pairs=(-2, -1, 0, 1, 2)).to_dict(c, d.pair.pinion.z, lim1)
-                 for c, m in self.cases.items()]
+        with heartbeat(progress, "crowning: TCA of the optimised drive", every=15.0):
+            after = [ec1.sweep(phi, mis=m, pairs=(-2, -1, 0, 1, 2)).to_dict(c, d.pair.pinion.z, lim1)
+                     for c, m in self.cases.items()]
         design = d.to_dict()
         self.design = d
         return CrowningReport(scene=self.name, design=design, before=before, after=after,

@@ -129,6 +129,7 @@ class FEStudy:
 
         from ..fea.calculix import require_ccx
         from ..fea.model import GearFEModel, model_tca
+        from ..progress import heartbeat
         from ..report import misalignment_dict
 
         require_ccx()
@@ -136,16 +137,26 @@ class FEStudy:
         p = self.pair
         tca = model_tca(p, self.misalignment)
         positions, mesh_plot, fe_results = [], None, []
+        n = len(self.phi1s)
         for i, phi1 in enumerate(self.phi1s):
+            tag = f"fea: position {i + 1}/{n}"
             if progress:
-                progress(f"fea: position {i + 1}/{len(self.phi1s)} (phi1 = {math.degrees(phi1):.3f} deg)")
+                progress(f"{tag} (phi1 = {math.degrees(phi1):.3f} deg): building the model")
+            t1 = time.perf_counter()
             opt = self.options
             if self.keep_dir is not None:
                 opt = replace(opt, keep_dir=str(Path(self.keep_dir) / f"pos{i}"))
             model = GearFEModel(p, phi1, opt, tca=tca, mis=self.misalignment)
             if mesh_plot is None:
                 mesh_plot = mesh_section(model)
-            res = model.run()
+            if progress:
+                nodes = len(model.nodes_pinion) + len(model.nodes_gear)
+                elements = len(model.pinion_mesh.elements) + len(model.gear_mesh.elements)
+                progress(f"{tag}: {nodes} nodes, {elements} elements ({model.build_time:.1f} s); CalculiX running")
+            with heartbeat(progress, f"{tag}: CalculiX running", every=15.0):
+                res = model.run()
+            if progress:
+                progress(f"{tag}: done in {time.perf_counter() - t1:.1f} s")
             fe_results.append(res)
             positions.append(res.to_dict())
         o = self.options

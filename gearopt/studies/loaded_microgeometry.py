@@ -40,6 +40,7 @@ from pathlib import Path
 import numpy as np
 
 from ..geometry.microgeometry import GLOBAL_AMOUNTS, RELIEF_AMOUNTS
+from ..progress import heartbeat
 from ..units import RAD_TO_ARCSEC
 
 UNITS = {"amounts": "um (suffix _um)", "te": "arcsec (suffix _arcsec)", "pressure": "MPa", "torque": "N m",
@@ -184,11 +185,13 @@ class LoadedMicroStudy:
         if progress:
             progress(f"loaded micro-geometry: {len(opt.free)} free amounts, {opt.torques.size} torques x "
                      f"{len(opt.cases)} cases x {opt.phi1.size} positions")
-        d = opt.solve(progress=progress)
+        with heartbeat(progress, "loaded micro-geometry: trust-region round running", every=30.0) as say:
+            d = opt.solve(progress=say)
         front = None
         if self.pareto is not None:
             # the front's anchor is the optimum without a pressure limit: this design when there is none
-            fr = opt.pareto(self.pareto, progress=progress, anchor=d if opt.p_limit is None else None)
+            with heartbeat(progress, "loaded micro-geometry: Pareto front running", every=30.0) as say:
+                fr = opt.pareto(self.pareto, progress=say, anchor=d if opt.p_limit is None else None)
             if opt.p_limit is None:
                 d = fr.anchor  # solved again from a better point of the front, if one was
             front = fr.to_dict()
@@ -309,8 +312,11 @@ def _register():
     from .tca import misalignment_fields
 
     def amounts(member):
-        return Section(member, [], subsections=[_range_section(a, "length", f"bounds of the {member}'s {a}")
-                                                for a in GLOBAL_AMOUNTS + RELIEF_AMOUNTS]
+        um = [Section(a, [Field("lo", "length", required=True, unit="um", doc="lower end"),
+                          Field("hi", "length", required=True, unit="um", doc="upper end")],
+                      doc=f"bounds of the {member}'s {a} (with their unit, \"40 um\")")
+              for a in GLOBAL_AMOUNTS + RELIEF_AMOUNTS]
+        return Section(member, [], subsections=um
                        + [_range_section(a, "inverse_length", f"bounds of the {member}'s Litvin setting {a} [1/mm]")
                           for a in ("a_c", "a_pl")],
                        doc=f"free amounts of the {member} with their bounds")
