@@ -4,7 +4,7 @@
 # fea_spur needs CalculiX (`ccx`, Debian/Ubuntu: apt-get install calculix-ccx).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-GEAROPT=.venv/bin/gearopt
+GEAROPT=${GEAROPT:-.venv/bin/gearopt}   # override to use another install
 [ -x "$GEAROPT" ] || { echo "error: $GEAROPT not found; run 'make demo' first" >&2; exit 1; }
 command -v ccx >/dev/null 2>&1 || { echo "error: ccx (CalculiX) not found; fea_spur needs it" >&2; exit 1; }
 
@@ -22,7 +22,7 @@ for row in "${IMAGES[@]}"; do
   read -r scene png name <<<"$row"
   if [[ "$done_scenes" != *" $scene "* ]]; then
     echo "== $scene"
-    "$GEAROPT" run "problems/$scene.toml" --out "out/$scene" --quiet
+    "$GEAROPT" run "problems/$scene.toml" --out "out/$scene" --quiet >/dev/null
     done_scenes+="$scene "
   fi
   cp "out/$scene/$png" "docs/img/$name"
