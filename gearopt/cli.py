@@ -34,7 +34,7 @@ EXIT_USAGE = 2  #: exit status for bad input (same as argparse's usage errors)
 
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="gearopt", description="Gear geometry and tooth contact analysis "
-                                "(after Litvin & Fuentes). Scenes are TOML files; see README.md.")
+                                "(after Litvin & Fuentes). Scenes are TOML files; see docs/scenes.md.")
     p.add_argument("--version", action="version", version=f"gearopt {__version__}")
     sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
     r = sub.add_parser("run", help="run a scene's study and write results.json and plots")

@@ -9,7 +9,7 @@ already stated for the scene. Errors about the gear data found while a study is 
 (a shaper-cut pinion refused by the crowning synthesis) are stated for the gear key the user wrote.
 
 The expected fields are read off the scene text written in each test (the key, the value as typed)
-and the documented valid ranges (README, `gearopt studies`), not off the loader's output. This
+and the documented valid ranges (docs/errors.md, `gearopt studies`), not off the loader's output. This
 module is also one of the corpora checked by tests/error_fields.py (conftest.py).
 """
 
