@@ -80,12 +80,15 @@ class LTCAReport:
         plot_te_vs_torque(d, ax=fig.add_subplot(gs[1, 0]))
         plot_harmonics(d, ax=fig.add_subplot(gs[1, 1]))
         files = [save("ltca_te.png", fig, "loaded transmission error")]
-        fig, axes = plt.subplots(1, 3, figsize=(17, 4.8), layout="constrained")
-        plot_load_sharing(d, ax=axes[0])
-        plot_mesh_stiffness(d, ax=axes[1])
-        plot_face_load(d, ax=axes[2])
+        fig = plt.figure(figsize=(18, 6.4), layout="constrained")
+        gs = fig.add_gridspec(2, 3)
+        plot_load_sharing(d, ax=fig.add_subplot(gs[:, 0]))
+        plot_mesh_stiffness(d, ax=fig.add_subplot(gs[:, 1]))
+        ax_q = fig.add_subplot(gs[0, 2])
+        plot_face_load(d, ax=ax_q, ax_pressure=fig.add_subplot(gs[1, 2], sharex=ax_q))
+        ax_q.set_xlabel("")
         files.append(save("ltca_sharing.png", fig, "load sharing, mesh stiffness, load across the face"))
-        fig, axes = plt.subplots(1, 2, figsize=(13, 5), layout="constrained")
+        fig, axes = plt.subplots(1, 2, figsize=(13, 5.6), layout="constrained")
         pat = d["pattern"]
         p_flank = np.where(np.array(pat.get("edge", [0] * len(pat["p0_MPa"]))) > 0, 0.0,
                            np.array(pat["p0_MPa"], float))  # one scale for both flanks; tip edges are marked
