@@ -246,7 +246,7 @@ def pattern_field(d: dict, member: str, nz: int = 300, nr: int = 240):
     keys = list(dict.fromkeys(P["row"][~P["edge"]]))
     if not keys:
         return zc, rc, img
-    means = np.sort([float(np.mean(P["r"][P["row"] == k])) for k in keys])
+    means = np.sort([float(np.mean(P["r"][(P["row"] == k) & ~P["edge"]])) for k in keys])
     steps = np.diff(means)[np.diff(means) > 1e-9]
     step = float(np.median(steps)) if steps.size else (rc[1] - rc[0])
     r_b = d["pattern"][member]["r_b"]

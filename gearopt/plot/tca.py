@@ -373,10 +373,10 @@ def _break_jumps(z, r, lim, tol=0.2):
 
 def contact_lines(case: dict, member: str, every: int = 8) -> tuple[list, dict]:
     """Instantaneous contact lines of the central pair of an edge-contact case whose flanks are in
-    line contact (``stats.surface_mode`` "line contact ...", e.g. an aligned unmodified drive): at
-    every ``every``-th position, the points of all contact features (mid section, face ends, tip
-    edges) that the pair touches at the same TE (within :data:`CONJUGATE_ARCSEC`) lie on one
-    contact line; they are joined in the order of z.
+    line contact (e.g. an aligned unmodified drive): at every ``every``-th position, the points of
+    all contact features (mid section, face ends, tip edges) that the pair touches at the same TE
+    (within :data:`CONJUGATE_ARCSEC`) and apart along the face lie on one contact line; they are
+    joined in the order of z. Fewer than three such positions are not line contact (none returned).
 
     Returns
     -------
@@ -387,9 +387,8 @@ def contact_lines(case: dict, member: str, every: int = 8) -> tuple[list, dict]:
         Per feature name, (N,) bool: the positions where its point is a point of the contact line
         (at every position, not only the sampled ones).
     """
-    st = case.get("stats") or {}
     paths = case.get("paths_central_pair") or {}
-    if not str(st.get("surface_mode", "")).startswith("line contact") or 0 not in case["pairs"]:
+    if not case.get("edge_analysis") or 0 not in case["pairs"]:
         return [], {}
     te0 = _f(case["te_arcsec"][case["pairs"].index(0)])
     te_b = case.get("te_branches_central_arcsec") or {}
@@ -410,6 +409,8 @@ def contact_lines(case: dict, member: str, every: int = 8) -> tuple[list, dict]:
         if len(pts) >= 2 and max(pts) - min(pts) > 0.02 * b:
             z = np.array(sorted(pts))
             raw.append((z, np.array([pts[k] for k in sorted(pts)]), loaded))
+    if len(raw) < 3:  # not line contact: at most a coincidence of two contact points
+        return [], {}
     return [(*_curved(z, r, raw), loaded) for z, r, loaded in raw], on_line
 
 
