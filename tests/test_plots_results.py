@@ -481,7 +481,7 @@ def test_te_axis_states_its_zero(conjugate_edge_report, crowned_report):
     fig, axes = plt.subplots(2, 1)
     P.plot_edge_te(mis, ax=axes[0])
     P.plot_te(crowned_report[1].cases[0], ax=axes[1])
-    assert "conjugate position of the aligned, unmodified drive" in axes[0].get_ylabel()
+    assert "zero: aligned conjugate drive" in axes[0].get_ylabel()
     assert "pair 0 at phi1 = 0" in axes[1].get_ylabel()
     plt.close(fig)
 

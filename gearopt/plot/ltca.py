@@ -32,7 +32,7 @@ def plot_loaded_te(d: dict, ax=None):
         ax.plot(phi, _arr(t["te_loaded_arcsec"]), color=c, lw=1.4,
                 label=f"{t['torque_Nm']:.4g} N m (p-p {t['peak_to_peak_arcsec']:.2f}\")")
     ax.set_xlabel("pinion angle phi1 [deg]")
-    ax.set_ylabel("transmission error [arcsec]\n(+: gear ahead; 0: unloaded pair 0 at phi1 = 0)")
+    ax.set_ylabel("transmission error [arcsec] (+: gear ahead)\nzero: unloaded pair 0 at phi1 = 0")
     ax.set_title("loaded transmission error over one mesh cycle")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), title="pinion torque", title_fontsize=7)

@@ -134,19 +134,20 @@ def _draw_conjugate(ax, case, phi):
 def te_zero_text(case: dict) -> str:
     """Where the case's TE is zero, for the axis label: pair 0 at phi1 = 0 (the surface TCA's zero),
     or, for an edge-contact analysis without any surface-to-surface contact, the conjugate position
-    of the aligned, unmodified drive (``stats.te_zero_rad`` 0; docs/results.md, "TE zero")."""
+    of the aligned, unmodified drive ("aligned conjugate drive"; ``stats.te_zero_rad`` 0;
+    docs/results.md, "TE zero")."""
     st = case.get("stats") or {}
     if case.get("edge_analysis"):
         surf = case.get("te_branches_central_arcsec", {}).get("surface") or []
         no_surface = isinstance(st.get("surface"), str) or not any(v is not None for v in surf)
         if no_surface and not st.get("te_zero_rad"):
-            return "0: conjugate position of the aligned, unmodified drive"
-    return "0: pair 0 at phi1 = 0"
+            return "zero: aligned conjugate drive"
+    return "zero: pair 0 at phi1 = 0"
 
 
 def te_ylabel(case: dict) -> str:
     """TE axis label with the unit, the sign and the zero of ``case``."""
-    return f"TE [arcsec]\n(+: gear ahead; {te_zero_text(case)})"
+    return f"TE [arcsec] (+: gear ahead)\n{te_zero_text(case)}"
 
 
 def pair_label(k: int) -> str:
@@ -313,7 +314,7 @@ def plot_compare(cases: dict, axes=None, member: str = "gear"):
         ax_map.plot(zz, rr, color=col, ls=ls, lw=lw, label=label + (f" (coincides with {same[0]})" if same else ""))
         seen_map.append((label, (zz, rr)))
     ax_te.set_xlabel("pinion angle phi1 [deg]")
-    ax_te.set_ylabel(f"actual TE [arcsec]\n(+: gear ahead; {te_zero_text(first)})")
+    ax_te.set_ylabel(f"actual TE [arcsec] (+: gear ahead)\n{te_zero_text(first)}")
     ax_map.set_ylabel(f"{member} radius [mm]")
     for ax in axes:
         ax.grid(alpha=0.3)

@@ -67,11 +67,13 @@ class LTCAReport:
 
         from ..plot.ltca import (plot_contact_pattern, plot_face_load, plot_harmonics, plot_load_sharing,
                                  plot_loaded_te, plot_mesh_stiffness, plot_te_vs_torque)
+        from ..plot.ticks import plain_ticks
 
         out = Path(out_dir)
         d = self.to_dict()
 
         def save(name, fig, title):
+            plain_ticks(*fig.axes)
             return save_figure(out, self.scene, name, fig, title, dpi)
 
         fig = plt.figure(figsize=(13, 8), layout="constrained")
