@@ -67,14 +67,17 @@ class LTCAReport:
 
         from ..plot.ltca import (plot_contact_pattern, plot_face_load, plot_harmonics, plot_load_sharing,
                                  plot_loaded_te, plot_mesh_stiffness, plot_te_vs_torque)
+        from ..plot.tca import misalignment_text
         from ..plot.ticks import plain_ticks
 
         out = Path(out_dir)
         d = self.to_dict()
 
+        mis = misalignment_text({"misalignment": d["misalignment"]}) or "aligned"
+
         def save(name, fig, title):
             plain_ticks(*fig.axes)
-            return save_figure(out, self.scene, name, fig, title, dpi)
+            return save_figure(out, self.scene, name, fig, f"{title} ({mis})", dpi)
 
         fig = plt.figure(figsize=(13, 8), layout="constrained")
         gs = fig.add_gridspec(2, 2)
@@ -97,7 +100,7 @@ class LTCAReport:
         vmax = max(float(np.nanmax(p_flank)), 1.0) if p_flank.size else 1.0
         plot_contact_pattern(d, "pinion", ax=axes[0], vmax=vmax)
         plot_contact_pattern(d, "gear", ax=axes[1], vmax=vmax)
-        files.append(save("ltca_pattern.png", fig, "loaded contact pattern (largest pressure over the mesh cycle)"))
+        files.append(save("ltca_pattern.png", fig, "loaded contact pattern, largest pressure over the mesh cycle"))
         return files
 
     def save_tables(self, out_dir) -> list[str]:
