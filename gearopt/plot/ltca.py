@@ -236,7 +236,7 @@ def pattern_field(d: dict, member: str, nz: int = 300, nr: int = 240):
     interpolated linearly along the face between the slice contact points (tip edges included:
     the line reaches the tip there) and its pressure between the flank contacts' p0 (held at the
     ends: a tip edge's own pressure is nominal), over a radial band of half-width the larger of
-    its Hertz half-width (radial projection) and the radial step between successive rows, so
+    its Hertz half-width (radial projection) and the radial step between successive positions of a pair, so
     that successive positions join without gaps; where bands overlap the larger pressure counts."""
     P = pattern_points(d, member)
     lim = d["limits"][member]
@@ -246,8 +246,13 @@ def pattern_field(d: dict, member: str, nz: int = 300, nr: int = 240):
     keys = list(dict.fromkeys(P["row"][~P["edge"]]))
     if not keys:
         return zc, rc, img
-    means = np.sort([float(np.mean(P["r"][(P["row"] == k) & ~P["edge"]])) for k in keys])
-    steps = np.diff(means)[np.diff(means) > 1e-9]
+    # radial step: between the mean radii of successive positions of one tooth pair
+    steps = []
+    for pair in {k.split(":")[0] for k in keys}:
+        mine = sorted((float(k.split(":")[1]), k) for k in keys if k.split(":")[0] == pair)
+        means = [float(np.mean(P["r"][(P["row"] == k) & ~P["edge"]])) for _, k in mine]
+        steps.extend(np.abs(np.diff(means)))
+    steps = np.array(steps)[np.array(steps) > 1e-9] if steps else np.zeros(0)
     step = float(np.median(steps)) if steps.size else (rc[1] - rc[0])
     r_b = d["pattern"][member]["r_b"]
     for key in keys:
@@ -257,9 +262,6 @@ def pattern_field(d: dict, member: str, nz: int = 300, nr: int = 240):
         flank = ~P["edge"][sel][o]
         zf, pf, bf = z[flank], P["p0"][sel][o][flank], P["b_H"][sel][o][flank]
         a, b = np.nanmin(np.r_[lo, z]), np.nanmax(np.r_[hi, z])
-        end = 0.02 * lim["b"]  # a contact line that starts or ends within 2 % of the face end reaches it
-        a = -lim["b"] / 2 if a < -lim["b"] / 2 + end else a
-        b = lim["b"] / 2 if b > lim["b"] / 2 - end else b
         cols = np.flatnonzero((zc >= a - 1e-9) & (zc <= b + 1e-9))
         if cols.size == 0:  # narrower than a grid column: the nearest one
             cols = np.array([int(np.argmin(np.abs(zc - 0.5 * (a + b))))])
