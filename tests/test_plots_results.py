@@ -443,3 +443,219 @@ def test_planar_conjugate_te_plot():
     assert "conjugate" in ax.get_title()
     assert any("conjugate: TE = 0" in lab for lab in _check_legend(ax))
     plt.close(fig)
+
+
+# --- issue 38: offsets, masked non-contacts, contact lines, legends, loaded TCA plots ---------
+def _offset_texts(fig):
+    """The offset / scale-factor texts ("+3e1", "1e3") of every axis of ``fig`` after a draw."""
+    fig.canvas.draw()
+    return [t for ax in fig.axes for t in (ax.xaxis.get_offset_text().get_text(),
+                                           ax.yaxis.get_offset_text().get_text()) if t]
+
+
+def test_no_offset_text_on_any_tca_axis(conjugate_edge_report, crowned_report, tmp_path, monkeypatch):
+    """The misaligned edge drive's TE sits near +30 arcsec with a 0.005 arcsec ripple: matplotlib
+    would print "+3e1" and ticks -0.000..-0.008; every tick label must be the value itself."""
+    figs = []
+    monkeypatch.setattr(plt, "close", lambda fig=None: figs.append(fig))
+    conjugate_edge_report.save_plots(tmp_path)
+    crowned_report[1].save_plots(tmp_path)
+    assert len(figs) >= 5
+    for fig in figs:
+        assert _offset_texts(fig) == []
+    mis = conjugate_edge_report.to_dict()["cases"][1]
+    fig, ax = plt.subplots()
+    P.plot_edge_te(mis, ax=ax)
+    fig.canvas.draw()
+    lo, hi = ax.get_ylim()
+    assert 25 < lo < hi < 35  # the level is on the tick labels
+    assert any(float(t.get_text().replace("\u2212", "-")) > 25 for t in ax.get_yticklabels() if t.get_text())
+    plt.close(fig)
+
+
+def test_te_axis_states_its_zero(conjugate_edge_report, crowned_report):
+    """An edge-only drive is measured from the aligned conjugate position (its TE is +30 arcsec),
+    a drive with surface contact from pair 0 at phi1 = 0: the axis label says which."""
+    mis = conjugate_edge_report.to_dict()["cases"][1]
+    assert isinstance(mis["stats"]["surface"], str) and mis["stats"]["te_zero_rad"] == 0.0
+    fig, axes = plt.subplots(2, 1)
+    P.plot_edge_te(mis, ax=axes[0])
+    P.plot_te(crowned_report[1].cases[0], ax=axes[1])
+    assert "zero: aligned conjugate drive" in axes[0].get_ylabel()
+    assert "pair 0 at phi1 = 0" in axes[1].get_ylabel()
+    plt.close(fig)
+
+
+def test_pair_te_left_out_where_not_a_contact_on_the_flanks(crowned_report):
+    """Points of a pair whose contact lies outside the active flanks are not drawn (they can rise
+    far above the actual TE, which no real contact can); every drawn pair point is on the flanks
+    and none lies above the envelope."""
+    case = json.loads(json.dumps(crowned_report[1].cases[1]))
+    flags = np.array(case["on_surface_pairs"], bool)
+    te = np.array([[np.nan if v is None else v for v in row] for row in case["te_arcsec"]])
+    assert flags.shape == te.shape and (np.isfinite(te) & ~flags).any(), "the run has off-flank points"
+    env = np.array([np.nan if v is None else v for v in case["te_envelope_arcsec"]])
+    # a made-up off-flank point far above the envelope, as the solver returns it
+    k = case["pairs"].index(1)
+    i = int(np.flatnonzero(~flags[k] & np.isfinite(te[k]))[0])
+    case["te_arcsec"][k][i] = float(np.nanmax(env) + 5.0)
+    fig, ax = plt.subplots()
+    P.plot_te(case, ax=ax)
+    phi = np.degrees(case["phi1"])
+    for ln in ax.get_lines():
+        if not ln.get_label().startswith("tooth pair"):
+            continue
+        y = np.asarray(ln.get_ydata(), float)
+        assert not np.isfinite(y[~flags[case["pairs"].index(int(ln.get_label().split()[-1]))]]).any()
+        with np.errstate(invalid="ignore"):
+            assert not (y > env + 1e-6).any()
+        assert np.allclose(ln.get_xdata(), phi)
+    plt.close(fig)
+
+
+def test_line_contact_drawn_as_contact_lines_across_the_face(conjugate_edge_report):
+    """The aligned unmodified spur drive is in line contact: the flank map shows instantaneous
+    contact lines from face end to face end (constant radius for a spur), not a path at z = 0."""
+    aligned = conjugate_edge_report.to_dict()["cases"][0]
+    for member in ("pinion", "gear"):
+        fig, ax = plt.subplots()
+        P.plot_edge_paths(aligned, member, ax=ax)
+        lim = aligned["limits"][member]
+        lines = [ln for ln in ax.get_lines() if ln.get_color() == "C3"]
+        assert len(lines) >= 8
+        for ln in lines:
+            z, r = np.asarray(ln.get_xdata(), float), np.asarray(ln.get_ydata(), float)
+            assert z.min() == pytest.approx(-lim["b"] / 2, abs=1e-6) and z.max() == pytest.approx(lim["b"] / 2, abs=1e-6)
+            assert np.ptp(r) < 1e-6 * lim["r_a"]  # spur: a contact line at one radius
+        radii = sorted(float(ln.get_ydata()[0]) for ln in lines)
+        assert radii[-1] - radii[0] > 0.5 * (lim["r_a"] - lim["r_form"])  # spread over the profile
+        assert any("contact lines" in lab for lab in _check_legend(ax))
+        assert "line contact" in ax.get_title()
+        plt.close(fig)
+
+
+def test_helical_contact_lines_follow_the_points_of_the_features():
+    """Helical line contact: each contact line passes through the points of the features at its
+    position (mid section, face end, tip) and is smooth (r^2 quadratic in z) between them."""
+    n = 9
+    phi = list(np.linspace(-0.2, 0.2, n))
+    rb, k = 26.0, 0.3  # base radius [mm], ds/dz = tan(beta_b)
+    s0 = np.linspace(8.0, 12.0, n)
+    r_of = lambda s: float(np.hypot(rb, s))  # noqa: E731
+    paths = {}
+    for name, z in (("surface", 0.0), ("pinion_face-", -10.0), ("pinion_face+", 10.0)):
+        rr = [r_of(s + k * z) for s in s0]
+        paths[name] = {m: {"axial": [z] * n, "radius": rr} for m in ("pinion", "gear")}
+        paths[name]["carries_load"] = [True] * n
+    case = _edge_case("aligned", [0.0] * n, ["surface"] * n)
+    case.update(paths_central_pair=paths, stats={"surface_mode": "line contact (mid section)", "te_zero_rad": 0.0},
+                te_branches_central_arcsec={name: [0.0] * n for name in paths}, phi1=phi)
+    lines, on_line = P.contact_lines(case, "pinion", every=1)
+    assert len(lines) == n and all(v.all() for v in on_line.values())
+    for (z, r, loaded), s in zip(lines, s0):
+        assert loaded and z[0] == -10.0 and z[-1] == 10.0
+        assert np.allclose(r, [r_of(s + k * zz) for zz in z], atol=1e-9)
+
+
+def test_legend_lists_only_visible_lines():
+    """A dashed line whose finite points are isolated (no segment) draws nothing: not in the legend."""
+    fig, ax = plt.subplots()
+    ax.plot([0, 1, 2, 3], [0, np.nan, 1, np.nan], ls="--", label="isolated points")
+    ax.plot([0, 1], [0, 1], label="a segment")
+    ax.plot([0, 1, 2], [0, np.nan, 1], "o", label="markers")
+    assert _legend_labels(ax) == [] and P.legend(ax) is not None
+    assert _legend_labels(ax) == ["a segment", "markers"]
+    plt.close(fig)
+
+
+def _ltca_dict():
+    pat = {"torque_Nm": 100.0, "pair": [0, 0, 0, 0, 0], "phi1": [0.0, 0.0, 0.1, 0.1, 0.1],
+           "p0_MPa": [1000.0, 2000.0, 1000.0, 2000.0, 500.0], "b_H_mm": [0.1] * 5, "edge": [0, 0, 0, 0, 1],
+           "pinion": {"axial": [-5.0, 5.0, -5.0, 5.0, 8.0], "from": [-10.0, 0.0, -10.0, 0.0, 7.0],
+                      "to": [0.0, 10.0, 0.0, 10.0, 9.0], "radius": [30.0, 30.0, 31.0, 31.0, 33.0], "r_b": 28.0}}
+    face = {"phi1": 0.01, "pairs": [-1, 0, 1], "axial": [[-5.0, 0.0, 5.0]] * 3,
+            "line_load_N_per_mm": [[0.0, 0.0, 0.0], [200.0, 210.0, 200.0], [100.0, 110.0, 100.0]],
+            "p0_MPa": [[0.0, 0.0, 0.0], [1000.0, 1010.0, 1000.0], [1400.0, 1453.0, 1400.0]],
+            "edge": [[0, 0, 0], [0, 0, 0], [0, 0, 0]]}
+    return {"pairs": [-1, 0, 1], "pattern": pat, "face_load": face,
+            "limits": {"pinion": {"b": 20.0, "r_a": 33.0, "r_form": 28.5}},
+            "misalignment": {"dE_mm": 0.0, "crossing_arcmin": 3.0, "intersecting_arcmin": 0.0, "axial_mm": 0.0},
+            "phi1": [0.0, 0.1], "te_unloaded_arcsec": [0.0, -1.0],
+            "torques": [{"torque_Nm": 100.0, "te_loaded_arcsec": [-10.0, -10.5], "peak_to_peak_arcsec": 0.5}]}
+
+
+@pytest.mark.parametrize("stacked", [True, False])
+def test_face_load_one_colour_and_entry_per_pair_peak_visible(stacked):
+    from gearopt.plot.ltca import plot_face_load
+    d = _ltca_dict()
+    fig, (ax, axp) = plt.subplots(2, 1)
+    plot_face_load(d, ax=ax, ax_pressure=axp if stacked else None)
+    if not stacked:
+        axp = [a for a in fig.axes if a is not ax and a.bbox.bounds == ax.bbox.bounds][0]
+    labels = _legend_labels(ax)
+    assert labels.count("pair 0 (central)") == 1 and labels.count("pair +1") == 1
+    assert not any(lab.startswith("pair -1") for lab in labels)  # pair -1 carries nothing here
+    q = {ln.get_label(): matplotlib.colors.to_hex(ln.get_color()) for ln in ax.get_lines()}
+    dashed = [ln for ln in axp.get_lines() if ln.get_linestyle() == "--"]
+    assert sorted(matplotlib.colors.to_hex(ln.get_color()) for ln in dashed) == sorted(
+        [q["pair 0 (central)"], q["pair +1"]]), "a pair's pressure not in its own colour"
+    star = [ln for ln in axp.get_lines() if ln.get_marker() == "*"]
+    assert len(star) == 1 and star[0].get_ydata()[0] == 1453.0
+    lo, hi = axp.get_ylim()
+    assert lo <= 1453.0 < hi and "1453 MPa" in ax.get_title() and "pair +1" in ax.get_title()
+    assert _offset_texts(fig) == []
+    plt.close(fig)
+
+
+def test_contact_pattern_smooth_named_and_labels_in_legend():
+    from gearopt.plot.ltca import pattern_field, plot_contact_pattern
+    d = _ltca_dict()
+    zc, rc, img = pattern_field(d, "pinion")
+    i, j = int(np.argmin(np.abs(rc - 30.0))), int(np.argmin(np.abs(zc - 0.0)))
+    # linear along the contact line between the slice points (1000 at z = -5, 2000 at z = +5)
+    assert img[i, j] == pytest.approx(1000.0 + 1000.0 * (zc[j] + 5.0) / 10.0, rel=1e-9)
+    assert np.isnan(img[int(np.argmin(np.abs(rc - 28.6))), j])  # never touched (one row step below): blank
+    # the line reaches the face ends of its first and last slice
+    assert np.isfinite(img[i, 0]) and np.isfinite(img[i, -1])
+    fig, ax = plt.subplots()
+    plot_contact_pattern(d, "pinion", ax=ax)
+    assert "crossing +3 arcmin" in ax.get_title() and "100 N m" in ax.get_title()
+    labels = _legend_labels(ax)
+    assert any(lab.startswith("tip circle") for lab in labels) and any(lab.startswith("form circle") for lab in labels)
+    assert not ax.texts, "labels drawn in the data area"
+    leg = ax.get_legend()
+    fig.canvas.draw()
+    assert leg.get_window_extent().y1 <= ax.get_window_extent().y0 + 1, "legend over the pattern"
+    assert _offset_texts(fig) == []
+    plt.close(fig)
+
+
+def test_loaded_te_legend_outside_the_data():
+    from gearopt.plot.ltca import plot_loaded_te
+    fig, ax = plt.subplots()
+    plot_loaded_te(_ltca_dict(), ax=ax)
+    fig.canvas.draw()
+    assert ax.get_legend().get_window_extent().x0 >= ax.get_window_extent().x1 - 1
+    plt.close(fig)
+
+
+def test_pair_mesh_title_names_the_scene_and_pitch_point_label_at_its_point(tmp_path):
+    from gearopt.plot.geometry import plot_pair_mesh
+    from gearopt.plot.planar import plot_line_of_action
+    rep = load_scene(ROOT / "problems" / "spur_geometry.toml").build().run()
+    fig, ax = plt.subplots()
+    plot_pair_mesh(rep, ax=ax)
+    assert ax.get_title().startswith("spur_geometry: ")
+    plt.close(fig)
+    rep = load_scene(ROOT / "problems" / "problem_9_4_1.toml").build().run()
+    for zoom in (False, True):
+        fig, ax = plt.subplots(figsize=(7, 7))
+        plot_line_of_action(rep, ax=ax, zoom=zoom)
+        fig.canvas.draw()
+        ann = [t for t in ax.texts if t.get_text().startswith("I")]
+        assert len(ann) == 1 and ann[0].get_text() == "I"
+        box = ann[0].get_window_extent()
+        px, py = ax.transData.transform((0.0, rep.tca.y_I))
+        # the nearest corner of the label within 12 px (1/10 in at 120 dpi) of its point
+        assert min(np.hypot(x - px, y - py) for x in (box.x0, box.x1) for y in (box.y0, box.y1)) < 12
+        plt.close(fig)

@@ -306,6 +306,7 @@ class TCAResult(EnvelopeTE):
             "ellipse_semi_major_mm": arr(self.ellipse_a[k0]), "ellipse_semi_minor_mm": arr(self.ellipse_b[k0]),
             "delta_mm": self.delta,
             "converged": [bool(v) for v in self.converged[k0]], "on_surface": [bool(v) for v in self.on_surface[k0]],
+            "on_surface_pairs": [[bool(v) for v in row] for row in self.on_surface],
             "actual_te_at_every_position": bool(np.isfinite(self.te_envelope).all()),
             "max_residual": float(np.max(self.residual[self.converged])),  # over the accepted points
             "min_normal_dot": float(np.min(self.normal_dot[self.converged])),

@@ -8,6 +8,7 @@ import math
 import numpy as np
 
 from ..geometry.frames import rot_z_points
+from .ticks import plain_ticks
 
 
 def _data(report) -> dict:
@@ -102,8 +103,9 @@ def plot_tooth(report, member: str = "pinion", ax=None):
                  f"s_a = {m['s_a']:.3f} mm, undercut margin dx = {m['undercut_margin_x']:+.3f}", fontsize=9)
     ax.set_xlabel("x [mm]")
     ax.set_ylabel("y [mm]")
-    ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=3)
+    ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=3)
     ax.grid(alpha=0.3)
+    plain_ticks(ax)
     return ax
 
 
@@ -144,12 +146,14 @@ def plot_pair_mesh(report, ax=None, teeth: int = 4):
     ax.set_xlim(-w, w)
     ax.set_ylim(r_w1 - 0.8 * w, r_w1 + 0.8 * w)
     ax.set_aspect("equal")
-    ax.set_title(f"pair in mesh: a = {a:.4f} mm, alpha_wt = {pr['alpha_wt_deg']:.3f} deg, "
-                 f"eps_alpha = {pr['eps_alpha']:.3f}, eps_beta = {pr['eps_beta']:.3f}", fontsize=9)
+    scene = f"{d['scene']}: " if d.get("scene") else ""
+    ax.set_title(f"{scene}pair in mesh (transverse section)\na = {a:.4f} mm, alpha_wt = {pr['alpha_wt_deg']:.3f} deg, "
+                 f"eps_alpha = {pr['eps_alpha']:.3f}, eps_beta = {pr['eps_beta']:.3f}", fontsize=10)
     ax.set_xlabel("x [mm]")
     ax.set_ylabel("y [mm]")
-    ax.legend(fontsize=7, loc="lower left")
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     ax.grid(alpha=0.3)
+    plain_ticks(ax)
     return ax
 
 
@@ -188,4 +192,5 @@ def plot_rack_mesh(report, member: str = "pinion", ax=None, teeth: int = 3):
     ax.set_ylabel("y [mm]")
     ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     ax.grid(alpha=0.3)
+    plain_ticks(ax)
     return ax

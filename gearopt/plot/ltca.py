@@ -7,6 +7,8 @@ import math
 
 import numpy as np
 
+from .ticks import plain_ticks
+
 
 def _arr(v):
     return np.array([np.nan if x is None else x for x in v], float)
@@ -30,10 +32,11 @@ def plot_loaded_te(d: dict, ax=None):
         ax.plot(phi, _arr(t["te_loaded_arcsec"]), color=c, lw=1.4,
                 label=f"{t['torque_Nm']:.4g} N m (p-p {t['peak_to_peak_arcsec']:.2f}\")")
     ax.set_xlabel("pinion angle phi1 [deg]")
-    ax.set_ylabel("transmission error [arcsec]")
+    ax.set_ylabel("transmission error [arcsec] (+: gear ahead)\nzero: unloaded pair 0 at phi1 = 0")
     ax.set_title("loaded transmission error over one mesh cycle")
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=7, ncol=2, loc="best")
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), title="pinion torque", title_fontsize=7)
+    plain_ticks(ax)
     return ax
 
 
@@ -61,6 +64,7 @@ def torque_axes(ax, T, ylabel: str, title: str, legend_size: float = 7, pad: flo
     ax.set_title(title)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=legend_size)
+    plain_ticks(ax)
     return ax
 
 
@@ -82,12 +86,22 @@ def plot_harmonics(d: dict, ax=None):
     ax.grid(alpha=0.3, axis="y")
     if n:
         ax.legend(fontsize=7, ncol=2)
+    plain_ticks(ax)
     return ax
 
 
 def _nominal(d: dict) -> dict:
     nom = d["nominal_torque_Nm"]
     return min(d["torques"], key=lambda t: abs(t["torque_Nm"] - nom))
+
+
+def pair_color(d: dict, k: int):
+    """One colour per tooth pair ``k`` (its place in ``d["pairs"]``), the same in every LTCA plot."""
+    return f"C{list(d['pairs']).index(k) % 10}"
+
+
+def pair_name(k: int) -> str:
+    return f"pair {k:+d}" if k else "pair 0 (central)"
 
 
 def plot_load_sharing(d: dict, ax=None):
@@ -100,13 +114,14 @@ def plot_load_sharing(d: dict, ax=None):
     share = np.array([_arr(r) for r in t["pair_share"]])
     for k, row in zip(d["pairs"], share):
         if np.nanmax(row) > 1e-6:
-            ax.plot(phi, row, lw=1.5, label=f"pair {k:+d}" if k else "pair 0 (central)")
+            ax.plot(phi, row, lw=1.5, color=pair_color(d, k), label=pair_name(k))
     ax.set_xlabel("pinion angle phi1 [deg]")
     ax.set_ylabel("load share [-]")
-    ax.set_ylim(-0.02, 1.05)
+    ax.set_ylim(-0.02, 1.22)  # the legend's band above the largest share
     ax.set_title(f"load sharing at {t['torque_Nm']:.4g} N m")
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=8, loc="upper center", ncol=3)
+    plain_ticks(ax)
     return ax
 
 
@@ -128,104 +143,182 @@ def plot_mesh_stiffness(d: dict, ax=None):
     ax.set_title("mesh stiffness (secant: load / loaded approach)")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7, ncol=2)
+    plain_ticks(ax)
     return ax
 
 
-def plot_face_load(d: dict, ax=None):
-    """Line load across the face [N/mm] of every pair at the position of peak pressure (nominal
-    torque), with the peak Hertz pressure on a second axis."""
+def plot_face_load(d: dict, ax=None, ax_pressure=None):
+    """Line load across the face [N/mm] of every loaded pair at the position of the peak flank
+    pressure (nominal torque) and the Hertz peak pressure [MPa] of its flank contact: one colour
+    per pair (:func:`pair_color`), the line load solid with dots, the pressure dashed; tip-edge
+    contacts marked x on the line load. The pressure goes to ``ax_pressure`` (its own axes, e.g.
+    below ``ax``) or, without it, to a twin axis on the right. The peak pressure is marked and
+    named in the title. Returns ``ax``."""
     import matplotlib.pyplot as plt
 
     ax = ax or plt.gca()
     f = d["face_load"]
-    for k, z, q in zip(f["pairs"], f["axial"], f["line_load_N_per_mm"]):
-        q = _arr(q)
+    edges = f.get("edge") or [None] * len(f["pairs"])
+    axp = ax_pressure if ax_pressure is not None else ax.twinx()
+    peak = (-1.0, None, None, None)  # p0, pair, z
+    tips = False
+    for k, z, q, p, e in zip(f["pairs"], f["axial"], f["line_load_N_per_mm"], f["p0_MPa"], edges):
+        z, q, p = _arr(z), _arr(q), _arr(p)
         if np.nanmax(np.nan_to_num(q)) <= 0:
             continue
-        ax.plot(_arr(z), q, "o-", ms=3, label=f"pair {k:+d} line load" if k else "pair 0 line load")
+        col = pair_color(d, k)
+        ax.plot(z, q, "o-", ms=3, color=col, label=pair_name(k))
+        tip = (np.zeros(p.shape, bool) if e is None else _arr(e) > 0)
+        if np.any(tip & (np.nan_to_num(q) > 0)):
+            on = tip & (np.nan_to_num(q) > 0)
+            ax.plot(z[on], q[on], "x", color="k", ms=7, mew=1.5, zorder=5)
+            tips = True
+        flank = np.where((np.nan_to_num(p) > 0) & ~tip, p, np.nan)  # flank contact only: tip edges are marked
+        if np.isfinite(flank).any():
+            axp.plot(z, flank, "--", color=col, lw=1.4)
+            i = int(np.nanargmax(flank))
+            if flank[i] > peak[0]:
+                peak = (float(flank[i]), k, float(z[i]))
+    (solid,) = ax.plot([], [], "o-", ms=3, color="0.35", label="solid: line load [N/mm]")
+    (dash,) = ax.plot([], [], "--", color="0.35", label="dashed: Hertz peak pressure [MPa]")
+    for h in (solid, dash):
+        h.set_gid("legend-proxy")
+    if tips:
+        (x,) = ax.plot([], [], "x", color="k", ms=7, mew=1.5, label="tip-edge contact")
+        x.set_gid("legend-proxy")
+    if peak[1] is not None:
+        axp.plot(peak[2], peak[0], "*", color=pair_color(d, peak[1]), mec="k", ms=13, zorder=6)
     ax.set_xlabel("face width position z [mm]")
-    ax.set_ylabel("line load [N/mm]")
+    ax.set_ylabel("line load [N/mm] (solid)")
     ax.set_ylim(bottom=0)
     ax.grid(alpha=0.3)
-    ax2 = ax.twinx()
-    edges = f.get("edge") or [None] * len(f["pairs"])
-    for k, z, p, e in zip(f["pairs"], f["axial"], f["p0_MPa"], edges):
-        p = _arr(p)
-        e = np.zeros(p.shape) if e is None else _arr(e)
-        if np.nanmax(np.nan_to_num(p)) > 0:  # flank contact only: tip edges are marked on the line load
-            ax2.plot(_arr(z), np.where((p > 0) & (e == 0), p, np.nan), "--", color="C3", lw=1)
-    labelled = False
-    for z, q, e in zip(f["axial"], f["line_load_N_per_mm"], edges):
-        on = (np.zeros(len(z), bool) if e is None else _arr(e) > 0) & (np.nan_to_num(_arr(q)) > 0)
-        if np.any(on):
-            ax.plot(_arr(z)[on], _arr(q)[on], "kx", ms=6, label=None if labelled else "tip-edge contact")
-            labelled = True
-    ax2.set_ylabel("Hertz peak pressure [MPa] (dashed)", color="C3")
-    ax2.set_ylim(bottom=0)
-    ax.set_title(f"load across the face at phi1 = {math.degrees(f['phi1']):.3f} deg (peak pressure)")
-    ax.legend(fontsize=8, loc="lower center")
+    axp.set_ylabel("Hertz peak pressure [MPa] (dashed)")
+    axp.set_ylim(bottom=0)
+    qhi = ax.get_ylim()[1]
+    if ax_pressure is not None:  # stacked: a band above the line loads for the legend
+        axp.set_xlabel("face width position z [mm]")
+        axp.grid(alpha=0.3)
+        axp.set_xlim(ax.get_xlim())
+        axp.set_ylim(0, axp.get_ylim()[1] * 1.08)
+        ax.set_ylim(0, qhi * 1.45)
+        ax.legend(fontsize=7, loc="upper center", ncol=3)
+    else:  # a twin axis: the pressures in the upper half, the line loads in the lower half
+        axp.set_ylim(0, axp.get_ylim()[1] * 1.05)
+        ax.set_ylim(0, qhi * 2.2)
+        ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.15), ncol=3, frameon=False)
+    where = (f"\npeak flank pressure {peak[0]:.0f} MPa ({pair_name(peak[1])}, star, z = {peak[2]:.1f} mm)"
+             if peak[1] is not None else "")
+    ax.set_title(f"load across the face at phi1 = {math.degrees(f['phi1']):.3f} deg{where}", fontsize=10)
+    plain_ticks(ax, axp)
     return ax
 
 
-def contact_pattern(d: dict, member: str, nz: int = 160, nr: int = 160):
-    """Raster of the largest contact pressure [MPa] over the mesh cycle on one member's flank:
-    (z edges, radius edges, (nr, nz) pressures; 0 where never in contact). Each loaded slice marks
-    its interval of the face (``from`` ... ``to``) and its Hertz band ``+- b_H r_b / r`` along the radius with
-    the semi-elliptic pressure ``p0 sqrt(1 - s^2 / b^2)``."""
+def pattern_points(d: dict, member: str) -> dict:
+    """The loaded slices of the pattern at the nominal torque on one member's flank, as arrays:
+    ``z`` (slice contact centre), ``lo``, ``hi`` (its interval across the face), ``r`` (radius)
+    [mm], ``p0`` Hertz peak pressure [MPa], ``b_H`` half-width [mm], ``edge`` (True: a tip-edge
+    contact, whose pressure is nominal) and ``row``, the key of its contact line (pair, phi1)."""
     p = d["pattern"]
     m = p[member]
-    r, z0, z1 = _arr(m["radius"]), _arr(m["from"]), _arr(m["to"])
-    b, p0 = _arr(p["b_H_mm"]), _arr(p["p0_MPa"])
-    if "edge" in p:  # tip edges: marked by plot_contact_pattern, not rastered (their pressure is nominal)
-        p0 = np.where(_arr(p["edge"]) > 0, 0.0, p0)
+    out = {"z": _arr(m["axial"]), "lo": _arr(m["from"]), "hi": _arr(m["to"]), "r": _arr(m["radius"]),
+           "p0": _arr(p["p0_MPa"]), "b_H": _arr(p["b_H_mm"])}
+    out["edge"] = _arr(p["edge"]) > 0 if "edge" in p else np.zeros(out["z"].shape, bool)
+    out["row"] = np.array([f"{k}:{phi:.12g}" for k, phi in zip(p["pair"], p["phi1"])])
+    keep = np.isfinite(out["z"]) & np.isfinite(out["r"]) & (np.nan_to_num(out["p0"]) > 0)
+    return {k: v[keep] for k, v in out.items()}
+
+
+def pattern_field(d: dict, member: str, nz: int = 300, nr: int = 240):
+    """The largest Hertz peak pressure [MPa] over the mesh cycle on one member's flank, on a fine
+    grid: (z centres [mm], radius centres [mm], (nr, nz) pressures, NaN where the flank never
+    touches). Each row of loaded slices (one tooth pair at one position: its contact line across
+    the face) covers the face from its first slice's start to its last slice's end, its radius
+    interpolated linearly along the face between the slice contact points (tip edges included:
+    the line reaches the tip there) and its pressure between the flank contacts' p0 (held at the
+    ends: a tip edge's own pressure is nominal), over a radial band of half-width the larger of
+    its Hertz half-width (radial projection) and the radial step between successive positions of a pair, so
+    that successive positions join without gaps; where bands overlap the larger pressure counts."""
+    P = pattern_points(d, member)
     lim = d["limits"][member]
-    ze = np.linspace(-lim["b"] / 2, lim["b"] / 2, nz + 1)
-    re = np.linspace(lim["r_form"], lim["r_a"], nr + 1)
-    zc, rc = 0.5 * (ze[1:] + ze[:-1]), 0.5 * (re[1:] + re[:-1])
-    img = np.zeros((nr, nz))
-    dr = b * m["r_b"] / np.where(r > 0, r, 1.0)
-    for za, zb, ri, di, pi in zip(z0, z1, r, dr, p0):
-        if not (np.isfinite(za) and np.isfinite(zb) and np.isfinite(ri) and pi > 0 and di > 0):
-            continue
-        cols = np.flatnonzero((zc >= za - 1e-9) & (zc <= zb + 1e-9))
-        if cols.size == 0:  # narrower than a pixel: the nearest column
-            cols = np.array([int(np.argmin(np.abs(zc - 0.5 * (za + zb))))])
-        rows = np.flatnonzero(np.abs(rc - ri) <= max(di, (re[1] - re[0]) / 2))
-        if cols.size == 0 or rows.size == 0:
-            continue
-        s = np.clip((rc[rows] - ri) / max(di, 1e-12), -1, 1)
-        prof = pi * np.sqrt(1 - s**2)
-        img[np.ix_(rows, cols)] = np.maximum(img[np.ix_(rows, cols)], prof[:, None])
-    return ze, re, img
+    zc = np.linspace(-lim["b"] / 2, lim["b"] / 2, nz)
+    rc = np.linspace(lim["r_form"], lim["r_a"], nr)
+    img = np.full((nr, nz), np.nan)
+    keys = list(dict.fromkeys(P["row"][~P["edge"]]))
+    if not keys:
+        return zc, rc, img
+    # radial step: between the mean radii of successive positions of one tooth pair
+    steps = []
+    for pair in {k.split(":")[0] for k in keys}:
+        mine = sorted((float(k.split(":")[1]), k) for k in keys if k.split(":")[0] == pair)
+        means = [float(np.mean(P["r"][(P["row"] == k) & ~P["edge"]])) for _, k in mine]
+        steps.extend(np.abs(np.diff(means)))
+    steps = np.array(steps)[np.array(steps) > 1e-9] if steps else np.zeros(0)
+    step = float(np.median(steps)) if steps.size else (rc[1] - rc[0])
+    r_b = d["pattern"][member]["r_b"]
+    for key in keys:
+        sel = P["row"] == key
+        o = np.argsort(P["z"][sel])
+        z, r, lo, hi = P["z"][sel][o], P["r"][sel][o], P["lo"][sel][o], P["hi"][sel][o]
+        flank = ~P["edge"][sel][o]
+        zf, pf, bf = z[flank], P["p0"][sel][o][flank], P["b_H"][sel][o][flank]
+        a, b = np.nanmin(np.r_[lo, z]), np.nanmax(np.r_[hi, z])
+        cols = np.flatnonzero((zc >= a - 1e-9) & (zc <= b + 1e-9))
+        if cols.size == 0:  # narrower than a grid column: the nearest one
+            cols = np.array([int(np.argmin(np.abs(zc - 0.5 * (a + b))))])
+        ri = np.interp(zc[cols], z, r)
+        pi = np.interp(zc[cols], zf, pf)
+        # radial extent of the Hertz band: half-width along the profile times ds/dr = r / s
+        hh = np.interp(zc[cols], zf, bf) * np.sqrt(np.maximum(ri**2 - r_b**2, 0.0)) / ri
+        half = np.maximum(hh, step)
+        inside = np.abs(rc[:, None] - ri[None, :]) <= half[None, :]
+        img[:, cols] = np.fmax(img[:, cols], np.where(inside, pi[None, :], np.nan))
+    return zc, rc, img
 
 
-def plot_contact_pattern(d: dict, member: str = "pinion", ax=None, vmax: float | None = None):
+def plot_contact_pattern(d: dict, member: str = "pinion", ax=None, vmax: float | None = None,
+                         what: str | None = None):
     """The loaded contact pattern on one flank (what a marking-compound test shows) at the nominal
-    torque: the largest contact pressure over the mesh cycle, face width across, radius up."""
+    torque: the largest Hertz peak pressure of the flank contacts over the mesh cycle, interpolated
+    along each contact line between the actual slice contact points (:func:`pattern_field`; blank
+    where the flank never touches), face width across, radius up; tip and form circle and the face ends
+    drawn and named in the legend below; loaded tip edges marked x. The title names the torque and
+    the misalignment (``d["misalignment"]`` when present) and ``what`` (e.g. a case or design)."""
     import matplotlib.pyplot as plt
 
+    from .tca import misalignment_text
+
     ax = ax or plt.gca()
-    ze, re, img = contact_pattern(d, member)
-    shown = np.ma.masked_where(img <= 0, img)
-    mesh = ax.pcolormesh(ze, re, shown, cmap="inferno_r", vmin=0, vmax=vmax or float(img.max() or 1.0))
+    P = pattern_points(d, member)
+    flank = P["p0"][~P["edge"]]
+    top = float(vmax or (np.max(flank) if flank.size else 1.0))
+    zc, rc, img = pattern_field(d, member)
+    mappable = ax.pcolormesh(zc, rc, np.ma.masked_invalid(img), shading="nearest", cmap="inferno_r",
+                             vmin=0, vmax=top)
     lim = d["limits"][member]
-    for y, lab in ((lim["r_a"], "tip"), (lim["r_form"], "form circle")):
-        ax.axhline(y, color="0.3", lw=0.8)
-        ax.text(ze[0], y, f" {lab}", va="bottom" if lab == "form circle" else "top", fontsize=7, color="0.3")
-    ax.axvline(ze[0], color="0.3", lw=0.8)
-    ax.axvline(ze[-1], color="0.3", lw=0.8)
+    ax.axhline(lim["r_a"], color="0.25", lw=1.0, ls="-", label=f"tip circle r_a = {lim['r_a']:.2f} mm")
+    ax.axhline(lim["r_form"], color="0.25", lw=1.0, ls="--", label=f"form circle r = {lim['r_form']:.2f} mm")
+    for sgn in (-1, 1):
+        ax.axvline(sgn * lim["b"] / 2, color="0.25", lw=1.0, ls=":", label="face ends z = +-b/2" if sgn < 0 else None)
     pat = d["pattern"]
     if "edge" in pat:
-        e = _arr(pat["edge"])
-        on = e > 0
+        on = _arr(pat["edge"]) > 0
         if on.any():
             m = pat[member]
             ax.plot(_arr(m["axial"])[on], _arr(m["radius"])[on], "x", color="C0", ms=4,
                     label="loaded tip edge (edge loading)")
-            ax.legend(fontsize=7, loc="lower right")
+    b, pad = lim["b"], 0.06 * (lim["r_a"] - lim["r_form"])
+    ax.set_xlim(-0.54 * b, 0.54 * b)
+    ax.set_ylim(lim["r_form"] - pad, lim["r_a"] + pad)
     ax.set_xlabel("face width position z [mm]")
     ax.set_ylabel("radius [mm]")
-    nom = d["pattern"]["torque_Nm"]
-    ax.set_title(f"{member} flank: contact pattern at {nom:.4g} N m")
-    plt.colorbar(mesh, ax=ax, label="contact pressure [MPa]")
+    nom = pat["torque_Nm"]
+    title = f"{member} flank at {nom:.4g} N m"
+    if "misalignment" in d:
+        title += ", " + (misalignment_text({"misalignment": d["misalignment"]}) or "aligned")
+    if what:
+        title += f", {what}"
+    ax.set_title(title)
+    ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=2, frameon=False)
+    cb = plt.colorbar(mappable, ax=ax, label="Hertz peak pressure p0 [MPa]")
+    plain_ticks(ax, cb)
     return ax

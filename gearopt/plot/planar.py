@@ -11,6 +11,7 @@ import math
 import numpy as np
 
 from ..units import DEG, RAD_TO_ARCSEC
+from .ticks import plain_ticks
 
 __all__ = ["plot_line_of_action", "plot_transmission_error"]
 
@@ -73,9 +74,10 @@ def plot_line_of_action(report, ax=None, zoom: bool = False):
             ax.plot(*P, "o", color="C0", ms=4)
             ax.annotate(name, P, xytext=(6, -4), textcoords="offset points")
         if math.isfinite(t.y_I):
+            # the label "I" right beside its point (below the line of action, left of the centre line)
             ax.plot(0, t.y_I, "D", color="k", ms=5, zorder=5)
-            ax.annotate(f"I ($y_I$ = {t.y_I:.4f} mm)" if zoom else "I", (0, t.y_I), xytext=(-8, -14),
-                        textcoords="offset points", ha="right")
+            ax.annotate("I", (0, t.y_I), xytext=(-5, -5), textcoords="offset points", ha="right", va="top",
+                        fontsize=10, fontweight="bold")
     # profiles at a few positions
     for k, p in enumerate(report.profiles):
         p1, p2 = np.asarray(p["profile_1"]), np.asarray(p["profile_2"])
@@ -99,12 +101,14 @@ def plot_line_of_action(report, ax=None, zoom: bool = False):
     ax.set_xlabel("$x_f$ [mm]")
     ax.set_ylabel("$y_f$ [mm]")
     if zoom:
-        ax.set_title("meshing zone: contact points on the line of action T$_1$T$_2$", fontsize=10)
+        ax.set_title(f"meshing zone: contact points on the line of action T$_1$T$_2$\n"
+                     f"pitch point I at $y_I$ = {t.y_I:.4f} mm", fontsize=10)
     else:
         ax.set_title(f"{report.scene}: line of action (Litvin Fig. 9.4.5)\nE = {E:.6g} mm, "
                      f"m12 = {t.m12:.9g}, $y_I$ = {t.y_I:.6g} mm", fontsize=10)
-        ax.legend(fontsize=7, loc="upper left", framealpha=0.9)
+        ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.08), ncol=2, frameon=False)
     ax.grid(True, lw=0.3)
+    plain_ticks(ax)
     return ax
 
 
@@ -145,4 +149,5 @@ def plot_transmission_error(report, ax=None):
                      fontsize=9)
     ax.grid(True, lw=0.3)
     ax.legend(fontsize=8)
+    plain_ticks(ax)
     return ax

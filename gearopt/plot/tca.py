@@ -14,6 +14,7 @@ import numpy as np
 
 from ..report import CONJUGATE_ARCSEC  # the results' own threshold (``conjugate`` in results.json)
 from .geometry import _axes
+from .ticks import plain_ticks
 
 #: Readable names and distinct colours of the contact features (edge branches) of
 #: :mod:`gearopt.contact.edge`.
@@ -104,11 +105,16 @@ def legend(ax, **kw):
 
 
 def _draws(artist) -> bool:
+    """True when the artist leaves a visible mark: a line needs two consecutive finite points
+    (a segment) unless it has markers; a proxy (gid "legend-proxy") explains a style."""
     if artist.get_gid() == "legend-proxy":
         return True
     if hasattr(artist, "get_xydata"):
         xy = np.asarray(artist.get_xydata(), float)
-        return bool(xy.size) and bool(np.isfinite(xy).all(axis=1).any())
+        ok = np.isfinite(xy).all(axis=1) if xy.size else np.zeros(0, bool)
+        if artist.get_marker() not in (None, "None", "", " ", "none"):
+            return bool(ok.any())
+        return bool(artist.get_linestyle() not in ("None", "", " ", "none") and (ok[1:] & ok[:-1]).any())
     return True
 
 
@@ -125,19 +131,45 @@ def _draw_conjugate(ax, case, phi):
     ax.set_ylim(-1.0, 1.0)
 
 
+def te_zero_text(case: dict) -> str:
+    """Where the case's TE is zero, for the axis label: pair 0 at phi1 = 0 (the surface TCA's zero),
+    or, for an edge-contact analysis without any surface-to-surface contact, the conjugate position
+    of the aligned, unmodified drive ("aligned conjugate drive"; ``stats.te_zero_rad`` 0;
+    docs/results.md, "TE zero")."""
+    st = case.get("stats") or {}
+    if case.get("edge_analysis"):
+        surf = case.get("te_branches_central_arcsec", {}).get("surface") or []
+        no_surface = isinstance(st.get("surface"), str) or not any(v is not None for v in surf)
+        if no_surface and not st.get("te_zero_rad"):
+            return "zero: aligned conjugate drive"
+    return "zero: pair 0 at phi1 = 0"
+
+
+def te_ylabel(case: dict) -> str:
+    """TE axis label with the unit, the sign and the zero of ``case``."""
+    return f"TE [arcsec] (+: gear ahead)\n{te_zero_text(case)}"
+
+
+def pair_label(k: int) -> str:
+    """"tooth pair 0", "tooth pair +1", "tooth pair -1"."""
+    return f"tooth pair {k:+d}" if k else "tooth pair 0"
+
+
 def plot_te(case: dict, ax=None, label_pairs: bool = True):
-    """TE of every tooth pair (thin) and the actual TE, their upper envelope (thick) [arcsec]
+    """TE of every tooth pair (thin dashed, only where its contact lies on the active flanks of
+    both members: ``on_surface_pairs``) and the actual TE, their upper envelope (thick) [arcsec]
     against the pinion angle [deg], with the transfer points (where the driving pair changes).
-    A conjugate case is drawn as TE = 0."""
+    A conjugate case is drawn as TE = 0. The axis label states the TE zero (:func:`te_zero_text`)."""
     ax = _axes(ax)
     phi = np.degrees(_f(case["phi1"]))
     ax.set_xlabel("pinion angle phi1 [deg]")
-    ax.set_ylabel("TE [arcsec] (+: gear ahead)")
+    ax.set_ylabel(te_ylabel(case))
     ax.grid(alpha=0.3)
     if is_conjugate(case):
         _draw_conjugate(ax, case, phi)
         ax.set_title(f"{case_title(case)}: conjugate, TE = 0", fontsize=9)
         legend(ax, **_BELOW)
+        plain_ticks(ax)
         return ax
     env = _f(case["te_envelope_arcsec"])
     finite = env[np.isfinite(env)]
@@ -146,18 +178,38 @@ def plot_te(case: dict, ax=None, label_pairs: bool = True):
         pad = 0.6 * max(finite.max() - finite.min(), 1e-3)
         lo, hi = finite.min() - pad, finite.max() + 0.3 * pad
         ax.set_ylim(lo, hi)
-    for i, (k, te) in enumerate(zip(case["pairs"], case["te_arcsec"])):
-        te = _f(te)
+    for i, (k, te) in enumerate(zip(case["pairs"], pair_te_on_flank(case))):
         if not np.any((te >= lo) & (te <= hi)):
             continue  # this pair's TE lies outside the range shown (far from the envelope)
         ax.plot(phi, te, lw=0.9, ls="--", alpha=0.8, color=f"C{i % 10}",
-                label=f"tooth pair {k:+d}" if label_pairs else None)
+                label=pair_label(k) if label_pairs else None)
     ax.plot(phi, env, color="k", lw=2.2, label="actual TE (envelope)")
     _transfer_lines(ax, np.degrees(case.get("transfer_phi1", [])))
     ok = "" if case["actual_te_at_every_position"] else "  (some positions without contact)"
     ax.set_title(f"{case_title(case)}: peak-to-peak {case['peak_to_peak_arcsec']:.2f} arcsec{ok}", fontsize=9)
     legend(ax, **_BELOW)
+    plain_ticks(ax)
     return ax
+
+
+def pair_te_on_flank(case: dict) -> list:
+    """Every pair's TE [arcsec] (arrays in the order of ``case["pairs"]``), NaN where that pair has
+    no contact on the active flanks: not converged, or converged outside them
+    (``on_surface_pairs`` false; such a point transmits nothing). Without ``on_surface_pairs``
+    (older results) a point above the actual TE is left out too: a contact on the flanks there
+    would have been the actual TE."""
+    env = _f(case["te_envelope_arcsec"])
+    flags = case.get("on_surface_pairs")
+    out = []
+    for i, te in enumerate(case["te_arcsec"]):
+        te = _f(te)
+        if flags is not None:
+            te = np.where(np.array(flags[i], bool), te, np.nan)
+        else:
+            with np.errstate(invalid="ignore"):
+                te = np.where(te > env + 1e-6, np.nan, te)
+        out.append(te)
+    return out
 
 
 def _ellipse_on_map(xyz, dirs, a, b, n=48):
@@ -172,7 +224,9 @@ def _flank_box(ax, lim, fill=False):
     from matplotlib.patches import Rectangle
 
     b, ra, rF = lim["b"], lim["r_a"], lim["r_form"]
-    rect = Rectangle((-b / 2, rF), b, ra - rF, fill=fill, fc="0.95", ec="k", lw=1.2, zorder=0.5)
+    # a thin grey frame: contact paths along a face end or the tip circle (edge contact) lie on it
+    # and must stay visible over it
+    rect = Rectangle((-b / 2, rF), b, ra - rF, fill=fill, fc="0.95", ec="0.55", lw=0.8, zorder=0.5)
     ax.add_patch(rect)
     ax.set_xlim(-0.65 * b, 0.65 * b)
     pad = 0.08 * (ra - rF)
@@ -214,10 +268,13 @@ def plot_bearing_contact(case: dict, member: str = "gear", ax=None, every: int =
                               if drawn == 0 else None)
             line.set_clip_path(rect)
             drawn += 1
-    ax.set_title(f"{member} flank, {case_title(case)}\ncontact ellipses for the approach delta = {delta * 1000:.2f} um",
-                 fontsize=9)
+    line = (case.get("stats") or {}).get("contact") == "line"
+    what = ("line contact: the path in one pinion section only (the contact line spans the face)" if line
+            else f"contact ellipses for the approach delta = {delta * 1000:.2f} um")
+    ax.set_title(f"{member} flank, {case_title(case)}\n{what}", fontsize=9)
     ax.grid(alpha=0.3)
     legend(ax, fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.22), ncol=2, frameon=False)
+    plain_ticks(ax)
     return ax
 
 
@@ -257,11 +314,12 @@ def plot_compare(cases: dict, axes=None, member: str = "gear"):
         ax_map.plot(zz, rr, color=col, ls=ls, lw=lw, label=label + (f" (coincides with {same[0]})" if same else ""))
         seen_map.append((label, (zz, rr)))
     ax_te.set_xlabel("pinion angle phi1 [deg]")
-    ax_te.set_ylabel("actual TE [arcsec] (+: gear ahead)")
+    ax_te.set_ylabel(f"actual TE [arcsec] (+: gear ahead)\n{te_zero_text(first)}")
     ax_map.set_ylabel(f"{member} radius [mm]")
     for ax in axes:
         ax.grid(alpha=0.3)
-        legend(ax, fontsize=7)
+        legend(ax, fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.15), ncol=1, frameon=False)
+        plain_ticks(ax)
     return axes
 
 
@@ -272,13 +330,14 @@ def plot_edge_te(case: dict, ax=None):
     ax = _axes(ax)
     phi = np.degrees(_f(case["phi1"]))
     ax.set_xlabel("pinion angle phi1 [deg]")
-    ax.set_ylabel("TE [arcsec] (+: gear ahead)")
+    ax.set_ylabel(te_ylabel(case))
     ax.grid(alpha=0.3)
     if is_conjugate(case):
         _draw_conjugate(ax, case, phi)
         ax.set_title(f"{case_title(case)}: conjugate, TE = 0; edge contact "
                      f"{'YES' if case['edge_carries_load'] else 'no'}", fontsize=9)
         legend(ax, **_BELOW)
+        plain_ticks(ax)
         return ax
     for i, te in enumerate(case["te_arcsec"]):
         ax.plot(phi, _f(te), color="0.7", lw=0.8, ls="--", label="TE of each tooth pair" if i == 0 else None)
@@ -298,6 +357,7 @@ def plot_edge_te(case: dict, ax=None):
         pad = 0.5 * max(hi - lo, 1e-3)
         ax.set_ylim(lo - pad, hi + 0.3 * pad)
     legend(ax, **_BELOW)
+    plain_ticks(ax)
     return ax
 
 
@@ -312,37 +372,109 @@ def _break_jumps(z, r, lim, tol=0.2):
     return np.insert(z, cut + 1, np.nan), np.insert(r, cut + 1, np.nan)
 
 
-def plot_edge_paths(case: dict, member: str = "gear", ax=None):
+def contact_lines(case: dict, member: str, every: int = 8) -> tuple[list, dict]:
+    """Instantaneous contact lines of the central pair of an edge-contact case whose flanks are in
+    line contact (e.g. an aligned unmodified drive): at every ``every``-th position, the points of
+    all contact features (mid section, face ends, tip edges) that the pair touches at the same TE
+    (within :data:`CONJUGATE_ARCSEC`) and apart along the face lie on one contact line; they are
+    joined in the order of z. Fewer than three such positions are not line contact (none returned).
+
+    Returns
+    -------
+    lines : list of (z [mm], radius [mm], loaded: bool)
+        One per sampled position with at least two points apart along the face (``loaded``: the
+        central pair carries load there).
+    on_line : dict
+        Per feature name, (N,) bool: the positions where its point is a point of the contact line
+        (at every position, not only the sampled ones).
+    """
+    paths = case.get("paths_central_pair") or {}
+    if not case.get("edge_analysis") or 0 not in case["pairs"]:
+        return [], {}
+    te0 = _f(case["te_arcsec"][case["pairs"].index(0)])
+    te_b = case.get("te_branches_central_arcsec") or {}
+    b = case["limits"][member]["b"]
+    on_line = {}
+    for name in paths:
+        t = _f(te_b.get(name, [None] * te0.size))
+        with np.errstate(invalid="ignore"):
+            on_line[name] = np.isfinite(t) & np.isfinite(te0) & (np.abs(t - te0) <= CONJUGATE_ARCSEC)
+    raw = []
+    for i in range(every // 2, te0.size, max(1, every)):
+        pts, loaded = {}, False
+        for name, path in paths.items():
+            z, r = path[member]["axial"][i], path[member]["radius"][i]
+            if on_line[name][i] and z is not None and r is not None:
+                pts[round(z, 9)] = r
+                loaded |= bool(path["carries_load"][i])
+        if len(pts) >= 2 and max(pts) - min(pts) > 0.02 * b:
+            z = np.array(sorted(pts))
+            raw.append((z, np.array([pts[k] for k in sorted(pts)]), loaded))
+    if len(raw) < 3:  # not line contact: at most a coincidence of two contact points
+        return [], {}
+    return [(*_curved(z, r, raw), loaded) for z, r, loaded in raw], on_line
+
+
+def _curved(z, r, lines, n: int = 41):
+    """A contact line of involute helicoids through its points (z, r): along it the roll distance
+    s = sqrt(r^2 - r_b^2) is linear in z (slope tan beta_b, the same for every line), so r^2 is a
+    quadratic in z whose z^2 coefficient is common to all lines. That coefficient is the median of
+    the fits through lines with three or more points (0 without any: straight chords); the two
+    others are fitted to each line's own points. Returns n points from the first to the last z."""
+    fits = [np.polyfit(zz, rr**2, 2)[0] for zz, rr, _ in lines if zz.size >= 3]
+    a = max(float(np.median(fits)), 0.0) if fits else 0.0
+    bc = np.polyfit(z, r**2 - a * z**2, 1)
+    zs = np.linspace(z[0], z[-1], n)
+    return zs, np.sqrt(np.maximum(a * zs**2 + bc[0] * zs + bc[1], 0.0))
+
+
+def plot_edge_paths(case: dict, member: str = "gear", ax=None, every: int = 8):
     """Paths of contact of the central pair on the ``member`` flank map: the surface part and the
     edge parts (thin dashed: that feature's contact of the pair while another pair drives; thick:
-    where it carries the load of the drive), with the flank boundaries. A conjugate drive shows
-    only the loaded contact (its pairs share the load)."""
+    where it carries the load of the drive), with the flank boundaries (thin grey frame). Line
+    contact is drawn as the instantaneous contact lines across the face at every ``every``-th
+    position (:func:`contact_lines`), not as a path. A conjugate drive shows only the loaded
+    contact (its pairs share the load)."""
     ax = _axes(ax)
     lim = case["limits"][member]
     _flank_box(ax, lim)
     dashed_any = False
     conj = is_conjugate(case)
+    lines, on_line = contact_lines(case, member, every)
+    for j, (z, r, loaded) in enumerate(lines):
+        ax.plot(z, r, color="C3", lw=1.6 if loaded else 0.9, ls="-" if loaded or conj else "--", zorder=3,
+                label=f"contact lines (line contact; every {every}th position)" if j == 0 else None)
+        dashed_any |= not (loaded or conj)
     for name, path in case["paths_central_pair"].items():
         col = _BRANCH_COLOR.get(name, "k")
         z, r = _axial(path[member]), _f(path[member]["radius"])
+        if lines:  # the points of the contact lines are drawn as lines, not as paths
+            z, r = np.where(on_line[name], np.nan, z), np.where(on_line[name], np.nan, r)
         load = np.array(path["carries_load"], bool)
         loaded = bool((load & np.isfinite(z)).any())
         if conj and not loaded:
             continue  # conjugate: edges tie with the line contact where it reaches them; not a contact of their own
         idle = np.isfinite(z) & ~load
-        if not conj:  # a conjugate drive's pairs share the load: no "while another pair drives"
-            dashed_any |= bool(idle.any())
-            ax.plot(*_break_jumps(z, r, lim), color=col, lw=0.8, ls="--",
-                    label=None if loaded else f"{branch_label(name)} (not driving)")
+        point = _point_like(name)
+        if not conj and idle.any():  # a conjugate drive's pairs share the load: no "while another pair drives"
+            (ln,) = ax.plot(*_break_jumps(z, r, lim), color=col, lw=1.3, ls="--", zorder=3,
+                            marker="o" if point else None, mfc="none", ms=5,
+                            label=f"{branch_label(name)} (not driving)")
+            if _draws(ln):
+                dashed_any = True
+                if loaded:  # named once, by its loaded part
+                    ln.set_label(None)
         ax.plot(*_break_jumps(np.where(load, z, np.nan), np.where(load, r, np.nan), lim), color=col, lw=2.6,
-                marker="o" if _point_like(name) else None, ms=4, label=branch_label(name))
+                zorder=4, marker="o" if point else None, ms=4, label=branch_label(name))
     if dashed_any:
-        (proxy,) = ax.plot([], [], color="0.3", lw=0.8, ls="--",
+        (proxy,) = ax.plot([], [], color="0.3", lw=1.3, ls="--",
                            label="dashed: contact while another pair drives")
         proxy.set_gid("legend-proxy")
-    ax.set_title(f"{member} flank, {case_title(case)}: thick where the central pair drives", fontsize=9)
+    how = f"line contact, contact lines at every {every}th position" if lines else "thick where the central pair drives"
+    ax.set_title(f"{member} flank, {case_title(case)}: {how}", fontsize=9)
     ax.grid(alpha=0.3)
     legend(ax, fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.22), ncol=2, frameon=False)
+    plain_ticks(ax)
     return ax
 
 

@@ -74,7 +74,7 @@ class GeometryReport:
         plt.close(fig)
         files.append("profiles.png")
 
-        fig, ax = plt.subplots(figsize=(8, 7))
+        fig, ax = plt.subplots(figsize=(10.5, 7.5))
         plot_pair_mesh(self, ax=ax)
         fig.tight_layout()
         fig.savefig(out / "pair_mesh.png", dpi=dpi, bbox_inches="tight")

@@ -67,12 +67,17 @@ class LTCAReport:
 
         from ..plot.ltca import (plot_contact_pattern, plot_face_load, plot_harmonics, plot_load_sharing,
                                  plot_loaded_te, plot_mesh_stiffness, plot_te_vs_torque)
+        from ..plot.tca import misalignment_text
+        from ..plot.ticks import plain_ticks
 
         out = Path(out_dir)
         d = self.to_dict()
 
+        mis = misalignment_text({"misalignment": d["misalignment"]}) or "aligned"
+
         def save(name, fig, title):
-            return save_figure(out, self.scene, name, fig, title, dpi)
+            plain_ticks(*fig.axes)
+            return save_figure(out, self.scene, name, fig, f"{title} ({mis})", dpi)
 
         fig = plt.figure(figsize=(13, 8), layout="constrained")
         gs = fig.add_gridspec(2, 2)
@@ -80,19 +85,22 @@ class LTCAReport:
         plot_te_vs_torque(d, ax=fig.add_subplot(gs[1, 0]))
         plot_harmonics(d, ax=fig.add_subplot(gs[1, 1]))
         files = [save("ltca_te.png", fig, "loaded transmission error")]
-        fig, axes = plt.subplots(1, 3, figsize=(17, 4.8), layout="constrained")
-        plot_load_sharing(d, ax=axes[0])
-        plot_mesh_stiffness(d, ax=axes[1])
-        plot_face_load(d, ax=axes[2])
+        fig = plt.figure(figsize=(18, 6.4), layout="constrained")
+        gs = fig.add_gridspec(2, 3)
+        plot_load_sharing(d, ax=fig.add_subplot(gs[:, 0]))
+        plot_mesh_stiffness(d, ax=fig.add_subplot(gs[:, 1]))
+        ax_q = fig.add_subplot(gs[0, 2])
+        plot_face_load(d, ax=ax_q, ax_pressure=fig.add_subplot(gs[1, 2], sharex=ax_q))
+        ax_q.set_xlabel("")
         files.append(save("ltca_sharing.png", fig, "load sharing, mesh stiffness, load across the face"))
-        fig, axes = plt.subplots(1, 2, figsize=(13, 5), layout="constrained")
+        fig, axes = plt.subplots(1, 2, figsize=(13, 5.6), layout="constrained")
         pat = d["pattern"]
         p_flank = np.where(np.array(pat.get("edge", [0] * len(pat["p0_MPa"]))) > 0, 0.0,
                            np.array(pat["p0_MPa"], float))  # one scale for both flanks; tip edges are marked
         vmax = max(float(np.nanmax(p_flank)), 1.0) if p_flank.size else 1.0
         plot_contact_pattern(d, "pinion", ax=axes[0], vmax=vmax)
         plot_contact_pattern(d, "gear", ax=axes[1], vmax=vmax)
-        files.append(save("ltca_pattern.png", fig, "loaded contact pattern (largest pressure over the mesh cycle)"))
+        files.append(save("ltca_pattern.png", fig, "loaded contact pattern, largest pressure over the mesh cycle"))
         return files
 
     def save_tables(self, out_dir) -> list[str]:

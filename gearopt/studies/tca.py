@@ -82,6 +82,7 @@ class TCAReport:
         from pathlib import Path
 
         from ..plot.tca import plot_bearing_contact, plot_compare, plot_te
+        from ..plot.ticks import plain_ticks
 
         out = Path(out_dir)
         n = len(self.cases)
@@ -96,6 +97,7 @@ class TCAReport:
             path_title = "bearing contact (paths of contact and contact ellipses)"
 
         def save(name, fig, title):
+            plain_ticks(*fig.axes)  # every tick label the value itself (no "+3e1" offset), whoever drew it
             fig.suptitle(f"{self.scene}: {title}")
             fig.savefig(out / name, dpi=dpi, bbox_inches="tight")
             plt.close(fig)
