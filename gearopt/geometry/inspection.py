@@ -442,13 +442,13 @@ def read_grid_csv(path, side: str | None = None) -> FlankGrid:
     nul = raw.find(b"\x00")
     if nul >= 0:
         raise ArgumentError(f"{name}: not a text file (a NUL byte at byte {nul}: a binary file, e.g. a zip "
-                            f"or a spreadsheet, renamed .csv?); valid: {valid_text}.", param="file", value=str(path),
+                            f"or a spreadsheet, renamed .csv?); valid: {valid_text}.", param="file", value=name,
                             valid=valid_text)
     try:
         text = raw.decode("utf-8-sig")
     except UnicodeDecodeError as e:
         raise ArgumentError(f"{name}: not UTF-8 text ({e.reason} at byte {e.start}: a binary file, e.g. a zip or a "
-                            f"spreadsheet, renamed .csv?); valid: {valid_text}.", param="file", value=str(path),
+                            f"spreadsheet, renamed .csv?); valid: {valid_text}.", param="file", value=name,
                             valid=valid_text) from None
     meta, rows = {}, []
     for ln, line in enumerate(text.splitlines(), start=1):

@@ -399,8 +399,7 @@ def judge_samples(study: str, figs: dict, values: dict, progress=None) -> list[s
                       for nm, v in values.items() if np.ptp(v) > 0 and nm not in DEVIATIONS)
     if n_use == 0:
         raise OptionError(f"{study}: none of the {n} samples has results ({why}); the inputs span {spans}: narrow "
-                          "the distributions / ranges to drives that mesh.", param=None,
-                          valid="inputs whose samples mesh")
+                          "the distributions / ranges to drives that mesh.", param=None)
     if n_use < FEASIBLE_WARN * n:
         msg = (f"{study}: only {n_use} of {n} samples ({100 * n_use / n:.3g} %) have results ({why}); the statistics "
                f"describe those alone. The inputs span {spans}: narrow them to drives that mesh.")
@@ -488,11 +487,11 @@ def sample_error(study: str, values: dict, err: Exception, index=None) -> Option
         shown = ", ".join(f"{nm} in [{display(nm, np.min(values[nm]))[0]:.6g}, {display(nm, np.max(values[nm]))[0]:.6g}] "
                           f"{display(nm, 0.0)[1]}" for nm in names)
         return OptionError(f"{study}: a sample failed ({err}); the inputs span {shown}: narrow the ranges.",
-                           param=None, valid="samples whose drive is valid")
+                           param=None, valid=getattr(err, "valid", None))
     shown = ", ".join(f"{nm} = {display(nm, values[nm][index])[0]:.6g} {display(nm, 0.0)[1]}" for nm in names
                       if nm not in DEVIATIONS)  # the ISO deviations (um) are in samples.csv of a run
     return OptionError(f"{study}: sample {index} ({shown}) failed: {err}", param=None,
-                       valid="samples whose drive is valid")
+                       valid=getattr(err, "valid", None))
 
 
 def _num(v):
