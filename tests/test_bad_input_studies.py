@@ -299,13 +299,26 @@ def test_ltca_torque_beyond_the_elastic_model(tmp_path, capsys):
 
 
 def test_montecarlo_torque_beyond_the_elastic_model(tmp_path, capsys):
-    """A loaded Monte Carlo with torques up to 1e7 N m: refused naming the sample and its torque
-    (never a negative mesh stiffness); nothing written."""
-    scene = variant(tmp_path, "montecarlo_loaded.toml", ("samples = 24", "samples = 2"), ("chunk = 8", "chunk = 2"),
-                    ("torque = { kind = \"uniform\", lo = 50, hi = 150 }",
-                     "torque = { kind = \"uniform\", lo = 1e6, hi = 1e7 }"))
+    """A loaded Monte Carlo with torques up to 1e7 N m: refused by `check` (the Hertz pressure of
+    the load over the longest contact line already exceeds the limit); a torque of 5500 N m, below
+    that bound but beyond the solved pressure limit, is refused at run time naming the sample and
+    its torque (never a negative mesh stiffness); nothing written."""
+    from gearopt.io.scene import load_scene
+    from gearopt.robust.sampling import Distribution
+    from gearopt.robust.study import MonteCarlo
+
+    small = (("samples = 24", "samples = 2"), ("chunk = 8", "chunk = 2"))
+    scene = variant(tmp_path, "montecarlo_loaded.toml", *small, ("torque = { kind = \"uniform\", lo = 50, hi = 150 }",
+                                                                 "torque = { kind = \"uniform\", lo = 1e6, hi = 1e7 }"))
+    refused(capsys, ["check", str(scene)], r"\[montecarlo\] torque.hi = 1(e\+07|0000000\.0) ", "linear-elastic", "5000 MPa")
+    pair = load_scene(PROBLEMS / "montecarlo_loaded.toml").pair
+    with pytest.raises(OptionError) as e:
+        MonteCarlo(pair, 2, iso_grade=6, torque=Distribution("uniform", lo=1e6, hi=1e7, name="torque"))
+    assert e.value.param == "torque.hi"
+    scene = variant(tmp_path, "montecarlo_loaded.toml", *small, ("torque = { kind = \"uniform\", lo = 50, hi = 150 }",
+                                                                 "torque = { kind = \"fixed\", value = 5500 }"))
     out = tmp_path / "out"
-    refused(capsys, ["run", str(scene), "--quiet", "--out", str(out)], r"sample \d \(.*torque = [\d.e+]+ N m\)",
+    refused(capsys, ["run", str(scene), "--quiet", "--out", str(out)], r"sample 0 \(.*torque = 5500 N m\)",
             "linear-elastic", "5000 MPa")
     assert not out.exists()
 

@@ -64,6 +64,43 @@ E_STEEL = 206000.0  #: [MPa] the modulus P_MAX_VALID is stated for
 DELTA_MAX_VALID = 0.1
 
 
+def pressure_lower_bound(pair, torque: float, material) -> float:
+    """A lower bound of the peak Hertz pressure [MPa] of the flank contact at pinion torque
+    ``torque`` [N m], from the gear data alone (no solve): the normal load ``W = T / (r_b1 cos
+    beta_b)`` spread over the longest contact length the mesh can have, ``b (floor(eps_alpha) + 1) /
+    cos(beta_b)``, on the flattest flanks of the path of contact (normal equivalent radius
+    ``g / 4 / cos(beta_b)``, g = a_w sin(alpha_wt) the distance between the base-circle tangency
+    points; the sum of the transverse radii along the path is g): Hertz's line contact
+    ``p0 = sqrt(w E* / (pi rho))``, ``E* = E / (2 (1 - nu^2))``. Some slice carries at least the mean
+    line load on flanks no flatter than that, so the solved peak is not below it (up to loads taken
+    by tip edges)."""
+    g1 = pair.pinion
+    cb = math.cos(g1.beta_b)
+    W = torque * 1e3 / (g1.r_b * cb)
+    length = min(g1.b, pair.gear.b) * (math.floor(pair.eps_alpha) + 1) / cb
+    rho = pair.a_w * math.sin(pair.alpha_wt) / 4 / cb
+    e_star = material.E / (2 * (1 - material.nu**2))
+    return math.sqrt(W / length * e_star / (math.pi * rho))
+
+
+def check_torque_range(pair, torque_max: float, material=None, name: str = "torque") -> None:
+    """Refuse, before any solve, a torque [N m] whose :func:`pressure_lower_bound` already exceeds
+    the model's pressure limit (``P_MAX_VALID E / 206000``): :class:`OptionError` naming ``name``.
+    The solved results are checked in full by :func:`check_validity`."""
+    from .compliance import Material
+
+    material = material or Material()
+    p_lim = P_MAX_VALID * material.E / E_STEEL
+    p = pressure_lower_bound(pair, float(torque_max), material)
+    if p > p_lim:
+        valid = (f"a torque whose peak contact pressure stays <= {p_lim:.4g} MPa (no gear steel survives more; "
+                 f"{P_MAX_VALID:g} MPa x E / {E_STEEL:g} MPa: the linear-elastic contact model's range of validity)")
+        detail = (f"is beyond the range of the linear-elastic contact model: at {torque_max:g} N m the contact pressure "
+                  f"is at least {p:.4g} MPa (Hertz, the load over the longest contact line); valid: {valid}.")
+        raise OptionError(f"{name} = {torque_max:g} {detail}", param=name, value=float(torque_max), valid=valid,
+                          detail=detail)
+
+
 def check_validity(result, pair, material) -> None:
     """Refuse a loaded result outside the linear-elastic model's range of validity: a peak flank
     pressure above ``P_MAX_VALID E / 206000`` MPa, a loaded approach above ``DELTA_MAX_VALID m_n``,

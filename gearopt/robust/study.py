@@ -594,6 +594,10 @@ class MonteCarlo(_Robust):
                                    "below by a positive torque: uniform, truncnormal, triangular or fixed)",
                                    cls=OptionError)
             self.torque_dist = torque
+            if math.isfinite(torque.support[1]):  # the largest torque drawn, against the model's range
+                from ..ltca.engine import check_torque_range
+                check_torque_range(pair, torque.support[1], material, name="torque.hi" if torque.kind != "fixed"
+                                   else "torque.value")
             if not 3 <= self.n_slices <= 201:
                 raise out_of_range("n_slices", n_slices, "an integer 3 ... 201", cls=OptionError)
         if not inputs:

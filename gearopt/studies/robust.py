@@ -120,10 +120,12 @@ def _montecarlo(scene):
                           workers=o.get("workers"), name=scene.name, torque=torque, n_slices=o["n_slices"])
     except (GeometryError, OptionError) as e:
         # misalignment.<kind>.<parameter> -> [montecarlo] <kind>.<parameter>, as written
+        # torque.<parameter> -> [montecarlo] torque.<parameter>
         parts = (e.param or "").split(".")
-        if len(parts) == 3 and parts[0] == "misalignment" and parts[1] in mis and e.detail is not None \
-                and scene.written("montecarlo", f"{parts[1]}.{parts[2]}") is not None:
-            raise scene.key_error("montecarlo", f"{parts[1]}.{parts[2]}", e) from e
+        key = ".".join(parts[1:]) if len(parts) == 3 and parts[0] == "misalignment" and parts[1] in mis else \
+            e.param if len(parts) == 2 and parts[0] == "torque" else None
+        if key is not None and e.detail is not None and scene.written("montecarlo", key) is not None:
+            raise scene.key_error("montecarlo", key, e) from e
         raise scene.study_error("montecarlo", e) from e
 
 
