@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 from gearopt.cli import main
-from gearopt.errors import ArgumentError, GearoptError, OptionError
+from gearopt.errors import ArgumentError, OptionError
 from gearopt.units import ARCMIN, DEG
 
 PROBLEMS = Path(__file__).resolve().parent.parent / "problems"

@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import ArgumentError, GearoptError, OptionError, out_of_range
+from ..errors import ArgumentError, ConvergenceError, GearoptError, GeometryError, OptionError, out_of_range
 from ..meshing.misalignment import Misalignment
 from ..meshing.solver import DELTA_DEFAULT
 from ..units import ARCMIN, DEG, RAD_TO_ARCSEC
@@ -236,8 +236,11 @@ class RobustResult:
 
         out = Path(out_dir)
 
+        frac = usable_fraction(self.figures)
+        flag = f" [WARNING: only {100 * frac:.3g} % of the samples have results]" if frac < FEASIBLE_WARN else ""
+
         def save(name, fig, title):
-            fig.suptitle(f"{self.scene}: {title}")
+            fig.suptitle(f"{self.scene}: {title}{flag}")
             fig.savefig(out / name, dpi=dpi, bbox_inches="tight")
             plt.close(fig)
             return name
@@ -329,8 +332,11 @@ class _Robust:
         nominal = kernel.evaluate(self._nominal_chunk(kernel, tca))
         t1 = time.perf_counter()
         executor = "dask" if scheduler else self.executor
-        parts = run_chunks(kernel, chunks, executor=executor, workers=self.workers, scheduler=scheduler,
-                           progress=progress, label=self.study)
+        try:
+            parts = run_chunks(kernel, chunks, executor=executor, workers=self.workers, scheduler=scheduler,
+                               progress=progress, label=self.study)
+        except (GeometryError, ConvergenceError) as e:  # a sample's drive the engine cannot take: say which
+            raise sample_error(self.study, values, e) from None
         t_run = time.perf_counter() - t1
         figs = {k: np.concatenate([p[k] for p in parts]) for k in parts[0] if k != "pattern_count"}
         count = sum(p["pattern_count"] for p in parts)
@@ -403,9 +409,10 @@ def judge_samples(study: str, figs: dict, values: dict, progress=None) -> list[s
     if n_use < FEASIBLE_WARN * n:
         msg = (f"{study}: only {n_use} of {n} samples ({100 * n_use / n:.3g} %) have results ({why}); the statistics "
                f"describe those alone. The inputs span {spans}: narrow them to drives that mesh.")
-        warnings.warn(msg, UserWarning, stacklevel=3)
-        if progress:
+        if progress:  # the run's own stderr lines
             progress(f"warning: {msg}")
+        else:
+            warnings.warn(msg, UserWarning, stacklevel=3)
         return [msg]
     return []
 
@@ -413,7 +420,6 @@ def judge_samples(study: str, figs: dict, values: dict, progress=None) -> list[s
 def _feasible(pair, MIS) -> np.ndarray:
     """Per sample: the misalignment neither jams nor separates the teeth (the rules of
     :meth:`Misalignment.check`: dE within the operating range, faces overlapping)."""
-    from ..errors import GeometryError
     out = np.ones(len(MIS), bool)
     seen: dict = {}
     for i, v in enumerate(MIS):
@@ -725,7 +731,7 @@ class DesignSweep(_Robust):
         error naming ``variables.<nm>`` and the end's value."""
         from dataclasses import replace
 
-        from ..errors import GearoptError, GeometryError
+        from ..geometry.generation import generate
 
         where = f"variables.{nm}"
         if nm.startswith("mis."):
@@ -752,7 +758,6 @@ class DesignSweep(_Robust):
         unit = "1/mm"
         try:
             g2 = g.with_(rack=replace(g.rack, a_c=v)) if key == "a_c" else g.with_(a_pl=v)
-            from ..geometry.generation import generate
             tooth = generate(g2)
             for z in (0.0, g2.b / 2):
                 tooth.flank_limit("right", z)
