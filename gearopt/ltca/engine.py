@@ -323,6 +323,12 @@ class LTCA:
                                     for m, t in ((1, self.tca.pinion), (2, self.tca.gear)))
         return self._influence
 
+    @influence.setter
+    def influence(self, grids) -> None:
+        """Replace the influence grids (pinion, gear) of an ``"fe"`` engine (e.g. without their
+        local excess)."""
+        self._influence = None if grids is None else tuple(grids)
+
     # ------------------------------------------------------------------------------------------
     def default_pairs(self) -> tuple:
         """Tooth pairs that can be in mesh over one mesh cycle around phi1 = 0."""
