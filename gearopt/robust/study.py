@@ -491,7 +491,7 @@ def sample_error(study: str, values: dict, err: Exception, index=None) -> Option
     names = list(values)
     if index is None:
         shown = ", ".join(f"{nm} in [{display(nm, np.min(values[nm]))[0]:.6g}, {display(nm, np.max(values[nm]))[0]:.6g}] "
-                          f"{display(nm, 0.0)[1]}" for nm in names)
+                          f"{display(nm, 0.0)[1]}" for nm in names if nm not in DEVIATIONS)
         return OptionError(f"{study}: a sample failed ({err}); the inputs span {shown}: narrow the ranges.",
                            param=None, valid=getattr(err, "valid", None))
     shown = ", ".join(f"{nm} = {display(nm, values[nm][index])[0]:.6g} {display(nm, 0.0)[1]}" for nm in names
