@@ -264,21 +264,67 @@ def inspect_flank(tooth, side: str, n_profile: int = N_PROFILE, n_face: int = N_
                      member=member or g.name)
 
 
+#: Largest measured deviation accepted [m_n]: the bound of every micro-geometry amount
+#: (:data:`gearopt.geometry.microgeometry.AMOUNT_MAX_PER_M`, 0.1 m_n: the flank tolerances of
+#: ISO 1328-1:2013 class 11, the coarsest, stay below about 0.06 m_n for m_n >= 1 mm, and designed
+#: reliefs and crownings are some 0.01 m_n). A larger value is a unit error or a bad cell.
+DEVIATION_MAX_PER_M = 0.1
+
+
 def check_grid_on_flank(grid: FlankGrid, gear, tol: float = 1e-3) -> None:
-    """Refuse a grid that leaves the flank: a profile position below the base circle or above the
-    tip (by more than ``tol`` [mm] in diameter), a face position beyond ``b/2 + tol``; the error
-    names the row (profile position) or column (face position)."""
+    """Refuse a grid that leaves the flank or cannot be a measurement of it, naming the file and
+    the row (profile position) or column (face position):
+
+    * a negative roll length (``L_y`` >= 0 on an involute), a profile position below the base
+      circle or above the tip (by more than ``tol`` [mm] in diameter), a face position beyond
+      ``b/2 + tol``;
+    * a grid whose profile positions all lie below the form circle (it covers no point of the
+      flank: the message states the flank's roll-length range);
+    * a deviation beyond ``DEVIATION_MAX_PER_M m_n`` (a wrong ``# deviation:`` unit, an outlier).
+    """
     d = grid.diameters(gear.r_b)
     where = f"grid {grid.source or grid.member}".rstrip()
+    L_a = math.sqrt(max(gear.r_a**2 - gear.r_b**2, 0.0))
     for i, di in enumerate(d):
+        if grid.profile == "L_y" and grid.s[i] < 0:
+            raise out_of_range(f"{where}: row {i} column 0 (profile position L_y = {grid.s[i]:g} mm)", grid.s[i],
+                               f"roll lengths 0 <= L_y <= L_a = {L_a:.6g} mm (on the {gear.name} flank; a roll "
+                               "length is never negative)", cls=ArgumentError)
         if grid.profile == "d_y" and di <= 2 * gear.r_b or di > 2 * gear.r_a + tol:
             raise out_of_range(f"{where}: row {i} (profile position {grid.s[i]:g} mm, {grid.profile})",
                                grid.s[i], f"diameters d_b = {2 * gear.r_b:.6g} < d_y <= d_a = {2 * gear.r_a:.6g} "
                                f"mm (on the {gear.name} flank)", cls=ArgumentError)
+    r_form = float(gear.r_form)
+    L_form = math.sqrt(max(r_form**2 - gear.r_b**2, 0.0))
+    if float(np.max(d)) < 2 * r_form - tol:
+        s_max = grid.s[int(np.argmax(d))]
+        unit = "L_y" if grid.profile == "L_y" else "d_y"
+        raise out_of_range(f"{where}: column 0 (profile positions up to {unit} = {s_max:g} mm)", s_max,
+                           f"a grid that covers part of the {gear.name} flank: roll lengths L_F = {L_form:.6g} ... "
+                           f"L_a = {L_a:.6g} mm (diameters d_Ff = {2 * r_form:.6g} ... d_a = {2 * gear.r_a:.6g} mm, "
+                           "the form circle to the tip); every row of this grid lies below the form circle",
+                           cls=ArgumentError)
     for j, zj in enumerate(grid.z):
         if abs(zj) > gear.b / 2 + tol:
             raise out_of_range(f"{where}: column {j} (face position z = {zj:g} mm)", zj,
                                f"|z| <= b/2 = {gear.b / 2:.6g} mm", cls=ArgumentError)
+    V = grid.values()
+    lim = DEVIATION_MAX_PER_M * gear.m_n
+    big = np.argwhere(np.abs(V) > lim)
+    if big.size:
+        i, j = (int(v) for v in big[np.argmax(np.abs(V[tuple(big.T)]))])
+        v = V[i, j]
+        n_big = len(big)
+        hint = (f"{n_big} of {V.size} cells are beyond it: does the file's '# deviation:' line state the wrong unit "
+                "(mm for values in um)?" if n_big > V.size / 2 else
+                f"{n_big} of {V.size} cells are beyond it: a bad cell (an outlier of the measurement)?")
+        valid = (f"|deviation| <= {DEVIATION_MAX_PER_M:g} m_n = {lim * 1000:.6g} um (m_n = {gear.m_n:g} mm; the bound of "
+                 "any micro-geometry: flank tolerances and modifications are microns)")
+        detail = f"is out of range; valid: {valid}. {hint}"
+        name = (f"{where}: row {i} column {j + 1} (profile position {grid.s[i]:g} mm, face position z = {grid.z[j]:g} "
+                "mm): deviation")
+        raise ArgumentError(f"{name} = {v * 1000:.6g} um {detail}", param=name, value=float(v * 1000), valid=valid,
+                            detail=detail)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -388,10 +434,22 @@ def read_grid_csv(path, side: str | None = None) -> FlankGrid:
                              param=f"{name}: {where}", value=value, valid=valid)
 
     try:
-        text = path.read_text(encoding="utf-8")
+        raw = path.read_bytes()
     except OSError as e:
         raise ArgumentError(f"{name}: cannot read the topography file ({e.strerror}).", param="file", value=str(path),
                             valid="a readable CSV file") from None
+    valid_text = "a gearopt topography CSV (UTF-8 text, docs/microgeometry.md)"
+    nul = raw.find(b"\x00")
+    if nul >= 0:
+        raise ArgumentError(f"{name}: not a text file (a NUL byte at byte {nul}: a binary file, e.g. a zip "
+                            f"or a spreadsheet, renamed .csv?); valid: {valid_text}.", param="file", value=name,
+                            valid=valid_text)
+    try:
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError as e:
+        raise ArgumentError(f"{name}: not UTF-8 text ({e.reason} at byte {e.start}: a binary file, e.g. a zip or a "
+                            f"spreadsheet, renamed .csv?); valid: {valid_text}.", param="file", value=name,
+                            valid=valid_text) from None
     meta, rows = {}, []
     for ln, line in enumerate(text.splitlines(), start=1):
         s = line.strip()

@@ -287,16 +287,24 @@ class Microgeometry:
                                    f"{lim * 1000:.6g} um (micro-geometry is microns; check the unit: scenes give um)",
                                    cls=ArgumentError)
         r_b, r_a = gear.r_b, gear.r_a
+        # the relief starts lie on the real flank: from the form circle (known without generating the
+        # tooth for a straight tool without undercut; else the base circle here, the form circle in
+        # check_relief_starts against the pair) to the tip
+        r_lo = gear.r_lim if gear.rack.a_c == 0 and not gear.undercut and gear.r_lim > r_b else r_b
+        lo_text = "d_Ff" if r_lo > r_b else "d_b"
         for nm, kind in (("d_Ca", "d"), ("L_Ca", "L"), ("d_Cf", "d"), ("L_Cf", "L")):
             v = getattr(self, nm)
             if v is None:
                 continue
-            if kind == "d" and not 2 * r_b < v < 2 * r_a:
-                raise out_of_range(f"{n}.modifications.{nm}", v, f"d_b = {2 * r_b:.6g} mm < {nm} < d_a = "
-                                   f"{2 * r_a:.6g} mm (a diameter on the involute)", cls=ArgumentError)
-            if kind == "L" and not 0 < v < math.sqrt(r_a**2 - r_b**2):
-                raise out_of_range(f"{n}.modifications.{nm}", v, f"0 < {nm} < L_a = {math.sqrt(r_a**2 - r_b**2):.6g} "
-                                   "mm (a roll length on the involute)", cls=ArgumentError)
+            if kind == "d" and not 2 * r_lo < v < 2 * r_a:
+                raise out_of_range(f"{n}.modifications.{nm}", v, f"{lo_text} = {2 * r_lo:.6g} mm < {nm} < d_a = "
+                                   f"{2 * r_a:.6g} mm (a diameter on the {n}'s flank, from its "
+                                   f"{'form' if r_lo > r_b else 'base'} circle to its tip)", cls=ArgumentError)
+            L_lo = math.sqrt(max(r_lo**2 - r_b**2, 0.0))
+            if kind == "L" and not L_lo < v < math.sqrt(r_a**2 - r_b**2):
+                raise out_of_range(f"{n}.modifications.{nm}", v, f"{L_lo:.6g} mm < {nm} < L_a = "
+                                   f"{math.sqrt(r_a**2 - r_b**2):.6g} mm (a roll length on the {n}'s flank, from its "
+                                   f"{'form' if r_lo > r_b else 'base'} circle to its tip)", cls=ArgumentError)
         for nm in ("b_I", "b_II"):
             v = getattr(self, nm)
             if v is not None and not v < gear.b:
@@ -304,6 +312,10 @@ class Microgeometry:
         if abs(self.z_Cb) > gear.b / 2:
             raise out_of_range(f"{n}.modifications.z_Cb", self.z_Cb, f"|z_Cb| <= b/2 = {gear.b / 2:.6g} mm",
                                cls=ArgumentError)
+        if self.measured:  # on the flank, plausible deviations (the file, row and column named)
+            from .inspection import check_grid_on_flank
+            for grid in self.measured:
+                check_grid_on_flank(grid, gear)
         if self.d_alpha is not None and not (2 * r_b < self.d_alpha[0] and self.d_alpha[1] <= 2 * r_a + 1e-9):
             raise out_of_range(f"{n}.modifications.d_alpha", list(self.d_alpha), f"d_b = {2 * r_b:.6g} mm < d_start < "
                                f"d_end <= d_a = {2 * r_a:.6g} mm", cls=ArgumentError)
@@ -420,6 +432,40 @@ def frame(tooth, side: str, pair=None, member: str | None = None, mg: Microgeome
     return Frame(r_b=g.r_b, beta_b=g.beta_b, b=g.b, L_s=L(r_s), L_e=L(r_e), L_a=L(g.r_a), sign_L=sign_L)
 
 
+def check_relief_starts(mg: Microgeometry, gear, r_s: float, r_e: float, where: str) -> None:
+    """Refuse a profile relief whose start lies outside the profile evaluation range ``r_s`` ...
+    ``r_e`` [mm] (radii: the active profile of the pair, or ``d_alpha``): a tip relief (``d_Ca`` /
+    ``L_Ca``) starting below it would relieve the whole evaluated profile, a root relief
+    (``d_Cf`` / ``L_Cf``) starting above it likewise. ArgumentError naming ``where.<key>`` with the
+    valid range in the key's own terms (diameter or roll length)."""
+    L = lambda r: math.sqrt(max(r * r - gear.r_b**2, 0.0))  # noqa: E731
+    for d_key, L_key, what in (("d_Ca", "L_Ca", "tip"), ("d_Cf", "L_Cf", "root")):
+        d_v, L_v = getattr(mg, d_key), getattr(mg, L_key)
+        if d_v is None and L_v is None:
+            continue
+        Lv = L_v if L_v is not None else L(d_v / 2)
+        lo, hi = L(r_s), L(r_e)
+        inside = lo - 1e-9 <= Lv < hi if what == "tip" else lo < Lv <= hi + 1e-9
+        if inside:
+            continue
+        ops = ("<=", "<") if what == "tip" else ("<", "<=")
+        if d_v is not None:
+            valid = (f"{2 * r_s:.6g} mm {ops[0]} {d_key} {ops[1]} {2 * r_e:.6g} mm (the {gear.name}'s profile evaluation "
+                     "range: its active profile d_Nf ... d_a, or d_alpha)")
+            raise out_of_range(f"{where}.{d_key}", d_v, valid, cls=ArgumentError)
+        valid = (f"{lo:.6g} mm {ops[0]} {L_key} {ops[1]} {hi:.6g} mm (roll lengths of the {gear.name}'s profile "
+                 "evaluation range: its active profile d_Nf ... d_a, or d_alpha)")
+        raise out_of_range(f"{where}.{L_key}", L_v, valid, cls=ArgumentError)
+    if "C_alpha_a" in mg.reliefs and "C_alpha_f" in mg.reliefs:  # the root relief ends where the tip relief starts
+        L_a = mg.L_Ca if mg.L_Ca is not None else L(mg.d_Ca / 2)
+        L_f = mg.L_Cf if mg.L_Cf is not None else L(mg.d_Cf / 2)
+        if not L_f < L_a:
+            key = "d_Cf" if mg.d_Cf is not None else "L_Cf"
+            tip = f"d_Ca = {mg.d_Ca:.6g} mm" if mg.d_Ca is not None else f"L_Ca = {mg.L_Ca:.6g} mm"
+            raise out_of_range(f"{where}.{key}", getattr(mg, key), f"a root relief start below the tip relief's ({tip}): "
+                               "the two reliefs must not overlap", cls=ArgumentError)
+
+
 def _check_reliefs(mg: Microgeometry, fr: Frame, where: str) -> None:
     for name, (s_end, length) in _relief_coords(mg, fr, fr.L_a, 0.0).items():
         if name in ("C_beta_I", "C_beta_II"):
@@ -471,6 +517,7 @@ def flank_modifications(mg: Microgeometry, tooth, pair=None, member: str | None 
     if force_iso or any(getattr(mg, a) != 0 for a in GLOBAL_AMOUNTS) or mg.reliefs:
         frames = {side: frame(tooth, side, pair, member, mg) for side in mg.sides}
         for fr in frames.values():
+            check_relief_starts(mg, gear, math.hypot(fr.r_b, fr.L_s), math.hypot(fr.r_b, fr.L_e), where)
             _check_reliefs(mg, fr, where)
 
         def delta_for(side):

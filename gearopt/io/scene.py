@@ -760,8 +760,28 @@ def _build_pair(data: dict, parsed: dict, given: dict, path: Path) -> GearPair:
                                  valid=rng, source=path) from None
             reraise(e, member, f"[{member}]")
     try:
-        return GearPair(pinion=members["pinion"], gear=members["gear"], a=pr["a"])
+        pair = GearPair(pinion=members["pinion"], gear=members["gear"], a=pr["a"])
     except GeometryError as e:
         reraise(e, None, "[pair]")
-    raise AssertionError("unreachable")  # pragma: no cover
+    _check_reliefs_in_pair(pair, data, path)
+    return pair
+
+
+def _check_reliefs_in_pair(pair: GearPair, data: dict, path: Path) -> None:
+    """Refuse a profile relief start (``d_Ca``, ``L_Ca``, ``d_Cf``, ``L_Cf``) outside its member's
+    profile evaluation range (the active profile in this pair, or ``d_alpha``), naming the key of
+    ``[<member>.modifications]`` (:func:`~gearopt.geometry.microgeometry.check_relief_starts`)."""
+    from ..geometry.microgeometry import active_profile, check_relief_starts
+
+    for member in ("pinion", "gear"):
+        g = getattr(pair, member)
+        mg = g.modifications
+        if mg is None or not any(k in mg.reliefs for k in ("C_alpha_a", "C_alpha_f")):
+            continue
+        r_s, r_e = (mg.d_alpha[0] / 2, mg.d_alpha[1] / 2) if mg.d_alpha is not None else active_profile(pair, member)
+        try:
+            check_relief_starts(mg, g, r_s, r_e, f"{member}.modifications")
+        except GeometryError as e:
+            loc = _gear_key(data, member, e.param)
+            raise _restate(path, *loc, _raw_value(data, *loc), e) from None
 

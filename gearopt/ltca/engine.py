@@ -49,6 +49,89 @@ OUTER_MAX = 10  #: QP rounds that add tip-edge slices found closed after a solve
 KKT_ADD_TOL = 1e-12  #: a left-out slice whose gap falls below the approach by more than this [mm] is added
 QP_SOLVER = "qpoases"  #: CasADi conic plugin of the contact QP
 F_MIN_SHARE = 1e-3  #: Weber's logarithm uses at least this share of the mean line load
+#: Range of validity of the linear-elastic contact model (refused beyond it, :func:`check_validity`).
+#: Peak Hertz pressure of the flank contact [MPa] for steel (E = 206000 MPa), scaled by E / 206000
+#: for another modulus (the same contact strain p0 / E = 0.024): at p0 = 5000 MPa the largest
+#: subsurface shear stress of a line contact, 0.30 p0 = 1500 MPa, is beyond the shear yield
+#: strength of the hardest case-hardened gear steel (~1200 MPa at 60+ HRC), and the static
+#: contact capacity of such steels (ISO 6336-2, sigma_Hlim 1500 MPa x Z_NT 1.6 = 2400 MPa) is
+#: exceeded twice over: no gear survives it, and the elastic model no longer describes it.
+P_MAX_VALID = 5000.0
+E_STEEL = 206000.0  #: [MPa] the modulus P_MAX_VALID is stated for
+#: Largest loaded approach (the deflection of the mesh along the contact normal) [m_n]: beyond
+#: 0.1 m_n the teeth bend so far that the small-deflection compliance (and the unloaded contact
+#: geometry it is applied to) no longer hold (normal loads give 0.005 ... 0.02 m_n).
+DELTA_MAX_VALID = 0.1
+
+
+def pressure_lower_bound(pair, torque: float, material) -> float:
+    """A lower bound of the peak Hertz pressure [MPa] of the flank contact at pinion torque
+    ``torque`` [N m], from the gear data alone (no solve): the normal load ``W = T / (r_b1 cos
+    beta_b)`` spread over the longest contact length the mesh can have, ``b (floor(eps_alpha) + 1) /
+    cos(beta_b)``, on the flattest flanks of the path of contact (normal equivalent radius
+    ``g / 4 / cos(beta_b)``, g = a_w sin(alpha_wt) the distance between the base-circle tangency
+    points; the sum of the transverse radii along the path is g): Hertz's line contact
+    ``p0 = sqrt(w E* / (pi rho))``, ``E* = E / (2 (1 - nu^2))``. Some slice carries at least the mean
+    line load on flanks no flatter than that, so the solved peak is not below it (up to loads taken
+    by tip edges)."""
+    g1 = pair.pinion
+    cb = math.cos(g1.beta_b)
+    W = torque * 1e3 / (g1.r_b * cb)
+    length = min(g1.b, pair.gear.b) * (math.floor(pair.eps_alpha) + 1) / cb
+    rho = pair.a_w * math.sin(pair.alpha_wt) / 4 / cb
+    e_star = material.E / (2 * (1 - material.nu**2))
+    return math.sqrt(W / length * e_star / (math.pi * rho))
+
+
+def check_torque_range(pair, torque_max: float, material=None, name: str = "torque") -> None:
+    """Refuse, before any solve, a torque [N m] whose :func:`pressure_lower_bound` already exceeds
+    the model's pressure limit (``P_MAX_VALID E / 206000``): :class:`OptionError` naming ``name``.
+    The solved results are checked in full by :func:`check_validity`."""
+    from .compliance import Material
+
+    material = material or Material()
+    p_lim = P_MAX_VALID * material.E / E_STEEL
+    p = pressure_lower_bound(pair, float(torque_max), material)
+    if p > p_lim:
+        valid = (f"a torque whose peak contact pressure stays <= {p_lim:.4g} MPa (no gear steel survives more; "
+                 f"{P_MAX_VALID:g} MPa x E / {E_STEEL:g} MPa: the linear-elastic contact model's range of validity)")
+        detail = (f"is beyond the range of the linear-elastic contact model: at {torque_max:g} N m the contact pressure "
+                  f"is at least {p:.4g} MPa (Hertz, the load over the longest contact line); valid: {valid}.")
+        raise OptionError(f"{name} = {torque_max:g} {detail}", param=name, value=float(torque_max), valid=valid,
+                          detail=detail)
+
+
+def check_validity(result, pair, material) -> None:
+    """Refuse a loaded result outside the linear-elastic model's range of validity: a peak flank
+    pressure above ``P_MAX_VALID E / 206000`` MPa, a loaded approach above ``DELTA_MAX_VALID m_n``,
+    or a mesh stiffness that is not positive (an approach <= 0 under load).
+
+    Raises
+    ------
+    OptionError
+        Naming ``torque`` and its value [N m], the figure reached and the limit.
+    """
+    T = float(result.torque)
+    m_n = pair.pinion.m_n
+    p_lim = P_MAX_VALID * material.E / E_STEEL
+    d_lim = DELTA_MAX_VALID * m_n
+    p = float(np.nanmax(result.p0_flank)) if np.isfinite(result.p0_flank).any() else 0.0
+    d = np.asarray(result.delta, float)
+    why = None
+    if p > p_lim:
+        why = f"the peak contact pressure reaches {p:.4g} MPa"
+    elif np.nanmax(d) > d_lim:
+        why = f"the loaded approach reaches {float(np.nanmax(d)) * 1000:.4g} um = {float(np.nanmax(d)) / m_n:.3g} m_n"
+    elif np.any(d <= 0):
+        why = (f"the loaded approach is {float(np.nanmin(d)) * 1000:.4g} um at some position: the mesh stiffness "
+               "would not be positive")
+    if why is None:
+        return
+    valid = (f"a torque whose peak contact pressure stays <= {p_lim:.4g} MPa (no gear steel survives more; "
+             f"{P_MAX_VALID:g} MPa x E / {E_STEEL:g} MPa) and whose loaded approach stays within 0 ... "
+             f"{DELTA_MAX_VALID:g} m_n = {d_lim * 1000:.4g} um (the linear-elastic contact model's range of validity)")
+    detail = f"is beyond the range of the linear-elastic contact model: at {T:g} N m {why}; valid: {valid}."
+    raise OptionError(f"torque = {T:g} {detail}", param="torque", value=T, valid=valid, detail=detail)
 
 
 @contextlib.contextmanager
@@ -217,18 +300,34 @@ class LTCA:
         if curvature not in ("surface", "involute"):
             raise out_of_range("curvature", curvature, "'surface' (each flank's own) or 'involute'", cls=OptionError)
         self.curvature = curvature
-        self.influence = None
-        if compliance == "fe":
-            from ..fea.influence import influence_grid
-
-            if self.side != "right":
-                raise out_of_range("side", self.side, "'right' with compliance = 'fe' (the FE model loads the right "
-                                   "flank)", cls=OptionError)
-            self.influence = tuple(influence_grid(t.unmodified, material.E, material.nu, mesh=fe_mesh,
-                                                  r_form=self.tca.form_radius(m))
-                                   for m, t in ((1, self.tca.pinion), (2, self.tca.gear)))
+        self._influence = None
+        self._fe_mesh = fe_mesh
+        if compliance == "fe" and self.side != "right":
+            raise out_of_range("side", self.side, "'right' with compliance = 'fe' (the FE model loads the right "
+                               "flank)", cls=OptionError)
         self._qp: dict = {}
         self.build_time = time.perf_counter() - t0
+
+    @property
+    def influence(self):
+        """The members' FE influence grids (pinion, gear) with ``compliance = "fe"``, else None.
+        Computed (CalculiX, or the disk cache) on first use, i.e. by the first solve: building an
+        LTCA validates its inputs and runs nothing (``gearopt check`` writes nothing)."""
+        if self.compliance != "fe":
+            return None
+        if self._influence is None:
+            from ..fea.influence import influence_grid
+
+            self._influence = tuple(influence_grid(t.unmodified, self.material.E, self.material.nu,
+                                                   mesh=self._fe_mesh, r_form=self.tca.form_radius(m))
+                                    for m, t in ((1, self.tca.pinion), (2, self.tca.gear)))
+        return self._influence
+
+    @influence.setter
+    def influence(self, grids) -> None:
+        """Replace the influence grids (pinion, gear) of an ``"fe"`` engine (e.g. without their
+        local excess)."""
+        self._influence = None if grids is None else tuple(grids)
 
     # ------------------------------------------------------------------------------------------
     def default_pairs(self) -> tuple:
@@ -512,12 +611,14 @@ class LTCA:
         te_l = te0 - delta / lever
         pair_load = Fk.sum(axis=2)
         width = np.where(S.width > 0, S.width, np.nan)
-        return LoadedResult(
+        result = LoadedResult(
             torque=torque, W=W, phi1=S.phi1, pairs=S.pairs, te_unloaded=te0, te_loaded=te_l, delta=delta,
             load=Fk, line_load=np.where(np.isfinite(S.z), Fk / width, np.nan),
             p0=np.where(back(A_all), back(p0), 0.0), b_H=np.where(back(A_all), back(bH), 0.0), pair_load=pair_load,
             share=pair_load / W, stiffness=W / delta / 1e3, kkt_error=kkt, hertz_iterations=it,
             solve_time=time.perf_counter() - t0, face_width=g1.b, stats={"qp_solver": QP_SOLVER}, edge=S.edge)
+        check_validity(result, self.pair, self.material)
+        return result
 
 
 @dataclass

@@ -36,7 +36,7 @@ import casadi as ca
 import numpy as np
 
 from ..compiled import MIN_COLUMNS, available, compile_function, mapped
-from ..errors import OptionError
+from ..errors import GearoptError, OptionError
 from ..meshing.solver import DELTA_DEFAULT
 
 #: iterations of the line-search Newton of the continuation (the TCA's: 100)
@@ -134,14 +134,19 @@ class TCAKernel:
     # -- on the parent side ---------------------------------------------------------------------
     def limit_tables(self, tca, P1, P2) -> np.ndarray:
         """(n, 2, 9) flank-limit tables u_lim(z^2) of both members for each row of P1, P2 (the
-        generated flank's end, :meth:`TCA.limit_table`), computed once per distinct vector."""
+        generated flank's end, :meth:`TCA.limit_table`), computed once per distinct vector. An error
+        of a row's table (a degenerate flank) is raised with the row as its ``sample`` attribute."""
         out = np.empty((len(P1), 2, self.s_grid.size))
         seen: dict = {}
         for i, (p1, p2) in enumerate(zip(np.asarray(P1, float), np.asarray(P2, float))):
             for m, p in ((0, p1), (1, p2)):
                 key = (m, p.tobytes())
                 if key not in seen:
-                    s, u = tca.limit_table(m + 1, p)
+                    try:
+                        s, u = tca.limit_table(m + 1, p)
+                    except GearoptError as e:
+                        e.sample = i  # the first row whose flank is degenerate (the studies name it)
+                        raise
                     b = self.b1 if m == 0 else self.b2
                     seen[key] = np.interp(self.s_grid * (b / 2) ** 2, s, u) if s.size > 1 else np.full(9, u[0])
                 out[i, m] = seen[key]
@@ -400,6 +405,9 @@ class LTCAKernel:
                               pairs=self.pairs, offsets=(e1[i], e2[i]))
             except (ConvergenceError, GeometryError):
                 continue
+            except OptionError as e:  # beyond the model's range of validity (ltca.engine.check_validity)
+                e.sample = int(chunk.get("first", 0)) + i  # the study names the sample and its inputs
+                raise
             r = sw.results[0]
             te = np.asarray(r.te_loaded, float)
             if not np.all(np.isfinite(te)):

@@ -182,15 +182,44 @@ def connect(scheduler: str, timeout: float = CONNECT_TIMEOUT):
         from distributed import Client
     except ImportError as e:  # pragma: no cover - a dependency
         raise ExecutionError("the Dask executor needs dask.distributed (pip install 'dask[distributed]').") from e
-    if not isinstance(scheduler, str) or not scheduler:
-        raise out_of_range("scheduler", scheduler, "an address such as tcp://127.0.0.1:8786", cls=OptionError)
+    check_scheduler(scheduler)
     try:
         return Client(scheduler, timeout=f"{timeout}s")
+    except ValueError as e:  # an address distributed cannot parse (unknown protocol, bad port)
+        raise OptionError(f"scheduler = {scheduler!r}: not a Dask scheduler address ({e}); valid: {SCHEDULER_FORMS}.",
+                          param="scheduler", value=scheduler, valid=SCHEDULER_FORMS) from None
     except (OSError, TimeoutError) as e:
         raise ExecutionError(f"scheduler = {scheduler!r}: no Dask scheduler answered within {timeout:g} s ({e}). "
                              "Start one (`dask scheduler`, then `dask worker ADDRESS`) or check the address.",
                              param="scheduler", value=scheduler, valid="the address of a running Dask scheduler") \
             from None
+
+
+#: the scheduler addresses accepted (distributed's comm protocols)
+SCHEDULER_PROTOCOLS = ("tcp", "tls", "inproc", "ucx", "ws", "wss")
+SCHEDULER_FORMS = "tcp://HOST:PORT (e.g. tcp://127.0.0.1:8786), tls://HOST:PORT, ws://, wss://, ucx://, or HOST:PORT"
+
+
+def check_scheduler(scheduler) -> str:
+    """``scheduler`` if it reads as a Dask scheduler address (``PROTOCOL://HOST:PORT`` with a
+    protocol of :data:`SCHEDULER_PROTOCOLS`, or ``HOST:PORT``), else :class:`OptionError` naming
+    ``scheduler``, the value and the accepted forms. Contacts nothing."""
+    import re
+
+    if not isinstance(scheduler, str) or not scheduler.strip():
+        raise out_of_range("scheduler", scheduler, SCHEDULER_FORMS, cls=OptionError)
+    proto, sep, rest = scheduler.partition("://")
+    if not sep:
+        proto, rest = "tcp", scheduler
+    if proto not in SCHEDULER_PROTOCOLS:
+        raise OptionError(f"scheduler = {scheduler!r}: unknown protocol {proto!r}; valid: {SCHEDULER_FORMS}.",
+                          param="scheduler", value=scheduler, valid=SCHEDULER_FORMS)
+    if proto != "inproc":
+        m = re.fullmatch(r"(\[[0-9A-Fa-f:.]+\]|[^\s:/\[\]]+)(?::(\d+))?/?", rest)
+        if m is None or (m.group(2) is not None and not 0 < int(m.group(2)) < 65536):
+            raise OptionError(f"scheduler = {scheduler!r}: not HOST:PORT after {proto}://; valid: {SCHEDULER_FORMS}.",
+                              param="scheduler", value=scheduler, valid=SCHEDULER_FORMS)
+    return scheduler
 
 
 def _dask(kernel, chunks, executor, workers, scheduler, bar) -> list:

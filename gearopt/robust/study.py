@@ -25,10 +25,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import ArgumentError, OptionError, out_of_range
+from ..errors import ArgumentError, ConvergenceError, GearoptError, GeometryError, OptionError, out_of_range
 from ..meshing.misalignment import Misalignment
 from ..meshing.solver import DELTA_DEFAULT
-from ..units import ARCMIN, RAD_TO_ARCSEC
+from ..units import ARCMIN, DEG, RAD_TO_ARCSEC
 from .sampling import Distribution, check_count, design, within_tolerance
 
 #: the deviation inputs a Monte Carlo can sample, with their unit (internal mm) and meaning
@@ -99,6 +99,7 @@ class RobustResult:
     options: dict
     timing: dict = field(default_factory=dict)
     nominal: dict = field(default_factory=dict)  #: the nominal drive's figures (same kernel)
+    warnings: list = field(default_factory=list)  #: texts of the study's warnings (mostly infeasible samples)
 
     @property
     def n(self) -> int:
@@ -140,7 +141,8 @@ class RobustResult:
         f = self.figures
         feas = f["feasible"]
         out = {"n_samples": self.n, "n_failed": int((~f["ok"] & feas).sum()), "n_infeasible": int((~feas).sum()),
-               "p_infeasible": _wilson(int((~feas).sum()), self.n)}
+               "p_infeasible": _wilson(int((~feas).sum()), self.n),
+               "feasible_fraction": usable_fraction(f)}
         qs = (1, 5, 50, 95, 99)
 
         def stats(v, scale=RAD_TO_ARCSEC):
@@ -176,7 +178,6 @@ class RobustResult:
         from scipy.stats import spearmanr
 
         f = self.figures
-        names = [nm for nm, v in self.inputs.items() if np.ptp(v) > 0]
         out = {}
         targets = [("te_p2p", f["te_p2p"]), ("h1", f["harmonics"][:, 0]),
                    ("edge_contact", f["edge_contact"].astype(float))]
@@ -184,6 +185,8 @@ class RobustResult:
             targets += [("loaded_te_p2p", f["loaded_te_p2p"]), ("p_max", f["p_max"])]
         for key, y in targets:
             m = np.isfinite(y) & f["ok"]
+            # the inputs that vary among these samples (an input constant over them has no influence to rank)
+            names = [nm for nm, v in self.inputs.items() if m.any() and np.ptp(v[m]) > 0]
             if m.sum() < 3 or not names or np.ptp(y[m]) == 0:
                 out[key] = []
                 continue
@@ -207,7 +210,7 @@ class RobustResult:
                 "nominal": self.nominal, "limits": self.limits,
                 "pattern": {"grid_z_mm": self.grid_z.tolist(), "grid_radius_mm": self.grid_r.tolist(),
                             "probability": (self.pattern_count / max(int(self.figures["ok"].sum()), 1)).tolist()},
-                "samples_csv": "samples.csv", "timing": self.timing}
+                "samples_csv": "samples.csv", "timing": self.timing, "warnings": list(self.warnings)}
 
     def save_tables(self, out_dir) -> list[str]:
         """``samples.csv``: one row per sample (:meth:`table`)."""
@@ -233,8 +236,11 @@ class RobustResult:
 
         out = Path(out_dir)
 
+        frac = usable_fraction(self.figures)
+        flag = f" [WARNING: only {100 * frac:.3g} % of the samples have results]" if frac < FEASIBLE_WARN else ""
+
         def save(name, fig, title):
-            fig.suptitle(f"{self.scene}: {title}")
+            fig.suptitle(f"{self.scene}: {title}{flag}")
             fig.savefig(out / name, dpi=dpi, bbox_inches="tight")
             plt.close(fig)
             return name
@@ -315,7 +321,9 @@ class _Robust:
         raise NotImplementedError
 
     def _execute(self, values: dict, n: int, progress=None, scheduler=None) -> tuple:
-        from .execution import run_chunks
+        from .execution import check_scheduler, run_chunks
+        if scheduler is not None:
+            check_scheduler(scheduler)
         t0 = time.perf_counter()
         tca = self._tca()
         kernel = self._kernel(tca, n).prepare()
@@ -324,8 +332,11 @@ class _Robust:
         nominal = kernel.evaluate(self._nominal_chunk(kernel, tca))
         t1 = time.perf_counter()
         executor = "dask" if scheduler else self.executor
-        parts = run_chunks(kernel, chunks, executor=executor, workers=self.workers, scheduler=scheduler,
-                           progress=progress, label=self.study)
+        try:
+            parts = run_chunks(kernel, chunks, executor=executor, workers=self.workers, scheduler=scheduler,
+                               progress=progress, label=self.study)
+        except (GeometryError, ConvergenceError) as e:  # a sample's drive the engine cannot take: say which
+            raise sample_error(self.study, values, e) from None
         t_run = time.perf_counter() - t1
         figs = {k: np.concatenate([p[k] for p in parts]) for k in parts[0] if k != "pattern_count"}
         count = sum(p["pattern_count"] for p in parts)
@@ -336,8 +347,13 @@ class _Robust:
             t2 = time.perf_counter()
             lk = LTCAKernel(self.pair, kernel.phi, PAIRS, deviation_mod="pinion.dev.f_H_alpha" in kernel.layout,
                             side=self.side, n_slices=self.n_slices, material=self.material)
-            lparts = run_chunks(lk, chunks, executor=executor, workers=self.workers, scheduler=scheduler,
-                                progress=progress, label=f"{self.study} (loaded)")
+            try:
+                lparts = run_chunks(lk, chunks, executor=executor, workers=self.workers, scheduler=scheduler,
+                                    progress=progress, label=f"{self.study} (loaded)")
+            except OptionError as e:
+                if getattr(e, "sample", None) is None:
+                    raise
+                raise sample_error(self.study, values, e) from None
             figs.update({k: np.concatenate([p[k] for p in lparts]) for k in lparts[0]})
             T0 = float(self.torque_dist.ppf(0.5))
             ln = lk.evaluate({**self._nominal_chunk(kernel, tca), "torque": np.array([T0])})
@@ -363,10 +379,47 @@ class _Robust:
         return {"p1": kernel.p1_0[None, :], "p2": kernel.p2_0[None, :], "mis": self.base_mis.vector()[None, :]}
 
 
+#: below this fraction of usable samples a study warns (stderr and results.json ``warnings``)
+FEASIBLE_WARN = 0.5
+
+
+def usable_fraction(figs: dict) -> float:
+    """Fraction of the samples with results: feasible (the misalignment neither jams nor separates
+    the teeth) and solved (``ok``)."""
+    use = np.asarray(figs["feasible"], bool) & np.asarray(figs["ok"], bool)
+    return float(use.mean()) if use.size else 0.0
+
+
+def judge_samples(study: str, figs: dict, values: dict, progress=None) -> list[str]:
+    """Refuse a study none of whose samples has results (:class:`OptionError`: the inputs' ranges in
+    the CSV's units); warn (``warnings.warn``, stderr, and the returned texts for results.json) when
+    fewer than :data:`FEASIBLE_WARN` of them have."""
+    import warnings
+
+    feas, ok = np.asarray(figs["feasible"], bool), np.asarray(figs["ok"], bool)
+    n = feas.size
+    n_use = int((feas & ok).sum())
+    why = (f"{int((~feas).sum())} infeasible (the misalignment jams or separates the teeth, or exceeds its limit), "
+           f"{int((feas & ~ok).sum())} not solved")
+    spans = ", ".join(f"{nm} {display(nm, np.min(v))[0]:.6g} ... {display(nm, np.max(v))[0]:.6g} {display(nm, 0.0)[1]}"
+                      for nm, v in values.items() if np.ptp(v) > 0 and nm not in DEVIATIONS)
+    if n_use == 0:
+        raise OptionError(f"{study}: none of the {n} samples has results ({why}); the inputs span {spans}: narrow "
+                          "the distributions / ranges to drives that mesh.", param=None)
+    if n_use < FEASIBLE_WARN * n:
+        msg = (f"{study}: only {n_use} of {n} samples ({100 * n_use / n:.3g} %) have results ({why}); the statistics "
+               f"describe those alone. The inputs span {spans}: narrow them to drives that mesh.")
+        if progress:  # the run's own stderr lines
+            progress(f"warning: {msg}")
+        else:
+            warnings.warn(msg, UserWarning, stacklevel=3)
+        return [msg]
+    return []
+
+
 def _feasible(pair, MIS) -> np.ndarray:
     """Per sample: the misalignment neither jams nor separates the teeth (the rules of
     :meth:`Misalignment.check`: dE within the operating range, faces overlapping)."""
-    from ..errors import GeometryError
     out = np.ones(len(MIS), bool)
     seen: dict = {}
     for i, v in enumerate(MIS):
@@ -379,6 +432,72 @@ def _feasible(pair, MIS) -> np.ndarray:
                 seen[key] = False
         out[i] = seen[key]
     return out
+
+
+#: the parameters of each distribution kind that bound its values
+BOUNDS_OF_KIND = {"fixed": ("value",), "uniform": ("lo", "hi"), "truncnormal": ("lo", "hi"),
+                  "triangular": ("lo", "mode", "hi")}
+#: standard deviations of a normal distribution that must lie within a misalignment's limit
+NORMAL_SPAN = 3.0
+
+
+def misalignment_limit(kind: str) -> float:
+    """Largest magnitude of misalignment ``kind`` [rad or mm] that a fixed value may have (the
+    bound of the scene keys, ``Misalignment.meta(kind)["scene_max"]``: deg for angles, mm for
+    lengths); the Monte Carlo distributions and the sweep ranges obey the same one."""
+    meta = Misalignment.meta(kind)
+    return meta["scene_max"] * (DEG if meta["unit"] == "angle" else 1.0)
+
+
+def misalignment_text(kind: str, value: float) -> str:
+    """``value`` [rad or mm] of misalignment ``kind`` in the user's unit: arcmin (and deg from
+    1 deg up) for angles, mm for lengths."""
+    if Misalignment.meta(kind)["unit"] == "angle":
+        return f"{value / ARCMIN:.6g} arcmin" + (f" ({value / DEG:.4g} deg)" if abs(value) >= DEG else "")
+    return f"{value:.6g} mm"
+
+
+def check_misalignment_distribution(kind: str, dist: Distribution, where: str) -> None:
+    """Refuse a distribution of misalignment ``kind`` whose values reach beyond the limit of a fixed
+    value (:func:`misalignment_limit`): its bounds (fixed, uniform, truncnormal, triangular) or, for a
+    normal, ``mean +- NORMAL_SPAN sd`` (99.7 % of the samples). :class:`OptionError` naming
+    ``where.<parameter>`` with the value in arcmin / mm."""
+    lim = misalignment_limit(kind)
+    valid = f"|{kind}| <= {misalignment_text(kind, lim)} (the limit of a fixed {kind})"
+    if dist.kind == "normal":
+        for p in ("mean", "sd"):
+            v = getattr(dist, p)
+            reach = abs(dist.mean) + NORMAL_SPAN * dist.sd
+            if reach > lim and (p == "sd" or abs(dist.mean) > lim):
+                detail = (f"is out of range: mean +- {NORMAL_SPAN:g} sd reaches {misalignment_text(kind, reach)}; "
+                          f"valid: {valid} over mean +- {NORMAL_SPAN:g} sd.")
+                raise OptionError(f"{where}.{p} = {misalignment_text(kind, v)} {detail}", param=f"{where}.{p}",
+                                  value=misalignment_text(kind, v), valid=valid, detail=detail)
+        return
+    for p in BOUNDS_OF_KIND[dist.kind]:
+        v = getattr(dist, p)
+        if abs(v) > lim:
+            detail = f"is out of range; valid: {valid}."
+            raise OptionError(f"{where}.{p} = {misalignment_text(kind, v)} {detail}", param=f"{where}.{p}",
+                              value=misalignment_text(kind, v), valid=valid, detail=detail)
+
+
+def sample_error(study: str, values: dict, err: Exception, index=None) -> OptionError:
+    """An error of one sample of a study, stated for that sample: its index and the value of every
+    input (in the units of the CSV), with the error's own message. ``index``: the sample (default:
+    the error's ``sample`` attribute, set by :meth:`TCAKernel.limit_tables`); without one the
+    message gives the inputs' ranges."""
+    index = getattr(err, "sample", None) if index is None else index
+    names = list(values)
+    if index is None:
+        shown = ", ".join(f"{nm} in [{display(nm, np.min(values[nm]))[0]:.6g}, {display(nm, np.max(values[nm]))[0]:.6g}] "
+                          f"{display(nm, 0.0)[1]}" for nm in names if nm not in DEVIATIONS)
+        return OptionError(f"{study}: a sample failed ({err}); the inputs span {shown}: narrow the ranges.",
+                           param=None, valid=getattr(err, "valid", None))
+    shown = ", ".join(f"{nm} = {display(nm, values[nm][index])[0]:.6g} {display(nm, 0.0)[1]}" for nm in names
+                      if nm not in DEVIATIONS)  # the ISO deviations (um) are in samples.csv of a run
+    return OptionError(f"{study}: sample {index} ({shown}) failed: {err}", param=None,
+                       valid=getattr(err, "valid", None))
 
 
 def _num(v):
@@ -481,6 +600,10 @@ class MonteCarlo(_Robust):
                                    "below by a positive torque: uniform, truncnormal, triangular or fixed)",
                                    cls=OptionError)
             self.torque_dist = torque
+            if math.isfinite(torque.support[1]):  # the largest torque drawn, against the model's range
+                from ..ltca.engine import check_torque_range
+                check_torque_range(pair, torque.support[1], material, name="torque.hi" if torque.kind != "fixed"
+                                   else "torque.value")
             if not 3 <= self.n_slices <= 201:
                 raise out_of_range("n_slices", n_slices, "an integer 3 ... 201", cls=OptionError)
         if not inputs:
@@ -491,12 +614,7 @@ class MonteCarlo(_Robust):
             self.inputs["torque"] = self.torque_dist
         for nm, d in inputs.items():
             if nm.startswith("mis."):
-                lo, hi = d.support
-                kind = nm[4:]
-                lim = Misalignment.meta(kind)["scene_max"] * (ARCMIN if Misalignment.meta(kind)["unit"] == "angle" else 1)
-                if d.kind in ("fixed", "uniform", "truncnormal", "triangular") and max(abs(lo), abs(hi)) > lim:
-                    raise out_of_range(f"misalignment.{kind}", (lo, hi), f"values within +-{display(nm, lim)[0]:g} "
-                                       f"{display(nm, 0)[1]}", cls=OptionError)
+                check_misalignment_distribution(nm[4:], d, f"misalignment.{nm[4:]}")
 
     def _tca(self):
         from ..geometry.microgeometry import modified_tooth
@@ -537,7 +655,7 @@ class MonteCarlo(_Robust):
         T = values.get("torque", np.full(n, np.nan))
         return [{"p1": P1[s:s + self.chunk], "p2": P2[s:s + self.chunk], "mis": MIS[s:s + self.chunk],
                  "e1": e1[s:s + self.chunk], "e2": e2[s:s + self.chunk], "skip": ~self._ok_mis[s:s + self.chunk],
-                 "torque": T[s:s + self.chunk]} for s in range(0, n, self.chunk)]
+                 "torque": T[s:s + self.chunk], "first": s} for s in range(0, n, self.chunk)]
 
     def run(self, progress=None, scheduler=None) -> RobustResult:
         """Sample, solve every sample's mesh cycle, reduce. ``progress``: callable(str) for
@@ -547,13 +665,14 @@ class MonteCarlo(_Robust):
             progress(f"montecarlo: {self.samples} samples x {self.positions} positions x {len(PAIRS)} pairs")
         values = self.values()
         figs, count, kernel, nom, limits, timing = self._execute(values, self.samples, progress, scheduler)
+        warns = judge_samples("montecarlo", figs, values, progress)
         opts = {"samples": self.samples, "seed": self.seed, "sampling": self.sampling, "positions": self.positions,
                 "pairs": list(PAIRS), "iso_grade": self.iso_grade, "spread": self.spread, "f_a_mm": self.f_a,
                 "delta_mm": self.delta, "side": self.side, "chunk": self.chunk}
         if self.tolerances is not None:
             opts["tolerances_um"] = self.tolerances
         return RobustResult("montecarlo", self.name, values, {k: d.to_dict() for k, d in self.inputs.items()}, figs,
-                            count, kernel.grid_z, kernel.grid_r, limits, opts, timing, nom)
+                            count, kernel.grid_z, kernel.grid_r, limits, opts, timing, nom, warns)
 
 
 class DesignSweep(_Robust):
@@ -599,7 +718,55 @@ class DesignSweep(_Robust):
             except (TypeError, ValueError):
                 raise out_of_range(f"variables.{nm}", rng, "(lo, hi)", cls=OptionError) from None
             self.variables[nm] = Distribution("uniform", lo=lo, hi=hi, name=f"variables.{nm}")
+            for v in (lo, hi):
+                self._check_corner(nm, v)
         self._probe = None
+
+    def _check_corner(self, nm: str, v: float) -> None:
+        """The validation a fixed value gets, at an end ``v`` of the range of variable ``nm``: a
+        misalignment within its limit (:func:`misalignment_limit`) that neither jams nor separates
+        the teeth (:meth:`Misalignment.check`); a crowning setting ``<member>.a_c`` / ``a_pl`` that
+        builds a valid gear (:class:`~gearopt.gears.Gear`) whose generated flank reaches inside the
+        tip circle without folding at the face centre and ends (:meth:`flank_limit`). Raises the
+        error naming ``variables.<nm>`` and the end's value."""
+        from dataclasses import replace
+
+        from ..geometry.generation import generate
+
+        where = f"variables.{nm}"
+        if nm.startswith("mis."):
+            kind = nm[4:]
+            if kind not in Misalignment.names():
+                return  # refused by _tca with the valid names
+            lim = misalignment_limit(kind)
+            valid = f"|{kind}| <= {misalignment_text(kind, lim)} (the limit of a fixed {kind})"
+            if abs(v) > lim:
+                detail = f"is out of range at its end {misalignment_text(kind, v)}; valid: {valid}."
+                raise OptionError(f"{where} = {misalignment_text(kind, v)} {detail}", param=where,
+                                  value=misalignment_text(kind, v), valid=valid, detail=detail)
+            try:
+                replace(self.base_mis, **{kind: v}).check(self.pair, "mis")
+            except GeometryError as e:
+                detail = f"is out of range at its end {misalignment_text(kind, v)}; valid: {e.valid}."
+                raise OptionError(f"{where} = {misalignment_text(kind, v)} {detail}", param=where,
+                                  value=misalignment_text(kind, v), valid=e.valid, detail=detail) from None
+            return
+        member, _, key = nm.partition(".")
+        if member not in ("pinion", "gear") or key not in ("a_c", "a_pl"):
+            return
+        g = getattr(self.pair, member)
+        unit = "1/mm"
+        try:
+            g2 = g.with_(rack=replace(g.rack, a_c=v)) if key == "a_c" else g.with_(a_pl=v)
+            tooth = generate(g2)
+            for z in (0.0, g2.b / 2):
+                tooth.flank_limit("right", z)
+        except GearoptError as e:
+            why = e.valid if (e.detail or "").startswith(("is out of range", "must be")) and e.valid else None
+            valid = why or f"a {key} whose generated {member} flank is valid ({e})"
+            detail = f"is out of range at its end {v:.6g} {unit}; valid: {valid}."
+            raise OptionError(f"{where} = {v:.6g} {unit} {detail}", param=where, value=v, valid=valid,
+                              detail=detail) from None
 
     def _tca(self):
         from ..meshing.tca import TCA
@@ -631,7 +798,10 @@ class DesignSweep(_Robust):
                 P1[:, lay.index(nm) - lay.groups["pinion"].start] = v
             else:
                 P2[:, lay.index(nm) - lay.groups["gear"].start] = v
-        ulim = kernel.limit_tables(tca, P1, P2)
+        try:
+            ulim = kernel.limit_tables(tca, P1, P2)
+        except GearoptError as e:  # a design point whose flank is degenerate: name it and its values
+            raise sample_error(self.study, values, e) from None
         self._ok_mis = _feasible(self.pair, MIS)
         return [{"p1": P1[s:s + self.chunk], "p2": P2[s:s + self.chunk], "mis": MIS[s:s + self.chunk],
                  "ulim": ulim[s:s + self.chunk], "skip": ~self._ok_mis[s:s + self.chunk]}
@@ -643,8 +813,9 @@ class DesignSweep(_Robust):
         if progress:
             progress(f"sweep: {n} design points ({self.design}) x {self.positions} positions x {len(PAIRS)} pairs")
         figs, count, kernel, nom, limits, timing = self._execute(values, n, progress, scheduler)
+        warns = judge_samples("sweep", figs, values, progress)
         opts = {"design": self.design, "samples": n, "levels": self.levels, "seed": self.seed,
                 "positions": self.positions, "pairs": list(PAIRS), "delta_mm": self.delta, "side": self.side,
                 "chunk": self.chunk, "misalignment": self.base_mis.to_results()}
         return RobustResult("sweep", self.name, values, {k: d.to_dict() for k, d in self.variables.items()}, figs,
-                            count, kernel.grid_z, kernel.grid_r, limits, opts, timing, nom)
+                            count, kernel.grid_z, kernel.grid_r, limits, opts, timing, nom, warns)

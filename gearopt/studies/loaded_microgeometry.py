@@ -170,7 +170,11 @@ class LoadedMicroStudy:
                  pareto=None, **options):
         from ..synthesis.loaded import LoadedMicroOptimizer
 
+        from ..ltca.engine import check_torque_range
+
         self.pair, self.name, self.torque = pair, name, float(torque)
+        check_torque_range(pair, max([float(torque), *[float(t) for t in (torques or [])]]), options.get("material"),
+                           name="torque" if not torques or float(torque) >= max(torques) else "torques")
         self.pareto = None if pareto is None else list(pareto)
         self.case_names = list(cases)
         C = len(cases)

@@ -170,6 +170,8 @@ class LTCAStudy:
         self.misalignment.check(pair, "misalignment")
         self.ltca = LTCA(pair, **options)
         self.ltca.validate_torques(self.torques)
+        from ..ltca.engine import check_torque_range
+        check_torque_range(pair, max(self.torques), self.ltca.material)
 
     def limits(self) -> dict:
         t = self.ltca.tca

@@ -119,6 +119,13 @@ def _montecarlo(scene):
                           positions=o["positions"], side=o["side"], chunk=o["chunk"], executor=o["executor"],
                           workers=o.get("workers"), name=scene.name, torque=torque, n_slices=o["n_slices"])
     except (GeometryError, OptionError) as e:
+        # misalignment.<kind>.<parameter> -> [montecarlo] <kind>.<parameter>, as written
+        # torque.<parameter> -> [montecarlo] torque.<parameter>
+        parts = (e.param or "").split(".")
+        key = ".".join(parts[1:]) if len(parts) == 3 and parts[0] == "misalignment" and parts[1] in mis else \
+            e.param if len(parts) == 2 and parts[0] == "torque" else None
+        if key is not None and e.detail is not None and scene.written("montecarlo", key) is not None:
+            raise scene.key_error("montecarlo", key, e) from e
         raise scene.study_error("montecarlo", e) from e
 
 
@@ -141,6 +148,11 @@ def _sweep(scene):
                            seed=o["seed"], positions=o["positions"], side=o["side"], chunk=o["chunk"],
                            executor=o["executor"], workers=o.get("workers"), name=scene.name)
     except (GeometryError, OptionError) as e:
+        # variables.<name> (an end of a range) -> [sweep.vary] <key>, as written
+        key = next((k for k, v in vary.items() if v and e.param in (f"variables.pinion.{k}", f"variables.mis.{k}")),
+                   None)
+        if key is not None and e.detail is not None:
+            raise scene.key_error("sweep.vary", key, e) from e
         raise scene.study_error("sweep", e) from e
 
 
