@@ -199,7 +199,9 @@ def write_results(out_dir, result, *, scene=None, run_time: float | None = None,
             kwargs = {}
             if scene is not None and _accepts(result.save_plots, "dpi"):
                 kwargs["dpi"] = scene.output.get("dpi", 120)
-            written += _reported(tmp, result.save_plots(str(tmp), **kwargs), "save_plots")
+            from ..plot.style import plot_style
+            with plot_style():  # one style for every study's figures (no offset notation, ...)
+                written += _reported(tmp, result.save_plots(str(tmp), **kwargs), "save_plots")
         _replace_dir(tmp, out_dir)
     except OSError as e:
         shutil.rmtree(tmp, ignore_errors=True)
