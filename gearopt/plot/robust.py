@@ -99,6 +99,9 @@ def plot_histogram(d: dict, key: str = "te_p2p", ax=None, bins: int | None = Non
         ax.axvline(nom, color="tab:green", lw=1.5, label=f"nominal: {number(nom)}")
     ax.set_xlabel(LABELS.get(key, key))
     ax.set_ylabel("samples")
+    ax.set_ylim(0, 1.5 * ax.get_ylim()[1])  # headroom: the legend above the bars
+    from matplotlib.ticker import MaxNLocator
+    ax.yaxis.set_major_locator(MaxNLocator(integer=True))
     missing = _missing(d, v)
     ax.legend(fontsize=8, title=missing, title_fontsize=7)
     return ax
