@@ -190,8 +190,15 @@ def _line_drawn(ln, ax) -> bool:
 def _extent_drawn(art, ax, r) -> bool:
     if not art.get_visible():
         return False
+    from matplotlib.collections import Collection
+    from matplotlib.transforms import Bbox
+
     try:
         bb = art.get_window_extent(r)
+        if isinstance(art, Collection) and not np.isfinite(np.asarray(bb.extents, float)).all():
+            # a collection without offsets (lines, polygons, a mesh): its paths' data limits
+            dl = art.get_datalim(ax.transData)
+            bb = Bbox(ax.transData.transform(np.asarray(dl.get_points(), float)))
     except Exception:
         return True  # an artist that cannot say: not judged
     ext = np.asarray(bb.extents, float)
@@ -470,6 +477,18 @@ def _overlaps(fig, axes, r) -> list[str]:
             hit = hit or next((f"{nb} lies over the other axes" for nb, bb in ib if _overlap(bb, A)), None)
             if hit:
                 out.append(f"{axes_name(ga[0])} and {axes_name(gb[0])}: {hit}")
+    for ax in axes:  # an axes' own legend over its own titles, labels and tick labels
+        leg = ax.get_legend()
+        lb = _ext(leg, r) if leg is not None and leg.get_visible() else None
+        if lb is None:
+            continue
+        for o in _twins(ax, axes):
+            texts = _texts_of(o) + drawn_tick_labels(o.xaxis) + drawn_tick_labels(o.yaxis)
+            hit = next((t for t in texts if t.get_text().strip() and _ext(t, r) is not None
+                        and _overlap(lb, _ext(t, r))), None)
+            if hit is not None:
+                out.append(f"{axes_name(ax)}: its legend overlaps {hit.get_text()[:40]!r}")
+                break
     sup = getattr(fig, "_suptitle", None)
     if sup is not None and sup.get_visible() and sup.get_text().strip():
         sb = _ext(sup, r)

@@ -189,7 +189,7 @@ def plot_sensitivity(d: dict, key: str = "te_p2p", ax=None, level: float = 0.05)
     ax.set_xlim(-1.05, 1.05)
     ax.set_ylim(-0.6, len(rows) - 0.4)
     ax.set_xlabel(f"Spearman rank correlation with the {LABELS.get(key, key).split(' [')[0]} (-1 ... 1)")
-    ax.legend(handles, labels, fontsize=7, loc="lower right")
+    ax.legend(handles, labels, fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=2)
     return ax
 
 

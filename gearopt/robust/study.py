@@ -258,7 +258,7 @@ class RobustResult:
             for ax, nm in zip(axes[0], ranked):
                 plot_scatter(d, nm, "te_p2p", ax=ax)
             files.append(save("scatter.png", fig, "TE peak-to-peak against the most influential inputs"))
-            fig, ax = plt.subplots(figsize=(9, 0.5 + 0.45 * len(d["sensitivities"]["te_p2p"]) + 1.5),
+            fig, ax = plt.subplots(figsize=(9, 0.5 + 0.45 * len(d["sensitivities"]["te_p2p"]) + 2.2),
                                    layout="constrained")
             plot_sensitivity(d, "te_p2p", ax=ax)
             files.append(save("sensitivity.png", fig, "which inputs drive the TE peak-to-peak (Spearman rank "
