@@ -58,9 +58,9 @@ def use_style() -> None:
 
 
 def number(v: float, digits: int = 3) -> str:
-    """``v`` with ``digits`` significant digits in plain notation for 1e-4 <= |v| < 1e6 (``1270``,
-    ``0.0123``, never ``1.27e+03``), trailing zeros dropped, no negative zero; scientific notation
-    outside that range; ``"nan"``/``"inf"`` as such."""
+    """``v`` in plain notation for 1e-4 <= |v| < 1e6 (``1274``, ``7.49``, ``0.0123``, never
+    ``1.27e+03``): ``digits`` significant digits, but every digit before the point; trailing zeros
+    dropped, no negative zero. Scientific notation outside that range; ``"nan"``/``"inf"`` as such."""
     if not math.isfinite(v):
         return str(v)
     if v == 0:
