@@ -142,19 +142,29 @@ def plot_cdf(d: dict, key: str = "te_p2p", ax=None):
     return ax
 
 
-def plot_scatter(d: dict, name: str, key: str = "te_p2p", ax=None):
-    """``key`` against the input ``name`` (its display unit), edge-contact samples in red."""
+def plot_scatter(d: dict, name: str, key: str = "te_p2p", ax=None, level: float = 0.05):
+    """``key`` against the input ``name`` (its display unit), edge-contact samples in red (a legend
+    only when there are some); the title gives the input's Spearman rho (with the input and with its
+    distance from the median) and whether it is significant at ``level`` (:func:`significance_limit`)."""
     from ..robust.study import display
     ax = _ax(ax)
     x, unit = display(name, d["inputs"][name])
     y = _values(d, key)
-    edge = d["figures"]["edge_contact"]
+    edge = np.asarray(d["figures"]["edge_contact"], bool)
     ax.scatter(x[~edge], y[~edge], s=4, alpha=0.5, color="tab:blue", label="surface contact", rasterized=True)
     if edge.any():
         ax.scatter(x[edge], y[edge], s=6, alpha=0.7, color="tab:red", label="edge contact", rasterized=True)
+        ax.legend(fontsize=7, markerscale=2)
     ax.set_xlabel(f"{input_label(name, unit)}\n({name})", fontsize=9)
     ax.set_ylabel(LABELS.get(key, key))
-    ax.legend(fontsize=7, markerscale=2)
+    row = next((r for r in d.get("sensitivities", {}).get(key, []) if r["input"] == name), None)
+    if row is not None:
+        n = int((np.isfinite(y) & np.asarray(d["figures"].get("ok", np.ones(y.size, bool)), bool)).sum())
+        lim = significance_limit(n, level)
+        sig = max(abs(row["spearman"]), abs(row["spearman_abs"])) >= lim
+        ax.set_title(f"rho {row['spearman']:+.2f}, with |input - median| {row['spearman_abs']:+.2f}\n"
+                     + ("significant" if sig else f"not significant: |rho| < {lim:.2f}") + f" at {100 * level:g} %, "
+                     f"n = {n}", fontsize=8, color="k" if sig else "0.4")
     ax.grid(alpha=0.3)
     return ax
 
@@ -189,8 +199,18 @@ def plot_sensitivity(d: dict, key: str = "te_p2p", ax=None, level: float = 0.05)
     ax.set_xlim(-1.05, 1.05)
     ax.set_ylim(-0.6, len(rows) - 0.4)
     ax.set_xlabel(f"Spearman rank correlation with the {LABELS.get(key, key).split(' [')[0]} (-1 ... 1)")
-    ax.legend(handles, labels, fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=2)
+    _legend_below(ax, handles, labels, fontsize=7)
     return ax
+
+
+def _legend_below(ax, handles, labels, fontsize=8, ncol=2, drop_in: float = 0.55):
+    """A legend centred under the axes, ``drop_in`` inches below their bottom (clear of the tick
+    labels and the x label, whatever the axes' height)."""
+    from matplotlib.transforms import ScaledTranslation
+
+    below = ax.transAxes + ScaledTranslation(0.0, -drop_in, ax.figure.dpi_scale_trans)
+    ax.legend(handles, labels, fontsize=fontsize, loc="upper center", bbox_to_anchor=(0.5, 0.0), bbox_transform=below,
+              ncol=ncol)
 
 
 def _unit(d: dict, name: str) -> str | None:
@@ -234,5 +254,5 @@ def plot_pattern_probability(d: dict, ax=None):
     pad = 0.04 * b
     ax.set_xlim(-b / 2 - pad, b / 2 + pad)
     ax.set_ylim(r_f - 0.05 * (r_a - r_f), r_a + 0.05 * (r_a - r_f))
-    ax.legend(handles, labels, fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=2)
+    _legend_below(ax, handles, labels, fontsize=8)
     return ax
