@@ -416,8 +416,9 @@ def _outside(fig, axes, r, tight: bool) -> list[str]:
             continue
         if hasattr(art, "get_text") and not art.get_text().strip():
             continue
-        if hasattr(art, "get_text") and art.get_clip_on() and art.get_clip_box() is not None:
-            continue
+        if hasattr(art, "get_text") and art.get_clip_on() and (art.get_clip_box() is not None
+                                                               or art.get_clip_path() is not None):
+            continue  # clipped to its axes: not drawn outside them
         bb = _ext(art, r)
         if bb is None:
             continue

@@ -177,8 +177,9 @@ def plot_line_load(report: dict, ax=None):
     strips = _strips(report)
     res = ""
     if strips:
-        n, w = strips
-        res = f"; {n} element{'s' if n > 1 else ''} across the face ({w:.3g} mm each)"
+        n, w, uniform = strips
+        res = f"; {n} element{'s' if n > 1 else ''} across the face ({'' if uniform else 'up to '}{w:.3g} mm" \
+              f"{' each' if uniform else ''})"
         if n <= 4:
             ax.text(0.5, 0.04, f"the FE mesh has {n} element{'s' if n > 1 else ''} across the face: each step is one "
                     "element's mean load,\nthe distribution within an element is not resolved (finer: [fea] n_face)",
@@ -193,11 +194,12 @@ def plot_line_load(report: dict, ax=None):
 
 
 def _strips(report: dict):
-    """(number, width [mm]) of the face strips (elements across the face) of the first loaded pattern,
-    or None."""
+    """(number, largest width [mm], all widths equal) of the face strips (elements across the face)
+    of the first loaded pattern, or None."""
     for pos in report["positions"]:
         for pt in ((pos.get("contact") or {}).get("pattern") or {}).values():
             zl = np.asarray(pt.get("z_layers") or [], float)
             if zl.size >= 2:
-                return zl.size - 1, float(np.max(np.diff(zl)))
+                w = np.diff(zl)
+                return zl.size - 1, float(np.max(w)), bool(np.ptp(w) <= 1e-6 * np.max(w))
     return None
