@@ -47,15 +47,23 @@ def plot_te_before_after(before: dict, after: dict, ax=None, which: str = "after
         ax.plot(phi, _arr(t["te_loaded_arcsec"]), color=c, lw=1.6,
                 label=f"{t['torque_Nm']:.4g} N m: p-p {t['peak_to_peak_arcsec']:.2f}\"")
     ax.plot([], [], color="0.75", lw=0.9, label="before" if which == "after" else "after")
-    return _finish(ax, "pinion angle phi1 [deg]", "loaded transmission error [arcsec]", f"{which} the optimisation")
+    return _finish(ax, "pinion angle phi1 [deg]", "loaded transmission error [arcsec]", f"{which} the optimisation",
+                   below=True)
 
 
-def _finish(ax, xlabel: str, ylabel: str, title: str):
+def _finish(ax, xlabel: str, ylabel: str, title: str, below: bool = False):
+    """Labels, title, grid and the legend (``below``: under the axes, off the curves)."""
     ax.set_xlabel(xlabel)
     ax.set_ylabel(ylabel)
     ax.set_title(title)
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=7, loc="best")
+    if below:
+        from matplotlib.transforms import ScaledTranslation
+
+        ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, 0.0), ncol=2,
+                  bbox_transform=ax.transAxes + ScaledTranslation(0.0, -0.5, ax.figure.dpi_scale_trans))
+    else:
+        ax.legend(fontsize=7, loc="best")
     return ax
 
 
