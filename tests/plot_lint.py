@@ -419,6 +419,8 @@ def _outside(fig, axes, r, tight: bool) -> list[str]:
         if hasattr(art, "get_text") and art.get_clip_on() and (art.get_clip_box() is not None
                                                                or art.get_clip_path() is not None):
             continue  # clipped to its axes: not drawn outside them
+        if not _annotation_drawn(art):
+            continue
         bb = _ext(art, r)
         if bb is None:
             continue
@@ -426,6 +428,20 @@ def _outside(fig, axes, r, tight: bool) -> list[str]:
             what = "legend" if not hasattr(art, "get_text") else repr(art.get_text()[:50])
             out.append(f"{where}: {what} is cut at the edge of the image")
     return out
+
+
+def _annotation_drawn(art) -> bool:
+    """False for an annotation that matplotlib does not draw: its point (data coordinates) outside
+    its axes while annotation_clip is None or True."""
+    from matplotlib.text import Annotation
+
+    if not isinstance(art, Annotation) or art.axes is None:
+        return True
+    clip = art.get_annotation_clip()
+    if clip is False or (clip is None and art.xycoords != "data"):
+        return True
+    x, y = art.axes.transData.transform(art.xy)
+    return bool(art.axes.contains_point((x, y)))
 
 
 def _overlap(a, b, min_px=2.0) -> bool:

@@ -104,6 +104,12 @@ def test_text_cut_at_the_image_edge_is_found():
     probs = lint_figure(fig, tight=False)
     assert len(probs) == 1 and "legend is cut" in probs[0]
     assert lint_figure(fig, tight=True) == []  # bbox_inches="tight" takes it into the image
+    # not drawn, so not cut: an annotation of a point outside the axes, a text clipped to the axes
+    ax.annotate("O_1", (5.0, 5.0), xytext=(6, 4), textcoords="offset points")
+    ax.text(7.0, 7.0, "far", clip_on=True)
+    assert lint_figure(fig, tight=True) == []
+    ax.text(0.5, 1.6, "above the figure", transform=ax.transAxes, in_layout=False)
+    assert ["'above the figure' is cut" in p for p in lint_figure(fig, tight=True)] == [True]
 
 
 def test_overlapping_titles_are_found():
