@@ -4,25 +4,22 @@ Run:  .venv/bin/python problems/optimize_crowning.py [--out DIR] [--quiet]
 
 It optimizes the profile crowning (parabolic rack-cutter, a_c) and the longitudinal crowning
 (plunging, a_pl) of a helical pinion for an 8 arcsec parabolic TE over crossing/intersecting
-misalignments of +-3 arcmin and their combination, prints a table and writes plots of the TE and of
-the bearing contact before and after, for every case.
+misalignments of +-3 arcmin and their combination, prints a table and writes the plots of the
+crowning study (before_after_te.png, before_after_contact_gear.png, before_after_contact_pinion.png:
+the TE and the bearing contact before and after, for every case) in gearopt's plot style.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from pathlib import Path
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-
-from gearopt import ARCMIN, ARCSEC, Gear, GearPair, deg  # noqa: E402
-from gearopt.plot.tca import plot_crowning_comparison  # noqa: E402
-from gearopt.studies.crowning import CrowningStudy, misalignment_cases  # noqa: E402
-from gearopt.synthesis import CrowningTarget  # noqa: E402
+from gearopt import ARCMIN, ARCSEC, Gear, GearPair, deg
+from gearopt.plot.style import plot_style
+from gearopt.studies.crowning import CrowningStudy, misalignment_cases
+from gearopt.synthesis import CrowningTarget
 
 
 def main(argv=None):
@@ -30,6 +27,7 @@ def main(argv=None):
     ap.add_argument("--out", default="out/optimize_crowning", help="output folder for the plots")
     ap.add_argument("--quiet", action="store_true", help="no progress output")
     args = ap.parse_args(argv)
+    os.environ.setdefault("MPLBACKEND", "Agg")  # the plots go to files, never to a window
     say = (lambda m: None) if args.quiet else (lambda m: print(m, file=sys.stderr))
 
     # 1. The drive (unmodified pinion: the "before" design).
@@ -39,7 +37,7 @@ def main(argv=None):
     target = CrowningTarget(te_level=8 * ARCSEC, ellipse_share=0.25, edge_margin=1.0)  # 1 mm from the face ends
     cases = misalignment_cases(crossing=3 * ARCMIN, intersecting=3 * ARCMIN, combined=True)
     # 3. Optimize and verify every case with an independent TCA sweep (with edge contact).
-    study = CrowningStudy(pair, target, cases, positions=41)
+    study = CrowningStudy(pair, target, cases, positions=41, name="optimize_crowning")
     report = study.run(progress=say)
     d = report.design
     print(f"IPOPT: {d['status']} in {d['iterations']} iterations; NLP build {d['nlp_build_s']:.2f} s, "
@@ -53,16 +51,12 @@ def main(argv=None):
     print("\nSensitivity of the TE level [arcsec per arcmin of misalignment], aligned design:")
     s = d["sensitivities"]["aligned"]  # already in arcsec per arcmin (design["sensitivity_units"])
     print("  " + ", ".join(f"{k}: {s[k]:+.4f}" for k in ("mis.crossing", "mis.intersecting")))
-    # 4. Plots: TE and bearing contact before/after, every case.
+    # 4. Plots: TE and bearing contact before/after, every case (the crowning study's figures).
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    for name, member in (("te.png", None), ("contact_gear.png", "gear")):
-        fig, axes = plt.subplots(len(cases), 2, figsize=(12, 3.3 * len(cases)), squeeze=False)
-        plot_crowning_comparison(report.before, report.after, axes=axes, member=member)
-        fig.tight_layout()
-        fig.savefig(out / name, dpi=110)
-        plt.close(fig)
-        print(f"wrote {out / name}")
+    with plot_style():
+        for name in report.save_plots(out, dpi=110):
+            print(f"wrote {out / name}")
 
 
 if __name__ == "__main__":

@@ -13,13 +13,15 @@ independent loaded TCA sweeps, and writes the before/after plots (docs/loaded_sy
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from pathlib import Path
 
-from gearopt import ARCMIN, Gear, GearPair  # noqa: E402
-from gearopt.geometry.microgeometry import Microgeometry  # noqa: E402
-from gearopt.studies.crowning import misalignment_cases  # noqa: E402
-from gearopt.studies.loaded_microgeometry import LoadedMicroStudy  # noqa: E402
+from gearopt import ARCMIN, Gear, GearPair
+from gearopt.geometry.microgeometry import Microgeometry
+from gearopt.plot.style import plot_style
+from gearopt.studies.crowning import misalignment_cases
+from gearopt.studies.loaded_microgeometry import LoadedMicroStudy
 
 UM = 1e-3  # mm
 
@@ -29,6 +31,7 @@ def main(argv=None):
     ap.add_argument("--out", default="out/optimize_microgeometry", help="output folder for the plots")
     ap.add_argument("--quiet", action="store_true", help="no progress output")
     args = ap.parse_args(argv)
+    os.environ.setdefault("MPLBACKEND", "Agg")  # the plots go to files, never to a window
     say = (lambda m: None) if args.quiet else (lambda m: print(m, file=sys.stderr))
 
     # 1. The drive and its start design: light crowning, the reliefs' starts given, amounts zero.
@@ -65,8 +68,9 @@ def main(argv=None):
     print(f"(at {sens['active']} active constraints and bounds, {sens['degenerate']} degenerate)")
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    for f in report.save_plots(out):
-        say(f"wrote {out / f}")
+    with plot_style():  # gearopt's plot style, as `gearopt run` writes them
+        for f in report.save_plots(out):
+            say(f"wrote {out / f}")
     return 0
 
 

@@ -19,6 +19,7 @@ from gearopt.cli import main
 from gearopt.errors import SceneError
 from gearopt.io.scene import load_scene
 
+from plot_lint import lint_figure
 from results_doc import undocumented
 
 PROBLEMS = Path(__file__).resolve().parents[1] / "problems"
@@ -45,8 +46,27 @@ def _inv_inverse(t):
     return brentq(lambda a: math.tan(a) - a - t, 1e-9, 1.55, xtol=1e-15)
 
 
+@pytest.fixture
+def plot_problems(monkeypatch):
+    """Every figure saved while the test runs is linted first (tests/plot_lint.py); the list of the
+    problems found, each prefixed with its file name."""
+    import matplotlib
+    import matplotlib.figure
+
+    found = []
+    save = matplotlib.figure.Figure.savefig
+
+    def savefig(self, fname, *args, **kwargs):
+        tight = kwargs.get("bbox_inches", matplotlib.rcParams["savefig.bbox"]) == "tight"
+        found.extend(f"{Path(str(fname)).name}: {p}" for p in lint_figure(self, tight=tight))
+        return save(self, fname, *args, **kwargs)
+
+    monkeypatch.setattr(matplotlib.figure.Figure, "savefig", savefig)
+    return found
+
+
 @pytest.mark.parametrize("scene", [_scene_param(p) for p in SCENES])
-def test_scene_runs_and_writes(scene, tmp_path):
+def test_scene_runs_and_writes(scene, tmp_path, plot_problems):
     if tomllib.loads(scene.read_text())["scene"]["study"] == "fea" and shutil.which("ccx") is None:
         pytest.skip("CalculiX (ccx) is not installed: the FE scene cannot run (make test installs it as root)")
     out = tmp_path / "out"
@@ -63,6 +83,9 @@ def test_scene_runs_and_writes(scene, tmp_path):
         _loaded_microgeometry_scalars(res, out)
     if res["scene"] == "fea_crowned":
         _fea_crowned_scalars(res)
+    # what can be checked mechanically in every plot (issue 38): no offset text, every legend entry
+    # drawn, nothing cut at the image's edge, no overlaps, no legend over the data where avoidable
+    assert plot_problems == [], "plot problems:\n" + "\n".join(plot_problems)
 
 
 def _fea_crowned_scalars(res):

@@ -278,7 +278,9 @@ def write_results(out_dir, result, *, scene=None, run_time: float | None = None,
             kwargs = {}
             if scene is not None and _accepts(result.save_plots, "dpi"):
                 kwargs["dpi"] = scene.output.get("dpi", 120)
-            with heartbeat(progress, "writing plots", every=15.0):
+            from ..plot.style import plot_style
+            # one style for every study's figures (no offset notation, ...)
+            with plot_style(), heartbeat(progress, "writing plots", every=15.0):
                 written += _reported(tmp, result.save_plots(str(tmp), **kwargs), "save_plots")
         install_output(tmp, out_dir)
     except OSError as e:

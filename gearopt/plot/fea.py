@@ -73,53 +73,72 @@ def plot_contact_pressure(report: dict, ax=None):
     return ax
 
 
+def _positions_note(n: int) -> str:
+    return (f"FE at {n} pinion angles: points, not a curve\n(nothing is computed between them)" if n < 8
+            else f"FE at {n} pinion angles")
+
+
 def plot_root_stress(report: dict, ax=None):
-    """Maximum principal stress in the loaded-side root fillets (mid face) of pinion and gear vs the
-    pinion angle, with the ISO 6336-3 (method B geometry) estimate at each position and the max
-    contact pressure on a second axis."""
+    """Maximum principal stress in the loaded-side root fillets (mid face) of pinion and gear at each
+    analysed pinion angle, with the ISO 6336-3 (method B geometry) estimate at each position and the
+    max contact pressure on a second axis; markers only (the FE gives values at the analysed angles
+    alone), the legend below the axes."""
     ax = _axes(ax)
     pos = report["positions"]
     phi = np.degrees([p["phi1"] for p in pos])
     for member, col in (("pinion", "C0"), ("gear", "C1")):
-        ax.plot(phi, [p["root"][member]["max_principal_mid"] for p in pos], "o-", color=col, label=f"{member} FE")
+        ax.plot(phi, [p["root"][member]["max_principal_mid"] for p in pos], "o", color=col, ms=7,
+                label=f"{member} FE")
         # the estimate puts the whole load on one pair: shown at single-pair positions only
         iso = [p["root_estimate"][member].get("sigma_iso", np.nan) if p["single_pair_contact"] else np.nan
                for p in pos]
-        ax.plot(phi, iso, "s", color=col, mfc="none", ms=8,
-                label=f"{member} ISO 6336-3 (single-pair positions, load at the position)")
+        if np.isfinite(np.asarray(iso, float)).any():
+            ax.plot(phi, iso, "s", color=col, mfc="none", ms=9,
+                    label=f"{member} ISO 6336-3 (single-pair positions, load at the position)")
     ax.set_xlabel("pinion angle phi1 [deg]")
     ax.set_ylabel("root stress, max principal [MPa]")
     ax2 = ax.twinx()
-    ax2.plot(phi, [p["contact"]["p_max_mid"] for p in pos], "^:", color="C3", label="max contact pressure")
+    ax2.plot(phi, [p["contact"]["p_max_mid"] for p in pos], "^", color="C3", ms=7, label="max contact pressure (right axis)")
     ax2.set_ylabel("contact pressure [MPa]", color="C3")
-    ax.set_title("root stress and contact pressure vs position (mid face)", fontsize=9)
+    ax.set_title("root stress and contact pressure at the analysed positions (mid face)", fontsize=9)
     ax.grid(alpha=0.3)
+    _pad_x(ax, phi)
     h1, l1 = ax.get_legend_handles_labels()
     h2, l2 = ax2.get_legend_handles_labels()
-    ax.legend(h1 + h2, l1 + l2, fontsize=7)
+    ax.legend(h1 + h2, l1 + l2, fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.2), ncol=2,
+              title=_positions_note(len(pos)), title_fontsize=7)
     return ax
+
+
+def _pad_x(ax, x):
+    """x limits a little beyond the points (markers at the ends drawn whole)."""
+    x = np.asarray(x, float)
+    w = max(float(np.ptp(x)), 1e-6)
+    ax.set_xlim(float(x.min()) - 0.08 * w, float(x.max()) + 0.08 * w)
 
 
 def plot_loaded_te(report: dict, ax=None):
     """Loaded transmission error [arcsec] from the FE solutions (pinion rotation under the torque,
-    gear rim fixed) against the pinion angle [deg], one point per analysed position; positive:
-    the gear ahead of its conjugate position (the pinion lags under load: negative)."""
+    gear rim fixed) at each analysed pinion angle [deg], markers only (not a TE curve: nothing is
+    computed between the positions); positive: the gear ahead of its conjugate position (the pinion
+    lags under load: negative)."""
     ax = _axes(ax)
     pos = report["positions"]
     phi = np.degrees([p["phi1"] for p in pos])
     te = np.array([np.nan if p.get("loaded_te_arcsec") is None else p["loaded_te_arcsec"] for p in pos], float)
     single = np.array([bool(p["single_pair_contact"]) for p in pos])
-    ax.plot(phi, te, "-", color="0.5", lw=1)
-    ax.plot(phi[single], te[single], "o", color="C3", ms=7, label="loaded TE (FE), one tooth pair in contact")
-    ax.plot(phi[~single], te[~single], "s", color="C0", ms=7, label="loaded TE (FE), two or more pairs in contact")
+    ax.plot(phi[single], te[single], "o", color="C3", ms=8, label="loaded TE (FE), one tooth pair in contact")
+    ax.plot(phi[~single], te[~single], "s", color="C0", ms=8, label="loaded TE (FE), two or more pairs in contact")
     ax.set_xlabel("pinion angle phi1 [deg]")
     ax.set_ylabel("loaded TE [arcsec] (+: gear ahead)")
-    ax.set_title("loaded transmission error from the FE model", fontsize=9)
+    ax.set_title("loaded transmission error from the FE model at the analysed positions", fontsize=9)
     ax.grid(alpha=0.3)
+    if phi.size:
+        _pad_x(ax, phi)
     h, lab = ax.get_legend_handles_labels()
     keep = [(hh, ll) for hh, ll in zip(h, lab) if np.isfinite(np.asarray(hh.get_xydata(), float)).all(axis=1).any()]
     if keep:
-        ax.legend(*zip(*keep), fontsize=7)
+        ax.legend(*zip(*keep), fontsize=7, title=_positions_note(len(pos)), title_fontsize=7)
     return ax
 
 
@@ -155,8 +174,32 @@ def plot_line_load(report: dict, ax=None):
     mis = report["options"].get("misalignment") or {}
     lab = ", ".join(f"{k.rsplit('_', 1)[0]} {v:+g} {'arcmin' if k.endswith('arcmin') else 'mm'}"
                     for k, v in mis.items() if v)
-    ax.set_title(f"FE contact pattern across the face ({lab or 'aligned'})", fontsize=9)
+    strips = _strips(report)
+    res = ""
+    if strips:
+        n, w, uniform = strips
+        res = f"; {n} element{'s' if n > 1 else ''} across the face ({'' if uniform else 'up to '}{w:.3g} mm" \
+              f"{' each' if uniform else ''})"
+        if n <= 4:
+            ax.text(0.5, 0.04, f"the FE mesh has {n} element{'s' if n > 1 else ''} across the face: each step is one "
+                    "element's mean load,\nthe distribution within an element is not resolved (finer: [fea] n_face)",
+                    transform=ax.transAxes, ha="center", va="bottom", fontsize=7,
+                    bbox=dict(boxstyle="round", fc="white", ec="0.6"))
+    ax.set_title(f"FE contact pattern across the face ({lab or 'aligned'}{res})", fontsize=9)
     ax.grid(alpha=0.3)
     if curve:
-        ax.legend(fontsize=7)
+        ax.set_ylim(top=1.45 * ax.get_ylim()[1])  # room for the legend above the steps
+        ax.legend(fontsize=7, loc="upper center", ncol=2)
     return ax
+
+
+def _strips(report: dict):
+    """(number, largest width [mm], all widths equal) of the face strips (elements across the face)
+    of the first loaded pattern, or None."""
+    for pos in report["positions"]:
+        for pt in ((pos.get("contact") or {}).get("pattern") or {}).values():
+            zl = np.asarray(pt.get("z_layers") or [], float)
+            if zl.size >= 2:
+                w = np.diff(zl)
+                return zl.size - 1, float(np.max(w)), bool(np.ptp(w) <= 1e-6 * np.max(w))
+    return None

@@ -226,9 +226,7 @@ class RobustResult:
         """``distribution.png`` (histograms and CDFs of TE p2p and first harmonic),
         ``scatter.png`` (TE p2p against the four most influential inputs, edge contact marked),
         ``pattern.png`` (probability of each pinion flank point being in the contact pattern) and
-        ``sensitivity.png`` (ranked Spearman correlations)."""
-        import matplotlib
-        matplotlib.use("Agg")
+        ``sensitivity.png`` (ranked Spearman correlations, those not significant at 5 % grey)."""
         import matplotlib.pyplot as plt
         from pathlib import Path
 
@@ -266,10 +264,11 @@ class RobustResult:
             for ax, nm in zip(axes[0], ranked):
                 plot_scatter(d, nm, "te_p2p", ax=ax)
             files.append(save("scatter.png", fig, "TE peak-to-peak against the most influential inputs"))
-            fig, ax = plt.subplots(figsize=(8, 0.5 + 0.45 * len(d["sensitivities"]["te_p2p"]) + 1.5),
+            fig, ax = plt.subplots(figsize=(9, 0.5 + 0.45 * len(d["sensitivities"]["te_p2p"]) + 2.2),
                                    layout="constrained")
             plot_sensitivity(d, "te_p2p", ax=ax)
-            files.append(save("sensitivity.png", fig, "sensitivities (Spearman rank correlation with TE p2p)"))
+            files.append(save("sensitivity.png", fig, "which inputs drive the TE peak-to-peak (Spearman rank "
+                              "correlation)"))
         fig, ax = plt.subplots(figsize=(9, 5.5), layout="constrained")
         plot_pattern_probability({"pattern_count": self.pattern_count, "grid_z": self.grid_z, "grid_r": self.grid_r,
                                   "n": int(self.figures["ok"].sum()), "limits": self.limits,

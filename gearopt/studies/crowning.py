@@ -67,8 +67,6 @@ class CrowningReport:
                 "before": self.before, "after": self.after, "timing": self.timing}
 
     def save_plots(self, out_dir, dpi: int = 120) -> list[str]:
-        import matplotlib
-        matplotlib.use("Agg")
         import matplotlib.pyplot as plt
         from pathlib import Path
 

@@ -61,8 +61,6 @@ class FEReport:
         ``fea_contact.png`` (contact pressure along the profile at mid face vs Hertz),
         ``fea_root.png`` (root stress and pressure vs position), ``fea_te.png`` (loaded TE vs
         position), ``fea_pattern.png`` (load per mm of face of each loaded pair across the face)."""
-        import matplotlib
-        matplotlib.use("Agg")
         import matplotlib.pyplot as plt
 
         from ..plot.fea import plot_contact_pressure, plot_line_load, plot_loaded_te, plot_mesh, plot_root_stress

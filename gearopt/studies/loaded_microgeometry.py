@@ -76,8 +76,6 @@ class LoadedMicroReport:
         ``loaded_micro_rounds.png`` (the trust-region rounds); with a Pareto front,
         ``loaded_micro_pareto.png``; with an unloaded-TE target, ``loaded_micro_unloaded_te.png`` (the
         unloaded TE of every case before and after, against its target parabola)."""
-        import matplotlib
-        matplotlib.use("Agg")
         import matplotlib.pyplot as plt
 
         from ..plot.loaded_synthesis import (plot_pareto, plot_rounds, plot_te_before_after,
