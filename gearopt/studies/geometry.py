@@ -56,8 +56,6 @@ class GeometryReport:
 
     def save_plots(self, out_dir, dpi: int = 120) -> list[str]:
         """Write ``profiles.png``, ``pair_mesh.png`` and ``rack_mesh.png`` into ``out_dir``."""
-        import matplotlib
-        matplotlib.use("Agg")
         import matplotlib.pyplot as plt
         from pathlib import Path
 

@@ -61,8 +61,6 @@ class LTCAReport:
         """``ltca_te.png`` (loaded TE at every torque; TE against torque; harmonics),
         ``ltca_sharing.png`` (load sharing, mesh stiffness, load across the face) and
         ``ltca_pattern.png`` (loaded contact pattern on both flanks at the nominal torque)."""
-        import matplotlib
-        matplotlib.use("Agg")
         import matplotlib.pyplot as plt
 
         from ..plot.ltca import (plot_contact_pattern, plot_face_load, plot_harmonics, plot_load_sharing,

@@ -58,8 +58,6 @@ class PlanarTCAReport:
 
     def save_plots(self, out_dir, dpi: int = 120) -> list[str]:
         """Write ``line_of_action.png`` (Fig. 9.4.5) and ``transmission_error.png`` into ``out_dir``."""
-        import matplotlib
-        matplotlib.use("Agg")
         from pathlib import Path
 
         import matplotlib.pyplot as plt

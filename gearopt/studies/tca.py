@@ -76,8 +76,6 @@ class TCAReport:
         """``te.png`` (TE per pair and envelope, every case), ``bearing_contact.png`` (paths of
         contact with contact ellipses on both flanks, every case) and, with several cases,
         ``compare.png`` (their actual TE and gear-flank paths overlaid)."""
-        import matplotlib
-        matplotlib.use("Agg")
         import matplotlib.pyplot as plt
         from pathlib import Path
 
