@@ -179,20 +179,21 @@ def plot_face_load(d: dict, ax=None, ax_pressure=None):
             i = int(np.nanargmax(flank))
             if flank[i] > peak[0]:
                 peak = (float(flank[i]), k, float(z[i]))
-    (solid,) = ax.plot([], [], "o-", ms=3, color="0.35", label="solid: line load [N/mm]")
-    (dash,) = ax.plot([], [], "--", color="0.35", label="dashed: Hertz peak pressure [MPa]")
-    for h in (solid, dash):
-        h.set_gid("legend-proxy")
+    if ax_pressure is None:  # one axes pair: say which line is which (stacked: each panel's label does)
+        (solid,) = ax.plot([], [], "o-", ms=3, color="0.35", label="solid: line load [N/mm]")
+        (dash,) = ax.plot([], [], "--", color="0.35", label="dashed: Hertz peak pressure [MPa]")
+        for h in (solid, dash):
+            h.set_gid("legend-proxy")
     if tips:
         (x,) = ax.plot([], [], "x", color="k", ms=7, mew=1.5, label="tip-edge contact")
         x.set_gid("legend-proxy")
     if peak[1] is not None:
         axp.plot(peak[2], peak[0], "*", color=pair_color(d, peak[1]), mec="k", ms=13, zorder=6)
     ax.set_xlabel("face width position z [mm]")
-    ax.set_ylabel("line load [N/mm] (solid)")
+    ax.set_ylabel("line load [N/mm]" + (" (solid)" if ax_pressure is None else ""))
     ax.set_ylim(bottom=0)
     ax.grid(alpha=0.3)
-    axp.set_ylabel("Hertz peak pressure [MPa] (dashed)")
+    axp.set_ylabel("Hertz peak pressure [MPa]" + (" (dashed)" if ax_pressure is None else ""))
     axp.set_ylim(bottom=0)
     qhi = ax.get_ylim()[1]
     if ax_pressure is not None:  # stacked: a band above the line loads for the legend

@@ -249,8 +249,14 @@ def plot_bearing_contact(case: dict, member: str = "gear", ax=None, every: int =
     b = lim["b"]
     rect = _flank_box(ax, lim, fill=True)
     ax.plot(np.where(on, z, np.nan), np.where(on, r, np.nan), color="C3", lw=2, label="path of contact")
-    ax.plot(np.where(~on, z, np.nan), np.where(~on, r, np.nan), color="0.6", lw=1, ls="--",
-            label="solution off the active flank")
+    off = ~on & np.isfinite(z) & np.isfinite(r)
+    x0, x1 = ax.get_xlim()
+    y0, y1 = ax.get_ylim()
+    with np.errstate(invalid="ignore"):
+        vis = off & (z >= x0) & (z <= x1) & (r >= y0) & (r <= y1)
+    drawn = bool(np.any(vis[1:] & vis[:-1]))  # a dashed segment needs two neighbouring points in view
+    ax.plot(np.where(off, z, np.nan), np.where(off, r, np.nan), color="0.6", lw=1, ls="--",
+            label="solution off the active flank" if drawn else None)
     delta = case["delta_mm"]
     if ellipses and "ellipse_dirs" in m:
         xyz = np.array([[np.nan] * 3 if p is None else p for p in m["xyz"]], dtype=float)
