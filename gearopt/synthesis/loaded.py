@@ -1797,11 +1797,14 @@ def _gaps(sw: LoadedSweep, r) -> np.ndarray:
     st = sw.structure
     K, N, M = S.z.shape
     lever = sw.ltca.pair.gear.r_b * sw.ltca.cos_bb
-    s = np.where(S.active, (r.te_unloaded[None, :, None] - S.te) * lever, 0.0)
+    g1 = sw.ltca.pair.pinion
+    # each slice on its own levers (LTCA._solve_one): the gap closes by delta times lever1 / (r_b1 cos(beta_b))
+    lev2 = lever if S.lever2 is None else np.where(S.active & np.isfinite(S.lever2), S.lever2, lever)
+    lam = 1.0 if r.lever is None else r.lever / (g1.r_b * sw.ltca.cos_bb)
+    s = np.where(S.active, (r.te_unloaded[None, :, None] - S.te) * lev2, 0.0)
     F = np.transpose(r.load, (1, 0, 2)).reshape(N, K * M)
     CF = np.einsum("nij,nj->ni", st["Cs"], F)
     CF = np.transpose(CF.reshape(N, K, M), (1, 0, 2))
-    g1 = sw.ltca.pair.pinion
     f_min = F_MIN_SHARE * r.W * sw.ltca.cos_bb / g1.b
     cH = weber_contact(r.load / st["length"], st["R"], st["h1"], st["h2"], sw.ltca.material, f_min)[0]
-    return s + CF + cH * r.load / st["length"] - r.delta[None, :, None]
+    return s + CF + cH * r.load / st["length"] - r.delta[None, :, None] * lam
