@@ -87,6 +87,7 @@ WARM_OPTS = {"ipopt.warm_start_init_point": "yes", "ipopt.mu_init": 1e-4, "ipopt
              "ipopt.max_iter": 300}
 HARM_EPS = 1e-3  #: [arcsec] smoothing of a harmonic amplitude at zero, sqrt(a^2 + b^2 + eps^2)
 TE0_EPS = 1e-3  #: [arcsec] smoothing of the unloaded TE's RMS misfit to its parabola at zero, sqrt(rms^2 + eps^2)
+DEGENERATE_REL = 1e-6  #: an active constraint whose multiplier is below this times the largest is degenerate
 THETA_TOL = 1e-4  #: [mm] the design has settled when no amount moves by more than this (0.1 um: below any grinding machine's resolution)
 TIP_BAND = 0.02  #: [m_n] contact within this radial distance of a tip circle counts as tip (edge) contact
 SETTINGS = {"a_c": 0.05, "a_pl": 0.02}  #: Litvin's settings a design may free, with their largest value [1/mm]
@@ -147,6 +148,9 @@ class MicroDesign:
     rounds : list of dicts per trust-region round (design, model and true objective, radius, IPOPT
         iterations and status, times).
     iterations : IPOPT iterations in all; time : wall time [s]; status : IPOPT's last return status.
+    stop : why the trust-region loop ended: ``"converged"`` (the NLP's step fell below ``THETA_TOL``
+        or its predicted decrease below ``F_TOL``: a stationary design) or ``"trust radius"`` (the
+        radius shrank below ``THETA_TOL`` with no better design found: not shown stationary).
     binding : the bounds and constraints active at the optimum.
     rho, phi1 : the penalty weight and the NLP's positions [rad] at the end (:meth:`LoadedMicroOptimizer.sensitivities`).
     """
@@ -165,6 +169,7 @@ class MicroDesign:
     binding: tuple
     rho: float = RHO  #: the exact-penalty weight the loop ended with
     phi1: np.ndarray | None = field(default=None, repr=False)  #: the NLP's final positions [rad]
+    stop: str = "converged"  #: why the trust-region loop ended ("converged" or "trust radius")
 
     def theta_um(self) -> dict:
         """The optimum's amounts [um]."""
@@ -194,7 +199,7 @@ class MicroDesign:
                 "predicted": pred,
                 "verified": chk(self.verified), "error": dict(self.error), "before": chk(self.before),
                 "after": chk(self.after), "rounds": self.rounds, "iterations": self.iterations,
-                "time_s": self.time, "status": self.status, "binding": list(self.binding)}
+                "time_s": self.time, "status": self.status, "stop": self.stop, "binding": list(self.binding)}
 
 
 @dataclass(frozen=True)
@@ -234,6 +239,23 @@ class ParetoFront:
 
     def to_dict(self) -> dict:
         return {"points": self.points()}
+
+
+#: sign of each misalignment kind under the mirror z -> -z of a drive symmetric about its mid-face
+#: (the centre distance is unchanged; the crossing and intersecting angles and the axial shift change
+#: sign). Every field of Misalignment must be listed: a kind missing here disables the mirror reduction.
+MIRROR_SIGN = {"dE": 1.0, "crossing": -1.0, "intersecting": -1.0, "axial": -1.0}
+
+
+def mirror_image(mis: Misalignment) -> Misalignment:
+    """The misalignment mirrored in z (each kind times its ``MIRROR_SIGN``); :class:`ArgumentError`
+    naming the kind when one has no known mirror sign."""
+    for k in Misalignment.names():
+        if k not in MIRROR_SIGN:
+            raise ArgumentError(f"misalignment kind {k!r}: its sign under the mirror z -> -z is not known "
+                                "(gearopt.synthesis.loaded.MIRROR_SIGN).", param=k, value=k,
+                                valid=f"one of {sorted(MIRROR_SIGN)}")
+    return Misalignment(**{k: MIRROR_SIGN[k] * getattr(mis, k) for k in Misalignment.names()})
 
 
 class LoadedMicroOptimizer:
@@ -384,8 +406,10 @@ class LoadedMicroOptimizer:
         case indices whose loaded TCA is the same for every design the optimiser may choose, or None
         when the drive is not mirror-symmetric about its mid-face. A spur pair whose flanks are
         symmetric in z (no helix slope, bias, off-centre lead crowning, unequal end reliefs or measured
-        deviations; none of these free) meshes under ``(dE, crossing, intersecting, axial)`` as under
-        ``(dE, -crossing, -intersecting, -axial)`` mirrored in z."""
+        deviations; none of these free) meshes under a misalignment as under its mirror image
+        (:func:`mirror_image`: ``(dE, crossing, intersecting, axial)`` as ``(dE, -crossing,
+        -intersecting, -axial)``) mirrored in z. Every kind of ``Misalignment`` is read from its fields;
+        one without a known mirror sign (``MIRROR_SIGN``) leaves every case on its own (None)."""
         asym = ("f_H_beta", "S_alpha", "z_Cb", "C_beta_I", "C_beta_II")
         if any(n.split(".", 1)[1] in asym for n in self.free):
             return None
@@ -396,13 +420,16 @@ class LoadedMicroOptimizer:
             if mg is not None and (mg.f_H_beta or mg.S_alpha or mg.z_Cb or mg.measured or mg.C_beta_I != mg.C_beta_II
                                    or mg.b_I != mg.b_II):
                 return None
-        key = lambda m: tuple(round(float(v), 15) for v in (m.dE, m.crossing, m.intersecting, m.axial))  # noqa: E731
+        kinds = Misalignment.names()
+        if any(k not in MIRROR_SIGN for k in kinds):
+            return None  # a kind whose mirror image is not known: no case is taken for another's
+        key = lambda m: tuple(round(float(getattr(m, k)), 15) for k in kinds)  # noqa: E731
         keys = [key(m) for m in self.cases]
         classes, seen = [], set()
         for c, m in enumerate(self.cases):
             if c in seen:
                 continue
-            mk = key(Misalignment(dE=m.dE, crossing=-m.crossing, intersecting=-m.intersecting, axial=-m.axial))
+            mk = key(mirror_image(m))
             twin = [j for j in range(c + 1, len(keys)) if keys[j] == mk and j not in seen and keys[j] != keys[c]]
             cls = [c] + twin[:1]
             seen.update(cls)
@@ -1050,7 +1077,7 @@ class LoadedMicroOptimizer:
         for refine in range(MAX_REFINE + 1):
             red.phi1 = self.phi1
             # (a refinement goes on from the optimum with the penalty weight the last pass needed)
-            theta, cur, pred, it, status, rho = red._trust_region(theta, rounds, progress, rho)
+            theta, cur, pred, it, status, rho, stop = red._trust_region(theta, rounds, progress, rho)
             iters += it
             after = self.check(theta, fine)
             add = self._violated_positions(after, fine)
@@ -1084,7 +1111,7 @@ class LoadedMicroOptimizer:
         before = self.check(self.theta0, fine)
         return MicroDesign(theta=dict(zip(self.free, theta.tolist())), theta0=dict(zip(self.free, self.theta0.tolist())),
                            predicted=pred, verified=ver, error=err, before=before, after=after, rounds=rounds,
-                           iterations=iters, time=time.perf_counter() - t_start, status=status,
+                           iterations=iters, time=time.perf_counter() - t_start, status=status, stop=stop,
                            binding=self._binding(theta, pred, ver), rho=rho, phi1=self.phi1.copy())
 
     def pareto(self, p_limits, progress=None, anchor: MicroDesign | None = None) -> ParetoFront:
@@ -1193,7 +1220,42 @@ class LoadedMicroOptimizer:
         return ParetoFront(anchor=anchor, p_limits=tuple(lims), designs=tuple(designs), messages=tuple(msgs))
 
     def sensitivities(self, design: MicroDesign) -> dict:
-        """Sensitivities of the optimum to the torques and to a misalignment, by AD (docs/loaded_synthesis.md).
+        """Sensitivities of the optimum to the torques and to a misalignment added to every case
+        (docs/loaded_synthesis.md section 6): :meth:`kkt_sensitivities` of the duty cycle, or where its
+        cases are mirror images of each other (:meth:`mirror_classes`) of the problem with one case per
+        class, with each mirror-odd kind's derivatives by symmetry.
+
+        Mirror-image cases make the full problem's active-set KKT system singular: each active row of
+        a case has its twin's, and the twins' rows differ only in their own loads. The problem of one
+        case per class is the full one for every perturbation that keeps the twins mirror images: the
+        torques and the mirror-even kinds (``MIRROR_SIGN`` +1: the centre distance), whose derivatives
+        it gives. An offset of a mirror-odd kind (crossing, intersecting, axial) added to every case
+        breaks the pairing, but the duty cycle offset by ``-d`` is the mirror image of that offset by
+        ``d``, so the optimum (symmetric amounts only, :meth:`mirror_classes`) is an even function of
+        ``d``: its central derivative, and the objective's, are zero. (A kink there, an active set that
+        changes at ``d = 0``, would give one-sided derivatives of opposite signs; they are not
+        computed: ``benchmarks/loaded_sensitivity_fd.py`` measures them by re-solved optima.)
+
+        Returns
+        -------
+        dict
+            As :meth:`kkt_sensitivities`, and ``mirror_odd``: the kinds whose derivatives are zero by
+            the mirror symmetry (empty without mirror-image cases).
+        """
+        classes = self.mirror_classes()
+        if classes is None:
+            return {**self.kkt_sensitivities(design), "mirror_odd": []}
+        out = self._reduced().kkt_sensitivities(design)
+        kinds = Misalignment.names()
+        odd = [j for j, k in enumerate(kinds) if MIRROR_SIGN[k] < 0]
+        out["d_theta_d_mis"][:, odd] = 0.0
+        out["d_objective_d_mis"][odd] = 0.0
+        out["mirror_odd"] = [kinds[j] for j in odd]
+        return out
+
+    def kkt_sensitivities(self, design: MicroDesign) -> dict:
+        """Sensitivities of the optimum to the torques and to a misalignment, by AD (docs/loaded_synthesis.md),
+        of this optimiser's own cases (:meth:`sensitivities` handles mirror-image cases).
 
         The NLP is built around ``design`` (its final positions, every active slice) with the torque
         scales and a misalignment offset added to every case as parameters, and solved with the design
@@ -1217,10 +1279,12 @@ class LoadedMicroOptimizer:
             ten times that: else the loop stopped on its trust radius and the derivatives are those
             of the NLP's optimum, not of the design); ``objective`` [arcsec]: the
             NLP's optimum (with an unloaded-TE target, its term included, and so in the derivatives
-            of the objective); ``active``: the inequalities and bounds active at it; ``degenerate``: those
+            of the objective); ``active``: the inequalities and bounds active at it; ``degenerate``: the
+            active ones whose multiplier vanishes (below ``DEGENERATE_REL`` times the largest), and those
             neither clearly active nor inactive (0: the derivatives are unique; else they hold on the
             side of the active set chosen, each such row counted active when its indicator is above
-            1/2); ``nlp`` / ``z`` / ``p``: the NLP, its solution and parameters (for checks).
+            1/2); ``min_multiplier``: the smallest active multiplier over the largest;
+            ``nlp`` / ``z`` / ``p``: the NLP, its solution and parameters (for checks).
 
         Raises
         ------
@@ -1272,7 +1336,14 @@ class LoadedMicroOptimizer:
         ind_g = ind_g[I_]
         bx = np.isfinite(ind_x)
         act_g, act_x = ind_g > 0.5, bx & (ind_x > 0.5)
-        degenerate = int(np.sum(np.abs(ind_g - 0.5) < 0.4) + np.sum(np.abs(ind_x[bx] - 0.5) < 0.4))
+        # degenerate: an active row or bound whose multiplier vanishes (strict complementarity fails; the
+        # optimum is then only directionally differentiable), i.e. below DEGENERATE_REL times the largest
+        # active multiplier, or one the central path cannot tell active from inactive
+        mult = np.concatenate([np.abs(lam_g[I_[act_g]]), np.abs(lam_x[act_x])])
+        tol = DEGENERATE_REL * (float(mult.max()) if mult.size else 0.0)
+        deg_g = (act_g & (np.abs(lam_g[I_]) <= tol)) | (np.abs(ind_g - 0.5) < 0.4)
+        deg_x = (act_x & (np.abs(lam_x) <= tol)) | (bx & (np.abs(ind_x - 0.5) < 0.4))
+        degenerate = int(deg_g.sum() + deg_x.sum())
         # the limit's multipliers (inactive ones zero) and the active set's KKT system: the derivatives
         # of the optimum at fixed active set (Fiacco), one sparse LU for all parameters
         lam_a = lam_g.copy()
@@ -1293,6 +1364,7 @@ class LoadedMicroOptimizer:
                 "d_objective_d_mis": dfdp[T:], "d_theta_d_mis": dth[:, T:],
                 "model_step": step, "at_design": step <= 10 * THETA_TOL, "objective": float(r["f"]),
                 "active": int(act_g.sum() + act_x.sum()), "degenerate": degenerate,
+                "min_multiplier": float(mult.min() / mult.max()) if mult.size and mult.max() > 0 else None,
                 "nlp": nlp, "z": z, "p": p, "bounds": (lbx, ubx), "z0": cur["z0"]}
 
     def _violated_positions(self, chk: LoadedCheck, phi1) -> np.ndarray:
@@ -1326,7 +1398,7 @@ class LoadedMicroOptimizer:
         with)."""
         p = self._pvec(rho)
         radius = TR_START * float(np.max(self.hi - self.lo))
-        iters, status, pred, prev = 0, "", None, None
+        iters, status, pred, prev, stop = 0, "", None, None, "trust radius"
         last_viol = 0.0  # the model's constraint violation (relative, > 1: violated) at the last accepted step
         cur = self._around(theta, 2 * radius, rho)
         for rnd in range(MAX_ROUNDS):
@@ -1374,6 +1446,7 @@ class LoadedMicroOptimizer:
                 continue
             if stationary:
                 info["accepted"] = "converged"
+                stop = "converged"
                 if progress:
                     progress(_round_text(rnd, info, self._has_settings))
                 break
@@ -1425,7 +1498,7 @@ class LoadedMicroOptimizer:
                                  f"({st['return_status']}).", param="ipopt", value=st["return_status"])
         pred = self._predicted(nlp, np.asarray(r["x"]).ravel())
         self._raise_if_infeasible(pred, cur["check"])
-        return theta, cur, pred, iters, status, rho
+        return theta, cur, pred, iters, status, rho, stop
 
     def _multipliers(self, prev, nlp):
         """The multipliers of an earlier NLP's solution ``prev = (nlp, solution)`` carried to ``nlp``,
