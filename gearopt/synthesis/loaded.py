@@ -436,6 +436,19 @@ class LoadedMicroOptimizer:
             classes.append(cls)
         return classes if any(len(k) > 1 for k in classes) else None
 
+    def shifted(self, offset: Misalignment) -> "LoadedMicroOptimizer":
+        """A copy of this optimiser with ``offset`` added to every case (each kind of ``Misalignment``);
+        the duty cycle :meth:`sensitivities` differentiates in (e.g. for finite differences of
+        re-solved optima, ``benchmarks/loaded_sensitivity_fd.py``)."""
+        if not isinstance(offset, Misalignment):
+            raise ArgumentError(f"offset = {offset!r:.60}: expected a gearopt Misalignment.", param="offset",
+                                value=offset, valid="a Misalignment")
+        out = copy.copy(self)
+        out.cases = tuple(Misalignment(**{k: getattr(c, k) + getattr(offset, k) for k in Misalignment.names()})
+                          for c in self.cases)
+        out.phi1 = self.phi1.copy()
+        return out
+
     def _reduced(self):
         """The optimiser of one case per mirror class (:meth:`mirror_classes`), its weights the sums of
         the class's and its penalty counting each class as often as it has members (the same merit,
@@ -1339,11 +1352,7 @@ class LoadedMicroOptimizer:
         # degenerate: an active row or bound whose multiplier vanishes (strict complementarity fails; the
         # optimum is then only directionally differentiable), i.e. below DEGENERATE_REL times the largest
         # active multiplier, or one the central path cannot tell active from inactive
-        mult = np.concatenate([np.abs(lam_g[I_[act_g]]), np.abs(lam_x[act_x])])
-        tol = DEGENERATE_REL * (float(mult.max()) if mult.size else 0.0)
-        deg_g = (act_g & (np.abs(lam_g[I_]) <= tol)) | (np.abs(ind_g - 0.5) < 0.4)
-        deg_x = (act_x & (np.abs(lam_x) <= tol)) | (bx & (np.abs(ind_x - 0.5) < 0.4))
-        degenerate = int(deg_g.sum() + deg_x.sum())
+        degenerate, min_mult = degenerate_constraints(ind_g, lam_g[I_], ind_x, lam_x)
         # the limit's multipliers (inactive ones zero) and the active set's KKT system: the derivatives
         # of the optimum at fixed active set (Fiacco), one sparse LU for all parameters
         lam_a = lam_g.copy()
@@ -1364,7 +1373,7 @@ class LoadedMicroOptimizer:
                 "d_objective_d_mis": dfdp[T:], "d_theta_d_mis": dth[:, T:],
                 "model_step": step, "at_design": step <= 10 * THETA_TOL, "objective": float(r["f"]),
                 "active": int(act_g.sum() + act_x.sum()), "degenerate": degenerate,
-                "min_multiplier": float(mult.min() / mult.max()) if mult.size and mult.max() > 0 else None,
+                "min_multiplier": min_mult,
                 "nlp": nlp, "z": z, "p": p, "bounds": (lbx, ubx), "z0": cur["z0"]}
 
     def _violated_positions(self, chk: LoadedCheck, phi1) -> np.ndarray:
@@ -1714,6 +1723,25 @@ class _NLP(dict):
             raise KeyError(key)
         self[key] = ca.nlpsol("loaded_microgeometry", "ipopt", self["problem"], self["opts"])
         return self[key]
+
+
+def degenerate_constraints(ind_g, lam_g, ind_x, lam_x) -> tuple[int, float | None]:
+    """Degenerate inequalities and bounds at a solution: those active (central-path indicator above
+    1/2, :func:`central_path_indicators`) whose multiplier vanishes (strict complementarity fails: the
+    optimum is then only directionally differentiable), i.e. at most ``DEGENERATE_REL`` times the
+    largest active multiplier, and those the indicator cannot tell active from inactive (between 0.1
+    and 0.9). ``ind_g``, ``lam_g``: the inequality rows' indicators and multipliers; ``ind_x``,
+    ``lam_x``: the variables' (indicator NaN: no finite bound). Returns ``(count, smallest active
+    multiplier over the largest)`` (None without an active one)."""
+    ind_g, lam_g, ind_x, lam_x = (np.asarray(v, float).ravel() for v in (ind_g, lam_g, ind_x, lam_x))
+    bx = np.isfinite(ind_x)
+    act_g, act_x = ind_g > 0.5, bx & (np.where(bx, ind_x, 0.0) > 0.5)
+    mult = np.concatenate([np.abs(lam_g[act_g]), np.abs(lam_x[act_x])])
+    big = float(mult.max()) if mult.size else 0.0
+    tol = DEGENERATE_REL * big
+    deg_g = (act_g & (np.abs(lam_g) <= tol)) | (np.abs(ind_g - 0.5) < 0.4)
+    deg_x = (act_x & (np.abs(lam_x) <= tol)) | (bx & (np.abs(np.where(bx, ind_x, 0.0) - 0.5) < 0.4))
+    return int(deg_g.sum() + deg_x.sum()), (float(mult.min()) / big if big > 0 else None)
 
 
 def central_path_indicators(H, Jg, lbg, ubg, g, lam_g, lbx, ubx, x, lam_x):
