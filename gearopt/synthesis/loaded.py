@@ -672,10 +672,33 @@ class LoadedMicroOptimizer:
                 dw3, dr1, dr2 = (np.asarray(v).T for v in f(wv, prm))
                 J[kk, nn, mm] = dw3 / self.pair.gear.r_p * (-lever)
                 Jr[kk, nn, mm] = np.stack([dr1, dr2], axis=1)
+            # each slice on its own levers (LTCA._solve_one, docs/ltca.md section 3): the gap is
+            # (te0 - te) L2 + C F - lam delta, lam = L1 / (r_b1 cos(beta_b)); with the absolute separation
+            # a = -te r_b2 cos(beta_b) and the block's approach d = delta - te0 r_b2 cos(beta_b)
+            # (TE = -d / (r_b2 cos(beta_b))) it is a + da + C F - lam d, da = -(te - te0) (L2 - r_b2 cos(beta_b))
+            # - te0 (lam - 1) r_b2 cos(beta_b): zero on an involute flank, on a tip edge held at its value
+            # at the linearisation (J, the derivative of a, is the flank lever's)
+            lam, lev2 = self._levers(S)
+            te0 = S.te_unloaded[None, :, None]
+            te0 = np.where(np.isfinite(te0), te0, 0.0)
+            da = np.where(S.active, -(S.te - te0) * (lev2 - lever) - te0 * (lam - 1.0) * lever, 0.0)
             a = np.where(S.active, -S.te * lever, 0.0)
             P = len(self.free)
-            out.append({"S": S, "st": st, "a": a, "J": J[..., :P], "Jm": J[..., P:], "Jr": Jr, "mis": mis})
+            out.append({"S": S, "st": st, "a": a, "J": J[..., :P], "Jm": J[..., P:], "Jr": Jr, "mis": mis,
+                        "lam": lam, "da": da})
         return out
+
+    def _levers(self, S) -> tuple[np.ndarray, np.ndarray]:
+        """Per slice (K, N, M): ``lam`` = its lever about the pinion axis over ``r_b1 cos(beta_b)`` and its
+        lever about the gear axis [mm] (``SliceSet.lever1/2``; the involute's where missing)."""
+        cb = self.ltca.cos_bb
+        lever = self.pair.gear.r_b * cb
+        ok = S.active
+        lam = (np.ones(S.z.shape) if S.lever1 is None
+               else np.where(ok & np.isfinite(S.lever1), S.lever1 / (self.pair.pinion.r_b * cb), 1.0))
+        lev2 = (np.full(S.z.shape, lever) if S.lever2 is None
+                else np.where(ok & np.isfinite(S.lever2), S.lever2, lever))
+        return lam, lev2
 
     # -- the NLP --------------------------------------------------------------------------------
     def _keep(self, lin, sweeps, radius: float) -> list:
@@ -686,7 +709,6 @@ class LoadedMicroOptimizer:
         trust-region loop evaluates every trial design exactly, so a slice that would close anyway shows
         as a model miss there."""
         out = []
-        lever = self.pair.gear.r_b * self.ltca.cos_bb
         margin = self.edge_margin or 0.0
         for L, sw in zip(lin, sweeps):
             S = L["S"]
@@ -694,7 +716,7 @@ class LoadedMicroOptimizer:
                      else np.full(S.z.shape, np.inf))  # no radius: every active slice stays
             keep = []
             for r in sw.results:
-                s = (r.te_unloaded[None, :, None] - S.te) * lever
+                s = (r.te_unloaded[None, :, None] - S.te) * self._levers(S)[1]
                 bound = 1.5 * float(np.nanmax(r.delta)) + margin
                 with np.errstate(invalid="ignore"):
                     keep.append(S.active & ~(s - reach > bound))
@@ -723,6 +745,7 @@ class LoadedMicroOptimizer:
         w_of_x = []  # deflection unknown of each slice (sparse path)
         w_keys = []  # (torque, case, position, flat slice index) of each deflection unknown
         a0, Jx, Jmx, ln, Rx, h1x, h2x, edge, tix, blk, keys, tipe = [], [], [], [], [], [], [], [], [], [], [], []
+        lamx = []  # each slice's lever about the pinion axis over r_b1 cos(beta_b)
         egx, near = [], []  # the edge weight's gradient (design, misalignment) and the rows it may reach
         blocks = []  # (t, c, n, first x, count)
         nx = nw = 0
@@ -733,6 +756,8 @@ class LoadedMicroOptimizer:
                     for t in range(T)]
             flat = lambda v: np.transpose(v, (1, 0, 2)).reshape(N, K * M)  # noqa: E731
             a_n, l_n, R_n, h1_n, h2_n = (flat(v) for v in (L["a"], st["length"], st["R"], st["h1"], st["h2"]))
+            lam_n = flat(L["lam"])
+            a_n = a_n + flat(L["da"])
             J_n = np.transpose(L["J"], (1, 0, 2, 3)).reshape(N, K * M, P)
             Jm_n = np.transpose(L["Jm"], (1, 0, 2, 3)).reshape(N, K * M, -1)
             e0, eg = _edge_weight_lin(S, self.pair, L["Jr"])
@@ -784,6 +809,7 @@ class LoadedMicroOptimizer:
                         trip_C[1].append(jj + nx)
                         trip_C[2].append(Cb[ii, jj])
                     a0.append(a_n[n, A])
+                    lamx.append(lam_n[n, A])
                     Jx.append(J_n[n, A])
                     Jmx.append(Jm_n[n, A])
                     ln.append(l_n[n, A])
@@ -799,7 +825,7 @@ class LoadedMicroOptimizer:
                     keys.append(np.stack([np.full(cnt, t), np.full(cnt, c), np.full(cnt, n), A], axis=1))
                     blocks.append((t, c, n, nx, cnt))
                     nx += cnt
-        a0, Jx, Jmx, ln, Rx, h1x, h2x = (np.concatenate(v) for v in (a0, Jx, Jmx, ln, Rx, h1x, h2x))
+        a0, Jx, Jmx, ln, Rx, h1x, h2x, lamx = (np.concatenate(v) for v in (a0, Jx, Jmx, ln, Rx, h1x, h2x, lamx))
         ew, tix, blk, keys, tipe, egx, near = (np.concatenate(v) for v in (edge, tix, blk, keys, tipe, egx, near))
         edge = near  # rows of the edge-loading constraint; the pressure limit holds on every non-tip-edge slice
         nB = len(blocks)
@@ -842,7 +868,8 @@ class LoadedMicroOptimizer:
         cH = 2.0 * (1.0 - nu**2) / (math.pi * mat.E) * (ca.log(2.0 * h1x / bH) + ca.log(2.0 * h2x / bH)
                                                         - nu / (1.0 - nu))
         dth = th * 1e-3 - ca.DM(theta_k)
-        gap = (ca.DM(a0) + ca.mtimes(ca.DM(Jx), dth) + ca.mtimes(ca.DM(Jmx), dm) + cH * f) / G_REF - ca.mtimes(Ex_b, d)
+        gap = ((ca.DM(a0) + ca.mtimes(ca.DM(Jx), dth) + ca.mtimes(ca.DM(Jmx), dm) + cH * f) / G_REF
+               - ca.DM(lamx) * ca.mtimes(Ex_b, d))
         g_list = []
         if sparse:
             wi = np.concatenate(w_of_x)
@@ -855,7 +882,8 @@ class LoadedMicroOptimizer:
             gap = gap + ca.mtimes(triplet(trip_C, nx, nx), F) / G_REF
         fb = x + y - ca.sqrt(x**2 + y**2 + 2 * mu)  # zero where x >= 0, y >= 0, x y = mu
         te = -d * G_REF / lever * RAD_TO_ARCSEC  # (nB) loaded TE [arcsec] (up to each case's constant)
-        g_list += [y - gap, fb, ca.mtimes(Ex_b.T, x) - 1.0, ca.mtimes(Eb_ct, u) - te, te - ca.mtimes(Eb_ct, v)]
+        g_list += [y - gap, fb, ca.mtimes(Ex_b.T, ca.DM(lamx) * x) - 1.0, ca.mtimes(Eb_ct, u) - te,
+                   te - ca.mtimes(Eb_ct, v)]
         n_eq = (nw if sparse else 0) + 2 * nx + nB
         lbg = [np.zeros(n_eq), np.zeros(2 * nB)]
         ubg = [np.zeros(n_eq), np.full(2 * nB, np.inf)]
