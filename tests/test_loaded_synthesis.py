@@ -251,7 +251,7 @@ def test_penalty_grows_after_two_accepted_steps_that_needed_a_slack():
     of the same NLP; the loop still ends at the constrained optimum t = 20 um."""
     toy = _PenaltyToy()
     rounds = []
-    theta, cur, pred, iters, status, rho = toy._trust_region(np.array([0.0]), rounds)
+    theta, cur, pred, iters, status, rho, stop = toy._trust_region(np.array([0.0]), rounds)
     # rounds: [0, 25] -> 25 (violated, kept), [0, 75] -> 75 (violated again: x10 after it),
     # at 1e4 -> 30 well inside the radius (x10, the same NLP again), at 1e5 -> 20, converged
     assert [w for w, _ in toy.solves[:4]] == [1000.0, 1000.0, 10000.0, 100000.0]
@@ -261,6 +261,33 @@ def test_penalty_grows_after_two_accepted_steps_that_needed_a_slack():
     assert rounds[2]["accepted"] == "penalty x10 (100000)"
     assert rho == 1e5 and theta[0] == pytest.approx(0.020, abs=1e-9)
     assert rounds[-1]["accepted"] == "converged" and len(rounds) == 5
+    assert stop == "converged"
+
+
+class _MisleadingToy(_PenaltyToy):
+    """The loop on a model that always predicts a decrease at the upper end of the trust region
+    (model value -1), where the true merit is worse: no step is ever accepted."""
+
+    def _solve_nlp(self, nlp, z0, lbx, ubx, p, prev=None):
+        self.solves.append((p[3], self.phi1.size))
+        return ({"x": [float(ubx[0])], "f": -1.0}, {"return_status": "Solve_Succeeded", "success": True}, 1)
+
+    def _predicted(self, nlp, zs):
+        return {"slack_p": np.array([[-1.0]]), "slack_e": np.array([[0.0]]), "te_pp": np.array([[0.0]]),
+                "objective": 0.0}
+
+
+def test_the_loop_reports_a_stop_on_its_trust_radius():
+    """No step accepted: the radius shrinks below THETA_TOL and the loop says so ("trust radius", not
+    "converged"), as the design it returns (the start) was never shown stationary."""
+    toy = _MisleadingToy()
+    toy.check = lambda theta, phi1=None, known=None: type(
+        "Check", (), {"t": float(theta[0]) * 1e3, "te_pp": np.array([[0.0]]),
+                      "objective": (float(theta[0]) * 1e3 - 20.0) ** 2})
+    rounds = []
+    theta, cur, pred, iters, status, rho, stop = toy._trust_region(np.array([0.020]), rounds)
+    assert stop == "trust radius" and theta[0] == pytest.approx(0.020)
+    assert all(r["accepted"] is False for r in rounds) and len(rounds) > 3
 
 
 def test_a_refined_grid_goes_on_with_the_last_penalty_weight():
