@@ -410,8 +410,9 @@ def _assert_sensitivities_match_finite_differences(opt, S):
         # small steps: the optimum is smooth in the parameters only until the active set of its max/min
         # (the TE's peak positions) changes, within about 0.01 arcmin of crossing here (with each tip
         # edge on its own levers, 1e-5 rad of crossing and 1e-4 mm of axial shift already moved the
-        # derivatives by 5 % and 0.5 %: 1e-6 rad and 1e-5 mm held them within 0.1 %)
-        h = 1e-4 if j < T else (2e-4 * ARCMIN if angle else 1e-5)
+        # derivatives by 5 % and 0.5 %, 1e-4 of the top torque (unloaded-TE target) by 0.4 %: 1e-6 rad,
+        # 1e-5 mm and 1e-5 held them within 0.01 %)
+        h = 1e-5 if j < T else (2e-4 * ARCMIN if angle else 1e-5)
         pp, pm = S["p"].copy(), S["p"].copy()
         pp[4 + j] += h
         pm[4 + j] -= h
