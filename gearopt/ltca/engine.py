@@ -3,14 +3,15 @@ stiffness of a spur or helical drive with its modifications and misalignments.
 
 At each pinion angle the slices of every tooth pair (:mod:`gearopt.ltca.slices`) carry point loads
 ``F_i >= 0`` along the contact normal; with the compliance matrix ``C`` (:mod:`gearopt.ltca.compliance`)
-and the unloaded separations ``s`` the gaps are ``g = s + C F - delta`` and the contact conditions
-``F >= 0, g >= 0, F g = 0, sum F = W`` (W: the normal load) are the optimality conditions of the
-convex QP
+and the unloaded separations ``s`` the gaps are ``g = s + C F - lam delta`` and the contact conditions
+``F >= 0, g >= 0, F g = 0, sum lam F = W`` (W = T / (r_b1 cos(beta_b)); ``lam_i`` each force's own
+lever about the pinion axis over ``r_b1 cos(beta_b)``, 1 on an involute flank, less on a tip edge)
+are the optimality conditions of the convex QP
 
-    min_F  1/2 F^T C F + s^T F    s.t.  F >= 0,  sum F = W,
+    min_F  1/2 F^T C F + s^T F    s.t.  F >= 0,  sum lam F = W,
 
-whose equality multiplier is the loaded approach ``delta`` [mm] (the gear's rigid lag along the
-contact normal). CasADi's conic solver (qpOASES, an active-set method) solves it; the Hertz
+whose equality multiplier is the loaded approach ``delta`` [mm] (the pinion's rigid advance along the
+flank contact normal). CasADi's conic solver (qpOASES, an active-set method) solves it; the Hertz
 part of C depends on the load (Weber's logarithm), so the QP is re-solved with the Hertz approach
 linearised at the last loads (a Newton step, tangent by AD) until the loads stop changing (the
 nonlinear contact law holds at the solution). Each solution is checked against the contact
