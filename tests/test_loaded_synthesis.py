@@ -432,7 +432,9 @@ def _assert_sensitivities_match_finite_differences(opt, S):
         ad_t = S["d_theta_d_torque"][:, j] if j < T else S["d_theta_d_mis"][:, j - T]
         ad_f = S["d_objective_d_torque"][j] if j < T else S["d_objective_d_mis"][j - T]
         assert ad_f == pytest.approx(fd_f, rel=tol, abs=1e-6 * max(1.0, abs(fd_f)))
-        assert np.max(np.abs(ad_t - fd_t)) <= tol * np.max(np.abs(fd_t)) + 1e-9
+        # (+ the re-solved NLPs' design accuracy, 1e-12 mm, over the step: the axial shift moves this
+        # spur optimum by 2e-6 mm per mm, where differences of 1e-5 mm are at that accuracy)
+        assert np.max(np.abs(ad_t - fd_t)) <= tol * np.max(np.abs(fd_t)) + 1e-12 / h / scale + 1e-9
         moved += np.max(np.abs(fd_t)) > 1e-6
     assert moved >= 3  # the optimal design does move with the torques and misalignments
 
