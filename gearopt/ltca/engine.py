@@ -3,14 +3,15 @@ stiffness of a spur or helical drive with its modifications and misalignments.
 
 At each pinion angle the slices of every tooth pair (:mod:`gearopt.ltca.slices`) carry point loads
 ``F_i >= 0`` along the contact normal; with the compliance matrix ``C`` (:mod:`gearopt.ltca.compliance`)
-and the unloaded separations ``s`` the gaps are ``g = s + C F - delta`` and the contact conditions
-``F >= 0, g >= 0, F g = 0, sum F = W`` (W: the normal load) are the optimality conditions of the
-convex QP
+and the unloaded separations ``s`` the gaps are ``g = s + C F - lam delta`` and the contact conditions
+``F >= 0, g >= 0, F g = 0, sum lam F = W`` (W = T / (r_b1 cos(beta_b)); ``lam_i`` each force's own
+lever about the pinion axis over ``r_b1 cos(beta_b)``, 1 on an involute flank, less on a tip edge)
+are the optimality conditions of the convex QP
 
-    min_F  1/2 F^T C F + s^T F    s.t.  F >= 0,  sum F = W,
+    min_F  1/2 F^T C F + s^T F    s.t.  F >= 0,  sum lam F = W,
 
-whose equality multiplier is the loaded approach ``delta`` [mm] (the gear's rigid lag along the
-contact normal). CasADi's conic solver (qpOASES, an active-set method) solves it; the Hertz
+whose equality multiplier is the loaded approach ``delta`` [mm] (the pinion's rigid advance along the
+flank contact normal). CasADi's conic solver (qpOASES, an active-set method) solves it; the Hertz
 part of C depends on the load (Weber's logarithm), so the QP is re-solved with the Hertz approach
 linearised at the last loads (a Newton step, tangent by AD) until the loads stop changing (the
 nonlinear contact law holds at the solution). Each solution is checked against the contact
@@ -161,11 +162,15 @@ class LoadedResult:
     delta : (N,) loaded approach along the contact normal [mm].
     load : (K, N, M) slice loads [N]; line_load : (K, N, M) load per unit face width [N/mm].
     p0, b_H : (K, N, M) Hertz peak pressure [MPa] and half-width [mm] of each slice.
-    pair_load : (K, N) load of each pair [N]; share : (K, N) its share of W.
+    pair_load : (K, N) normal load of each pair [N]; share : (K, N) its share of the pinion torque
+        (``sum lever F`` of its slices over ``torque``; its share of W where every slice is a flank).
     stiffness : (N,) mesh stiffness W / delta [N/um] (secant, including the separations closed).
     kkt_error : (N,) largest violation of the contact conditions [mm].
     hertz_iterations : (N,) fixed-point iterations; solve_time [s].
     edge : (K, N, M) tip-edge slices (1 pinion tip, 2 gear tip, 0 flank; ``SliceSet.edge``).
+    lever : (K, N, M) moment arm of each slice's force about the pinion axis [mm]
+        (``SliceSet.lever1``: r_b1 cos(beta_b) on a flank, less on a tip edge); the pinion torque is
+        ``sum(lever * load)`` at every position (:attr:`torque_balance_error`).
     """
 
     torque: float
@@ -188,6 +193,7 @@ class LoadedResult:
     face_width: float
     stats: dict = field(default_factory=dict)
     edge: np.ndarray | None = None
+    lever: np.ndarray | None = None
 
     @property
     def te_loaded_arcsec(self) -> np.ndarray:
@@ -212,10 +218,19 @@ class LoadedResult:
 
     @property
     def edge_share(self) -> np.ndarray:
-        """(N,) share of the normal load carried by tip edges (edge loading of unrelieved tips)."""
+        """(N,) share of the pinion torque carried by tip edges (edge loading of unrelieved tips)."""
         if self.edge is None:
             return np.zeros(self.phi1.size)
-        return np.sum(np.where(self.edge > 0, self.load, 0.0), axis=(0, 2)) / self.W
+        lev = 1.0 if self.lever is None else self.lever / (self.torque * 1e3 / self.W)
+        return np.sum(np.where(self.edge > 0, lev * self.load, 0.0), axis=(0, 2)) / self.W
+
+    @property
+    def torque_balance_error(self) -> np.ndarray:
+        """(N,) ``sum(lever * load) / torque - 1``: the pinion's moment balance with each slice force on
+        its own lever (``lever``); NaN without levers."""
+        if self.lever is None:
+            return np.full(self.phi1.size, np.nan)
+        return np.nansum(self.lever * self.load, axis=(0, 2)) * 1e-3 / self.torque - 1.0
 
     @property
     def p_max_edge(self) -> float:
@@ -383,8 +398,10 @@ class LTCA:
         used = np.isfinite(S.z)
         z1 = np.where(used, S.z, 0.0)
         z2 = np.where(np.isfinite(S.z2), S.z2, z1)
-        xy1, n1 = tooth_frame(S.r1, S.n1, z1, g1)
-        xy2, n2 = tooth_frame(S.r2, S.n2, z2, g2)
+        # each tooth is loaded along the slice force's line of action (at a tip edge the mating flank's
+        # normal, not the edge member's own flank normal continued to its tip)
+        xy1, n1 = tooth_frame(S.r1, S.n1 if S.nc1 is None else S.nc1, z1, g1)
+        xy2, n2 = tooth_frame(S.r2, S.n2 if S.nc2 is None else S.nc2, z2, g2)
         c1 = self.teeth[0].per_width(xy1.reshape(-1, 2), n1.reshape(-1, 2))
         c2 = self.teeth[1].per_width(xy2.reshape(-1, 2), n2.reshape(-1, 2))
         ct = (c1["total"] + c2["total"]).reshape(K, N, M)
@@ -488,9 +505,10 @@ class LTCA:
         return LoadedSweep(slices=S, results=results, separation_time=t_sep, structure=st,
                            te_zero_rad=S.phi2_ref, ltca=self)
 
-    def _fixed_point(self, A, s, length, R, h1, h2, W, f_min, Cs, F0=None):
+    def _fixed_point(self, A, s, length, R, h1, h2, W, f_min, Cs, F0=None, lam=None):
         """The contact QP over the slices ``A`` (N, n) of each position, with the Hertz fixed point:
-        ``(F (N, n), done (N,), change (N,), iterations (N,))``."""
+        ``(F (N, n), done (N,), change (N,), iterations (N,))``. ``lam`` (N, n): each slice's lever
+        about the pinion axis over ``r_b1 cos(beta_b)`` (the equilibrium ``sum lam F = W``; default 1)."""
         N, n = A.shape
         nc = int(max(A.sum(axis=1).max(), 1))  # padded to the largest count
         gi = np.zeros((N, nc), int)
@@ -503,6 +521,7 @@ class LTCA:
         Cc = Cs[rows[:, :, None], gi[:, :, None], gi[:, None, :]]
         Cc = np.where(valid[:, :, None] & valid[:, None, :], Cc, 0.0)
         sc, lc, Rc, h1c, h2c = (take(v) for v in (s, length, R, h1, h2))
+        lamc = np.where(valid, take(np.ones((N, n)) if lam is None else lam), 0.0)
         lc = np.where(valid, lc, 1.0)
         Rc, h1c, h2c = (np.where(valid, v, 1.0) for v in (Rc, h1c, h2c))
         eye = np.eye(nc)
@@ -529,7 +548,7 @@ class LTCA:
             cref = np.einsum("nii->n", C) / nc
             H = C / cref[:, None, None]
             with _quiet_stdout():  # qpOASES prints its banner on stdout whatever its printLevel
-                r = qp(h=np.hstack(list(H)), g=(sk / (W * cref[:, None])).T, a=np.ones((1, nc * N)), lba=1.0,
+                r = qp(h=np.hstack(list(H)), g=(sk / (W * cref[:, None])).T, a=lamc.reshape(1, nc * N), lba=1.0,
                        uba=1.0, lbx=0.0, ubx=ubx)
             Fn = np.where(valid, np.maximum(W * np.asarray(r["x"]).T, 0.0), 0.0)
             change = np.max(np.abs(Fn - Fc), axis=1) / W
@@ -559,8 +578,17 @@ class LTCA:
                                    f"{bad[0]:.6g} rad): the positions must lie where the pair meshes.",
                                    param="phi1", value=float(bad[0]))
         lever = g2.r_b * cb
-        s = np.where(act, (te0[None, :, None] - S.te) * lever, 0.0)  # (K, N, M) [mm]
+        # each slice's force acts along its own line of action (SliceSet.nc1): the gear turned back by
+        # te0 - te closes the slice's gap by that angle times its lever about the gear axis, and the
+        # pinion torque is the sum of the forces times their levers about the pinion axis,
+        # sum lam_i F_i = W, lam_i = lever1_i / (r_b1 cos(beta_b)) (1 on an involute flank, less on a
+        # tip edge); the equality's multiplier delta is the pinion's rigid advance times r_b1 cos(beta_b)
+        lev2 = lever if S.lever2 is None else np.where(act & np.isfinite(S.lever2), S.lever2, lever)
+        lam = (np.ones(S.z.shape) if S.lever1 is None
+               else np.where(act & np.isfinite(S.lever1), S.lever1 / (g1.r_b * cb), 1.0))
+        s = np.where(act, (te0[None, :, None] - S.te) * lev2, 0.0)  # (K, N, M) [mm]
         s = np.transpose(s, (1, 0, 2)).reshape(N, n)
+        lam = np.transpose(lam, (1, 0, 2)).reshape(N, n)
         A = np.transpose(act, (1, 0, 2)).reshape(N, n)
         f_min = F_MIN_SHARE * W * cb / g1.b
         length = np.transpose(st["length"], (1, 0, 2)).reshape(N, n)
@@ -581,7 +609,7 @@ class LTCA:
         Cs = st["Cs"]
         F = None
         for _outer in range(OUTER_MAX):
-            F, done, change, it = self._fixed_point(A, s, length, R, h1, h2, W, f_min, Cs, F0=F)
+            F, done, change, it = self._fixed_point(A, s, length, R, h1, h2, W, f_min, Cs, F0=F, lam=lam)
             if not done.all():
                 raise ConvergenceError(f"loaded TCA at {torque:g} N m: the Hertz fixed point did not settle in "
                                        f"{HERTZ_MAX_ITER} QP solves at {int((~done).sum())} positions (largest load "
@@ -590,8 +618,9 @@ class LTCA:
             cH, bH, p0 = weber_contact(F / length, R, h1, h2, self.material, f_min)
             d = s + np.einsum("nij,nj->ni", Cs, F) + np.where(A, cH / length * F, 0.0)
             loaded = A & (F > 1e-9 * W)
-            delta = np.array([np.median(d[j, loaded[j]]) if loaded[j].any() else np.nan for j in range(N)])
-            add = A_all & ~A & (d < np.where(np.isfinite(delta), delta, np.inf)[:, None] - KKT_ADD_TOL)
+            delta = np.array([np.median(d[j, loaded[j]] / lam[j, loaded[j]]) if loaded[j].any() else np.nan
+                              for j in range(N)])
+            add = A_all & ~A & (d < np.where(np.isfinite(delta), delta, np.inf)[:, None] * lam - KKT_ADD_TOL)
             if not add.any():
                 break
             A = A | add
@@ -599,10 +628,10 @@ class LTCA:
             raise ConvergenceError(f"loaded TCA at {torque:g} N m: the set of loaded tip edges did not settle in "
                                    f"{OUTER_MAX} QP rounds.", param="torque", value=torque)
         # the contact conditions over every active slice (the gaps d above are those of the full QP)
-        err_on = np.where(loaded, np.abs(d - delta[:, None]), 0.0).max(axis=1)
-        err_off = np.where(A_all & ~loaded, np.maximum(delta[:, None] - d, 0.0), 0.0).max(axis=1)
+        err_on = np.where(loaded, np.abs(d - delta[:, None] * lam), 0.0).max(axis=1)
+        err_off = np.where(A_all & ~loaded, np.maximum(delta[:, None] * lam - d, 0.0), 0.0).max(axis=1)
         kkt = np.maximum(err_on, err_off)
-        sum_err = np.abs(F.sum(axis=1) - W) / W
+        sum_err = np.abs((lam * F).sum(axis=1) - W) / W
         if not np.all(np.isfinite(delta)) or np.any(sum_err > 1e-6):
             raise ConvergenceError(f"loaded TCA at {torque:g} N m: the contact QP failed (load balance error "
                                    f"{float(np.nanmax(sum_err)):.3g} W).", param="torque", value=torque)
@@ -610,13 +639,15 @@ class LTCA:
         Fk = back(F)
         te_l = te0 - delta / lever
         pair_load = Fk.sum(axis=2)
+        lam_k = back(lam)
         width = np.where(S.width > 0, S.width, np.nan)
         result = LoadedResult(
             torque=torque, W=W, phi1=S.phi1, pairs=S.pairs, te_unloaded=te0, te_loaded=te_l, delta=delta,
             load=Fk, line_load=np.where(np.isfinite(S.z), Fk / width, np.nan),
             p0=np.where(back(A_all), back(p0), 0.0), b_H=np.where(back(A_all), back(bH), 0.0), pair_load=pair_load,
-            share=pair_load / W, stiffness=W / delta / 1e3, kkt_error=kkt, hertz_iterations=it,
-            solve_time=time.perf_counter() - t0, face_width=g1.b, stats={"qp_solver": QP_SOLVER}, edge=S.edge)
+            share=(lam_k * Fk).sum(axis=2) / W, stiffness=W / delta / 1e3, kkt_error=kkt, hertz_iterations=it,
+            solve_time=time.perf_counter() - t0, face_width=g1.b, stats={"qp_solver": QP_SOLVER}, edge=S.edge,
+            lever=lam_k * g1.r_b * cb)
         check_validity(result, self.pair, self.material)
         return result
 

@@ -69,6 +69,13 @@ class SliceSet:
     kappa1, kappa2 : (K, N, M) normal curvature of the pinion / gear flank across the contact line at
         the slice's point [1/mm] (:func:`across_line_curvatures`; at a tip-edge slice, of the flank
         surface continued to the edge), NaN where unsolved.
+    nc1, nc2 : (K, N, M, 3) the line of action of the slice's force in the pinion's / gear's own frame,
+        pointing out of that member (the load on the tooth is along -nc): ``n1`` / ``n2`` on a flank
+        slice; at the pinion's tip edge (1) the gear flank's normal, at the gear's tip edge (2) the
+        pinion flank's normal.
+    lever1, lever2 : (K, N, M) moment arm of the slice's force about the pinion / gear axis [mm]
+        (``r_b cos(beta_b)`` on an involute helicoid; smaller on a tip edge, whose force is the mating
+        flank's normal at a point off the path of contact), NaN where unsolved.
     """
 
     phi1: np.ndarray
@@ -95,6 +102,10 @@ class SliceSet:
     w: np.ndarray | None = None
     kappa1: np.ndarray | None = None
     kappa2: np.ndarray | None = None
+    nc1: np.ndarray | None = None
+    nc2: np.ndarray | None = None
+    lever1: np.ndarray | None = None
+    lever2: np.ndarray | None = None
 
     @property
     def te_unloaded(self) -> np.ndarray:
@@ -177,8 +188,27 @@ class SliceSolver:
         # crowning, reliefs and every modification
         k1, k2 = across_line_curvatures(k["rf1"], k["nf1"], ca.vertcat(w[0], zs), k["rf2"], k["nf2"],
                                         ca.vertcat(w[1], w[2]))
-        self.geometry = ca.Function("ltca_slice_geometry", [w, prm], [r1, n1, r2, n2, k["rf1"], k1, k2], ["w", "prm"],
-                                    ["r1", "n1", "r2", "n2", "rf", "kappa1", "kappa2"])
+        # the line of action of the slice's force: the flank's common normal, or at a tip edge the mating
+        # flank's normal (edge 1: -n_f2, edge 2: n_f1); ``nc*`` orient it out of the pinion (fixed frame)
+        # and give it in each member's own frame, out of that member (the load on the tooth is -nc);
+        # the levers are the normal velocities of the contact points per unit rotation,
+        # L_1 = nc . d r_f1 / d phi1 and L_2 = nc . d r_f2 / d phi2 [mm], the moment arms of that force
+        # about the pinion and the gear axis (r_b cos(beta_b) on an involute helicoid)
+        drf1 = ca.jacobian(k["rf1"], prm[lay.index("phi1")])
+        drf2 = ca.jacobian(k["rf2"], w[3]) * tca.scale2
+        B1o = ca.horzcat(ca.jacobian(r1, w[0]), ca.jacobian(r1, zs), n1)
+        B1f = ca.horzcat(k["t1u"], k["t1z"], k["nf1"])
+        B2o = ca.horzcat(ca.jacobian(r2, w[1]), ca.jacobian(r2, w[2]), n2)
+        B2f = ca.horzcat(k["t2u"], k["t2z"], k["nf2"])
+        geo_out = [r1, n1, r2, n2, k["rf1"], k1, k2]
+        names = ["r1", "n1", "r2", "n2", "rf", "kappa1", "kappa2"]
+        for tag, nc in (("", k["nf1"]), ("_e1", -k["nf2"])):
+            # own-frame components of a fixed-frame vector: v_own = B_own B_fix^-1 v_fix (both bases map
+            # onto each other by the member's rigid motion)
+            geo_out += [ca.mtimes(B1o, ca.solve(B1f, nc)), ca.mtimes(B2o, ca.solve(B2f, -nc)),
+                        ca.dot(nc, drf1), ca.dot(nc, drf2)]
+            names += [f"nc1{tag}", f"nc2{tag}", f"lever1{tag}", f"lever2{tag}"]
+        self.geometry = ca.Function("ltca_slice_geometry", [w, prm], geo_out, ["w", "prm"], names)
         self.branch = Branch("ltca_slice", self.G, checks, self._accept, tca.tol, tca.solver, tca.jit)
         # tip-edge slices (Litvin section 9.6 in a slice): where the slice's conjugate point lies beyond
         # a member's tip, that member's tip edge in the section touches the mating flank,
@@ -289,6 +319,11 @@ class SliceSolver:
             ok = ok & have & (np.abs(W[3] - W0[3]) < rev / g2.z)
         stats.update(st)
         geo = self._geometry(np.where(ok, W, W0), prm)
+        # both tips' signed margins [mm] at the conjugate (surface) solution, before tip edges replace it:
+        # where an edge slice's conjugate point left the zone of action (for the widths below)
+        tip_conj = np.stack([g1.r_a - np.hypot(geo["r1"][0], geo["r1"][1]),
+                             g2.r_a - np.hypot(geo["r2"][0], geo["r2"][1])])
+        tip_conj = np.where(ok, tip_conj, np.nan)
         ok_fl = ok
         W, ok, edge = self._tip_edges(W, ok, prm, geo, g1, g2, n_keep=K * N * M)
         stats["n_edge"] = int((edge > 0).sum())
@@ -298,6 +333,13 @@ class SliceSolver:
                 geo[name][:, redo] = v
         r1, n1, r2, n2, rf = (geo[n].T for n in ("r1", "n1", "r2", "n2", "rf"))
         kap1, kap2 = (np.where(ok, geo[n].ravel(), np.nan) for n in ("kappa1", "kappa2"))
+        # the force's line of action and its levers (see __init__): the pinion's flank normal on flank
+        # slices and on the gear's tip edge (2), the gear flank's normal on the pinion's tip edge (1)
+        e1c = (edge == 1)[:, None]
+        nc1 = np.where(e1c, geo["nc1_e1"].T, n1)
+        nc2 = np.where(e1c, geo["nc2_e1"].T, np.where((edge == 2)[:, None], geo["nc2"].T, n2))
+        lev1, lev2 = (np.where(ok, np.where(edge == 1, geo[f"{n}_e1"].ravel(), geo[n].ravel()), np.nan)
+                      for n in ("lever1", "lever2"))
         t = W[3] / g2.r_p  # phi2 of the column's own tooth pair
         shift2 = np.concatenate([np.repeat(np.repeat(2 * math.pi * np.array(pairs) / g2.z + e2, N), M), np.zeros(M)])
         ratio = g1.z / g2.z
@@ -323,7 +365,9 @@ class SliceSolver:
         margin = np.where(ok, margin, np.nan)
         n = K * N * M
         Wd, z_lo, z_hi = _partial_widths(Z.reshape(-1, M), Wd.reshape(-1, M), act[:n].reshape(-1, M),
-                                         margin[:, :n].reshape(5, -1, M), g1.b)
+                                         margin[:, :n].reshape(5, -1, M), g1.b, edge[:n].reshape(-1, M),
+                                         np.stack([margin[0], tip_conj[0], margin[2], tip_conj[1]])[:, :n]
+                                         .reshape(4, -1, M))
         Wd, z_lo, z_hi = (v.reshape(K, N, M) for v in (Wd, z_lo, z_hi))
         # TE zero: the unloaded gear angle of pair 0 at phi1 = 0 (its largest active slice)
         z_act = act[-M:]
@@ -344,7 +388,8 @@ class SliceSolver:
         return SliceSet(phi1=phi1, pairs=pairs, z=Z, width=Wd, z_lo=z_lo, z_hi=z_hi, te=shp(te), active=shp(act), converged=shp(ok),
                         r1=shp3(r1), n1=shp3(n1), r2=shp3(r2), n2=shp3(n2), rf=shp3(rf), u1=shp(W[0]), u2=shp(W[1]),
                         z2=shp(W[2]), z_center=zc, phi2_ref=phi2_ref, stats=stats, edge=shp(edge),
-                        w=np.where(ok, W, np.nan)[:, :n].T.reshape(K, N, M, 4), kappa1=shp(kap1), kappa2=shp(kap2))
+                        w=np.where(ok, W, np.nan)[:, :n].T.reshape(K, N, M, 4), kappa1=shp(kap1), kappa2=shp(kap2),
+                        nc1=shp3(nc1), nc2=shp3(nc2), lever1=shp(lev1), lever2=shp(lev2))
 
     def _geometry(self, W, prm) -> dict:
         """Both flanks' points and normals and the fixed-frame point at the columns of ``W``:
@@ -424,10 +469,18 @@ def _interp_sections(zsec, vals, zz) -> np.ndarray:
     return out
 
 
-def _partial_widths(Z, Wd, act, margin, b):
+def _partial_widths(Z, Wd, act, margin, b, edge=None, tips=None):
     """Tributary intervals (rows of slice nodes) with the contact ending between an active and an
     inactive neighbour where one of the signed margins (B, rows, M) to the flank boundaries
     (> 0 inside) crosses zero between them (linear interpolation; the nearest crossing).
+
+    Between a flank slice and a tip-edge neighbour (``edge`` (rows, M): 1 pinion tip, 2 gear tip)
+    the boundary is where the flank contact line leaves the zone of action over that tip: the zero
+    of that tip's margin interpolated between the flank slice's point and the edge slice's
+    conjugate point (``tips`` (4, rows, M): pinion tip margin, its conjugate value, gear tip margin,
+    its conjugate value [mm]). The flank slice's contact ends there, the edge's begins there, so the
+    flank contact never extends beyond the zone of action (the margins are concave in z along a
+    contact line: the chord's zero lies inside).
     Returns ``(width, lo, hi)`` (rows, M) [mm] (NaN bounds for unused nodes)."""
     out = Wd.copy()
     LO = np.full(Z.shape, np.nan)
@@ -438,6 +491,22 @@ def _partial_widths(Z, Wd, act, margin, b):
         zz = z[used]
         lo = np.concatenate([[-b / 2], 0.5 * (zz[1:] + zz[:-1])])
         hi = np.concatenate([0.5 * (zz[1:] + zz[:-1]), [b / 2]])
+        trimmed = False
+        if edge is not None and edge[r, used].any():
+            for j in range(used.size - 1):
+                i, o = used[j], used[j + 1]
+                if not (a[i] and a[o]) or (edge[r, i] > 0) == (edge[r, o] > 0):
+                    continue
+                fl, ed = (i, o) if edge[r, o] > 0 else (o, i)
+                kind = edge[r, ed]
+                mi, mo = tips[2 * (kind - 1), r, fl], tips[2 * (kind - 1) + 1, r, ed]
+                if np.isfinite(mi) and np.isfinite(mo) and mi >= 0 > mo:
+                    hi[j] = lo[j + 1] = z[fl] + (z[ed] - z[fl]) * mi / (mi - mo)
+                    trimmed = True
+        if trimmed:
+            for j, i in enumerate(used):
+                if a[i]:
+                    out[r, i] = max(hi[j] - lo[j], 1e-9)
         if not (a[used].all() or not a[used].any()):
             for j, i in enumerate(used):
                 if not a[i]:

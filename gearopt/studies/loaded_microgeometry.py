@@ -199,10 +199,12 @@ class LoadedMicroStudy:
             front = fr.to_dict()
         sens = sensitivity_dict(opt, opt.sensitivities(d))
         unloaded = None if opt.te_level is None else unloaded_te_dict(opt, d, self.case_names)
+        if progress and d.stop != "converged":
+            progress("loaded micro-geometry: warning: the trust-region loop stopped on its radius (no better design "
+                     "found, the design not shown stationary)")
         if progress and not sens["at_design"]:
-            progress(f"loaded micro-geometry: warning: the NLP's optimum lies {sens['model_step_um']:.3g} um from the "
-                     "design (the trust-region loop stopped on its radius, not converged): the sensitivities are "
-                     "those of that point")
+            progress(f"loaded micro-geometry: warning: the NLP around the design (every slice, no trust radius) has its "
+                     f"optimum {sens['model_step_um']:.3g} um from the design: the sensitivities are those of that point")
         if progress and sens["degenerate"]:
             progress(f"loaded micro-geometry: warning: {sens['degenerate']} constraints are degenerate at the optimum "
                      "(active with a zero multiplier): the sensitivities are one-sided, for the active set chosen")
@@ -265,7 +267,8 @@ def sensitivity_dict(opt, S: dict) -> dict:
             "theta_um_per_mis": {n: {unit[k][1]: float(S["d_theta_d_mis"][i, j]) * unit[k][0] * 1e3
                                      for j, k in enumerate(kinds)} for i, n in enumerate(opt.free)},
             "model_step_um": S["model_step"] * 1e3, "at_design": bool(S["at_design"]),
-            "active": int(S["active"]), "degenerate": int(S["degenerate"])}
+            "active": int(S["active"]), "degenerate": int(S["degenerate"]), "min_multiplier": S.get("min_multiplier"),
+            "mirror_odd_zero": list(S.get("mirror_odd", []))}
 
 
 def _from_scene(scene):

@@ -87,6 +87,7 @@ WARM_OPTS = {"ipopt.warm_start_init_point": "yes", "ipopt.mu_init": 1e-4, "ipopt
              "ipopt.max_iter": 300}
 HARM_EPS = 1e-3  #: [arcsec] smoothing of a harmonic amplitude at zero, sqrt(a^2 + b^2 + eps^2)
 TE0_EPS = 1e-3  #: [arcsec] smoothing of the unloaded TE's RMS misfit to its parabola at zero, sqrt(rms^2 + eps^2)
+DEGENERATE_REL = 1e-6  #: an active constraint whose multiplier is below this times the largest is degenerate
 THETA_TOL = 1e-4  #: [mm] the design has settled when no amount moves by more than this (0.1 um: below any grinding machine's resolution)
 TIP_BAND = 0.02  #: [m_n] contact within this radial distance of a tip circle counts as tip (edge) contact
 SETTINGS = {"a_c": 0.05, "a_pl": 0.02}  #: Litvin's settings a design may free, with their largest value [1/mm]
@@ -147,6 +148,9 @@ class MicroDesign:
     rounds : list of dicts per trust-region round (design, model and true objective, radius, IPOPT
         iterations and status, times).
     iterations : IPOPT iterations in all; time : wall time [s]; status : IPOPT's last return status.
+    stop : why the trust-region loop ended: ``"converged"`` (the NLP's step fell below ``THETA_TOL``
+        or its predicted decrease below ``F_TOL``: a stationary design) or ``"trust radius"`` (the
+        radius shrank below ``THETA_TOL`` with no better design found: not shown stationary).
     binding : the bounds and constraints active at the optimum.
     rho, phi1 : the penalty weight and the NLP's positions [rad] at the end (:meth:`LoadedMicroOptimizer.sensitivities`).
     """
@@ -165,6 +169,7 @@ class MicroDesign:
     binding: tuple
     rho: float = RHO  #: the exact-penalty weight the loop ended with
     phi1: np.ndarray | None = field(default=None, repr=False)  #: the NLP's final positions [rad]
+    stop: str = "converged"  #: why the trust-region loop ended ("converged" or "trust radius")
 
     def theta_um(self) -> dict:
         """The optimum's amounts [um]."""
@@ -194,7 +199,7 @@ class MicroDesign:
                 "predicted": pred,
                 "verified": chk(self.verified), "error": dict(self.error), "before": chk(self.before),
                 "after": chk(self.after), "rounds": self.rounds, "iterations": self.iterations,
-                "time_s": self.time, "status": self.status, "binding": list(self.binding)}
+                "time_s": self.time, "status": self.status, "stop": self.stop, "binding": list(self.binding)}
 
 
 @dataclass(frozen=True)
@@ -234,6 +239,23 @@ class ParetoFront:
 
     def to_dict(self) -> dict:
         return {"points": self.points()}
+
+
+#: sign of each misalignment kind under the mirror z -> -z of a drive symmetric about its mid-face
+#: (the centre distance is unchanged; the crossing and intersecting angles and the axial shift change
+#: sign). Every field of Misalignment must be listed: a kind missing here disables the mirror reduction.
+MIRROR_SIGN = {"dE": 1.0, "crossing": -1.0, "intersecting": -1.0, "axial": -1.0}
+
+
+def mirror_image(mis: Misalignment) -> Misalignment:
+    """The misalignment mirrored in z (each kind times its ``MIRROR_SIGN``); :class:`ArgumentError`
+    naming the kind when one has no known mirror sign."""
+    for k in Misalignment.names():
+        if k not in MIRROR_SIGN:
+            raise ArgumentError(f"misalignment kind {k!r}: its sign under the mirror z -> -z is not known "
+                                "(gearopt.synthesis.loaded.MIRROR_SIGN).", param=k, value=k,
+                                valid=f"one of {sorted(MIRROR_SIGN)}")
+    return Misalignment(**{k: MIRROR_SIGN[k] * getattr(mis, k) for k in Misalignment.names()})
 
 
 class LoadedMicroOptimizer:
@@ -384,8 +406,10 @@ class LoadedMicroOptimizer:
         case indices whose loaded TCA is the same for every design the optimiser may choose, or None
         when the drive is not mirror-symmetric about its mid-face. A spur pair whose flanks are
         symmetric in z (no helix slope, bias, off-centre lead crowning, unequal end reliefs or measured
-        deviations; none of these free) meshes under ``(dE, crossing, intersecting, axial)`` as under
-        ``(dE, -crossing, -intersecting, -axial)`` mirrored in z."""
+        deviations; none of these free) meshes under a misalignment as under its mirror image
+        (:func:`mirror_image`: ``(dE, crossing, intersecting, axial)`` as ``(dE, -crossing,
+        -intersecting, -axial)``) mirrored in z. Every kind of ``Misalignment`` is read from its fields;
+        one without a known mirror sign (``MIRROR_SIGN``) leaves every case on its own (None)."""
         asym = ("f_H_beta", "S_alpha", "z_Cb", "C_beta_I", "C_beta_II")
         if any(n.split(".", 1)[1] in asym for n in self.free):
             return None
@@ -396,18 +420,34 @@ class LoadedMicroOptimizer:
             if mg is not None and (mg.f_H_beta or mg.S_alpha or mg.z_Cb or mg.measured or mg.C_beta_I != mg.C_beta_II
                                    or mg.b_I != mg.b_II):
                 return None
-        key = lambda m: tuple(round(float(v), 15) for v in (m.dE, m.crossing, m.intersecting, m.axial))  # noqa: E731
+        kinds = Misalignment.names()
+        if any(k not in MIRROR_SIGN for k in kinds):
+            return None  # a kind whose mirror image is not known: no case is taken for another's
+        key = lambda m: tuple(round(float(getattr(m, k)), 15) for k in kinds)  # noqa: E731
         keys = [key(m) for m in self.cases]
         classes, seen = [], set()
         for c, m in enumerate(self.cases):
             if c in seen:
                 continue
-            mk = key(Misalignment(dE=m.dE, crossing=-m.crossing, intersecting=-m.intersecting, axial=-m.axial))
+            mk = key(mirror_image(m))
             twin = [j for j in range(c + 1, len(keys)) if keys[j] == mk and j not in seen and keys[j] != keys[c]]
             cls = [c] + twin[:1]
             seen.update(cls)
             classes.append(cls)
         return classes if any(len(k) > 1 for k in classes) else None
+
+    def shifted(self, offset: Misalignment) -> "LoadedMicroOptimizer":
+        """A copy of this optimiser with ``offset`` added to every case (each kind of ``Misalignment``);
+        the duty cycle :meth:`sensitivities` differentiates in (e.g. for finite differences of
+        re-solved optima, ``benchmarks/loaded_sensitivity_fd.py``)."""
+        if not isinstance(offset, Misalignment):
+            raise ArgumentError(f"offset = {offset!r:.60}: expected a gearopt Misalignment.", param="offset",
+                                value=offset, valid="a Misalignment")
+        out = copy.copy(self)
+        out.cases = tuple(Misalignment(**{k: getattr(c, k) + getattr(offset, k) for k in Misalignment.names()})
+                          for c in self.cases)
+        out.phi1 = self.phi1.copy()
+        return out
 
     def _reduced(self):
         """The optimiser of one case per mirror class (:meth:`mirror_classes`), its weights the sums of
@@ -632,10 +672,33 @@ class LoadedMicroOptimizer:
                 dw3, dr1, dr2 = (np.asarray(v).T for v in f(wv, prm))
                 J[kk, nn, mm] = dw3 / self.pair.gear.r_p * (-lever)
                 Jr[kk, nn, mm] = np.stack([dr1, dr2], axis=1)
+            # each slice on its own levers (LTCA._solve_one, docs/ltca.md section 3): the gap is
+            # (te0 - te) L2 + C F - lam delta, lam = L1 / (r_b1 cos(beta_b)); with the absolute separation
+            # a = -te r_b2 cos(beta_b) and the block's approach d = delta - te0 r_b2 cos(beta_b)
+            # (TE = -d / (r_b2 cos(beta_b))) it is a + da + C F - lam d, da = -(te - te0) (L2 - r_b2 cos(beta_b))
+            # - te0 (lam - 1) r_b2 cos(beta_b): zero on an involute flank, on a tip edge held at its value
+            # at the linearisation (J, the derivative of a, is the flank lever's)
+            lam, lev2 = self._levers(S)
+            te0 = S.te_unloaded[None, :, None]
+            te0 = np.where(np.isfinite(te0), te0, 0.0)
+            da = np.where(S.active, -(S.te - te0) * (lev2 - lever) - te0 * (lam - 1.0) * lever, 0.0)
             a = np.where(S.active, -S.te * lever, 0.0)
             P = len(self.free)
-            out.append({"S": S, "st": st, "a": a, "J": J[..., :P], "Jm": J[..., P:], "Jr": Jr, "mis": mis})
+            out.append({"S": S, "st": st, "a": a, "J": J[..., :P], "Jm": J[..., P:], "Jr": Jr, "mis": mis,
+                        "lam": lam, "da": da})
         return out
+
+    def _levers(self, S) -> tuple[np.ndarray, np.ndarray]:
+        """Per slice (K, N, M): ``lam`` = its lever about the pinion axis over ``r_b1 cos(beta_b)`` and its
+        lever about the gear axis [mm] (``SliceSet.lever1/2``; the involute's where missing)."""
+        cb = self.ltca.cos_bb
+        lever = self.pair.gear.r_b * cb
+        ok = S.active
+        lam = (np.ones(S.z.shape) if S.lever1 is None
+               else np.where(ok & np.isfinite(S.lever1), S.lever1 / (self.pair.pinion.r_b * cb), 1.0))
+        lev2 = (np.full(S.z.shape, lever) if S.lever2 is None
+                else np.where(ok & np.isfinite(S.lever2), S.lever2, lever))
+        return lam, lev2
 
     # -- the NLP --------------------------------------------------------------------------------
     def _keep(self, lin, sweeps, radius: float) -> list:
@@ -646,7 +709,6 @@ class LoadedMicroOptimizer:
         trust-region loop evaluates every trial design exactly, so a slice that would close anyway shows
         as a model miss there."""
         out = []
-        lever = self.pair.gear.r_b * self.ltca.cos_bb
         margin = self.edge_margin or 0.0
         for L, sw in zip(lin, sweeps):
             S = L["S"]
@@ -654,7 +716,7 @@ class LoadedMicroOptimizer:
                      else np.full(S.z.shape, np.inf))  # no radius: every active slice stays
             keep = []
             for r in sw.results:
-                s = (r.te_unloaded[None, :, None] - S.te) * lever
+                s = (r.te_unloaded[None, :, None] - S.te) * self._levers(S)[1]
                 bound = 1.5 * float(np.nanmax(r.delta)) + margin
                 with np.errstate(invalid="ignore"):
                     keep.append(S.active & ~(s - reach > bound))
@@ -683,6 +745,7 @@ class LoadedMicroOptimizer:
         w_of_x = []  # deflection unknown of each slice (sparse path)
         w_keys = []  # (torque, case, position, flat slice index) of each deflection unknown
         a0, Jx, Jmx, ln, Rx, h1x, h2x, edge, tix, blk, keys, tipe = [], [], [], [], [], [], [], [], [], [], [], []
+        lamx = []  # each slice's lever about the pinion axis over r_b1 cos(beta_b)
         egx, near = [], []  # the edge weight's gradient (design, misalignment) and the rows it may reach
         blocks = []  # (t, c, n, first x, count)
         nx = nw = 0
@@ -693,6 +756,8 @@ class LoadedMicroOptimizer:
                     for t in range(T)]
             flat = lambda v: np.transpose(v, (1, 0, 2)).reshape(N, K * M)  # noqa: E731
             a_n, l_n, R_n, h1_n, h2_n = (flat(v) for v in (L["a"], st["length"], st["R"], st["h1"], st["h2"]))
+            lam_n = flat(L["lam"])
+            a_n = a_n + flat(L["da"])
             J_n = np.transpose(L["J"], (1, 0, 2, 3)).reshape(N, K * M, P)
             Jm_n = np.transpose(L["Jm"], (1, 0, 2, 3)).reshape(N, K * M, -1)
             e0, eg = _edge_weight_lin(S, self.pair, L["Jr"])
@@ -744,6 +809,7 @@ class LoadedMicroOptimizer:
                         trip_C[1].append(jj + nx)
                         trip_C[2].append(Cb[ii, jj])
                     a0.append(a_n[n, A])
+                    lamx.append(lam_n[n, A])
                     Jx.append(J_n[n, A])
                     Jmx.append(Jm_n[n, A])
                     ln.append(l_n[n, A])
@@ -759,7 +825,7 @@ class LoadedMicroOptimizer:
                     keys.append(np.stack([np.full(cnt, t), np.full(cnt, c), np.full(cnt, n), A], axis=1))
                     blocks.append((t, c, n, nx, cnt))
                     nx += cnt
-        a0, Jx, Jmx, ln, Rx, h1x, h2x = (np.concatenate(v) for v in (a0, Jx, Jmx, ln, Rx, h1x, h2x))
+        a0, Jx, Jmx, ln, Rx, h1x, h2x, lamx = (np.concatenate(v) for v in (a0, Jx, Jmx, ln, Rx, h1x, h2x, lamx))
         ew, tix, blk, keys, tipe, egx, near = (np.concatenate(v) for v in (edge, tix, blk, keys, tipe, egx, near))
         edge = near  # rows of the edge-loading constraint; the pressure limit holds on every non-tip-edge slice
         nB = len(blocks)
@@ -802,7 +868,8 @@ class LoadedMicroOptimizer:
         cH = 2.0 * (1.0 - nu**2) / (math.pi * mat.E) * (ca.log(2.0 * h1x / bH) + ca.log(2.0 * h2x / bH)
                                                         - nu / (1.0 - nu))
         dth = th * 1e-3 - ca.DM(theta_k)
-        gap = (ca.DM(a0) + ca.mtimes(ca.DM(Jx), dth) + ca.mtimes(ca.DM(Jmx), dm) + cH * f) / G_REF - ca.mtimes(Ex_b, d)
+        gap = ((ca.DM(a0) + ca.mtimes(ca.DM(Jx), dth) + ca.mtimes(ca.DM(Jmx), dm) + cH * f) / G_REF
+               - ca.DM(lamx) * ca.mtimes(Ex_b, d))
         g_list = []
         if sparse:
             wi = np.concatenate(w_of_x)
@@ -815,7 +882,8 @@ class LoadedMicroOptimizer:
             gap = gap + ca.mtimes(triplet(trip_C, nx, nx), F) / G_REF
         fb = x + y - ca.sqrt(x**2 + y**2 + 2 * mu)  # zero where x >= 0, y >= 0, x y = mu
         te = -d * G_REF / lever * RAD_TO_ARCSEC  # (nB) loaded TE [arcsec] (up to each case's constant)
-        g_list += [y - gap, fb, ca.mtimes(Ex_b.T, x) - 1.0, ca.mtimes(Eb_ct, u) - te, te - ca.mtimes(Eb_ct, v)]
+        g_list += [y - gap, fb, ca.mtimes(Ex_b.T, ca.DM(lamx) * x) - 1.0, ca.mtimes(Eb_ct, u) - te,
+                   te - ca.mtimes(Eb_ct, v)]
         n_eq = (nw if sparse else 0) + 2 * nx + nB
         lbg = [np.zeros(n_eq), np.zeros(2 * nB)]
         ubg = [np.zeros(n_eq), np.full(2 * nB, np.inf)]
@@ -1050,7 +1118,7 @@ class LoadedMicroOptimizer:
         for refine in range(MAX_REFINE + 1):
             red.phi1 = self.phi1
             # (a refinement goes on from the optimum with the penalty weight the last pass needed)
-            theta, cur, pred, it, status, rho = red._trust_region(theta, rounds, progress, rho)
+            theta, cur, pred, it, status, rho, stop = red._trust_region(theta, rounds, progress, rho)
             iters += it
             after = self.check(theta, fine)
             add = self._violated_positions(after, fine)
@@ -1084,7 +1152,7 @@ class LoadedMicroOptimizer:
         before = self.check(self.theta0, fine)
         return MicroDesign(theta=dict(zip(self.free, theta.tolist())), theta0=dict(zip(self.free, self.theta0.tolist())),
                            predicted=pred, verified=ver, error=err, before=before, after=after, rounds=rounds,
-                           iterations=iters, time=time.perf_counter() - t_start, status=status,
+                           iterations=iters, time=time.perf_counter() - t_start, status=status, stop=stop,
                            binding=self._binding(theta, pred, ver), rho=rho, phi1=self.phi1.copy())
 
     def pareto(self, p_limits, progress=None, anchor: MicroDesign | None = None) -> ParetoFront:
@@ -1193,7 +1261,42 @@ class LoadedMicroOptimizer:
         return ParetoFront(anchor=anchor, p_limits=tuple(lims), designs=tuple(designs), messages=tuple(msgs))
 
     def sensitivities(self, design: MicroDesign) -> dict:
-        """Sensitivities of the optimum to the torques and to a misalignment, by AD (docs/loaded_synthesis.md).
+        """Sensitivities of the optimum to the torques and to a misalignment added to every case
+        (docs/loaded_synthesis.md section 6): :meth:`kkt_sensitivities` of the duty cycle, or where its
+        cases are mirror images of each other (:meth:`mirror_classes`) of the problem with one case per
+        class, with each mirror-odd kind's derivatives by symmetry.
+
+        Mirror-image cases make the full problem's active-set KKT system singular: each active row of
+        a case has its twin's, and the twins' rows differ only in their own loads. The problem of one
+        case per class is the full one for every perturbation that keeps the twins mirror images: the
+        torques and the mirror-even kinds (``MIRROR_SIGN`` +1: the centre distance), whose derivatives
+        it gives. An offset of a mirror-odd kind (crossing, intersecting, axial) added to every case
+        breaks the pairing, but the duty cycle offset by ``-d`` is the mirror image of that offset by
+        ``d``, so the optimum (symmetric amounts only, :meth:`mirror_classes`) is an even function of
+        ``d``: its central derivative, and the objective's, are zero. (A kink there, an active set that
+        changes at ``d = 0``, would give one-sided derivatives of opposite signs; they are not
+        computed: ``benchmarks/loaded_sensitivity_fd.py`` measures them by re-solved optima.)
+
+        Returns
+        -------
+        dict
+            As :meth:`kkt_sensitivities`, and ``mirror_odd``: the kinds whose derivatives are zero by
+            the mirror symmetry (empty without mirror-image cases).
+        """
+        classes = self.mirror_classes()
+        if classes is None:
+            return {**self.kkt_sensitivities(design), "mirror_odd": []}
+        out = self._reduced().kkt_sensitivities(design)
+        kinds = Misalignment.names()
+        odd = [j for j, k in enumerate(kinds) if MIRROR_SIGN[k] < 0]
+        out["d_theta_d_mis"][:, odd] = 0.0
+        out["d_objective_d_mis"][odd] = 0.0
+        out["mirror_odd"] = [kinds[j] for j in odd]
+        return out
+
+    def kkt_sensitivities(self, design: MicroDesign) -> dict:
+        """Sensitivities of the optimum to the torques and to a misalignment, by AD (docs/loaded_synthesis.md),
+        of this optimiser's own cases (:meth:`sensitivities` handles mirror-image cases).
 
         The NLP is built around ``design`` (its final positions, every active slice) with the torque
         scales and a misalignment offset added to every case as parameters, and solved with the design
@@ -1217,10 +1320,12 @@ class LoadedMicroOptimizer:
             ten times that: else the loop stopped on its trust radius and the derivatives are those
             of the NLP's optimum, not of the design); ``objective`` [arcsec]: the
             NLP's optimum (with an unloaded-TE target, its term included, and so in the derivatives
-            of the objective); ``active``: the inequalities and bounds active at it; ``degenerate``: those
+            of the objective); ``active``: the inequalities and bounds active at it; ``degenerate``: the
+            active ones whose multiplier vanishes (below ``DEGENERATE_REL`` times the largest), and those
             neither clearly active nor inactive (0: the derivatives are unique; else they hold on the
             side of the active set chosen, each such row counted active when its indicator is above
-            1/2); ``nlp`` / ``z`` / ``p``: the NLP, its solution and parameters (for checks).
+            1/2); ``min_multiplier``: the smallest active multiplier over the largest;
+            ``nlp`` / ``z`` / ``p``: the NLP, its solution and parameters (for checks).
 
         Raises
         ------
@@ -1272,7 +1377,10 @@ class LoadedMicroOptimizer:
         ind_g = ind_g[I_]
         bx = np.isfinite(ind_x)
         act_g, act_x = ind_g > 0.5, bx & (ind_x > 0.5)
-        degenerate = int(np.sum(np.abs(ind_g - 0.5) < 0.4) + np.sum(np.abs(ind_x[bx] - 0.5) < 0.4))
+        # degenerate: an active row or bound whose multiplier vanishes (strict complementarity fails; the
+        # optimum is then only directionally differentiable), i.e. below DEGENERATE_REL times the largest
+        # active multiplier, or one the central path cannot tell active from inactive
+        degenerate, min_mult = degenerate_constraints(ind_g, lam_g[I_], ind_x, lam_x)
         # the limit's multipliers (inactive ones zero) and the active set's KKT system: the derivatives
         # of the optimum at fixed active set (Fiacco), one sparse LU for all parameters
         lam_a = lam_g.copy()
@@ -1293,6 +1401,7 @@ class LoadedMicroOptimizer:
                 "d_objective_d_mis": dfdp[T:], "d_theta_d_mis": dth[:, T:],
                 "model_step": step, "at_design": step <= 10 * THETA_TOL, "objective": float(r["f"]),
                 "active": int(act_g.sum() + act_x.sum()), "degenerate": degenerate,
+                "min_multiplier": min_mult,
                 "nlp": nlp, "z": z, "p": p, "bounds": (lbx, ubx), "z0": cur["z0"]}
 
     def _violated_positions(self, chk: LoadedCheck, phi1) -> np.ndarray:
@@ -1326,7 +1435,7 @@ class LoadedMicroOptimizer:
         with)."""
         p = self._pvec(rho)
         radius = TR_START * float(np.max(self.hi - self.lo))
-        iters, status, pred, prev = 0, "", None, None
+        iters, status, pred, prev, stop = 0, "", None, None, "trust radius"
         last_viol = 0.0  # the model's constraint violation (relative, > 1: violated) at the last accepted step
         cur = self._around(theta, 2 * radius, rho)
         for rnd in range(MAX_ROUNDS):
@@ -1374,6 +1483,7 @@ class LoadedMicroOptimizer:
                 continue
             if stationary:
                 info["accepted"] = "converged"
+                stop = "converged"
                 if progress:
                     progress(_round_text(rnd, info, self._has_settings))
                 break
@@ -1425,7 +1535,7 @@ class LoadedMicroOptimizer:
                                  f"({st['return_status']}).", param="ipopt", value=st["return_status"])
         pred = self._predicted(nlp, np.asarray(r["x"]).ravel())
         self._raise_if_infeasible(pred, cur["check"])
-        return theta, cur, pred, iters, status, rho
+        return theta, cur, pred, iters, status, rho, stop
 
     def _multipliers(self, prev, nlp):
         """The multipliers of an earlier NLP's solution ``prev = (nlp, solution)`` carried to ``nlp``,
@@ -1643,6 +1753,25 @@ class _NLP(dict):
         return self[key]
 
 
+def degenerate_constraints(ind_g, lam_g, ind_x, lam_x) -> tuple[int, float | None]:
+    """Degenerate inequalities and bounds at a solution: those active (central-path indicator above
+    1/2, :func:`central_path_indicators`) whose multiplier vanishes (strict complementarity fails: the
+    optimum is then only directionally differentiable), i.e. at most ``DEGENERATE_REL`` times the
+    largest active multiplier, and those the indicator cannot tell active from inactive (between 0.1
+    and 0.9). ``ind_g``, ``lam_g``: the inequality rows' indicators and multipliers; ``ind_x``,
+    ``lam_x``: the variables' (indicator NaN: no finite bound). Returns ``(count, smallest active
+    multiplier over the largest)`` (None without an active one)."""
+    ind_g, lam_g, ind_x, lam_x = (np.asarray(v, float).ravel() for v in (ind_g, lam_g, ind_x, lam_x))
+    bx = np.isfinite(ind_x)
+    act_g, act_x = ind_g > 0.5, bx & (np.where(bx, ind_x, 0.0) > 0.5)
+    mult = np.concatenate([np.abs(lam_g[act_g]), np.abs(lam_x[act_x])])
+    big = float(mult.max()) if mult.size else 0.0
+    tol = DEGENERATE_REL * big
+    deg_g = (act_g & (np.abs(lam_g) <= tol)) | (np.abs(ind_g - 0.5) < 0.4)
+    deg_x = (act_x & (np.abs(lam_x) <= tol)) | (bx & (np.abs(np.where(bx, ind_x, 0.0) - 0.5) < 0.4))
+    return int(deg_g.sum() + deg_x.sum()), (float(mult.min()) / big if big > 0 else None)
+
+
 def central_path_indicators(H, Jg, lbg, ubg, g, lam_g, lbx, ubx, x, lam_x):
     """How each inequality and bound of an interior-point solution behaves as the barrier vanishes.
 
@@ -1797,11 +1926,14 @@ def _gaps(sw: LoadedSweep, r) -> np.ndarray:
     st = sw.structure
     K, N, M = S.z.shape
     lever = sw.ltca.pair.gear.r_b * sw.ltca.cos_bb
-    s = np.where(S.active, (r.te_unloaded[None, :, None] - S.te) * lever, 0.0)
+    g1 = sw.ltca.pair.pinion
+    # each slice on its own levers (LTCA._solve_one): the gap closes by delta times lever1 / (r_b1 cos(beta_b))
+    lev2 = lever if S.lever2 is None else np.where(S.active & np.isfinite(S.lever2), S.lever2, lever)
+    lam = 1.0 if r.lever is None else r.lever / (g1.r_b * sw.ltca.cos_bb)
+    s = np.where(S.active, (r.te_unloaded[None, :, None] - S.te) * lev2, 0.0)
     F = np.transpose(r.load, (1, 0, 2)).reshape(N, K * M)
     CF = np.einsum("nij,nj->ni", st["Cs"], F)
     CF = np.transpose(CF.reshape(N, K, M), (1, 0, 2))
-    g1 = sw.ltca.pair.pinion
     f_min = F_MIN_SHARE * r.W * sw.ltca.cos_bb / g1.b
     cH = weber_contact(r.load / st["length"], st["R"], st["h1"], st["h2"], sw.ltca.material, f_min)[0]
-    return s + CF + cH * r.load / st["length"] - r.delta[None, :, None]
+    return s + CF + cH * r.load / st["length"] - r.delta[None, :, None] * lam

@@ -1,0 +1,154 @@
+"""Sensitivities of the loaded micro-geometry optimum to a misalignment added to every case
+(``LoadedMicroOptimizer.sensitivities``, docs/loaded_synthesis.md section 6) against central finite
+differences of re-solved optima, on every loaded_microgeometry scene.
+
+For each scene the optimum is solved (``opt.solve()``), then again for the duty cycle with every case
+offset by ``+h`` and ``-h`` of one misalignment kind (``opt.shifted``), each from the optimum and on its
+final grid of positions (so the grid does not change between the three). The central difference
+``(theta(+h) - theta(-h)) / 2h`` and the one-sided ones ``(theta(+-h) - theta) / +-h`` are printed with the
+AD derivative. A centre distance cannot shrink below the zero-backlash one (the scenes sit on it): for
+``dE`` the offsets are ``h`` and ``2h`` and the difference the second-order forward one. The re-solved
+optima are accurate to the loop's tolerance ``THETA_TOL`` (0.1 um), so a difference quotient is known
+to about ``THETA_TOL / h`` (``4 THETA_TOL / h`` forward): the agreement is judged against that. Here
+every optimum is solved with ``THETA_TOL`` = ``--theta-tol`` (default 1e-7 mm) and without the
+loop's stop on a negligible predicted decrease, so that small steps (default 0.01 arcmin, 0.005 mm)
+stay within one active set and above the noise.
+
+    python benchmarks/loaded_sensitivity_fd.py                       # 3 scenes x crossing, dE (~30 min alone)
+    python benchmarks/loaded_sensitivity_fd.py --only microgeometry_pareto --kinds crossing
+    python benchmarks/loaded_sensitivity_fd.py --h-angle 0.05 --h-length 0.05 --theta-tol 1e-4   # the issue's steps
+
+``--h-angle`` [arcmin] and ``--h-length`` [mm] are the steps; exit status 1 when an AD derivative is
+off the central difference by more than twice the noise bound plus 5 % of the difference.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+SCENES = ("microgeometry_loaded", "microgeometry_pareto", "microgeometry_te_target")
+
+
+def fd_check(opt, design, sens, kind: str, h: float) -> dict:
+    """AD against finite differences of re-solved optima for one kind (``h`` in mm or rad)."""
+    from gearopt.meshing.misalignment import Misalignment
+
+    from gearopt.errors import GeometryError
+
+    names = list(opt.free)
+    theta = np.array([design.theta[n] for n in names])
+    j = Misalignment.names().index(kind)
+    try:  # a centre distance below the zero-backlash one is refused: forward differences there
+        Misalignment(**{kind: -h}).check(opt.pair, "mis")
+        steps = (1, -1)
+    except GeometryError:
+        steps = (1, 2)
+    out = {}
+    for sgn in steps:
+        o = opt.shifted(Misalignment(**{kind: sgn * h}))
+        d = o.solve(start=theta, grid=design.phi1)
+        out[sgn] = (np.array([d.theta[n] for n in names]), d.predicted["objective"], d.stop)
+    if steps == (1, -1):
+        # central difference, and the one-sided ones
+        fd = (out[1][0] - out[-1][0]) / (2 * h)
+        fd_f = (out[1][1] - out[-1][1]) / (2 * h)
+        other = (theta - out[-1][0]) / h
+        noise = opt_theta_tol() / h
+    else:
+        # second-order forward difference (-3 f(0) + 4 f(h) - f(2h)) / 2h, and the one-sided one over 2h
+        fd = (-3 * theta + 4 * out[1][0] - out[2][0]) / (2 * h)
+        fd_f = (-3 * design.predicted["objective"] + 4 * out[1][1] - out[2][1]) / (2 * h)
+        other = (out[2][0] - theta) / (2 * h)
+        noise = 4 * opt_theta_tol() / h
+    return {"kind": kind, "h": h, "difference": "central" if steps == (1, -1) else "forward (2nd order)",
+            "ad_um": (sens["d_theta_d_mis"][:, j] * 1e3).tolist(), "fd_um": (fd * 1e3).tolist(),
+            "plus_um": ((out[1][0] - theta) / h * 1e3).tolist(), "other_um": (other * 1e3).tolist(),
+            "noise_um": float(noise * 1e3), "ad_objective": float(sens["d_objective_d_mis"][j]),
+            "fd_objective": float(fd_f), "stops": [out[k][2] for k in steps], "names": names}
+
+
+def opt_theta_tol() -> float:
+    from gearopt.synthesis.loaded import THETA_TOL
+
+    return THETA_TOL
+
+
+def main(argv=None) -> int:
+    from gearopt.errors import SynthesisError
+    from gearopt.io.scene import load_scene
+    from gearopt.units import ARCMIN
+
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--only", default=None, help="one scene name (default: all three)")
+    ap.add_argument("--kinds", default="crossing,dE", help="misalignment kinds, comma-separated")
+    ap.add_argument("--h-angle", type=float, default=0.01, help="step of an angle [arcmin]")
+    ap.add_argument("--h-length", type=float, default=0.005, help="step of a length [mm]")
+    ap.add_argument("--out", default=None, help="write the records as JSON here")
+    ap.add_argument("--theta-tol", type=float, default=1e-7,
+                    help="the loop's design tolerance THETA_TOL for every solve here [mm] (default 1e-7; the "
+                         "optimiser's own is 1e-4: differences of optima solved to it are noise below ~0.1 um)")
+    a = ap.parse_args(argv)
+    import gearopt.synthesis.loaded as loaded
+
+    # every optimum here (the base and the re-solved ones) converged to a tight tolerance: the loop stops
+    # on its step alone (F_TOL, the predicted decrease, made negligible)
+    loaded.THETA_TOL, loaded.F_TOL = a.theta_tol, 1e-12
+    from gearopt.meshing.misalignment import Misalignment
+
+    kinds = [k.strip() for k in a.kinds.split(",") if k.strip()]
+    bad = [k for k in kinds if k not in Misalignment.names()]
+    if bad:
+        ap.error(f"--kinds: unknown kind(s) {bad}; valid: {list(Misalignment.names())}")
+    scenes = SCENES if a.only is None else tuple(s for s in SCENES if s == a.only)
+    if not scenes:
+        ap.error(f"--only {a.only!r}: valid: {list(SCENES)}")
+    records, fail = [], False
+    for name in scenes:
+        t0 = time.perf_counter()
+        opt = load_scene(ROOT / "problems" / f"{name}.toml").build().optimizer
+        design = opt.solve()
+        sens = opt.sensitivities(design)
+        print(f"\n## {name}: optimum {design.theta_um()} um, stop {design.stop}, mirror-odd kinds by symmetry "
+              f"{sens['mirror_odd']}, degenerate {sens['degenerate']}, active {sens['active']}")
+        for kind in kinds:
+            angle = Misalignment.meta(kind)["unit"] == "angle"
+            unit, scale = ("arcmin", ARCMIN) if angle else ("mm", 1.0)
+            h = (a.h_angle if angle else a.h_length) * scale
+            try:
+                r = fd_check(opt, design, sens, kind, h)
+            except SynthesisError as exc:  # e.g. no design keeps the edges open at the offset
+                print(f"\n{kind} (h = {h / scale:g} {unit}): a re-solve failed: {str(exc)[:300]}")
+                records.append({"scene": name, "kind": kind, "h": h, "error": str(exc)})
+                continue
+            r["scene"] = name
+            records.append(r)
+            print(f"\n{kind} (h = {h / scale:g} {unit}, {r['difference']} difference; noise bound "
+                  f"{r['noise_um'] * scale:.3g} um per {unit}; re-solved loops: {r['stops']})")
+            other = "one-sided -h" if r["difference"] == "central" else "one-sided 2h"
+            print(f"| amount | AD [um/{unit}] | FD | one-sided +h | {other} |")
+            print("|---|---|---|---|---|")
+            for i, n in enumerate(r["names"]):
+                print(f"| {n} | {r['ad_um'][i] * scale:.4g} | {r['fd_um'][i] * scale:.4g} | "
+                      f"{r['plus_um'][i] * scale:.4g} | {r['other_um'][i] * scale:.4g} |")
+            print(f"| objective [arcsec/{unit}] | {r['ad_objective'] * scale:.4g} | {r['fd_objective'] * scale:.4g} | | |")
+            err = np.abs(np.array(r["ad_um"]) - np.array(r["fd_um"]))
+            lim = 2 * r["noise_um"] + 0.05 * np.abs(np.array(r["fd_um"]))
+            r["ok"] = bool(np.all(err <= lim))
+            fail |= not r["ok"]
+            print(f"agreement within 2 x noise + 5 %: {r['ok']}")
+        print(f"({time.perf_counter() - t0:.0f} s)")
+        sys.stdout.flush()
+    if a.out:
+        Path(a.out).write_text(json.dumps(records, indent=1))
+    return 1 if fail else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
