@@ -659,3 +659,33 @@ def test_pair_mesh_title_names_the_scene_and_pitch_point_label_at_its_point(tmp_
         # the nearest corner of the label within 12 px (1/10 in at 120 dpi) of its point
         assert min(np.hypot(x - px, y - py) for x in (box.x0, box.x1) for y in (box.y0, box.y1)) < 12
         plt.close(fig)
+
+
+def test_tca_iso_grade_judges_measured_flanks_only(tmp_path):
+    """[tca] iso_grade: the K-charts of a measured flank (no designed amounts on the member) carry the
+    class's ISO 1328-1 tolerances and the verdict; a designed flank is never judged; a class outside
+    1 ... 11 is refused naming the key."""
+    import shutil as _sh
+
+    from gearopt.cli import main as cli_main
+    from gearopt.robust.tolerances import tolerances
+
+    problems = Path(__file__).resolve().parents[1] / "problems"
+    for f in ("measured_flank_right.csv", "measured_flank_left.csv"):
+        _sh.copy(problems / f, tmp_path / f)
+    text = (problems / "measured_flank.toml").read_text().replace("positions = 81", "positions = 41\niso_grade = 5")
+    (tmp_path / "mf.toml").write_text(text)
+    assert cli_main(["run", str(tmp_path / "mf.toml"), "--out", str(tmp_path / "out"), "--quiet"]) == 0
+    res = json.loads((tmp_path / "out" / "results.json").read_text())
+    tol = res["inspection"]["pinion"]["right"]["tolerances_um"]
+    ref = tolerances(5, 21 * 2.5 / math.cos(math.radians(18)), 2.5, 30.0)
+    assert tol["grade"] == 5 and tol["f_H_beta"] == ref["f_HbetaT"] and tol["F_alpha"] == ref["F_alphaT"]
+    # designed amounts: not judged
+    text2 = (problems / "microgeometry_spur.toml").read_text()
+    assert "[tca]" in text2
+    (tmp_path / "ms.toml").write_text(text2.replace("[tca]", "[tca]\niso_grade = 5", 1))
+    assert cli_main(["run", str(tmp_path / "ms.toml"), "--out", str(tmp_path / "out2"), "--quiet"]) == 0
+    res2 = json.loads((tmp_path / "out2" / "results.json").read_text())
+    assert all("tolerances_um" not in d for sides in res2["inspection"].values() for d in sides.values())
+    (tmp_path / "bad.toml").write_text(text.replace("iso_grade = 5", "iso_grade = 12"))
+    assert cli_main(["check", str(tmp_path / "bad.toml")]) == 2

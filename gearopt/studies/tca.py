@@ -34,6 +34,7 @@ from ..contact.edge import EdgeContact, EdgeTCAResult
 from ..meshing.solver import ContactSettings
 from ..meshing.tca import TCA, Misalignment, TCAResult
 from ..report import CONJUGATE_ARCSEC, te_harmonics  # noqa: F401 - re-exported (their home: gearopt.report)
+from ..geometry.microgeometry import GLOBAL_AMOUNTS
 from ..units import ARCMIN, DEG
 
 UNITS = {"length": "mm (suffix _mm where a key could be read otherwise)", "angle": "rad", "phi1": "rad",
@@ -128,8 +129,8 @@ class TCAReport:
             files.append(save("topography.png", fig, "flank topography (ISO transverse deviation from the involute)"))
             fig, axes = plt.subplots(rows, 2, figsize=(12, 3.4 * rows), squeeze=False, layout="constrained")
             for row, (m, sd, d) in zip(axes, flanks):
-                plot_profile_chart(d["grid"], d["charts_um"], ax=row[0])
-                plot_lead_chart(d["grid"], d["charts_um"], ax=row[1])
+                plot_profile_chart(d["grid"], d["charts_um"], ax=row[0], tolerances=d.get("tolerances_um"))
+                plot_lead_chart(d["grid"], d["charts_um"], ax=row[1], tolerances=d.get("tolerances_um"))
             files.append(save("k_charts.png", fig, "profile and lead charts (ISO 1328-1, evaluated from the flanks)"))
         return files
 
@@ -207,10 +208,12 @@ class TCAStudy:
 
     def __init__(self, pair: GearPair, side="right", contact="point", z_section=0.0, positions=81,
                  delta=ContactSettings.delta, misalignment: Misalignment | None = None, name="tca", edge_contact: bool = False,
-                 cases=None, inspection: bool | None = None):
+                 cases=None, inspection: bool | None = None, iso_grade: int | None = None):
         """``misalignment``: one case beside the aligned drive; or ``cases``: a list of
         ``(label, Misalignment)`` (or a dict label -> Misalignment) analysed in order, with the
-        aligned drive first unless one of them is aligned."""
+        aligned drive first unless one of them is aligned. ``iso_grade``: ISO 1328-1:2013 flank
+        tolerance class 1 ... 11; the profile and lead charts of measured flanks are judged against
+        its tolerances (a design modification is not a deviation: those charts are not judged)."""
         from ..errors import ArgumentError, OptionError, check_number, option_error, out_of_range
 
         if not isinstance(pair, GearPair):
@@ -236,6 +239,10 @@ class TCAStudy:
                                 + (" (use Misalignment(**d), angles in rad)." if isinstance(misalignment, dict)
                                    else "."),
                                 param="misalignment", value=misalignment, valid="a Misalignment")
+        if iso_grade is not None and (isinstance(iso_grade, bool) or not isinstance(iso_grade, (int, np.integer))
+                                      or not 1 <= iso_grade <= 11):
+            raise option_error("iso_grade", iso_grade, "an integer 1 ... 11 (ISO 1328-1:2013 flank tolerance class)")
+        self.iso_grade = None if iso_grade is None else int(iso_grade)
         self.pair, self.name = pair, name
         self.positions, self.delta, self.z_section = positions, delta, z_section
         self.cases = [("aligned", Misalignment())]
@@ -333,7 +340,30 @@ class TCAStudy:
                 charts = {k: 1000 * v for k, v in cv.items() if k not in ("z_profile", "L_lead")}
                 charts.update(z_profile_mm=cv["z_profile"], L_lead_mm=cv["L_lead"])
                 out[m][sd] = {"grid": grid.to_dict(), "charts_um": charts, "csv": f"topography_{m}_{sd}.csv"}
+                tol = self._tolerances(m, sd)
+                if tol is not None:
+                    out[m][sd]["tolerances_um"] = tol
         return out
+
+    def _tolerances(self, member: str, side: str) -> dict | None:
+        """ISO 1328-1 chart tolerances [um] of ``iso_grade`` for a flank whose topography is a
+        measured deviation from the plain involute (a measured grid on a member without design
+        amounts); None otherwise: a designed crowning or relief is not a deviation to judge."""
+        if self.iso_grade is None:
+            return None
+        g = getattr(self.pair, member)
+        mg = g.modifications
+        if mg is None or not any(grid.side == side for grid in mg.measured):
+            return None
+        designed = bool(mg.reliefs) or any(getattr(mg, a) != 0 for a in GLOBAL_AMOUNTS)
+        if designed:
+            return None
+        from ..robust.tolerances import tolerances
+
+        t = tolerances(self.iso_grade, 2 * g.r_p, g.m_n, g.b)
+        return {"grade": self.iso_grade, "F_alpha": t["F_alphaT"], "f_f_alpha": t["f_falphaT"],
+                "f_H_alpha": t["f_HalphaT"], "F_beta": t["F_betaT"], "f_f_beta": t["f_fbetaT"],
+                "f_H_beta": t["f_HbetaT"]}
 
 
 # --- scene binding ------------------------------------------------------------------------------
@@ -439,7 +469,8 @@ def _from_scene(scene) -> TCAStudy:
         return TCAStudy(scene.pair, side=o.get("side") or "right", contact=o.get("contact") or "point",
                         z_section=o.get("z_section") or 0.0, positions=o.get("positions") or 81,
                         delta=o.get("delta") or ContactSettings.delta, misalignment=None if cases else mis, name=scene.name,
-                        edge_contact=bool(o.get("edge_contact")), cases=cases, inspection=o.get("inspection"))
+                        edge_contact=bool(o.get("edge_contact")), cases=cases, inspection=o.get("inspection"),
+                        iso_grade=o.get("iso_grade"))
     except (GeometryError, OptionError) as e:
         raise scene.study_error("tca", e) from e
 
@@ -468,6 +499,9 @@ def _register():
                   doc="also solve edge contact (tips, face ends) and combine it with the surface contact (Litvin 9.6)"),
             Field("inspection", "bool", doc="inspect the flanks (topography CSV, profile and lead charts): default "
                   "true for the members with [<member>.modifications] or [<member>.measured]"),
+            Field("iso_grade", "int", check=Bounds(lo=1, hi=11),
+                  doc="ISO 1328-1:2013 flank tolerance class: tolerance bands on the profile and lead charts of "
+                  "measured flanks, and the chart values judged against them (designed amounts are not judged)"),
         ], required=False, subsections=[Section("cases", [
             Field("label", "str", doc="name of the case in plots and results (default: its misalignments)"),
             *misalignment_fields(),
