@@ -358,8 +358,8 @@ def test_bad_attachment_and_parameter_vectors():
 
 @pytest.mark.slow
 def test_edge_contact_of_offset_pinion_is_the_rotated_drive():
-    """Misaligned uncrowned helical drive with edge contact: offsetting the pinion's flank by c is
-    turning the pinion by d1 = c / (r_b1 cos beta_b) (the tip cylinder and face ends are turned into
+    """Misaligned uncrowned helical drive with edge contact: offsetting the pinion's driving flank by c
+    (and its coast flank by -c) is turning the pinion by d1 = c / (r_b1 cos beta_b) (the tip cylinder and face ends are turned into
     themselves), so at phi1 the modified drive is the unmodified one at phi1 + d1:
     raw TE_mod(phi1) = raw TE(phi1 + d1) + (z1/z2) d1 (raw: phi2 - (z1/z2) phi1, zero not subtracted)."""
     from gearopt.contact.edge import EdgeContact
@@ -370,7 +370,10 @@ def test_edge_contact_of_offset_pinion_is_the_rotated_drive():
     d1 = c / rb_cos_beta_b(pair.pinion)
     mis = Misalignment(crossing=3 * DEG / 60)
     phi = np.linspace(-1.0, 1.0, 25) * 2 * math.pi / p.z
-    tooth = generate_by_rack(p).with_modification(constant_offset(c))
+    # material c on the driving (right) flank and -c on the left: the tooth turned, not thickened (a
+    # thickened tooth jams at zero backlash, see tests/test_edge_modifications.py)
+    tooth = generate_by_rack(p).with_modification(constant_offset(c, sides=("right",)))
+    tooth = tooth.with_modification(constant_offset(-c, name="coast", sides=("left",)))
     r1 = EdgeContact(TCA(pair, pinion=tooth)).sweep(phi, mis=mis, pairs=(-1, 0, 1))
     r0 = EdgeContact(TCA(pair)).sweep(phi + d1, mis=mis, pairs=(-1, 0, 1))
     raw1 = r1.te_envelope + r1.stats["te_zero_rad"]
