@@ -114,3 +114,26 @@ def test_flank_contact_never_exceeds_the_zone_of_action_beside_a_tip_edge():
             assert total >= ref - 0.02 * dz, (k, n, total, ref)
             n_beside += int(np.any(S.active[k, n] & (S.edge[k, n] > 0)))
     assert n_beside >= 5  # flank slices beside tip edges were checked
+
+
+def test_face_load_factor_is_that_of_the_most_loaded_flank_contact(tmp_path):
+    """K_Hbeta (peak over mean line load across the face): 1 for the uniform line contact of the
+    conjugate spur at every torque; for the lead-crowned helical of ltca_helical it falls as the
+    contact ellipse spreads with the torque, and stays a face load factor (a few units), not the ratio
+    of a pair just entering mesh (1110 at 225 N m) or of a sliver trimmed at a tip crossing (37 at
+    450 N m)."""
+    import json
+    from pathlib import Path
+
+    from gearopt.cli import main
+
+    problems = Path(__file__).resolve().parents[1] / "problems"
+    out = {}
+    for scene in ("ltca_spur", "ltca_helical"):
+        assert main(["run", str(problems / f"{scene}.toml"), "--out", str(tmp_path / scene), "--quiet"]) == 0
+        res = json.loads((tmp_path / scene / "results.json").read_text())
+        out[scene] = [t["K_Hbeta"] for t in res["torques"]]
+    assert out["ltca_spur"] == pytest.approx([1.0] * len(out["ltca_spur"]), abs=1e-9)
+    k = np.array(out["ltca_helical"])
+    assert np.all(k > 1.0) and np.all(k < 10.0)
+    assert np.all(np.diff(k) <= 1e-9), k
