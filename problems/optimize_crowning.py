@@ -14,10 +14,10 @@ from __future__ import annotations
 import argparse
 import os
 import sys
-from pathlib import Path
 
+from gearopt.errors import GearoptError
+from gearopt.io.results import check_out_dir, write_results
 from gearopt import ARCMIN, ARCSEC, Gear, GearPair, deg
-from gearopt.plot.style import plot_style
 from gearopt.studies.crowning import CrowningStudy, misalignment_cases
 from gearopt.synthesis import CrowningTarget
 
@@ -29,6 +29,11 @@ def main(argv=None):
     args = ap.parse_args(argv)
     os.environ.setdefault("MPLBACKEND", "Agg")  # the plots go to files, never to a window
     say = (lambda m: None) if args.quiet else (lambda m: print(m, file=sys.stderr))
+    try:
+        out = check_out_dir(args.out)  # before the work: a directory of the user's own files is refused
+    except GearoptError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
 
     # 1. The drive (unmodified pinion: the "before" design).
     pair = GearPair(Gear(z=21, m_n=2.5, b=30, beta=deg(18), hand="right", name="pinion"),
@@ -52,12 +57,11 @@ def main(argv=None):
     s = d["sensitivities"]["aligned"]  # already in arcsec per arcmin (design["sensitivity_units"])
     print("  " + ", ".join(f"{k}: {s[k]:+.4f}" for k in ("mis.crossing", "mis.intersecting")))
     # 4. Plots: TE and bearing contact before/after, every case (the crowning study's figures).
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
-    with plot_style():
-        for name in report.save_plots(out, dpi=110):
-            print(f"wrote {out / name}")
+    # results.json and the plots, in gearopt's plot style; like `gearopt run`, never over a file
+    # gearopt did not write (the directory was checked before the work)
+    for f in write_results(out, report):
+        print(f"wrote {f}")
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

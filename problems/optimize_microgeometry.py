@@ -15,11 +15,11 @@ from __future__ import annotations
 import argparse
 import os
 import sys
-from pathlib import Path
 
+from gearopt.errors import GearoptError
+from gearopt.io.results import check_out_dir, write_results
 from gearopt import ARCMIN, Gear, GearPair
 from gearopt.geometry.microgeometry import Microgeometry
-from gearopt.plot.style import plot_style
 from gearopt.studies.crowning import misalignment_cases
 from gearopt.studies.loaded_microgeometry import LoadedMicroStudy
 
@@ -33,6 +33,11 @@ def main(argv=None):
     args = ap.parse_args(argv)
     os.environ.setdefault("MPLBACKEND", "Agg")  # the plots go to files, never to a window
     say = (lambda m: None) if args.quiet else (lambda m: print(m, file=sys.stderr))
+    try:
+        out = check_out_dir(args.out)  # before the work: a directory of the user's own files is refused
+    except GearoptError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
 
     # 1. The drive and its start design: light crowning, the reliefs' starts given, amounts zero.
     start = Microgeometry(C_alpha=5 * UM, C_beta=10 * UM, d_Ca=64.0, d_Cf=58.5)
@@ -66,11 +71,10 @@ def main(argv=None):
     print(f"per arcmin of crossing         {sens['objective_arcsec_per_mis']['crossing_arcmin']:12.4f}        "
           + "  ".join(f"{sens['theta_um_per_mis'][k]['crossing_arcmin']:10.4f}" for k in d["theta_um"]) + "  [um]")
     print(f"(at {sens['active']} active constraints and bounds, {sens['degenerate']} degenerate)")
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
-    with plot_style():  # gearopt's plot style, as `gearopt run` writes them
-        for f in report.save_plots(out):
-            say(f"wrote {out / f}")
+    # results.json and the plots, in gearopt's plot style; like `gearopt run`, never over a file
+    # gearopt did not write (the directory was checked before the work)
+    for f in write_results(out, report):
+        print(f"wrote {f}")
     return 0
 
 
