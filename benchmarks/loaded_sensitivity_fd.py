@@ -75,9 +75,9 @@ def fd_check(opt, design, sens, kind: str, h: float) -> dict:
 
 
 def opt_theta_tol() -> float:
-    from gearopt.synthesis.loaded import THETA_TOL
+    from gearopt.synthesis.loaded import constants
 
-    return THETA_TOL
+    return constants.THETA_TOL
 
 
 def main(argv=None) -> int:
@@ -95,11 +95,11 @@ def main(argv=None) -> int:
                     help="the loop's design tolerance THETA_TOL for every solve here [mm] (default 1e-7; the "
                          "optimiser's own is 1e-4: differences of optima solved to it are noise below ~0.1 um)")
     a = ap.parse_args(argv)
-    import gearopt.synthesis.loaded as loaded
+    from gearopt.synthesis.loaded import constants
 
     # every optimum here (the base and the re-solved ones) converged to a tight tolerance: the loop stops
     # on its step alone (F_TOL, the predicted decrease, made negligible)
-    loaded.THETA_TOL, loaded.F_TOL = a.theta_tol, 1e-12
+    constants.THETA_TOL, constants.F_TOL = a.theta_tol, 1e-12
     from gearopt.meshing.misalignment import Misalignment
 
     kinds = [k.strip() for k in a.kinds.split(",") if k.strip()]

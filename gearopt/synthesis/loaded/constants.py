@@ -1,0 +1,31 @@
+"""Constants of the loaded micro-geometry optimiser (docs/loaded_synthesis.md): units and smoothing
+of the NLP's unknowns, the exact penalty, the trust-region loop's tolerances and the design space.
+
+``THETA_TOL`` and ``F_TOL`` are read from this module at call time (``constants.THETA_TOL``), so a
+study or benchmark may tighten them for every solve (``benchmarks/loaded_sensitivity_fd.py``)."""
+
+from __future__ import annotations
+
+G_REF = 1e-3  #: [mm] unit of the gap unknowns y (1 um)
+MU = 1e-8  #: smoothing of the complementarity: x y = MU (x: load share, y: gap in um)
+RHO = 1000.0  #: first exact-penalty weight of the constraint slacks [arcsec per unit share of the load on an edge slice / per unit p^2/p_limit^2], times the mean weight
+RHO_MAX = 1e5  #: the weight grows tenfold while a converged design, or the NLP's optimum well inside the trust region, leaves a slack, up to this
+SLACK_TOL = 1e-3  #: a pressure slack above this is a violated limit (0.05 % of the pressure limit)
+EDGE_TOL = 1e-4  #: an edge slack above this (share of the normal load on one edge slice, 0.01 %) is edge loading
+MAX_ROUNDS = 30  #: trust-region rounds at most
+MAX_REFINE = 3  #: times the NLP's grid may grow by the verification positions that violate a constraint
+TR_START = 0.25  #: first trust radius, times the widest bound interval
+F_TOL = 1e-4  #: ... or when the NLP predicts a decrease of the objective below this share of it
+#: IPOPT from an earlier NLP's multipliers (:meth:`LoadedMicroOptimizer._solve_nlp`): a small first barrier
+#: parameter and bound push, so the start point and multipliers are kept; a warm solve that fails or
+#: takes longer than this falls back to the cold start
+WARM_OPTS = {"ipopt.warm_start_init_point": "yes", "ipopt.mu_init": 1e-4, "ipopt.warm_start_bound_push": 1e-9,
+             "ipopt.warm_start_mult_bound_push": 1e-9, "ipopt.warm_start_slack_bound_push": 1e-9,
+             "ipopt.max_iter": 300}
+HARM_EPS = 1e-3  #: [arcsec] smoothing of a harmonic amplitude at zero, sqrt(a^2 + b^2 + eps^2)
+TE0_EPS = 1e-3  #: [arcsec] smoothing of the unloaded TE's RMS misfit to its parabola at zero, sqrt(rms^2 + eps^2)
+DEGENERATE_REL = 1e-6  #: an active constraint whose multiplier is below this times the largest is degenerate
+THETA_TOL = 1e-4  #: [mm] the design has settled when no amount moves by more than this (0.1 um: below any grinding machine's resolution)
+TIP_BAND = 0.02  #: [m_n] contact within this radial distance of a tip circle counts as tip (edge) contact
+SETTINGS = {"a_c": 0.05, "a_pl": 0.02}  #: Litvin's settings a design may free, with their largest value [1/mm]
+NONNEG = ("C_alpha", "C_beta", "C_alpha_a", "C_alpha_f", "C_beta_I", "C_beta_II")  #: amounts >= 0

@@ -1,0 +1,121 @@
+"""Linearisation of the separations in the design (docs/loaded_synthesis.md section 2): the exact
+slices of a design and the sensitivities of every slice's separation to the design and the
+misalignments (the implicit function theorem on the slice equations, by AD), per case
+(:class:`Linearisation`; :class:`Lineariser`, a part of
+:class:`~gearopt.synthesis.loaded.LoadedMicroOptimizer`)."""
+
+from __future__ import annotations
+
+import math
+import casadi as ca
+import numpy as np
+
+
+class Lineariser:
+    """The linearisation of the slices' separations at a design, per case."""
+
+    # -- linearisation --------------------------------------------------------------------------
+    def _sensitivity(self, kind: int) -> ca.Function:
+        """d(r_p2 phi2)/d(theta, misalignment) of a slice (kind 0: flank, 1/2: a tip edge), implicit
+        function theorem; with the total derivatives of the slice point's radius on the pinion (``dr1``)
+        and on the gear (``dr2``) [mm per unit], which move a flank slice in the tip band
+        (:func:`edge_weight`; zero on a tip edge, whose weight is 1)."""
+        if kind not in self._sens:
+            slicer = self.ltca.slicer
+            G = slicer.G if kind == 0 else slicer.edge_branch[kind].G
+            w = ca.SX.sym("w", 4)
+            prm = ca.SX.sym("prm", self.tca.layout.size)
+            F = G(w, prm)
+            idx = self._prm_index
+            dw = -ca.solve(ca.jacobian(F, w), ca.jacobian(F, prm)[:, idx])
+            outs = [dw[3, :].T]
+            if kind == 0:
+                r1, _, r2 = slicer.geometry(w, prm)[:3]
+                for r in (r1, r2):
+                    rad = ca.sqrt(r[0] ** 2 + r[1] ** 2)
+                    outs.append((ca.mtimes(ca.jacobian(rad, w), dw) + ca.jacobian(rad, prm)[:, idx]).T)
+            else:
+                outs += [ca.DM.zeros(len(idx)), ca.DM.zeros(len(idx))]
+            self._sens[kind] = ca.Function(f"ltca_dphi2_{kind}", [w, prm], outs, ["w", "prm"], ["dw3", "dr1", "dr2"])
+        return self._sens[kind]
+
+    def linearise(self, theta) -> list:
+        """Slices, compliance and the separations' sensitivities of the design ``theta`` [mm], per case:
+        a list of dicts (``S``: SliceSet, ``st``: structure, ``a`` (K, N, M) separations [mm],
+        ``J`` (K, N, M, P) [mm/mm], ``Jm`` (K, N, M, 4) per misalignment kind of
+        ``Misalignment.names()`` [mm/rad or mm/mm], ``Jr`` (K, N, M, 2, P + 4) the slice point's radius
+        on the pinion and on the gear per design amount and misalignment kind)."""
+        p1, p2 = self.params(theta)
+        lever = self.pair.gear.r_b * self.ltca.cos_bb
+        z1 = self.pair.pinion.z
+        out = []
+        for mis in self.cases:
+            S = self.ltca.slices(self.phi1, p1, p2, mis)
+            st = self.ltca._structure(S)
+            K, N, M = S.z.shape
+            J = np.zeros((K, N, M, len(self._prm_index)))
+            Jr = np.zeros((K, N, M, 2, len(self._prm_index)))
+            phis = (S.phi1[None, :] - 2 * math.pi * np.array(S.pairs)[:, None] / z1)
+            kinds = np.zeros((K, N, M), int) if S.edge is None else S.edge
+            for kind in (0, 1, 2):
+                sel = S.active & (kinds == kind)
+                if not sel.any():
+                    continue
+                kk, nn, mm = np.nonzero(sel)
+                prm = self.tca.prm(phis[kk, nn], p1, p2, mis)
+                prm[self.tca.layout.index("z_section"), :] = S.z[kk, nn, mm]
+                wv = S.w[kk, nn, mm].T
+                f = self._sensitivity(kind).map(wv.shape[1])
+                dw3, dr1, dr2 = (np.asarray(v).T for v in f(wv, prm))
+                J[kk, nn, mm] = dw3 / self.pair.gear.r_p * (-lever)
+                Jr[kk, nn, mm] = np.stack([dr1, dr2], axis=1)
+            # each slice on its own levers (LTCA._solve_one, docs/ltca.md section 3): the gap is
+            # (te0 - te) L2 + C F - lam delta, lam = L1 / (r_b1 cos(beta_b)); with the absolute separation
+            # a = -te r_b2 cos(beta_b) and the block's approach d = delta - te0 r_b2 cos(beta_b)
+            # (TE = -d / (r_b2 cos(beta_b))) it is a + da + C F - lam d, da = -(te - te0) (L2 - r_b2 cos(beta_b))
+            # - te0 (lam - 1) r_b2 cos(beta_b): zero on an involute flank, on a tip edge held at its value
+            # at the linearisation (J, the derivative of a, is the flank lever's)
+            lam, lev2 = self._levers(S)
+            te0 = S.te_unloaded[None, :, None]
+            te0 = np.where(np.isfinite(te0), te0, 0.0)
+            da = np.where(S.active, -(S.te - te0) * (lev2 - lever) - te0 * (lam - 1.0) * lever, 0.0)
+            a = np.where(S.active, -S.te * lever, 0.0)
+            P = len(self.free)
+            out.append({"S": S, "st": st, "a": a, "J": J[..., :P], "Jm": J[..., P:], "Jr": Jr, "mis": mis,
+                        "lam": lam, "da": da})
+        return out
+
+    def _levers(self, S) -> tuple[np.ndarray, np.ndarray]:
+        """Per slice (K, N, M): ``lam`` = its lever about the pinion axis over ``r_b1 cos(beta_b)`` and its
+        lever about the gear axis [mm] (``SliceSet.lever1/2``; the involute's where missing)."""
+        cb = self.ltca.cos_bb
+        lever = self.pair.gear.r_b * cb
+        ok = S.active
+        lam = (np.ones(S.z.shape) if S.lever1 is None
+               else np.where(ok & np.isfinite(S.lever1), S.lever1 / (self.pair.pinion.r_b * cb), 1.0))
+        lev2 = (np.full(S.z.shape, lever) if S.lever2 is None
+                else np.where(ok & np.isfinite(S.lever2), S.lever2, lever))
+        return lam, lev2
+
+    # -- the NLP --------------------------------------------------------------------------------
+    def _keep(self, lin, sweeps, radius: float) -> list:
+        """Per case (T, K, N, M): the active slices the NLP holds at each torque. A slice is left out
+        when it stays open for every design within ``radius`` of the linearisation: its separation,
+        lowered by the most the design can change it there (``sum_j |J_ij| radius``, twice over), still
+        exceeds 1.5 times the largest loaded approach of its case and torque plus the edge margin. The
+        trust-region loop evaluates every trial design exactly, so a slice that would close anyway shows
+        as a model miss there."""
+        out = []
+        margin = self.edge_margin or 0.0
+        for L, sw in zip(lin, sweeps):
+            S = L["S"]
+            reach = (2.0 * radius * np.sum(np.abs(L["J"]), axis=-1) if np.isfinite(radius)
+                     else np.full(S.z.shape, np.inf))  # no radius: every active slice stays
+            keep = []
+            for r in sw.results:
+                s = (r.te_unloaded[None, :, None] - S.te) * self._levers(S)[1]
+                bound = 1.5 * float(np.nanmax(r.delta)) + margin
+                with np.errstate(invalid="ignore"):
+                    keep.append(S.active & ~(s - reach > bound))
+            out.append(np.array(keep))
+        return out

@@ -1,0 +1,359 @@
+"""Assembly of the duty-cycle NLP around a linearisation (docs/loaded_synthesis.md section 2): the
+loads, gaps, approaches and deflections of every (torque, case, position), the smoothed contact
+conditions, the pressure and edge-loading rows with their slacks, the objective (peak-to-peak or
+harmonics) and the unloaded-TE target's blocks (:class:`NLPBuilder`, a part of
+:class:`~gearopt.synthesis.loaded.LoadedMicroOptimizer`)."""
+
+from __future__ import annotations
+
+import math
+
+import casadi as ca
+import numpy as np
+
+from ...ltca.compliance import coupling_stiffness_batch
+from ...ltca.engine import F_MIN_SHARE
+from ...meshing.misalignment import Misalignment
+from ...units import RAD_TO_ARCSEC
+from .constants import G_REF, HARM_EPS, MU, TE0_EPS
+from .edges import edge_weight_lin
+from .verify import harmonic_rows
+
+
+class NLPBuilder:
+    """The duty-cycle NLP around a linearisation."""
+
+    def _nlp(self, lin, theta_k, keep=None, radius: float = np.inf):
+        """Build the duty-cycle NLP around the linearisation ``lin`` (module docstring).
+
+        With the analytical compliance the deflections ``w`` [um] of every slice node are unknowns too,
+        tied to the loads by the sparse stiffness form of the face coupling (``A (w / D) = cos^2(beta_b) D F``,
+        A tridiagonal, docs/ltca.md section 2), so the NLP's Jacobian grows with the slice count and not
+        its square; with FE influence coefficients the dense compliance blocks enter the gaps."""
+        g1 = self.pair.pinion
+        cb = self.ltca.cos_bb
+        lever = self.pair.gear.r_b * cb
+        mat = self.material
+        T, C = self.torques.size, len(self.cases)
+        P = len(self.free)
+        Wt = self.torques * 1e3 / (g1.r_b * cb)
+        sparse = self.ltca.compliance == "analytical"
+        lam = self.ltca.coupling_length
+        trip_C = ([], [], [])  # dense compliance (FE): gap rows x load columns [mm/N]
+        trip_A = ([], [], [])  # stiffness rows x deflection columns
+        trip_D = ([], [], [])  # stiffness rows x load-share columns
+        w_of_x = []  # deflection unknown of each slice (sparse path)
+        w_keys = []  # (torque, case, position, flat slice index) of each deflection unknown
+        a0, Jx, Jmx, ln, Rx, h1x, h2x, edge, tix, blk, keys, tipe = [], [], [], [], [], [], [], [], [], [], [], []
+        lamx = []  # each slice's lever about the pinion axis over r_b1 cos(beta_b)
+        egx, near = [], []  # the edge weight's gradient (design, misalignment) and the rows it may reach
+        blocks = []  # (t, c, n, first x, count)
+        nx = nw = 0
+        for c, L in enumerate(lin):
+            S, st = L["S"], L["st"]
+            K, N, M = S.z.shape
+            acts = [np.transpose(S.active if keep is None else keep[c][t], (1, 0, 2)).reshape(N, K * M)
+                    for t in range(T)]
+            flat = lambda v: np.transpose(v, (1, 0, 2)).reshape(N, K * M)  # noqa: E731
+            a_n, l_n, R_n, h1_n, h2_n = (flat(v) for v in (L["a"], st["length"], st["R"], st["h1"], st["h2"]))
+            lam_n = flat(L["lam"])
+            a_n = a_n + flat(L["da"])
+            J_n = np.transpose(L["J"], (1, 0, 2, 3)).reshape(N, K * M, P)
+            Jm_n = np.transpose(L["Jm"], (1, 0, 2, 3)).reshape(N, K * M, -1)
+            e0, eg = edge_weight_lin(S, self.pair, L["Jr"])
+            e_n = flat(e0)
+            eg_n = np.transpose(eg, (1, 0, 2, 3)).reshape(N, K * M, -1)
+            # a flank slice joins the edge rows when the band can reach it within the radius
+            span = np.minimum(2.0 * radius, self.hi - self.lo) if np.isfinite(radius) else self.hi - self.lo
+            reach_n = np.sum(np.abs(eg_n[..., :P]) * span, axis=-1)
+            tp_n = flat(np.zeros(S.z.shape, bool) if S.edge is None else S.edge > 0)
+            if sparse:
+                Acoup = coupling_stiffness_batch(S.z.reshape(K * N, M), S.width.reshape(K * N, M),
+                                                 lam).reshape(K, N, M, M)
+                Dn = np.sqrt(st["ct"])
+            for t in range(T):
+                act = acts[t]
+                for n in range(N):
+                    A = np.flatnonzero(act[n])
+                    cnt = A.size
+                    pos = {int(i): nx + j for j, i in enumerate(A)}
+                    if sparse:
+                        wi = np.full(cnt, -1)
+                        for k in range(K):
+                            U = np.flatnonzero(np.isfinite(S.z[k, n]))
+                            if not any((k * M + m) in pos for m in U):
+                                continue
+                            Ak = Acoup[k, n][np.ix_(U, U)]
+                            Dk = Dn[k, n, U]
+                            rows = nw + np.arange(U.size)
+                            w_keys.append(np.stack([np.full(U.size, t), np.full(U.size, c), np.full(U.size, n),
+                                                    k * M + U], axis=1))
+                            ii, jj = np.nonzero(Ak)
+                            # row i: sum_j A_ij (D_i / D_j) w_j - cos^2(beta_b) D_i^2 W x_i / G_REF = 0
+                            trip_A[0].append(rows[ii])
+                            trip_A[1].append(rows[jj])
+                            trip_A[2].append(Ak[ii, jj] * Dk[ii] / Dk[jj])
+                            for j, m in enumerate(U):
+                                q = pos.get(int(k * M + m))
+                                if q is not None:
+                                    trip_D[0].append([rows[j]])
+                                    trip_D[1].append([q])
+                                    trip_D[2].append([cb**2 * Dk[j] ** 2 * Wt[t] / G_REF])
+                                    wi[q - nx] = rows[j]
+                            nw += U.size
+                        w_of_x.append(wi)
+                    else:
+                        Cb = st["Cs"][n][np.ix_(A, A)]
+                        ii, jj = np.nonzero(Cb)
+                        trip_C[0].append(ii + nx)
+                        trip_C[1].append(jj + nx)
+                        trip_C[2].append(Cb[ii, jj])
+                    a0.append(a_n[n, A])
+                    lamx.append(lam_n[n, A])
+                    Jx.append(J_n[n, A])
+                    Jmx.append(Jm_n[n, A])
+                    ln.append(l_n[n, A])
+                    Rx.append(R_n[n, A])
+                    h1x.append(h1_n[n, A])
+                    h2x.append(h2_n[n, A])
+                    edge.append(e_n[n, A])
+                    egx.append(eg_n[n, A])
+                    near.append(e_n[n, A] + reach_n[n, A] > 0)
+                    tipe.append(tp_n[n, A])
+                    tix.append(np.full(cnt, t))
+                    blk.append(np.full(cnt, len(blocks)))
+                    keys.append(np.stack([np.full(cnt, t), np.full(cnt, c), np.full(cnt, n), A], axis=1))
+                    blocks.append((t, c, n, nx, cnt))
+                    nx += cnt
+        a0, Jx, Jmx, ln, Rx, h1x, h2x, lamx = (np.concatenate(v) for v in (a0, Jx, Jmx, ln, Rx, h1x, h2x, lamx))
+        ew, tix, blk, keys, tipe, egx, near = (np.concatenate(v) for v in (edge, tix, blk, keys, tipe, egx, near))
+        edge = near  # rows of the edge-loading constraint; the pressure limit holds on every non-tip-edge slice
+        nB = len(blocks)
+
+        def triplet(tr, n_rows, n_cols):
+            cat = lambda v: np.concatenate(v).astype(int).tolist() if v else []  # noqa: E731
+            return ca.DM.triplet(cat(tr[0]), cat(tr[1]), ca.DM(np.concatenate(tr[2]) if tr[2] else np.zeros(0)),
+                                 n_rows, n_cols)
+
+        Ex_t = ca.DM.triplet(list(range(nx)), tix.tolist(), ca.DM.ones(nx), nx, T)  # x -> torque
+        Ex_b = ca.DM.triplet(list(range(nx)), blk.tolist(), ca.DM.ones(nx), nx, nB)  # x -> block
+        ct = np.array([b[0] * C + b[1] for b in blocks])
+        Eb_ct = ca.DM.triplet(list(range(nB)), ct.tolist(), ca.DM.ones(nB), nB, T * C)
+        # unknowns (scaled): design [um], loads x [share], gaps y [um], approach d [um], TE bounds, slacks,
+        # and (analytical compliance) the deflections w [um] of every slice node
+        th = ca.MX.sym("theta_um", P)
+        x = ca.MX.sym("x", nx)
+        y = ca.MX.sym("y", nx)
+        d = ca.MX.sym("d", nB)
+        u = ca.MX.sym("te_hi", T * C)
+        v = ca.MX.sym("te_lo", T * C)
+        sp = ca.MX.sym("slack_p", T * C)
+        se = ca.MX.sym("slack_e", T * C)
+        w = ca.MX.sym("w", nw)
+        plim = ca.MX.sym("p_limit")
+        marg = ca.MX.sym("edge_margin_um")
+        mu = ca.MX.sym("mu")
+        rho = ca.MX.sym("rho")
+        # parameters of the sensitivities (:meth:`sensitivities`): each torque's scale (1: the duty
+        # cycle's) and a misalignment added to every case (Misalignment.names() order, rad / mm)
+        tq = ca.MX.sym("torque_scale", T)
+        dm = ca.MX.sym("mis_offset", Jmx.shape[1])
+        W = ca.mtimes(Ex_t, ca.DM(Wt) * tq)
+        F = x * W
+        f = F / ln
+        fmin = F_MIN_SHARE * W * cb / g1.b
+        fl = ca.sqrt(f**2 + fmin**2)
+        bH = ca.sqrt(4.0 * fl * Rx / (math.pi * mat.E_star))
+        nu = mat.nu
+        cH = 2.0 * (1.0 - nu**2) / (math.pi * mat.E) * (ca.log(2.0 * h1x / bH) + ca.log(2.0 * h2x / bH)
+                                                        - nu / (1.0 - nu))
+        dth = th * 1e-3 - ca.DM(theta_k)
+        gap = ((ca.DM(a0) + ca.mtimes(ca.DM(Jx), dth) + ca.mtimes(ca.DM(Jmx), dm) + cH * f) / G_REF
+               - ca.DM(lamx) * ca.mtimes(Ex_b, d))
+        g_list = []
+        if sparse:
+            wi = np.concatenate(w_of_x)
+            gap = gap + w[wi.tolist()]
+            w_t = np.concatenate(w_keys)[:, 0]
+            E_wt = ca.DM.triplet(list(range(nw)), w_t.tolist(), ca.DM.ones(nw), nw, T)  # w row -> torque
+            g_list.append(ca.mtimes(triplet(trip_A, nw, nw), w) - ca.mtimes(triplet(trip_D, nw, nx), x)
+                          * ca.mtimes(E_wt, tq))
+        else:
+            gap = gap + ca.mtimes(triplet(trip_C, nx, nx), F) / G_REF
+        fb = x + y - ca.sqrt(x**2 + y**2 + 2 * mu)  # zero where x >= 0, y >= 0, x y = mu
+        te = -d * G_REF / lever * RAD_TO_ARCSEC  # (nB) loaded TE [arcsec] (up to each case's constant)
+        g_list += [y - gap, fb, ca.mtimes(Ex_b.T, ca.DM(lamx) * x) - 1.0, ca.mtimes(Eb_ct, u) - te,
+                   te - ca.mtimes(Eb_ct, v)]
+        n_eq = (nw if sparse else 0) + 2 * nx + nB
+        lbg = [np.zeros(n_eq), np.zeros(2 * nB)]
+        ubg = [np.zeros(n_eq), np.full(2 * nB, np.inf)]
+        ct_x = ct[blk]
+        flank = np.flatnonzero(~tipe)
+        ends = np.flatnonzero(edge)
+        if self.p_limit is not None and flank.size:
+            # p0^2 = f E* / (pi R*) <= p_limit^2, per flank slice, relative
+            k = mat.E_star / (math.pi * Rx[flank] * ln[flank])
+            E_f = ca.DM.triplet(list(range(flank.size)), ct_x[flank].tolist(), ca.DM.ones(flank.size), flank.size,
+                                T * C)
+            g_list.append(x[flank.tolist()] * W[flank.tolist()] * ca.DM(k) / plim**2 - 1.0 - ca.mtimes(E_f, sp))
+            lbg.append(np.full(flank.size, -np.inf))
+            ubg.append(np.zeros(flank.size))
+        if self.edge_margin is not None and ends.size:
+            E_e = ca.DM.triplet(list(range(ends.size)), ct_x[ends].tolist(), ca.DM.ones(ends.size), ends.size, T * C)
+            # a gap of at least the margin is, with x y = mu, a load share of at most mu / margin: the
+            # constraint is stated in the load (the smoothed complementarity pins the gap of a loaded slice
+            # to first order, so a gap bound would leave no direction that opens it)
+            # the weight of a flank slice in the tip band moves with its point (linearised; negative:
+            # below the band, where the row holds for any load)
+            w_e = ca.DM(ew[ends]) + ca.mtimes(ca.DM(egx[ends, :P]), dth) + ca.mtimes(ca.DM(egx[ends, P:]), dm)
+            g_list.append(w_e * x[ends.tolist()] - mu / marg - ca.mtimes(E_e, se))
+            lbg.append(np.full(ends.size, -np.inf))
+            ubg.append(np.zeros(ends.size))
+        te0 = self._te0_blocks(lin, radius, lever) if self.te_level is not None else None
+        n0 = nB0 = 0
+        te0_vars = []
+        if te0 is not None:
+            # the unloaded TE (zero load: no compliance, no Hertz flattening) of the pair centred on each
+            # position, by the same smoothed complementarity: its approach d0 is the smallest separation
+            # of the pair's slices to O(MU) (a sampled min would not be smooth); appended at the end of the
+            # unknowns and rows, so the loaded NLP's indices stay as they are
+            n0, nB0 = te0["a"].size, len(te0["blocks"])
+            x0s, y0s, d0s = (ca.MX.sym(k, n) for k, n in (("x0", n0), ("y0", n0), ("d0", nB0)))
+            te0_vars = [x0s, y0s, d0s]
+            E0 = ca.DM.triplet(list(range(n0)), te0["blk"].tolist(), ca.DM.ones(n0), n0, nB0)
+            gap0 = ((ca.DM(te0["a"]) + ca.mtimes(ca.DM(te0["J"]), dth) + ca.mtimes(ca.DM(te0["Jm"]), dm)) / G_REF
+                    - ca.mtimes(E0, d0s))
+            g_list += [y0s - gap0, x0s + y0s - ca.sqrt(x0s**2 + y0s**2 + 2 * mu), ca.mtimes(E0.T, x0s) - 1.0]
+            lbg.append(np.zeros(2 * n0 + nB0))
+            ubg.append(np.zeros(2 * n0 + nB0))
+            # misfit of each block's unloaded TE [arcsec] to the case's parabola c0 + c1 psi - level psi^2
+            # (Litvin's predesigned function, as synthesis/crowning.py), c0 and c1 by least squares: the
+            # residual is the projection of te0 + level psi^2 off the span of (1, psi), one matrix per
+            # case (no fit unknowns: free c0, c1 in the NLP let IPOPT diverge along the null direction
+            # they share with the approaches); its RMS per case smoothed at 0
+            te_b = -d0s * G_REF / lever * RAD_TO_ARCSEC + self.te_level * RAD_TO_ARCSEC * ca.DM(te0["psi"]) ** 2
+            rows, cols, vals = [], [], []
+            for c in range(C):
+                k = np.flatnonzero(te0["case"] == c)
+                V = np.stack([np.ones(k.size), te0["psi"][k]], axis=1)
+                Pc = (np.eye(k.size) - V @ np.linalg.pinv(V)) / math.sqrt(k.size)  # residual / sqrt(n)
+                ii, jj = np.meshgrid(k, k, indexing="ij")
+                rows.append(ii.ravel())
+                cols.append(jj.ravel())
+                vals.append(Pc.ravel())
+            res = ca.mtimes(_sparse_dm(np.concatenate(rows), np.concatenate(cols), np.concatenate(vals), nB0, nB0), te_b)
+            Ec = ca.DM.triplet(list(range(nB0)), te0["case"].tolist(), ca.DM.ones(nB0), nB0, C)
+            ms = ca.mtimes(Ec.T, res**2)
+            te0_obj = self.te_weight * ca.dot(ca.DM(self.weights.sum(axis=0)), ca.sqrt(ms + TE0_EPS**2))
+        wv = ca.DM(self.weights.ravel())  # (T, C) row-major: index t * C + c
+        hmap = self._harmonic_map(blocks, nB)
+        if hmap is None:
+            fit = ca.dot(wv, u - v)
+        else:  # weighted amplitudes of the first mesh harmonics (smooth: sqrt(a^2 + b^2 + eps^2))
+            ab = ca.mtimes(hmap, te)
+            H = self.harmonics.size
+            a2 = ab[0::2] ** 2 + ab[1::2] ** 2
+            amp_w = ca.DM(np.repeat(self.weights.ravel(), H) * np.tile(self.harmonics, T * C))
+            fit = ca.dot(amp_w, ca.sqrt(a2 + HARM_EPS**2))
+        mult = ca.DM(self._mult.ravel())  # (T C): cases standing for their mirror images count twice
+        obj = fit + rho * self._w_mean * ca.dot(mult, sp + se)
+        if te0 is not None:
+            obj = obj + te0_obj
+        z = ca.vertcat(th, x, y, d, u, v, sp, se, w, *te0_vars)
+        nlp = {"x": z, "p": ca.vertcat(plim, marg, mu, rho, tq, dm), "f": obj, "g": ca.vertcat(*g_list)}
+        # the start is the exact loaded TCA of the linearisation's design, close to the optimum: IPOPT's
+        # adaptive barrier from mu = 0.01 (the target case 647 -> 529 iterations, 10 % faster, than the
+        # monotone barrier from 0.01; docs/loaded_synthesis.md section 5). (Without IPOPT's gradient
+        # scaling some rounds took 2-6x fewer iterations, but the smallest design derivatives of the
+        # sensitivities lost their accuracy.)
+        opts = {"ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes", "ipopt.tol": 1e-9,
+                "ipopt.max_iter": 1000, "ipopt.mu_strategy": "adaptive", "ipopt.mu_init": 1e-2, "error_on_fail": False,
+                **getattr(self, "_extra_opts", {})}
+        sizes = dict(P=P, nx=nx, nB=nB, TC=T * C, nw=nw, n0=n0, nB0=nB0)
+        rows = dict(flank=flank if self.p_limit is not None else flank[:0],
+                    ends=ends if self.edge_margin is not None else ends[:0])
+        return LoadedNLP(problem=nlp, opts=opts, phi1=self.phi1.copy(), rows=rows, gap=ca.Function("gap", [z, tq, dm], [gap]), lbg=np.concatenate(lbg),
+                    ubg=np.concatenate(ubg), sizes=sizes, blocks=blocks, ct=ct, edge=tipe, ew=np.clip(ew, 0.0, 1.0),
+                    lever=lever, Wt=Wt,
+                    ln=ln, Rx=Rx, keys=keys, hmap=hmap, w_keys=np.concatenate(w_keys) if w_keys else np.zeros((0, 4), int),
+                    te0=te0, te0_term=ca.Function("te0_term", [z], [te0_obj if te0 is not None else ca.MX(0.0)],
+                                                  ["z"], ["te0_term"]))
+
+    def _te0_blocks(self, lin, radius: float, lever: float) -> dict:
+        """The unloaded-TE target's slices in the NLP: per case and position, the active slices of the
+        pair centred there (:meth:`_te0_pairs`) that may become its contact within ``radius`` of the
+        linearisation (separation lowered by ``2 radius sum_j |J_ij|`` not above the smallest
+        separation raised by its own; every active slice without a radius). Arrays ``a`` [mm], ``J``,
+        ``Jm`` of the slices; ``blk`` (block of each slice), ``blocks`` (c, n, first, count), ``case``,
+        ``psi`` (pair angle over pi/z1) per block, ``keys`` (T, c, n, flat slice) per slice."""
+        T = self.torques.size
+        out = {k: [] for k in ("a", "J", "Jm", "blk", "case", "psi", "keys")}
+        blocks, first = [], 0
+        for c, L in enumerate(lin):
+            S = L["S"]
+            K, N, M = S.z.shape
+            idx, psi = self._te0_pairs(S)
+            reach = 2.0 * radius * np.sum(np.abs(L["J"]), axis=-1) if np.isfinite(radius) else None
+            used = 0
+            for n in range(N):
+                i = idx[n]
+                if i < 0 or not S.active[i, n].any():
+                    continue
+                m = np.flatnonzero(S.active[i, n])
+                if reach is not None:
+                    s = (np.max(S.te[i, n, m]) - S.te[i, n, m]) * lever
+                    r = reach[i, n, m]
+                    m = m[s - r <= np.min(s + r)]
+                out["a"].append(L["a"][i, n, m])
+                out["J"].append(L["J"][i, n, m])
+                out["Jm"].append(L["Jm"][i, n, m])
+                out["blk"].append(np.full(m.size, len(blocks)))
+                out["keys"].append(np.stack([np.full(m.size, T), np.full(m.size, c), np.full(m.size, n), i * M + m], 1))
+                out["case"].append(c)
+                out["psi"].append(psi[n])
+                blocks.append((c, n, first, m.size))
+                first += m.size
+                used += 1
+            self._te0_enough(used, N, c)
+        res = {k: np.concatenate(v) for k, v in out.items() if k not in ("case", "psi")}
+        res.update(case=np.array(out["case"], int), psi=np.array(out["psi"]), blocks=blocks)
+        return res
+
+
+    def _harmonic_map(self, blocks, nB):
+        """Sparse (T C 2H, nB) map of the blocks' loaded TE to the cosine and sine coefficients of the
+        first H mesh harmonics of each (torque, case) (:func:`harmonic_rows`); None for the
+        peak-to-peak objective."""
+        if self.harmonics is None:
+            return None
+        H = self.harmonics.size
+        C = len(self.cases)
+        R = harmonic_rows(self.phi1, self.pair.pinion.z, H)
+        rows, cols, vals = [], [], []
+        for b, (t, c, n, _, _) in enumerate(blocks):
+            base = (t * C + c) * 2 * H
+            rows.extend(range(base, base + 2 * H))
+            cols.extend([b] * (2 * H))
+            vals.extend(R[:, n])
+        return _sparse_dm(rows, cols, vals, self.torques.size * C * 2 * H, nB)
+
+    def _pvec(self, rho: float) -> list:
+        """The NLP's parameters: pressure limit, edge margin [um], smoothing, penalty weight, the torque
+        scales (1) and the misalignment offsets (0)."""
+        return ([self.p_limit or 1.0, (self.edge_margin or 0.0) / G_REF, MU, rho] + [1.0] * self.torques.size
+                + [0.0] * len(Misalignment.names()))
+
+
+def _sparse_dm(rows, cols, vals, n_rows, n_cols) -> ca.DM:
+    return ca.DM.triplet(list(rows), list(cols), ca.DM(np.asarray(vals, float)), n_rows, n_cols)
+
+
+class LoadedNLP(dict):
+    """One linearisation's NLP (its parts by name); its cold-start IPOPT solver, ``"solver"``, is built
+    on first use (a round solved warm, or a trial never solved, needs none)."""
+
+    def __missing__(self, key):
+        if key != "solver":
+            raise KeyError(key)
+        self[key] = ca.nlpsol("loaded_microgeometry", "ipopt", self["problem"], self["opts"])
+        return self[key]

@@ -1,0 +1,123 @@
+"""The Pareto front of loaded TE against peak pressure: an epsilon-constraint sweep of the pressure
+limit (docs/loaded_synthesis.md section 7; :class:`ParetoSweep`, a part of
+:class:`~gearopt.synthesis.loaded.LoadedMicroOptimizer`)."""
+
+from __future__ import annotations
+
+import copy
+import math
+
+import numpy as np
+
+from ...errors import ArgumentError, OptionError, out_of_range
+from ..crowning import SynthesisError
+from .results import MicroDesign, ParetoFront
+
+
+class ParetoSweep:
+    """The epsilon-constraint sweep of the pressure limit."""
+
+    def pareto(self, p_limits, progress=None, anchor: MicroDesign | None = None) -> ParetoFront:
+        """Loaded TE against peak pressure: the epsilon-constraint sweep of the pressure limit.
+
+        The anchor is the optimum without a pressure limit; then each limit of ``p_limits`` [MPa]
+        (taken in decreasing order) is solved from the previous optimum, with the edge-loading
+        constraint and everything else of this optimiser. Every point is verified by loaded TCA on the
+        verification grid (:meth:`solve`). A limit no design within the bounds meets (with the
+        edge-loading constraint; solved from the previous optimum and again from the start design)
+        ends the sweep: it and every lower limit get no design and the reason.
+        Where a tighter limit's optimum has the lower loaded TE (the looser one stopped in a local
+        optimum), the looser limit is solved again from it, so the front is monotone.
+
+        Parameters
+        ----------
+        p_limits : sequence of float
+            Peak Hertz pressure limits [MPa], each 100 ... 10000, distinct.
+        progress : callable, optional
+            Takes one line of text per trust-region round and per point.
+        anchor : MicroDesign, optional
+            The optimum without a pressure limit, if already solved (by this optimiser with
+            ``p_limit=None``): not solved again.
+
+        Returns
+        -------
+        ParetoFront
+        """
+        try:
+            lims = sorted((float(v) for v in p_limits), reverse=True)
+        except (TypeError, ValueError):
+            raise out_of_range("p_limits", p_limits, "a list of pressure limits [MPa]", cls=OptionError) from None
+        if not lims or len(set(lims)) != len(lims) or not all(math.isfinite(v) and 100.0 <= v <= 1e4 for v in lims):
+            raise out_of_range("p_limits", p_limits, "a non-empty list of distinct limits, 100 ... 10000 MPa each",
+                               cls=OptionError)
+
+        def at(limit):
+            o = copy.copy(self)  # shares the compiled slices, the LTCA and the sensitivities
+            o.p_limit = limit
+            return o
+
+        say = progress or (lambda m: None)
+        first = at(None)
+        if anchor is None:
+            anchor = first.solve(progress=progress)
+            grid = first.phi1  # with the positions the verification added: the next points start there
+        else:
+            if self.p_limit is not None:
+                raise ArgumentError("anchor: given for an optimiser with a pressure limit; the anchor is the "
+                                    "optimum without one (p_limit=None).", param="anchor", value=self.p_limit,
+                                    valid="an optimiser with p_limit=None")
+            grid = self.phi1
+        say(f"loaded micro-geometry Pareto: no pressure limit: {anchor.after.objective:.4g} arcsec at "
+            f"{np.max(anchor.after.p_max):.1f} MPa")
+        designs, msgs = [], []
+        theta = np.array(list(anchor.theta.values()))
+        for lim in lims:
+            if designs and designs[-1] is None:
+                designs.append(None)
+                msgs.append(f"not solved: a higher limit ({lims[len(designs) - 2]:g} MPa) has no design")
+                continue
+            o = at(lim)
+            d = None
+            # from the previous optimum; where that finds no design, once more from the start design (a
+            # local method: the sweep's path may end in a corner the start design is not in)
+            for start in (theta, self.theta0):
+                if d is not None or (start is self.theta0 and np.allclose(theta, self.theta0)):
+                    continue
+                try:
+                    d = o.solve(progress=progress, start=start, grid=grid)
+                except SynthesisError as e:
+                    if getattr(e, "param", None) not in ("p_limit", "edge_margin"):
+                        raise  # a solver failure, not an infeasible limit
+                    err = e
+                    o = at(lim)
+            if d is None:
+                designs.append(None)
+                msgs.append(f"{err} (solved from the previous optimum and from the start design)")
+                say(f"loaded micro-geometry Pareto: p_limit {lim:g} MPa: no design ({err})")
+                continue
+            designs.append(d)
+            msgs.append("")
+            theta, grid = np.array(list(d.theta.values())), o.phi1
+            say(f"loaded micro-geometry Pareto: p_limit {lim:g} MPa: {d.after.objective:.4g} arcsec at "
+                f"{np.max(d.after.p_max):.1f} MPa")
+        # A design meeting a limit meets every looser one: where a tighter limit's optimum has the lower
+        # loaded TE, the looser limit's (a local optimum) is solved again from it, tightest first, so
+        # the front comes out monotone.
+        solved = [(None, anchor)] + [(lim, d) for lim, d in zip(lims, designs) if d is not None]
+        for i in range(len(solved) - 2, -1, -1):
+            lim, d = solved[i]
+            better = solved[i + 1][1]
+            # (with an unloaded-TE target its term counts too: the objective the designs minimise)
+            tot = lambda m: m.after.objective + m.after.te0_term  # noqa: E731
+            if tot(better) < tot(d) - 1e-3 * max(tot(d), 1.0):
+                o = at(lim)
+                d2 = o.solve(progress=progress, start=np.array(list(better.theta.values())), grid=grid)
+                if tot(d2) < tot(d):
+                    solved[i] = (lim, d2)
+                    what = "no pressure limit" if lim is None else f"p_limit {lim:g} MPa"
+                    say(f"loaded micro-geometry Pareto: {what}: solved again from the tighter limit's optimum: "
+                        f"{d.after.objective:.4g} -> {d2.after.objective:.4g} arcsec")
+        anchor = solved[0][1]
+        again = {lim: d for lim, d in solved[1:]}
+        designs = [again.get(lim) if d is not None else None for lim, d in zip(lims, designs)]
+        return ParetoFront(anchor=anchor, p_limits=tuple(lims), designs=tuple(designs), messages=tuple(msgs))

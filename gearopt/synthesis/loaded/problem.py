@@ -1,0 +1,181 @@
+"""The loaded micro-geometry problem: the drive, the free amounts with their bounds, the duty cycle
+(torques x misalignment cases, weights) and the limits, with the checks of every argument
+(:class:`LoadedProblem`, the base of :class:`~gearopt.synthesis.loaded.LoadedMicroOptimizer`)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ...compiled import available
+from ...errors import ArgumentError, OptionError, out_of_range
+from ...gears import GearPair
+from ...geometry.microgeometry import AMOUNT_MAX_PER_M, RELIEF_AMOUNTS, Microgeometry, modified_tooth
+from ...ltca.compliance import Material
+from ...ltca.engine import LTCA
+from ...meshing.misalignment import Misalignment
+from ...meshing.tca import TCA
+from ...units import RAD_TO_ARCSEC
+from .constants import NONNEG, SETTINGS
+
+
+class LoadedProblem:
+    """The problem's data and the checks of every argument (parameters: :class:`LoadedMicroOptimizer`)."""
+
+    def __init__(self, pair: GearPair, free: dict, torques, cases=None, weights=None, p_limit: float | None = None,
+                 edge_margin: float | None = 5e-4, n_positions: int = 32, n_verify: int = 64, n_slices: int = 15,
+                 material: Material | None = None, side: str = "right", jit: bool | str = "auto", harmonics=None,
+                 te_level: float | None = None, te_weight: float = 1.0):
+        if not isinstance(pair, GearPair):
+            raise ArgumentError(f"pair = {pair!r:.60}: expected a gearopt.gears.GearPair.", param="pair", value=pair,
+                                valid="a gearopt.gears.GearPair")
+        self.pair = pair
+        self.torques = LTCA.validate_torques(torques)
+        cases = [Misalignment()] if cases is None else list(cases)
+        if not cases or not all(isinstance(c, Misalignment) for c in cases):
+            raise ArgumentError("cases: expected a non-empty list of gearopt Misalignment.", param="cases",
+                                value=cases, valid="a list of Misalignment")
+        self.cases = tuple(cases)
+        T, C = self.torques.size, len(self.cases)
+        w = np.ones((T, C)) if weights is None else np.asarray(weights, float)
+        if w.shape != (T, C) or not np.all(np.isfinite(w)) or np.any(w < 0) or not w.sum() > 0:
+            raise ArgumentError(f"weights: expected a ({T}, {C}) array (torques x cases) of finite weights >= 0, "
+                                "not all 0.", param="weights", value=np.shape(w), valid=f"shape ({T}, {C}), >= 0")
+        self.weights = w
+        if p_limit is not None and not (isinstance(p_limit, (int, float)) and math.isfinite(p_limit)
+                                        and 100.0 <= p_limit <= 1e4):
+            raise out_of_range("p_limit", p_limit, "100 <= p_limit <= 10000 MPa (peak Hertz pressure)",
+                               cls=OptionError)
+        self.p_limit = None if p_limit is None else float(p_limit)
+        if edge_margin is not None and not (isinstance(edge_margin, (int, float)) and 0 < edge_margin <= 0.1):
+            raise out_of_range("edge_margin", edge_margin, "0 < edge_margin <= 0.1 mm (or None)", cls=OptionError)
+        self.edge_margin = None if edge_margin is None else float(edge_margin)
+        if isinstance(n_positions, bool) or not isinstance(n_positions, (int, np.integer)) or not 8 <= n_positions <= 256:
+            raise out_of_range("n_positions", n_positions, "an integer, 8 <= n_positions <= 256", cls=OptionError)
+        if isinstance(n_verify, bool) or not isinstance(n_verify, (int, np.integer)) or not 8 <= n_verify <= 2000:
+            raise out_of_range("n_verify", n_verify, "an integer, 8 <= n_verify <= 2000", cls=OptionError)
+        self.n_verify = int(n_verify)
+        self.harmonics = None
+        if harmonics is not None:
+            try:
+                hw = np.asarray(harmonics, float).ravel()
+            except (TypeError, ValueError):
+                hw = np.array([np.nan])
+            if not (1 <= hw.size <= 10 and np.all(np.isfinite(hw)) and np.all(hw >= 0) and hw.sum() > 0
+                    and 2 * hw.size + 1 <= n_positions):
+                raise out_of_range("harmonics", harmonics, "1 ... 10 weights >= 0, not all 0, one per mesh harmonic, "
+                                   f"at most (n_positions - 1) / 2 = {(n_positions - 1) // 2} of them", cls=OptionError)
+            self.harmonics = hw
+        if te_level is not None and not (isinstance(te_level, (int, float)) and not isinstance(te_level, bool)
+                                         and math.isfinite(te_level) and 0.0 < te_level < 600.0 / RAD_TO_ARCSEC):
+            raise out_of_range("te_level", te_level if not isinstance(te_level, (int, float)) or isinstance(te_level, bool)
+                               else f"{te_level * RAD_TO_ARCSEC:.6g} arcsec",
+                               "0 < te_level < 600 arcsec (the unloaded parabolic TE level, in rad), or None",
+                               cls=OptionError)
+        self.te_level = None if te_level is None else float(te_level)
+        if not (isinstance(te_weight, (int, float)) and not isinstance(te_weight, bool) and math.isfinite(te_weight)
+                and 0.0 < te_weight <= 1e3):
+            raise out_of_range("te_weight", te_weight, "0 < te_weight <= 1000 (weight of the unloaded-TE target)",
+                               cls=OptionError)
+        self.te_weight = float(te_weight)
+        self.free, self.lo, self.hi = self._check_free(free)
+        if not (isinstance(jit, (bool, np.bool_)) or (isinstance(jit, str) and jit == "auto")):
+            raise out_of_range("jit", jit, "'auto', True or False (solve the slices as compiled C)", cls=OptionError)
+        # the loop solves the slices of every case several hundred columns at a time, dozens of times:
+        # compiled whenever a C compiler is present (8x faster than interpreted at 500 columns)
+        jit = available() if jit == "auto" else bool(jit)
+        self.tca = TCA(pair, side=side, pinion=modified_tooth(pair, "pinion", force_iso=True),
+                       gear=modified_tooth(pair, "gear", force_iso=True), jit=jit)
+        # the involute's curvature in the Hertz term: the pressure limit does not see the curvature of the
+        # reliefs' smooth starts (docs/loaded_synthesis.md section 8)
+        self.ltca = LTCA(pair, side=side, material=material, n_slices=n_slices, tca=self.tca, curvature="involute")
+        self.material = self.ltca.material
+        self.n_positions = int(n_positions)
+        self.phi1 = self.ltca.mesh_cycle(self.n_positions)
+        lay = self.tca.layout
+        self._prm_index = [lay.index(f"{m}.{member_entry(a)}") for m, a in (n.split(".", 1) for n in self.free)]
+        self._prm_index += [lay.index(f"mis.{k}") for k in Misalignment.names()]  # then the misalignments
+        self.p0 = (np.array(self.tca.pinion.p0, float), np.array(self.tca.gear.p0, float))
+        self.theta0 = np.array([self.p0[0 if m == "pinion" else 1][lay.member_names[m].index(member_entry(a))]
+                                for m, a in (n.split(".", 1) for n in self.free)])
+        bad = [(n, t) for n, t, a, b in zip(self.free, self.theta0, self.lo, self.hi) if not a <= t <= b]
+        if bad:
+            n, t = bad[0]
+            i = self.free.index(n)
+            k, u = (1.0, "1/mm") if n.split(".", 1)[1] in SETTINGS else (1e3, "um")
+            raise out_of_range(f"free.{n}", f"{float(t) * k:g} {u}", f"the start design's {n} must lie within its bounds "
+                               f"{self.lo[i] * k:g} ... {self.hi[i] * k:g} {u}", cls=OptionError)
+        self._sens = {}
+        self._has_settings = any(n.split(".", 1)[1] in SETTINGS for n in self.free)
+        #: the penalty's weight scale (that of the full duty cycle; an unloaded-TE target adds its weight: its
+        #: term weighs te_weight times the loaded objective's per case, and so may its multipliers)
+        self._w_mean = float(np.mean(self.weights)) * (1.0 + (self.te_weight if self.te_level is not None else 0.0))
+        self._mult = np.ones((T, C))  #: how many cases of the duty cycle each (torque, case) stands for
+
+
+    # ------------------------------------------------------------------------------------------
+    def _check_free(self, free):
+        if not isinstance(free, dict) or not free:
+            raise ArgumentError("free: expected a dict {'pinion.C_alpha': (lo, hi), ...} of free amounts [mm].",
+                                param="free", value=free, valid="a non-empty dict name -> (lo, hi) [mm]")
+        names, lo, hi = [], [], []
+        for name, b in free.items():
+            member, _, amount = str(name).partition(".")
+            gear = getattr(self.pair, member, None) if member in ("pinion", "gear") else None
+            valid = [f"{m}.{a}" for m in ("pinion", "gear") for a in self._amounts(getattr(self.pair, m)) + tuple(SETTINGS)]
+            if amount in SETTINGS and gear is not None:
+                # Litvin's settings [1/mm]: parabolic rack-cutter profile a_c, plunging (lead crowning) a_pl
+                try:
+                    a, c = (float(v) for v in b)
+                except (TypeError, ValueError):
+                    raise out_of_range(f"free.{name}", b, "a pair (lo, hi) [1/mm]", cls=OptionError) from None
+                if not (math.isfinite(a) and math.isfinite(c) and 0.0 <= a < c <= SETTINGS[amount]):
+                    raise out_of_range(f"free.{name}", f"({a:g}, {c:g}) 1/mm",
+                                       f"0 <= lo < hi <= {SETTINGS[amount]:g} 1/mm", cls=OptionError)
+                names.append(f"{member}.{amount}")
+                lo.append(a)
+                hi.append(c)
+                continue
+            if gear is None or amount not in self._amounts(gear):
+                hint = ""
+                if gear is not None and amount in RELIEF_AMOUNTS:
+                    hint = " (a relief needs its start, e.g. d_Ca, in the member's modifications)"
+                raise out_of_range(f"free.{name}", name, f"one of {valid}{hint}", cls=OptionError)
+            try:
+                a, c = (float(v) for v in b)
+            except (TypeError, ValueError):
+                raise out_of_range(f"free.{name}", b, "a pair (lo, hi) of amounts [mm]", cls=OptionError) from None
+            cap = AMOUNT_MAX_PER_M * gear.m_n
+            low = 0.0 if amount in NONNEG else -cap
+            if not (math.isfinite(a) and math.isfinite(c) and low <= a < c <= cap):
+                raise out_of_range(f"free.{name}", f"({a * 1e3:g}, {c * 1e3:g}) um",
+                                   f"{low * 1e3:g} um <= lo < hi <= {cap * 1e3:g} um", cls=OptionError)
+            names.append(f"{member}.{amount}")
+            lo.append(a)
+            hi.append(c)
+        return tuple(names), np.array(lo), np.array(hi)
+
+    @staticmethod
+    def _amounts(gear) -> tuple:
+        mg = getattr(gear, "modifications", None) or Microgeometry()
+        return mg.theta_names
+
+    def params(self, theta) -> tuple[np.ndarray, np.ndarray]:
+        """Both members' parameter vectors with the design ``theta`` [mm] set."""
+        p = {"pinion": self.p0[0].copy(), "gear": self.p0[1].copy()}
+        for n, t in zip(self.free, np.asarray(theta, float)):
+            m, a = n.split(".", 1)
+            p[m][self.tca.layout.member_names[m].index(member_entry(a))] = t
+        return p["pinion"], p["gear"]
+
+
+def member_entry(amount: str) -> str:
+    """The member parameter of a free name: ``iso.<amount>`` for an ISO amount, the setting itself."""
+    return amount if amount in SETTINGS else f"iso.{amount}"
+
+
+def case_text(mis: Misalignment) -> str:
+    """``"aligned"`` or the misalignment's non-zero kinds in the scene's units (``"crossing 2'"``)."""
+    given = [f"{k} {Misalignment.display(k, getattr(mis, k))}" for k in Misalignment.names() if getattr(mis, k)]
+    return ", ".join(given) or "aligned"

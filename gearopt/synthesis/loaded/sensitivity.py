@@ -1,0 +1,164 @@
+"""Sensitivities of the optimum to the torques and a misalignment (docs/loaded_synthesis.md section
+6): the KKT system of the NLP's active set at the optimum, by CasADi, with mirror-image case sets
+reduced to one case per class (:class:`Sensitivities`, a part of
+:class:`~gearopt.synthesis.loaded.LoadedMicroOptimizer`)."""
+
+from __future__ import annotations
+
+import casadi as ca
+import numpy as np
+
+from ...meshing.misalignment import Misalignment
+from ..crowning import SynthesisError
+from . import constants
+from .kkt import central_path_indicators, csc_of_dm, degenerate_constraints, sparse_lu
+from .mirror import MIRROR_SIGN
+from .results import MicroDesign
+
+
+class Sensitivities:
+    """Sensitivities of an optimum by the KKT system of its active set."""
+
+    def sensitivities(self, design: MicroDesign) -> dict:
+        """Sensitivities of the optimum to the torques and to a misalignment added to every case
+        (docs/loaded_synthesis.md section 6): :meth:`kkt_sensitivities` of the duty cycle, or where its
+        cases are mirror images of each other (:meth:`mirror_classes`) of the problem with one case per
+        class, with each mirror-odd kind's derivatives by symmetry.
+
+        Mirror-image cases make the full problem's active-set KKT system singular: each active row of
+        a case has its twin's, and the twins' rows differ only in their own loads. The problem of one
+        case per class is the full one for every perturbation that keeps the twins mirror images: the
+        torques and the mirror-even kinds (``MIRROR_SIGN`` +1: the centre distance), whose derivatives
+        it gives. An offset of a mirror-odd kind (crossing, intersecting, axial) added to every case
+        breaks the pairing, but the duty cycle offset by ``-d`` is the mirror image of that offset by
+        ``d``, so the optimum (symmetric amounts only, :meth:`mirror_classes`) is an even function of
+        ``d``: its central derivative, and the objective's, are zero. (A kink there, an active set that
+        changes at ``d = 0``, would give one-sided derivatives of opposite signs; they are not
+        computed: ``benchmarks/loaded_sensitivity_fd.py`` measures them by re-solved optima.)
+
+        Returns
+        -------
+        dict
+            As :meth:`kkt_sensitivities`, and ``mirror_odd``: the kinds whose derivatives are zero by
+            the mirror symmetry (empty without mirror-image cases).
+        """
+        classes = self.mirror_classes()
+        if classes is None:
+            return {**self.kkt_sensitivities(design), "mirror_odd": []}
+        out = self._reduced().kkt_sensitivities(design)
+        kinds = Misalignment.names()
+        odd = [j for j, k in enumerate(kinds) if MIRROR_SIGN[k] < 0]
+        out["d_theta_d_mis"][:, odd] = 0.0
+        out["d_objective_d_mis"][odd] = 0.0
+        out["mirror_odd"] = [kinds[j] for j in odd]
+        return out
+
+    def kkt_sensitivities(self, design: MicroDesign) -> dict:
+        """Sensitivities of the optimum to the torques and to a misalignment, by AD (docs/loaded_synthesis.md),
+        of this optimiser's own cases (:meth:`sensitivities` handles mirror-image cases).
+
+        The NLP is built around ``design`` (its final positions, every active slice) with the torque
+        scales and a misalignment offset added to every case as parameters, and solved with the design
+        free within its bounds. The derivatives are those of the exact NLP (the limit mu -> 0 of IPOPT's
+        barrier) at its active set, by CasADi: which inequalities and bounds are active is read from
+        the tangent of IPOPT's central path at the solution (each slack's d log s / d log mu: 1 active,
+        0 inactive, scale-free; rows between 0.1 and 0.9 are degenerate and counted); then the KKT
+        system of the equalities and the active rows, with the inactive multipliers zero, is solved
+        as one sparse system for all parameters (the optimum's derivatives at a fixed active set,
+        Fiacco). The optimal objective's derivatives are those of the Lagrangian in the parameters
+        (the envelope theorem).
+
+        Returns
+        -------
+        dict
+            ``d_objective_d_torque`` (T,) [arcsec per N m] and ``d_theta_d_torque`` (P, T) [mm per N m]
+            (one torque of the duty cycle changed at a time); ``d_objective_d_mis`` (4,) and
+            ``d_theta_d_mis`` (P, 4), per kind of ``Misalignment.names()`` [per rad or per mm],
+            the same offset added to every case; ``model_step`` [mm]: how far the NLP's optimum lies
+            from ``design`` (a converged design: below ``THETA_TOL``) and ``at_design`` (it is within
+            ten times that: else the loop stopped on its trust radius and the derivatives are those
+            of the NLP's optimum, not of the design); ``objective`` [arcsec]: the
+            NLP's optimum (with an unloaded-TE target, its term included, and so in the derivatives
+            of the objective); ``active``: the inequalities and bounds active at it; ``degenerate``: the
+            active ones whose multiplier vanishes (below ``DEGENERATE_REL`` times the largest), and those
+            neither clearly active nor inactive (0: the derivatives are unique; else they hold on the
+            side of the active set chosen, each such row counted active when its indicator is above
+            1/2); ``min_multiplier``: the smallest active multiplier over the largest;
+            ``nlp`` / ``z`` / ``p``: the NLP, its solution and parameters (for checks).
+
+        Raises
+        ------
+        SynthesisError
+            When the NLP at the optimum fails, or the active set's KKT system is singular (dependent
+            active constraints: the derivatives are not unique).
+        """
+        import scipy.sparse as sp_
+
+        theta = np.array([design.theta[n] for n in self.free])
+        if design.phi1 is not None:
+            self.phi1 = np.asarray(design.phi1, float)
+        cur = self._around(theta, np.inf, design.rho)
+        nlp = cur["nlp"]
+        # IPOPT without its bound relaxation (by default every bound moves out by 1e-8, the scale of
+        # the edge rows' own allowance MU / margin): the slacks below are then IPOPT's own, and so are
+        # the complementarity products the perturbed KKT system is built from
+        nlp["solver"] = ca.nlpsol("loaded_microgeometry_kkt", "ipopt", nlp["problem"],
+                                  {**nlp["opts"], "ipopt.bound_relax_factor": 0.0})
+        lbx, ubx = self._bounds(nlp)
+        p = np.array(self._pvec(design.rho), float)
+        r = nlp["solver"](x0=cur["z0"], lbx=lbx, ubx=ubx, lbg=nlp["lbg"], ubg=nlp["ubg"], p=p)
+        st = nlp["solver"].stats()
+        if not st["success"]:
+            raise SynthesisError(f"loaded micro-geometry sensitivities: the NLP at the optimum failed "
+                                 f"({st['return_status']}).", param="ipopt", value=st["return_status"])
+        z, lam_g, lam_x = (np.asarray(r[k]).ravel() for k in ("x", "lam_g", "lam_x"))
+        pr = nlp["problem"]
+        zs, ps, g, f = pr["x"], pr["p"], pr["g"], pr["f"]
+        lam = ca.MX.sym("lam", g.shape[0])
+        L = f + ca.dot(lam, g)
+        sel = slice(4, ps.shape[0])  # the torque scales and misalignment offsets
+        gz = ca.gradient(L, zs)
+        fun = ca.Function("loaded_kkt", [zs, ps, lam],
+                          [ca.hessian(L, zs)[0], g, ca.jacobian(g, zs), ca.jacobian(g, ps)[:, sel],
+                           ca.jacobian(gz, ps)[:, sel], ca.gradient(L, ps)[sel]])
+        H, gv, Jg, Gp, _, _ = fun(z, p, lam_g)
+        H, Jg, Gp = csc_of_dm(H), csc_of_dm(Jg), csc_of_dm(Gp)
+        gv = np.asarray(gv).ravel()
+        lbg, ubg = nlp["lbg"], nlp["ubg"]
+        eq = lbg == ubg
+        I_ = np.flatnonzero(~eq)
+        E = np.flatnonzero(eq)
+        # which inequalities and bounds are active in the limit mu -> 0 of IPOPT's barrier (the edge
+        # rows' slacks are of the order of MU / margin = 2e-8, and at IPOPT's final barrier parameter
+        # their barrier multipliers are 0.05: lam / s or lam^2 / mu would count a thousand open slices as
+        # nearly active; the central path's tangent is scale-free)
+        ind_g, ind_x = central_path_indicators(H, Jg, lbg, ubg, gv, lam_g, lbx, ubx, z, lam_x)
+        ind_g = ind_g[I_]
+        bx = np.isfinite(ind_x)
+        act_g, act_x = ind_g > 0.5, bx & (ind_x > 0.5)
+        # degenerate: an active row or bound whose multiplier vanishes (strict complementarity fails; the
+        # optimum is then only directionally differentiable), i.e. below DEGENERATE_REL times the largest
+        # active multiplier, or one the central path cannot tell active from inactive
+        degenerate, min_mult = degenerate_constraints(ind_g, lam_g[I_], ind_x, lam_x)
+        # the limit's multipliers (inactive ones zero) and the active set's KKT system: the derivatives
+        # of the optimum at fixed active set (Fiacco), one sparse LU for all parameters
+        lam_a = lam_g.copy()
+        lam_a[I_[~act_g]] = 0.0
+        H, _, _, _, Lzp, Lp = fun(z, p, lam_a)
+        H, Lzp = csc_of_dm(H), csc_of_dm(Lzp)
+        rows = np.concatenate([E, I_[act_g]])
+        B = np.flatnonzero(act_x)
+        A = sp_.vstack([Jg[rows], sp_.csc_matrix((np.ones(B.size), (np.arange(B.size), B)), shape=(B.size, z.size))])
+        K = sp_.bmat([[H, A.T], [A, None]], format="csc")
+        rhs = -sp_.vstack([Lzp, Gp[rows], sp_.csc_matrix((B.size, Lzp.shape[1]))]).toarray()
+        sol = sparse_lu(K, "the active set's KKT system").solve(rhs)
+        P, T = len(self.free), self.torques.size
+        dth = sol[:P] * 1e-3  # theta is in um in the NLP
+        dfdp = np.asarray(Lp).ravel()
+        step = float(np.max(np.abs(z[:P] * 1e-3 - theta)))
+        return {"d_objective_d_torque": dfdp[:T] / self.torques, "d_theta_d_torque": dth[:, :T] / self.torques[None, :],
+                "d_objective_d_mis": dfdp[T:], "d_theta_d_mis": dth[:, T:],
+                "model_step": step, "at_design": step <= 10 * constants.THETA_TOL, "objective": float(r["f"]),
+                "active": int(act_g.sum() + act_x.sum()), "degenerate": degenerate,
+                "min_multiplier": min_mult,
+                "nlp": nlp, "z": z, "p": p, "bounds": (lbx, ubx), "z0": cur["z0"]}

@@ -1,0 +1,172 @@
+"""The NLP's start point, bounds and own values at a solution, and the carrying of an earlier NLP's
+multipliers to a new one (warm start) (:class:`NLPSolution`, a part of
+:class:`~gearopt.synthesis.loaded.LoadedMicroOptimizer`)."""
+
+from __future__ import annotations
+
+import math
+
+import casadi as ca
+import numpy as np
+
+from ...meshing.misalignment import Misalignment
+from ...units import RAD_TO_ARCSEC
+from .constants import G_REF, MU
+from .verify import parabola_fit
+
+
+class NLPSolution:
+    """Start point, bounds and predicted values of the NLP; multipliers carried between NLPs."""
+
+    def _start(self, nlp, lin, theta_k, sw):
+        """Initial point: the exact loaded TCA of the linearisation's design (its loads, deflections and
+        approach), with the smoothed complementarity x y = MU made to hold."""
+        P, nx, nB, TC, nw = (nlp["sizes"][k] for k in ("P", "nx", "nB", "TC", "nw"))
+        x0 = np.zeros(nx)
+        d0 = np.zeros(nB)
+        w0 = np.zeros(nw)
+        lever = nlp["lever"]
+        CF = {}
+        for b, (t, c, n, first, cnt) in enumerate(nlp["blocks"]):
+            S = lin[c]["S"]
+            K, N, M = S.z.shape
+            r = sw[c].results[t]
+            A = nlp["keys"][first:first + cnt, 3]
+            Ff = np.transpose(r.load, (1, 0, 2)).reshape(N, K * M)[n]
+            x0[first:first + cnt] = Ff[A] / r.W
+            CF[(t, c, n)] = lin[c]["st"]["Cs"][n] @ Ff / G_REF
+            # delta' = delta - te0 lever (absolute separations a = -te lever)
+            d0[b] = (r.delta[n] - r.te_unloaded[n] * lever) / G_REF
+        for j, (t, c, n, i) in enumerate(nlp["w_keys"]):
+            w0[j] = CF[(t, c, n)][i]
+        te = -d0 * G_REF / lever * RAD_TO_ARCSEC
+        u0 = np.full(TC, -np.inf)
+        v0 = np.full(TC, np.inf)
+        np.maximum.at(u0, nlp["ct"], te)
+        np.minimum.at(v0, nlp["ct"], te)
+        z0 = np.concatenate([np.asarray(theta_k) * 1e3, x0, np.ones(nx), d0, u0, v0, np.zeros(2 * TC), w0,
+                             self._te0_start(nlp["te0"], lever) if nlp["te0"] is not None else []])
+        gap = np.asarray(nlp["gap"](z0, np.ones(self.torques.size), np.zeros(len(Misalignment.names())))).ravel()
+        loaded = x0 > 1e3 * MU
+        y0 = np.where(loaded, MU / np.maximum(x0, 1e-300), np.maximum(gap, 1e-3))
+        x0 = np.where(loaded, x0, MU / y0)
+        z0[P:P + nx] = x0
+        z0[P + nx:P + 2 * nx] = y0
+        # slacks that make the start feasible for the pressure and edge constraints
+        ct_x = np.repeat(nlp["ct"], [b[4] for b in nlp["blocks"]])
+        s_p = np.zeros(TC)
+        s_e = np.zeros(TC)
+        if self.p_limit is not None:
+            W = nlp["Wt"][np.repeat([b[0] for b in nlp["blocks"]], [b[4] for b in nlp["blocks"]])]
+            p2 = np.where(nlp["edge"], 0.0, x0 * W * self.material.E_star / (math.pi * nlp["Rx"] * nlp["ln"]))
+            np.maximum.at(s_p, ct_x, p2 / self.p_limit**2 - 1.0)
+        if self.edge_margin is not None:
+            np.maximum.at(s_e, ct_x, nlp["ew"] * x0 - MU * G_REF / self.edge_margin)
+        z0[P + 2 * nx + nB + 2 * TC:P + 2 * nx + nB + 4 * TC] = np.concatenate([s_p, s_e]) * 1.01 + 1e-6
+        return z0
+
+    def _te0_start(self, te0, lever) -> np.ndarray:
+        """Start of the unloaded-TE target's unknowns at the linearisation's design: each block's
+        smallest separation carries the load, every other slice x = MU / y."""
+        aa = te0["a"] / G_REF
+        n0, nB0 = aa.size, len(te0["blocks"])
+        x0, y0, d0 = np.zeros(n0), np.zeros(n0), np.zeros(nB0)
+        for b, (_, _, first, cnt) in enumerate(te0["blocks"]):
+            s = slice(first, first + cnt)
+            y = aa[s] - np.min(aa[s])
+            j = int(np.argmin(aa[s]))
+            x = MU / np.maximum(y, 1e-3)
+            x[j] = 1.0 - (np.sum(x) - x[j])
+            d0[b] = np.min(aa[s]) - MU / x[j]
+            y = aa[s] - d0[b]
+            x = np.where(np.arange(cnt) == j, x[j], MU / y)
+            x0[s], y0[s] = x, y
+        return np.concatenate([x0, y0, d0])
+
+    def _bounds(self, nlp):
+        P, nx, nB, TC, nw, n0, nB0 = (nlp["sizes"][k] for k in ("P", "nx", "nB", "TC", "nw", "n0", "nB0"))
+        free = 2 * nx + nB + 2 * TC
+        tail = nw + 2 * n0 + nB0  # deflections and the unloaded-TE target's unknowns: free
+        lbx = np.concatenate([self.lo * 1e3, np.full(free, -np.inf), np.zeros(2 * TC), np.full(tail, -np.inf)])
+        ubx = np.concatenate([self.hi * 1e3, np.full(free, np.inf), np.full(2 * TC + tail, np.inf)])
+        return lbx, ubx
+
+    def _predicted(self, nlp, z):
+        P, nx, nB, TC = (nlp["sizes"][k] for k in ("P", "nx", "nB", "TC"))
+        x = z[P:P + nx]
+        d = z[P + 2 * nx:P + 2 * nx + nB]
+        te = -d * G_REF / nlp["lever"] * RAD_TO_ARCSEC
+        hi = np.full(TC, -np.inf)
+        lo = np.full(TC, np.inf)
+        np.maximum.at(hi, nlp["ct"], te)
+        np.minimum.at(lo, nlp["ct"], te)
+        T, C = self.torques.size, len(self.cases)
+        pp = (hi - lo).reshape(T, C)
+        # flank pressure of the NLP's loads
+        W = nlp["Wt"][np.repeat([b[0] for b in nlp["blocks"]], [b[4] for b in nlp["blocks"]])]
+        f = np.maximum(x, 0.0) * W / nlp["ln"]
+        p0 = np.where(nlp["edge"], 0.0, np.sqrt(f * self.material.E_star / (math.pi * nlp["Rx"])))
+        pm = np.full(TC, 0.0)
+        blk_ct = np.repeat(nlp["ct"], [b[4] for b in nlp["blocks"]])
+        np.maximum.at(pm, blk_ct, p0)
+        slack = z[P + 2 * nx + nB + 2 * TC:P + 2 * nx + nB + 4 * TC]
+        obj = float(np.sum(self.weights * pp))
+        if nlp["hmap"] is not None:
+            H = self.harmonics.size
+            ab = np.asarray(ca.mtimes(nlp["hmap"], ca.DM(te))).ravel().reshape(T, C, H, 2)
+            obj = float(np.sum(self.weights[..., None] * np.hypot(ab[..., 0], ab[..., 1]) * self.harmonics))
+        out = {"te_pp": pp, "p_max": pm.reshape(T, C), "objective": obj,
+               "slack_p": slack[:TC].reshape(T, C), "slack_e": slack[TC:].reshape(T, C)}
+        if nlp["te0"] is not None:  # the NLP's unloaded TE, its misfit by least squares (as in the NLP)
+            sz, t0 = nlp["sizes"], nlp["te0"]
+            off = P + 2 * nx + nB + 4 * TC + sz["nw"] + 2 * sz["n0"]
+            te = -z[off:off + sz["nB0"]] * G_REF / nlp["lever"] * RAD_TO_ARCSEC
+            rms = np.array([parabola_fit(t0["psi"][t0["case"] == c], te[t0["case"] == c],
+                                          self.te_level * RAD_TO_ARCSEC)[0] for c in range(C)])
+            out.update(te0_rms=rms, te0_term=self._te0_term(rms), te0=te)
+        return out
+
+    def _multipliers(self, prev, nlp):
+        """The multipliers of an earlier NLP's solution ``prev = (nlp, solution)`` carried to ``nlp``,
+        row by row: a row of a slice, a block or a torque-case keeps its multiplier where the earlier
+        NLP had the same row (the same torque, case, position and slice), else 0. ``None`` when the
+        two grids of positions differ."""
+        pn, r = prev
+        if not np.array_equal(pn["phi1"], nlp["phi1"]):
+            return None
+        lg, lx = (np.asarray(r[k]).ravel() for k in ("lam_g", "lam_x"))
+
+        def code(k):  # (torque, case, position, slice) -> one key
+            k = np.asarray(k, np.int64).reshape(-1, 4)
+            return ((k[:, 0] * 1000 + k[:, 1]) * 100000 + k[:, 2]) * 1000000 + k[:, 3]
+
+        def rows(n):  # the constraint rows' segments in order, each by its keys
+            kx = code(n["keys"])
+            kb = code([(b[0], b[1], b[2], 0) for b in n["blocks"]])
+            out = [code(n["w_keys"]), kx, kx, kb, kb, kb, kx[n["rows"]["flank"]], kx[n["rows"]["ends"]]]
+            if n["te0"] is not None:  # the unloaded-TE target's rows (torque index T: zero load)
+                k0 = code(n["te0"]["keys"])
+                out += [k0, k0, code([(self.torques.size, c, m, 0) for c, m, _, _ in n["te0"]["blocks"]])]
+            return out
+
+        def carry(kp, vp, kn):
+            out = np.zeros(kn.size)
+            if kp.size and kn.size:
+                o = np.argsort(kp)
+                j = np.minimum(np.searchsorted(kp[o], kn), kp.size - 1)
+                hit = kp[o][j] == kn
+                out[hit] = vp[o[j[hit]]]
+            return out
+
+        old, new, parts, i = rows(pn), rows(nlp), [], 0
+        for kp, kn in zip(old, new):
+            parts.append(carry(kp, lg[i:i + kp.size], kn))
+            i += kp.size
+        sz, szp = nlp["sizes"], pn["sizes"]
+        lam_x = np.zeros(nlp["problem"]["x"].shape[0])
+        P, TC = sz["P"], sz["TC"]
+        # (the design's bounds: none, the new design is the centre of its trust region)
+        s0 = P + 2 * sz["nx"] + sz["nB"] + 2 * TC  # the slacks' bounds
+        s0p = P + 2 * szp["nx"] + szp["nB"] + 2 * TC
+        lam_x[s0:s0 + 2 * TC] = lx[s0p:s0p + 2 * TC]
+        return lam_x, np.concatenate(parts)
