@@ -48,6 +48,7 @@ from ..gears import GearPair
 from ..geometry.frames import rot_z_points
 from ..geometry.generation import GeneratedTooth
 from ..ltca.compliance import C_PRIME_STEEL
+from ..ltca.hertz import contact_modulus, hertz_half_width, hertz_peak_pressure
 from ..meshing.misalignment import Misalignment
 from ..meshing.tca import TCA
 from .calculix import CalculixError, Deck, last_block, read_contact_statistics, read_dat, read_frd_block, run_ccx
@@ -195,9 +196,9 @@ def hertz_line(force_per_length: float, rho1: float, rho2: float, E: float, nu: 
     ``1/R* = 1/rho1 + 1/rho2``, ``E* = E / (2 (1 - nu^2))``, ``p0 = sqrt(F' E* / (pi R*))``,
     ``b = sqrt(4 F' R* / (pi E*))``; also the max von Mises stress 0.557 p0 at depth 0.70 b (nu 0.3)."""
     Rs = 1.0 / (1.0 / rho1 + 1.0 / rho2)
-    Es = E / (2 * (1 - nu**2))
-    p0 = math.sqrt(force_per_length * Es / (math.pi * Rs))
-    b = math.sqrt(4 * force_per_length * Rs / (math.pi * Es))
+    Es = contact_modulus(E, nu)
+    p0 = float(hertz_peak_pressure(force_per_length, Rs, Es))
+    b = float(hertz_half_width(force_per_length, Rs, Es))
     return {"p0": p0, "b": b, "R_star": Rs, "E_star": Es, "vm_max": 0.557 * p0}
 
 

@@ -32,6 +32,7 @@ import numpy as np
 
 from ..errors import check_number, out_of_range
 from ..geometry.generation import GeneratedTooth
+from .hertz import contact_modulus, hertz_half_width, hertz_peak_pressure, weber_compliance
 
 #: Sainsot, Velex & Duverger (2004), Table 1: coefficients (A, B, C, D, E, F) of
 #: ``X = A / theta_f^2 + B h_fi^2 + C h_fi / theta_f + D / theta_f + E h_fi + F`` for X = L, M, P, Q.
@@ -76,7 +77,7 @@ class Material:
     @property
     def E_star(self) -> float:
         """Contact modulus of the pair, ``1/E* = 2 (1 - nu^2) / E`` [MPa]."""
-        return self.E / (2.0 * (1.0 - self.nu**2))
+        return contact_modulus(self.E, self.nu)
 
 
 class ToothCompliance:
@@ -198,14 +199,10 @@ def weber_contact(f, R_star, h1, h2, material: Material, f_min: float):
     b_H, p0 : arrays [mm], [MPa] at the load ``f``.
     """
     f = np.asarray(f, float)
-    fl = np.maximum(f, f_min)
     Es = material.E_star
-    b_l = np.sqrt(4.0 * fl * R_star / (math.pi * Es))
-    nu = material.nu
-    c = 2.0 * (1.0 - nu**2) / (math.pi * material.E) * (np.log(2.0 * h1 / b_l) + np.log(2.0 * h2 / b_l)
-                                                        - nu / (1.0 - nu))
+    c = weber_compliance(f, R_star, h1, h2, material.E, material.nu, Es, f_min, smoothing="max")
     fp = np.maximum(f, 0.0)
-    return c, np.sqrt(4.0 * fp * R_star / (math.pi * Es)), np.sqrt(fp * Es / (math.pi * R_star))
+    return c, hertz_half_width(fp, R_star, Es), hertz_peak_pressure(fp, R_star, Es)
 
 
 def weber_tangent(material: Material) -> ca.Function:
@@ -213,10 +210,7 @@ def weber_tangent(material: Material) -> ca.Function:
     (c, dc)`` with ``c = delta / f`` as :func:`weber_contact` [mm^2/N] and ``dc = d(c f)/df`` (the
     approach's derivative by AD; the Newton step of the Hertz fixed point, docs/ltca.md section 3)."""
     f, R, h1, h2, f_min = (ca.SX.sym(n) for n in ("f", "R_star", "h1", "h2", "f_min"))
-    nu = material.nu
-    b_l = ca.sqrt(4.0 * ca.fmax(f, f_min) * R / (math.pi * material.E_star))
-    c = 2.0 * (1.0 - nu**2) / (math.pi * material.E) * (ca.log(2.0 * h1 / b_l) + ca.log(2.0 * h2 / b_l)
-                                                        - nu / (1.0 - nu))
+    c = weber_compliance(f, R, h1, h2, material.E, material.nu, material.E_star, f_min, smoothing="max")
     return ca.Function("weber_tangent", [f, R, h1, h2, f_min], [c, ca.jacobian(c * f, f)],
                        ["f", "R_star", "h1", "h2", "f_min"], ["c", "dc"])
 

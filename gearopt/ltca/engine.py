@@ -40,6 +40,7 @@ from ..meshing.misalignment import Misalignment
 from ..meshing.tca import TCA
 from ..units import RAD_TO_ARCSEC
 from .compliance import C_PRIME_STEEL, Material, ToothCompliance, coupling_batch, weber_contact, weber_tangent
+from .hertz import contact_modulus, hertz_peak_pressure
 from .slices import SliceSet, SliceSolver
 
 HERTZ_TOL = 1e-7  #: the Hertz fixed point stops when no slice load changes by more than this x W
@@ -80,8 +81,8 @@ def pressure_lower_bound(pair, torque: float, material) -> float:
     W = torque * 1e3 / (g1.r_b * cb)
     length = min(g1.b, pair.gear.b) * (math.floor(pair.eps_alpha) + 1) / cb
     rho = pair.a_w * math.sin(pair.alpha_wt) / 4 / cb
-    e_star = material.E / (2 * (1 - material.nu**2))
-    return math.sqrt(W / length * e_star / (math.pi * rho))
+    e_star = contact_modulus(material.E, material.nu)
+    return float(hertz_peak_pressure(W / length, rho, e_star))
 
 
 def check_torque_range(pair, torque_max: float, material=None, name: str = "torque") -> None:
