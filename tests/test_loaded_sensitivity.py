@@ -4,6 +4,7 @@ against central differences of re-solved optima on the cheapest loaded_microgeom
 
 from __future__ import annotations
 
+from dataclasses import field, make_dataclass
 from pathlib import Path
 
 import numpy as np
@@ -35,6 +36,7 @@ def test_mirror_image_flips_every_odd_kind_and_keeps_the_centre_distance():
     m = Misalignment(dE=0.02, crossing=1e-3, intersecting=-2e-3, axial=0.3)
     im = mirror_image(m)
     assert set(loaded.MIRROR_SIGN) == set(Misalignment.names())  # every field has its mirror sign
+    assert all(Misalignment.mirror_sign(k) == loaded.MIRROR_SIGN[k] for k in Misalignment.names())
     assert (im.dE, im.crossing, im.intersecting, im.axial) == (0.02, -1e-3, 2e-3, -0.3)
 
 
@@ -42,14 +44,38 @@ def test_mirror_classes_pair_the_mirror_images(mirrored):
     assert mirrored.mirror_classes() == [[0], [1, 3], [2]]
 
 
+def _with_kind(mirror):
+    """Misalignment with one more kind, ``tilt`` [rad], as a new field would be added to the class;
+    ``mirror``: its declared sign under z -> -z (None: the field declares none)."""
+    meta = {"unit": "angle", "doc": "a new kind", "scene_max": 1.0}
+    if mirror is not None:
+        meta["mirror"] = mirror
+    return make_dataclass("MisalignmentPlus", [("tilt", float, field(default=0.0, metadata=meta))],
+                          bases=(Misalignment,), frozen=True)
+
+
 def test_a_misalignment_kind_without_a_mirror_sign_disables_the_reduction(mirrored, monkeypatch):
-    """The mirror detection iterates Misalignment's fields: a kind it does not know (here: axial taken
-    out of MIRROR_SIGN, as a new field would be) leaves every case on its own instead of being skipped
-    (a pair differing only in that kind would otherwise be taken for mirror images)."""
-    monkeypatch.setattr(loaded, "MIRROR_SIGN", {k: v for k, v in loaded.MIRROR_SIGN.items() if k != "axial"})
+    """The mirror detection reads every field of the cases' Misalignment class: a new kind that
+    declares no mirror sign leaves every case on its own instead of being skipped (the cases below
+    differ only in it and would otherwise be taken for mirror images), and mirror_image names it."""
+    Plus = _with_kind(None)
+    cases = [Plus(crossing=2 * ARCMIN, tilt=1e-3), Plus(crossing=-2 * ARCMIN, tilt=-5e-3)]
+    monkeypatch.setattr(mirrored, "cases", tuple(cases))
     assert mirrored.mirror_classes() is None
-    with pytest.raises(ArgumentError, match="axial"):
-        mirror_image(Misalignment(axial=0.1))
+    with pytest.raises(ArgumentError, match="tilt"):
+        mirror_image(cases[0])
+
+
+def test_a_new_misalignment_kind_with_its_mirror_sign_takes_part_in_the_pairing(mirrored, monkeypatch):
+    """A new kind that declares its sign is read too: cases that differ in it are mirror images only
+    when it flips as declared."""
+    Plus = _with_kind(-1.0)
+    assert mirror_image(Plus(crossing=1e-3, tilt=2e-3)) == Plus(crossing=-1e-3, tilt=-2e-3)
+    monkeypatch.setattr(mirrored, "cases", (Plus(crossing=2 * ARCMIN, tilt=1e-3), Plus(crossing=-2 * ARCMIN, tilt=-1e-3)))
+    assert mirrored.mirror_classes() == [[0, 1]]
+    # the same crossings with the tilt unflipped: not mirror images (the kind is not skipped)
+    monkeypatch.setattr(mirrored, "cases", (Plus(crossing=2 * ARCMIN, tilt=1e-3), Plus(crossing=-2 * ARCMIN, tilt=1e-3)))
+    assert mirrored.mirror_classes() is None
 
 
 def test_cases_that_differ_in_a_kind_are_not_mirror_images():

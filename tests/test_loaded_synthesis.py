@@ -13,6 +13,7 @@ from gearopt.gears import Gear, GearPair
 from gearopt.geometry.microgeometry import Microgeometry
 from gearopt.meshing.misalignment import Misalignment
 from gearopt.synthesis.loaded import EDGE_TOL, LoadedMicroOptimizer
+from gearopt.synthesis.loaded.layout import nlp_layout
 from gearopt.units import ARCMIN, RAD_TO_ARCSEC
 
 FREE = {"pinion.C_alpha": (0.0, 0.04), "pinion.C_beta": (0.0, 0.04), "pinion.C_alpha_a": (0.0, 0.04),
@@ -63,13 +64,13 @@ def test_separation_sensitivities_match_finite_differences(opt, monkeypatch):
         e[j] = h
         lp, lm = opt.linearise(th + e), opt.linearise(th - e)
         for c in range(len(opt.cases)):
-            S = lin[c]["S"]
-            both = S.active & lp[c]["S"].active & lm[c]["S"].active
-            fd = (lp[c]["a"] - lm[c]["a"]) / (2 * h)
+            S = lin[c].slices
+            both = S.active & lp[c].slices.active & lm[c].slices.active
+            fd = (lp[c].a - lm[c].a) / (2 * h)
             # the TE zero moves with the design (a constant per case): compare differences between slices
             ref = np.flatnonzero(both.ravel())[0]
             d_fd = (fd - fd.ravel()[ref])[both]
-            d_ad = (lin[c]["J"][..., j] - lin[c]["J"][..., j].ravel()[ref])[both]
+            d_ad = (lin[c].J[..., j] - lin[c].J[..., j].ravel()[ref])[both]
             assert both.sum() > 100
             assert np.max(np.abs(d_ad - d_fd)) < 2e-4 * max(1.0, np.max(np.abs(d_ad)))
             if j == 2:  # the tip relief moves the pinion's tip-edge slices, the root relief the gear's
@@ -78,11 +79,11 @@ def test_separation_sensitivities_match_finite_differences(opt, monkeypatch):
                 assert np.any(both & (S.edge == 2))
             # the flank slices' points move along the profile (the edge weight's tip band): their
             # radius on each member against central differences
-            fl = both & (S.edge == 0) & (lp[c]["S"].edge == 0) & (lm[c]["S"].edge == 0)
+            fl = both & (S.edge == 0) & (lp[c].slices.edge == 0) & (lm[c].slices.edge == 0)
             for mem, r in ((0, "r1"), (1, "r2")):
-                rad = [np.hypot(getattr(L[c]["S"], r)[..., 0], getattr(L[c]["S"], r)[..., 1]) for L in (lp, lm)]
+                rad = [np.hypot(getattr(L[c].slices, r)[..., 0], getattr(L[c].slices, r)[..., 1]) for L in (lp, lm)]
                 fd_r = ((rad[0] - rad[1]) / (2 * h))[fl]
-                ad_r = lin[c]["Jr"][..., mem, j][fl]
+                ad_r = lin[c].Jr[..., mem, j][fl]
                 assert np.max(np.abs(fd_r)) > 0.1  # mm of radius per mm of amount: the point does move
                 assert np.max(np.abs(ad_r - fd_r)) < 2e-3 * np.max(np.abs(fd_r))
 
@@ -110,12 +111,12 @@ def test_litvin_settings_as_design_variables(monkeypatch):
         e = np.zeros(th.size)
         e[j] = h
         lp, lm = opt.linearise(th + e), opt.linearise(th - e)
-        S = lin[1]["S"]
-        both = S.active & lp[1]["S"].active & lm[1]["S"].active
+        S = lin[1].slices
+        both = S.active & lp[1].slices.active & lm[1].slices.active
         fd = (lp[1]["a"] - lm[1]["a"]) / (2 * h)
         ref = np.flatnonzero(both.ravel())[0]
         d_fd = (fd - fd.ravel()[ref])[both]
-        d_ad = (lin[1]["J"][..., j] - lin[1]["J"][..., j].ravel()[ref])[both]
+        d_ad = (lin[1].J[..., j] - lin[1].J[..., j].ravel()[ref])[both]
         assert np.max(np.abs(d_ad - d_fd)) < 1e-3 * np.max(np.abs(d_ad))
         assert np.max(np.abs(d_ad)) > 0.1  # mm of separation per 1/mm: the setting does move the flank
 
@@ -167,9 +168,9 @@ def test_warm_start_carries_the_multipliers_by_slice_and_reaches_the_cold_optimu
     assert "solver" not in b["nlp"] and "warm" not in b["nlp"]  # IPOPT is built for the NLP only when it is solved
     _, lg = opt._multipliers((a["nlp"], ra), b["nlp"])
     na, nb = a["nlp"], b["nlp"]
-    off = lambda n: n["sizes"]["nw"]  # noqa: E731 - the complementarity rows follow the stiffness rows
-    ka = {tuple(k): lam_a[off(na) + na["sizes"]["nx"] + i] for i, k in enumerate(na["keys"])}
-    fb_b = lg[off(nb) + nb["sizes"]["nx"]:off(nb) + 2 * nb["sizes"]["nx"]]
+    fb = lambda n, v: n["layout"].rows.take(v, "complementarity")  # noqa: E731 - one row per slice held
+    ka = dict(zip((tuple(k) for k in na["keys"]), fb(na, lam_a)))
+    fb_b = fb(nb, lg)
     keys_b = [tuple(k) for k in nb["keys"]]
     assert nb["sizes"]["nx"] > na["sizes"]["nx"]  # the wider NLP holds slices the narrow one left out
     assert sum(k in ka for k in keys_b) > 0.5 * len(keys_b)
@@ -226,7 +227,8 @@ class _PenaltyToy(LoadedMicroOptimizer):
 
     def _around(self, theta, radius=np.inf, rho=1000.0):
         chk = self.check(theta)
-        return {"nlp": {"sizes": {"nx": 1}}, "z0": theta * 1e3, "check": chk, "merit": self._merit(chk, rho),
+        lay = nlp_layout(P=1, nx=1, nB=0, TC=0, nw=0, n0=0, nB0=0, n_pressure=0, n_edge=0, n_torques=1, n_kinds=4)
+        return {"nlp": {"sizes": {"nx": 1}, "layout": lay}, "z0": theta * 1e3, "check": chk, "merit": self._merit(chk, rho),
                 "time": 0.0}
 
     def _solve_nlp(self, nlp, z0, lbx, ubx, p, prev=None):

@@ -1,7 +1,9 @@
 """Misalignments of the gear: the kinds, their units and their transform, defined together.
 
 Every kind is a field of :class:`Misalignment` whose ``metadata`` gives its unit (``"length"`` [mm]
-or ``"angle"`` [rad]), its meaning and the bound the scenes accept; :meth:`Misalignment.gear_to_fixed`
+or ``"angle"`` [rad]), its meaning, the bound the scenes accept and its sign under the mirror
+z -> -z of the drive (:meth:`Misalignment.mirror_sign`: the mirror-image cases of the loaded
+optimiser, :mod:`gearopt.synthesis.loaded.mirror`); :meth:`Misalignment.gear_to_fixed`
 applies all of them to a vector of the gear frame (Litvin's auxiliary frame S_q, docs/theory.md
 section 7). The TCA graph, the sweep checks, the scene keys, the crowning cases, the case labels and
 the results derive from these fields: adding a kind is a change to this file (plus its tests).
@@ -22,10 +24,11 @@ from ..units import ARCMIN
 ANGLE_MAX = 600 * ARCMIN  #: largest misalignment angle accepted [rad] (10 deg)
 
 
-def _kind(unit: str, doc: str, scene_max: float, default=0.0):
+def _kind(unit: str, doc: str, scene_max: float, mirror: float, default=0.0):
     """A misalignment field: ``unit`` "length" [mm] or "angle" [rad]; ``scene_max``: the largest
-    magnitude a scene accepts (mm, or deg for angles)."""
-    return field(default=default, metadata={"unit": unit, "doc": doc, "scene_max": scene_max})
+    magnitude a scene accepts (mm, or deg for angles); ``mirror``: +1 or -1, the kind's sign under
+    the mirror z -> -z of a drive symmetric about its mid-face (required: a new kind states it)."""
+    return field(default=default, metadata={"unit": unit, "doc": doc, "scene_max": scene_max, "mirror": mirror})
 
 
 @dataclass(frozen=True)
@@ -44,10 +47,12 @@ class Misalignment:
         Axial displacement of the gear [mm].
     """
 
-    dE: float = _kind("length", "centre distance change", 5.0)
-    crossing: float = _kind("angle", "crossing angle of the axes", 10.0)
-    intersecting: float = _kind("angle", "intersecting angle of the axes", 10.0)
-    axial: float = _kind("length", "axial displacement of the gear", 50.0)
+    # under the mirror z -> -z the centre distance is unchanged; the crossing and intersecting angles
+    # and the axial shift change sign
+    dE: float = _kind("length", "centre distance change", 5.0, mirror=1.0)
+    crossing: float = _kind("angle", "crossing angle of the axes", 10.0, mirror=-1.0)
+    intersecting: float = _kind("angle", "intersecting angle of the axes", 10.0, mirror=-1.0)
+    axial: float = _kind("length", "axial displacement of the gear", 50.0, mirror=-1.0)
 
     def __post_init__(self):
         for k in self.names():
@@ -66,6 +71,12 @@ class Misalignment:
     def names(cls, unit: str | None = None) -> tuple:
         """Names of the kinds (all, or those of one unit, "length" or "angle"), in vector order."""
         return tuple(f.name for f in fields(cls) if unit is None or f.metadata["unit"] == unit)
+
+    @classmethod
+    def mirror_sign(cls, name: str) -> float | None:
+        """The kind's sign (+1 or -1) under the mirror z -> -z of a drive symmetric about its mid-face,
+        None for a field that does not declare it."""
+        return next(f for f in fields(cls) if f.name == name).metadata.get("mirror")
 
     @classmethod
     def meta(cls, name: str) -> dict:

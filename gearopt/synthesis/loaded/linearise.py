@@ -7,8 +7,53 @@ misalignments (the implicit function theorem on the slice equations, by AD), per
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass, field
+
 import casadi as ca
 import numpy as np
+
+from ...ltca.slices import SliceSet
+from ...meshing.misalignment import Misalignment
+
+
+@dataclass(frozen=True)
+class Linearisation:
+    """The slices of one design in one misalignment case and their separations' sensitivities
+    (:meth:`Lineariser.linearise`); arrays (K, N, M): pairs x positions x slices, zero at inactive slices.
+
+    Attributes
+    ----------
+    slices : SliceSet
+        The exact slices of the design (:meth:`gearopt.ltca.engine.LTCA.slices`).
+    structure : dict
+        Their compliance and Hertz data (``LTCA._structure``: ``length``,
+        ``R``, ``h1``, ``h2``, ``ct``, ``Cs`` ...).
+    a : (K, N, M) array
+        Absolute separation of every slice [mm] (``-te r_b2 cos(beta_b)``).
+    J : (K, N, M, P) array
+        Its derivative in each free amount [mm/mm, or mm per 1/mm for a setting].
+    Jm : (K, N, M, Q) array
+        Its derivative in each misalignment kind of ``Misalignment.names()`` [mm/rad or mm/mm].
+    Jr : (K, N, M, 2, P + Q) array
+        Derivatives of the slice point's radius on the pinion and on the gear [mm per unit] (moves a
+        flank slice in the tip band, :func:`~gearopt.synthesis.loaded.edges.edge_weight_lin`).
+    lam : (K, N, M) array
+        Each slice's lever about the pinion axis over ``r_b1 cos(beta_b)`` (1 on an involute flank).
+    da : (K, N, M) array
+        The separation's correction for the slice's own levers [mm] (zero on an involute flank).
+    mis : Misalignment
+        The case.
+    """
+
+    slices: SliceSet = field(repr=False)
+    structure: dict = field(repr=False)
+    a: np.ndarray = field(repr=False)
+    J: np.ndarray = field(repr=False)
+    Jm: np.ndarray = field(repr=False)
+    Jr: np.ndarray = field(repr=False)
+    lam: np.ndarray = field(repr=False)
+    da: np.ndarray = field(repr=False)
+    mis: Misalignment
 
 
 class Lineariser:
@@ -40,11 +85,8 @@ class Lineariser:
         return self._sens[kind]
 
     def linearise(self, theta) -> list:
-        """Slices, compliance and the separations' sensitivities of the design ``theta`` [mm], per case:
-        a list of dicts (``S``: SliceSet, ``st``: structure, ``a`` (K, N, M) separations [mm],
-        ``J`` (K, N, M, P) [mm/mm], ``Jm`` (K, N, M, 4) per misalignment kind of
-        ``Misalignment.names()`` [mm/rad or mm/mm], ``Jr`` (K, N, M, 2, P + 4) the slice point's radius
-        on the pinion and on the gear per design amount and misalignment kind)."""
+        """Slices, compliance and the separations' sensitivities of the design ``theta`` [mm]: one
+        :class:`Linearisation` per case."""
         p1, p2 = self.params(theta)
         lever = self.pair.gear.r_b * self.ltca.cos_bb
         z1 = self.pair.pinion.z
@@ -81,8 +123,8 @@ class Lineariser:
             da = np.where(S.active, -(S.te - te0) * (lev2 - lever) - te0 * (lam - 1.0) * lever, 0.0)
             a = np.where(S.active, -S.te * lever, 0.0)
             P = len(self.free)
-            out.append({"S": S, "st": st, "a": a, "J": J[..., :P], "Jm": J[..., P:], "Jr": Jr, "mis": mis,
-                        "lam": lam, "da": da})
+            out.append(Linearisation(slices=S, structure=st, a=a, J=J[..., :P], Jm=J[..., P:], Jr=Jr, mis=mis,
+                                     lam=lam, da=da))
         return out
 
     def _levers(self, S) -> tuple[np.ndarray, np.ndarray]:
@@ -108,8 +150,8 @@ class Lineariser:
         out = []
         margin = self.edge_margin or 0.0
         for L, sw in zip(lin, sweeps):
-            S = L["S"]
-            reach = (2.0 * radius * np.sum(np.abs(L["J"]), axis=-1) if np.isfinite(radius)
+            S = L.slices
+            reach = (2.0 * radius * np.sum(np.abs(L.J), axis=-1) if np.isfinite(radius)
                      else np.full(S.z.shape, np.inf))  # no radius: every active slice stays
             keep = []
             for r in sw.results:

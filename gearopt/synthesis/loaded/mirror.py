@@ -15,21 +15,28 @@ from ...errors import ArgumentError
 from ...meshing.misalignment import Misalignment
 
 
-#: sign of each misalignment kind under the mirror z -> -z of a drive symmetric about its mid-face
-#: (the centre distance is unchanged; the crossing and intersecting angles and the axial shift change
-#: sign). Every field of Misalignment must be listed: a kind missing here disables the mirror reduction.
-MIRROR_SIGN = {"dE": 1.0, "crossing": -1.0, "intersecting": -1.0, "axial": -1.0}
+def mirror_signs(cls=Misalignment) -> dict:
+    """``{kind: sign}`` of every field of the misalignment class ``cls`` (its declared
+    :meth:`~gearopt.meshing.misalignment.Misalignment.mirror_sign`, None where a field declares none)."""
+    return {k: cls.mirror_sign(k) for k in cls.names()}
+
+
+#: sign of each misalignment kind under the mirror z -> -z, as declared by Misalignment's fields
+#: (for reference: the functions below read the fields at every call)
+MIRROR_SIGN = mirror_signs()
 
 
 def mirror_image(mis: Misalignment) -> Misalignment:
-    """The misalignment mirrored in z (each kind times its ``MIRROR_SIGN``); :class:`ArgumentError`
-    naming the kind when one has no known mirror sign."""
-    for k in Misalignment.names():
-        if k not in MIRROR_SIGN:
-            raise ArgumentError(f"misalignment kind {k!r}: its sign under the mirror z -> -z is not known "
-                                "(gearopt.synthesis.loaded.MIRROR_SIGN).", param=k, value=k,
-                                valid=f"one of {sorted(MIRROR_SIGN)}")
-    return Misalignment(**{k: MIRROR_SIGN[k] * getattr(mis, k) for k in Misalignment.names()})
+    """The misalignment mirrored in z (each kind of its class times its declared mirror sign);
+    :class:`ArgumentError` naming the kind when one declares no mirror sign."""
+    cls = type(mis)
+    signs = mirror_signs(cls)
+    for k, s in signs.items():
+        if s is None:
+            raise ArgumentError(f"misalignment kind {k!r}: its sign under the mirror z -> -z is not declared "
+                                f"(the 'mirror' entry of the field's metadata, {cls.__name__}.mirror_sign).",
+                                param=k, value=k, valid="a field declaring mirror = +1 or -1")
+    return cls(**{k: signs[k] * getattr(mis, k) for k in signs})
 
 
 class MirrorReduction:
@@ -43,8 +50,9 @@ class MirrorReduction:
         symmetric in z (no helix slope, bias, off-centre lead crowning, unequal end reliefs or measured
         deviations; none of these free) meshes under a misalignment as under its mirror image
         (:func:`mirror_image`: ``(dE, crossing, intersecting, axial)`` as ``(dE, -crossing,
-        -intersecting, -axial)``) mirrored in z. Every kind of ``Misalignment`` is read from its fields;
-        one without a known mirror sign (``MIRROR_SIGN``) leaves every case on its own (None)."""
+        -intersecting, -axial)``) mirrored in z. Every kind is read from the cases' class (the fields
+        of ``Misalignment``, each with its declared mirror sign); one without a declared sign, or cases
+        of different classes, leave every case on its own (None)."""
         asym = ("f_H_beta", "S_alpha", "z_Cb", "C_beta_I", "C_beta_II")
         if any(n.split(".", 1)[1] in asym for n in self.free):
             return None
@@ -55,9 +63,13 @@ class MirrorReduction:
             if mg is not None and (mg.f_H_beta or mg.S_alpha or mg.z_Cb or mg.measured or mg.C_beta_I != mg.C_beta_II
                                    or mg.b_I != mg.b_II):
                 return None
-        kinds = Misalignment.names()
-        if any(k not in MIRROR_SIGN for k in kinds):
+        types = {type(m) for m in self.cases}
+        if len(types) != 1:
+            return None
+        signs = mirror_signs(types.pop())
+        if any(s is None for s in signs.values()):
             return None  # a kind whose mirror image is not known: no case is taken for another's
+        kinds = tuple(signs)
         key = lambda m: tuple(round(float(getattr(m, k)), 15) for k in kinds)  # noqa: E731
         keys = [key(m) for m in self.cases]
         classes, seen = [], set()

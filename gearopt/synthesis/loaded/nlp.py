@@ -13,10 +13,12 @@ import numpy as np
 
 from ...ltca.compliance import coupling_stiffness_batch
 from ...ltca.engine import F_MIN_SHARE
+from ...ltca.hertz import weber_compliance
 from ...meshing.misalignment import Misalignment
 from ...units import RAD_TO_ARCSEC
 from .constants import G_REF, HARM_EPS, MU, TE0_EPS
 from .edges import edge_weight_lin
+from .layout import block_vector, nlp_layout, param_layout
 from .verify import harmonic_rows
 
 
@@ -50,17 +52,17 @@ class NLPBuilder:
         blocks = []  # (t, c, n, first x, count)
         nx = nw = 0
         for c, L in enumerate(lin):
-            S, st = L["S"], L["st"]
+            S, st = L.slices, L.structure
             K, N, M = S.z.shape
             acts = [np.transpose(S.active if keep is None else keep[c][t], (1, 0, 2)).reshape(N, K * M)
                     for t in range(T)]
             flat = lambda v: np.transpose(v, (1, 0, 2)).reshape(N, K * M)  # noqa: E731
-            a_n, l_n, R_n, h1_n, h2_n = (flat(v) for v in (L["a"], st["length"], st["R"], st["h1"], st["h2"]))
-            lam_n = flat(L["lam"])
-            a_n = a_n + flat(L["da"])
-            J_n = np.transpose(L["J"], (1, 0, 2, 3)).reshape(N, K * M, P)
-            Jm_n = np.transpose(L["Jm"], (1, 0, 2, 3)).reshape(N, K * M, -1)
-            e0, eg = edge_weight_lin(S, self.pair, L["Jr"])
+            a_n, l_n, R_n, h1_n, h2_n = (flat(v) for v in (L.a, st["length"], st["R"], st["h1"], st["h2"]))
+            lam_n = flat(L.lam)
+            a_n = a_n + flat(L.da)
+            J_n = np.transpose(L.J, (1, 0, 2, 3)).reshape(N, K * M, P)
+            Jm_n = np.transpose(L.Jm, (1, 0, 2, 3)).reshape(N, K * M, -1)
+            e0, eg = edge_weight_lin(S, self.pair, L.Jr)
             e_n = flat(e0)
             eg_n = np.transpose(eg, (1, 0, 2, 3)).reshape(N, K * M, -1)
             # a flank slice joins the edge rows when the band can reach it within the radius
@@ -139,8 +141,8 @@ class NLPBuilder:
         Ex_b = ca.DM.triplet(list(range(nx)), blk.tolist(), ca.DM.ones(nx), nx, nB)  # x -> block
         ct = np.array([b[0] * C + b[1] for b in blocks])
         Eb_ct = ca.DM.triplet(list(range(nB)), ct.tolist(), ca.DM.ones(nB), nB, T * C)
-        # unknowns (scaled): design [um], loads x [share], gaps y [um], approach d [um], TE bounds, slacks,
-        # and (analytical compliance) the deflections w [um] of every slice node
+        # unknowns (scaled, :mod:`.layout`): design [um], loads x [share], gaps y [um], approach d [um], TE
+        # bounds, slacks, and (analytical compliance) the deflections w [um] of every slice node
         th = ca.MX.sym("theta_um", P)
         x = ca.MX.sym("x", nx)
         y = ca.MX.sym("y", nx)
@@ -162,31 +164,28 @@ class NLPBuilder:
         F = x * W
         f = F / ln
         fmin = F_MIN_SHARE * W * cb / g1.b
-        fl = ca.sqrt(f**2 + fmin**2)
-        bH = ca.sqrt(4.0 * fl * Rx / (math.pi * mat.E_star))
-        nu = mat.nu
-        cH = 2.0 * (1.0 - nu**2) / (math.pi * mat.E) * (ca.log(2.0 * h1x / bH) + ca.log(2.0 * h2x / bH)
-                                                        - nu / (1.0 - nu))
+        # Weber's approach per unit load, the load kept off zero smoothly (the LTCA's max(f, f_min) has no
+        # derivative at f_min)
+        cH = weber_compliance(f, Rx, h1x, h2x, mat.E, mat.nu, mat.E_star, fmin, smoothing="hypot")
         dth = th * 1e-3 - ca.DM(theta_k)
         gap = ((ca.DM(a0) + ca.mtimes(ca.DM(Jx), dth) + ca.mtimes(ca.DM(Jmx), dm) + cH * f) / G_REF
                - ca.DM(lamx) * ca.mtimes(Ex_b, d))
-        g_list = []
+        # the constraint rows by name (:data:`.layout.ROWS`): (expression, lower bound, upper bound)
+        g_rows = {}
         if sparse:
             wi = np.concatenate(w_of_x)
             gap = gap + w[wi.tolist()]
             w_t = np.concatenate(w_keys)[:, 0]
             E_wt = ca.DM.triplet(list(range(nw)), w_t.tolist(), ca.DM.ones(nw), nw, T)  # w row -> torque
-            g_list.append(ca.mtimes(triplet(trip_A, nw, nw), w) - ca.mtimes(triplet(trip_D, nw, nx), x)
-                          * ca.mtimes(E_wt, tq))
+            g_rows["stiffness"] = (ca.mtimes(triplet(trip_A, nw, nw), w) - ca.mtimes(triplet(trip_D, nw, nx), x)
+                                   * ca.mtimes(E_wt, tq), 0.0, 0.0)
         else:
             gap = gap + ca.mtimes(triplet(trip_C, nx, nx), F) / G_REF
         fb = x + y - ca.sqrt(x**2 + y**2 + 2 * mu)  # zero where x >= 0, y >= 0, x y = mu
         te = -d * G_REF / lever * RAD_TO_ARCSEC  # (nB) loaded TE [arcsec] (up to each case's constant)
-        g_list += [y - gap, fb, ca.mtimes(Ex_b.T, ca.DM(lamx) * x) - 1.0, ca.mtimes(Eb_ct, u) - te,
-                   te - ca.mtimes(Eb_ct, v)]
-        n_eq = (nw if sparse else 0) + 2 * nx + nB
-        lbg = [np.zeros(n_eq), np.zeros(2 * nB)]
-        ubg = [np.zeros(n_eq), np.full(2 * nB, np.inf)]
+        g_rows.update(gap=(y - gap, 0.0, 0.0), complementarity=(fb, 0.0, 0.0),
+                      balance=(ca.mtimes(Ex_b.T, ca.DM(lamx) * x) - 1.0, 0.0, 0.0),
+                      te_hi=(ca.mtimes(Eb_ct, u) - te, 0.0, np.inf), te_lo=(te - ca.mtimes(Eb_ct, v), 0.0, np.inf))
         ct_x = ct[blk]
         flank = np.flatnonzero(~tipe)
         ends = np.flatnonzero(edge)
@@ -195,9 +194,8 @@ class NLPBuilder:
             k = mat.E_star / (math.pi * Rx[flank] * ln[flank])
             E_f = ca.DM.triplet(list(range(flank.size)), ct_x[flank].tolist(), ca.DM.ones(flank.size), flank.size,
                                 T * C)
-            g_list.append(x[flank.tolist()] * W[flank.tolist()] * ca.DM(k) / plim**2 - 1.0 - ca.mtimes(E_f, sp))
-            lbg.append(np.full(flank.size, -np.inf))
-            ubg.append(np.zeros(flank.size))
+            g_rows["pressure"] = (x[flank.tolist()] * W[flank.tolist()] * ca.DM(k) / plim**2 - 1.0
+                                  - ca.mtimes(E_f, sp), -np.inf, 0.0)
         if self.edge_margin is not None and ends.size:
             E_e = ca.DM.triplet(list(range(ends.size)), ct_x[ends].tolist(), ca.DM.ones(ends.size), ends.size, T * C)
             # a gap of at least the margin is, with x y = mu, a load share of at most mu / margin: the
@@ -206,12 +204,10 @@ class NLPBuilder:
             # the weight of a flank slice in the tip band moves with its point (linearised; negative:
             # below the band, where the row holds for any load)
             w_e = ca.DM(ew[ends]) + ca.mtimes(ca.DM(egx[ends, :P]), dth) + ca.mtimes(ca.DM(egx[ends, P:]), dm)
-            g_list.append(w_e * x[ends.tolist()] - mu / marg - ca.mtimes(E_e, se))
-            lbg.append(np.full(ends.size, -np.inf))
-            ubg.append(np.zeros(ends.size))
+            g_rows["edge"] = (w_e * x[ends.tolist()] - mu / marg - ca.mtimes(E_e, se), -np.inf, 0.0)
         te0 = self._te0_blocks(lin, radius, lever) if self.te_level is not None else None
         n0 = nB0 = 0
-        te0_vars = []
+        x0s, y0s, d0s = (ca.MX.sym(k, 0) for k in ("x0", "y0", "d0"))
         if te0 is not None:
             # the unloaded TE (zero load: no compliance, no Hertz flattening) of the pair centred on each
             # position, by the same smoothed complementarity: its approach d0 is the smallest separation
@@ -219,13 +215,12 @@ class NLPBuilder:
             # unknowns and rows, so the loaded NLP's indices stay as they are
             n0, nB0 = te0["a"].size, len(te0["blocks"])
             x0s, y0s, d0s = (ca.MX.sym(k, n) for k, n in (("x0", n0), ("y0", n0), ("d0", nB0)))
-            te0_vars = [x0s, y0s, d0s]
             E0 = ca.DM.triplet(list(range(n0)), te0["blk"].tolist(), ca.DM.ones(n0), n0, nB0)
             gap0 = ((ca.DM(te0["a"]) + ca.mtimes(ca.DM(te0["J"]), dth) + ca.mtimes(ca.DM(te0["Jm"]), dm)) / G_REF
                     - ca.mtimes(E0, d0s))
-            g_list += [y0s - gap0, x0s + y0s - ca.sqrt(x0s**2 + y0s**2 + 2 * mu), ca.mtimes(E0.T, x0s) - 1.0]
-            lbg.append(np.zeros(2 * n0 + nB0))
-            ubg.append(np.zeros(2 * n0 + nB0))
+            g_rows.update(te0_gap=(y0s - gap0, 0.0, 0.0),
+                          te0_complementarity=(x0s + y0s - ca.sqrt(x0s**2 + y0s**2 + 2 * mu), 0.0, 0.0),
+                          te0_balance=(ca.mtimes(E0.T, x0s) - 1.0, 0.0, 0.0))
             # misfit of each block's unloaded TE [arcsec] to the case's parabola c0 + c1 psi - level psi^2
             # (Litvin's predesigned function, as synthesis/crowning.py), c0 and c1 by least squares: the
             # residual is the projection of te0 + level psi^2 off the span of (1, psi), one matrix per
@@ -259,8 +254,19 @@ class NLPBuilder:
         obj = fit + rho * self._w_mean * ca.dot(mult, sp + se)
         if te0 is not None:
             obj = obj + te0_obj
-        z = ca.vertcat(th, x, y, d, u, v, sp, se, w, *te0_vars)
-        nlp = {"x": z, "p": ca.vertcat(plim, marg, mu, rho, tq, dm), "f": obj, "g": ca.vertcat(*g_list)}
+        rows = dict(flank=flank if self.p_limit is not None else flank[:0],
+                    ends=ends if self.edge_margin is not None else ends[:0])
+        layout = nlp_layout(P=P, nx=nx, nB=nB, TC=T * C, nw=nw, n0=n0, nB0=nB0, n_pressure=rows["flank"].size,
+                            n_edge=rows["ends"].size, n_torques=T, n_kinds=Jmx.shape[1])
+        unknowns = dict(theta=th, x=x, y=y, d=d, te_hi=u, te_lo=v, slack_p=sp, slack_e=se, w=w, x0=x0s, y0=y0s, d0=d0s)
+        z = ca.vertcat(*(unknowns[k] for k in layout.unknowns.names))
+        present = [k for k in layout.rows.names if k in g_rows]
+        assert all(layout.rows.count(k) == 0 for k in layout.rows.names if k not in g_rows)
+        lbg = np.concatenate([np.full(layout.rows.count(k), g_rows[k][1]) for k in present])
+        ubg = np.concatenate([np.full(layout.rows.count(k), g_rows[k][2]) for k in present])
+        params = dict(p_limit=plim, edge_margin=marg, mu=mu, rho=rho, torque_scale=tq, mis_offset=dm)
+        nlp = {"x": z, "p": ca.vertcat(*(params[k] for k in layout.params.names)), "f": obj,
+               "g": ca.vertcat(*(g_rows[k][0] for k in present))}
         # the start is the exact loaded TCA of the linearisation's design, close to the optimum: IPOPT's
         # adaptive barrier from mu = 0.01 (the target case 647 -> 529 iterations, 10 % faster, than the
         # monotone barrier from 0.01; docs/loaded_synthesis.md section 5). (Without IPOPT's gradient
@@ -269,11 +275,8 @@ class NLPBuilder:
         opts = {"ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes", "ipopt.tol": 1e-9,
                 "ipopt.max_iter": 1000, "ipopt.mu_strategy": "adaptive", "ipopt.mu_init": 1e-2, "error_on_fail": False,
                 **getattr(self, "_extra_opts", {})}
-        sizes = dict(P=P, nx=nx, nB=nB, TC=T * C, nw=nw, n0=n0, nB0=nB0)
-        rows = dict(flank=flank if self.p_limit is not None else flank[:0],
-                    ends=ends if self.edge_margin is not None else ends[:0])
-        return LoadedNLP(problem=nlp, opts=opts, phi1=self.phi1.copy(), rows=rows, gap=ca.Function("gap", [z, tq, dm], [gap]), lbg=np.concatenate(lbg),
-                    ubg=np.concatenate(ubg), sizes=sizes, blocks=blocks, ct=ct, edge=tipe, ew=np.clip(ew, 0.0, 1.0),
+        return LoadedNLP(problem=nlp, opts=opts, phi1=self.phi1.copy(), rows=rows, gap=ca.Function("gap", [z, tq, dm], [gap]), lbg=lbg,
+                    ubg=ubg, layout=layout, sizes=layout.sizes(), blocks=blocks, ct=ct, edge=tipe, ew=np.clip(ew, 0.0, 1.0),
                     lever=lever, Wt=Wt,
                     ln=ln, Rx=Rx, keys=keys, hmap=hmap, w_keys=np.concatenate(w_keys) if w_keys else np.zeros((0, 4), int),
                     te0=te0, te0_term=ca.Function("te0_term", [z], [te0_obj if te0 is not None else ca.MX(0.0)],
@@ -290,10 +293,10 @@ class NLPBuilder:
         out = {k: [] for k in ("a", "J", "Jm", "blk", "case", "psi", "keys")}
         blocks, first = [], 0
         for c, L in enumerate(lin):
-            S = L["S"]
+            S = L.slices
             K, N, M = S.z.shape
             idx, psi = self._te0_pairs(S)
-            reach = 2.0 * radius * np.sum(np.abs(L["J"]), axis=-1) if np.isfinite(radius) else None
+            reach = 2.0 * radius * np.sum(np.abs(L.J), axis=-1) if np.isfinite(radius) else None
             used = 0
             for n in range(N):
                 i = idx[n]
@@ -304,9 +307,9 @@ class NLPBuilder:
                     s = (np.max(S.te[i, n, m]) - S.te[i, n, m]) * lever
                     r = reach[i, n, m]
                     m = m[s - r <= np.min(s + r)]
-                out["a"].append(L["a"][i, n, m])
-                out["J"].append(L["J"][i, n, m])
-                out["Jm"].append(L["Jm"][i, n, m])
+                out["a"].append(L.a[i, n, m])
+                out["J"].append(L.J[i, n, m])
+                out["Jm"].append(L.Jm[i, n, m])
                 out["blk"].append(np.full(m.size, len(blocks)))
                 out["keys"].append(np.stack([np.full(m.size, T), np.full(m.size, c), np.full(m.size, n), i * M + m], 1))
                 out["case"].append(c)
@@ -340,8 +343,9 @@ class NLPBuilder:
     def _pvec(self, rho: float) -> list:
         """The NLP's parameters: pressure limit, edge margin [um], smoothing, penalty weight, the torque
         scales (1) and the misalignment offsets (0)."""
-        return ([self.p_limit or 1.0, (self.edge_margin or 0.0) / G_REF, MU, rho] + [1.0] * self.torques.size
-                + [0.0] * len(Misalignment.names()))
+        lay = param_layout(self.torques.size, len(Misalignment.names()))
+        return block_vector(lay, dict(p_limit=self.p_limit or 1.0, edge_margin=(self.edge_margin or 0.0) / G_REF,
+                                      mu=MU, rho=rho, torque_scale=1.0, mis_offset=0.0)).tolist()
 
 
 def _sparse_dm(rows, cols, vals, n_rows, n_cols) -> ca.DM:

@@ -12,7 +12,6 @@ from ...meshing.misalignment import Misalignment
 from ..crowning import SynthesisError
 from . import constants
 from .kkt import central_path_indicators, csc_of_dm, degenerate_constraints, sparse_lu
-from .mirror import MIRROR_SIGN
 from .results import MicroDesign
 
 
@@ -28,7 +27,7 @@ class Sensitivities:
         Mirror-image cases make the full problem's active-set KKT system singular: each active row of
         a case has its twin's, and the twins' rows differ only in their own loads. The problem of one
         case per class is the full one for every perturbation that keeps the twins mirror images: the
-        torques and the mirror-even kinds (``MIRROR_SIGN`` +1: the centre distance), whose derivatives
+        torques and the mirror-even kinds (``Misalignment.mirror_sign`` +1: the centre distance), whose derivatives
         it gives. An offset of a mirror-odd kind (crossing, intersecting, axial) added to every case
         breaks the pairing, but the duty cycle offset by ``-d`` is the mirror image of that offset by
         ``d``, so the optimum (symmetric amounts only, :meth:`mirror_classes`) is an even function of
@@ -47,7 +46,7 @@ class Sensitivities:
             return {**self.kkt_sensitivities(design), "mirror_odd": []}
         out = self._reduced().kkt_sensitivities(design)
         kinds = Misalignment.names()
-        odd = [j for j, k in enumerate(kinds) if MIRROR_SIGN[k] < 0]
+        odd = [j for j, k in enumerate(kinds) if Misalignment.mirror_sign(k) < 0]
         out["d_theta_d_mis"][:, odd] = 0.0
         out["d_objective_d_mis"][odd] = 0.0
         out["mirror_odd"] = [kinds[j] for j in odd]
@@ -116,7 +115,8 @@ class Sensitivities:
         zs, ps, g, f = pr["x"], pr["p"], pr["g"], pr["f"]
         lam = ca.MX.sym("lam", g.shape[0])
         L = f + ca.dot(lam, g)
-        sel = slice(4, ps.shape[0])  # the torque scales and misalignment offsets
+        lay = nlp["layout"]
+        sel = lay.params.span("torque_scale", "mis_offset")  # the parameters differentiated in
         gz = ca.gradient(L, zs)
         fun = ca.Function("loaded_kkt", [zs, ps, lam],
                           [ca.hessian(L, zs)[0], g, ca.jacobian(g, zs), ca.jacobian(g, ps)[:, sel],
@@ -152,12 +152,14 @@ class Sensitivities:
         K = sp_.bmat([[H, A.T], [A, None]], format="csc")
         rhs = -sp_.vstack([Lzp, Gp[rows], sp_.csc_matrix((B.size, Lzp.shape[1]))]).toarray()
         sol = sparse_lu(K, "the active set's KKT system").solve(rhs)
-        P, T = len(self.free), self.torques.size
-        dth = sol[:P] * 1e-3  # theta is in um in the NLP
+        dth = lay.unknowns.take(sol, "theta") * 1e-3  # theta is in um in the NLP
         dfdp = np.asarray(Lp).ravel()
-        step = float(np.max(np.abs(z[:P] * 1e-3 - theta)))
-        return {"d_objective_d_torque": dfdp[:T] / self.torques, "d_theta_d_torque": dth[:, :T] / self.torques[None, :],
-                "d_objective_d_mis": dfdp[T:], "d_theta_d_mis": dth[:, T:],
+        # the columns of the torque scales and of the misalignment offsets among the parameters ``sel``
+        tq, mis = (slice(lay.params[k].start - sel.start, lay.params[k].stop - sel.start)
+                   for k in ("torque_scale", "mis_offset"))
+        step = float(np.max(np.abs(lay.unknowns.take(z, "theta") * 1e-3 - theta)))
+        return {"d_objective_d_torque": dfdp[tq] / self.torques, "d_theta_d_torque": dth[:, tq] / self.torques[None, :],
+                "d_objective_d_mis": dfdp[mis], "d_theta_d_mis": dth[:, mis],
                 "model_step": step, "at_design": step <= 10 * constants.THETA_TOL, "objective": float(r["f"]),
                 "active": int(act_g.sum() + act_x.sum()), "degenerate": degenerate,
                 "min_multiplier": min_mult,

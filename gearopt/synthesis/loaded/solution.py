@@ -12,6 +12,7 @@ import numpy as np
 from ...meshing.misalignment import Misalignment
 from ...units import RAD_TO_ARCSEC
 from .constants import G_REF, MU
+from .layout import block_vector
 from .verify import parabola_fit
 
 
@@ -21,20 +22,21 @@ class NLPSolution:
     def _start(self, nlp, lin, theta_k, sw):
         """Initial point: the exact loaded TCA of the linearisation's design (its loads, deflections and
         approach), with the smoothed complementarity x y = MU made to hold."""
-        P, nx, nB, TC, nw = (nlp["sizes"][k] for k in ("P", "nx", "nB", "TC", "nw"))
+        U = nlp["layout"].unknowns
+        nx, nB, TC, nw = (U.count(k) for k in ("x", "d", "te_hi", "w"))
         x0 = np.zeros(nx)
         d0 = np.zeros(nB)
         w0 = np.zeros(nw)
         lever = nlp["lever"]
         CF = {}
         for b, (t, c, n, first, cnt) in enumerate(nlp["blocks"]):
-            S = lin[c]["S"]
+            S = lin[c].slices
             K, N, M = S.z.shape
             r = sw[c].results[t]
             A = nlp["keys"][first:first + cnt, 3]
             Ff = np.transpose(r.load, (1, 0, 2)).reshape(N, K * M)[n]
             x0[first:first + cnt] = Ff[A] / r.W
-            CF[(t, c, n)] = lin[c]["st"]["Cs"][n] @ Ff / G_REF
+            CF[(t, c, n)] = lin[c].structure["Cs"][n] @ Ff / G_REF
             # delta' = delta - te0 lever (absolute separations a = -te lever)
             d0[b] = (r.delta[n] - r.te_unloaded[n] * lever) / G_REF
         for j, (t, c, n, i) in enumerate(nlp["w_keys"]):
@@ -44,14 +46,16 @@ class NLPSolution:
         v0 = np.full(TC, np.inf)
         np.maximum.at(u0, nlp["ct"], te)
         np.minimum.at(v0, nlp["ct"], te)
-        z0 = np.concatenate([np.asarray(theta_k) * 1e3, x0, np.ones(nx), d0, u0, v0, np.zeros(2 * TC), w0,
-                             self._te0_start(nlp["te0"], lever) if nlp["te0"] is not None else []])
+        parts = dict(theta=np.asarray(theta_k) * 1e3, x=x0, y=1.0, d=d0, te_hi=u0, te_lo=v0, w=w0)
+        if nlp["te0"] is not None:
+            parts.update(zip(("x0", "y0", "d0"), self._te0_start(nlp["te0"], lever)))
+        z0 = block_vector(U, parts)
         gap = np.asarray(nlp["gap"](z0, np.ones(self.torques.size), np.zeros(len(Misalignment.names())))).ravel()
         loaded = x0 > 1e3 * MU
         y0 = np.where(loaded, MU / np.maximum(x0, 1e-300), np.maximum(gap, 1e-3))
         x0 = np.where(loaded, x0, MU / y0)
-        z0[P:P + nx] = x0
-        z0[P + nx:P + 2 * nx] = y0
+        z0[U["x"]] = x0
+        z0[U["y"]] = y0
         # slacks that make the start feasible for the pressure and edge constraints
         ct_x = np.repeat(nlp["ct"], [b[4] for b in nlp["blocks"]])
         s_p = np.zeros(TC)
@@ -62,12 +66,13 @@ class NLPSolution:
             np.maximum.at(s_p, ct_x, p2 / self.p_limit**2 - 1.0)
         if self.edge_margin is not None:
             np.maximum.at(s_e, ct_x, nlp["ew"] * x0 - MU * G_REF / self.edge_margin)
-        z0[P + 2 * nx + nB + 2 * TC:P + 2 * nx + nB + 4 * TC] = np.concatenate([s_p, s_e]) * 1.01 + 1e-6
+        z0[U["slack_p"]] = s_p * 1.01 + 1e-6
+        z0[U["slack_e"]] = s_e * 1.01 + 1e-6
         return z0
 
-    def _te0_start(self, te0, lever) -> np.ndarray:
-        """Start of the unloaded-TE target's unknowns at the linearisation's design: each block's
-        smallest separation carries the load, every other slice x = MU / y."""
+    def _te0_start(self, te0, lever) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Start of the unloaded-TE target's unknowns ``(x0, y0, d0)`` at the linearisation's design: each
+        block's smallest separation carries the load, every other slice x = MU / y."""
         aa = te0["a"] / G_REF
         n0, nB0 = aa.size, len(te0["blocks"])
         x0, y0, d0 = np.zeros(n0), np.zeros(n0), np.zeros(nB0)
@@ -81,20 +86,20 @@ class NLPSolution:
             y = aa[s] - d0[b]
             x = np.where(np.arange(cnt) == j, x[j], MU / y)
             x0[s], y0[s] = x, y
-        return np.concatenate([x0, y0, d0])
+        return x0, y0, d0
 
     def _bounds(self, nlp):
-        P, nx, nB, TC, nw, n0, nB0 = (nlp["sizes"][k] for k in ("P", "nx", "nB", "TC", "nw", "n0", "nB0"))
-        free = 2 * nx + nB + 2 * TC
-        tail = nw + 2 * n0 + nB0  # deflections and the unloaded-TE target's unknowns: free
-        lbx = np.concatenate([self.lo * 1e3, np.full(free, -np.inf), np.zeros(2 * TC), np.full(tail, -np.inf)])
-        ubx = np.concatenate([self.hi * 1e3, np.full(free, np.inf), np.full(2 * TC + tail, np.inf)])
+        """The unknowns' bounds: the design's own (scaled), slacks >= 0, everything else free."""
+        U = nlp["layout"].unknowns
+        lbx = block_vector(U, dict(theta=self.lo * 1e3, slack_p=0.0, slack_e=0.0), fill=-np.inf)
+        ubx = block_vector(U, dict(theta=self.hi * 1e3), fill=np.inf)
         return lbx, ubx
 
     def _predicted(self, nlp, z):
-        P, nx, nB, TC = (nlp["sizes"][k] for k in ("P", "nx", "nB", "TC"))
-        x = z[P:P + nx]
-        d = z[P + 2 * nx:P + 2 * nx + nB]
+        U = nlp["layout"].unknowns
+        TC = U.count("te_hi")
+        x = U.take(z, "x")
+        d = U.take(z, "d")
         te = -d * G_REF / nlp["lever"] * RAD_TO_ARCSEC
         hi = np.full(TC, -np.inf)
         lo = np.full(TC, np.inf)
@@ -109,18 +114,16 @@ class NLPSolution:
         pm = np.full(TC, 0.0)
         blk_ct = np.repeat(nlp["ct"], [b[4] for b in nlp["blocks"]])
         np.maximum.at(pm, blk_ct, p0)
-        slack = z[P + 2 * nx + nB + 2 * TC:P + 2 * nx + nB + 4 * TC]
         obj = float(np.sum(self.weights * pp))
         if nlp["hmap"] is not None:
             H = self.harmonics.size
             ab = np.asarray(ca.mtimes(nlp["hmap"], ca.DM(te))).ravel().reshape(T, C, H, 2)
             obj = float(np.sum(self.weights[..., None] * np.hypot(ab[..., 0], ab[..., 1]) * self.harmonics))
         out = {"te_pp": pp, "p_max": pm.reshape(T, C), "objective": obj,
-               "slack_p": slack[:TC].reshape(T, C), "slack_e": slack[TC:].reshape(T, C)}
+               "slack_p": U.take(z, "slack_p").reshape(T, C), "slack_e": U.take(z, "slack_e").reshape(T, C)}
         if nlp["te0"] is not None:  # the NLP's unloaded TE, its misfit by least squares (as in the NLP)
-            sz, t0 = nlp["sizes"], nlp["te0"]
-            off = P + 2 * nx + nB + 4 * TC + sz["nw"] + 2 * sz["n0"]
-            te = -z[off:off + sz["nB0"]] * G_REF / nlp["lever"] * RAD_TO_ARCSEC
+            t0 = nlp["te0"]
+            te = -U.take(z, "d0") * G_REF / nlp["lever"] * RAD_TO_ARCSEC
             rms = np.array([parabola_fit(t0["psi"][t0["case"] == c], te[t0["case"] == c],
                                           self.te_level * RAD_TO_ARCSEC)[0] for c in range(C)])
             out.update(te0_rms=rms, te0_term=self._te0_term(rms), te0=te)
@@ -140,13 +143,15 @@ class NLPSolution:
             k = np.asarray(k, np.int64).reshape(-1, 4)
             return ((k[:, 0] * 1000 + k[:, 1]) * 100000 + k[:, 2]) * 1000000 + k[:, 3]
 
-        def rows(n):  # the constraint rows' segments in order, each by its keys
+        def rows(n):  # the keys of every constraint row, by the rows' block (:data:`.layout.ROWS`)
             kx = code(n["keys"])
             kb = code([(b[0], b[1], b[2], 0) for b in n["blocks"]])
-            out = [code(n["w_keys"]), kx, kx, kb, kb, kb, kx[n["rows"]["flank"]], kx[n["rows"]["ends"]]]
+            out = dict(stiffness=code(n["w_keys"]), gap=kx, complementarity=kx, balance=kb, te_hi=kb, te_lo=kb,
+                       pressure=kx[n["rows"]["flank"]], edge=kx[n["rows"]["ends"]])
             if n["te0"] is not None:  # the unloaded-TE target's rows (torque index T: zero load)
                 k0 = code(n["te0"]["keys"])
-                out += [k0, k0, code([(self.torques.size, c, m, 0) for c, m, _, _ in n["te0"]["blocks"]])]
+                out.update(te0_gap=k0, te0_complementarity=k0,
+                           te0_balance=code([(self.torques.size, c, m, 0) for c, m, _, _ in n["te0"]["blocks"]]))
             return out
 
         def carry(kp, vp, kn):
@@ -158,15 +163,10 @@ class NLPSolution:
                 out[hit] = vp[o[j[hit]]]
             return out
 
-        old, new, parts, i = rows(pn), rows(nlp), [], 0
-        for kp, kn in zip(old, new):
-            parts.append(carry(kp, lg[i:i + kp.size], kn))
-            i += kp.size
-        sz, szp = nlp["sizes"], pn["sizes"]
-        lam_x = np.zeros(nlp["problem"]["x"].shape[0])
-        P, TC = sz["P"], sz["TC"]
-        # (the design's bounds: none, the new design is the centre of its trust region)
-        s0 = P + 2 * sz["nx"] + sz["nB"] + 2 * TC  # the slacks' bounds
-        s0p = P + 2 * szp["nx"] + szp["nB"] + 2 * TC
-        lam_x[s0:s0 + 2 * TC] = lx[s0p:s0p + 2 * TC]
+        lay, lay_p = nlp["layout"], pn["layout"]
+        old, new = rows(pn), rows(nlp)
+        parts = [carry(old[k], lay_p.rows.take(lg, k), new[k]) if k in new else np.zeros(0) for k in lay.rows.names]
+        # (the design's bounds: none, the new design is the centre of its trust region; the slacks' bounds
+        # keep theirs)
+        lam_x = block_vector(lay.unknowns, {k: lay_p.unknowns.take(lx, k) for k in ("slack_p", "slack_e")})
         return lam_x, np.concatenate(parts)

@@ -13,6 +13,9 @@ import numpy as np
 from ..crowning import SynthesisError
 from . import constants
 from .constants import EDGE_TOL, MAX_ROUNDS, RHO, RHO_MAX, SLACK_TOL, TR_START, WARM_OPTS
+from .layout import param_layout
+
+RHO_AT = param_layout(0, 0)["rho"].start  #: the penalty weight's place among the NLP's parameters
 
 
 class TrustRegion:
@@ -42,9 +45,9 @@ class TrustRegion:
         for rnd in range(MAX_ROUNDS):
             nlp = cur["nlp"]
             lbx, ubx = self._bounds(nlp)
-            P = len(self.free)
-            lbx[:P] = np.maximum(self.lo, theta - radius) * 1e3
-            ubx[:P] = np.minimum(self.hi, theta + radius) * 1e3
+            th = nlp["layout"].unknowns["theta"]
+            lbx[th] = np.maximum(self.lo, theta - radius) * 1e3
+            ubx[th] = np.minimum(self.hi, theta + radius) * 1e3
             t1 = time.perf_counter()
             # from the last NLP's multipliers unless the radius grew (its step reached the region's
             # bound and the next optimum may lie far: there the cold start took 2-3x fewer iterations)
@@ -53,10 +56,10 @@ class TrustRegion:
             status = st["return_status"]
             iters += it
             zs = np.asarray(r["x"]).ravel()
-            new = np.clip(zs[:P] * 1e-3, self.lo, self.hi)
+            new = np.clip(zs[th] * 1e-3, self.lo, self.hi)
             model = float(r["f"])
             info = {"theta_um": (new * 1e3).tolist(), "model_objective": model, "merit": cur["merit"],
-                    "radius_um": radius * 1e3, "rho": float(p[3]), "status": status, "iterations": it,
+                    "radius_um": radius * 1e3, "rho": float(p[RHO_AT]), "status": status, "iterations": it,
                     "nlp_s": time.perf_counter() - t1, "linearise_s": cur["time"], "n_loads": nlp["sizes"]["nx"],
                     "n_positions": int(self.phi1.size)}
             rounds.append(info)
@@ -76,7 +79,7 @@ class TrustRegion:
                 # exact penalty needs a weight above the constraint's multiplier); heavier, and the
                 # same model again
                 rho *= 10.0
-                p[3] = rho
+                p[RHO_AT] = rho
                 cur["merit"] = self._merit(cur["check"], rho)
                 info["accepted"] = f"penalty x10 ({rho:g})"
                 if progress:
@@ -102,7 +105,7 @@ class TrustRegion:
                     # tenfold less: the penalty is too light for this drive; heavier from the next
                     # round on (the test above would raise it there, after one more solve)
                     rho *= 10.0
-                    p[3] = rho
+                    p[RHO_AT] = rho
                     cur["merit"] = self._merit(cur["check"], rho)
                     info["rho_next"] = rho
                 last_viol = viol
@@ -116,7 +119,7 @@ class TrustRegion:
                     # no better design nearby, but a constraint still violated: a heavier penalty, and
                     # the radius of the last accepted step again
                     rho *= 10.0
-                    p[3] = rho
+                    p[RHO_AT] = rho
                     cur["merit"] = self._merit(cur["check"], rho)
                     radius = 16.0 * constants.THETA_TOL
                     continue
@@ -129,7 +132,8 @@ class TrustRegion:
         # verification below is compared with
         nlp = cur["nlp"]
         lbx, ubx = self._bounds(nlp)
-        lbx[:len(self.free)] = ubx[:len(self.free)] = theta * 1e3
+        th = nlp["layout"].unknowns["theta"]
+        lbx[th] = ubx[th] = theta * 1e3
         r, st, _ = self._solve_nlp(nlp, cur["z0"], lbx, ubx, p, prev)
         if not st["success"]:
             raise SynthesisError(f"loaded micro-geometry: the NLP at the final design failed "
@@ -163,7 +167,7 @@ class TrustRegion:
         leaves out the slices that stay open within ``radius`` [mm] of ``theta`` (:meth:`_keep`)."""
         t0 = time.perf_counter()
         lin = self.linearise(theta)
-        sweeps = [self.ltca.solve(self.torques, slices=L["S"]) for L in lin]
+        sweeps = [self.ltca.solve(self.torques, slices=L.slices) for L in lin]
         nlp = self._nlp(lin, theta, self._keep(lin, sweeps, radius), radius)
         z0 = self._start(nlp, lin, theta, sweeps)
         chk = self._check_of(sweeps)
