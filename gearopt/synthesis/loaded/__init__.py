@@ -7,7 +7,7 @@ list of pinion torques times a list of misalignment cases, each (torque, case) w
 objective is the weighted sum of the loaded TE's peak-to-peak [arcsec] over one mesh cycle (or of
 its first mesh harmonics' weighted amplitudes); the constraints are a peak Hertz pressure limit on the
 flank slices at every torque and case, and no edge loading: every tip-edge slice, every face-end
-slice and every flank slice near a tip (graded weight, :func:`_edge_weight`) keeps its load share below
+slice and every flank slice near a tip (graded weight, :func:`~gearopt.synthesis.loaded.edges.edge_weight`) keeps its load share below
 ``mu / edge_margin`` (a gap of at least ``edge_margin`` on the smoothed manifold); the exact loaded TCA
 of the optimum must show at most ``EDGE_TOL`` of the load on any of them.
 

@@ -26,6 +26,7 @@ and ``"mis_offset"`` (one per kind of :class:`~gearopt.meshing.misalignment.Misa
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -38,6 +39,26 @@ ROWS = ("stiffness", "gap", "complementarity", "balance", "te_hi", "te_lo", "pre
         "te0_complementarity", "te0_balance")
 #: the parameters' blocks
 PARAMS = ("p_limit", "edge_margin", "mu", "rho", "torque_scale", "mis_offset")
+
+
+class Block(NamedTuple):
+    """One (torque, case, position) block of the loaded NLP: its slices are the unknowns
+    ``x[first:first + count]`` (and their gaps ``y``), its approach one entry of ``d``."""
+
+    torque: int
+    case: int
+    position: int
+    first: int
+    count: int
+
+
+class Te0Block(NamedTuple):
+    """One (case, position) block of the unloaded-TE target: slices ``x0[first:first + count]``."""
+
+    case: int
+    position: int
+    first: int
+    count: int
 
 
 class BlockLayout:

@@ -18,7 +18,7 @@ from ...meshing.misalignment import Misalignment
 from ...units import RAD_TO_ARCSEC
 from .constants import G_REF, HARM_EPS, MU, TE0_EPS
 from .edges import edge_weight_lin
-from .layout import block_vector, nlp_layout, param_layout
+from .layout import Block, Te0Block, block_vector, nlp_layout, param_layout
 from .verify import harmonic_rows
 
 
@@ -49,7 +49,7 @@ class NLPBuilder:
         a0, Jx, Jmx, ln, Rx, h1x, h2x, edge, tix, blk, keys, tipe = [], [], [], [], [], [], [], [], [], [], [], []
         lamx = []  # each slice's lever about the pinion axis over r_b1 cos(beta_b)
         egx, near = [], []  # the edge weight's gradient (design, misalignment) and the rows it may reach
-        blocks = []  # (t, c, n, first x, count)
+        blocks = []  # Block(torque, case, position, first x, count)
         nx = nw = 0
         for c, L in enumerate(lin):
             S, st = L.slices, L.structure
@@ -125,7 +125,7 @@ class NLPBuilder:
                     tix.append(np.full(cnt, t))
                     blk.append(np.full(cnt, len(blocks)))
                     keys.append(np.stack([np.full(cnt, t), np.full(cnt, c), np.full(cnt, n), A], axis=1))
-                    blocks.append((t, c, n, nx, cnt))
+                    blocks.append(Block(t, c, n, nx, cnt))
                     nx += cnt
         a0, Jx, Jmx, ln, Rx, h1x, h2x, lamx = (np.concatenate(v) for v in (a0, Jx, Jmx, ln, Rx, h1x, h2x, lamx))
         ew, tix, blk, keys, tipe, egx, near = (np.concatenate(v) for v in (edge, tix, blk, keys, tipe, egx, near))
@@ -139,7 +139,7 @@ class NLPBuilder:
 
         Ex_t = ca.DM.triplet(list(range(nx)), tix.tolist(), ca.DM.ones(nx), nx, T)  # x -> torque
         Ex_b = ca.DM.triplet(list(range(nx)), blk.tolist(), ca.DM.ones(nx), nx, nB)  # x -> block
-        ct = np.array([b[0] * C + b[1] for b in blocks])
+        ct = np.array([b.torque * C + b.case for b in blocks])
         Eb_ct = ca.DM.triplet(list(range(nB)), ct.tolist(), ca.DM.ones(nB), nB, T * C)
         # unknowns (scaled, :mod:`.layout`): design [um], loads x [share], gaps y [um], approach d [um], TE
         # bounds, slacks, and (analytical compliance) the deflections w [um] of every slice node
@@ -190,7 +190,8 @@ class NLPBuilder:
         flank = np.flatnonzero(~tipe)
         ends = np.flatnonzero(edge)
         if self.p_limit is not None and flank.size:
-            # p0^2 = f E* / (pi R*) <= p_limit^2, per flank slice, relative
+            # p0^2 = f E* / (pi R*) <= p_limit^2 (gearopt.ltca.hertz.hertz_peak_pressure), per flank
+            # slice, relative: linear in the load share
             k = mat.E_star / (math.pi * Rx[flank] * ln[flank])
             E_f = ca.DM.triplet(list(range(flank.size)), ct_x[flank].tolist(), ca.DM.ones(flank.size), flank.size,
                                 T * C)
@@ -314,7 +315,7 @@ class NLPBuilder:
                 out["keys"].append(np.stack([np.full(m.size, T), np.full(m.size, c), np.full(m.size, n), i * M + m], 1))
                 out["case"].append(c)
                 out["psi"].append(psi[n])
-                blocks.append((c, n, first, m.size))
+                blocks.append(Te0Block(c, n, first, m.size))
                 first += m.size
                 used += 1
             self._te0_enough(used, N, c)
@@ -354,7 +355,18 @@ def _sparse_dm(rows, cols, vals, n_rows, n_cols) -> ca.DM:
 
 class LoadedNLP(dict):
     """One linearisation's NLP (its parts by name); its cold-start IPOPT solver, ``"solver"``, is built
-    on first use (a round solved warm, or a trial never solved, needs none)."""
+    on first use (a round solved warm, or a trial never solved, needs none).
+
+    Keys: ``problem`` (CasADi's ``x``, ``p``, ``f``, ``g``), ``opts`` (IPOPT's), ``layout``
+    (:class:`~gearopt.synthesis.loaded.layout.NLPLayout`: the unknowns, rows and parameters by name),
+    ``sizes`` (its block sizes by short name), ``lbg``, ``ubg``, ``phi1`` [rad], ``blocks``
+    (:class:`~gearopt.synthesis.loaded.layout.Block` per torque, case and position), ``keys`` (torque,
+    case, position, flat slice) per slice held, ``w_keys`` (the same per deflection), ``rows``
+    (``flank``, ``ends``: the slices of the pressure and edge rows), ``ct`` (torque-case of each block),
+    ``edge`` (tip-edge slices), ``ew`` (edge weights), ``lever`` [mm], ``Wt`` (normal load per torque
+    [N]), ``ln``, ``Rx`` (contact length and reduced radius per slice [mm]), ``hmap`` (harmonics map or
+    None), ``te0`` (the unloaded-TE target's blocks or None), ``gap`` and ``te0_term`` (CasADi
+    Functions of the unknowns), and, once solved, ``solver`` and ``warm``."""
 
     def __missing__(self, key):
         if key != "solver":

@@ -11,6 +11,7 @@ import numpy as np
 
 from ...meshing.misalignment import Misalignment
 from ...units import RAD_TO_ARCSEC
+from ...ltca.hertz import hertz_peak_pressure
 from .constants import G_REF, MU
 from .layout import block_vector
 from .verify import parabola_fit
@@ -57,11 +58,12 @@ class NLPSolution:
         z0[U["x"]] = x0
         z0[U["y"]] = y0
         # slacks that make the start feasible for the pressure and edge constraints
-        ct_x = np.repeat(nlp["ct"], [b[4] for b in nlp["blocks"]])
+        counts = [b.count for b in nlp["blocks"]]
+        ct_x = np.repeat(nlp["ct"], counts)
         s_p = np.zeros(TC)
         s_e = np.zeros(TC)
         if self.p_limit is not None:
-            W = nlp["Wt"][np.repeat([b[0] for b in nlp["blocks"]], [b[4] for b in nlp["blocks"]])]
+            W = nlp["Wt"][np.repeat([b.torque for b in nlp["blocks"]], counts)]
             p2 = np.where(nlp["edge"], 0.0, x0 * W * self.material.E_star / (math.pi * nlp["Rx"] * nlp["ln"]))
             np.maximum.at(s_p, ct_x, p2 / self.p_limit**2 - 1.0)
         if self.edge_margin is not None:
@@ -108,11 +110,12 @@ class NLPSolution:
         T, C = self.torques.size, len(self.cases)
         pp = (hi - lo).reshape(T, C)
         # flank pressure of the NLP's loads
-        W = nlp["Wt"][np.repeat([b[0] for b in nlp["blocks"]], [b[4] for b in nlp["blocks"]])]
+        counts = [b.count for b in nlp["blocks"]]
+        W = nlp["Wt"][np.repeat([b.torque for b in nlp["blocks"]], counts)]
         f = np.maximum(x, 0.0) * W / nlp["ln"]
-        p0 = np.where(nlp["edge"], 0.0, np.sqrt(f * self.material.E_star / (math.pi * nlp["Rx"])))
+        p0 = np.where(nlp["edge"], 0.0, hertz_peak_pressure(f, nlp["Rx"], self.material.E_star))
         pm = np.full(TC, 0.0)
-        blk_ct = np.repeat(nlp["ct"], [b[4] for b in nlp["blocks"]])
+        blk_ct = np.repeat(nlp["ct"], counts)
         np.maximum.at(pm, blk_ct, p0)
         obj = float(np.sum(self.weights * pp))
         if nlp["hmap"] is not None:
@@ -145,7 +148,7 @@ class NLPSolution:
 
         def rows(n):  # the keys of every constraint row, by the rows' block (:data:`.layout.ROWS`)
             kx = code(n["keys"])
-            kb = code([(b[0], b[1], b[2], 0) for b in n["blocks"]])
+            kb = code([(b.torque, b.case, b.position, 0) for b in n["blocks"]])
             out = dict(stiffness=code(n["w_keys"]), gap=kx, complementarity=kx, balance=kb, te_hi=kb, te_lo=kb,
                        pressure=kx[n["rows"]["flank"]], edge=kx[n["rows"]["ends"]])
             if n["te0"] is not None:  # the unloaded-TE target's rows (torque index T: zero load)
