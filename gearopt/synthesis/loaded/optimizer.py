@@ -24,7 +24,8 @@ from .verify import Verification
 
 class LoadedMicroOptimizer(LoadedProblem, MirrorReduction, Verification, Lineariser, NLPBuilder, NLPSolution,
                            TrustRegion, ParetoSweep, Sensitivities):
-    """Choose flank modifications that minimise the loaded TE over a duty cycle (module docstring).
+    """Choose flank modifications that minimise the loaded TE over a duty cycle (the package docstring,
+    :mod:`gearopt.synthesis.loaded`).
 
     Parameters
     ----------
