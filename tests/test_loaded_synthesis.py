@@ -113,7 +113,7 @@ def test_litvin_settings_as_design_variables(monkeypatch):
         lp, lm = opt.linearise(th + e), opt.linearise(th - e)
         S = lin[1].slices
         both = S.active & lp[1].slices.active & lm[1].slices.active
-        fd = (lp[1]["a"] - lm[1]["a"]) / (2 * h)
+        fd = (lp[1].a - lm[1].a) / (2 * h)
         ref = np.flatnonzero(both.ravel())[0]
         d_fd = (fd - fd.ravel()[ref])[both]
         d_ad = (lin[1].J[..., j] - lin[1].J[..., j].ravel()[ref])[both]
