@@ -73,6 +73,7 @@ G_REF = 1e-3  #: [mm] unit of the gap unknowns y (1 um)
 MU = 1e-8  #: smoothing of the complementarity: x y = MU (x: load share, y: gap in um)
 RHO = 1000.0  #: first exact-penalty weight of the constraint slacks [arcsec per unit share of the load on an edge slice / per unit p^2/p_limit^2], times the mean weight
 RHO_MAX = 1e5  #: the weight grows tenfold while a converged design, or the NLP's optimum well inside the trust region, leaves a slack, up to this
+P_VERIFY_TOL = 5e-3  #: the optimum's peak pressure by the default loaded TCA may exceed p_limit by this share at most (else SynthesisError)
 SLACK_TOL = 1e-3  #: a pressure slack above this is a violated limit (0.05 % of the pressure limit)
 EDGE_TOL = 1e-4  #: an edge slack above this (share of the normal load on one edge slice, 0.01 %) is edge loading
 MAX_ROUNDS = 30  #: trust-region rounds at most
@@ -89,6 +90,7 @@ HARM_EPS = 1e-3  #: [arcsec] smoothing of a harmonic amplitude at zero, sqrt(a^2
 TE0_EPS = 1e-3  #: [arcsec] smoothing of the unloaded TE's RMS misfit to its parabola at zero, sqrt(rms^2 + eps^2)
 DEGENERATE_REL = 1e-6  #: an active constraint whose multiplier is below this times the largest is degenerate
 THETA_TOL = 1e-4  #: [mm] the design has settled when no amount moves by more than this (0.1 um: below any grinding machine's resolution)
+KAPPA_FLOOR = 1e-4  #: [1/mm] the NLP's linearised relative curvature 1 / R* is kept above about this (R* 10 m)
 TIP_BAND = 0.02  #: [m_n] contact within this radial distance of a tip circle counts as tip (edge) contact
 SETTINGS = {"a_c": 0.05, "a_pl": 0.02}  #: Litvin's settings a design may free, with their largest value [1/mm]
 NONNEG = ("C_alpha", "C_beta", "C_alpha_a", "C_alpha_f", "C_beta_I", "C_beta_II")  #: amounts >= 0
@@ -375,9 +377,10 @@ class LoadedMicroOptimizer:
         jit = available() if jit == "auto" else bool(jit)
         self.tca = TCA(pair, side=side, pinion=modified_tooth(pair, "pinion", force_iso=True),
                        gear=modified_tooth(pair, "gear", force_iso=True), jit=jit)
-        # the involute's curvature in the Hertz term: the pressure limit does not see the curvature of the
-        # reliefs' smooth starts (docs/loaded_synthesis.md section 8)
-        self.ltca = LTCA(pair, side=side, material=material, n_slices=n_slices, tca=self.tca, curvature="involute")
+        # the default loaded TCA (each flank's own curvature in the Hertz term, docs/ltca.md section 3): the
+        # linearisation, the trust region's exact steps and the verification all use it, and the NLP's
+        # pressure rows its curvature linearised in the design (docs/loaded_synthesis.md section 3)
+        self.ltca = LTCA(pair, side=side, material=material, n_slices=n_slices, tca=self.tca)
         self.material = self.ltca.material
         self.n_positions = int(n_positions)
         self.phi1 = self.ltca.mesh_cycle(self.n_positions)
@@ -622,7 +625,10 @@ class LoadedMicroOptimizer:
         """d(r_p2 phi2)/d(theta, misalignment) of a slice (kind 0: flank, 1/2: a tip edge), implicit
         function theorem; with the total derivatives of the slice point's radius on the pinion (``dr1``)
         and on the gear (``dr2``) [mm per unit], which move a flank slice in the tip band
-        (:func:`_edge_weight`; zero on a tip edge, whose weight is 1)."""
+        (:func:`_edge_weight`; zero on a tip edge, whose weight is 1), and of the relative curvature
+        across the contact line ``kappa1 + kappa2`` (``dk`` [1/mm per unit], ``SliceSet.kappa1/2``, the
+        Hertz term's ``1 / R*``: the surface's own curvature changes with the amounts, and the point
+        moves along the profile; zero on a tip edge, whose Hertz radius is held)."""
         if kind not in self._sens:
             slicer = self.ltca.slicer
             G = slicer.G if kind == 0 else slicer.edge_branch[kind].G
@@ -633,13 +639,16 @@ class LoadedMicroOptimizer:
             dw = -ca.solve(ca.jacobian(F, w), ca.jacobian(F, prm)[:, idx])
             outs = [dw[3, :].T]
             if kind == 0:
-                r1, _, r2 = slicer.geometry(w, prm)[:3]
-                for r in (r1, r2):
-                    rad = ca.sqrt(r[0] ** 2 + r[1] ** 2)
-                    outs.append((ca.mtimes(ca.jacobian(rad, w), dw) + ca.jacobian(rad, prm)[:, idx]).T)
+                geo = slicer.geometry(w, prm)
+                r1, r2 = geo[0], geo[2]
+                kap = geo[slicer.geometry.name_out().index("kappa1")] + geo[slicer.geometry.name_out().index("kappa2")]
+                for v in (ca.sqrt(r1[0] ** 2 + r1[1] ** 2), ca.sqrt(r2[0] ** 2 + r2[1] ** 2), kap):
+                    # total derivative along the solution of the slice equations: d/dprm + d/dw dw/dprm
+                    outs.append((ca.mtimes(ca.jacobian(v, w), dw) + ca.jacobian(v, prm)[:, idx]).T)
             else:
-                outs += [ca.DM.zeros(len(idx)), ca.DM.zeros(len(idx))]
-            self._sens[kind] = ca.Function(f"ltca_dphi2_{kind}", [w, prm], outs, ["w", "prm"], ["dw3", "dr1", "dr2"])
+                outs += [ca.DM.zeros(len(idx))] * 3
+            self._sens[kind] = ca.Function(f"ltca_dphi2_{kind}", [w, prm], outs, ["w", "prm"],
+                                           ["dw3", "dr1", "dr2", "dk"])
         return self._sens[kind]
 
     def linearise(self, theta) -> list:
@@ -647,7 +656,8 @@ class LoadedMicroOptimizer:
         a list of dicts (``S``: SliceSet, ``st``: structure, ``a`` (K, N, M) separations [mm],
         ``J`` (K, N, M, P) [mm/mm], ``Jm`` (K, N, M, 4) per misalignment kind of
         ``Misalignment.names()`` [mm/rad or mm/mm], ``Jr`` (K, N, M, 2, P + 4) the slice point's radius
-        on the pinion and on the gear per design amount and misalignment kind)."""
+        on the pinion and on the gear per design amount and misalignment kind, ``Jk`` (K, N, M, P + 4)
+        the Hertz term's relative curvature ``1 / R*`` [1/mm] per design amount and misalignment kind)."""
         p1, p2 = self.params(theta)
         lever = self.pair.gear.r_b * self.ltca.cos_bb
         z1 = self.pair.pinion.z
@@ -658,6 +668,7 @@ class LoadedMicroOptimizer:
             K, N, M = S.z.shape
             J = np.zeros((K, N, M, len(self._prm_index)))
             Jr = np.zeros((K, N, M, 2, len(self._prm_index)))
+            Jk = np.zeros((K, N, M, len(self._prm_index)))
             phis = (S.phi1[None, :] - 2 * math.pi * np.array(S.pairs)[:, None] / z1)
             kinds = np.zeros((K, N, M), int) if S.edge is None else S.edge
             for kind in (0, 1, 2):
@@ -669,9 +680,10 @@ class LoadedMicroOptimizer:
                 prm[self.tca.layout.index("z_section"), :] = S.z[kk, nn, mm]
                 wv = S.w[kk, nn, mm].T
                 f = self._sensitivity(kind).map(wv.shape[1])
-                dw3, dr1, dr2 = (np.asarray(v).T for v in f(wv, prm))
+                dw3, dr1, dr2, dk = (np.asarray(v).T for v in f(wv, prm))
                 J[kk, nn, mm] = dw3 / self.pair.gear.r_p * (-lever)
                 Jr[kk, nn, mm] = np.stack([dr1, dr2], axis=1)
+                Jk[kk, nn, mm] = dk
             # each slice on its own levers (LTCA._solve_one, docs/ltca.md section 3): the gap is
             # (te0 - te) L2 + C F - lam delta, lam = L1 / (r_b1 cos(beta_b)); with the absolute separation
             # a = -te r_b2 cos(beta_b) and the block's approach d = delta - te0 r_b2 cos(beta_b)
@@ -684,8 +696,14 @@ class LoadedMicroOptimizer:
             da = np.where(S.active, -(S.te - te0) * (lev2 - lever) - te0 * (lam - 1.0) * lever, 0.0)
             a = np.where(S.active, -S.te * lever, 0.0)
             P = len(self.free)
+            # the Hertz term's relative curvature 1 / R* of the default loaded TCA (each flank's own, LTCA
+            # _structure) where the slice's curvature is known, its sensitivity there (else held)
+            if S.kappa1 is not None:
+                Jk = np.where((np.isfinite(S.kappa1) & np.isfinite(S.kappa2) & S.active)[..., None], Jk, 0.0)
+            else:
+                Jk[:] = 0.0
             out.append({"S": S, "st": st, "a": a, "J": J[..., :P], "Jm": J[..., P:], "Jr": Jr, "mis": mis,
-                        "lam": lam, "da": da})
+                        "lam": lam, "da": da, "Jk": Jk})
         return out
 
     def _levers(self, S) -> tuple[np.ndarray, np.ndarray]:
@@ -745,6 +763,7 @@ class LoadedMicroOptimizer:
         w_of_x = []  # deflection unknown of each slice (sparse path)
         w_keys = []  # (torque, case, position, flat slice index) of each deflection unknown
         a0, Jx, Jmx, ln, Rx, h1x, h2x, edge, tix, blk, keys, tipe = [], [], [], [], [], [], [], [], [], [], [], []
+        Jkx = []  # the sensitivity of each slice's relative curvature 1 / R* (design, misalignment)
         lamx = []  # each slice's lever about the pinion axis over r_b1 cos(beta_b)
         egx, near = [], []  # the edge weight's gradient (design, misalignment) and the rows it may reach
         blocks = []  # (t, c, n, first x, count)
@@ -760,6 +779,7 @@ class LoadedMicroOptimizer:
             a_n = a_n + flat(L["da"])
             J_n = np.transpose(L["J"], (1, 0, 2, 3)).reshape(N, K * M, P)
             Jm_n = np.transpose(L["Jm"], (1, 0, 2, 3)).reshape(N, K * M, -1)
+            Jk_n = np.transpose(L["Jk"], (1, 0, 2, 3)).reshape(N, K * M, -1)
             e0, eg = _edge_weight_lin(S, self.pair, L["Jr"])
             e_n = flat(e0)
             eg_n = np.transpose(eg, (1, 0, 2, 3)).reshape(N, K * M, -1)
@@ -814,6 +834,7 @@ class LoadedMicroOptimizer:
                     Jmx.append(Jm_n[n, A])
                     ln.append(l_n[n, A])
                     Rx.append(R_n[n, A])
+                    Jkx.append(Jk_n[n, A])
                     h1x.append(h1_n[n, A])
                     h2x.append(h2_n[n, A])
                     edge.append(e_n[n, A])
@@ -825,7 +846,8 @@ class LoadedMicroOptimizer:
                     keys.append(np.stack([np.full(cnt, t), np.full(cnt, c), np.full(cnt, n), A], axis=1))
                     blocks.append((t, c, n, nx, cnt))
                     nx += cnt
-        a0, Jx, Jmx, ln, Rx, h1x, h2x, lamx = (np.concatenate(v) for v in (a0, Jx, Jmx, ln, Rx, h1x, h2x, lamx))
+        a0, Jx, Jmx, ln, Rx, h1x, h2x, lamx, Jkx = (np.concatenate(v) for v in (a0, Jx, Jmx, ln, Rx, h1x, h2x, lamx,
+                                                                                  Jkx))
         ew, tix, blk, keys, tipe, egx, near = (np.concatenate(v) for v in (edge, tix, blk, keys, tipe, egx, near))
         edge = near  # rows of the edge-loading constraint; the pressure limit holds on every non-tip-edge slice
         nB = len(blocks)
@@ -863,11 +885,15 @@ class LoadedMicroOptimizer:
         f = F / ln
         fmin = F_MIN_SHARE * W * cb / g1.b
         fl = ca.sqrt(f**2 + fmin**2)
-        bH = ca.sqrt(4.0 * fl * Rx / (math.pi * mat.E_star))
+        dth = th * 1e-3 - ca.DM(theta_k)
+        # the Hertz data of the default loaded TCA: each flank's own curvature across the contact line, its
+        # relative curvature 1 / R* linear in the design and the misalignment offsets about the
+        # linearisation (its sensitivity by AD, as the separations'; exact at theta_k), kept positive
+        kap = _kappa_lin(Rx, Jkx, P, dth, dm)
+        bH = ca.sqrt(4.0 * fl / (kap * math.pi * mat.E_star))
         nu = mat.nu
         cH = 2.0 * (1.0 - nu**2) / (math.pi * mat.E) * (ca.log(2.0 * h1x / bH) + ca.log(2.0 * h2x / bH)
                                                         - nu / (1.0 - nu))
-        dth = th * 1e-3 - ca.DM(theta_k)
         gap = ((ca.DM(a0) + ca.mtimes(ca.DM(Jx), dth) + ca.mtimes(ca.DM(Jmx), dm) + cH * f) / G_REF
                - ca.DM(lamx) * ca.mtimes(Ex_b, d))
         g_list = []
@@ -891,11 +917,12 @@ class LoadedMicroOptimizer:
         flank = np.flatnonzero(~tipe)
         ends = np.flatnonzero(edge)
         if self.p_limit is not None and flank.size:
-            # p0^2 = f E* / (pi R*) <= p_limit^2, per flank slice, relative
-            k = mat.E_star / (math.pi * Rx[flank] * ln[flank])
+            # p0^2 = f E* / (pi R*) <= p_limit^2, per flank slice, relative; 1 / R* moves with the design
+            k = mat.E_star / (math.pi * ln[flank])
             E_f = ca.DM.triplet(list(range(flank.size)), ct_x[flank].tolist(), ca.DM.ones(flank.size), flank.size,
                                 T * C)
-            g_list.append(x[flank.tolist()] * W[flank.tolist()] * ca.DM(k) / plim**2 - 1.0 - ca.mtimes(E_f, sp))
+            g_list.append(x[flank.tolist()] * W[flank.tolist()] * ca.DM(k) * kap[flank.tolist()] / plim**2 - 1.0
+                          - ca.mtimes(E_f, sp))
             lbg.append(np.full(flank.size, -np.inf))
             ubg.append(np.zeros(flank.size))
         if self.edge_margin is not None and ends.size:
@@ -975,7 +1002,7 @@ class LoadedMicroOptimizer:
         return _NLP(problem=nlp, opts=opts, phi1=self.phi1.copy(), rows=rows, gap=ca.Function("gap", [z, tq, dm], [gap]), lbg=np.concatenate(lbg),
                     ubg=np.concatenate(ubg), sizes=sizes, blocks=blocks, ct=ct, edge=tipe, ew=np.clip(ew, 0.0, 1.0),
                     lever=lever, Wt=Wt,
-                    ln=ln, Rx=Rx, keys=keys, hmap=hmap, w_keys=np.concatenate(w_keys) if w_keys else np.zeros((0, 4), int),
+                    ln=ln, Rx=Rx, Jk=Jkx, theta_k=np.asarray(theta_k, float).copy(), keys=keys, hmap=hmap, w_keys=np.concatenate(w_keys) if w_keys else np.zeros((0, 4), int),
                     te0=te0, te0_term=ca.Function("te0_term", [z], [te0_obj if te0 is not None else ca.MX(0.0)],
                                                   ["z"], ["te0_term"]))
 
@@ -1143,6 +1170,7 @@ class LoadedMicroOptimizer:
             if "te0_rms" in pred:
                 pred["te0_rms"] = pred["te0_rms"][of]
                 pred["te0_term"] = self._te0_term(pred["te0_rms"])
+        self._raise_if_verification_fails(ver, after)
         err = {"te_pp": float(np.max(np.abs(pred["te_pp"] - ver.te_pp))),
                "objective": abs(pred["objective"] - ver.objective)}
         if self.p_limit is not None:
@@ -1650,7 +1678,8 @@ class LoadedMicroOptimizer:
         # flank pressure of the NLP's loads
         W = nlp["Wt"][np.repeat([b[0] for b in nlp["blocks"]], [b[4] for b in nlp["blocks"]])]
         f = np.maximum(x, 0.0) * W / nlp["ln"]
-        p0 = np.where(nlp["edge"], 0.0, np.sqrt(f * self.material.E_star / (math.pi * nlp["Rx"])))
+        kap = _kappa_lin(nlp["Rx"], nlp["Jk"], P, z[:P] * 1e-3 - nlp["theta_k"], np.zeros(nlp["Jk"].shape[1] - P))
+        p0 = np.where(nlp["edge"], 0.0, np.sqrt(f * self.material.E_star * kap / math.pi))
         pm = np.full(TC, 0.0)
         blk_ct = np.repeat(nlp["ct"], [b[4] for b in nlp["blocks"]])
         np.maximum.at(pm, blk_ct, p0)
@@ -1693,6 +1722,35 @@ class LoadedMicroOptimizer:
                     f"normal load. {hint}, or lower edge_margin.", param="edge_margin",
                     value=float(s[t, c]))
 
+    def _raise_if_verification_fails(self, *checks: LoadedCheck):
+        """``SynthesisError`` where the default loaded TCA of the optimum (``checks``: on the NLP's grid and
+        on the verification grid) puts the peak flank pressure more than ``P_VERIFY_TOL`` above
+        ``p_limit``, or more than ``EDGE_TOL`` of the load on an edge slice, at any position, torque and
+        case: a limit is never silently violated."""
+        for chk in checks:
+            for c, sw in enumerate(chk.sweeps):
+                w = _edge_weight(sw.slices, self.pair)
+                for t, r in enumerate(sw.results):
+                    at = f"{self.torques[t]:g} N m, case {c} ({_case_text(self.cases[c])})"
+                    if self.p_limit is not None:
+                        p = np.max(r.p0_flank, axis=(0, 2))
+                        n = int(np.argmax(p))
+                        if p[n] > self.p_limit * (1.0 + P_VERIFY_TOL):
+                            raise SynthesisError(
+                                f"loaded micro-geometry: at the optimum the loaded TCA gives a peak flank pressure of "
+                                f"{p[n]:.1f} MPa at {at}, phi1 = {np.degrees(sw.slices.phi1[n]):.4g} deg, above "
+                                f"p_limit = {self.p_limit:g} MPa (+{100 * P_VERIFY_TOL:g} %); raise n_positions or "
+                                "p_limit.", param="p_limit", value=float(p[n]))
+                    if self.edge_margin is not None:
+                        e = np.max(w * r.load, axis=(0, 2)) / r.W
+                        n = int(np.argmax(e))
+                        if e[n] > EDGE_TOL:
+                            raise SynthesisError(
+                                f"loaded micro-geometry: at the optimum the loaded TCA puts {100 * e[n]:.3g} % of the "
+                                f"normal load on an edge slice at {at}, phi1 = {np.degrees(sw.slices.phi1[n]):.4g} deg "
+                                f"(at most {100 * EDGE_TOL:g} %); raise n_positions or lower edge_margin.",
+                                param="edge_margin", value=float(e[n]))
+
     def _binding(self, theta, pred, ver) -> tuple:
         out = []
         for n, t, a, b in zip(self.free, theta, self.lo, self.hi):
@@ -1705,6 +1763,19 @@ class LoadedMicroOptimizer:
         if self.edge_margin is not None and np.min(ver.edge_gap) <= self.edge_margin * (1 + 1e-3):
             out.append("edge")
         return tuple(out)
+
+
+def _kappa_lin(R, Jk, P: int, dth, dm):
+    """The Hertz term's relative curvature ``1 / R*`` [1/mm] of every slice, linear in the design step
+    ``dth`` [mm] and the misalignment offsets ``dm`` about the linearisation: ``1 / R + Jk (dth, dm)``
+    (``R`` (n,) [mm] and ``Jk`` (n, P + 4) of :meth:`LoadedMicroOptimizer.linearise`), kept positive by
+    ``(k + sqrt(k^2 + KAPPA_FLOOR^2)) / 2`` (a relative change of 1e-7 at R* = 10 mm). CasADi
+    expressions for symbolic ``dth``, ``dm``; numpy arrays for numbers."""
+    if isinstance(dth, (ca.MX, ca.SX)) or isinstance(dm, (ca.MX, ca.SX)):
+        k = ca.DM(1.0 / R) + ca.mtimes(ca.DM(Jk[:, :P]), dth) + ca.mtimes(ca.DM(Jk[:, P:]), dm)
+        return 0.5 * (k + ca.sqrt(k**2 + KAPPA_FLOOR**2))
+    k = 1.0 / R + Jk[:, :P] @ np.asarray(dth, float) + Jk[:, P:] @ np.asarray(dm, float)
+    return 0.5 * (k + np.sqrt(k**2 + KAPPA_FLOOR**2))
 
 
 def _entry(amount: str) -> str:
