@@ -33,11 +33,14 @@ The separations ``a`` [mm] of the slices are linear in the design: ``a(theta) = 
 theta_k)`` with ``J_k`` the exact sensitivity of every slice's TE at ``theta_k`` (the implicit
 function theorem on the slice equations, by AD). The slices' positions and compliance are those of
 ``theta_k``; the Hertz term's relative curvature ``1 / R*`` (each flank's own across the contact line,
-as the default loaded TCA's) is linear in the design the same way (its sensitivity ``Jk`` by AD). A trust-region loop moves the design: every trial design's slices
-are solved exactly and its loaded TCA (:class:`gearopt.ltca.engine.LTCA`, exact slices, the QP contact
-solver) decides whether the step is taken. The optimum is verified by the same loaded TCA on the
-NLP's positions and on a finer grid; positions of the finer grid that violate a constraint join the
-NLP's grid. The result reports the NLP's values, the loaded TCA's, and their difference.
+as the default loaded TCA's) is linear in the design the same way (its sensitivity ``Jk`` by AD).
+A trust-region loop moves the design: every trial design's slices are solved exactly and its loaded
+TCA (:class:`gearopt.ltca.engine.LTCA`, the default one: exact slices, each flank's own curvature,
+the QP contact solver) decides whether the step is taken. The optimum is verified by the same loaded
+TCA on the NLP's positions and on a finer grid; positions of the finer grid that violate a constraint
+join the NLP's grid, and an optimum that still exceeds ``p_limit`` by more than ``P_VERIFY_TOL`` or
+loads an edge anywhere raises ``SynthesisError``. The result reports the NLP's values, the loaded
+TCA's, and their difference.
 
 :meth:`LoadedMicroOptimizer.sensitivities` differentiates the optimum with respect to the torques and
 a misalignment (the KKT system of its active set, read from IPOPT's central path, by CasADi); :meth:`LoadedMicroOptimizer.pareto`
@@ -74,7 +77,7 @@ G_REF = 1e-3  #: [mm] unit of the gap unknowns y (1 um)
 MU = 1e-8  #: smoothing of the complementarity: x y = MU (x: load share, y: gap in um)
 RHO = 1000.0  #: first exact-penalty weight of the constraint slacks [arcsec per unit share of the load on an edge slice / per unit p^2/p_limit^2], times the mean weight
 RHO_MAX = 1e5  #: the weight grows tenfold while a converged design, or the NLP's optimum well inside the trust region, leaves a slack, up to this
-P_VERIFY_TOL = 5e-3  #: the optimum's peak pressure by the default loaded TCA may exceed p_limit by this share at most (else SynthesisError)
+P_VERIFY_TOL = 5e-3  #: the optimum's peak pressure (default loaded TCA) exceeds p_limit by this share at most
 SLACK_TOL = 1e-3  #: a pressure slack above this is a violated limit (0.05 % of the pressure limit)
 EDGE_TOL = 1e-4  #: an edge slack above this (share of the normal load on one edge slice, 0.01 %) is edge loading
 MAX_ROUNDS = 30  #: trust-region rounds at most
