@@ -280,7 +280,8 @@ class LTCA:
     curvature : {"surface", "involute"}
         The flanks' curvature across the contact line in the Hertz term: each modified surface's own
         at the slice's point (by AD; profile crowning, reliefs and their smooth starts raise it), or
-        the unmodified involute's ``cos(beta_b) / rho_t`` (the loaded micro-geometry optimiser's model).
+        the unmodified involute's ``cos(beta_b) / rho_t`` (for comparison only: it misses the
+        reliefs' starts; the loaded micro-geometry optimiser uses the surface's).
     """
 
     def __init__(self, pair: GearPair, side: str = "right", material: Material | None = None, n_slices: int = 21,

@@ -31,12 +31,16 @@ sees every load and gap, and its exact Hessian is sparse (every nonlinearity act
 
 The separations ``a`` [mm] of the slices are linear in the design: ``a(theta) = a_k + J_k (theta -
 theta_k)`` with ``J_k`` the exact sensitivity of every slice's TE at ``theta_k`` (the implicit
-function theorem on the slice equations, by AD). The slices' positions, compliance and Hertz
-radii are those of ``theta_k``. A trust-region loop moves the design: every trial design's slices
-are solved exactly and its loaded TCA (:class:`gearopt.ltca.engine.LTCA`, exact slices, the QP contact
-solver) decides whether the step is taken. The optimum is verified by the same loaded TCA on the
-NLP's positions and on a finer grid; positions of the finer grid that violate a constraint join the
-NLP's grid. The result reports the NLP's values, the loaded TCA's, and their difference.
+function theorem on the slice equations, by AD). The slices' positions and compliance are those of
+``theta_k``; the Hertz term's relative curvature ``1 / R*`` (each flank's own across the contact line,
+as the default loaded TCA's) is linear in the design the same way (its sensitivity ``Jk`` by AD).
+A trust-region loop moves the design: every trial design's slices are solved exactly and its loaded
+TCA (:class:`gearopt.ltca.engine.LTCA`, the default one: exact slices, each flank's own curvature,
+the QP contact solver) decides whether the step is taken. The optimum is verified by the same loaded
+TCA on the NLP's positions and on a finer grid; positions of the finer grid that violate a constraint
+join the NLP's grid, and an optimum that still exceeds ``p_limit`` by more than ``P_VERIFY_TOL`` or
+loads an edge anywhere raises ``SynthesisError``. The result reports the NLP's values, the loaded
+TCA's, and their difference.
 
 :meth:`LoadedMicroOptimizer.sensitivities` differentiates the optimum with respect to the torques and
 a misalignment (the KKT system of its active set, read from IPOPT's central path, by CasADi); :meth:`LoadedMicroOptimizer.pareto`

@@ -26,6 +26,8 @@ HARM_EPS = 1e-3  #: [arcsec] smoothing of a harmonic amplitude at zero, sqrt(a^2
 TE0_EPS = 1e-3  #: [arcsec] smoothing of the unloaded TE's RMS misfit to its parabola at zero, sqrt(rms^2 + eps^2)
 DEGENERATE_REL = 1e-6  #: an active constraint whose multiplier is below this times the largest is degenerate
 THETA_TOL = 1e-4  #: [mm] the design has settled when no amount moves by more than this (0.1 um: below any grinding machine's resolution)
+P_VERIFY_TOL = 5e-3  #: the optimum's peak pressure (default loaded TCA) exceeds p_limit by this share at most
+KAPPA_FLOOR = 1e-4  #: [1/mm] the NLP's linearised relative curvature 1 / R* is kept above about this (R* 10 m)
 TIP_BAND = 0.02  #: [m_n] contact within this radial distance of a tip circle counts as tip (edge) contact
 SETTINGS = {"a_c": 0.05, "a_pl": 0.02}  #: Litvin's settings a design may free, with their largest value [1/mm]
 NONNEG = ("C_alpha", "C_beta", "C_alpha_a", "C_alpha_f", "C_beta_I", "C_beta_II")  #: amounts >= 0

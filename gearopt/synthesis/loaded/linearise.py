@@ -43,6 +43,9 @@ class Linearisation:
         The separation's correction for the slice's own levers [mm] (zero on an involute flank).
     mis : Misalignment
         The case.
+    Jk : (K, N, M, P + Q) array
+        Derivatives of the Hertz term's relative curvature ``1 / R*`` (``kappa1 + kappa2``) [1/mm per
+        unit] in each free amount and misalignment kind (zero where held: tip edges, unknown curvature).
     """
 
     slices: SliceSet = field(repr=False)
@@ -54,6 +57,7 @@ class Linearisation:
     lam: np.ndarray = field(repr=False)
     da: np.ndarray = field(repr=False)
     mis: Misalignment
+    Jk: np.ndarray = field(repr=False)
 
 
 class Lineariser:
@@ -64,7 +68,10 @@ class Lineariser:
         """d(r_p2 phi2)/d(theta, misalignment) of a slice (kind 0: flank, 1/2: a tip edge), implicit
         function theorem; with the total derivatives of the slice point's radius on the pinion (``dr1``)
         and on the gear (``dr2``) [mm per unit], which move a flank slice in the tip band
-        (:func:`edge_weight`; zero on a tip edge, whose weight is 1)."""
+        (:func:`edge_weight`; zero on a tip edge, whose weight is 1), and of the relative curvature
+        across the contact line ``kappa1 + kappa2`` (``dk`` [1/mm per unit], ``SliceSet.kappa1/2``, the
+        Hertz term's ``1 / R*``: the surface's own curvature changes with the amounts, and the point
+        moves along the profile; zero on a tip edge, whose Hertz radius is held)."""
         if kind not in self._sens:
             slicer = self.ltca.slicer
             G = slicer.G if kind == 0 else slicer.edge_branch[kind].G
@@ -75,13 +82,17 @@ class Lineariser:
             dw = -ca.solve(ca.jacobian(F, w), ca.jacobian(F, prm)[:, idx])
             outs = [dw[3, :].T]
             if kind == 0:
-                r1, _, r2 = slicer.geometry(w, prm)[:3]
-                for r in (r1, r2):
-                    rad = ca.sqrt(r[0] ** 2 + r[1] ** 2)
-                    outs.append((ca.mtimes(ca.jacobian(rad, w), dw) + ca.jacobian(rad, prm)[:, idx]).T)
+                geo = slicer.geometry(w, prm)
+                names = slicer.geometry.name_out()
+                r1, r2 = geo[0], geo[2]
+                kap = geo[names.index("kappa1")] + geo[names.index("kappa2")]
+                for v in (ca.sqrt(r1[0] ** 2 + r1[1] ** 2), ca.sqrt(r2[0] ** 2 + r2[1] ** 2), kap):
+                    # total derivative along the solution of the slice equations: d/dprm + d/dw dw/dprm
+                    outs.append((ca.mtimes(ca.jacobian(v, w), dw) + ca.jacobian(v, prm)[:, idx]).T)
             else:
-                outs += [ca.DM.zeros(len(idx)), ca.DM.zeros(len(idx))]
-            self._sens[kind] = ca.Function(f"ltca_dphi2_{kind}", [w, prm], outs, ["w", "prm"], ["dw3", "dr1", "dr2"])
+                outs += [ca.DM.zeros(len(idx))] * 3
+            self._sens[kind] = ca.Function(f"ltca_dphi2_{kind}", [w, prm], outs, ["w", "prm"],
+                                           ["dw3", "dr1", "dr2", "dk"])
         return self._sens[kind]
 
     def linearise(self, theta) -> list:
@@ -97,6 +108,7 @@ class Lineariser:
             K, N, M = S.z.shape
             J = np.zeros((K, N, M, len(self._prm_index)))
             Jr = np.zeros((K, N, M, 2, len(self._prm_index)))
+            Jk = np.zeros((K, N, M, len(self._prm_index)))
             phis = (S.phi1[None, :] - 2 * math.pi * np.array(S.pairs)[:, None] / z1)
             kinds = np.zeros((K, N, M), int) if S.edge is None else S.edge
             for kind in (0, 1, 2):
@@ -108,9 +120,10 @@ class Lineariser:
                 prm[self.tca.layout.index("z_section"), :] = S.z[kk, nn, mm]
                 wv = S.w[kk, nn, mm].T
                 f = self._sensitivity(kind).map(wv.shape[1])
-                dw3, dr1, dr2 = (np.asarray(v).T for v in f(wv, prm))
+                dw3, dr1, dr2, dk = (np.asarray(v).T for v in f(wv, prm))
                 J[kk, nn, mm] = dw3 / self.pair.gear.r_p * (-lever)
                 Jr[kk, nn, mm] = np.stack([dr1, dr2], axis=1)
+                Jk[kk, nn, mm] = dk
             # each slice on its own levers (LTCA._solve_one, docs/ltca.md section 3): the gap is
             # (te0 - te) L2 + C F - lam delta, lam = L1 / (r_b1 cos(beta_b)); with the absolute separation
             # a = -te r_b2 cos(beta_b) and the block's approach d = delta - te0 r_b2 cos(beta_b)
@@ -123,8 +136,14 @@ class Lineariser:
             da = np.where(S.active, -(S.te - te0) * (lev2 - lever) - te0 * (lam - 1.0) * lever, 0.0)
             a = np.where(S.active, -S.te * lever, 0.0)
             P = len(self.free)
+            # the Hertz term's relative curvature 1 / R* of the default loaded TCA (each flank's own, LTCA
+            # _structure) where the slice's curvature is known, its sensitivity there (else held)
+            if S.kappa1 is not None:
+                Jk = np.where((np.isfinite(S.kappa1) & np.isfinite(S.kappa2) & S.active)[..., None], Jk, 0.0)
+            else:
+                Jk[:] = 0.0
             out.append(Linearisation(slices=S, structure=st, a=a, J=J[..., :P], Jm=J[..., P:], Jr=Jr, mis=mis,
-                                     lam=lam, da=da))
+                                     lam=lam, da=da, Jk=Jk))
         return out
 
     def _levers(self, S) -> tuple[np.ndarray, np.ndarray]:

@@ -16,7 +16,7 @@ from ...ltca.engine import F_MIN_SHARE
 from ...ltca.hertz import weber_compliance
 from ...meshing.misalignment import Misalignment
 from ...units import RAD_TO_ARCSEC
-from .constants import G_REF, HARM_EPS, MU, TE0_EPS
+from .constants import G_REF, HARM_EPS, KAPPA_FLOOR, MU, TE0_EPS
 from .edges import edge_weight_lin
 from .layout import Block, Te0Block, block_vector, nlp_layout, param_layout
 from .verify import harmonic_rows
@@ -48,6 +48,7 @@ class NLPBuilder:
         w_keys = []  # (torque, case, position, flat slice index) of each deflection unknown
         a0, Jx, Jmx, ln, Rx, h1x, h2x, edge, tix, blk, keys, tipe = [], [], [], [], [], [], [], [], [], [], [], []
         lamx = []  # each slice's lever about the pinion axis over r_b1 cos(beta_b)
+        Jkx = []  # the sensitivity of each slice's relative curvature 1 / R* (design, misalignment)
         egx, near = [], []  # the edge weight's gradient (design, misalignment) and the rows it may reach
         blocks = []  # Block(torque, case, position, first x, count)
         nx = nw = 0
@@ -62,6 +63,7 @@ class NLPBuilder:
             a_n = a_n + flat(L.da)
             J_n = np.transpose(L.J, (1, 0, 2, 3)).reshape(N, K * M, P)
             Jm_n = np.transpose(L.Jm, (1, 0, 2, 3)).reshape(N, K * M, -1)
+            Jk_n = np.transpose(L.Jk, (1, 0, 2, 3)).reshape(N, K * M, -1)
             e0, eg = edge_weight_lin(S, self.pair, L.Jr)
             e_n = flat(e0)
             eg_n = np.transpose(eg, (1, 0, 2, 3)).reshape(N, K * M, -1)
@@ -116,6 +118,7 @@ class NLPBuilder:
                     Jmx.append(Jm_n[n, A])
                     ln.append(l_n[n, A])
                     Rx.append(R_n[n, A])
+                    Jkx.append(Jk_n[n, A])
                     h1x.append(h1_n[n, A])
                     h2x.append(h2_n[n, A])
                     edge.append(e_n[n, A])
@@ -127,7 +130,8 @@ class NLPBuilder:
                     keys.append(np.stack([np.full(cnt, t), np.full(cnt, c), np.full(cnt, n), A], axis=1))
                     blocks.append(Block(t, c, n, nx, cnt))
                     nx += cnt
-        a0, Jx, Jmx, ln, Rx, h1x, h2x, lamx = (np.concatenate(v) for v in (a0, Jx, Jmx, ln, Rx, h1x, h2x, lamx))
+        a0, Jx, Jmx, ln, Rx, h1x, h2x, lamx, Jkx = (np.concatenate(v) for v in (a0, Jx, Jmx, ln, Rx, h1x, h2x, lamx,
+                                                                                  Jkx))
         ew, tix, blk, keys, tipe, egx, near = (np.concatenate(v) for v in (edge, tix, blk, keys, tipe, egx, near))
         edge = near  # rows of the edge-loading constraint; the pressure limit holds on every non-tip-edge slice
         nB = len(blocks)
@@ -166,8 +170,12 @@ class NLPBuilder:
         fmin = F_MIN_SHARE * W * cb / g1.b
         # Weber's approach per unit load, the load kept off zero smoothly (the LTCA's max(f, f_min) has no
         # derivative at f_min)
-        cH = weber_compliance(f, Rx, h1x, h2x, mat.E, mat.nu, mat.E_star, fmin, smoothing="hypot")
         dth = th * 1e-3 - ca.DM(theta_k)
+        # the Hertz data of the default loaded TCA: each flank's own curvature across the contact line, its
+        # relative curvature 1 / R* linear in the design and the misalignment offsets about the
+        # linearisation (its sensitivity by AD, as the separations'; exact at theta_k), kept positive
+        kap = kappa_lin(Rx, Jkx, P, dth, dm)
+        cH = weber_compliance(f, 1.0 / kap, h1x, h2x, mat.E, mat.nu, mat.E_star, fmin, smoothing="hypot")
         gap = ((ca.DM(a0) + ca.mtimes(ca.DM(Jx), dth) + ca.mtimes(ca.DM(Jmx), dm) + cH * f) / G_REF
                - ca.DM(lamx) * ca.mtimes(Ex_b, d))
         # the constraint rows by name (:data:`.layout.ROWS`): (expression, lower bound, upper bound)
@@ -191,11 +199,11 @@ class NLPBuilder:
         ends = np.flatnonzero(edge)
         if self.p_limit is not None and flank.size:
             # p0^2 = f E* / (pi R*) <= p_limit^2 (gearopt.ltca.hertz.hertz_peak_pressure), per flank
-            # slice, relative: linear in the load share
-            k = mat.E_star / (math.pi * Rx[flank] * ln[flank])
+            # slice, relative: linear in the load share; 1 / R* moves with the design
+            k = mat.E_star / (math.pi * ln[flank])
             E_f = ca.DM.triplet(list(range(flank.size)), ct_x[flank].tolist(), ca.DM.ones(flank.size), flank.size,
                                 T * C)
-            g_rows["pressure"] = (x[flank.tolist()] * W[flank.tolist()] * ca.DM(k) / plim**2 - 1.0
+            g_rows["pressure"] = (x[flank.tolist()] * W[flank.tolist()] * ca.DM(k) * kap[flank.tolist()] / plim**2 - 1.0
                                   - ca.mtimes(E_f, sp), -np.inf, 0.0)
         if self.edge_margin is not None and ends.size:
             E_e = ca.DM.triplet(list(range(ends.size)), ct_x[ends].tolist(), ca.DM.ones(ends.size), ends.size, T * C)
@@ -279,7 +287,7 @@ class NLPBuilder:
         return LoadedNLP(problem=nlp, opts=opts, phi1=self.phi1.copy(), rows=rows, gap=ca.Function("gap", [z, tq, dm], [gap]), lbg=lbg,
                     ubg=ubg, layout=layout, sizes=layout.sizes(), blocks=blocks, ct=ct, edge=tipe, ew=np.clip(ew, 0.0, 1.0),
                     lever=lever, Wt=Wt,
-                    ln=ln, Rx=Rx, keys=keys, hmap=hmap, w_keys=np.concatenate(w_keys) if w_keys else np.zeros((0, 4), int),
+                    ln=ln, Rx=Rx, Jk=Jkx, theta_k=np.asarray(theta_k, float).copy(), keys=keys, hmap=hmap, w_keys=np.concatenate(w_keys) if w_keys else np.zeros((0, 4), int),
                     te0=te0, te0_term=ca.Function("te0_term", [z], [te0_obj if te0 is not None else ca.MX(0.0)],
                                                   ["z"], ["te0_term"]))
 
@@ -364,7 +372,9 @@ class LoadedNLP(dict):
     case, position, flat slice) per slice held, ``w_keys`` (the same per deflection), ``rows``
     (``flank``, ``ends``: the slices of the pressure and edge rows), ``ct`` (torque-case of each block),
     ``edge`` (tip-edge slices), ``ew`` (edge weights), ``lever`` [mm], ``Wt`` (normal load per torque
-    [N]), ``ln``, ``Rx`` (contact length and reduced radius per slice [mm]), ``hmap`` (harmonics map or
+    [N]), ``ln``, ``Rx`` (contact length and reduced radius per slice [mm], the radius at the
+    linearisation), ``Jk`` (its curvature's sensitivity, :func:`kappa_lin`), ``theta_k`` (the
+    linearisation's design [mm]), ``hmap`` (harmonics map or
     None), ``te0`` (the unloaded-TE target's blocks or None), ``gap`` and ``te0_term`` (CasADi
     Functions of the unknowns), and, once solved, ``solver`` and ``warm``."""
 
@@ -373,3 +383,16 @@ class LoadedNLP(dict):
             raise KeyError(key)
         self[key] = ca.nlpsol("loaded_microgeometry", "ipopt", self["problem"], self["opts"])
         return self[key]
+
+
+def kappa_lin(R, Jk, P: int, dth, dm):
+    """The Hertz term's relative curvature ``1 / R*`` [1/mm] of every slice, linear in the design step
+    ``dth`` [mm] and the misalignment offsets ``dm`` about the linearisation: ``1 / R + Jk (dth, dm)``
+    (``R`` (n,) [mm] and ``Jk`` (n, P + 4) of :class:`~gearopt.synthesis.loaded.linearise.Linearisation`),
+    kept positive by ``(k + sqrt(k^2 + KAPPA_FLOOR^2)) / 2`` (a relative change of 1e-7 at R* = 10 mm).
+    CasADi expressions for symbolic ``dth``, ``dm``; numpy arrays for numbers."""
+    if isinstance(dth, (ca.MX, ca.SX)) or isinstance(dm, (ca.MX, ca.SX)):
+        k = ca.DM(1.0 / R) + ca.mtimes(ca.DM(Jk[:, :P]), dth) + ca.mtimes(ca.DM(Jk[:, P:]), dm)
+        return 0.5 * (k + ca.sqrt(k**2 + KAPPA_FLOOR**2))
+    k = 1.0 / R + Jk[:, :P] @ np.asarray(dth, float) + Jk[:, P:] @ np.asarray(dm, float)
+    return 0.5 * (k + np.sqrt(k**2 + KAPPA_FLOOR**2))

@@ -128,6 +128,7 @@ class LoadedMicroOptimizer(LoadedProblem, MirrorReduction, Verification, Lineari
             if "te0_rms" in pred:
                 pred["te0_rms"] = pred["te0_rms"][of]
                 pred["te0_term"] = self._te0_term(pred["te0_rms"])
+        self._raise_if_verification_fails(ver, after)
         err = {"te_pp": float(np.max(np.abs(pred["te_pp"] - ver.te_pp))),
                "objective": abs(pred["objective"] - ver.objective)}
         if self.p_limit is not None:

@@ -87,9 +87,10 @@ class LoadedProblem:
         jit = available() if jit == "auto" else bool(jit)
         self.tca = TCA(pair, side=side, pinion=modified_tooth(pair, "pinion", force_iso=True),
                        gear=modified_tooth(pair, "gear", force_iso=True), jit=jit)
-        # the involute's curvature in the Hertz term: the pressure limit does not see the curvature of the
-        # reliefs' smooth starts (docs/loaded_synthesis.md section 8)
-        self.ltca = LTCA(pair, side=side, material=material, n_slices=n_slices, tca=self.tca, curvature="involute")
+        # the default loaded TCA (each flank's own curvature in the Hertz term, docs/ltca.md section 3): the
+        # linearisation, the trust region's exact steps and the verification all use it, and the NLP's
+        # pressure rows its curvature linearised in the design (docs/loaded_synthesis.md section 3)
+        self.ltca = LTCA(pair, side=side, material=material, n_slices=n_slices, tca=self.tca)
         self.material = self.ltca.material
         self.n_positions = int(n_positions)
         self.phi1 = self.ltca.mesh_cycle(self.n_positions)

@@ -14,6 +14,7 @@ from ...units import RAD_TO_ARCSEC
 from ...ltca.hertz import hertz_peak_pressure
 from .constants import G_REF, MU
 from .layout import block_vector
+from .nlp import kappa_lin
 from .verify import parabola_fit
 
 
@@ -113,7 +114,10 @@ class NLPSolution:
         counts = [b.count for b in nlp["blocks"]]
         W = nlp["Wt"][np.repeat([b.torque for b in nlp["blocks"]], counts)]
         f = np.maximum(x, 0.0) * W / nlp["ln"]
-        p0 = np.where(nlp["edge"], 0.0, hertz_peak_pressure(f, nlp["Rx"], self.material.E_star))
+        Jk = nlp["Jk"]
+        P = Jk.shape[1] - len(Misalignment.names())
+        kap = kappa_lin(nlp["Rx"], Jk, P, U.take(z, "theta") * 1e-3 - nlp["theta_k"], np.zeros(Jk.shape[1] - P))
+        p0 = np.where(nlp["edge"], 0.0, hertz_peak_pressure(f, 1.0 / kap, self.material.E_star))
         pm = np.full(TC, 0.0)
         blk_ct = np.repeat(nlp["ct"], counts)
         np.maximum.at(pm, blk_ct, p0)

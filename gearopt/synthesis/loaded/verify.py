@@ -11,7 +11,7 @@ import numpy as np
 
 from ...units import RAD_TO_ARCSEC
 from ..crowning import SynthesisError
-from .constants import EDGE_TOL, G_REF, MU, RHO, SLACK_TOL, TE0_EPS
+from .constants import EDGE_TOL, G_REF, MU, P_VERIFY_TOL, RHO, SLACK_TOL, TE0_EPS
 from .edges import edge_mask, edge_weight, edge_where, loaded_gaps
 from .problem import case_text
 from .results import LoadedCheck
@@ -153,6 +153,35 @@ class Verification:
                     f"({case_text(self.cases[c])}): {where} still carries {100 * s[t, c]:.3g} % of the "
                     f"normal load. {hint}, or lower edge_margin.", param="edge_margin",
                     value=float(s[t, c]))
+
+    def _raise_if_verification_fails(self, *checks: LoadedCheck):
+        """``SynthesisError`` where the default loaded TCA of the optimum (``checks``: on the NLP's grid and
+        on the verification grid) puts the peak flank pressure more than ``P_VERIFY_TOL`` above
+        ``p_limit``, or more than ``EDGE_TOL`` of the load on an edge slice, at any position, torque and
+        case: a limit is never silently violated."""
+        for chk in checks:
+            for c, sw in enumerate(chk.sweeps):
+                w = edge_weight(sw.slices, self.pair)
+                for t, r in enumerate(sw.results):
+                    at = f"{self.torques[t]:g} N m, case {c} ({case_text(self.cases[c])})"
+                    if self.p_limit is not None:
+                        p = np.max(r.p0_flank, axis=(0, 2))
+                        n = int(np.argmax(p))
+                        if p[n] > self.p_limit * (1.0 + P_VERIFY_TOL):
+                            raise SynthesisError(
+                                f"loaded micro-geometry: at the optimum the loaded TCA gives a peak flank pressure of "
+                                f"{p[n]:.1f} MPa at {at}, phi1 = {np.degrees(sw.slices.phi1[n]):.4g} deg, above "
+                                f"p_limit = {self.p_limit:g} MPa (+{100 * P_VERIFY_TOL:g} %); raise n_positions or "
+                                "p_limit.", param="p_limit", value=float(p[n]))
+                    if self.edge_margin is not None:
+                        e = np.max(w * r.load, axis=(0, 2)) / r.W
+                        n = int(np.argmax(e))
+                        if e[n] > EDGE_TOL:
+                            raise SynthesisError(
+                                f"loaded micro-geometry: at the optimum the loaded TCA puts {100 * e[n]:.3g} % of the "
+                                f"normal load on an edge slice at {at}, phi1 = {np.degrees(sw.slices.phi1[n]):.4g} deg "
+                                f"(at most {100 * EDGE_TOL:g} %); raise n_positions or lower edge_margin.",
+                                param="edge_margin", value=float(e[n]))
 
     def _binding(self, theta, pred, ver) -> tuple:
         out = []
