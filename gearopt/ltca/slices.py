@@ -38,8 +38,8 @@ from ..meshing.solver import REGULARITY_MIN, Branch
 from ..meshing.tca import TCA, check_sweep_args
 
 SLICE_NORMAL_TOL = 0.05  #: accepted slice points have n1 . n2 < -1 + this (crowning tilts the normals)
-CENTRE_ON_POINT = True  #: centre each pair's grid on its unloaded point contact
 _SECTIONS = (-0.5, -0.25, 0.0, 0.25, 0.5)  #: pinion sections of the conjugate first guesses [b1]
+PARTNER_MIN = 1e-4  #: smallest weight [share of the slice spacing] with which a node past a boundary joins the contact
 EDGE_CHUNK = 256  #: columns per mapped tip-edge solve (one compiled size)
 
 
@@ -56,12 +56,16 @@ class SliceSet:
         contact line leaves the active flanks, up to the crossing).
     z_lo, z_hi : (K, N, M) the node's tributary interval [mm] (its contact where active).
     te : (K, N, M) TE at which the slice touches [rad] (NaN where unsolved).
-    active : (K, N, M) the slice's point lies on both active flanks.
+    active : (K, N, M) the slice carries load: its point lies on both active flanks (``inside``), or it is
+        the neighbour past the boundary where the contact line leaves them (a ``partner``: it carries its
+        linear-interpolation share of the contact up to the crossing, see ``_partial_widths``).
+    inside : (K, N, M) the slice's point lies on both active flanks.
+    te_bound : (K, N, M) TE at the crossings next to each inside node [rad] (NaN: none), for the
+        unloaded TE.
     converged : (K, N, M) the slice equations were solved.
     r1, n1, r2, n2 : (K, N, M, 3) point and outward unit normal on pinion / gear in their own frames.
     rf : (K, N, M, 3) the point in the fixed frame [mm].
     u1, u2, z2 : (K, N, M) surface coordinates [mm].
-    z_center : (K, N) where the grid of the pair is centred (the unloaded point contact, else 0).
     edge : (K, N, M) int: 0 surface contact, 1 the pinion's tip edge on the gear flank, 2 the gear's
         tip edge on the pinion flank (slices whose conjugate point lies beyond that tip).
     w : (K, N, M, 4) the solved unknowns ``(u1, u2, z2, r_p2 phi2)`` [mm] of each slice's equations
@@ -95,7 +99,6 @@ class SliceSet:
     u1: np.ndarray
     u2: np.ndarray
     z2: np.ndarray
-    z_center: np.ndarray
     phi2_ref: float
     stats: dict
     edge: np.ndarray | None = None
@@ -106,11 +109,17 @@ class SliceSet:
     nc2: np.ndarray | None = None
     lever1: np.ndarray | None = None
     lever2: np.ndarray | None = None
+    inside: np.ndarray | None = None
+    te_bound: np.ndarray | None = None
 
     @property
     def te_unloaded(self) -> np.ndarray:
-        """(N,) unloaded TE [rad]: the largest TE of the active slices (NaN: no contact)."""
-        t = np.max(np.where(self.active, self.te, -np.inf), axis=(0, 2))
+        """(N,) unloaded TE [rad]: the largest TE of the slices on the active flanks and of the points
+        where the contact lines leave them (``te_bound``) (NaN: no contact)."""
+        on = self.active if self.inside is None else self.inside
+        t = np.max(np.where(on, self.te, -np.inf), axis=(0, 2))
+        if self.te_bound is not None:
+            t = np.maximum(t, np.max(np.where(np.isfinite(self.te_bound), self.te_bound, -np.inf), axis=(0, 2)))
         return np.where(np.isfinite(t), t, np.nan)
 
 
@@ -131,27 +140,17 @@ def across_line_curvatures(rf1, nf1, q1, rf2, nf2, q2):
     return ca.mtimes([v.T, K1, v]), ca.mtimes([v.T, K2, v])
 
 
-def slice_nodes(b: float, n_slices: int, z_center) -> tuple[np.ndarray, np.ndarray]:
-    """Slice nodes across a face of width ``b`` [mm]: a uniform grid of spacing ``b/(n_slices-1)``
-    through ``z_center`` (one node on it) plus both face ends, nodes closer than a thousandth of a
-    spacing to an end dropped. Returns ``z`` and tributary ``width`` as (..., n_slices + 2) arrays
-    (unused nodes NaN / 0), for every entry of ``z_center``."""
-    zc = np.asarray(z_center, float)
+def slice_nodes(b: float, n_slices: int, shape=()) -> tuple[np.ndarray, np.ndarray]:
+    """Slice nodes fixed to the tooth: ``n_slices`` pinion sections ``z_j = -b/2 + j b/(n_slices-1)``
+    [mm] across a face of width ``b`` (both face ends are nodes), the same for every pair and position,
+    so a node never moves with the design, the misalignment or the pinion angle. Returns ``z`` and the
+    tributary ``width`` (the trapezoidal rule's weights: ``b/(n_slices-1)``, half of it at the face ends)
+    as arrays of shape ``shape + (n_slices,)``."""
     dz = b / (n_slices - 1)
-    M = n_slices + 2
-    flat = zc.ravel()
-    Z = np.full((flat.size, M), np.nan)
-    W = np.zeros((flat.size, M))
-    j = np.arange(-n_slices, n_slices + 1)
-    for i, c in enumerate(flat):
-        g = c + j * dz
-        g = g[np.abs(g) < b / 2 - 1e-3 * dz]
-        nodes = np.concatenate([[-b / 2], g, [b / 2]])
-        mid = 0.5 * (nodes[1:] + nodes[:-1])
-        edges = np.concatenate([[-b / 2], mid, [b / 2]])
-        Z[i, :nodes.size] = nodes
-        W[i, :nodes.size] = np.diff(edges)
-    return Z.reshape(zc.shape + (M,)), W.reshape(zc.shape + (M,))
+    z = np.linspace(-b / 2, b / 2, n_slices)
+    w = np.full(n_slices, dz)
+    w[[0, -1]] = dz / 2
+    return np.broadcast_to(z, tuple(shape) + (n_slices,)).copy(), np.broadcast_to(w, tuple(shape) + (n_slices,)).copy()
 
 
 class SliceSolver:
@@ -274,23 +273,14 @@ class SliceSolver:
             raise ArgumentError(f"offsets: expected two arrays of {len(pairs)} finite angles [rad] (one per pair).",
                                 param="offsets", valid=f"(e1, e2), each {len(pairs)} finite angles [rad]")
         stats: dict = {}
-        # where each pair's grid is centred: the unloaded point contact on the face, else mid face
+        # the slice nodes: fixed pinion sections across the face (slice_nodes), the same for every pair
+        # and position, so the separations, compliances and widths are continuous in the design
         K, N = len(pairs), phi1.size
-        zc = np.zeros((K, N))
-        if tca.contact_type == "point" and CENTRE_ON_POINT:
-            try:
-                surf = tca.sweep(phi1, p1, p2, mis, pairs=pairs, continuation=True)
-                good = surf.converged & (np.abs(surf.z1) <= g1.b / 2)
-                zc = np.where(good, surf.z1, 0.0)
-                stats["centred_on_point_contact"] = int(good.sum())
-            except (LineContactError, ConvergenceError) as e:
-                stats["point_contact"] = f"no point contact ({str(e)[:120]}): grids centred at mid face"
-        Z, Wd = slice_nodes(g1.b, n_slices, zc)
+        Z, Wd = slice_nodes(g1.b, n_slices, (K, N))
         M = Z.shape[2]
         # every column: (pair k, position n, node m), plus pair 0 at phi1 = 0 for the TE zero
         phis = (phi1[None, :] - 2 * math.pi * np.array(pairs)[:, None] / g1.z) + e1[:, None]  # (K, N)
-        zero_Z, zero_W = slice_nodes(g1.b, n_slices, 0.0 if tca.contact_type == "line" else self._zero_centre(
-            p1, p2, mis, g1))
+        zero_Z = slice_nodes(g1.b, n_slices)[0]
         col_phi = np.concatenate([np.repeat(phis.ravel(), M), np.zeros(M)])
         col_z = np.concatenate([Z.ravel(), zero_Z])
         used = np.isfinite(col_z)
@@ -364,17 +354,18 @@ class SliceSolver:
         margin[2] = np.where(edge == 2, 1.0, margin[2])
         margin = np.where(ok, margin, np.nan)
         n = K * N * M
-        Wd, z_lo, z_hi = _partial_widths(Z.reshape(-1, M), Wd.reshape(-1, M), act[:n].reshape(-1, M),
-                                         margin[:, :n].reshape(5, -1, M), g1.b, edge[:n].reshape(-1, M),
-                                         np.stack([margin[0], tip_conj[0], margin[2], tip_conj[1]])[:, :n]
-                                         .reshape(4, -1, M))
-        Wd, z_lo, z_hi = (v.reshape(K, N, M) for v in (Wd, z_lo, z_hi))
+        Wd, z_lo, z_hi, part, te_b = _partial_widths(
+            Z.reshape(-1, M), Wd.reshape(-1, M), act[:n].reshape(-1, M), margin[:, :n].reshape(5, -1, M), g1.b,
+            edge[:n].reshape(-1, M), np.stack([margin[0], tip_conj[0], margin[2], tip_conj[1]])[:, :n].reshape(4, -1, M),
+            surface=(ok & (edge == 0))[:n].reshape(-1, M), te=te_raw[:n].reshape(-1, M))
+        Wd, z_lo, z_hi, part, te_b = (v.reshape(K, N, M) for v in (Wd, z_lo, z_hi, part, te_b))
         # TE zero: the unloaded gear angle of pair 0 at phi1 = 0 (its largest active slice)
         z_act = act[-M:]
         if not z_act.any():
             z_act = ok[-M:]
         phi2_ref = float(np.max(te_raw[-M:][z_act])) if z_act.any() else 0.0
         te = te_raw - phi2_ref
+        te_b = te_b - phi2_ref
         shp = lambda a: a[:n].reshape(K, N, M)  # noqa: E731
         shp3 = lambda a: a[:n].reshape(K, N, M, 3)  # noqa: E731
         stats["n_columns"] = int(n)
@@ -385,9 +376,11 @@ class SliceSolver:
                 f"loaded TCA: no slice of any tooth pair {list(pairs)} is in contact on the active flanks at "
                 f"phi1 = {phi1.min():.6g} ... {phi1.max():.6g} rad; the positions must lie in the mesh cycle "
                 "(e.g. -pi/z1 ... pi/z1) of a pair that meshes.")
-        return SliceSet(phi1=phi1, pairs=pairs, z=Z, width=Wd, z_lo=z_lo, z_hi=z_hi, te=shp(te), active=shp(act), converged=shp(ok),
+        stats["n_partner"] = int(part.sum())
+        return SliceSet(phi1=phi1, pairs=pairs, z=Z, width=Wd, z_lo=z_lo, z_hi=z_hi, te=shp(te),
+                        active=shp(act) | part, inside=shp(act), te_bound=te_b, converged=shp(ok),
                         r1=shp3(r1), n1=shp3(n1), r2=shp3(r2), n2=shp3(n2), rf=shp3(rf), u1=shp(W[0]), u2=shp(W[1]),
-                        z2=shp(W[2]), z_center=zc, phi2_ref=phi2_ref, stats=stats, edge=shp(edge),
+                        z2=shp(W[2]), phi2_ref=phi2_ref, stats=stats, edge=shp(edge),
                         w=np.where(ok, W, np.nan)[:, :n].T.reshape(K, N, M, 4), kappa1=shp(kap1), kappa2=shp(kap2),
                         nc1=shp3(nc1), nc2=shp3(nc2), lever1=shp(lev1), lever2=shp(lev2))
 
@@ -437,15 +430,6 @@ class SliceSolver:
             edge = np.where(good, member, edge)
         return W, ok, edge
 
-    def _zero_centre(self, p1, p2, mis, g1) -> float:
-        """Pinion section of the unloaded point contact of pair 0 at phi1 = 0 (0 if none on the face)."""
-        try:
-            w = self.tca.solve_point(0.0, None, p1, p2, mis)
-        except (LineContactError, ConvergenceError):
-            return 0.0
-        z = float(w[1])
-        return z if abs(z) <= g1.b / 2 else 0.0
-
 
 def _interp_sections(zsec, vals, zz) -> np.ndarray:
     """Piecewise-linear interpolation in z of section values (S, 4, P) at ``zz`` (P,), held
@@ -469,7 +453,7 @@ def _interp_sections(zsec, vals, zz) -> np.ndarray:
     return out
 
 
-def _partial_widths(Z, Wd, act, margin, b, edge=None, tips=None):
+def _partial_widths(Z, Wd, act, margin, b, edge=None, tips=None, surface=None, te=None):
     """Tributary intervals (rows of slice nodes) with the contact ending between an active and an
     inactive neighbour where one of the signed margins (B, rows, M) to the flank boundaries
     (> 0 inside) crosses zero between them (linear interpolation; the nearest crossing).
@@ -481,8 +465,19 @@ def _partial_widths(Z, Wd, act, margin, b, edge=None, tips=None):
     its conjugate value [mm]). The flank slice's contact ends there, the edge's begins there, so the
     flank contact never extends beyond the zone of action (the margins are concave in z along a
     contact line: the chord's zero lies inside).
-    Returns ``(width, lo, hi)`` (rows, M) [mm] (NaN bounds for unused nodes)."""
+    Where the contact leaves the active flanks between an active and an inactive node, the piece up to
+    the crossing is shared by both with linear-interpolation weights (see the code), the inactive node
+    joining the contact if ``surface`` (rows, M) says it has a surface solution past the boundary.
+    ``te`` (rows, M): each node's TE, interpolated to the crossings.
+    Returns ``(width, lo, hi, partner, te_bound)`` (rows, M): widths [mm], the intervals (NaN bounds for
+    unused nodes), the inactive nodes that join the contact, the TE at each active node's crossings
+    (the largest; NaN where none)."""
     out = Wd.copy()
+    P = np.zeros(Z.shape, bool)
+    WP = np.zeros(Z.shape)
+    PLO = np.full(Z.shape, np.nan)
+    PHI = np.full(Z.shape, np.nan)
+    TB = np.full(Z.shape, np.nan)
     LO = np.full(Z.shape, np.nan)
     HI = np.full(Z.shape, np.nan)
     for r in range(Z.shape[0]):
@@ -508,6 +503,15 @@ def _partial_widths(Z, Wd, act, margin, b, edge=None, tips=None):
                 if a[i]:
                     out[r, i] = max(hi[j] - lo[j], 1e-9)
         if not (a[used].all() or not a[used].any()):
+            # the contact line leaves the active flanks between an active node i and an inactive
+            # neighbour o, at the fraction t of their gap h (linear interpolation of the signed margins):
+            # the contact [z_i, z_i + t h] is spread on both nodes by the linear interpolation between
+            # them (the trapezoidal / hat-function weights of that piece): i takes h (t - t^2/2), o takes
+            # h t^2/2 and joins the contact (``partner``; its solution is the flanks continued past the
+            # boundary). Both weights are continuous in t, and when the crossing reaches a node the weights
+            # match the nominal ones on either side, so loads and widths change continuously as a boundary
+            # crosses a node (a face end, a flank limit, a tip). Where o has no surface solution (unsolved,
+            # or a tip edge) i takes the whole piece, t h.
             for j, i in enumerate(used):
                 if not a[i]:
                     continue
@@ -519,14 +523,27 @@ def _partial_widths(Z, Wd, act, margin, b, edge=None, tips=None):
                     cross = np.isfinite(mi) & np.isfinite(mo) & (mi >= 0) & (mo < 0)
                     if not cross.any():
                         continue
-                    t = np.min(mi[cross] / (mi[cross] - mo[cross]))
-                    zs = z[i] + (z[o] - z[i]) * t
-                    # the active node takes the contact up to the crossing (also past the midpoint:
-                    # the inactive neighbour carries none of it), so the contact length is continuous
+                    t = float(np.clip(np.min(mi[cross] / (mi[cross] - mo[cross])), 0.0, 1.0))
+                    h = z[o] - z[i]  # signed
+                    zs = z[i] + h * t
+                    if te is not None and np.isfinite(te[r, i]):
+                        tb = te[r, i] + t * (te[r, o] - te[r, i]) if np.isfinite(te[r, o]) else te[r, i]
+                        TB[r, i] = tb if not np.isfinite(TB[r, i]) else max(TB[r, i], tb)
+                    usable = (surface is not None and surface[r, o]) and t * t / 2 >= PARTNER_MIN
+                    zi = z[i] + h * (t - t * t / 2) if usable else zs
+                    if usable:
+                        P[r, o] = True
+                        WP[r, o] += abs(h) * t * t / 2
+                        plo, phi_ = sorted((zi, zs))
+                        PLO[r, o] = plo if not np.isfinite(PLO[r, o]) else min(PLO[r, o], plo)
+                        PHI[r, o] = phi_ if not np.isfinite(PHI[r, o]) else max(PHI[r, o], phi_)
                     if side == 0:
-                        lo[j] = zs
+                        lo[j] = zi
                     else:
-                        hi[j] = zs
+                        hi[j] = zi
                 out[r, i] = max(hi[j] - lo[j], 1e-9)
         LO[r, used], HI[r, used] = lo, hi
-    return out, LO, HI
+    part = P & ~act
+    out = np.where(part, WP, out)
+    LO, HI = np.where(part, PLO, LO), np.where(part, PHI, HI)
+    return out, LO, HI, part, TB
