@@ -357,7 +357,7 @@ class SliceSolver:
         Wd, z_lo, z_hi, part, te_b = _partial_widths(
             Z.reshape(-1, M), Wd.reshape(-1, M), act[:n].reshape(-1, M), margin[:, :n].reshape(5, -1, M), g1.b,
             edge[:n].reshape(-1, M), np.stack([margin[0], tip_conj[0], margin[2], tip_conj[1]])[:, :n].reshape(4, -1, M),
-            surface=(ok & (edge == 0))[:n].reshape(-1, M), te=te_raw[:n].reshape(-1, M))
+            solved=ok[:n].reshape(-1, M), te=te_raw[:n].reshape(-1, M))
         Wd, z_lo, z_hi, part, te_b = (v.reshape(K, N, M) for v in (Wd, z_lo, z_hi, part, te_b))
         # TE zero: the unloaded gear angle of pair 0 at phi1 = 0 (its largest active slice)
         z_act = act[-M:]
@@ -453,97 +453,98 @@ def _interp_sections(zsec, vals, zz) -> np.ndarray:
     return out
 
 
-def _partial_widths(Z, Wd, act, margin, b, edge=None, tips=None, surface=None, te=None):
-    """Tributary intervals (rows of slice nodes) with the contact ending between an active and an
-    inactive neighbour where one of the signed margins (B, rows, M) to the flank boundaries
-    (> 0 inside) crosses zero between them (linear interpolation; the nearest crossing).
+def _partial_widths(Z, Wd, act, margin, b, edge=None, tips=None, solved=None, te=None):
+    """Each node's share of the contact along a row of slice nodes (pinion sections ``Z`` (rows, M),
+    ascending, unused NaN), gap by gap between neighbouring nodes p < q, h = z_q - z_p:
 
-    Between a flank slice and a tip-edge neighbour (``edge`` (rows, M): 1 pinion tip, 2 gear tip)
-    the boundary is where the flank contact line leaves the zone of action over that tip: the zero
-    of that tip's margin interpolated between the flank slice's point and the edge slice's
-    conjugate point (``tips`` (4, rows, M): pinion tip margin, its conjugate value, gear tip margin,
-    its conjugate value [mm]). The flank slice's contact ends there, the edge's begins there, so the
-    flank contact never extends beyond the zone of action (the margins are concave in z along a
-    contact line: the chord's zero lies inside).
-    Where the contact leaves the active flanks between an active and an inactive node, the piece up to
-    the crossing is shared by both with linear-interpolation weights (see the code), the inactive node
-    joining the contact if ``surface`` (rows, M) says it has a surface solution past the boundary.
-    ``te`` (rows, M): each node's TE, interpolated to the crossings.
-    Returns ``(width, lo, hi, partner, te_bound)`` (rows, M): widths [mm], the intervals (NaN bounds for
-    unused nodes), the inactive nodes that join the contact, the TE at each active node's crossings
-    (the largest; NaN where none)."""
-    out = Wd.copy()
-    P = np.zeros(Z.shape, bool)
-    WP = np.zeros(Z.shape)
-    PLO = np.full(Z.shape, np.nan)
-    PHI = np.full(Z.shape, np.nan)
-    TB = np.full(Z.shape, np.nan)
+    * both on the active flanks (``act``): the gap is split at its middle; between a flank node and a
+      tip-edge node (``edge`` (rows, M): 1 pinion tip, 2 gear tip) at the fraction tau where the flank
+      contact line leaves the zone of action over that tip: the zero of that tip's margin interpolated
+      between the flank node's point and the edge node's conjugate point (``tips`` (4, rows, M): pinion
+      tip margin, its conjugate value, gear tip margin, its conjugate value [mm]); the margins are
+      concave in z along a contact line, so the chord's zero lies inside and the flank contact never
+      extends beyond the zone of action.
+    * one on the active flanks (i), one not (o): the contact ends at the fraction t of the gap from i
+      where one of the signed margins to the flank boundaries (``margin`` (B, rows, M), > 0 inside)
+      crosses zero (linear interpolation; the nearest crossing). The piece ``t h`` is shared by i and
+      o as the linear interpolation between them shares it (the hat functions' weights): i takes
+      ``h (t - t^2/2)``, o takes ``h t^2/2`` and carries load (a *partner*; its solution is the
+      surfaces continued past the boundary); between a flank node and an edge node, i takes
+      ``min(t, tau) h`` and o ``max(t - tau, 0) h``. Where o is not solved (``solved`` (rows, M)
+      False) i takes the whole piece ``t h``.
+
+    At t = 1 the shares are those of two nodes on the flanks and at t = 0 nothing is left of the
+    piece, so every width is continuous as a boundary (a face end, a flank limit, a tip) crosses a
+    node: the slices are fixed to the tooth and the loads change continuously with the design.
+
+    ``te`` (rows, M): each node's TE [rad], interpolated to the crossings for the unloaded TE.
+    Returns ``(width, lo, hi, partner, te_bound)`` (rows, M): widths [mm]; each node's contact
+    interval [mm] (NaN where none); the nodes off the flanks that carry a share (partners); the TE at
+    the crossings next to each node on the flanks (the largest; NaN where none)."""
+    R, M = Z.shape
+    out = np.zeros((R, M))
     LO = np.full(Z.shape, np.nan)
     HI = np.full(Z.shape, np.nan)
-    for r in range(Z.shape[0]):
+    TB = np.full(Z.shape, np.nan)
+    kind = np.zeros(Z.shape, int) if edge is None else edge
+    solved = np.ones(Z.shape, bool) if solved is None else solved
+
+    def put(r, m, lo, hi):
+        out[r, m] += hi - lo
+        LO[r, m] = lo if not np.isfinite(LO[r, m]) else min(LO[r, m], lo)
+        HI[r, m] = hi if not np.isfinite(HI[r, m]) else max(HI[r, m], hi)
+
+    def tau_of(r, i, o):
+        """Fraction of the gap from i to o where a flank node's contact meets an edge node's (1/2 if
+        both are of one kind or the tip's margins do not cross between them)."""
+        if (kind[r, i] > 0) == (kind[r, o] > 0) or tips is None:
+            return 0.5
+        fl, ed = (i, o) if kind[r, o] > 0 else (o, i)
+        k = kind[r, ed]
+        mi, mo = tips[2 * (k - 1), r, fl], tips[2 * (k - 1) + 1, r, ed]
+        if not (np.isfinite(mi) and np.isfinite(mo) and mi >= 0 > mo):
+            return 0.5
+        f = mi / (mi - mo)  # from the flank node
+        return f if fl == i else 1.0 - f
+
+    for r in range(R):
         z, a = Z[r], act[r]
         used = np.flatnonzero(np.isfinite(z))
-        zz = z[used]
-        lo = np.concatenate([[-b / 2], 0.5 * (zz[1:] + zz[:-1])])
-        hi = np.concatenate([0.5 * (zz[1:] + zz[:-1]), [b / 2]])
-        trimmed = False
-        if edge is not None and edge[r, used].any():
-            for j in range(used.size - 1):
-                i, o = used[j], used[j + 1]
-                if not (a[i] and a[o]) or (edge[r, i] > 0) == (edge[r, o] > 0):
-                    continue
-                fl, ed = (i, o) if edge[r, o] > 0 else (o, i)
-                kind = edge[r, ed]
-                mi, mo = tips[2 * (kind - 1), r, fl], tips[2 * (kind - 1) + 1, r, ed]
-                if np.isfinite(mi) and np.isfinite(mo) and mi >= 0 > mo:
-                    hi[j] = lo[j + 1] = z[fl] + (z[ed] - z[fl]) * mi / (mi - mo)
-                    trimmed = True
-        if trimmed:
-            for j, i in enumerate(used):
-                if a[i]:
-                    out[r, i] = max(hi[j] - lo[j], 1e-9)
-        if not (a[used].all() or not a[used].any()):
-            # the contact line leaves the active flanks between an active node i and an inactive
-            # neighbour o, at the fraction t of their gap h (linear interpolation of the signed margins):
-            # the contact [z_i, z_i + t h] is spread on both nodes by the linear interpolation between
-            # them (the trapezoidal / hat-function weights of that piece): i takes h (t - t^2/2), o takes
-            # h t^2/2 and joins the contact (``partner``; its solution is the flanks continued past the
-            # boundary). Both weights are continuous in t, and when the crossing reaches a node the weights
-            # match the nominal ones on either side, so loads and widths change continuously as a boundary
-            # crosses a node (a face end, a flank limit, a tip). Where o has no surface solution (unsolved,
-            # or a tip edge) i takes the whole piece, t h.
-            for j, i in enumerate(used):
-                if not a[i]:
-                    continue
-                for nb, side in ((j - 1, 0), (j + 1, 1)):
-                    if nb < 0 or nb >= used.size or a[used[nb]]:
-                        continue
-                    o = used[nb]
-                    mi, mo = margin[:, r, i], margin[:, r, o]
-                    cross = np.isfinite(mi) & np.isfinite(mo) & (mi >= 0) & (mo < 0)
-                    if not cross.any():
-                        continue
-                    t = float(np.clip(np.min(mi[cross] / (mi[cross] - mo[cross])), 0.0, 1.0))
-                    h = z[o] - z[i]  # signed
-                    zs = z[i] + h * t
-                    if te is not None and np.isfinite(te[r, i]):
-                        tb = te[r, i] + t * (te[r, o] - te[r, i]) if np.isfinite(te[r, o]) else te[r, i]
-                        TB[r, i] = tb if not np.isfinite(TB[r, i]) else max(TB[r, i], tb)
-                    usable = (surface is not None and surface[r, o]) and t * t / 2 >= PARTNER_MIN
-                    zi = z[i] + h * (t - t * t / 2) if usable else zs
-                    if usable:
-                        P[r, o] = True
-                        WP[r, o] += abs(h) * t * t / 2
-                        plo, phi_ = sorted((zi, zs))
-                        PLO[r, o] = plo if not np.isfinite(PLO[r, o]) else min(PLO[r, o], plo)
-                        PHI[r, o] = phi_ if not np.isfinite(PHI[r, o]) else max(PHI[r, o], phi_)
-                    if side == 0:
-                        lo[j] = zi
-                    else:
-                        hi[j] = zi
-                out[r, i] = max(hi[j] - lo[j], 1e-9)
-        LO[r, used], HI[r, used] = lo, hi
-    part = P & ~act
-    out = np.where(part, WP, out)
-    LO, HI = np.where(part, PLO, LO), np.where(part, PHI, HI)
+        for j in range(used.size - 1):
+            p, q = used[j], used[j + 1]
+            h = z[q] - z[p]
+            if a[p] and a[q]:
+                zt = z[p] + tau_of(r, p, q) * h
+                put(r, p, z[p], zt)
+                put(r, q, zt, z[q])
+                continue
+            if not (a[p] or a[q]):
+                continue
+            i, o = (p, q) if a[p] else (q, p)
+            sgn = 1.0 if i == p else -1.0
+            mi, mo = margin[:, r, i], margin[:, r, o]
+            cross = np.isfinite(mi) & np.isfinite(mo) & (mi >= 0) & (mo < 0)
+            if not cross.any():  # no boundary found between them: i keeps half the gap
+                zm = z[i] + sgn * 0.5 * h
+                put(r, i, *sorted((z[i], zm)))
+                continue
+            t = float(np.clip(np.min(mi[cross] / (mi[cross] - mo[cross])), 0.0, 1.0))
+            zs = z[i] + sgn * t * h
+            if te is not None and np.isfinite(te[r, i]):
+                tb = te[r, i] + t * (te[r, o] - te[r, i]) if np.isfinite(te[r, o]) else te[r, i]
+                TB[r, i] = tb if not np.isfinite(TB[r, i]) else max(TB[r, i], tb)
+            if not solved[r, o]:
+                share_i, share_o = t, 0.0
+            elif (kind[r, i] > 0) == (kind[r, o] > 0):
+                share_i, share_o = t - t * t / 2, t * t / 2
+            else:
+                tau = tau_of(r, i, o)
+                share_i, share_o = min(t, tau), max(t - tau, 0.0)
+            put(r, i, *sorted((z[i], z[i] + sgn * share_i * h)))
+            if share_o >= PARTNER_MIN:
+                put(r, o, *sorted((zs - sgn * share_o * h, zs)))
+        if used.size == 1 and a[used[0]]:
+            put(r, used[0], -b / 2, b / 2)
+    part = (out > 0) & ~act
+    out = np.where(act, np.maximum(out, 1e-9), np.where(part, out, Wd))
     return out, LO, HI, part, TB
