@@ -52,8 +52,12 @@ class SliceSet:
     ----------
     phi1 : (N,) pinion angles [rad]; pairs : tuple of pinion tooth numbers.
     z : (K, N, M) pinion section of each slice node [mm] (ascending over M), NaN if unused.
-    width : (K, N, M) tributary axial width of the node [mm] (face ends: half a gap; where the
-        contact line leaves the active flanks, up to the crossing).
+    width : (K, N, M) the node's share of the contact [mm], the length of its Hertz contact (face ends:
+        half a gap; where the contact line leaves the active flanks, up to the crossing, shared with the
+        node past it: ``_partial_widths``); unused nodes: their tooth width.
+    width_tooth : (K, N, M) the node's tributary width of the tooth [mm] (the trapezoidal weights of the
+        fixed grid, :func:`slice_nodes`), for the compliance along the face: the tooth is there whether
+        or not the contact covers it.
     z_lo, z_hi : (K, N, M) the node's tributary interval [mm] (its contact where active).
     te : (K, N, M) TE at which the slice touches [rad] (NaN where unsolved).
     active : (K, N, M) the slice carries load: its point lies on both active flanks (``inside``), or it is
@@ -62,6 +66,9 @@ class SliceSet:
     inside : (K, N, M) the slice's point lies on both active flanks.
     te_bound : (K, N, M) TE at the crossings next to each inside node [rad] (NaN: none), for the
         unloaded TE.
+    partner_of, partner_t : (K, N, M) of a partner, its inside neighbour (node index, -1: not a partner)
+        and the fraction of the gap from that neighbour at which the contact line leaves the flanks
+        (the pressure reported at a partner is interpolated there, :class:`~gearopt.ltca.engine.LTCA`).
     converged : (K, N, M) the slice equations were solved.
     r1, n1, r2, n2 : (K, N, M, 3) point and outward unit normal on pinion / gear in their own frames.
     rf : (K, N, M, 3) the point in the fixed frame [mm].
@@ -111,6 +118,9 @@ class SliceSet:
     lever2: np.ndarray | None = None
     inside: np.ndarray | None = None
     te_bound: np.ndarray | None = None
+    partner_of: np.ndarray | None = None
+    partner_t: np.ndarray | None = None
+    width_tooth: np.ndarray | None = None
 
     @property
     def te_unloaded(self) -> np.ndarray:
@@ -280,7 +290,7 @@ class SliceSolver:
         M = Z.shape[2]
         # every column: (pair k, position n, node m), plus pair 0 at phi1 = 0 for the TE zero
         phis = (phi1[None, :] - 2 * math.pi * np.array(pairs)[:, None] / g1.z) + e1[:, None]  # (K, N)
-        zero_Z = slice_nodes(g1.b, n_slices)[0]
+        zero_Z, zero_W = slice_nodes(g1.b, n_slices)
         col_phi = np.concatenate([np.repeat(phis.ravel(), M), np.zeros(M)])
         col_z = np.concatenate([Z.ravel(), zero_Z])
         used = np.isfinite(col_z)
@@ -354,16 +364,23 @@ class SliceSolver:
         margin[2] = np.where(edge == 2, 1.0, margin[2])
         margin = np.where(ok, margin, np.nan)
         n = K * N * M
-        Wd, z_lo, z_hi, part, te_b = _partial_widths(
-            Z.reshape(-1, M), Wd.reshape(-1, M), act[:n].reshape(-1, M), margin[:, :n].reshape(5, -1, M), g1.b,
-            edge[:n].reshape(-1, M), np.stack([margin[0], tip_conj[0], margin[2], tip_conj[1]])[:, :n].reshape(4, -1, M),
-            solved=ok[:n].reshape(-1, M), te=te_raw[:n].reshape(-1, M))
-        Wd, z_lo, z_hi, part, te_b = (v.reshape(K, N, M) for v in (Wd, z_lo, z_hi, part, te_b))
-        # TE zero: the unloaded gear angle of pair 0 at phi1 = 0 (its largest active slice)
+        # the widths (and the partners past the flank boundaries) of every pair's row, and of the TE zero's
+        R = K * N + 1
+        W_tooth = Wd.copy()
+        Wd, z_lo, z_hi, part, te_b, p_of, p_t = _partial_widths(
+            np.concatenate([Z.reshape(-1, M), zero_Z[None]]), np.concatenate([Wd.reshape(-1, M), zero_W[None]]),
+            act.reshape(R, M), margin.reshape(5, R, M), g1.b, edge.reshape(R, M),
+            np.stack([margin[0], tip_conj[0], margin[2], tip_conj[1]]).reshape(4, R, M),
+            solved=ok.reshape(R, M), te=te_raw.reshape(R, M))
+        # TE zero: the unloaded gear angle of pair 0 at phi1 = 0 (its largest slice on the flanks, or
+        # where its contact line leaves them; of the solved slices if none is on them)
         z_act = act[-M:]
         if not z_act.any():
             z_act = ok[-M:]
         phi2_ref = float(np.max(te_raw[-M:][z_act])) if z_act.any() else 0.0
+        if act[-M:].any() and np.isfinite(te_b[-1]).any():
+            phi2_ref = max(phi2_ref, float(np.nanmax(te_b[-1])))
+        Wd, z_lo, z_hi, part, te_b, p_of, p_t = (v[:-1].reshape(K, N, M) for v in (Wd, z_lo, z_hi, part, te_b, p_of, p_t))
         te = te_raw - phi2_ref
         te_b = te_b - phi2_ref
         shp = lambda a: a[:n].reshape(K, N, M)  # noqa: E731
@@ -378,7 +395,9 @@ class SliceSolver:
                 "(e.g. -pi/z1 ... pi/z1) of a pair that meshes.")
         stats["n_partner"] = int(part.sum())
         return SliceSet(phi1=phi1, pairs=pairs, z=Z, width=Wd, z_lo=z_lo, z_hi=z_hi, te=shp(te),
-                        active=shp(act) | part, inside=shp(act), te_bound=te_b, converged=shp(ok),
+                        active=shp(act) | part, inside=shp(act), te_bound=te_b, partner_of=p_of, partner_t=p_t,
+                        width_tooth=W_tooth,
+                        converged=shp(ok),
                         r1=shp3(r1), n1=shp3(n1), r2=shp3(r2), n2=shp3(n2), rf=shp3(rf), u1=shp(W[0]), u2=shp(W[1]),
                         z2=shp(W[2]), phi2_ref=phi2_ref, stats=stats, edge=shp(edge),
                         w=np.where(ok, W, np.nan)[:, :n].T.reshape(K, N, M, 4), kappa1=shp(kap1), kappa2=shp(kap2),
@@ -478,14 +497,18 @@ def _partial_widths(Z, Wd, act, margin, b, edge=None, tips=None, solved=None, te
     node: the slices are fixed to the tooth and the loads change continuously with the design.
 
     ``te`` (rows, M): each node's TE [rad], interpolated to the crossings for the unloaded TE.
-    Returns ``(width, lo, hi, partner, te_bound)`` (rows, M): widths [mm]; each node's contact
-    interval [mm] (NaN where none); the nodes off the flanks that carry a share (partners); the TE at
-    the crossings next to each node on the flanks (the largest; NaN where none)."""
+    Returns ``(width, lo, hi, partner, te_bound, partner_of, partner_t)`` (rows, M): widths [mm]; each
+    node's contact interval [mm] (NaN where none); the nodes off the flanks that carry a share
+    (partners); the TE at the crossings next to each node on the flanks (the largest; NaN where none);
+    each partner's node on the flanks (index in the row, -1: none) and the crossing's fraction t of the
+    gap from that node (the larger of two)."""
     R, M = Z.shape
     out = np.zeros((R, M))
     LO = np.full(Z.shape, np.nan)
     HI = np.full(Z.shape, np.nan)
     TB = np.full(Z.shape, np.nan)
+    OF = np.full(Z.shape, -1)
+    TT = np.zeros(Z.shape)
     kind = np.zeros(Z.shape, int) if edge is None else edge
     solved = np.ones(Z.shape, bool) if solved is None else solved
 
@@ -543,8 +566,10 @@ def _partial_widths(Z, Wd, act, margin, b, edge=None, tips=None, solved=None, te
             put(r, i, *sorted((z[i], z[i] + sgn * share_i * h)))
             if share_o >= PARTNER_MIN:
                 put(r, o, *sorted((zs - sgn * share_o * h, zs)))
+                if t > TT[r, o]:
+                    OF[r, o], TT[r, o] = i, t
         if used.size == 1 and a[used[0]]:
             put(r, used[0], -b / 2, b / 2)
     part = (out > 0) & ~act
     out = np.where(act, np.maximum(out, 1e-9), np.where(part, out, Wd))
-    return out, LO, HI, part, TB
+    return out, LO, HI, part, TB, np.where(part, OF, -1), np.where(part, TT, 0.0)
