@@ -46,15 +46,12 @@ def sens(opt, design):
     return opt.sensitivities(design)
 
 
-def test_separation_sensitivities_match_finite_differences(opt, monkeypatch):
+def test_separation_sensitivities_match_finite_differences(opt):
     """J = d a / d theta (implicit function theorem by AD) against central differences of the exact
     slices of the modified flanks, on flank and tip-edge slices of both cases; and so the radius of
-    every flank slice's point on each member (Jr, which moves the edge weight's tip band). The slice grids are
-    held at fixed sections (the NLP's model keeps its slices where they are; by default each grid
-    follows the unloaded point contact, which moves with the design)."""
-    import gearopt.ltca.slices as slices
-
-    monkeypatch.setattr(slices, "CENTRE_ON_POINT", False)
+    every flank slice's point on each member (Jr, which moves the edge weight's tip band). The slices
+    are fixed to the tooth (docs/ltca.md section 1); compared on the slices on the flanks (a partner
+    past a flank boundary has its gap interpolated to the crossing, whose motion J leaves out)."""
     th = opt.theta0 + np.array([0.010, 0.005, 0.012, 0.008])
     lin = opt.linearise(th)
     h = 1e-4  # 0.1 um
@@ -64,7 +61,7 @@ def test_separation_sensitivities_match_finite_differences(opt, monkeypatch):
         lp, lm = opt.linearise(th + e), opt.linearise(th - e)
         for c in range(len(opt.cases)):
             S = lin[c]["S"]
-            both = S.active & lp[c]["S"].active & lm[c]["S"].active
+            both = S.inside & lp[c]["S"].inside & lm[c]["S"].inside
             fd = (lp[c]["a"] - lm[c]["a"]) / (2 * h)
             # the TE zero moves with the design (a constant per case): compare differences between slices
             ref = np.flatnonzero(both.ravel())[0]
@@ -87,12 +84,10 @@ def test_separation_sensitivities_match_finite_differences(opt, monkeypatch):
                 assert np.max(np.abs(ad_r - fd_r)) < 2e-3 * np.max(np.abs(fd_r))
 
 
-def test_litvin_settings_as_design_variables(monkeypatch):
+def test_litvin_settings_as_design_variables():
     """Litvin's settings a_c (parabolic rack) and a_pl (plunging) free with the tip and root relief:
     their separation sensitivities match central differences of the exact slices, and the optimum
     is verified by the exact loaded TCA (objective lowered, no edge loading, NLP within 0.01 arcsec)."""
-    import gearopt.ltca.slices as slices
-
     free = {"pinion.a_c": (0.0, 0.01), "pinion.a_pl": (0.0, 0.002), "pinion.C_alpha_a": (0.0, 0.04),
             "pinion.C_alpha_f": (0.0, 0.04)}
     opt = LoadedMicroOptimizer(drive(C_alpha=0.0, C_beta=0.0), free, torques=[100.0, 250.0],
@@ -103,7 +98,6 @@ def test_litvin_settings_as_design_variables(monkeypatch):
     assert d.after.objective < 0.6 * d.before.objective
     assert np.all(d.after.edge_load <= EDGE_TOL)
     assert 1e-3 < d.theta["pinion.a_c"] < 0.01 and 1e-4 < d.theta["pinion.a_pl"] < 0.002  # interior: both move
-    monkeypatch.setattr(slices, "CENTRE_ON_POINT", False)
     th = np.array(list(d.theta.values()))
     lin = opt.linearise(th)
     for j, h in ((0, 1e-6), (1, 1e-6)):
@@ -111,7 +105,7 @@ def test_litvin_settings_as_design_variables(monkeypatch):
         e[j] = h
         lp, lm = opt.linearise(th + e), opt.linearise(th - e)
         S = lin[1]["S"]
-        both = S.active & lp[1]["S"].active & lm[1]["S"].active
+        both = S.inside & lp[1]["S"].inside & lm[1]["S"].inside
         fd = (lp[1]["a"] - lm[1]["a"]) / (2 * h)
         ref = np.flatnonzero(both.ravel())[0]
         d_fd = (fd - fd.ravel()[ref])[both]
@@ -533,8 +527,11 @@ def test_unloaded_te_target_is_the_tcas_unloaded_te_against_its_parabola(te0_des
         rms.append(np.sqrt(np.mean((te + 8.0 * psi**2 - V @ coef) ** 2)))
     rms = np.array(rms)
     assert rms.min() > 1.0  # a real misfit: the loaded TE pulls the design off the parabola
-    assert np.allclose(d.verified.te0_rms, rms, rtol=0, atol=1e-5)
-    assert np.allclose(d.predicted["te0_rms"], rms, rtol=0, atol=1e-5)
+    # the slices are fixed to the tooth (docs/ltca.md section 1): off the face centre (the crossing case)
+    # the point contact lies between two slices and is sampled at them, which moves the misfit by
+    # 3e-5 arcsec here (1e-9 when the grids were centred on the point)
+    assert np.allclose(d.verified.te0_rms, rms, rtol=0, atol=1e-4)
+    assert np.allclose(d.predicted["te0_rms"], rms, rtol=0, atol=1e-4)
     assert d.error["te0_rms"] < 1e-5
     # the NLP's own term, the design fixed at the optimum
     opt.phi1 = d.phi1

@@ -11,10 +11,14 @@ profile curve in that section first touches the gear flank solves, with the unkn
 built on the TCA's own kinematics Function, so every flank modification, tool setting and
 misalignment of the TCA is in it (the same symbolic parameter column). Where the surfaces are in
 line contact these are the line-contact TCA equations; for a crowned pinion the slice through the
-point contact gives the unloaded TCA's phi2 exactly and every other slice touches later. A slice
-carries load only where its point lies on both active flanks (below both tips, above both flank
-limits, on both faces); the face ends are slices themselves, so contact at a face end (edge
-contact of a crowned or misaligned drive) is a slice at ``z = +-b/2``.
+point contact gives the unloaded TCA's phi2 exactly and every other slice touches later. The slices
+are fixed to the tooth: the same ``n_slices`` pinion sections across the face for every pair,
+position and design (:func:`slice_nodes`), so the loaded results are continuous in every
+modification and misalignment. A slice carries load where its point lies on both active flanks
+(below both tips, above both flank limits, on both faces), and, with a share that vanishes as the
+boundary reaches its neighbour, just past a boundary (:func:`_partial_widths`); the face ends are
+slices themselves, so contact at a face end (edge contact of a crowned or misaligned drive) is a
+slice at ``z = +-b/2``.
 
 The transmission error of slice j is ``te_j = phi2_j - (z1/z2) phi1 - phi2_ref`` [rad]; at zero
 load the gear rests on the slice with the largest te (the unloaded TE), and the separation of
@@ -68,7 +72,8 @@ class SliceSet:
         unloaded TE.
     partner_of, partner_t : (K, N, M) of a partner, its inside neighbour (node index, -1: not a partner)
         and the fraction of the gap from that neighbour at which the contact line leaves the flanks
-        (the pressure reported at a partner is interpolated there, :class:`~gearopt.ltca.engine.LTCA`).
+        (a partner's ``te`` is interpolated to that crossing, and so is the pressure reported for it,
+        :class:`~gearopt.ltca.engine.LTCA`).
     converged : (K, N, M) the slice equations were solved.
     r1, n1, r2, n2 : (K, N, M, 3) point and outward unit normal on pinion / gear in their own frames.
     rf : (K, N, M, 3) the point in the fixed frame [mm].
@@ -372,6 +377,15 @@ class SliceSolver:
             act.reshape(R, M), margin.reshape(5, R, M), g1.b, edge.reshape(R, M),
             np.stack([margin[0], tip_conj[0], margin[2], tip_conj[1]]).reshape(4, R, M),
             solved=ok.reshape(R, M), te=te_raw.reshape(R, M))
+        # a partner stands for the contact up to the crossing: its TE (so its gap) is the one there,
+        # interpolated from its neighbour on the flanks, te_i + t (te_o - te_i) (no lower than the
+        # unloaded TE: the contact conditions hold on the contact, not at the partner's own point past it)
+        rr, mm = np.nonzero(p_of >= 0)
+        if rr.size:
+            T2 = te_raw.reshape(R, M)
+            ti, to = T2[rr, p_of[rr, mm]], T2[rr, mm]
+            T2[rr, mm] = np.where(np.isfinite(to), ti + p_t[rr, mm] * (to - ti), ti)
+            te_raw = T2.ravel()
         # TE zero: the unloaded gear angle of pair 0 at phi1 = 0 (its largest slice on the flanks, or
         # where its contact line leaves them; of the solved slices if none is on them)
         z_act = act[-M:]
