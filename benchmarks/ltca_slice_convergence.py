@@ -43,7 +43,8 @@ def drives():
             GearPair(Gear(z=20, m_n=3.0, b=20.0, a_pl=0.0004, rack=BasicRack.iso53("A", a_c=0.002)),
                      Gear(z=40, m_n=3.0, b=20.0, rack=A)), Misalignment(crossing=3 * ARCMIN), 200.0),
         "spur ISO optimum, 2' crossing, 250 N m": (
-            GearPair(Gear(z=20, m_n=3.0, b=20.0, name="pinion", modifications=opt), Gear(z=40, m_n=3.0, b=20.0, name="gear")),
+            GearPair(Gear(z=20, m_n=3.0, b=20.0, name="pinion", modifications=opt),
+                     Gear(z=40, m_n=3.0, b=20.0, name="gear")),
             Misalignment(crossing=2 * ARCMIN), 250.0),
         "helical 21/53 crowned, 300 N m": (
             GearPair(Gear(z=21, m_n=2.5, b=30.0, beta=math.radians(18), a_pl=0.0002, rack=A),

@@ -140,7 +140,8 @@ def test_iso_amount_sweeps_have_no_jumps(name, centre):
 
 
 # --- relief starts (not parameters: one drive each) ----------------------------------------------------
-@pytest.mark.parametrize("start, values", [("d_Ca", (63.98, 63.99, 64.0, 64.01)), ("d_Cf", (58.48, 58.49, 58.5, 58.51))])
+@pytest.mark.parametrize("start, values", [("d_Ca", (63.98, 63.99, 64.0, 64.01)),
+                                           ("d_Cf", (58.48, 58.49, 58.5, 58.51))])
 def test_relief_start_sweeps_have_no_jumps(start, values):
     runs = [figures(ltca(optimum, **{start: v}), Misalignment(crossing=2 * ARCMIN)) for v in values]
     assert_no_jump(runs, f"optimum, {start}", order=2)

@@ -394,7 +394,8 @@ class SliceSolver:
         phi2_ref = float(np.max(te_raw[-M:][z_act])) if z_act.any() else 0.0
         if act[-M:].any() and np.isfinite(te_b[-1]).any():
             phi2_ref = max(phi2_ref, float(np.nanmax(te_b[-1])))
-        Wd, z_lo, z_hi, part, te_b, p_of, p_t = (v[:-1].reshape(K, N, M) for v in (Wd, z_lo, z_hi, part, te_b, p_of, p_t))
+        Wd, z_lo, z_hi, part, te_b, p_of, p_t = (v[:-1].reshape(K, N, M)
+                                                 for v in (Wd, z_lo, z_hi, part, te_b, p_of, p_t))
         te = te_raw - phi2_ref
         te_b = te_b - phi2_ref
         shp = lambda a: a[:n].reshape(K, N, M)  # noqa: E731
