@@ -58,7 +58,6 @@ def test_curvature_sensitivity_matches_finite_differences(monkeypatch):
     curvature of the reliefs' smooth starts moves with their amounts."""
     import gearopt.ltca.slices as slices
 
-    monkeypatch.setattr(slices, "CENTRE_ON_POINT", False)  # the slices at fixed sections (the NLP's model)
     opt = LoadedMicroOptimizer(drive(), FREE, torques=[TORQUE], cases=[Misalignment(crossing=2 * ARCMIN)],
                                n_positions=8, n_verify=16, n_slices=N_SLICES)
     th = np.array([0.012, 0.010, 0.015])

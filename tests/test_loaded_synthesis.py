@@ -47,15 +47,12 @@ def sens(opt, design):
     return opt.sensitivities(design)
 
 
-def test_separation_sensitivities_match_finite_differences(opt, monkeypatch):
+def test_separation_sensitivities_match_finite_differences(opt):
     """J = d a / d theta (implicit function theorem by AD) against central differences of the exact
     slices of the modified flanks, on flank and tip-edge slices of both cases; and so the radius of
-    every flank slice's point on each member (Jr, which moves the edge weight's tip band). The slice grids are
-    held at fixed sections (the NLP's model keeps its slices where they are; by default each grid
-    follows the unloaded point contact, which moves with the design)."""
-    import gearopt.ltca.slices as slices
-
-    monkeypatch.setattr(slices, "CENTRE_ON_POINT", False)
+    every flank slice's point on each member (Jr, which moves the edge weight's tip band). The slices
+    are fixed to the tooth (docs/ltca.md section 1); compared on the slices on the flanks (a partner
+    past a flank boundary has its gap interpolated to the crossing, whose motion J leaves out)."""
     th = opt.theta0 + np.array([0.010, 0.005, 0.012, 0.008])
     lin = opt.linearise(th)
     h = 1e-4  # 0.1 um
@@ -65,7 +62,7 @@ def test_separation_sensitivities_match_finite_differences(opt, monkeypatch):
         lp, lm = opt.linearise(th + e), opt.linearise(th - e)
         for c in range(len(opt.cases)):
             S = lin[c].slices
-            both = S.active & lp[c].slices.active & lm[c].slices.active
+            both = S.inside & lp[c].slices.inside & lm[c].slices.inside
             fd = (lp[c].a - lm[c].a) / (2 * h)
             # the TE zero moves with the design (a constant per case): compare differences between slices
             ref = np.flatnonzero(both.ravel())[0]
@@ -88,12 +85,10 @@ def test_separation_sensitivities_match_finite_differences(opt, monkeypatch):
                 assert np.max(np.abs(ad_r - fd_r)) < 2e-3 * np.max(np.abs(fd_r))
 
 
-def test_litvin_settings_as_design_variables(monkeypatch):
+def test_litvin_settings_as_design_variables():
     """Litvin's settings a_c (parabolic rack) and a_pl (plunging) free with the tip and root relief:
     their separation sensitivities match central differences of the exact slices, and the optimum
     is verified by the exact loaded TCA (objective lowered, no edge loading, NLP within 0.01 arcsec)."""
-    import gearopt.ltca.slices as slices
-
     free = {"pinion.a_c": (0.0, 0.01), "pinion.a_pl": (0.0, 0.002), "pinion.C_alpha_a": (0.0, 0.04),
             "pinion.C_alpha_f": (0.0, 0.04)}
     opt = LoadedMicroOptimizer(drive(C_alpha=0.0, C_beta=0.0), free, torques=[100.0, 250.0],
@@ -104,7 +99,6 @@ def test_litvin_settings_as_design_variables(monkeypatch):
     assert d.after.objective < 0.6 * d.before.objective
     assert np.all(d.after.edge_load <= EDGE_TOL)
     assert 1e-3 < d.theta["pinion.a_c"] < 0.01 and 1e-4 < d.theta["pinion.a_pl"] < 0.002  # interior: both move
-    monkeypatch.setattr(slices, "CENTRE_ON_POINT", False)
     th = np.array(list(d.theta.values()))
     lin = opt.linearise(th)
     for j, h in ((0, 1e-6), (1, 1e-6)):
@@ -112,7 +106,7 @@ def test_litvin_settings_as_design_variables(monkeypatch):
         e[j] = h
         lp, lm = opt.linearise(th + e), opt.linearise(th - e)
         S = lin[1].slices
-        both = S.active & lp[1].slices.active & lm[1].slices.active
+        both = S.inside & lp[1].slices.inside & lm[1].slices.inside
         fd = (lp[1].a - lm[1].a) / (2 * h)
         ref = np.flatnonzero(both.ravel())[0]
         d_fd = (fd - fd.ravel()[ref])[both]
@@ -535,8 +529,11 @@ def test_unloaded_te_target_is_the_tcas_unloaded_te_against_its_parabola(te0_des
         rms.append(np.sqrt(np.mean((te + 8.0 * psi**2 - V @ coef) ** 2)))
     rms = np.array(rms)
     assert rms.min() > 1.0  # a real misfit: the loaded TE pulls the design off the parabola
-    assert np.allclose(d.verified.te0_rms, rms, rtol=0, atol=1e-5)
-    assert np.allclose(d.predicted["te0_rms"], rms, rtol=0, atol=1e-5)
+    # the slices are fixed to the tooth (docs/ltca.md section 1): off the face centre (the crossing case)
+    # the point contact lies between two slices and is sampled at them, which moves the misfit by
+    # 3e-5 arcsec here (1e-9 when the grids were centred on the point)
+    assert np.allclose(d.verified.te0_rms, rms, rtol=0, atol=1e-4)
+    assert np.allclose(d.predicted["te0_rms"], rms, rtol=0, atol=1e-4)
     assert d.error["te0_rms"] < 1e-5
     # the NLP's own term, the design fixed at the optimum
     opt.phi1 = d.phi1
@@ -548,7 +545,7 @@ def test_unloaded_te_target_is_the_tcas_unloaded_te_against_its_parabola(te0_des
     assert nlp["solver"].stats()["success"]
     term = float(nlp["te0_term"](r["x"]))
     W = opt.weights.sum(axis=0)
-    assert term == pytest.approx(0.1 * float(np.sum(W * np.sqrt(rms**2 + 1e-6))), rel=1e-6)
+    assert term == pytest.approx(0.1 * float(np.sum(W * np.sqrt(rms**2 + 1e-6))), rel=2e-5)  # (the sampling above)
     # any grid: one pitch on, pair 1 is the one centred there
     S = opt.ltca.slices(d.phi1, p1, p2, opt.cases[1])
     S1 = opt.ltca.slices(d.phi1 + 2 * np.pi / z1, p1, p2, opt.cases[1])

@@ -430,7 +430,9 @@ class LTCA:
                     Cs[n][np.ix_(idx, idx)] = (G1.matrix(rad1[k, n, u], z1[k, n, u])
                                                + G2.matrix(rad2[k, n, u], z2[k, n, u]))
         else:
-            G = coupling_batch(S.z.reshape(K * N, M), S.width.reshape(K * N, M), self.coupling_length)
+            # the face coupling on the tooth's own widths (the slices fixed to the tooth), not the contact's
+            wt = S.width if S.width_tooth is None else S.width_tooth
+            G = coupling_batch(S.z.reshape(K * N, M), wt.reshape(K * N, M), self.coupling_length)
             d = np.sqrt(ct).reshape(K * N, M)
             blocks = (cb**2 * d[:, :, None] * G * d[:, None, :]).reshape(K, N, M, M)
             Cv = Cs.reshape(N, K, M, K, M)
@@ -648,10 +650,20 @@ class LTCA:
         pair_load = Fk.sum(axis=2)
         lam_k = back(lam)
         width = np.where(S.width > 0, S.width, np.nan)
+        p0_k, bH_k = (np.where(back(A_all), back(v), 0.0) for v in (p0, bH))
+        if S.partner_of is not None and (S.partner_of >= 0).any():
+            # a partner (a node past the flank boundary, SliceSet.active) carries its share of the contact
+            # up to the crossing; the pressure there is the linear interpolation from its neighbour on the
+            # flanks, p_i + t (p_o - p_i) at the crossing (t: SliceSet.partner_t), so the peak pressure is
+            # continuous as the crossing runs to the neighbour (t -> 0) or onto the partner (t -> 1)
+            kk, nn, mm = np.nonzero(S.partner_of >= 0)
+            ii, t = S.partner_of[kk, nn, mm], S.partner_t[kk, nn, mm]
+            for v in (p0_k, bH_k):
+                v[kk, nn, mm] = v[kk, nn, ii] + t * (v[kk, nn, mm] - v[kk, nn, ii])
         result = LoadedResult(
             torque=torque, W=W, phi1=S.phi1, pairs=S.pairs, te_unloaded=te0, te_loaded=te_l, delta=delta,
             load=Fk, line_load=np.where(np.isfinite(S.z), Fk / width, np.nan),
-            p0=np.where(back(A_all), back(p0), 0.0), b_H=np.where(back(A_all), back(bH), 0.0), pair_load=pair_load,
+            p0=p0_k, b_H=bH_k, pair_load=pair_load,
             share=(lam_k * Fk).sum(axis=2) / W, stiffness=W / delta / 1e3, kkt_error=kkt, hertz_iterations=it,
             solve_time=time.perf_counter() - t0, face_width=g1.b, stats={"qp_solver": QP_SOLVER}, edge=S.edge,
             lever=lam_k * g1.r_b * cb)

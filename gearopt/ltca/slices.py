@@ -11,10 +11,14 @@ profile curve in that section first touches the gear flank solves, with the unkn
 built on the TCA's own kinematics Function, so every flank modification, tool setting and
 misalignment of the TCA is in it (the same symbolic parameter column). Where the surfaces are in
 line contact these are the line-contact TCA equations; for a crowned pinion the slice through the
-point contact gives the unloaded TCA's phi2 exactly and every other slice touches later. A slice
-carries load only where its point lies on both active flanks (below both tips, above both flank
-limits, on both faces); the face ends are slices themselves, so contact at a face end (edge
-contact of a crowned or misaligned drive) is a slice at ``z = +-b/2``.
+point contact gives the unloaded TCA's phi2 exactly and every other slice touches later. The slices
+are fixed to the tooth: the same ``n_slices`` pinion sections across the face for every pair,
+position and design (:func:`slice_nodes`), so the loaded results are continuous in every
+modification and misalignment. A slice carries load where its point lies on both active flanks
+(below both tips, above both flank limits, on both faces), and, with a share that vanishes as the
+boundary reaches its neighbour, just past a boundary (:func:`_partial_widths`); the face ends are
+slices themselves, so contact at a face end (edge contact of a crowned or misaligned drive) is a
+slice at ``z = +-b/2``.
 
 The transmission error of slice j is ``te_j = phi2_j - (z1/z2) phi1 - phi2_ref`` [rad]; at zero
 load the gear rests on the slice with the largest te (the unloaded TE), and the separation of
@@ -38,8 +42,8 @@ from ..meshing.solver import REGULARITY_MIN, Branch
 from ..meshing.tca import TCA, check_sweep_args
 
 SLICE_NORMAL_TOL = 0.05  #: accepted slice points have n1 . n2 < -1 + this (crowning tilts the normals)
-CENTRE_ON_POINT = True  #: centre each pair's grid on its unloaded point contact
 _SECTIONS = (-0.5, -0.25, 0.0, 0.25, 0.5)  #: pinion sections of the conjugate first guesses [b1]
+PARTNER_MIN = 1e-4  #: smallest weight [share of the slice spacing] with which a node past a boundary joins the contact
 EDGE_CHUNK = 256  #: columns per mapped tip-edge solve (one compiled size)
 
 
@@ -52,16 +56,28 @@ class SliceSet:
     ----------
     phi1 : (N,) pinion angles [rad]; pairs : tuple of pinion tooth numbers.
     z : (K, N, M) pinion section of each slice node [mm] (ascending over M), NaN if unused.
-    width : (K, N, M) tributary axial width of the node [mm] (face ends: half a gap; where the
-        contact line leaves the active flanks, up to the crossing).
+    width : (K, N, M) the node's share of the contact [mm], the length of its Hertz contact (face ends:
+        half a gap; where the contact line leaves the active flanks, up to the crossing, shared with the
+        node past it: ``_partial_widths``); unused nodes: their tooth width.
+    width_tooth : (K, N, M) the node's tributary width of the tooth [mm] (the trapezoidal weights of the
+        fixed grid, :func:`slice_nodes`), for the compliance along the face: the tooth is there whether
+        or not the contact covers it.
     z_lo, z_hi : (K, N, M) the node's tributary interval [mm] (its contact where active).
     te : (K, N, M) TE at which the slice touches [rad] (NaN where unsolved).
-    active : (K, N, M) the slice's point lies on both active flanks.
+    active : (K, N, M) the slice carries load: its point lies on both active flanks (``inside``), or it is
+        the neighbour past the boundary where the contact line leaves them (a ``partner``: it carries its
+        linear-interpolation share of the contact up to the crossing, see ``_partial_widths``).
+    inside : (K, N, M) the slice's point lies on both active flanks.
+    te_bound : (K, N, M) TE at the crossings next to each inside node [rad] (NaN: none), for the
+        unloaded TE.
+    partner_of, partner_t : (K, N, M) of a partner, its inside neighbour (node index, -1: not a partner)
+        and the fraction of the gap from that neighbour at which the contact line leaves the flanks
+        (a partner's ``te`` is interpolated to that crossing, and so is the pressure reported for it,
+        :class:`~gearopt.ltca.engine.LTCA`).
     converged : (K, N, M) the slice equations were solved.
     r1, n1, r2, n2 : (K, N, M, 3) point and outward unit normal on pinion / gear in their own frames.
     rf : (K, N, M, 3) the point in the fixed frame [mm].
     u1, u2, z2 : (K, N, M) surface coordinates [mm].
-    z_center : (K, N) where the grid of the pair is centred (the unloaded point contact, else 0).
     edge : (K, N, M) int: 0 surface contact, 1 the pinion's tip edge on the gear flank, 2 the gear's
         tip edge on the pinion flank (slices whose conjugate point lies beyond that tip).
     w : (K, N, M, 4) the solved unknowns ``(u1, u2, z2, r_p2 phi2)`` [mm] of each slice's equations
@@ -95,7 +111,6 @@ class SliceSet:
     u1: np.ndarray
     u2: np.ndarray
     z2: np.ndarray
-    z_center: np.ndarray
     phi2_ref: float
     stats: dict
     edge: np.ndarray | None = None
@@ -106,11 +121,20 @@ class SliceSet:
     nc2: np.ndarray | None = None
     lever1: np.ndarray | None = None
     lever2: np.ndarray | None = None
+    inside: np.ndarray | None = None
+    te_bound: np.ndarray | None = None
+    partner_of: np.ndarray | None = None
+    partner_t: np.ndarray | None = None
+    width_tooth: np.ndarray | None = None
 
     @property
     def te_unloaded(self) -> np.ndarray:
-        """(N,) unloaded TE [rad]: the largest TE of the active slices (NaN: no contact)."""
-        t = np.max(np.where(self.active, self.te, -np.inf), axis=(0, 2))
+        """(N,) unloaded TE [rad]: the largest TE of the slices on the active flanks and of the points
+        where the contact lines leave them (``te_bound``) (NaN: no contact)."""
+        on = self.active if self.inside is None else self.inside
+        t = np.max(np.where(on, self.te, -np.inf), axis=(0, 2))
+        if self.te_bound is not None:
+            t = np.maximum(t, np.max(np.where(np.isfinite(self.te_bound), self.te_bound, -np.inf), axis=(0, 2)))
         return np.where(np.isfinite(t), t, np.nan)
 
 
@@ -131,27 +155,17 @@ def across_line_curvatures(rf1, nf1, q1, rf2, nf2, q2):
     return ca.mtimes([v.T, K1, v]), ca.mtimes([v.T, K2, v])
 
 
-def slice_nodes(b: float, n_slices: int, z_center) -> tuple[np.ndarray, np.ndarray]:
-    """Slice nodes across a face of width ``b`` [mm]: a uniform grid of spacing ``b/(n_slices-1)``
-    through ``z_center`` (one node on it) plus both face ends, nodes closer than a thousandth of a
-    spacing to an end dropped. Returns ``z`` and tributary ``width`` as (..., n_slices + 2) arrays
-    (unused nodes NaN / 0), for every entry of ``z_center``."""
-    zc = np.asarray(z_center, float)
+def slice_nodes(b: float, n_slices: int, shape=()) -> tuple[np.ndarray, np.ndarray]:
+    """Slice nodes fixed to the tooth: ``n_slices`` pinion sections ``z_j = -b/2 + j b/(n_slices-1)``
+    [mm] across a face of width ``b`` (both face ends are nodes), the same for every pair and position,
+    so a node never moves with the design, the misalignment or the pinion angle. Returns ``z`` and the
+    tributary ``width`` (the trapezoidal rule's weights: ``b/(n_slices-1)``, half of it at the face ends)
+    as arrays of shape ``shape + (n_slices,)``."""
     dz = b / (n_slices - 1)
-    M = n_slices + 2
-    flat = zc.ravel()
-    Z = np.full((flat.size, M), np.nan)
-    W = np.zeros((flat.size, M))
-    j = np.arange(-n_slices, n_slices + 1)
-    for i, c in enumerate(flat):
-        g = c + j * dz
-        g = g[np.abs(g) < b / 2 - 1e-3 * dz]
-        nodes = np.concatenate([[-b / 2], g, [b / 2]])
-        mid = 0.5 * (nodes[1:] + nodes[:-1])
-        edges = np.concatenate([[-b / 2], mid, [b / 2]])
-        Z[i, :nodes.size] = nodes
-        W[i, :nodes.size] = np.diff(edges)
-    return Z.reshape(zc.shape + (M,)), W.reshape(zc.shape + (M,))
+    z = np.linspace(-b / 2, b / 2, n_slices)
+    w = np.full(n_slices, dz)
+    w[[0, -1]] = dz / 2
+    return np.broadcast_to(z, tuple(shape) + (n_slices,)).copy(), np.broadcast_to(w, tuple(shape) + (n_slices,)).copy()
 
 
 class SliceSolver:
@@ -274,23 +288,14 @@ class SliceSolver:
             raise ArgumentError(f"offsets: expected two arrays of {len(pairs)} finite angles [rad] (one per pair).",
                                 param="offsets", valid=f"(e1, e2), each {len(pairs)} finite angles [rad]")
         stats: dict = {}
-        # where each pair's grid is centred: the unloaded point contact on the face, else mid face
+        # the slice nodes: fixed pinion sections across the face (slice_nodes), the same for every pair
+        # and position, so the separations, compliances and widths are continuous in the design
         K, N = len(pairs), phi1.size
-        zc = np.zeros((K, N))
-        if tca.contact_type == "point" and CENTRE_ON_POINT:
-            try:
-                surf = tca.sweep(phi1, p1, p2, mis, pairs=pairs, continuation=True)
-                good = surf.converged & (np.abs(surf.z1) <= g1.b / 2)
-                zc = np.where(good, surf.z1, 0.0)
-                stats["centred_on_point_contact"] = int(good.sum())
-            except (LineContactError, ConvergenceError) as e:
-                stats["point_contact"] = f"no point contact ({str(e)[:120]}): grids centred at mid face"
-        Z, Wd = slice_nodes(g1.b, n_slices, zc)
+        Z, Wd = slice_nodes(g1.b, n_slices, (K, N))
         M = Z.shape[2]
         # every column: (pair k, position n, node m), plus pair 0 at phi1 = 0 for the TE zero
         phis = (phi1[None, :] - 2 * math.pi * np.array(pairs)[:, None] / g1.z) + e1[:, None]  # (K, N)
-        zero_Z, zero_W = slice_nodes(g1.b, n_slices, 0.0 if tca.contact_type == "line" else self._zero_centre(
-            p1, p2, mis, g1))
+        zero_Z, zero_W = slice_nodes(g1.b, n_slices)
         col_phi = np.concatenate([np.repeat(phis.ravel(), M), np.zeros(M)])
         col_z = np.concatenate([Z.ravel(), zero_Z])
         used = np.isfinite(col_z)
@@ -364,17 +369,35 @@ class SliceSolver:
         margin[2] = np.where(edge == 2, 1.0, margin[2])
         margin = np.where(ok, margin, np.nan)
         n = K * N * M
-        Wd, z_lo, z_hi = _partial_widths(Z.reshape(-1, M), Wd.reshape(-1, M), act[:n].reshape(-1, M),
-                                         margin[:, :n].reshape(5, -1, M), g1.b, edge[:n].reshape(-1, M),
-                                         np.stack([margin[0], tip_conj[0], margin[2], tip_conj[1]])[:, :n]
-                                         .reshape(4, -1, M))
-        Wd, z_lo, z_hi = (v.reshape(K, N, M) for v in (Wd, z_lo, z_hi))
-        # TE zero: the unloaded gear angle of pair 0 at phi1 = 0 (its largest active slice)
+        # the widths (and the partners past the flank boundaries) of every pair's row, and of the TE zero's
+        R = K * N + 1
+        W_tooth = Wd.copy()
+        Wd, z_lo, z_hi, part, te_b, p_of, p_t = _partial_widths(
+            np.concatenate([Z.reshape(-1, M), zero_Z[None]]), np.concatenate([Wd.reshape(-1, M), zero_W[None]]),
+            act.reshape(R, M), margin.reshape(5, R, M), g1.b, edge.reshape(R, M),
+            np.stack([margin[0], tip_conj[0], margin[2], tip_conj[1]]).reshape(4, R, M),
+            solved=ok.reshape(R, M), te=te_raw.reshape(R, M))
+        # a partner stands for the contact up to the crossing: its TE (so its gap) is the one there,
+        # interpolated from its neighbour on the flanks, te_i + t (te_o - te_i) (no lower than the
+        # unloaded TE: the contact conditions hold on the contact, not at the partner's own point past it)
+        rr, mm = np.nonzero(p_of >= 0)
+        if rr.size:
+            T2 = te_raw.reshape(R, M)
+            ti, to = T2[rr, p_of[rr, mm]], T2[rr, mm]
+            T2[rr, mm] = np.where(np.isfinite(to), ti + p_t[rr, mm] * (to - ti), ti)
+            te_raw = T2.ravel()
+        # TE zero: the unloaded gear angle of pair 0 at phi1 = 0 (its largest slice on the flanks, or
+        # where its contact line leaves them; of the solved slices if none is on them)
         z_act = act[-M:]
         if not z_act.any():
             z_act = ok[-M:]
         phi2_ref = float(np.max(te_raw[-M:][z_act])) if z_act.any() else 0.0
+        if act[-M:].any() and np.isfinite(te_b[-1]).any():
+            phi2_ref = max(phi2_ref, float(np.nanmax(te_b[-1])))
+        Wd, z_lo, z_hi, part, te_b, p_of, p_t = (v[:-1].reshape(K, N, M)
+                                                 for v in (Wd, z_lo, z_hi, part, te_b, p_of, p_t))
         te = te_raw - phi2_ref
+        te_b = te_b - phi2_ref
         shp = lambda a: a[:n].reshape(K, N, M)  # noqa: E731
         shp3 = lambda a: a[:n].reshape(K, N, M, 3)  # noqa: E731
         stats["n_columns"] = int(n)
@@ -385,9 +408,13 @@ class SliceSolver:
                 f"loaded TCA: no slice of any tooth pair {list(pairs)} is in contact on the active flanks at "
                 f"phi1 = {phi1.min():.6g} ... {phi1.max():.6g} rad; the positions must lie in the mesh cycle "
                 "(e.g. -pi/z1 ... pi/z1) of a pair that meshes.")
-        return SliceSet(phi1=phi1, pairs=pairs, z=Z, width=Wd, z_lo=z_lo, z_hi=z_hi, te=shp(te), active=shp(act), converged=shp(ok),
+        stats["n_partner"] = int(part.sum())
+        return SliceSet(phi1=phi1, pairs=pairs, z=Z, width=Wd, z_lo=z_lo, z_hi=z_hi, te=shp(te),
+                        active=shp(act) | part, inside=shp(act), te_bound=te_b, partner_of=p_of, partner_t=p_t,
+                        width_tooth=W_tooth,
+                        converged=shp(ok),
                         r1=shp3(r1), n1=shp3(n1), r2=shp3(r2), n2=shp3(n2), rf=shp3(rf), u1=shp(W[0]), u2=shp(W[1]),
-                        z2=shp(W[2]), z_center=zc, phi2_ref=phi2_ref, stats=stats, edge=shp(edge),
+                        z2=shp(W[2]), phi2_ref=phi2_ref, stats=stats, edge=shp(edge),
                         w=np.where(ok, W, np.nan)[:, :n].T.reshape(K, N, M, 4), kappa1=shp(kap1), kappa2=shp(kap2),
                         nc1=shp3(nc1), nc2=shp3(nc2), lever1=shp(lev1), lever2=shp(lev2))
 
@@ -437,15 +464,6 @@ class SliceSolver:
             edge = np.where(good, member, edge)
         return W, ok, edge
 
-    def _zero_centre(self, p1, p2, mis, g1) -> float:
-        """Pinion section of the unloaded point contact of pair 0 at phi1 = 0 (0 if none on the face)."""
-        try:
-            w = self.tca.solve_point(0.0, None, p1, p2, mis)
-        except (LineContactError, ConvergenceError):
-            return 0.0
-        z = float(w[1])
-        return z if abs(z) <= g1.b / 2 else 0.0
-
 
 def _interp_sections(zsec, vals, zz) -> np.ndarray:
     """Piecewise-linear interpolation in z of section values (S, 4, P) at ``zz`` (P,), held
@@ -469,64 +487,104 @@ def _interp_sections(zsec, vals, zz) -> np.ndarray:
     return out
 
 
-def _partial_widths(Z, Wd, act, margin, b, edge=None, tips=None):
-    """Tributary intervals (rows of slice nodes) with the contact ending between an active and an
-    inactive neighbour where one of the signed margins (B, rows, M) to the flank boundaries
-    (> 0 inside) crosses zero between them (linear interpolation; the nearest crossing).
+def _partial_widths(Z, Wd, act, margin, b, edge=None, tips=None, solved=None, te=None):
+    """Each node's share of the contact along a row of slice nodes (pinion sections ``Z`` (rows, M),
+    ascending, unused NaN), gap by gap between neighbouring nodes p < q, h = z_q - z_p:
 
-    Between a flank slice and a tip-edge neighbour (``edge`` (rows, M): 1 pinion tip, 2 gear tip)
-    the boundary is where the flank contact line leaves the zone of action over that tip: the zero
-    of that tip's margin interpolated between the flank slice's point and the edge slice's
-    conjugate point (``tips`` (4, rows, M): pinion tip margin, its conjugate value, gear tip margin,
-    its conjugate value [mm]). The flank slice's contact ends there, the edge's begins there, so the
-    flank contact never extends beyond the zone of action (the margins are concave in z along a
-    contact line: the chord's zero lies inside).
-    Returns ``(width, lo, hi)`` (rows, M) [mm] (NaN bounds for unused nodes)."""
-    out = Wd.copy()
+    * both on the active flanks (``act``): the gap is split at its middle; between a flank node and a
+      tip-edge node (``edge`` (rows, M): 1 pinion tip, 2 gear tip) at the fraction tau where the flank
+      contact line leaves the zone of action over that tip: the zero of that tip's margin interpolated
+      between the flank node's point and the edge node's conjugate point (``tips`` (4, rows, M): pinion
+      tip margin, its conjugate value, gear tip margin, its conjugate value [mm]); the margins are
+      concave in z along a contact line, so the chord's zero lies inside and the flank contact never
+      extends beyond the zone of action.
+    * one on the active flanks (i), one not (o): the contact ends at the fraction t of the gap from i
+      where one of the signed margins to the flank boundaries (``margin`` (B, rows, M), > 0 inside)
+      crosses zero (linear interpolation; the nearest crossing). The piece ``t h`` is shared by i and
+      o as the linear interpolation between them shares it (the hat functions' weights): i takes
+      ``h (t - t^2/2)``, o takes ``h t^2/2`` and carries load (a *partner*; its solution is the
+      surfaces continued past the boundary); between a flank node and an edge node, i takes
+      ``min(t, tau) h`` and o ``max(t - tau, 0) h``. Where o is not solved (``solved`` (rows, M)
+      False) i takes the whole piece ``t h``.
+
+    At t = 1 the shares are those of two nodes on the flanks and at t = 0 nothing is left of the
+    piece, so every width is continuous as a boundary (a face end, a flank limit, a tip) crosses a
+    node: the slices are fixed to the tooth and the loads change continuously with the design.
+
+    ``te`` (rows, M): each node's TE [rad], interpolated to the crossings for the unloaded TE.
+    Returns ``(width, lo, hi, partner, te_bound, partner_of, partner_t)`` (rows, M): widths [mm]; each
+    node's contact interval [mm] (NaN where none); the nodes off the flanks that carry a share
+    (partners); the TE at the crossings next to each node on the flanks (the largest; NaN where none);
+    each partner's node on the flanks (index in the row, -1: none) and the crossing's fraction t of the
+    gap from that node (the larger of two)."""
+    R, M = Z.shape
+    out = np.zeros((R, M))
     LO = np.full(Z.shape, np.nan)
     HI = np.full(Z.shape, np.nan)
-    for r in range(Z.shape[0]):
+    TB = np.full(Z.shape, np.nan)
+    OF = np.full(Z.shape, -1)
+    TT = np.zeros(Z.shape)
+    kind = np.zeros(Z.shape, int) if edge is None else edge
+    solved = np.ones(Z.shape, bool) if solved is None else solved
+
+    def put(r, m, lo, hi):
+        out[r, m] += hi - lo
+        LO[r, m] = lo if not np.isfinite(LO[r, m]) else min(LO[r, m], lo)
+        HI[r, m] = hi if not np.isfinite(HI[r, m]) else max(HI[r, m], hi)
+
+    def tau_of(r, i, o):
+        """Fraction of the gap from i to o where a flank node's contact meets an edge node's (1/2 if
+        both are of one kind or the tip's margins do not cross between them)."""
+        if (kind[r, i] > 0) == (kind[r, o] > 0) or tips is None:
+            return 0.5
+        fl, ed = (i, o) if kind[r, o] > 0 else (o, i)
+        k = kind[r, ed]
+        mi, mo = tips[2 * (k - 1), r, fl], tips[2 * (k - 1) + 1, r, ed]
+        if not (np.isfinite(mi) and np.isfinite(mo) and mi >= 0 > mo):
+            return 0.5
+        f = mi / (mi - mo)  # from the flank node
+        return f if fl == i else 1.0 - f
+
+    for r in range(R):
         z, a = Z[r], act[r]
         used = np.flatnonzero(np.isfinite(z))
-        zz = z[used]
-        lo = np.concatenate([[-b / 2], 0.5 * (zz[1:] + zz[:-1])])
-        hi = np.concatenate([0.5 * (zz[1:] + zz[:-1]), [b / 2]])
-        trimmed = False
-        if edge is not None and edge[r, used].any():
-            for j in range(used.size - 1):
-                i, o = used[j], used[j + 1]
-                if not (a[i] and a[o]) or (edge[r, i] > 0) == (edge[r, o] > 0):
-                    continue
-                fl, ed = (i, o) if edge[r, o] > 0 else (o, i)
-                kind = edge[r, ed]
-                mi, mo = tips[2 * (kind - 1), r, fl], tips[2 * (kind - 1) + 1, r, ed]
-                if np.isfinite(mi) and np.isfinite(mo) and mi >= 0 > mo:
-                    hi[j] = lo[j + 1] = z[fl] + (z[ed] - z[fl]) * mi / (mi - mo)
-                    trimmed = True
-        if trimmed:
-            for j, i in enumerate(used):
-                if a[i]:
-                    out[r, i] = max(hi[j] - lo[j], 1e-9)
-        if not (a[used].all() or not a[used].any()):
-            for j, i in enumerate(used):
-                if not a[i]:
-                    continue
-                for nb, side in ((j - 1, 0), (j + 1, 1)):
-                    if nb < 0 or nb >= used.size or a[used[nb]]:
-                        continue
-                    o = used[nb]
-                    mi, mo = margin[:, r, i], margin[:, r, o]
-                    cross = np.isfinite(mi) & np.isfinite(mo) & (mi >= 0) & (mo < 0)
-                    if not cross.any():
-                        continue
-                    t = np.min(mi[cross] / (mi[cross] - mo[cross]))
-                    zs = z[i] + (z[o] - z[i]) * t
-                    # the active node takes the contact up to the crossing (also past the midpoint:
-                    # the inactive neighbour carries none of it), so the contact length is continuous
-                    if side == 0:
-                        lo[j] = zs
-                    else:
-                        hi[j] = zs
-                out[r, i] = max(hi[j] - lo[j], 1e-9)
-        LO[r, used], HI[r, used] = lo, hi
-    return out, LO, HI
+        for j in range(used.size - 1):
+            p, q = used[j], used[j + 1]
+            h = z[q] - z[p]
+            if a[p] and a[q]:
+                zt = z[p] + tau_of(r, p, q) * h
+                put(r, p, z[p], zt)
+                put(r, q, zt, z[q])
+                continue
+            if not (a[p] or a[q]):
+                continue
+            i, o = (p, q) if a[p] else (q, p)
+            sgn = 1.0 if i == p else -1.0
+            mi, mo = margin[:, r, i], margin[:, r, o]
+            cross = np.isfinite(mi) & np.isfinite(mo) & (mi >= 0) & (mo < 0)
+            if not cross.any():  # no boundary found between them: i keeps half the gap
+                zm = z[i] + sgn * 0.5 * h
+                put(r, i, *sorted((z[i], zm)))
+                continue
+            t = float(np.clip(np.min(mi[cross] / (mi[cross] - mo[cross])), 0.0, 1.0))
+            zs = z[i] + sgn * t * h
+            if te is not None and np.isfinite(te[r, i]):
+                tb = te[r, i] + t * (te[r, o] - te[r, i]) if np.isfinite(te[r, o]) else te[r, i]
+                TB[r, i] = tb if not np.isfinite(TB[r, i]) else max(TB[r, i], tb)
+            if not solved[r, o]:
+                share_i, share_o = t, 0.0
+            elif (kind[r, i] > 0) == (kind[r, o] > 0):
+                share_i, share_o = t - t * t / 2, t * t / 2
+            else:
+                tau = tau_of(r, i, o)
+                share_i, share_o = min(t, tau), max(t - tau, 0.0)
+            put(r, i, *sorted((z[i], z[i] + sgn * share_i * h)))
+            if share_o >= PARTNER_MIN:
+                put(r, o, *sorted((zs - sgn * share_o * h, zs)))
+                if t > TT[r, o]:
+                    OF[r, o], TT[r, o] = i, t
+        if used.size == 1 and a[used[0]]:
+            put(r, used[0], -b / 2, b / 2)
+    part = (out > 0) & ~act
+    out = np.where(act, np.maximum(out, 1e-9), np.where(part, out, Wd))
+    return out, LO, HI, part, TB, np.where(part, OF, -1), np.where(part, TT, 0.0)

@@ -124,6 +124,14 @@ class Lineariser:
                 J[kk, nn, mm] = dw3 / self.pair.gear.r_p * (-lever)
                 Jr[kk, nn, mm] = np.stack([dr1, dr2], axis=1)
                 Jk[kk, nn, mm] = dk
+            if S.partner_of is not None:
+                # a partner slice's separation is interpolated to the crossing (SliceSet.partner_t), and
+                # so is its sensitivity (the crossing's own motion with the design is left out); its Hertz
+                # radius is its own, and so is Jk (the NLP bounds its own pressure, the loaded TCA reports
+                # the one interpolated to the crossing, which lies between its and its neighbour's)
+                kk, nn, mm = np.nonzero(S.partner_of >= 0)
+                ii, tt = S.partner_of[kk, nn, mm], S.partner_t[kk, nn, mm][:, None]
+                J[kk, nn, mm] = J[kk, nn, ii] + tt * (J[kk, nn, mm] - J[kk, nn, ii])
             # each slice on its own levers (LTCA._solve_one, docs/ltca.md section 3): the gap is
             # (te0 - te) L2 + C F - lam delta, lam = L1 / (r_b1 cos(beta_b)); with the absolute separation
             # a = -te r_b2 cos(beta_b) and the block's approach d = delta - te0 r_b2 cos(beta_b)

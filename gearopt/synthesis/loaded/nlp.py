@@ -72,7 +72,7 @@ class NLPBuilder:
             reach_n = np.sum(np.abs(eg_n[..., :P]) * span, axis=-1)
             tp_n = flat(np.zeros(S.z.shape, bool) if S.edge is None else S.edge > 0)
             if sparse:
-                Acoup = coupling_stiffness_batch(S.z.reshape(K * N, M), S.width.reshape(K * N, M),
+                Acoup = coupling_stiffness_batch(S.z.reshape(K * N, M), S.width_tooth.reshape(K * N, M),
                                                  lam).reshape(K, N, M, M)
                 Dn = np.sqrt(st["ct"])
             for t in range(T):
