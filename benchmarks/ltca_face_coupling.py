@@ -2,6 +2,8 @@
 (docs/ltca.md, section 2, "Point contact").
 
     python benchmarks/ltca_face_coupling.py          # the members of docs/ltca.md section 7 (cached grids)
+    python benchmarks/ltca_face_coupling.py --hertz  # crowned pinions' peak pressure (default compliance,
+                                                     # 21 and 41 slices) against the Hertz ellipse (~1 min)
     python benchmarks/ltca_face_coupling.py --rim    # + the 20/40 pinion with a rim 0.3, 1.5 and 4.375 m_n
                                                      # deep (n_face 10, n_rim 8; about 10 min of ccx each
                                                      # on 2 shared cores, then cached)
@@ -64,14 +66,46 @@ def pairs():
     }
 
 
+def hertz_table() -> int:
+    """The crowned pinions of tests/test_ltca_point_contact.py at phi1 = 0: loaded TCA's peak pressure
+    (default analytical compliance) against the Hertz ellipse of the whole normal load (the unloaded
+    TCA's curvatures, gearopt.fea.model.hertz_point), and its log-slope over the torques."""
+    from gearopt.fea import FEOptions, GearFEModel
+    from gearopt.ltca import LTCA, Material
+
+    mat = Material(E=E, nu=NU)
+    b15 = math.radians(15)
+    crown = dict(a_pl=2e-3, rack=BasicRack.iso53("A", a_c=2e-3))
+    cases = {"spur 20/40": (GearPair(Gear(z=20, m_n=3, b=20, **crown), Gear(z=40, m_n=3, b=20)), [25, 50, 100, 200, 400]),
+             "helical 21/45": (GearPair(Gear(z=21, m_n=2.5, b=24, beta=b15, **crown),
+                                        Gear(z=45, m_n=2.5, b=24, beta=b15, hand="left")), [25, 50, 100])}
+    for name, (pair, T) in cases.items():
+        hz = []
+        for t in T:
+            (h,) = GearFEModel(pair, 0.0, FEOptions(torque=t * 1e3, E=E, nu=NU)).hertz.values()
+            hz.append(h)
+        for n in (21, 41):
+            sw = LTCA(pair, material=mat, n_slices=n).solve([float(t) for t in T], phi1=np.array([0.0]))
+            p = np.array([r.p_max for r in sw.results])
+            slope = np.polyfit(np.log(T), np.log(p), 1)[0]
+            print(f"{name}, crowned, {n} slices: log-slope {slope:.3f}")
+            for t, h, r, pp in zip(T, hz, sw.results, p):
+                print(f"  {t:5.0f} N m  Hertz {h['p0']:7.1f} MPa (a {h['a']:.2f} mm)  loaded TCA {pp:7.1f} MPa "
+                      f"({100 * (pp / h['p0'] - 1):+.1f} %)  pair share {float(np.max(r.share)):.4f}")
+    return 0
+
+
 def main(argv):
     if "-h" in argv or "--help" in argv:
         print(__doc__)
         return 0
-    bad = [a for a in argv if a != "--rim"]
+    bad = [a for a in argv if a not in ("--rim", "--hertz")]
     if bad:
-        print(f"ltca_face_coupling.py: unknown argument {bad[0]!r}: expected --rim (see --help)", file=sys.stderr)
+        print(f"ltca_face_coupling.py: unknown argument {bad[0]!r}: expected --rim or --hertz (see --help)",
+              file=sys.stderr)
         return 2
+    if "--hertz" in argv:
+        return hertz_table()
     print("member            half tooth height [mm]   fitted lam [mm] per grid row (relative error)")
     for name, pair in pairs().items():
         tca = TCA(pair)
