@@ -400,7 +400,9 @@ class LTCA:
         return T
 
     def _structure(self, S: SliceSet) -> dict:
-        """Load-independent parts: tooth compliance matrices per pair and position, Hertz data."""
+        """Load-independent parts: tooth compliance matrices per pair and position, Hertz data.
+        ``parts``: the analytical compliance's terms ``(c (K, N, M) [mm^2/N], coupling length [mm])``
+        whose face matrices sum to ``Cs`` (times cos^2(beta_b)); ``ct`` their sum."""
         g1, g2 = self.pair.pinion, self.pair.gear
         K, N, M = S.z.shape
         cb = self.cos_bb
@@ -477,7 +479,7 @@ class LTCA:
             h1 = np.where(flank, h1 * cb * np.exp(G1.local_excess(rad1)), h1)
             h2 = np.where(flank, h2 * cb * np.exp(G2.local_excess(rad2)), h2)
         length = S.width / cb
-        return {"Cs": Cs, "R": np.where(act, R, 1.0), "h1": np.where(act, h1, 1.0), "h2": np.where(act, h2, 1.0),
+        return {"Cs": Cs, "parts": parts, "R": np.where(act, R, 1.0), "h1": np.where(act, h1, 1.0), "h2": np.where(act, h2, 1.0),
                 "length": np.where(act, length, 1.0), "radius1": rad1, "radius2": rad2, "ct": ct}
 
     def _weber_tangent(self, n: int) -> ca.Function:
