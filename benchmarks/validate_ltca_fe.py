@@ -13,6 +13,9 @@
                                                       # both members (no tip-edge contact)
     python benchmarks/validate_ltca_fe.py --recorded [--fine]  # loaded TCA only, against the FE results
                                                       # recorded in benchmarks/data/fe_reference.json (~2 min)
+    python benchmarks/validate_ltca_fe.py --recorded --compliance analytical  # the pressure, share and pattern
+                                                      # columns from loaded TCA with the default analytical
+                                                      # compliance instead of the FE coefficients
     python benchmarks/validate_ltca_fe.py --very-fine --only "spur crowned" --pos -0.3  # one position
                                                       # (0, -0.3 or +0.3 pitches) at bench_fea_refine's very
                                                       # fine level (about an hour per position)
@@ -105,7 +108,7 @@ def section_line_load(profile) -> float:
 
 
 FLAGS = ("--spur", "--fine", "--very-fine", "--recorded")
-VALUED = {"--only": None, "--pos": ("0", "-0.3", "+0.3")}
+VALUED = {"--only": None, "--pos": ("0", "-0.3", "+0.3"), "--compliance": ("fe", "analytical")}
 
 
 def check_args(argv) -> str | None:
@@ -152,6 +155,9 @@ def main(argv):
         from bench_fea_refine import LEVELS, VERY_FINE
         fe_level = dict(VERY_FINE["very fine"], timeout=7200.0) if "--very-fine" in argv else LEVELS["fine"]
     print(f"FE reference mesh: {fe_level}")
+    if "--compliance" in argv:
+        print(f"LTCA-fe p, share, z_c, max dsh columns: loaded TCA with compliance = "
+              f"{argv[argv.index('--compliance') + 1]!r}")
     print(f"{'drive':<22} {'phi1 deg':>8} {'pairs':>7} {'FE approach um':>14} {'LTCA-an':>8} {'LTCA-fe':>8} "
           f"{'err an %':>8} {'err fe %':>8} {'FE p MPa':>9} {'LTCA-fe p':>9} {'err %':>6} {'max p':>9} {'FE share':>8} "
           f"{'LTCA-fe':>7} {'FE z_c':>7} {'LTCA z_c':>8} {'FE s':>6} {'FE p/lay':>9} {'err %':>6} {'max dsh':>7}")
@@ -171,6 +177,7 @@ def main(argv):
             L = LTCA(pair, material=mat, compliance=c)
             S = L.slices(phi1=np.array(phis), mis=mis)
             lt[c] = L.solve(T, slices=S).results[0]
+        cc = argv[argv.index("--compliance") + 1] if "--compliance" in argv else "fe"  # the p, share, z_c columns
         for j, ph in enumerate(phis):
             if only_pos is not None and fracs[j] != only_pos:
                 continue
@@ -201,26 +208,26 @@ def main(argv):
             fe_app = rec["approach_um"] / 1000
             an = lt["analytical"].delta[j] / cb
             fe = lt["fe"].delta[j] / cb
-            kk = lt["fe"].pairs.index(k0)
+            kk = lt[cc].pairs.index(k0)
             # the slice pressure in the FE's section (through the contact: mid face for line contact)
             z_sec = m.contact[k0]["z1"]
             ok = np.isfinite(S.z[kk, j]) & S.active[kk, j] & (S.edge[kk, j] == 0)  # flank slices
             o = np.argsort(S.z[kk, j][ok])
-            p_lt = float(np.interp(z_sec, S.z[kk, j][ok][o], lt["fe"].p0[kk, j][ok][o]))
-            p_lt_max = float(np.max(lt["fe"].p0_flank[kk, j]))
+            p_lt = float(np.interp(z_sec, S.z[kk, j][ok][o], lt[cc].p0[kk, j][ok][o]))
+            p_lt_max = float(np.max(lt[cc].p0_flank[kk, j]))
             p_fe = rec["p_max_mid_MPa"]
             # the FE peak without its penalty layer's compliance (docs/fea.md, "Penalty")
             p_fe0 = penalty_layer_estimate(p_fe, m.hertz[k0], opts)["p_max_mid_penalty_free"]
             sh_fe = rec["share"]
-            sh_lt = float(lt["fe"].share[kk, j])
+            sh_lt = float(lt[cc].share[kk, j])
             zc_fe = rec["z_c_mm"] if rec["z_c_mm"] is not None else float("nan")
-            F_lt = lt["fe"].load[kk, j][ok]
+            F_lt = lt[cc].load[kk, j][ok]
             zc_lt = float((F_lt * S.z[kk, j][ok]).sum() / F_lt.sum())
             # every pair's share (recorded since 2026-11-28): the largest difference [share of the total]
             d_sh = float("nan")
             if rec.get("shares"):
-                d_sh = max(abs((v or 0.0) - (float(lt["fe"].share[lt["fe"].pairs.index(int(k)), j])
-                                             if int(k) in lt["fe"].pairs else 0.0)) for k, v in rec["shares"].items())
+                d_sh = max(abs((v or 0.0) - (float(lt[cc].share[lt[cc].pairs.index(int(k)), j])
+                                             if int(k) in lt[cc].pairs else 0.0)) for k, v in rec["shares"].items())
             print(f"{name:<22} {math.degrees(ph):8.3f} {str(loaded):>7} {1000 * fe_app:14.3f} "
                   f"{1000 * an:8.3f} {1000 * fe:8.3f} {100 * (an / fe_app - 1):8.1f} {100 * (fe / fe_app - 1):8.1f} "
                   f"{p_fe:9.1f} {p_lt:9.1f} {100 * (p_lt / p_fe - 1):6.1f} {p_lt_max:9.1f} {sh_fe:8.3f} {sh_lt:7.3f} "

@@ -13,9 +13,12 @@ along the contact normal is the sum of
   measured to the tooth centrelines (nonlinear in the load);
 
 and the slices of one tooth pair are coupled across the face by the discrete Green's function of
-``w - lambda^2 w'' = c f`` with free face ends (a Pasternak foundation): a load uniform over the
-face deflects every slice by the plane-strain value ``c f``; a concentrated load spreads over about
-``2 lambda``. Different tooth pairs are not coupled (the rim is taken as rigid beyond the
+``w - lambda^2 w'' = c f`` with free face ends (a Pasternak foundation), one for each part with its
+own length: the teeth (bending, shear, compression) over ``lambda`` = half the tooth height, each
+member's body (the foundation term) over the body's depth under the root, ``r_f - r_int``
+(:func:`face_matrix_batch`, :func:`body_coupling_length`). A load uniform over the face deflects
+every slice by the plane-strain value ``c f``; a concentrated load spreads each part over about
+``2 lambda`` of its own. Different tooth pairs are not coupled (the rim is taken as rigid beyond the
 foundation term).
 
 Units: mm, N, MPa. A compliance per unit face width ``c`` [mm^2/N] gives the deflection [mm] of
@@ -235,6 +238,35 @@ def coupling_batch(z, widths, lam: float) -> np.ndarray:
     return np.where(used[:, :, None] & used[:, None, :], G, 0.0)
 
 
+def face_matrix_batch(z, widths, terms) -> np.ndarray:
+    """Compliance blocks of slice rows coupled across the face, one Pasternak coupling per term:
+    ``sum_k D_k A_k^-1 D_k`` with ``D_k = diag(sqrt(c_k))`` and ``A_k`` the coupling of length
+    ``lam_k`` (:func:`coupling_stiffness_batch`) [mm/N].
+
+    Each term is a part of the compliance that spreads along the face over its own length: the tooth
+    (bending, shear, compression) over about half the tooth height, the gear body under it over the
+    body's depth (docs/ltca.md section 2). A load uniform over the face deflects every slice by
+    ``sum_k c_k f``, exactly, whatever the lengths.
+
+    Parameters
+    ----------
+    z, widths : (B, M) arrays
+        Slice positions and tributary widths [mm] (unused nodes: ``z`` NaN), as :func:`coupling_batch`.
+    terms : sequence of (c, lam)
+        ``c`` (B, M) compliance per unit face width of the term [mm^2/N] (> 0 at used nodes), ``lam``
+        its coupling length [mm] (>= 0).
+
+    Returns
+    -------
+    (B, M, M) array, zero rows/columns at unused nodes.
+    """
+    out = 0.0
+    for c, lam in terms:
+        d = np.sqrt(np.asarray(c, float))
+        out = out + d[:, :, None] * coupling_batch(z, widths, float(lam)) * d[:, None, :]
+    return out
+
+
 def coupling_stiffness_batch(z, widths, lam: float) -> np.ndarray:
     """The tridiagonal ``A = diag(widths) + lam^2 K`` [mm] of :func:`coupling_batch` (whose inverse
     that is), (B, M, M); an unused node has a decoupled unit diagonal entry."""
@@ -281,3 +313,10 @@ def iso6336_stiffness(pair) -> dict:
     return {"q_prime": q, "c_th": c_th, "C_B": C_B, "c_prime": c_p, "eps_alpha": eps,
             "c_gamma_alpha": c_p * (0.75 * eps + 0.25)}
 
+
+
+def body_coupling_length(tooth: ToothCompliance) -> float:
+    """Coupling length of the gear body's term across the face [mm]: the body's depth under the
+    tooth, ``r_f - r_int`` (docs/ltca.md section 2: the body term of Sainsot et al. spreads along the
+    face over about that depth in the FE influence grids of benchmarks/ltca_face_coupling.py)."""
+    return tooth.r_f - tooth.r_int

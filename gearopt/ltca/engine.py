@@ -39,7 +39,8 @@ from ..gears import GearPair
 from ..meshing.misalignment import Misalignment
 from ..meshing.tca import TCA
 from ..units import RAD_TO_ARCSEC
-from .compliance import C_PRIME_STEEL, Material, ToothCompliance, coupling_batch, weber_contact, weber_tangent
+from .compliance import (C_PRIME_STEEL, Material, ToothCompliance, body_coupling_length, face_matrix_batch,
+                         weber_contact, weber_tangent)
 from .hertz import contact_modulus, hertz_peak_pressure
 from .slices import SliceSet, SliceSolver
 
@@ -267,8 +268,11 @@ class LTCA:
         Inner radii of the pinion and gear bodies [mm] (default: half the root radius, a solid
         gear on its shaft).
     coupling : float, optional
-        Coupling length of the slices across the face [mm] (default: half the tooth height of the
-        pinion, r_a - r_f).
+        Coupling length of the teeth's slices across the face [mm] (bending, shear, compression;
+        default: half the tooth height of the pinion, (r_a - r_f) / 2).
+    body_coupling : float, optional
+        Coupling length of the gear bodies' term (Sainsot's foundation) across the face [mm], both
+        members (default: each member's :func:`~gearopt.ltca.compliance.body_coupling_length`).
     tca : TCA, optional
         The unloaded TCA (default: point contact with the members' modifications).
     compliance : {"analytical", "fe"}
@@ -286,7 +290,7 @@ class LTCA:
 
     def __init__(self, pair: GearPair, side: str = "right", material: Material | None = None, n_slices: int = 21,
                  r_int=None, coupling: float | None = None, tca: TCA | None = None, compliance: str = "analytical",
-                 fe_mesh=None, curvature: str = "surface"):
+                 fe_mesh=None, curvature: str = "surface", body_coupling: float | None = None):
         if not isinstance(pair, GearPair):
             raise ArgumentError(f"pair = {pair!r:.60}: expected a gearopt.gears.GearPair.", param="pair", value=pair,
                                 valid="a gearopt.gears.GearPair")
@@ -314,6 +318,14 @@ class LTCA:
         if not 0.0 <= lam <= 10 * g1.b:
             raise out_of_range("coupling", lam, f"0 <= coupling <= {10 * g1.b:g} mm (10 face widths)", cls=OptionError)
         self.coupling_length = float(lam)
+        if body_coupling is None:
+            self.body_coupling = tuple(body_coupling_length(t) for t in self.teeth)
+        else:
+            lb = check_number("body_coupling", body_coupling, "coupling length of the gear bodies [mm]", cls=OptionError)
+            if not 0.0 <= lb <= 100 * g1.b:
+                raise out_of_range("body_coupling", lb, f"0 <= body_coupling <= {100 * g1.b:g} mm (100 face widths)",
+                                   cls=OptionError)
+            self.body_coupling = (float(lb), float(lb))
         self.cos_bb = math.cos(g1.beta_b)
         if compliance not in ("analytical", "fe"):
             raise out_of_range("compliance", compliance, "'analytical' or 'fe' (CalculiX influence coefficients)",
@@ -390,7 +402,9 @@ class LTCA:
         return T
 
     def _structure(self, S: SliceSet) -> dict:
-        """Load-independent parts: tooth compliance matrices per pair and position, Hertz data."""
+        """Load-independent parts: tooth compliance matrices per pair and position, Hertz data.
+        ``parts``: the analytical compliance's terms ``(c (K, N, M) [mm^2/N], coupling length [mm])``
+        whose face matrices sum to ``Cs`` (times cos^2(beta_b)); ``ct`` their sum."""
         g1, g2 = self.pair.pinion, self.pair.gear
         K, N, M = S.z.shape
         cb = self.cos_bb
@@ -411,11 +425,18 @@ class LTCA:
         xy2, n2 = tooth_frame(S.r2, S.n2 if S.nc2 is None else S.nc2, z2, g2)
         c1 = self.teeth[0].per_width(xy1.reshape(-1, 2), n1.reshape(-1, 2))
         c2 = self.teeth[1].per_width(xy2.reshape(-1, 2), n2.reshape(-1, 2))
-        ct = (c1["total"] + c2["total"]).reshape(K, N, M)
         act = S.active
-        ct_ok = np.where(act & np.isfinite(ct) & (ct > 0), ct, np.nan)
-        fill = np.nanmean(ct_ok) if np.isfinite(ct_ok).any() else 1e-4
-        ct = np.where(np.isfinite(ct_ok), ct_ok, fill)
+
+        def filled(c):  # inactive or degenerate nodes: the mean of the active ones (they carry no load)
+            c = c.reshape(K, N, M)
+            ok = np.where(act & np.isfinite(c) & (c > 0), c, np.nan)
+            return np.where(np.isfinite(ok), ok, np.nanmean(ok) if np.isfinite(ok).any() else 1e-4)
+
+        ct = filled(c1["total"] + c2["total"])
+        # the tooth (bending, shear, compression of both teeth) and each member's body (Sainsot's term),
+        # coupled across the face over their own lengths (compliance.face_matrix_batch)
+        parts = [(filled(c1["total"] - c1["foundation"] + c2["total"] - c2["foundation"]), self.coupling_length),
+                 (filled(c1["foundation"]), self.body_coupling[0]), (filled(c2["foundation"]), self.body_coupling[1])]
         rad1 = np.hypot(S.r1[..., 0], S.r1[..., 1])
         rad2 = np.hypot(S.r2[..., 0], S.r2[..., 1])
         # bending/shear/foundation matrix of each pair over the used nodes: cos^2(beta_b) D A^-1 D
@@ -432,9 +453,8 @@ class LTCA:
         else:
             # the face coupling on the tooth's own widths (the slices fixed to the tooth), not the contact's
             wt = S.width if S.width_tooth is None else S.width_tooth
-            G = coupling_batch(S.z.reshape(K * N, M), wt.reshape(K * N, M), self.coupling_length)
-            d = np.sqrt(ct).reshape(K * N, M)
-            blocks = (cb**2 * d[:, :, None] * G * d[:, None, :]).reshape(K, N, M, M)
+            blocks = cb**2 * face_matrix_batch(S.z.reshape(K * N, M), wt.reshape(K * N, M),
+                                               [(c.reshape(K * N, M), lam) for c, lam in parts]).reshape(K, N, M, M)
             Cv = Cs.reshape(N, K, M, K, M)
             for k in range(K):
                 Cv[:, k, :, k, :] = blocks[k]
@@ -463,7 +483,7 @@ class LTCA:
             h1 = np.where(flank, h1 * cb * np.exp(G1.local_excess(rad1)), h1)
             h2 = np.where(flank, h2 * cb * np.exp(G2.local_excess(rad2)), h2)
         length = S.width / cb
-        return {"Cs": Cs, "R": np.where(act, R, 1.0), "h1": np.where(act, h1, 1.0), "h2": np.where(act, h2, 1.0),
+        return {"Cs": Cs, "parts": parts, "R": np.where(act, R, 1.0), "h1": np.where(act, h1, 1.0), "h2": np.where(act, h2, 1.0),
                 "length": np.where(act, length, 1.0), "radius1": rad1, "radius2": rad2, "ct": ct}
 
     def _weber_tangent(self, n: int) -> ca.Function:

@@ -52,7 +52,13 @@ def plot_te_vs_torque(d: dict, ax=None):
     nom = d.get("nominal_torque_Nm")
     if nom is not None:
         ax.axvline(nom, color="0.5", ls=":", lw=1, label=f"nominal {nom:.4g} N m")
-    return torque_axes(ax, T, "loaded TE [arcsec]", "TE against load", legend_size=8)
+    torque_axes(ax, T, "loaded TE [arcsec]", "TE against load", legend_size=8)
+    # headroom above the curves for the legend (a curve may dip mid-range and rise at both ends)
+    top = np.nanmax(np.r_[_arr(c["peak_to_peak_arcsec"]), _arr(c["harmonic1_arcsec"])])
+    if np.isfinite(top) and top > 0:
+        ax.set_ylim(0, 1.45 * top)
+        ax.legend(fontsize=8, loc="upper center")
+    return ax
 
 
 def torque_axes(ax, T, ylabel: str, title: str, legend_size: float = 7, pad: float = 1.05):

@@ -40,11 +40,11 @@ class NLPBuilder:
         P = len(self.free)
         Wt = self.torques * 1e3 / (g1.r_b * cb)
         sparse = self.ltca.compliance == "analytical"
-        lam = self.ltca.coupling_length
         trip_C = ([], [], [])  # dense compliance (FE): gap rows x load columns [mm/N]
         trip_A = ([], [], [])  # stiffness rows x deflection columns
         trip_D = ([], [], [])  # stiffness rows x load-share columns
-        w_of_x = []  # deflection unknown of each slice (sparse path)
+        w_of_x = []  # per compliance part, the deflection unknown of each slice (sparse path)
+        w_part = []  # the compliance part of each deflection unknown
         w_keys = []  # (torque, case, position, flat slice index) of each deflection unknown
         a0, Jx, Jmx, ln, Rx, h1x, h2x, edge, tix, blk, keys, tipe = [], [], [], [], [], [], [], [], [], [], [], []
         lamx = []  # each slice's lever about the pinion axis over r_b1 cos(beta_b)
@@ -72,9 +72,13 @@ class NLPBuilder:
             reach_n = np.sum(np.abs(eg_n[..., :P]) * span, axis=-1)
             tp_n = flat(np.zeros(S.z.shape, bool) if S.edge is None else S.edge > 0)
             if sparse:
-                Acoup = coupling_stiffness_batch(S.z.reshape(K * N, M), S.width_tooth.reshape(K * N, M),
-                                                 lam).reshape(K, N, M, M)
-                Dn = np.sqrt(st["ct"])
+                # each part of the compliance (the teeth, each member's body) coupled across the face over its
+                # own length (LTCA._structure "parts", compliance.face_matrix_batch), one deflection unknown
+                # per part and slice node: the gap takes their sum
+                wt = S.width if S.width_tooth is None else S.width_tooth
+                coup = [(coupling_stiffness_batch(S.z.reshape(K * N, M), wt.reshape(K * N, M),
+                                                  lam_p).reshape(K, N, M, M), np.sqrt(c_p))
+                        for c_p, lam_p in st["parts"]]
             for t in range(T):
                 act = acts[t]
                 for n in range(N):
@@ -82,30 +86,34 @@ class NLPBuilder:
                     cnt = A.size
                     pos = {int(i): nx + j for j, i in enumerate(A)}
                     if sparse:
-                        wi = np.full(cnt, -1)
-                        for k in range(K):
-                            U = np.flatnonzero(np.isfinite(S.z[k, n]))
-                            if not any((k * M + m) in pos for m in U):
-                                continue
-                            Ak = Acoup[k, n][np.ix_(U, U)]
-                            Dk = Dn[k, n, U]
-                            rows = nw + np.arange(U.size)
-                            w_keys.append(np.stack([np.full(U.size, t), np.full(U.size, c), np.full(U.size, n),
-                                                    k * M + U], axis=1))
-                            ii, jj = np.nonzero(Ak)
-                            # row i: sum_j A_ij (D_i / D_j) w_j - cos^2(beta_b) D_i^2 W x_i / G_REF = 0
-                            trip_A[0].append(rows[ii])
-                            trip_A[1].append(rows[jj])
-                            trip_A[2].append(Ak[ii, jj] * Dk[ii] / Dk[jj])
-                            for j, m in enumerate(U):
-                                q = pos.get(int(k * M + m))
-                                if q is not None:
-                                    trip_D[0].append([rows[j]])
-                                    trip_D[1].append([q])
-                                    trip_D[2].append([cb**2 * Dk[j] ** 2 * Wt[t] / G_REF])
-                                    wi[q - nx] = rows[j]
-                            nw += U.size
-                        w_of_x.append(wi)
+                        for part, (Acoup, Dn) in enumerate(coup):
+                            wi = np.full(cnt, -1)
+                            for k in range(K):
+                                U = np.flatnonzero(np.isfinite(S.z[k, n]))
+                                if not any((k * M + m) in pos for m in U):
+                                    continue
+                                Ak = Acoup[k, n][np.ix_(U, U)]
+                                Dk = Dn[k, n, U]
+                                rows = nw + np.arange(U.size)
+                                w_keys.append(np.stack([np.full(U.size, t), np.full(U.size, c), np.full(U.size, n),
+                                                        k * M + U], axis=1))
+                                w_part.append(np.full(U.size, part))
+                                ii, jj = np.nonzero(Ak)
+                                # row i: sum_j A_ij (D_i / D_j) w_j - cos^2(beta_b) D_i^2 W x_i / G_REF = 0
+                                trip_A[0].append(rows[ii])
+                                trip_A[1].append(rows[jj])
+                                trip_A[2].append(Ak[ii, jj] * Dk[ii] / Dk[jj])
+                                for j, m in enumerate(U):
+                                    q = pos.get(int(k * M + m))
+                                    if q is not None:
+                                        trip_D[0].append([rows[j]])
+                                        trip_D[1].append([q])
+                                        trip_D[2].append([cb**2 * Dk[j] ** 2 * Wt[t] / G_REF])
+                                        wi[q - nx] = rows[j]
+                                nw += U.size
+                            if len(w_of_x) <= part:
+                                w_of_x.append([])
+                            w_of_x[part].append(wi)
                     else:
                         Cb = st["Cs"][n][np.ix_(A, A)]
                         ii, jj = np.nonzero(Cb)
@@ -181,8 +189,8 @@ class NLPBuilder:
         # the constraint rows by name (:data:`.layout.ROWS`): (expression, lower bound, upper bound)
         g_rows = {}
         if sparse:
-            wi = np.concatenate(w_of_x)
-            gap = gap + w[wi.tolist()]
+            for wi in w_of_x:
+                gap = gap + w[np.concatenate(wi).tolist()]
             w_t = np.concatenate(w_keys)[:, 0]
             E_wt = ca.DM.triplet(list(range(nw)), w_t.tolist(), ca.DM.ones(nw), nw, T)  # w row -> torque
             g_rows["stiffness"] = (ca.mtimes(triplet(trip_A, nw, nw), w) - ca.mtimes(triplet(trip_D, nw, nx), x)
@@ -288,6 +296,7 @@ class NLPBuilder:
                     ubg=ubg, layout=layout, sizes=layout.sizes(), blocks=blocks, ct=ct, edge=tipe, ew=np.clip(ew, 0.0, 1.0),
                     lever=lever, Wt=Wt,
                     ln=ln, Rx=Rx, Jk=Jkx, theta_k=np.asarray(theta_k, float).copy(), keys=keys, hmap=hmap, w_keys=np.concatenate(w_keys) if w_keys else np.zeros((0, 4), int),
+                    w_part=np.concatenate(w_part) if w_part else np.zeros(0, int),
                     te0=te0, te0_term=ca.Function("te0_term", [z], [te0_obj if te0 is not None else ca.MX(0.0)],
                                                   ["z"], ["te0_term"]))
 
@@ -369,7 +378,7 @@ class LoadedNLP(dict):
     (:class:`~gearopt.synthesis.loaded.layout.NLPLayout`: the unknowns, rows and parameters by name),
     ``sizes`` (its block sizes by short name), ``lbg``, ``ubg``, ``phi1`` [rad], ``blocks``
     (:class:`~gearopt.synthesis.loaded.layout.Block` per torque, case and position), ``keys`` (torque,
-    case, position, flat slice) per slice held, ``w_keys`` (the same per deflection), ``rows``
+    case, position, flat slice) per slice held, ``w_keys`` (the same per deflection) and ``w_part`` (its compliance part), ``rows``
     (``flank``, ``ends``: the slices of the pressure and edge rows), ``ct`` (torque-case of each block),
     ``edge`` (tip-edge slices), ``ew`` (edge weights), ``lever`` [mm], ``Wt`` (normal load per torque
     [N]), ``ln``, ``Rx`` (contact length and reduced radius per slice [mm], the radius at the

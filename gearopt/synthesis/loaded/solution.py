@@ -11,6 +11,7 @@ import numpy as np
 
 from ...meshing.misalignment import Misalignment
 from ...units import RAD_TO_ARCSEC
+from ...ltca.compliance import face_matrix_batch
 from ...ltca.hertz import hertz_peak_pressure
 from .constants import G_REF, MU
 from .layout import block_vector
@@ -31,6 +32,18 @@ class NLPSolution:
         w0 = np.zeros(nw)
         lever = nlp["lever"]
         CF = {}
+        # each compliance part's deflections (analytical compliance: the NLP's deflection unknowns,
+        # LTCA._structure "parts", each coupled across the face over its own length)
+        cb2 = self.ltca.cos_bb**2
+        Cp = {}
+        if nlp["w_part"].size:
+            for c, L in enumerate(lin):
+                S = L.slices
+                K, N, M = S.z.shape
+                wt = S.width if S.width_tooth is None else S.width_tooth
+                Cp[c] = [cb2 * face_matrix_batch(S.z.reshape(K * N, M), wt.reshape(K * N, M),
+                                                 [(c_p.reshape(K * N, M), lam_p)]).reshape(K, N, M, M)
+                         for c_p, lam_p in L.structure["parts"]]
         for b, (t, c, n, first, cnt) in enumerate(nlp["blocks"]):
             S = lin[c].slices
             K, N, M = S.z.shape
@@ -38,11 +51,13 @@ class NLPSolution:
             A = nlp["keys"][first:first + cnt, 3]
             Ff = np.transpose(r.load, (1, 0, 2)).reshape(N, K * M)[n]
             x0[first:first + cnt] = Ff[A] / r.W
-            CF[(t, c, n)] = lin[c].structure["Cs"][n] @ Ff / G_REF
+            CF[(t, c, n)] = Ff
             # delta' = delta - te0 lever (absolute separations a = -te lever)
             d0[b] = (r.delta[n] - r.te_unloaded[n] * lever) / G_REF
-        for j, (t, c, n, i) in enumerate(nlp["w_keys"]):
-            w0[j] = CF[(t, c, n)][i]
+        for j, ((t, c, n, i), part) in enumerate(zip(nlp["w_keys"], nlp["w_part"])):
+            M = lin[c].slices.z.shape[2]
+            k, m = divmod(int(i), M)
+            w0[j] = Cp[c][part][k, n, m] @ CF[(t, c, n)][k * M:(k + 1) * M] / G_REF
         te = -d0 * G_REF / lever * RAD_TO_ARCSEC
         u0 = np.full(TC, -np.inf)
         v0 = np.full(TC, np.inf)
@@ -153,7 +168,7 @@ class NLPSolution:
         def rows(n):  # the keys of every constraint row, by the rows' block (:data:`.layout.ROWS`)
             kx = code(n["keys"])
             kb = code([(b.torque, b.case, b.position, 0) for b in n["blocks"]])
-            out = dict(stiffness=code(n["w_keys"]), gap=kx, complementarity=kx, balance=kb, te_hi=kb, te_lo=kb,
+            out = dict(stiffness=code(n["w_keys"]) * 4 + n["w_part"], gap=kx, complementarity=kx, balance=kb, te_hi=kb, te_lo=kb,
                        pressure=kx[n["rows"]["flank"]], edge=kx[n["rows"]["ends"]])
             if n["te0"] is not None:  # the unloaded-TE target's rows (torque index T: zero load)
                 k0 = code(n["te0"]["keys"])
