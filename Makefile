@@ -30,8 +30,9 @@ demo: $(STAMP)
 	@command -v ccx >/dev/null 2>&1 || echo "note: the FE scenes (problems/fea_spur.toml, problems/fea_crowned.toml) need \
 	CalculiX (ccx), which is not installed: run 'make ccx' as root, or 'sudo apt-get install calculix-ccx' (Debian/Ubuntu)."
 
+# The suite runs on every core (pytest-xdist), one test file per worker so that module fixtures are built once.
 test: ccx $(STAMP)
-	$(VPY) -m pytest -q
+	$(VPY) -m pytest -q -n auto --dist loadfile
 
 bench: $(STAMP)
 	@set -e; found=0; for f in benchmarks/*.py; do \
