@@ -10,7 +10,8 @@ Scene section ``[ltca]``:
 ``positions``   positions per mesh cycle (default 64; one cycle is analysed).
 ``n_slices``    slices across the face (default 21; the face ends are slices too).
 ``E``, ``nu``   Young's modulus [MPa] and Poisson's ratio (206000, 0.3).
-``coupling``    coupling length of the slices across the face [mm] (default half the pinion tooth height).
+``coupling``    coupling length of the teeth's compliance across the face [mm] (default half the pinion tooth
+                height); each body's term couples over its own depth r_f - r_int (docs/ltca.md section 2).
 ``r_int_pinion``, ``r_int_gear``: inner radii of the gear bodies [mm] (default half the root radius).
 ``compliance``  "analytical" (default) or "fe" (CalculiX influence coefficients, cached on disk).
 ``dE``, ``crossing``, ``intersecting``, ``axial``: the misalignment of the drive (default aligned).
@@ -204,7 +205,7 @@ class LTCAStudy:
                 "pinion_a_c": p.pinion.rack.a_c, "pinion_a_pl": p.pinion.a_pl, "side": L.side}
         m = L.material
         options = {"E_MPa": m.E, "nu": m.nu, "n_slices": L.n_slices, "positions": self.positions,
-                   "coupling_mm": L.coupling_length, "r_int_mm": list(L.r_int), "compliance": L.compliance,
+                   "coupling_mm": L.coupling_length, "body_coupling_mm": list(L.body_coupling), "r_int_mm": list(L.r_int), "compliance": L.compliance,
                    "qp_solver": "qpoases", "torques_Nm": self.torques}
         iso = iso6336_stiffness(p)
         nom = min(data["torques"], key=lambda r: abs(r["torque_Nm"] - self.torque))
@@ -305,7 +306,7 @@ def _register():
             Field("n_slices", "int", default=21, check=Bounds(lo=3, hi=201), doc="slices across the face"),
             *material_fields(),
             Field("coupling", "length", check=Bounds(lo=0, hi=1000),
-                  doc="coupling length of the slices across the face (default half the pinion tooth height)"),
+                  doc="coupling length of the teeth's compliance across the face (default half the pinion tooth height; the bodies couple over their depth)"),
             Field("r_int_pinion", "length", check=Bounds(lo=0, lo_open=True, hi=1e5),
                   doc="inner radius of the pinion body (default half its root radius)"),
             Field("r_int_gear", "length", check=Bounds(lo=0, lo_open=True, hi=1e5),
