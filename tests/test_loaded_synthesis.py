@@ -377,7 +377,9 @@ def test_pareto_front_is_verified_monotone_and_meets_its_limits():
             assert p["p_max_MPa"] < prev["p_max_MPa"] * 0.99
     te = [p["objective_arcsec"] for p in [pts[0]] + ok]
     assert all(b >= a - 1e-6 for a, b in zip(te, te[1:]))
-    assert te[-1] > te[0] + 0.5  # a real trade-off
+    # a real trade-off (2026-11-28, the bodies coupled over their depth: 13.76 -> 14.11 arcsec for 3 % less
+    # peak pressure; 0.5 arcsec or more before)
+    assert te[-1] > te[0] + 0.2
     # each point is the optimiser's verified design (an independent loaded TCA of it agrees)
     d = front.designs[1]
     assert opt.check(np.array(list(d.theta.values())), opt.ltca.mesh_cycle(opt.n_verify)).p_max.max() == \
