@@ -67,7 +67,8 @@ from dataclasses import dataclass, field, fields
 import casadi as ca
 import numpy as np
 
-from ..errors import ArgumentError, out_of_range, shorten
+from ..errors import ArgumentError, ConvergenceError, out_of_range, shorten
+from .inspection import check_grid_on_flank, flank_deviation, profile_chart
 from .modification import SIDES, FlankModification
 
 #: amounts (theta entries, mm) that are always part of a member's ISO modification, in this order
@@ -313,7 +314,6 @@ class Microgeometry:
             raise out_of_range(f"{n}.modifications.z_Cb", self.z_Cb, f"|z_Cb| <= b/2 = {gear.b / 2:.6g} mm",
                                cls=ArgumentError)
         if self.measured:  # on the flank, plausible deviations (the file, row and column named)
-            from .inspection import check_grid_on_flank
             for grid in self.measured:
                 check_grid_on_flank(grid, gear)
         if self.d_alpha is not None and not (2 * r_b < self.d_alpha[0] and self.d_alpha[1] <= 2 * r_a + 1e-9):
@@ -620,13 +620,12 @@ def measured_modification(grid, fr: Frame, name: str = "measured") -> FlankModif
 
 def modified_tooth(pair, member: str, tooth=None, force_iso: bool = False):
     """The member's generated tooth with its gear's :class:`Microgeometry` composed in (the tooth
-    itself when the gear has none). ``tooth``: the generated tooth (default ``generate(gear)``);
+    itself when the gear has none). ``tooth``: the generated tooth (default ``generate(gear)``, the tool's);
     ``force_iso``: compose the ISO terms (zero when the gear has none) so that their amounts
     ``iso.<name>`` are parameters of the tooth (see :func:`flank_modifications`)."""
-    from .generation import generate
 
     gear = getattr(pair, member)
-    tooth = tooth if tooth is not None else generate(gear)
+    tooth = tooth if tooth is not None else gear.tool.generate(gear)
     mg = getattr(gear, "modifications", None)
     if mg is None and force_iso:
         mg = Microgeometry()
@@ -644,11 +643,9 @@ def _profile_trace_of_settings(pair, member, a_c, u_0, side="right", n=41):
     """Roll lengths (n,) over the active profile (midpoints of n equal intervals) and the ISO
     transverse deviation [mm] (:func:`gearopt.geometry.inspection.flank_deviation`) of the flank cut by
     the member's tool with profile crowning (a_c, u_0) and no plunging, at mid face."""
-    from .generation import generate
-    from .inspection import flank_deviation
 
     g = getattr(pair, member)
-    tooth = generate(g).unmodified
+    tooth = g.tool.generate(g).unmodified
     r_s, r_e = active_profile(pair, member)
     L_s, L_e = math.sqrt(r_s**2 - g.r_b**2), math.sqrt(r_e**2 - g.r_b**2)
     L = L_s + (np.arange(n) + 0.5) / n * (L_e - L_s)  # interval midpoints: symmetric, inside the flank
@@ -660,7 +657,6 @@ def _profile_trace_of_settings(pair, member, a_c, u_0, side="right", n=41):
 def profile_fit(L, dev) -> tuple[float, float]:
     """(C_alpha, f_H_alpha) [mm] of a profile trace over its whole range
     (:func:`gearopt.geometry.inspection.profile_chart`)."""
-    from .inspection import profile_chart
 
     ch = profile_chart(L, dev)
     return ch["C_alpha"], ch["f_H_alpha"]
@@ -700,7 +696,6 @@ def litvin_from_iso(pair, member: str = "pinion", C_alpha: float = 0.0, C_beta: 
     ConvergenceError
         If the profile amounts are not met to ``tol`` [mm] in 12 Newton steps.
     """
-    from ..errors import ConvergenceError
 
     g = getattr(pair, member)
     for nm, v in (("C_alpha", C_alpha), ("C_beta", C_beta)):
@@ -712,7 +707,6 @@ def litvin_from_iso(pair, member: str = "pinion", C_alpha: float = 0.0, C_beta: 
     if C_alpha <= 0:
         raise out_of_range("C_alpha", C_alpha, "C_alpha > 0 mm with a profile slope (a parabolic tool slopes the "
                            "profile only by moving the parabola's vertex)", cls=ArgumentError)
-    from .generation import generate
 
     r_s, r_e = active_profile(pair, member)
     L_s, L_e = math.sqrt(r_s**2 - g.r_b**2), math.sqrt(r_e**2 - g.r_b**2)
@@ -721,7 +715,7 @@ def litvin_from_iso(pair, member: str = "pinion", C_alpha: float = 0.0, C_beta: 
     q = math.sin(g.alpha_t) / math.cos(g.rack.alpha_n)
     a_c = k * math.cos(g.beta_b) / q**2
     L0 = L_m + f_H_alpha / (2 * k * L_al)
-    tooth = generate(g).unmodified
+    tooth = g.tool.generate(g).unmodified
     p_ref = np.array(tooth.p0[:4], dtype=float)
     p_ref[1:] = 0.0
     u_0 = tooth.u_at_radius(math.hypot(g.r_b, L0), 0.0, "right", p_ref)
