@@ -142,9 +142,10 @@ class Tool:
         """The tool from a parsed ``tool`` table (scene key -> value, ``kind`` ignored)."""
         return cls(**{k.attr: values[k.key] for k in cls.scene_keys if k.key in values})
 
-    def scene_key_of(self, attr: str) -> str:
+    @classmethod
+    def scene_key_of(cls, attr: str) -> str:
         """The scene key that sets the field ``attr`` (the field's name when no key does)."""
-        return next((k.key for k in self.scene_keys if k.attr == attr), attr)
+        return next((k.key for k in cls.scene_keys if k.attr == attr), attr)
 
     def check(self, gear: Gear) -> None:
         """Refuse a tool that cannot cut ``gear`` (GeometryError naming ``<gear>.tool...``); nothing
