@@ -46,6 +46,8 @@ import numpy as np
 
 from ..errors import ConvergenceError, GearoptError, GeometryError, LineContactError, OptionError, out_of_range
 from ..errors import ArgumentError
+from ..report import CONJUGATE_ARCSEC, arr, misalignment_dict, pair_numbers, te_harmonics
+from ..units import RAD_TO_ARCSEC
 from ..meshing.tca import (REGULARITY_MIN, TCA, Branch, EnvelopeTE, Misalignment, TCAResult, check_sweep_args,
                            no_contact)
 
@@ -126,9 +128,6 @@ class EdgeTCAResult(EnvelopeTE):
         """This case as results.json holds it (``cases[]`` of the tca study with edge contact, and
         ``before`` / ``after`` of the crowning study; every key, unit and meaning in
         docs/results.md). Parameters as :meth:`gearopt.meshing.tca.TCAResult.to_dict`."""
-        from ..report import CONJUGATE_ARCSEC, arr, misalignment_dict, pair_numbers, te_harmonics
-        from ..units import RAD_TO_ARCSEC
-
         k0 = self.pairs.index(0) if 0 in self.pairs else 0
         env = self.te_envelope_arcsec
         branches = list(self.branches)

@@ -44,7 +44,8 @@ from ..geometry.generation import GeneratedTooth, generate
 from ..geometry.tools import RackCutter
 from ..progress import current
 from .calculix import read_dat, run_ccx
-from .mesh import MeshOptions, ToothMesher, build_member
+from .cache import cache_dir, save_npz
+from .mesh import MeshOptions, ToothMesher, build_member, middle_points
 
 LOCAL_VERSION = 1
 SLAB = np.array([-0.5, 0.0, 0.5])  #: face layers of the slab [mm] (1 mm thick, plane strain)
@@ -94,7 +95,6 @@ def section_compression(tooth: GeneratedTooth, radius: float, b_H: float, E: flo
         (the pressure's integral on the flank; the strip is scaled to ``f = 1000 b_H`` N/mm, a
         linear model), ``radius`` of the loaded node [mm], ``elements``, ``ccx_s`` [s].
     """
-    from .influence import _middle_points
 
     g = tooth.gear
     h_c = b_H / n_hertz
@@ -130,7 +130,7 @@ def section_compression(tooth: GeneratedTooth, radius: float, b_H: float, E: flo
              for j in np.flatnonzero(Fn > 0) for layer in range(3)]
     mid_rows = np.arange(0, t["section"].segments["fillet"][1] + 1)
     node_c = int(nodes[mid, rows[ic], -1])
-    pair, w, depth = _middle_points(X, nodes[mid:mid + 1], np.array([[node_c]]), nrm[None, None, :], mid_rows,
+    pair, w, depth = middle_points(X, nodes[mid:mid + 1], np.array([[node_c]]), nrm[None, None, :], mid_rows,
                                     t["section"].n_half)
     fixed = np.unique(np.r_[mm.rim_bottom, mm.rim_sides]) + 1
     lines = ["*NODE, NSET=NALL"] + [f"{i + 1}, {x:.12e}, {y:.12e}, {z:.12e}" for i, (x, y, z) in enumerate(X)]
@@ -197,7 +197,6 @@ def local_excess(tooth: GeneratedTooth, radius, E: float = 206000.0, nu: float =
     -------
     (n,) array of ``kappa`` (dimensionless).
     """
-    from .influence import cache_dir, save_npz
 
     if not 0.005 <= b_rel <= 0.2:
         raise out_of_range("b_rel", b_rel, "0.005 <= b_rel <= 0.2 (strip half-width in modules)")

@@ -105,7 +105,7 @@ class ToothSection:
     n_half: int
 
 
-def _graded_params(s: np.ndarray, n_uniform: int, s_c: float | None, h_c: float, window: float,
+def graded_params(s: np.ndarray, n_uniform: int, s_c: float | None, h_c: float, window: float,
                    growth: float) -> np.ndarray:
     """Node positions along [s[0], s[-1]] (arc length): uniform with ``n_uniform`` elements, or
     graded towards ``s_c`` with the size function h(s) = min(h_far, h_c + growth (|s - s_c| - window)+)."""
@@ -198,14 +198,14 @@ class ToothMesher:
             if cu.size != len(self.z):
                 raise ValueError(f"contact_u: one value per face layer ({len(self.z)}), got {cu.size}")
             sc = np.interp(cu, u[::-1], s[::-1]) if u[0] > u[-1] else np.interp(cu, u, s)
-            rows = [_graded_params(s, o.n_flank, float(c), o.h_contact, o.window, o.growth) for c in sc]
+            rows = [graded_params(s, o.n_flank, float(c), o.h_contact, o.window, o.growth) for c in sc]
             n = max(len(r) for r in rows)
             rows = [r if len(r) == n else np.interp(np.linspace(0, 1, n), np.linspace(0, 1, len(r)), r) for r in rows]
             out = np.array([np.interp(r, s, u) for r in rows])
             out[:, 0], out[:, -1] = u[0], u[-1]
             return out, phi_rows
         s_c = None if contact_u is None else float(np.interp(contact_u, u, s))
-        sn = _graded_params(s, o.n_flank, s_c, o.h_contact, o.window, o.growth)
+        sn = graded_params(s, o.n_flank, s_c, o.h_contact, o.window, o.growth)
         u_rows = np.interp(sn, s, u)
         u_rows[0], u_rows[-1] = u[0], u[-1]
         return u_rows, phi_rows
@@ -429,3 +429,35 @@ def face_of(elem_nodes: np.ndarray, quad: set) -> int:
         if {int(elem_nodes[i]) for i in loc} == quad:
             return f
     raise ValueError("face not found")
+
+
+def middle_points(X: np.ndarray, nodes: np.ndarray, load: np.ndarray, normals: np.ndarray, mid_rows,
+                  nh: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """For each load node, the two middle-line nodes (same layer) between which its load line crosses
+    the middle line, the interpolation weight and the distance to the crossing [mm]:
+    ``(pairs (n, 2), w (n,), depth (n,))`` (flattened like ``load``)."""
+    pairs, w, depth = [], [], []
+    for i in range(load.shape[0]):
+        for layer in range(load.shape[1]):
+            P = X[nodes[layer, mid_rows, nh], :2]
+            x0 = X[load[i, layer], :2]
+            d = -normals[i, layer, :2]
+            d = d / np.linalg.norm(d)
+            hit = None
+            for q in range(len(P) - 1):
+                e = P[q + 1] - P[q]
+                A = np.column_stack([d, -e])
+                if abs(np.linalg.det(A)) < 1e-14:
+                    continue
+                s_, t_ = np.linalg.solve(A, P[q] - x0)
+                if s_ > 0 and -1e-9 <= t_ <= 1 + 1e-9 and (hit is None or s_ < hit[2]):
+                    hit = (q, min(max(t_, 0.0), 1.0), s_)
+            if hit is None:
+                raise GeometryError(f"influence_grid: the load line of flank row {i}, face layer {layer} does not "
+                                    "meet the tooth's middle line above the fillet end; the member mesh is not a "
+                                    "tooth (check the gear data).", param="mesh", value=None)
+            q, t_, s_ = hit
+            pairs.append((nodes[layer, mid_rows[q], nh], nodes[layer, mid_rows[q + 1], nh]))
+            w.append(t_)
+            depth.append(s_)
+    return np.array(pairs, int), np.array(w, float), np.array(depth, float)

@@ -47,12 +47,13 @@ from ..errors import (ArgumentError, ConvergenceError, GearoptError, GeometryErr
 from ..gears import GearPair
 from ..geometry.frames import rot_z_points
 from ..geometry.generation import GeneratedTooth
-from ..ltca.compliance import C_PRIME_STEEL
-from ..ltca.hertz import contact_modulus, hertz_half_width, hertz_peak_pressure
+from ..contact.hertz import C_PRIME_STEEL, contact_modulus, hertz_half_width, hertz_peak_pressure
 from ..meshing.misalignment import Misalignment
 from ..meshing.tca import TCA
 from .calculix import CalculixError, Deck, last_block, read_contact_statistics, read_dat, read_frd_block, run_ccx
-from .mesh import GAUSS_C3D8, MemberMesh, MeshOptions, ToothMesher, hex_volume_sign, build_member, face_of, shape
+from .mesh import (GAUSS_C3D8, MemberMesh, MeshOptions, ToothMesher, build_member, face_of, graded_params,
+                   hex_volume_sign, shape)
+from .vtu import write_vtu
 
 # c' = C_PRIME_STEEL (ISO 6336-1 single-pair stiffness of steel spur gears, ~14 N/(mm um)), scaled with E below.
 #: A loaded approach along the line of action more than this many times the ISO estimate F / (c' b)
@@ -384,12 +385,10 @@ def _principal_vm(S):
 def _face_layers(b: float, n_face: int, z_c: float, h: float, window: float, growth: float) -> np.ndarray:
     """Face layers [mm] graded towards ``z_c`` (size ``h`` within ``window``, growing by ``growth``
     per mm beyond, at most the uniform size ``b / n_face``), one layer on ``z_c``."""
-    from .mesh import _graded_params
-
     z_c = float(np.clip(z_c, -b / 2, b / 2))
-    lo = _graded_params(np.array([0.0, z_c + b / 2]), max(1, round(n_face * (z_c + b / 2) / b)), z_c + b / 2, h,
+    lo = graded_params(np.array([0.0, z_c + b / 2]), max(1, round(n_face * (z_c + b / 2) / b)), z_c + b / 2, h,
                         window, growth) - b / 2 if z_c > -b / 2 + 1e-9 else np.array([-b / 2])
-    hi = _graded_params(np.array([0.0, b / 2 - z_c]), max(1, round(n_face * (b / 2 - z_c) / b)), 0.0, h,
+    hi = graded_params(np.array([0.0, b / 2 - z_c]), max(1, round(n_face * (b / 2 - z_c) / b)), 0.0, h,
                         window, growth) + z_c if z_c < b / 2 - 1e-9 else np.array([b / 2])
     out = np.concatenate([lo[:-1], [z_c], hi[1:]]) if lo.size > 1 and hi.size > 1 else np.concatenate([lo, hi])
     return np.unique(np.round(out, 12))
@@ -843,8 +842,6 @@ class FEResult:
     def write_vtu(self, path):
         """The mesh with displacements, stresses and contact pressure as ``.vtu`` (ParaView),
         :func:`gearopt.fea.vtu.write_vtu`."""
-        from .vtu import write_vtu
-
         return write_vtu(self.deck, self.frd, path)
 
     @staticmethod

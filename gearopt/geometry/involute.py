@@ -15,6 +15,8 @@ import math
 import casadi as ca
 import numpy as np
 
+from ..errors import ArgumentError
+
 #: Number of Newton steps that polish the initial guess in :func:`inv_inverse`. Three steps reach
 #: machine precision (<= 2 ulp) over 0 < alpha < 85 deg: the worst initial error is ~5e-4 (relative,
 #: near 68 deg), after one step ~8e-7, after two ~2e-12, after three < 2e-16
@@ -44,8 +46,6 @@ def _check_numeric(fn: str, name: str, value, below: float | None = None) -> Non
     finite real number with ``|value| < below``."""
     if isinstance(value, (ca.SX, ca.MX, ca.DM)):
         return
-    from ..errors import ArgumentError
-
     try:
         if isinstance(value, (str, bytes)) or np.asarray(value).dtype.kind in "USbO":
             raise TypeError

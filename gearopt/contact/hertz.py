@@ -1,4 +1,5 @@
-"""Hertz's line contact and Weber & Banaschek's contact approach: the one implementation shared by the
+"""Hertz's line contact, Weber & Banaschek's contact approach and ISO 6336-1's single-pair stiffness
+c' of steel: the one implementation shared by the
 loaded TCA (:mod:`gearopt.ltca.compliance`, :mod:`gearopt.ltca.engine`), the loaded micro-geometry
 optimiser's NLP (:mod:`gearopt.synthesis.loaded.nlp`) and the FE references (:func:`gearopt.fea.model.hertz_line`).
 
@@ -26,6 +27,10 @@ import casadi as ca
 import numpy as np
 
 from ..errors import out_of_range
+
+#: ISO 6336-1's typical single-pair stiffness c' of steel spur gears [N/mm per mm of face] (14 N/(mm um)):
+#: the FE model's contact stiffness and the loaded TCA's first guess scale it with E / 210 GPa.
+C_PRIME_STEEL = 14.0e3
 
 #: how :func:`weber_compliance` keeps the logarithm finite at a vanishing load ``f`` (below ``f_min``)
 SMOOTHINGS = ("max", "hypot")
