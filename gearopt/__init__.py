@@ -15,8 +15,8 @@ from .io.scene import load_scene
 from .meshing.planar import PlanarTCA, solve_planar_tca
 from .meshing.tca import TCA, Misalignment, TCAResult
 from .units import ARCMIN, ARCSEC, DEG, deg, to_deg
+from .version import __version__
 
-__version__ = "0.1.0"
 
 __all__ = [
     "GearoptError", "GeometryError", "ConvergenceError", "SceneError",

@@ -16,10 +16,20 @@ import numpy as np
 
 from .units import ARCMIN
 
-__all__ = ["CONJUGATE_ARCSEC", "arr", "te_harmonics", "misalignment_dict", "pair_numbers", "finite_or_none"]
+__all__ = ["CONJUGATE_ARCSEC", "arr", "te_harmonics", "misalignment_dict", "pair_numbers", "finite_or_none", "csv_cell"]
 
 #: A drive whose actual TE has a smaller peak-to-peak [arcsec] is conjugate (TE = 0 up to round-off).
 CONJUGATE_ARCSEC = 1e-5
+
+
+def csv_cell(v: object) -> str:
+    """One cell of a results CSV table: empty for None and non-finite floats, ``1``/``0`` for
+    booleans, ``repr`` of a float (round-trip exact), ``str`` of anything else."""
+    if v is None or (isinstance(v, float) and not math.isfinite(v)):
+        return ""
+    if isinstance(v, bool):
+        return "1" if v else "0"
+    return repr(v) if isinstance(v, float) else str(v)
 
 
 def arr(a) -> list:

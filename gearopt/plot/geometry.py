@@ -8,18 +8,12 @@ import math
 import numpy as np
 
 from ..geometry.frames import rot_z_points
+from .style import axes_or_new
 from .ticks import plain_ticks
 
 
 def _data(report) -> dict:
     return report if isinstance(report, dict) else report.to_dict()
-
-
-def _axes(ax):
-    if ax is None:
-        import matplotlib.pyplot as plt
-        ax = plt.figure().gca()
-    return ax
 
 
 _rot = rot_z_points  # points (n, 2) about the centre (gearopt.geometry.frames)
@@ -71,7 +65,7 @@ def plot_tooth(report, member: str = "pinion", ax=None):
     -------
     matplotlib Axes
     """
-    ax = _axes(ax)
+    ax = axes_or_new(ax)
     d = _data(report)
     m, prof = d["members"][member], d["profiles"][member]
     P = {k: np.asarray(v) for k, v in prof.items()}
@@ -112,7 +106,7 @@ def plot_tooth(report, member: str = "pinion", ax=None):
 def plot_pair_mesh(report, ax=None, teeth: int = 4):
     """Pinion (centre at the origin) and gear (centre at (0, a)) in mesh at the pitch point, with
     the line of action, tip and base circles and the path of contact A-E."""
-    ax = _axes(ax)
+    ax = axes_or_new(ax)
     d = _data(report)
     pr, mp, mg = d["pair"], d["members"]["pinion"], d["members"]["gear"]
     a, aw = pr["a"], math.radians(pr["alpha_wt_deg"])
@@ -160,7 +154,7 @@ def plot_pair_mesh(report, ax=None, teeth: int = 4):
 def plot_rack_mesh(report, member: str = "pinion", ax=None, teeth: int = 3):
     """The rack-cutter in mesh with the generated gear (Litvin Fig. 10.3.2): the tool outline,
     pitch line and circle, base circle and the lines of action through the pitch point I."""
-    ax = _axes(ax)
+    ax = axes_or_new(ax)
     d = _data(report)
     m, rk = d["members"][member], d["rack_cutter"][member]
     og = gear_outline(d["profiles"][member], m["z"], m["r_f"], teeth=range(-teeth, teeth + 1))

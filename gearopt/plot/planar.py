@@ -11,16 +11,10 @@ import math
 import numpy as np
 
 from ..units import DEG, RAD_TO_ARCSEC
+from .style import axes_or_new
 from .ticks import plain_ticks
 
 __all__ = ["plot_line_of_action", "plot_transmission_error"]
-
-
-def _axes(ax):
-    if ax is None:
-        import matplotlib.pyplot as plt
-        _, ax = plt.subplots()
-    return ax
 
 
 def _circle(ax, c, r, **kw):
@@ -43,7 +37,7 @@ def plot_line_of_action(report, ax=None, zoom: bool = False):
     -------
     matplotlib Axes
     """
-    ax = _axes(ax)
+    ax = axes_or_new(ax)
     t = report.tca
     rb1, rb2, E = t.r_b1, t.r_b2, t.E
     O1, O2 = np.array([0.0, 0.0]), np.array([0.0, E])
@@ -127,7 +121,7 @@ def plot_transmission_error(report, ax=None):
     """
     from ..report import CONJUGATE_ARCSEC
 
-    ax = _axes(ax)
+    ax = axes_or_new(ax)
     t = report.tca
     ok = t.ok
     te = np.asarray(t.te) * RAD_TO_ARCSEC

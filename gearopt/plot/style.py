@@ -19,6 +19,10 @@ from __future__ import annotations
 
 import contextlib
 import math
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
 
 __all__ = ["RC", "plot_style", "use_style", "number"]
 
@@ -39,6 +43,14 @@ RC = {
 
 
 @contextlib.contextmanager
+def axes_or_new(ax: Axes | None) -> Axes:
+    """``ax``, or the Axes of a new figure when ``ax`` is None (every plot function's ``ax=``)."""
+    if ax is None:
+        import matplotlib.pyplot as plt
+        ax = plt.figure().gca()
+    return ax
+
+
 def plot_style(**overrides):
     """Context manager: gearopt's plot style (:data:`RC`, updated by ``overrides``, rcParams names
     with dots written as ``__``, e.g. ``legend__fontsize=8``) for the figures made inside it."""

@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..report import CONJUGATE_ARCSEC  # the results' own threshold (``conjugate`` in results.json)
-from .geometry import _axes
+from .style import axes_or_new
 from .ticks import plain_ticks
 
 #: Readable names and distinct colours of the contact features (edge branches) of
@@ -160,7 +160,7 @@ def plot_te(case: dict, ax=None, label_pairs: bool = True):
     both members: ``on_surface_pairs``) and the actual TE, their upper envelope (thick) [arcsec]
     against the pinion angle [deg], with the transfer points (where the driving pair changes).
     A conjugate case is drawn as TE = 0. The axis label states the TE zero (:func:`te_zero_text`)."""
-    ax = _axes(ax)
+    ax = axes_or_new(ax)
     phi = np.degrees(_f(case["phi1"]))
     ax.set_xlabel("pinion angle phi1 [deg]")
     ax.set_ylabel(te_ylabel(case))
@@ -241,7 +241,7 @@ def plot_bearing_contact(case: dict, member: str = "gear", ax=None, every: int =
     vs transverse radius), with the tooth boundaries (face ends, form and tip radii) and contact
     ellipses (for the elastic approach ``delta``), clipped to the flank; points off the active
     flank are drawn grey."""
-    ax = _axes(ax)
+    ax = axes_or_new(ax)
     m = case[member]
     lim = case["limits"][member]
     z, r = _axial(m), _f(m["radius"])
@@ -333,7 +333,7 @@ def plot_edge_te(case: dict, ax=None):
     """TE with edge contact (Litvin Figs. 9.6.3-9.6.6): every pair's TE (thin, grey), the actual
     TE coloured by the feature that carries the load (surface or which edge), transfer points.
     A conjugate case is drawn as TE = 0."""
-    ax = _axes(ax)
+    ax = axes_or_new(ax)
     phi = np.degrees(_f(case["phi1"]))
     ax.set_xlabel("pinion angle phi1 [deg]")
     ax.set_ylabel(te_ylabel(case))
@@ -441,7 +441,7 @@ def plot_edge_paths(case: dict, member: str = "gear", ax=None, every: int = 8):
     contact is drawn as the instantaneous contact lines across the face at every ``every``-th
     position (:func:`contact_lines`), not as a path. A conjugate drive shows only the loaded
     contact (its pairs share the load)."""
-    ax = _axes(ax)
+    ax = axes_or_new(ax)
     lim = case["limits"][member]
     _flank_box(ax, lim)
     dashed_any = False

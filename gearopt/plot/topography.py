@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .geometry import _axes
+from .style import axes_or_new
 
 _SYM = {"F_alpha": "$F_\\alpha$", "f_f_alpha": "$f_{f\\alpha}$", "f_H_alpha": "$f_{H\\alpha}$", "C_alpha": "$C_\\alpha$",
         "S_alpha": "$S_\\alpha$", "F_beta": "$F_\\beta$", "f_f_beta": "$f_{f\\beta}$", "f_H_beta": "$f_{H\\beta}$",
@@ -30,7 +30,7 @@ def plot_topography(grid: dict, ax=None, levels: int = 20):
 
     from .style import number
 
-    ax = _axes(ax)
+    ax = axes_or_new(ax)
     s, z = np.asarray(grid["s_mm"]), np.asarray(grid["z_mm"])
     V = np.asarray(grid["deviation_um"], dtype=float)
     lo, hi = float(np.nanmin(V)), float(np.nanmax(V))
@@ -108,7 +108,7 @@ def plot_profile_chart(grid: dict, charts: dict, ax=None, tolerances: dict | Non
     (dotted), with F_alpha, f_f_alpha, f_H_alpha, C_alpha, S_alpha [um] (``charts``: the chart values
     in um, ``z_profile_mm`` the section of the trace); ``tolerances`` (:func:`chart_tolerances`): the
     ISO 1328-1 bands of F_alpha and f_H_alpha drawn and the values judged against them."""
-    ax = _axes(ax)
+    ax = axes_or_new(ax)
     s, z = np.asarray(grid["s_mm"]), np.asarray(grid["z_mm"])
     V = np.asarray(grid["deviation_um"], dtype=float)
     z0 = charts.get("z_profile_mm", 0.0)
@@ -122,7 +122,7 @@ def plot_profile_chart(grid: dict, charts: dict, ax=None, tolerances: dict | Non
 def plot_lead_chart(grid: dict, charts: dict, ax=None, tolerances: dict | None = None):
     """Helix (lead) chart at mid profile: deviation [um] along the face from face I to face II, with
     F_beta, f_f_beta, f_H_beta, C_beta [um]; ``tolerances`` as :func:`plot_profile_chart`'s."""
-    ax = _axes(ax)
+    ax = axes_or_new(ax)
     s, z = np.asarray(grid["s_mm"]), np.asarray(grid["z_mm"])
     V = np.asarray(grid["deviation_um"], dtype=float)
     i = int(np.argmin(np.abs(s - (s[0] + s[-1]) / 2)))
