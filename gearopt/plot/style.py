@@ -42,7 +42,6 @@ RC = {
 }
 
 
-@contextlib.contextmanager
 def axes_or_new(ax: Axes | None) -> Axes:
     """``ax``, or the Axes of a new figure when ``ax`` is None (every plot function's ``ax=``)."""
     if ax is None:
@@ -51,6 +50,7 @@ def axes_or_new(ax: Axes | None) -> Axes:
     return ax
 
 
+@contextlib.contextmanager
 def plot_style(**overrides):
     """Context manager: gearopt's plot style (:data:`RC`, updated by ``overrides``, rcParams names
     with dots written as ``__``, e.g. ``legend__fontsize=8``) for the figures made inside it."""
