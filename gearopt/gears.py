@@ -33,6 +33,7 @@ import math
 import numbers
 from dataclasses import dataclass, field, fields, replace
 from functools import cached_property
+from typing import Any
 
 import numpy as np
 
@@ -290,14 +291,14 @@ class Gear:
                                "Real profile crowning is of the order of 1e-3 1/mm for m_n = 3 mm.")
 
     @classmethod
-    def from_diametral_pitch(cls, z: int, P_n: float, **kw) -> "Gear":
+    def from_diametral_pitch(cls, z: int, P_n: float, **kw: Any) -> "Gear":
         """Build from the normal diametral pitch ``P_n`` [1/in] (``m_n = 25.4 / P_n`` mm)."""
         P_n = finite_number("P_n", P_n)
         if P_n <= 0:
             raise out_of_range("P_n", P_n, "P_n > 0 [1/in]")
         return cls(z=z, m_n=INCH / P_n, **kw)
 
-    def with_(self, **changes) -> "Gear":
+    def with_(self, **changes: Any) -> "Gear":
         """A copy with fields changed (validated again)."""
         return replace(self, **changes)
 

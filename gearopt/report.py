@@ -11,10 +11,16 @@ results.json against it). This module imports only NumPy and :mod:`gearopt.units
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .units import ARCMIN
+
+if TYPE_CHECKING:
+    from collections.abc import Sequence
+    from numpy.typing import ArrayLike
+    from .meshing.misalignment import Misalignment
 
 __all__ = ["CONJUGATE_ARCSEC", "arr", "te_harmonics", "misalignment_dict", "pair_numbers", "finite_or_none", "csv_cell"]
 
@@ -32,13 +38,13 @@ def csv_cell(v: object) -> str:
     return repr(v) if isinstance(v, float) else str(v)
 
 
-def arr(a) -> list:
+def arr(a: ArrayLike) -> list:
     """An array as nested lists of floats, non-finite entries (no contact) as ``None``."""
     a = np.asarray(a, dtype=float)
     return [None if not np.isfinite(v) else float(v) for v in a.ravel()] if a.ndim == 1 else [arr(row) for row in a]
 
 
-def finite_or_none(v):
+def finite_or_none(v: float | None) -> float | None:
     """``float(v)``, or ``None`` when it is not finite."""
     v = float(v)
     return v if math.isfinite(v) else None
@@ -59,12 +65,12 @@ def te_harmonics(phi1: np.ndarray, te: np.ndarray, z1: int, n: int = 5) -> list[
     return [float(2 * abs(f[c * k])) for k in range(1, n + 1)]
 
 
-def misalignment_dict(mis) -> dict:
+def misalignment_dict(mis: Misalignment) -> dict:
     """A :class:`~gearopt.meshing.tca.Misalignment` as results.json gives it: ``dE_mm``,
     ``crossing_arcmin``, ``intersecting_arcmin``, ``axial_mm``."""
     return mis.to_results()  # every kind by name and unit: <kind>_mm or <kind>_arcmin
 
 
-def pair_numbers(driving, pairs) -> list:
+def pair_numbers(driving: ArrayLike, pairs: Sequence[int]) -> list:
     """Driving tooth pair at each position as the pair number (pinion tooth, 0 = central), or None."""
     return [int(pairs[v]) if v >= 0 else None for v in np.asarray(driving, int)]

@@ -62,7 +62,7 @@ def to_deg(value_rad: float) -> float:
     return value_rad / DEG
 
 
-def parse_quantity(value, kind: str, name: str, bare_unit: str | None = None,
+def parse_quantity(value: float | str, kind: str, name: str, bare_unit: str | None = None,
                    unit_required: bool | None = None) -> float:
     """Convert a scene value to gearopt's internal unit (mm, rad or 1/mm).
 

@@ -31,7 +31,7 @@ PKG = ROOT / "gearopt"
 # one. The top is a DAG written as ranks: same-rank layers must not import each other.
 LAYERS: list[tuple[str, ...]] = [
     # base: no gearopt imports except among themselves
-    ("gearopt.errors", "gearopt.units", "gearopt.version", "gearopt.report", "gearopt.progress",
+    ("gearopt.errors", "gearopt.units", "gearopt.version", "gearopt.types", "gearopt.report", "gearopt.progress",
      "gearopt.compiled", "gearopt.settings"),
     ("gearopt.geometry",),       # basic rack, tools, surfaces (envelope, generation), micro-geometry
     ("gearopt.gears",),          # gear data (ISO 21771): a Gear holds its tool and micro-geometry

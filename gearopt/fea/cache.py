@@ -6,10 +6,14 @@ from __future__ import annotations
 import os
 import tempfile
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..compiled import cache_root
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
 
 def cache_dir() -> Path:
@@ -19,7 +23,7 @@ def cache_dir() -> Path:
     return cache_root() / "influence"
 
 
-def save_npz(path: Path, **arrays) -> None:
+def save_npz(path: Path, **arrays: ArrayLike) -> None:
     """Write ``arrays`` to ``path`` (.npz) atomically (a temporary file in the same directory, renamed)."""
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(suffix=".npz", dir=path.parent)

@@ -28,6 +28,7 @@ import tempfile
 import time
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -38,6 +39,9 @@ from .calculix import CalculixError, read_dat, run_ccx
 from .cache import cache_dir, save_npz  # noqa: F401  (cache_dir: re-exported)
 from .local import local_excess
 from .mesh import MeshOptions, ToothMesher, build_member, middle_points
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
 CACHE_VERSION = 4
 
@@ -69,7 +73,7 @@ class InfluenceGrid:
     depth: np.ndarray | None = None
     kappa: np.ndarray | None = None
 
-    def local_excess(self, radius) -> np.ndarray:
+    def local_excess(self, radius: ArrayLike) -> np.ndarray:
         """``kappa`` at flank radii ``radius`` [mm] (linear between the grid rows, constant beyond;
         zeros without it)."""
         r = np.asarray(radius, float)
@@ -77,7 +81,7 @@ class InfluenceGrid:
             return np.zeros(r.shape)
         return np.interp(r, self.radius, self.kappa)
 
-    def matrix(self, radius, z) -> np.ndarray:
+    def matrix(self, radius: ArrayLike, z: ArrayLike) -> np.ndarray:
         """Compliance matrix [mm/N] between points ``(radius[i], z[i])`` of the flank (multilinear
         interpolation on the grid; points beyond it are clamped onto its edge)."""
         from scipy.interpolate import RegularGridInterpolator

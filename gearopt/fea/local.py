@@ -36,6 +36,7 @@ import json
 import math
 import time
 from dataclasses import replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -46,6 +47,9 @@ from ..progress import current
 from .calculix import read_dat, run_ccx
 from .cache import cache_dir, save_npz
 from .mesh import MeshOptions, ToothMesher, build_member, middle_points
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
 LOCAL_VERSION = 1
 SLAB = np.array([-0.5, 0.0, 0.5])  #: face layers of the slab [mm] (1 mm thick, plane strain)
@@ -172,7 +176,7 @@ def _key(tooth: GeneratedTooth, radius, E, nu, b_rel, n_hertz, n_half) -> str:
     return hashlib.sha256(json.dumps(d, sort_keys=True).encode()).hexdigest()[:24]
 
 
-def local_excess(tooth: GeneratedTooth, radius, E: float = 206000.0, nu: float = 0.3, b_rel: float = 0.05,
+def local_excess(tooth: GeneratedTooth, radius: ArrayLike, E: float = 206000.0, nu: float = 0.3, b_rel: float = 0.05,
                  n_hertz: float = 8.0, n_half: int = 24, use_cache: bool = True, threads: int = 2) -> np.ndarray:
     """The excess ``kappa`` of the tooth's local compression over Weber's half-space term, in Weber's
     bracket, at flank radii ``radius`` of ``tooth`` (see the module docstring).

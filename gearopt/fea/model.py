@@ -36,8 +36,10 @@ from __future__ import annotations
 
 import functools
 import math
+import os
 import time
 from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING
 
 import casadi as ca
 import numpy as np
@@ -54,6 +56,10 @@ from .calculix import CalculixError, Deck, last_block, read_contact_statistics, 
 from .mesh import (GAUSS_C3D8, MemberMesh, MeshOptions, ToothMesher, build_member, face_of, graded_params,
                    hex_volume_sign, shape)
 from .vtu import write_vtu
+
+if TYPE_CHECKING:
+    from pathlib import Path
+    from .calculix import CcxRun
 
 # c' = C_PRIME_STEEL (ISO 6336-1 single-pair stiffness of steel spur gears, ~14 N/(mm um)), scaled with E below.
 #: A loaded approach along the line of action more than this many times the ISO estimate F / (c' b)
@@ -440,7 +446,7 @@ class GearFEModel:
     """
 
     def __init__(self, pair: GearPair, phi1: float, options: FEOptions | None = None, tca: TCA | None = None,
-                 mis: Misalignment | None = None):
+                 mis: Misalignment | None = None) -> None:
         t0 = time.perf_counter()
         if not isinstance(pair, GearPair):
             raise ArgumentError(f"pair = {type(pair).__name__}: expected a gearopt.gears.GearPair.",
@@ -564,7 +570,7 @@ class GearFEModel:
         self.nodes_gear = self.place_gear(self.gear_mesh.nodes)
         self.build_time = time.perf_counter() - t0
 
-    def place_gear(self, X) -> np.ndarray:
+    def place_gear(self, X: np.ndarray) -> np.ndarray:
         """Points ``X`` (n, 3) of the gear's own frame [mm] placed in the fixed frame S_f at the model's
         gear angle, as the TCA places the gear surface: ``Rz(phi2) Rz(pi + theta2)``, then the
         misalignment (:meth:`Misalignment.gear_to_fixed`)."""
@@ -721,7 +727,7 @@ class FEResult:
     data: dict
 
     @classmethod
-    def from_run(cls, model: GearFEModel, deck: Deck, run) -> "FEResult":
+    def from_run(cls, model: GearFEModel, deck: Deck, run: CcxRun) -> "FEResult":
         blocks = read_dat(run.dat)
         o = model.opt
         g1, g2 = model.pair.pinion, model.pair.gear
@@ -839,7 +845,7 @@ class FEResult:
         out.deck, out.frd = deck, run.frd  # for write_vtu (not part of the results dictionary)
         return out
 
-    def write_vtu(self, path):
+    def write_vtu(self, path: str | os.PathLike) -> Path:
         """The mesh with displacements, stresses and contact pressure as ``.vtu`` (ParaView),
         :func:`gearopt.fea.vtu.write_vtu`."""
         return write_vtu(self.deck, self.frd, path)

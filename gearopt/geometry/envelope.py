@@ -48,6 +48,9 @@ from .involute import inv, inv_inverse
 from .modification import FlankModification, compose, extend
 from .rack import BasicRack
 
+if TYPE_CHECKING:
+    from ..types import ArrayLike, Param
+
 if TYPE_CHECKING:  # typing only: gears builds on geometry (a Gear holds its tool)
     from ..gears import Gear
     from .tools import Shaper
@@ -187,7 +190,7 @@ class GeneratedTooth:
         return GeneratedTooth(gear=self.gear, method=self.method, functions=dict(self.unmodified_functions),
                               r_root=self.r_root, extras=self.extras)
 
-    def with_modification(self, mod) -> "GeneratedTooth":
+    def with_modification(self, mod: FlankModification) -> "GeneratedTooth":
         """This tooth with a flank modification composed into its flank Functions (once).
 
         ``functions["<side>_flank"]`` of each side in ``mod.sides`` becomes ``(u, z, p) ->
@@ -255,17 +258,18 @@ class GeneratedTooth:
             raise out_of_range("segment", segment, "'flank' or 'fillet'", cls=OptionError)
         return self.functions[f"{side}_{segment}"]
 
-    def junction(self, p=None) -> tuple[float, float]:
+    def junction(self, p: Param = None) -> tuple[float, float]:
         """Flank parameter ``u_f`` [mm] where the fillet begins and fillet angle range [rad]."""
         u_f, phi_max = self.functions["junction"](self.p0 if p is None else p)[:2]
         return float(u_f), float(phi_max)
 
-    def point(self, side, segment, q, z=0.0, p=None):
+    def point(self, side: str, segment: str, q: float, z: float = 0.0, p: Param = None) -> tuple[np.ndarray, np.ndarray,
+              float]:
         """Numeric position (3,), unit normal (3,) and psi of one surface point."""
         r, n, psi = self.surface(side, segment)(q, z, self.p0 if p is None else p)[:3]
         return np.asarray(r).ravel(), np.asarray(n).ravel(), float(psi)
 
-    def normal_deviation(self, side, u, z, p=None) -> np.ndarray:
+    def normal_deviation(self, side: str, u: ArrayLike, z: ArrayLike, p: Param = None) -> np.ndarray:
         """Normal deviation of the modified flank from the generated one [mm] (+: material added)
         at flank coordinates ``u`` [mm] and sections ``z`` [mm] (arrays of one length): the sum of
         every :class:`~gearopt.geometry.modification.FlankModification` on that side, measured along
@@ -282,7 +286,7 @@ class GeneratedTooth:
         r_0, n_0 = (np.asarray(v) for v in f_0(u[None, :], z[None, :], np.tile(p[:n_base, None], (1, u.size)))[:2])
         return np.sum((r_m - r_0) * n_0, axis=0)
 
-    def radius_function(self, side="right") -> ca.Function:
+    def radius_function(self, side: str = "right") -> ca.Function:
         """Function (u, z, p) -> (transverse radius, d radius / du) on the flank (built once per side)."""
         key = f"{side}_flank_radius"
         if key not in self.functions:
@@ -294,7 +298,8 @@ class GeneratedTooth:
             self.functions[key] = (ca.Function("flank_radius", [u, z, p], [rad, ca.jacobian(rad, u)]),)
         return self.functions[key][0]
 
-    def u_at_radius(self, radius: float, z: float = 0.0, side: str = "right", p=None, tol: float = 1e-12) -> float:
+    def u_at_radius(self, radius: float, z: float = 0.0, side: str = "right", p: Param = None,
+                    tol: float = 1e-12) -> float:
         """Flank parameter u [mm] of the point at transverse radius ``radius`` (Newton).
 
         Raises
@@ -341,7 +346,7 @@ class GeneratedTooth:
             self.functions[key] = (fl, fi)
         return self.functions[key]
 
-    def flank_limit(self, side: str = "right", z: float = 0.0, p=None, samples: int = 400) -> "FlankLimit":
+    def flank_limit(self, side: str = "right", z: float = 0.0, p: Param = None, samples: int = 400) -> "FlankLimit":
         """Where the real generated flank ends in the transverse section ``z`` [mm].
 
         Going down the flank from the tip (u increasing towards the root), the generated surface is
@@ -484,7 +489,7 @@ class GeneratedTooth:
                 return float(ua), math.hypot(xa, ya), kink
         return None
 
-    def max_unfolded_a_c(self, side: str = "right", z: float = 0.0, p=None, rel_tol: float = 1e-6) -> float:
+    def max_unfolded_a_c(self, side: str = "right", z: float = 0.0, p: Param = None, rel_tol: float = 1e-6) -> float:
         """Largest profile-crowning coefficient a_c [1/mm] (other parameters as in ``p``) for which
         the flank in section ``z`` does not fold before the tool's flank/fillet junction; 0.0 if it
         folds even with the straight tool (an undercut tooth). Bisection on :meth:`flank_limit`."""
@@ -510,7 +515,7 @@ class GeneratedTooth:
             lo, hi = (mid, hi) if not folds(mid) else (lo, mid)
         return lo
 
-    def transverse_profile(self, z: float = 0.0, n: int = 60, p=None) -> dict[str, np.ndarray]:
+    def transverse_profile(self, z: float = 0.0, n: int = 60, p: Param = None) -> dict[str, np.ndarray]:
         """Sampled transverse section of one tooth (both sides, fillets, tip arc) [mm].
 
         Returns

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, fields
+from typing import Any
 
 from ..errors import ArgumentError, GeometryError, out_of_range
 from ..units import DEG
@@ -86,7 +87,7 @@ class BasicRack:
             raise out_of_range("rack.a_c", self.a_c, "a_c >= 0 [1/mm] (0 = straight profile)")
 
     @classmethod
-    def iso53(cls, profile: str = "A", **changes) -> "BasicRack":
+    def iso53(cls, profile: str = "A", **changes: Any) -> "BasicRack":
         """ISO 53 basic rack profile A, B, C or D (alpha_n = 20 deg); ``changes`` override fields."""
         key = str(profile).upper().replace("ISO53", "").replace("ISO 53", "").strip(" -")
         if key not in _ISO53:

@@ -7,12 +7,16 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..robust.study import FEASIBLE_WARN, RobustResult, display, usable_fraction
 from ..units import RAD_TO_ARCSEC
 from .style import number
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
 
 LABELS = {"te_p2p": "TE peak-to-peak [arcsec]", "h1": "1st mesh harmonic of TE [arcsec]",
           "loaded_te_p2p": "loaded TE peak-to-peak [arcsec]", "p_max": "peak Hertz pressure, flank [MPa]"}
@@ -74,7 +78,7 @@ def _ax(ax):
     return ax
 
 
-def plot_histogram(d: dict, key: str = "te_p2p", ax=None, bins: int | None = None):
+def plot_histogram(d: dict, key: str = "te_p2p", ax: Axes | None = None, bins: int | None = None) -> Axes:
     """Histogram of ``key`` ("te_p2p", "h1", ...) over the samples, samples with edge contact
     stacked in their own colour; the 50 / 95 % percentiles and the nominal drive marked; the samples
     without a value (not solved, or no defined harmonic) counted in the legend's title."""
@@ -126,7 +130,7 @@ def _missing(d: dict, v: np.ndarray) -> str | None:
     return f"not shown: {int(bad.sum())} of {v.size} samples without a value\n(" + ", ".join(parts) + ")"
 
 
-def plot_cdf(d: dict, key: str = "te_p2p", ax=None):
+def plot_cdf(d: dict, key: str = "te_p2p", ax: Axes | None = None) -> Axes:
     """Empirical CDF of ``key`` over the samples whose value is defined."""
     ax = _ax(ax)
     allv = _values(d, key)
@@ -144,7 +148,7 @@ def plot_cdf(d: dict, key: str = "te_p2p", ax=None):
     return ax
 
 
-def plot_scatter(d: dict, name: str, key: str = "te_p2p", ax=None, level: float = 0.05):
+def plot_scatter(d: dict, name: str, key: str = "te_p2p", ax: Axes | None = None, level: float = 0.05) -> Axes:
     """``key`` against the input ``name`` (its display unit), edge-contact samples in red (a legend
     only when there are some); the title gives the input's Spearman rho (with the input and with its
     distance from the median) and whether it is significant at ``level`` (:func:`significance_limit`)."""
@@ -170,7 +174,7 @@ def plot_scatter(d: dict, name: str, key: str = "te_p2p", ax=None, level: float 
     return ax
 
 
-def plot_sensitivity(d: dict, key: str = "te_p2p", ax=None, level: float = 0.05):
+def plot_sensitivity(d: dict, key: str = "te_p2p", ax: Axes | None = None, level: float = 0.05) -> Axes:
     """Ranked influence of the inputs on ``key``: Spearman rank correlation with the input
     (monotonic effect) and with its distance from the median (even effect), as bars. Correlations
     within the band of no significance at ``level`` for the number n of samples with a value
@@ -219,7 +223,7 @@ def _unit(d: dict, name: str) -> str | None:
     return display(name, 0.0)[1] if name in d.get("inputs", {}) else None
 
 
-def plot_pattern_probability(d: dict, ax=None):
+def plot_pattern_probability(d: dict, ax: Axes | None = None) -> Axes:
     """Probability of each point of the pinion flank (face position x radius) being in the contact
     pattern (the major axes of the contact ellipses of every pair over the mesh cycle), with the
     face ends, the tip and the form circle, and the nominal drive's pattern outline."""

@@ -19,7 +19,10 @@ from __future__ import annotations
 
 import contextlib
 import math
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from collections.abc import Iterator
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -51,7 +54,7 @@ def axes_or_new(ax: Axes | None) -> Axes:
 
 
 @contextlib.contextmanager
-def plot_style(**overrides):
+def plot_style(**overrides: Any) -> Iterator[None]:
     """Context manager: gearopt's plot style (:data:`RC`, updated by ``overrides``, rcParams names
     with dots written as ``__``, e.g. ``legend__fontsize=8``) for the figures made inside it."""
     import matplotlib
