@@ -15,7 +15,7 @@ from __future__ import annotations
 import math
 import re
 
-from .errors import SceneError, shorten
+from .errors import SceneError, check_number, shorten
 
 DEG = math.pi / 180.0  #: one degree in rad
 ARCMIN = DEG / 60.0  #: one arc minute in rad
@@ -49,7 +49,6 @@ def _a(word: str) -> str:
 def deg(value_deg: float) -> float:
     """Degrees to radians."""
     if isinstance(value_deg, (str, bytes)):
-        from .errors import check_number
         check_number("value_deg", value_deg, "a number in deg")
     return value_deg * DEG
 
@@ -57,7 +56,6 @@ def deg(value_deg: float) -> float:
 def to_deg(value_rad: float) -> float:
     """Radians to degrees."""
     if isinstance(value_rad, (str, bytes)):
-        from .errors import check_number
         check_number("value_rad", value_rad, "a number in rad")
     return value_rad / DEG
 

@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from .tca import misalignment_text
 from .ticks import plain_ticks
 
 if TYPE_CHECKING:
@@ -296,8 +297,6 @@ def plot_contact_pattern(d: dict, member: str = "pinion", ax: Axes | None = None
     drawn and named in the legend below; loaded tip edges marked x. The title names the torque and
     the misalignment (``d["misalignment"]`` when present) and ``what`` (e.g. a case or design)."""
     import matplotlib.pyplot as plt
-
-    from .tca import misalignment_text
 
     ax = ax or plt.gca()
     P = pattern_points(d, member)

@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..report import CONJUGATE_ARCSEC
 from ..units import DEG, RAD_TO_ARCSEC
 from .style import axes_or_new
 from .ticks import plain_ticks
@@ -124,8 +125,6 @@ def plot_transmission_error(report: PlanarTCAReport, ax: Axes | None = None) -> 
     -------
     matplotlib Axes
     """
-    from ..report import CONJUGATE_ARCSEC
-
     ax = axes_or_new(ax)
     t = report.tca
     ok = t.ok

@@ -14,7 +14,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .style import axes_or_new
+from ..robust.tolerances import tolerances
+from .style import axes_or_new, number
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -32,8 +33,6 @@ def plot_topography(grid: dict, ax: Axes | None = None, levels: int = 20) -> Axe
     diverge symmetrically at zero (white: the involute), and the colour bar states the range."""
     from matplotlib.colors import Normalize
     from matplotlib.ticker import MaxNLocator
-
-    from .style import number
 
     ax = axes_or_new(ax)
     s, z = np.asarray(grid["s_mm"]), np.asarray(grid["z_mm"])
@@ -101,8 +100,6 @@ def chart_tolerances(grade: int, d: float, m_n: float, b: float) -> dict:
     (``F_alpha``, ``f_f_alpha``, ``f_H_alpha``, ``F_beta``, ``f_f_beta``, ``f_H_beta``) for
     :func:`plot_profile_chart` / :func:`plot_lead_chart` (d reference diameter, m_n normal module,
     b face width [mm]; :func:`gearopt.robust.tolerances.tolerances`)."""
-    from ..robust.tolerances import tolerances
-
     t = tolerances(grade, d, m_n, b)
     return {"F_alpha": t["F_alphaT"], "f_f_alpha": t["f_falphaT"], "f_H_alpha": t["f_HalphaT"],
             "F_beta": t["F_betaT"], "f_f_beta": t["f_fbetaT"], "f_H_beta": t["f_HbetaT"], "grade": grade}
