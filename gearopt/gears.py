@@ -1,6 +1,10 @@
-"""Gear data: the basic rack (the tool that defines a gear), a gear, a gear pair.
+"""Gear data: the basic rack (the tool that defines a gear; :mod:`gearopt.geometry.rack`, re-exported
+here), a gear, a gear pair.
 
-Frozen dataclasses with ISO 21771 symbols, validated on construction. Lengths in mm, angles in rad
+Frozen dataclasses with ISO 21771 symbols, validated on construction. A gear holds its cutting tool
+(:mod:`gearopt.geometry.tools`) and asks it for what depends on the tool: the closed-form root and
+form radii and undercut limit, and what needs the generated surfaces (form radius of a folded or
+undercut flank, flank limit); nothing here builds surfaces. Lengths in mm, angles in rad
 (use :func:`gearopt.units.deg` at the edges), rack coefficients in units of the normal module m_n.
 Derived quantities are properties; nothing is mutated after construction.
 
