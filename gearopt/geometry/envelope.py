@@ -48,11 +48,9 @@ from .involute import inv, inv_inverse
 from .modification import FlankModification, compose, extend
 from .rack import BasicRack
 
-if TYPE_CHECKING:
-    from ..types import ArrayLike, Param
-
 if TYPE_CHECKING:  # typing only: gears builds on geometry (a Gear holds its tool)
     from ..gears import Gear
+    from ..types import ArrayLike, Param
     from .tools import Shaper
 
 #: Names of the entries of the surface parameter vector p, in order.

@@ -24,10 +24,9 @@ from typing import TYPE_CHECKING, Any
 if TYPE_CHECKING:
     from collections.abc import Iterator
 
-if TYPE_CHECKING:
     from matplotlib.axes import Axes
 
-__all__ = ["RC", "plot_style", "use_style", "number"]
+__all__ = ["RC", "axes_or_new", "plot_style", "use_style", "number"]
 
 #: matplotlib rcParams of gearopt's figures
 RC = {
