@@ -433,7 +433,8 @@ class Gear:
     def a_c_max_unfolded(self) -> float:
         """Largest profile-crowning coefficient ``rack.a_c`` [1/mm] (all else as built) for which the
         flank does not fold; 0.0 if it folds even with the straight tool (undercut). Rack-cutter and
-        hob only (a shaper has no profile crowning: GeometryError); :meth:`gearopt.geometry.tools.Tool.a_c_max_unfolded`."""
+        hob only (a shaper has no profile crowning: GeometryError);
+        :meth:`gearopt.geometry.tools.Tool.a_c_max_unfolded`."""
         return self.tool.a_c_max_unfolded(self)
 
     @property

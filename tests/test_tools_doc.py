@@ -71,6 +71,16 @@ def test_the_gear_data_ask_the_tool():
     assert "deep" not in TOOLS                # no kind: a variant, not a scene tool
 
 
+def test_a_tool_kind_names_one_class():
+    from gearopt.errors import ArgumentError
+
+    with pytest.raises(ArgumentError, match=r"_Hob2.kind = 'hob' is the kind of gearopt.geometry.tools.Hob"):
+        @dataclass(frozen=True)
+        class _Hob2(Hob):
+            kind = "hob"
+    assert TOOLS["hob"] is Hob
+
+
 def test_a_shaper_has_no_rack_settings():
     from gearopt.errors import GeometryError
     from gearopt.geometry.tools import require_rack_settings

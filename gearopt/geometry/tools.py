@@ -46,7 +46,7 @@ from dataclasses import dataclass
 from functools import lru_cache
 from typing import TYPE_CHECKING, Any, ClassVar, NamedTuple
 
-from ..errors import GeometryError, out_of_range
+from ..errors import ArgumentError, GeometryError, out_of_range
 from .envelope import FlankLimit, GeneratedTooth, rack_generated, shaper_generated
 from .involute import inv, inv_inverse
 
@@ -134,8 +134,15 @@ class Tool:
 
     def __init_subclass__(cls, **kw: Any) -> None:
         super().__init_subclass__(**kw)
-        if cls.__dict__.get("kind"):
-            TOOLS[cls.kind] = cls
+        kind = cls.__dict__.get("kind")
+        if kind:
+            old = TOOLS.get(kind)
+            if old is not None and (old.__module__, old.__qualname__) != (cls.__module__, cls.__qualname__):
+                taken = ", ".join(TOOLS)
+                raise ArgumentError(f"{cls.__qualname__}.kind = {kind!r} is the kind of {old.__module__}."
+                                    f"{old.__qualname__}; a tool kind names one class (taken: {taken}).",
+                                    param=f"{cls.__qualname__}.kind", value=kind, valid=f"not one of {taken}")
+            TOOLS[kind] = cls  # (a class defined again under the same name replaces itself)
 
     @classmethod
     def from_scene(cls, values: dict) -> Tool:

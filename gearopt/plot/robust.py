@@ -264,9 +264,10 @@ def plot_pattern_probability(d: dict, ax: Axes | None = None) -> Axes:
 
 def save_plots(result: RobustResult, out_dir: str | Path, dpi: int = 120) -> list[str]:
     """The figures of a Monte Carlo or design sweep result into ``out_dir`` (file names returned):
-    ``distribution.png`` (histograms and CDFs of TE p2p and first harmonic), ``scatter.png`` (TE p2p against the four most influential inputs, edge contact marked),
-    ``pattern.png`` (probability of each pinion flank point being in the contact pattern) and
-    ``sensitivity.png`` (ranked Spearman correlations, those not significant at 5 % grey)."""
+    ``distribution.png`` (histograms and CDFs of TE p2p and first harmonic), ``scatter.png`` (TE p2p
+    against the four most influential inputs, edge contact marked), ``pattern.png`` (probability of
+    each pinion flank point being in the contact pattern) and ``sensitivity.png`` (ranked Spearman
+    correlations, those not significant at 5 % grey)."""
     import matplotlib.pyplot as plt
 
     out = Path(out_dir)

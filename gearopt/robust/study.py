@@ -600,8 +600,8 @@ class MonteCarlo(_Robust):
                 "delta_mm": self.delta, "side": self.side, "chunk": self.chunk}
         if self.tolerances is not None:
             opts["tolerances_um"] = self.tolerances
-        return self.result_class("montecarlo", self.name, values, {k: d.to_dict() for k, d in self.inputs.items()}, figs,
-                            count, kernel.grid_z, kernel.grid_r, limits, opts, timing, nom, warns)
+        return self.result_class("montecarlo", self.name, values, {k: d.to_dict() for k, d in self.inputs.items()},
+                                 figs, count, kernel.grid_z, kernel.grid_r, limits, opts, timing, nom, warns)
 
 
 class DesignSweep(_Robust):
@@ -746,5 +746,5 @@ class DesignSweep(_Robust):
         opts = {"design": self.design, "samples": n, "levels": self.levels, "seed": self.seed,
                 "positions": self.positions, "pairs": list(PAIRS), "delta_mm": self.delta, "side": self.side,
                 "chunk": self.chunk, "misalignment": self.base_mis.to_results()}
-        return self.result_class("sweep", self.name, values, {k: d.to_dict() for k, d in self.variables.items()}, figs,
-                            count, kernel.grid_z, kernel.grid_r, limits, opts, timing, nom, warns)
+        return self.result_class("sweep", self.name, values, {k: d.to_dict() for k, d in self.variables.items()},
+                                 figs, count, kernel.grid_z, kernel.grid_r, limits, opts, timing, nom, warns)

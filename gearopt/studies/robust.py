@@ -31,7 +31,7 @@ Results: ``results.json`` (statistics, ranked sensitivities, the pattern probabi
 
 from __future__ import annotations
 
-from ..robust.study import UNITS, DesignSweep, MonteCarlo, RobustResult  # noqa: F401 (UNITS: the units of results.json, owned by the result)
+from ..robust.study import UNITS, DesignSweep, MonteCarlo, RobustResult  # noqa: F401 (UNITS: results.json's units)
 
 SCHEDULER_NOTE = "run it with `gearopt run SCENE --scheduler tcp://HOST:PORT` for a Dask cluster"
 
