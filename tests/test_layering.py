@@ -26,9 +26,10 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 PKG = ROOT / "gearopt"
 
-# Layers from the bottom up. A module's layer is the first entry that is a prefix of its dotted name
-# (``gearopt.fea.model`` -> ``gearopt.fea``). A module may import from its own layer and any lower
-# one. The top is a DAG written as ranks: same-rank layers must not import each other.
+# Layers from the bottom up (docs/architecture.md, "Layers"). A module belongs to the entry that is the
+# longest prefix of its dotted name (``gearopt.fea.model`` -> ``gearopt.fea``, ``gearopt.io.scene`` ->
+# ``gearopt.io.scene``); it may import from its own layer and any lower one. The top of the library is
+# a DAG (plot and io.schema / io.results do not import each other); this list is one order of it.
 LAYERS: list[tuple[str, ...]] = [
     # base: no gearopt imports except among themselves
     ("gearopt.errors", "gearopt.units", "gearopt.version", "gearopt.types", "gearopt.report", "gearopt.progress",
