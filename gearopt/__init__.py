@@ -9,7 +9,7 @@ from .errors import ConvergenceError, GearoptError, GeometryError, SceneError
 from .gears import BasicRack, Gear, GearPair
 from .geometry.generation import (PARAMS, GeneratedTooth, Hob, Shaper, generate, generate_by_hob, generate_by_rack,
                                   generate_by_shaper)
-from .geometry.tools import RackCutter
+from .geometry.tools import RackCutter, Tool
 from .geometry.involute import inv, inv_inverse
 from .io.scene import load_scene
 from .meshing.planar import PlanarTCA, solve_planar_tca
@@ -21,7 +21,7 @@ from .version import __version__
 __all__ = [
     "GearoptError", "GeometryError", "ConvergenceError", "SceneError",
     "BasicRack", "Gear", "GearPair",
-    "PARAMS", "GeneratedTooth", "RackCutter", "Hob", "Shaper", "generate", "generate_by_rack", "generate_by_hob",
+    "PARAMS", "GeneratedTooth", "Tool", "RackCutter", "Hob", "Shaper", "generate", "generate_by_rack", "generate_by_hob",
     "generate_by_shaper",
     "TCA", "Misalignment", "TCAResult", "PlanarTCA", "solve_planar_tca", "EdgeContact", "EdgeTCAResult",
     "load_scene", "TCAStudy", "CrowningStudy", "inv", "inv_inverse",
