@@ -21,7 +21,8 @@ from .version import __version__
 __all__ = [
     "GearoptError", "GeometryError", "ConvergenceError", "SceneError",
     "BasicRack", "Gear", "GearPair",
-    "PARAMS", "GeneratedTooth", "Tool", "RackCutter", "Hob", "Shaper", "generate", "generate_by_rack", "generate_by_hob",
+    "PARAMS", "GeneratedTooth", "Tool", "RackCutter", "Hob", "Shaper", "generate", "generate_by_rack",
+    "generate_by_hob",
     "generate_by_shaper",
     "TCA", "Misalignment", "TCAResult", "PlanarTCA", "solve_planar_tca", "EdgeContact", "EdgeTCAResult",
     "load_scene", "TCAStudy", "CrowningStudy", "inv", "inv_inverse",

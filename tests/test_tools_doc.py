@@ -86,7 +86,8 @@ def test_a_shaper_has_no_rack_settings():
     from gearopt.geometry.tools import require_rack_settings
 
     g = Gear(z=40, m_n=3.0, b=20.0, tool=Shaper(N_s=30))
-    with pytest.raises(GeometryError, match=r"gear.tool = \"kind 'shaper'\" is out of range; valid: kind 'rack' or 'hob'"):
+    refused = r"gear.tool = \"kind 'shaper'\" is out of range; valid: kind 'rack' or 'hob'"
+    with pytest.raises(GeometryError, match=refused):
         require_rack_settings(g, "the crowning synthesis")
     with pytest.raises(GeometryError, match="a_c_max_unfolded"):
         g.a_c_max_unfolded
