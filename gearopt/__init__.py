@@ -9,20 +9,20 @@ from .errors import ConvergenceError, GearoptError, GeometryError, SceneError
 from .gears import BasicRack, Gear, GearPair
 from .geometry.generation import (PARAMS, GeneratedTooth, Hob, Shaper, generate, generate_by_hob, generate_by_rack,
                                   generate_by_shaper)
-from .geometry.tools import RackCutter
+from .geometry.tools import RackCutter, Tool
 from .geometry.involute import inv, inv_inverse
 from .io.scene import load_scene
 from .meshing.planar import PlanarTCA, solve_planar_tca
 from .meshing.tca import TCA, Misalignment, TCAResult
 from .units import ARCMIN, ARCSEC, DEG, deg, to_deg
+from .version import __version__
 
-__version__ = "0.1.0"
 
 __all__ = [
     "GearoptError", "GeometryError", "ConvergenceError", "SceneError",
     "BasicRack", "Gear", "GearPair",
-    "PARAMS", "GeneratedTooth", "RackCutter", "Hob", "Shaper", "generate", "generate_by_rack", "generate_by_hob",
-    "generate_by_shaper",
+    "PARAMS", "GeneratedTooth", "Tool", "RackCutter", "Hob", "Shaper", "generate", "generate_by_rack",
+    "generate_by_hob", "generate_by_shaper",
     "TCA", "Misalignment", "TCAResult", "PlanarTCA", "solve_planar_tca", "EdgeContact", "EdgeTCAResult",
     "load_scene", "TCAStudy", "CrowningStudy", "inv", "inv_inverse",
     "DEG", "ARCMIN", "ARCSEC", "deg", "to_deg",

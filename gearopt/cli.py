@@ -26,7 +26,7 @@ import sys
 import time
 from pathlib import Path
 
-from . import __version__
+from .version import __version__
 from .errors import GearoptError
 
 EXIT_USAGE = 2  #: exit status for bad input (same as argparse's usage errors)

@@ -41,11 +41,16 @@ import tempfile
 import warnings
 import weakref
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import casadi as ca
 import numpy as np
 
 from .errors import ArgumentError, OptionError
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
+    from numpy.typing import ArrayLike
 
 FLAGS = ("-O2", "-shared", "-fPIC")  #: compiler flags (part of the cache key)
 MIN_COLUMNS = 1024  #: jit="auto": mapped solves of at least this many columns run compiled
@@ -266,7 +271,7 @@ class ColumnMap:
         The column Function mapped over m columns (compiled, threaded or interpreted).
     """
 
-    def __init__(self, column: ca.Function, factory):
+    def __init__(self, column: ca.Function, factory: Callable[[int], ca.Function]) -> None:
         self.column, self.factory = column, factory
         self._maps: dict[tuple, _Signature] = {}
         self._sig = _Signature(column)
@@ -285,7 +290,7 @@ class ColumnMap:
             self._maps[key] = _Signature(self.factory(m))
         return self._maps[key]
 
-    def __call__(self, *args):
+    def __call__(self, *args: ArrayLike) -> np.ndarray | list[np.ndarray]:
         """Outputs (rows, columns * their columns per column) as numpy arrays: a list, or the
         array itself for a one-output Function (like a CasADi call)."""
         sig = self._sig
@@ -319,7 +324,7 @@ class ColumnMap:
         return outs[0] if len(outs) == 1 else outs
 
 
-def matrix_columns(idx, c: int):
+def matrix_columns(idx: np.ndarray, c: int) -> np.ndarray:
     """Matrix columns of the columns ``idx`` of a map whose Function has c columns per column."""
     return idx if c == 1 else (idx[:, None] * c + np.arange(c)).ravel()
 
@@ -331,7 +336,7 @@ def map_columns(g: ca.Function, n: int) -> ca.Function:
     return g.map(n, "thread", k) if k > 1 else g.map(n)
 
 
-def use_compiled(jit, n: int) -> bool:
+def use_compiled(jit: bool | str, n: int) -> bool:
     """Whether a mapped call of ``n`` columns runs compiled under the ``jit`` setting
     (True: always; False: never; "auto": from :data:`MIN_COLUMNS` columns on, if a compiler works)."""
     if jit is True:
@@ -341,7 +346,7 @@ def use_compiled(jit, n: int) -> bool:
     return False
 
 
-def mapped(f: ca.Function, n: int, jit="auto", n_total: int | None = None) -> ColumnMap:
+def mapped(f: ca.Function, n: int, jit: bool | str = "auto", n_total: int | None = None) -> ColumnMap:
     """``f`` on columns (:class:`ColumnMap`): the compiled library's maps when :func:`use_compiled`
     (for ``n_total`` columns in all, default n) and it builds, else the interpreted maps."""
     g = compile_function(f) if use_compiled(jit, n if n_total is None else n_total) else None
@@ -390,7 +395,7 @@ class _Signature:
         return [o.T for o in outs]
 
 
-def call(f, *args) -> list[np.ndarray]:
+def call(f: ca.Function, *args: ArrayLike) -> list[np.ndarray]:
     """``f(*args)`` with numpy arrays in and out, through CasADi's buffer API: the inputs and outputs
     are read and written in place (no conversion to and from ``DM``, which costs about 35 ns per
     double, as much as the compiled solve of a sweep's column).

@@ -40,6 +40,11 @@ ExecutionError         a study's executor failed: no Dask scheduler answers, wor
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from collections.abc import Iterable
+
 
 class GearoptError(Exception):
     """Base class of every error raised on purpose by gearopt.
@@ -59,8 +64,8 @@ class GearoptError(Exception):
         range; valid: z >= 3 teeth."``; None otherwise.
     """
 
-    def __init__(self, *args, param: str | None = None, value=None, valid: str | None = None,
-                 detail: str | None = None):
+    def __init__(self, *args: object, param: str | None = None, value: Any = None, valid: str | None = None,
+                 detail: str | None = None) -> None:
         super().__init__(*args)
         self.param = param
         self.value = value
@@ -108,7 +113,8 @@ class SceneError(GearoptError, ValueError):
         the first. ``[]`` for an error not collected from problems.
     """
 
-    def __init__(self, *args, source=None, problems=(), **fields):
+    def __init__(self, *args: object, source: str | None = None, problems: Iterable[SceneError] = (),
+                 **fields: Any) -> None:
         super().__init__(*args, **fields)
         self.source = source
         self.problems = list(problems)
@@ -162,7 +168,7 @@ def shorten(text: str, limit: int = MAX_ECHO) -> str:
     return f"{text[:limit - 20]}...{text[-8:]} ({len(text)} characters)"
 
 
-def check_number(name: str, value, what: str = "a finite number", cls=None) -> float:
+def check_number(name: str, value: Any, what: str = "a finite number", cls: type[GearoptError] | None = None) -> float:
     """``value`` as a float, or an error naming ``name`` if it is not a finite real number
     (strings such as ``"8 arcsec"``, booleans, None, NaN, inf are refused: the Python API takes
     numbers in gearopt's internal units, mm and rad). The error is ``cls`` (default
@@ -183,7 +189,8 @@ def check_number(name: str, value, what: str = "a finite number", cls=None) -> f
     return v
 
 
-def out_of_range(name: str, value, valid: str, hint: str = "", cls=GeometryError) -> GearoptError:
+def out_of_range(name: str, value: Any, valid: str, hint: str = "",
+                 cls: type[GearoptError] = GeometryError) -> GearoptError:
     """Build the standard 'parameter out of range' error.
 
     Parameters
@@ -204,7 +211,7 @@ def out_of_range(name: str, value, valid: str, hint: str = "", cls=GeometryError
     return cls(f"{name} = {shorten(repr(value))} {detail}", param=name, value=value, valid=valid, detail=detail)
 
 
-def value_text(value) -> str:
+def value_text(value: Any) -> str:
     """How a message shows ``value`` after ``name = `` (strings bare, other values by repr,
     abbreviated)."""
     return shorten(value if isinstance(value, str) else repr(value))
@@ -216,6 +223,6 @@ def join_detail(head: str, detail: str) -> str:
     return head + ("" if detail.startswith((":", ";", ",", ".")) else " ") + detail
 
 
-def option_error(name: str, value, valid: str, hint: str = "") -> OptionError:
+def option_error(name: str, value: Any, valid: str, hint: str = "") -> OptionError:
     """:func:`out_of_range` for a solver or study option (an :class:`OptionError`)."""
     return out_of_range(name, value, valid, hint, cls=OptionError)

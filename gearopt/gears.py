@@ -1,6 +1,10 @@
-"""Gear data: the basic rack (the tool that defines a gear), a gear, a gear pair.
+"""Gear data: the basic rack (the tool that defines a gear; :mod:`gearopt.geometry.rack`, re-exported
+here), a gear, a gear pair.
 
-Frozen dataclasses with ISO 21771 symbols, validated on construction. Lengths in mm, angles in rad
+Frozen dataclasses with ISO 21771 symbols, validated on construction. A gear holds its cutting tool
+(:mod:`gearopt.geometry.tools`) and asks it for what depends on the tool: the closed-form root and
+form radii and undercut limit, and what needs the generated surfaces (form radius of a folded or
+undercut flank, flank limit); nothing here builds surfaces. Lengths in mm, angles in rad
 (use :func:`gearopt.units.deg` at the edges), rack coefficients in units of the normal module m_n.
 Derived quantities are properties; nothing is mutated after construction.
 
@@ -32,123 +36,18 @@ from __future__ import annotations
 import math
 import numbers
 from dataclasses import dataclass, field, fields, replace
-from functools import cached_property, lru_cache
+from functools import cached_property
+from typing import Any
 
 import numpy as np
 
 from .errors import ArgumentError, GeometryError, out_of_range, shorten
 from .geometry.involute import inv, inv_inverse, tooth_thickness
 from .geometry.microgeometry import Microgeometry
-from .geometry.tools import Hob, RackCutter, Shaper, check_tool
+from .geometry.rack import BasicRack, finite_number
+from .geometry.envelope import FlankLimit
+from .geometry.tools import RackCutter, Tool, check_tool
 from .units import DEG, INCH
-
-_ISO53 = {
-    # profile: (h_aP, h_fP, rho_fP)   alpha_n = 20 deg for all (ISO 53:1998)
-    "A": (1.0, 1.25, 0.38),
-    "B": (1.0, 1.25, 0.30),
-    "C": (1.0, 1.25, 0.25),
-    "D": (1.0, 1.40, 0.39),
-}
-
-
-def _finite(name: str, value: float) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        raise GeometryError(f"{name} = {value!r} must be a finite number.", param=name, value=value,
-                            valid="a finite number", detail="must be a finite number.")
-    return float(value)
-
-
-@dataclass(frozen=True)
-class BasicRack:
-    """Basic rack profile / rack-cutter that defines a gear (ISO 53, Litvin Fig. 10.3.4).
-
-    The rack-cutter is the negative of the basic rack: its addendum cuts the gear's dedendum.
-    Coefficients are in units of the normal module ``m_n`` of the gear it cuts.
-
-    Parameters
-    ----------
-    alpha_n : float
-        Profile (pressure) angle [rad], ``0 < alpha_n < 45 deg``.
-    h_aP : float
-        Addendum of the basic rack [m_n] (> 0); the gear's addendum for ``x = 0``.
-    h_fP : float
-        Dedendum of the basic rack [m_n] (>= h_aP); the tool's cutting depth below the datum line.
-    rho_fP : float
-        Root fillet radius of the basic rack [m_n] (tool tip radius), ``0 <= rho_fP <= rho_max``
-        where ``rho_max`` leaves a tool tip land of zero width.
-    a_c : float
-        Parabolic profile coefficient [1/mm] of the rack-cutter (profile crowning, Litvin
-        section 4): the tool profile deviates by ``a_c (u - u_0)^2`` from the straight line, ``u``
-        measured along the profile [mm]. 0 is the straight (conjugate) rack.
-    u_0 : float
-        Position of the parabola apex along the profile [mm], from the datum line, positive towards
-        the tool tip (the gear root). Usually at the mean contact point.
-    name : str
-        Label (``"ISO 53 A"`` for presets).
-    """
-
-    alpha_n: float = 20 * DEG
-    h_aP: float = 1.0
-    h_fP: float = 1.25
-    rho_fP: float = 0.38
-    a_c: float = 0.0
-    u_0: float = 0.0
-    name: str = "custom"
-
-    def __post_init__(self):
-        for f in ("alpha_n", "h_aP", "h_fP", "rho_fP", "a_c", "u_0"):
-            _finite(f"rack.{f}", getattr(self, f))
-        if not 0.0 < self.alpha_n < 45 * DEG:
-            raise out_of_range("rack.alpha_n", f"{self.alpha_n / DEG:.6g} deg", "0 < alpha_n < 45 deg")
-        if self.h_aP <= 0:
-            raise out_of_range("rack.h_aP", self.h_aP, "h_aP > 0 (in modules)")
-        if self.h_fP < self.h_aP:
-            raise out_of_range("rack.h_fP", self.h_fP, f"h_fP >= h_aP = {self.h_aP} (clearance c_P >= 0, in modules)")
-        land = math.pi / 4 - self.h_fP * math.tan(self.alpha_n)  # half tip land of the straight tool [m_n]
-        if land < 0:
-            raise out_of_range("rack.h_fP", self.h_fP, f"h_fP <= {math.pi / 4 / math.tan(self.alpha_n):.4f} for "
-                               f"alpha_n = {math.degrees(self.alpha_n):.4g} deg (the tool tooth would be pointed)")
-        if self.rho_fP < 0 or self.rho_fP > self.rho_max:
-            raise out_of_range("rack.rho_fP", self.rho_fP, f"0 <= rho_fP <= {self.rho_max:.4f} (in modules; larger "
-                               "fillets do not fit on the tool tip)")
-        if self.a_c < 0:
-            raise out_of_range("rack.a_c", self.a_c, "a_c >= 0 [1/mm] (0 = straight profile)")
-
-    @classmethod
-    def iso53(cls, profile: str = "A", **changes) -> "BasicRack":
-        """ISO 53 basic rack profile A, B, C or D (alpha_n = 20 deg); ``changes`` override fields."""
-        key = str(profile).upper().replace("ISO53", "").replace("ISO 53", "").strip(" -")
-        if key not in _ISO53:
-            raise out_of_range("rack.preset", profile, "one of 'A', 'B', 'C', 'D' (ISO 53)")
-        h_aP, h_fP, rho = _ISO53[key]
-        unknown = sorted(set(changes) - {f.name for f in fields(cls)})
-        if unknown:
-            valid = ', '.join(f.name for f in fields(cls))
-            raise ArgumentError(f"BasicRack.iso53: unknown field(s) {', '.join(unknown)}; valid: {valid}.",
-                                param=f"rack.{unknown[0]}", valid=valid)
-        return cls(**{"alpha_n": 20 * DEG, "h_aP": h_aP, "h_fP": h_fP, "rho_fP": rho, "name": f"ISO 53 {key}", **changes})
-
-    @property
-    def c_P(self) -> float:
-        """Bottom clearance coefficient ``h_fP - h_aP`` [m_n]."""
-        return self.h_fP - self.h_aP
-
-    @property
-    def rho_max(self) -> float:
-        """Largest tip radius [m_n] that fits the tool tooth (tip land of zero width)."""
-        a = self.alpha_n
-        half_land = math.pi / 4 - self.h_fP * math.tan(a)  # half tip width of the straight tool [m_n]
-        return max(half_land, 0.0) * math.cos(a) / (1 - math.sin(a))
-
-    @property
-    def h_lim(self) -> float:
-        """Height [m_n] below the datum line where the tool's straight flank meets its tip fillet.
-
-        This bounds the part of the tool that generates involute; it sets the undercut limit
-        (ISO 53 A: ``1.25 - 0.38 (1 - sin 20 deg) = 1.0``).
-        """
-        return self.h_fP - self.rho_fP * (1 - math.sin(self.alpha_n))
-
 
 _HANDS = ("right", "left")
 #: Most teeth gearopt accepts on one member.
@@ -203,7 +102,7 @@ class Gear:
     A_sni : float or None
         Lower tooth thickness allowance [mm], ``A_sni <= A_sne``; ``None``: equal to ``A_sne``.
         Only the largest backlash (:attr:`GearPair.backlash_max`) uses it.
-    tool : RackCutter, Hob or Shaper
+    tool : Tool (RackCutter, Hob, Shaper, ...)
         The tool that cuts the teeth (:mod:`gearopt.geometry.tools`); default the rack-cutter of
         ``rack``. Every surface of the gear (TCA, edge contact, synthesis, FE) and :attr:`r_f`,
         :attr:`r_form`, :attr:`undercut` follow it (:func:`gearopt.geometry.generation.generate`).
@@ -236,7 +135,7 @@ class Gear:
     name: str = "gear"
     A_sne: float = 0.0
     A_sni: float | None = None
-    tool: RackCutter | Hob | Shaper = field(default_factory=RackCutter)
+    tool: Tool = field(default_factory=RackCutter)
     modifications: Microgeometry | None = None
 
     def __post_init__(self):
@@ -250,10 +149,10 @@ class Gear:
                 raise ArgumentError(f"{n}.{f} = {shorten(repr(getattr(self, f)))}: expected True or False.",
                                     param=f"{n}.{f}", value=getattr(self, f), valid="True or False",
                                     detail=": expected True or False.")
-        _finite(f"{n}.A_sne", self.A_sne)
+        finite_number(f"{n}.A_sne", self.A_sne)
         if self.A_sni is None:
             object.__setattr__(self, "A_sni", float(self.A_sne))
-        elif _finite(f"{n}.A_sni", self.A_sni) > self.A_sne:
+        elif finite_number(f"{n}.A_sni", self.A_sni) > self.A_sne:
             raise out_of_range(f"{n}.A_sni", self.A_sni, f"A_sni <= A_sne = {self.A_sne:.6g} mm (lower thickness "
                                "allowance below the upper one)")
         if isinstance(self.z, (numbers.Integral, np.integer)) and not isinstance(self.z, (bool, np.bool_)):
@@ -268,7 +167,7 @@ class Gear:
             raise out_of_range(f"{n}.z", self.z, f"3 <= z <= {Z_MAX} teeth (beyond, a tooth is too small against "
                                "the gear radius for double precision; the largest gears have about 1000 teeth)")
         for f in ("m_n", "x", "b", "beta", "k", "a_pl"):
-            _finite(f"{n}.{f}", getattr(self, f))
+            finite_number(f"{n}.{f}", getattr(self, f))
         if self.m_n <= 0:
             raise out_of_range(f"{n}.m_n", self.m_n, "m_n > 0 mm")
         if not M_N_RANGE[0] <= self.m_n <= M_N_RANGE[1]:
@@ -302,7 +201,7 @@ class Gear:
         if not isinstance(self.rack, BasicRack):
             raise GeometryError(f"{n}.rack must be a BasicRack, got {type(self.rack).__name__}.", param=f"{n}.rack",
                                 value=self.rack, valid="a BasicRack")
-        if not isinstance(self.tool, (RackCutter, Hob, Shaper)):
+        if not isinstance(self.tool, Tool):
             check_tool(self)  # names the type expected
         x_root = self.rack.h_fP - self.r_p / self.m_n  # r_f = 0
         if self.x <= x_root:
@@ -396,14 +295,14 @@ class Gear:
                                "Real profile crowning is of the order of 1e-3 1/mm for m_n = 3 mm.")
 
     @classmethod
-    def from_diametral_pitch(cls, z: int, P_n: float, **kw) -> "Gear":
+    def from_diametral_pitch(cls, z: int, P_n: float, **kw: Any) -> "Gear":
         """Build from the normal diametral pitch ``P_n`` [1/in] (``m_n = 25.4 / P_n`` mm)."""
-        P_n = _finite("P_n", P_n)
+        P_n = finite_number("P_n", P_n)
         if P_n <= 0:
             raise out_of_range("P_n", P_n, "P_n > 0 [1/in]")
         return cls(z=z, m_n=INCH / P_n, **kw)
 
-    def with_(self, **changes) -> "Gear":
+    def with_(self, **changes: Any) -> "Gear":
         """A copy with fields changed (validated again)."""
         return replace(self, **changes)
 
@@ -462,12 +361,9 @@ class Gear:
     @property
     def r_f(self) -> float:
         """Root radius [mm] (cut by the tool tip line, tool at the generating shift ``x_E``; a shaper:
-        ``a_cut - r_as``, its tip circle at the cutting centre distance)."""
-        if isinstance(self.tool, Shaper):
-            r = self.tool.root_radius(self)
-            if math.isfinite(r):
-                return r
-        return self.r_p + self.m_n * (self.x_E - self.rack.h_fP)
+        ``a_cut - r_as``, its tip circle at the cutting centre distance): :meth:`Tool.root_radius
+        <gearopt.geometry.tools.Tool.root_radius>`."""
+        return self.tool.root_radius(self)
 
     @property
     def p_n(self) -> float:
@@ -495,15 +391,9 @@ class Gear:
     def r_lim(self) -> float:
         """Radius [mm] generated by the end of the tool's straight flank (the involute's lower
         limit, the form radius ``r_F`` when there is no undercut). A shaper: the point cut by its
-        flank/tip-rounding junction (:meth:`gearopt.geometry.tools.Shaper.form_radius`)."""
-        if isinstance(self.tool, Shaper):
-            return self.tool.form_radius(self)
-        # The flank end, h below the rolling (pitch) line (h < 0: above it), generates the gear point
-        # where it crosses the line of action, h / sin(alpha_t) from the pitch point towards the
-        # interference point T (r_p sin(alpha_t) from the pitch point); the same formula holds for h < 0.
-        # With undercut (h > r_p sin^2 alpha_t) the point lies beyond T: the value is then not the form radius.
-        h = (self.rack.h_lim - self.x_E) * self.m_n
-        return math.hypot(self.r_b, self.r_p * math.sin(self.alpha_t) - h / math.sin(self.alpha_t))
+        flank/tip-rounding junction (:meth:`gearopt.geometry.tools.Shaper.form_radius`): :meth:`Tool.form_radius
+        <gearopt.geometry.tools.Tool.form_radius>`."""
+        return self.tool.form_radius(self)
 
     @property
     def undercut(self) -> bool:
@@ -513,11 +403,12 @@ class Gear:
         return self.x_E < self.x_min_undercut
 
     @property
-    def flank_limit(self):
+    def flank_limit(self) -> FlankLimit:
         """Where the real generated flank ends in the mid section (cut by :attr:`tool`, right flank):
         a :class:`gearopt.geometry.generation.FlankLimit` (the tool's flank/fillet junction, or
-        below a fold of the flank its crossing with the reversed branch / the fillet)."""
-        return _flank_limit(self)
+        below a fold of the flank its crossing with the reversed branch / the fillet), found by the
+        tool on its generated surfaces (:meth:`gearopt.geometry.tools.Tool.flank_limit`)."""
+        return self.tool.flank_limit(self)
 
     @property
     def r_form(self) -> float:
@@ -542,20 +433,16 @@ class Gear:
     def a_c_max_unfolded(self) -> float:
         """Largest profile-crowning coefficient ``rack.a_c`` [1/mm] (all else as built) for which the
         flank does not fold; 0.0 if it folds even with the straight tool (undercut). Rack-cutter and
-        hob only (a shaper has no profile crowning: GeometryError)."""
-        if isinstance(self.tool, Shaper):
-            raise GeometryError(f"{self.name}.a_c_max_unfolded: profile crowning a_c is a rack-cutter/hob setting; "
-                                "this gear is cut by a shaper (tool kind 'shaper').")
-        return _a_c_max_unfolded(self)
+        hob only (a shaper has no profile crowning: GeometryError);
+        :meth:`gearopt.geometry.tools.Tool.a_c_max_unfolded`."""
+        return self.tool.a_c_max_unfolded(self)
 
     @property
     def x_min_undercut(self) -> float:
         """Smallest (generating) profile shift without undercut: ``h_lim - z sin^2(alpha_t) / (2 cos beta)``;
         compared with :attr:`x_E`. A shaper: where its flank/rounding junction cuts the gear at the
         interference point (:meth:`gearopt.geometry.tools.Shaper.x_min_undercut`)."""
-        if isinstance(self.tool, Shaper):
-            return self.tool.x_min_undercut(self)
-        return self.rack.h_lim - self.z * math.sin(self.alpha_t) ** 2 / (2 * math.cos(self.beta))
+        return self.tool.x_min_undercut(self)
 
     @property
     def z_min_undercut(self) -> float:
@@ -620,7 +507,7 @@ class GearPair:
         if not p.is_spur and p.hand == g.hand:
             raise out_of_range("gear.hand", g.hand, f"opposite to pinion.hand = {p.hand!r} (external helical pair)")
         if self.a is not None:
-            a = _finite("pair.a", self.a)
+            a = finite_number("pair.a", self.a)
             r_bsum = p.r_b + g.r_b
             if a <= r_bsum:
                 raise out_of_range("pair.a", a, f"a > r_b1 + r_b2 = {r_bsum:.6g} mm (base circles)")
@@ -701,7 +588,7 @@ class GearPair:
         GeometryError
             Naming ``name``, its value and the valid range of dE [mm].
         """
-        dE = _finite(name, dE)
+        dE = finite_number(name, dE)
         if dE == 0.0:
             return
         p, g = self.pinion, self.gear
@@ -860,16 +747,3 @@ class GearPair:
         """Total contact ratio ``eps_alpha + eps_beta``."""
         return self.eps_alpha + self.eps_beta
 
-
-@lru_cache(maxsize=256)
-def _flank_limit(gear: Gear):
-    from .geometry.generation import generate  # generation builds on this module
-
-    return generate(gear).flank_limit("right", 0.0)
-
-
-@lru_cache(maxsize=256)
-def _a_c_max_unfolded(gear: Gear) -> float:
-    from .geometry.generation import generate
-
-    return generate(gear).max_unfolded_a_c("right", 0.0)

@@ -67,7 +67,7 @@ class heartbeat:
     ...     design = optimizer.solve()
     """
 
-    def __init__(self, progress: Progress | None, label: str, every: float = 15.0):
+    def __init__(self, progress: Progress | None, label: str, every: float = 15.0) -> None:
         if every <= 0:
             raise ValueError(f"heartbeat: every = {every!r} s; valid: > 0")
         self.progress, self.label, self.every = progress, label, float(every)

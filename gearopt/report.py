@@ -11,24 +11,40 @@ results.json against it). This module imports only NumPy and :mod:`gearopt.units
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .units import ARCMIN
 
-__all__ = ["CONJUGATE_ARCSEC", "arr", "te_harmonics", "misalignment_dict", "pair_numbers", "finite_or_none"]
+if TYPE_CHECKING:
+    from collections.abc import Sequence
+    from numpy.typing import ArrayLike
+    from .meshing.misalignment import Misalignment
+
+__all__ = ["CONJUGATE_ARCSEC", "arr", "te_harmonics", "misalignment_dict", "pair_numbers", "finite_or_none", "csv_cell"]
 
 #: A drive whose actual TE has a smaller peak-to-peak [arcsec] is conjugate (TE = 0 up to round-off).
 CONJUGATE_ARCSEC = 1e-5
 
 
-def arr(a) -> list:
+def csv_cell(v: object) -> str:
+    """One cell of a results CSV table: empty for None and non-finite floats, ``1``/``0`` for
+    booleans, ``repr`` of a float (round-trip exact), ``str`` of anything else."""
+    if v is None or (isinstance(v, float) and not math.isfinite(v)):
+        return ""
+    if isinstance(v, bool):
+        return "1" if v else "0"
+    return repr(v) if isinstance(v, float) else str(v)
+
+
+def arr(a: ArrayLike) -> list:
     """An array as nested lists of floats, non-finite entries (no contact) as ``None``."""
     a = np.asarray(a, dtype=float)
     return [None if not np.isfinite(v) else float(v) for v in a.ravel()] if a.ndim == 1 else [arr(row) for row in a]
 
 
-def finite_or_none(v):
+def finite_or_none(v: float | None) -> float | None:
     """``float(v)``, or ``None`` when it is not finite."""
     v = float(v)
     return v if math.isfinite(v) else None
@@ -49,12 +65,12 @@ def te_harmonics(phi1: np.ndarray, te: np.ndarray, z1: int, n: int = 5) -> list[
     return [float(2 * abs(f[c * k])) for k in range(1, n + 1)]
 
 
-def misalignment_dict(mis) -> dict:
+def misalignment_dict(mis: Misalignment) -> dict:
     """A :class:`~gearopt.meshing.tca.Misalignment` as results.json gives it: ``dE_mm``,
     ``crossing_arcmin``, ``intersecting_arcmin``, ``axial_mm``."""
     return mis.to_results()  # every kind by name and unit: <kind>_mm or <kind>_arcmin
 
 
-def pair_numbers(driving, pairs) -> list:
+def pair_numbers(driving: ArrayLike, pairs: Sequence[int]) -> list:
     """Driving tooth pair at each position as the pair number (pinion tooth, 0 = central), or None."""
     return [int(pairs[v]) if v >= 0 else None for v in np.asarray(driving, int)]

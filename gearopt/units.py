@@ -15,7 +15,7 @@ from __future__ import annotations
 import math
 import re
 
-from .errors import SceneError, shorten
+from .errors import SceneError, check_number, shorten
 
 DEG = math.pi / 180.0  #: one degree in rad
 ARCMIN = DEG / 60.0  #: one arc minute in rad
@@ -49,7 +49,6 @@ def _a(word: str) -> str:
 def deg(value_deg: float) -> float:
     """Degrees to radians."""
     if isinstance(value_deg, (str, bytes)):
-        from .errors import check_number
         check_number("value_deg", value_deg, "a number in deg")
     return value_deg * DEG
 
@@ -57,12 +56,11 @@ def deg(value_deg: float) -> float:
 def to_deg(value_rad: float) -> float:
     """Radians to degrees."""
     if isinstance(value_rad, (str, bytes)):
-        from .errors import check_number
         check_number("value_rad", value_rad, "a number in rad")
     return value_rad / DEG
 
 
-def parse_quantity(value, kind: str, name: str, bare_unit: str | None = None,
+def parse_quantity(value: float | str, kind: str, name: str, bare_unit: str | None = None,
                    unit_required: bool | None = None) -> float:
     """Convert a scene value to gearopt's internal unit (mm, rad or 1/mm).
 

@@ -1,4 +1,4 @@
-"""The one Hertz / Weber implementation (gearopt/ltca/hertz.py) shared by the loaded TCA, the loaded
+"""The one Hertz / Weber implementation (gearopt/contact/hertz.py) shared by the loaded TCA, the loaded
 optimiser's NLP and the FE references: NumPy and CasADi give the same numbers, the line contact
 satisfies Hertz's own relations, and each smoothing of Weber's logarithm behaves as its caller needs."""
 
@@ -12,7 +12,7 @@ import pytest
 
 from gearopt.errors import GearoptError
 from gearopt.ltca.compliance import Material, weber_contact, weber_tangent
-from gearopt.ltca.hertz import contact_modulus, hertz_half_width, hertz_peak_pressure, weber_compliance
+from gearopt.contact.hertz import contact_modulus, hertz_half_width, hertz_peak_pressure, weber_compliance
 
 E, NU = 206000.0, 0.3
 ES = contact_modulus(E, NU)

@@ -40,14 +40,21 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import casadi as ca
 import numpy as np
 
 from ..errors import ConvergenceError, GearoptError, GeometryError, LineContactError, OptionError, out_of_range
 from ..errors import ArgumentError
+from ..report import CONJUGATE_ARCSEC, arr, misalignment_dict, pair_numbers, te_harmonics
+from ..units import RAD_TO_ARCSEC
 from ..meshing.tca import (REGULARITY_MIN, TCA, Branch, EnvelopeTE, Misalignment, TCAResult, check_sweep_args,
                            no_contact)
+
+if TYPE_CHECKING:
+    from collections.abc import Sequence
+    from ..types import ArrayLike, Param
 
 #: Convex edges that can touch the mating flank (member, kind, sign of the face end).
 EDGES = {
@@ -126,9 +133,6 @@ class EdgeTCAResult(EnvelopeTE):
         """This case as results.json holds it (``cases[]`` of the tca study with edge contact, and
         ``before`` / ``after`` of the crowning study; every key, unit and meaning in
         docs/results.md). Parameters as :meth:`gearopt.meshing.tca.TCAResult.to_dict`."""
-        from ..report import CONJUGATE_ARCSEC, arr, misalignment_dict, pair_numbers, te_harmonics
-        from ..units import RAD_TO_ARCSEC
-
         k0 = self.pairs.index(0) if 0 in self.pairs else 0
         env = self.te_envelope_arcsec
         branches = list(self.branches)
@@ -204,7 +208,7 @@ class EdgeContact:
         Edges to analyse (keys of :data:`EDGES`); default all.
     """
 
-    def __init__(self, tca: TCA, edges=tuple(EDGES), limit_edges: bool = True):
+    def __init__(self, tca: TCA, edges: Sequence[str] = tuple(EDGES), limit_edges: bool = True) -> None:
         t0 = time.perf_counter()
         if not isinstance(tca, TCA):
             raise ArgumentError(f"tca = {type(tca).__name__}: expected a gearopt.meshing.tca.TCA (built from the "
@@ -374,7 +378,8 @@ class EdgeContact:
                                           contact="line")
         return self._line_modified
 
-    def sweep(self, phi1, p1=None, p2=None, mis: Misalignment | None = None, pairs=(-1, 0, 1)) -> EdgeTCAResult:
+    def sweep(self, phi1: ArrayLike, p1: Param = None, p2: Param = None, mis: Misalignment | None = None,
+              pairs: Sequence[int] = (-1, 0, 1)) -> EdgeTCAResult:
         """Surface and edge contact over ``phi1`` [rad] for the tooth pairs ``pairs``.
 
         Returns
@@ -663,7 +668,7 @@ class EdgeContact:
     #: grid of the modification check: flank points along the profile and sections across the face
     _MOD_GRID = (13, 41)
 
-    def modification_extent(self, p1, p2) -> "ModificationExtent":
+    def modification_extent(self, p1: Param, p2: Param) -> "ModificationExtent":
         """Extremes of the flank modifications (ISO amounts, measured topographies, any
         :class:`~gearopt.geometry.modification.FlankModification`) of both members for ``p1``,
         ``p2``, sampled on the active flanks (``_MOD_GRID`` points along the profile from the form
@@ -722,7 +727,7 @@ class EdgeContact:
         return float(np.median(vals)) if vals.size else 0.0
 
 
-def conjugate_sections(tca: TCA, line_tca: TCA, phis, p1, p2, z_sections) -> dict:
+def conjugate_sections(tca: TCA, line_tca: TCA, phis: ArrayLike, p1: Param, p2: Param, z_sections: ArrayLike) -> dict:
     """Conjugate contact of the aligned drive of ``tca`` with its crowning and flank modifications
     removed (``line_tca``: a line-contact TCA of the unmodified teeth; only the tool shifts x of
     ``p1``, ``p2`` kept) in the pinion sections ``z_sections`` [mm] at the angles ``phis`` [rad]:

@@ -14,10 +14,14 @@ import tempfile
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..errors import CalculixError, GearoptError  # noqa: F401  (CalculixError lives in errors.py; re-exported)
+
+if TYPE_CHECKING:
+    from collections.abc import Sequence
 
 CCX_ENV = "GEAROPT_CCX"  #: environment variable naming the ccx executable (default: ``ccx`` on PATH)
 
@@ -69,7 +73,7 @@ class Deck:
     increments: tuple = (1.0, 1.0)  # (initial increment of step 1, of step 2)
 
 
-def write_inp(deck: Deck, path) -> Path:
+def write_inp(deck: Deck, path: str | os.PathLike) -> Path:
     """Write the Abaqus-style input deck: mesh, rigid pinion rim, fixed gear rim, contact pairs and the
     two steps (close the contact with a small rotation, then release it and apply the torque)."""
     path = Path(path)
@@ -128,7 +132,7 @@ class CcxRun:
 
 
 def run_ccx(deck: Deck | None, jobname: str = "gear", threads: int = 2, timeout: float = 900.0,
-            keep_dir=None, inp: str | None = None) -> CcxRun:
+            keep_dir: str | os.PathLike | None = None, inp: str | None = None) -> CcxRun:
     """Write the deck (or the input text ``inp``) and run ``ccx -i jobname`` in a temporary directory
     (or ``keep_dir``, which keeps the files). Raises :class:`CalculixError` on a missing executable,
     timeout or failure."""
@@ -207,7 +211,7 @@ def read_dat(text: str) -> list[DatBlock]:
     return blocks
 
 
-def last_block(blocks, what: str, set_name: str | None = None) -> DatBlock | None:
+def last_block(blocks: Sequence[DatBlock], what: str, set_name: str | None = None) -> DatBlock | None:
     """The last block (latest time) whose description starts with ``what`` (and of ``set_name``)."""
     found = [b for b in blocks if b.what.startswith(what) and (set_name is None or (b.set or "").upper() == set_name.upper())]
     return found[-1] if found else None

@@ -26,8 +26,9 @@ import json
 import os
 import tempfile
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -35,17 +36,14 @@ from ..errors import GeometryError, out_of_range
 from ..progress import current, heartbeat
 from ..geometry.generation import GeneratedTooth
 from .calculix import CalculixError, read_dat, run_ccx
-from .mesh import MeshOptions, ToothMesher, build_member
+from .cache import cache_dir, save_npz  # noqa: F401  (cache_dir: re-exported)
+from .local import local_excess
+from .mesh import MeshOptions, ToothMesher, build_member, middle_points
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
 CACHE_VERSION = 4
-
-
-def cache_dir() -> Path:
-    """Directory of the influence-coefficient cache: ``influence/`` in gearopt's cache root
-    (:func:`gearopt.compiled.cache_root`: ``$GEAROPT_CACHE``, else ``$XDG_CACHE_HOME/gearopt``, else
-    ``~/.cache/gearopt``)."""
-    from ..compiled import cache_root
-    return cache_root() / "influence"
 
 
 @dataclass(frozen=True)
@@ -75,7 +73,7 @@ class InfluenceGrid:
     depth: np.ndarray | None = None
     kappa: np.ndarray | None = None
 
-    def local_excess(self, radius) -> np.ndarray:
+    def local_excess(self, radius: ArrayLike) -> np.ndarray:
         """``kappa`` at flank radii ``radius`` [mm] (linear between the grid rows, constant beyond;
         zeros without it)."""
         r = np.asarray(radius, float)
@@ -83,7 +81,7 @@ class InfluenceGrid:
             return np.zeros(r.shape)
         return np.interp(r, self.radius, self.kappa)
 
-    def matrix(self, radius, z) -> np.ndarray:
+    def matrix(self, radius: ArrayLike, z: ArrayLike) -> np.ndarray:
         """Compliance matrix [mm/N] between points ``(radius[i], z[i])`` of the flank (multilinear
         interpolation on the grid; points beyond it are clamped onto its edge)."""
         from scipy.interpolate import RegularGridInterpolator
@@ -97,56 +95,11 @@ class InfluenceGrid:
         return 0.5 * (C + C.T)
 
 
-def save_npz(path: Path, **arrays) -> None:
-    """Write ``arrays`` to ``path`` (.npz) atomically (a temporary file in the same directory, renamed)."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(suffix=".npz", dir=path.parent)
-    os.close(fd)
-    try:
-        with open(tmp, "wb") as fh:
-            np.savez(fh, **arrays)
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-
-
 def _key(tooth: GeneratedTooth, E: float, nu: float, mesh: MeshOptions, teeth: int, r_form) -> str:
     g = tooth.gear
     d = {"v": CACHE_VERSION, "gear": repr(g), "p": np.round(tooth.p0, 15).tolist(), "names": list(tooth.param_names),
          "E": E, "nu": nu, "mesh": repr(mesh), "teeth": teeth, "r_form": None if r_form is None else round(r_form, 9)}
     return hashlib.sha256(json.dumps(d, sort_keys=True).encode()).hexdigest()[:24]
-
-
-def _middle_points(X, nodes, load, normals, mid_rows, nh):
-    """For each load node, the two middle-line nodes (same layer) between which its load line crosses
-    the middle line, the interpolation weight and the distance to the crossing [mm]:
-    ``(pairs (n, 2), w (n,), depth (n,))`` (flattened like ``load``)."""
-    pairs, w, depth = [], [], []
-    for i in range(load.shape[0]):
-        for layer in range(load.shape[1]):
-            P = X[nodes[layer, mid_rows, nh], :2]
-            x0 = X[load[i, layer], :2]
-            d = -normals[i, layer, :2]
-            d = d / np.linalg.norm(d)
-            hit = None
-            for q in range(len(P) - 1):
-                e = P[q + 1] - P[q]
-                A = np.column_stack([d, -e])
-                if abs(np.linalg.det(A)) < 1e-14:
-                    continue
-                s_, t_ = np.linalg.solve(A, P[q] - x0)
-                if s_ > 0 and -1e-9 <= t_ <= 1 + 1e-9 and (hit is None or s_ < hit[2]):
-                    hit = (q, min(max(t_, 0.0), 1.0), s_)
-            if hit is None:
-                raise GeometryError(f"influence_grid: the load line of flank row {i}, face layer {layer} does not "
-                                    "meet the tooth's middle line above the fillet end; the member mesh is not a "
-                                    "tooth (check the gear data).", param="mesh", value=None)
-            q, t_, s_ = hit
-            pairs.append((nodes[layer, mid_rows[q], nh], nodes[layer, mid_rows[q + 1], nh]))
-            w.append(t_)
-            depth.append(s_)
-    return np.array(pairs, int), np.array(w, float), np.array(depth, float)
 
 
 def influence_grid(tooth: GeneratedTooth, E: float = 206000.0, nu: float = 0.3, mesh: MeshOptions | None = None,
@@ -222,7 +175,7 @@ def influence_grid(tooth: GeneratedTooth, E: float = 206000.0, nu: float = 0.3, 
     # response point of each load: where the load line meets the tooth's middle line in its layer
     # (Weber's depth h is measured to there; the middle node of the same row lies off the load line, and
     # the bending slope between the two points is of the order of the whole local term)
-    resp_pair, resp_w, depth = _middle_points(X, nodes, load, normals, mid_rows, nh)
+    resp_pair, resp_w, depth = middle_points(X, nodes, load, normals, mid_rows, nh)
     fixed = np.unique(np.r_[mm.rim_bottom, mm.rim_sides]) + 1
     lines = ["** gearopt: influence coefficients of a tooth flank (unit normal loads)", "*NODE, NSET=NALL"]
     lines += [f"{i + 1}, {x:.12e}, {y:.12e}, {z:.12e}" for i, (x, y, z) in enumerate(X)]
@@ -280,7 +233,4 @@ def influence_grid(tooth: GeneratedTooth, E: float = 206000.0, nu: float = 0.3, 
 
 
 def _with_local(grid: InfluenceGrid, tooth, E, nu, use_cache, threads) -> InfluenceGrid:
-    from dataclasses import replace
-
-    from .local import local_excess
     return replace(grid, kappa=local_excess(tooth, grid.radius, E, nu, use_cache=use_cache, threads=threads))

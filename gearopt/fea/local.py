@@ -36,6 +36,7 @@ import json
 import math
 import time
 from dataclasses import replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -44,7 +45,11 @@ from ..geometry.generation import GeneratedTooth, generate
 from ..geometry.tools import RackCutter
 from ..progress import current
 from .calculix import read_dat, run_ccx
-from .mesh import MeshOptions, ToothMesher, build_member
+from .cache import cache_dir, save_npz
+from .mesh import MeshOptions, ToothMesher, build_member, middle_points
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
 LOCAL_VERSION = 1
 SLAB = np.array([-0.5, 0.0, 0.5])  #: face layers of the slab [mm] (1 mm thick, plane strain)
@@ -94,7 +99,6 @@ def section_compression(tooth: GeneratedTooth, radius: float, b_H: float, E: flo
         (the pressure's integral on the flank; the strip is scaled to ``f = 1000 b_H`` N/mm, a
         linear model), ``radius`` of the loaded node [mm], ``elements``, ``ccx_s`` [s].
     """
-    from .influence import _middle_points
 
     g = tooth.gear
     h_c = b_H / n_hertz
@@ -130,7 +134,7 @@ def section_compression(tooth: GeneratedTooth, radius: float, b_H: float, E: flo
              for j in np.flatnonzero(Fn > 0) for layer in range(3)]
     mid_rows = np.arange(0, t["section"].segments["fillet"][1] + 1)
     node_c = int(nodes[mid, rows[ic], -1])
-    pair, w, depth = _middle_points(X, nodes[mid:mid + 1], np.array([[node_c]]), nrm[None, None, :], mid_rows,
+    pair, w, depth = middle_points(X, nodes[mid:mid + 1], np.array([[node_c]]), nrm[None, None, :], mid_rows,
                                     t["section"].n_half)
     fixed = np.unique(np.r_[mm.rim_bottom, mm.rim_sides]) + 1
     lines = ["*NODE, NSET=NALL"] + [f"{i + 1}, {x:.12e}, {y:.12e}, {z:.12e}" for i, (x, y, z) in enumerate(X)]
@@ -172,7 +176,7 @@ def _key(tooth: GeneratedTooth, radius, E, nu, b_rel, n_hertz, n_half) -> str:
     return hashlib.sha256(json.dumps(d, sort_keys=True).encode()).hexdigest()[:24]
 
 
-def local_excess(tooth: GeneratedTooth, radius, E: float = 206000.0, nu: float = 0.3, b_rel: float = 0.05,
+def local_excess(tooth: GeneratedTooth, radius: ArrayLike, E: float = 206000.0, nu: float = 0.3, b_rel: float = 0.05,
                  n_hertz: float = 8.0, n_half: int = 24, use_cache: bool = True, threads: int = 2) -> np.ndarray:
     """The excess ``kappa`` of the tooth's local compression over Weber's half-space term, in Weber's
     bracket, at flank radii ``radius`` of ``tooth`` (see the module docstring).
@@ -197,7 +201,6 @@ def local_excess(tooth: GeneratedTooth, radius, E: float = 206000.0, nu: float =
     -------
     (n,) array of ``kappa`` (dimensionless).
     """
-    from .influence import cache_dir, save_npz
 
     if not 0.005 <= b_rel <= 0.2:
         raise out_of_range("b_rel", b_rel, "0.005 <= b_rel <= 0.2 (strip half-width in modules)")

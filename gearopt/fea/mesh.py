@@ -30,12 +30,17 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..errors import GeometryError, option_error, out_of_range  # noqa: F401
 from ..geometry.frames import rot_z_points
 from ..geometry.generation import GeneratedTooth
+
+if TYPE_CHECKING:
+    from collections.abc import Sequence
+    from ..types import ArrayLike, Param
 
 #: C3D8 faces (ccx / Abaqus numbering S1..S6) as node positions 0..7 of the element.
 HEX_FACES = {1: (0, 1, 2, 3), 2: (4, 7, 6, 5), 3: (0, 4, 5, 1), 4: (1, 5, 6, 2), 5: (2, 6, 7, 3), 6: (3, 7, 4, 0)}
@@ -105,7 +110,7 @@ class ToothSection:
     n_half: int
 
 
-def _graded_params(s: np.ndarray, n_uniform: int, s_c: float | None, h_c: float, window: float,
+def graded_params(s: np.ndarray, n_uniform: int, s_c: float | None, h_c: float, window: float,
                    growth: float) -> np.ndarray:
     """Node positions along [s[0], s[-1]] (arc length): uniform with ``n_uniform`` elements, or
     graded towards ``s_c`` with the size function h(s) = min(h_far, h_c + growth (|s - s_c| - window)+)."""
@@ -152,7 +157,8 @@ class ToothMesher:
         uniform elements).
     """
 
-    def __init__(self, tooth: GeneratedTooth, options: MeshOptions, p=None, z_layers=None):
+    def __init__(self, tooth: GeneratedTooth, options: MeshOptions, p: Param = None,
+                 z_layers: ArrayLike | None = None) -> None:
         self.tooth, self.opt = tooth, options
         self.p = tooth.p0 if p is None else np.asarray(p, float)
         g = tooth.gear
@@ -176,7 +182,7 @@ class ToothMesher:
         r = self._maps[key](np.asarray(q, float), z, np.tile(self.p[:, None], len(q)))[0]
         return np.asarray(r).T
 
-    def flank_arclength(self, side: str, z: float = 0.0):
+    def flank_arclength(self, side: str, z: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
         """(u samples, arc length samples) of the flank from the tip to the fillet junction."""
         u_tip = self.tooth.u_at_radius(self.r_a, z, side, self.p)
         u = np.linspace(u_tip, self.u_f, 801)
@@ -184,7 +190,7 @@ class ToothMesher:
         s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(r, axis=0), axis=1))])
         return u, s
 
-    def profile_rows(self, contact_u, first_layer: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+    def profile_rows(self, contact_u: float, first_layer: float | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Flank parameters u (tip -> junction) of the node rows and the phi values of the fillet rows.
 
         ``contact_u``: flank parameter of the contact point on this tooth (None: uniform rows), or
@@ -198,19 +204,19 @@ class ToothMesher:
             if cu.size != len(self.z):
                 raise ValueError(f"contact_u: one value per face layer ({len(self.z)}), got {cu.size}")
             sc = np.interp(cu, u[::-1], s[::-1]) if u[0] > u[-1] else np.interp(cu, u, s)
-            rows = [_graded_params(s, o.n_flank, float(c), o.h_contact, o.window, o.growth) for c in sc]
+            rows = [graded_params(s, o.n_flank, float(c), o.h_contact, o.window, o.growth) for c in sc]
             n = max(len(r) for r in rows)
             rows = [r if len(r) == n else np.interp(np.linspace(0, 1, n), np.linspace(0, 1, len(r)), r) for r in rows]
             out = np.array([np.interp(r, s, u) for r in rows])
             out[:, 0], out[:, -1] = u[0], u[-1]
             return out, phi_rows
         s_c = None if contact_u is None else float(np.interp(contact_u, u, s))
-        sn = _graded_params(s, o.n_flank, s_c, o.h_contact, o.window, o.growth)
+        sn = graded_params(s, o.n_flank, s_c, o.h_contact, o.window, o.growth)
         u_rows = np.interp(sn, s, u)
         u_rows[0], u_rows[-1] = u[0], u[-1]
         return u_rows, phi_rows
 
-    def section(self, u_rows, phi_rows, col_first: float = 0.0) -> ToothSection:
+    def section(self, u_rows: ArrayLike, phi_rows: ArrayLike, col_first: float = 0.0) -> ToothSection:
         """Node grid of tooth 0 (centred on +y at the middle section) for every face layer."""
         o, g = self.opt, self.gear
         nz = len(self.z)
@@ -314,7 +320,8 @@ class MemberMesh:
     meta: dict = field(default_factory=dict)
 
 
-def build_member(mesher: ToothMesher, tooth_ids, contact_u: dict, name: str, col_first: float) -> MemberMesh:
+def build_member(mesher: ToothMesher, tooth_ids: Sequence[int], contact_u: dict, name: str,
+                 col_first: float) -> MemberMesh:
     """Mesh the teeth ``tooth_ids`` (tooth k rotated by ``k * 2 pi / z`` counter-clockwise) of a member.
 
     ``contact_u[k]``: flank parameter of the contact point on tooth k (graded rows), or absent."""
@@ -377,7 +384,7 @@ def build_member(mesher: ToothMesher, tooth_ids, contact_u: dict, name: str, col
                       r_rim=mesher.r_rim, meta={"r_f": mesher.r_f, "r_a": mesher.r_a, "z": mesher.z})
 
 
-def hex_volume_sign(P, E):
+def hex_volume_sign(P: np.ndarray, E: np.ndarray) -> np.ndarray:
     """Jacobian determinant at the centre of each hexahedron (sign = orientation)."""
     X = P[E]  # (n, 8, 3)
     d_xi = (-X[:, 0] + X[:, 1] + X[:, 2] - X[:, 3] - X[:, 4] + X[:, 5] + X[:, 6] - X[:, 7]) / 8
@@ -389,7 +396,7 @@ def hex_volume_sign(P, E):
 _hex_volume_sign = hex_volume_sign  # (old private name)
 
 
-def hex_min_jacobian(P, E) -> np.ndarray:
+def hex_min_jacobian(P: np.ndarray, E: np.ndarray) -> np.ndarray:
     """Smallest Jacobian determinant over the 8 corners of each hexahedron (quality check)."""
     X = P[E]
     corners = np.array([[-1, -1, -1], [1, -1, -1], [1, 1, -1], [-1, 1, -1],
@@ -412,7 +419,7 @@ def _dshape(xi, eta, ze):
     return d
 
 
-def shape(xi, eta, ze) -> np.ndarray:
+def shape(xi: ArrayLike, eta: ArrayLike, ze: ArrayLike) -> np.ndarray:
     """Trilinear shape functions of the 8-node hexahedron at natural coordinates (8,)."""
     s = np.array([[-1, -1, -1], [1, -1, -1], [1, 1, -1], [-1, 1, -1],
                   [-1, -1, 1], [1, -1, 1], [1, 1, 1], [-1, 1, 1]], float)
@@ -429,3 +436,35 @@ def face_of(elem_nodes: np.ndarray, quad: set) -> int:
         if {int(elem_nodes[i]) for i in loc} == quad:
             return f
     raise ValueError("face not found")
+
+
+def middle_points(X: np.ndarray, nodes: np.ndarray, load: np.ndarray, normals: np.ndarray,
+                  mid_rows: Sequence[int] | np.ndarray, nh: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """For each load node, the two middle-line nodes (same layer) between which its load line crosses
+    the middle line, the interpolation weight and the distance to the crossing [mm]:
+    ``(pairs (n, 2), w (n,), depth (n,))`` (flattened like ``load``)."""
+    pairs, w, depth = [], [], []
+    for i in range(load.shape[0]):
+        for layer in range(load.shape[1]):
+            P = X[nodes[layer, mid_rows, nh], :2]
+            x0 = X[load[i, layer], :2]
+            d = -normals[i, layer, :2]
+            d = d / np.linalg.norm(d)
+            hit = None
+            for q in range(len(P) - 1):
+                e = P[q + 1] - P[q]
+                A = np.column_stack([d, -e])
+                if abs(np.linalg.det(A)) < 1e-14:
+                    continue
+                s_, t_ = np.linalg.solve(A, P[q] - x0)
+                if s_ > 0 and -1e-9 <= t_ <= 1 + 1e-9 and (hit is None or s_ < hit[2]):
+                    hit = (q, min(max(t_, 0.0), 1.0), s_)
+            if hit is None:
+                raise GeometryError(f"influence_grid: the load line of flank row {i}, face layer {layer} does not "
+                                    "meet the tooth's middle line above the fillet end; the member mesh is not a "
+                                    "tooth (check the gear data).", param="mesh", value=None)
+            q, t_, s_ = hit
+            pairs.append((nodes[layer, mid_rows[q], nh], nodes[layer, mid_rows[q + 1], nh]))
+            w.append(t_)
+            depth.append(s_)
+    return np.array(pairs, int), np.array(w, float), np.array(depth, float)

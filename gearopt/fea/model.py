@@ -36,8 +36,10 @@ from __future__ import annotations
 
 import functools
 import math
+import os
 import time
 from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING
 
 import casadi as ca
 import numpy as np
@@ -47,12 +49,17 @@ from ..errors import (ArgumentError, ConvergenceError, GearoptError, GeometryErr
 from ..gears import GearPair
 from ..geometry.frames import rot_z_points
 from ..geometry.generation import GeneratedTooth
-from ..ltca.compliance import C_PRIME_STEEL
-from ..ltca.hertz import contact_modulus, hertz_half_width, hertz_peak_pressure
+from ..contact.hertz import C_PRIME_STEEL, contact_modulus, hertz_half_width, hertz_peak_pressure
 from ..meshing.misalignment import Misalignment
 from ..meshing.tca import TCA
 from .calculix import CalculixError, Deck, last_block, read_contact_statistics, read_dat, read_frd_block, run_ccx
-from .mesh import GAUSS_C3D8, MemberMesh, MeshOptions, ToothMesher, hex_volume_sign, build_member, face_of, shape
+from .mesh import (GAUSS_C3D8, MemberMesh, MeshOptions, ToothMesher, build_member, face_of, graded_params,
+                   hex_volume_sign, shape)
+from .vtu import write_vtu
+
+if TYPE_CHECKING:
+    from pathlib import Path
+    from .calculix import CcxRun
 
 # c' = C_PRIME_STEEL (ISO 6336-1 single-pair stiffness of steel spur gears, ~14 N/(mm um)), scaled with E below.
 #: A loaded approach along the line of action more than this many times the ISO estimate F / (c' b)
@@ -384,12 +391,10 @@ def _principal_vm(S):
 def _face_layers(b: float, n_face: int, z_c: float, h: float, window: float, growth: float) -> np.ndarray:
     """Face layers [mm] graded towards ``z_c`` (size ``h`` within ``window``, growing by ``growth``
     per mm beyond, at most the uniform size ``b / n_face``), one layer on ``z_c``."""
-    from .mesh import _graded_params
-
     z_c = float(np.clip(z_c, -b / 2, b / 2))
-    lo = _graded_params(np.array([0.0, z_c + b / 2]), max(1, round(n_face * (z_c + b / 2) / b)), z_c + b / 2, h,
+    lo = graded_params(np.array([0.0, z_c + b / 2]), max(1, round(n_face * (z_c + b / 2) / b)), z_c + b / 2, h,
                         window, growth) - b / 2 if z_c > -b / 2 + 1e-9 else np.array([-b / 2])
-    hi = _graded_params(np.array([0.0, b / 2 - z_c]), max(1, round(n_face * (b / 2 - z_c) / b)), 0.0, h,
+    hi = graded_params(np.array([0.0, b / 2 - z_c]), max(1, round(n_face * (b / 2 - z_c) / b)), 0.0, h,
                         window, growth) + z_c if z_c < b / 2 - 1e-9 else np.array([b / 2])
     out = np.concatenate([lo[:-1], [z_c], hi[1:]]) if lo.size > 1 and hi.size > 1 else np.concatenate([lo, hi])
     return np.unique(np.round(out, 12))
@@ -441,7 +446,7 @@ class GearFEModel:
     """
 
     def __init__(self, pair: GearPair, phi1: float, options: FEOptions | None = None, tca: TCA | None = None,
-                 mis: Misalignment | None = None):
+                 mis: Misalignment | None = None) -> None:
         t0 = time.perf_counter()
         if not isinstance(pair, GearPair):
             raise ArgumentError(f"pair = {type(pair).__name__}: expected a gearopt.gears.GearPair.",
@@ -565,7 +570,7 @@ class GearFEModel:
         self.nodes_gear = self.place_gear(self.gear_mesh.nodes)
         self.build_time = time.perf_counter() - t0
 
-    def place_gear(self, X) -> np.ndarray:
+    def place_gear(self, X: np.ndarray) -> np.ndarray:
         """Points ``X`` (n, 3) of the gear's own frame [mm] placed in the fixed frame S_f at the model's
         gear angle, as the TCA places the gear surface: ``Rz(phi2) Rz(pi + theta2)``, then the
         misalignment (:meth:`Misalignment.gear_to_fixed`)."""
@@ -722,7 +727,7 @@ class FEResult:
     data: dict
 
     @classmethod
-    def from_run(cls, model: GearFEModel, deck: Deck, run) -> "FEResult":
+    def from_run(cls, model: GearFEModel, deck: Deck, run: CcxRun) -> "FEResult":
         blocks = read_dat(run.dat)
         o = model.opt
         g1, g2 = model.pair.pinion, model.pair.gear
@@ -840,11 +845,9 @@ class FEResult:
         out.deck, out.frd = deck, run.frd  # for write_vtu (not part of the results dictionary)
         return out
 
-    def write_vtu(self, path):
+    def write_vtu(self, path: str | os.PathLike) -> Path:
         """The mesh with displacements, stresses and contact pressure as ``.vtu`` (ParaView),
         :func:`gearopt.fea.vtu.write_vtu`."""
-        from .vtu import write_vtu
-
         return write_vtu(self.deck, self.frd, path)
 
     @staticmethod

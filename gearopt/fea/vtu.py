@@ -41,7 +41,7 @@ def fields_from_frd(deck: Deck, frd: str) -> dict:
     return out
 
 
-def write_vtu(deck: Deck, frd: str, path) -> Path:
+def write_vtu(deck: Deck, frd: str, path: str | os.PathLike) -> Path:
     """Write the model of ``deck`` with the fields of ``frd`` (:func:`fields_from_frd`) to ``path``
     (``.vtu``) through meshio; atomic (a temporary file renamed into place)."""
     import meshio

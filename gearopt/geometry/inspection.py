@@ -30,11 +30,17 @@ import os
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..errors import ArgumentError, GeometryError, out_of_range, shorten
 from .involute import inv
+
+if TYPE_CHECKING:
+    from ..gears import Gear
+    from ..types import ArrayLike, Param
+    from .envelope import GeneratedTooth
 
 SIDES = ("right", "left")
 PROFILES = ("L_y", "d_y")
@@ -44,7 +50,7 @@ N_PROFILE, N_FACE = 41, 21  #: default inspection grid (profile x face)
 # ---------------------------------------------------------------------------------------------
 # Deviation of a flank from the design involute helicoid
 # ---------------------------------------------------------------------------------------------
-def reference_angle(gear, side: str, R, z) -> np.ndarray:
+def reference_angle(gear: Gear, side: str, R: ArrayLike, z: ArrayLike) -> np.ndarray:
     """Polar angle ``atan2(x, y)`` [rad] of the design involute helicoid of ``gear`` (straight rack at
     the generating shift ``x_E``: tooth thickness :attr:`Gear.s_t`) at radius ``R`` [mm] in the
     section ``z`` [mm]: ``+-(s_t / (2 r_p) + inv(alpha_t) - inv(alpha_R)) - h z tan(beta) / r_p`` (the
@@ -71,7 +77,7 @@ def _flank_eval(tooth, side):
     return tooth.functions[key][0]
 
 
-def flank_deviation(tooth, side: str, R, z, p=None) -> np.ndarray:
+def flank_deviation(tooth: GeneratedTooth, side: str, R: ArrayLike, z: ArrayLike, p: Param = None) -> np.ndarray:
     """ISO transverse deviation ``delta_t`` [mm] of a tooth's flank from the design involute helicoid
     at radii ``R`` [mm] in sections ``z`` [mm] (arrays broadcast; module docstring).
 
@@ -131,12 +137,12 @@ def flank_deviation(tooth, side: str, R, z, p=None) -> np.ndarray:
     return dev.reshape(shape)
 
 
-def roll_length(gear, R) -> np.ndarray:
+def roll_length(gear: Gear, R: ArrayLike) -> np.ndarray:
     """Roll length ``L_y = sqrt(R^2 - r_b^2)`` [mm] of transverse radii R [mm]."""
     return np.sqrt(np.maximum(np.asarray(R, dtype=float) ** 2 - gear.r_b**2, 0.0))
 
 
-def radius_of_roll_length(gear, L) -> np.ndarray:
+def radius_of_roll_length(gear: Gear, L: ArrayLike) -> np.ndarray:
     """Transverse radius [mm] of roll lengths L [mm]."""
     return np.sqrt(np.asarray(L, dtype=float) ** 2 + gear.r_b**2)
 
@@ -233,8 +239,9 @@ class FlankGrid:
                 "z_mm": list(self.z), "deviation_um": (self.values() * 1000).tolist()}
 
 
-def inspect_flank(tooth, side: str, n_profile: int = N_PROFILE, n_face: int = N_FACE, d_range=None, p=None,
-                  member: str = "", profile: str = "L_y") -> FlankGrid:
+def inspect_flank(tooth: GeneratedTooth, side: str, n_profile: int = N_PROFILE, n_face: int = N_FACE,
+                  d_range: tuple[float, float] | None = None, p: Param = None, member: str = "",
+                  profile: str = "L_y") -> FlankGrid:
     """The flank's deviation topography on an inspection grid: ``n_profile`` roll lengths, equally
     spaced over ``d_range`` (diameters [mm], default the start of the real flank (its flank limit,
     the highest over the sections) to the tip; pass the active
@@ -271,7 +278,7 @@ def inspect_flank(tooth, side: str, n_profile: int = N_PROFILE, n_face: int = N_
 DEVIATION_MAX_PER_M = 0.1
 
 
-def check_grid_on_flank(grid: FlankGrid, gear, tol: float = 1e-3) -> None:
+def check_grid_on_flank(grid: FlankGrid, gear: Gear, tol: float = 1e-3) -> None:
     """Refuse a grid that leaves the flank or cannot be a measurement of it, naming the file and
     the row (profile position) or column (face position):
 
@@ -349,7 +356,7 @@ def _chart(x, dev, x_range, names):
     return dict(zip(names, (F, f_f, f_H, C)))
 
 
-def profile_chart(L, dev, L_range=None) -> dict:
+def profile_chart(L: ArrayLike, dev: ArrayLike, L_range: tuple[float, float] | None = None) -> dict:
     """Profile chart values [mm] of a trace (roll lengths L [mm], deviations [mm]) over its
     evaluation range (default: the whole trace): ``F_alpha``, ``f_f_alpha``, ``f_H_alpha``,
     ``C_alpha`` (module docstring; exact for ``-C (2t)^2 + f_H t + c``, ``t = (L - L_m) / L_alpha``
@@ -357,7 +364,7 @@ def profile_chart(L, dev, L_range=None) -> dict:
     return _chart(L, dev, L_range, ("F_alpha", "f_f_alpha", "f_H_alpha", "C_alpha"))
 
 
-def lead_chart(z, dev, z_range=None) -> dict:
+def lead_chart(z: ArrayLike, dev: ArrayLike, z_range: tuple[float, float] | None = None) -> dict:
     """Helix chart values [mm] of a trace along the face: ``F_beta``, ``f_f_beta``, ``f_H_beta``,
     ``C_beta`` (as :func:`profile_chart`, positions z [mm])."""
     return _chart(z, dev, z_range, ("F_beta", "f_f_beta", "f_H_beta", "C_beta"))
@@ -388,7 +395,7 @@ _UNITS = {"um": 1e-3, "mm": 1.0}
 _KEYS = ("profile", "face", "deviation", "side", "member")
 
 
-def write_grid_csv(grid: FlankGrid, path) -> Path:
+def write_grid_csv(grid: FlankGrid, path: str | os.PathLike) -> Path:
     """Write a grid in gearopt's topography CSV format (docs/microgeometry.md), atomically.
 
     Format: comment lines ``# key: value`` (``profile: L_y mm`` or ``d_y mm``, ``face: z mm``,
@@ -415,7 +422,7 @@ def write_grid_csv(grid: FlankGrid, path) -> Path:
     return path
 
 
-def read_grid_csv(path, side: str | None = None) -> FlankGrid:
+def read_grid_csv(path: str | os.PathLike, side: str | None = None) -> FlankGrid:
     """Read a grid written by :func:`write_grid_csv` (or by hand / a measuring machine in that
     format). ``side``: the flank if the file does not say it.
 

@@ -11,9 +11,15 @@ Units: lengths in mm, angles in rad (the results are in the units of the inputs 
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import casadi as ca
 import numpy as np
+
+from ..errors import ArgumentError
+
+if TYPE_CHECKING:
+    from ..types import Expr
 
 #: Number of Newton steps that polish the initial guess in :func:`inv_inverse`. Three steps reach
 #: machine precision (<= 2 ulp) over 0 < alpha < 85 deg: the worst initial error is ~5e-4 (relative,
@@ -44,8 +50,6 @@ def _check_numeric(fn: str, name: str, value, below: float | None = None) -> Non
     finite real number with ``|value| < below``."""
     if isinstance(value, (ca.SX, ca.MX, ca.DM)):
         return
-    from ..errors import ArgumentError
-
     try:
         if isinstance(value, (str, bytes)) or np.asarray(value).dtype.kind in "USbO":
             raise TypeError
@@ -64,7 +68,7 @@ def _check_numeric(fn: str, name: str, value, below: float | None = None) -> Non
                             param=name, value=value, valid=f"|{name}| <= {below:.6g} rad")
 
 
-def select(cond, a, b):
+def select(cond: Expr, a: Expr, b: Expr) -> Expr:
     """``a`` where ``cond`` else ``b``.
 
     Python choice for a plain ``bool`` condition (float inputs), ``np.where`` for NumPy boolean
@@ -78,7 +82,7 @@ def select(cond, a, b):
     return ca.if_else(cond, a, b)
 
 
-def inv(alpha):
+def inv(alpha: Expr) -> Expr:
     """Involute function ``inv(alpha) = tan(alpha) - alpha`` (Litvin eq. 10.2.9).
 
     For ``|alpha| < 0.9`` it is computed as ``(sin a - a cos a) / cos a`` with the Taylor series of
@@ -119,7 +123,7 @@ def _cbrt(x):
     return ca.sign(x) * ca.fabs(x) ** (1.0 / 3.0)
 
 
-def inv_inverse_cheng(theta):
+def inv_inverse_cheng(theta: Expr) -> Expr:
     """Cheng's series for the inverse of the involute function (Litvin eq. 10.2.10).
 
     ``alpha = (3 theta)^(1/3) - (2/5) theta + (9/175) 3^(2/3) theta^(5/3)
@@ -153,7 +157,7 @@ def _inv_inverse_asymptotic(theta):
     return math.pi / 2 - y * (1.0 + y2 * (2.0 / 3.0 + y2 * (13.0 / 15.0)))
 
 
-def inv_inverse(theta, steps: int = NEWTON_STEPS):
+def inv_inverse(theta: Expr, steps: int = NEWTON_STEPS) -> Expr:
     """Pressure angle ``alpha`` with ``inv(alpha) = theta``, to machine precision.
 
     Initial guess: Cheng's series (eq. 10.2.10) for ``theta < 1.6`` (alpha < ~70 deg), an asymptotic
@@ -195,7 +199,7 @@ def inv_inverse(theta, steps: int = NEWTON_STEPS):
     return sgn * select(tiny, c - 0.4 * t_abs, alpha)
 
 
-def involute_point(r_b, phi):
+def involute_point(r_b: float, phi: Expr) -> tuple:
     """Point of the involute of the base circle ``r_b`` at roll angle ``phi`` (Litvin eq. 10.2.5).
 
     ``x = r_b (sin phi - phi cos phi)``, ``y = r_b (cos phi + phi sin phi)``; the involute starts at
@@ -222,7 +226,7 @@ def involute_point(r_b, phi):
     return r_b * sxc, r_b * (c + phi * s)
 
 
-def involute_tangent(r_b, phi):
+def involute_tangent(r_b: float, phi: Expr) -> tuple:
     """Tangent ``d(x, y)/d phi = r_b phi (sin phi, cos phi)`` of :func:`involute_point`.
 
     Parameters
@@ -240,7 +244,7 @@ def involute_tangent(r_b, phi):
     return r_b * phi * ca.sin(phi), r_b * phi * ca.cos(phi)
 
 
-def involute_normal(phi):
+def involute_normal(phi: Expr) -> tuple:
     """Unit normal ``(cos phi, -sin phi)`` of the involute (Litvin eq. 9.4.28), defined for every phi.
 
     It is the unit tangent rotated by -90 deg for ``phi > 0`` (for ``phi < 0`` the tangent reverses
@@ -260,7 +264,7 @@ def involute_normal(phi):
     return ca.cos(phi), -ca.sin(phi)
 
 
-def extended_involute_point(r_b, h, phi, extended: bool = True):
+def extended_involute_point(r_b: float, h: float, phi: Expr, extended: bool = True) -> tuple:
     """Extended (``extended=True``) or shortened involute (Litvin eq. 10.2.11).
 
     ``x = (r_b -+ h) sin phi - r_b phi cos phi``, ``y = (r_b -+ h) cos phi + r_b phi sin phi``;
@@ -288,7 +292,7 @@ def extended_involute_point(r_b, h, phi, extended: bool = True):
     return rr * s - r_b * phi * c, rr * c + r_b * phi * s
 
 
-def pressure_angle_at(r_b, r):
+def pressure_angle_at(r_b: float, r: Expr) -> Expr:
     """Pressure angle of the involute at radius ``r``: ``cos alpha = r_b / r`` (eq. 10.2.7).
 
     Computed as ``atan2(sqrt((r - r_b)(r + r_b)), r_b)``, which is accurate near the base circle
@@ -309,7 +313,7 @@ def pressure_angle_at(r_b, r):
     return ca.atan2(ca.sqrt((r - r_b) * (r + r_b)), r_b)
 
 
-def roll_angle_at(r_b, r):
+def roll_angle_at(r_b: float, r: Expr) -> Expr:
     """Roll angle ``phi = sqrt(r^2 - r_b^2) / r_b = tan(alpha)`` of the involute point at radius ``r``.
 
     Parameters
@@ -327,7 +331,7 @@ def roll_angle_at(r_b, r):
     return ca.sqrt((r - r_b) * (r + r_b)) / r_b
 
 
-def tooth_thickness(r, r_p, s_p, alpha_p):
+def tooth_thickness(r: Expr, r_p: float, s_p: float, alpha_p: float) -> Expr:
     """Arc tooth thickness at radius ``r`` (in the plane of ``alpha_p``, the transverse section).
 
     ``s(r) = 2 r [ s_p / (2 r_p) + inv(alpha_p) - inv(alpha_r) ]`` with ``cos alpha_r = r_b / r``

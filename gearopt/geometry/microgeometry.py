@@ -63,12 +63,20 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, fields
+from typing import TYPE_CHECKING
 
 import casadi as ca
 import numpy as np
 
-from ..errors import ArgumentError, out_of_range, shorten
+from ..errors import ArgumentError, ConvergenceError, out_of_range, shorten
+from .inspection import check_grid_on_flank, flank_deviation, profile_chart
 from .modification import SIDES, FlankModification
+
+if TYPE_CHECKING:
+    from ..gears import Gear, GearPair
+    from ..types import ArrayLike, Expr
+    from .envelope import GeneratedTooth
+    from .inspection import FlankGrid
 
 #: amounts (theta entries, mm) that are always part of a member's ISO modification, in this order
 GLOBAL_AMOUNTS = ("C_alpha", "f_H_alpha", "C_beta", "f_H_beta", "S_alpha")
@@ -276,7 +284,7 @@ class Microgeometry:
                 out[f.name] = v
         return out
 
-    def check(self, gear) -> None:
+    def check(self, gear: Gear) -> None:
         """The amounts and positions against a gear (raises ArgumentError naming the field)."""
         n = getattr(gear, "name", "gear")
         lim = AMOUNT_MAX_PER_M * gear.m_n
@@ -313,7 +321,6 @@ class Microgeometry:
             raise out_of_range(f"{n}.modifications.z_Cb", self.z_Cb, f"|z_Cb| <= b/2 = {gear.b / 2:.6g} mm",
                                cls=ArgumentError)
         if self.measured:  # on the flank, plausible deviations (the file, row and column named)
-            from .inspection import check_grid_on_flank
             for grid in self.measured:
                 check_grid_on_flank(grid, gear)
         if self.d_alpha is not None and not (2 * r_b < self.d_alpha[0] and self.d_alpha[1] <= 2 * r_a + 1e-9):
@@ -324,7 +331,7 @@ class Microgeometry:
 # ---------------------------------------------------------------------------------------------
 # Smooth building blocks (CasADi-generic)
 # ---------------------------------------------------------------------------------------------
-def smooth_ramp(s, l):
+def smooth_ramp(s: Expr, l: float) -> Expr:
     """The smooth positive part ``P_l(s)`` [mm]: 0 for ``s <= -l/2``, ``s`` for ``s >= l/2`` and,
     with ``t = (s + l/2) / l``, ``l (t^3 - t^4 / 2)`` between: C2 (P' rises from 0 to 1 as the
     smoothstep ``3 t^2 - 2 t^3``), CasADi-generic in ``s`` (float, SX or MX); ``l`` > 0 a float."""
@@ -361,14 +368,14 @@ class Frame:
         return self.L_e - self.L_s
 
 
-def roll_length_of(r, r_b):
+def roll_length_of(r: Expr, r_b: float) -> Expr:
     """Roll length ``sqrt(r_x^2 + r_y^2 - r_b^2)`` [mm] of a point (3,) (CasADi-generic), smoothed below
     ``EPS_L`` (a smooth positive part) so the graph stays finite at and below the base circle."""
     q = r[0] ** 2 + r[1] ** 2 - r_b**2
     return ca.sqrt((q + ca.sqrt(q**2 + EPS_L**4)) / 2)
 
 
-def transverse_deviation(mg: Microgeometry, fr: Frame, L, z, th: dict, side: str):
+def transverse_deviation(mg: Microgeometry, fr: Frame, L: Expr, z: Expr, th: dict, side: str) -> Expr:
     """``delta_t(L, z)`` [mm] of the ISO terms (module docstring table), CasADi-generic; ``th`` the
     amounts by name (symbols or floats)."""
     t_a = (L - fr.L_m) / fr.L_alpha
@@ -402,7 +409,7 @@ def _relief_coords(mg: Microgeometry, fr: Frame, L, z) -> dict:
 # ---------------------------------------------------------------------------------------------
 # Resolution against a member of a pair
 # ---------------------------------------------------------------------------------------------
-def active_profile(pair, member: str) -> tuple[float, float]:
+def active_profile(pair: GearPair, member: str) -> tuple[float, float]:
     """Radii [mm] of the start of the active profile (``d_Nf / 2``: where the mate's tip, or this
     flank's own form circle, ends the path of contact) and of its end (the tip, ``d_a / 2``) of a
     member of a pair (docs/theory.md section 3.3, as :attr:`GearPair.g_alpha`)."""
@@ -414,7 +421,8 @@ def active_profile(pair, member: str) -> tuple[float, float]:
     return math.sqrt(g.r_b**2 + s**2), g.r_a
 
 
-def frame(tooth, side: str, pair=None, member: str | None = None, mg: Microgeometry | None = None) -> Frame:
+def frame(tooth: GeneratedTooth, side: str, pair: GearPair | None = None, member: str | None = None,
+          mg: Microgeometry | None = None) -> Frame:
     """The :class:`Frame` of a flank: base circle, face, profile evaluation range (``mg.d_alpha``, else
     the active profile in ``pair``, else the form circle to the tip) and the direction in which
     material added moves the roll length (from the flank's point and normal at the pitch point)."""
@@ -432,7 +440,7 @@ def frame(tooth, side: str, pair=None, member: str | None = None, mg: Microgeome
     return Frame(r_b=g.r_b, beta_b=g.beta_b, b=g.b, L_s=L(r_s), L_e=L(r_e), L_a=L(g.r_a), sign_L=sign_L)
 
 
-def check_relief_starts(mg: Microgeometry, gear, r_s: float, r_e: float, where: str) -> None:
+def check_relief_starts(mg: Microgeometry, gear: Gear, r_s: float, r_e: float, where: str) -> None:
     """Refuse a profile relief whose start lies outside the profile evaluation range ``r_s`` ...
     ``r_e`` [mm] (radii: the active profile of the pair, or ``d_alpha``): a tip relief (``d_Ca`` /
     ``L_Ca``) starting below it would relieve the whole evaluated profile, a root relief
@@ -499,7 +507,8 @@ def _with_actual_roll_length(f, fr: Frame, L_foot, z):
     return d
 
 
-def flank_modifications(mg: Microgeometry, tooth, pair=None, member: str | None = None, force_iso: bool = False) -> tuple:
+def flank_modifications(mg: Microgeometry, tooth: GeneratedTooth, pair: GearPair | None = None,
+                        member: str | None = None, force_iso: bool = False) -> tuple:
     """The :class:`FlankModification` s of a member's :class:`Microgeometry`: ``"iso"`` (the ISO terms,
     theta = :attr:`Microgeometry.theta_names` [mm]) on ``mg.sides`` unless every term is absent, and
     one ``"measured_<side>"`` per measured grid (no theta). ``tooth``: the member's generated tooth
@@ -552,7 +561,7 @@ SPLINE_DEGREE = 5  #: B-spline degree of a measured grid (quintic: the synthesis
 RECEDE = 1e-3  #: [1/mm] beyond the extended grid the flank recedes by RECEDE * excess^2 (no contact out there)
 
 
-def measured_modification(grid, fr: Frame, name: str = "measured") -> FlankModification:
+def measured_modification(grid: FlankGrid, fr: Frame, name: str = "measured") -> FlankModification:
     """A measured grid (``FlankGrid``: ISO transverse deviations [mm] over roll length ``L_y`` or
     diameter ``d_y`` x axial position) as a FlankModification of its flank, composed like the ISO
     terms (``cos(beta_b) delta_t`` at the modified point's roll length):
@@ -618,15 +627,15 @@ def measured_modification(grid, fr: Frame, name: str = "measured") -> FlankModif
     return FlankModification(name, (), delta, (grid.side,))
 
 
-def modified_tooth(pair, member: str, tooth=None, force_iso: bool = False):
+def modified_tooth(pair: GearPair, member: str, tooth: GeneratedTooth | None = None,
+                   force_iso: bool = False) -> GeneratedTooth:
     """The member's generated tooth with its gear's :class:`Microgeometry` composed in (the tooth
-    itself when the gear has none). ``tooth``: the generated tooth (default ``generate(gear)``);
+    itself when the gear has none). ``tooth``: the generated tooth (default ``generate(gear)``, the tool's);
     ``force_iso``: compose the ISO terms (zero when the gear has none) so that their amounts
     ``iso.<name>`` are parameters of the tooth (see :func:`flank_modifications`)."""
-    from .generation import generate
 
     gear = getattr(pair, member)
-    tooth = tooth if tooth is not None else generate(gear)
+    tooth = tooth if tooth is not None else gear.tool.generate(gear)
     mg = getattr(gear, "modifications", None)
     if mg is None and force_iso:
         mg = Microgeometry()
@@ -644,11 +653,9 @@ def _profile_trace_of_settings(pair, member, a_c, u_0, side="right", n=41):
     """Roll lengths (n,) over the active profile (midpoints of n equal intervals) and the ISO
     transverse deviation [mm] (:func:`gearopt.geometry.inspection.flank_deviation`) of the flank cut by
     the member's tool with profile crowning (a_c, u_0) and no plunging, at mid face."""
-    from .generation import generate
-    from .inspection import flank_deviation
 
     g = getattr(pair, member)
-    tooth = generate(g).unmodified
+    tooth = g.tool.generate(g).unmodified
     r_s, r_e = active_profile(pair, member)
     L_s, L_e = math.sqrt(r_s**2 - g.r_b**2), math.sqrt(r_e**2 - g.r_b**2)
     L = L_s + (np.arange(n) + 0.5) / n * (L_e - L_s)  # interval midpoints: symmetric, inside the flank
@@ -657,16 +664,15 @@ def _profile_trace_of_settings(pair, member, a_c, u_0, side="right", n=41):
     return L, flank_deviation(tooth, side, np.sqrt(L**2 + g.r_b**2), 0.0, p)
 
 
-def profile_fit(L, dev) -> tuple[float, float]:
+def profile_fit(L: ArrayLike, dev: ArrayLike) -> tuple[float, float]:
     """(C_alpha, f_H_alpha) [mm] of a profile trace over its whole range
     (:func:`gearopt.geometry.inspection.profile_chart`)."""
-    from .inspection import profile_chart
 
     ch = profile_chart(L, dev)
     return ch["C_alpha"], ch["f_H_alpha"]
 
 
-def iso_from_litvin(pair, member: str = "pinion") -> dict:
+def iso_from_litvin(pair: GearPair, member: str = "pinion") -> dict:
     """A member's Litvin crowning settings in ISO shop terms [mm] over the active profile and face:
     ``C_beta = a_pl (b/2)^2 sin(alpha_t)`` (exact: the tool fed ``a_pl z^2`` deeper offsets the flank
     by ``a_pl z^2 sin(alpha_n)`` along the normal, ``a_pl z^2 sin(alpha_t)`` transverse) with
@@ -684,7 +690,7 @@ def iso_from_litvin(pair, member: str = "pinion") -> dict:
     return {k: out[k] for k in ("C_alpha", "f_H_alpha", "C_beta", "f_H_beta")}
 
 
-def litvin_from_iso(pair, member: str = "pinion", C_alpha: float = 0.0, C_beta: float = 0.0,
+def litvin_from_iso(pair: GearPair, member: str = "pinion", C_alpha: float = 0.0, C_beta: float = 0.0,
                     f_H_alpha: float = 0.0, tol: float = 1e-9) -> dict:
     """Litvin's settings ``a_c`` [1/mm], ``u_0`` [mm] (parabolic tool) and ``a_pl`` [1/mm] (plunging)
     that give the ISO amounts ``C_alpha``, ``f_H_alpha``, ``C_beta`` [mm] (the inverse of
@@ -700,7 +706,6 @@ def litvin_from_iso(pair, member: str = "pinion", C_alpha: float = 0.0, C_beta: 
     ConvergenceError
         If the profile amounts are not met to ``tol`` [mm] in 12 Newton steps.
     """
-    from ..errors import ConvergenceError
 
     g = getattr(pair, member)
     for nm, v in (("C_alpha", C_alpha), ("C_beta", C_beta)):
@@ -712,7 +717,6 @@ def litvin_from_iso(pair, member: str = "pinion", C_alpha: float = 0.0, C_beta: 
     if C_alpha <= 0:
         raise out_of_range("C_alpha", C_alpha, "C_alpha > 0 mm with a profile slope (a parabolic tool slopes the "
                            "profile only by moving the parabola's vertex)", cls=ArgumentError)
-    from .generation import generate
 
     r_s, r_e = active_profile(pair, member)
     L_s, L_e = math.sqrt(r_s**2 - g.r_b**2), math.sqrt(r_e**2 - g.r_b**2)
@@ -721,7 +725,7 @@ def litvin_from_iso(pair, member: str = "pinion", C_alpha: float = 0.0, C_beta: 
     q = math.sin(g.alpha_t) / math.cos(g.rack.alpha_n)
     a_c = k * math.cos(g.beta_b) / q**2
     L0 = L_m + f_H_alpha / (2 * k * L_al)
-    tooth = generate(g).unmodified
+    tooth = g.tool.generate(g).unmodified
     p_ref = np.array(tooth.p0[:4], dtype=float)
     p_ref[1:] = 0.0
     u_0 = tooth.u_at_radius(math.hypot(g.r_b, L0), 0.0, "right", p_ref)

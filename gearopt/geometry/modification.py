@@ -31,12 +31,15 @@ from __future__ import annotations
 import math
 import re
 from dataclasses import dataclass, field
-from typing import Callable
+from typing import Any, Callable, TYPE_CHECKING
 
 import casadi as ca
 import numpy as np
 
 from ..errors import ArgumentError, GeometryError, shorten
+
+if TYPE_CHECKING:
+    from ..types import ArrayLike, Expr
 
 _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 SIDES = ("right", "left")
@@ -149,7 +152,7 @@ class FlankModification:
             raise ArgumentError(f"{where} depends on symbols {stray} that are not its arguments (u, z, r, theta): "
                                 "declare every parameter in theta.")
 
-    def expression(self, u, z, r, theta) -> ca.SX:
+    def expression(self, u: Expr, z: Expr, r: Expr, theta: Expr) -> ca.SX:
         """``delta`` evaluated on CasADi SX arguments, checked: a 1x1 SX expression [mm].
 
         Raises
@@ -238,7 +241,7 @@ def _check_value(where, name, v, unit):
     return float(v)
 
 
-def constant_offset(c: float = 0.0, name: str = "offset", sides=SIDES) -> FlankModification:
+def constant_offset(c: float = 0.0, name: str = "offset", sides: tuple[str, ...] = SIDES) -> FlankModification:
     """Constant normal offset ``delta = c`` [mm] (positive: material added), theta ``c`` [mm].
 
     The offset of an involute helicoid along its normal is the same helicoid turned by
@@ -248,7 +251,8 @@ def constant_offset(c: float = 0.0, name: str = "offset", sides=SIDES) -> FlankM
 
 
 def polynomial(c0: float = 0.0, c_u: float = 0.0, c_z: float = 0.0, c_uu: float = 0.0, c_zz: float = 0.0,
-               u_ref: float = 0.0, z_ref: float = 0.0, name: str = "poly", sides=SIDES) -> FlankModification:
+               u_ref: float = 0.0, z_ref: float = 0.0, name: str = "poly",
+               sides: tuple[str, ...] = SIDES) -> FlankModification:
     """Deviation quadratic in the flank coordinates:
     ``delta = c0 + c_u (u - u_ref) + c_z (z - z_ref) + c_uu (u - u_ref)^2 + c_zz (z - z_ref)^2`` [mm].
 
@@ -271,8 +275,8 @@ def polynomial(c0: float = 0.0, c_u: float = 0.0, c_z: float = 0.0, c_uu: float 
     return FlankModification(name, theta, delta, sides)
 
 
-def topography(s_grid, z_grid, values, along: str = "u", name: str = "topo", parametric: bool = False,
-               sides=SIDES) -> FlankModification:
+def topography(s_grid: ArrayLike, z_grid: ArrayLike, values: ArrayLike, along: str = "u", name: str = "topo",
+               parametric: bool = False, sides: tuple[str, ...] = SIDES) -> FlankModification:
     """A measured flank topography: deviations on a grid, interpolated by the tensor-product cubic
     spline of ``ca.interpolant(..., "bspline", ...)`` (C2, exact at the grid points, differentiable
     by AD in the coordinates and, with ``parametric``, in the grid values).
@@ -337,7 +341,8 @@ def topography(s_grid, z_grid, values, along: str = "u", name: str = "topo", par
     return FlankModification(name, theta, delta, sides)
 
 
-def grid_spline(name: str, s_grid, z_grid, extrapolate: str = "hold"):
+def grid_spline(name: str, s_grid: ArrayLike, z_grid: ArrayLike,
+                extrapolate: str = "hold") -> Callable[[Expr, Expr, Any], Expr]:
     """The tensor-product interpolating cubic spline of a grid, as a CasADi-generic callable
     ``spline(s, z, V) -> scalar`` with ``V`` (m, k) the values (numpy or a CasADi matrix: symbols
     allowed). Outside the grid (CasADi's B-spline is zero there): ``extrapolate = "hold"`` holds the

@@ -19,6 +19,22 @@ normal module m_n.
   addendum ``(h_fP + x_s) m_n`` over its reference circle and a tip rounding of radius
   ``rho_fP m_n``, circular in the shaper's transverse section.
 
+Tools are objects: :class:`Tool` declares what a generator needs of a tool, and each kind is one
+subclass, registered by its ``kind`` (:data:`TOOLS`) when the class is defined:
+
+* ``generate(gear)``: the gear's tooth surfaces (:class:`~gearopt.geometry.envelope.GeneratedTooth`),
+  called by :func:`gearopt.geometry.generation.generate`;
+* ``check(gear)``: the tool against the gear, run when the ``Gear`` is built;
+* ``root_radius(gear)``, ``form_radius(gear)``, ``x_min_undercut(gear)``: the closed forms behind
+  ``Gear.r_f``, ``Gear.r_lim`` and ``Gear.x_min_undercut`` (the rack-cutter's by default);
+* ``flank_limit(gear)``, ``a_c_max_unfolded(gear)``: from the generated surfaces (``Gear.flank_limit``,
+  ``Gear.r_form``, ``Gear.folded``, ``Gear.a_c_max_unfolded``);
+* ``rack_settings``: whether the tool has the rack-cutter's crowning settings ``a_c``, ``a_pl``;
+* ``scene_keys``: the keys of the scene's ``tool = {kind = ...}`` table (:class:`SceneKey`), from
+  which :mod:`gearopt.io.scene` builds the table's fields and :meth:`Tool.from_scene` the tool.
+
+Adding a tool is one subclass (docs/extending.md, "Adding a tool").
+
 This module imports nothing of :mod:`gearopt.gears` (which imports it): the gear is read by its
 attributes.
 """
@@ -27,13 +43,16 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import ClassVar
+from functools import lru_cache
+from typing import TYPE_CHECKING, Any, ClassVar, NamedTuple
 
-from ..errors import GeometryError, out_of_range
+from ..errors import ArgumentError, GeometryError, out_of_range
+from .envelope import FlankLimit, GeneratedTooth, rack_generated, shaper_generated
 from .involute import inv, inv_inverse
 
-#: Tool kinds, as written in a scene's ``tool = {kind = ...}``.
-TOOL_KINDS = ("rack", "hob", "shaper")
+if TYPE_CHECKING:  # typing only: gears imports this module
+    from ..gears import Gear
+
 _HANDS = ("right", "left")
 
 #: Smallest hob lead angle [rad] gearopt accepts (real hobs have about 1 to 6 deg).
@@ -53,8 +72,132 @@ def _is_finite(v) -> bool:
     return not isinstance(v, bool) and isinstance(v, (int, float)) and math.isfinite(v)
 
 
+class SceneKey(NamedTuple):
+    """One key of a scene's ``tool = {kind = ...}`` table (:attr:`Tool.scene_keys`).
+
+    Attributes
+    ----------
+    key : str
+        The scene key (``"z"``).
+    attr : str
+        The tool's dataclass field it sets (``"N_h"``).
+    kind : str
+        The scene value type (``"int"``, ``"float"``, ``"str"``, ``"length"`` [mm], ``"angle"`` [deg in
+        the scene, rad in the field]; see :class:`gearopt.io.schema.Field`).
+    default : Any
+        The scene default (the field's default, in scene units).
+    doc : str
+        One line for ``gearopt studies common`` and the docs.
+    bounds : dict or None
+        Keyword arguments of :class:`gearopt.io.schema.Bounds` (scene units), e.g. ``{"lo": 1, "hi": 8}``.
+    choices : tuple or None
+        The allowed values of a ``"str"`` key.
+    """
+
+    key: str
+    attr: str
+    kind: str
+    default: Any
+    doc: str
+    bounds: dict | None = None
+    choices: tuple | None = None
+
+
+#: The tool classes by kind (every subclass of :class:`Tool` with a ``kind`` registers itself).
+TOOLS: dict[str, type[Tool]] = {}
+
+
+@lru_cache(maxsize=256)
+def _flank_limit(gear: Gear) -> FlankLimit:
+    return gear.tool.generate(gear).flank_limit("right", 0.0)
+
+
+@lru_cache(maxsize=256)
+def _a_c_max_unfolded(gear: Gear) -> float:
+    return gear.tool.generate(gear).max_unfolded_a_c("right", 0.0)
+
+
+class Tool:
+    """A cutting tool: what the generators and the gear data ask of it (see the module docstring).
+
+    A subclass is a frozen dataclass with a class attribute ``kind`` (the scene's ``tool = {kind =
+    ...}``) and implements :meth:`generate`; the closed forms default to the rack-cutter's
+    (a tool whose straight flank ends at the basic rack's ``h_lim``, Litvin section 10.3).
+    Defining the subclass registers it in :data:`TOOLS`.
+    """
+
+    kind: ClassVar[str] = ""
+    #: True when the tool has the rack-cutter's settings: profile crowning ``rack.a_c`` and plunging ``a_pl``.
+    rack_settings: ClassVar[bool] = True
+    #: Keys of the scene's ``tool = {kind = ...}`` table.
+    scene_keys: ClassVar[tuple[SceneKey, ...]] = ()
+
+    def __init_subclass__(cls, **kw: Any) -> None:
+        super().__init_subclass__(**kw)
+        kind = cls.__dict__.get("kind")
+        if kind:
+            old = TOOLS.get(kind)
+            if old is not None and (old.__module__, old.__qualname__) != (cls.__module__, cls.__qualname__):
+                taken = ", ".join(TOOLS)
+                raise ArgumentError(f"{cls.__qualname__}.kind = {kind!r} is the kind of {old.__module__}."
+                                    f"{old.__qualname__}; a tool kind names one class (taken: {taken}).",
+                                    param=f"{cls.__qualname__}.kind", value=kind, valid=f"not one of {taken}")
+            TOOLS[kind] = cls  # (a class defined again under the same name replaces itself)
+
+    @classmethod
+    def from_scene(cls, values: dict) -> Tool:
+        """The tool from a parsed ``tool`` table (scene key -> value, ``kind`` ignored)."""
+        return cls(**{k.attr: values[k.key] for k in cls.scene_keys if k.key in values})
+
+    @classmethod
+    def scene_key_of(cls, attr: str) -> str:
+        """The scene key that sets the field ``attr`` (the field's name when no key does)."""
+        return next((k.key for k in cls.scene_keys if k.attr == attr), attr)
+
+    def check(self, gear: Gear) -> None:
+        """Refuse a tool that cannot cut ``gear`` (GeometryError naming ``<gear>.tool...``); nothing
+        by default."""
+
+    def generate(self, gear: Gear) -> GeneratedTooth:
+        """The tooth surfaces of ``gear`` cut by this tool (:mod:`gearopt.geometry.envelope`)."""
+        raise NotImplementedError(f"{type(self).__name__}.generate")
+
+    def root_radius(self, gear: Gear) -> float:
+        """Root radius [mm] (``Gear.r_f``): cut by the tool tip line at the generating shift ``x_E``,
+        ``r_p + m_n (x_E - h_fP)``."""
+        return gear.r_p + gear.m_n * (gear.x_E - gear.rack.h_fP)
+
+    def form_radius(self, gear: Gear) -> float:
+        """Radius [mm] generated by the end of the tool's straight flank (``Gear.r_lim``; the form
+        radius when there is no undercut)."""
+        # The flank end, h below the rolling (pitch) line (h < 0: above it), generates the gear point
+        # where it crosses the line of action, h / sin(alpha_t) from the pitch point towards the
+        # interference point T (r_p sin(alpha_t) from the pitch point); the same formula holds for h < 0.
+        # With undercut (h > r_p sin^2 alpha_t) the point lies beyond T: the value is then not the form radius.
+        h = (gear.rack.h_lim - gear.x_E) * gear.m_n
+        return math.hypot(gear.r_b, gear.r_p * math.sin(gear.alpha_t) - h / math.sin(gear.alpha_t))
+
+    def x_min_undercut(self, gear: Gear) -> float:
+        """Smallest generating shift without undercut (``Gear.x_min_undercut``):
+        ``h_lim - z sin^2(alpha_t) / (2 cos beta)``."""
+        return gear.rack.h_lim - gear.z * math.sin(gear.alpha_t) ** 2 / (2 * math.cos(gear.beta))
+
+    def flank_limit(self, gear: Gear) -> FlankLimit:
+        """Where the real generated flank ends in the mid section (right flank), from the generated
+        surfaces (:meth:`~gearopt.geometry.envelope.GeneratedTooth.flank_limit`; cached per gear)."""
+        return _flank_limit(gear)
+
+    def a_c_max_unfolded(self, gear: Gear) -> float:
+        """Largest ``rack.a_c`` [1/mm] for which the generated flank does not fold (0.0 if it folds
+        with the straight tool); GeometryError for a tool without rack settings."""
+        if not self.rack_settings:
+            raise GeometryError(f"{gear.name}.a_c_max_unfolded: profile crowning a_c is a rack-cutter/hob setting; "
+                                f"this gear is cut by a {type(self).__name__.lower()} (tool kind '{self.kind}').")
+        return _a_c_max_unfolded(gear)
+
+
 @dataclass(frozen=True)
-class RackCutter:
+class RackCutter(Tool):
     """The rack-cutter of the gear's basic rack (``Gear.rack``, normal section; Litvin Fig. 10.3.4).
 
     It has no data of its own: profile, tip fillet and profile crowning ``a_c`` are the
@@ -63,12 +206,16 @@ class RackCutter:
 
     kind: ClassVar[str] = "rack"
 
-    def check(self, gear) -> None:
+    def check(self, gear: Gear) -> None:
         """Nothing to check against the gear."""
+
+    def generate(self, gear: Gear) -> GeneratedTooth:
+        """The rack-generated tooth (:func:`gearopt.geometry.generation.generate_by_rack`)."""
+        return rack_generated(gear, gear.rack, "rack")
 
 
 @dataclass(frozen=True)
-class Hob:
+class Hob(Tool):
     """A hob whose normal section is the rack-cutter (Litvin section 10.3, Fig. 10.3.5).
 
     Parameters
@@ -86,6 +233,12 @@ class Hob:
     d_p0: float = 60.0
     hand: str = "right"
     kind: ClassVar[str] = "hob"
+    scene_keys: ClassVar[tuple[SceneKey, ...]] = (
+        SceneKey("z", "N_h", "int", 1, "hob threads (starts)", {"lo": 1, "hi": 8}),
+        SceneKey("d_p0", "d_p0", "length", 60.0, "hob reference diameter; lead angle asin(z m_n / d_p0) from 0.1 to "
+                 "30 deg", {"lo": 0, "lo_open": True}),
+        SceneKey("hand", "hand", "str", "right", "hand of the hob thread", choices=("right", "left")),
+    )
 
     def __post_init__(self):
         if not _is_int(self.N_h) or self.N_h < 1:
@@ -116,7 +269,7 @@ class Hob:
                                   if self.N_h * m_n < self.d_p0 else "N_h m_n >= d_p0: no lead angle at all)"))
         return math.asin(self.N_h * m_n / self.d_p0)
 
-    def swivel_angle(self, gear) -> float:
+    def swivel_angle(self, gear: Gear) -> float:
         """Setting angle between hob and gear axes [rad]: ``beta -+ lambda`` (same/opposite hands),
         measured from the plane normal to the gear axis."""
         lam = self.lead_angle(gear.m_n)
@@ -124,13 +277,22 @@ class Hob:
         sign = -1.0 if same else 1.0
         return (gear.beta if not gear.is_spur else 0.0) + sign * lam
 
-    def check(self, gear) -> None:
+    def check(self, gear: Gear) -> None:
         """The lead angle must be in range for the gear's module (raises ``<gear>.tool.d_p0``)."""
         self.lead_angle(gear.m_n, f"{gear.name}.tool.d_p0")
 
+    def generate(self, gear: Gear) -> GeneratedTooth:
+        """Tooth surfaces generated by this hob: its normal section acts as the rack-cutter, and the
+        hob turns ``phi_h = (N_g / N_h) psi`` while the gear turns by psi (Litvin eq. 10.3.4); the
+        surface Functions carry the extra output ``phi_h`` [rad]."""
+        tooth = rack_generated(gear, gear.rack, "hob", N_h=self.N_h)
+        return GeneratedTooth(gear=gear, method="hob", functions=tooth.functions, r_root=tooth.r_root,
+                              extras={"N_h": self.N_h, "lead_angle": self.lead_angle(gear.m_n),
+                                      "swivel_angle": self.swivel_angle(gear)})
+
 
 @dataclass(frozen=True)
-class Shaper:
+class Shaper(Tool):
     """A gear-shaped cutter with N_s teeth (Litvin section 10.3, Fig. 10.3.6).
 
     An involute gear of the cut gear's normal module; for a helical gear, of the same helix angle
@@ -151,6 +313,12 @@ class Shaper:
     N_s: int = 25
     x_s: float = 0.0
     kind: ClassVar[str] = "shaper"
+    rack_settings: ClassVar[bool] = False
+    scene_keys: ClassVar[tuple[SceneKey, ...]] = (
+        SceneKey("z", "N_s", "int", 25, "shaper teeth (enough to reach the gear's tip: the smallest count is stated "
+                 "otherwise); a helical shaper has the gear's helix angle, opposite hand", {"lo": 8, "hi": 400}),
+        SceneKey("x", "x_s", "float", 0.0, "shaper profile shift coefficient", {"lo": -1, "hi": 2}),
+    )
 
     def __post_init__(self):
         if not _is_int(self.N_s) or self.N_s < SHAPER_N_MIN:
@@ -159,7 +327,7 @@ class Shaper:
             raise out_of_range("shaper.x_s", self.x_s, "a finite profile shift")
 
     # --- cutting geometry (transverse section; Litvin section 10.3, ISO 21771) -------------------
-    def cutting(self, gear, x: float | None = None, N_s: int | None = None, x_s: float | None = None) -> dict:
+    def cutting(self, gear: Gear, x: float | None = None, N_s: int | None = None, x_s: float | None = None) -> dict:
         """Transverse cutting geometry of this shaper on ``gear`` (at generating shift ``x``,
         default ``gear.x_E``) [mm, rad]: shaper reference, base and tip radii ``r_ps, r_bs, r_as``,
         tip rounding ``rho`` and its centre radius ``r_c``, reference thickness ``s_ps``, cutting
@@ -193,11 +361,17 @@ class Shaper:
         return {**out, "alpha_w": alpha_w, "a_cut": a_cut, "r_root": a_cut - r_as, "line": line,
                 "L_tip": L_tip, "L_form": L_form}
 
-    def root_radius(self, gear) -> float:
-        """Root radius [mm] of ``gear`` cut by this shaper: ``a_cut - r_as``."""
-        return self.cutting(gear)["r_root"]
+    def root_radius(self, gear: Gear) -> float:
+        """Root radius [mm] of ``gear`` cut by this shaper: ``a_cut - r_as`` (the rack-cutter's when the
+        shaper has no cutting mesh with the gear)."""
+        r = self.cutting(gear)["r_root"]
+        return r if math.isfinite(r) else super().root_radius(gear)
 
-    def form_radius(self, gear) -> float:
+    def generate(self, gear: Gear) -> GeneratedTooth:
+        """Tooth surfaces cut by this shaper (:func:`gearopt.geometry.generation.generate_by_shaper`)."""
+        return shaper_generated(gear, self)
+
+    def form_radius(self, gear: Gear) -> float:
         """Radius [mm] of the gear point cut by the shaper's flank/rounding junction (the form radius
         when the gear is not undercut): on the line of action, ``line - L_form`` from the gear's
         base-circle tangency point."""
@@ -205,7 +379,7 @@ class Shaper:
         r_b = gear.r_p * math.cos(c["alpha_t"])
         return math.hypot(r_b, c["line"] - c["L_form"])
 
-    def x_min_undercut(self, gear) -> float:
+    def x_min_undercut(self, gear: Gear) -> float:
         """Smallest generating shift x_E without undercut by this shaper: the junction's point on the
         line of action stays between the two base-circle tangency points (bisection; the line grows
         with x)."""
@@ -229,11 +403,11 @@ class Shaper:
             lo, hi = (mid, hi) if margin(mid) < 0 else (lo, mid)
         return hi
 
-    def _fits(self, gear, N_s: int) -> bool:
+    def _fits(self, gear: Gear, N_s: int) -> bool:
         c = self.cutting(gear, N_s=N_s)
         return c["r_c"] > c["r_bs"] and c["L_tip"] > 0
 
-    def check(self, gear) -> None:
+    def check(self, gear: Gear) -> None:
         """Refuse a shaper that cannot cut ``gear``.
 
         * crowning: ``a_pl`` and the rack's ``a_c`` must be 0 (rack/hob settings);
@@ -290,21 +464,22 @@ def _x_s_max_pointed(shaper: Shaper, gear) -> float:
     return lo
 
 
-#: The tool classes by kind.
-TOOLS = {"rack": RackCutter, "hob": Hob, "shaper": Shaper}
+#: The built-in tool kinds, as written in a scene's ``tool = {kind = ...}`` (:data:`TOOLS` also has any
+#: kind defined later).
+TOOL_KINDS = tuple(TOOLS)
 
 
-def check_tool(gear) -> None:
+def check_tool(gear: Gear) -> None:
     """Validate ``gear.tool`` (type, then against the gear); GeometryError naming ``<gear>.tool``."""
     tool = gear.tool
-    if not isinstance(tool, (RackCutter, Hob, Shaper)):
+    if not isinstance(tool, Tool):
         valid = "a RackCutter, Hob or Shaper (gearopt.geometry.tools)"
         raise GeometryError(f"{gear.name}.tool = {type(tool).__name__} {tool!r:.80}: expected {valid}.",
                             param=f"{gear.name}.tool", value=tool, valid=valid)
     tool.check(gear)
 
 
-def require_rack_settings(gear, what: str) -> None:
+def require_rack_settings(gear: Gear, what: str) -> None:
     """Refuse a shaper-cut ``gear`` where ``what`` sets its rack-cutter settings (profile crowning
     ``a_c``, plunging ``a_pl``): crowning synthesis needs a rack-cutter or hob.
 
@@ -313,6 +488,7 @@ def require_rack_settings(gear, what: str) -> None:
     GeometryError
         Naming ``<gear>.tool``.
     """
-    if isinstance(gear.tool, Shaper):
-        raise out_of_range(f"{gear.name}.tool", f"kind '{gear.tool.kind}'", f"kind 'rack' or 'hob': {what} sets the "
+    if not gear.tool.rack_settings:
+        kinds = " or ".join(f"'{k}'" for k, cls in TOOLS.items() if cls.rack_settings)
+        raise out_of_range(f"{gear.name}.tool", f"kind '{gear.tool.kind}'", f"kind {kinds}: {what} sets the "
                            "rack-cutter's profile crowning a_c and plunging a_pl, which a shaper does not have")

@@ -38,6 +38,7 @@ from typing import Any
 
 from ..errors import ArgumentError, ResultsError, shorten
 from ..progress import heartbeat
+from ..version import __version__
 
 __all__ = ["write_results", "check_out_dir", "install_output", "output_files", "RESULTS_FILE", "MANIFEST"]
 
@@ -226,8 +227,6 @@ def write_results(out_dir, result, *, scene=None, run_time: float | None = None,
     ValueError
         No ``units`` mapping (a bug of the study).
     """
-    from .. import __version__
-
     out_dir = check_out_dir(out_dir)
     if not (callable(getattr(result, "to_dict", None)) and callable(getattr(result, "save_plots", None))):
         from ..errors import ArgumentError
@@ -327,8 +326,6 @@ def _files_under(d: Path) -> list[str]:
 
 def _write_manifest(out: Path, files: list[str]) -> None:
     """Write :data:`MANIFEST` of ``out`` listing ``files`` (atomically: a temporary file renamed)."""
-    from .. import __version__
-
     data = {"written_by": "gearopt", "gearopt_version": __version__,
             "note": "gearopt replaces or removes only the files listed here; any other file in this directory is "
                     "left alone.",

@@ -27,11 +27,12 @@ import re
 import tomllib
 from dataclasses import dataclass, field, replace
 from pathlib import Path
+from collections.abc import Mapping
 from typing import Any
 
 from ..errors import GearoptError, GeometryError, SceneError, join_detail, shorten, value_text
 from ..gears import BasicRack, Gear, GearPair
-from ..geometry.tools import TOOL_KINDS, TOOLS, RackCutter  # noqa: F401
+from ..geometry.tools import TOOLS, RackCutter
 from .schema import (  # noqa: F401 - re-exported: the schema lives in gearopt.io.schema
     ALIASES, KIND_UNITS, Bounds, Field, Section, ToolSection, _closest, _describe, _key_hint, _toml, _type, format_field,
     problem,
@@ -71,33 +72,30 @@ _RACK_FIELDS = [
 ]
 
 
-#: Keys of a gear's ``tool = {kind = ...}`` table for each kind (scene units: mm, deg).
-_TOOL_VARIANTS = {
-    "rack": [],
-    "hob": [
-        Field("z", "int", default=1, check=Bounds(lo=1, hi=8), doc="hob threads (starts)"),
-        Field("d_p0", "length", default=60.0, check=_POS, doc="hob reference diameter; lead angle asin(z m_n / "
-              "d_p0) from 0.1 to 30 deg"),
-        Field("hand", "str", default="right", choices=("right", "left"), doc="hand of the hob thread"),
-    ],
-    "shaper": [
-        Field("z", "int", default=25, check=Bounds(lo=8, hi=400), doc="shaper teeth (enough to reach the gear's "
-              "tip: the smallest count is stated otherwise); a helical shaper has the gear's helix angle, "
-              "opposite hand"),
-        Field("x", "float", default=0.0, check=Bounds(lo=-1, hi=2), doc="shaper profile shift coefficient"),
-    ],
-}
-#: Tool dataclass field of each tool key (kind -> scene key -> field).
-_TOOL_ATTRS = {"hob": {"z": "N_h", "d_p0": "d_p0", "hand": "hand"}, "shaper": {"z": "N_s", "x": "x_s"}}
+class _ToolVariants(Mapping):
+    """Keys of a gear's ``tool = {kind = ...}`` table for each kind (scene units: mm, deg): the
+    :attr:`~gearopt.geometry.tools.Tool.scene_keys` of every class in
+    :data:`~gearopt.geometry.tools.TOOLS`, read when a scene is parsed (a tool defined later counts)."""
+
+    def __getitem__(self, kind: str) -> list[Field]:
+        return [Field(k.key, k.kind, default=k.default, doc=k.doc, choices=k.choices,
+                      check=Bounds(**k.bounds) if k.bounds else None) for k in TOOLS[kind].scene_keys]
+
+    def __iter__(self):
+        return iter(TOOLS)
+
+    def __len__(self) -> int:
+        return len(TOOLS)
+
+
+_TOOL_VARIANTS = _ToolVariants()
 
 
 def _make_tool(values: dict | None):
-    """The tool dataclass from a parsed ``tool`` table (None: the rack-cutter)."""
+    """The tool from a parsed ``tool`` table (None: the rack-cutter): :meth:`Tool.from_scene`."""
     if not values:
         return RackCutter()
-    kind = values["kind"]
-    attrs = _TOOL_ATTRS.get(kind, {})
-    return TOOLS[kind](**{attrs[k]: v for k, v in values.items() if k != "kind"})
+    return TOOLS[values["kind"]].from_scene(values)
 
 
 def _modification_fields() -> list:
@@ -591,7 +589,7 @@ def _gear_key(data: dict, member: str | None, name: str) -> tuple[str, str] | No
     if parts[0] in ("pinion", "gear") and len(parts) == 3 and parts[1] == "tool":  # the tool's own key
         tool = _raw_value(data, parts[0], "tool")
         kind = tool.get("kind") if isinstance(tool, dict) else None
-        key = {v: k for k, v in _TOOL_ATTRS.get(kind, {}).items()}.get(parts[2], parts[2])
+        key = TOOLS[kind].scene_key_of(parts[2]) if isinstance(kind, str) and kind in TOOLS else parts[2]
         return (parts[0], f"tool.{key}")
     if parts[0] in ("pinion", "gear") and len(parts) == 3 and parts[1] == "modifications":
         key = {"d_alpha": "d_alpha_start"}.get(parts[2], parts[2])

@@ -33,9 +33,9 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
+from ..contact.hertz import contact_modulus, hertz_half_width, hertz_peak_pressure, weber_compliance
 from ..errors import check_number, out_of_range
 from ..geometry.generation import GeneratedTooth
-from .hertz import contact_modulus, hertz_half_width, hertz_peak_pressure, weber_compliance
 
 #: Sainsot, Velex & Duverger (2004), Table 1: coefficients (A, B, C, D, E, F) of
 #: ``X = A / theta_f^2 + B h_fi^2 + C h_fi / theta_f + D / theta_f + E h_fi + F`` for X = L, M, P, Q.
@@ -288,7 +288,6 @@ def coupling_stiffness_batch(z, widths, lam: float) -> np.ndarray:
     return A
 
 
-C_PRIME_STEEL = 14.0e3  #: ISO 6336-1's typical single-pair stiffness c' of steel spur gears [N/mm per mm of face] (14 N/(mm um))
 
 
 def iso6336_stiffness(pair) -> dict:

@@ -34,14 +34,14 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
+from ..contact.hertz import C_PRIME_STEEL, contact_modulus, hertz_peak_pressure
 from ..errors import ArgumentError, ConvergenceError, OptionError, check_number, out_of_range
 from ..gears import GearPair
 from ..meshing.misalignment import Misalignment
 from ..meshing.tca import TCA
 from ..units import RAD_TO_ARCSEC
-from .compliance import (C_PRIME_STEEL, Material, ToothCompliance, body_coupling_length, face_matrix_batch,
+from .compliance import (Material, ToothCompliance, body_coupling_length, face_matrix_batch,
                          weber_contact, weber_tangent)
-from .hertz import contact_modulus, hertz_peak_pressure
 from .slices import SliceSet, SliceSolver
 
 HERTZ_TOL = 1e-7  #: the Hertz fixed point stops when no slice load changes by more than this x W

@@ -3,18 +3,22 @@
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .geometry import _axes
+from .style import axes_or_new
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
 
 
-def plot_mesh(report: dict, ax=None, zoom: bool = False):
+def plot_mesh(report: dict, ax: Axes | None = None, zoom: bool = False) -> Axes:
     """Element edges of the model's middle transverse section (S_f) at the first analysed position,
     with the TCA contact points; ``zoom`` frames the loaded contact (a few Hertz widths)."""
     from matplotlib.collections import LineCollection
 
-    ax = _axes(ax)
+    ax = axes_or_new(ax)
     m = report["mesh"]
     for name, color in (("pinion", "C0"), ("gear", "C1")):
         seg = np.asarray(m[name], float).reshape(-1, 2, 2)
@@ -40,12 +44,12 @@ def plot_mesh(report: dict, ax=None, zoom: bool = False):
     return ax
 
 
-def plot_contact_pressure(report: dict, ax=None):
+def plot_contact_pressure(report: dict, ax: Axes | None = None) -> Axes:
     """Nodal contact pressure along the pinion's driving flank in the section through the contact (mid
     face for line contact; arc length from the TCA
     contact point, positive towards the tip) for every position and loaded pair, with the Hertz
     ellipse p0 sqrt(1 - (s/b)^2) of the full load on one pair."""
-    ax = _axes(ax)
+    ax = axes_or_new(ax)
     # one colour per curve (position and tooth pair); the marker tells the pair, the colour family
     # the position is not relied on
     markers = ("o", "s", "^", "D", "v")
@@ -78,12 +82,12 @@ def _positions_note(n: int) -> str:
             else f"FE at {n} pinion angles")
 
 
-def plot_root_stress(report: dict, ax=None):
+def plot_root_stress(report: dict, ax: Axes | None = None) -> Axes:
     """Maximum principal stress in the loaded-side root fillets (mid face) of pinion and gear at each
     analysed pinion angle, with the ISO 6336-3 (method B geometry) estimate at each position and the
     max contact pressure on a second axis; markers only (the FE gives values at the analysed angles
     alone), the legend below the axes."""
-    ax = _axes(ax)
+    ax = axes_or_new(ax)
     pos = report["positions"]
     phi = np.degrees([p["phi1"] for p in pos])
     for member, col in (("pinion", "C0"), ("gear", "C1")):
@@ -117,12 +121,12 @@ def _pad_x(ax, x):
     ax.set_xlim(float(x.min()) - 0.08 * w, float(x.max()) + 0.08 * w)
 
 
-def plot_loaded_te(report: dict, ax=None):
+def plot_loaded_te(report: dict, ax: Axes | None = None) -> Axes:
     """Loaded transmission error [arcsec] from the FE solutions (pinion rotation under the torque,
     gear rim fixed) at each analysed pinion angle [deg], markers only (not a TE curve: nothing is
     computed between the positions); positive: the gear ahead of its conjugate position (the pinion
     lags under load: negative)."""
-    ax = _axes(ax)
+    ax = axes_or_new(ax)
     pos = report["positions"]
     phi = np.degrees([p["phi1"] for p in pos])
     te = np.array([np.nan if p.get("loaded_te_arcsec") is None else p["loaded_te_arcsec"] for p in pos], float)
@@ -142,12 +146,12 @@ def plot_loaded_te(report: dict, ax=None):
     return ax
 
 
-def plot_line_load(report: dict, ax=None):
+def plot_line_load(report: dict, ax: Axes | None = None) -> Axes:
     """The FE contact pattern across the face: normal load per mm of face [N/mm] of every loaded
     tooth pair against the face coordinate z [mm] (nodal pressure integrated over the pinion flank
     between two face layers, scaled to the pair's contact force: one step per strip, marked at its
     middle), its centre marked, the face ends dashed."""
-    ax = _axes(ax)
+    ax = axes_or_new(ax)
     markers = ("o", "s", "^", "D", "v")
     curve = 0
     for pos in report["positions"]:

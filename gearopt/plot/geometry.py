@@ -4,22 +4,20 @@ take ``ax=`` and return the Axes."""
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..geometry.frames import rot_z_points
+from .style import axes_or_new
 from .ticks import plain_ticks
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
 
 
 def _data(report) -> dict:
     return report if isinstance(report, dict) else report.to_dict()
-
-
-def _axes(ax):
-    if ax is None:
-        import matplotlib.pyplot as plt
-        ax = plt.figure().gca()
-    return ax
 
 
 _rot = rot_z_points  # points (n, 2) about the centre (gearopt.geometry.frames)
@@ -33,7 +31,7 @@ def tooth_outline(prof: dict) -> np.ndarray:
                       P["right_fillet"]])
 
 
-def gear_outline(prof: dict, z: int, r_root: float, teeth=None) -> np.ndarray:
+def gear_outline(prof: dict, z: int, r_root: float, teeth: int | None = None) -> np.ndarray:
     """Outline of a whole gear (or of the teeth indices in ``teeth``) with root arcs [mm]."""
     one = tooth_outline(prof)
     pitch = 2 * math.pi / z
@@ -58,7 +56,7 @@ def _circle(ax, r, center=(0.0, 0.0), **kw):
     ax.plot(center[0] + r * np.cos(t), center[1] + r * np.sin(t), **kw)
 
 
-def plot_tooth(report, member: str = "pinion", ax=None):
+def plot_tooth(report: dict, member: str = "pinion", ax: Axes | None = None) -> Axes:
     """One tooth of ``member`` with its fillets and the base, form, pitch, root and tip circles.
 
     Parameters
@@ -71,7 +69,7 @@ def plot_tooth(report, member: str = "pinion", ax=None):
     -------
     matplotlib Axes
     """
-    ax = _axes(ax)
+    ax = axes_or_new(ax)
     d = _data(report)
     m, prof = d["members"][member], d["profiles"][member]
     P = {k: np.asarray(v) for k, v in prof.items()}
@@ -109,10 +107,10 @@ def plot_tooth(report, member: str = "pinion", ax=None):
     return ax
 
 
-def plot_pair_mesh(report, ax=None, teeth: int = 4):
+def plot_pair_mesh(report: dict, ax: Axes | None = None, teeth: int = 4) -> Axes:
     """Pinion (centre at the origin) and gear (centre at (0, a)) in mesh at the pitch point, with
     the line of action, tip and base circles and the path of contact A-E."""
-    ax = _axes(ax)
+    ax = axes_or_new(ax)
     d = _data(report)
     pr, mp, mg = d["pair"], d["members"]["pinion"], d["members"]["gear"]
     a, aw = pr["a"], math.radians(pr["alpha_wt_deg"])
@@ -157,10 +155,10 @@ def plot_pair_mesh(report, ax=None, teeth: int = 4):
     return ax
 
 
-def plot_rack_mesh(report, member: str = "pinion", ax=None, teeth: int = 3):
+def plot_rack_mesh(report: dict, member: str = "pinion", ax: Axes | None = None, teeth: int = 3) -> Axes:
     """The rack-cutter in mesh with the generated gear (Litvin Fig. 10.3.2): the tool outline,
     pitch line and circle, base circle and the lines of action through the pitch point I."""
-    ax = _axes(ax)
+    ax = axes_or_new(ax)
     d = _data(report)
     m, rk = d["members"][member], d["rack_cutter"][member]
     og = gear_outline(d["profiles"][member], m["z"], m["r_f"], teeth=range(-teeth, teeth + 1))

@@ -3,10 +3,15 @@ dictionary only; ``ax=`` in, Axes out)."""
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from .ltca import torque_axes
 from .style import number
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
 
 
 def _arr(v):
@@ -32,7 +37,7 @@ def same_as(d: dict, c: int, tol: float = 0.01) -> int | None:
     return None
 
 
-def plot_te_before_after(before: dict, after: dict, ax=None, which: str = "after"):
+def plot_te_before_after(before: dict, after: dict, ax: Axes | None = None, which: str = "after") -> Axes:
     """Loaded TE [arcsec] over phi1 [deg] at every torque of one case (``before`` / ``after``: the
     case's loaded-TCA dictionaries), for the design named by ``which``; the other design's curves thin
     and grey for comparison."""
@@ -67,7 +72,7 @@ def _finish(ax, xlabel: str, ylabel: str, title: str, below: bool = False):
     return ax
 
 
-def plot_te_vs_torque_before_after(d: dict, ax=None):
+def plot_te_vs_torque_before_after(d: dict, ax: Axes | None = None) -> Axes:
     """Peak-to-peak loaded TE [arcsec] against torque [N m] for every misalignment case, before
     (dashed) and after (solid) the optimisation (verification grid). A case equal to an earlier one
     (:func:`same_as`, e.g. crossing +-2' of a symmetric drive) is drawn with larger open markers and
@@ -92,7 +97,7 @@ def plot_te_vs_torque_before_after(d: dict, ax=None):
     return torque_axes(ax, T, "loaded TE peak-to-peak [arcsec]", "TE against load, every case", pad=1.08)
 
 
-def plot_rounds(design: dict, ax=None, objective: str = "weighted TE p-p"):
+def plot_rounds(design: dict, ax: Axes | None = None, objective: str = "weighted TE p-p") -> Axes:
     """The trust-region rounds: the true objective of each accepted design and the model's prediction
     of each trial [arcsec] (rejected trials marked x); ``objective`` names it on the y axis. The axis
     is logarithmic only when the values span more than a decade (plain tick labels), the rounds are
@@ -130,7 +135,8 @@ def plot_rounds(design: dict, ax=None, objective: str = "weighted TE p-p"):
     return ax
 
 
-def plot_pareto(front: dict, ax=None, before: dict | None = None, objective: str = "weighted loaded TE peak-to-peak"):
+def plot_pareto(front: dict, ax: Axes | None = None, before: dict | None = None,
+                objective: str = "weighted loaded TE peak-to-peak") -> Axes:
     """The Pareto front of the loaded micro-geometry (``front``: ``ParetoFront.to_dict()``): weighted
     loaded TE peak-to-peak [arcsec] against the largest peak pressure over the duty cycle [MPa], both
     verified by loaded TCA; each point labelled with its pressure limit, the optimum without a limit
@@ -166,7 +172,7 @@ def plot_pareto(front: dict, ax=None, before: dict | None = None, objective: str
     return ax
 
 
-def plot_unloaded_te(d: dict, ax=None, case: int = 0):
+def plot_unloaded_te(d: dict, ax: Axes | None = None, case: int = 0) -> Axes:
     """The unloaded-TE target of one case: the unloaded TE [arcsec] of the pair centred on each position
     over pinion angle [deg] before (open) and after (filled) the optimisation, each with its fitted
     target parabola ``c0 + c1 psi - level psi^2`` (``d``: the study's results dictionary with

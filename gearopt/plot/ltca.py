@@ -4,10 +4,16 @@ Axes out)."""
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 
+from .tca import misalignment_text
 from .ticks import plain_ticks
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+    from numpy.typing import ArrayLike
 
 
 def _arr(v):
@@ -21,7 +27,7 @@ def _torque_colors(n):
     return [cmap(0.1 + 0.8 * i / max(n - 1, 1)) for i in range(n)]
 
 
-def plot_loaded_te(d: dict, ax=None):
+def plot_loaded_te(d: dict, ax: Axes | None = None) -> Axes:
     """Loaded TE [arcsec] over phi1 [deg] at every torque, with the unloaded TE (dashed)."""
     import matplotlib.pyplot as plt
 
@@ -40,7 +46,7 @@ def plot_loaded_te(d: dict, ax=None):
     return ax
 
 
-def plot_te_vs_torque(d: dict, ax=None):
+def plot_te_vs_torque(d: dict, ax: Axes | None = None) -> Axes:
     """Peak-to-peak loaded TE and its first mesh harmonic [arcsec] against torque [N m]."""
     import matplotlib.pyplot as plt
 
@@ -61,7 +67,7 @@ def plot_te_vs_torque(d: dict, ax=None):
     return ax
 
 
-def torque_axes(ax, T, ylabel: str, title: str, legend_size: float = 7, pad: float = 1.05):
+def torque_axes(ax: Axes, T: ArrayLike, ylabel: str, title: str, legend_size: float = 7, pad: float = 1.05) -> Axes:
     """Finish an axes over pinion torque ``T`` [N m] (from 0, values from 0): labels, grid, legend."""
     ax.set_xlabel("pinion torque [N m]")
     ax.set_ylabel(ylabel)
@@ -74,7 +80,7 @@ def torque_axes(ax, T, ylabel: str, title: str, legend_size: float = 7, pad: flo
     return ax
 
 
-def plot_harmonics(d: dict, ax=None):
+def plot_harmonics(d: dict, ax: Axes | None = None) -> Axes:
     """Mesh-order harmonics 1-5 of the loaded TE [arcsec] at every torque (grouped bars)."""
     import matplotlib.pyplot as plt
 
@@ -101,7 +107,7 @@ def _nominal(d: dict) -> dict:
     return min(d["torques"], key=lambda t: abs(t["torque_Nm"] - nom))
 
 
-def pair_color(d: dict, k: int):
+def pair_color(d: dict, k: int) -> str:
     """One colour per tooth pair ``k`` (its place in ``d["pairs"]``), the same in every LTCA plot."""
     return f"C{list(d['pairs']).index(k) % 10}"
 
@@ -110,7 +116,7 @@ def pair_name(k: int) -> str:
     return f"pair {k:+d}" if k else "pair 0 (central)"
 
 
-def plot_load_sharing(d: dict, ax=None):
+def plot_load_sharing(d: dict, ax: Axes | None = None) -> Axes:
     """Share of the normal load carried by each tooth pair over phi1 at the nominal torque."""
     import matplotlib.pyplot as plt
 
@@ -131,7 +137,7 @@ def plot_load_sharing(d: dict, ax=None):
     return ax
 
 
-def plot_mesh_stiffness(d: dict, ax=None):
+def plot_mesh_stiffness(d: dict, ax: Axes | None = None) -> Axes:
     """Mesh stiffness [N/um] over phi1 at every torque, and ISO 6336-1 c_gamma b for reference."""
     import matplotlib.pyplot as plt
 
@@ -153,7 +159,7 @@ def plot_mesh_stiffness(d: dict, ax=None):
     return ax
 
 
-def plot_face_load(d: dict, ax=None, ax_pressure=None):
+def plot_face_load(d: dict, ax: Axes | None = None, ax_pressure: Axes | None = None) -> Axes:
     """Line load across the face [N/mm] of every loaded pair at the position of the peak flank
     pressure (nominal torque) and the Hertz peak pressure [MPa] of its flank contact: one colour
     per pair (:func:`pair_color`), the line load solid with dots, the pressure dashed; tip-edge
@@ -235,7 +241,7 @@ def pattern_points(d: dict, member: str) -> dict:
     return {k: v[keep] for k, v in out.items()}
 
 
-def pattern_field(d: dict, member: str, nz: int = 300, nr: int = 240):
+def pattern_field(d: dict, member: str, nz: int = 300, nr: int = 240) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The largest Hertz peak pressure [MPa] over the mesh cycle on one member's flank, on a fine
     grid: (z centres [mm], radius centres [mm], (nr, nz) pressures, NaN where the flank never
     touches). Each row of loaded slices (one tooth pair at one position: its contact line across
@@ -282,8 +288,8 @@ def pattern_field(d: dict, member: str, nz: int = 300, nr: int = 240):
     return zc, rc, img
 
 
-def plot_contact_pattern(d: dict, member: str = "pinion", ax=None, vmax: float | None = None,
-                         what: str | None = None):
+def plot_contact_pattern(d: dict, member: str = "pinion", ax: Axes | None = None, vmax: float | None = None,
+                         what: str | None = None) -> Axes:
     """The loaded contact pattern on one flank (what a marking-compound test shows) at the nominal
     torque: the largest Hertz peak pressure of the flank contacts over the mesh cycle, interpolated
     along each contact line between the actual slice contact points (:func:`pattern_field`; blank
@@ -291,8 +297,6 @@ def plot_contact_pattern(d: dict, member: str = "pinion", ax=None, vmax: float |
     drawn and named in the legend below; loaded tip edges marked x. The title names the torque and
     the misalignment (``d["misalignment"]`` when present) and ``what`` (e.g. a case or design)."""
     import matplotlib.pyplot as plt
-
-    from .tca import misalignment_text
 
     ax = ax or plt.gca()
     P = pattern_points(d, member)

@@ -7,20 +7,20 @@ and sampled ``profiles``), take ``ax=`` and return the Axes.
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..report import CONJUGATE_ARCSEC
 from ..units import DEG, RAD_TO_ARCSEC
+from .style import axes_or_new
 from .ticks import plain_ticks
 
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+    from ..studies.planar_tca import PlanarTCAReport
+
 __all__ = ["plot_line_of_action", "plot_transmission_error"]
-
-
-def _axes(ax):
-    if ax is None:
-        import matplotlib.pyplot as plt
-        _, ax = plt.subplots()
-    return ax
 
 
 def _circle(ax, c, r, **kw):
@@ -28,7 +28,7 @@ def _circle(ax, c, r, **kw):
     return ax.plot(c[0] + r * np.cos(t), c[1] + r * np.sin(t), **kw)
 
 
-def plot_line_of_action(report, ax=None, zoom: bool = False):
+def plot_line_of_action(report: PlanarTCAReport, ax: Axes | None = None, zoom: bool = False) -> Axes:
     """Base circles, centre line, line of action tangent to both base circles, contact points,
     pitch point I and both involute profiles at a few positions (Fig. 9.4.5).
 
@@ -43,7 +43,7 @@ def plot_line_of_action(report, ax=None, zoom: bool = False):
     -------
     matplotlib Axes
     """
-    ax = _axes(ax)
+    ax = axes_or_new(ax)
     t = report.tca
     rb1, rb2, E = t.r_b1, t.r_b2, t.E
     O1, O2 = np.array([0.0, 0.0]), np.array([0.0, E])
@@ -112,7 +112,7 @@ def plot_line_of_action(report, ax=None, zoom: bool = False):
     return ax
 
 
-def plot_transmission_error(report, ax=None):
+def plot_transmission_error(report: PlanarTCAReport, ax: Axes | None = None) -> Axes:
     """Transmission error [arcsec] of the solved positions against phi1 [deg] (zero for involutes
     at any centre distance: what remains is round-off).
 
@@ -125,9 +125,7 @@ def plot_transmission_error(report, ax=None):
     -------
     matplotlib Axes
     """
-    from ..report import CONJUGATE_ARCSEC
-
-    ax = _axes(ax)
+    ax = axes_or_new(ax)
     t = report.tca
     ok = t.ok
     te = np.asarray(t.te) * RAD_TO_ARCSEC

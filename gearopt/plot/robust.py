@@ -1,16 +1,22 @@
 """Plots of the robust-design studies (Monte Carlo, design sweeps): histograms and CDFs of TE
 peak-to-peak and harmonics, scatter against inputs, ranked sensitivities, and the probability map
 of the contact pattern on the pinion flank. Each takes ``ax=`` and returns the Axes; they only read
-the result (``RobustResult`` pieces as a dict)."""
+the result (``RobustResult`` pieces as a dict). :func:`save_plots` draws them all for a result."""
 
 from __future__ import annotations
 
 import math
+from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..robust.study import FEASIBLE_WARN, RobustResult, display, usable_fraction
 from ..units import RAD_TO_ARCSEC
 from .style import number
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
 
 LABELS = {"te_p2p": "TE peak-to-peak [arcsec]", "h1": "1st mesh harmonic of TE [arcsec]",
           "loaded_te_p2p": "loaded TE peak-to-peak [arcsec]", "p_max": "peak Hertz pressure, flank [MPa]"}
@@ -72,7 +78,7 @@ def _ax(ax):
     return ax
 
 
-def plot_histogram(d: dict, key: str = "te_p2p", ax=None, bins: int | None = None):
+def plot_histogram(d: dict, key: str = "te_p2p", ax: Axes | None = None, bins: int | None = None) -> Axes:
     """Histogram of ``key`` ("te_p2p", "h1", ...) over the samples, samples with edge contact
     stacked in their own colour; the 50 / 95 % percentiles and the nominal drive marked; the samples
     without a value (not solved, or no defined harmonic) counted in the legend's title."""
@@ -124,7 +130,7 @@ def _missing(d: dict, v: np.ndarray) -> str | None:
     return f"not shown: {int(bad.sum())} of {v.size} samples without a value\n(" + ", ".join(parts) + ")"
 
 
-def plot_cdf(d: dict, key: str = "te_p2p", ax=None):
+def plot_cdf(d: dict, key: str = "te_p2p", ax: Axes | None = None) -> Axes:
     """Empirical CDF of ``key`` over the samples whose value is defined."""
     ax = _ax(ax)
     allv = _values(d, key)
@@ -142,11 +148,10 @@ def plot_cdf(d: dict, key: str = "te_p2p", ax=None):
     return ax
 
 
-def plot_scatter(d: dict, name: str, key: str = "te_p2p", ax=None, level: float = 0.05):
+def plot_scatter(d: dict, name: str, key: str = "te_p2p", ax: Axes | None = None, level: float = 0.05) -> Axes:
     """``key`` against the input ``name`` (its display unit), edge-contact samples in red (a legend
     only when there are some); the title gives the input's Spearman rho (with the input and with its
     distance from the median) and whether it is significant at ``level`` (:func:`significance_limit`)."""
-    from ..robust.study import display
     ax = _ax(ax)
     x, unit = display(name, d["inputs"][name])
     y = _values(d, key)
@@ -169,7 +174,7 @@ def plot_scatter(d: dict, name: str, key: str = "te_p2p", ax=None, level: float 
     return ax
 
 
-def plot_sensitivity(d: dict, key: str = "te_p2p", ax=None, level: float = 0.05):
+def plot_sensitivity(d: dict, key: str = "te_p2p", ax: Axes | None = None, level: float = 0.05) -> Axes:
     """Ranked influence of the inputs on ``key``: Spearman rank correlation with the input
     (monotonic effect) and with its distance from the median (even effect), as bars. Correlations
     within the band of no significance at ``level`` for the number n of samples with a value
@@ -214,12 +219,11 @@ def _legend_below(ax, handles, labels, fontsize=8, ncol=2, drop_in: float = 0.55
 
 
 def _unit(d: dict, name: str) -> str | None:
-    from ..robust.study import display
 
     return display(name, 0.0)[1] if name in d.get("inputs", {}) else None
 
 
-def plot_pattern_probability(d: dict, ax=None):
+def plot_pattern_probability(d: dict, ax: Axes | None = None) -> Axes:
     """Probability of each point of the pinion flank (face position x radius) being in the contact
     pattern (the major axes of the contact ellipses of every pair over the mesh cycle), with the
     face ends, the tip and the form circle, and the nominal drive's pattern outline."""
@@ -256,3 +260,56 @@ def plot_pattern_probability(d: dict, ax=None):
     ax.set_ylim(r_f - 0.05 * (r_a - r_f), r_a + 0.05 * (r_a - r_f))
     _legend_below(ax, handles, labels, fontsize=8)
     return ax
+
+
+def save_plots(result: RobustResult, out_dir: str | Path, dpi: int = 120) -> list[str]:
+    """The figures of a Monte Carlo or design sweep result into ``out_dir`` (file names returned):
+    ``distribution.png`` (histograms and CDFs of TE p2p and first harmonic), ``scatter.png`` (TE p2p
+    against the four most influential inputs, edge contact marked), ``pattern.png`` (probability of
+    each pinion flank point being in the contact pattern) and ``sensitivity.png`` (ranked Spearman
+    correlations, those not significant at 5 % grey)."""
+    import matplotlib.pyplot as plt
+
+    out = Path(out_dir)
+
+    frac = usable_fraction(result.figures)
+    flag = f" [WARNING: only {100 * frac:.3g} % of the samples have results]" if frac < FEASIBLE_WARN else ""
+
+    def save(name, fig, title):
+        fig.suptitle(f"{result.scene}: {title}{flag}")
+        fig.savefig(out / name, dpi=dpi, bbox_inches="tight")
+        plt.close(fig)
+        return name
+
+    d = {"figures": result.figures, "inputs": result.inputs, "statistics": result.statistics(),
+         "sensitivities": result.sensitivities(), "nominal": result.nominal}
+    loaded = "loaded_te_p2p" in result.figures
+    fig, axes = plt.subplots(3 if loaded else 2, 2, figsize=(12, 12 if loaded else 8), layout="constrained")
+    plot_histogram(d, "te_p2p", ax=axes[0, 0])
+    plot_cdf(d, "te_p2p", ax=axes[0, 1])
+    plot_histogram(d, "h1", ax=axes[1, 0])
+    plot_cdf(d, "h1", ax=axes[1, 1])
+    if loaded:
+        plot_histogram(d, "loaded_te_p2p", ax=axes[2, 0])
+        plot_histogram(d, "p_max", ax=axes[2, 1])
+    what = "Monte Carlo" if result.study == "montecarlo" else "design sweep"
+    files = [save("distribution.png", fig, f"{what} of {result.n} samples: TE peak-to-peak and first mesh harmonic"
+                  + ("; loaded TE and peak pressure" if loaded else ""))]
+    ranked = [r["input"] for r in d["sensitivities"].get("te_p2p", [])][:4]
+    if ranked:
+        fig, axes = plt.subplots(1, len(ranked), figsize=(4 * len(ranked), 3.8), squeeze=False,
+                                 layout="constrained")
+        for ax, nm in zip(axes[0], ranked):
+            plot_scatter(d, nm, "te_p2p", ax=ax)
+        files.append(save("scatter.png", fig, "TE peak-to-peak against the most influential inputs"))
+        fig, ax = plt.subplots(figsize=(9, 0.5 + 0.45 * len(d["sensitivities"]["te_p2p"]) + 2.2),
+                               layout="constrained")
+        plot_sensitivity(d, "te_p2p", ax=ax)
+        files.append(save("sensitivity.png", fig, "which inputs drive the TE peak-to-peak (Spearman rank "
+                          "correlation)"))
+    fig, ax = plt.subplots(figsize=(9, 5.5), layout="constrained")
+    plot_pattern_probability({"pattern_count": result.pattern_count, "grid_z": result.grid_z, "grid_r": result.grid_r,
+                              "n": int(result.figures["ok"].sum()), "limits": result.limits,
+                              "nominal": result.nominal}, ax=ax)
+    files.append(save("pattern.png", fig, "contact pattern envelope on the pinion flank (every pair over the cycle)"))
+    return files

@@ -19,8 +19,14 @@ from __future__ import annotations
 
 import contextlib
 import math
+from typing import TYPE_CHECKING, Any
 
-__all__ = ["RC", "plot_style", "use_style", "number"]
+if TYPE_CHECKING:
+    from collections.abc import Iterator
+
+    from matplotlib.axes import Axes
+
+__all__ = ["RC", "axes_or_new", "plot_style", "use_style", "number"]
 
 #: matplotlib rcParams of gearopt's figures
 RC = {
@@ -38,8 +44,16 @@ RC = {
 }
 
 
+def axes_or_new(ax: Axes | None) -> Axes:
+    """``ax``, or the Axes of a new figure when ``ax`` is None (every plot function's ``ax=``)."""
+    if ax is None:
+        import matplotlib.pyplot as plt
+        ax = plt.figure().gca()
+    return ax
+
+
 @contextlib.contextmanager
-def plot_style(**overrides):
+def plot_style(**overrides: Any) -> Iterator[None]:
     """Context manager: gearopt's plot style (:data:`RC`, updated by ``overrides``, rcParams names
     with dots written as ``__``, e.g. ``legend__fontsize=8``) for the figures made inside it."""
     import matplotlib

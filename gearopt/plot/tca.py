@@ -10,11 +10,17 @@ Legends list only what is drawn, once.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING, Any
+
 import numpy as np
 
 from ..report import CONJUGATE_ARCSEC  # the results' own threshold (``conjugate`` in results.json)
-from .geometry import _axes
+from .style import axes_or_new
 from .ticks import plain_ticks
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+    from matplotlib.legend import Legend
 
 #: Readable names and distinct colours of the contact features (edge branches) of
 #: :mod:`gearopt.contact.edge`.
@@ -86,7 +92,7 @@ def case_title(case: dict) -> str:
     return label if label == mis else f"{label} ({mis})"
 
 
-def legend(ax, **kw):
+def legend(ax: Axes, **kw: Any) -> Legend | None:
     """A legend of the labelled artists that show data (finite points), each label once; none if
     nothing is labelled. Returns the Legend or None."""
     handles, labels = ax.get_legend_handles_labels()
@@ -155,12 +161,12 @@ def pair_label(k: int) -> str:
     return f"tooth pair {k:+d}" if k else "tooth pair 0"
 
 
-def plot_te(case: dict, ax=None, label_pairs: bool = True):
+def plot_te(case: dict, ax: Axes | None = None, label_pairs: bool = True) -> Axes:
     """TE of every tooth pair (thin dashed, only where its contact lies on the active flanks of
     both members: ``on_surface_pairs``) and the actual TE, their upper envelope (thick) [arcsec]
     against the pinion angle [deg], with the transfer points (where the driving pair changes).
     A conjugate case is drawn as TE = 0. The axis label states the TE zero (:func:`te_zero_text`)."""
-    ax = _axes(ax)
+    ax = axes_or_new(ax)
     phi = np.degrees(_f(case["phi1"]))
     ax.set_xlabel("pinion angle phi1 [deg]")
     ax.set_ylabel(te_ylabel(case))
@@ -236,12 +242,13 @@ def _flank_box(ax, lim, fill=False):
     return rect
 
 
-def plot_bearing_contact(case: dict, member: str = "gear", ax=None, every: int = 8, ellipses: bool = True):
+def plot_bearing_contact(case: dict, member: str = "gear", ax: Axes | None = None, every: int = 8,
+                         ellipses: bool = True) -> Axes:
     """Path of contact of the central tooth pair on the flank map of ``member`` (axial position z
     vs transverse radius), with the tooth boundaries (face ends, form and tip radii) and contact
     ellipses (for the elastic approach ``delta``), clipped to the flank; points off the active
     flank are drawn grey."""
-    ax = _axes(ax)
+    ax = axes_or_new(ax)
     m = case[member]
     lim = case["limits"][member]
     z, r = _axial(m), _f(m["radius"])
@@ -292,7 +299,7 @@ def _coincident(a: np.ndarray, b: np.ndarray) -> bool:
     return float(np.max(np.abs(a[ok] - b[ok]))) <= 5e-3 * scale
 
 
-def plot_compare(cases: dict, axes=None, member: str = "gear"):
+def plot_compare(cases: dict, axes: np.ndarray | None = None, member: str = "gear") -> np.ndarray:
     """Overlay several designs' or cases' actual TE (first Axes) and paths of contact on the
     ``member`` flank map (second Axes). ``cases`` maps a label to a case dict. Each case has its own
     colour and line style; a curve that coincides with an earlier one says so in the legend."""
@@ -329,11 +336,11 @@ def plot_compare(cases: dict, axes=None, member: str = "gear"):
     return axes
 
 
-def plot_edge_te(case: dict, ax=None):
+def plot_edge_te(case: dict, ax: Axes | None = None) -> Axes:
     """TE with edge contact (Litvin Figs. 9.6.3-9.6.6): every pair's TE (thin, grey), the actual
     TE coloured by the feature that carries the load (surface or which edge), transfer points.
     A conjugate case is drawn as TE = 0."""
-    ax = _axes(ax)
+    ax = axes_or_new(ax)
     phi = np.degrees(_f(case["phi1"]))
     ax.set_xlabel("pinion angle phi1 [deg]")
     ax.set_ylabel(te_ylabel(case))
@@ -434,14 +441,14 @@ def _curved(z, r, lines, n: int = 41):
     return zs, np.sqrt(np.maximum(a * zs**2 + bc[0] * zs + bc[1], 0.0))
 
 
-def plot_edge_paths(case: dict, member: str = "gear", ax=None, every: int = 8):
+def plot_edge_paths(case: dict, member: str = "gear", ax: Axes | None = None, every: int = 8) -> Axes:
     """Paths of contact of the central pair on the ``member`` flank map: the surface part and the
     edge parts (thin dashed: that feature's contact of the pair while another pair drives; thick:
     where it carries the load of the drive), with the flank boundaries (thin grey frame). Line
     contact is drawn as the instantaneous contact lines across the face at every ``every``-th
     position (:func:`contact_lines`), not as a path. A conjugate drive shows only the loaded
     contact (its pairs share the load)."""
-    ax = _axes(ax)
+    ax = axes_or_new(ax)
     lim = case["limits"][member]
     _flank_box(ax, lim)
     dashed_any = False
@@ -484,7 +491,7 @@ def plot_edge_paths(case: dict, member: str = "gear", ax=None, every: int = 8):
     return ax
 
 
-def plot_crowning_comparison(before: list, after: list, axes, member: str | None = None):
+def plot_crowning_comparison(before: list, after: list, axes: np.ndarray, member: str | None = None) -> np.ndarray:
     """Before/after comparison of a crowning optimization, one row per misalignment case: the actual
     TE (``member=None``) or the paths of contact on the ``member`` flank; left column before, right
     column after, on common axis limits per row. ``axes`` is an (n_cases, 2) array of Axes; returns it."""

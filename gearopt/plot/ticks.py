@@ -3,10 +3,16 @@ printed at the end of an axis, so that every tick label is the value itself."""
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+    from matplotlib.colorbar import Colorbar
+
 __all__ = ["plain_ticks"]
 
 
-def plain_ticks(*axes):
+def plain_ticks(*axes: Axes | Colorbar) -> Axes | None:
     """Turn off the offset and the scientific scale factor of every linear axis of ``axes``
     (Axes or Colorbar objects; twin axes are separate Axes and must be passed too). Logarithmic
     and categorical axes keep their own formatters. Returns the first Axes (or None)."""

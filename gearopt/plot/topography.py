@@ -10,9 +10,15 @@ profile coordinate the roll length L_y [mm] (or the diameter d_y); face position
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
-from .geometry import _axes
+from ..robust.tolerances import tolerances
+from .style import axes_or_new, number
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
 
 _SYM = {"F_alpha": "$F_\\alpha$", "f_f_alpha": "$f_{f\\alpha}$", "f_H_alpha": "$f_{H\\alpha}$", "C_alpha": "$C_\\alpha$",
         "S_alpha": "$S_\\alpha$", "F_beta": "$F_\\beta$", "f_f_beta": "$f_{f\\beta}$", "f_H_beta": "$f_{H\\beta}$",
@@ -20,7 +26,7 @@ _SYM = {"F_alpha": "$F_\\alpha$", "f_f_alpha": "$f_{f\\alpha}$", "f_H_alpha": "$
 _PROFILE_LABEL = {"L_y": "roll length $L_y$ [mm]", "d_y": "diameter $d_y$ [mm]"}
 
 
-def plot_topography(grid: dict, ax=None, levels: int = 20):
+def plot_topography(grid: dict, ax: Axes | None = None, levels: int = 20) -> Axes:
     """Filled contour map of one flank's deviation [um] over face position (horizontal, face I on
     the left) and profile position (vertical, tip at the top), with a colour bar. The levels span
     the data's own range (a slope of a few um shows beside a larger crowning or relief), the colours
@@ -28,9 +34,7 @@ def plot_topography(grid: dict, ax=None, levels: int = 20):
     from matplotlib.colors import Normalize
     from matplotlib.ticker import MaxNLocator
 
-    from .style import number
-
-    ax = _axes(ax)
+    ax = axes_or_new(ax)
     s, z = np.asarray(grid["s_mm"]), np.asarray(grid["z_mm"])
     V = np.asarray(grid["deviation_um"], dtype=float)
     lo, hi = float(np.nanmin(V)), float(np.nanmax(V))
@@ -96,19 +100,17 @@ def chart_tolerances(grade: int, d: float, m_n: float, b: float) -> dict:
     (``F_alpha``, ``f_f_alpha``, ``f_H_alpha``, ``F_beta``, ``f_f_beta``, ``f_H_beta``) for
     :func:`plot_profile_chart` / :func:`plot_lead_chart` (d reference diameter, m_n normal module,
     b face width [mm]; :func:`gearopt.robust.tolerances.tolerances`)."""
-    from ..robust.tolerances import tolerances
-
     t = tolerances(grade, d, m_n, b)
     return {"F_alpha": t["F_alphaT"], "f_f_alpha": t["f_falphaT"], "f_H_alpha": t["f_HalphaT"],
             "F_beta": t["F_betaT"], "f_f_beta": t["f_fbetaT"], "f_H_beta": t["f_HbetaT"], "grade": grade}
 
 
-def plot_profile_chart(grid: dict, charts: dict, ax=None, tolerances: dict | None = None):
+def plot_profile_chart(grid: dict, charts: dict, ax: Axes | None = None, tolerances: dict | None = None) -> Axes:
     """Profile chart (K-chart) at mid face: deviation [um] along the profile, evaluation range marked
     (dotted), with F_alpha, f_f_alpha, f_H_alpha, C_alpha, S_alpha [um] (``charts``: the chart values
     in um, ``z_profile_mm`` the section of the trace); ``tolerances`` (:func:`chart_tolerances`): the
     ISO 1328-1 bands of F_alpha and f_H_alpha drawn and the values judged against them."""
-    ax = _axes(ax)
+    ax = axes_or_new(ax)
     s, z = np.asarray(grid["s_mm"]), np.asarray(grid["z_mm"])
     V = np.asarray(grid["deviation_um"], dtype=float)
     z0 = charts.get("z_profile_mm", 0.0)
@@ -119,10 +121,10 @@ def plot_profile_chart(grid: dict, charts: dict, ax=None, tolerances: dict | Non
                   (tolerances or {}).get("grade"))
 
 
-def plot_lead_chart(grid: dict, charts: dict, ax=None, tolerances: dict | None = None):
+def plot_lead_chart(grid: dict, charts: dict, ax: Axes | None = None, tolerances: dict | None = None) -> Axes:
     """Helix (lead) chart at mid profile: deviation [um] along the face from face I to face II, with
     F_beta, f_f_beta, f_H_beta, C_beta [um]; ``tolerances`` as :func:`plot_profile_chart`'s."""
-    ax = _axes(ax)
+    ax = axes_or_new(ax)
     s, z = np.asarray(grid["s_mm"]), np.asarray(grid["z_mm"])
     V = np.asarray(grid["deviation_um"], dtype=float)
     i = int(np.argmin(np.abs(s - (s[0] + s[-1]) / 2)))

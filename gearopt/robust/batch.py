@@ -372,8 +372,8 @@ class LTCAKernel:
             from ..meshing.tca import TCA
             pinion = modified_tooth(self.pair, "pinion")
             if self.deviation_mod:
-                from .study import _deviation_mod
-                pinion = pinion.with_modification(_deviation_mod(self.pair)[0])
+                from .deviation import deviation_modification
+                pinion = pinion.with_modification(deviation_modification(self.pair)[0])
             tca = TCA(self.pair, side=self.side, pinion=pinion, contact="point")
             self._ltca = LTCA(self.pair, side=self.side, material=self.material, n_slices=self.n_slices, tca=tca)
         return self._ltca

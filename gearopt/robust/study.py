@@ -22,13 +22,16 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
 from ..errors import ArgumentError, ConvergenceError, GearoptError, GeometryError, OptionError, out_of_range
 from ..meshing.misalignment import Misalignment
 from ..meshing.solver import DELTA_DEFAULT
+from ..report import csv_cell
 from ..units import ARCMIN, DEG, RAD_TO_ARCSEC
+from .deviation import deviation_modification
 from .sampling import Distribution, check_count, design, within_tolerance
 
 #: the deviation inputs a Monte Carlo can sample, with their unit (internal mm) and meaning
@@ -63,29 +66,11 @@ def display(name: str, values):
     return v, "mm"
 
 
-def _deviation_mod(pair):
-    """The pinion's relative deviation modification ``dev``: theta (f_H_alpha, f_H_beta) [mm],
-    transverse deviation ``f_H_alpha (L - L_m) / L_alpha + f_H_beta z / b`` on both flanks at the
-    foot point's roll length (the fixed-point correction of microgeometry is below 1e-3 of it)."""
-    from ..geometry.generation import generate
-    from ..geometry.microgeometry import frame, roll_length_of
-    from ..geometry.modification import FlankModification
-
-    tooth = generate(pair.pinion)
-    fr = frame(tooth, "right", pair, "pinion")
-    c = math.cos(fr.beta_b)
-
-    def delta(u, z, r, th):
-        L = roll_length_of(r, fr.r_b)
-        return c * (th[0] * (L - fr.L_m) / fr.L_alpha + th[1] * z / fr.b)
-
-    return FlankModification("dev", (("f_H_alpha", 0.0, "mm"), ("f_H_beta", 0.0, "mm")), delta), fr
-
-
 @dataclass
 class RobustResult:
     """Per-sample table and statistics of a Monte Carlo or a design sweep (the one numeric
-    output of :meth:`MonteCarlo.run` / :meth:`DesignSweep.run`)."""
+    output of :meth:`MonteCarlo.run` / :meth:`DesignSweep.run`). Data only: its figures are
+    :func:`gearopt.plot.robust.save_plots` (the studies' ``RobustReport.save_plots``)."""
 
     study: str
     scene: str
@@ -214,67 +199,10 @@ class RobustResult:
 
     def save_tables(self, out_dir) -> list[str]:
         """``samples.csv``: one row per sample (:meth:`table`)."""
-        from pathlib import Path
-
-        from ..studies.tca import _cell
         cols = self.table()
-        text = ",".join(cols) + "\n" + "".join(",".join(_cell(v) for v in row) + "\n" for row in zip(*cols.values()))
+        text = ",".join(cols) + "\n" + "".join(",".join(csv_cell(v) for v in row) + "\n" for row in zip(*cols.values()))
         (Path(out_dir) / "samples.csv").write_text(text, encoding="utf-8")
         return ["samples.csv"]
-
-    def save_plots(self, out_dir, dpi: int = 120) -> list[str]:
-        """``distribution.png`` (histograms and CDFs of TE p2p and first harmonic),
-        ``scatter.png`` (TE p2p against the four most influential inputs, edge contact marked),
-        ``pattern.png`` (probability of each pinion flank point being in the contact pattern) and
-        ``sensitivity.png`` (ranked Spearman correlations, those not significant at 5 % grey)."""
-        import matplotlib.pyplot as plt
-        from pathlib import Path
-
-        from ..plot.robust import plot_cdf, plot_histogram, plot_pattern_probability, plot_scatter, plot_sensitivity
-
-        out = Path(out_dir)
-
-        frac = usable_fraction(self.figures)
-        flag = f" [WARNING: only {100 * frac:.3g} % of the samples have results]" if frac < FEASIBLE_WARN else ""
-
-        def save(name, fig, title):
-            fig.suptitle(f"{self.scene}: {title}{flag}")
-            fig.savefig(out / name, dpi=dpi, bbox_inches="tight")
-            plt.close(fig)
-            return name
-
-        d = {"figures": self.figures, "inputs": self.inputs, "statistics": self.statistics(),
-             "sensitivities": self.sensitivities(), "nominal": self.nominal}
-        loaded = "loaded_te_p2p" in self.figures
-        fig, axes = plt.subplots(3 if loaded else 2, 2, figsize=(12, 12 if loaded else 8), layout="constrained")
-        plot_histogram(d, "te_p2p", ax=axes[0, 0])
-        plot_cdf(d, "te_p2p", ax=axes[0, 1])
-        plot_histogram(d, "h1", ax=axes[1, 0])
-        plot_cdf(d, "h1", ax=axes[1, 1])
-        if loaded:
-            plot_histogram(d, "loaded_te_p2p", ax=axes[2, 0])
-            plot_histogram(d, "p_max", ax=axes[2, 1])
-        what = "Monte Carlo" if self.study == "montecarlo" else "design sweep"
-        files = [save("distribution.png", fig, f"{what} of {self.n} samples: TE peak-to-peak and first mesh harmonic"
-                      + ("; loaded TE and peak pressure" if loaded else ""))]
-        ranked = [r["input"] for r in d["sensitivities"].get("te_p2p", [])][:4]
-        if ranked:
-            fig, axes = plt.subplots(1, len(ranked), figsize=(4 * len(ranked), 3.8), squeeze=False,
-                                     layout="constrained")
-            for ax, nm in zip(axes[0], ranked):
-                plot_scatter(d, nm, "te_p2p", ax=ax)
-            files.append(save("scatter.png", fig, "TE peak-to-peak against the most influential inputs"))
-            fig, ax = plt.subplots(figsize=(9, 0.5 + 0.45 * len(d["sensitivities"]["te_p2p"]) + 2.2),
-                                   layout="constrained")
-            plot_sensitivity(d, "te_p2p", ax=ax)
-            files.append(save("sensitivity.png", fig, "which inputs drive the TE peak-to-peak (Spearman rank "
-                              "correlation)"))
-        fig, ax = plt.subplots(figsize=(9, 5.5), layout="constrained")
-        plot_pattern_probability({"pattern_count": self.pattern_count, "grid_z": self.grid_z, "grid_r": self.grid_r,
-                                  "n": int(self.figures["ok"].sum()), "limits": self.limits,
-                                  "nominal": self.nominal}, ax=ax)
-        files.append(save("pattern.png", fig, "contact pattern envelope on the pinion flank (every pair over the cycle)"))
-        return files
 
 
 def _wilson(k: int, n: int, z: float = 1.959963984540054) -> dict:
@@ -292,6 +220,8 @@ class _Robust:
     """What the Monte Carlo and the design sweep share: the kernel, chunks and the run."""
 
     study = "robust"
+    #: the class of :meth:`run`'s result (:class:`RobustResult`; the studies' subclass adds the plots)
+    result_class: type[RobustResult] = RobustResult
 
     def _setup(self, pair, positions, delta, side, chunk, executor, workers, name):
         from ..gears import GearPair
@@ -620,7 +550,7 @@ class MonteCarlo(_Robust):
         from ..meshing.tca import TCA
         pinion = modified_tooth(self.pair, "pinion")
         if any(nm in self.inputs for nm in DEVIATIONS if "f_H" in nm):
-            mod, self._frame1 = _deviation_mod(self.pair)
+            mod, self._frame1 = deviation_modification(self.pair)
             pinion = pinion.with_modification(mod)
             from ..geometry.generation import generate
             from ..geometry.microgeometry import frame
@@ -670,8 +600,8 @@ class MonteCarlo(_Robust):
                 "delta_mm": self.delta, "side": self.side, "chunk": self.chunk}
         if self.tolerances is not None:
             opts["tolerances_um"] = self.tolerances
-        return RobustResult("montecarlo", self.name, values, {k: d.to_dict() for k, d in self.inputs.items()}, figs,
-                            count, kernel.grid_z, kernel.grid_r, limits, opts, timing, nom, warns)
+        return self.result_class("montecarlo", self.name, values, {k: d.to_dict() for k, d in self.inputs.items()},
+                                 figs, count, kernel.grid_z, kernel.grid_r, limits, opts, timing, nom, warns)
 
 
 class DesignSweep(_Robust):
@@ -816,5 +746,5 @@ class DesignSweep(_Robust):
         opts = {"design": self.design, "samples": n, "levels": self.levels, "seed": self.seed,
                 "positions": self.positions, "pairs": list(PAIRS), "delta_mm": self.delta, "side": self.side,
                 "chunk": self.chunk, "misalignment": self.base_mis.to_results()}
-        return RobustResult("sweep", self.name, values, {k: d.to_dict() for k, d in self.variables.items()}, figs,
-                            count, kernel.grid_z, kernel.grid_r, limits, opts, timing, nom, warns)
+        return self.result_class("sweep", self.name, values, {k: d.to_dict() for k, d in self.variables.items()},
+                                 figs, count, kernel.grid_z, kernel.grid_r, limits, opts, timing, nom, warns)

@@ -31,7 +31,7 @@ Results: ``results.json`` (statistics, ranked sensitivities, the pattern probabi
 
 from __future__ import annotations
 
-from ..robust.study import UNITS  # noqa: F401 (the units of results.json, owned by the result)
+from ..robust.study import UNITS, DesignSweep, MonteCarlo, RobustResult  # noqa: F401 (UNITS: results.json's units)
 
 SCHEDULER_NOTE = "run it with `gearopt run SCENE --scheduler tcp://HOST:PORT` for a Dask cluster"
 
@@ -102,10 +102,32 @@ def _distribution(name: str, d: dict):
     return Distribution(d["kind"], name=name, **kw)
 
 
+class RobustReport(RobustResult):
+    """The result of a ``montecarlo`` or ``sweep`` scene: :class:`~gearopt.robust.study.RobustResult`
+    with its figures (:func:`gearopt.plot.robust.save_plots`)."""
+
+    def save_plots(self, out_dir, dpi: int = 120) -> list[str]:
+        """``distribution.png``, ``scatter.png``, ``sensitivity.png``, ``pattern.png``
+        (:func:`gearopt.plot.robust.save_plots`)."""
+        from ..plot.robust import save_plots
+        return save_plots(self, out_dir, dpi)
+
+
+class MonteCarloStudy(MonteCarlo):
+    """The ``montecarlo`` study: :class:`~gearopt.robust.study.MonteCarlo` returning a :class:`RobustReport`."""
+
+    result_class = RobustReport
+
+
+class DesignSweepStudy(DesignSweep):
+    """The ``sweep`` study: :class:`~gearopt.robust.study.DesignSweep` returning a :class:`RobustReport`."""
+
+    result_class = RobustReport
+
+
 def _montecarlo(scene):
     from ..errors import GeometryError, OptionError
     from ..meshing.misalignment import Misalignment
-    from ..robust.study import MonteCarlo
 
     o = scene.options.get("montecarlo", {}) or {}
     mis = {}
@@ -114,7 +136,7 @@ def _montecarlo(scene):
             if o.get(kind):
                 mis[kind] = _distribution(kind, o[kind])
         torque = _distribution("torque", o["torque"]) if o.get("torque") else None
-        return MonteCarlo(scene.pair, o["samples"], seed=o["seed"], misalignment=mis, iso_grade=o.get("iso_grade"),
+        return MonteCarloStudy(scene.pair, o["samples"], seed=o["seed"], misalignment=mis, iso_grade=o.get("iso_grade"),
                           spread=o["spread"], f_a=o.get("f_a") or 0.0, sampling=o["sampling"],
                           positions=o["positions"], side=o["side"], chunk=o["chunk"], executor=o["executor"],
                           workers=o.get("workers"), name=scene.name, torque=torque, n_slices=o["n_slices"])
@@ -131,7 +153,6 @@ def _montecarlo(scene):
 
 def _sweep(scene):
     from ..errors import GeometryError, OptionError
-    from ..robust.study import DesignSweep
 
     o = scene.options.get("sweep", {}) or {}
     vary = o.get("vary") or {}
@@ -144,7 +165,7 @@ def _sweep(scene):
         raise scene.key_error("sweep", "vary", "is missing: give at least one variable, e.g. [sweep.vary] "
                               "a_pl = {lo = \"0.0002 1/mm\", hi = \"0.001 1/mm\"}.", valid="at least one variable")
     try:
-        return DesignSweep(scene.pair, variables, design=o["design"], samples=o["samples"], levels=o["levels"],
+        return DesignSweepStudy(scene.pair, variables, design=o["design"], samples=o["samples"], levels=o["levels"],
                            seed=o["seed"], positions=o["positions"], side=o["side"], chunk=o["chunk"],
                            executor=o["executor"], workers=o.get("workers"), name=scene.name)
     except (GeometryError, OptionError) as e:

@@ -33,7 +33,7 @@ from ..gears import GearPair
 from ..contact.edge import EdgeContact, EdgeTCAResult
 from ..meshing.solver import ContactSettings
 from ..meshing.tca import TCA, Misalignment, TCAResult
-from ..report import CONJUGATE_ARCSEC, te_harmonics  # noqa: F401 - re-exported (their home: gearopt.report)
+from ..report import CONJUGATE_ARCSEC, csv_cell, te_harmonics  # noqa: F401 - re-exported (their home: gearopt.report)
 from ..geometry.microgeometry import GLOBAL_AMOUNTS
 from ..units import ARCMIN, DEG
 
@@ -147,7 +147,7 @@ class TCAReport:
             used.add(name)
             cols = case_table(case)
             rows = zip(*cols.values())
-            text = ",".join(cols) + "\n" + "".join(",".join(_cell(v) for v in row) + "\n" for row in rows)
+            text = ",".join(cols) + "\n" + "".join(",".join(csv_cell(v) for v in row) + "\n" for row in rows)
             (Path(out_dir) / name).write_text(text, encoding="utf-8")
             files.append(name)
         if self.inspection:
@@ -167,14 +167,6 @@ class TCAReport:
 def _slug(label: str) -> str:
     import re
     return re.sub(r"[^A-Za-z0-9+-]+", "_", str(label)).strip("_") or "case"
-
-
-def _cell(v) -> str:
-    if v is None or (isinstance(v, float) and not math.isfinite(v)):
-        return ""
-    if isinstance(v, bool):
-        return "1" if v else "0"
-    return repr(v) if isinstance(v, float) else str(v)
 
 
 def case_table(case: dict) -> dict:

@@ -13,7 +13,7 @@ import numpy as np
 
 from ...ltca.compliance import coupling_stiffness_batch
 from ...ltca.engine import F_MIN_SHARE
-from ...ltca.hertz import weber_compliance
+from ...contact.hertz import weber_compliance
 from ...meshing.misalignment import Misalignment
 from ...units import RAD_TO_ARCSEC
 from .constants import G_REF, HARM_EPS, KAPPA_FLOOR, MU, TE0_EPS
@@ -206,7 +206,7 @@ class NLPBuilder:
         flank = np.flatnonzero(~tipe)
         ends = np.flatnonzero(edge)
         if self.p_limit is not None and flank.size:
-            # p0^2 = f E* / (pi R*) <= p_limit^2 (gearopt.ltca.hertz.hertz_peak_pressure), per flank
+            # p0^2 = f E* / (pi R*) <= p_limit^2 (gearopt.contact.hertz.hertz_peak_pressure), per flank
             # slice, relative: linear in the load share; 1 / R* moves with the design
             k = mat.E_star / (math.pi * ln[flank])
             E_f = ca.DM.triplet(list(range(flank.size)), ct_x[flank].tolist(), ca.DM.ones(flank.size), flank.size,

@@ -12,7 +12,7 @@ import numpy as np
 from ...meshing.misalignment import Misalignment
 from ...units import RAD_TO_ARCSEC
 from ...ltca.compliance import face_matrix_batch
-from ...ltca.hertz import hertz_peak_pressure
+from ...contact.hertz import hertz_peak_pressure
 from .constants import G_REF, MU
 from .layout import block_vector
 from .nlp import kappa_lin

@@ -1,4 +1,5 @@
-"""Hertz's line contact and Weber & Banaschek's contact approach: the one implementation shared by the
+"""Hertz's line contact, Weber & Banaschek's contact approach and ISO 6336-1's single-pair stiffness
+c' of steel: the one implementation shared by the
 loaded TCA (:mod:`gearopt.ltca.compliance`, :mod:`gearopt.ltca.engine`), the loaded micro-geometry
 optimiser's NLP (:mod:`gearopt.synthesis.loaded.nlp`) and the FE references (:func:`gearopt.fea.model.hertz_line`).
 
@@ -21,11 +22,19 @@ stress sensitivity of spur gear teeth*, J. Mech. Des. 103 (1981), eq. 11 (the sa
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import casadi as ca
 import numpy as np
 
 from ..errors import out_of_range
+
+if TYPE_CHECKING:
+    from ..types import Expr
+
+#: ISO 6336-1's typical single-pair stiffness c' of steel spur gears [N/mm per mm of face] (14 N/(mm um)):
+#: the FE model's contact stiffness and the loaded TCA's first guess scale it with E / 210 GPa.
+C_PRIME_STEEL = 14.0e3
 
 #: how :func:`weber_compliance` keeps the logarithm finite at a vanishing load ``f`` (below ``f_min``)
 SMOOTHINGS = ("max", "hypot")
@@ -49,7 +58,7 @@ def contact_modulus(E: float, nu: float) -> float:
     return E / (2 * (1 - nu**2))
 
 
-def hertz_half_width(f, R_star, E_star):
+def hertz_half_width(f: Expr, R_star: Expr, E_star: Expr) -> Expr:
     """Half-width of the Hertz contact band of two cylinders, ``b_H = sqrt(4 f R* / (pi E*))`` [mm]
     (Johnson eq. 4.43).
 
@@ -65,13 +74,14 @@ def hertz_half_width(f, R_star, E_star):
     return _sqrt(4.0 * f * R_star / (math.pi * E_star))
 
 
-def hertz_peak_pressure(f, R_star, E_star):
+def hertz_peak_pressure(f: Expr, R_star: Expr, E_star: Expr) -> Expr:
     """Peak pressure of the Hertz line contact, ``p0 = sqrt(f E* / (pi R*))`` [MPa] (Johnson eq. 4.45);
     arguments as :func:`hertz_half_width`."""
     return _sqrt(f * E_star / (math.pi * R_star))
 
 
-def weber_compliance(f, R_star, h1, h2, E: float, nu: float, E_star: float, f_min, smoothing: str = "max"):
+def weber_compliance(f: Expr, R_star: Expr, h1: Expr, h2: Expr, E: float, nu: float, E_star: float, f_min: Expr,
+                     smoothing: str = "max") -> Expr:
     """Weber & Banaschek's contact approach of two cylinders per unit load, each body measured to the
     depth ``h`` (the tooth centreline), ``c = delta / f`` [mm^2/N]:
 
