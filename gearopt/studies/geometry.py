@@ -231,7 +231,7 @@ _OLD_TOOL_KEYS = ("generation", "N_h", "d_p0", "N_s", "x_s")
 
 def _moved_tool_hint(table: dict) -> str:
     """What to write instead of the former ``[geometry]`` tool keys (the same tool for both members)."""
-    from ..io.schema import _toml
+    from ..schema import toml_text
 
     gen = table.get("generation", "rack")
     if gen == "hob":
@@ -240,7 +240,7 @@ def _moved_tool_hint(table: dict) -> str:
         keys = {"z": table.get("N_s"), "x": table.get("x_s")}
     else:
         keys = {}
-    body = ", ".join([f"kind = {_toml(gen)}"] + [f"{k} = {_toml(v)}" for k, v in keys.items() if v is not None])
+    body = ", ".join([f"kind = {toml_text(gen)}"] + [f"{k} = {toml_text(v)}" for k, v in keys.items() if v is not None])
     tail = (" (the rack-cutter is the default: simply remove these keys)" if gen == "rack" else "")
     return (f"the cutting tool is no longer a [geometry] key but a key of each gear, used by every study: write "
             f"tool = {{{body}}} under [pinion] and under [gear]{tail}, and remove {', '.join(_OLD_TOOL_KEYS)} from "

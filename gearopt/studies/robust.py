@@ -75,7 +75,8 @@ def _torque_section():
                        doc="pinion torque per sample [N*m]: runs the loaded TCA of every sample (analytical compliance)")
 
 
-def _range_section(name: str, kind: str, doc: str):
+def range_section(name: str, kind: str, doc: str) -> Section:
+    """A ``name = {lo = ..., hi = ...}`` table of a range of a quantity of ``kind``."""
     from ..io.schema import Field, Section
     extra = {"typical": "arcmin"} if kind == "angle" else {}
     return Section(name, [Field("lo", kind, required=True, doc="lower end", **extra),
@@ -190,9 +191,9 @@ def _register():
             Field("levels", "int", default=3, check=Bounds(lo=2, hi=101), doc="levels per variable (full factorial)"),
             *_common_fields(),
         ], subsections=[Section("vary", [], subsections=[
-            _range_section("a_c", "inverse_length", "pinion profile crowning a_c range"),
-            _range_section("a_pl", "inverse_length", "pinion plunging (longitudinal crowning) a_pl range"),
-            *[_range_section(k, "angle" if Misalignment.meta(k)["unit"] == "angle" else "length",
+            range_section("a_c", "inverse_length", "pinion profile crowning a_c range"),
+            range_section("a_pl", "inverse_length", "pinion plunging (longitudinal crowning) a_pl range"),
+            *[range_section(k, "angle" if Misalignment.meta(k)["unit"] == "angle" else "length",
                              f"{Misalignment.meta(k)['doc']} range") for k in Misalignment.names()],
         ], doc="the variables and their ranges", required=True)], required=True)],
         build=_sweep,
