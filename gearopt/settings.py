@@ -393,3 +393,54 @@ class LoadedMicroSettings(Settings):
             raise out_of_range("harmonics", list(self.harmonics),
                                "1 ... 10 weights >= 0, not all 0, one per mesh harmonic, at most (n_positions - 1) / 2 "
                                f"= {(self.n_positions - 1) // 2} of them", cls=OptionError)
+
+
+#: Young's moduli [MPa] of gear materials: polymers (POM, PA: ~1000-3000) to cemented carbide (~650000)
+#: (the range of the ``E`` keys).
+E_RANGE = (500.0, 1.2e6)
+
+
+def check_modulus(E: float) -> str | None:
+    """None if ``E`` [MPa] is a gear material's modulus, else the valid range (with a unit hint)."""
+    if E_RANGE[0] <= E <= E_RANGE[1]:
+        return None
+    hint = ""
+    if E_RANGE[0] <= E * 1000 <= E_RANGE[1]:
+        hint = f" (E is in MPa: {E:g} GPa is {E * 1000:g} MPa)"
+    elif E_RANGE[0] <= E / 1e6 <= E_RANGE[1]:
+        hint = f" (E is in MPa: {E:g} Pa is {E / 1e6:g} MPa)"
+    return f"{E_RANGE[0]:g} <= E <= {E_RANGE[1]:g} MPa, the Young's moduli of gear materials{hint}"
+
+
+@dataclass(frozen=True)
+class LTCASettings(Settings):
+    """Options of :class:`~gearopt.ltca.engine.LTCA` (docs/ltca.md) that are not data of the drive: the
+    ``[ltca]`` keys of the same names. The pair-dependent limits (``coupling`` at most 10 face
+    widths, ``body_coupling`` 100) are checked by :class:`~gearopt.ltca.engine.LTCA` itself."""
+
+    SECTION: ClassVar[str] = "ltca"
+
+    side: str = option("right", kind="str", choices=("right", "left"), doc="driving flank of the pinion")
+    n_slices: int = option(21, kind="int", bounds=Bounds(lo=3, hi=201), doc="slices across the face")
+    coupling: float | None = option(
+        None, kind="length", bounds=Bounds(lo=0, hi=1000),
+        doc="coupling length of the teeth's compliance across the face (default half the pinion tooth height; "
+            "the bodies couple over their depth)")
+    compliance: str = option(
+        "analytical", kind="str", choices=("analytical", "fe"),
+        doc="tooth compliance: the analytical thin-slice model, or influence coefficients of each member's "
+            "CalculiX model (needs ccx; cached in $GEAROPT_CACHE/influence, default ~/.cache/gearopt)")
+    curvature: str = option("surface", kind="str", choices=("surface", "involute"), key="",
+                            doc="the flanks' curvature in the Hertz term: each modified surface's own, or the "
+                                "unmodified involute's (for comparison only)")
+    body_coupling: float | None = option(None, kind="length", bounds=Bounds(lo=0), key="",
+                                         doc="coupling length of the gear bodies' term across the face, both members "
+                                             "(default: each member's own)")
+
+
+@dataclass(frozen=True)
+class LTCAStudySettings(LTCASettings):
+    """Options of the ``ltca`` study (:class:`~gearopt.studies.ltca.LTCAStudy`): those of
+    :class:`LTCASettings` and the positions per mesh cycle."""
+
+    positions: int = option(64, kind="int", bounds=Bounds(lo=16, hi=2000), doc="positions per mesh cycle")

@@ -228,24 +228,9 @@ def _from_scene(scene) -> FEStudy:
     return FEStudy(scene.pair, opt, phis, name=scene.name, keep_dir=keep, misalignment=mis)
 
 
-#: Young's moduli [MPa] of gear materials: polymers (POM, PA: ~1000-3000) to cemented carbide (~650000).
-E_RANGE = (500.0, 1.2e6)
-
-
-def _check_E(E: float):
-    """None if ``E`` [MPa] is a gear material's modulus, else the valid range (with a unit hint)."""
-    if E_RANGE[0] <= E <= E_RANGE[1]:
-        return None
-    hint = ""
-    if E_RANGE[0] <= E * 1000 <= E_RANGE[1]:
-        hint = f" (E is in MPa: {E:g} GPa is {E * 1000:g} MPa)"
-    elif E_RANGE[0] <= E / 1e6 <= E_RANGE[1]:
-        hint = f" (E is in MPa: {E:g} Pa is {E / 1e6:g} MPa)"
-    return f"{E_RANGE[0]:g} <= E <= {E_RANGE[1]:g} MPa, the Young's moduli of gear materials{hint}"
-
-
 def _register():
-    from ..io.schema import Bounds, Field, Section
+    from ..schema import Bounds, Field, Section
+    from ..settings import E_RANGE, check_modulus
     from . import StudySpec, register
     from .tca import misalignment_fields
 
@@ -255,7 +240,7 @@ def _register():
         sections=[Section("fea", [
             Field("torque", "float", default=100.0, check=Bounds(lo=0, lo_open=True, hi=1e6),
                   doc="pinion torque [N*m]"),
-            Field("E", "float", default=210000.0, check=_check_E,
+            Field("E", "float", default=210000.0, check=check_modulus,
                   doc=f"Young's modulus [MPa], {E_RANGE[0]:g} <= E <= {E_RANGE[1]:g} (gear materials, from "
                       "polymers to carbide)"),
             Field("nu", "float", default=0.3, check=Bounds(lo=0, hi=0.5, hi_open=True), doc="Poisson's ratio"),

@@ -358,6 +358,7 @@ def _register():
                         LoadedMicroSettings.section(group="unloaded_te", doc="the unloaded parabolic-TE target as a "
                                                     "second term of the objective (default none)")],
             required=True)],
+        settings=(LoadedMicroSettings,),
         build=_from_scene,
     ))
 
