@@ -37,7 +37,8 @@ from .errors import ArgumentError, OptionError, out_of_range
 from .schema import Bounds, Field, Section, closest, format_field, toml_text
 from .units import KINDS
 
-__all__ = ["Option", "option", "Settings", "Bounds"]
+__all__ = ["Option", "option", "Settings", "Bounds", "E_RANGE", "check_modulus", "LoadedMicroSettings", "LTCASettings",
+           "LTCAStudySettings", "RobustSettings", "MonteCarloSettings", "SweepSettings"]
 
 S = TypeVar("S", bound="Settings")
 
@@ -444,3 +445,48 @@ class LTCAStudySettings(LTCASettings):
     :class:`LTCASettings` and the positions per mesh cycle."""
 
     positions: int = option(64, kind="int", bounds=Bounds(lo=16, hi=2000), doc="positions per mesh cycle")
+
+
+@dataclass(frozen=True, kw_only=True)
+class RobustSettings(Settings):
+    """Options shared by :class:`MonteCarloSettings` and :class:`SweepSettings` (the executor, its
+    workers and the elastic approach ``delta`` are keywords of the API classes: they do not change
+    the samples' figures, or depend on the drive)."""
+
+    positions: int = option(64, kind="int", bounds=Bounds(lo=16, hi=2000), doc="positions per mesh cycle")
+    side: str = option("right", kind="str", choices=("right", "left"), doc="driving flank of the pinion")
+    chunk: int = option(64, kind="int", bounds=Bounds(lo=1, hi=100000),
+                        doc="samples per task (the results do not depend on it)")
+    seed: int = option(0, kind="int", bounds=Bounds(lo=0, hi=2**63 - 1), doc="seed of the sampling")
+
+
+@dataclass(frozen=True, kw_only=True)
+class MonteCarloSettings(RobustSettings):
+    """Options of :class:`~gearopt.robust.study.MonteCarlo` and the ``[montecarlo]`` keys of the same
+    names (the distributions of the misalignments and the torque are data of the study)."""
+
+    SECTION: ClassVar[str] = "montecarlo"
+
+    samples: int = option(kind="int", bounds=Bounds(lo=1, hi=10_000_000), doc="number of samples")
+    sampling: str = option("random", kind="str", choices=("random", "lhs"), doc="Monte Carlo (PCG64) or Latin hypercube")
+    iso_grade: int | None = option(None, kind="int", bounds=Bounds(lo=1, hi=11),
+                                   doc="ISO 1328-1:2013 flank tolerance class of both members (helix/profile slope, "
+                                       "pitch sampled)")
+    spread: str = option("normal", kind="str", choices=("normal", "uniform"),
+                         doc="deviations within +-T: N(0, (T/3)^2) truncated, or uniform")
+    f_a: float = option(0.0, kind="length", bounds=Bounds(lo=0, hi=5),
+                        doc="centre-distance tolerance +-f_a (dE sampled)")
+    n_slices: int = option(21, kind="int", bounds=Bounds(lo=3, hi=201),
+                           doc="slices across the face of the loaded TCA (with torque)")
+
+
+@dataclass(frozen=True, kw_only=True)
+class SweepSettings(RobustSettings):
+    """Options of :class:`~gearopt.robust.study.DesignSweep` and the ``[sweep]`` keys of the same names
+    (the variables and their ranges are data of the study, ``[sweep.vary]``)."""
+
+    SECTION: ClassVar[str] = "sweep"
+
+    design: str = option("lhs", kind="str", choices=("lhs", "full_factorial", "random"), doc="the design")
+    samples: int = option(64, kind="int", bounds=Bounds(lo=1, hi=1_000_000), doc="points (lhs, random)")
+    levels: int = option(3, kind="int", bounds=Bounds(lo=2, hi=101), doc="levels per variable (full factorial)")

@@ -15,13 +15,15 @@ import pytest
 
 from gearopt.errors import ArgumentError, OptionError, SceneError
 from gearopt.schema import Bounds, Field
-from gearopt.settings import LoadedMicroSettings, LTCASettings, LTCAStudySettings, Settings, option
+from gearopt.settings import (LoadedMicroSettings, LTCASettings, LTCAStudySettings, MonteCarloSettings, Settings,
+                              SweepSettings, option)
 from gearopt.studies import markdown_tables, studies
 
 ROOT = Path(__file__).resolve().parents[1]
 
 #: The studies whose options are declared by option sets (each must list them in StudySpec.settings).
-CONVERTED = {"loaded_microgeometry": (LoadedMicroSettings,), "ltca": (LTCAStudySettings,)}
+CONVERTED = {"loaded_microgeometry": (LoadedMicroSettings,), "ltca": (LTCAStudySettings,),
+             "montecarlo": (MonteCarloSettings,), "sweep": (SweepSettings,)}
 
 
 def _options():
@@ -58,15 +60,20 @@ def test_scene_field_is_generated_from_the_option(study, cls, name):
     assert f == cls.scene_field(name)
     assert (f.kind, f.doc, f.choices) == (o.kind, o.doc, o.choices)
     assert f.check is (o.bounds if o.bounds is not None else o.check)
-    if default is None or o.scene_required:
-        assert f.default is None
+    if default is None or default is dataclasses.MISSING or o.scene_required:
+        assert f.default is None and f.required == (default is dataclasses.MISSING or o.scene_required)
     else:  # the scene's default loads as the API's default, exactly
         assert f.convert(f.default, "x") == default
 
 
+def _required(cls) -> dict:
+    """A valid value of each required option of ``cls`` (the low end of its range)."""
+    return {n: o.bounds.lo for n, (o, d) in cls.options().items() if d is dataclasses.MISSING}
+
+
 def api_text(cls, name, value) -> str:
     with pytest.raises(OptionError) as e:
-        cls(**{name: value})
+        cls(**{**_required(cls), name: value})
     return e.value.valid
 
 
@@ -81,7 +88,7 @@ def test_api_and_scene_refuse_the_same_value_naming_the_same_range(study, cls, n
             bad_scene = int(bad_scene)
         # the same value in the internal unit (mm, rad, 1/mm) for the API
         bad_api = bad_scene / f.to_scene_unit(1.0) if o.kind in ("length", "angle", "inverse_length") else bad_scene
-        numbers = {float(v) for v in (b.lo, b.hi) if v is not None}
+        numbers = {float(f"{v:g}") for v in (b.lo, b.hi) if v is not None}  # as the messages print them
     elif o.choices is not None:
         bad_scene = bad_api = "nowhere"
         numbers = set()
@@ -91,7 +98,7 @@ def test_api_and_scene_refuse_the_same_value_naming_the_same_range(study, cls, n
     with pytest.raises(SceneError) as scene_err:
         f.convert(bad_scene, f"[{cls.SECTION}] {f.name}")
     with pytest.raises(OptionError) as api_err:
-        cls(**{name: bad_api})
+        cls(**{**_required(cls), name: bad_api})
     assert api_err.value.param == name and scene_err.value.param == f"[{cls.SECTION}] {f.name}"
     if o.kind in ("int", "float", "length"):  # the same numbers state the range, in the same unit
         def nums(text):

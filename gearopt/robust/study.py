@@ -22,6 +22,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -29,7 +30,12 @@ from ..errors import ArgumentError, ConvergenceError, GearoptError, GeometryErro
 from ..meshing.misalignment import Misalignment
 from ..meshing.solver import DELTA_DEFAULT
 from ..units import ARCMIN, DEG, RAD_TO_ARCSEC
-from .sampling import Distribution, check_count, design, within_tolerance
+from ..settings import MonteCarloSettings, RobustSettings, SweepSettings
+from .sampling import Distribution, design, within_tolerance
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..gears import GearPair
+    from ..ltca.compliance import Material
 
 #: the deviation inputs a Monte Carlo can sample, with their unit (internal mm) and meaning
 DEVIATIONS = {
@@ -293,16 +299,15 @@ class _Robust:
 
     study = "robust"
 
-    def _setup(self, pair, positions, delta, side, chunk, executor, workers, name):
+    def _setup(self, pair: GearPair, settings: RobustSettings, delta: float, executor: Any, workers: int | None,
+               name: str) -> None:
         from ..gears import GearPair
         if not isinstance(pair, GearPair):
             raise ArgumentError(f"pair = {type(pair).__name__}: expected a gearopt.gears.GearPair.", param="pair",
                                 value=type(pair).__name__, valid="a gearopt.gears.GearPair")
-        if side not in ("right", "left"):
-            raise out_of_range("side", side, "'right' or 'left' (the driving flank of the pinion)", cls=OptionError)
-        self.pair, self.name, self.side = pair, name, side
-        self.positions = check_count("positions", positions, 16, 2000)
-        self.chunk = check_count("chunk", chunk, 1, 100_000)
+        self.settings = settings
+        self.pair, self.name, self.side = pair, name, settings.side
+        self.positions, self.chunk, self.seed = settings.positions, settings.chunk, settings.seed
         if not 0 < delta <= 0.1 * pair.pinion.m_n:
             raise out_of_range("delta", delta, f"0 < delta <= 0.1 m_n = {0.1 * pair.pinion.m_n:.4g} mm (elastic approach "
                                "of the contact ellipse)", cls=OptionError)
@@ -512,7 +517,11 @@ class MonteCarlo(_Robust):
     pair : GearPair
         The drive (point contact: a crowned pinion).
     samples : int
-        Number of samples (>= 1).
+        Number of samples (>= 1; required unless ``settings`` gives it).
+    settings : gearopt.settings.MonteCarloSettings, optional
+        ``samples``, ``seed``, ``sampling``, ``iso_grade``, ``spread``, ``f_a``, ``n_slices``,
+        ``positions``, ``side``, ``chunk`` as one object; keyword arguments replace its fields. Their
+        defaults and valid ranges are declared there only.
     seed : int
         Seed of the sampling (>= 0); the same seed gives the same samples and figures.
     misalignment : dict, optional
@@ -541,17 +550,19 @@ class MonteCarlo(_Robust):
 
     study = "montecarlo"
 
-    def __init__(self, pair, samples: int, seed: int = 0, misalignment: dict | None = None, iso_grade=None,
-                 spread: str = "normal", f_a: float = 0.0, sampling: str = "random", positions: int = 64,
-                 delta: float = DELTA_DEFAULT, side: str = "right", chunk: int = 64, executor="serial",
-                 workers=None, name: str = "montecarlo", torque=None, n_slices: int = 21, material=None):
-        self._setup(pair, positions, delta, side, chunk, executor, workers, name)
-        self.samples = check_count("samples", samples)
-        self.seed = check_count("seed", seed, 0, 2**63 - 1)
-        if sampling not in ("random", "lhs"):
-            raise out_of_range("sampling", sampling, "'random' (Monte Carlo) or 'lhs' (Latin hypercube)",
-                               cls=OptionError)
-        self.sampling = sampling
+    def __init__(self, pair: GearPair, samples: int | None = None, settings: MonteCarloSettings | None = None, *,
+                 misalignment: dict | None = None, delta: float = DELTA_DEFAULT, executor: Any = "serial",
+                 workers: int | None = None, name: str = "montecarlo", torque: float | Distribution | None = None,
+                 material: Material | None = None, **options: Any) -> None:
+        if samples is not None:
+            options["samples"] = samples
+        if settings is None and "samples" not in options:
+            raise ArgumentError("samples: missing; valid: the number of samples (an integer >= 1).", param="samples",
+                                valid="an integer >= 1")
+        s = MonteCarloSettings.of(settings, **options)
+        self._setup(pair, s, delta, executor, workers, name)
+        self.samples, self.sampling = s.samples, s.sampling
+        spread, iso_grade, f_a, n_slices = s.spread, s.iso_grade, s.f_a, s.n_slices
         self.base_mis = Misalignment()
         inputs: dict[str, Distribution] = {}
         for kind, dist in (misalignment or {}).items():
@@ -562,9 +573,6 @@ class MonteCarlo(_Robust):
                 raise ArgumentError(f"misalignment[{kind!r}] = {type(dist).__name__}: expected a "
                                     "gearopt.robust.sampling.Distribution.", param=f"misalignment.{kind}")
             inputs[f"mis.{kind}"] = dist
-        f_a = float(f_a)
-        if not (math.isfinite(f_a) and 0 <= f_a <= 5.0):
-            raise out_of_range("f_a", f_a, "0 <= f_a <= 5 mm (centre-distance tolerance)", cls=OptionError)
         if f_a > 0:
             if "mis.dE" in inputs:
                 raise OptionError("f_a and a dE distribution are both given: the centre-distance deviation is "
@@ -603,8 +611,6 @@ class MonteCarlo(_Robust):
                 from ..ltca.engine import check_torque_range
                 check_torque_range(pair, torque.support[1], material, name="torque.hi" if torque.kind != "fixed"
                                    else "torque.value")
-            if not 3 <= self.n_slices <= 201:
-                raise out_of_range("n_slices", n_slices, "an integer 3 ... 201", cls=OptionError)
         if not inputs:
             raise OptionError("MonteCarlo: nothing to sample: give misalignment distributions, iso_grade or f_a.",
                               param="misalignment", valid="at least one random input")
@@ -689,21 +695,26 @@ class DesignSweep(_Robust):
         Points of an LHS / random design.
     levels : int
         Levels per variable of a full factorial (ends included).
+    settings : gearopt.settings.SweepSettings, optional
+        ``design``, ``samples``, ``levels``, ``seed``, ``positions``, ``side``, ``chunk`` as one
+        object; keyword arguments replace its fields. Their defaults (``samples`` 64) and valid
+        ranges are declared there only.
     misalignment : Misalignment
         The drive's misalignment besides the swept kinds.
+    positions, side, chunk, delta, executor, workers
+        As :class:`MonteCarlo`.
     """
 
     study = "sweep"
 
-    def __init__(self, pair, variables: dict, design: str = "lhs", samples: int = 64, levels: int = 3, seed: int = 0,
-                 misalignment: Misalignment | None = None, positions: int = 64, delta: float = DELTA_DEFAULT,
-                 side: str = "right", chunk: int = 64, executor="serial", workers=None, name: str = "sweep"):
-        self._setup(pair, positions, delta, side, chunk, executor, workers, name)
-        if design not in ("lhs", "full_factorial", "random"):
-            raise out_of_range("design", design, "'lhs', 'full_factorial' or 'random'", cls=OptionError)
-        self.design, self.seed = design, check_count("seed", seed, 0, 2**63 - 1)
-        self.samples = check_count("samples", samples) if design != "full_factorial" else None
-        self.levels = check_count("levels", levels, 2, 101) if design == "full_factorial" else None
+    def __init__(self, pair: GearPair, variables: dict, settings: SweepSettings | None = None, *,
+                 misalignment: Misalignment | None = None, delta: float = DELTA_DEFAULT, executor: Any = "serial",
+                 workers: int | None = None, name: str = "sweep", **options: Any) -> None:
+        s = SweepSettings.of(settings, **options)
+        self._setup(pair, s, delta, executor, workers, name)
+        self.design = s.design
+        self.samples = s.samples if s.design != "full_factorial" else None
+        self.levels = s.levels if s.design == "full_factorial" else None
         if misalignment is not None and not isinstance(misalignment, Misalignment):
             raise ArgumentError("misalignment: expected a Misalignment.", param="misalignment")
         self.base_mis = misalignment or Misalignment()
