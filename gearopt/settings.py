@@ -38,11 +38,12 @@ from .schema import Bounds, Field, Section, closest, format_field, toml_text
 from .units import KINDS
 
 __all__ = ["Option", "option", "Settings", "Bounds", "E_RANGE", "check_modulus", "LoadedMicroSettings", "LTCASettings",
-           "LTCAStudySettings", "RobustSettings", "MonteCarloSettings", "SweepSettings"]
+           "LTCAStudySettings", "RobustSettings", "MonteCarloSettings", "SweepSettings", "ContactSettings",
+           "TCAStudySettings"]
 
 S = TypeVar("S", bound="Settings")
 
-_KIND_TEXT = {"int": "an integer", "float": "a number", "bool": "true or false", "str": "a string",
+_KIND_TEXT = {"int": "an integer", "float": "a number", "bool": "True or False", "str": "a string",
               "floats": "a non-empty list of numbers"}
 
 
@@ -490,3 +491,41 @@ class SweepSettings(RobustSettings):
     design: str = option("lhs", kind="str", choices=("lhs", "full_factorial", "random"), doc="the design")
     samples: int = option(64, kind="int", bounds=Bounds(lo=1, hi=1_000_000), doc="points (lhs, random)")
     levels: int = option(3, kind="int", bounds=Bounds(lo=2, hi=101), doc="levels per variable (full factorial)")
+
+
+@dataclass(frozen=True)
+class ContactSettings(Settings):
+    """Contact-ellipse setting (the default of the TCA sweeps, the synthesis targets and the scenes).
+
+    Parameters
+    ----------
+    delta : float
+        Elastic approach of the surfaces for the contact ellipse [mm] (Litvin 9.1: 0.00632 mm).
+    """
+
+    delta: float = option(0.00632, kind="length", bounds=Bounds(lo=0, lo_open=True, hi=0.1),
+                          doc="elastic approach for the contact ellipse")
+
+
+@dataclass(frozen=True)
+class TCAStudySettings(ContactSettings):
+    """Options of the ``tca`` study (:class:`~gearopt.studies.tca.TCAStudy`) and the ``[tca]`` keys of
+    the same names. The pair-dependent limits (``delta`` at most 0.1 m_n, ``|z_section|`` at most
+    half the pinion's face) are checked by the study."""
+
+    SECTION: ClassVar[str] = "tca"
+
+    side: str = option("right", kind="str", choices=("right", "left"), doc="driving flank of the pinion")
+    contact: str = option("point", kind="str", choices=("point", "line"),
+                          doc="point (crowned pinion) or line (conjugate/profile-crowned: in section z_section)")
+    z_section: float = option(0.0, kind="length", doc="pinion section for line contact")
+    positions: int = option(81, kind="int", bounds=Bounds(lo=9, hi=5000), doc="positions per mesh cycle")
+    edge_contact: bool = option(False, kind="bool", doc="also solve edge contact (tips, face ends) and combine it "
+                                                        "with the surface contact (Litvin 9.6)")
+    inspection: bool | None = option(None, kind="bool",
+                                     doc="inspect the flanks (topography CSV, profile and lead charts): default true "
+                                         "for the members with [<member>.modifications] or [<member>.measured]")
+    iso_grade: int | None = option(None, kind="int", bounds=Bounds(lo=1, hi=11),
+                                   doc="ISO 1328-1:2013 flank tolerance class: tolerance bands on the profile and lead "
+                                       "charts of measured flanks, and the chart values judged against them (designed "
+                                       "amounts are not judged)")
