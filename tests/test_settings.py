@@ -92,9 +92,12 @@ def test_api_and_scene_refuse_the_same_value_naming_the_same_range(study, cls, n
     elif o.choices is not None:
         bad_scene = bad_api = "nowhere"
         numbers = set()
-    else:  # a check that a range cannot state (a list of weights): the same text in both messages
+    elif o.check is not None:  # a check that a range cannot state (a list of weights): the same text in both
         bad_scene, bad_api, numbers = [-1.0], [-1.0], set()
-        assert o.check is not None and o.check([-1.0]) in api_text(cls, name, bad_api)
+        assert o.check([-1.0]) in api_text(cls, name, bad_api)
+    else:  # only its type
+        bad_scene = bad_api = [1.0] if o.kind == "str" else "a text"
+        numbers = set()
     with pytest.raises(SceneError) as scene_err:
         f.convert(bad_scene, f"[{cls.SECTION}] {f.name}")
     with pytest.raises(OptionError) as api_err:
