@@ -39,7 +39,7 @@ from .units import KINDS
 
 __all__ = ["Option", "option", "Settings", "Bounds", "E_RANGE", "check_modulus", "LoadedMicroSettings", "LTCASettings",
            "LTCAStudySettings", "RobustSettings", "MonteCarloSettings", "SweepSettings", "ContactSettings",
-           "TCAStudySettings"]
+           "TCAStudySettings", "GeometryStudySettings", "PlanarTCASettings"]
 
 S = TypeVar("S", bound="Settings")
 
@@ -529,3 +529,30 @@ class TCAStudySettings(ContactSettings):
                                    doc="ISO 1328-1:2013 flank tolerance class: tolerance bands on the profile and lead "
                                        "charts of measured flanks, and the chart values judged against them (designed "
                                        "amounts are not judged)")
+
+
+@dataclass(frozen=True)
+class GeometryStudySettings(Settings):
+    """Options of the ``geometry`` study (:class:`~gearopt.studies.geometry.GeometryStudy`) and the
+    ``[geometry]`` keys of the same names."""
+
+    SECTION: ClassVar[str] = "geometry"
+
+    points: int = option(60, kind="int", bounds=Bounds(lo=10, hi=2000), doc="samples per profile segment")
+    rack_mesh: bool = option(True, kind="bool", doc="plot the rack-cutter in mesh (rack/hob-cut members)")
+
+
+@dataclass(frozen=True)
+class PlanarTCASettings(Settings):
+    """Options of the ``planar_tca`` study (:class:`~gearopt.studies.planar_tca.PlanarTCAStudy`) and
+    the ``[planar_tca]`` keys of the same names (the geometry and the rotations are its data)."""
+
+    SECTION: ClassVar[str] = "planar_tca"
+
+    method: str = option("continuation", kind="str", choices=("continuation", "map"),
+                         doc="warm-started sequence or one mapped rootfinder call")
+    alpha_guess: float = option(20 * math.pi / 180, kind="angle", shown="20 deg",
+                                bounds=Bounds(lo=0, hi=90, lo_open=True, hi_open=True),
+                                bare=Bounds(lo=2, hi=90, hi_open=True), typical="rad",
+                                doc="pressure angle of the Newton starting point")
+    profiles: int = option(3, kind="int", bounds=Bounds(lo=0, hi=20), doc="positions drawn with both profiles")

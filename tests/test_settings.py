@@ -16,14 +16,15 @@ import pytest
 from gearopt.errors import ArgumentError, OptionError, SceneError
 from gearopt.schema import Bounds, Field
 from gearopt.settings import (LoadedMicroSettings, LTCASettings, LTCAStudySettings, MonteCarloSettings, Settings,
-                              SweepSettings, TCAStudySettings, option)
+                              SweepSettings, TCAStudySettings, GeometryStudySettings, PlanarTCASettings, option)
 from gearopt.studies import markdown_tables, studies
 
 ROOT = Path(__file__).resolve().parents[1]
 
 #: The studies whose options are declared by option sets (each must list them in StudySpec.settings).
 CONVERTED = {"loaded_microgeometry": (LoadedMicroSettings,), "ltca": (LTCAStudySettings,),
-             "montecarlo": (MonteCarloSettings,), "sweep": (SweepSettings,), "tca": (TCAStudySettings,)}
+             "montecarlo": (MonteCarloSettings,), "sweep": (SweepSettings,), "tca": (TCAStudySettings,),
+             "geometry": (GeometryStudySettings,), "planar_tca": (PlanarTCASettings,)}
 
 
 def _options():

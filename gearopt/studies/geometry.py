@@ -15,12 +15,14 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
 from ..gears import Gear, GearPair
 from ..geometry.generation import GeneratedTooth, Hob, Shaper, default_params, generate, rack_profile_functions
 from ..geometry.tools import RackCutter
+from ..settings import GeometryStudySettings
 from ..units import DEG
 
 UNITS = {"length": "mm (suffix _um: micrometres)", "angle": "rad (suffix _deg: degrees)", "ratio": "-", "time": "s",
@@ -103,17 +105,21 @@ class GeometryStudy:
         each member's own tool.
     hob, shaper : Hob, Shaper, optional
         Tool data when ``generation`` names them.
-    points : int
-        Samples per profile segment.
-    rack_mesh : bool
-        Include the rack-cutter outline for the rack-in-mesh plot.
+    settings : gearopt.settings.GeometryStudySettings, optional
+        ``points`` (samples per profile segment) and ``rack_mesh`` (include the rack-cutter outline
+        for the rack-in-mesh plot) as one object; keyword arguments replace its fields. Their
+        defaults and ranges are declared there only.
     name : str
         Scene name used in titles.
     """
 
     def __init__(self, pair: GearPair, generation: str | None = None, hob: Hob | None = None,
-                 shaper: Shaper | None = None, points: int = 60, rack_mesh: bool = True, name: str = "geometry"):
+                 shaper: Shaper | None = None, settings: GeometryStudySettings | None = None, *,
+                 name: str = "geometry", **options: Any) -> None:
         t0 = time.perf_counter()
+        s = GeometryStudySettings.of(settings, **options)
+        points, rack_mesh = s.points, s.rack_mesh
+        self.settings = s
         if generation is not None:
             tools = {"rack": RackCutter(), "hob": hob or Hob(), "shaper": shaper or Shaper()}
             if generation not in tools:
@@ -220,8 +226,7 @@ def _from_scene(scene) -> GeometryStudy:
 
     o = scene.options.get("geometry", {}) or {}
     try:
-        return GeometryStudy(scene.pair, points=o.get("points") or 60, rack_mesh=o.get("rack_mesh", True) is not False,
-                             name=scene.name)
+        return GeometryStudy(scene.pair, settings=GeometryStudySettings.from_scene(o), name=scene.name)
     except (GeometryError, OptionError) as e:
         raise scene.study_error("geometry", e) from e
 
@@ -248,17 +253,16 @@ def _moved_tool_hint(table: dict) -> str:
 
 
 def _register():
-    from ..io.schema import Bounds, Field, Section
+    from ..schema import Section
     from . import StudySpec, register
 
     register(StudySpec(
         name="geometry",
         doc="Gear pair geometry report: radii, contact ratio, undercut/form margins, tooth profiles and plots",
-        sections=[Section("geometry", [
-            Field("points", "int", default=60, check=Bounds(lo=10, hi=2000), doc="samples per profile segment"),
-            Field("rack_mesh", "bool", default=True, doc="plot the rack-cutter in mesh (rack/hob-cut members)"),
-        ], required=False, doc="the tools are [pinion] tool / [gear] tool", moved=_OLD_TOOL_KEYS,
-            moved_hint=_moved_tool_hint)],
+        sections=[Section("geometry", GeometryStudySettings.scene_fields(), required=False,
+                          doc="the tools are [pinion] tool / [gear] tool", moved=_OLD_TOOL_KEYS,
+                          moved_hint=_moved_tool_hint)],
+        settings=(GeometryStudySettings,),
         build=_from_scene,
     ))
 
