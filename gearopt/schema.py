@@ -15,7 +15,7 @@ import difflib
 import json
 import math
 from dataclasses import dataclass, field
-from typing import Any, Callable
+from typing import Any, Callable, Iterable
 
 from .errors import SceneError, join_detail, shorten
 from .units import KINDS, parse_quantity
@@ -32,7 +32,7 @@ KIND_UNITS = {
 
 
 
-def toml_text(value) -> str:
+def toml_text(value: Any) -> str:
     """A value as it would be written in TOML (for messages), abbreviated when long."""
     if isinstance(value, float) and not math.isfinite(value):
         return "nan" if math.isnan(value) else ("inf" if value > 0 else "-inf")
@@ -135,7 +135,7 @@ class Field:
     bare: Bounds | None = None
     typical: str | None = None
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         if self.kind not in KIND_UNITS:
             raise ValueError(f"Field {self.name!r}: unknown kind {self.kind!r}; one of {sorted(KIND_UNITS)}")
         if self.unit is not None and (self.kind not in KINDS or self.unit not in KINDS[self.kind][0]):
@@ -150,7 +150,7 @@ class Field:
     def internal_unit(self) -> str:
         return KIND_UNITS[self.kind][0]
 
-    def convert(self, value, where: str, param: str | None = None) -> Any:
+    def convert(self, value: Any, where: str, param: str | None = None) -> Any:
         """Check and convert a TOML value; ``where`` is the key path for messages (``"[pinion] z"``).
 
         Raises
@@ -282,7 +282,7 @@ class Section:
     moved: tuple = ()
     moved_hint: Callable[[dict], str] | None = None
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         names = [f.name for f in self.fields] + [s.name for s in self.subsections]
         if len(set(names)) != len(names):
             raise ValueError(f"Section {self.name!r}: duplicate keys in {names}")
@@ -291,7 +291,7 @@ class Section:
     def keys(self) -> list[str]:
         return [f.name for f in self.fields] + [s.name for s in self.subsections]
 
-    def parse(self, table, path: str, errors: list, homes: dict | None = None) -> tuple[dict, set[str]]:
+    def parse(self, table: Any, path: str, errors: list, homes: dict | None = None) -> tuple[dict, set[str]]:
         """Convert a TOML table. Returns (values, keys given); problems are appended to ``errors``
         as :class:`~gearopt.errors.SceneError` (message without the file name; ``param`` the
         ``[section] key`` or ``[section]``, ``value`` as written, ``valid``; see :func:`problem`).
@@ -359,7 +359,7 @@ class ToolSection(Section):
             out += [f.name for f in fs if f.name not in out]
         return out
 
-    def parse(self, table, path: str, errors: list, homes: dict | None = None) -> tuple[dict, set[str]]:
+    def parse(self, table: Any, path: str, errors: list, homes: dict | None = None) -> tuple[dict, set[str]]:
         owner, _, name = path.rpartition(".")
         at = f"[{owner}] {name}" if owner else f"[{name}]"
         kinds = ", ".join(toml_text(k) for k in self.variants)
@@ -396,7 +396,7 @@ class ToolSection(Section):
         return values, given
 
 
-def problem(text: str, param: str | None = None, value=None, valid: str | None = None,
+def problem(text: str, param: str | None = None, value: Any = None, valid: str | None = None,
             detail: str | None = None) -> SceneError:
     """One problem of a scene as the loader collects them (see :meth:`Section.parse`): a
     :class:`~gearopt.errors.SceneError` with the message ``text`` (without the file name), ``param``
@@ -406,20 +406,20 @@ def problem(text: str, param: str | None = None, value=None, valid: str | None =
     return SceneError(text, param=param, value=value, valid=valid, detail=detail)
 
 
-def type_name(value) -> str:
+def type_name(value: Any) -> str:
     return {bool: "a boolean", int: "an integer", float: "a number", str: "a string", dict: "a table",
             list: "an array", _dt.date: "a date", _dt.datetime: "a date-time", _dt.time: "a time of day"}.get(
                 type(value), type(value).__name__)
 
 
-def closest(word: str, options) -> str:
+def closest(word: str, options: Iterable[str]) -> str:
     m = difflib.get_close_matches(word, list(options), n=1, cutoff=0.6)
     if not m:
         m = [o for o in options if o.lower() == word.lower()]
     return f" Did you mean {m[0]!r}?" if m else ""
 
 
-def key_hint(key: str, keys, homes: dict) -> str:
+def key_hint(key: str, keys: Iterable[str], homes: dict) -> str:
     """Hint for an unknown ``key`` in a section with ``keys``: a known alias (``module`` -> ``m_n``),
     the section(s) where the key belongs, or the closest key by spelling."""
     target = ALIASES.get(key) or ALIASES.get(key.lower())

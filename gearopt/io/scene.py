@@ -229,7 +229,7 @@ class Scene:
             return toml_text(t[key])
         return None
 
-    def key_error(self, section: str, key: str, err, valid: str | None = None) -> SceneError:
+    def key_error(self, section: str, key: str, err: GearoptError | str, valid: str | None = None) -> SceneError:
         """A :class:`SceneError` for ``[section] key`` from an error of gear or study code (whose
         :attr:`~gearopt.errors.GearoptError.detail` follows the key and its value as written in
         the file) or from a text that follows them (``"is out of range; valid: ..."``; then
@@ -339,7 +339,7 @@ class Scene:
                           value=self.written(*loc) if loc else None, valid=getattr(err, "valid", None),
                           source=self.source)
 
-    def build(self):
+    def build(self) -> Any:
         """Build the study object (``STUDIES[study].build(self)``)."""
         from ..studies import get_study
 
@@ -409,7 +409,7 @@ def _fail(path: Path, errors: list[SceneError]):
                      **fields)
 
 
-def load_scene(path) -> Scene:
+def load_scene(path: str | Path) -> Scene:
     """Read, validate and convert a scene file.
 
     Raises

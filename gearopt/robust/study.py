@@ -22,9 +22,11 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Callable
+from pathlib import Path
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import ArgumentError, ConvergenceError, GearoptError, GeometryError, OptionError, out_of_range
 from ..meshing.misalignment import Misalignment
@@ -54,7 +56,7 @@ UNITS = {"length": "mm", "angle": "rad (inputs in the CSV: arcmin)", "deviation"
          "te": "arcsec (suffix _arcsec)", "probability": "-", "time": "s", "see": "docs/results.md"}
 
 
-def display(name: str, values):
+def display(name: str, values: ArrayLike) -> tuple[np.ndarray, str]:
     """(values in the display unit, unit): arcmin for angles, um for deviations, 1/mm settings."""
     v = np.asarray(values, float)
     if name == "torque":
@@ -218,7 +220,7 @@ class RobustResult:
                             "probability": (self.pattern_count / max(int(self.figures["ok"].sum()), 1)).tolist()},
                 "samples_csv": "samples.csv", "timing": self.timing, "warnings": list(self.warnings)}
 
-    def save_tables(self, out_dir) -> list[str]:
+    def save_tables(self, out_dir: str | Path) -> list[str]:
         """``samples.csv``: one row per sample (:meth:`table`)."""
         from pathlib import Path
 
@@ -228,7 +230,7 @@ class RobustResult:
         (Path(out_dir) / "samples.csv").write_text(text, encoding="utf-8")
         return ["samples.csv"]
 
-    def save_plots(self, out_dir, dpi: int = 120) -> list[str]:
+    def save_plots(self, out_dir: str | Path, dpi: int = 120) -> list[str]:
         """``distribution.png`` (histograms and CDFs of TE p2p and first harmonic),
         ``scatter.png`` (TE p2p against the four most influential inputs, edge contact marked),
         ``pattern.png`` (probability of each pinion flank point being in the contact pattern) and
@@ -394,7 +396,7 @@ def usable_fraction(figs: dict) -> float:
     return float(use.mean()) if use.size else 0.0
 
 
-def judge_samples(study: str, figs: dict, values: dict, progress=None) -> list[str]:
+def judge_samples(study: str, figs: dict, values: dict, progress: Callable[[str], None] | None = None) -> list[str]:
     """Refuse a study none of whose samples has results (:class:`OptionError`: the inputs' ranges in
     the CSV's units); warn (``warnings.warn``, stderr, and the returned texts for results.json) when
     fewer than :data:`FEASIBLE_WARN` of them have."""
@@ -486,7 +488,7 @@ def check_misalignment_distribution(kind: str, dist: Distribution, where: str) -
                               value=misalignment_text(kind, v), valid=valid, detail=detail)
 
 
-def sample_error(study: str, values: dict, err: Exception, index=None) -> OptionError:
+def sample_error(study: str, values: dict, err: Exception, index: int | None = None) -> OptionError:
     """An error of one sample of a study, stated for that sample: its index and the value of every
     input (in the units of the CSV), with the error's own message. ``index``: the sample (default:
     the error's ``sample`` attribute, set by :meth:`TCAKernel.limit_tables`); without one the
@@ -662,7 +664,7 @@ class MonteCarlo(_Robust):
                  "e1": e1[s:s + self.chunk], "e2": e2[s:s + self.chunk], "skip": ~self._ok_mis[s:s + self.chunk],
                  "torque": T[s:s + self.chunk], "first": s} for s in range(0, n, self.chunk)]
 
-    def run(self, progress=None, scheduler=None) -> RobustResult:
+    def run(self, progress: Callable[[str], None] | None = None, scheduler: str | None = None) -> RobustResult:
         """Sample, solve every sample's mesh cycle, reduce. ``progress``: callable(str) for
         progress lines (a progress bar is shown on stderr when given); ``scheduler``: a Dask
         scheduler address that overrides the executor."""
@@ -817,7 +819,7 @@ class DesignSweep(_Robust):
                  "ulim": ulim[s:s + self.chunk], "skip": ~self._ok_mis[s:s + self.chunk]}
                 for s in range(0, n, self.chunk)]
 
-    def run(self, progress=None, scheduler=None) -> RobustResult:
+    def run(self, progress: Callable[[str], None] | None = None, scheduler: str | None = None) -> RobustResult:
         values = self.values()
         n = len(next(iter(values.values())))
         if progress:

@@ -20,6 +20,8 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable
 
 import numpy as np
 
@@ -35,7 +37,8 @@ UNITS = {"length": "mm", "angle": "rad", "te": "arcsec (suffix _arcsec)", "setti
                           "(arcsec per arcmin for the misalignment angles, as the scene gives them)",
          "time": "s", "see": "docs/results.md"}
 
-def misalignment_cases(crossing=0.0, intersecting=0.0, dE=0.0, axial=0.0, combined=False, **more) -> dict:
+def misalignment_cases(crossing: float = 0.0, intersecting: float = 0.0, dE: float = 0.0, axial: float = 0.0,
+                       combined: bool = False, **more: float) -> dict:
     """The aligned drive plus +-each given misalignment (and their combination); every kind of
     :class:`Misalignment` may be given by name (values in mm or rad)."""
     values = {"crossing": crossing, "intersecting": intersecting, "dE": dE, "axial": axial, **more}
@@ -66,7 +69,7 @@ class CrowningReport:
         return {"study": "crowning", "scene": self.scene, "units": UNITS, "design": self.design,
                 "before": self.before, "after": self.after, "timing": self.timing}
 
-    def save_plots(self, out_dir, dpi: int = 120) -> list[str]:
+    def save_plots(self, out_dir: str | Path, dpi: int = 120) -> list[str]:
         import matplotlib.pyplot as plt
         from pathlib import Path
 
@@ -90,11 +93,12 @@ class CrowningReport:
 
 
 class CrowningStudy:
-    def __init__(self, pair: GearPair, target: CrowningTarget, cases: dict, positions=41, quiet=True, name="crowning"):
+    def __init__(self, pair: GearPair, target: CrowningTarget, cases: dict, positions: int = 41, quiet: bool = True,
+                 name: str = "crowning") -> None:
         self.pair, self.target, self.cases, self.quiet, self.name = pair, target, cases, quiet, name
         self.optimizer = CrowningOptimizer(pair, target, cases=cases, positions=positions)
 
-    def run(self, progress=None) -> CrowningReport:
+    def run(self, progress: Callable[[str], None] | None = None) -> CrowningReport:
         t0 = time.perf_counter()
         z1 = self.pair.pinion.z
         pitch = 2 * math.pi / z1

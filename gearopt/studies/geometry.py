@@ -15,7 +15,8 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Callable
+from pathlib import Path
 
 import numpy as np
 
@@ -56,7 +57,7 @@ class GeometryReport:
                 "members": self.members, "profiles": self.profiles, "rack_cutter": self.rack,
                 "timing": self.timing}
 
-    def save_plots(self, out_dir, dpi: int = 120) -> list[str]:
+    def save_plots(self, out_dir: str | Path, dpi: int = 120) -> list[str]:
         """Write ``profiles.png``, ``pair_mesh.png`` and ``rack_mesh.png`` into ``out_dir``."""
         import matplotlib.pyplot as plt
         from pathlib import Path
@@ -132,7 +133,7 @@ class GeometryStudy:
         self.generation = {k: t.method for k, t in self.teeth.items()}
         self.build_time = time.perf_counter() - t0
 
-    def run(self, progress=None) -> GeometryReport:
+    def run(self, progress: Callable[[str], None] | None = None) -> GeometryReport:
         t0 = time.perf_counter()
         pair = self.pair
         a, aw = pair.a_w, pair.alpha_wt

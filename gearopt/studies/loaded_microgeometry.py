@@ -40,7 +40,7 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Sequence
+from typing import TYPE_CHECKING, Any, Callable, Sequence
 
 import numpy as np
 
@@ -52,6 +52,8 @@ if TYPE_CHECKING:  # pragma: no cover
     from ..gears import GearPair
     from ..ltca.compliance import Material
     from ..settings import LoadedMicroSettings
+    from ..synthesis.loaded import LoadedMicroOptimizer
+    from ..synthesis.loaded.results import MicroDesign
 
 UNITS = {"amounts": "um (suffix _um)", "te": "arcsec (suffix _arcsec)", "pressure": "MPa", "torque": "N m",
          "angle": "rad", "length": "mm", "time": "s", "see": "docs/results.md"}
@@ -78,7 +80,7 @@ class LoadedMicroReport:
             out["pareto"] = self.pareto
         return out
 
-    def save_plots(self, out_dir, dpi: int = 120) -> list[str]:
+    def save_plots(self, out_dir: str | Path, dpi: int = 120) -> list[str]:
         """``loaded_micro_te.png`` (loaded TE over the mesh cycle at every torque, before and after, in
         the aligned case; TE peak-to-peak against torque for every case), ``loaded_micro_pattern.png``
         (loaded contact pattern on the pinion flank at the nominal torque, before and after),
@@ -141,7 +143,7 @@ class LoadedMicroReport:
             files.append(save("loaded_micro_unloaded_te.png", fig, "unloaded TE against its target parabola"))
         return files
 
-    def save_tables(self, out_dir) -> list[str]:
+    def save_tables(self, out_dir: str | Path) -> list[str]:
         """``loaded_microgeometry.csv``: per case and torque the loaded TE peak-to-peak, peak pressure and
         edge-load share before and after (verification grid)."""
         des = self.design
@@ -191,7 +193,7 @@ class LoadedMicroStudy:
         self.optimizer = LoadedMicroOptimizer(pair, free, torques, cases=list(cases.values()), weights=w,
                                               settings=settings, material=material, **options)
 
-    def run(self, progress=None) -> LoadedMicroReport:
+    def run(self, progress: Callable[[str], None] | None = None) -> LoadedMicroReport:
         from ..report import misalignment_dict
 
         t0 = time.perf_counter()
@@ -250,7 +252,7 @@ class LoadedMicroStudy:
                                  timing={"run_s": time.perf_counter() - t0, "optimise_s": d.time})
 
 
-def unloaded_te_dict(opt, d, names) -> dict:
+def unloaded_te_dict(opt: LoadedMicroOptimizer, d: MicroDesign, names: Sequence[str]) -> dict:
     """``design.unloaded_te`` of results.json: the target (level [arcsec], weight, the pinion's z1)
     and per case, before and after (verification grid), the unloaded TE of the pair centred on each
     position [arcsec] at its angle over pi/z1 (``psi``), the fitted line (c0, c1 [arcsec]) and the RMS
@@ -264,7 +266,7 @@ def unloaded_te_dict(opt, d, names) -> dict:
             "cases": [{"name": n, "before": one(d.before, c), "after": one(d.after, c)} for c, n in enumerate(names)]}
 
 
-def sensitivity_dict(opt, S: dict) -> dict:
+def sensitivity_dict(opt: LoadedMicroOptimizer, S: dict) -> dict:
     """:meth:`LoadedMicroOptimizer.sensitivities` in the results' units: per N m of each torque, per
     arcmin (angles) or per mm (lengths) of a misalignment added to every case; amounts in um."""
     from ..meshing.misalignment import Misalignment

@@ -29,7 +29,7 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from typing import TYPE_CHECKING, Any, Sequence
+from typing import TYPE_CHECKING, Any, Callable, Sequence
 
 import numpy as np
 
@@ -40,6 +40,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from ..ltca.compliance import Material
     from ..meshing.misalignment import Misalignment
     from ..settings import LTCAStudySettings
+    from matplotlib.figure import Figure
 
 UNITS = {"length": "mm", "angle": "rad", "phi1": "rad", "torque": "N m", "force": "N", "pressure": "MPa",
          "te": "arcsec (suffix _arcsec); positive: the gear ahead of its conjugate position",
@@ -68,7 +69,7 @@ class LTCAReport:
         out["timing"] = self.timing
         return out
 
-    def save_plots(self, out_dir, dpi: int = 120) -> list[str]:
+    def save_plots(self, out_dir: str | Path, dpi: int = 120) -> list[str]:
         """``ltca_te.png`` (loaded TE at every torque; TE against torque; harmonics),
         ``ltca_sharing.png`` (load sharing, mesh stiffness, load across the face) and
         ``ltca_pattern.png`` (loaded contact pattern on both flanks at the nominal torque)."""
@@ -112,7 +113,7 @@ class LTCAReport:
         files.append(save("ltca_pattern.png", fig, "loaded contact pattern, largest pressure over the mesh cycle"))
         return files
 
-    def save_tables(self, out_dir) -> list[str]:
+    def save_tables(self, out_dir: str | Path) -> list[str]:
         """``ltca_positions.csv``: per torque and position the loaded and unloaded TE, mesh
         stiffness, peak flank pressure, the tip edges' load share and every pair's load share; ``ltca_te_vs_torque.csv``."""
         d = self.to_dict()
@@ -189,7 +190,7 @@ class LTCAStudy:
         return {"pinion": {"b": self.pair.pinion.b, "r_a": self.pair.pinion.r_a, "r_form": t.form_radius(1)},
                 "gear": {"b": self.pair.gear.b, "r_a": self.pair.gear.r_a, "r_form": t.form_radius(2)}}
 
-    def run(self, progress=None) -> LTCAReport:
+    def run(self, progress: Callable[[str], None] | None = None) -> LTCAReport:
         from ..ltca.compliance import iso6336_stiffness
         from ..report import misalignment_dict
 
@@ -263,7 +264,7 @@ def _from_scene(scene) -> LTCAStudy:
         raise scene.study_error("ltca", e) from e
 
 
-def check_torques(v):
+def check_torques(v: list[float]) -> str | None:
     """Scene check of a torque list: every torque > 0, strictly increasing (None when fine)."""
     if any(not t > 0 for t in v):
         return "every torque > 0 N m"
@@ -292,7 +293,7 @@ def material_fields() -> list:
                   doc="Poisson's ratio")]
 
 
-def save_figure(out: Path, scene: str, name: str, fig, title: str, dpi: int) -> str:
+def save_figure(out: Path, scene: str, name: str, fig: Figure, title: str, dpi: int) -> str:
     """Title ``fig`` with the scene, write it as ``out/name`` and close it; returns ``name``."""
     import matplotlib.pyplot as plt
 

@@ -24,7 +24,8 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
-from typing import Any, Sequence
+from typing import Any, Callable, Sequence
+from pathlib import Path
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -59,7 +60,7 @@ class PlanarTCAReport:
                 "profiles": self.profiles, "notes": list(self.notes),
                 "timing": {**d["timing"], **self.timing}}
 
-    def save_plots(self, out_dir, dpi: int = 120) -> list[str]:
+    def save_plots(self, out_dir: str | Path, dpi: int = 120) -> list[str]:
         """Write ``line_of_action.png`` (Fig. 9.4.5) and ``transmission_error.png`` into ``out_dir``."""
         from pathlib import Path
 
@@ -123,7 +124,7 @@ class PlanarTCAStudy:
         self.name, self.notes = name, list(notes)
         self.build_time = time.perf_counter() - t0
 
-    def run(self, progress=None) -> PlanarTCAReport:
+    def run(self, progress: Callable[[str], None] | None = None) -> PlanarTCAReport:
         t0 = time.perf_counter()
         if progress:
             progress(f"planar_tca: solving {self.phi1.size} positions ({self.method})")

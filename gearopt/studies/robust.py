@@ -31,7 +31,12 @@ Results: ``results.json`` (statistics, ranked sensitivities, the pattern probabi
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from ..robust.study import UNITS  # noqa: F401 (the units of results.json, owned by the result)
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..schema import Section
 
 SCHEDULER_NOTE = "run it with `gearopt run SCENE --scheduler tcp://HOST:PORT` for a Dask cluster"
 

@@ -26,7 +26,8 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any, Callable
+from pathlib import Path
 
 import numpy as np
 
@@ -37,6 +38,9 @@ from ..report import CONJUGATE_ARCSEC, te_harmonics  # noqa: F401 - re-exported 
 from ..geometry.microgeometry import GLOBAL_AMOUNTS
 from ..settings import TCAStudySettings
 from ..units import ARCMIN, DEG
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..io.scene import Scene
 
 UNITS = {"length": "mm (suffix _mm where a key could be read otherwise)", "angle": "rad", "phi1": "rad",
          "te": "arcsec (suffix _arcsec); positive: the gear is ahead of its conjugate position",
@@ -74,7 +78,7 @@ class TCAReport:
             out["inspection"] = self.inspection
         return out
 
-    def save_plots(self, out_dir, dpi: int = 120) -> list[str]:
+    def save_plots(self, out_dir: str | Path, dpi: int = 120) -> list[str]:
         """``te.png`` (TE per pair and envelope, every case), ``bearing_contact.png`` (paths of
         contact with contact ellipses on both flanks, every case) and, with several cases,
         ``compare.png`` (their actual TE and gear-flank paths overlaid)."""
@@ -135,7 +139,7 @@ class TCAReport:
             files.append(save("k_charts.png", fig, "profile and lead charts (ISO 1328-1, evaluated from the flanks)"))
         return files
 
-    def save_tables(self, out_dir) -> list[str]:
+    def save_tables(self, out_dir: str | Path) -> list[str]:
         """One CSV per case, ``te_path_<case>.csv``: per pinion angle the actual TE, the driving pair,
         every pair's TE and the central pair's path of contact (see docs/results.md)."""
         from pathlib import Path
@@ -273,7 +277,7 @@ class TCAStudy:
                            "r_form": t.form_radius(1)},
                 "gear": {"b": self.pair.gear.b, "r_a": self.pair.gear.r_a, "r_form": t.form_radius(2)}}
 
-    def run(self, progress=None) -> TCAReport:
+    def run(self, progress: Callable[[str], None] | None = None) -> TCAReport:
         t0 = time.perf_counter()
         z1 = self.pair.pinion.z
         # Two mesh cycles centred on the pitch point, so that the transfers between pairs show.
@@ -315,7 +319,7 @@ class TCAStudy:
                          timing={"build_s": self.tca.build_time, "run_s": time.perf_counter() - t0},
                          inspection=inspection)
 
-    def inspection(self, progress=None) -> dict:
+    def inspection(self, progress: Callable[[str], None] | None = None) -> dict:
         """Per inspected member and flank: the deviation grid over the active profile and the face
         (:func:`gearopt.geometry.inspection.inspect_flank`, ``grid``), its chart values in um
         (``charts_um``: ISO 1328-1 F, f_f, f_H, C of profile and lead, S_alpha) and its CSV name."""
@@ -363,7 +367,7 @@ class TCAStudy:
 
 
 # --- scene binding ------------------------------------------------------------------------------
-def check_misalignment_keys(scene, section: str, o: dict, signs=(1,)) -> None:
+def check_misalignment_keys(scene: Scene, section: str, o: dict, signs: tuple[int, ...] = (1,)) -> None:
     """Refuse, before running, misalignments that make the study meaningless
     (:meth:`Misalignment.check`: a centre distance change dE that jams the teeth (a + dE < a_0, the
     rule of [pair] a) or separates them (contact ratio < 1), an axial displacement beyond the
