@@ -33,13 +33,13 @@ from typing import Any, Callable, ClassVar, TypeVar
 
 import numpy as np
 
-from .errors import ArgumentError, OptionError, out_of_range
+from .errors import ArgumentError, GearoptError, GeometryError, OptionError, check_number, out_of_range
 from .schema import Bounds, Field, Section, closest, format_field, toml_text
 from .units import KINDS
 
 __all__ = ["Option", "option", "Settings", "Bounds", "E_RANGE", "check_modulus", "LoadedMicroSettings", "LTCASettings",
            "LTCAStudySettings", "RobustSettings", "MonteCarloSettings", "SweepSettings", "ContactSettings",
-           "TCAStudySettings", "GeometryStudySettings", "PlanarTCASettings"]
+           "TCAStudySettings", "GeometryStudySettings", "PlanarTCASettings", "CrowningTarget", "CrowningStudySettings"]
 
 S = TypeVar("S", bound="Settings")
 
@@ -107,13 +107,23 @@ class Option:
                 text = "an integer, " + text
         return text + (" (or None)" if optional else "")
 
-    def validate(self, name: str, value: Any, optional: bool) -> Any:
-        """``value`` checked and normalised (int, float, tuple of floats); raises :class:`OptionError`."""
+    def validate(self, name: str, value: Any, optional: bool, param: str | None = None,
+                 error: type[GearoptError] = OptionError) -> Any:
+        """``value`` checked and normalised (int, float, tuple of floats).
+
+        Raises
+        ------
+        OptionError (or ``error``)
+            Named ``param`` (default ``name``), with the value and the valid range.
+        ArgumentError
+            A text or another non-number for a number (the API takes numbers in mm and rad).
+        """
         if value is None and optional:
             return None
+        param = name if param is None else param
 
-        def bad(shown: Any = value) -> OptionError:
-            return out_of_range(name, shown, self.valid_text(name, optional), cls=OptionError)
+        def bad(shown: Any = value) -> GearoptError:
+            return out_of_range(param, shown, self.valid_text(name, optional), cls=error)
 
         k = self.kind
         if k == "int":
@@ -136,6 +146,8 @@ class Option:
                 raise bad()
             value = tuple(float(v) for v in arr)
         else:  # float and the quantities
+            if isinstance(value, str):  # "8 arcsec": units in strings are for scenes
+                check_number(param, value, self.valid_text(name, optional))
             if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)) \
                     or not math.isfinite(value):
                 raise bad()
@@ -215,6 +227,10 @@ class Settings:
 
     #: The scene section's name (for :meth:`markdown` and :meth:`section`).
     SECTION: ClassVar[str] = ""
+    #: What the errors name a field ``x``: ``PARAM + "x"`` (``"target."`` for a target's fields).
+    PARAM: ClassVar[str] = ""
+    #: The class of the range errors (:class:`OptionError` for options; GeometryError for gear data).
+    ERROR: ClassVar[type[GearoptError]] = OptionError
 
     def __init_subclass__(cls, **kw: Any) -> None:
         super().__init_subclass__(**kw)
@@ -224,12 +240,27 @@ class Settings:
             meta = f.metadata.get("option")
             if meta is None:
                 continue
-            value = meta.validate(f.name, getattr(self, f.name), optional=meta.none)
+            value = meta.validate(f.name, getattr(self, f.name), optional=meta.none, param=self.PARAM + f.name,
+                                  error=self.ERROR)
             object.__setattr__(self, f.name, value)
         self.validate()
 
     def validate(self) -> None:
         """Checks of several options together (raise :class:`OptionError`); none by default."""
+
+    @classmethod
+    def check(cls, name: str, value: Any) -> Any:
+        """The option ``name`` checked and normalised alone (for an API that takes it as an argument)."""
+        meta = cls.options()[name][0]
+        return meta.validate(name, value, optional=meta.none, param=cls.PARAM + name, error=cls.ERROR)
+
+    @classmethod
+    def field_of(cls, name: str, **changes: Any) -> Any:
+        """A dataclass field with the default and metadata of the option ``name`` (the same option in
+        another option set: ``delta: float = ContactSettings.field_of("delta", key="")``); ``changes``
+        replace attributes of its :class:`Option` (``key``, ``doc``: how the other set shows it)."""
+        meta, default = cls.options()[name]
+        return dataclasses.field(default=default, metadata={"option": dataclasses.replace(meta, **changes)})
 
     # -- the declarations --------------------------------------------------------------------
     @classmethod
@@ -505,6 +536,65 @@ class ContactSettings(Settings):
 
     delta: float = option(0.00632, kind="length", bounds=Bounds(lo=0, lo_open=True, hi=0.1),
                           doc="elastic approach for the contact ellipse")
+
+
+@dataclass(frozen=True)
+class CrowningTarget(Settings):
+    """What the optimized drive must do (:class:`~gearopt.synthesis.crowning.CrowningOptimizer`); the
+    ``[crowning]`` keys of the same names.
+
+    Parameters
+    ----------
+    te_level : float
+        Predesigned TE level [rad]: the parabola's drop from its apex to the transfer points
+        ``pi/z1`` away (e.g. ``8 * ARCSEC``).
+    ellipse_share : float
+        Minimum major axis of the contact ellipse at the mean point of the aligned drive, as a share
+        of the face width (0 = no constraint).
+    edge_margin : float
+        Distance [mm] the contact points at the transfer points keep from the face ends.
+    tip_margin : float
+        Radial distance [mm] they keep from the tip and form circles.
+    level_tolerance : float
+        Accepted relative deviation of every case's verified TE level from ``te_level``; a design
+        outside it is refused with the binding constraints named (the constraints won).
+    delta : float
+        Elastic approach for the contact ellipse [mm].
+    objective : {"sum", "worst"}
+        Misfit summed over the cases, or the worst case (epigraph form).
+
+    Errors name the field ``target.<name>`` and are :class:`~gearopt.errors.GeometryError` (a text
+    for a number: :class:`~gearopt.errors.ArgumentError`, a subclass).
+    """
+
+    SECTION: ClassVar[str] = "crowning"
+    PARAM: ClassVar[str] = "target."
+    ERROR: ClassVar[type[GearoptError]] = GeometryError
+
+    te_level: float = option(kind="angle", typical="arcsec", bounds=Bounds(lo=0, lo_open=True, hi=600 / 3600),
+                             doc="predesigned TE level (e.g. \"8 arcsec\")")
+    ellipse_share: float = option(0.0, kind="float", bounds=Bounds(lo=0, hi=1, hi_open=True),
+                                  doc="min contact-ellipse major axis / face width at the mean point")
+    edge_margin: float = option(0.0, kind="length", bounds=Bounds(lo=0, hi=10, hi_open=True),
+                                doc="margin of the transfer contact points from the face ends")
+    tip_margin: float = option(0.0, kind="length", bounds=Bounds(lo=0, hi=10, hi_open=True),
+                               doc="radial margin of the transfer contact points from the tip and form circles")
+    level_tolerance: float = option(0.10, kind="float", bounds=Bounds(lo=0, hi=1, lo_open=True, hi_open=True), key="",
+                                    doc="accepted relative deviation of every case's verified TE level")
+    delta: float = ContactSettings.field_of("delta", key="")
+    objective: str = option("sum", kind="str", choices=("sum", "worst"), doc="sum of case misfits or worst case")
+
+
+@dataclass(frozen=True)
+class CrowningStudySettings(Settings):
+    """Options of the ``crowning`` study (:class:`~gearopt.studies.crowning.CrowningStudy`) besides its
+    :class:`CrowningTarget`: the NLP's positions (also the default and the check of
+    :class:`~gearopt.synthesis.crowning.CrowningOptimizer`'s ``positions``) and IPOPT's output."""
+
+    SECTION: ClassVar[str] = "crowning"
+
+    positions: int = option(41, kind="int", bounds=Bounds(lo=7, hi=401), doc="TCA positions per case in the NLP")
+    quiet: bool = option(True, kind="bool", doc="silence IPOPT's iteration output")
 
 
 @dataclass(frozen=True)
