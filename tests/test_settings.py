@@ -292,3 +292,37 @@ def test_the_adding_a_study_example_of_the_docs_runs(tmp_path, monkeypatch, caps
     finally:
         unregister("face_load")
         sys.modules.pop("face_load_study", None)
+
+
+def test_api_classes_take_their_defaults_from_the_option_sets():
+    """Each converted API class, built with no option, holds its option set's defaults; a keyword
+    replaces one field and is checked by the option set."""
+    from gearopt.gears import BasicRack, Gear, GearPair
+    from gearopt.robust.sampling import Distribution
+    from gearopt.robust.study import DesignSweep, MonteCarlo
+    from gearopt.studies.crowning import CrowningStudy, misalignment_cases
+    from gearopt.studies.geometry import GeometryStudy
+    from gearopt.studies.ltca import LTCAStudy
+    from gearopt.studies.planar_tca import PlanarTCAStudy
+    from gearopt.studies.tca import TCAStudy
+
+    rack = BasicRack.iso53("A", a_c=0.002)
+    pair = GearPair(pinion=Gear(z=21, m_n=2.0, b=14.0, a_pl=5e-4, rack=rack, name="pinion"),
+                    gear=Gear(z=47, m_n=2.0, b=14.0, name="gear"))
+    mis = {"crossing": Distribution("normal", sd=1e-4)}
+    built = [(MonteCarlo(pair, 4, misalignment=mis), MonteCarloSettings(samples=4)),
+             (DesignSweep(pair, {"mis.crossing": (-1e-3, 1e-3)}), SweepSettings()),
+             (PlanarTCAStudy(30.0, 50.0, 90.0, [0.1]), PlanarTCASettings()),
+             (TCAStudy(pair), TCAStudySettings()),
+             (GeometryStudy(pair), GeometryStudySettings()),
+             (LTCAStudy(pair, 50.0), LTCAStudySettings()),
+             (CrowningStudy(pair, CrowningTarget(te_level=3e-5), misalignment_cases(crossing=3e-4)),
+              CrowningStudySettings())]
+    for obj, settings in built:
+        assert obj.settings == settings, type(obj).__name__
+    assert SweepSettings().samples == 64 and DesignSweep(pair, {"mis.crossing": (-1e-3, 1e-3)}).values()[
+        "mis.crossing"].size == 64
+    with pytest.raises(OptionError, match=r"positions = 8 is out of range; valid: an integer, 9 <= positions <= 5000"):
+        TCAStudy(pair, positions=8)
+    with pytest.raises(OptionError, match=r"levels = 1 is out of range; valid: an integer, 2 <= levels <= 101"):
+        DesignSweep(pair, {"mis.crossing": (-1e-3, 1e-3)}, levels=1)
