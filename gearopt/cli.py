@@ -205,10 +205,10 @@ def _studies(name: str | None = None, markdown: bool = False) -> int:
         show(s)
     if not spec.sections:
         print("  (no extra sections)")
-    for cls in spec.settings:  # the option sets: where the keys are declared, their names in the API
-        renamed = [f"{f'{o.group}.' if o.group else ''}{o.key} = {n}" for n, (o, _) in cls.options().items()
-                   if o.key]
-        print(f"\n(options declared by {cls.__module__}.{cls.__name__}"
+    if spec.settings:  # the option sets: where the keys are declared, and their names in the API
+        renamed = [f"{f'{o.group}.' if o.group else ''}{o.key} = {n}" for cls in spec.settings
+                   for n, (o, _) in cls.options().items() if o.key]
+        print(f"\n(options declared by {', '.join(f'{c.__module__}.{c.__name__}' for c in spec.settings)}"
               + (f"; API keywords: {', '.join(renamed)}" if renamed else "") + ")")
     print("\ngearopt studies common for the sections of every scene.")
     return 0

@@ -1,15 +1,19 @@
 """Registry of studies: what a scene's ``[scene] study = "..."`` may name.
 
 A study module describes the extra scene sections it reads and how to build itself, and registers
-on import::
+on import. Its options are declared once, by an option set of :mod:`gearopt.settings` (a frozen
+dataclass: kind and unit, default, range and doc per field), from which the section is generated;
+keys that are data rather than options are :class:`~gearopt.schema.Field` objects placed in the
+section's layout (docs/extending.md, "Adding a study")::
 
-    from gearopt.io.schema import Field, Section
+    from gearopt.settings import GeometryStudySettings
     from gearopt.studies import StudySpec, register
 
     register(StudySpec(
         name="geometry",
-        sections=[Section("geometry", [Field("n_profile", "int", default=60, doc="points per profile")])],
-        build=GeometryStudy.from_scene,     # callable(scene) -> object with .run() -> result
+        sections=[GeometryStudySettings.section("geometry")],
+        settings=(GeometryStudySettings,),
+        build=_from_scene,                  # callable(scene) -> object with .run() -> result
         doc="Tooth geometry of both members",
     ))
 
@@ -34,7 +38,6 @@ from typing import TYPE_CHECKING, Any, Callable
 
 if TYPE_CHECKING:  # pragma: no cover
     from gearopt.io.scene import Scene
-    from gearopt.io.schema import Section
 
 #: Study modules shipped with gearopt (imported lazily by :func:`_load_builtin`).
 BUILTIN_MODULES = ("gearopt.studies.geometry", "gearopt.studies.planar_tca", "gearopt.studies.tca",
