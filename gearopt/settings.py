@@ -34,7 +34,7 @@ from typing import Any, Callable, ClassVar, TypeVar
 import numpy as np
 
 from .errors import ArgumentError, GearoptError, GeometryError, OptionError, check_number, out_of_range
-from .schema import Bounds, Field, Section, closest, format_field, toml_text
+from .schema import KIND_UNITS, Bounds, Field, Section, closest, format_field, toml_text
 from .units import KINDS
 
 __all__ = ["Option", "option", "Settings", "Bounds", "E_RANGE", "check_modulus", "LoadedMicroSettings", "LTCASettings",
@@ -79,15 +79,18 @@ class Option:
                      choices=self.choices, check=self.bounds if self.bounds is not None else self.check,
                      unit=self.unit, bare=self.bare, typical=self.typical)
 
+    @property
+    def scene_unit(self) -> str:
+        """The unit of a bare number in a scene (mm, deg, 1/mm, :attr:`unit`; '' for plain numbers)."""
+        return self.unit or KIND_UNITS[self.kind][1]
+
     def display(self, name: str) -> tuple[float, str]:
         """(factor, unit): an internal value times ``factor`` is in ``unit``, the unit of the messages
         (the typical unit of an angle, else its scene unit, else :attr:`label`)."""
         if self.kind not in KINDS:
             return 1.0, self.label
-        table, _ = KINDS[self.kind]
-        scene = self.unit or {"length": "mm", "angle": "deg", "inverse_length": "1/mm"}[self.kind]
-        unit = self.typical or scene
-        return 1.0 / table[unit], unit
+        unit = self.typical or self.scene_unit
+        return 1.0 / KINDS[self.kind][0][unit], unit
 
     def valid_text(self, name: str, optional: bool) -> str:
         """The valid range as the API's messages state it."""
@@ -98,9 +101,8 @@ class Option:
         else:
             k, unit = self.display(name)
             b = self.bounds
-            if b is not None and self.kind in KINDS:
-                scene_to_display = k * KINDS[self.kind][0][self.unit or {"length": "mm", "angle": "deg",
-                                                                         "inverse_length": "1/mm"}[self.kind]]
+            if b is not None and self.kind in KINDS:  # bounds in the scene unit, the message in its own
+                scene_to_display = k * KINDS[self.kind][0][self.scene_unit]
                 b = Bounds(*(None if v is None else v * scene_to_display for v in (b.lo, b.hi)), b.lo_open, b.hi_open)
             text = b.text(name, unit) if b is not None else _KIND_TEXT.get(self.kind, f"a {self.kind} [{unit}]")
             if self.kind == "int" and b is not None:
@@ -116,7 +118,7 @@ class Option:
         OptionError (or ``error``)
             Named ``param`` (default ``name``), with the value and the valid range.
         ArgumentError
-            A text or another non-number for a number (the API takes numbers in mm and rad).
+            A text for a number (the API takes numbers in mm and rad; units in texts are for scenes).
         """
         if value is None and optional:
             return None
@@ -156,8 +158,7 @@ class Option:
             raise bad()
         if self.bounds is not None:
             f, unit = self.display(name)
-            scene = value if k not in KINDS else value / KINDS[k][0][self.unit or {
-                "length": "mm", "angle": "deg", "inverse_length": "1/mm"}[k]]
+            scene = value if k not in KINDS else value / KINDS[k][0][self.scene_unit]
             if not self.bounds.ok(scene):
                 raise bad(f"{value * f:.6g} {unit}" if k in KINDS and k != "length" else value)
         if self.check is not None:
