@@ -198,8 +198,8 @@ def option(default: Any = MISSING, *, kind: str, doc: str, bounds: Bounds | None
     label : str
         The unit of a plain number in messages and docs (``"MPa"``, ``"N m"``).
     shown : str or None
-        The default as a scene writes it (``"0.5 um"``); :class:`Settings` checks at class creation
-        that it converts to ``default`` exactly.
+        The default as a scene writes it (``"0.5 um"``); :meth:`Settings.scene_field` checks that it
+        loads as ``default`` exactly (tests/test_settings.py builds every section).
     typical, bare
         As :class:`~gearopt.schema.Field`.
     valid : str or None
@@ -232,9 +232,6 @@ class Settings:
     PARAM: ClassVar[str] = ""
     #: The class of the range errors (:class:`OptionError` for options; GeometryError for gear data).
     ERROR: ClassVar[type[GearoptError]] = OptionError
-
-    def __init_subclass__(cls, **kw: Any) -> None:
-        super().__init_subclass__(**kw)
 
     def __post_init__(self) -> None:
         for f in dataclasses.fields(self):
