@@ -15,10 +15,11 @@ import pytest
 
 from gearopt.errors import ArgumentError, OptionError, SceneError
 from gearopt.schema import Bounds, Field
-from gearopt.settings import (LoadedMicroSettings, LTCASettings, LTCAStudySettings, MonteCarloSettings, Settings,
-                              SweepSettings, TCAStudySettings, GeometryStudySettings, PlanarTCASettings,
-                              CrowningTarget, CrowningStudySettings, option)
+from gearopt.settings import (CrowningStudySettings, CrowningTarget, GeometryStudySettings, LoadedMicroSettings,
+                              LTCASettings, LTCAStudySettings, MonteCarloSettings, PlanarTCASettings, Settings,
+                              SweepSettings, TCAStudySettings, option)
 from gearopt.studies import markdown_tables, studies
+from gearopt.units import ARCSEC
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -117,11 +118,12 @@ def test_api_and_scene_refuse_the_same_value_naming_the_same_range(study, cls, n
         assert repr(c) in api_err.value.valid and f'"{c}"' in scene_err.value.valid
 
 
-def test_te_level_range_is_the_same_in_arcsec(scene_file):
-    """The unloaded-TE level through the API (rad, shown in arcsec) and a scene ("700 arcsec")."""
+def test_te_level_range_through_the_api_and_a_scene():
+    """The unloaded-TE level through the API (rad, shown in arcsec) and a scene ("700 arcsec", its
+    range in the scene unit as every scene key states it)."""
     with pytest.raises(OptionError, match=r"te_level = '700 arcsec' is out of range; valid: 0 < te_level <= 600 "
                                           r"arcsec \(or None\)"):
-        LoadedMicroSettings(te_level=700 / 206264.80624709636)
+        LoadedMicroSettings(te_level=700 * ARCSEC)
     f = LoadedMicroSettings.scene_field("te_level")
     with pytest.raises(SceneError, match=r"valid: 0 < level <= 0\.166667 deg"):
         f.convert("700 arcsec", "[loaded_microgeometry.unloaded_te] level")
