@@ -12,6 +12,7 @@
     gearopt check SCENE.toml                       validate a scene (and build its study), write nothing
     gearopt studies [NAME]                         list the studies, one line each; with NAME (a study
                                                    or "common"), the keys of its scene sections
+    gearopt studies --markdown                     the tables of the studies' options (docs/scenes.md)
 
 Errors in the input (any :class:`~gearopt.errors.GearoptError`) print ``error: <message>`` to
 stderr and exit with status 2, without a traceback; anything else is a bug and propagates.
@@ -52,6 +53,8 @@ def _parser() -> argparse.ArgumentParser:
                         "scene sections")
     st.add_argument("name", nargs="?", default=None, metavar="NAME",
                     help="a study (e.g. tca) or 'common' (the sections of every scene): list its keys")
+    st.add_argument("--markdown", action="store_true",
+                    help="print the markdown tables of the studies' options (those of docs/scenes.md)")
     return p
 
 
@@ -63,7 +66,7 @@ def main(argv: list[str] | None = None) -> int:
             return _run(args)
         if args.command == "check":
             return _check(args)
-        return _studies(args.name)
+        return _studies(args.name, markdown=args.markdown)
     except GearoptError as e:
         print(f"error: {e}", file=sys.stderr)
         return EXIT_USAGE
@@ -149,9 +152,13 @@ def _check(args) -> int:
     return 0
 
 
-def _studies(name: str | None = None) -> int:
+def _studies(name: str | None = None, markdown: bool = False) -> int:
     from .io.scene import COMMON_SECTIONS, format_field
-    from .studies import broken_modules, studies
+    from .studies import broken_modules, markdown_tables, studies
+
+    if markdown:
+        print(markdown_tables(), end="")
+        return 0
 
     def show(section, indent="  ", prefix=""):
         req = " (required)" if section.required else ""
@@ -198,5 +205,10 @@ def _studies(name: str | None = None) -> int:
         show(s)
     if not spec.sections:
         print("  (no extra sections)")
+    if spec.settings:  # the option sets: where the keys are declared, and their names in the API
+        renamed = [f"{f'{o.group}.' if o.group else ''}{o.key} = {n}" for cls in spec.settings
+                   for n, (o, _) in cls.options().items() if o.key]
+        print(f"\n(options declared by {', '.join(f'{c.__module__}.{c.__name__}' for c in spec.settings)}"
+              + (f"; API keywords: {', '.join(renamed)}" if renamed else "") + ")")
     print("\ngearopt studies common for the sections of every scene.")
     return 0

@@ -34,11 +34,14 @@ import os
 import shutil
 import tempfile
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, Callable
 
 from ..errors import ArgumentError, ResultsError, shorten
 from ..progress import heartbeat
 from ..version import __version__
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .scene import Scene
 
 __all__ = ["write_results", "check_out_dir", "install_output", "output_files", "RESULTS_FILE", "MANIFEST"]
 
@@ -75,7 +78,7 @@ def _find_nonfinite(obj, path="") -> str | None:
     return None
 
 
-def output_files(out_dir) -> list[str] | None:
+def output_files(out_dir: str | Path) -> list[str] | None:
     """The files a previous gearopt run wrote into ``out_dir``, from its :data:`MANIFEST`.
 
     Returns
@@ -126,7 +129,7 @@ def _refuse_foreign(out: Path, found: list[str]) -> ResultsError:
                         valid="a new or empty directory, or a previous gearopt output")
 
 
-def check_out_dir(out_dir, scene_file=None) -> Path:
+def check_out_dir(out_dir: str | Path, scene_file: str | Path | None = None) -> Path:
     """Check, before anything runs, that ``out_dir`` can become the results directory.
 
     Refused (:class:`~gearopt.errors.ResultsError`), nothing written: the empty path; an existing file
@@ -191,8 +194,9 @@ def check_out_dir(out_dir, scene_file=None) -> Path:
     return out
 
 
-def write_results(out_dir, result, *, scene=None, run_time: float | None = None, plots: bool | None = None,
-                  progress=None) -> list[Path]:
+def write_results(out_dir: str | Path, result: Any, *, scene: Scene | None = None, run_time: float | None = None,
+                  plots: bool | None = None,
+                  progress: Callable[[str], None] | None = None) -> list[Path]:
     """Write ``results.json`` (and the plots) of ``result`` into ``out_dir``.
 
     Parameters
@@ -335,7 +339,7 @@ def _write_manifest(out: Path, files: list[str]) -> None:
     os.replace(tmp, out / MANIFEST)
 
 
-def install_output(new, target) -> list[str]:
+def install_output(new: Path, target: Path) -> list[str]:
     """Move the files of the finished directory ``new`` into the output directory ``target``.
 
     ``target`` is created when absent (``new`` renamed to it). An existing ``target`` must be empty or

@@ -32,9 +32,9 @@ from typing import Any
 
 from ..errors import GearoptError, GeometryError, SceneError, join_detail, shorten, value_text
 from ..gears import BasicRack, Gear, GearPair
-from ..geometry.tools import TOOLS, RackCutter
-from .schema import (  # noqa: F401 - re-exported: the schema lives in gearopt.io.schema
-    ALIASES, KIND_UNITS, Bounds, Field, Section, ToolSection, _closest, _describe, _key_hint, _toml, _type, format_field,
+from ..geometry.tools import TOOL_KINDS, TOOLS, RackCutter  # noqa: F401
+from ..schema import (  # noqa: F401 - re-exported: the schema lives in gearopt.schema
+    ALIASES, KIND_UNITS, Bounds, Field, Section, ToolSection, closest, describe, key_hint, toml_text, type_name, format_field,
     problem,
 )
 
@@ -224,10 +224,10 @@ class Scene:
             else:
                 return None
         if isinstance(t, dict) and key in t:
-            return _toml(t[key])
+            return toml_text(t[key])
         return None
 
-    def key_error(self, section: str, key: str, err, valid: str | None = None) -> SceneError:
+    def key_error(self, section: str, key: str, err: GearoptError | str, valid: str | None = None) -> SceneError:
         """A :class:`SceneError` for ``[section] key`` from an error of gear or study code (whose
         :attr:`~gearopt.errors.GearoptError.detail` follows the key and its value as written in
         the file) or from a text that follows them (``"is out of range; valid: ..."``; then
@@ -329,7 +329,7 @@ class Scene:
             for sub in sec.subsections:  # e.g. [[tca.cases]]: each case as written
                 rows = (self.raw.get(sec.name) or {}).get(sub.name) if isinstance(self.raw.get(sec.name), dict) else None
                 if sub.array and isinstance(rows, list):
-                    given += [f"{sub.name}[{i}] = {{{', '.join(f'{k} = {_toml(v)}' for k, v in row.items())}}}"
+                    given += [f"{sub.name}[{i}] = {{{', '.join(f'{k} = {toml_text(v)}' for k, v in row.items())}}}"
                               for i, row in enumerate(rows) if isinstance(row, dict)]
         ctx = f" (the scene sets [{spec.sections[0].name}] {', '.join(given)})" if given and spec else ""
         return SceneError(f"{self.source}: study {self.study!r} failed{ctx}: {msg}",
@@ -337,14 +337,14 @@ class Scene:
                           value=self.written(*loc) if loc else None, valid=getattr(err, "valid", None),
                           source=self.source)
 
-    def build(self):
+    def build(self) -> Any:
         """Build the study object (``STUDIES[study].build(self)``)."""
         from ..studies import get_study
 
         spec = get_study(self.study)
         if spec is None:
-            raise SceneError(f"{self.source}: [scene] study = {_toml(self.study)} is not a registered study.",
-                             param="[scene] study", value=_toml(self.study), source=self.source)
+            raise SceneError(f"{self.source}: [scene] study = {toml_text(self.study)} is not a registered study.",
+                             param="[scene] study", value=toml_text(self.study), source=self.source)
         return spec.build(self)
 
 
@@ -407,7 +407,7 @@ def _fail(path: Path, errors: list[SceneError]):
                      **fields)
 
 
-def load_scene(path) -> Scene:
+def load_scene(path: str | Path) -> Scene:
     """Read, validate and convert a scene file.
 
     Raises
@@ -436,16 +436,16 @@ def load_scene(path) -> Scene:
         _fail(path, errors)
     bad_name = _check_name(scene_vals["name"])
     if bad_name:
-        shown, detail = _toml(scene_vals["name"]), f": {bad_name[0]}"
+        shown, detail = toml_text(scene_vals["name"]), f": {bad_name[0]}"
         _fail(path, [problem(f"[scene] name = {shown}{detail}", "[scene] name", shown, bad_name[1], detail)])
     study_name = scene_vals["study"]
     spec = get_study(study_name)
     if spec is None:
         known = sorted(studies())
         broken = "".join(f" (module {m} failed to import: {e!r})" for m, e in broken_modules().items())
-        valid = ", ".join(_toml(k) for k in known) if known else "none registered"
-        shown, detail = _toml(study_name), (f"is not a registered study; valid: {valid}."
-                                            f"{_closest(study_name, known)}{broken}")
+        valid = ", ".join(toml_text(k) for k in known) if known else "none registered"
+        shown, detail = toml_text(study_name), (f"is not a registered study; valid: {valid}."
+                                            f"{closest(study_name, known)}{broken}")
         _fail(path, [problem(f"[scene] study = {shown} {detail}", "[scene] study", shown, valid, detail)])
 
     sections = {s.name: s for s in COMMON_SECTIONS}
@@ -469,7 +469,7 @@ def load_scene(path) -> Scene:
             continue
         for sec_ in st.sections:
             for k in sec_.keys:
-                homes.setdefault(k, []).append(f"[{sec_.name}] of study {_toml(other)}")
+                homes.setdefault(k, []).append(f"[{sec_.name}] of study {toml_text(other)}")
     for key, value in data.items():
         if key in sections:
             continue
@@ -479,16 +479,16 @@ def load_scene(path) -> Scene:
             hint = (hint + (f" (as {target})" if target != key else "") + ".") if hint else ""
             detail = (f": top-level key {shorten(repr(key))} is not allowed; keys must be inside a section such as "
                       f"[scene].{hint}")
-            errors.append(problem(f"{shorten(key)} = {_toml(value)}{detail}", shorten(key), _toml(value),
+            errors.append(problem(f"{shorten(key)} = {toml_text(value)}{detail}", shorten(key), toml_text(value),
                                   "inside a section", detail))
             continue
         owner = [n for n, st in studies().items() for s in st.sections if s.name == key]
         if owner:
-            errors.append(problem(f"[{key}]: this section belongs to study {_toml(owner[0])}, but this scene's "
-                                  f"study is {_toml(study_name)}.", f"[{key}]"))
+            errors.append(problem(f"[{key}]: this section belongs to study {toml_text(owner[0])}, but this scene's "
+                                  f"study is {toml_text(study_name)}.", f"[{key}]"))
         else:
             valid = ", ".join(f"[{n}]" for n in sections)
-            errors.append(problem(f"[{shorten(key)}]: unknown section.{_closest(key, list(sections))} Valid sections: "
+            errors.append(problem(f"[{shorten(key)}]: unknown section.{closest(key, list(sections))} Valid sections: "
                                   f"{valid}.", f"[{shorten(key)}]", valid=valid))
 
     parsed: dict[str, dict] = {}
@@ -618,7 +618,7 @@ def _restate_text(section: str, key: str, written, err: GearoptError) -> str:
         if written is _MISSING:
             shown = f"{converted} (not set: the default)"
         else:
-            shown = _toml(written)
+            shown = toml_text(written)
             if not _same(converted, written):
                 shown += f" (= {converted})"
         return join_detail(f"[{section}] {key} = {shown}", detail)
@@ -629,7 +629,7 @@ def _restate(source: Path, section: str, key: str, written, err: GearoptError) -
     """:func:`_restate_text` as the SceneError of the scene file ``source``, with ``param`` the
     ``[section] key``, ``value`` as written, ``valid`` from ``err``."""
     return SceneError(f"{source}: {_restate_text(section, key, written, err)}", param=f"[{section}] {key}",
-                      value=_toml(written) if written is not _MISSING else None, valid=err.valid, source=source)
+                      value=toml_text(written) if written is not _MISSING else None, valid=err.valid, source=source)
 
 
 def _make_microgeometry(v: dict, given: set, member: str, path: Path):
@@ -676,8 +676,8 @@ def _with_measured(gear: Gear, files: dict, member: str, path: Path) -> Gear:
                                  param="# side", value=grid.side, valid=repr(side))
             check_grid_on_flank(grid, gear)
         except GearoptError as e:
-            raise SceneError(f"{path}: [{member}.measured] {side} = {_toml(name)}: {e}",
-                             param=f"[{member}.measured] {side}", value=_toml(name), valid=e.valid,
+            raise SceneError(f"{path}: [{member}.measured] {side} = {toml_text(name)}: {e}",
+                             param=f"[{member}.measured] {side}", value=toml_text(name), valid=e.valid,
                              source=path) from None
         grids.append(grid)
     mg = gear.modifications or Microgeometry()
@@ -731,8 +731,8 @@ def _build_pair(data: dict, parsed: dict, given: dict, path: Path) -> GearPair:
         try:
             tool = _make_tool(v.get("tool"))
         except GeometryError as e:
-            raise SceneError(f"{label}: [{member}] tool = {_toml(raw(member, 'tool'))}: {e}", param=f"[{member}] tool",
-                             value=_toml(raw(member, "tool")), valid=e.valid, source=path) from None
+            raise SceneError(f"{label}: [{member}] tool = {toml_text(raw(member, 'tool'))}: {e}", param=f"[{member}] tool",
+                             value=toml_text(raw(member, "tool")), valid=e.valid, source=path) from None
         mods = _make_microgeometry(v, given[member], member, path)
         try:
             members[member] = Gear(z=v["z"], m_n=m_n, x=v["x"], b=v["b"], beta=pr["beta"], hand=hands[member],
@@ -752,9 +752,9 @@ def _build_pair(data: dict, parsed: dict, given: dict, path: Path) -> GearPair:
                 rng = (f"d_a > {lo:.6g} mm (the root circle)" if hi is None else
                        f"d_a < {hi:.6g} mm (beyond it the tip is pointed)" if lo is None else
                        f"{lo:.6g} < d_a < {hi:.6g} mm")
-                raise SceneError(f"{label}: [{member}] d_a = {_toml(raw(member, 'd_a'))} is out of range (tip "
+                raise SceneError(f"{label}: [{member}] d_a = {toml_text(raw(member, 'd_a'))} is out of range (tip "
                                  f"alteration k = {k:.4g} from it); valid: {rng} for z = {v['z']}, x = {v['x']:g}, "
-                                 f"m_n = {m_n:g} mm.", param=f"[{member}] d_a", value=_toml(raw(member, "d_a")),
+                                 f"m_n = {m_n:g} mm.", param=f"[{member}] d_a", value=toml_text(raw(member, "d_a")),
                                  valid=rng, source=path) from None
             reraise(e, member, f"[{member}]")
     try:

@@ -39,6 +39,7 @@ from ..errors import ArgumentError, ConvergenceError, OptionError, check_number,
 from ..gears import GearPair
 from ..meshing.misalignment import Misalignment
 from ..meshing.tca import TCA
+from ..settings import LTCASettings
 from ..units import RAD_TO_ARCSEC
 from .compliance import (Material, ToothCompliance, body_coupling_length, face_matrix_batch,
                          weber_contact, weber_tangent)
@@ -258,6 +259,9 @@ class LTCA:
     Parameters
     ----------
     pair : GearPair
+    settings : gearopt.settings.LTCASettings, optional
+        ``side``, ``n_slices``, ``coupling``, ``compliance``, ``curvature``, ``body_coupling`` as one
+        object; keyword arguments replace its fields. Their defaults and ranges are declared there only.
     side : {"right", "left"}
         Driving flank of the pinion.
     material : Material
@@ -288,9 +292,13 @@ class LTCA:
         reliefs' starts; the loaded micro-geometry optimiser uses the surface's).
     """
 
-    def __init__(self, pair: GearPair, side: str = "right", material: Material | None = None, n_slices: int = 21,
-                 r_int=None, coupling: float | None = None, tca: TCA | None = None, compliance: str = "analytical",
-                 fe_mesh=None, curvature: str = "surface", body_coupling: float | None = None):
+    def __init__(self, pair: GearPair, settings: LTCASettings | None = None, *, material: Material | None = None,
+                 r_int=None, tca: TCA | None = None, fe_mesh=None, **options):
+        # side, n_slices, coupling, compliance, curvature, body_coupling: defaults and checks of LTCASettings
+        s = LTCASettings.of(settings, **options)
+        side, n_slices, coupling, compliance = s.side, s.n_slices, s.coupling, s.compliance
+        curvature, body_coupling = s.curvature, s.body_coupling
+        self.settings = s
         if not isinstance(pair, GearPair):
             raise ArgumentError(f"pair = {pair!r:.60}: expected a gearopt.gears.GearPair.", param="pair", value=pair,
                                 valid="a gearopt.gears.GearPair")
@@ -298,9 +306,6 @@ class LTCA:
         if not isinstance(material, Material):
             raise ArgumentError(f"material = {material!r:.60}: expected a gearopt.ltca.Material (E, nu).",
                                 param="material", value=material, valid="a Material")
-        if isinstance(n_slices, bool) or not isinstance(n_slices, (int, np.integer)) or not 3 <= n_slices <= 201:
-            raise out_of_range("n_slices", n_slices, "an integer, 3 <= n_slices <= 201 (slices across the face)",
-                               cls=OptionError)
         t0 = time.perf_counter()
         self.pair, self.material, self.n_slices = pair, material, int(n_slices)
         self.tca = tca or TCA(pair, side=side)
@@ -313,26 +318,20 @@ class LTCA:
                            for n, v in zip(("pinion", "gear"), r_int))
         self.teeth = (ToothCompliance(self.tca.pinion.unmodified, material, self.r_int[0], member="pinion"),
                       ToothCompliance(self.tca.gear.unmodified, material, self.r_int[1], member="gear"))
-        lam = 0.5 * (g1.r_a - g1.r_f) if coupling is None else check_number("coupling", coupling,
-                                                                            "coupling length [mm]", cls=OptionError)
+        lam = 0.5 * (g1.r_a - g1.r_f) if coupling is None else coupling
         if not 0.0 <= lam <= 10 * g1.b:
             raise out_of_range("coupling", lam, f"0 <= coupling <= {10 * g1.b:g} mm (10 face widths)", cls=OptionError)
         self.coupling_length = float(lam)
         if body_coupling is None:
             self.body_coupling = tuple(body_coupling_length(t) for t in self.teeth)
         else:
-            lb = check_number("body_coupling", body_coupling, "coupling length of the gear bodies [mm]", cls=OptionError)
+            lb = body_coupling
             if not 0.0 <= lb <= 100 * g1.b:
                 raise out_of_range("body_coupling", lb, f"0 <= body_coupling <= {100 * g1.b:g} mm (100 face widths)",
                                    cls=OptionError)
             self.body_coupling = (float(lb), float(lb))
         self.cos_bb = math.cos(g1.beta_b)
-        if compliance not in ("analytical", "fe"):
-            raise out_of_range("compliance", compliance, "'analytical' or 'fe' (CalculiX influence coefficients)",
-                               cls=OptionError)
         self.compliance = compliance
-        if curvature not in ("surface", "involute"):
-            raise out_of_range("curvature", curvature, "'surface' (each flank's own) or 'involute'", cls=OptionError)
         self.curvature = curvature
         self._influence = None
         self._fe_mesh = fe_mesh

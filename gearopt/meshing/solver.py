@@ -14,6 +14,7 @@ import casadi as ca
 import numpy as np
 
 from ..compiled import ColumnMap, call, compile_function, map_columns, mapped, use_compiled
+from ..settings import ContactSettings  # re-exported: declared with the other option sets (gearopt.settings)
 
 NORMAL_TOL = 1e-8  #: accepted contact points have n1 . n2 < -1 + NORMAL_TOL (tangency, not crossing)
 REGULARITY_MIN = 1e-6  #: and (dr/du x dr/dz) . n > REGULARITY_MIN on both flanks' valid branches (no cusp)
@@ -41,19 +42,6 @@ class SolverSettings:
     solver: str = "fast_newton"
     tol: float = 1e-10
     jit: bool | str = "auto"
-
-
-@dataclass(frozen=True)
-class ContactSettings:
-    """Contact-ellipse setting (the default of the TCA sweeps, the synthesis targets and the scenes).
-
-    Parameters
-    ----------
-    delta : float
-        Elastic approach of the surfaces for the contact ellipse [mm] (Litvin 9.1: 0.00632 mm).
-    """
-
-    delta: float = 0.00632
 
 
 DELTA_DEFAULT = ContactSettings.delta  #: elastic approach for the contact ellipse [mm]

@@ -31,13 +31,21 @@ from __future__ import annotations
 
 import copy
 import math
+from typing import TYPE_CHECKING, Sequence
 
 import casadi as ca
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..compiled import MIN_COLUMNS, available, compile_function, mapped
 from ..errors import GearoptError, OptionError
 from ..meshing.solver import DELTA_DEFAULT
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..gears import GearPair
+    from ..ltca.compliance import Material
+    from ..ltca.engine import LTCA
+    from ..meshing.tca import TCA
 
 #: iterations of the line-search Newton of the continuation (the TCA's: 100)
 SAFE_ITER = 20
@@ -93,8 +101,9 @@ class TCAKernel:
         Radius range of the pattern grid [mm] (default: the pinion's form radius to its tip).
     """
 
-    def __init__(self, tca, positions: int = 64, pairs=(-1, 0, 1), delta: float = DELTA_DEFAULT,
-                 harmonics: int = 3, jit="auto", n_total: int | None = None, pattern_rows=None):
+    def __init__(self, tca: TCA, positions: int = 64, pairs: Sequence[int] = (-1, 0, 1), delta: float = DELTA_DEFAULT,
+                 harmonics: int = 3, jit: bool | str = "auto", n_total: int | None = None,
+                 pattern_rows: int | None = None) -> None:
         if tca.contact_type != "point":
             raise OptionError("the robust-design studies need point contact (a crowned pinion): contact = "
                               f"{tca.contact_type!r}; crown the pinion (a_c, a_pl or ISO C_alpha / C_beta).",
@@ -132,7 +141,7 @@ class TCAKernel:
         self.grid_r = np.linspace(r_lo, r_hi, PATTERN_GRID[1] + 1)
 
     # -- on the parent side ---------------------------------------------------------------------
-    def limit_tables(self, tca, P1, P2) -> np.ndarray:
+    def limit_tables(self, tca: TCA, P1: np.ndarray, P2: np.ndarray) -> np.ndarray:
         """(n, 2, 9) flank-limit tables u_lim(z^2) of both members for each row of P1, P2 (the
         generated flank's end, :meth:`TCA.limit_table`), computed once per distinct vector. An error
         of a row's table (a degenerate flank) is raised with the row as its ``sample`` attribute."""
@@ -352,8 +361,8 @@ class LTCAKernel:
     material : Material, optional
     """
 
-    def __init__(self, pair, phi, pairs=(-1, 0, 1), deviation_mod: bool = False, side: str = "right",
-                 n_slices: int = 21, material=None, n_harm: int = 3):
+    def __init__(self, pair: GearPair, phi: ArrayLike, pairs: Sequence[int] = (-1, 0, 1), deviation_mod: bool = False,
+                 side: str = "right", n_slices: int = 21, material: Material | None = None, n_harm: int = 3) -> None:
         self.pair, self.phi, self.pairs = pair, np.asarray(phi, float), tuple(pairs)
         self.deviation_mod, self.side, self.n_slices, self.material = deviation_mod, side, int(n_slices), material
         self.n_harm = int(n_harm)
@@ -364,7 +373,7 @@ class LTCAKernel:
         state["_ltca"] = None
         return state
 
-    def engine(self):
+    def engine(self) -> LTCA:
         """The LTCA of this process (built on first use)."""
         if self._ltca is None:
             from ..geometry.microgeometry import modified_tooth

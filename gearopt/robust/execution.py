@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import pickle
 import sys
+from typing import Any, Callable
 
 from ..errors import ExecutionError, OptionError, out_of_range
 
@@ -26,7 +27,7 @@ CONNECT_TIMEOUT = 5.0  #: [s] to reach a Dask scheduler
 
 
 
-def check_executor(executor, workers):
+def check_executor(executor: str | Any, workers: int | None) -> tuple[str | Any, int | None]:
     """Validated (executor, workers): a name of :data:`EXECUTORS` or a ``distributed.Client``;
     workers an integer 1 ... 1024 or None (processes: the CPU count; Dask local: 2)."""
     if not isinstance(executor, str):
@@ -55,7 +56,8 @@ def _bar(progress, total: int, label: str):
                 mininterval=0.5, leave=True)
 
 
-def run_chunks(kernel, chunks: list, executor="serial", workers=None, scheduler=None, progress=None,
+def run_chunks(kernel: Any, chunks: list, executor: str | Any = "serial", workers: int | None = None,
+               scheduler: str | None = None, progress: Callable[[str], None] | None = None,
                label: str = "samples") -> list:
     """``kernel.evaluate(chunk)`` of every chunk, in chunk order.
 
@@ -175,7 +177,7 @@ def _processes(kernel, chunks, workers, bar) -> list:
     return [done[i] for i in range(len(chunks))]
 
 
-def connect(scheduler: str, timeout: float = CONNECT_TIMEOUT):
+def connect(scheduler: str, timeout: float = CONNECT_TIMEOUT) -> Any:
     """A ``distributed.Client`` of the scheduler at ``scheduler``; ExecutionError if it cannot be
     reached within ``timeout`` s."""
     try:
@@ -200,7 +202,7 @@ SCHEDULER_PROTOCOLS = ("tcp", "tls", "inproc", "ucx", "ws", "wss")
 SCHEDULER_FORMS = "tcp://HOST:PORT (e.g. tcp://127.0.0.1:8786), tls://HOST:PORT, ws://, wss://, ucx://, or HOST:PORT"
 
 
-def check_scheduler(scheduler) -> str:
+def check_scheduler(scheduler: str) -> str:
     """``scheduler`` if it reads as a Dask scheduler address (``PROTOCOL://HOST:PORT`` with a
     protocol of :data:`SCHEDULER_PROTOCOLS`, or ``HOST:PORT``), else :class:`OptionError` naming
     ``scheduler``, the value and the accepted forms. Contacts nothing."""

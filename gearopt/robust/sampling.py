@@ -15,6 +15,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import OptionError, check_number, out_of_range
 
@@ -51,7 +52,7 @@ class Distribution:
     mode: float = math.nan
     name: str = "distribution"
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         n = self.name
         if self.kind not in KINDS:
             raise out_of_range(f"{n}.kind", self.kind, f"one of {', '.join(KINDS)}", cls=OptionError)
@@ -70,7 +71,7 @@ class Distribution:
             raise out_of_range(f"{n}.lo", self.lo, f"a range that meets the normal's bulk (mean {self.mean:g} +- 8 sd)",
                                cls=OptionError)
 
-    def ppf(self, u) -> np.ndarray:
+    def ppf(self, u: ArrayLike) -> np.ndarray:
         """Inverse CDF at ``u`` in [0, 1) (array)."""
         from scipy.special import ndtr, ndtri
 
@@ -119,7 +120,7 @@ def within_tolerance(T: float, spread: str, name: str) -> Distribution:
                        cls=OptionError)
 
 
-def check_count(name: str, n, lo: int = 1, hi: int = 10_000_000) -> int:
+def check_count(name: str, n: int, lo: int = 1, hi: int = 10_000_000) -> int:
     """A sample / level count: an integer lo ... hi."""
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or not lo <= n <= hi:
         raise out_of_range(name, n, f"an integer {lo} ... {hi}", cls=OptionError)

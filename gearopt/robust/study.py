@@ -22,9 +22,11 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any, Callable
 from pathlib import Path
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import ArgumentError, ConvergenceError, GearoptError, GeometryError, OptionError, out_of_range
 from ..meshing.misalignment import Misalignment
@@ -32,7 +34,12 @@ from ..meshing.solver import DELTA_DEFAULT
 from ..report import csv_cell
 from ..units import ARCMIN, DEG, RAD_TO_ARCSEC
 from .deviation import deviation_modification
-from .sampling import Distribution, check_count, design, within_tolerance
+from ..settings import MonteCarloSettings, RobustSettings, SweepSettings
+from .sampling import Distribution, design, within_tolerance
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..gears import GearPair
+    from ..ltca.compliance import Material
 
 #: the deviation inputs a Monte Carlo can sample, with their unit (internal mm) and meaning
 DEVIATIONS = {
@@ -51,7 +58,7 @@ UNITS = {"length": "mm", "angle": "rad (inputs in the CSV: arcmin)", "deviation"
          "te": "arcsec (suffix _arcsec)", "probability": "-", "time": "s", "see": "docs/results.md"}
 
 
-def display(name: str, values):
+def display(name: str, values: ArrayLike) -> tuple[np.ndarray, str]:
     """(values in the display unit, unit): arcmin for angles, um for deviations, 1/mm settings."""
     v = np.asarray(values, float)
     if name == "torque":
@@ -197,7 +204,7 @@ class RobustResult:
                             "probability": (self.pattern_count / max(int(self.figures["ok"].sum()), 1)).tolist()},
                 "samples_csv": "samples.csv", "timing": self.timing, "warnings": list(self.warnings)}
 
-    def save_tables(self, out_dir) -> list[str]:
+    def save_tables(self, out_dir: str | Path) -> list[str]:
         """``samples.csv``: one row per sample (:meth:`table`)."""
         cols = self.table()
         text = ",".join(cols) + "\n" + "".join(",".join(csv_cell(v) for v in row) + "\n" for row in zip(*cols.values()))
@@ -223,16 +230,15 @@ class _Robust:
     #: the class of :meth:`run`'s result (:class:`RobustResult`; the studies' subclass adds the plots)
     result_class: type[RobustResult] = RobustResult
 
-    def _setup(self, pair, positions, delta, side, chunk, executor, workers, name):
+    def _setup(self, pair: GearPair, settings: RobustSettings, delta: float, executor: Any, workers: int | None,
+               name: str) -> None:
         from ..gears import GearPair
         if not isinstance(pair, GearPair):
             raise ArgumentError(f"pair = {type(pair).__name__}: expected a gearopt.gears.GearPair.", param="pair",
                                 value=type(pair).__name__, valid="a gearopt.gears.GearPair")
-        if side not in ("right", "left"):
-            raise out_of_range("side", side, "'right' or 'left' (the driving flank of the pinion)", cls=OptionError)
-        self.pair, self.name, self.side = pair, name, side
-        self.positions = check_count("positions", positions, 16, 2000)
-        self.chunk = check_count("chunk", chunk, 1, 100_000)
+        self.settings = settings
+        self.pair, self.name, self.side = pair, name, settings.side
+        self.positions, self.chunk, self.seed = settings.positions, settings.chunk, settings.seed
         if not 0 < delta <= 0.1 * pair.pinion.m_n:
             raise out_of_range("delta", delta, f"0 < delta <= 0.1 m_n = {0.1 * pair.pinion.m_n:.4g} mm (elastic approach "
                                "of the contact ellipse)", cls=OptionError)
@@ -319,7 +325,7 @@ def usable_fraction(figs: dict) -> float:
     return float(use.mean()) if use.size else 0.0
 
 
-def judge_samples(study: str, figs: dict, values: dict, progress=None) -> list[str]:
+def judge_samples(study: str, figs: dict, values: dict, progress: Callable[[str], None] | None = None) -> list[str]:
     """Refuse a study none of whose samples has results (:class:`OptionError`: the inputs' ranges in
     the CSV's units); warn (``warnings.warn``, stderr, and the returned texts for results.json) when
     fewer than :data:`FEASIBLE_WARN` of them have."""
@@ -411,7 +417,7 @@ def check_misalignment_distribution(kind: str, dist: Distribution, where: str) -
                               value=misalignment_text(kind, v), valid=valid, detail=detail)
 
 
-def sample_error(study: str, values: dict, err: Exception, index=None) -> OptionError:
+def sample_error(study: str, values: dict, err: Exception, index: int | None = None) -> OptionError:
     """An error of one sample of a study, stated for that sample: its index and the value of every
     input (in the units of the CSV), with the error's own message. ``index``: the sample (default:
     the error's ``sample`` attribute, set by :meth:`TCAKernel.limit_tables`); without one the
@@ -442,7 +448,11 @@ class MonteCarlo(_Robust):
     pair : GearPair
         The drive (point contact: a crowned pinion).
     samples : int
-        Number of samples (>= 1).
+        Number of samples (>= 1; required unless ``settings`` gives it).
+    settings : gearopt.settings.MonteCarloSettings, optional
+        ``samples``, ``seed``, ``sampling``, ``iso_grade``, ``spread``, ``f_a``, ``n_slices``,
+        ``positions``, ``side``, ``chunk`` as one object; keyword arguments replace its fields. Their
+        defaults and valid ranges are declared there only.
     seed : int
         Seed of the sampling (>= 0); the same seed gives the same samples and figures.
     misalignment : dict, optional
@@ -471,17 +481,19 @@ class MonteCarlo(_Robust):
 
     study = "montecarlo"
 
-    def __init__(self, pair, samples: int, seed: int = 0, misalignment: dict | None = None, iso_grade=None,
-                 spread: str = "normal", f_a: float = 0.0, sampling: str = "random", positions: int = 64,
-                 delta: float = DELTA_DEFAULT, side: str = "right", chunk: int = 64, executor="serial",
-                 workers=None, name: str = "montecarlo", torque=None, n_slices: int = 21, material=None):
-        self._setup(pair, positions, delta, side, chunk, executor, workers, name)
-        self.samples = check_count("samples", samples)
-        self.seed = check_count("seed", seed, 0, 2**63 - 1)
-        if sampling not in ("random", "lhs"):
-            raise out_of_range("sampling", sampling, "'random' (Monte Carlo) or 'lhs' (Latin hypercube)",
-                               cls=OptionError)
-        self.sampling = sampling
+    def __init__(self, pair: GearPair, samples: int | None = None, settings: MonteCarloSettings | None = None, *,
+                 misalignment: dict | None = None, delta: float = DELTA_DEFAULT, executor: Any = "serial",
+                 workers: int | None = None, name: str = "montecarlo", torque: float | Distribution | None = None,
+                 material: Material | None = None, **options: Any) -> None:
+        if samples is not None:
+            options["samples"] = samples
+        if settings is None and "samples" not in options:
+            raise ArgumentError("samples: missing; valid: the number of samples (an integer >= 1).", param="samples",
+                                valid="an integer >= 1")
+        s = MonteCarloSettings.of(settings, **options)
+        self._setup(pair, s, delta, executor, workers, name)
+        self.samples, self.sampling = s.samples, s.sampling
+        spread, iso_grade, f_a, n_slices = s.spread, s.iso_grade, s.f_a, s.n_slices
         self.base_mis = Misalignment()
         inputs: dict[str, Distribution] = {}
         for kind, dist in (misalignment or {}).items():
@@ -492,9 +504,6 @@ class MonteCarlo(_Robust):
                 raise ArgumentError(f"misalignment[{kind!r}] = {type(dist).__name__}: expected a "
                                     "gearopt.robust.sampling.Distribution.", param=f"misalignment.{kind}")
             inputs[f"mis.{kind}"] = dist
-        f_a = float(f_a)
-        if not (math.isfinite(f_a) and 0 <= f_a <= 5.0):
-            raise out_of_range("f_a", f_a, "0 <= f_a <= 5 mm (centre-distance tolerance)", cls=OptionError)
         if f_a > 0:
             if "mis.dE" in inputs:
                 raise OptionError("f_a and a dE distribution are both given: the centre-distance deviation is "
@@ -533,8 +542,6 @@ class MonteCarlo(_Robust):
                 from ..ltca.engine import check_torque_range
                 check_torque_range(pair, torque.support[1], material, name="torque.hi" if torque.kind != "fixed"
                                    else "torque.value")
-            if not 3 <= self.n_slices <= 201:
-                raise out_of_range("n_slices", n_slices, "an integer 3 ... 201", cls=OptionError)
         if not inputs:
             raise OptionError("MonteCarlo: nothing to sample: give misalignment distributions, iso_grade or f_a.",
                               param="misalignment", valid="at least one random input")
@@ -586,7 +593,7 @@ class MonteCarlo(_Robust):
                  "e1": e1[s:s + self.chunk], "e2": e2[s:s + self.chunk], "skip": ~self._ok_mis[s:s + self.chunk],
                  "torque": T[s:s + self.chunk], "first": s} for s in range(0, n, self.chunk)]
 
-    def run(self, progress=None, scheduler=None) -> RobustResult:
+    def run(self, progress: Callable[[str], None] | None = None, scheduler: str | None = None) -> RobustResult:
         """Sample, solve every sample's mesh cycle, reduce. ``progress``: callable(str) for
         progress lines (a progress bar is shown on stderr when given); ``scheduler``: a Dask
         scheduler address that overrides the executor."""
@@ -619,21 +626,26 @@ class DesignSweep(_Robust):
         Points of an LHS / random design.
     levels : int
         Levels per variable of a full factorial (ends included).
+    settings : gearopt.settings.SweepSettings, optional
+        ``design``, ``samples``, ``levels``, ``seed``, ``positions``, ``side``, ``chunk`` as one
+        object; keyword arguments replace its fields. Their defaults (``samples`` 64) and valid
+        ranges are declared there only.
     misalignment : Misalignment
         The drive's misalignment besides the swept kinds.
+    positions, side, chunk, delta, executor, workers
+        As :class:`MonteCarlo`.
     """
 
     study = "sweep"
 
-    def __init__(self, pair, variables: dict, design: str = "lhs", samples: int = 64, levels: int = 3, seed: int = 0,
-                 misalignment: Misalignment | None = None, positions: int = 64, delta: float = DELTA_DEFAULT,
-                 side: str = "right", chunk: int = 64, executor="serial", workers=None, name: str = "sweep"):
-        self._setup(pair, positions, delta, side, chunk, executor, workers, name)
-        if design not in ("lhs", "full_factorial", "random"):
-            raise out_of_range("design", design, "'lhs', 'full_factorial' or 'random'", cls=OptionError)
-        self.design, self.seed = design, check_count("seed", seed, 0, 2**63 - 1)
-        self.samples = check_count("samples", samples) if design != "full_factorial" else None
-        self.levels = check_count("levels", levels, 2, 101) if design == "full_factorial" else None
+    def __init__(self, pair: GearPair, variables: dict, settings: SweepSettings | None = None, *,
+                 misalignment: Misalignment | None = None, delta: float = DELTA_DEFAULT, executor: Any = "serial",
+                 workers: int | None = None, name: str = "sweep", **options: Any) -> None:
+        s = SweepSettings.of(settings, **options)
+        self._setup(pair, s, delta, executor, workers, name)
+        self.design = s.design
+        self.samples = s.samples if s.design != "full_factorial" else None
+        self.levels = s.levels if s.design == "full_factorial" else None
         if misalignment is not None and not isinstance(misalignment, Misalignment):
             raise ArgumentError("misalignment: expected a Misalignment.", param="misalignment")
         self.base_mis = misalignment or Misalignment()
@@ -736,7 +748,7 @@ class DesignSweep(_Robust):
                  "ulim": ulim[s:s + self.chunk], "skip": ~self._ok_mis[s:s + self.chunk]}
                 for s in range(0, n, self.chunk)]
 
-    def run(self, progress=None, scheduler=None) -> RobustResult:
+    def run(self, progress: Callable[[str], None] | None = None, scheduler: str | None = None) -> RobustResult:
         values = self.values()
         n = len(next(iter(values.values())))
         if progress:

@@ -51,7 +51,7 @@ def iso_round(v: float) -> float:
     return round(math.floor(v / step + 0.5) * step, 1)
 
 
-def tolerances(grade, d: float, m_n: float, b: float, rounded: bool = True, where: str = "iso_grade") -> dict:
+def tolerances(grade: int, d: float, m_n: float, b: float, rounded: bool = True, where: str = "iso_grade") -> dict:
     """The ISO 1328-1:2013 tolerances of flank tolerance class ``grade`` [um].
 
     Parameters

@@ -3,6 +3,10 @@ set of misalignments, then compare the drive before and after (TE and bearing co
 
 Scene section ``[crowning]``:
 
+(The keys of :class:`gearopt.settings.CrowningTarget` and :class:`~gearopt.settings.CrowningStudySettings`
+are declared there, with their defaults and ranges: ``te_level``, ``ellipse_share``, ``edge_margin``,
+``tip_margin``, ``objective``, ``positions``, ``quiet``.)
+
 ``te_level``       predesigned TE level (angle; e.g. "8 arcsec").
 ``crossing``, ``intersecting`` (angles), ``dE``, ``axial`` (lengths): each non-zero value adds the
                    cases +value and -value to the aligned drive.
@@ -20,6 +24,8 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable
 
 import numpy as np
 
@@ -27,6 +33,7 @@ from ..contact.edge import EdgeContact
 from ..gears import GearPair
 from ..meshing.tca import TCA, Misalignment
 from ..progress import heartbeat
+from ..settings import CrowningStudySettings
 from ..synthesis.crowning import SENSITIVITY_UNITS, CrowningOptimizer, CrowningTarget  # noqa: F401 - re-exported
 from ..units import ARCMIN
 
@@ -35,7 +42,8 @@ UNITS = {"length": "mm", "angle": "rad", "te": "arcsec (suffix _arcsec)", "setti
                           "(arcsec per arcmin for the misalignment angles, as the scene gives them)",
          "time": "s", "see": "docs/results.md"}
 
-def misalignment_cases(crossing=0.0, intersecting=0.0, dE=0.0, axial=0.0, combined=False, **more) -> dict:
+def misalignment_cases(crossing: float = 0.0, intersecting: float = 0.0, dE: float = 0.0, axial: float = 0.0,
+                       combined: bool = False, **more: float) -> dict:
     """The aligned drive plus +-each given misalignment (and their combination); every kind of
     :class:`Misalignment` may be given by name (values in mm or rad)."""
     values = {"crossing": crossing, "intersecting": intersecting, "dE": dE, "axial": axial, **more}
@@ -66,7 +74,7 @@ class CrowningReport:
         return {"study": "crowning", "scene": self.scene, "units": UNITS, "design": self.design,
                 "before": self.before, "after": self.after, "timing": self.timing}
 
-    def save_plots(self, out_dir, dpi: int = 120) -> list[str]:
+    def save_plots(self, out_dir: str | Path, dpi: int = 120) -> list[str]:
         import matplotlib.pyplot as plt
         from pathlib import Path
 
@@ -90,11 +98,16 @@ class CrowningReport:
 
 
 class CrowningStudy:
-    def __init__(self, pair: GearPair, target: CrowningTarget, cases: dict, positions=41, quiet=True, name="crowning"):
-        self.pair, self.target, self.cases, self.quiet, self.name = pair, target, cases, quiet, name
-        self.optimizer = CrowningOptimizer(pair, target, cases=cases, positions=positions)
+    def __init__(self, pair: GearPair, target: CrowningTarget, cases: dict,
+                 settings: CrowningStudySettings | None = None, *, name: str = "crowning", **options: Any) -> None:
+        """``settings``: ``positions`` (per case in the NLP) and ``quiet`` (no IPOPT output), or those
+        as keywords (:class:`gearopt.settings.CrowningStudySettings`)."""
+        s = CrowningStudySettings.of(settings, **options)
+        self.settings = s
+        self.pair, self.target, self.cases, self.quiet, self.name = pair, target, cases, s.quiet, name
+        self.optimizer = CrowningOptimizer(pair, target, cases=cases, positions=s.positions)
 
-    def run(self, progress=None) -> CrowningReport:
+    def run(self, progress: Callable[[str], None] | None = None) -> CrowningReport:
         t0 = time.perf_counter()
         z1 = self.pair.pinion.z
         pitch = 2 * math.pi / z1
@@ -139,19 +152,16 @@ def _from_scene(scene) -> CrowningStudy:
     o = scene.options.get("crowning", {}) or {}
     check_misalignment_keys(scene, "crowning", o, signs=(1, -1))
     try:
-        target = CrowningTarget(te_level=o["te_level"], ellipse_share=o.get("ellipse_share") or 0.0,
-                                edge_margin=o.get("edge_margin") or 0.0, tip_margin=o.get("tip_margin") or 0.0,
-                                objective=o.get("objective") or "sum")
         cases = misalignment_cases(combined=bool(o.get("combined")),
                                    **{k: o.get(k) or 0.0 for k in Misalignment.names()})
-        return CrowningStudy(scene.pair, target, cases, positions=o.get("positions") or 41,
-                             quiet=o.get("quiet", True) is not False, name=scene.name)
+        return CrowningStudy(scene.pair, CrowningTarget.from_scene(o), cases, CrowningStudySettings.from_scene(o),
+                             name=scene.name)
     except (GeometryError, OptionError) as e:
         raise scene.study_error("crowning", e) from e
 
 
 def _register():
-    from ..io.schema import Bounds, Field, Section
+    from ..schema import Field, Section
     from . import StudySpec, register
     from .tca import misalignment_fields
 
@@ -159,20 +169,15 @@ def _register():
         name="crowning",
         doc="Optimize pinion crowning (a_c, a_pl) for a parabolic TE over a misalignment set; before/after plots",
         sections=[Section("crowning", [
-            Field("te_level", "angle", required=True, check=Bounds(lo=0, lo_open=True, hi=600 / 3600), typical="arcsec",
-                  doc="predesigned TE level (e.g. \"8 arcsec\")"),
+            CrowningTarget.scene_field("te_level"),
             *misalignment_fields(signed=False, prefix="+- ", suffix=" cases"),
             Field("combined", "bool", default=False, doc="also all misalignments together"),
-            Field("ellipse_share", "float", default=0.0, check=Bounds(lo=0, hi=1, hi_open=True),
-                  doc="min contact-ellipse major axis / face width at the mean point"),
-            Field("edge_margin", "length", default=0.0, check=Bounds(lo=0, hi=5),
-                  doc="margin of the transfer contact points from the face ends"),
-            Field("tip_margin", "length", default=0.0, check=Bounds(lo=0, hi=5),
-                  doc="radial margin of the transfer contact points from the tip and form circles"),
-            Field("positions", "int", default=41, check=Bounds(lo=7, hi=401), doc="TCA positions per case in the NLP"),
-            Field("objective", "str", default="sum", choices=("sum", "worst"), doc="sum of case misfits or worst case"),
-            Field("quiet", "bool", default=True, doc="silence IPOPT's iteration output"),
+            *[CrowningTarget.scene_field(n) for n in ("ellipse_share", "edge_margin", "tip_margin")],
+            CrowningStudySettings.scene_field("positions"),
+            CrowningTarget.scene_field("objective"),
+            CrowningStudySettings.scene_field("quiet"),
         ], required=True)],
+        settings=(CrowningTarget, CrowningStudySettings),
         build=_from_scene,
     ))
 

@@ -25,8 +25,14 @@ import math
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING, Callable, Sequence
 
 import numpy as np
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..fea.model import FEOptions, GearFEModel
+    from ..gears import GearPair
+    from ..meshing.misalignment import Misalignment
 
 UNITS = {"length": "mm", "angle": "rad", "stress": "MPa", "force": "N", "torque": "N*mm (input: N*m)",
          "te": "arcsec (suffix _arcsec)", "time": "s"}
@@ -46,7 +52,7 @@ class FEReport:
         return {"study": "fea", "scene": self.scene, "units": UNITS, "pair": self.pair, "options": self.options,
                 "positions": self.positions, "mesh": self.mesh_plot, "timing": self.timing}
 
-    def save_tables(self, out_dir) -> list[str]:
+    def save_tables(self, out_dir: str | Path) -> list[str]:
         """``fea_<i>.vtu`` per position i (0, 1, ...): the model with displacements, stresses (von Mises)
         and contact pressure for ParaView (meshio)."""
         files = []
@@ -56,7 +62,7 @@ class FEReport:
             files.append(name)
         return files
 
-    def save_plots(self, out_dir, dpi: int = 120) -> list[str]:
+    def save_plots(self, out_dir: str | Path, dpi: int = 120) -> list[str]:
         """``fea_mesh.png`` (transverse section of the model at the first position, element edges),
         ``fea_contact.png`` (contact pressure along the profile at mid face vs Hertz),
         ``fea_root.png`` (root stress and pressure vs position), ``fea_te.png`` (loaded TE vs
@@ -96,7 +102,7 @@ class FEReport:
         return ["fea_mesh.png", "fea_contact.png", "fea_root.png", "fea_te.png", "fea_pattern.png"]
 
 
-def mesh_section(model, layer: int | None = None) -> dict:
+def mesh_section(model: GearFEModel, layer: int | None = None) -> dict:
     """Element edges of the middle transverse section of the model (S_f, mm) for plotting:
     ``{"pinion": [[x0, y0, x1, y1], ...], "gear": [...]}`` plus the contact points."""
     out = {}
@@ -116,13 +122,14 @@ def mesh_section(model, layer: int | None = None) -> dict:
 
 
 class FEStudy:
-    def __init__(self, pair, options, phi1s, name="fea", keep_dir=None, misalignment=None):
+    def __init__(self, pair: GearPair, options: FEOptions, phi1s: Sequence[float], name: str = "fea",
+                 keep_dir: str | Path | None = None, misalignment: Misalignment | None = None) -> None:
         from ..meshing.misalignment import Misalignment
 
         self.pair, self.options, self.phi1s, self.name, self.keep_dir = pair, options, list(phi1s), name, keep_dir
         self.misalignment = misalignment or Misalignment()
 
-    def run(self, progress=None) -> FEReport:
+    def run(self, progress: Callable[[str], None] | None = None) -> FEReport:
         from dataclasses import replace
 
         from ..fea.calculix import require_ccx
@@ -228,24 +235,9 @@ def _from_scene(scene) -> FEStudy:
     return FEStudy(scene.pair, opt, phis, name=scene.name, keep_dir=keep, misalignment=mis)
 
 
-#: Young's moduli [MPa] of gear materials: polymers (POM, PA: ~1000-3000) to cemented carbide (~650000).
-E_RANGE = (500.0, 1.2e6)
-
-
-def _check_E(E: float):
-    """None if ``E`` [MPa] is a gear material's modulus, else the valid range (with a unit hint)."""
-    if E_RANGE[0] <= E <= E_RANGE[1]:
-        return None
-    hint = ""
-    if E_RANGE[0] <= E * 1000 <= E_RANGE[1]:
-        hint = f" (E is in MPa: {E:g} GPa is {E * 1000:g} MPa)"
-    elif E_RANGE[0] <= E / 1e6 <= E_RANGE[1]:
-        hint = f" (E is in MPa: {E:g} Pa is {E / 1e6:g} MPa)"
-    return f"{E_RANGE[0]:g} <= E <= {E_RANGE[1]:g} MPa, the Young's moduli of gear materials{hint}"
-
-
 def _register():
-    from ..io.schema import Bounds, Field, Section
+    from ..schema import Bounds, Field, Section
+    from ..settings import E_RANGE, check_modulus
     from . import StudySpec, register
     from .tca import misalignment_fields
 
@@ -255,7 +247,7 @@ def _register():
         sections=[Section("fea", [
             Field("torque", "float", default=100.0, check=Bounds(lo=0, lo_open=True, hi=1e6),
                   doc="pinion torque [N*m]"),
-            Field("E", "float", default=210000.0, check=_check_E,
+            Field("E", "float", default=210000.0, check=check_modulus,
                   doc=f"Young's modulus [MPa], {E_RANGE[0]:g} <= E <= {E_RANGE[1]:g} (gear materials, from "
                       "polymers to carbide)"),
             Field("nu", "float", default=0.3, check=Bounds(lo=0, hi=0.5, hi_open=True), doc="Poisson's ratio"),

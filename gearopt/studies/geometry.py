@@ -15,12 +15,15 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
+from typing import Any, Callable
+from pathlib import Path
 
 import numpy as np
 
 from ..gears import Gear, GearPair
 from ..geometry.generation import GeneratedTooth, Hob, Shaper, default_params, generate, rack_profile_functions
 from ..geometry.tools import RackCutter
+from ..settings import GeometryStudySettings
 from ..units import DEG
 
 UNITS = {"length": "mm (suffix _um: micrometres)", "angle": "rad (suffix _deg: degrees)", "ratio": "-", "time": "s",
@@ -54,7 +57,7 @@ class GeometryReport:
                 "members": self.members, "profiles": self.profiles, "rack_cutter": self.rack,
                 "timing": self.timing}
 
-    def save_plots(self, out_dir, dpi: int = 120) -> list[str]:
+    def save_plots(self, out_dir: str | Path, dpi: int = 120) -> list[str]:
         """Write ``profiles.png``, ``pair_mesh.png`` and ``rack_mesh.png`` into ``out_dir``."""
         import matplotlib.pyplot as plt
         from pathlib import Path
@@ -103,17 +106,21 @@ class GeometryStudy:
         each member's own tool.
     hob, shaper : Hob, Shaper, optional
         Tool data when ``generation`` names them.
-    points : int
-        Samples per profile segment.
-    rack_mesh : bool
-        Include the rack-cutter outline for the rack-in-mesh plot.
+    settings : gearopt.settings.GeometryStudySettings, optional
+        ``points`` (samples per profile segment) and ``rack_mesh`` (include the rack-cutter outline
+        for the rack-in-mesh plot) as one object; keyword arguments replace its fields. Their
+        defaults and ranges are declared there only.
     name : str
         Scene name used in titles.
     """
 
     def __init__(self, pair: GearPair, generation: str | None = None, hob: Hob | None = None,
-                 shaper: Shaper | None = None, points: int = 60, rack_mesh: bool = True, name: str = "geometry"):
+                 shaper: Shaper | None = None, settings: GeometryStudySettings | None = None, *,
+                 name: str = "geometry", **options: Any) -> None:
         t0 = time.perf_counter()
+        s = GeometryStudySettings.of(settings, **options)
+        points, rack_mesh = s.points, s.rack_mesh
+        self.settings = s
         if generation is not None:
             tools = {"rack": RackCutter(), "hob": hob or Hob(), "shaper": shaper or Shaper()}
             if generation not in tools:
@@ -126,7 +133,7 @@ class GeometryStudy:
         self.generation = {k: t.method for k, t in self.teeth.items()}
         self.build_time = time.perf_counter() - t0
 
-    def run(self, progress=None) -> GeometryReport:
+    def run(self, progress: Callable[[str], None] | None = None) -> GeometryReport:
         t0 = time.perf_counter()
         pair = self.pair
         a, aw = pair.a_w, pair.alpha_wt
@@ -220,8 +227,7 @@ def _from_scene(scene) -> GeometryStudy:
 
     o = scene.options.get("geometry", {}) or {}
     try:
-        return GeometryStudy(scene.pair, points=o.get("points") or 60, rack_mesh=o.get("rack_mesh", True) is not False,
-                             name=scene.name)
+        return GeometryStudy(scene.pair, settings=GeometryStudySettings.from_scene(o), name=scene.name)
     except (GeometryError, OptionError) as e:
         raise scene.study_error("geometry", e) from e
 
@@ -231,7 +237,7 @@ _OLD_TOOL_KEYS = ("generation", "N_h", "d_p0", "N_s", "x_s")
 
 def _moved_tool_hint(table: dict) -> str:
     """What to write instead of the former ``[geometry]`` tool keys (the same tool for both members)."""
-    from ..io.schema import _toml
+    from ..schema import toml_text
 
     gen = table.get("generation", "rack")
     if gen == "hob":
@@ -240,7 +246,7 @@ def _moved_tool_hint(table: dict) -> str:
         keys = {"z": table.get("N_s"), "x": table.get("x_s")}
     else:
         keys = {}
-    body = ", ".join([f"kind = {_toml(gen)}"] + [f"{k} = {_toml(v)}" for k, v in keys.items() if v is not None])
+    body = ", ".join([f"kind = {toml_text(gen)}"] + [f"{k} = {toml_text(v)}" for k, v in keys.items() if v is not None])
     tail = (" (the rack-cutter is the default: simply remove these keys)" if gen == "rack" else "")
     return (f"the cutting tool is no longer a [geometry] key but a key of each gear, used by every study: write "
             f"tool = {{{body}}} under [pinion] and under [gear]{tail}, and remove {', '.join(_OLD_TOOL_KEYS)} from "
@@ -248,17 +254,16 @@ def _moved_tool_hint(table: dict) -> str:
 
 
 def _register():
-    from ..io.schema import Bounds, Field, Section
+    from ..schema import Section
     from . import StudySpec, register
 
     register(StudySpec(
         name="geometry",
         doc="Gear pair geometry report: radii, contact ratio, undercut/form margins, tooth profiles and plots",
-        sections=[Section("geometry", [
-            Field("points", "int", default=60, check=Bounds(lo=10, hi=2000), doc="samples per profile segment"),
-            Field("rack_mesh", "bool", default=True, doc="plot the rack-cutter in mesh (rack/hob-cut members)"),
-        ], required=False, doc="the tools are [pinion] tool / [gear] tool", moved=_OLD_TOOL_KEYS,
-            moved_hint=_moved_tool_hint)],
+        sections=[Section("geometry", GeometryStudySettings.scene_fields(), required=False,
+                          doc="the tools are [pinion] tool / [gear] tool", moved=_OLD_TOOL_KEYS,
+                          moved_hint=_moved_tool_hint)],
+        settings=(GeometryStudySettings,),
         build=_from_scene,
     ))
 

@@ -17,7 +17,7 @@ Scene section ``[loaded_microgeometry]``:
                   (default none; docs/loaded_synthesis.md section 9).
 ``edge_margin``   smallest gap of every tip edge and face end under load (default "0.5 um").
 ``edge_loading``  true: edge loading allowed (no edge constraint; default false).
-``positions``     positions per mesh cycle in the NLP (default 24); ``verify_positions`` of the
+``positions``     positions per mesh cycle in the NLP (default 32); ``verify_positions`` of the
                   before/after loaded TCA (default 64).
 ``n_slices``      slices across the face (default 15). ``side``, ``E``, ``nu`` as [ltca].
 ``crossing``, ``intersecting`` (angles), ``dE``, ``axial`` (lengths): each non-zero value adds the
@@ -28,6 +28,10 @@ Scene section ``[loaded_microgeometry]``:
 ``[<member>.modifications]`` (a free relief needs its start there, e.g. ``d_Ca``). Litvin's settings
 ``a_c`` (parabolic rack) and ``a_pl`` (plunging) may be free too: ``a_c = { lo = "0 1/mm", hi = "0.01 1/mm" }``.
 
+The optimiser's keys (``p_limit``, ``harmonics``, ``edge_margin``, ``positions``, ``verify_positions``,
+``n_slices``, ``side``, ``unloaded_te``) are declared once, by :class:`gearopt.settings.LoadedMicroSettings`
+(defaults, ranges, docs), for this section and for :class:`~gearopt.synthesis.loaded.LoadedMicroOptimizer`.
+
 results.json: docs/results.md; ``loaded_microgeometry.csv`` beside it.
 """
 
@@ -36,12 +40,20 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING, Any, Callable, Sequence
 
 import numpy as np
 
 from ..geometry.microgeometry import GLOBAL_AMOUNTS, RELIEF_AMOUNTS
 from ..progress import heartbeat
 from ..units import RAD_TO_ARCSEC
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..gears import GearPair
+    from ..ltca.compliance import Material
+    from ..settings import LoadedMicroSettings
+    from ..synthesis.loaded import LoadedMicroOptimizer
+    from ..synthesis.loaded.results import MicroDesign
 
 UNITS = {"amounts": "um (suffix _um)", "te": "arcsec (suffix _arcsec)", "pressure": "MPa", "torque": "N m",
          "angle": "rad", "length": "mm", "time": "s", "see": "docs/results.md"}
@@ -68,7 +80,7 @@ class LoadedMicroReport:
             out["pareto"] = self.pareto
         return out
 
-    def save_plots(self, out_dir, dpi: int = 120) -> list[str]:
+    def save_plots(self, out_dir: str | Path, dpi: int = 120) -> list[str]:
         """``loaded_micro_te.png`` (loaded TE over the mesh cycle at every torque, before and after, in
         the aligned case; TE peak-to-peak against torque for every case), ``loaded_micro_pattern.png``
         (loaded contact pattern on the pinion flank at the nominal torque, before and after),
@@ -131,7 +143,7 @@ class LoadedMicroReport:
             files.append(save("loaded_micro_unloaded_te.png", fig, "unloaded TE against its target parabola"))
         return files
 
-    def save_tables(self, out_dir) -> list[str]:
+    def save_tables(self, out_dir: str | Path) -> list[str]:
         """``loaded_microgeometry.csv``: per case and torque the loaded TE peak-to-peak, peak pressure and
         edge-load share before and after (verification grid)."""
         des = self.design
@@ -164,22 +176,24 @@ class LoadedMicroStudy:
     """The loaded_microgeometry study: :class:`~gearopt.synthesis.loaded.LoadedMicroOptimizer` over the
     scene's duty cycle, then the before/after loaded TCA of every case on the verification grid."""
 
-    def __init__(self, pair, free: dict, torque: float, torques, cases: dict, weights=None, name="loaded_microgeometry",
-                 pareto=None, **options):
+    def __init__(self, pair: GearPair, free: dict, torque: float, torques: Sequence[float] | None, cases: dict,
+                 weights: Sequence[float] | None = None, name: str = "loaded_microgeometry",
+                 pareto: Sequence[float] | None = None, settings: LoadedMicroSettings | None = None,
+                 material: Material | None = None, **options: Any) -> None:
+        from ..ltca.engine import check_torque_range
         from ..synthesis.loaded import LoadedMicroOptimizer
 
-        from ..ltca.engine import check_torque_range
-
         self.pair, self.name, self.torque = pair, name, float(torque)
-        check_torque_range(pair, max([float(torque), *[float(t) for t in (torques or [])]]), options.get("material"),
+        check_torque_range(pair, max([float(torque), *[float(t) for t in (torques or [])]]), material,
                            name="torque" if not torques or float(torque) >= max(torques) else "torques")
         self.pareto = None if pareto is None else list(pareto)
         self.case_names = list(cases)
         C = len(cases)
         w = None if weights is None else np.outer(np.asarray(weights, float), np.ones(C))
-        self.optimizer = LoadedMicroOptimizer(pair, free, torques, cases=list(cases.values()), weights=w, **options)
+        self.optimizer = LoadedMicroOptimizer(pair, free, torques, cases=list(cases.values()), weights=w,
+                                              settings=settings, material=material, **options)
 
-    def run(self, progress=None) -> LoadedMicroReport:
+    def run(self, progress: Callable[[str], None] | None = None) -> LoadedMicroReport:
         from ..report import misalignment_dict
 
         t0 = time.perf_counter()
@@ -238,7 +252,7 @@ class LoadedMicroStudy:
                                  timing={"run_s": time.perf_counter() - t0, "optimise_s": d.time})
 
 
-def unloaded_te_dict(opt, d, names) -> dict:
+def unloaded_te_dict(opt: LoadedMicroOptimizer, d: MicroDesign, names: Sequence[str]) -> dict:
     """``design.unloaded_te`` of results.json: the target (level [arcsec], weight, the pinion's z1)
     and per case, before and after (verification grid), the unloaded TE of the pair centred on each
     position [arcsec] at its angle over pi/z1 (``psi``), the fitted line (c0, c1 [arcsec]) and the RMS
@@ -252,7 +266,7 @@ def unloaded_te_dict(opt, d, names) -> dict:
             "cases": [{"name": n, "before": one(d.before, c), "after": one(d.after, c)} for c, n in enumerate(names)]}
 
 
-def sensitivity_dict(opt, S: dict) -> dict:
+def sensitivity_dict(opt: LoadedMicroOptimizer, S: dict) -> dict:
     """:meth:`LoadedMicroOptimizer.sensitivities` in the results' units: per N m of each torque, per
     arcmin (angles) or per mm (lengths) of a misalignment added to every case; amounts in um."""
     from ..meshing.misalignment import Misalignment
@@ -275,6 +289,7 @@ def _from_scene(scene):
     from ..errors import GeometryError, OptionError
     from ..ltca.compliance import Material
     from ..meshing.misalignment import Misalignment
+    from ..settings import LoadedMicroSettings
     from .crowning import misalignment_cases
     from .tca import check_misalignment_keys
 
@@ -296,24 +311,20 @@ def _from_scene(scene):
                               "[loaded_microgeometry.free.pinion] C_alpha = { lo = \"0 um\", hi = \"40 um\" }.",
                               valid="at least one free amount")
     cases = misalignment_cases(**{k: o.get(k) or 0.0 for k in Misalignment.names()})
-    te0 = o.get("unloaded_te") or {}
     try:
+        settings = LoadedMicroSettings.from_scene(o, edge_margin=None if o.get("edge_loading") else o["edge_margin"])
         return LoadedMicroStudy(scene.pair, free, torque, torques, cases, weights=weights, name=scene.name,
-                                te_level=te0.get("level"), te_weight=te0.get("weight") or 1.0,
-                                pareto=o.get("pareto"), p_limit=o.get("p_limit"), harmonics=o.get("harmonics"),
-                                edge_margin=None if o.get("edge_loading") else o.get("edge_margin"),
-                                n_positions=o.get("positions") or 24, n_verify=o.get("verify_positions") or 64,
-                                n_slices=o.get("n_slices") or 15, side=o.get("side") or "right",
-                                material=Material(E=o["E"], nu=o["nu"]))
+                                pareto=o.get("pareto"), settings=settings, material=Material(E=o["E"], nu=o["nu"]))
     except (GeometryError, OptionError) as e:
         raise scene.study_error("loaded_microgeometry", e) from e
 
 
 def _register():
-    from ..io.schema import Bounds, Field, Section
+    from ..schema import Field, Section
+    from ..settings import LoadedMicroSettings
     from . import StudySpec, register
     from .ltca import material_fields, torque_fields
-    from .robust import _range_section
+    from .robust import range_section
     from .tca import misalignment_fields
 
     def amounts(member):
@@ -322,7 +333,7 @@ def _register():
                       doc=f"bounds of the {member}'s {a} (with their unit, \"40 um\")")
               for a in GLOBAL_AMOUNTS + RELIEF_AMOUNTS]
         return Section(member, [], subsections=um
-                       + [_range_section(a, "inverse_length", f"bounds of the {member}'s Litvin setting {a} [1/mm]")
+                       + [range_section(a, "inverse_length", f"bounds of the {member}'s Litvin setting {a} [1/mm]")
                           for a in ("a_c", "a_pl")],
                        doc=f"free amounts of the {member} with their bounds")
 
@@ -330,37 +341,26 @@ def _register():
         name="loaded_microgeometry",
         doc="Optimise ISO micro-geometry for the loaded TE over torques x misalignments, with a pressure limit "
             "and no edge loading; before/after loaded TCA",
-        sections=[Section("loaded_microgeometry", [
+        sections=[LoadedMicroSettings.section("loaded_microgeometry", [
             *torque_fields("maps drawn there", "duty-cycle torques (default 50, 100, 150 % of torque)"),
             Field("weights", "floats", check=lambda v: None if all(x >= 0 for x in v) and sum(v) > 0
                   else "weights >= 0, not all 0", doc="weight of each torque in the objective (default all 1)"),
-            Field("p_limit", "float", check=Bounds(lo=100, hi=1e4), doc="peak Hertz pressure limit [MPa] (default none)"),
-            Field("harmonics", "floats", check=lambda v: None if v and len(v) <= 10 and all(x >= 0 for x in v)
-                  and sum(v) > 0 else "1 ... 10 weights >= 0, not all 0",
-                  doc="weights of the loaded TE's first mesh harmonics as the objective (default: peak-to-peak)"),
+            "p_limit", "harmonics",
             Field("pareto", "floats", check=lambda v: None if v and all(100 <= x <= 1e4 for x in v)
                   and len(set(v)) == len(v) else "distinct pressure limits, 100 ... 10000 MPa each",
                   doc="pressure limits [MPa] of a Pareto front, loaded TE against peak pressure (default none)"),
-            Field("edge_margin", "length", default="0.5 um", check=Bounds(lo=0, lo_open=True, hi=0.1),
-                  doc="smallest gap of every tip edge and face end under load"),
+            "edge_margin",
             Field("edge_loading", "bool", default=False,
                   doc="allow edge loading (no edge constraint; edge_margin is then not used)"),
-            Field("positions", "int", default=24, check=Bounds(lo=8, hi=256), doc="positions per mesh cycle in the NLP"),
-            Field("verify_positions", "int", default=64, check=Bounds(lo=8, hi=2000),
-                  doc="positions per mesh cycle of the before/after loaded TCA"),
-            Field("n_slices", "int", default=15, check=Bounds(lo=3, hi=201), doc="slices across the face"),
-            Field("side", "str", default="right", choices=("right", "left"), doc="driving flank of the pinion"),
+            "n_positions", "n_verify", "n_slices", "side",
             *material_fields(),
             *misalignment_fields(signed=False, prefix="+- ", suffix=" cases"),
         ], subsections=[Section("free", [], subsections=[amounts("pinion"), amounts("gear")], required=True,
                                 doc="the free amounts and their bounds"),
-                        Section("unloaded_te", [
-                            Field("level", "angle", required=True, check=Bounds(lo=0, lo_open=True, hi=600 / 3600),
-                                  typical="arcsec", doc="predesigned parabolic TE level of the unloaded drive"),
-                            Field("weight", "float", default=1.0, check=Bounds(lo=0, lo_open=True, hi=1e3),
-                                  doc="weight of its RMS misfit against the loaded TE objective"),
-                        ], doc="the unloaded parabolic-TE target as a second term of the objective (default none)")],
-                required=True)],
+                        LoadedMicroSettings.section(group="unloaded_te", doc="the unloaded parabolic-TE target as a "
+                                                    "second term of the objective (default none)")],
+            required=True)],
+        settings=(LoadedMicroSettings,),
         build=_from_scene,
     ))
 

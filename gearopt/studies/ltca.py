@@ -8,6 +8,8 @@ Scene section ``[ltca]``:
                 125 and 150 % of ``torque``); the maps of the contact pattern are drawn at ``torque``.
 ``side``        driving flank of the pinion ("right", default, or "left").
 ``positions``   positions per mesh cycle (default 64; one cycle is analysed).
+                (``side``, ``positions``, ``n_slices``, ``coupling``, ``compliance``: declared once, with their
+                defaults and ranges, by :class:`gearopt.settings.LTCAStudySettings`.)
 ``n_slices``    slices across the face (default 21; the face ends are slices too).
 ``E``, ``nu``   Young's modulus [MPa] and Poisson's ratio (206000, 0.3).
 ``coupling``    coupling length of the teeth's compliance across the face [mm] (default half the pinion tooth
@@ -27,9 +29,18 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from typing import TYPE_CHECKING, Any, Callable, Sequence
+
 import numpy as np
 
 from ..units import DEG
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..gears import GearPair
+    from ..ltca.compliance import Material
+    from ..meshing.misalignment import Misalignment
+    from ..settings import LTCAStudySettings
+    from matplotlib.figure import Figure
 
 UNITS = {"length": "mm", "angle": "rad", "phi1": "rad", "torque": "N m", "force": "N", "pressure": "MPa",
          "te": "arcsec (suffix _arcsec); positive: the gear ahead of its conjugate position",
@@ -58,7 +69,7 @@ class LTCAReport:
         out["timing"] = self.timing
         return out
 
-    def save_plots(self, out_dir, dpi: int = 120) -> list[str]:
+    def save_plots(self, out_dir: str | Path, dpi: int = 120) -> list[str]:
         """``ltca_te.png`` (loaded TE at every torque; TE against torque; harmonics),
         ``ltca_sharing.png`` (load sharing, mesh stiffness, load across the face) and
         ``ltca_pattern.png`` (loaded contact pattern on both flanks at the nominal torque)."""
@@ -102,7 +113,7 @@ class LTCAReport:
         files.append(save("ltca_pattern.png", fig, "loaded contact pattern, largest pressure over the mesh cycle"))
         return files
 
-    def save_tables(self, out_dir) -> list[str]:
+    def save_tables(self, out_dir: str | Path) -> list[str]:
         """``ltca_positions.csv``: per torque and position the loaded and unloaded TE, mesh
         stiffness, peak flank pressure, the tip edges' load share and every pair's load share; ``ltca_te_vs_torque.csv``."""
         d = self.to_dict()
@@ -141,35 +152,37 @@ class LTCAStudy:
         Nominal pinion torque [N m] (> 0): the contact pattern and load-across-face maps are drawn there.
     torques : sequence of float, optional
         Torques analysed [N m], strictly increasing (default: 10 ... 150 % of ``torque``).
-    positions : int
-        Positions per mesh cycle.
     misalignment : Misalignment, optional
     name : str
-    **options
-        ``side``, ``n_slices``, ``material`` (:class:`~gearopt.ltca.compliance.Material`), ``coupling``,
-        ``r_int``: passed to :class:`~gearopt.ltca.engine.LTCA`.
+    settings : gearopt.settings.LTCAStudySettings, optional
+        ``positions`` (per mesh cycle) and the options of :class:`~gearopt.ltca.engine.LTCA` (``side``,
+        ``n_slices``, ``coupling``, ``compliance``...); keyword arguments replace its fields.
+    material : Material, optional
+    r_int : (float, float), optional
+        As :class:`~gearopt.ltca.engine.LTCA`.
     """
 
-    def __init__(self, pair, torque: float, torques=None, positions: int = 64, misalignment=None, name: str = "ltca",
-                 **options):
+    def __init__(self, pair: GearPair, torque: float, torques: Sequence[float] | None = None,
+                 misalignment: Misalignment | None = None, name: str = "ltca",
+                 settings: LTCAStudySettings | None = None, material: Material | None = None,
+                 r_int: tuple[float, float] | None = None, **options: Any) -> None:
         from ..errors import OptionError, check_number, out_of_range
-        from ..ltca.engine import LTCA
+        from ..ltca.engine import LTCA, check_torque_range
         from ..meshing.misalignment import Misalignment
+        from ..settings import LTCAStudySettings
 
+        s = LTCAStudySettings.of(settings, **options)
         torque = check_number("torque", torque, "the nominal pinion torque [N m]", cls=OptionError)
         if not torque > 0:
             raise out_of_range("torque", torque, "torque > 0 N m (nominal pinion torque)", cls=OptionError)
         if torques is None:
             torques = [s * torque for s in DEFAULT_SHARES]
-        if isinstance(positions, bool) or not isinstance(positions, (int, np.integer)) or not 16 <= positions <= 2000:
-            raise out_of_range("positions", positions, "an integer, 16 <= positions <= 2000 (per mesh cycle)",
-                               cls=OptionError)
-        self.pair, self.torque, self.torques, self.positions, self.name = pair, torque, list(torques), int(positions), name
+        self.pair, self.torque, self.torques, self.positions, self.name = pair, torque, list(torques), s.positions, name
+        self.settings = s
         self.misalignment = misalignment or Misalignment()
         self.misalignment.check(pair, "misalignment")
-        self.ltca = LTCA(pair, **options)
+        self.ltca = LTCA(pair, s, material=material, r_int=r_int)
         self.ltca.validate_torques(self.torques)
-        from ..ltca.engine import check_torque_range
         check_torque_range(pair, max(self.torques), self.ltca.material)
 
     def limits(self) -> dict:
@@ -177,7 +190,7 @@ class LTCAStudy:
         return {"pinion": {"b": self.pair.pinion.b, "r_a": self.pair.pinion.r_a, "r_form": t.form_radius(1)},
                 "gear": {"b": self.pair.gear.b, "r_a": self.pair.gear.r_a, "r_form": t.form_radius(2)}}
 
-    def run(self, progress=None) -> LTCAReport:
+    def run(self, progress: Callable[[str], None] | None = None) -> LTCAReport:
         from ..ltca.compliance import iso6336_stiffness
         from ..report import misalignment_dict
 
@@ -220,6 +233,7 @@ class LTCAStudy:
 def _from_scene(scene) -> LTCAStudy:
     from ..errors import GeometryError, OptionError
     from ..ltca.compliance import H_FI_RANGE, Material
+    from ..settings import LTCAStudySettings
     from .tca import check_misalignment_keys, misalignment_from
 
     o = scene.options.get("ltca", {}) or {}
@@ -243,15 +257,14 @@ def _from_scene(scene) -> LTCAStudy:
                      f"{H_FI_RANGE[1]} with r_f = {g.r_f:.6g} mm, the range of Sainsot's body term)")
             raise scene.key_error("ltca", key, f"is out of range; valid: {valid}.", valid=valid)
     try:
-        return LTCAStudy(scene.pair, torque, torques=torques, positions=o.get("positions") or 64,
-                         misalignment=misalignment_from(o), name=scene.name, side=o.get("side") or "right",
-                         n_slices=o.get("n_slices") or 21, material=Material(E=o["E"], nu=o["nu"]),
-                         coupling=o.get("coupling"), r_int=r_int, compliance=o.get("compliance") or "analytical")
+        return LTCAStudy(scene.pair, torque, torques=torques, misalignment=misalignment_from(o), name=scene.name,
+                         settings=LTCAStudySettings.from_scene(o), material=Material(E=o["E"], nu=o["nu"]),
+                         r_int=r_int)
     except (GeometryError, OptionError) as e:
         raise scene.study_error("ltca", e) from e
 
 
-def check_torques(v):
+def check_torques(v: list[float]) -> str | None:
     """Scene check of a torque list: every torque > 0, strictly increasing (None when fine)."""
     if any(not t > 0 for t in v):
         return "every torque > 0 N m"
@@ -272,15 +285,15 @@ def torque_fields(nominal: str, listed: str) -> list:
 
 def material_fields() -> list:
     """Scene keys of the elastic constants of both members (``E`` [MPa], ``nu``)."""
-    from ..io.schema import Bounds, Field
-    from .fea import _check_E
+    from ..schema import Bounds, Field
+    from ..settings import check_modulus
 
-    return [Field("E", "float", default=206000.0, check=_check_E, doc="Young's modulus [MPa]"),
+    return [Field("E", "float", default=206000.0, check=check_modulus, doc="Young's modulus [MPa]"),
             Field("nu", "float", default=0.3, check=Bounds(lo=0, lo_open=True, hi=0.5, hi_open=True),
                   doc="Poisson's ratio")]
 
 
-def save_figure(out: Path, scene: str, name: str, fig, title: str, dpi: int) -> str:
+def save_figure(out: Path, scene: str, name: str, fig: Figure, title: str, dpi: int) -> str:
     """Title ``fig`` with the scene, write it as ``out/name`` and close it; returns ``name``."""
     import matplotlib.pyplot as plt
 
@@ -291,7 +304,8 @@ def save_figure(out: Path, scene: str, name: str, fig, title: str, dpi: int) -> 
 
 
 def _register():
-    from ..io.schema import Bounds, Field, Section
+    from ..schema import Bounds, Field
+    from ..settings import LTCAStudySettings
     from . import StudySpec, register
     from .tca import misalignment_fields
 
@@ -299,23 +313,19 @@ def _register():
         name="ltca",
         doc="Loaded TCA: loaded TE over the mesh cycle and against torque, load sharing, mesh stiffness, "
             "contact pressure and pattern",
-        sections=[Section("ltca", [
+        sections=[LTCAStudySettings.section("ltca", [
             *torque_fields("contact pattern drawn there", "pinion torques analysed (default 10 ... 150 % of torque)"),
-            Field("side", "str", default="right", choices=("right", "left"), doc="driving flank of the pinion"),
-            Field("positions", "int", default=64, check=Bounds(lo=16, hi=2000), doc="positions per mesh cycle"),
-            Field("n_slices", "int", default=21, check=Bounds(lo=3, hi=201), doc="slices across the face"),
+            "side", "positions", "n_slices",
             *material_fields(),
-            Field("coupling", "length", check=Bounds(lo=0, hi=1000),
-                  doc="coupling length of the teeth's compliance across the face (default half the pinion tooth height; the bodies couple over their depth)"),
+            "coupling",
             Field("r_int_pinion", "length", check=Bounds(lo=0, lo_open=True, hi=1e5),
                   doc="inner radius of the pinion body (default half its root radius)"),
             Field("r_int_gear", "length", check=Bounds(lo=0, lo_open=True, hi=1e5),
                   doc="inner radius of the gear body (default half its root radius)"),
-            Field("compliance", "str", default="analytical", choices=("analytical", "fe"),
-                  doc="tooth compliance: the analytical thin-slice model, or influence coefficients of each member's "
-                      "CalculiX model (needs ccx; cached in $GEAROPT_CACHE/influence, default ~/.cache/gearopt)"),
+            "compliance",
             *misalignment_fields(),
         ], required=True)],
+        settings=(LTCAStudySettings,),
         build=_from_scene,
     ))
 

@@ -24,11 +24,15 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
+from typing import Any, Callable, Sequence
+from pathlib import Path
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import GeometryError, SceneError
 from ..meshing.planar import PlanarTCA, PlanarTCAResult, closed_form, profile_points
+from ..settings import PlanarTCASettings
 from ..units import DEG
 
 UNITS = {"length": "mm", "angle": "rad (suffix _deg: degrees)", "te": "rad", "te_arcsec": "arcsec",
@@ -56,7 +60,7 @@ class PlanarTCAReport:
                 "profiles": self.profiles, "notes": list(self.notes),
                 "timing": {**d["timing"], **self.timing}}
 
-    def save_plots(self, out_dir, dpi: int = 120) -> list[str]:
+    def save_plots(self, out_dir: str | Path, dpi: int = 120) -> list[str]:
         """Write ``line_of_action.png`` (Fig. 9.4.5) and ``transmission_error.png`` into ``out_dir``."""
         from pathlib import Path
 
@@ -89,19 +93,22 @@ class PlanarTCAStudy:
         Base radii and centre distance [mm].
     phi1 : (n,) array
         Rotations of gear 1 [rad].
-    method : {"continuation", "map"}
-    alpha_guess : float
-        Pressure angle of the Newton starting point [rad].
-    profiles : int
-        Positions at which the profiles are sampled for the plot.
+    settings : gearopt.settings.PlanarTCASettings, optional
+        ``method`` ({"continuation", "map"}), ``alpha_guess`` (pressure angle of the Newton starting
+        point [rad]) and ``profiles`` (positions at which the profiles are sampled for the plot) as
+        one object; keyword arguments replace its fields. Their defaults and ranges are declared
+        there only.
     name : str
         Scene name.
     notes : list[str]
     """
 
-    def __init__(self, r_b1, r_b2, E, phi1, method="continuation", alpha_guess=20 * DEG, profiles=3,
-                 name="planar_tca", notes=()):
+    def __init__(self, r_b1: float, r_b2: float, E: float, phi1: ArrayLike, settings: PlanarTCASettings | None = None,
+                 *, name: str = "planar_tca", notes: Sequence[str] = (), **options: Any) -> None:
         t0 = time.perf_counter()
+        s = PlanarTCASettings.of(settings, **options)
+        method, alpha_guess, profiles = s.method, s.alpha_guess, s.profiles
+        self.settings = s
         self.tca = PlanarTCA(r_b1, r_b2, E)
         from ..errors import ArgumentError
 
@@ -117,7 +124,7 @@ class PlanarTCAStudy:
         self.name, self.notes = name, list(notes)
         self.build_time = time.perf_counter() - t0
 
-    def run(self, progress=None) -> PlanarTCAReport:
+    def run(self, progress: Callable[[str], None] | None = None) -> PlanarTCAReport:
         t0 = time.perf_counter()
         if progress:
             progress(f"planar_tca: solving {self.phi1.size} positions ({self.method})")
@@ -188,34 +195,27 @@ def _from_scene(scene) -> PlanarTCAStudy:
                          param="[planar_tca] phi1_min", value=f"{p_min / DEG:.6g} deg", valid=f"< phi1_max = {p_max / DEG:.6g} deg",
                          source=src)
     phi1 = np.linspace(p_min, p_max, o.get("n") or 41)
-    return PlanarTCAStudy(r_b1, r_b2, E, phi1, method=o.get("method") or "continuation",
-                          alpha_guess=o.get("alpha_guess") if o.get("alpha_guess") is not None else 20 * DEG,
-                          profiles=o.get("profiles") if o.get("profiles") is not None else 3,
-                          name=scene.name, notes=notes)
+    return PlanarTCAStudy(r_b1, r_b2, E, phi1, PlanarTCASettings.from_scene(o), name=scene.name, notes=notes)
 
 
 def _register():
-    from ..io.schema import Bounds, Field, Section
+    from ..schema import Bounds, Field
     from . import StudySpec, register
 
     pos = Bounds(lo=0, lo_open=True)
     register(StudySpec(
         name="planar_tca",
         doc="TCA of two planar involute profiles (Litvin Problem 9.4.1): ratio, line of action, TE",
-        sections=[Section("planar_tca", [
+        sections=[PlanarTCASettings.section("planar_tca", [
             Field("r_b1", "length", check=pos, doc="base radius of gear 1 (driving); default the pinion's"),
             Field("r_b2", "length", check=pos, doc="base radius of gear 2 (driven); default the gear's"),
             Field("E", "length", check=pos, doc="centre distance, > r_b1 + r_b2; default the pair's a"),
             Field("phi1_min", "angle", doc="first rotation of gear 1; default: 10 % into T1 T2"),
             Field("phi1_max", "angle", doc="last rotation of gear 1; default: 90 % along T1 T2"),
             Field("n", "int", default=41, check=Bounds(lo=3, hi=100000), doc="number of positions"),
-            Field("method", "str", default="continuation", choices=("continuation", "map"),
-                  doc="warm-started sequence or one mapped rootfinder call"),
-            Field("alpha_guess", "angle", default=20, check=Bounds(lo=0, hi=90, lo_open=True, hi_open=True),
-                  bare=Bounds(lo=2, hi=90, hi_open=True), typical="rad",
-                  doc="pressure angle of the Newton starting point"),
-            Field("profiles", "int", default=3, check=Bounds(lo=0, hi=20), doc="positions drawn with both profiles"),
+            "method", "alpha_guess", "profiles",
         ], required=False, doc="planar involute TCA (Problem 9.4.1)")],
+        settings=(PlanarTCASettings,),
         build=_from_scene,
     ))
 

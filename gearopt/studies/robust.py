@@ -31,7 +31,12 @@ Results: ``results.json`` (statistics, ranked sensitivities, the pattern probabi
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from ..robust.study import UNITS, DesignSweep, MonteCarlo, RobustResult  # noqa: F401 (UNITS: results.json's units)
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..schema import Section
 
 SCHEDULER_NOTE = "run it with `gearopt run SCENE --scheduler tcp://HOST:PORT` for a Dask cluster"
 
@@ -75,24 +80,22 @@ def _torque_section():
                        doc="pinion torque per sample [N*m]: runs the loaded TCA of every sample (analytical compliance)")
 
 
-def _range_section(name: str, kind: str, doc: str):
+def range_section(name: str, kind: str, doc: str) -> Section:
+    """A ``name = {lo = ..., hi = ...}`` table of a range of a quantity of ``kind``."""
     from ..io.schema import Field, Section
     extra = {"typical": "arcmin"} if kind == "angle" else {}
     return Section(name, [Field("lo", kind, required=True, doc="lower end", **extra),
                           Field("hi", kind, required=True, doc="upper end", **extra)], doc=doc)
 
 
-def _common_fields():
-    from ..io.schema import Bounds, Field
+def _common_fields() -> list:
+    """The keys of where the samples run (``executor``, ``workers``): keywords of the API classes, not
+    options (the figures do not depend on them)."""
+    from ..schema import Bounds, Field
     return [
-        Field("positions", "int", default=64, check=Bounds(lo=16, hi=2000), doc="positions per mesh cycle"),
-        Field("side", "str", default="right", choices=("right", "left"), doc="driving flank of the pinion"),
-        Field("chunk", "int", default=64, check=Bounds(lo=1, hi=100000),
-              doc="samples per task (the results do not depend on it)"),
         Field("executor", "str", default="serial", choices=("serial", "processes", "dask"),
               doc=f"where the chunks run: this process, local processes, or Dask ({SCHEDULER_NOTE})"),
         Field("workers", "int", check=Bounds(lo=1, hi=1024), doc="worker processes (default: the CPU count for processes, 2 for a local Dask cluster)"),
-        Field("seed", "int", default=0, check=Bounds(lo=0, hi=2**63 - 1), doc="seed of the sampling"),
     ]
 
 
@@ -128,6 +131,7 @@ class DesignSweepStudy(DesignSweep):
 def _montecarlo(scene):
     from ..errors import GeometryError, OptionError
     from ..meshing.misalignment import Misalignment
+    from ..settings import MonteCarloSettings
 
     o = scene.options.get("montecarlo", {}) or {}
     mis = {}
@@ -136,10 +140,8 @@ def _montecarlo(scene):
             if o.get(kind):
                 mis[kind] = _distribution(kind, o[kind])
         torque = _distribution("torque", o["torque"]) if o.get("torque") else None
-        return MonteCarloStudy(scene.pair, o["samples"], seed=o["seed"], misalignment=mis, iso_grade=o.get("iso_grade"),
-                          spread=o["spread"], f_a=o.get("f_a") or 0.0, sampling=o["sampling"],
-                          positions=o["positions"], side=o["side"], chunk=o["chunk"], executor=o["executor"],
-                          workers=o.get("workers"), name=scene.name, torque=torque, n_slices=o["n_slices"])
+        return MonteCarloStudy(scene.pair, settings=MonteCarloSettings.from_scene(o), misalignment=mis,
+                          executor=o["executor"], workers=o.get("workers"), name=scene.name, torque=torque)
     except (GeometryError, OptionError) as e:
         # misalignment.<kind>.<parameter> -> [montecarlo] <kind>.<parameter>, as written
         # torque.<parameter> -> [montecarlo] torque.<parameter>
@@ -153,6 +155,7 @@ def _montecarlo(scene):
 
 def _sweep(scene):
     from ..errors import GeometryError, OptionError
+    from ..settings import SweepSettings
 
     o = scene.options.get("sweep", {}) or {}
     vary = o.get("vary") or {}
@@ -165,9 +168,8 @@ def _sweep(scene):
         raise scene.key_error("sweep", "vary", "is missing: give at least one variable, e.g. [sweep.vary] "
                               "a_pl = {lo = \"0.0002 1/mm\", hi = \"0.001 1/mm\"}.", valid="at least one variable")
     try:
-        return DesignSweepStudy(scene.pair, variables, design=o["design"], samples=o["samples"], levels=o["levels"],
-                           seed=o["seed"], positions=o["positions"], side=o["side"], chunk=o["chunk"],
-                           executor=o["executor"], workers=o.get("workers"), name=scene.name)
+        return DesignSweepStudy(scene.pair, variables, settings=SweepSettings.from_scene(o), executor=o["executor"],
+                                workers=o.get("workers"), name=scene.name)
     except (GeometryError, OptionError) as e:
         # variables.<name> (an end of a range) -> [sweep.vary] <key>, as written
         key = next((k for k, v in vary.items() if v and e.param in (f"variables.pinion.{k}", f"variables.mis.{k}")),
@@ -178,44 +180,35 @@ def _sweep(scene):
 
 
 def _register():
-    from ..io.schema import Bounds, Field, Section
     from ..meshing.misalignment import Misalignment
+    from ..schema import Section
+    from ..settings import MonteCarloSettings, SweepSettings
     from . import StudySpec, register
 
     register(StudySpec(
         name="montecarlo",
         doc="Tolerance (ISO 1328-1 class) and misalignment Monte Carlo of the unloaded TCA: TE spread, "
             "probability of edge contact, contact-pattern envelope, ranked sensitivities",
-        sections=[Section("montecarlo", [
-            Field("samples", "int", required=True, check=Bounds(lo=1, hi=10_000_000), doc="number of samples"),
-            Field("sampling", "str", default="random", choices=("random", "lhs"),
-                  doc="Monte Carlo (PCG64) or Latin hypercube"),
-            Field("iso_grade", "int", check=Bounds(lo=1, hi=11),
-                  doc="ISO 1328-1:2013 flank tolerance class of both members (helix/profile slope, pitch sampled)"),
-            Field("spread", "str", default="normal", choices=("normal", "uniform"),
-                  doc="deviations within +-T: N(0, (T/3)^2) truncated, or uniform"),
-            Field("f_a", "length", check=Bounds(lo=0, hi=5), doc="centre-distance tolerance +-f_a (dE sampled)"),
-            Field("n_slices", "int", default=21, check=Bounds(lo=3, hi=201),
-                  doc="slices across the face of the loaded TCA (with torque)"),
-            *_common_fields(),
+        sections=[MonteCarloSettings.section("montecarlo", [
+            "samples", "sampling", "iso_grade", "spread", "f_a", "n_slices", "positions", "side", "chunk",
+            *_common_fields(), "seed",
         ], subsections=[*[_dist_section(k, None) for k in Misalignment.names()], _torque_section()], required=True)],
+        settings=(MonteCarloSettings,),
         build=_montecarlo,
     ))
     register(StudySpec(
         name="sweep",
         doc="Design sweep / DOE (Latin hypercube, full factorial) of the unloaded TCA over the pinion's crowning "
             "settings and misalignments: TE, edge contact, pattern, sensitivities",
-        sections=[Section("sweep", [
-            Field("design", "str", default="lhs", choices=("lhs", "full_factorial", "random"), doc="the design"),
-            Field("samples", "int", default=32, check=Bounds(lo=1, hi=1_000_000), doc="points (lhs, random)"),
-            Field("levels", "int", default=3, check=Bounds(lo=2, hi=101), doc="levels per variable (full factorial)"),
-            *_common_fields(),
+        sections=[SweepSettings.section("sweep", [
+            "design", "samples", "levels", "positions", "side", "chunk", *_common_fields(), "seed",
         ], subsections=[Section("vary", [], subsections=[
-            _range_section("a_c", "inverse_length", "pinion profile crowning a_c range"),
-            _range_section("a_pl", "inverse_length", "pinion plunging (longitudinal crowning) a_pl range"),
-            *[_range_section(k, "angle" if Misalignment.meta(k)["unit"] == "angle" else "length",
+            range_section("a_c", "inverse_length", "pinion profile crowning a_c range"),
+            range_section("a_pl", "inverse_length", "pinion plunging (longitudinal crowning) a_pl range"),
+            *[range_section(k, "angle" if Misalignment.meta(k)["unit"] == "angle" else "length",
                              f"{Misalignment.meta(k)['doc']} range") for k in Misalignment.names()],
         ], doc="the variables and their ranges", required=True)], required=True)],
+        settings=(SweepSettings,),
         build=_sweep,
     ))
 

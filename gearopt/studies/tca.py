@@ -26,16 +26,21 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any, Callable
+from pathlib import Path
 
 import numpy as np
 
 from ..gears import GearPair
 from ..contact.edge import EdgeContact, EdgeTCAResult
-from ..meshing.solver import ContactSettings
 from ..meshing.tca import TCA, Misalignment, TCAResult
 from ..report import CONJUGATE_ARCSEC, csv_cell, te_harmonics  # noqa: F401 - re-exported (their home: gearopt.report)
 from ..geometry.microgeometry import GLOBAL_AMOUNTS
+from ..settings import TCAStudySettings
 from ..units import ARCMIN, DEG
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..io.scene import Scene
 
 UNITS = {"length": "mm (suffix _mm where a key could be read otherwise)", "angle": "rad", "phi1": "rad",
          "te": "arcsec (suffix _arcsec); positive: the gear is ahead of its conjugate position",
@@ -73,7 +78,7 @@ class TCAReport:
             out["inspection"] = self.inspection
         return out
 
-    def save_plots(self, out_dir, dpi: int = 120) -> list[str]:
+    def save_plots(self, out_dir: str | Path, dpi: int = 120) -> list[str]:
         """``te.png`` (TE per pair and envelope, every case), ``bearing_contact.png`` (paths of
         contact with contact ellipses on both flanks, every case) and, with several cases,
         ``compare.png`` (their actual TE and gear-flank paths overlaid)."""
@@ -134,7 +139,7 @@ class TCAReport:
             files.append(save("k_charts.png", fig, "profile and lead charts (ISO 1328-1, evaluated from the flanks)"))
         return files
 
-    def save_tables(self, out_dir) -> list[str]:
+    def save_tables(self, out_dir: str | Path) -> list[str]:
         """One CSV per case, ``te_path_<case>.csv``: per pinion angle the actual TE, the driving pair,
         every pair's TE and the central pair's path of contact (see docs/results.md)."""
         from pathlib import Path
@@ -198,43 +203,38 @@ def case_table(case: dict) -> dict:
 class TCAStudy:
     """Compiled TCA of a pair; ``run()`` sweeps one mesh cycle for each case."""
 
-    def __init__(self, pair: GearPair, side="right", contact="point", z_section=0.0, positions=81,
-                 delta=ContactSettings.delta, misalignment: Misalignment | None = None, name="tca", edge_contact: bool = False,
-                 cases=None, inspection: bool | None = None, iso_grade: int | None = None):
-        """``misalignment``: one case beside the aligned drive; or ``cases``: a list of
-        ``(label, Misalignment)`` (or a dict label -> Misalignment) analysed in order, with the
-        aligned drive first unless one of them is aligned. ``iso_grade``: ISO 1328-1:2013 flank
-        tolerance class 1 ... 11; the profile and lead charts of measured flanks are judged against
-        its tolerances (a design modification is not a deviation: those charts are not judged)."""
-        from ..errors import ArgumentError, OptionError, check_number, option_error, out_of_range
+    def __init__(self, pair: GearPair, settings: TCAStudySettings | None = None, *,
+                 misalignment: Misalignment | None = None, name: str = "tca", cases: Any = None,
+                 **options: Any) -> None:
+        """``settings``: the options (``side``, ``contact``, ``z_section``, ``positions``, ``delta``,
+        ``edge_contact``, ``inspection``, ``iso_grade``; defaults and ranges declared by
+        :class:`gearopt.settings.TCAStudySettings`), or those as keywords. ``misalignment``: one case
+        beside the aligned drive; or ``cases``: a list of ``(label, Misalignment)`` (or a dict label
+        -> Misalignment) analysed in order, with the aligned drive first unless one of them is
+        aligned. ``iso_grade``: ISO 1328-1:2013 flank tolerance class 1 ... 11; the profile and lead
+        charts of measured flanks are judged against its tolerances (a design modification is not a
+        deviation: those charts are not judged)."""
+        from ..errors import ArgumentError, OptionError, option_error
 
+        s = TCAStudySettings.of(settings, **options)
         if not isinstance(pair, GearPair):
             raise ArgumentError(f"pair = {type(pair).__name__}: expected a gearopt.gears.GearPair (pinion, gear).",
                                 param="pair", value=pair, valid="a gearopt.gears.GearPair")
-        if isinstance(positions, bool) or not isinstance(positions, (int, np.integer)) or not 9 <= positions <= 5000:
-            raise option_error("positions", positions, "an integer 9..5000 (positions per mesh cycle)")
-        positions = int(positions)
-        delta = check_number("delta", delta, "a finite elastic approach [mm]", cls=OptionError)
-        if not 0 < delta <= 0.1 * pair.pinion.m_n:
+        self.settings = s
+        positions, delta, z_section, side, contact = s.positions, s.delta, s.z_section, s.side, s.contact
+        edge_contact, inspection = s.edge_contact, s.inspection
+        if not delta <= 0.1 * pair.pinion.m_n:
             raise option_error("delta", delta, f"0 < delta <= 0.1 m_n = {0.1 * pair.pinion.m_n:.4g} mm (elastic "
                                "approach for the contact ellipse, microns)")
-        z_section = check_number("z_section", z_section, "a finite pinion section [mm]", cls=OptionError)
         if abs(z_section) > pair.pinion.b / 2:
             raise option_error("z_section", z_section, f"|z_section| <= b1 / 2 = {pair.pinion.b / 2:.6g} mm (a "
                                "section of the pinion face)")
-        if not isinstance(edge_contact, (bool, np.bool_)):
-            raise OptionError(f"edge_contact = {type(edge_contact).__name__} {edge_contact!r}: expected True or "
-                              "False.", param="edge_contact", value=edge_contact, valid="True or False",
-                              detail=": expected True or False.")
         if misalignment is not None and not isinstance(misalignment, Misalignment):
             raise ArgumentError(f"misalignment = {type(misalignment).__name__}: expected a Misalignment"
                                 + (" (use Misalignment(**d), angles in rad)." if isinstance(misalignment, dict)
                                    else "."),
                                 param="misalignment", value=misalignment, valid="a Misalignment")
-        if iso_grade is not None and (isinstance(iso_grade, bool) or not isinstance(iso_grade, (int, np.integer))
-                                      or not 1 <= iso_grade <= 11):
-            raise option_error("iso_grade", iso_grade, "an integer 1 ... 11 (ISO 1328-1:2013 flank tolerance class)")
-        self.iso_grade = None if iso_grade is None else int(iso_grade)
+        self.iso_grade = s.iso_grade
         self.pair, self.name = pair, name
         self.positions, self.delta, self.z_section = positions, delta, z_section
         self.cases = [("aligned", Misalignment())]
@@ -269,7 +269,7 @@ class TCAStudy:
                            "r_form": t.form_radius(1)},
                 "gear": {"b": self.pair.gear.b, "r_a": self.pair.gear.r_a, "r_form": t.form_radius(2)}}
 
-    def run(self, progress=None) -> TCAReport:
+    def run(self, progress: Callable[[str], None] | None = None) -> TCAReport:
         t0 = time.perf_counter()
         z1 = self.pair.pinion.z
         # Two mesh cycles centred on the pitch point, so that the transfers between pairs show.
@@ -311,7 +311,7 @@ class TCAStudy:
                          timing={"build_s": self.tca.build_time, "run_s": time.perf_counter() - t0},
                          inspection=inspection)
 
-    def inspection(self, progress=None) -> dict:
+    def inspection(self, progress: Callable[[str], None] | None = None) -> dict:
         """Per inspected member and flank: the deviation grid over the active profile and the face
         (:func:`gearopt.geometry.inspection.inspect_flank`, ``grid``), its chart values in um
         (``charts_um``: ISO 1328-1 F, f_f, f_H, C of profile and lead, S_alpha) and its CSV name."""
@@ -359,7 +359,7 @@ class TCAStudy:
 
 
 # --- scene binding ------------------------------------------------------------------------------
-def check_misalignment_keys(scene, section: str, o: dict, signs=(1,)) -> None:
+def check_misalignment_keys(scene: Scene, section: str, o: dict, signs: tuple[int, ...] = (1,)) -> None:
     """Refuse, before running, misalignments that make the study meaningless
     (:meth:`Misalignment.check`: a centre distance change dE that jams the teeth (a + dE < a_0, the
     rule of [pair] a) or separates them (contact ratio < 1), an axial displacement beyond the
@@ -458,11 +458,8 @@ def _from_scene(scene) -> TCAStudy:
                              "([pinion] a_pl > 0 or [pinion.modifications] C_beta > 0); for conjugate or profile-crowned spur pinions use contact = "
                              "\"line\".",
                              param="[tca] contact", value="point", source=scene.source)
-        return TCAStudy(scene.pair, side=o.get("side") or "right", contact=o.get("contact") or "point",
-                        z_section=o.get("z_section") or 0.0, positions=o.get("positions") or 81,
-                        delta=o.get("delta") or ContactSettings.delta, misalignment=None if cases else mis, name=scene.name,
-                        edge_contact=bool(o.get("edge_contact")), cases=cases, inspection=o.get("inspection"),
-                        iso_grade=o.get("iso_grade"))
+        return TCAStudy(scene.pair, TCAStudySettings.from_scene(o), misalignment=None if cases else mis,
+                        name=scene.name, cases=cases)
     except (GeometryError, OptionError) as e:
         raise scene.study_error("tca", e) from e
 
@@ -472,33 +469,21 @@ def _auto_label(m: Misalignment) -> str:
 
 
 def _register():
-    from ..io.schema import Bounds, Field, Section
+    from ..schema import Field, Section
     from . import StudySpec, register
 
     register(StudySpec(
         name="tca",
         doc="Tooth contact analysis: TE per pair and envelope, paths of contact, contact ellipses, aligned and misaligned",
-        sections=[Section("tca", [
-            Field("side", "str", default="right", choices=("right", "left"), doc="driving flank of the pinion"),
-            Field("contact", "str", default="point", choices=("point", "line"),
-                  doc="point (crowned pinion) or line (conjugate/profile-crowned: in section z_section)"),
-            Field("z_section", "length", default=0.0, doc="pinion section for line contact"),
-            Field("positions", "int", default=81, check=Bounds(lo=9, hi=5000), doc="positions per mesh cycle"),
-            Field("delta", "length", default=ContactSettings.delta, check=Bounds(lo=0, lo_open=True, hi=0.1),
-                  doc="elastic approach for the contact ellipse"),
-            *misalignment_fields(),
-            Field("edge_contact", "bool", default=False,
-                  doc="also solve edge contact (tips, face ends) and combine it with the surface contact (Litvin 9.6)"),
-            Field("inspection", "bool", doc="inspect the flanks (topography CSV, profile and lead charts): default "
-                  "true for the members with [<member>.modifications] or [<member>.measured]"),
-            Field("iso_grade", "int", check=Bounds(lo=1, hi=11),
-                  doc="ISO 1328-1:2013 flank tolerance class: tolerance bands on the profile and lead charts of "
-                  "measured flanks, and the chart values judged against them (designed amounts are not judged)"),
+        sections=[TCAStudySettings.section("tca", [
+            "side", "contact", "z_section", "positions", "delta", *misalignment_fields(), "edge_contact", "inspection",
+            "iso_grade",
         ], required=False, subsections=[Section("cases", [
             Field("label", "str", doc="name of the case in plots and results (default: its misalignments)"),
             *misalignment_fields(),
         ], array=True, doc="list of misalignment cases ([[tca.cases]]), instead of the single keys; the aligned "
                            "drive comes first unless a case is aligned")])],
+        settings=(TCAStudySettings,),
         build=_from_scene,
     ))
 

@@ -35,62 +35,11 @@ from ..errors import ArgumentError, ConvergenceError, OptionError, SynthesisErro
 from ..gears import GearPair
 from ..geometry.generation import PARAMS
 from ..geometry.tools import require_rack_settings
-from ..meshing.solver import ContactSettings
 from ..meshing.tca import TCA, Misalignment
-from ..units import ARCMIN, ARCSEC, RAD_TO_ARCSEC
+from ..settings import CrowningStudySettings, CrowningTarget  # noqa: F401 (CrowningTarget re-exported)
+from ..units import ARCMIN, RAD_TO_ARCSEC
 
 SETTINGS = ("a_c", "a_pl")  #: design variables (entries of the pinion parameter vector)
-
-
-@dataclass(frozen=True)
-class CrowningTarget:
-    """What the optimized drive must do.
-
-    Parameters
-    ----------
-    te_level : float
-        Predesigned TE level [rad]: the parabola's drop from its apex to the transfer points
-        ``pi/z1`` away (e.g. ``8 * ARCSEC``).
-    ellipse_share : float
-        Minimum major axis of the contact ellipse at the mean point of the aligned drive, as a share
-        of the face width (0 = no constraint).
-    edge_margin : float
-        Distance [mm] the contact points at the transfer points keep from the face ends.
-    tip_margin : float
-        Radial distance [mm] they keep from the tip and form circles.
-    level_tolerance : float
-        Accepted relative deviation of every case's verified TE level from ``te_level``; a design
-        outside it is refused with the binding constraints named (the constraints won).
-    delta : float
-        Elastic approach for the contact ellipse [mm].
-    objective : {"sum", "worst"}
-        Misfit summed over the cases, or the worst case (epigraph form).
-    """
-
-    te_level: float
-    ellipse_share: float = 0.0
-    edge_margin: float = 0.0
-    tip_margin: float = 0.0
-    level_tolerance: float = 0.10
-    delta: float = ContactSettings.delta
-    objective: str = "sum"
-
-    def __post_init__(self):
-        for name in ("te_level", "ellipse_share", "edge_margin", "tip_margin", "level_tolerance", "delta"):
-            check_number(f"target.{name}", getattr(self, name))
-        if not (math.isfinite(self.te_level) and 0 < self.te_level < 600 * ARCSEC):
-            raise out_of_range("target.te_level", f"{self.te_level * RAD_TO_ARCSEC:.6g} arcsec",
-                               "0 < te_level < 600 arcsec")
-        if not 0 <= self.ellipse_share < 1:
-            raise out_of_range("target.ellipse_share", self.ellipse_share, "0 <= share < 1")
-        for name in ("edge_margin", "tip_margin"):
-            v = getattr(self, name)
-            if not (math.isfinite(v) and 0 <= v < 10):
-                raise out_of_range(f"target.{name}", v, f"0 <= {name} < 10 mm")
-        if not 0 < self.level_tolerance < 1:
-            raise out_of_range("target.level_tolerance", self.level_tolerance, "0 < tolerance < 1")
-        if self.objective not in ("sum", "worst"):
-            raise out_of_range("target.objective", self.objective, "'sum' or 'worst'")
 
 
 @dataclass(frozen=True)
@@ -237,7 +186,8 @@ class CrowningOptimizer:
         Default False: interpreted.
     """
 
-    def __init__(self, pair: GearPair, target: CrowningTarget, cases: dict | None = None, positions: int = 41,
+    def __init__(self, pair: GearPair, target: CrowningTarget, cases: dict | None = None,
+                 positions: int = CrowningStudySettings.positions,
                  side: str = "right", bounds: dict | None = None, tol: float = 1e-10, jit: bool = False):
         if not isinstance(pair, GearPair):
             raise ArgumentError(f"pair = {type(pair).__name__}: expected a gearopt.gears.GearPair.",
@@ -271,8 +221,7 @@ class CrowningOptimizer:
             cases = {"aligned": Misalignment(), **cases}
         if side not in ("right", "left"):
             raise out_of_range("side", side, "'right' or 'left'", cls=OptionError)
-        if not (isinstance(positions, int) and 7 <= positions <= 401):
-            raise out_of_range("positions", positions, "an integer 7..401", cls=OptionError)
+        positions = CrowningStudySettings.check("positions", positions)  # its range: declared there
         if not (isinstance(tol, float) and 0 < tol < 1e-3):
             raise out_of_range("tol", tol, "0 < tol < 1e-3", cls=OptionError)
         self.pair, self.target, self.cases, self.positions, self.side = pair, target, cases, positions, side

@@ -44,6 +44,9 @@ class LoadedMicroOptimizer(LoadedProblem, MirrorReduction, Verification, Lineari
         Misalignment cases (default: the aligned drive).
     weights : array (T, C), optional
         Weight of each (torque, case) in the objective (default: all 1).
+    settings : gearopt.settings.LoadedMicroSettings, optional
+        The options below (``p_limit`` ... ``te_weight``, but ``material`` and ``jit``) as one object;
+        keyword arguments replace its fields. Their defaults and valid ranges are declared there only.
     p_limit : float, optional
         Peak Hertz pressure limit of the flank slices [MPa] at every torque and case (None: none).
     edge_margin : float or None

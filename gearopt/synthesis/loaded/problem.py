@@ -16,17 +16,19 @@ from ...ltca.compliance import Material
 from ...ltca.engine import LTCA
 from ...meshing.misalignment import Misalignment
 from ...meshing.tca import TCA
-from ...units import RAD_TO_ARCSEC
+from ...settings import LoadedMicroSettings
 from .constants import NONNEG, SETTINGS
 
 
 class LoadedProblem:
     """The problem's data and the checks of every argument (parameters: :class:`LoadedMicroOptimizer`)."""
 
-    def __init__(self, pair: GearPair, free: dict, torques, cases=None, weights=None, p_limit: float | None = None,
-                 edge_margin: float | None = 5e-4, n_positions: int = 32, n_verify: int = 64, n_slices: int = 15,
-                 material: Material | None = None, side: str = "right", jit: bool | str = "auto", harmonics=None,
-                 te_level: float | None = None, te_weight: float = 1.0):
+    def __init__(self, pair: GearPair, free: dict, torques, cases=None, weights=None,
+                 settings: LoadedMicroSettings | None = None, *, material: Material | None = None,
+                 jit: bool | str = "auto", **options):
+        # the options (p_limit, edge_margin, n_positions, ...): defaults and checks are those of LoadedMicroSettings
+        s = LoadedMicroSettings.of(settings, **options)
+        self.settings = s
         if not isinstance(pair, GearPair):
             raise ArgumentError(f"pair = {pair!r:.60}: expected a gearopt.gears.GearPair.", param="pair", value=pair,
                                 valid="a gearopt.gears.GearPair")
@@ -43,42 +45,10 @@ class LoadedProblem:
             raise ArgumentError(f"weights: expected a ({T}, {C}) array (torques x cases) of finite weights >= 0, "
                                 "not all 0.", param="weights", value=np.shape(w), valid=f"shape ({T}, {C}), >= 0")
         self.weights = w
-        if p_limit is not None and not (isinstance(p_limit, (int, float)) and math.isfinite(p_limit)
-                                        and 100.0 <= p_limit <= 1e4):
-            raise out_of_range("p_limit", p_limit, "100 <= p_limit <= 10000 MPa (peak Hertz pressure)",
-                               cls=OptionError)
-        self.p_limit = None if p_limit is None else float(p_limit)
-        if edge_margin is not None and not (isinstance(edge_margin, (int, float)) and 0 < edge_margin <= 0.1):
-            raise out_of_range("edge_margin", edge_margin, "0 < edge_margin <= 0.1 mm (or None)", cls=OptionError)
-        self.edge_margin = None if edge_margin is None else float(edge_margin)
-        if isinstance(n_positions, bool) or not isinstance(n_positions, (int, np.integer)) or not 8 <= n_positions <= 256:
-            raise out_of_range("n_positions", n_positions, "an integer, 8 <= n_positions <= 256", cls=OptionError)
-        if isinstance(n_verify, bool) or not isinstance(n_verify, (int, np.integer)) or not 8 <= n_verify <= 2000:
-            raise out_of_range("n_verify", n_verify, "an integer, 8 <= n_verify <= 2000", cls=OptionError)
-        self.n_verify = int(n_verify)
-        self.harmonics = None
-        if harmonics is not None:
-            try:
-                hw = np.asarray(harmonics, float).ravel()
-            except (TypeError, ValueError):
-                hw = np.array([np.nan])
-            if not (1 <= hw.size <= 10 and np.all(np.isfinite(hw)) and np.all(hw >= 0) and hw.sum() > 0
-                    and 2 * hw.size + 1 <= n_positions):
-                raise out_of_range("harmonics", harmonics, "1 ... 10 weights >= 0, not all 0, one per mesh harmonic, "
-                                   f"at most (n_positions - 1) / 2 = {(n_positions - 1) // 2} of them", cls=OptionError)
-            self.harmonics = hw
-        if te_level is not None and not (isinstance(te_level, (int, float)) and not isinstance(te_level, bool)
-                                         and math.isfinite(te_level) and 0.0 < te_level < 600.0 / RAD_TO_ARCSEC):
-            raise out_of_range("te_level", te_level if not isinstance(te_level, (int, float)) or isinstance(te_level, bool)
-                               else f"{te_level * RAD_TO_ARCSEC:.6g} arcsec",
-                               "0 < te_level < 600 arcsec (the unloaded parabolic TE level, in rad), or None",
-                               cls=OptionError)
-        self.te_level = None if te_level is None else float(te_level)
-        if not (isinstance(te_weight, (int, float)) and not isinstance(te_weight, bool) and math.isfinite(te_weight)
-                and 0.0 < te_weight <= 1e3):
-            raise out_of_range("te_weight", te_weight, "0 < te_weight <= 1000 (weight of the unloaded-TE target)",
-                               cls=OptionError)
-        self.te_weight = float(te_weight)
+        self.p_limit, self.edge_margin, self.n_verify = s.p_limit, s.edge_margin, s.n_verify
+        self.harmonics = None if s.harmonics is None else np.array(s.harmonics, float)
+        self.te_level, self.te_weight = s.te_level, s.te_weight
+        n_positions, n_slices, side = s.n_positions, s.n_slices, s.side
         self.free, self.lo, self.hi = self._check_free(free)
         if not (isinstance(jit, (bool, np.bool_)) or (isinstance(jit, str) and jit == "auto")):
             raise out_of_range("jit", jit, "'auto', True or False (solve the slices as compiled C)", cls=OptionError)
