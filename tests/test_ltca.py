@@ -219,10 +219,10 @@ def test_contact_conditions_and_an_independent_qp_solver(spur_sweep):
         act = S.active[:, j, :].ravel()
         s = ((S.te_unloaded[j] - S.te[:, j, :]) * lever).ravel()[act]
         F = r.load[:, j, :].ravel()[act]
-        length = st["length"][:, j, :].ravel()[act]
-        cH, _, _ = weber_contact(F / length, st["R"][:, j, :].ravel()[act], st["h1"][:, j, :].ravel()[act],
-                                 st["h2"][:, j, :].ravel()[act], L.material, 1e-3 * r.W * L.cos_bb / L.pair.pinion.b)
-        C = st["Cs"][j][np.ix_(np.flatnonzero(act), np.flatnonzero(act))] + np.diag(cH / length)
+        length = st.length[:, j, :].ravel()[act]
+        cH, _, _ = weber_contact(F / length, st.R[:, j, :].ravel()[act], st.h1[:, j, :].ravel()[act],
+                                 st.h2[:, j, :].ravel()[act], L.material, 1e-3 * r.W * L.cos_bb / L.pair.pinion.b)
+        C = st.Cs[j][np.ix_(np.flatnonzero(act), np.flatnonzero(act))] + np.diag(cH / length)
         gap = s + C @ F - r.delta[j]
         assert F.sum() == pytest.approx(r.W, rel=1e-9)
         assert F.min() >= 0
@@ -254,8 +254,8 @@ def test_spur_load_sharing_and_hertz_pressure(spur_sweep):
     j = int(np.flatnonzero(single)[len(np.flatnonzero(single)) // 2])
     k = int(np.argmax(share[:, j]))
     i = int(np.nanargmin(np.abs(S.z[k, j])))
-    rad1 = sw.structure["radius1"][k, j, i]
-    rad2 = sw.structure["radius2"][k, j, i]
+    rad1 = sw.structure.radius1[k, j, i]
+    rad2 = sw.structure.radius2[k, j, i]
     g1, g2 = L.pair.pinion, L.pair.gear
     ref = hertz_line(r.W / g1.b, math.sqrt(rad1**2 - g1.r_b**2), math.sqrt(rad2**2 - g2.r_b**2), L.material.E,
                      L.material.nu)

@@ -30,6 +30,7 @@ import os
 import sys
 import time
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import casadi as ca
 import numpy as np
@@ -252,6 +253,78 @@ class LoadedResult:
         return float(np.nanmean(self.stiffness)) / self.face_width
 
 
+class CompliancePart(NamedTuple):
+    """One term of the analytical tooth compliance (:meth:`LTCA.structure`), coupled across the face
+    over its own length (:func:`~gearopt.ltca.compliance.face_matrix_batch`)."""
+
+    #: (K, N, M) compliance per unit face width of each slice node [mm^2/N] (inactive nodes: the
+    #: mean of the active ones)
+    compliance: np.ndarray
+    #: coupling length of the term across the face [mm]
+    coupling_length: float
+
+
+@dataclass(frozen=True)
+class HertzNodes:
+    """The Hertz data of slice nodes (any common shape: (K, N, M) per pair, position and node, or
+    (N, K M) per position, :meth:`ContactStructure.by_position`)."""
+
+    length: np.ndarray  #: length of contact line of each node [mm] (1 where inactive)
+    R: np.ndarray  #: reduced radius of curvature across the contact line [mm] (1 where inactive)
+    h1: np.ndarray  #: depth of the pinion's centreline below the point along the load line [mm] (Weber)
+    h2: np.ndarray  #: the same on the gear [mm]
+
+
+@dataclass(frozen=True)
+class ContactStructure:
+    """The load-independent parts of the loaded contact problem of a :class:`~gearopt.ltca.slices.SliceSet`
+    (:meth:`LTCA.structure`): arrays (K, N, M) per tooth pair, position and slice node unless stated.
+
+    Attributes
+    ----------
+    Cs : (N, K M, K M) array
+        Compliance matrix of the teeth and bodies (bending, shear, compression, foundation) of each
+        position over the flattened nodes ``k M + m`` [mm/N] (without the Hertz term).
+    parts : tuple of CompliancePart
+        The analytical compliance's terms (the teeth; the pinion's body; the gear's body) whose face
+        matrices, times ``cos^2(beta_b)``, sum to ``Cs`` (with FE influence coefficients ``Cs`` is
+        FE's and the parts are the analytical model's).
+    ct : array
+        Sum of the parts' compliances per unit face width [mm^2/N].
+    length : array
+        Length of contact line of each node, its width over ``cos(beta_b)`` [mm] (1 where inactive).
+    R : array
+        Reduced radius of curvature across the contact line [mm] (1 where inactive).
+    h1, h2 : array
+        Depths of the pinion's and the gear's tooth centreline below the point along the load line
+        [mm] (Weber's contact term; 1 where inactive).
+    radius1, radius2 : array
+        Radius of the node's point on the pinion and on the gear [mm] (NaN where unused).
+    """
+
+    Cs: np.ndarray
+    parts: tuple[CompliancePart, ...]
+    ct: np.ndarray
+    length: np.ndarray
+    R: np.ndarray
+    h1: np.ndarray
+    h2: np.ndarray
+    radius1: np.ndarray
+    radius2: np.ndarray
+
+    @property
+    def hertz(self) -> HertzNodes:
+        """The Hertz data (K, N, M)."""
+        return HertzNodes(length=self.length, R=self.R, h1=self.h1, h2=self.h2)
+
+    def by_position(self) -> HertzNodes:
+        """The Hertz data as (N, K M) arrays: one row per position over the flattened nodes
+        ``k M + m`` (the order of ``Cs``)."""
+        K, N, M = self.length.shape
+        flat = lambda a: np.transpose(a, (1, 0, 2)).reshape(N, K * M)  # noqa: E731
+        return HertzNodes(length=flat(self.length), R=flat(self.R), h1=flat(self.h1), h2=flat(self.h2))
+
+
 class LTCA:
     """Loaded tooth contact analysis of a gear pair (build once, solve many torques).
 
@@ -401,10 +474,10 @@ class LTCA:
                                cls=OptionError)
         return T
 
-    def _structure(self, S: SliceSet) -> dict:
-        """Load-independent parts: tooth compliance matrices per pair and position, Hertz data.
-        ``parts``: the analytical compliance's terms ``(c (K, N, M) [mm^2/N], coupling length [mm])``
-        whose face matrices sum to ``Cs`` (times cos^2(beta_b)); ``ct`` their sum."""
+    def structure(self, S: SliceSet) -> ContactStructure:
+        """The load-independent parts of the contact problem of the slices ``S``: the tooth and body
+        compliance matrices per position and the Hertz data per slice node
+        (:class:`ContactStructure`)."""
         g1, g2 = self.pair.pinion, self.pair.gear
         K, N, M = S.z.shape
         cb = self.cos_bb
@@ -483,8 +556,9 @@ class LTCA:
             h1 = np.where(flank, h1 * cb * np.exp(G1.local_excess(rad1)), h1)
             h2 = np.where(flank, h2 * cb * np.exp(G2.local_excess(rad2)), h2)
         length = S.width / cb
-        return {"Cs": Cs, "parts": parts, "R": np.where(act, R, 1.0), "h1": np.where(act, h1, 1.0), "h2": np.where(act, h2, 1.0),
-                "length": np.where(act, length, 1.0), "radius1": rad1, "radius2": rad2, "ct": ct}
+        return ContactStructure(Cs=Cs, parts=tuple(CompliancePart(c, lam) for c, lam in parts),
+                                R=np.where(act, R, 1.0), h1=np.where(act, h1, 1.0), h2=np.where(act, h2, 1.0),
+                                length=np.where(act, length, 1.0), radius1=rad1, radius2=rad2, ct=ct)
 
     def _weber_tangent(self, n: int) -> ca.Function:
         key = ("weber", n)
@@ -529,13 +603,14 @@ class LTCA:
         t0 = time.perf_counter()
         S = slices if slices is not None else self.slices(phi1, p1, p2, mis, pairs, offsets)
         t_sep = time.perf_counter() - t0
-        st = self._structure(S)
+        st = self.structure(S)
         results = [self._solve_one(float(t), S, st) for t in T]
         return LoadedSweep(slices=S, results=results, separation_time=t_sep, structure=st,
                            te_zero_rad=S.phi2_ref, ltca=self)
 
-    def _fixed_point(self, A, s, length, R, h1, h2, W, f_min, Cs, F0=None, lam=None):
-        """The contact QP over the slices ``A`` (N, n) of each position, with the Hertz fixed point:
+    def _fixed_point(self, A, s, hz: HertzNodes, Cs, W, f_min, F0=None, lam=None):
+        """The contact QP over the slices ``A`` (N, n) of each position (separations ``s``, Hertz data
+        ``hz`` (N, n) and compliance ``Cs`` (N, n, n), :class:`ContactStructure`), with the Hertz fixed point:
         ``(F (N, n), done (N,), change (N,), iterations (N,))``. ``lam`` (N, n): each slice's lever
         about the pinion axis over ``r_b1 cos(beta_b)`` (the equilibrium ``sum lam F = W``; default 1)."""
         N, n = A.shape
@@ -549,7 +624,7 @@ class LTCA:
         take = lambda a: np.where(valid, a[rows, gi], 0.0)  # noqa: E731
         Cc = Cs[rows[:, :, None], gi[:, :, None], gi[:, None, :]]
         Cc = np.where(valid[:, :, None] & valid[:, None, :], Cc, 0.0)
-        sc, lc, Rc, h1c, h2c = (take(v) for v in (s, length, R, h1, h2))
+        sc, lc, Rc, h1c, h2c = (take(v) for v in (s, hz.length, hz.R, hz.h1, hz.h2))
         lamc = np.where(valid, take(np.ones((N, n)) if lam is None else lam), 0.0)
         lc = np.where(valid, lc, 1.0)
         Rc, h1c, h2c = (np.where(valid, v, 1.0) for v in (Rc, h1c, h2c))
@@ -591,7 +666,7 @@ class LTCA:
         F[jj, gi[jj, cc]] = Fc[jj, cc]
         return F, done, change, it
 
-    def _solve_one(self, torque: float, S: SliceSet, st: dict) -> LoadedResult:
+    def _solve_one(self, torque: float, S: SliceSet, st: ContactStructure) -> LoadedResult:
         t0 = time.perf_counter()
         g1, g2 = self.pair.pinion, self.pair.gear
         cb = self.cos_bb
@@ -620,10 +695,8 @@ class LTCA:
         lam = np.transpose(lam, (1, 0, 2)).reshape(N, n)
         A = np.transpose(act, (1, 0, 2)).reshape(N, n)
         f_min = F_MIN_SHARE * W * cb / g1.b
-        length = np.transpose(st["length"], (1, 0, 2)).reshape(N, n)
-        R = np.transpose(st["R"], (1, 0, 2)).reshape(N, n)
-        h1 = np.transpose(st["h1"], (1, 0, 2)).reshape(N, n)
-        h2 = np.transpose(st["h2"], (1, 0, 2)).reshape(N, n)
+        hz = st.by_position()
+        length, R, h1, h2 = hz.length, hz.R, hz.h1, hz.h2
         # Working set: the flank slices and the tip-edge slices near contact; every other active
         # slice is checked after the solve (its gap s + C F must not fall below the approach) and
         # added if it would take load, then the QP is solved again. The result is the QP over all
@@ -635,10 +708,10 @@ class LTCA:
         # (steel, scaled by E) suggests; the check below makes the result independent of this guess
         guess = EDGE_GUESS * W / (C_PRIME_STEEL * self.material.E / 210000.0 * g1.b)
         A = A_all & (~edge | (s <= guess))
-        Cs = st["Cs"]
+        Cs = st.Cs
         F = None
         for _outer in range(OUTER_MAX):
-            F, done, change, it = self._fixed_point(A, s, length, R, h1, h2, W, f_min, Cs, F0=F, lam=lam)
+            F, done, change, it = self._fixed_point(A, s, hz, Cs, W, f_min, F0=F, lam=lam)
             if not done.all():
                 raise ConvergenceError(f"loaded TCA at {torque:g} N m: the Hertz fixed point did not settle in "
                                        f"{HERTZ_MAX_ITER} QP solves at {int((~done).sum())} positions (largest load "
@@ -698,7 +771,7 @@ class LoadedSweep:
     slices: SliceSet
     results: list
     separation_time: float
-    structure: dict
+    structure: ContactStructure
     te_zero_rad: float
     ltca: LTCA
 
@@ -758,7 +831,7 @@ class LoadedSweep:
                 "delta_mm": arr(r.delta),
                 "p_max_MPa": r.p_max, "p_max_at": {"phi1": float(r.phi1[nphi]), "pair": int(S.pairs[kp]),
                                                    "z_mm": float(S.z[kp, nphi, mm]),
-                                                   "radius_mm": float(self.structure["radius1"][kp, nphi, mm])},
+                                                   "radius_mm": float(self.structure.radius1[kp, nphi, mm])},
                 "p_max_per_position_MPa": arr(np.max(r.p0_flank, axis=(0, 2))),
                 "edge_share": arr(r.edge_share), "edge_share_max": float(np.max(r.edge_share)),
                 "p_max_edge_MPa": r.p_max_edge,
@@ -782,10 +855,10 @@ class LoadedSweep:
             "load_N": flat(nom.load), "line_load_N_per_mm": flat(nom.line_load), "p0_MPa": flat(nom.p0),
             "edge": flat(nom.edge if nom.edge is not None else np.zeros(S.z.shape)),
             "b_H_mm": flat(nom.b_H), "width_mm": flat(S.width),
-            "pinion": {"axial": flat(S.z), "from": flat(S.z_lo), "to": flat(S.z_hi), "radius": flat(st["radius1"]),
+            "pinion": {"axial": flat(S.z), "from": flat(S.z_lo), "to": flat(S.z_hi), "radius": flat(st.radius1),
                        "r_b": g1.r_b},
             "gear": {"axial": flat(S.z2), "from": flat(S.z_lo + S.z2 - S.z), "to": flat(S.z_hi + S.z2 - S.z),
-                     "radius": flat(st["radius2"]), "r_b": g2.r_b},
+                     "radius": flat(st.radius2), "r_b": g2.r_b},
         }
         n_pk = int(np.argmax(np.max(nom.p0_flank, axis=(0, 2))))  # the largest flank pressure
         face = {"phi1": float(S.phi1[n_pk]), "pairs": list(S.pairs),

@@ -89,8 +89,8 @@ def loaded_gaps(sw: LoadedSweep, r) -> np.ndarray:
     lam = 1.0 if r.lever is None else r.lever / (g1.r_b * sw.ltca.cos_bb)
     s = np.where(S.active, (r.te_unloaded[None, :, None] - S.te) * lev2, 0.0)
     F = np.transpose(r.load, (1, 0, 2)).reshape(N, K * M)
-    CF = np.einsum("nij,nj->ni", st["Cs"], F)
+    CF = np.einsum("nij,nj->ni", st.Cs, F)
     CF = np.transpose(CF.reshape(N, K, M), (1, 0, 2))
     f_min = F_MIN_SHARE * r.W * sw.ltca.cos_bb / g1.b
-    cH = weber_contact(r.load / st["length"], st["R"], st["h1"], st["h2"], sw.ltca.material, f_min)[0]
-    return s + CF + cH * r.load / st["length"] - r.delta[None, :, None] * lam
+    cH = weber_contact(r.load / st.length, st.R, st.h1, st.h2, sw.ltca.material, f_min)[0]
+    return s + CF + cH * r.load / st.length - r.delta[None, :, None] * lam

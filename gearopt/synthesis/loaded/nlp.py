@@ -58,7 +58,7 @@ class NLPBuilder:
             acts = [np.transpose(S.active if keep is None else keep[c][t], (1, 0, 2)).reshape(N, K * M)
                     for t in range(T)]
             flat = lambda v: np.transpose(v, (1, 0, 2)).reshape(N, K * M)  # noqa: E731
-            a_n, l_n, R_n, h1_n, h2_n = (flat(v) for v in (L.a, st["length"], st["R"], st["h1"], st["h2"]))
+            a_n, l_n, R_n, h1_n, h2_n = (flat(v) for v in (L.a, st.length, st.R, st.h1, st.h2))
             lam_n = flat(L.lam)
             a_n = a_n + flat(L.da)
             J_n = np.transpose(L.J, (1, 0, 2, 3)).reshape(N, K * M, P)
@@ -73,12 +73,12 @@ class NLPBuilder:
             tp_n = flat(np.zeros(S.z.shape, bool) if S.edge is None else S.edge > 0)
             if sparse:
                 # each part of the compliance (the teeth, each member's body) coupled across the face over its
-                # own length (LTCA._structure "parts", compliance.face_matrix_batch), one deflection unknown
+                # own length (LTCA.structure's parts, compliance.face_matrix_batch), one deflection unknown
                 # per part and slice node: the gap takes their sum
                 wt = S.width if S.width_tooth is None else S.width_tooth
                 coup = [(coupling_stiffness_batch(S.z.reshape(K * N, M), wt.reshape(K * N, M),
-                                                  lam_p).reshape(K, N, M, M), np.sqrt(c_p))
-                        for c_p, lam_p in st["parts"]]
+                                                  p.coupling_length).reshape(K, N, M, M), np.sqrt(p.compliance))
+                        for p in st.parts]
             for t in range(T):
                 act = acts[t]
                 for n in range(N):
@@ -115,7 +115,7 @@ class NLPBuilder:
                                 w_of_x.append([])
                             w_of_x[part].append(wi)
                     else:
-                        Cb = st["Cs"][n][np.ix_(A, A)]
+                        Cb = st.Cs[n][np.ix_(A, A)]
                         ii, jj = np.nonzero(Cb)
                         trip_C[0].append(ii + nx)
                         trip_C[1].append(jj + nx)

@@ -33,7 +33,7 @@ class NLPSolution:
         lever = nlp["lever"]
         CF = {}
         # each compliance part's deflections (analytical compliance: the NLP's deflection unknowns,
-        # LTCA._structure "parts", each coupled across the face over its own length)
+        # LTCA.structure's parts, each coupled across the face over its own length)
         cb2 = self.ltca.cos_bb**2
         Cp = {}
         if nlp["w_part"].size:
@@ -42,8 +42,8 @@ class NLPSolution:
                 K, N, M = S.z.shape
                 wt = S.width if S.width_tooth is None else S.width_tooth
                 Cp[c] = [cb2 * face_matrix_batch(S.z.reshape(K * N, M), wt.reshape(K * N, M),
-                                                 [(c_p.reshape(K * N, M), lam_p)]).reshape(K, N, M, M)
-                         for c_p, lam_p in L.structure["parts"]]
+                                                 [(p.compliance.reshape(K * N, M), p.coupling_length)]).reshape(K, N, M, M)
+                         for p in L.structure.parts]
         for b, (t, c, n, first, cnt) in enumerate(nlp["blocks"]):
             S = lin[c].slices
             K, N, M = S.z.shape
