@@ -37,6 +37,7 @@ import numpy as np
 
 from ..compiled import mapped
 from ..errors import ArgumentError, ConvergenceError, LineContactError
+from ..meshing.curvature import eigh2_sym, shape_matrix, unit_perp
 from ..meshing.misalignment import Misalignment
 from ..meshing.solver import REGULARITY_MIN, Branch
 from ..meshing.tca import TCA, check_sweep_args
@@ -141,15 +142,13 @@ class SliceSet:
 def across_line_curvatures(rf1, nf1, q1, rf2, nf2, q2):
     """Normal curvatures [1/mm] of both flanks across the contact line at a contact point (convex
     positive, each with its own outward normal): with ``K1``, ``K2`` the surfaces' curvature matrices
-    in one orthonormal tangent basis (:func:`gearopt.meshing.tca._shape_matrix`; ``rf``, ``nf`` in the
+    in one orthonormal tangent basis (:func:`gearopt.meshing.curvature.shape_matrix`; ``rf``, ``nf`` in the
     fixed frame as CasADi expressions of the surface coordinates ``q``), the direction ``v`` of the
     larger eigenvalue of ``K1 + K2`` (the relative curvature ``1 / R*``; the smaller one lies along
     the contact line, zero for line contact) gives ``(v^T K1 v, v^T K2 v)``."""
-    from ..meshing.tca import _shape_matrix, _unit_perp, eigh2_sym
-
-    e1 = _unit_perp(nf1)
+    e1 = unit_perp(nf1)
     E = ca.horzcat(e1, ca.cross(nf1, e1))
-    K1, K2 = (_shape_matrix(r, n, q, E) for r, n, q in ((rf1, nf1, q1), (rf2, nf2, q2)))
+    K1, K2 = (shape_matrix(r, n, q, E) for r, n, q in ((rf1, nf1, q1), (rf2, nf2, q2)))
     K1, K2 = 0.5 * (K1 + K1.T), 0.5 * (K2 + K2.T)
     v = eigh2_sym(K1 + K2)[1][:, 1]
     return ca.mtimes([v.T, K1, v]), ca.mtimes([v.T, K2, v])

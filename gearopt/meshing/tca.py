@@ -41,10 +41,11 @@ from ..compiled import call, mapped, matrix_columns
 from ..errors import (ArgumentError, ConvergenceError, GeometryError, LineContactError, OptionError, check_number,
                       out_of_range, shorten)
 from ..gears import GearPair
-from ..geometry.frames import rot_x as _rx, rot_y as _ry, rot_z as _rz  # noqa: F401 (old private names)
+from ..geometry.frames import rot_z
 from ..geometry.generation import PARAMS, GeneratedTooth, generate, generate_by_rack  # noqa: F401
 from ..geometry.microgeometry import modified_tooth
 from ..units import ARCMIN, RAD_TO_ARCSEC
+from .curvature import eigh2_sym, shape_matrix, unit_perp  # noqa: F401 (eigh2_sym re-exported)
 from .layout import ParamLayout
 from .misalignment import MISALIGNMENTS, Misalignment  # noqa: F401 (re-exported)
 from .solver import (DELTA_DEFAULT, NORMAL_TOL, REGULARITY_MIN, Branch, ContactSettings, accept_tangency,  # noqa: F401 (re-exported)
@@ -163,15 +164,6 @@ def no_contact(where: str, phi1: np.ndarray, pairs, z1: int) -> ConvergenceError
         f"{phi1.max():.6g} rad (pairs {tuple(pairs)}). The angles may lie outside the meshing cycle (pair 0 meshes "
         f"around phi1 = 0; one cycle is 2 pi / z1 = {2 * math.pi / z1:.6g} rad; angles are in rad), or the flanks do "
         "not meet under this misalignment.")
-
-
-def _shape_matrix(r, n, q, E):
-    """Curvature matrix of a surface in the orthonormal tangent basis ``E`` (3x2):
-    ``B = E^T (dn/dr) E`` with the outward normal (convex: positive), via AD."""
-    J = ca.jacobian(r, q)  # 3x2
-    Nq = ca.jacobian(n, q)  # 3x2
-    pinv = ca.solve(ca.mtimes(J.T, J), J.T)  # 2x3
-    return ca.mtimes([E.T, Nq, pinv, E])
 
 
 class EnvelopeTE:
@@ -409,17 +401,17 @@ class TCA:
             rot1 = -sgn * phi1 + sgn * self.theta1
 
             def gear_to_fixed(v, point: bool):
-                v = _rz(math.pi + sgn * self.theta2, v)
-                v = _rz(sgn * phi2, v)
+                v = rot_z(math.pi + sgn * self.theta2, v)
+                v = rot_z(sgn * phi2, v)
                 return Misalignment.gear_to_fixed(m_of, v, pair.a_w, point)  # frame S_q
 
             rad1 = ca.vertcat(r1[0], r1[1], 0.0) / ca.sqrt(r1[0] ** 2 + r1[1] ** 2)
             rad2 = ca.vertcat(r2[0], r2[1], 0.0) / ca.sqrt(r2[0] ** 2 + r2[1] ** 2)
             return {"r1": r1, "n1": n1, "r2": r2, "n2": n2, "rot1": rot1,
-                    "er1": _rz(rot1, rad1), "er2": gear_to_fixed(rad2, False),
+                    "er1": rot_z(rot1, rad1), "er2": gear_to_fixed(rad2, False),
                     "ez2": gear_to_fixed(ca.DM([0.0, 0.0, 1.0]), False),
-                    "rf1": _rz(rot1, r1), "nf1": _rz(rot1, n1),
-                    "t1u": _rz(rot1, ca.jacobian(r1, u1)), "t1z": _rz(rot1, ca.jacobian(r1, z1)),
+                    "rf1": rot_z(rot1, r1), "nf1": rot_z(rot1, n1),
+                    "t1u": rot_z(rot1, ca.jacobian(r1, u1)), "t1z": rot_z(rot1, ca.jacobian(r1, z1)),
                     "rf2": gear_to_fixed(r2, True), "nf2": gear_to_fixed(n2, False),
                     "t2u": gear_to_fixed(ca.jacobian(r2, u2), False), "t2z": gear_to_fixed(ca.jacobian(r2, z2), False)}
 
@@ -442,19 +434,19 @@ class TCA:
         self.jacobian = ca.Function("tca_jacobian", [w, prm], [ca.jacobian(F, w)], ["w", "prm"], ["J"])
         # Curvatures and contact ellipse (Litvin ch. 9; docs/theory.md section 8) at a solved point.
         q1, q2 = ca.vertcat(u1, z1), ca.vertcat(u2, z2)
-        e1 = r1 * 0 + _unit_perp(n1)  # tangent basis in the pinion frame
+        e1 = r1 * 0 + unit_perp(n1)  # tangent basis in the pinion frame
         e2 = ca.cross(n1, e1)
         E1 = ca.horzcat(e1, e2)
-        B1 = _shape_matrix(r1, n1, q1, E1)
+        B1 = shape_matrix(r1, n1, q1, E1)
         # The same basis carried into the gear frame (a rotation), where surface 2 lives.
         def fixed_to_gear(v):
-            v = _rz(rot1, v)  # pinion -> fixed
+            v = rot_z(rot1, v)  # pinion -> fixed
             v = Misalignment.fixed_to_gear_rotation(m_of, v)
-            v = _rz(-sgn * phi2, v)
-            return _rz(-(math.pi + sgn * self.theta2), v)
+            v = rot_z(-sgn * phi2, v)
+            return rot_z(-(math.pi + sgn * self.theta2), v)
         E2 = ca.horzcat(fixed_to_gear(e1), fixed_to_gear(e2))
         # Surface 2's outward normal is -n1 at contact: its convex curvature in the same basis.
-        B2 = _shape_matrix(r2, n2, q2, E2)
+        B2 = shape_matrix(r2, n2, q2, E2)
         K1 = 0.5 * (B1 + B1.T)
         K2 = 0.5 * (B2 + B2.T)
         # Regularity of both surfaces at the point: |dr/du x dr/dz| (0 at the involute's singular point,
@@ -894,24 +886,3 @@ class _Solved:
     phi2_ref: float
     p1: np.ndarray | None = None
     p2: np.ndarray | None = None
-
-
-def _unit_perp(n):
-    """A unit vector perpendicular to ``n`` that is smooth where n is far from the z axis' ...
-    (for gear flanks n_z is small): ``e = k x n / |k x n|``... oriented along the profile."""
-    v = ca.vertcat(-n[1], n[0], 0.0)
-    return v / ca.norm_2(v)
-
-
-def eigh2_sym(K):
-    """Eigenvalues (ascending, (2, 1)) and unit eigenvectors (columns, (2, 2)) of a symmetric 2 x 2
-    matrix in closed form (CasADi-generic): with ``m = (a + d) / 2``, ``h = (a - d) / 2``,
-    ``r = sqrt(h^2 + b^2)``, the eigenvalues are ``m -+ r`` and the eigenvector of ``m - r`` is
-    ``(-sin t, cos t)`` with ``t = atan2(b, h) / 2`` (no cancellation; a multiple of the identity gives
-    the axes). Not differentiable where r = 0: for numbers only."""
-    a, d, b = K[0, 0], K[1, 1], 0.5 * (K[0, 1] + K[1, 0])
-    m, h = 0.5 * (a + d), 0.5 * (a - d)
-    r = ca.sqrt(h * h + b * b)
-    t = 0.5 * ca.atan2(b, h)
-    c, s = ca.cos(t), ca.sin(t)
-    return ca.vertcat(m - r, m + r), ca.horzcat(ca.vertcat(-s, c), ca.vertcat(c, s))
