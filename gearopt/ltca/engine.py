@@ -30,10 +30,12 @@ import os
 import sys
 import time
 from dataclasses import dataclass, field
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
+from collections.abc import Sequence
 
 import casadi as ca
 import numpy as np
+import numpy.typing as npt
 
 from ..errors import ArgumentError, ConvergenceError, OptionError, check_number, out_of_range
 from ..gears import GearPair
@@ -44,6 +46,9 @@ from .compliance import (C_PRIME_STEEL, Material, ToothCompliance, body_coupling
                          weber_contact, weber_tangent)
 from .hertz import contact_modulus, hertz_peak_pressure
 from .slices import SliceSet, SliceSolver
+
+if TYPE_CHECKING:
+    from ..fea.influence import InfluenceGrid
 
 HERTZ_TOL = 1e-7  #: the Hertz fixed point stops when no slice load changes by more than this x W
 HERTZ_MAX_ITER = 30
@@ -68,7 +73,7 @@ E_STEEL = 206000.0  #: [MPa] the modulus P_MAX_VALID is stated for
 DELTA_MAX_VALID = 0.1
 
 
-def pressure_lower_bound(pair, torque: float, material) -> float:
+def pressure_lower_bound(pair: GearPair, torque: float, material: Material) -> float:
     """A lower bound of the peak Hertz pressure [MPa] of the flank contact at pinion torque
     ``torque`` [N m], from the gear data alone (no solve): the normal load ``W = T / (r_b1 cos
     beta_b)`` spread over the longest contact length the mesh can have, ``b (floor(eps_alpha) + 1) /
@@ -87,7 +92,7 @@ def pressure_lower_bound(pair, torque: float, material) -> float:
     return float(hertz_peak_pressure(W / length, rho, e_star))
 
 
-def check_torque_range(pair, torque_max: float, material=None, name: str = "torque") -> None:
+def check_torque_range(pair: GearPair, torque_max: float, material: Material | None = None, name: str = "torque") -> None:
     """Refuse, before any solve, a torque [N m] whose :func:`pressure_lower_bound` already exceeds
     the model's pressure limit (``P_MAX_VALID E / 206000``): :class:`OptionError` naming ``name``.
     The solved results are checked in full by :func:`check_validity`."""
@@ -105,7 +110,7 @@ def check_torque_range(pair, torque_max: float, material=None, name: str = "torq
                           detail=detail)
 
 
-def check_validity(result, pair, material) -> None:
+def check_validity(result: LoadedResult, pair: GearPair, material: Material) -> None:
     """Refuse a loaded result outside the linear-elastic model's range of validity: a peak flank
     pressure above ``P_MAX_VALID E / 206000`` MPa, a loaded approach above ``DELTA_MAX_VALID m_n``,
     or a mesh stiffness that is not positive (an approach <= 0 under load).
@@ -416,7 +421,7 @@ class LTCA:
         self.build_time = time.perf_counter() - t0
 
     @property
-    def influence(self):
+    def influence(self) -> tuple[InfluenceGrid, InfluenceGrid] | None:
         """The members' FE influence grids (pinion, gear) with ``compliance = "fe"``, else None.
         Computed (CalculiX, or the disk cache) on first use, i.e. by the first solve: building an
         LTCA validates its inputs and runs nothing (``gearopt check`` writes nothing)."""
@@ -431,7 +436,7 @@ class LTCA:
         return self._influence
 
     @influence.setter
-    def influence(self, grids) -> None:
+    def influence(self, grids: tuple[InfluenceGrid, InfluenceGrid] | None) -> None:
         """Replace the influence grids (pinion, gear) of an ``"fe"`` engine (e.g. without their
         local excess)."""
         self._influence = None if grids is None else tuple(grids)
@@ -447,8 +452,9 @@ class LTCA:
         z1 = self.pair.pinion.z
         return np.linspace(-math.pi / z1, math.pi / z1, int(n), endpoint=False)
 
-    def slices(self, phi1=None, p1=None, p2=None, mis: Misalignment | None = None, pairs=None,
-               offsets=None) -> SliceSet:
+    def slices(self, phi1: npt.ArrayLike | None = None, p1: npt.ArrayLike | None = None,
+               p2: npt.ArrayLike | None = None, mis: Misalignment | None = None, pairs: Sequence[int] | None = None,
+               offsets: tuple[npt.ArrayLike, npt.ArrayLike] | None = None) -> SliceSet:
         """Unloaded slices (the separations) at ``phi1`` [rad] (default: one mesh cycle of 64);
         ``offsets``: pitch deviations of the pairs' teeth (:meth:`SliceSolver.solve`)."""
         phi1 = self.mesh_cycle() if phi1 is None else phi1
@@ -456,7 +462,7 @@ class LTCA:
         return self.slicer.solve(phi1, p1, p2, mis, pairs, self.n_slices, offsets=offsets)
 
     @staticmethod
-    def validate_torques(torque) -> np.ndarray:
+    def validate_torques(torque: float | Sequence[float]) -> np.ndarray:
         """The torque(s) [N m] as an array; :class:`OptionError` naming ``torque`` unless each is a
         finite number > 0 and a list strictly increases."""
         try:
@@ -505,11 +511,11 @@ class LTCA:
             ok = np.where(act & np.isfinite(c) & (c > 0), c, np.nan)
             return np.where(np.isfinite(ok), ok, np.nanmean(ok) if np.isfinite(ok).any() else 1e-4)
 
-        ct = filled(c1["total"] + c2["total"])
+        ct = filled(c1.total + c2.total)
         # the tooth (bending, shear, compression of both teeth) and each member's body (Sainsot's term),
         # coupled across the face over their own lengths (compliance.face_matrix_batch)
-        parts = [(filled(c1["total"] - c1["foundation"] + c2["total"] - c2["foundation"]), self.coupling_length),
-                 (filled(c1["foundation"]), self.body_coupling[0]), (filled(c2["foundation"]), self.body_coupling[1])]
+        parts = [(filled(c1.total - c1.foundation + c2.total - c2.foundation), self.coupling_length),
+                 (filled(c1.foundation), self.body_coupling[0]), (filled(c2.foundation), self.body_coupling[1])]
         rad1 = np.hypot(S.r1[..., 0], S.r1[..., 1])
         rad2 = np.hypot(S.r2[..., 0], S.r2[..., 1])
         # bending/shear/foundation matrix of each pair over the used nodes: cos^2(beta_b) D A^-1 D
@@ -544,8 +550,8 @@ class LTCA:
             k1 = np.where(S.edge == 1, 1.0 / (EDGE_RADIUS * g1.m_n), k1)
             k2 = np.where(S.edge == 2, 1.0 / (EDGE_RADIUS * g2.m_n), k2)
         R = 1.0 / np.maximum(k1 + k2, 1e-6)  # (a flat or concave-convex pair beyond: 1 m)
-        h1 = c1["h"].reshape(K, N, M)
-        h2 = c2["h"].reshape(K, N, M)
+        h1 = c1.h.reshape(K, N, M)
+        h2 = c2.h.reshape(K, N, M)
         if self.influence is not None:
             # FE coefficients: the local compression of each member's actual tooth section from FE, Weber's
             # bracket + kappa = ln(2 h e^kappa / b_H) (gearopt.fea.local, docs/ltca.md section 5), on the flank
@@ -577,8 +583,9 @@ class LTCA:
                 self._qp[key] = (qp, qp.map(N))
         return self._qp[key][1]
 
-    def solve(self, torque, phi1=None, p1=None, p2=None, mis: Misalignment | None = None, pairs=None,
-              slices: SliceSet | None = None, offsets=None) -> "LoadedSweep":
+    def solve(self, torque: float | Sequence[float], phi1: npt.ArrayLike | None = None, p1: npt.ArrayLike | None = None,
+              p2: npt.ArrayLike | None = None, mis: Misalignment | None = None, pairs: Sequence[int] | None = None,
+              slices: SliceSet | None = None, offsets: tuple[npt.ArrayLike, npt.ArrayLike] | None = None) -> LoadedSweep:
         """Loaded TCA at one or several pinion torques.
 
         Parameters

@@ -30,14 +30,16 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import casadi as ca
 import numpy as np
+import numpy.typing as npt
 
 from ..compiled import mapped
 from ..errors import ArgumentError, ConvergenceError, LineContactError
-from ..meshing.curvature import eigh2_sym, shape_matrix, unit_perp
+from ..meshing.curvature import Sym, eigh2_sym, shape_matrix, unit_perp
 from ..meshing.misalignment import Misalignment
 from ..meshing.solver import REGULARITY_MIN, Branch
 from ..meshing.tca import TCA, check_sweep_args
@@ -139,7 +141,7 @@ class SliceSet:
         return np.where(np.isfinite(t), t, np.nan)
 
 
-def across_line_curvatures(rf1, nf1, q1, rf2, nf2, q2):
+def across_line_curvatures(rf1: Sym, nf1: Sym, q1: Sym, rf2: Sym, nf2: Sym, q2: Sym) -> tuple[Sym, Sym]:
     """Normal curvatures [1/mm] of both flanks across the contact line at a contact point (convex
     positive, each with its own outward normal): with ``K1``, ``K2`` the surfaces' curvature matrices
     in one orthonormal tangent basis (:func:`gearopt.meshing.curvature.shape_matrix`; ``rf``, ``nf`` in the
@@ -154,7 +156,7 @@ def across_line_curvatures(rf1, nf1, q1, rf2, nf2, q2):
     return ca.mtimes([v.T, K1, v]), ca.mtimes([v.T, K2, v])
 
 
-def slice_nodes(b: float, n_slices: int, shape=()) -> tuple[np.ndarray, np.ndarray]:
+def slice_nodes(b: float, n_slices: int, shape: tuple[int, ...] = ()) -> tuple[np.ndarray, np.ndarray]:
     """Slice nodes fixed to the tooth: ``n_slices`` pinion sections ``z_j = -b/2 + j b/(n_slices-1)``
     [mm] across a face of width ``b`` (both face ends are nodes), the same for every pair and position,
     so a node never moves with the design, the misalignment or the pinion angle. Returns ``z`` and the
@@ -266,8 +268,9 @@ class SliceSolver:
         secs = conjugate_sections(self.tca, self._line_tca(), phis, p1, p2, [s * b1 for s in _SECTIONS])
         return {z: W[[0, 2, 3, 4]] for z, W in secs.items()}
 
-    def solve(self, phi1, p1=None, p2=None, mis: Misalignment | None = None, pairs=(-1, 0, 1),
-              n_slices: int = 21, offsets=None) -> SliceSet:
+    def solve(self, phi1: npt.ArrayLike, p1: npt.ArrayLike | None = None, p2: npt.ArrayLike | None = None,
+              mis: Misalignment | None = None, pairs: Sequence[int] = (-1, 0, 1), n_slices: int = 21,
+              offsets: tuple[npt.ArrayLike, npt.ArrayLike] | None = None) -> SliceSet:
         """Slices of every pair at the pinion angles ``phi1`` [rad] (argument checks as
         :meth:`TCA.sweep`); the TE zero is the unloaded gear angle of pair 0 at phi1 = 0.
 
