@@ -28,6 +28,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import NamedTuple
 
+import casadi as ca
 import numpy as np
 
 from ...errors import ParameterNameError
@@ -102,7 +103,7 @@ class BlockLayout:
         s = self[name]
         return s.stop - s.start
 
-    def take(self, vec, name: str):
+    def take(self, vec: np.ndarray | ca.MX | ca.SX, name: str) -> np.ndarray | ca.MX | ca.SX:
         """The block ``name`` of the stacked vector ``vec`` (a view for numpy)."""
         return vec[self[name]]
 

@@ -11,6 +11,7 @@ from dataclasses import dataclass, field
 
 import casadi as ca
 import numpy as np
+import numpy.typing as npt
 
 from ...ltca.engine import ContactStructure
 from ...ltca.slices import SliceSet
@@ -95,7 +96,7 @@ class Lineariser:
                                            ["dw3", "dr1", "dr2", "dk"])
         return self._sens[kind]
 
-    def linearise(self, theta) -> list:
+    def linearise(self, theta: npt.ArrayLike) -> list[Linearisation]:
         """Slices, compliance and the separations' sensitivities of the design ``theta`` [mm]: one
         :class:`Linearisation` per case."""
         p1, p2 = self.params(theta)

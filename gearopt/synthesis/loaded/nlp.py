@@ -394,7 +394,8 @@ class LoadedNLP(dict):
         return self[key]
 
 
-def kappa_lin(R, Jk, P: int, dth, dm):
+def kappa_lin(R: np.ndarray, Jk: np.ndarray, P: int, dth: ca.MX | ca.SX | np.ndarray,
+              dm: ca.MX | ca.SX | np.ndarray) -> ca.MX | ca.SX | np.ndarray:
     """The Hertz term's relative curvature ``1 / R*`` [1/mm] of every slice, linear in the design step
     ``dth`` [mm] and the misalignment offsets ``dm`` about the linearisation: ``1 / R + Jk (dth, dm)``
     (``R`` (n,) [mm] and ``Jk`` (n, P + 4) of :class:`~gearopt.synthesis.loaded.linearise.Linearisation`),

@@ -5,8 +5,10 @@ the trust-region loop on a grid of positions refined by the verification."""
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 
 import numpy as np
+import numpy.typing as npt
 
 from ..crowning import SynthesisError
 from .constants import MAX_REFINE, RHO
@@ -77,7 +79,8 @@ class LoadedMicroOptimizer(LoadedProblem, MirrorReduction, Verification, Lineari
     Call :meth:`solve` (``progress``: a callable taking one line of text per trust-region round).
     """
 
-    def solve(self, progress=None, start=None, grid=None) -> MicroDesign:
+    def solve(self, progress: Callable[[str], None] | None = None, start: npt.ArrayLike | None = None,
+              grid: npt.ArrayLike | None = None) -> MicroDesign:
         """Optimise and verify (docs/loaded_synthesis.md); ``start``: the first design [mm] (default
         the pair's own, which stays the "before" design); ``grid``: the NLP's first positions [rad]
         (default ``n_positions`` over the mesh cycle).

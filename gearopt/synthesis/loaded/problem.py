@@ -7,6 +7,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import numpy.typing as npt
 
 from ...compiled import available
 from ...errors import ArgumentError, OptionError, out_of_range
@@ -162,7 +163,7 @@ class LoadedProblem:
         mg = getattr(gear, "modifications", None) or Microgeometry()
         return mg.theta_names
 
-    def params(self, theta) -> tuple[np.ndarray, np.ndarray]:
+    def params(self, theta: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray]:
         """Both members' parameter vectors with the design ``theta`` [mm] set."""
         p = {"pinion": self.p0[0].copy(), "gear": self.p0[1].copy()}
         for n, t in zip(self.free, np.asarray(theta, float)):
