@@ -18,7 +18,7 @@ from ...meshing.misalignment import Misalignment
 from ...units import RAD_TO_ARCSEC
 from .constants import G_REF, HARM_EPS, KAPPA_FLOOR, MU, TE0_EPS
 from .edges import edge_weight_lin
-from .layout import Block, Te0Block, block_vector, nlp_layout, param_layout
+from .layout import Block, Te0Block, Te0Slices, block_vector, nlp_layout, param_layout
 from .verify import harmonic_rows
 
 
@@ -230,10 +230,10 @@ class NLPBuilder:
             # position, by the same smoothed complementarity: its approach d0 is the smallest separation
             # of the pair's slices to O(MU) (a sampled min would not be smooth); appended at the end of the
             # unknowns and rows, so the loaded NLP's indices stay as they are
-            n0, nB0 = te0["a"].size, len(te0["blocks"])
+            n0, nB0 = te0.a.size, len(te0.blocks)
             x0s, y0s, d0s = (ca.MX.sym(k, n) for k, n in (("x0", n0), ("y0", n0), ("d0", nB0)))
-            E0 = ca.DM.triplet(list(range(n0)), te0["blk"].tolist(), ca.DM.ones(n0), n0, nB0)
-            gap0 = ((ca.DM(te0["a"]) + ca.mtimes(ca.DM(te0["J"]), dth) + ca.mtimes(ca.DM(te0["Jm"]), dm)) / G_REF
+            E0 = ca.DM.triplet(list(range(n0)), te0.blk.tolist(), ca.DM.ones(n0), n0, nB0)
+            gap0 = ((ca.DM(te0.a) + ca.mtimes(ca.DM(te0.J), dth) + ca.mtimes(ca.DM(te0.Jm), dm)) / G_REF
                     - ca.mtimes(E0, d0s))
             g_rows.update(te0_gap=(y0s - gap0, 0.0, 0.0),
                           te0_complementarity=(x0s + y0s - ca.sqrt(x0s**2 + y0s**2 + 2 * mu), 0.0, 0.0),
@@ -243,18 +243,18 @@ class NLPBuilder:
             # residual is the projection of te0 + level psi^2 off the span of (1, psi), one matrix per
             # case (no fit unknowns: free c0, c1 in the NLP let IPOPT diverge along the null direction
             # they share with the approaches); its RMS per case smoothed at 0
-            te_b = -d0s * G_REF / lever * RAD_TO_ARCSEC + self.te_level * RAD_TO_ARCSEC * ca.DM(te0["psi"]) ** 2
+            te_b = -d0s * G_REF / lever * RAD_TO_ARCSEC + self.te_level * RAD_TO_ARCSEC * ca.DM(te0.psi) ** 2
             rows, cols, vals = [], [], []
             for c in range(C):
-                k = np.flatnonzero(te0["case"] == c)
-                V = np.stack([np.ones(k.size), te0["psi"][k]], axis=1)
+                k = np.flatnonzero(te0.case == c)
+                V = np.stack([np.ones(k.size), te0.psi[k]], axis=1)
                 Pc = (np.eye(k.size) - V @ np.linalg.pinv(V)) / math.sqrt(k.size)  # residual / sqrt(n)
                 ii, jj = np.meshgrid(k, k, indexing="ij")
                 rows.append(ii.ravel())
                 cols.append(jj.ravel())
                 vals.append(Pc.ravel())
             res = ca.mtimes(_sparse_dm(np.concatenate(rows), np.concatenate(cols), np.concatenate(vals), nB0, nB0), te_b)
-            Ec = ca.DM.triplet(list(range(nB0)), te0["case"].tolist(), ca.DM.ones(nB0), nB0, C)
+            Ec = ca.DM.triplet(list(range(nB0)), te0.case.tolist(), ca.DM.ones(nB0), nB0, C)
             ms = ca.mtimes(Ec.T, res**2)
             te0_obj = self.te_weight * ca.dot(ca.DM(self.weights.sum(axis=0)), ca.sqrt(ms + TE0_EPS**2))
         wv = ca.DM(self.weights.ravel())  # (T, C) row-major: index t * C + c
@@ -300,13 +300,14 @@ class NLPBuilder:
                     te0=te0, te0_term=ca.Function("te0_term", [z], [te0_obj if te0 is not None else ca.MX(0.0)],
                                                   ["z"], ["te0_term"]))
 
-    def _te0_blocks(self, lin, radius: float, lever: float) -> dict:
+    def _te0_blocks(self, lin, radius: float, lever: float) -> Te0Slices:
         """The unloaded-TE target's slices in the NLP: per case and position, the active slices of the
         pair centred there (:meth:`_te0_pairs`) that may become its contact within ``radius`` of the
         linearisation (separation lowered by ``2 radius sum_j |J_ij|`` not above the smallest
         separation raised by its own; every active slice without a radius). Arrays ``a`` [mm], ``J``,
         ``Jm`` of the slices; ``blk`` (block of each slice), ``blocks`` (c, n, first, count), ``case``,
-        ``psi`` (pair angle over pi/z1) per block, ``keys`` (T, c, n, flat slice) per slice."""
+        ``psi`` (pair angle over pi/z1) per block, ``keys`` (T, c, n, flat slice) per slice
+        (:class:`~gearopt.synthesis.loaded.layout.Te0Slices`)."""
         T = self.torques.size
         out = {k: [] for k in ("a", "J", "Jm", "blk", "case", "psi", "keys")}
         blocks, first = [], 0
@@ -336,9 +337,8 @@ class NLPBuilder:
                 first += m.size
                 used += 1
             self._te0_enough(used, N, c)
-        res = {k: np.concatenate(v) for k, v in out.items() if k not in ("case", "psi")}
-        res.update(case=np.array(out["case"], int), psi=np.array(out["psi"]), blocks=blocks)
-        return res
+        return Te0Slices(**{k: np.concatenate(v) for k, v in out.items() if k not in ("case", "psi")},
+                         case=np.array(out["case"], int), psi=np.array(out["psi"]), blocks=blocks)
 
 
     def _harmonic_map(self, blocks, nB):
@@ -383,9 +383,9 @@ class LoadedNLP(dict):
     ``edge`` (tip-edge slices), ``ew`` (edge weights), ``lever`` [mm], ``Wt`` (normal load per torque
     [N]), ``ln``, ``Rx`` (contact length and reduced radius per slice [mm], the radius at the
     linearisation), ``Jk`` (its curvature's sensitivity, :func:`kappa_lin`), ``theta_k`` (the
-    linearisation's design [mm]), ``hmap`` (harmonics map or
-    None), ``te0`` (the unloaded-TE target's blocks or None), ``gap`` and ``te0_term`` (CasADi
-    Functions of the unknowns), and, once solved, ``solver`` and ``warm``."""
+    linearisation's design [mm]), ``hmap`` (harmonics map or None), ``te0`` (the unloaded-TE
+    target's slices, :class:`~gearopt.synthesis.loaded.layout.Te0Slices`, or None), ``gap`` and
+    ``te0_term`` (CasADi Functions of the unknowns), and, once solved, ``solver`` and ``warm``."""
 
     def __missing__(self, key):
         if key != "solver":

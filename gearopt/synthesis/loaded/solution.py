@@ -91,10 +91,10 @@ class NLPSolution:
     def _te0_start(self, te0, lever) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Start of the unloaded-TE target's unknowns ``(x0, y0, d0)`` at the linearisation's design: each
         block's smallest separation carries the load, every other slice x = MU / y."""
-        aa = te0["a"] / G_REF
-        n0, nB0 = aa.size, len(te0["blocks"])
+        aa = te0.a / G_REF
+        n0, nB0 = aa.size, len(te0.blocks)
         x0, y0, d0 = np.zeros(n0), np.zeros(n0), np.zeros(nB0)
-        for b, (_, _, first, cnt) in enumerate(te0["blocks"]):
+        for b, (_, _, first, cnt) in enumerate(te0.blocks):
             s = slice(first, first + cnt)
             y = aa[s] - np.min(aa[s])
             j = int(np.argmin(aa[s]))
@@ -146,7 +146,7 @@ class NLPSolution:
         if nlp["te0"] is not None:  # the NLP's unloaded TE, its misfit by least squares (as in the NLP)
             t0 = nlp["te0"]
             te = -U.take(z, "d0") * G_REF / nlp["lever"] * RAD_TO_ARCSEC
-            rms = np.array([parabola_fit(t0["psi"][t0["case"] == c], te[t0["case"] == c],
+            rms = np.array([parabola_fit(t0.psi[t0.case == c], te[t0.case == c],
                                           self.te_level * RAD_TO_ARCSEC)[0] for c in range(C)])
             out.update(te0_rms=rms, te0_term=self._te0_term(rms), te0=te)
         return out
@@ -171,9 +171,9 @@ class NLPSolution:
             out = dict(stiffness=code(n["w_keys"]) * 4 + n["w_part"], gap=kx, complementarity=kx, balance=kb, te_hi=kb, te_lo=kb,
                        pressure=kx[n["rows"]["flank"]], edge=kx[n["rows"]["ends"]])
             if n["te0"] is not None:  # the unloaded-TE target's rows (torque index T: zero load)
-                k0 = code(n["te0"]["keys"])
+                k0 = code(n["te0"].keys)
                 out.update(te0_gap=k0, te0_complementarity=k0,
-                           te0_balance=code([(self.torques.size, c, m, 0) for c, m, _, _ in n["te0"]["blocks"]]))
+                           te0_balance=code([(self.torques.size, c, m, 0) for c, m, _, _ in n["te0"].blocks]))
             return out
 
         def carry(kp, vp, kn):
