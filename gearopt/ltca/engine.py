@@ -442,7 +442,7 @@ class LTCA:
         self._influence = None if grids is None else tuple(grids)
 
     # ------------------------------------------------------------------------------------------
-    def default_pairs(self) -> tuple:
+    def default_pairs(self) -> tuple[int, ...]:
         """Tooth pairs that can be in mesh over one mesh cycle around phi1 = 0."""
         m = int(math.floor((self.pair.eps_gamma + 1.0) / 2.0 + 0.3))
         return tuple(range(-m, m + 1))
