@@ -7,6 +7,7 @@ harmonics) and the unloaded-TE target's blocks (:class:`NLPBuilder`, a part of
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass, field
 
 import casadi as ca
 import numpy as np
@@ -18,14 +19,14 @@ from ...meshing.misalignment import Misalignment
 from ...units import RAD_TO_ARCSEC
 from .constants import G_REF, HARM_EPS, KAPPA_FLOOR, MU, TE0_EPS
 from .edges import edge_weight_lin
-from .layout import Block, Te0Block, Te0Slices, block_vector, nlp_layout, param_layout
+from .layout import Block, NLPLayout, Te0Block, Te0Slices, block_vector, nlp_layout, param_layout
 from .verify import harmonic_rows
 
 
 class NLPBuilder:
     """The duty-cycle NLP around a linearisation."""
 
-    def _nlp(self, lin, theta_k, keep=None, radius: float = np.inf):
+    def _nlp(self, lin, theta_k, keep=None, radius: float = np.inf) -> LoadedNLP:
         """Build the duty-cycle NLP around the linearisation ``lin`` (module docstring).
 
         With the analytical compliance the deflections ``w`` [um] of every slice node are unknowns too,
@@ -370,28 +371,56 @@ def _sparse_dm(rows, cols, vals, n_rows, n_cols) -> ca.DM:
     return ca.DM.triplet(list(rows), list(cols), ca.DM(np.asarray(vals, float)), n_rows, n_cols)
 
 
-class LoadedNLP(dict):
-    """One linearisation's NLP (its parts by name); its cold-start IPOPT solver, ``"solver"``, is built
-    on first use (a round solved warm, or a trial never solved, needs none).
+@dataclass(eq=False)
+class LoadedNLP:
+    """One linearisation's NLP (:meth:`NLPBuilder._nlp`), its parts by name; its cold-start IPOPT
+    solver, :attr:`solver`, is built on first use (a round solved warm, or a trial never solved,
+    needs none)."""
 
-    Keys: ``problem`` (CasADi's ``x``, ``p``, ``f``, ``g``), ``opts`` (IPOPT's), ``layout``
-    (:class:`~gearopt.synthesis.loaded.layout.NLPLayout`: the unknowns, rows and parameters by name),
-    ``sizes`` (its block sizes by short name), ``lbg``, ``ubg``, ``phi1`` [rad], ``blocks``
-    (:class:`~gearopt.synthesis.loaded.layout.Block` per torque, case and position), ``keys`` (torque,
-    case, position, flat slice) per slice held, ``w_keys`` (the same per deflection) and ``w_part`` (its compliance part), ``rows``
-    (``flank``, ``ends``: the slices of the pressure and edge rows), ``ct`` (torque-case of each block),
-    ``edge`` (tip-edge slices), ``ew`` (edge weights), ``lever`` [mm], ``Wt`` (normal load per torque
-    [N]), ``ln``, ``Rx`` (contact length and reduced radius per slice [mm], the radius at the
-    linearisation), ``Jk`` (its curvature's sensitivity, :func:`kappa_lin`), ``theta_k`` (the
-    linearisation's design [mm]), ``hmap`` (harmonics map or None), ``te0`` (the unloaded-TE
-    target's slices, :class:`~gearopt.synthesis.loaded.layout.Te0Slices`, or None), ``gap`` and
-    ``te0_term`` (CasADi Functions of the unknowns), and, once solved, ``solver`` and ``warm``."""
+    problem: dict  #: CasADi's NLP: ``x``, ``p``, ``f``, ``g``
+    opts: dict  #: IPOPT's options
+    phi1: np.ndarray  #: the NLP's positions [rad]
+    #: ``flank``, ``ends``: the slices (indices into the loads ``x``) of the pressure and edge rows
+    rows: dict
+    gap: ca.Function  #: the gaps of the slices held, ``(z, torque_scale, mis_offset) -> gap`` [um]
+    lbg: np.ndarray  #: lower bounds of the constraint rows
+    ubg: np.ndarray  #: upper bounds of the constraint rows
+    layout: NLPLayout  #: the unknowns, rows and parameters by name
+    sizes: dict  #: the layout's block sizes by short name (:meth:`NLPLayout.sizes`)
+    blocks: list[Block]  #: one per torque, case and position
+    ct: np.ndarray  #: (nB,) torque-case index of each block
+    edge: np.ndarray  #: (nx,) tip-edge slices
+    ew: np.ndarray  #: (nx,) edge weights at the linearisation, clipped to 0 ... 1
+    lever: float  #: ``r_b2 cos(beta_b)`` [mm]
+    Wt: np.ndarray  #: (T,) normal load per torque [N]
+    ln: np.ndarray  #: (nx,) contact length per slice [mm]
+    Rx: np.ndarray  #: (nx,) reduced radius per slice at the linearisation [mm]
+    Jk: np.ndarray  #: (nx, P + Q) its curvature's sensitivity (:func:`kappa_lin`)
+    theta_k: np.ndarray  #: the linearisation's design [mm]
+    keys: np.ndarray  #: (nx, 4) (torque, case, position, flat slice) per slice held
+    hmap: ca.DM | None  #: the harmonics map, or None (peak-to-peak objective)
+    w_keys: np.ndarray  #: (nw, 4) the same per deflection unknown
+    w_part: np.ndarray  #: (nw,) the compliance part of each deflection unknown
+    te0: Te0Slices | None  #: the unloaded-TE target's slices, or None
+    te0_term: ca.Function  #: the unloaded-TE target's term of the objective, ``z -> te0_term``
+    warm: ca.Function | None = None  #: the warm-start IPOPT solver, once built (:meth:`TrustRegion._solve_nlp`)
+    _solver: ca.Function | None = field(default=None, repr=False)
 
-    def __missing__(self, key):
-        if key != "solver":
-            raise KeyError(key)
-        self[key] = ca.nlpsol("loaded_microgeometry", "ipopt", self["problem"], self["opts"])
-        return self[key]
+    @property
+    def solver(self) -> ca.Function:
+        """The cold-start IPOPT solver of :attr:`problem` (built on first use)."""
+        if self._solver is None:
+            self._solver = ca.nlpsol("loaded_microgeometry", "ipopt", self.problem, self.opts)
+        return self._solver
+
+    @solver.setter
+    def solver(self, f: ca.Function) -> None:
+        self._solver = f
+
+    @property
+    def solver_built(self) -> bool:
+        """Whether :attr:`solver` exists (IPOPT is built for an NLP only when it is solved cold)."""
+        return self._solver is not None
 
 
 def kappa_lin(R: np.ndarray, Jk: np.ndarray, P: int, dth: ca.MX | ca.SX | np.ndarray,

@@ -122,7 +122,7 @@ class LoadedMicroOptimizer(LoadedProblem, MirrorReduction, Verification, Lineari
             if progress:
                 progress(f"loaded micro-geometry: {add.size} verification positions load an edge or exceed the pressure "
                          f"limit between the NLP's positions; the NLP's grid grows to {self.phi1.size}")
-        ver = cur["check"]  # the exact loaded TCA of the final design (LTCA.solve on its own slices)
+        ver = cur.check  # the exact loaded TCA of the final design (LTCA.solve on its own slices)
         if red is not self:  # every case, and the NLP's prediction of each mirror image by its twin's
             # (the loop's own loaded TCA of the final design is that of one case per class: the others
             # are solved here)
