@@ -16,7 +16,8 @@ MODULES = sorted(p.relative_to(ROOT.parent).with_suffix("").as_posix().replace("
 
 
 def _public(name: str) -> bool:
-    return not name.startswith("_") or (name.startswith("__") and name.endswith("__") and name == "__init__")
+    """A public function or method; ``__init__`` too (its parameters are the constructor's)."""
+    return not name.startswith("_") or name == "__init__"
 
 
 def missing_hints(source: str) -> list[str]:
