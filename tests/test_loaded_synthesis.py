@@ -6,6 +6,7 @@ contact NLP against the exact loaded TCA (QP), an optimum checked by the exact l
 from __future__ import annotations
 
 import dataclasses
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -16,6 +17,7 @@ from gearopt.geometry.microgeometry import Microgeometry
 from gearopt.meshing.misalignment import Misalignment
 from gearopt.synthesis.loaded import EDGE_TOL, LoadedMicroOptimizer
 from gearopt.synthesis.loaded.layout import nlp_layout
+from gearopt.synthesis.loaded.trust_region import LocalModel
 from gearopt.units import ARCMIN, RAD_TO_ARCSEC
 
 FREE = {"pinion.C_alpha": (0.0, 0.04), "pinion.C_beta": (0.0, 0.04), "pinion.C_alpha_a": (0.0, 0.04),
@@ -230,8 +232,8 @@ class _PenaltyToy(LoadedMicroOptimizer):
     def _around(self, theta, radius=np.inf, rho=1000.0):
         chk = self.check(theta)
         lay = nlp_layout(P=1, nx=1, nB=0, TC=0, nw=0, n0=0, nB0=0, n_pressure=0, n_edge=0, n_torques=1, n_kinds=4)
-        return {"nlp": {"sizes": {"nx": 1}, "layout": lay}, "z0": theta * 1e3, "check": chk, "merit": self._merit(chk, rho),
-                "time": 0.0}
+        return LocalModel(nlp=SimpleNamespace(sizes={"nx": 1}, layout=lay), z0=theta * 1e3, check=chk,
+                          merit=self._merit(chk, rho), time=0.0)
 
     def _solve_nlp(self, nlp, z0, lbx, ubx, p, prev=None):
         rho = p[3]
