@@ -173,3 +173,14 @@ def test_no_private_name_imported_across_modules(module):
     path = ROOT.parent / (module.replace(".", "/") + ".py")
     bad = private_imports(path.read_text(), module)
     assert not bad, f"{module} imports private names of other modules: {', '.join(bad)}"
+
+
+def test_weber_contact_by_name():
+    """weber_contact: a WeberContact whose b_H and p0 are Hertz's line contact (hertz_line)."""
+    from gearopt.ltca.compliance import WeberContact, weber_contact
+
+    m = Material(E=210000.0, nu=0.3)
+    w = weber_contact(np.array([350.0]), 8.0 * 15.0 / 23.0, 3.0, 4.0, m, 1.0)
+    assert isinstance(w, WeberContact) and w.compliance[0] > 0
+    ref = hertz_line(350.0, 8.0, 15.0, m.E, m.nu)
+    assert w.b_H[0] == pytest.approx(ref.b, rel=1e-12) and w.p0[0] == pytest.approx(ref.p0, rel=1e-12)

@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, NamedTuple
 
 import casadi as ca
 import numpy as np
@@ -199,8 +199,16 @@ class ToothCompliance:
                                total=bend + shear + comp + found, h=xP / cos_g, eta_F=etaF)
 
 
+class WeberContact(NamedTuple):
+    """Weber & Banaschek's contact approach and the Hertz values at a load (:func:`weber_contact`)."""
+
+    compliance: np.ndarray  #: ``delta / f`` [mm^2/N] (per unit contact length)
+    b_H: np.ndarray  #: Hertz half-width [mm]
+    p0: np.ndarray  #: Hertz peak pressure [MPa]
+
+
 def weber_contact(f: npt.ArrayLike, R_star: npt.ArrayLike, h1: npt.ArrayLike, h2: npt.ArrayLike, material: Material,
-                  f_min: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                  f_min: float) -> WeberContact:
     """Weber & Banaschek's contact approach of two cylinders in line contact, each measured to
     depth ``h`` (the tooth centreline) [mm], and the Hertz values.
 
@@ -217,15 +225,15 @@ def weber_contact(f: npt.ArrayLike, R_star: npt.ArrayLike, h1: npt.ArrayLike, h2
 
     Returns
     -------
-    compliance : array
-        ``delta / f`` [mm^2/N] (per unit contact length).
-    b_H, p0 : arrays [mm], [MPa] at the load ``f``.
+    WeberContact
+        ``compliance``: ``delta / f`` [mm^2/N] (per unit contact length); ``b_H``, ``p0``: arrays
+        [mm], [MPa] at the load ``f``.
     """
     f = np.asarray(f, float)
     Es = material.E_star
     c = weber_compliance(f, R_star, h1, h2, material.E, material.nu, Es, f_min, smoothing="max")
     fp = np.maximum(f, 0.0)
-    return c, hertz_half_width(fp, R_star, Es), hertz_peak_pressure(fp, R_star, Es)
+    return WeberContact(compliance=c, b_H=hertz_half_width(fp, R_star, Es), p0=hertz_peak_pressure(fp, R_star, Es))
 
 
 def weber_tangent(material: Material) -> ca.Function:

@@ -95,5 +95,5 @@ def loaded_gaps(sw: LoadedSweep, r: LoadedResult) -> np.ndarray:
     CF = np.einsum("nij,nj->ni", st.Cs, F)
     CF = np.transpose(CF.reshape(N, K, M), (1, 0, 2))
     f_min = F_MIN_SHARE * r.W * sw.ltca.cos_bb / g1.b
-    cH = weber_contact(r.load / st.length, st.R, st.h1, st.h2, sw.ltca.material, f_min)[0]
+    cH = weber_contact(r.load / st.length, st.R, st.h1, st.h2, sw.ltca.material, f_min).compliance
     return s + CF + cH * r.load / st.length - r.delta[None, :, None] * lam
