@@ -37,7 +37,7 @@ def main(argv):
     print("1. spur 20/40 m 3 at the pitch point")
     for T in (200.0, 50.0):
         f = T * 1e3 / p.r_b / b
-        b_H = hertz_line(f, rho1, rho2, E, NU)["b"]
+        b_H = hertz_line(f, rho1, rho2, E, NU).b
         for n_hertz, n_half in ((4, 12), (8, 24), (8, 40)):
             for name, gear in (("pinion", p), ("gear", g)):
                 r = section_compression(generate(gear), gear.r_p, b_H, E, NU, n_hertz=n_hertz, n_half=n_half)

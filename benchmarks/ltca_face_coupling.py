@@ -90,8 +90,8 @@ def hertz_table() -> int:
             slope = np.polyfit(np.log(T), np.log(p), 1)[0]
             print(f"{name}, crowned, {n} slices: log-slope {slope:.3f}")
             for t, h, r, pp in zip(T, hz, sw.results, p):
-                print(f"  {t:5.0f} N m  Hertz {h['p0']:7.1f} MPa (a {h['a']:.2f} mm)  loaded TCA {pp:7.1f} MPa "
-                      f"({100 * (pp / h['p0'] - 1):+.1f} %)  pair share {float(np.max(r.share)):.4f}")
+                print(f"  {t:5.0f} N m  Hertz {h.p0:7.1f} MPa (a {h.a:.2f} mm)  loaded TCA {pp:7.1f} MPa "
+                      f"({100 * (pp / h.p0 - 1):+.1f} %)  pair share {float(np.max(r.share)):.4f}")
     return 0
 
 

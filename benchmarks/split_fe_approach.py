@@ -84,18 +84,18 @@ def main(argv):
         print(f"{name:<7} {-1e3 * uf:9.3f} {-1e3 * uc:7.3f} {1e3 * (uc - uf):8.3f} {s_:12.3f} {-1e3 * um:10.3f}")
     L = LTCA(pair, material=mat, compliance="fe")
     S = L.slices(phi1=np.array([0.0]))
-    st = L._structure(S)
+    st = L.structure(S)
     r = L.solve(T, phi1=[0.0]).results[0]
     k = list(S.pairs).index(0)
     u = np.flatnonzero(np.isfinite(S.z[k, 0]))
     j = u[len(u) // 2]
     F = r.load[k, 0, u]
     rad = [np.hypot(*getattr(S, a)[k, 0, u].T) for a in ("r1", "r2")]
-    f = r.load[k, 0, j] / st["length"][k, 0, j]
-    b_l = math.sqrt(4 * f * st["R"][k, 0, j] / (math.pi * mat.E_star))
+    f = r.load[k, 0, j] / st.length[k, 0, j]
+    b_l = math.sqrt(4 * f * st.R[k, 0, j] / (math.pi * mat.E_star))
     c = 2 * (1 - mat.nu**2) / (math.pi * mat.E) * f
     print(f"loaded TCA (FE coefficients), mid face: approach {r.delta[0] * 1e3:.3f} um, line load {f:.1f} N/mm")
-    for i, (name, h) in enumerate((("pinion", st["h1"][k, 0, j]), ("gear", st["h2"][k, 0, j]))):
+    for i, (name, h) in enumerate((("pinion", st.h1[k, 0, j]), ("gear", st.h2[k, 0, j]))):
         bend = (L.influence[i].matrix(rad[i], S.z[k, 0, u]) @ F)[len(u) // 2]
         weber = c * (math.log(2 * h / b_l) - mat.nu / (2 * (1 - mat.nu)))
         print(f"{name:<7} tooth at C {1e3 * bend:7.3f} um, Weber-Banaschek to h = {h:.3f} mm: {1e3 * weber:.3f} um")

@@ -86,8 +86,8 @@ def test_members_placed_in_contact(model, pair):
 
 def test_hertz_formula():
     h = hertz_line(354.7, 10.26, 15.39, 210e3, 0.3)
-    assert h["p0"] == pytest.approx(1455, rel=2e-3)  # Hertz reference value of docs/fea.md (validation)
-    assert h["b"] == pytest.approx(0.155, rel=5e-3)
+    assert h.p0 == pytest.approx(1455, rel=2e-3)  # Hertz reference value of docs/fea.md (validation)
+    assert h.b == pytest.approx(0.155, rel=5e-3)
 
 
 def test_deck_lines_and_sets(model, tmp_path):
@@ -176,7 +176,7 @@ def test_crowned_pinion_default_mesh_has_no_inverted_element(a_pl, a_c):
     z = np.unique(np.round(m.pinion_mesh.nodes[:, 2], 9))
     z_c = m.contact[0]["z1"]
     assert np.min(np.abs(z - z_c)) < 1e-6
-    assert np.min(np.diff(z)) <= min(20 / 4, m.hertz[0]["a"] / 2) + 1e-9  # n_ellipse = 2 per semi-axis
+    assert np.min(np.diff(z)) <= min(20 / 4, m.hertz[0].a / 2) + 1e-9  # n_ellipse = 2 per semi-axis
 
 
 @pytest.mark.parametrize("beta_deg, a_pl", [(10, 0.0), (15, 0.0), (25, 0.0), (18, 2e-4)])
@@ -207,14 +207,14 @@ def test_hertz_point_limits():
     Reff = 1 / (1 / R1 + 1 / R2)
     h = hertz_point(F, (1 / Reff, 1 / Reff), E, nu)
     a = (3 * F * Reff / (4 * E / (2 * (1 - nu**2)))) ** (1 / 3)
-    assert h["k"] == pytest.approx(1.0) and h["a"] == pytest.approx(a, rel=1e-9)
-    assert h["p0"] == pytest.approx(3 * F / (2 * math.pi * a * a), rel=1e-9)
+    assert h.k == pytest.approx(1.0) and h.a == pytest.approx(a, rel=1e-9)
+    assert h.p0 == pytest.approx(3 * F / (2 * math.pi * a * a), rel=1e-9)
     # a long ellipse approaches line contact: p0 -> the line-contact value of the load per length at
     # the centre, (pi/2) p0 b = f0 with the parabolic line load of a semi-ellipsoid
     h = hertz_point(F, (2e-5, 0.2), E, nu)
-    f0 = 0.5 * math.pi * h["p0"] * h["b"]
+    f0 = 0.5 * math.pi * h.p0 * h.b
     line = hertz_line(f0, 1 / 0.2, 1e12, E, nu)
-    assert h["k"] > 30 and h["p0"] == pytest.approx(line["p0"], rel=0.03)
+    assert h.k > 30 and h.p0 == pytest.approx(line.p0, rel=0.03)
 
 
 def test_penalty_layer_factor_between_hertz_and_winkler():

@@ -27,11 +27,11 @@ def around():
 
 def test_the_layout_covers_the_nlp_in_its_order(around):
     opt, cur = around
-    nlp = cur["nlp"]
-    lay, pr = nlp["layout"], nlp["problem"]
+    nlp = cur.nlp
+    lay, pr = nlp.layout, nlp.problem
     assert lay.unknowns.names == UNKNOWNS and lay.rows.names == ROWS
     assert lay.unknowns.size == pr["x"].shape[0]
-    assert lay.rows.size == pr["g"].shape[0] == nlp["lbg"].size
+    assert lay.rows.size == pr["g"].shape[0] == nlp.lbg.size
     assert lay.params.size == pr["p"].shape[0] == len(opt._pvec(1000.0))
     # each block of unknowns is the NLP's symbol of that name, in place
     syms = {s.name(): s for s in ca.symvar(pr["x"])}
@@ -46,10 +46,10 @@ def test_the_layout_covers_the_nlp_in_its_order(around):
             assert syms[names.get(k, k)].shape[0] == n
     # the sizes: one load and one gap per slice held, one approach per block
     s = lay.sizes()
-    assert s["nx"] == sum(b.count for b in nlp["blocks"]) and s["nB"] == len(nlp["blocks"])
-    assert s["P"] == 2 and s["TC"] == 4 and lay.rows.count("pressure") == nlp["rows"]["flank"].size > 0
+    assert s["nx"] == sum(b.count for b in nlp.blocks) and s["nB"] == len(nlp.blocks)
+    assert s["P"] == 2 and s["TC"] == 4 and lay.rows.count("pressure") == nlp.rows["flank"].size > 0
     # the equality rows (contact conditions) and the inequality rows (TE bounds, pressure) by name
-    eq = nlp["lbg"] == nlp["ubg"]
+    eq = nlp.lbg == nlp.ubg
     for k in ("stiffness", "gap", "complementarity", "balance"):
         assert eq[lay.rows[k]].all()
     for k in ("te_hi", "te_lo", "pressure"):
@@ -58,8 +58,8 @@ def test_the_layout_covers_the_nlp_in_its_order(around):
 
 def test_start_point_and_bounds_by_name(around):
     opt, cur = around
-    nlp, z0 = cur["nlp"], cur["z0"]
-    U = nlp["layout"].unknowns
+    nlp, z0 = cur.nlp, cur.z0
+    U = nlp.layout.unknowns
     assert np.allclose(U.take(z0, "theta"), opt.theta0 * 1e3)
     x, y = U.take(z0, "x"), U.take(z0, "y")
     assert np.allclose(x * y, 1e-8, rtol=1e-6) and np.all(x > 0) and np.all(y > 0)  # x y = MU
@@ -69,7 +69,7 @@ def test_start_point_and_bounds_by_name(around):
     assert np.all(U.take(lbx, "slack_p") == 0.0) and np.all(U.take(lbx, "slack_e") == 0.0)
     assert np.all(np.isinf(np.delete(lbx, np.r_[U["theta"], U["slack_p"], U["slack_e"]])))
     pred = opt._predicted(nlp, z0)  # the exact loaded TCA's TE at the start point
-    assert np.allclose(pred["te_pp"], cur["check"].te_pp, atol=1e-3)
+    assert np.allclose(pred["te_pp"], cur.check.te_pp, atol=1e-3)
 
 
 def test_a_block_layout_refuses_an_unknown_name():

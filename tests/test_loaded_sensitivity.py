@@ -139,8 +139,8 @@ def test_sensitivities_of_a_mirror_set_match_re_solved_optima_and_the_nlp():
     P, T = len(names), opt.torques.size
 
     def solve(p):
-        r = nlp["solver"](x0=S["z"], lbx=lbx, ubx=ubx, lbg=nlp["lbg"], ubg=nlp["ubg"], p=p)
-        assert nlp["solver"].stats()["success"]
+        r = nlp.solver(x0=S["z"], lbx=lbx, ubx=ubx, lbg=nlp.lbg, ubg=nlp.ubg, p=p)
+        assert nlp.solver.stats()["success"]
         return np.asarray(r["x"]).ravel()[:P] * 1e-3
 
     for col, hp in [(t, 1e-4) for t in range(T)] + [(T + kinds.index("dE"), 1e-4)]:

@@ -5,6 +5,9 @@ contact NLP against the exact loaded TCA (QP), an optimum checked by the exact l
 
 from __future__ import annotations
 
+import dataclasses
+from types import SimpleNamespace
+
 import numpy as np
 import pytest
 
@@ -14,6 +17,7 @@ from gearopt.geometry.microgeometry import Microgeometry
 from gearopt.meshing.misalignment import Misalignment
 from gearopt.synthesis.loaded import EDGE_TOL, LoadedMicroOptimizer
 from gearopt.synthesis.loaded.layout import nlp_layout
+from gearopt.synthesis.loaded.trust_region import LocalModel
 from gearopt.units import ARCMIN, RAD_TO_ARCSEC
 
 FREE = {"pinion.C_alpha": (0.0, 0.04), "pinion.C_beta": (0.0, 0.04), "pinion.C_alpha_a": (0.0, 0.04),
@@ -123,15 +127,15 @@ def test_the_smoothed_nlp_reproduces_the_exact_loaded_tca(opt):
     loaded TE equals the exact QP's within the smoothing's effect (1e-3 arcsec)."""
     th = opt.theta0.copy()
     cur = opt._around(th)
-    nlp = cur["nlp"]
+    nlp = cur.nlp
     lbx, ubx = opt._bounds(nlp)
     P = th.size
     lbx[:P] = ubx[:P] = th * 1e3
-    r = nlp["solver"](x0=cur["z0"], lbx=lbx, ubx=ubx, lbg=nlp["lbg"], ubg=nlp["ubg"],
+    r = nlp.solver(x0=cur.z0, lbx=lbx, ubx=ubx, lbg=nlp.lbg, ubg=nlp.ubg,
                       p=opt._pvec(1000.0))
-    assert nlp["solver"].stats()["success"]
+    assert nlp.solver.stats()["success"]
     pred = opt._predicted(nlp, np.asarray(r["x"]).ravel())
-    exact = cur["check"].te_pp
+    exact = cur.check.te_pp
     assert np.max(np.abs(pred["te_pp"] - exact)) < 1e-3
     assert exact.min() > 5.0  # a real loaded TE, not a trivial match
 
@@ -145,43 +149,43 @@ def test_warm_start_carries_the_multipliers_by_slice_and_reaches_the_cold_optimu
     p = opt._pvec(1000.0)
 
     def solve(cur, centre, radius, prev=None):
-        nlp = cur["nlp"]
+        nlp = cur.nlp
         lbx, ubx = opt._bounds(nlp)
         lbx[:P] = np.maximum(opt.lo, centre - radius) * 1e3
         ubx[:P] = np.minimum(opt.hi, centre + radius) * 1e3
-        return opt._solve_nlp(nlp, cur["z0"], lbx, ubx, p, prev)
+        return opt._solve_nlp(nlp, cur.z0, lbx, ubx, p, prev)
 
     a = opt._around(th, 0.002)  # a narrow trust region: fewer slices held
     ra, st, _ = solve(a, th, 0.002)
     assert st["success"]
     lam_a = np.asarray(ra["lam_g"]).ravel()
     # onto itself: every row keeps its own multiplier; the design's bound multipliers are dropped
-    lx, lg = opt._multipliers((a["nlp"], ra), a["nlp"])
+    lx, lg = opt._multipliers((a.nlp, ra), a.nlp)
     assert np.array_equal(lg, lam_a)
     assert np.all(lx[:P] == 0.0) and np.count_nonzero(lx) > 0
     # onto the NLP around the new design with every active slice: matched rows keep theirs, new rows 0
     th2 = np.clip(np.asarray(ra["x"]).ravel()[:P] * 1e-3, opt.lo, opt.hi)
     b = opt._around(th2)
-    assert "solver" not in b["nlp"] and "warm" not in b["nlp"]  # IPOPT is built for the NLP only when it is solved
-    _, lg = opt._multipliers((a["nlp"], ra), b["nlp"])
-    na, nb = a["nlp"], b["nlp"]
-    fb = lambda n, v: n["layout"].rows.take(v, "complementarity")  # noqa: E731 - one row per slice held
-    ka = dict(zip((tuple(k) for k in na["keys"]), fb(na, lam_a)))
+    assert not b.nlp.solver_built and b.nlp.warm is None  # IPOPT is built for the NLP only when it is solved
+    _, lg = opt._multipliers((a.nlp, ra), b.nlp)
+    na, nb = a.nlp, b.nlp
+    fb = lambda n, v: n.layout.rows.take(v, "complementarity")  # noqa: E731 - one row per slice held
+    ka = dict(zip((tuple(k) for k in na.keys), fb(na, lam_a)))
     fb_b = fb(nb, lg)
-    keys_b = [tuple(k) for k in nb["keys"]]
-    assert nb["sizes"]["nx"] > na["sizes"]["nx"]  # the wider NLP holds slices the narrow one left out
+    keys_b = [tuple(k) for k in nb.keys]
+    assert nb.sizes["nx"] > na.sizes["nx"]  # the wider NLP holds slices the narrow one left out
     assert sum(k in ka for k in keys_b) > 0.5 * len(keys_b)
     for k, v in zip(keys_b, fb_b):
         assert v == ka.get(k, 0.0)
     # the warm solve reaches the cold solve's optimum
     cold, st_c, it_c = solve(b, th2, 0.002)
-    warm, st_w, it_w = solve(b, th2, 0.002, prev=(a["nlp"], ra, np.array(p, float)))
+    warm, st_w, it_w = solve(b, th2, 0.002, prev=(a.nlp, ra, np.array(p, float)))
     assert st_c["success"] and st_w["success"]
-    assert it_w == nb["warm"].stats()["iter_count"]  # the warm solve itself converged (no cold fallback)
+    assert it_w == nb.warm.stats()["iter_count"]  # the warm solve itself converged (no cold fallback)
     assert abs(float(warm["f"]) - float(cold["f"])) < 1e-6 * abs(float(cold["f"]))
     assert np.max(np.abs(np.asarray(warm["x"])[:P] - np.asarray(cold["x"])[:P])) < 1e-3  # [um]
     # positions that differ: nothing to carry
-    other = dict(na, phi1=na["phi1"] + 1e-3)
+    other = dataclasses.replace(na, phi1=na.phi1 + 1e-3)
     assert opt._multipliers((other, ra), nb) is None
 
 
@@ -228,8 +232,8 @@ class _PenaltyToy(LoadedMicroOptimizer):
     def _around(self, theta, radius=np.inf, rho=1000.0):
         chk = self.check(theta)
         lay = nlp_layout(P=1, nx=1, nB=0, TC=0, nw=0, n0=0, nB0=0, n_pressure=0, n_edge=0, n_torques=1, n_kinds=4)
-        return {"nlp": {"sizes": {"nx": 1}, "layout": lay}, "z0": theta * 1e3, "check": chk, "merit": self._merit(chk, rho),
-                "time": 0.0}
+        return LocalModel(nlp=SimpleNamespace(sizes={"nx": 1}, layout=lay), z0=theta * 1e3, check=chk,
+                          merit=self._merit(chk, rho), time=0.0)
 
     def _solve_nlp(self, nlp, z0, lbx, ubx, p, prev=None):
         rho = p[3]
@@ -410,11 +414,11 @@ def _assert_sensitivities_match_finite_differences(opt, S):
     # compliance part has its deflection unknowns, a noise of 2e-8 / 1e-5 over the step)
     import casadi as ca
 
-    solver = ca.nlpsol("fd_check", "ipopt", nlp["problem"],
-                       {**nlp["opts"], "ipopt.bound_relax_factor": 0.0, "ipopt.tol": 1e-12})
+    solver = ca.nlpsol("fd_check", "ipopt", nlp.problem,
+                       {**nlp.opts, "ipopt.bound_relax_factor": 0.0, "ipopt.tol": 1e-12})
 
     def solve(p):
-        r = solver(x0=S["z"], lbx=lbx, ubx=ubx, lbg=nlp["lbg"], ubg=nlp["ubg"], p=p)
+        r = solver(x0=S["z"], lbx=lbx, ubx=ubx, lbg=nlp.lbg, ubg=nlp.ubg, p=p)
         assert solver.stats()["success"]
         return np.asarray(r["x"]).ravel()[:P] * 1e-3, float(r["f"])
 
@@ -465,11 +469,11 @@ def test_sensitivities_use_the_slacks_of_a_solution_inside_its_bounds(sens):
 
     S = sens
     nlp, z = S["nlp"], S["z"]
-    pr = nlp["problem"]
+    pr = nlp.problem
     g = np.asarray(ca.Function("g", [pr["x"], pr["p"]], [pr["g"]])(z, S["p"])).ravel()
-    ineq = nlp["lbg"] < nlp["ubg"]
+    ineq = nlp.lbg < nlp.ubg
     assert ineq.sum() > 100
-    assert np.all(g[ineq] <= nlp["ubg"][ineq]) and np.all(g[ineq] >= nlp["lbg"][ineq])
+    assert np.all(g[ineq] <= nlp.ubg[ineq]) and np.all(g[ineq] >= nlp.lbg[ineq])
     lbx, ubx = S["bounds"]
     assert np.all(z >= lbx) and np.all(z <= ubx)
 
@@ -560,12 +564,12 @@ def test_unloaded_te_target_is_the_tcas_unloaded_te_against_its_parabola(te0_des
     # the NLP's own term, the design fixed at the optimum
     opt.phi1 = d.phi1
     a = opt._around(th)
-    nlp = a["nlp"]
+    nlp = a.nlp
     lbx, ubx = opt._bounds(nlp)
     lbx[:th.size] = ubx[:th.size] = th * 1e3
-    r = nlp["solver"](x0=a["z0"], lbx=lbx, ubx=ubx, lbg=nlp["lbg"], ubg=nlp["ubg"], p=opt._pvec(d.rho))
-    assert nlp["solver"].stats()["success"]
-    term = float(nlp["te0_term"](r["x"]))
+    r = nlp.solver(x0=a.z0, lbx=lbx, ubx=ubx, lbg=nlp.lbg, ubg=nlp.ubg, p=opt._pvec(d.rho))
+    assert nlp.solver.stats()["success"]
+    term = float(nlp.te0_term(r["x"]))
     W = opt.weights.sum(axis=0)
     assert term == pytest.approx(0.1 * float(np.sum(W * np.sqrt(rms**2 + 1e-6))), rel=2e-5)  # (the sampling above)
     # any grid: one pitch on, pair 1 is the one centred there
@@ -652,14 +656,14 @@ def test_mirror_image_cases_are_solved_once():
     red = opt._reduced()
     assert len(red.cases) == 4 and red.weights[1, 1] == 4.0
     a_full, a_red = opt._around(th, 0.002), red._around(th, 0.002)
-    assert a_red["merit"] == pytest.approx(a_full["merit"], rel=1e-9)
-    assert a_full["merit"] > a_full["check"].objective + 1.0  # the pressure penalty is part of it
+    assert a_red.merit == pytest.approx(a_full.merit, rel=1e-9)
+    assert a_full.merit > a_full.check.objective + 1.0  # the pressure penalty is part of it
     f = []
     for o, a in ((opt, a_full), (red, a_red)):
-        nlp = a["nlp"]
+        nlp = a.nlp
         lbx, ubx = o._bounds(nlp)
         lbx[:4] = ubx[:4] = th * 1e3
-        f.append(float(nlp["solver"](x0=a["z0"], lbx=lbx, ubx=ubx, lbg=nlp["lbg"], ubg=nlp["ubg"], p=o._pvec(1000.0))["f"]))
+        f.append(float(nlp.solver(x0=a.z0, lbx=lbx, ubx=ubx, lbg=nlp.lbg, ubg=nlp.ubg, p=o._pvec(1000.0))["f"]))
     assert f[1] == pytest.approx(f[0], rel=1e-6)
     # what breaks the symmetry keeps every case
     assert LoadedMicroOptimizer(drive(f_H_beta=0.005), FREE, torques=[100.0], cases=cases).mirror_classes() is None

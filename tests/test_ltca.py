@@ -90,9 +90,9 @@ def test_beam_terms_match_a_rectangular_cantilever():
     tc._eta, tc._I, tc._J = eta, [cum(w3), cum(eta * w3), cum(eta**2 * w3)], cum(np.full_like(eta, 1 / (2 * x)))
     m = tc.material
     c = tc.per_width([[x, tc.r_f + L]], [[1.0, 0.0]])
-    assert c["bending"][0] == pytest.approx(4 * L**3 / (m.E_plane * (2 * x) ** 3), rel=1e-6)
-    assert c["shear"][0] == pytest.approx(1.2 * 2 * (1 + m.nu) * L / (2 * x * m.E), rel=1e-6)
-    assert c["compression"][0] == pytest.approx(0.0, abs=1e-20)
+    assert c.bending[0] == pytest.approx(4 * L**3 / (m.E_plane * (2 * x) ** 3), rel=1e-6)
+    assert c.shear[0] == pytest.approx(1.2 * 2 * (1 + m.nu) * L / (2 * x * m.E), rel=1e-6)
+    assert c.compression[0] == pytest.approx(0.0, abs=1e-20)
     # a load inclined by gamma: bending with the moment arm to where its line meets the centreline
     g = 20 * DEG
     n = [math.cos(g), -math.sin(g)]
@@ -100,7 +100,7 @@ def test_beam_terms_match_a_rectangular_cantilever():
     c = tc.per_width([[x, yP]], [n])
     etaF = 3.0 + x * math.tan(g)
     expect = math.cos(g) ** 2 * 4 * (etaF**3 - (etaF - 3.0) ** 3) / (m.E_plane * (2 * x) ** 3)
-    assert c["bending"][0] == pytest.approx(expect, rel=1e-6)
+    assert c.bending[0] == pytest.approx(expect, rel=1e-6)
 
 
 def generate_tooth():
@@ -119,10 +119,10 @@ def test_tooth_compliance_grows_towards_the_tip_and_with_a_deeper_body():
         p, n, _ = t.point("right", "flank", u)
         pts.append(p[:2])
         nrm.append(n[:2])
-    c = tc.per_width(np.array(pts), np.array(nrm))["total"]
+    c = tc.per_width(np.array(pts), np.array(nrm)).total
     assert np.all(np.diff(c) > 0)
-    assert np.all(deep.per_width(np.array(pts), np.array(nrm))["foundation"] > tc.per_width(np.array(pts),
-                                                                                             np.array(nrm))["foundation"])
+    assert np.all(deep.per_width(np.array(pts), np.array(nrm)).foundation > tc.per_width(np.array(pts),
+                                                                                           np.array(nrm)).foundation)
     with pytest.raises(GeometryError) as e:
         ToothCompliance(t, Material(), r_int=0.9 * t.gear.r_f, member="pinion")
     assert e.value.param == "pinion.r_int" and "1.4" in str(e.value)
@@ -134,8 +134,8 @@ def test_hertz_values_match_the_fe_module_reference():
     R = r1 * r2 / (r1 + r2)
     _, b, p0 = weber_contact(np.array([f]), R, 3.0, 4.0, m, 1.0)
     ref = hertz_line(f, r1, r2, m.E, m.nu)
-    assert p0[0] == pytest.approx(ref["p0"], rel=1e-12)
-    assert b[0] == pytest.approx(ref["b"], rel=1e-12)
+    assert p0[0] == pytest.approx(ref.p0, rel=1e-12)
+    assert b[0] == pytest.approx(ref.b, rel=1e-12)
     # Weber's approach grows less than linearly with the load (the logarithm) and stays finite at zero
     c, _, _ = weber_contact(np.array([0.0, 10.0, 100.0, 1000.0]), R, 3.0, 4.0, m, 1.0)
     d = c * np.array([0.0, 10.0, 100.0, 1000.0])
@@ -219,10 +219,10 @@ def test_contact_conditions_and_an_independent_qp_solver(spur_sweep):
         act = S.active[:, j, :].ravel()
         s = ((S.te_unloaded[j] - S.te[:, j, :]) * lever).ravel()[act]
         F = r.load[:, j, :].ravel()[act]
-        length = st["length"][:, j, :].ravel()[act]
-        cH, _, _ = weber_contact(F / length, st["R"][:, j, :].ravel()[act], st["h1"][:, j, :].ravel()[act],
-                                 st["h2"][:, j, :].ravel()[act], L.material, 1e-3 * r.W * L.cos_bb / L.pair.pinion.b)
-        C = st["Cs"][j][np.ix_(np.flatnonzero(act), np.flatnonzero(act))] + np.diag(cH / length)
+        length = st.length[:, j, :].ravel()[act]
+        cH, _, _ = weber_contact(F / length, st.R[:, j, :].ravel()[act], st.h1[:, j, :].ravel()[act],
+                                 st.h2[:, j, :].ravel()[act], L.material, 1e-3 * r.W * L.cos_bb / L.pair.pinion.b)
+        C = st.Cs[j][np.ix_(np.flatnonzero(act), np.flatnonzero(act))] + np.diag(cH / length)
         gap = s + C @ F - r.delta[j]
         assert F.sum() == pytest.approx(r.W, rel=1e-9)
         assert F.min() >= 0
@@ -254,13 +254,13 @@ def test_spur_load_sharing_and_hertz_pressure(spur_sweep):
     j = int(np.flatnonzero(single)[len(np.flatnonzero(single)) // 2])
     k = int(np.argmax(share[:, j]))
     i = int(np.nanargmin(np.abs(S.z[k, j])))
-    rad1 = sw.structure["radius1"][k, j, i]
-    rad2 = sw.structure["radius2"][k, j, i]
+    rad1 = sw.structure.radius1[k, j, i]
+    rad2 = sw.structure.radius2[k, j, i]
     g1, g2 = L.pair.pinion, L.pair.gear
     ref = hertz_line(r.W / g1.b, math.sqrt(rad1**2 - g1.r_b**2), math.sqrt(rad2**2 - g2.r_b**2), L.material.E,
                      L.material.nu)
     assert r.line_load[k, j, i] == pytest.approx(r.W / g1.b, rel=1e-6)
-    assert r.p0[k, j, i] == pytest.approx(ref["p0"], rel=1e-6)
+    assert r.p0[k, j, i] == pytest.approx(ref.p0, rel=1e-6)
 
 
 def test_spur_mesh_stiffness_near_iso6336(spur_sweep):
@@ -426,7 +426,7 @@ def test_influence_coefficients_are_a_compliance_and_are_cached(fe_cache, monkey
         pt, nv = out[0], out[1]
         xy.append(np.asarray(pt).ravel()[:2])
         nxy.append(np.asarray(nv).ravel()[:2])
-    h = tc.per_width(np.array(xy), np.array(nxy))["h"]
+    h = tc.per_width(np.array(xy), np.array(nxy)).h
     assert ig.depth.shape == (nr, nz)
     # (a spur tooth's middle line is its symmetry axis, so both are the same construction; the middle
     # node of the same row lies 0.2-15 % nearer, from root to tip)

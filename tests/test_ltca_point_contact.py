@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from gearopt.fea import FEOptions, GearFEModel
+from gearopt.fea.model import HertzPoint
 from gearopt.gears import BasicRack, Gear, GearPair
 from gearopt.ltca import LTCA, Material
 from gearopt.ltca.compliance import coupling, face_matrix_batch
@@ -34,7 +35,7 @@ def hertz_ellipse(pair, torque):
     scipy's ellipk/ellipe), as the FE model's reference."""
     m = GearFEModel(pair, 0.0, FEOptions(torque=torque * 1e3, E=MAT.E, nu=MAT.nu))
     (h,) = m.hertz.values()
-    assert h["kind"] == "ellipse"
+    assert isinstance(h, HertzPoint)
     return h
 
 
@@ -51,9 +52,9 @@ def test_crowned_spur_peak_pressure_is_the_hertz_ellipse(spur_sweep, k):
     T, sw = spur_sweep
     r = sw.results[k]
     h = hertz_ellipse(spur_crowned(), T[k])
-    assert h["a"] < 0.7 * 10.0
+    assert h.a < 0.7 * 10.0
     assert float(np.max(r.share)) == pytest.approx(1.0, abs=1e-9)
-    assert r.p_max == pytest.approx(h["p0"], rel=0.05)
+    assert r.p_max == pytest.approx(h.p0, rel=0.05)
 
 
 def test_crowned_helical_peak_pressure_is_the_hertz_ellipse():
@@ -64,7 +65,7 @@ def test_crowned_helical_peak_pressure_is_the_hertz_ellipse():
     sw = LTCA(pair, material=MAT).solve(T, phi1=np.array([0.0]))
     for t, r in zip(T, sw.results):
         assert float(np.max(r.share)) > 0.99
-        assert r.p_max == pytest.approx(hertz_ellipse(pair, t)["p0"], rel=0.05), t
+        assert r.p_max == pytest.approx(hertz_ellipse(pair, t).p0, rel=0.05), t
 
 
 def test_point_contact_pressure_grows_as_the_cube_root_of_the_load(spur_sweep):

@@ -6,9 +6,9 @@ the peak pressure)."""
 
 from .calculix import CalculixError, ccx_path, read_dat, run_ccx, write_inp
 from .mesh import MeshOptions, ToothMesher, build_member, hex_min_jacobian
-from .model import (FEOptions, FEResult, GearFEModel, hertz_line, penalty_layer_estimate, penalty_layer_factor,
-                    root_stress_estimate)
+from .model import (FEOptions, FEResult, GearFEModel, HertzLine, HertzPoint, hertz_line, penalty_layer_estimate,
+                    penalty_layer_factor, root_stress_estimate)
 
 __all__ = ["CalculixError", "ccx_path", "read_dat", "run_ccx", "write_inp", "MeshOptions", "ToothMesher",
-           "build_member", "hex_min_jacobian", "FEOptions", "FEResult", "GearFEModel", "hertz_line",
-           "penalty_layer_estimate", "penalty_layer_factor", "root_stress_estimate"]
+           "build_member", "hex_min_jacobian", "FEOptions", "FEResult", "GearFEModel", "HertzLine", "HertzPoint",
+           "hertz_line", "penalty_layer_estimate", "penalty_layer_factor", "root_stress_estimate"]

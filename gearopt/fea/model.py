@@ -39,7 +39,7 @@ import math
 import os
 import time
 from dataclasses import dataclass, field, replace
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, ClassVar
 
 import casadi as ca
 import numpy as np
@@ -196,20 +196,56 @@ class FEOptions:
 # ---------------------------------------------------------------------------------------------
 # analytic references
 # ---------------------------------------------------------------------------------------------
-def hertz_line(force_per_length: float, rho1: float, rho2: float, E: float, nu: float) -> dict:
-    """Hertz line contact of two cylinders of radii rho1, rho2 [mm], equal materials.
+@dataclass(frozen=True)
+class HertzLine:
+    """Hertz line contact of two cylinders, equal materials (:func:`hertz_line`)."""
 
-    Returns p0 [MPa] (max pressure), b [mm] (half-width), R* [mm], E* [MPa] with
+    kind: ClassVar[str] = "line"  #: the contact's kind as results.json names it (``hertz_kind``)
+    p0: float  #: peak pressure [MPa]
+    b: float  #: half-width of the contact band [mm]
+    R_star: float  #: reduced radius ``1 / (1 / rho1 + 1 / rho2)`` [mm]
+    E_star: float  #: contact modulus ``E / (2 (1 - nu^2))`` [MPa]
+    vm_max: float  #: largest von Mises stress, 0.557 p0 at depth 0.70 b (nu 0.3) [MPa]
+    rho1: float  #: radius of curvature of the first body across the line [mm]
+    rho2: float  #: the same of the second body [mm]
+
+    @property
+    def a(self) -> None:
+        """No major semi-axis: the contact spans the line (:attr:`HertzPoint.a` of a point contact)."""
+        return None
+
+
+@dataclass(frozen=True)
+class HertzPoint:
+    """Hertz point contact (an ellipse), equal materials (:func:`hertz_point`)."""
+
+    kind: ClassVar[str] = "ellipse"  #: the contact's kind as results.json names it (``hertz_kind``)
+    p0: float  #: peak pressure [MPa]
+    a: float  #: major semi-axis of the contact ellipse [mm]
+    b: float  #: minor semi-axis [mm]
+    k: float  #: axis ratio a / b >= 1
+    R_star: float  #: ``1 / (l_min + l_max)`` [mm]
+
+
+#: the Hertz reference of a tooth pair of :class:`GearFEModel` (``GearFEModel.hertz``)
+Hertz = HertzLine | HertzPoint
+
+
+def hertz_line(force_per_length: float, rho1: float, rho2: float, E: float, nu: float) -> HertzLine:
+    """Hertz line contact of two cylinders of radii rho1, rho2 [mm], equal materials, under the load
+    per unit length ``force_per_length`` [N/mm]; ``E`` [MPa], ``nu``.
+
+    :class:`HertzLine`: p0 [MPa] (max pressure), b [mm] (half-width), R* [mm], E* [MPa] with
     ``1/R* = 1/rho1 + 1/rho2``, ``E* = E / (2 (1 - nu^2))``, ``p0 = sqrt(F' E* / (pi R*))``,
     ``b = sqrt(4 F' R* / (pi E*))``; also the max von Mises stress 0.557 p0 at depth 0.70 b (nu 0.3)."""
     Rs = 1.0 / (1.0 / rho1 + 1.0 / rho2)
     Es = contact_modulus(E, nu)
     p0 = float(hertz_peak_pressure(force_per_length, Rs, Es))
     b = float(hertz_half_width(force_per_length, Rs, Es))
-    return {"p0": p0, "b": b, "R_star": Rs, "E_star": Es, "vm_max": 0.557 * p0}
+    return HertzLine(p0=p0, b=b, R_star=Rs, E_star=Es, vm_max=0.557 * p0, rho1=rho1, rho2=rho2)
 
 
-def hertz_point(force: float, lam: tuple, E: float, nu: float) -> dict:
+def hertz_point(force: float, lam: tuple[float, float], E: float, nu: float) -> HertzPoint:
     """Hertz point contact (equal materials) of a normal load ``force`` [N] between surfaces whose
     relative curvature matrix has the eigenvalues ``lam = (l_min, l_max)`` [1/mm] (sum of both
     surfaces' curvature matrices; the TCA's contact-ellipse data).
@@ -220,7 +256,7 @@ def hertz_point(force: float, lam: tuple, E: float, nu: float) -> dict:
     ``E' = E / (1 - nu^2)``, ``p0 = 3 F / (2 pi a b)`` (Harris, Rolling Bearing Analysis, ch. 6;
     Johnson, Contact Mechanics, 4.2).
 
-    Returns p0 [MPa], a, b [mm] (semi-axes, major first), k, R [mm]."""
+    :class:`HertzPoint`: p0 [MPa], a, b [mm] (semi-axes, major first), k, R* [mm]."""
     from scipy.optimize import brentq
     from scipy.special import ellipe, ellipk
 
@@ -240,7 +276,7 @@ def hertz_point(force: float, lam: tuple, E: float, nu: float) -> dict:
     Ep = E / (1 - nu**2)
     a = (6 * k**2 * Ee * force * R / (math.pi * Ep)) ** (1 / 3)
     b = a / k
-    return {"p0": 3 * force / (2 * math.pi * a * b), "a": a, "b": b, "k": k, "R": R}
+    return HertzPoint(p0=3 * force / (2 * math.pi * a * b), a=a, b=b, k=k, R_star=R)
 
 
 def penalty_layer_factor(lam: float, n: int = 300) -> float:
@@ -310,10 +346,10 @@ def _layered_line_contact(lay, n):
     raise ConvergenceError("penalty_layer_factor: the contact outgrew the span.")
 
 
-def penalty_layer_estimate(p_mid: float, hertz: dict, options: "FEOptions") -> dict:
+def penalty_layer_estimate(p_mid: float, hertz: Hertz, options: "FEOptions") -> dict:
     """What the penalty layer does to a section's peak pressure ``p_mid`` [MPa] (:func:`penalty_layer_factor`).
 
-    ``hertz`` is the model's Hertz reference of that pair (``p0`` [MPa], ``b`` [mm]); the half-width of the
+    ``hertz`` is the model's Hertz reference of that pair (its ``p0`` [MPa], ``b`` [mm]); the half-width of the
     FE's own peak is ``b p_mid / p0`` (b grows as p0 at a fixed curvature, line and ellipse alike).
     Returns ``penalty_lambda`` = E* / (K b) [-], ``penalty_layer_factor`` [-] and ``p_max_mid_penalty_free``
     = p_mid / factor [MPa] (all None without pressure).
@@ -321,7 +357,7 @@ def penalty_layer_estimate(p_mid: float, hertz: dict, options: "FEOptions") -> d
     hz, o = hertz, options
     if not (math.isfinite(p_mid) and p_mid > 0):
         return {"penalty_lambda": None, "penalty_layer_factor": None, "p_max_mid_penalty_free": None}
-    lam = o.E / (2 * (1 - o.nu ** 2)) / (o.penalty * o.E * hz["b"] * p_mid / hz["p0"])
+    lam = o.E / (2 * (1 - o.nu ** 2)) / (o.penalty * o.E * hz.b * p_mid / hz.p0)
     f = penalty_layer_factor(lam)
     return {"penalty_lambda": lam, "penalty_layer_factor": f, "p_max_mid_penalty_free": p_mid / f}
 
@@ -499,7 +535,7 @@ class GearFEModel:
         F_n = o.torque / g1.r_b
         self.F_n = F_n
         b_eff = min(g1.b, g2.b)
-        self.hertz = {}
+        self.hertz: dict[int, Hertz] = {}
         cb = math.cos(g1.beta_b)
         point = tca.contact_type == "point"
         for i, k in enumerate(self.tooth_ids):
@@ -509,23 +545,20 @@ class GearFEModel:
             if point and np.isfinite(res.ellipse_a[i, 0]) and np.isfinite(res.ellipse_b[i, 0]):
                 # point contact: the Hertz ellipse of the whole normal load on this pair
                 lam = (2 * res.delta / res.ellipse_a[i, 0] ** 2, 2 * res.delta / res.ellipse_b[i, 0] ** 2)
-                hp = hertz_point(F_n / cb, lam, o.E, o.nu)
-                self.hertz[k] = {"p0": hp["p0"], "b": hp["b"], "a": hp["a"], "R_star": hp["R"], "kind": "ellipse",
-                                 "rho1": float("nan"), "rho2": float("nan")}
+                self.hertz[k] = hertz_point(F_n / cb, lam, o.E, o.nu)
                 continue
             # line contact in the normal section: load per contact-line length F_bt / b, radii rho_t / cos(beta_b)
             rho1 = math.sqrt(max(c["radius1"] ** 2 - g1.r_b**2, 1e-12)) / cb
             rho2 = math.sqrt(max(c["radius2"] ** 2 - g2.r_b**2, 1e-12)) / cb
-            self.hertz[k] = {**hertz_line(F_n / b_eff, rho1, rho2, o.E, o.nu), "rho1": rho1, "rho2": rho2,
-                             "kind": "line", "a": float("nan")}
-        b_H = min(h["b"] for h in self.hertz.values())
+            self.hertz[k] = hertz_line(F_n / b_eff, rho1, rho2, o.E, o.nu)
+        b_H = min(h.b for h in self.hertz.values())
         mo = o.mesh
         if o.n_hertz > 0 and mo.h_contact == 0:
             mo = replace(mo, h_contact=b_H / o.n_hertz, window=mo.window or 1.5 * b_H)
         # point contact: face layers graded towards the ellipse centre (n_ellipse elements per major semi-axis)
         z_layers = None
-        ell = [(self.contact[k]["z1"], self.contact[k]["z2"], h["a"]) for k, h in self.hertz.items()
-               if h["kind"] == "ellipse"] if o.n_ellipse > 0 else []
+        ell = [(self.contact[k]["z1"], self.contact[k]["z2"], h.a) for k, h in self.hertz.items()
+               if isinstance(h, HertzPoint)] if o.n_ellipse > 0 else []
         if ell:
             z_c1, z_c2, a_e = min(ell, key=lambda t: abs(t[0]))  # the ellipse centre in each member's frame
             z_layers = {m: _face_layers(g.b, mo.n_face, z_c, a_e / o.n_ellipse, a_e, mo.growth) for m, g, z_c in
@@ -799,7 +832,7 @@ class FEResult:
         # the pressure in the section through the contact against its Hertz reference (the overall peak
         # also holds the stress singularities where a contact line meets a tip edge or a face end)
         check_physics(phi1=model.phi1, rotation=rotation, r_b1=g1.r_b, F_n=F_n, b=min(g1.b, g2.b), E=o.E,
-                      p_max=p_max_mid if math.isfinite(p_max_mid) else float(press.max()), p0=hz["p0"])
+                      p_max=p_max_mid if math.isfinite(p_max_mid) else float(press.max()), p0=hz.p0)
         # normal contact force of each tooth pair (load sharing), from the contact statistics per pair
         stats = read_contact_statistics(run.dat)
         fn = {k: -float(stats.get(f"SP{k + 10}", {}).get("normal_force", 0.0)) for k in model.tooth_ids}
@@ -826,9 +859,9 @@ class FEResult:
             "pinion_rotation_rad": rotation,
             "loaded_te_arcsec": float(te_arcsec),
             "contact": {"p_max": float(press.max()), "p_max_mid": p_max_mid,
-                        "hertz_p0": hz["p0"], "hertz_b": hz["b"], "R_star": hz["R_star"], "hertz_kind": hz["kind"],
-                        "hertz_a": hz["a"] if math.isfinite(hz["a"]) else None,
-                        "ratio_mid_to_hertz": p_max_mid / hz["p0"], "hertz_pair": k0,
+                        "hertz_p0": hz.p0, "hertz_b": hz.b, "R_star": hz.R_star, "hertz_kind": hz.kind,
+                        "hertz_a": hz.a if hz.a is not None and math.isfinite(hz.a) else None,
+                        "ratio_mid_to_hertz": p_max_mid / hz.p0, "hertz_pair": k0,
                         **penalty_layer_estimate(p_max_mid, hz, o),
                         "profiles": profiles, "pattern": pattern,
                         "n_points": int(len(press)), "n_positive": int((press > 0).sum())},

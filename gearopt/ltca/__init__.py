@@ -2,4 +2,4 @@
 compliance, and the contact problem as a convex QP solved by a CasADi conic solver."""
 
 from .compliance import Material, iso6336_stiffness  # noqa: F401 (public API)
-from .engine import LTCA, LoadedResult, LoadedSweep  # noqa: F401
+from .engine import LTCA, ContactStructure, LoadedResult, LoadedSweep  # noqa: F401

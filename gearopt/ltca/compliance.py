@@ -29,13 +29,18 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, NamedTuple
 
 import casadi as ca
 import numpy as np
+import numpy.typing as npt
 
 from ..contact.hertz import contact_modulus, hertz_half_width, hertz_peak_pressure, weber_compliance
 from ..errors import check_number, out_of_range
 from ..geometry.generation import GeneratedTooth
+
+if TYPE_CHECKING:
+    from ..gears import GearPair
 
 #: Sainsot, Velex & Duverger (2004), Table 1: coefficients (A, B, C, D, E, F) of
 #: ``X = A / theta_f^2 + B h_fi^2 + C h_fi / theta_f + D / theta_f + E h_fi + F`` for X = L, M, P, Q.
@@ -81,6 +86,20 @@ class Material:
     def E_star(self) -> float:
         """Contact modulus of the pair, ``1/E* = 2 (1 - nu^2) / E`` [MPa]."""
         return contact_modulus(self.E, self.nu)
+
+
+@dataclass(frozen=True)
+class SliceCompliance:
+    """The compliances per unit face width of a tooth for loads at points of its flank
+    (:meth:`ToothCompliance.per_width`), (M,) arrays, one entry per point."""
+
+    bending: np.ndarray  #: bending of the tooth as a beam [mm^2/N]
+    shear: np.ndarray  #: its shear [mm^2/N]
+    compression: np.ndarray  #: its compression along the centreline [mm^2/N]
+    foundation: np.ndarray  #: the body's rotation and translation (Sainsot's foundation) [mm^2/N]
+    total: np.ndarray  #: the sum of the four [mm^2/N]
+    h: np.ndarray  #: distance from the load point to the centreline along the load line [mm] (Weber's term)
+    eta_F: np.ndarray  #: height above the root circle where the load line crosses the centreline [mm]
 
 
 class ToothCompliance:
@@ -139,7 +158,7 @@ class ToothCompliance:
         self._I = [cum(w3), cum(eta * w3), cum(eta**2 * w3)]
         self._J = cum(w1)
 
-    def per_width(self, xy, n_xy) -> dict:
+    def per_width(self, xy: npt.ArrayLike, n_xy: npt.ArrayLike) -> SliceCompliance:
         """Compliances per unit face width [mm^2/N] for loads at points of the flank.
 
         Parameters
@@ -151,9 +170,9 @@ class ToothCompliance:
 
         Returns
         -------
-        dict of (M,) arrays
-            ``bending``, ``shear``, ``compression``, ``foundation``, ``total`` [mm^2/N], and
-            ``h`` [mm], the distance from the load point to the centreline along the load line
+        SliceCompliance
+            (M,) arrays ``bending``, ``shear``, ``compression``, ``foundation``, ``total`` [mm^2/N],
+            and ``h`` [mm], the distance from the load point to the centreline along the load line
             (Weber's contact term), ``eta_F`` [mm], the height above the root circle where the
             load line crosses the centreline.
         """
@@ -176,11 +195,20 @@ class ToothCompliance:
         c = self.sainsot
         ratio = etaF / self.S_f
         found = cos_g**2 / m.E * (c["L"] * ratio**2 + c["M"] * ratio + c["P"] * (1.0 + c["Q"] * (sin_g / cos_g) ** 2))
-        return {"bending": bend, "shear": shear, "compression": comp, "foundation": found,
-                "total": bend + shear + comp + found, "h": xP / cos_g, "eta_F": etaF}
+        return SliceCompliance(bending=bend, shear=shear, compression=comp, foundation=found,
+                               total=bend + shear + comp + found, h=xP / cos_g, eta_F=etaF)
 
 
-def weber_contact(f, R_star, h1, h2, material: Material, f_min: float):
+class WeberContact(NamedTuple):
+    """Weber & Banaschek's contact approach and the Hertz values at a load (:func:`weber_contact`)."""
+
+    compliance: np.ndarray  #: ``delta / f`` [mm^2/N] (per unit contact length)
+    b_H: np.ndarray  #: Hertz half-width [mm]
+    p0: np.ndarray  #: Hertz peak pressure [MPa]
+
+
+def weber_contact(f: npt.ArrayLike, R_star: npt.ArrayLike, h1: npt.ArrayLike, h2: npt.ArrayLike, material: Material,
+                  f_min: float) -> WeberContact:
     """Weber & Banaschek's contact approach of two cylinders in line contact, each measured to
     depth ``h`` (the tooth centreline) [mm], and the Hertz values.
 
@@ -197,15 +225,15 @@ def weber_contact(f, R_star, h1, h2, material: Material, f_min: float):
 
     Returns
     -------
-    compliance : array
-        ``delta / f`` [mm^2/N] (per unit contact length).
-    b_H, p0 : arrays [mm], [MPa] at the load ``f``.
+    WeberContact
+        ``compliance``: ``delta / f`` [mm^2/N] (per unit contact length); ``b_H``, ``p0``: arrays
+        [mm], [MPa] at the load ``f``.
     """
     f = np.asarray(f, float)
     Es = material.E_star
     c = weber_compliance(f, R_star, h1, h2, material.E, material.nu, Es, f_min, smoothing="max")
     fp = np.maximum(f, 0.0)
-    return c, hertz_half_width(fp, R_star, Es), hertz_peak_pressure(fp, R_star, Es)
+    return WeberContact(compliance=c, b_H=hertz_half_width(fp, R_star, Es), p0=hertz_peak_pressure(fp, R_star, Es))
 
 
 def weber_tangent(material: Material) -> ca.Function:
@@ -218,7 +246,7 @@ def weber_tangent(material: Material) -> ca.Function:
                        ["f", "R_star", "h1", "h2", "f_min"], ["c", "dc"])
 
 
-def coupling(z, widths, lam: float) -> np.ndarray:
+def coupling(z: npt.ArrayLike, widths: npt.ArrayLike, lam: float) -> np.ndarray:
     """Discrete Green's function of ``w - lam^2 w'' = f`` on the face with free ends [1/mm].
 
     Nodes ``z`` (ascending) [mm] with tributary ``widths`` [mm]; linear elements between nodes.
@@ -230,7 +258,7 @@ def coupling(z, widths, lam: float) -> np.ndarray:
     return coupling_batch(z[None, :], np.asarray(widths, float)[None, :], lam)[0]
 
 
-def coupling_batch(z, widths, lam: float) -> np.ndarray:
+def coupling_batch(z: np.ndarray, widths: np.ndarray, lam: float) -> np.ndarray:
     """:func:`coupling` of many slice rows at once: ``z``, ``widths`` (B, M) [mm], each row's used
     nodes first (unused: ``z`` NaN); returns (B, M, M) with zero rows/columns at unused nodes."""
     used = np.isfinite(np.asarray(z, float))
@@ -238,7 +266,7 @@ def coupling_batch(z, widths, lam: float) -> np.ndarray:
     return np.where(used[:, :, None] & used[:, None, :], G, 0.0)
 
 
-def face_matrix_batch(z, widths, terms) -> np.ndarray:
+def face_matrix_batch(z: np.ndarray, widths: np.ndarray, terms: list[tuple[np.ndarray, float]]) -> np.ndarray:
     """Compliance blocks of slice rows coupled across the face, one Pasternak coupling per term:
     ``sum_k D_k A_k^-1 D_k`` with ``D_k = diag(sqrt(c_k))`` and ``A_k`` the coupling of length
     ``lam_k`` (:func:`coupling_stiffness_batch`) [mm/N].
@@ -267,7 +295,7 @@ def face_matrix_batch(z, widths, terms) -> np.ndarray:
     return out
 
 
-def coupling_stiffness_batch(z, widths, lam: float) -> np.ndarray:
+def coupling_stiffness_batch(z: np.ndarray, widths: np.ndarray, lam: float) -> np.ndarray:
     """The tridiagonal ``A = diag(widths) + lam^2 K`` [mm] of :func:`coupling_batch` (whose inverse
     that is), (B, M, M); an unused node has a decoupled unit diagonal entry."""
     z = np.asarray(z, float)
@@ -290,7 +318,7 @@ def coupling_stiffness_batch(z, widths, lam: float) -> np.ndarray:
 
 
 
-def iso6336_stiffness(pair) -> dict:
+def iso6336_stiffness(pair: GearPair) -> dict:
     """ISO 6336-1 (method B) single-pair and mesh stiffness of a spur or helical steel pair.
 
     ``q' = 0.04723 + 0.15551/z_n1 + 0.25791/z_n2 - 0.00635 x1 - 0.11654 x1/z_n1 - 0.00193 x2

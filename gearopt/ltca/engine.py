@@ -30,9 +30,12 @@ import os
 import sys
 import time
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any, NamedTuple
+from collections.abc import Sequence
 
 import casadi as ca
 import numpy as np
+import numpy.typing as npt
 
 from ..contact.hertz import C_PRIME_STEEL, contact_modulus, hertz_peak_pressure
 from ..errors import ArgumentError, ConvergenceError, OptionError, check_number, out_of_range
@@ -44,6 +47,10 @@ from ..units import RAD_TO_ARCSEC
 from .compliance import (Material, ToothCompliance, body_coupling_length, face_matrix_batch,
                          weber_contact, weber_tangent)
 from .slices import SliceSet, SliceSolver
+
+if TYPE_CHECKING:
+    from ..fea.influence import InfluenceGrid
+    from ..fea.mesh import MeshOptions
 
 HERTZ_TOL = 1e-7  #: the Hertz fixed point stops when no slice load changes by more than this x W
 HERTZ_MAX_ITER = 30
@@ -68,7 +75,7 @@ E_STEEL = 206000.0  #: [MPa] the modulus P_MAX_VALID is stated for
 DELTA_MAX_VALID = 0.1
 
 
-def pressure_lower_bound(pair, torque: float, material) -> float:
+def pressure_lower_bound(pair: GearPair, torque: float, material: Material) -> float:
     """A lower bound of the peak Hertz pressure [MPa] of the flank contact at pinion torque
     ``torque`` [N m], from the gear data alone (no solve): the normal load ``W = T / (r_b1 cos
     beta_b)`` spread over the longest contact length the mesh can have, ``b (floor(eps_alpha) + 1) /
@@ -87,7 +94,7 @@ def pressure_lower_bound(pair, torque: float, material) -> float:
     return float(hertz_peak_pressure(W / length, rho, e_star))
 
 
-def check_torque_range(pair, torque_max: float, material=None, name: str = "torque") -> None:
+def check_torque_range(pair: GearPair, torque_max: float, material: Material | None = None, name: str = "torque") -> None:
     """Refuse, before any solve, a torque [N m] whose :func:`pressure_lower_bound` already exceeds
     the model's pressure limit (``P_MAX_VALID E / 206000``): :class:`OptionError` naming ``name``.
     The solved results are checked in full by :func:`check_validity`."""
@@ -105,7 +112,7 @@ def check_torque_range(pair, torque_max: float, material=None, name: str = "torq
                           detail=detail)
 
 
-def check_validity(result, pair, material) -> None:
+def check_validity(result: LoadedResult, pair: GearPair, material: Material) -> None:
     """Refuse a loaded result outside the linear-elastic model's range of validity: a peak flank
     pressure above ``P_MAX_VALID E / 206000`` MPa, a loaded approach above ``DELTA_MAX_VALID m_n``,
     or a mesh stiffness that is not positive (an approach <= 0 under load).
@@ -253,6 +260,78 @@ class LoadedResult:
         return float(np.nanmean(self.stiffness)) / self.face_width
 
 
+class CompliancePart(NamedTuple):
+    """One term of the analytical tooth compliance (:meth:`LTCA.structure`), coupled across the face
+    over its own length (:func:`~gearopt.ltca.compliance.face_matrix_batch`)."""
+
+    #: (K, N, M) compliance per unit face width of each slice node [mm^2/N] (inactive nodes: the
+    #: mean of the active ones)
+    compliance: np.ndarray
+    #: coupling length of the term across the face [mm]
+    coupling_length: float
+
+
+@dataclass(frozen=True)
+class HertzNodes:
+    """The Hertz data of slice nodes (any common shape: (K, N, M) per pair, position and node, or
+    (N, K M) per position, :meth:`ContactStructure.by_position`)."""
+
+    length: np.ndarray  #: length of contact line of each node [mm] (1 where inactive)
+    R: np.ndarray  #: reduced radius of curvature across the contact line [mm] (1 where inactive)
+    h1: np.ndarray  #: depth of the pinion's centreline below the point along the load line [mm] (Weber)
+    h2: np.ndarray  #: the same on the gear [mm]
+
+
+@dataclass(frozen=True)
+class ContactStructure:
+    """The load-independent parts of the loaded contact problem of a :class:`~gearopt.ltca.slices.SliceSet`
+    (:meth:`LTCA.structure`): arrays (K, N, M) per tooth pair, position and slice node unless stated.
+
+    Attributes
+    ----------
+    Cs : (N, K M, K M) array
+        Compliance matrix of the teeth and bodies (bending, shear, compression, foundation) of each
+        position over the flattened nodes ``k M + m`` [mm/N] (without the Hertz term).
+    parts : tuple of CompliancePart
+        The analytical compliance's terms (the teeth; the pinion's body; the gear's body) whose face
+        matrices, times ``cos^2(beta_b)``, sum to ``Cs`` (with FE influence coefficients ``Cs`` is
+        FE's and the parts are the analytical model's).
+    ct : array
+        Sum of the parts' compliances per unit face width [mm^2/N].
+    length : array
+        Length of contact line of each node, its width over ``cos(beta_b)`` [mm] (1 where inactive).
+    R : array
+        Reduced radius of curvature across the contact line [mm] (1 where inactive).
+    h1, h2 : array
+        Depths of the pinion's and the gear's tooth centreline below the point along the load line
+        [mm] (Weber's contact term; 1 where inactive).
+    radius1, radius2 : array
+        Radius of the node's point on the pinion and on the gear [mm] (NaN where unused).
+    """
+
+    Cs: np.ndarray
+    parts: tuple[CompliancePart, ...]
+    ct: np.ndarray
+    length: np.ndarray
+    R: np.ndarray
+    h1: np.ndarray
+    h2: np.ndarray
+    radius1: np.ndarray
+    radius2: np.ndarray
+
+    @property
+    def hertz(self) -> HertzNodes:
+        """The Hertz data (K, N, M)."""
+        return HertzNodes(length=self.length, R=self.R, h1=self.h1, h2=self.h2)
+
+    def by_position(self) -> HertzNodes:
+        """The Hertz data as (N, K M) arrays: one row per position over the flattened nodes
+        ``k M + m`` (the order of ``Cs``)."""
+        K, N, M = self.length.shape
+        flat = lambda a: np.transpose(a, (1, 0, 2)).reshape(N, K * M)  # noqa: E731
+        return HertzNodes(length=flat(self.length), R=flat(self.R), h1=flat(self.h1), h2=flat(self.h2))
+
+
 class LTCA:
     """Loaded tooth contact analysis of a gear pair (build once, solve many torques).
 
@@ -293,7 +372,8 @@ class LTCA:
     """
 
     def __init__(self, pair: GearPair, settings: LTCASettings | None = None, *, material: Material | None = None,
-                 r_int=None, tca: TCA | None = None, fe_mesh=None, **options):
+                 r_int: float | None = None, tca: TCA | None = None, fe_mesh: MeshOptions | None = None,
+                 **options: Any):
         # side, n_slices, coupling, compliance, curvature, body_coupling: defaults and checks of LTCASettings
         s = LTCASettings.of(settings, **options)
         side, n_slices, coupling, compliance = s.side, s.n_slices, s.coupling, s.compliance
@@ -342,7 +422,7 @@ class LTCA:
         self.build_time = time.perf_counter() - t0
 
     @property
-    def influence(self):
+    def influence(self) -> tuple[InfluenceGrid, InfluenceGrid] | None:
         """The members' FE influence grids (pinion, gear) with ``compliance = "fe"``, else None.
         Computed (CalculiX, or the disk cache) on first use, i.e. by the first solve: building an
         LTCA validates its inputs and runs nothing (``gearopt check`` writes nothing)."""
@@ -357,13 +437,13 @@ class LTCA:
         return self._influence
 
     @influence.setter
-    def influence(self, grids) -> None:
+    def influence(self, grids: tuple[InfluenceGrid, InfluenceGrid] | None) -> None:
         """Replace the influence grids (pinion, gear) of an ``"fe"`` engine (e.g. without their
         local excess)."""
         self._influence = None if grids is None else tuple(grids)
 
     # ------------------------------------------------------------------------------------------
-    def default_pairs(self) -> tuple:
+    def default_pairs(self) -> tuple[int, ...]:
         """Tooth pairs that can be in mesh over one mesh cycle around phi1 = 0."""
         m = int(math.floor((self.pair.eps_gamma + 1.0) / 2.0 + 0.3))
         return tuple(range(-m, m + 1))
@@ -373,8 +453,9 @@ class LTCA:
         z1 = self.pair.pinion.z
         return np.linspace(-math.pi / z1, math.pi / z1, int(n), endpoint=False)
 
-    def slices(self, phi1=None, p1=None, p2=None, mis: Misalignment | None = None, pairs=None,
-               offsets=None) -> SliceSet:
+    def slices(self, phi1: npt.ArrayLike | None = None, p1: npt.ArrayLike | None = None,
+               p2: npt.ArrayLike | None = None, mis: Misalignment | None = None, pairs: Sequence[int] | None = None,
+               offsets: tuple[npt.ArrayLike, npt.ArrayLike] | None = None) -> SliceSet:
         """Unloaded slices (the separations) at ``phi1`` [rad] (default: one mesh cycle of 64);
         ``offsets``: pitch deviations of the pairs' teeth (:meth:`SliceSolver.solve`)."""
         phi1 = self.mesh_cycle() if phi1 is None else phi1
@@ -382,7 +463,7 @@ class LTCA:
         return self.slicer.solve(phi1, p1, p2, mis, pairs, self.n_slices, offsets=offsets)
 
     @staticmethod
-    def validate_torques(torque) -> np.ndarray:
+    def validate_torques(torque: float | Sequence[float]) -> np.ndarray:
         """The torque(s) [N m] as an array; :class:`OptionError` naming ``torque`` unless each is a
         finite number > 0 and a list strictly increases."""
         try:
@@ -400,10 +481,10 @@ class LTCA:
                                cls=OptionError)
         return T
 
-    def _structure(self, S: SliceSet) -> dict:
-        """Load-independent parts: tooth compliance matrices per pair and position, Hertz data.
-        ``parts``: the analytical compliance's terms ``(c (K, N, M) [mm^2/N], coupling length [mm])``
-        whose face matrices sum to ``Cs`` (times cos^2(beta_b)); ``ct`` their sum."""
+    def structure(self, S: SliceSet) -> ContactStructure:
+        """The load-independent parts of the contact problem of the slices ``S``: the tooth and body
+        compliance matrices per position and the Hertz data per slice node
+        (:class:`ContactStructure`)."""
         g1, g2 = self.pair.pinion, self.pair.gear
         K, N, M = S.z.shape
         cb = self.cos_bb
@@ -431,11 +512,11 @@ class LTCA:
             ok = np.where(act & np.isfinite(c) & (c > 0), c, np.nan)
             return np.where(np.isfinite(ok), ok, np.nanmean(ok) if np.isfinite(ok).any() else 1e-4)
 
-        ct = filled(c1["total"] + c2["total"])
+        ct = filled(c1.total + c2.total)
         # the tooth (bending, shear, compression of both teeth) and each member's body (Sainsot's term),
         # coupled across the face over their own lengths (compliance.face_matrix_batch)
-        parts = [(filled(c1["total"] - c1["foundation"] + c2["total"] - c2["foundation"]), self.coupling_length),
-                 (filled(c1["foundation"]), self.body_coupling[0]), (filled(c2["foundation"]), self.body_coupling[1])]
+        parts = [(filled(c1.total - c1.foundation + c2.total - c2.foundation), self.coupling_length),
+                 (filled(c1.foundation), self.body_coupling[0]), (filled(c2.foundation), self.body_coupling[1])]
         rad1 = np.hypot(S.r1[..., 0], S.r1[..., 1])
         rad2 = np.hypot(S.r2[..., 0], S.r2[..., 1])
         # bending/shear/foundation matrix of each pair over the used nodes: cos^2(beta_b) D A^-1 D
@@ -470,8 +551,8 @@ class LTCA:
             k1 = np.where(S.edge == 1, 1.0 / (EDGE_RADIUS * g1.m_n), k1)
             k2 = np.where(S.edge == 2, 1.0 / (EDGE_RADIUS * g2.m_n), k2)
         R = 1.0 / np.maximum(k1 + k2, 1e-6)  # (a flat or concave-convex pair beyond: 1 m)
-        h1 = c1["h"].reshape(K, N, M)
-        h2 = c2["h"].reshape(K, N, M)
+        h1 = c1.h.reshape(K, N, M)
+        h2 = c2.h.reshape(K, N, M)
         if self.influence is not None:
             # FE coefficients: the local compression of each member's actual tooth section from FE, Weber's
             # bracket + kappa = ln(2 h e^kappa / b_H) (gearopt.fea.local, docs/ltca.md section 5), on the flank
@@ -482,8 +563,9 @@ class LTCA:
             h1 = np.where(flank, h1 * cb * np.exp(G1.local_excess(rad1)), h1)
             h2 = np.where(flank, h2 * cb * np.exp(G2.local_excess(rad2)), h2)
         length = S.width / cb
-        return {"Cs": Cs, "parts": parts, "R": np.where(act, R, 1.0), "h1": np.where(act, h1, 1.0), "h2": np.where(act, h2, 1.0),
-                "length": np.where(act, length, 1.0), "radius1": rad1, "radius2": rad2, "ct": ct}
+        return ContactStructure(Cs=Cs, parts=tuple(CompliancePart(c, lam) for c, lam in parts),
+                                R=np.where(act, R, 1.0), h1=np.where(act, h1, 1.0), h2=np.where(act, h2, 1.0),
+                                length=np.where(act, length, 1.0), radius1=rad1, radius2=rad2, ct=ct)
 
     def _weber_tangent(self, n: int) -> ca.Function:
         key = ("weber", n)
@@ -502,8 +584,9 @@ class LTCA:
                 self._qp[key] = (qp, qp.map(N))
         return self._qp[key][1]
 
-    def solve(self, torque, phi1=None, p1=None, p2=None, mis: Misalignment | None = None, pairs=None,
-              slices: SliceSet | None = None, offsets=None) -> "LoadedSweep":
+    def solve(self, torque: float | Sequence[float], phi1: npt.ArrayLike | None = None, p1: npt.ArrayLike | None = None,
+              p2: npt.ArrayLike | None = None, mis: Misalignment | None = None, pairs: Sequence[int] | None = None,
+              slices: SliceSet | None = None, offsets: tuple[npt.ArrayLike, npt.ArrayLike] | None = None) -> LoadedSweep:
         """Loaded TCA at one or several pinion torques.
 
         Parameters
@@ -528,13 +611,14 @@ class LTCA:
         t0 = time.perf_counter()
         S = slices if slices is not None else self.slices(phi1, p1, p2, mis, pairs, offsets)
         t_sep = time.perf_counter() - t0
-        st = self._structure(S)
+        st = self.structure(S)
         results = [self._solve_one(float(t), S, st) for t in T]
         return LoadedSweep(slices=S, results=results, separation_time=t_sep, structure=st,
                            te_zero_rad=S.phi2_ref, ltca=self)
 
-    def _fixed_point(self, A, s, length, R, h1, h2, W, f_min, Cs, F0=None, lam=None):
-        """The contact QP over the slices ``A`` (N, n) of each position, with the Hertz fixed point:
+    def _fixed_point(self, A, s, hz: HertzNodes, Cs, W, f_min, F0=None, lam=None):
+        """The contact QP over the slices ``A`` (N, n) of each position (separations ``s``, Hertz data
+        ``hz`` (N, n) and compliance ``Cs`` (N, n, n), :class:`ContactStructure`), with the Hertz fixed point:
         ``(F (N, n), done (N,), change (N,), iterations (N,))``. ``lam`` (N, n): each slice's lever
         about the pinion axis over ``r_b1 cos(beta_b)`` (the equilibrium ``sum lam F = W``; default 1)."""
         N, n = A.shape
@@ -548,7 +632,7 @@ class LTCA:
         take = lambda a: np.where(valid, a[rows, gi], 0.0)  # noqa: E731
         Cc = Cs[rows[:, :, None], gi[:, :, None], gi[:, None, :]]
         Cc = np.where(valid[:, :, None] & valid[:, None, :], Cc, 0.0)
-        sc, lc, Rc, h1c, h2c = (take(v) for v in (s, length, R, h1, h2))
+        sc, lc, Rc, h1c, h2c = (take(v) for v in (s, hz.length, hz.R, hz.h1, hz.h2))
         lamc = np.where(valid, take(np.ones((N, n)) if lam is None else lam), 0.0)
         lc = np.where(valid, lc, 1.0)
         Rc, h1c, h2c = (np.where(valid, v, 1.0) for v in (Rc, h1c, h2c))
@@ -590,7 +674,7 @@ class LTCA:
         F[jj, gi[jj, cc]] = Fc[jj, cc]
         return F, done, change, it
 
-    def _solve_one(self, torque: float, S: SliceSet, st: dict) -> LoadedResult:
+    def _solve_one(self, torque: float, S: SliceSet, st: ContactStructure) -> LoadedResult:
         t0 = time.perf_counter()
         g1, g2 = self.pair.pinion, self.pair.gear
         cb = self.cos_bb
@@ -619,10 +703,8 @@ class LTCA:
         lam = np.transpose(lam, (1, 0, 2)).reshape(N, n)
         A = np.transpose(act, (1, 0, 2)).reshape(N, n)
         f_min = F_MIN_SHARE * W * cb / g1.b
-        length = np.transpose(st["length"], (1, 0, 2)).reshape(N, n)
-        R = np.transpose(st["R"], (1, 0, 2)).reshape(N, n)
-        h1 = np.transpose(st["h1"], (1, 0, 2)).reshape(N, n)
-        h2 = np.transpose(st["h2"], (1, 0, 2)).reshape(N, n)
+        hz = st.by_position()
+        length, R, h1, h2 = hz.length, hz.R, hz.h1, hz.h2
         # Working set: the flank slices and the tip-edge slices near contact; every other active
         # slice is checked after the solve (its gap s + C F must not fall below the approach) and
         # added if it would take load, then the QP is solved again. The result is the QP over all
@@ -634,10 +716,10 @@ class LTCA:
         # (steel, scaled by E) suggests; the check below makes the result independent of this guess
         guess = EDGE_GUESS * W / (C_PRIME_STEEL * self.material.E / 210000.0 * g1.b)
         A = A_all & (~edge | (s <= guess))
-        Cs = st["Cs"]
+        Cs = st.Cs
         F = None
         for _outer in range(OUTER_MAX):
-            F, done, change, it = self._fixed_point(A, s, length, R, h1, h2, W, f_min, Cs, F0=F, lam=lam)
+            F, done, change, it = self._fixed_point(A, s, hz, Cs, W, f_min, F0=F, lam=lam)
             if not done.all():
                 raise ConvergenceError(f"loaded TCA at {torque:g} N m: the Hertz fixed point did not settle in "
                                        f"{HERTZ_MAX_ITER} QP solves at {int((~done).sum())} positions (largest load "
@@ -697,7 +779,7 @@ class LoadedSweep:
     slices: SliceSet
     results: list
     separation_time: float
-    structure: dict
+    structure: ContactStructure
     te_zero_rad: float
     ltca: LTCA
 
@@ -757,7 +839,7 @@ class LoadedSweep:
                 "delta_mm": arr(r.delta),
                 "p_max_MPa": r.p_max, "p_max_at": {"phi1": float(r.phi1[nphi]), "pair": int(S.pairs[kp]),
                                                    "z_mm": float(S.z[kp, nphi, mm]),
-                                                   "radius_mm": float(self.structure["radius1"][kp, nphi, mm])},
+                                                   "radius_mm": float(self.structure.radius1[kp, nphi, mm])},
                 "p_max_per_position_MPa": arr(np.max(r.p0_flank, axis=(0, 2))),
                 "edge_share": arr(r.edge_share), "edge_share_max": float(np.max(r.edge_share)),
                 "p_max_edge_MPa": r.p_max_edge,
@@ -781,10 +863,10 @@ class LoadedSweep:
             "load_N": flat(nom.load), "line_load_N_per_mm": flat(nom.line_load), "p0_MPa": flat(nom.p0),
             "edge": flat(nom.edge if nom.edge is not None else np.zeros(S.z.shape)),
             "b_H_mm": flat(nom.b_H), "width_mm": flat(S.width),
-            "pinion": {"axial": flat(S.z), "from": flat(S.z_lo), "to": flat(S.z_hi), "radius": flat(st["radius1"]),
+            "pinion": {"axial": flat(S.z), "from": flat(S.z_lo), "to": flat(S.z_hi), "radius": flat(st.radius1),
                        "r_b": g1.r_b},
             "gear": {"axial": flat(S.z2), "from": flat(S.z_lo + S.z2 - S.z), "to": flat(S.z_hi + S.z2 - S.z),
-                     "radius": flat(st["radius2"]), "r_b": g2.r_b},
+                     "radius": flat(st.radius2), "r_b": g2.r_b},
         }
         n_pk = int(np.argmax(np.max(nom.p0_flank, axis=(0, 2))))  # the largest flank pressure
         face = {"phi1": float(S.phi1[n_pk]), "pairs": list(S.pairs),

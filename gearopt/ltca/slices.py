@@ -30,13 +30,16 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import casadi as ca
 import numpy as np
+import numpy.typing as npt
 
 from ..compiled import mapped
 from ..errors import ArgumentError, ConvergenceError, LineContactError
+from ..meshing.curvature import Sym, eigh2_sym, shape_matrix, unit_perp
 from ..meshing.misalignment import Misalignment
 from ..meshing.solver import REGULARITY_MIN, Branch
 from ..meshing.tca import TCA, check_sweep_args
@@ -138,24 +141,22 @@ class SliceSet:
         return np.where(np.isfinite(t), t, np.nan)
 
 
-def across_line_curvatures(rf1, nf1, q1, rf2, nf2, q2):
+def across_line_curvatures(rf1: Sym, nf1: Sym, q1: Sym, rf2: Sym, nf2: Sym, q2: Sym) -> tuple[Sym, Sym]:
     """Normal curvatures [1/mm] of both flanks across the contact line at a contact point (convex
     positive, each with its own outward normal): with ``K1``, ``K2`` the surfaces' curvature matrices
-    in one orthonormal tangent basis (:func:`gearopt.meshing.tca._shape_matrix`; ``rf``, ``nf`` in the
+    in one orthonormal tangent basis (:func:`gearopt.meshing.curvature.shape_matrix`; ``rf``, ``nf`` in the
     fixed frame as CasADi expressions of the surface coordinates ``q``), the direction ``v`` of the
     larger eigenvalue of ``K1 + K2`` (the relative curvature ``1 / R*``; the smaller one lies along
     the contact line, zero for line contact) gives ``(v^T K1 v, v^T K2 v)``."""
-    from ..meshing.tca import _shape_matrix, _unit_perp, eigh2_sym
-
-    e1 = _unit_perp(nf1)
+    e1 = unit_perp(nf1)
     E = ca.horzcat(e1, ca.cross(nf1, e1))
-    K1, K2 = (_shape_matrix(r, n, q, E) for r, n, q in ((rf1, nf1, q1), (rf2, nf2, q2)))
+    K1, K2 = (shape_matrix(r, n, q, E) for r, n, q in ((rf1, nf1, q1), (rf2, nf2, q2)))
     K1, K2 = 0.5 * (K1 + K1.T), 0.5 * (K2 + K2.T)
     v = eigh2_sym(K1 + K2)[1][:, 1]
     return ca.mtimes([v.T, K1, v]), ca.mtimes([v.T, K2, v])
 
 
-def slice_nodes(b: float, n_slices: int, shape=()) -> tuple[np.ndarray, np.ndarray]:
+def slice_nodes(b: float, n_slices: int, shape: tuple[int, ...] = ()) -> tuple[np.ndarray, np.ndarray]:
     """Slice nodes fixed to the tooth: ``n_slices`` pinion sections ``z_j = -b/2 + j b/(n_slices-1)``
     [mm] across a face of width ``b`` (both face ends are nodes), the same for every pair and position,
     so a node never moves with the design, the misalignment or the pinion angle. Returns ``z`` and the
@@ -267,8 +268,9 @@ class SliceSolver:
         secs = conjugate_sections(self.tca, self._line_tca(), phis, p1, p2, [s * b1 for s in _SECTIONS])
         return {z: W[[0, 2, 3, 4]] for z, W in secs.items()}
 
-    def solve(self, phi1, p1=None, p2=None, mis: Misalignment | None = None, pairs=(-1, 0, 1),
-              n_slices: int = 21, offsets=None) -> SliceSet:
+    def solve(self, phi1: npt.ArrayLike, p1: npt.ArrayLike | None = None, p2: npt.ArrayLike | None = None,
+              mis: Misalignment | None = None, pairs: Sequence[int] = (-1, 0, 1), n_slices: int = 21,
+              offsets: tuple[npt.ArrayLike, npt.ArrayLike] | None = None) -> SliceSet:
         """Slices of every pair at the pinion angles ``phi1`` [rad] (argument checks as
         :meth:`TCA.sweep`); the TE zero is the unloaded gear angle of pair 0 at phi1 = 0.
 

@@ -14,11 +14,19 @@ synthesis, studies, tests) knows an index. Names:
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
 import casadi as ca
 import numpy as np
+import numpy.typing as npt
 
 from ..errors import ArgumentError, ParameterNameError
+from .curvature import Sym
 from .misalignment import Misalignment
+
+if TYPE_CHECKING:
+    from ..geometry.generation import GeneratedTooth
 
 
 class ParamLayout:
@@ -32,7 +40,7 @@ class ParamLayout:
 
     MEMBERS = ("pinion", "gear")
 
-    def __init__(self, pinion_names, gear_names):
+    def __init__(self, pinion_names: Sequence[str], gear_names: Sequence[str]):
         self.groups: dict[str, slice] = {}
         self._index: dict[str, int] = {}
         self.names: list[str] = []
@@ -58,7 +66,7 @@ class ParamLayout:
         self.member_names = {"pinion": tuple(pinion_names), "gear": tuple(gear_names)}
 
     @classmethod
-    def for_teeth(cls, pinion, gear) -> "ParamLayout":
+    def for_teeth(cls, pinion: GeneratedTooth, gear: GeneratedTooth) -> ParamLayout:
         """The layout of a TCA of two :class:`~gearopt.geometry.generation.GeneratedTooth`."""
         return cls(pinion.param_names, gear.param_names)
 
@@ -87,7 +95,7 @@ class ParamLayout:
         i = self.index(name)
         return slice(i, i + 1)
 
-    def indices(self, names) -> list:
+    def indices(self, names: Sequence[str]) -> list[int]:
         """Rows of several single entries, in the given order."""
         return [self.index(n) for n in names]
 
@@ -96,7 +104,7 @@ class ParamLayout:
         return self.member_names[member].index(name)
 
     # --- numbers ------------------------------------------------------------------------------
-    def pack(self, phi1, values: dict | None = None) -> np.ndarray:
+    def pack(self, phi1: npt.ArrayLike, values: dict | None = None) -> np.ndarray:
         """Numeric parameter matrix (size, N) for the positions ``phi1`` (N,) [rad].
 
         ``values`` maps names (entries or groups) to numbers (or vectors for groups), applied in
@@ -121,18 +129,18 @@ class ParamLayout:
         out[self.index("phi1")] = phi1
         return out
 
-    def unpack(self, prm) -> dict:
+    def unpack(self, prm: npt.ArrayLike) -> dict[str, float | np.ndarray]:
         """``{name: value}`` of every single entry of one column (or ``{name: row}`` of a matrix)."""
         prm = np.asarray(prm, float)
         return {n: prm[i] for i, n in enumerate(self.names)}
 
-    def misalignment(self, prm) -> Misalignment:
+    def misalignment(self, prm: npt.ArrayLike) -> Misalignment:
         """The :class:`Misalignment` of one numeric column."""
         col = np.asarray(prm, float).ravel()
         return Misalignment(**{k: float(col[self.index(f"mis.{k}")]) for k in Misalignment.names()})
 
     # --- symbols ------------------------------------------------------------------------------
-    def symbols(self, sym=ca.SX) -> dict:
+    def symbols(self, sym: type[ca.SX] | type[ca.MX] = ca.SX) -> dict[str, Sym]:
         """Fresh symbols of every group and single entry outside a group: ``{"phi1", "pinion",
         "gear", "mis", "z_section"}`` (vectors for the groups)."""
         return {"phi1": sym.sym("phi1"), "pinion": sym.sym("p1", self._len("pinion")),
@@ -143,7 +151,7 @@ class ParamLayout:
         sl = self.groups[group]
         return sl.stop - sl.start
 
-    def build(self, pieces: dict):
+    def build(self, pieces: dict) -> Sym:
         """The column ``prm`` (vertcat) from named pieces: groups (``"pinion"``, ``"gear"``, ``"mis"``)
         or single entries (``"mis.crossing"``...); every entry must be given exactly once. The
         pieces may be SX, MX, DM or numbers."""
@@ -163,7 +171,7 @@ class ParamLayout:
                                      param=bad[0], valid="every entry exactly once")
         return ca.vertcat(*(v for _, v in sorted(parts, key=lambda t: t[0])))
 
-    def named(self, prm) -> dict:
+    def named(self, prm: Sym | np.ndarray) -> dict:
         """Named pieces of a symbolic (or numeric) column: groups as vectors, each single entry by
         name, and ``"mis_map"``: ``{kind: value}`` for :meth:`Misalignment.gear_to_fixed`."""
         out = {g: prm[sl] for g, sl in self.groups.items()}

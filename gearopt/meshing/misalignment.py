@@ -12,7 +12,9 @@ the results derive from these fields: adding a kind is a change to this file (pl
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field, fields
+from typing import TYPE_CHECKING
 
 import casadi as ca
 import numpy as np
@@ -20,6 +22,10 @@ import numpy as np
 from ..errors import GeometryError, out_of_range
 from ..geometry.frames import rot_x, rot_y
 from ..units import ARCMIN
+from .curvature import Sym
+
+if TYPE_CHECKING:
+    from ..gears import GearPair
 
 ANGLE_MAX = 600 * ARCMIN  #: largest misalignment angle accepted [rad] (10 deg)
 
@@ -92,7 +98,7 @@ class Misalignment:
 
     # --- the transform (CasADi-generic: SX, MX or floats) --------------------------------------
     @staticmethod
-    def gear_to_fixed(m, v, a_w: float, point: bool):
+    def gear_to_fixed(m: Mapping[str, Sym | float], v: Sym, a_w: float, point: bool) -> Sym:
         """A vector ``v`` (3,) of the gear's aligned frame (origin at the gear centre) carried into
         the fixed frame S_f of the misaligned drive: the axis turned by ``intersecting`` about x_f,
         then by ``crossing`` about y_f; a point is also moved to the centre ``(0, a_w + dE, axial)``.
@@ -103,12 +109,12 @@ class Misalignment:
         return v
 
     @staticmethod
-    def fixed_to_gear_rotation(m, v):
+    def fixed_to_gear_rotation(m: Mapping[str, Sym | float], v: Sym) -> Sym:
         """The inverse rotation of :meth:`gear_to_fixed` (directions only)."""
         return rot_x(-m["intersecting"], rot_y(-m["crossing"], v))
 
     # --- checks and bounds ------------------------------------------------------------------
-    def check(self, pair, where: str = "mis") -> None:
+    def check(self, pair: GearPair, where: str = "mis") -> None:
         """Refuse a misalignment that jams or separates the teeth (``dE``: the rules of
         :meth:`GearPair.check_operating`) or whose faces do not overlap (``axial``), naming
         ``where.kind``."""
@@ -118,7 +124,7 @@ class Misalignment:
             raise out_of_range(f"{where}.axial", self.axial, f"|axial| < (b1 + b2) / 2 = {overlap:.6g} mm (beyond it "
                                "the faces do not overlap and the teeth cannot touch)")
 
-    def backlash_opening(self, pair) -> float:
+    def backlash_opening(self, pair: GearPair) -> float:
         """Bound on the circumferential clearance the misalignment opens [mm] (dE along the line of
         action on both flanks, the angles across the face)."""
         b = max(pair.pinion.b, pair.gear.b)

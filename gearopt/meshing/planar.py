@@ -70,12 +70,15 @@ import math
 import time
 from dataclasses import dataclass, field
 from functools import lru_cache
+from typing import Any
 
 import casadi as ca
 import numpy as np
+import numpy.typing as npt
 
 from ..errors import ArgumentError, ConvergenceError, GeometryError, OptionError, out_of_range, shorten  # noqa: F401 (GeometryError via out_of_range)
 from ..units import DEG, RAD_TO_ARCSEC
+from .curvature import Sym
 
 __all__ = [
     "involute_1", "involute_2", "M_f1", "M_f2", "tangency_residual", "planar_functions", "PlanarTCA",
@@ -98,7 +101,7 @@ X_NAMES = ("theta1", "theta2", "phi2")
 
 # --- pure CasADi-generic geometry (SX, MX, DM or float) -----------------------------------------
 
-def involute_1(theta1, r_b1):
+def involute_1(theta1: Sym | float, r_b1: Sym | float) -> tuple[Sym, Sym]:
     """Profile of gear 1 in S1 and its unit normal, eqs. 9.4.23 and 9.4.28.
 
     Parameters
@@ -121,7 +124,7 @@ def involute_1(theta1, r_b1):
     return r1, n1
 
 
-def involute_2(theta2, r_b2):
+def involute_2(theta2: Sym | float, r_b2: Sym | float) -> tuple[Sym, Sym]:
     """Profile of gear 2 in S2 and its unit normal, eqs. 9.4.24 and 9.4.29.
 
     Parameters
@@ -144,13 +147,13 @@ def involute_2(theta2, r_b2):
     return r2, n2
 
 
-def M_f1(phi1):
+def M_f1(phi1: Sym | float) -> Sym:
     """Homogeneous planar transformation S1 -> S_f (eq. 9.4.30): rotation by +phi1 [rad] about z_f."""
     c, s = ca.cos(phi1), ca.sin(phi1)
     return ca.vertcat(ca.horzcat(c, -s, 0), ca.horzcat(s, c, 0), ca.horzcat(0, 0, 1))
 
 
-def M_f2(phi2, E):
+def M_f2(phi2: Sym | float, E: Sym | float) -> Sym:
     """Homogeneous planar transformation S2 -> S_f (eq. 9.4.30): rotation by -phi2 [rad] (gear 2
     turns opposite to gear 1), then translation by E [mm] along y_f (O2 = (0, E), Fig. 9.4.2)."""
     c, s = ca.cos(phi2), ca.sin(phi2)
@@ -164,7 +167,8 @@ def _apply(M, r, n):
     return rf, nf
 
 
-def contact_in_frame(x, phi1, r_b1, r_b2, E):
+def contact_in_frame(x: Sym, phi1: Sym | float, r_b1: Sym | float, r_b2: Sym | float,
+                     E: Sym | float) -> tuple[Sym, Sym, Sym, Sym]:
     """Both profiles in S_f: ``(r_f1, n_f1, r_f2, n_f2)`` for ``x = (theta1, theta2, phi2)`` [rad]."""
     r1, n1 = involute_1(x[0], r_b1)
     r2, n2 = involute_2(x[1], r_b2)
@@ -173,7 +177,7 @@ def contact_in_frame(x, phi1, r_b1, r_b2, E):
     return rf1, nf1, rf2, nf2
 
 
-def tangency_residual(x, phi1, r_b1, r_b2, E):
+def tangency_residual(x: Sym, phi1: Sym | float, r_b1: Sym | float, r_b2: Sym | float, E: Sym | float) -> Sym:
     """Scaled tangency equations (eq. 9.4.31 -> 9.4.32, 9.4.33 and one normal condition).
 
     Parameters
@@ -269,7 +273,7 @@ def closed_form(r_b1: float, r_b2: float, E: float) -> dict:
             "phi1_range": (-alpha, L / r_b1 - alpha), "phi2": phi2}
 
 
-def initial_guess(phi1, r_b1: float, r_b2: float, E: float, alpha_guess: float = 20 * DEG) -> np.ndarray:
+def initial_guess(phi1: npt.ArrayLike, r_b1: float, r_b2: float, E: float, alpha_guess: float = 20 * DEG) -> np.ndarray:
     """Starting point ``(3, n)`` for Newton from an assumed pressure angle ``alpha_guess`` [rad].
 
     Takes ``theta1 - phi1 = theta2 + phi2 = alpha_guess`` and ``r_b1 theta1 + r_b2 theta2 =
@@ -555,11 +559,11 @@ class PlanarTCA:
     def p(self) -> tuple[float, float, float]:
         return self.r_b1, self.r_b2, self.E
 
-    def residual(self, x, phi1) -> np.ndarray:
+    def residual(self, x: npt.ArrayLike, phi1: float) -> np.ndarray:
         """Scaled residual ``g(x; phi1)`` (3,) at ``x = (theta1, theta2, phi2)`` [rad]."""
         return np.asarray(self.functions["residual"](x, phi1, *self.p)[0]).ravel()
 
-    def solve(self, phi1, x0=None, method: str = "continuation", alpha_guess: float = 20 * DEG,
+    def solve(self, phi1: npt.ArrayLike, x0: npt.ArrayLike | None = None, method: str = "continuation", alpha_guess: float = 20 * DEG,
               on_fail: str = "raise") -> PlanarTCAResult:
         """Solve the tangency equations for every ``phi1``.
 
@@ -703,14 +707,14 @@ def _phi1_range_text(r_b1, r_b2, E) -> str:
     return f"{lo:.6g} < phi1 < {hi:.6g} rad ({lo / DEG:.4g} .. {hi / DEG:.4g} deg)"
 
 
-def solve_planar_tca(r_b1: float, r_b2: float, E: float, phi1, **kwargs) -> PlanarTCAResult:
+def solve_planar_tca(r_b1: float, r_b2: float, E: float, phi1: npt.ArrayLike, **kwargs: Any) -> PlanarTCAResult:
     """Shortcut: ``PlanarTCA(r_b1, r_b2, E).solve(phi1, **kwargs)`` (see :meth:`PlanarTCA.solve`)."""
     tol = kwargs.pop("tol", 1e-12)
     theta_min = kwargs.pop("theta_min", 1e-6)
     return PlanarTCA(r_b1, r_b2, E, tol=tol, theta_min=theta_min).solve(phi1, **kwargs)
 
 
-def profile_points(member: int, theta, angle: float, r_b1: float, r_b2: float, E: float) -> np.ndarray:
+def profile_points(member: int, theta: npt.ArrayLike, angle: float, r_b1: float, r_b2: float, E: float) -> np.ndarray:
     """Points of profile 1 or 2 in S_f for a rotation ``angle`` [rad] (phi1 or phi2), for plots.
 
     Evaluates the same CasADi expressions as the solver (eqs. 9.4.23/9.4.24 with eq. 9.4.30).

@@ -8,10 +8,13 @@ settings and the acceptance tolerances live here, documented, and supply the sce
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import casadi as ca
 import numpy as np
+import numpy.typing as npt
 
 from ..compiled import ColumnMap, call, compile_function, map_columns, mapped, use_compiled
 from ..settings import ContactSettings  # re-exported: declared with the other option sets (gearopt.settings)
@@ -47,7 +50,20 @@ class SolverSettings:
 DELTA_DEFAULT = ContactSettings.delta  #: elastic approach for the contact ellipse [mm]
 
 
-def accept_tangency(res, n1n2, reg, tol):
+class BranchSolution(NamedTuple):
+    """The solved columns of a :class:`Branch` (:meth:`Branch.solve`), one entry per column."""
+
+    W: np.ndarray  #: (nw, N) the unknowns at every column (the scaled contact unknowns of the branch)
+    res: np.ndarray  #: (N,) residual norm [mm]
+    n1n2: np.ndarray  #: (N,) ``n1 . n2`` of the outward normals (-1: opposite)
+    reg: np.ndarray  #: (N,) regularity of both surfaces (smallest singular value measure)
+    ok: np.ndarray  #: (N,) accepted (:func:`accept_tangency` or the branch's own test)
+    #: ``n_fast`` (accepted at the first pass), ``n_retry`` (by continuation), ``n_line_search``;
+    #: with ``extra``: ``extra`` (the Function's outputs by name) and ``rescued`` (columns changed later)
+    stats: dict
+
+
+def accept_tangency(res: np.ndarray, n1n2: np.ndarray, reg: np.ndarray, tol: float) -> np.ndarray:
     """Acceptance of solved points: residual norm <= ``tol`` [mm], outward normals opposite
     (n1 . n2 < -1 + NORMAL_TOL: tangency, not crossing) and both surfaces regular (reg >
     REGULARITY_MIN: not at a singular point)."""
@@ -74,7 +90,8 @@ class Branch:
     jit : bool
     """
 
-    def __init__(self, name, G, checks, accept, tol, solver=SolverSettings.solver, jit=SolverSettings.jit,
+    def __init__(self, name: str, G: ca.Function, checks: ca.Function, accept: Callable[..., np.ndarray], tol: float,
+                 solver: str = SolverSettings.solver, jit: bool | str = SolverSettings.jit,
                  extra: ca.Function | None = None):
         self.name, self.G, self.checks, self.accept, self.tol = name, G, checks, accept, tol
         self.solver, self.jit = solver, jit
@@ -131,22 +148,24 @@ class Branch:
     def __setstate__(self, state):
         self.__dict__.update(state)
 
-    def newton(self, w0, prm) -> np.ndarray:
+    def newton(self, w0: npt.ArrayLike, prm: npt.ArrayLike) -> np.ndarray:
         """Line-search Newton from ``w0`` at one parameter column (unchecked)."""
         return np.asarray(self.rf_safe(np.asarray(w0, float), prm)).ravel()
 
-    def check(self, w, prm):
+    def check(self, w: npt.ArrayLike, prm: npt.ArrayLike) -> tuple[float, float, float, bool]:
         """(residual norm, n1 . n2, regularity, accepted) at one point."""
         res = float(np.linalg.norm(np.asarray(self.G(w, prm)).ravel()))
         n1n2, reg = (float(v) for v in self.checks(w, prm))
         return res, n1n2, reg, bool(self.accept(res, n1n2, reg))
 
-    def predict(self, w_a, prm_a, dphi) -> np.ndarray:
+    def predict(self, w_a: npt.ArrayLike, prm_a: npt.ArrayLike, dphi: npt.ArrayLike) -> np.ndarray:
         """First guesses ``w_a + dw/dphi1 * dphi`` (nw, len(dphi)) around the solved anchor."""
         dw = np.asarray(self.dw(w_a, prm_a)).ravel()
         return np.asarray(w_a)[:, None] + dw[:, None] * np.asarray(dphi)[None, :]
 
-    def predict_knots(self, w_a, prm_a, phi, anchor: float, prm_of, spacing: float, n_total: int | None = None):
+    def predict_knots(self, w_a: npt.ArrayLike, prm_a: npt.ArrayLike, phi: np.ndarray, anchor: float,
+                      prm_of: Callable[[np.ndarray], np.ndarray], spacing: float,
+                      n_total: int | None = None) -> np.ndarray:
         """First guesses (nw, len(phi)) for the positions ``phi`` [rad] of one smooth solution branch
         from solved knots: the branch is solved on a fixed grid ``anchor + j * spacing`` covering
         ``phi`` (:meth:`solve`, from the anchor's prediction), and each position is predicted by the
@@ -273,7 +292,8 @@ class Branch:
         return Wr[:, :cols.size].copy(), rr.ravel()[:cols.size].copy(), dr.ravel()[:cols.size].copy(), \
             gr.ravel()[:cols.size].copy()
 
-    def solve(self, W0, prm, groups, max_gap: int = 4, n_total: int | None = None, extra: bool = False):
+    def solve(self, W0: np.ndarray, prm: np.ndarray, groups: Sequence[npt.ArrayLike], max_gap: int = 4,
+              n_total: int | None = None, extra: bool = False) -> BranchSolution:
         """Solve every column; ``groups`` are index arrays ordered by phi1. Columns that fail the
         checks are re-solved by continuation within their group, forwards then backwards: from the
         last accepted column before them, if at most ``max_gap`` columns back (Newton, and
@@ -291,7 +311,8 @@ class Branch:
 
         Returns
         -------
-        W, res, n1n2, reg, ok, stats
+        BranchSolution
+            ``W, res, n1n2, reg, ok, stats`` by name.
         """
         n_total = prm.shape[1] if n_total is None else n_total
         extra = bool(extra) and self.one_x is not None
@@ -363,4 +384,4 @@ class Branch:
         if extra:
             stats["extra"] = dict(zip(self.extra.name_out(), first[4:]))
             stats["rescued"] = np.unique(np.concatenate(rescued)) if rescued else np.zeros(0, int)
-        return W, res, n1n2, reg, ok, stats
+        return BranchSolution(W=W, res=res, n1n2=n1n2, reg=reg, ok=ok, stats=stats)

@@ -32,19 +32,23 @@ from __future__ import annotations
 import functools
 import math
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import casadi as ca
 import numpy as np
+import numpy.typing as npt
 
 from ..compiled import call, mapped, matrix_columns
 from ..errors import (ArgumentError, ConvergenceError, GeometryError, LineContactError, OptionError, check_number,
                       out_of_range, shorten)
 from ..gears import GearPair
-from ..geometry.frames import rot_x as _rx, rot_y as _ry, rot_z as _rz  # noqa: F401 (old private names)
-from ..geometry.generation import PARAMS, GeneratedTooth, generate, generate_by_rack  # noqa: F401
+from ..geometry.frames import rot_z
+from ..geometry.generation import PARAMS, FlankLimit, GeneratedTooth, generate, generate_by_rack  # noqa: F401
 from ..geometry.microgeometry import modified_tooth
 from ..units import ARCMIN, RAD_TO_ARCSEC
+from .curvature import eigh2_sym, shape_matrix, unit_perp  # noqa: F401 (eigh2_sym re-exported)
 from .layout import ParamLayout
 from .misalignment import MISALIGNMENTS, Misalignment  # noqa: F401 (re-exported)
 from .solver import (DELTA_DEFAULT, NORMAL_TOL, REGULARITY_MIN, Branch, ContactSettings, accept_tangency,  # noqa: F401 (re-exported)
@@ -58,11 +62,22 @@ def _describe(v) -> str:
     return f"{type(v).__name__} {shorten(repr(v))}"
 
 
-def check_sweep_args(tca, phi1, p1=None, p2=None, mis=None, pairs=(-1, 0, 1), delta=None, anchor=0.0,
-                     z_section=0.0):
+class SweepArgs(NamedTuple):
+    """The checked arguments of a sweep (:func:`check_sweep_args`)."""
+
+    phi1: np.ndarray  #: (N,) pinion angles [rad]
+    p1: np.ndarray  #: the pinion's parameter vector (its ``param_names`` entries)
+    p2: np.ndarray  #: the gear's
+    mis: Misalignment
+    pairs: tuple[int, ...]  #: tooth pairs (pinion tooth numbers)
+
+
+def check_sweep_args(tca: TCA, phi1: npt.ArrayLike, p1: npt.ArrayLike | None = None, p2: npt.ArrayLike | None = None,
+                     mis: Misalignment | None = None, pairs: Sequence[int] = (-1, 0, 1), delta: float | None = None,
+                     anchor: float = 0.0, z_section: float | None = 0.0) -> SweepArgs:
     """Validate and normalise the arguments of :meth:`TCA.sweep` / ``EdgeContact.sweep``.
 
-    Returns ``(phi1 (N,), p1, p2, mis, pairs)`` (p1, p2: each member's ``param_names`` entries); raises :class:`~gearopt.errors.ArgumentError`
+    Returns :class:`SweepArgs` ``(phi1 (N,), p1, p2, mis, pairs)`` (p1, p2: each member's ``param_names`` entries); raises :class:`~gearopt.errors.ArgumentError`
     (wrong type, shape, empty, non-finite) or :class:`~gearopt.errors.GeometryError` (a misalignment
     that jams or separates the teeth, faces that do not overlap, a section off the face), naming
     the argument and its valid range.
@@ -153,25 +168,16 @@ def check_sweep_args(tca, phi1, p1=None, p2=None, mis=None, pairs=(-1, 0, 1), de
     if tca.contact_type == "line" and z_section is not None and abs(z_section) > g1.b / 2:
         raise out_of_range("z_section", z_section, f"|z_section| <= b1 / 2 = {g1.b / 2:.6g} mm (a section of the "
                            "pinion face)", cls=OptionError)
-    return arr, vecs[0], vecs[1], mis, tuple(out)
+    return SweepArgs(phi1=arr, p1=vecs[0], p2=vecs[1], mis=mis, pairs=tuple(out))
 
 
-def no_contact(where: str, phi1: np.ndarray, pairs, z1: int) -> ConvergenceError:
+def no_contact(where: str, phi1: np.ndarray, pairs: Sequence[int], z1: int) -> ConvergenceError:
     """The error for a sweep that found no contact at any position (never an all-NaN result)."""
     return ConvergenceError(
         f"{where}: no contact at any of the {phi1.size} positions phi1 = {phi1.min():.6g} .. "
         f"{phi1.max():.6g} rad (pairs {tuple(pairs)}). The angles may lie outside the meshing cycle (pair 0 meshes "
         f"around phi1 = 0; one cycle is 2 pi / z1 = {2 * math.pi / z1:.6g} rad; angles are in rad), or the flanks do "
         "not meet under this misalignment.")
-
-
-def _shape_matrix(r, n, q, E):
-    """Curvature matrix of a surface in the orthonormal tangent basis ``E`` (3x2):
-    ``B = E^T (dn/dr) E`` with the outward normal (convex: positive), via AD."""
-    J = ca.jacobian(r, q)  # 3x2
-    Nq = ca.jacobian(n, q)  # 3x2
-    pinv = ca.solve(ca.mtimes(J.T, J), J.T)  # 2x3
-    return ca.mtimes([E.T, Nq, pinv, E])
 
 
 class EnvelopeTE:
@@ -409,17 +415,17 @@ class TCA:
             rot1 = -sgn * phi1 + sgn * self.theta1
 
             def gear_to_fixed(v, point: bool):
-                v = _rz(math.pi + sgn * self.theta2, v)
-                v = _rz(sgn * phi2, v)
+                v = rot_z(math.pi + sgn * self.theta2, v)
+                v = rot_z(sgn * phi2, v)
                 return Misalignment.gear_to_fixed(m_of, v, pair.a_w, point)  # frame S_q
 
             rad1 = ca.vertcat(r1[0], r1[1], 0.0) / ca.sqrt(r1[0] ** 2 + r1[1] ** 2)
             rad2 = ca.vertcat(r2[0], r2[1], 0.0) / ca.sqrt(r2[0] ** 2 + r2[1] ** 2)
             return {"r1": r1, "n1": n1, "r2": r2, "n2": n2, "rot1": rot1,
-                    "er1": _rz(rot1, rad1), "er2": gear_to_fixed(rad2, False),
+                    "er1": rot_z(rot1, rad1), "er2": gear_to_fixed(rad2, False),
                     "ez2": gear_to_fixed(ca.DM([0.0, 0.0, 1.0]), False),
-                    "rf1": _rz(rot1, r1), "nf1": _rz(rot1, n1),
-                    "t1u": _rz(rot1, ca.jacobian(r1, u1)), "t1z": _rz(rot1, ca.jacobian(r1, z1)),
+                    "rf1": rot_z(rot1, r1), "nf1": rot_z(rot1, n1),
+                    "t1u": rot_z(rot1, ca.jacobian(r1, u1)), "t1z": rot_z(rot1, ca.jacobian(r1, z1)),
                     "rf2": gear_to_fixed(r2, True), "nf2": gear_to_fixed(n2, False),
                     "t2u": gear_to_fixed(ca.jacobian(r2, u2), False), "t2z": gear_to_fixed(ca.jacobian(r2, z2), False)}
 
@@ -442,19 +448,19 @@ class TCA:
         self.jacobian = ca.Function("tca_jacobian", [w, prm], [ca.jacobian(F, w)], ["w", "prm"], ["J"])
         # Curvatures and contact ellipse (Litvin ch. 9; docs/theory.md section 8) at a solved point.
         q1, q2 = ca.vertcat(u1, z1), ca.vertcat(u2, z2)
-        e1 = r1 * 0 + _unit_perp(n1)  # tangent basis in the pinion frame
+        e1 = r1 * 0 + unit_perp(n1)  # tangent basis in the pinion frame
         e2 = ca.cross(n1, e1)
         E1 = ca.horzcat(e1, e2)
-        B1 = _shape_matrix(r1, n1, q1, E1)
+        B1 = shape_matrix(r1, n1, q1, E1)
         # The same basis carried into the gear frame (a rotation), where surface 2 lives.
         def fixed_to_gear(v):
-            v = _rz(rot1, v)  # pinion -> fixed
+            v = rot_z(rot1, v)  # pinion -> fixed
             v = Misalignment.fixed_to_gear_rotation(m_of, v)
-            v = _rz(-sgn * phi2, v)
-            return _rz(-(math.pi + sgn * self.theta2), v)
+            v = rot_z(-sgn * phi2, v)
+            return rot_z(-(math.pi + sgn * self.theta2), v)
         E2 = ca.horzcat(fixed_to_gear(e1), fixed_to_gear(e2))
         # Surface 2's outward normal is -n1 at contact: its convex curvature in the same basis.
-        B2 = _shape_matrix(r2, n2, q2, E2)
+        B2 = shape_matrix(r2, n2, q2, E2)
         K1 = 0.5 * (B1 + B1.T)
         K2 = 0.5 * (B2 + B2.T)
         # Regularity of both surfaces at the point: |dr/du x dr/dz| (0 at the involute's singular point,
@@ -490,7 +496,8 @@ class TCA:
             self._maps[key] = mapped(self.sweep_outputs, n, False)
         return self._maps[key]
 
-    def prm(self, phi1, p1=None, p2=None, mis: Misalignment | None = None, z_section: float = 0.0) -> np.ndarray:
+    def prm(self, phi1: npt.ArrayLike, p1: npt.ArrayLike | None = None, p2: npt.ArrayLike | None = None,
+            mis: Misalignment | None = None, z_section: float = 0.0) -> np.ndarray:
         """Parameter matrix (n_prm, N) for the positions ``phi1`` (:meth:`ParamLayout.pack`, rows
         named by ``self.layout``)."""
         p1 = self.pinion.p0 if p1 is None else np.asarray(p1, float)
@@ -509,7 +516,7 @@ class TCA:
         w_full = np.asarray(w_full, float)
         return w_full[[0, 2, 3, 4]] if self.contact_type == "line" else w_full
 
-    def guess(self, p1=None, p2=None, z_section: float = 0.0) -> np.ndarray:
+    def guess(self, p1: npt.ArrayLike | None = None, p2: npt.ArrayLike | None = None, z_section: float = 0.0) -> np.ndarray:
         """First guess at the pitch point: both flanks at their operating pitch radii, mid face
         (the unknown vector of this TCA: 5 entries, or 4 for line contact)."""
         pair = self.pair
@@ -526,7 +533,9 @@ class TCA:
     def _check(self, w, prm):
         return self.branch.check(w, prm)
 
-    def solve_point(self, phi1: float, w0=None, p1=None, p2=None, mis=None, z_section: float = 0.0) -> np.ndarray:
+    def solve_point(self, phi1: float, w0: npt.ArrayLike | None = None, p1: npt.ArrayLike | None = None,
+                    p2: npt.ArrayLike | None = None, mis: Misalignment | None = None,
+                    z_section: float = 0.0) -> np.ndarray:
         """Solve one position with the line-search Newton; raise :class:`ConvergenceError` if the
         residual is not below ``tol`` or the normals do not oppose (a false root).
 
@@ -619,7 +628,8 @@ class TCA:
                        f"the {side} of its flank surface, at or past {cusp}")
         return "; ".join(out) if out else "both flanks regular there"
 
-    def sweep(self, phi1, p1=None, p2=None, mis: Misalignment | None = None, pairs=(-1, 0, 1),
+    def sweep(self, phi1: npt.ArrayLike, p1: npt.ArrayLike | None = None, p2: npt.ArrayLike | None = None,
+              mis: Misalignment | None = None, pairs: Sequence[int] = (-1, 0, 1),
               delta: float = DELTA_DEFAULT, anchor: float = 0.0, z_section: float = 0.0,
               continuation: bool = True) -> TCAResult:
         """TCA over the pinion angles ``phi1`` [rad] for the tooth pairs ``pairs``.
@@ -784,18 +794,14 @@ class TCA:
         f = ca.Function("o", [u, z], [ca.dot(ca.cross(ca.jacobian(r, u), ca.jacobian(r, z)), n)])
         return float(np.sign(float(f(tooth.u_at_radius(r_w, 0.0, self.side), 0.0))))
 
-    def form_radius(self, member: int, p=None) -> float:
+    def form_radius(self, member: int, p: npt.ArrayLike | None = None) -> float:
         """Form radius [mm] of member 1 (pinion) or 2 (gear) on the driving flank in the mid section
         z = 0, for the parameter vector ``p`` (default: as built): where the real generated flank
         ends (:meth:`GeneratedTooth.flank_limit`: the tool's flank/fillet junction, or below a fold
         of the flank its crossing with the reversed branch or the fillet)."""
         return self.flank_limit(member, 0.0, p).radius
 
-    def _form_radius(self, tooth: GeneratedTooth, p=None) -> float:
-        """(old private form, by tooth) :meth:`form_radius`."""
-        return self.form_radius(1 if tooth is self.pinion else 2, p)
-
-    def flank_limit(self, member: int, z: float = 0.0, p=None):
+    def flank_limit(self, member: int, z: float = 0.0, p: npt.ArrayLike | None = None) -> FlankLimit:
         """:class:`~gearopt.geometry.generation.FlankLimit` of member 1 (pinion) or 2 (gear) on the
         driving side in section ``z`` [mm] for the parameter vector ``p`` (default: as built)."""
         tooth = self.pinion if member == 1 else self.gear
@@ -805,7 +811,7 @@ class TCA:
             self._limits[key] = tooth.flank_limit(self.side, float(z), p)
         return self._limits[key]
 
-    def limit_table(self, member: int, p=None):
+    def limit_table(self, member: int, p: npt.ArrayLike | None = None) -> tuple[np.ndarray, np.ndarray]:
         """(z^2 grid, u_limit on it): the flank limit depends on z only through the plunging a_pl z^2
         (a shift of the tool in that section), so it is tabulated in z^2 across the face."""
         tooth = self.pinion if member == 1 else self.gear
@@ -824,9 +830,8 @@ class TCA:
             self._limits[key] = (s, np.array([self.flank_limit(member, math.sqrt(v), p).u for v in s]))
         return self._limits[key]
 
-    _limit_table = limit_table  # (old private name)
-
-    def on_flank(self, member: int, u, z, p=None, band: float = 1e-3) -> np.ndarray:
+    def on_flank(self, member: int, u: npt.ArrayLike, z: npt.ArrayLike, p: npt.ArrayLike | None = None,
+                 band: float = 1e-3) -> np.ndarray:
         """True where the flank point (u, z) [mm] of member 1 or 2 lies on the real generated flank
         (``u`` not past the flank limit of its section; the tip and face are checked elsewhere).
         The limit is interpolated in z^2 (:meth:`limit_table`) and recomputed exactly for points
@@ -834,7 +839,7 @@ class TCA:
         interpolation's error bound: the limit moves monotonically with the plunging shift).
         NaN points are False."""
         u, z = np.asarray(u, float), np.asarray(z, float)
-        s_grid, u_grid = self._limit_table(member, p)
+        s_grid, u_grid = self.limit_table(member, p)
         b = (self.pair.pinion if member == 1 else self.pair.gear).b
         fin = np.isfinite(u) & np.isfinite(z)
         s = np.clip(np.where(fin, z, 0.0) ** 2, 0.0, (b / 2) ** 2)
@@ -853,7 +858,7 @@ class TCA:
 
     on_active_flank = on_flank  #: (the old name)
 
-    def folding(self, p1=None, p2=None) -> dict:
+    def folding(self, p1: npt.ArrayLike | None = None, p2: npt.ArrayLike | None = None) -> dict:
         """Members whose driving flank folds before the tool's junction (mid section), with the
         flank limit and the largest a_c that does not fold: ``{"pinion": {...}}``; empty if none."""
         out = {}
@@ -894,24 +899,3 @@ class _Solved:
     phi2_ref: float
     p1: np.ndarray | None = None
     p2: np.ndarray | None = None
-
-
-def _unit_perp(n):
-    """A unit vector perpendicular to ``n`` that is smooth where n is far from the z axis' ...
-    (for gear flanks n_z is small): ``e = k x n / |k x n|``... oriented along the profile."""
-    v = ca.vertcat(-n[1], n[0], 0.0)
-    return v / ca.norm_2(v)
-
-
-def eigh2_sym(K):
-    """Eigenvalues (ascending, (2, 1)) and unit eigenvectors (columns, (2, 2)) of a symmetric 2 x 2
-    matrix in closed form (CasADi-generic): with ``m = (a + d) / 2``, ``h = (a - d) / 2``,
-    ``r = sqrt(h^2 + b^2)``, the eigenvalues are ``m -+ r`` and the eigenvector of ``m - r`` is
-    ``(-sin t, cos t)`` with ``t = atan2(b, h) / 2`` (no cancellation; a multiple of the identity gives
-    the axes). Not differentiable where r = 0: for numbers only."""
-    a, d, b = K[0, 0], K[1, 1], 0.5 * (K[0, 1] + K[1, 0])
-    m, h = 0.5 * (a + d), 0.5 * (a - d)
-    r = ca.sqrt(h * h + b * b)
-    t = 0.5 * ca.atan2(b, h)
-    c, s = ca.cos(t), ca.sin(t)
-    return ca.vertcat(m - r, m + r), ca.horzcat(ca.vertcat(-s, c), ca.vertcat(c, s))

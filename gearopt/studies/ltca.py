@@ -209,7 +209,7 @@ class LTCAStudy:
             results.append(L.solve(t, slices=S).results[0])
         from ..ltca.engine import LoadedSweep
 
-        sweep = LoadedSweep(slices=S, results=results, separation_time=0.0, structure=L._structure(S),
+        sweep = LoadedSweep(slices=S, results=results, separation_time=0.0, structure=L.structure(S),
                             te_zero_rad=S.phi2_ref, ltca=L)
         data = sweep.to_dict(p.pinion.z, nominal=self.torque)
         pair = {"z1": p.pinion.z, "z2": p.gear.z, "m_n": p.pinion.m_n, "beta_deg": p.pinion.beta / DEG, "a": p.a_w,

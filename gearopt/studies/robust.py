@@ -36,6 +36,8 @@ from typing import TYPE_CHECKING
 from ..robust.study import UNITS, DesignSweep, MonteCarlo, RobustResult  # noqa: F401 (UNITS: results.json's units)
 
 if TYPE_CHECKING:  # pragma: no cover
+    from pathlib import Path
+
     from ..schema import Section
 
 SCHEDULER_NOTE = "run it with `gearopt run SCENE --scheduler tcp://HOST:PORT` for a Dask cluster"
@@ -109,7 +111,7 @@ class RobustReport(RobustResult):
     """The result of a ``montecarlo`` or ``sweep`` scene: :class:`~gearopt.robust.study.RobustResult`
     with its figures (:func:`gearopt.plot.robust.save_plots`)."""
 
-    def save_plots(self, out_dir, dpi: int = 120) -> list[str]:
+    def save_plots(self, out_dir: str | Path, dpi: int = 120) -> list[str]:
         """``distribution.png``, ``scatter.png``, ``sensitivity.png``, ``pattern.png``
         (:func:`gearopt.plot.robust.save_plots`)."""
         from ..plot.robust import save_plots

@@ -29,7 +29,7 @@ import casadi as ca
 import numpy as np
 
 from ..compiled import nlpsol
-from ..contact.edge import EdgeContact
+from ..contact.edge import EdgeContact, EdgeTCAResult
 from ..errors import ArgumentError, ConvergenceError, OptionError, SynthesisError, check_number, out_of_range  # noqa: F401
 #  (SynthesisError lives in errors.py; re-exported here)
 from ..gears import GearPair
@@ -554,7 +554,8 @@ class CrowningOptimizer:
         return out
 
 
-def actual_level(ec: EdgeContact, r, mis: Misalignment, zooms: int = 3, points: int = 9):
+def actual_level(ec: EdgeContact, r: EdgeTCAResult, mis: Misalignment, zooms: int = 3,
+                 points: int = 9) -> tuple[float, list[tuple[float, float]], tuple[float, float]]:
     """Peak-to-peak of the actual TE of a sweep ``r`` (an :class:`EdgeTCAResult` of ``ec``) at its
     true extremes, not at the sweep's samples.
 

@@ -215,7 +215,8 @@ def local_synthesis(pair: GearPair, target: LocalTarget, side: str = "right", ve
                        verified=verify_at_mean_point(new_pair, target, side, mis))
 
 
-def verify_at_mean_point(pair: GearPair, target: LocalTarget, side="right", mis=None, h: float = 2e-3) -> dict:
+def verify_at_mean_point(pair: GearPair, target: LocalTarget, side: str = "right", mis: Misalignment | None = None,
+                         h: float = 2e-3) -> dict:
     """Measure m'21, 2a and eta2 at M from an independent TCA sweep: central finite differences of
     the solved phi2 (step h [rad]) and of the contact points on the gear, the ellipse from the sweep."""
     tca = TCA(pair, side=side)

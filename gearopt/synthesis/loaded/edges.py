@@ -8,11 +8,14 @@ import math
 
 import numpy as np
 
-from ...ltca.engine import F_MIN_SHARE, LoadedSweep
+from ...gears import GearPair
+from ...ltca.slices import SliceSet
+
+from ...ltca.engine import F_MIN_SHARE, LoadedResult, LoadedSweep
 from .constants import TIP_BAND
 
 
-def edge_weight(S, pair) -> np.ndarray:
+def edge_weight(S: SliceSet, pair: GearPair) -> np.ndarray:
     """(K, N, M) weight of each slice in the edge-loading constraint: 1 on the tip-edge slices and the
     face ends z = +-b/2; on flank slices it grows linearly from 0 to 1 over the last ``TIP_BAND`` m_n
     (radial) below either member's tip circle (a contact there reaches the tip corner). Graded, so that
@@ -28,7 +31,7 @@ def edge_weight(S, pair) -> np.ndarray:
     return np.where(e | ends, 1.0, w)
 
 
-def edge_weight_lin(S, pair, Jr) -> tuple[np.ndarray, np.ndarray]:
+def edge_weight_lin(S: SliceSet, pair: GearPair, Jr: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The edge weight of :func:`edge_weight` linearised in the design and misalignment: ``(w0, g)``,
     (K, N, M) and (K, N, M, Q). On a flank slice, ``w0`` is the unclipped band coordinate
     ``(r - (r_a - TIP_BAND m_n)) / (TIP_BAND m_n)`` of the member whose tip is nearer and ``g`` its
@@ -53,7 +56,7 @@ def edge_weight_lin(S, pair, Jr) -> tuple[np.ndarray, np.ndarray]:
     return w0, g
 
 
-def edge_where(sw: LoadedSweep, t: int, pair) -> tuple[str, str]:
+def edge_where(sw: LoadedSweep, t: int, pair: GearPair) -> tuple[str, str]:
     """Which edge carries the most weighted load at torque ``t`` of a loaded sweep, in words, and the
     modification that would open it: ``(where, hint)``."""
     S, r = sw.slices, sw.results[t]
@@ -70,12 +73,12 @@ def edge_where(sw: LoadedSweep, t: int, pair) -> tuple[str, str]:
     return "a flank slice at a tip" + at, "Free or widen a tip or root relief"
 
 
-def edge_mask(S, pair) -> np.ndarray:
+def edge_mask(S: SliceSet, pair: GearPair) -> np.ndarray:
     """(K, N, M) slices that count in the edge loading (weight > 0, :func:`edge_weight`)."""
     return edge_weight(S, pair) > 0
 
 
-def loaded_gaps(sw: LoadedSweep, r) -> np.ndarray:
+def loaded_gaps(sw: LoadedSweep, r: LoadedResult) -> np.ndarray:
     """(K, N, M) gaps g = s + C F - delta [mm] of a loaded result (every active slice, exact compliance)."""
     from ...ltca.compliance import weber_contact
 
@@ -89,8 +92,8 @@ def loaded_gaps(sw: LoadedSweep, r) -> np.ndarray:
     lam = 1.0 if r.lever is None else r.lever / (g1.r_b * sw.ltca.cos_bb)
     s = np.where(S.active, (r.te_unloaded[None, :, None] - S.te) * lev2, 0.0)
     F = np.transpose(r.load, (1, 0, 2)).reshape(N, K * M)
-    CF = np.einsum("nij,nj->ni", st["Cs"], F)
+    CF = np.einsum("nij,nj->ni", st.Cs, F)
     CF = np.transpose(CF.reshape(N, K, M), (1, 0, 2))
     f_min = F_MIN_SHARE * r.W * sw.ltca.cos_bb / g1.b
-    cH = weber_contact(r.load / st["length"], st["R"], st["h1"], st["h2"], sw.ltca.material, f_min)[0]
-    return s + CF + cH * r.load / st["length"] - r.delta[None, :, None] * lam
+    cH = weber_contact(r.load / st.length, st.R, st.h1, st.h2, sw.ltca.material, f_min).compliance
+    return s + CF + cH * r.load / st.length - r.delta[None, :, None] * lam

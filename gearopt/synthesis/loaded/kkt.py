@@ -4,14 +4,21 @@ ones, and the sparse helpers of the KKT systems (docs/loaded_synthesis.md sectio
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import casadi as ca
 import numpy as np
 
 from ..crowning import SynthesisError
 from .constants import DEGENERATE_REL
 
+if TYPE_CHECKING:
+    import scipy.sparse
+    import scipy.sparse.linalg
 
-def degenerate_constraints(ind_g, lam_g, ind_x, lam_x) -> tuple[int, float | None]:
+
+def degenerate_constraints(ind_g: np.ndarray, lam_g: np.ndarray, ind_x: np.ndarray,
+                           lam_x: np.ndarray) -> tuple[int, float | None]:
     """Degenerate inequalities and bounds at a solution: those active (central-path indicator above
     1/2, :func:`central_path_indicators`) whose multiplier vanishes (strict complementarity fails: the
     optimum is then only directionally differentiable), i.e. at most ``DEGENERATE_REL`` times the
@@ -30,7 +37,9 @@ def degenerate_constraints(ind_g, lam_g, ind_x, lam_x) -> tuple[int, float | Non
     return int(deg_g.sum() + deg_x.sum()), (float(mult.min()) / big if big > 0 else None)
 
 
-def central_path_indicators(H, Jg, lbg, ubg, g, lam_g, lbx, ubx, x, lam_x):
+def central_path_indicators(H: scipy.sparse.spmatrix, Jg: scipy.sparse.spmatrix, lbg: np.ndarray, ubg: np.ndarray,
+                            g: np.ndarray, lam_g: np.ndarray, lbx: np.ndarray, ubx: np.ndarray, x: np.ndarray,
+                            lam_x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """How each inequality and bound of an interior-point solution behaves as the barrier vanishes.
 
     At IPOPT's solution ``x`` (multipliers ``lam_g``, ``lam_x`` in CasADi's signs: positive at an
@@ -85,7 +94,7 @@ def central_path_indicators(H, Jg, lbg, ubg, g, lam_g, lbx, ubx, x, lam_x):
     return ind_g, ind_x
 
 
-def csc_of_dm(m):
+def csc_of_dm(m: ca.DM | np.ndarray) -> scipy.sparse.csc_matrix:
     import scipy.sparse as sp_
 
     m = ca.DM(m)
@@ -93,7 +102,7 @@ def csc_of_dm(m):
     return sp_.csc_matrix((np.array(m.nonzeros()), (i, j)), shape=m.shape)
 
 
-def sparse_lu(K, what: str):
+def sparse_lu(K: scipy.sparse.spmatrix, what: str) -> scipy.sparse.linalg.SuperLU:
     import scipy.sparse.linalg as spla
 
     try:

@@ -28,6 +28,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import NamedTuple
 
+import casadi as ca
 import numpy as np
 
 from ...errors import ParameterNameError
@@ -59,6 +60,21 @@ class Te0Block(NamedTuple):
     position: int
     first: int
     count: int
+
+
+@dataclass(frozen=True)
+class Te0Slices:
+    """The unloaded-TE target's slices in the NLP (``NLPBuilder._te0_blocks``): per case and position,
+    the active slices of the pair centred there; arrays over those slices unless stated."""
+
+    a: np.ndarray  #: absolute separation [mm]
+    J: np.ndarray  #: (n0, P) its derivative in the free amounts
+    Jm: np.ndarray  #: (n0, Q) its derivative in the misalignment kinds
+    blk: np.ndarray  #: the block (index into ``blocks``) of each slice
+    keys: np.ndarray  #: (n0, 4) (T, case, position, flat slice index) of each slice (T: zero load)
+    case: np.ndarray  #: (nB0,) the case of each block
+    psi: np.ndarray  #: (nB0,) the pair angle of each block over pi / z1
+    blocks: list[Te0Block]  #: (case, position, first, count) per block
 
 
 class BlockLayout:
@@ -102,7 +118,7 @@ class BlockLayout:
         s = self[name]
         return s.stop - s.start
 
-    def take(self, vec, name: str):
+    def take(self, vec: np.ndarray | ca.MX | ca.SX, name: str) -> np.ndarray | ca.MX | ca.SX:
         """The block ``name`` of the stacked vector ``vec`` (a view for numpy)."""
         return vec[self[name]]
 

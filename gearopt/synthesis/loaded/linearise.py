@@ -11,7 +11,9 @@ from dataclasses import dataclass, field
 
 import casadi as ca
 import numpy as np
+import numpy.typing as npt
 
+from ...ltca.engine import ContactStructure
 from ...ltca.slices import SliceSet
 from ...meshing.misalignment import Misalignment
 
@@ -25,9 +27,8 @@ class Linearisation:
     ----------
     slices : SliceSet
         The exact slices of the design (:meth:`gearopt.ltca.engine.LTCA.slices`).
-    structure : dict
-        Their compliance and Hertz data (``LTCA._structure``: ``length``,
-        ``R``, ``h1``, ``h2``, ``ct``, ``Cs`` ...).
+    structure : ContactStructure
+        Their compliance and Hertz data (:meth:`gearopt.ltca.engine.LTCA.structure`).
     a : (K, N, M) array
         Absolute separation of every slice [mm] (``-te r_b2 cos(beta_b)``).
     J : (K, N, M, P) array
@@ -49,7 +50,7 @@ class Linearisation:
     """
 
     slices: SliceSet = field(repr=False)
-    structure: dict = field(repr=False)
+    structure: ContactStructure = field(repr=False)
     a: np.ndarray = field(repr=False)
     J: np.ndarray = field(repr=False)
     Jm: np.ndarray = field(repr=False)
@@ -95,7 +96,7 @@ class Lineariser:
                                            ["dw3", "dr1", "dr2", "dk"])
         return self._sens[kind]
 
-    def linearise(self, theta) -> list:
+    def linearise(self, theta: npt.ArrayLike) -> list[Linearisation]:
         """Slices, compliance and the separations' sensitivities of the design ``theta`` [mm]: one
         :class:`Linearisation` per case."""
         p1, p2 = self.params(theta)
@@ -104,7 +105,7 @@ class Lineariser:
         out = []
         for mis in self.cases:
             S = self.ltca.slices(self.phi1, p1, p2, mis)
-            st = self.ltca._structure(S)
+            st = self.ltca.structure(S)
             K, N, M = S.z.shape
             J = np.zeros((K, N, M, len(self._prm_index)))
             Jr = np.zeros((K, N, M, 2, len(self._prm_index)))
@@ -145,7 +146,7 @@ class Lineariser:
             a = np.where(S.active, -S.te * lever, 0.0)
             P = len(self.free)
             # the Hertz term's relative curvature 1 / R* of the default loaded TCA (each flank's own, LTCA
-            # _structure) where the slice's curvature is known, its sensitivity there (else held)
+            # .structure) where the slice's curvature is known, its sensitivity there (else held)
             if S.kappa1 is not None:
                 Jk = np.where((np.isfinite(S.kappa1) & np.isfinite(S.kappa2) & S.active)[..., None], Jk, 0.0)
             else:

@@ -8,14 +8,18 @@ declared sign disables the mirror reduction instead of being skipped."""
 from __future__ import annotations
 
 import copy
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ...errors import ArgumentError
 from ...meshing.misalignment import Misalignment
 
+if TYPE_CHECKING:
+    from typing import Self
 
-def mirror_signs(cls=Misalignment) -> dict:
+
+def mirror_signs(cls: type[Misalignment] = Misalignment) -> dict[str, int]:
     """``{kind: sign}`` of every field of the misalignment class ``cls`` (its declared
     :meth:`~gearopt.meshing.misalignment.Misalignment.mirror_sign`, None where a field declares none)."""
     return {k: cls.mirror_sign(k) for k in cls.names()}
@@ -83,7 +87,7 @@ class MirrorReduction:
             classes.append(cls)
         return classes if any(len(k) > 1 for k in classes) else None
 
-    def shifted(self, offset: Misalignment):
+    def shifted(self, offset: Misalignment) -> Self:
         """A copy of this optimiser with ``offset`` added to every case (each kind of ``Misalignment``);
         the duty cycle :meth:`sensitivities` differentiates in (e.g. for finite differences of
         re-solved optima, ``benchmarks/loaded_sensitivity_fd.py``)."""

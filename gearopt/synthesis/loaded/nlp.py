@@ -7,6 +7,7 @@ harmonics) and the unloaded-TE target's blocks (:class:`NLPBuilder`, a part of
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass, field
 
 import casadi as ca
 import numpy as np
@@ -18,14 +19,14 @@ from ...meshing.misalignment import Misalignment
 from ...units import RAD_TO_ARCSEC
 from .constants import G_REF, HARM_EPS, KAPPA_FLOOR, MU, TE0_EPS
 from .edges import edge_weight_lin
-from .layout import Block, Te0Block, block_vector, nlp_layout, param_layout
+from .layout import Block, NLPLayout, Te0Block, Te0Slices, block_vector, nlp_layout, param_layout
 from .verify import harmonic_rows
 
 
 class NLPBuilder:
     """The duty-cycle NLP around a linearisation."""
 
-    def _nlp(self, lin, theta_k, keep=None, radius: float = np.inf):
+    def _nlp(self, lin, theta_k, keep=None, radius: float = np.inf) -> LoadedNLP:
         """Build the duty-cycle NLP around the linearisation ``lin`` (module docstring).
 
         With the analytical compliance the deflections ``w`` [um] of every slice node are unknowns too,
@@ -58,7 +59,7 @@ class NLPBuilder:
             acts = [np.transpose(S.active if keep is None else keep[c][t], (1, 0, 2)).reshape(N, K * M)
                     for t in range(T)]
             flat = lambda v: np.transpose(v, (1, 0, 2)).reshape(N, K * M)  # noqa: E731
-            a_n, l_n, R_n, h1_n, h2_n = (flat(v) for v in (L.a, st["length"], st["R"], st["h1"], st["h2"]))
+            a_n, l_n, R_n, h1_n, h2_n = (flat(v) for v in (L.a, st.length, st.R, st.h1, st.h2))
             lam_n = flat(L.lam)
             a_n = a_n + flat(L.da)
             J_n = np.transpose(L.J, (1, 0, 2, 3)).reshape(N, K * M, P)
@@ -73,12 +74,12 @@ class NLPBuilder:
             tp_n = flat(np.zeros(S.z.shape, bool) if S.edge is None else S.edge > 0)
             if sparse:
                 # each part of the compliance (the teeth, each member's body) coupled across the face over its
-                # own length (LTCA._structure "parts", compliance.face_matrix_batch), one deflection unknown
+                # own length (LTCA.structure's parts, compliance.face_matrix_batch), one deflection unknown
                 # per part and slice node: the gap takes their sum
                 wt = S.width if S.width_tooth is None else S.width_tooth
                 coup = [(coupling_stiffness_batch(S.z.reshape(K * N, M), wt.reshape(K * N, M),
-                                                  lam_p).reshape(K, N, M, M), np.sqrt(c_p))
-                        for c_p, lam_p in st["parts"]]
+                                                  p.coupling_length).reshape(K, N, M, M), np.sqrt(p.compliance))
+                        for p in st.parts]
             for t in range(T):
                 act = acts[t]
                 for n in range(N):
@@ -115,7 +116,7 @@ class NLPBuilder:
                                 w_of_x.append([])
                             w_of_x[part].append(wi)
                     else:
-                        Cb = st["Cs"][n][np.ix_(A, A)]
+                        Cb = st.Cs[n][np.ix_(A, A)]
                         ii, jj = np.nonzero(Cb)
                         trip_C[0].append(ii + nx)
                         trip_C[1].append(jj + nx)
@@ -230,10 +231,10 @@ class NLPBuilder:
             # position, by the same smoothed complementarity: its approach d0 is the smallest separation
             # of the pair's slices to O(MU) (a sampled min would not be smooth); appended at the end of the
             # unknowns and rows, so the loaded NLP's indices stay as they are
-            n0, nB0 = te0["a"].size, len(te0["blocks"])
+            n0, nB0 = te0.a.size, len(te0.blocks)
             x0s, y0s, d0s = (ca.MX.sym(k, n) for k, n in (("x0", n0), ("y0", n0), ("d0", nB0)))
-            E0 = ca.DM.triplet(list(range(n0)), te0["blk"].tolist(), ca.DM.ones(n0), n0, nB0)
-            gap0 = ((ca.DM(te0["a"]) + ca.mtimes(ca.DM(te0["J"]), dth) + ca.mtimes(ca.DM(te0["Jm"]), dm)) / G_REF
+            E0 = ca.DM.triplet(list(range(n0)), te0.blk.tolist(), ca.DM.ones(n0), n0, nB0)
+            gap0 = ((ca.DM(te0.a) + ca.mtimes(ca.DM(te0.J), dth) + ca.mtimes(ca.DM(te0.Jm), dm)) / G_REF
                     - ca.mtimes(E0, d0s))
             g_rows.update(te0_gap=(y0s - gap0, 0.0, 0.0),
                           te0_complementarity=(x0s + y0s - ca.sqrt(x0s**2 + y0s**2 + 2 * mu), 0.0, 0.0),
@@ -243,18 +244,18 @@ class NLPBuilder:
             # residual is the projection of te0 + level psi^2 off the span of (1, psi), one matrix per
             # case (no fit unknowns: free c0, c1 in the NLP let IPOPT diverge along the null direction
             # they share with the approaches); its RMS per case smoothed at 0
-            te_b = -d0s * G_REF / lever * RAD_TO_ARCSEC + self.te_level * RAD_TO_ARCSEC * ca.DM(te0["psi"]) ** 2
+            te_b = -d0s * G_REF / lever * RAD_TO_ARCSEC + self.te_level * RAD_TO_ARCSEC * ca.DM(te0.psi) ** 2
             rows, cols, vals = [], [], []
             for c in range(C):
-                k = np.flatnonzero(te0["case"] == c)
-                V = np.stack([np.ones(k.size), te0["psi"][k]], axis=1)
+                k = np.flatnonzero(te0.case == c)
+                V = np.stack([np.ones(k.size), te0.psi[k]], axis=1)
                 Pc = (np.eye(k.size) - V @ np.linalg.pinv(V)) / math.sqrt(k.size)  # residual / sqrt(n)
                 ii, jj = np.meshgrid(k, k, indexing="ij")
                 rows.append(ii.ravel())
                 cols.append(jj.ravel())
                 vals.append(Pc.ravel())
             res = ca.mtimes(_sparse_dm(np.concatenate(rows), np.concatenate(cols), np.concatenate(vals), nB0, nB0), te_b)
-            Ec = ca.DM.triplet(list(range(nB0)), te0["case"].tolist(), ca.DM.ones(nB0), nB0, C)
+            Ec = ca.DM.triplet(list(range(nB0)), te0.case.tolist(), ca.DM.ones(nB0), nB0, C)
             ms = ca.mtimes(Ec.T, res**2)
             te0_obj = self.te_weight * ca.dot(ca.DM(self.weights.sum(axis=0)), ca.sqrt(ms + TE0_EPS**2))
         wv = ca.DM(self.weights.ravel())  # (T, C) row-major: index t * C + c
@@ -300,13 +301,14 @@ class NLPBuilder:
                     te0=te0, te0_term=ca.Function("te0_term", [z], [te0_obj if te0 is not None else ca.MX(0.0)],
                                                   ["z"], ["te0_term"]))
 
-    def _te0_blocks(self, lin, radius: float, lever: float) -> dict:
+    def _te0_blocks(self, lin, radius: float, lever: float) -> Te0Slices:
         """The unloaded-TE target's slices in the NLP: per case and position, the active slices of the
         pair centred there (:meth:`_te0_pairs`) that may become its contact within ``radius`` of the
         linearisation (separation lowered by ``2 radius sum_j |J_ij|`` not above the smallest
         separation raised by its own; every active slice without a radius). Arrays ``a`` [mm], ``J``,
         ``Jm`` of the slices; ``blk`` (block of each slice), ``blocks`` (c, n, first, count), ``case``,
-        ``psi`` (pair angle over pi/z1) per block, ``keys`` (T, c, n, flat slice) per slice."""
+        ``psi`` (pair angle over pi/z1) per block, ``keys`` (T, c, n, flat slice) per slice
+        (:class:`~gearopt.synthesis.loaded.layout.Te0Slices`)."""
         T = self.torques.size
         out = {k: [] for k in ("a", "J", "Jm", "blk", "case", "psi", "keys")}
         blocks, first = [], 0
@@ -336,9 +338,8 @@ class NLPBuilder:
                 first += m.size
                 used += 1
             self._te0_enough(used, N, c)
-        res = {k: np.concatenate(v) for k, v in out.items() if k not in ("case", "psi")}
-        res.update(case=np.array(out["case"], int), psi=np.array(out["psi"]), blocks=blocks)
-        return res
+        return Te0Slices(**{k: np.concatenate(v) for k, v in out.items() if k not in ("case", "psi")},
+                         case=np.array(out["case"], int), psi=np.array(out["psi"]), blocks=blocks)
 
 
     def _harmonic_map(self, blocks, nB):
@@ -370,31 +371,60 @@ def _sparse_dm(rows, cols, vals, n_rows, n_cols) -> ca.DM:
     return ca.DM.triplet(list(rows), list(cols), ca.DM(np.asarray(vals, float)), n_rows, n_cols)
 
 
-class LoadedNLP(dict):
-    """One linearisation's NLP (its parts by name); its cold-start IPOPT solver, ``"solver"``, is built
-    on first use (a round solved warm, or a trial never solved, needs none).
+@dataclass(eq=False)
+class LoadedNLP:
+    """One linearisation's NLP (:meth:`NLPBuilder._nlp`), its parts by name; its cold-start IPOPT
+    solver, :attr:`solver`, is built on first use (a round solved warm, or a trial never solved,
+    needs none)."""
 
-    Keys: ``problem`` (CasADi's ``x``, ``p``, ``f``, ``g``), ``opts`` (IPOPT's), ``layout``
-    (:class:`~gearopt.synthesis.loaded.layout.NLPLayout`: the unknowns, rows and parameters by name),
-    ``sizes`` (its block sizes by short name), ``lbg``, ``ubg``, ``phi1`` [rad], ``blocks``
-    (:class:`~gearopt.synthesis.loaded.layout.Block` per torque, case and position), ``keys`` (torque,
-    case, position, flat slice) per slice held, ``w_keys`` (the same per deflection) and ``w_part`` (its compliance part), ``rows``
-    (``flank``, ``ends``: the slices of the pressure and edge rows), ``ct`` (torque-case of each block),
-    ``edge`` (tip-edge slices), ``ew`` (edge weights), ``lever`` [mm], ``Wt`` (normal load per torque
-    [N]), ``ln``, ``Rx`` (contact length and reduced radius per slice [mm], the radius at the
-    linearisation), ``Jk`` (its curvature's sensitivity, :func:`kappa_lin`), ``theta_k`` (the
-    linearisation's design [mm]), ``hmap`` (harmonics map or
-    None), ``te0`` (the unloaded-TE target's blocks or None), ``gap`` and ``te0_term`` (CasADi
-    Functions of the unknowns), and, once solved, ``solver`` and ``warm``."""
+    problem: dict  #: CasADi's NLP: ``x``, ``p``, ``f``, ``g``
+    opts: dict  #: IPOPT's options
+    phi1: np.ndarray  #: the NLP's positions [rad]
+    #: ``flank``, ``ends``: the slices (indices into the loads ``x``) of the pressure and edge rows
+    rows: dict
+    gap: ca.Function  #: the gaps of the slices held, ``(z, torque_scale, mis_offset) -> gap`` [um]
+    lbg: np.ndarray  #: lower bounds of the constraint rows
+    ubg: np.ndarray  #: upper bounds of the constraint rows
+    layout: NLPLayout  #: the unknowns, rows and parameters by name
+    sizes: dict  #: the layout's block sizes by short name (:meth:`NLPLayout.sizes`)
+    blocks: list[Block]  #: one per torque, case and position
+    ct: np.ndarray  #: (nB,) torque-case index of each block
+    edge: np.ndarray  #: (nx,) tip-edge slices
+    ew: np.ndarray  #: (nx,) edge weights at the linearisation, clipped to 0 ... 1
+    lever: float  #: ``r_b2 cos(beta_b)`` [mm]
+    Wt: np.ndarray  #: (T,) normal load per torque [N]
+    ln: np.ndarray  #: (nx,) contact length per slice [mm]
+    Rx: np.ndarray  #: (nx,) reduced radius per slice at the linearisation [mm]
+    Jk: np.ndarray  #: (nx, P + Q) its curvature's sensitivity (:func:`kappa_lin`)
+    theta_k: np.ndarray  #: the linearisation's design [mm]
+    keys: np.ndarray  #: (nx, 4) (torque, case, position, flat slice) per slice held
+    hmap: ca.DM | None  #: the harmonics map, or None (peak-to-peak objective)
+    w_keys: np.ndarray  #: (nw, 4) the same per deflection unknown
+    w_part: np.ndarray  #: (nw,) the compliance part of each deflection unknown
+    te0: Te0Slices | None  #: the unloaded-TE target's slices, or None
+    te0_term: ca.Function  #: the unloaded-TE target's term of the objective, ``z -> te0_term``
+    warm: ca.Function | None = None  #: the warm-start IPOPT solver, once built (:meth:`TrustRegion._solve_nlp`)
+    _solver: ca.Function | None = field(default=None, repr=False)
 
-    def __missing__(self, key):
-        if key != "solver":
-            raise KeyError(key)
-        self[key] = ca.nlpsol("loaded_microgeometry", "ipopt", self["problem"], self["opts"])
-        return self[key]
+    @property
+    def solver(self) -> ca.Function:
+        """The cold-start IPOPT solver of :attr:`problem` (built on first use)."""
+        if self._solver is None:
+            self._solver = ca.nlpsol("loaded_microgeometry", "ipopt", self.problem, self.opts)
+        return self._solver
+
+    @solver.setter
+    def solver(self, f: ca.Function) -> None:
+        self._solver = f
+
+    @property
+    def solver_built(self) -> bool:
+        """Whether :attr:`solver` exists (IPOPT is built for an NLP only when it is solved cold)."""
+        return self._solver is not None
 
 
-def kappa_lin(R, Jk, P: int, dth, dm):
+def kappa_lin(R: np.ndarray, Jk: np.ndarray, P: int, dth: ca.MX | ca.SX | np.ndarray,
+              dm: ca.MX | ca.SX | np.ndarray) -> ca.MX | ca.SX | np.ndarray:
     """The Hertz term's relative curvature ``1 / R*`` [1/mm] of every slice, linear in the design step
     ``dth`` [mm] and the misalignment offsets ``dm`` about the linearisation: ``1 / R + Jk (dth, dm)``
     (``R`` (n,) [mm] and ``Jk`` (n, P + 4) of :class:`~gearopt.synthesis.loaded.linearise.Linearisation`),

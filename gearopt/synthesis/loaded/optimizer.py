@@ -5,8 +5,10 @@ the trust-region loop on a grid of positions refined by the verification."""
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 
 import numpy as np
+import numpy.typing as npt
 
 from ..crowning import SynthesisError
 from .constants import MAX_REFINE, RHO
@@ -80,7 +82,8 @@ class LoadedMicroOptimizer(LoadedProblem, MirrorReduction, Verification, Lineari
     Call :meth:`solve` (``progress``: a callable taking one line of text per trust-region round).
     """
 
-    def solve(self, progress=None, start=None, grid=None) -> MicroDesign:
+    def solve(self, progress: Callable[[str], None] | None = None, start: npt.ArrayLike | None = None,
+              grid: npt.ArrayLike | None = None) -> MicroDesign:
         """Optimise and verify (docs/loaded_synthesis.md); ``start``: the first design [mm] (default
         the pair's own, which stays the "before" design); ``grid``: the NLP's first positions [rad]
         (default ``n_positions`` over the mesh cycle).
@@ -122,7 +125,7 @@ class LoadedMicroOptimizer(LoadedProblem, MirrorReduction, Verification, Lineari
             if progress:
                 progress(f"loaded micro-geometry: {add.size} verification positions load an edge or exceed the pressure "
                          f"limit between the NLP's positions; the NLP's grid grows to {self.phi1.size}")
-        ver = cur["check"]  # the exact loaded TCA of the final design (LTCA.solve on its own slices)
+        ver = cur.check  # the exact loaded TCA of the final design (LTCA.solve on its own slices)
         if red is not self:  # every case, and the NLP's prediction of each mirror image by its twin's
             # (the loop's own loaded TCA of the final design is that of one case per class: the others
             # are solved here)

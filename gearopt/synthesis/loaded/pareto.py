@@ -5,6 +5,7 @@ limit (docs/loaded_synthesis.md section 7; :class:`ParetoSweep`, a part of
 from __future__ import annotations
 
 import copy
+from collections.abc import Callable, Sequence
 import math
 
 import numpy as np
@@ -17,7 +18,8 @@ from .results import MicroDesign, ParetoFront
 class ParetoSweep:
     """The epsilon-constraint sweep of the pressure limit."""
 
-    def pareto(self, p_limits, progress=None, anchor: MicroDesign | None = None) -> ParetoFront:
+    def pareto(self, p_limits: Sequence[float], progress: Callable[[str], None] | None = None,
+               anchor: MicroDesign | None = None) -> ParetoFront:
         """Loaded TE against peak pressure: the epsilon-constraint sweep of the pressure limit.
 
         The anchor is the optimum without a pressure limit; then each limit of ``p_limits`` [MPa]

@@ -5,8 +5,11 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
 from ...compiled import available
 from ...errors import ArgumentError, OptionError, out_of_range
@@ -23,9 +26,10 @@ from .constants import NONNEG, SETTINGS
 class LoadedProblem:
     """The problem's data and the checks of every argument (parameters: :class:`LoadedMicroOptimizer`)."""
 
-    def __init__(self, pair: GearPair, free: dict, torques, cases=None, weights=None,
+    def __init__(self, pair: GearPair, free: dict, torques: Sequence[float],
+                 cases: Sequence[Misalignment] | None = None, weights: npt.ArrayLike | None = None,
                  settings: LoadedMicroSettings | None = None, *, material: Material | None = None,
-                 jit: bool | str = "auto", **options):
+                 jit: bool | str = "auto", **options: Any):
         # the options (p_limit, edge_margin, n_positions, ...): defaults and checks are those of LoadedMicroSettings
         s = LoadedMicroSettings.of(settings, **options)
         self.settings = s
@@ -132,7 +136,7 @@ class LoadedProblem:
         mg = getattr(gear, "modifications", None) or Microgeometry()
         return mg.theta_names
 
-    def params(self, theta) -> tuple[np.ndarray, np.ndarray]:
+    def params(self, theta: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray]:
         """Both members' parameter vectors with the design ``theta`` [mm] set."""
         p = {"pinion": self.p0[0].copy(), "gear": self.p0[1].copy()}
         for n, t in zip(self.free, np.asarray(theta, float)):

@@ -97,25 +97,25 @@ class Sensitivities:
         if design.phi1 is not None:
             self.phi1 = np.asarray(design.phi1, float)
         cur = self._around(theta, np.inf, design.rho)
-        nlp = cur["nlp"]
+        nlp = cur.nlp
         # IPOPT without its bound relaxation (by default every bound moves out by 1e-8, the scale of
         # the edge rows' own allowance MU / margin): the slacks below are then IPOPT's own, and so are
         # the complementarity products the perturbed KKT system is built from
-        nlp["solver"] = ca.nlpsol("loaded_microgeometry_kkt", "ipopt", nlp["problem"],
-                                  {**nlp["opts"], "ipopt.bound_relax_factor": 0.0})
+        nlp.solver = ca.nlpsol("loaded_microgeometry_kkt", "ipopt", nlp.problem,
+                                  {**nlp.opts, "ipopt.bound_relax_factor": 0.0})
         lbx, ubx = self._bounds(nlp)
         p = np.array(self._pvec(design.rho), float)
-        r = nlp["solver"](x0=cur["z0"], lbx=lbx, ubx=ubx, lbg=nlp["lbg"], ubg=nlp["ubg"], p=p)
-        st = nlp["solver"].stats()
+        r = nlp.solver(x0=cur.z0, lbx=lbx, ubx=ubx, lbg=nlp.lbg, ubg=nlp.ubg, p=p)
+        st = nlp.solver.stats()
         if not st["success"]:
             raise SynthesisError(f"loaded micro-geometry sensitivities: the NLP at the optimum failed "
                                  f"({st['return_status']}).", param="ipopt", value=st["return_status"])
         z, lam_g, lam_x = (np.asarray(r[k]).ravel() for k in ("x", "lam_g", "lam_x"))
-        pr = nlp["problem"]
+        pr = nlp.problem
         zs, ps, g, f = pr["x"], pr["p"], pr["g"], pr["f"]
         lam = ca.MX.sym("lam", g.shape[0])
         L = f + ca.dot(lam, g)
-        lay = nlp["layout"]
+        lay = nlp.layout
         sel = lay.params.span("torque_scale", "mis_offset")  # the parameters differentiated in
         gz = ca.gradient(L, zs)
         fun = ca.Function("loaded_kkt", [zs, ps, lam],
@@ -124,7 +124,7 @@ class Sensitivities:
         H, gv, Jg, Gp, _, _ = fun(z, p, lam_g)
         H, Jg, Gp = csc_of_dm(H), csc_of_dm(Jg), csc_of_dm(Gp)
         gv = np.asarray(gv).ravel()
-        lbg, ubg = nlp["lbg"], nlp["ubg"]
+        lbg, ubg = nlp.lbg, nlp.ubg
         eq = lbg == ubg
         I_ = np.flatnonzero(~eq)
         E = np.flatnonzero(eq)
@@ -163,4 +163,4 @@ class Sensitivities:
                 "model_step": step, "at_design": step <= 10 * constants.THETA_TOL, "objective": float(r["f"]),
                 "active": int(act_g.sum() + act_x.sum()), "degenerate": degenerate,
                 "min_multiplier": min_mult,
-                "nlp": nlp, "z": z, "p": p, "bounds": (lbx, ubx), "z0": cur["z0"]}
+                "nlp": nlp, "z": z, "p": p, "bounds": (lbx, ubx), "z0": cur.z0}

@@ -25,65 +25,65 @@ class NLPSolution:
     def _start(self, nlp, lin, theta_k, sw):
         """Initial point: the exact loaded TCA of the linearisation's design (its loads, deflections and
         approach), with the smoothed complementarity x y = MU made to hold."""
-        U = nlp["layout"].unknowns
+        U = nlp.layout.unknowns
         nx, nB, TC, nw = (U.count(k) for k in ("x", "d", "te_hi", "w"))
         x0 = np.zeros(nx)
         d0 = np.zeros(nB)
         w0 = np.zeros(nw)
-        lever = nlp["lever"]
+        lever = nlp.lever
         CF = {}
         # each compliance part's deflections (analytical compliance: the NLP's deflection unknowns,
-        # LTCA._structure "parts", each coupled across the face over its own length)
+        # LTCA.structure's parts, each coupled across the face over its own length)
         cb2 = self.ltca.cos_bb**2
         Cp = {}
-        if nlp["w_part"].size:
+        if nlp.w_part.size:
             for c, L in enumerate(lin):
                 S = L.slices
                 K, N, M = S.z.shape
                 wt = S.width if S.width_tooth is None else S.width_tooth
                 Cp[c] = [cb2 * face_matrix_batch(S.z.reshape(K * N, M), wt.reshape(K * N, M),
-                                                 [(c_p.reshape(K * N, M), lam_p)]).reshape(K, N, M, M)
-                         for c_p, lam_p in L.structure["parts"]]
-        for b, (t, c, n, first, cnt) in enumerate(nlp["blocks"]):
+                                                 [(p.compliance.reshape(K * N, M), p.coupling_length)]).reshape(K, N, M, M)
+                         for p in L.structure.parts]
+        for b, (t, c, n, first, cnt) in enumerate(nlp.blocks):
             S = lin[c].slices
             K, N, M = S.z.shape
             r = sw[c].results[t]
-            A = nlp["keys"][first:first + cnt, 3]
+            A = nlp.keys[first:first + cnt, 3]
             Ff = np.transpose(r.load, (1, 0, 2)).reshape(N, K * M)[n]
             x0[first:first + cnt] = Ff[A] / r.W
             CF[(t, c, n)] = Ff
             # delta' = delta - te0 lever (absolute separations a = -te lever)
             d0[b] = (r.delta[n] - r.te_unloaded[n] * lever) / G_REF
-        for j, ((t, c, n, i), part) in enumerate(zip(nlp["w_keys"], nlp["w_part"])):
+        for j, ((t, c, n, i), part) in enumerate(zip(nlp.w_keys, nlp.w_part)):
             M = lin[c].slices.z.shape[2]
             k, m = divmod(int(i), M)
             w0[j] = Cp[c][part][k, n, m] @ CF[(t, c, n)][k * M:(k + 1) * M] / G_REF
         te = -d0 * G_REF / lever * RAD_TO_ARCSEC
         u0 = np.full(TC, -np.inf)
         v0 = np.full(TC, np.inf)
-        np.maximum.at(u0, nlp["ct"], te)
-        np.minimum.at(v0, nlp["ct"], te)
+        np.maximum.at(u0, nlp.ct, te)
+        np.minimum.at(v0, nlp.ct, te)
         parts = dict(theta=np.asarray(theta_k) * 1e3, x=x0, y=1.0, d=d0, te_hi=u0, te_lo=v0, w=w0)
-        if nlp["te0"] is not None:
-            parts.update(zip(("x0", "y0", "d0"), self._te0_start(nlp["te0"], lever)))
+        if nlp.te0 is not None:
+            parts.update(zip(("x0", "y0", "d0"), self._te0_start(nlp.te0, lever)))
         z0 = block_vector(U, parts)
-        gap = np.asarray(nlp["gap"](z0, np.ones(self.torques.size), np.zeros(len(Misalignment.names())))).ravel()
+        gap = np.asarray(nlp.gap(z0, np.ones(self.torques.size), np.zeros(len(Misalignment.names())))).ravel()
         loaded = x0 > 1e3 * MU
         y0 = np.where(loaded, MU / np.maximum(x0, 1e-300), np.maximum(gap, 1e-3))
         x0 = np.where(loaded, x0, MU / y0)
         z0[U["x"]] = x0
         z0[U["y"]] = y0
         # slacks that make the start feasible for the pressure and edge constraints
-        counts = [b.count for b in nlp["blocks"]]
-        ct_x = np.repeat(nlp["ct"], counts)
+        counts = [b.count for b in nlp.blocks]
+        ct_x = np.repeat(nlp.ct, counts)
         s_p = np.zeros(TC)
         s_e = np.zeros(TC)
         if self.p_limit is not None:
-            W = nlp["Wt"][np.repeat([b.torque for b in nlp["blocks"]], counts)]
-            p2 = np.where(nlp["edge"], 0.0, x0 * W * self.material.E_star / (math.pi * nlp["Rx"] * nlp["ln"]))
+            W = nlp.Wt[np.repeat([b.torque for b in nlp.blocks], counts)]
+            p2 = np.where(nlp.edge, 0.0, x0 * W * self.material.E_star / (math.pi * nlp.Rx * nlp.ln))
             np.maximum.at(s_p, ct_x, p2 / self.p_limit**2 - 1.0)
         if self.edge_margin is not None:
-            np.maximum.at(s_e, ct_x, nlp["ew"] * x0 - MU * G_REF / self.edge_margin)
+            np.maximum.at(s_e, ct_x, nlp.ew * x0 - MU * G_REF / self.edge_margin)
         z0[U["slack_p"]] = s_p * 1.01 + 1e-6
         z0[U["slack_e"]] = s_e * 1.01 + 1e-6
         return z0
@@ -91,10 +91,10 @@ class NLPSolution:
     def _te0_start(self, te0, lever) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Start of the unloaded-TE target's unknowns ``(x0, y0, d0)`` at the linearisation's design: each
         block's smallest separation carries the load, every other slice x = MU / y."""
-        aa = te0["a"] / G_REF
-        n0, nB0 = aa.size, len(te0["blocks"])
+        aa = te0.a / G_REF
+        n0, nB0 = aa.size, len(te0.blocks)
         x0, y0, d0 = np.zeros(n0), np.zeros(n0), np.zeros(nB0)
-        for b, (_, _, first, cnt) in enumerate(te0["blocks"]):
+        for b, (_, _, first, cnt) in enumerate(te0.blocks):
             s = slice(first, first + cnt)
             y = aa[s] - np.min(aa[s])
             j = int(np.argmin(aa[s]))
@@ -108,45 +108,45 @@ class NLPSolution:
 
     def _bounds(self, nlp):
         """The unknowns' bounds: the design's own (scaled), slacks >= 0, everything else free."""
-        U = nlp["layout"].unknowns
+        U = nlp.layout.unknowns
         lbx = block_vector(U, dict(theta=self.lo * 1e3, slack_p=0.0, slack_e=0.0), fill=-np.inf)
         ubx = block_vector(U, dict(theta=self.hi * 1e3), fill=np.inf)
         return lbx, ubx
 
     def _predicted(self, nlp, z):
-        U = nlp["layout"].unknowns
+        U = nlp.layout.unknowns
         TC = U.count("te_hi")
         x = U.take(z, "x")
         d = U.take(z, "d")
-        te = -d * G_REF / nlp["lever"] * RAD_TO_ARCSEC
+        te = -d * G_REF / nlp.lever * RAD_TO_ARCSEC
         hi = np.full(TC, -np.inf)
         lo = np.full(TC, np.inf)
-        np.maximum.at(hi, nlp["ct"], te)
-        np.minimum.at(lo, nlp["ct"], te)
+        np.maximum.at(hi, nlp.ct, te)
+        np.minimum.at(lo, nlp.ct, te)
         T, C = self.torques.size, len(self.cases)
         pp = (hi - lo).reshape(T, C)
         # flank pressure of the NLP's loads
-        counts = [b.count for b in nlp["blocks"]]
-        W = nlp["Wt"][np.repeat([b.torque for b in nlp["blocks"]], counts)]
-        f = np.maximum(x, 0.0) * W / nlp["ln"]
-        Jk = nlp["Jk"]
+        counts = [b.count for b in nlp.blocks]
+        W = nlp.Wt[np.repeat([b.torque for b in nlp.blocks], counts)]
+        f = np.maximum(x, 0.0) * W / nlp.ln
+        Jk = nlp.Jk
         P = Jk.shape[1] - len(Misalignment.names())
-        kap = kappa_lin(nlp["Rx"], Jk, P, U.take(z, "theta") * 1e-3 - nlp["theta_k"], np.zeros(Jk.shape[1] - P))
-        p0 = np.where(nlp["edge"], 0.0, hertz_peak_pressure(f, 1.0 / kap, self.material.E_star))
+        kap = kappa_lin(nlp.Rx, Jk, P, U.take(z, "theta") * 1e-3 - nlp.theta_k, np.zeros(Jk.shape[1] - P))
+        p0 = np.where(nlp.edge, 0.0, hertz_peak_pressure(f, 1.0 / kap, self.material.E_star))
         pm = np.full(TC, 0.0)
-        blk_ct = np.repeat(nlp["ct"], counts)
+        blk_ct = np.repeat(nlp.ct, counts)
         np.maximum.at(pm, blk_ct, p0)
         obj = float(np.sum(self.weights * pp))
-        if nlp["hmap"] is not None:
+        if nlp.hmap is not None:
             H = self.harmonics.size
-            ab = np.asarray(ca.mtimes(nlp["hmap"], ca.DM(te))).ravel().reshape(T, C, H, 2)
+            ab = np.asarray(ca.mtimes(nlp.hmap, ca.DM(te))).ravel().reshape(T, C, H, 2)
             obj = float(np.sum(self.weights[..., None] * np.hypot(ab[..., 0], ab[..., 1]) * self.harmonics))
         out = {"te_pp": pp, "p_max": pm.reshape(T, C), "objective": obj,
                "slack_p": U.take(z, "slack_p").reshape(T, C), "slack_e": U.take(z, "slack_e").reshape(T, C)}
-        if nlp["te0"] is not None:  # the NLP's unloaded TE, its misfit by least squares (as in the NLP)
-            t0 = nlp["te0"]
-            te = -U.take(z, "d0") * G_REF / nlp["lever"] * RAD_TO_ARCSEC
-            rms = np.array([parabola_fit(t0["psi"][t0["case"] == c], te[t0["case"] == c],
+        if nlp.te0 is not None:  # the NLP's unloaded TE, its misfit by least squares (as in the NLP)
+            t0 = nlp.te0
+            te = -U.take(z, "d0") * G_REF / nlp.lever * RAD_TO_ARCSEC
+            rms = np.array([parabola_fit(t0.psi[t0.case == c], te[t0.case == c],
                                           self.te_level * RAD_TO_ARCSEC)[0] for c in range(C)])
             out.update(te0_rms=rms, te0_term=self._te0_term(rms), te0=te)
         return out
@@ -157,7 +157,7 @@ class NLPSolution:
         NLP had the same row (the same torque, case, position and slice), else 0. ``None`` when the
         two grids of positions differ."""
         pn, r = prev
-        if not np.array_equal(pn["phi1"], nlp["phi1"]):
+        if not np.array_equal(pn.phi1, nlp.phi1):
             return None
         lg, lx = (np.asarray(r[k]).ravel() for k in ("lam_g", "lam_x"))
 
@@ -166,14 +166,14 @@ class NLPSolution:
             return ((k[:, 0] * 1000 + k[:, 1]) * 100000 + k[:, 2]) * 1000000 + k[:, 3]
 
         def rows(n):  # the keys of every constraint row, by the rows' block (:data:`.layout.ROWS`)
-            kx = code(n["keys"])
-            kb = code([(b.torque, b.case, b.position, 0) for b in n["blocks"]])
-            out = dict(stiffness=code(n["w_keys"]) * 4 + n["w_part"], gap=kx, complementarity=kx, balance=kb, te_hi=kb, te_lo=kb,
-                       pressure=kx[n["rows"]["flank"]], edge=kx[n["rows"]["ends"]])
-            if n["te0"] is not None:  # the unloaded-TE target's rows (torque index T: zero load)
-                k0 = code(n["te0"]["keys"])
+            kx = code(n.keys)
+            kb = code([(b.torque, b.case, b.position, 0) for b in n.blocks])
+            out = dict(stiffness=code(n.w_keys) * 4 + n.w_part, gap=kx, complementarity=kx, balance=kb, te_hi=kb, te_lo=kb,
+                       pressure=kx[n.rows["flank"]], edge=kx[n.rows["ends"]])
+            if n.te0 is not None:  # the unloaded-TE target's rows (torque index T: zero load)
+                k0 = code(n.te0.keys)
                 out.update(te0_gap=k0, te0_complementarity=k0,
-                           te0_balance=code([(self.torques.size, c, m, 0) for c, m, _, _ in n["te0"]["blocks"]]))
+                           te0_balance=code([(self.torques.size, c, m, 0) for c, m, _, _ in n.te0.blocks]))
             return out
 
         def carry(kp, vp, kn):
@@ -185,7 +185,7 @@ class NLPSolution:
                 out[hit] = vp[o[j[hit]]]
             return out
 
-        lay, lay_p = nlp["layout"], pn["layout"]
+        lay, lay_p = nlp.layout, pn.layout
         old, new = rows(pn), rows(nlp)
         parts = [carry(old[k], lay_p.rows.take(lg, k), new[k]) if k in new else np.zeros(0) for k in lay.rows.names]
         # (the design's bounds: none, the new design is the centre of its trust region; the slacks' bounds

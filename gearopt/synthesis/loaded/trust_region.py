@@ -6,6 +6,7 @@ IPOPT warm-started from the last NLP's multipliers (:class:`TrustRegion`, a part
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass
 
 import casadi as ca
 import numpy as np
@@ -14,8 +15,22 @@ from ..crowning import SynthesisError
 from . import constants
 from .constants import EDGE_TOL, MAX_ROUNDS, RHO, RHO_MAX, SLACK_TOL, TR_START, WARM_OPTS
 from .layout import param_layout
+from .nlp import LoadedNLP
+from .results import LoadedCheck
 
 RHO_AT = param_layout(0, 0)["rho"].start  #: the penalty weight's place among the NLP's parameters
+
+
+@dataclass
+class LocalModel:
+    """The trust region's model around a design (:meth:`TrustRegion._around`): the NLP of its
+    linearisation, the NLP's start point and the exact loaded TCA there."""
+
+    nlp: LoadedNLP
+    z0: np.ndarray  #: the start point: the exact loaded TCA of the design (:meth:`NLPSolution._start`)
+    check: LoadedCheck  #: the exact loaded TCA of the design over the duty cycle
+    merit: float  #: its merit (objective plus the penalty of the violations at the current weight)
+    time: float  #: [s] to linearise, build and start
 
 
 class TrustRegion:
@@ -43,24 +58,24 @@ class TrustRegion:
         last_viol = 0.0  # the model's constraint violation (relative, > 1: violated) at the last accepted step
         cur = self._around(theta, 2 * radius, rho)
         for rnd in range(MAX_ROUNDS):
-            nlp = cur["nlp"]
+            nlp = cur.nlp
             lbx, ubx = self._bounds(nlp)
-            th = nlp["layout"].unknowns["theta"]
+            th = nlp.layout.unknowns["theta"]
             lbx[th] = np.maximum(self.lo, theta - radius) * 1e3
             ubx[th] = np.minimum(self.hi, theta + radius) * 1e3
             t1 = time.perf_counter()
             # from the last NLP's multipliers unless the radius grew (its step reached the region's
             # bound and the next optimum may lie far: there the cold start took 2-3x fewer iterations)
             warm = prev if prev is not None and prev[3] >= radius else None
-            r, st, it = self._solve_nlp(nlp, cur["z0"], lbx, ubx, p, warm)
+            r, st, it = self._solve_nlp(nlp, cur.z0, lbx, ubx, p, warm)
             status = st["return_status"]
             iters += it
             zs = np.asarray(r["x"]).ravel()
             new = np.clip(zs[th] * 1e-3, self.lo, self.hi)
             model = float(r["f"])
-            info = {"theta_um": (new * 1e3).tolist(), "model_objective": model, "merit": cur["merit"],
+            info = {"theta_um": (new * 1e3).tolist(), "model_objective": model, "merit": cur.merit,
                     "radius_um": radius * 1e3, "rho": float(p[RHO_AT]), "status": status, "iterations": it,
-                    "nlp_s": time.perf_counter() - t1, "linearise_s": cur["time"], "n_loads": nlp["sizes"]["nx"],
+                    "nlp_s": time.perf_counter() - t1, "linearise_s": cur.time, "n_loads": nlp.sizes["nx"],
                     "n_positions": int(self.phi1.size)}
             rounds.append(info)
             if not st["success"]:
@@ -70,7 +85,7 @@ class TrustRegion:
             pred = self._predicted(nlp, zs)
             step = float(np.max(np.abs(new - theta)))
             prev = (nlp, r, np.array(p, float), radius)
-            stationary = step <= constants.THETA_TOL or cur["merit"] - model <= constants.F_TOL * max(cur["merit"], 1.0)
+            stationary = step <= constants.THETA_TOL or cur.merit - model <= constants.F_TOL * max(cur.merit, 1.0)
             viol = max(np.max(pred["slack_p"]) / SLACK_TOL, np.max(pred["slack_e"]) / EDGE_TOL)  # > 1: violated
             violated = viol > 1.0
             if violated and rho < RHO_MAX and (stationary or step < 0.5 * radius):
@@ -80,7 +95,7 @@ class TrustRegion:
                 # same model again
                 rho *= 10.0
                 p[RHO_AT] = rho
-                cur["merit"] = self._merit(cur["check"], rho)
+                cur.merit = self._merit(cur.check, rho)
                 info["accepted"] = f"penalty x10 ({rho:g})"
                 if progress:
                     progress(_round_text(rnd, info, self._has_settings))
@@ -92,9 +107,9 @@ class TrustRegion:
                     progress(_round_text(rnd, info, self._has_settings))
                 break
             trial = self._around(new, 2 * radius, rho)
-            gain = cur["merit"] - trial["merit"]
-            ratio = gain / max(cur["merit"] - model, 1e-12)
-            info.update(true_merit=trial["merit"], ratio=ratio)
+            gain = cur.merit - trial.merit
+            ratio = gain / max(cur.merit - model, 1e-12)
+            info.update(true_merit=trial.merit, ratio=ratio)
             if ratio >= 0.1:
                 info["accepted"] = True
                 if ratio > 0.75 and step >= 0.9 * radius:
@@ -106,7 +121,7 @@ class TrustRegion:
                     # round on (the test above would raise it there, after one more solve)
                     rho *= 10.0
                     p[RHO_AT] = rho
-                    cur["merit"] = self._merit(cur["check"], rho)
+                    cur.merit = self._merit(cur.check, rho)
                     info["rho_next"] = rho
                 last_viol = viol
             else:
@@ -120,7 +135,7 @@ class TrustRegion:
                     # the radius of the last accepted step again
                     rho *= 10.0
                     p[RHO_AT] = rho
-                    cur["merit"] = self._merit(cur["check"], rho)
+                    cur.merit = self._merit(cur.check, rho)
                     radius = 16.0 * constants.THETA_TOL
                     continue
                 break
@@ -130,16 +145,16 @@ class TrustRegion:
                                  param="theta", value=step)
         # the NLP's own values at the final design (its linearisation there, the design fixed): what the
         # verification below is compared with
-        nlp = cur["nlp"]
+        nlp = cur.nlp
         lbx, ubx = self._bounds(nlp)
-        th = nlp["layout"].unknowns["theta"]
+        th = nlp.layout.unknowns["theta"]
         lbx[th] = ubx[th] = theta * 1e3
-        r, st, _ = self._solve_nlp(nlp, cur["z0"], lbx, ubx, p, prev)
+        r, st, _ = self._solve_nlp(nlp, cur.z0, lbx, ubx, p, prev)
         if not st["success"]:
             raise SynthesisError(f"loaded micro-geometry: the NLP at the final design failed "
                                  f"({st['return_status']}).", param="ipopt", value=st["return_status"])
         pred = self._predicted(nlp, np.asarray(r["x"]).ravel())
-        self._raise_if_infeasible(pred, cur["check"])
+        self._raise_if_infeasible(pred, cur.check)
         return theta, cur, pred, iters, status, rho, stop
 
     def _solve_nlp(self, nlp, z0, lbx, ubx, p, prev=None):
@@ -147,22 +162,22 @@ class TrustRegion:
         solution), first from its multipliers (:meth:`_multipliers`) and a small barrier parameter
         (``WARM_OPTS``): near the earlier optimum a few tens of iterations instead of hundreds; where
         that fails, from the cold start. Returns the solution, IPOPT's stats and the iterations of both."""
-        args = dict(x0=z0, lbx=lbx, ubx=ubx, lbg=nlp["lbg"], ubg=nlp["ubg"], p=p)
+        args = dict(x0=z0, lbx=lbx, ubx=ubx, lbg=nlp.lbg, ubg=nlp.ubg, p=p)
         its = 0
         lam = None if prev is None or not np.array_equal(prev[2], p) else self._multipliers(prev[:2], nlp)
         if lam is not None:
-            if "warm" not in nlp:
-                nlp["warm"] = ca.nlpsol("loaded_microgeometry_warm", "ipopt", nlp["problem"], {**nlp["opts"], **WARM_OPTS})
-            r = nlp["warm"](lam_x0=lam[0], lam_g0=lam[1], **args)
-            st = nlp["warm"].stats()
+            if nlp.warm is None:
+                nlp.warm = ca.nlpsol("loaded_microgeometry_warm", "ipopt", nlp.problem, {**nlp.opts, **WARM_OPTS})
+            r = nlp.warm(lam_x0=lam[0], lam_g0=lam[1], **args)
+            st = nlp.warm.stats()
             its += int(st["iter_count"])
             if st["success"]:
                 return r, st, its
-        r = nlp["solver"](**args)
-        st = nlp["solver"].stats()
+        r = nlp.solver(**args)
+        st = nlp.solver.stats()
         return r, st, its + int(st["iter_count"])
 
-    def _around(self, theta, radius: float = np.inf, rho: float = RHO) -> dict:
+    def _around(self, theta, radius: float = np.inf, rho: float = RHO) -> LocalModel:
         """Linearisation, NLP and start point at ``theta``, with the exact loaded TCA there; the NLP
         leaves out the slices that stay open within ``radius`` [mm] of ``theta`` (:meth:`_keep`)."""
         t0 = time.perf_counter()
@@ -171,7 +186,7 @@ class TrustRegion:
         nlp = self._nlp(lin, theta, self._keep(lin, sweeps, radius), radius)
         z0 = self._start(nlp, lin, theta, sweeps)
         chk = self._check_of(sweeps)
-        return {"nlp": nlp, "z0": z0, "check": chk, "merit": self._merit(chk, rho), "time": time.perf_counter() - t0}
+        return LocalModel(nlp=nlp, z0=z0, check=chk, merit=self._merit(chk, rho), time=time.perf_counter() - t0)
 
 
 def _round_text(rnd: int, info: dict, settings: bool = False) -> str:

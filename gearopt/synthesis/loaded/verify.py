@@ -8,6 +8,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import numpy.typing as npt
+
+from ...ltca.engine import LoadedSweep
+from ...ltca.slices import SliceSet
 
 from ...units import RAD_TO_ARCSEC
 from ..crowning import SynthesisError
@@ -22,7 +26,8 @@ class Verification:
     checks of a final design."""
 
     # -- loaded TCA of one design (the verification) ----------------------------------------------
-    def check(self, theta, phi1=None, known=None) -> LoadedCheck:
+    def check(self, theta: npt.ArrayLike, phi1: npt.ArrayLike | None = None,
+              known: dict[int, LoadedSweep] | None = None) -> LoadedCheck:
         """Independent loaded TCA of the design ``theta`` [mm] at every torque and case (exact slices of
         the modified flanks, :class:`~gearopt.ltca.engine.LTCA`'s QP contact solver) at the positions
         ``phi1`` [rad] (default: the NLP's); ``known``: {case index: its sweep of this design at these
@@ -71,7 +76,7 @@ class Verification:
         pairs = [int(v) for v in S.pairs]
         return np.array([pairs.index(v) if v in pairs else -1 for v in k], int), (phi1 - 2.0 * half * k) / half
 
-    def te0_misfit(self, S, case: int = 0) -> tuple[float, np.ndarray, np.ndarray, np.ndarray]:
+    def te0_misfit(self, S: SliceSet, case: int = 0) -> tuple[float, np.ndarray, np.ndarray, np.ndarray]:
         """The unloaded TE of the slice set ``S`` (exact slices of one case) against the target parabola.
 
         At every position the pair centred there (:meth:`_te0_pairs`) touches where its slices' TE is
@@ -197,7 +202,7 @@ class Verification:
         return tuple(out)
 
 
-def harmonic_rows(phi1, z1: int, H: int) -> np.ndarray:
+def harmonic_rows(phi1: npt.ArrayLike, z1: int, H: int) -> np.ndarray:
     """(2H, N) least-squares map of a TE sampled at the pinion angles ``phi1`` [rad] (one mesh cycle or
     more) to the coefficients (a_1, b_1, ..., a_H, b_H) of ``te ~ c0 + sum_h a_h cos(h z1 phi1) + b_h
     sin(h z1 phi1)``; on a uniform grid over whole cycles this is the DFT."""
@@ -208,7 +213,7 @@ def harmonic_rows(phi1, z1: int, H: int) -> np.ndarray:
     return np.linalg.pinv(np.stack(cols, axis=1))[1:]
 
 
-def parabola_fit(psi, te, level: float) -> tuple[float, np.ndarray]:
+def parabola_fit(psi: npt.ArrayLike, te: npt.ArrayLike, level: float) -> tuple[float, np.ndarray]:
     """RMS misfit [arcsec] of ``te`` [arcsec] at ``psi`` to ``c0 + c1 psi - level psi^2`` (least squares
     in c0, c1) and (c0, c1)."""
     V = np.stack([np.ones_like(psi), psi], axis=1)
