@@ -34,7 +34,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..errors import GeometryError, option_error, out_of_range  # noqa: F401
+from ..errors import GeometryError, out_of_range  # noqa: F401
 from ..geometry.frames import rot_z_points
 from ..geometry.generation import GeneratedTooth
 from ..settings import MeshOptions  # noqa: F401 - the option set of the mesh, declared in gearopt.settings

@@ -38,7 +38,7 @@ import functools
 import math
 import os
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
 import casadi as ca
@@ -53,7 +53,7 @@ from ..contact.hertz import C_PRIME_STEEL, contact_modulus, hertz_half_width, he
 from ..meshing.misalignment import Misalignment
 from ..meshing.tca import TCA
 from .calculix import CalculixError, Deck, last_block, read_contact_statistics, read_dat, read_frd_block, run_ccx
-from .mesh import (GAUSS_C3D8, MemberMesh, MeshOptions, ToothMesher, build_member, face_of, graded_params,
+from .mesh import (GAUSS_C3D8, MemberMesh, ToothMesher, build_member, face_of, graded_params,
                    hex_volume_sign, shape)
 from ..settings import FEOptions  # noqa: F401 - the option set of the model, declared in gearopt.settings
 from .vtu import write_vtu
