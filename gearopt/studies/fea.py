@@ -26,6 +26,7 @@ import numpy as np
 if TYPE_CHECKING:  # pragma: no cover
     from ..fea.model import FEOptions, GearFEModel
     from ..gears import GearPair
+    from ..io.scene import Scene
     from ..meshing.misalignment import Misalignment
 
 UNITS = {"length": "mm", "angle": "rad", "stress": "MPa", "force": "N", "torque": "N*mm (input: N*m)",
@@ -167,7 +168,7 @@ class FEStudy:
                         timing={"run_s": time.perf_counter() - t0}, fe_results=fe_results)
 
 
-def _check_positions(scene, phis, teeth: int, mis=None) -> None:
+def _check_positions(scene: Scene, phis: Sequence[float], teeth: int, mis: Misalignment | None = None) -> None:
     """Before running: every FE position must have a tooth pair of the modelled ones in contact on
     the active flanks (the same TCA the model uses), else a SceneError naming phi1_start/phi1_end."""
     from ..errors import ConvergenceError
@@ -195,7 +196,7 @@ def _check_positions(scene, phis, teeth: int, mis=None) -> None:
                              "flanks (edge contact), unless the pinion is crowned." if misaligned else "."))
 
 
-def _from_scene(scene) -> FEStudy:
+def _from_scene(scene: Scene) -> FEStudy:
     from ..errors import GeometryError, OptionError
     from ..settings import FEOptions, MeshOptions
     from .tca import check_misalignment_keys, misalignment_from
