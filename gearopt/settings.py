@@ -39,7 +39,8 @@ from .units import KINDS
 
 __all__ = ["Option", "option", "Settings", "Bounds", "E_RANGE", "check_modulus", "LoadedMicroSettings", "LTCASettings",
            "LTCAStudySettings", "RobustSettings", "MonteCarloSettings", "SweepSettings", "ContactSettings",
-           "TCAStudySettings", "GeometryStudySettings", "PlanarTCASettings", "CrowningTarget", "CrowningStudySettings"]
+           "TCAStudySettings", "GeometryStudySettings", "PlanarTCASettings", "CrowningTarget", "CrowningStudySettings",
+           "MeshOptions", "FEOptions"]
 
 S = TypeVar("S", bound="Settings")
 
@@ -124,8 +125,12 @@ class Option:
             return None
         param = name if param is None else param
 
-        def bad(shown: Any = value) -> GearoptError:
-            return out_of_range(param, shown, self.valid_text(name, optional), cls=error)
+        def bad(shown: Any = value, valid: str | None = None) -> GearoptError:
+            if valid is None:
+                valid = self.valid_text(name, optional)
+            elif optional:
+                valid += " (or None)"
+            return out_of_range(param, shown, valid, cls=error)
 
         k = self.kind
         if k == "int":
@@ -164,7 +169,9 @@ class Option:
         if self.check is not None:
             res = self.check(list(value) if k == "floats" else value)
             if res is False or isinstance(res, str):
-                raise bad()
+                # the check's own text where it states the range (``valid``, or ``valid`` and a hint)
+                own = isinstance(res, str) and (self.valid is None or res.startswith(self.valid))
+                raise bad(valid=res if own else None)
         return value
 
 
@@ -203,7 +210,9 @@ def option(default: Any = MISSING, *, kind: str, doc: str, bounds: Bounds | None
     typical, bare
         As :class:`~gearopt.schema.Field`.
     valid : str or None
-        The valid range as messages state it, when ``bounds``/``choices`` do not say it all.
+        The valid range as messages state it, when ``bounds``/``choices`` do not say it all (a
+        ``check``'s text that starts with it, e.g. with a unit hint, replaces it in the message;
+        without ``valid`` the check's text is the message's range).
     none : bool or None
         Whether ``None`` is allowed (default: when the default is ``None``).
     group : str
@@ -644,3 +653,133 @@ class PlanarTCASettings(Settings):
                                 bare=Bounds(lo=2, hi=90, hi_open=True), typical="rad",
                                 doc="pressure angle of the Newton starting point")
     profiles: int = option(3, kind="int", bounds=Bounds(lo=0, hi=20), doc="positions drawn with both profiles")
+
+
+def _even(n: int) -> str | None:
+    return None if n % 2 == 0 else "an even integer"
+
+
+@dataclass(frozen=True)
+class MeshOptions(Settings):
+    """Element counts and grading of the FE tooth mesh (:mod:`gearopt.fea.mesh`); the element counts
+    and ``rim_depth`` are the ``[fea]`` keys of the same names.
+
+    Parameters
+    ----------
+    n_face : int
+        Elements along the face width (even: a node layer lies on the middle section).
+    n_half : int
+        Elements across half a tooth (middle surface to flank), graded towards the flank.
+    n_flank : int
+        Elements along the flank of a tooth without contact (uniform).
+    n_fillet : int
+        Elements along each fillet.
+    n_rim : int
+        Elements along the radial line of the rim (plus one or two on the root arc).
+    h_contact : float
+        Element size [mm] along the profile at the contact point of a loaded flank, and thickness of
+        the surface layer there (0: no grading, ``n_flank`` uniform elements).
+    window : float
+        Half-length [mm] of the profile window around the contact point meshed with ``h_contact``.
+    growth : float
+        Rate at which the element size grows away from the window [mm per mm], e.g. 0.25.
+    rim_depth : float
+        Rim thickness below the root circle, in modules m_n.
+
+    Errors name the field ``fea.<name>`` (:class:`~gearopt.errors.OptionError`).
+    """
+
+    SECTION: ClassVar[str] = "fea"
+    PARAM: ClassVar[str] = "fea."
+
+    n_face: int = option(4, kind="int", bounds=Bounds(lo=2, hi=200), check=_even,
+                         valid="an even integer, 2 <= n_face <= 200 (a node layer on the middle section)",
+                         doc="elements along the face (even)")
+    n_half: int = option(6, kind="int", bounds=Bounds(lo=1, hi=100), doc="elements across half a tooth")
+    n_flank: int = option(8, kind="int", bounds=Bounds(lo=2, hi=400), doc="elements along an unloaded flank")
+    n_fillet: int = option(5, kind="int", bounds=Bounds(lo=1, hi=200), doc="elements along each fillet")
+    n_rim: int = option(4, kind="int", bounds=Bounds(lo=1, hi=200), doc="elements through the rim")
+    h_contact: float = option(0.0, kind="length", bounds=Bounds(lo=0), key="",
+                              doc="element size at a loaded contact point (0: no grading; the FE model derives it "
+                                  "from n_hertz)")
+    window: float = option(0.0, kind="length", bounds=Bounds(lo=0), key="",
+                           doc="half-length of the profile window meshed with h_contact")
+    growth: float = option(0.3, kind="float", label="mm per mm", bounds=Bounds(lo=0, lo_open=True, hi=2), key="",
+                           doc="growth of the element size away from the window")
+    rim_depth: float = option(1.5, kind="float", label="m_n", bounds=Bounds(lo=0.3, hi=10),
+                              doc="rim below the root circle [m_n]")
+
+
+@dataclass(frozen=True)
+class FEOptions(Settings):
+    """Material, load and mesh of the FE model (:class:`~gearopt.fea.model.GearFEModel`, the ``fea``
+    study); the ``[fea]`` keys of the same names (the scene's ``torque`` is in N*m, the API's in N*mm).
+
+    Parameters
+    ----------
+    torque : float
+        Pinion torque [N*mm] (driving).
+    E, nu : float
+        Young's modulus [MPa] and Poisson's ratio of both members.
+    teeth : int
+        Teeth of each member in the model (3 = three tooth pairs).
+    mesh : MeshOptions
+        Element counts; ``h_contact``/``window`` 0 means: derived from ``n_hertz``.
+    n_hertz : float
+        Elements across the Hertz half-width b_H at a loaded contact point (0: no grading).
+    n_ellipse : float
+        Point contact (crowned pinion): face layers per major semi-axis of the Hertz ellipse around
+        its centre (0: uniform layers).
+    penalty : float
+        Contact stiffness as a multiple of E [1/mm] (pressure = penalty E overclosure).
+    close_fraction : float
+        Step-1 rotation as a fraction of the estimated loaded mesh deflection.
+    element_type : str
+        "C3D8" (default) or "C3D8I".
+    threads, timeout : int, float
+        ccx threads and time limit [s].
+    keep_dir : str or None
+        Keep the ccx files in this directory.
+
+    Errors name the field ``fea.<name>`` (:class:`~gearopt.errors.OptionError`).
+    """
+
+    SECTION: ClassVar[str] = "fea"
+    PARAM: ClassVar[str] = "fea."
+
+    torque: float = option(100e3, kind="float", label="N*mm", bounds=Bounds(lo=0, lo_open=True, hi=1e9), key="",
+                           doc="pinion torque [N*mm] (the scene's torque is in N*m)")
+    E: float = option(210e3, kind="float", label="MPa", check=check_modulus,
+                      valid=f"{E_RANGE[0]:g} <= E <= {E_RANGE[1]:g} MPa, the Young's moduli of gear materials",
+                      doc="Young's modulus [MPa] (gear materials, from polymers to carbide)")
+    nu: float = option(0.3, kind="float", bounds=Bounds(lo=0, hi=0.5, hi_open=True), doc="Poisson's ratio")
+    teeth: int = option(3, kind="int", bounds=Bounds(lo=1, hi=7), doc="teeth of each member in the model")
+    mesh: MeshOptions = dataclasses.field(default_factory=MeshOptions)
+    n_hertz: float = option(3.0, kind="float", bounds=Bounds(lo=0, hi=50),
+                            doc="elements across the Hertz half-width at the contact (0: no grading)")
+    n_ellipse: float = option(2.0, kind="float", bounds=Bounds(lo=0, hi=50), key="",
+                              doc="face layers per major semi-axis of the Hertz ellipse, point contact (0: uniform)")
+    penalty: float = option(50.0, kind="float", label="E per mm", bounds=Bounds(lo=1, hi=1000),
+                            doc="contact penalty stiffness [multiples of E per mm]")
+    close_fraction: float = option(0.25, kind="float", bounds=Bounds(lo=0, hi=1), key="",
+                                   doc="step-1 rotation as a fraction of the estimated loaded mesh deflection")
+    element_type: str = option("C3D8", kind="str", choices=("C3D8", "C3D8I"), key="", doc="CalculiX element type")
+    threads: int = option(2, kind="int", bounds=Bounds(lo=1, hi=1024), key="", doc="ccx threads")
+    timeout: float = option(900.0, kind="float", label="s", bounds=Bounds(lo=0, lo_open=True), key="",
+                            doc="ccx time limit [s]")
+    keep_dir: str | None = option(None, kind="str", key="", doc="keep the ccx files in this directory")
+
+    def validate(self) -> None:
+        """``mesh`` must be a :class:`MeshOptions`."""
+        if not isinstance(self.mesh, MeshOptions):
+            raise out_of_range(self.PARAM + "mesh", self.mesh, "a gearopt.fea.mesh.MeshOptions", cls=OptionError)
+
+    def to_dict(self) -> dict[str, Any]:
+        """``options`` of the fea study's results.json (docs/results.md): ``torque_Nmm`` [N*mm],
+        ``E`` [MPa], ``nu``, ``teeth``, ``n_hertz``, ``n_ellipse``, ``penalty_times_E`` [E per mm],
+        ``element_type`` and the element counts ``mesh`` (``rim_depth`` in m_n)."""
+        return {"torque_Nmm": self.torque, "E": self.E, "nu": self.nu, "teeth": self.teeth, "n_hertz": self.n_hertz,
+                "n_ellipse": self.n_ellipse,
+                "penalty_times_E": self.penalty, "element_type": self.element_type,
+                "mesh": {k: getattr(self.mesh, k) for k in ("n_face", "n_half", "n_flank", "n_fillet", "n_rim",
+                                                            "rim_depth")}}

@@ -15,9 +15,9 @@ import pytest
 
 from gearopt.errors import ArgumentError, OptionError, SceneError
 from gearopt.schema import Bounds, Field
-from gearopt.settings import (CrowningStudySettings, CrowningTarget, GeometryStudySettings, LoadedMicroSettings,
-                              LTCASettings, LTCAStudySettings, MonteCarloSettings, PlanarTCASettings, Settings,
-                              SweepSettings, TCAStudySettings, option)
+from gearopt.settings import (CrowningStudySettings, CrowningTarget, FEOptions, GeometryStudySettings,
+                              LoadedMicroSettings, LTCASettings, LTCAStudySettings, MeshOptions, MonteCarloSettings,
+                              PlanarTCASettings, Settings, SweepSettings, TCAStudySettings, option)
 from gearopt.studies import markdown_tables, studies
 from gearopt.units import ARCSEC
 
@@ -27,7 +27,7 @@ ROOT = Path(__file__).resolve().parents[1]
 CONVERTED = {"loaded_microgeometry": (LoadedMicroSettings,), "ltca": (LTCAStudySettings,),
              "montecarlo": (MonteCarloSettings,), "sweep": (SweepSettings,), "tca": (TCAStudySettings,),
              "geometry": (GeometryStudySettings,), "planar_tca": (PlanarTCASettings,),
-             "crowning": (CrowningTarget, CrowningStudySettings)}
+             "crowning": (CrowningTarget, CrowningStudySettings), "fea": (FEOptions, MeshOptions)}
 
 
 def _options():
@@ -97,9 +97,10 @@ def test_api_and_scene_refuse_the_same_value_naming_the_same_range(study, cls, n
     elif o.choices is not None:
         bad_scene = bad_api = "nowhere"
         numbers = set()
-    elif o.check is not None:  # a check that a range cannot state (a list of weights): the same text in both
-        bad_scene, bad_api, numbers = [-1.0], [-1.0], set()
-        assert o.check([-1.0]) in api_text(cls, name, bad_api)
+    elif o.check is not None:  # a check that a range cannot state (a list of weights, E): the same text in both
+        bad_scene = bad_api = [-1.0] if o.kind == "floats" else -1.0
+        numbers = set()
+        assert o.check(bad_api) in api_text(cls, name, bad_api)
     else:  # only its type
         bad_scene = bad_api = [1.0] if o.kind == "str" else "a text"
         numbers = set()

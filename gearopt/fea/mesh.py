@@ -34,9 +34,10 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..errors import GeometryError, option_error, out_of_range  # noqa: F401
+from ..errors import GeometryError, out_of_range  # noqa: F401
 from ..geometry.frames import rot_z_points
 from ..geometry.generation import GeneratedTooth
+from ..settings import MeshOptions  # noqa: F401 - the option set of the mesh, declared in gearopt.settings
 
 if TYPE_CHECKING:
     from collections.abc import Sequence
@@ -44,59 +45,6 @@ if TYPE_CHECKING:
 
 #: C3D8 faces (ccx / Abaqus numbering S1..S6) as node positions 0..7 of the element.
 HEX_FACES = {1: (0, 1, 2, 3), 2: (4, 7, 6, 5), 3: (0, 4, 5, 1), 4: (1, 5, 6, 2), 5: (2, 6, 7, 3), 6: (3, 7, 4, 0)}
-
-
-@dataclass(frozen=True)
-class MeshOptions:
-    """Element counts and grading of the tooth mesh.
-
-    Parameters
-    ----------
-    n_face : int
-        Elements along the face width (even: a node layer lies on the middle section).
-    n_half : int
-        Elements across half a tooth (middle surface to flank), graded towards the flank.
-    n_flank : int
-        Elements along the flank of a tooth without contact (uniform).
-    n_fillet : int
-        Elements along each fillet.
-    n_rim : int
-        Elements along the radial line of the rim (plus one or two on the root arc).
-    h_contact : float
-        Element size [mm] along the profile at the contact point of a loaded flank, and thickness of
-        the surface layer there (0: no grading, ``n_flank`` uniform elements).
-    window : float
-        Half-length [mm] of the profile window around the contact point meshed with ``h_contact``.
-    growth : float
-        Rate at which the element size grows away from the window [mm per mm], e.g. 0.25.
-    rim_depth : float
-        Rim thickness below the root circle, in modules m_n.
-    """
-
-    n_face: int = 4
-    n_half: int = 6
-    n_flank: int = 8
-    n_fillet: int = 5
-    n_rim: int = 4
-    h_contact: float = 0.0
-    window: float = 0.0
-    growth: float = 0.3
-    rim_depth: float = 1.5
-
-    def __post_init__(self):
-        for name, lo in (("n_face", 1), ("n_half", 1), ("n_flank", 2), ("n_fillet", 1), ("n_rim", 1)):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, int) or v < lo:
-                raise option_error(f"fea.{name}", v, f"an integer >= {lo}")
-        if self.n_face % 2:
-            raise option_error("fea.n_face", self.n_face, "an even integer (a node layer on the middle section)")
-        for name in ("h_contact", "window"):
-            if not (math.isfinite(getattr(self, name)) and getattr(self, name) >= 0):
-                raise option_error(f"fea.{name}", getattr(self, name), f"{name} >= 0 mm")
-        if not (0 < self.growth <= 2):
-            raise option_error("fea.growth", self.growth, "0 < growth <= 2 (mm per mm)")
-        if not (0.3 <= self.rim_depth <= 10):
-            raise option_error("fea.rim_depth", self.rim_depth, "0.3 <= rim_depth <= 10 (modules)")
 
 
 @dataclass

@@ -53,8 +53,9 @@ from ..contact.hertz import C_PRIME_STEEL, contact_modulus, hertz_half_width, he
 from ..meshing.misalignment import Misalignment
 from ..meshing.tca import TCA
 from .calculix import CalculixError, Deck, last_block, read_contact_statistics, read_dat, read_frd_block, run_ccx
-from .mesh import (GAUSS_C3D8, MemberMesh, MeshOptions, ToothMesher, build_member, face_of, graded_params,
+from .mesh import (GAUSS_C3D8, MemberMesh, ToothMesher, build_member, face_of, graded_params,
                    hex_volume_sign, shape)
+from ..settings import FEOptions  # noqa: F401 - the option set of the model, declared in gearopt.settings
 from .vtu import write_vtu
 
 if TYPE_CHECKING:
@@ -117,80 +118,6 @@ def check_physics(*, phi1: float, rotation: float, r_b1: float, F_n: float, b: f
                             "mesh); the result is not valid. Refine the contact (n_hertz) or raise the penalty.")
 
 MESH_STIFFNESS = C_PRIME_STEEL  #: single-pair mesh stiffness estimate c' [N/mm per mm of face] (ISO 6336-1 order)
-
-
-@dataclass(frozen=True)
-class FEOptions:
-    """Material, load and mesh of the FE model.
-
-    Parameters
-    ----------
-    torque : float
-        Pinion torque [N*mm] (driving).
-    E, nu : float
-        Young's modulus [MPa] and Poisson's ratio of both members.
-    teeth : int
-        Teeth of each member in the model (3 = three tooth pairs).
-    mesh : MeshOptions
-        Element counts; ``h_contact``/``window`` 0 means: derived from ``n_hertz``.
-    n_hertz : float
-        Elements across the Hertz half-width b_H at a loaded contact point (0: no grading).
-    n_ellipse : float
-        Point contact (crowned pinion): face layers per major semi-axis of the Hertz ellipse around
-        its centre (0: uniform layers).
-    penalty : float
-        Contact stiffness as a multiple of E [1/mm] (pressure = penalty E overclosure).
-    close_fraction : float
-        Step-1 rotation as a fraction of the estimated loaded mesh deflection.
-    element_type : str
-        "C3D8" (default) or "C3D8I".
-    threads, timeout : int, float
-        ccx threads and time limit [s].
-    keep_dir : str or None
-        Keep the ccx files in this directory.
-    """
-
-    torque: float = 100e3
-    E: float = 210e3
-    nu: float = 0.3
-    teeth: int = 3
-    mesh: MeshOptions = field(default_factory=MeshOptions)
-    n_hertz: float = 3.0
-    n_ellipse: float = 2.0
-    penalty: float = 50.0
-    close_fraction: float = 0.25
-    element_type: str = "C3D8"
-    threads: int = 2
-    timeout: float = 900.0
-    keep_dir: str | None = None
-
-    def to_dict(self) -> dict:
-        """``options`` of the fea study's results.json (docs/results.md): ``torque_Nmm`` [N*mm],
-        ``E`` [MPa], ``nu``, ``teeth``, ``n_hertz``, ``penalty_times_E`` [E per mm],
-        ``element_type`` and the element counts ``mesh`` (``rim_depth`` in m_n)."""
-        return {"torque_Nmm": self.torque, "E": self.E, "nu": self.nu, "teeth": self.teeth, "n_hertz": self.n_hertz,
-                "n_ellipse": self.n_ellipse,
-                "penalty_times_E": self.penalty, "element_type": self.element_type,
-                "mesh": {k: getattr(self.mesh, k) for k in ("n_face", "n_half", "n_flank", "n_fillet", "n_rim",
-                                                            "rim_depth")}}
-
-    def __post_init__(self):
-        for name in ("torque", "E"):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-                raise option_error(f"fea.{name}", v, f"{name} > 0")
-        if not (0 <= self.nu < 0.5):
-            raise option_error("fea.nu", self.nu, "0 <= nu < 0.5")
-        if isinstance(self.teeth, bool) or not isinstance(self.teeth, int) or not 1 <= self.teeth <= 7:
-            raise option_error("fea.teeth", self.teeth, "an integer 1..7 (teeth of each member)")
-        if not (0 <= self.n_hertz <= 50):
-            raise option_error("fea.n_hertz", self.n_hertz, "0 <= n_hertz <= 50")
-        if not (0 <= self.n_ellipse <= 50):
-            raise option_error("fea.n_ellipse", self.n_ellipse, "0 <= n_ellipse <= 50")
-        if not (1 <= self.penalty <= 1000):
-            raise option_error("fea.penalty", self.penalty, "1 <= penalty <= 1000 (multiples of E, per mm)")
-        if self.element_type not in ("C3D8", "C3D8I"):
-            raise option_error("fea.element_type", self.element_type, "'C3D8' or 'C3D8I'")
 
 
 # ---------------------------------------------------------------------------------------------

@@ -1,20 +1,14 @@
 """Finite element study (Litvin section 9.5): contact pressure, root stresses and loaded rotation of
 a spur/helical drive at a few positions of the meshing cycle, solved with CalculiX (``ccx``).
 
-Scene section ``[fea]`` (torque in N*m; lengths mm; see :mod:`gearopt.fea.model`):
-
-``torque``            pinion torque [N*m] (default 100)
-``E``, ``nu``         Young's modulus [MPa] and Poisson's ratio (210000, 0.3)
-``phi1_start``, ``phi1_end``, ``n_positions``: pinion angles analysed (TCA convention, 0 = tooth 0 at
-                      the pitch point), evenly spaced (one position: ``phi1_start``)
-``teeth``             teeth of each member in the model (3 = three pairs)
-``n_hertz``           elements across the Hertz half-width at the contact point (graded profile)
-``n_face``, ``n_half``, ``n_flank``, ``n_fillet``, ``n_rim``: element counts of the six sub-volumes
-``rim_depth``         rim thickness below the root circle [m_n]
-``penalty``           contact stiffness [multiples of E per mm] (50)
-``dE``, ``crossing``, ``intersecting``, ``axial``: misalignment of the gear (default aligned), placed as
-                      the TCA places it
-``keep_files``        keep the ccx input and output in ``out/<scene name>_ccx/pos<i>`` (relative to the cwd)
+Scene section ``[fea]`` (torque in N*m; lengths mm): the model's options are declared once, by
+:class:`gearopt.settings.FEOptions` and :class:`gearopt.settings.MeshOptions` (the API's
+:mod:`gearopt.fea.model` takes them; ``gearopt studies fea`` and docs/scenes.md list the keys with their
+defaults and ranges); the study's own keys are the pinion angles analysed (``phi1_start``,
+``phi1_end``, ``n_positions``: TCA convention, 0 = tooth 0 at the pitch point, evenly spaced; one
+position: ``phi1_start``), the misalignment of the gear (``dE``, ``crossing``, ``intersecting``,
+``axial``: default aligned, placed as the TCA places it) and ``keep_files`` (keep the ccx input and
+output in ``out/<scene name>_ccx/pos<i>``, relative to the cwd).
 
 Each position is an independent ccx run; the study needs ``ccx`` on PATH (a clear error otherwise).
 """
@@ -32,6 +26,7 @@ import numpy as np
 if TYPE_CHECKING:  # pragma: no cover
     from ..fea.model import FEOptions, GearFEModel
     from ..gears import GearPair
+    from ..io.scene import Scene
     from ..meshing.misalignment import Misalignment
 
 UNITS = {"length": "mm", "angle": "rad", "stress": "MPa", "force": "N", "torque": "N*mm (input: N*m)",
@@ -173,7 +168,7 @@ class FEStudy:
                         timing={"run_s": time.perf_counter() - t0}, fe_results=fe_results)
 
 
-def _check_positions(scene, phis, teeth: int, mis=None) -> None:
+def _check_positions(scene: Scene, phis: Sequence[float], teeth: int, mis: Misalignment | None = None) -> None:
     """Before running: every FE position must have a tooth pair of the modelled ones in contact on
     the active flanks (the same TCA the model uses), else a SceneError naming phi1_start/phi1_end."""
     from ..errors import ConvergenceError
@@ -201,20 +196,16 @@ def _check_positions(scene, phis, teeth: int, mis=None) -> None:
                              "flanks (edge contact), unless the pinion is crowned." if misaligned else "."))
 
 
-def _from_scene(scene) -> FEStudy:
+def _from_scene(scene: Scene) -> FEStudy:
     from ..errors import GeometryError, OptionError
-    from ..fea.mesh import MeshOptions
-    from ..fea.model import FEOptions
+    from ..settings import FEOptions, MeshOptions
     from .tca import check_misalignment_keys, misalignment_from
 
     o = scene.options.get("fea", {}) or {}
     check_misalignment_keys(scene, "fea", o, signs=(1,))
     mis = misalignment_from(o)
     try:
-        mesh = MeshOptions(n_face=o["n_face"], n_half=o["n_half"], n_flank=o["n_flank"], n_fillet=o["n_fillet"],
-                           n_rim=o["n_rim"], rim_depth=o["rim_depth"])
-        opt = FEOptions(torque=o["torque"] * 1e3, E=o["E"], nu=o["nu"], teeth=o["teeth"], mesh=mesh,
-                        n_hertz=o["n_hertz"], penalty=o["penalty"])
+        opt = FEOptions.from_scene(o, torque=o["torque"] * 1e3, mesh=MeshOptions.from_scene(o))
     except (GeometryError, OptionError) as e:
         raise scene.study_error("fea", e) from e
     n = o["n_positions"]
@@ -235,40 +226,34 @@ def _from_scene(scene) -> FEStudy:
     return FEStudy(scene.pair, opt, phis, name=scene.name, keep_dir=keep, misalignment=mis)
 
 
-def _register():
-    from ..schema import Bounds, Field, Section
-    from ..settings import E_RANGE, check_modulus
+def _register() -> None:
+    from ..schema import Bounds, Field
+    from ..settings import FEOptions, MeshOptions
     from . import StudySpec, register
     from .tca import misalignment_fields
 
+    # the scene's torque is in N*m, the API's (FEOptions.torque) in N*mm: its default and range from there
+    torque, torque_default = FEOptions.options()["torque"]
+    b = torque.bounds
     register(StudySpec(
         name="fea",
         doc="Finite element model (Litvin 9.5) solved with CalculiX: contact pressure vs Hertz, root stress, loaded TE",
-        sections=[Section("fea", [
-            Field("torque", "float", default=100.0, check=Bounds(lo=0, lo_open=True, hi=1e6),
+        sections=[FEOptions.section("fea", [
+            Field("torque", "float", default=torque_default / 1e3,
+                  check=Bounds(lo=b.lo / 1e3, lo_open=b.lo_open, hi=b.hi / 1e3, hi_open=b.hi_open),
                   doc="pinion torque [N*m]"),
-            Field("E", "float", default=210000.0, check=check_modulus,
-                  doc=f"Young's modulus [MPa], {E_RANGE[0]:g} <= E <= {E_RANGE[1]:g} (gear materials, from "
-                      "polymers to carbide)"),
-            Field("nu", "float", default=0.3, check=Bounds(lo=0, hi=0.5, hi_open=True), doc="Poisson's ratio"),
+            "E", "nu",
             Field("phi1_start", "angle", default=0.0, check=Bounds(lo=-60, hi=60),
                   doc="first pinion angle (0: tooth 0 at the pitch point)"),
             Field("phi1_end", "angle", default=0.0, check=Bounds(lo=-60, hi=60), doc="last pinion angle"),
             Field("n_positions", "int", default=1, check=Bounds(lo=1, hi=50), doc="positions from phi1_start to phi1_end"),
-            Field("teeth", "int", default=3, check=Bounds(lo=1, hi=7), doc="teeth of each member in the model"),
-            Field("n_hertz", "float", default=3.0, check=Bounds(lo=0, hi=50),
-                  doc="elements across the Hertz half-width at the contact (0: no grading)"),
-            Field("n_face", "int", default=4, check=Bounds(lo=2, hi=200), doc="elements along the face (even)"),
-            Field("n_half", "int", default=6, check=Bounds(lo=1, hi=100), doc="elements across half a tooth"),
-            Field("n_flank", "int", default=8, check=Bounds(lo=2, hi=400), doc="elements along an unloaded flank"),
-            Field("n_fillet", "int", default=5, check=Bounds(lo=1, hi=200), doc="elements along each fillet"),
-            Field("n_rim", "int", default=4, check=Bounds(lo=1, hi=200), doc="elements through the rim"),
-            Field("rim_depth", "float", default=1.5, check=Bounds(lo=0.3, hi=10), doc="rim below the root circle [m_n]"),
-            Field("penalty", "float", default=50.0, check=Bounds(lo=1, hi=1000),
-                  doc="contact penalty stiffness [multiples of E per mm]"),
+            "teeth", "n_hertz",
+            *MeshOptions.scene_fields(["n_face", "n_half", "n_flank", "n_fillet", "n_rim", "rim_depth"]),
+            "penalty",
             Field("keep_files", "bool", default=False, doc="keep the ccx files (out/<scene name>_ccx/pos<i>)"),
             *misalignment_fields(suffix="; placed as in the TCA"),
         ], required=False)],
+        settings=(FEOptions, MeshOptions),
         build=_from_scene,
     ))
 

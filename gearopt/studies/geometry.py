@@ -150,7 +150,7 @@ class GeometryStudy:
             lim = tooth.flank_limit("right", 0.0)
             r_form = float(lim.radius)
             fold = {"flank_limit": lim.kind, "folded": lim.folded}
-            if lim.folded and tooth.method in ("rack", "hob"):
+            if lim.folded and g.tool.rack_settings:  # a_c is the rack-cutter's / hob's setting
                 fold["a_c_max_unfolded"] = float(tooth.max_unfolded_a_c("right", 0.0))
             r_start, _ = _active_start(a, aw, g.r_b, mate.r_b, mate.r_a)
             members[name] = {
@@ -171,7 +171,7 @@ class GeometryStudy:
                 "flank_u_form": u_f, **fold,
             }
             profiles[name] = {k: v.tolist() for k, v in prof.items()}
-            if self.rack_mesh and tooth.method in ("rack", "hob"):
+            if self.rack_mesh and g.tool.rack_settings:  # the tool cuts with the basic rack's profile
                 racks[name] = _rack_outline(g)
         r_A1, g1 = _active_start(a, aw, pair.pinion.r_b, pair.gear.r_b, pair.gear.r_a)
         r_A2, g2 = _active_start(a, aw, pair.gear.r_b, pair.pinion.r_b, pair.pinion.r_a)
