@@ -51,10 +51,13 @@ def main(argv: list[str] | None = None) -> int:
     g.add_argument("--base-dir", help="folder with base outputs <scene>/results.json written earlier")
     ap.add_argument("--work", help="folder for the outputs (default: a new temporary folder)")
     ap.add_argument("--rtol", type=float, default=0.0, help="largest relative difference accepted (default 0)")
+    ap.add_argument("--floor", type=float, default=1e-12,
+                    help="smallest denominator of a relative difference: values near zero compare absolutely "
+                         "(CalculiX's zero reaction forces vary by ~1e-10 N run to run; --rtol 1e-9 --floor 1 ignores that)")
     ap.add_argument("--show", type=int, default=5, help="mismatches shown per scene (default 5)")
     a = ap.parse_args(argv)
-    if not a.rtol >= 0:
-        ap.error(f"--rtol = {a.rtol!r} must be >= 0")
+    if not a.rtol >= 0 or not a.floor > 0:
+        ap.error(f"--rtol = {a.rtol!r} must be >= 0 and --floor = {a.floor!r} > 0")
     known = sorted(p.stem for p in (ROOT / "problems").glob("*.toml"))
     scenes = a.scenes or known
     unknown = [s for s in scenes if s not in known]
@@ -98,7 +101,7 @@ def main(argv: list[str] | None = None) -> int:
                 print(f"{s}: no base results.json in {base_out}")
                 ok = False
                 continue
-            n, worst, where, bad = compare(json.loads(fa.read_text()), json.loads(fb.read_text()), a.rtol, 1e-12, ignore)
+            n, worst, where, bad = compare(json.loads(fa.read_text()), json.loads(fb.read_text()), a.rtol, a.floor, ignore)
             ok &= not bad
             print(f"{s}: {n} numbers, largest relative difference {worst:.3g}" + (f" at {where}" if where else "")
                   + (f", {len(bad)} MISMATCHES" if bad else ", match") + f"  [{tb:.1f} s base, {th:.1f} s here]",
