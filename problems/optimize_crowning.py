@@ -17,8 +17,7 @@ import sys
 
 from gearopt.errors import GearoptError
 from gearopt.io.results import check_out_dir, write_results
-from gearopt import ARCMIN, ARCSEC, Gear, GearPair, deg
-from gearopt.studies.crowning import CrowningStudy, misalignment_cases
+from gearopt import ARCMIN, ARCSEC, CrowningStudy, Gear, GearPair, deg, misalignment_cases
 from gearopt.synthesis import CrowningTarget
 
 

@@ -18,10 +18,7 @@ import sys
 
 from gearopt.errors import GearoptError
 from gearopt.io.results import check_out_dir, write_results
-from gearopt import ARCMIN, Gear, GearPair
-from gearopt.geometry.microgeometry import Microgeometry
-from gearopt.studies.crowning import misalignment_cases
-from gearopt.studies.loaded_microgeometry import LoadedMicroStudy
+from gearopt import ARCMIN, Gear, GearPair, LoadedMicroStudy, Microgeometry, misalignment_cases
 
 UM = 1e-3  # mm
 

@@ -157,3 +157,40 @@ class Misalignment:
 
 
 MISALIGNMENTS = Misalignment.names()
+
+
+def misalignment_cases(crossing: float = 0.0, intersecting: float = 0.0, dE: float = 0.0, axial: float = 0.0,
+                       combined: bool = False, **more: float) -> dict[str, Misalignment]:
+    """Misalignment cases: the aligned drive plus +-each given misalignment (and with ``combined``
+    all of them at +); every kind of :class:`Misalignment` may be given by name.
+
+    Parameters
+    ----------
+    crossing, intersecting : float
+        Angles [rad]; 0 adds no case.
+    dE, axial : float
+        Lengths [mm]; 0 adds no case.
+    combined : bool
+        Also the case with every given misalignment at once (when more than one is given).
+    **more : float
+        Further :class:`Misalignment` kinds by name (internal units).
+
+    Returns
+    -------
+    dict[str, Misalignment]
+        Case name (``"aligned"``, ``"crossing +3'"``, ...) -> misalignment, in the order of results.json.
+    """
+    values = {"crossing": crossing, "intersecting": intersecting, "dE": dE, "axial": axial, **more}
+    unknown = set(values) - set(Misalignment.names())
+    if unknown:
+        raise TypeError(f"misalignment_cases: unknown misalignment kind(s) {sorted(unknown)}")
+    cases = {"aligned": Misalignment()}
+    order = ("crossing", "intersecting", "dE", "axial")  # the order of the cases in results.json
+    order = order + tuple(k for k in Misalignment.names() if k not in order)
+    given = {k: values[k] for k in order if values.get(k)}
+    for k, v in given.items():
+        for sgn in (1, -1):
+            cases[f"{k} {Misalignment.display(k, sgn * abs(v))}"] = Misalignment(**{k: sgn * abs(v)})
+    if combined and len(given) > 1:
+        cases["combined +"] = Misalignment(**{k: abs(v) for k, v in given.items()})
+    return cases

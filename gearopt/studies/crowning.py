@@ -31,6 +31,7 @@ import numpy as np
 
 from ..contact.edge import EdgeContact
 from ..gears import GearPair
+from ..meshing.misalignment import misalignment_cases  # noqa: F401 - re-exported (the crowning study's cases)
 from ..meshing.tca import TCA, Misalignment
 from ..progress import heartbeat
 from ..settings import CrowningStudySettings
@@ -41,26 +42,6 @@ UNITS = {"length": "mm", "angle": "rad", "te": "arcsec (suffix _arcsec)", "setti
          "sensitivities": "d(TE level)/d(variable), in the unit given per variable in design.sensitivity_units "
                           "(arcsec per arcmin for the misalignment angles, as the scene gives them)",
          "time": "s", "see": "docs/results.md"}
-
-def misalignment_cases(crossing: float = 0.0, intersecting: float = 0.0, dE: float = 0.0, axial: float = 0.0,
-                       combined: bool = False, **more: float) -> dict:
-    """The aligned drive plus +-each given misalignment (and their combination); every kind of
-    :class:`Misalignment` may be given by name (values in mm or rad)."""
-    values = {"crossing": crossing, "intersecting": intersecting, "dE": dE, "axial": axial, **more}
-    unknown = set(values) - set(Misalignment.names())
-    if unknown:
-        raise TypeError(f"misalignment_cases: unknown misalignment kind(s) {sorted(unknown)}")
-    cases = {"aligned": Misalignment()}
-    order = ("crossing", "intersecting", "dE", "axial")  # the order of the cases in results.json
-    order = order + tuple(k for k in Misalignment.names() if k not in order)
-    given = {k: values[k] for k in order if values.get(k)}
-    for k, v in given.items():
-        for sgn in (1, -1):
-            cases[f"{k} {Misalignment.display(k, sgn * abs(v))}"] = Misalignment(**{k: sgn * abs(v)})
-    if combined and len(given) > 1:
-        cases["combined +"] = Misalignment(**{k: abs(v) for k, v in given.items()})
-    return cases
-
 
 @dataclass(frozen=True)
 class CrowningReport:

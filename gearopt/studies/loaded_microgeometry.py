@@ -290,7 +290,7 @@ def _from_scene(scene):
     from ..ltca.compliance import Material
     from ..meshing.misalignment import Misalignment
     from ..settings import LoadedMicroSettings
-    from .crowning import misalignment_cases
+    from ..meshing.misalignment import misalignment_cases
     from .tca import check_misalignment_keys
 
     o = scene.options.get("loaded_microgeometry", {}) or {}
