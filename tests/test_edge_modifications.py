@@ -22,7 +22,7 @@ from gearopt.gears import Gear, GearPair
 from gearopt.geometry.generation import generate
 from gearopt.geometry.microgeometry import Microgeometry, frame, modified_tooth
 from gearopt.geometry.modification import constant_offset
-from gearopt.meshing.tca import TCA, Misalignment
+from gearopt.meshing.tca import TCA
 from gearopt.units import RAD_TO_ARCSEC
 
 UM = 1e-3  # mm

@@ -56,8 +56,6 @@ def test_curvature_sensitivity_matches_finite_differences(monkeypatch):
     differences of the exact slices' own curvature (``SliceSet.kappa1/2``) on the flank slices, for
     every free amount and the crossing; at a design with profile crowning and both reliefs, where the
     curvature of the reliefs' smooth starts moves with their amounts."""
-    import gearopt.ltca.slices as slices
-
     opt = LoadedMicroOptimizer(drive(), FREE, torques=[TORQUE], cases=[Misalignment(crossing=2 * ARCMIN)],
                                n_positions=8, n_verify=16, n_slices=N_SLICES)
     th = np.array([0.012, 0.010, 0.015])

@@ -237,7 +237,7 @@ def test_parabolic_rack_te_is_predicted_parabola():
 
 
 def test_parabolic_rack_apex_follows_u0():
-    z1, u_0 = 20, 0.8
+    u_0 = 0.8
     pair = spur(a_c=0.005, u_0=u_0)
     phi = np.linspace(-0.3, 0.1, 21)
     r = TCA(pair, contact="line").sweep(phi, pairs=(0,))
