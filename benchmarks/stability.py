@@ -776,7 +776,7 @@ def fmt(v):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--quick", action="store_true", help="only the fast subset (the one tests/test_stability.py runs)")
+    ap.add_argument("--quick", action="store_true", help="only the fast subset (the one tests/test_tca_stability.py runs)")
     args = ap.parse_args(argv)
     t_start = time.perf_counter()
     rows = []

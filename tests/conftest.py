@@ -158,7 +158,7 @@ def _error_fields(request):
     has ``param``, ``value``, ``valid`` consistent with its message, and one that names a
     parameter (``name = value ...``, for a SceneError ``[section] key ...`` after the file name)
     says which in ``param``; a SceneError that lists several problems holds them in ``problems``
-    (issue 12 item 6)."""
+    (docs/errors.md)."""
     if not request.module.__name__.split(".")[-1].startswith(_ERROR_CORPORA):
         yield
         return

@@ -1,4 +1,4 @@
-"""Bad input in the studies added after the first audits (issue 39): measured flanks, relief starts,
+"""Bad input in the studies (gearopt.studies): measured flanks, relief starts,
 loaded TCA, Monte Carlo, sweeps, Dask addresses and ``gearopt check``. One test per class, each at
 the scene level (``gearopt.cli.main``, a problems/ scene copied into tmp_path with one key changed)
 and through the API. A refusal exits 2 with ``error: ...`` (no traceback) and writes nothing.

@@ -1,13 +1,12 @@
-"""Edge contact: no real contact discarded, results independent of the sweep grid (issue 10, items 2
-and 3).
+"""Edge contact (gearopt.contact.edge): no real contact discarded, results independent of the sweep
+grid.
 
 The reference is an oracle that shares none of the engine's equations (benchmarks/edge_oracle.py):
 the largest gear advance over the points of the pinion's finite flank that lie over the gear's
 finite flank ("patch-maximum rigid contact"), with both involute helicoids written from the
 textbook formulas and the frames written out again. It covers surface, edge, corner and edge-on-edge
 contact alike, without tangency equations. The drives here are unmodified (the oracle's formulas),
-misaligned by crossing or intersecting angles of both signs, on both flanks; none is the issue's
-example.
+misaligned by crossing or intersecting angles of both signs, on both flanks.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Plots a gear engineer can read and results.json keys that say what they hold (issue 11).
+"""Plots a gear engineer can read and results.json keys that say what they hold (gearopt.plot, gearopt.io.results).
 
 The plot tests inspect the Axes (legend entries against the drawn artists, transfer lines, axis
 limits, clipping, layout boxes) of figures drawn from real TCA runs and from small hand-made case
@@ -445,7 +445,7 @@ def test_planar_conjugate_te_plot():
     plt.close(fig)
 
 
-# --- issue 38: offsets, masked non-contacts, contact lines, legends, loaded TCA plots ---------
+# --- offsets, masked non-contacts, contact lines, legends, loaded TCA plots ----------------------
 def _offset_texts(fig):
     """The offset / scale-factor texts ("+3e1", "1e3") of every axis of ``fig`` after a draw."""
     fig.canvas.draw()

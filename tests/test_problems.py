@@ -83,7 +83,7 @@ def test_scene_runs_and_writes(scene, tmp_path, plot_problems):
         _loaded_microgeometry_scalars(res, out)
     if res["scene"] == "fea_crowned":
         _fea_crowned_scalars(res)
-    # what can be checked mechanically in every plot (issue 38): no offset text, every legend entry
+    # what can be checked mechanically in every plot (tests/plot_lint.py): no offset text, every legend entry
     # drawn, nothing cut at the image's edge, no overlaps, no legend over the data where avoidable
     assert plot_problems == [], "plot problems:\n" + "\n".join(plot_problems)
 

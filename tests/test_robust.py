@@ -1,4 +1,4 @@
-"""Robust-design studies (issue 15): ISO 1328-1 tolerances, distributions and designs against
+"""Robust-design studies (gearopt.robust): ISO 1328-1 tolerances, distributions and designs against
 scipy, the batched TCA kernel against independent TCA sweeps (misalignment, design settings, pitch
 and flank deviations), executors (serial, local processes, Dask LocalCluster, a real `dask
 scheduler` with two `dask worker` processes) bit-identical with a worker killed mid-run, an

@@ -142,7 +142,7 @@ def test_unmodified_drive_has_edge_contact_when_misaligned(name):
 @pytest.mark.slow
 @pytest.mark.ipopt
 def test_verified_level_is_measured_at_the_actual_corners(name):
-    """Issue 10, item 4: the verification's TE level is the peak-to-peak at the actual corners of
+    """The verification's TE level is the peak-to-peak at the actual corners of
     the actual TE (where consecutive pairs' TE cross), not at the NLP's fitted transfer points.
     Checked against a dense surface-TCA sweep of our own (the design has no edge contact) and by
     re-solving both pairs at every reported corner."""
@@ -230,7 +230,7 @@ def test_invalid_target_raises_geometry_error_naming_parameter(kw, name):
     ({"bounds": {"a_c": (0.01, 0.001)}}, "bounds"), ({"bounds": {"x": (0.0, 1.0)}}, "bounds"),
 ])
 def test_invalid_optimizer_arguments_name_the_parameter(kw, name):
-    # optimizer settings are options, not gear data (issue 12 item 6)
+    # optimizer settings are options, not gear data: OptionError
     with pytest.raises(OptionError, match=name):
         CrowningOptimizer(_drive("spur"), CrowningTarget(te_level=TE), **kw)
 

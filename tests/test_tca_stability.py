@@ -171,7 +171,7 @@ FOLD_SLOW = {"18/45 m3 a_c=0.012 a_pl=0.001", "20/40 m2 a_c=0.004 (below the fol
 @pytest.mark.parametrize("case", [pytest.param(c, marks=pytest.mark.slow) if c.name in FOLD_SLOW else c for c in FOLD_FAST],
                          ids=[c.name for c in FOLD_FAST])
 def test_large_profile_crowning_case(case):
-    """Folded flanks (issue 10): form radius where the cut tooth's flank ends, actual TE equal to the
+    """Folded flanks: form radius where the cut tooth's flank ends, actual TE equal to the
     rigid-contact oracle, the same TE from single-position sweeps."""
     r = S.run_fold_case(case)
     assert r["verified"], r["notes"]
