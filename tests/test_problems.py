@@ -6,7 +6,6 @@ gearopt's own report code.
 
 from __future__ import annotations
 
-import json
 import math
 import shutil
 import tomllib
@@ -19,7 +18,6 @@ from gearopt.cli import main
 from gearopt.errors import SceneError
 from gearopt.io.scene import load_scene
 
-from plot_lint import lint_figure
 from results_doc import undocumented
 
 PROBLEMS = Path(__file__).resolve().parents[1] / "problems"
@@ -46,32 +44,15 @@ def _inv_inverse(t):
     return brentq(lambda a: math.tan(a) - a - t, 1e-9, 1.55, xtol=1e-15)
 
 
-@pytest.fixture
-def plot_problems(monkeypatch):
-    """Every figure saved while the test runs is linted first (tests/plot_lint.py); the list of the
-    problems found, each prefixed with its file name."""
-    import matplotlib
-    import matplotlib.figure
-
-    found = []
-    save = matplotlib.figure.Figure.savefig
-
-    def savefig(self, fname, *args, **kwargs):
-        tight = kwargs.get("bbox_inches", matplotlib.rcParams["savefig.bbox"]) == "tight"
-        found.extend(f"{Path(str(fname)).name}: {p}" for p in lint_figure(self, tight=tight))
-        return save(self, fname, *args, **kwargs)
-
-    monkeypatch.setattr(matplotlib.figure.Figure, "savefig", savefig)
-    return found
-
-
 @pytest.mark.parametrize("scene", [_scene_param(p) for p in SCENES])
-def test_scene_runs_and_writes(scene, tmp_path, plot_problems):
+def test_scene_runs_and_writes(scene, scene_run):
+    """The scene runs through the CLI (once per test process: conftest.scene_run, whose results the
+    physics tests below read) and writes documented results and clean plots."""
     if tomllib.loads(scene.read_text())["scene"]["study"] == "fea" and shutil.which("ccx") is None:
         pytest.skip("CalculiX (ccx) is not installed: the FE scene cannot run (make test installs it as root)")
-    out = tmp_path / "out"
-    assert main(["run", str(scene), "--out", str(out), "--quiet"]) == 0
-    res = json.loads((out / "results.json").read_text())
+    run = scene_run(scene.stem)
+    assert run.status == 0
+    res, out = run.results, run.out
     assert res["units"], "results must state units"
     # every key is documented in docs/results.md (rows of "every study" and of this study)
     assert undocumented(res, res["study"]) == [], "keys missing in docs/results.md"
@@ -85,7 +66,7 @@ def test_scene_runs_and_writes(scene, tmp_path, plot_problems):
         _fea_crowned_scalars(res)
     # what can be checked mechanically in every plot (tests/plot_lint.py): no offset text, every legend entry
     # drawn, nothing cut at the image's edge, no overlaps, no legend over the data where avoidable
-    assert plot_problems == [], "plot problems:\n" + "\n".join(plot_problems)
+    assert run.plot_problems == [], "plot problems:\n" + "\n".join(run.plot_problems)
 
 
 def _fea_crowned_scalars(res):
@@ -258,8 +239,8 @@ def _tca_scenes(edge=False):
 
 
 @pytest.fixture(scope="module")
-def tca_reports():
-    return {p.stem: load_scene(p).build().run().to_dict() for p in _tca_scenes()}
+def tca_reports(scene_run):
+    return {p.stem: scene_run(p.stem).results for p in _tca_scenes()}
 
 
 @pytest.mark.parametrize("name", [p.stem for p in _tca_scenes()])
@@ -306,8 +287,8 @@ EDGE_EXPECT = {  # scene: (edge contact aligned, edge contact misaligned, an edg
 
 
 @pytest.mark.parametrize("scene", _tca_scenes(edge=True), ids=lambda p: p.stem)
-def test_edge_scene_physics(scene):
-    rep = load_scene(scene).build().run().to_dict()
+def test_edge_scene_physics(scene, scene_run):
+    rep = scene_run(scene.stem).results
     aligned, mis = rep["cases"]
     exp_al, exp_mis, edge = EDGE_EXPECT[scene.stem]
     assert aligned["edge_carries_load"] is exp_al
@@ -331,8 +312,8 @@ def test_edge_scene_physics(scene):
 # Micro-geometry scenes (docs/microgeometry.md)
 # ------------------------------------------------------------------------------------------------
 @pytest.fixture(scope="module")
-def micro_reports():
-    return {s: load_scene(PROBLEMS / f"{s}.toml").build().run().to_dict()
+def micro_reports(scene_run):
+    return {s: scene_run(s).results
             for s in ("microgeometry_spur", "microgeometry_helical", "measured_flank", "tca_spur_crowned")}
 
 
@@ -444,8 +425,8 @@ LTCA_SCENES = ("ltca_spur", "ltca_crowned", "ltca_helical")
 
 
 @pytest.fixture(scope="module")
-def ltca_reports():
-    return {s: load_scene(PROBLEMS / f"{s}.toml").build().run().to_dict() for s in LTCA_SCENES}
+def ltca_reports(scene_run):
+    return {s: scene_run(s).results for s in LTCA_SCENES}
 
 
 def test_ltca_spur_scene(ltca_reports):

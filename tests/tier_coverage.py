@@ -7,8 +7,8 @@ module's functions never ran, so that a new module without a fast test shows up 
 
 Usage (needs coverage.py, which the test extra installs)::
 
-    python benchmarks/fast_tier_coverage.py            # the fast tier on 2 workers
-    python benchmarks/fast_tier_coverage.py -- -k tca  # extra pytest arguments after --
+    python tests/tier_coverage.py            # the fast tier on 2 workers
+    python tests/tier_coverage.py -- -k tca  # extra pytest arguments after --
 
 docs/testing.md gives the last measurement.
 """
