@@ -26,7 +26,6 @@ Every claim of the optimizer is checked by measurements made here, not by its ow
 from __future__ import annotations
 
 import functools
-import json
 import math
 import re
 from dataclasses import replace
@@ -458,30 +457,3 @@ def test_design_reuses_the_verified_engine():
     assert np.array_equal(np.isnan(mine.te_envelope), np.isnan(fresh.te_envelope))
     assert np.allclose(mine.te_envelope, fresh.te_envelope, rtol=0, atol=1e-15, equal_nan=True)
     assert np.array_equal(mine.active, fresh.active)
-
-
-# ----------------------------------------------------------------------------------------------
-# 6. The crowning study through the CLI
-@pytest.mark.slow
-@pytest.mark.ipopt
-def test_cli_crowning_study(tmp_path):
-    from gearopt.cli import main
-
-    out = tmp_path / "out"
-    assert main(["run", str(REPO / "problems" / "crowning_spur.toml"), "--out", str(out), "--quiet"]) == 0
-    res = json.loads((out / "results.json").read_text())
-    assert res["study"] == "crowning"
-    s = res["design"]["settings"]
-    assert set(s) == {"a_c", "a_pl"} and all(math.isfinite(v) and v > 0 for v in s.values())
-    names = [c["label"] for c in res["after"]]
-    assert names == [c["label"] for c in res["before"]] == list(misalignment_cases(crossing=G3, intersecting=G3))
-    # NB: the key "edge_contact" of a case is True for every case (it marks an edge-contact
-    # analysis); whether an edge carries load is "edge_carries_load".
-    for c in res["after"]:
-        assert c["edge_carries_load"] is False, c["label"]
-        assert set(c["active_branch"]) <= {"surface"}, c["label"]
-        assert abs(c["peak_to_peak_arcsec"] / 8 - 1) <= 0.10, c["label"]
-    assert any(c["edge_carries_load"] for c in res["before"])
-    assert not any(c["edge_contact"] for c in res["design"]["cases"])
-    assert sorted(p.name for p in out.glob("*.png")) == ["before_after_contact_gear.png",
-                                                       "before_after_contact_pinion.png", "before_after_te.png"]
