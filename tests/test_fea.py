@@ -125,6 +125,7 @@ def test_missing_ccx_is_a_clear_error(model, monkeypatch):
         model.run()
 
 
+@pytest.mark.slow
 @needs_ccx
 def test_run_pitch_point_against_hertz_and_reaction(model, pair):
     res = model.run().to_dict()
@@ -243,6 +244,7 @@ def test_penalty_layer_factor_between_hertz_and_winkler():
             penalty_layer_factor(0.05, n=bad)
 
 
+@pytest.mark.slow
 @needs_ccx
 def test_crowned_and_helical_runs_pass_the_checks():
     """A crowned spur pinion (point contact, Hertz ellipse) and a helical pair (normal-section line
@@ -258,6 +260,7 @@ def test_crowned_and_helical_runs_pass_the_checks():
     assert 0.7 < d["contact"]["ratio_mid_to_hertz"] < 1.3
 
 
+@pytest.mark.slow
 @needs_ccx
 def test_vtu_round_trip(model, tmp_path):
     """The .vtu (meshio) holds the deck's nodes and elements, the displacement field and the nodal

@@ -87,6 +87,7 @@ def test_chart_functions_on_synthetic_traces():
     assert ch["f_f_beta"] > 0.9e-3
 
 
+@pytest.mark.slow
 def test_iso_amounts_come_back_from_the_charts():
     mg = Microgeometry(C_alpha=0.006, f_H_alpha=-0.004, C_beta=0.010, z_Cb=2.0, f_H_beta=0.003, S_alpha=0.005)
     pair = helical_pair(mg)

@@ -155,6 +155,7 @@ def P_slug(label):
     return _slug(label)
 
 
+@pytest.mark.slow
 def test_te_plot_legend_and_layout(crowned_report, tmp_path, monkeypatch):
     _, rep = crowned_report
     figs = []
@@ -453,6 +454,7 @@ def _offset_texts(fig):
                                            ax.yaxis.get_offset_text().get_text()) if t]
 
 
+@pytest.mark.slow
 def test_no_offset_text_on_any_tca_axis(conjugate_edge_report, crowned_report, tmp_path, monkeypatch):
     """The misaligned edge drive's TE sits near +30 arcsec with a 0.005 arcsec ripple: matplotlib
     would print "+3e1" and ticks -0.000..-0.008; every tick label must be the value itself."""
@@ -661,6 +663,7 @@ def test_pair_mesh_title_names_the_scene_and_pitch_point_label_at_its_point(tmp_
         plt.close(fig)
 
 
+@pytest.mark.slow
 def test_tca_iso_grade_judges_measured_flanks_only(tmp_path):
     """[tca] iso_grade: the K-charts of a measured flank (no designed amounts on the member) carry the
     class's ISO 1328-1 tolerances and the verdict; a designed flank is never judged; a class outside

@@ -169,6 +169,7 @@ def test_verified_level_is_measured_at_the_actual_corners(name):
 
 # ----------------------------------------------------------------------------------------------
 # 2. Infeasible or invalid requests
+@pytest.mark.slow
 @pytest.mark.ipopt
 def test_infeasible_ellipse_share_names_binding_constraints():
     opt = CrowningOptimizer(_drive("spur"), CrowningTarget(te_level=TE, ellipse_share=0.6),
@@ -273,6 +274,7 @@ def test_perturbed_start_spur_a_pl_within_attainable_precision():
         assert abs(dev["a_pl"]) <= 1e-4, dev
 
 
+@pytest.mark.slow
 @pytest.mark.ipopt
 def test_perturbed_start_spur_a_pl_with_tight_tolerance():
     # ... and with tol = 1e-13 the perturbed starts agree to round-off.
@@ -388,6 +390,7 @@ def test_local_synthesis_spur_path_along_profile():
     assert np.abs(r.z2[0]).max() < 1e-9 and np.ptp(r.radius2[0]) > 0.1
 
 
+@pytest.mark.slow
 @pytest.mark.ipopt
 def test_local_synthesis_helical_eta2_target():
     pair = _drive("helical")
@@ -419,6 +422,7 @@ def test_local_synthesis_helical_eta2_target():
         assert np.any(np.abs(r) > np.abs(r0)), (da, dp, r, r0)
 
 
+@pytest.mark.slow
 @pytest.mark.ipopt
 def test_design_and_local_dictionaries_follow_the_documented_schema():
     from results_doc import undocumented

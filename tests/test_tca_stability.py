@@ -98,6 +98,7 @@ def _phis(pair, n=21):
     return np.linspace(-math.pi / pair.pinion.z, math.pi / pair.pinion.z, n)
 
 
+@pytest.mark.slow
 @SETTINGS
 @given(gear_data(crowned=False))
 def test_conjugate_pair_has_zero_te(pair):
@@ -117,6 +118,7 @@ def _full_unknowns(tca, res, pairs):
     return phis, phi2
 
 
+@pytest.mark.slow
 @SETTINGS
 @given(gear_data(crowned=True), st.sampled_from(["none", "crossing", "intersecting", "dE"]),
        st.floats(1e-9, 2e-3))
@@ -152,6 +154,7 @@ def test_solutions_satisfy_the_equations_and_no_nan_leaks(pair, kind, size):
     assert np.all(res.radius1.ravel()[on] <= pair.pinion.r_a + 1e-9)
 
 
+@pytest.mark.slow
 @settings(max_examples=10, deadline=None, derandomize=True)
 @given(gear_data(crowned=True))
 def test_accepted_phi2_matches_high_precision_resolve(pair):

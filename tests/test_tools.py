@@ -296,6 +296,7 @@ def write(tmp_path, study="geometry", hand="right", pinion='tool = {kind = "shap
     return f
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("hand", ["right", "left"])
 def test_scene_shaper_tool_round_trip_geometry(tmp_path, hand):
     sc = load_scene(write(tmp_path, hand=hand, gear='tool = {kind = "hob", z = 2, d_p0 = "75 mm", hand = "left"}'))
