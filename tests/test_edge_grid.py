@@ -89,6 +89,7 @@ def _raw(r):
 # ------------------------------------------------------------------------------------------------
 # 1. The actual TE is the patch maximum: no contact missed, no spurious contact accepted
 # ------------------------------------------------------------------------------------------------
+@pytest.mark.slow
 @pytest.mark.parametrize("name", list(CASES))
 def test_envelope_is_the_patch_maximum(name):
     r = dense(name)
