@@ -175,6 +175,7 @@ def test_subprocess_bad_scene(scene_file, tmp_path):
     assert not out.exists()
 
 
+@pytest.mark.slow
 def test_subprocess_good_scene_with_plugin_study(scene_file, tmp_path):
     (tmp_path / "dummy_plugin.py").write_text("from conftest import register_dummy\nregister_dummy()\n")
     scene = scene_file(GOOD_SCENE)

@@ -128,6 +128,7 @@ def _same(ra, ia, rb, ib):
     assert na == nb
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.slow) if n in SLOW_GRID else n for n in CASES])
 def test_contacts_do_not_depend_on_the_grid(name):
     ec, mis, phi = drive(name)

@@ -363,6 +363,7 @@ def test_fea_scene_takes_the_misalignment(tmp_path):
     assert "10 mm" in str(e.value)  # the valid range: |axial| < (b1 + b2) / 2
 
 
+@pytest.mark.slow
 @needs_ccx
 def test_misaligned_crowned_pattern_moves_as_loaded_tca_predicts():
     """A crowned spur pinion under a 3 arcmin crossing: the FE contact pattern (nodal pressure
@@ -399,6 +400,7 @@ def test_misaligned_crowned_pattern_moves_as_loaded_tca_predicts():
     assert abs(pat["z_centroid"] - zc_lt) < 0.5
 
 
+@pytest.mark.slow
 def test_crowned_helical_meshes_at_every_position_of_the_cycle():
     """The lead-crowned helical drive of problems/ltca_helical.toml meshes across a whole mesh cycle:
     pairs whose contact line runs below a base circle in some face layers are graded at the nearest

@@ -156,6 +156,7 @@ def test_grid_outside_the_flank_is_refused():
         flank_deviation(generate(g), "right", 60.0 / 2, 0.0)  # beyond the tip
 
 
+@pytest.mark.slow
 def test_design_export_import_reproduces_the_te(tmp_path):
     """Design -> inspection grid -> CSV -> import as a measured flank -> TCA: the TE of the imported
     drive equals the designed one within 0.01 arcsec (aligned and misaligned). The profile grid

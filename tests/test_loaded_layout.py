@@ -25,6 +25,7 @@ def around():
     return opt, opt._around(opt.theta0.copy())
 
 
+@pytest.mark.slow
 def test_the_layout_covers_the_nlp_in_its_order(around):
     opt, cur = around
     nlp = cur["nlp"]
