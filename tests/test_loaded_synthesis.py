@@ -273,6 +273,7 @@ def test_a_refined_grid_goes_on_with_the_last_penalty_weight():
     second = [w for w, n in toy.solves if n == 3]
     assert second and all(w == 1e5 for w in second)
     assert d.theta["pinion.C_alpha"] == pytest.approx(0.020, abs=1e-9)
+    assert d.theta_um() == {"pinion.C_alpha": pytest.approx(20.0, abs=1e-6)}  # 0.020 mm written in um
     # the loop's first merit is taken with the weight it starts from: at t = 30 um, 50^2 + 1e4 1e-2 10
     rounds = []
     toy._trust_region(np.array([0.030]), rounds, rho=1e4)
