@@ -102,6 +102,7 @@ def test_envelope_is_the_patch_maximum(name):
     assert np.nanmax(np.abs(d_abs)) < TOL_AS, np.round(d_abs, 4)
 
 
+@pytest.mark.slow
 def test_corner_contact_found_in_the_dense_sweep():
     """The gear's tip/face corner carries the load at one position of the 41-point grid: the dense
     sweep finds it (it used to depend on one sweep-wide anchor of the corner branch)."""
@@ -171,6 +172,7 @@ def _in_cone(n, a, c):
     return coef.min(), resid
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", EDGE_ON_EDGE)
 def test_edge_on_edge_contact(name):
     ec, mis, phi = drive(name)

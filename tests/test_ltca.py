@@ -568,6 +568,7 @@ def test_local_excess_is_cached_per_section_not_per_design():
     assert sec.gear.a_pl == 0.0 and dr == 0.0 and sec.gear.rack == rack
 
 
+@pytest.mark.slow
 def test_fe_compliance_adds_the_local_excess_of_both_members(fe_cache, monkeypatch):
     """At the pitch point (single pair, uniform line load f = W / b) the FE-coefficient model's
     approach with the local excess is the one without it plus 2 (1 - nu^2) / (pi E) (kappa1 + kappa2) f."""

@@ -222,6 +222,7 @@ def test_bearing_contact_ellipses_clipped_to_the_flank(crowned_report):
     plt.close(fig)
 
 
+@pytest.mark.slow
 def test_conjugate_edge_case(conjugate_edge_report):
     d = json.loads(json.dumps(conjugate_edge_report.to_dict()))
     aligned, mis = d["cases"]

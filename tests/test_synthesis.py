@@ -447,6 +447,7 @@ def test_design_and_local_dictionaries_follow_the_documented_schema():
     assert ld["reached"]["eta2_deg"] == pytest.approx(math.degrees(loc.reached["eta2"]), abs=1e-12)
 
 
+@pytest.mark.slow
 @pytest.mark.ipopt
 def test_design_reuses_the_verified_engine():
     """The optimized drive's TCA and edge contact are compiled once (in solve) and handed on: a
