@@ -14,7 +14,6 @@ import math
 
 import numpy as np
 
-from .units import ARCMIN
 
 __all__ = ["CONJUGATE_ARCSEC", "arr", "te_harmonics", "misalignment_dict", "pair_numbers", "finite_or_none"]
 

@@ -36,7 +36,7 @@ from typing import Callable
 import casadi as ca
 import numpy as np
 
-from ..errors import ArgumentError, GeometryError, shorten
+from ..errors import ArgumentError, shorten
 
 _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 SIDES = ("right", "left")

@@ -27,7 +27,6 @@ import re
 import tomllib
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any
 
 from ..errors import GearoptError, GeometryError, SceneError, join_detail, shorten, value_text
 from ..gears import BasicRack, Gear, GearPair

@@ -36,7 +36,7 @@ import casadi as ca
 import numpy as np
 
 from ..compiled import mapped
-from ..errors import ArgumentError, ConvergenceError, LineContactError
+from ..errors import ArgumentError, ConvergenceError
 from ..meshing.misalignment import Misalignment
 from ..meshing.solver import REGULARITY_MIN, Branch
 from ..meshing.tca import TCA, check_sweep_args

@@ -38,13 +38,13 @@ import casadi as ca
 import numpy as np
 
 from ..compiled import call, mapped, matrix_columns
-from ..errors import (ArgumentError, ConvergenceError, GeometryError, LineContactError, OptionError, check_number,
+from ..errors import (ArgumentError, ConvergenceError, LineContactError, OptionError, check_number,
                       out_of_range, shorten)
 from ..gears import GearPair
 from ..geometry.frames import rot_x as _rx, rot_y as _ry, rot_z as _rz  # noqa: F401 (old private names)
 from ..geometry.generation import PARAMS, GeneratedTooth, generate, generate_by_rack  # noqa: F401
 from ..geometry.microgeometry import modified_tooth
-from ..units import ARCMIN, RAD_TO_ARCSEC
+from ..units import RAD_TO_ARCSEC
 from .layout import ParamLayout
 from .misalignment import MISALIGNMENTS, Misalignment  # noqa: F401 (re-exported)
 from .solver import (DELTA_DEFAULT, NORMAL_TOL, REGULARITY_MIN, Branch, ContactSettings, accept_tangency,  # noqa: F401 (re-exported)

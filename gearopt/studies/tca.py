@@ -35,7 +35,7 @@ from ..meshing.solver import ContactSettings
 from ..meshing.tca import TCA, Misalignment, TCAResult
 from ..report import CONJUGATE_ARCSEC, te_harmonics  # noqa: F401 - re-exported (their home: gearopt.report)
 from ..geometry.microgeometry import GLOBAL_AMOUNTS
-from ..units import ARCMIN, DEG
+from ..units import DEG
 
 UNITS = {"length": "mm (suffix _mm where a key could be read otherwise)", "angle": "rad", "phi1": "rad",
          "te": "arcsec (suffix _arcsec); positive: the gear is ahead of its conjugate position",
@@ -214,7 +214,7 @@ class TCAStudy:
         aligned drive first unless one of them is aligned. ``iso_grade``: ISO 1328-1:2013 flank
         tolerance class 1 ... 11; the profile and lead charts of measured flanks are judged against
         its tolerances (a design modification is not a deviation: those charts are not judged)."""
-        from ..errors import ArgumentError, OptionError, check_number, option_error, out_of_range
+        from ..errors import ArgumentError, OptionError, check_number, option_error
 
         if not isinstance(pair, GearPair):
             raise ArgumentError(f"pair = {type(pair).__name__}: expected a gearopt.gears.GearPair (pinion, gear).",
