@@ -34,7 +34,6 @@ from typing import TYPE_CHECKING, Any, Callable
 
 if TYPE_CHECKING:  # pragma: no cover
     from gearopt.io.scene import Scene
-    from gearopt.io.schema import Section
 
 #: Study modules shipped with gearopt (imported lazily by :func:`_load_builtin`).
 BUILTIN_MODULES = ("gearopt.studies.geometry", "gearopt.studies.planar_tca", "gearopt.studies.tca",
