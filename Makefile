@@ -1,5 +1,6 @@
-# gearopt: `make demo` runs the default scene, `make test` runs the test suite.
-# Both create .venv (python3 -m venv) and install the package with its test extra on first use.
+# gearopt: `make demo` runs the default scene, `make check` the linter and the fast test tier (what a
+# developer runs while working, about 2 min on 2 cores), `make test` the linter and the whole suite (CI).
+# All create .venv (python3 -m venv) and install the package with its test extra on first use.
 
 SHELL   := /bin/bash
 PYTHON  ?= python3
@@ -9,7 +10,7 @@ STAMP   := $(VENV)/.installed
 SCENE   ?= problems/tca_spur_crowned.toml
 OUT     ?= out/tca_spur_crowned
 
-.PHONY: demo test bench ccx clean distclean venv
+.PHONY: demo lint check test bench ccx clean distclean venv
 
 venv: $(STAMP)
 
@@ -30,8 +31,18 @@ demo: $(STAMP)
 	@command -v ccx >/dev/null 2>&1 || echo "note: the FE scenes (problems/fea_spur.toml, problems/fea_crowned.toml) need \
 	CalculiX (ccx), which is not installed: run 'make ccx' as root, or 'sudo apt-get install calculix-ccx' (Debian/Ubuntu)."
 
-# The suite runs on every core (pytest-xdist), one test file per worker so that module fixtures are built once.
-test: ccx $(STAMP)
+# The linter: a small rule set of real faults (pyproject.toml [tool.ruff.lint] says which and why).
+LINTED := gearopt tests benchmarks problems
+lint: $(STAMP)
+	$(VPY) -m ruff check --quiet $(LINTED)
+
+# The fast tier: every test not marked slow (docs/testing.md), on every core (pytest-xdist).
+check: lint
+	$(VPY) -m pytest -q -n auto --dist loadfile -m "not slow"
+
+# The whole suite on every core (pytest-xdist), one test file per worker so that module fixtures are
+# built once (the files are cut so that none bounds the wall time: docs/testing.md).
+test: ccx lint
 	$(VPY) -m pytest -q -n auto --dist loadfile
 
 bench: $(STAMP)

@@ -255,7 +255,7 @@ def main(argv=None):
     warnings.filterwarnings("ignore", category=RuntimeWarning)
 
     case = make_case(n)
-    tca, phi, P, c, W0, g2 = case["tca"], case["phi"], case["P"], case["c"], case["W0"], case["g2"]
+    tca, phi, P, c, W0 = case["tca"], case["phi"], case["P"], case["c"], case["W0"]
     scale2 = tca.scale2
     phi_row = phi[None, :]
     res_map = tca.residual.map(n)

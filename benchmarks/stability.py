@@ -85,7 +85,6 @@ def _pair(z1, z2, m=3.0, b=20.0, a_c=0.0, a_pl=0.0, beta=0.0, rack=None, x1=0.0,
 
 def cases() -> list[Case]:
     C = []
-    A = BasicRack.iso53("A")
     # --- crowning, aligned: realistic down to 1e-7 1/mm (near line contact) -----------------
     for s, fast in ((1.0, True), (1e-1, False), (1e-2, False), (1e-3, False), (1e-4, True)):
         C.append(Case(f"crown x{s:g} (a_c={2e-3 * s:.0e}, a_pl={4e-4 * s:.0e})", "crowning",
@@ -518,9 +517,8 @@ def _edge(case, tca, phi1, row, n_mp):
         warnings.simplefilter("ignore")
         er = ec.sweep(phi1, mis=case.mis, pairs=case.pairs)
     sv = captured["sv"]
-    pairs, names, Q, conv, prm = sv.pairs, sv.names, sv.Q, sv.conv, sv.prm
+    names, Q, prm = sv.names, sv.Q, sv.prm
     N = phi1.size
-    k0 = pairs.index(0) if 0 in pairs else 0
     act = [(i, er.active[i]) for i in range(N) if er.active[i] > 0]
     used = sorted({names[b] for _, b in act})
     pick = act[:: max(1, len(act) // max(n_mp, 1))][:n_mp]
@@ -778,7 +776,7 @@ def fmt(v):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--quick", action="store_true", help="only the fast subset (the one tests/test_stability.py runs)")
+    ap.add_argument("--quick", action="store_true", help="only the fast subset (the one tests/test_tca_stability.py runs)")
     args = ap.parse_args(argv)
     t_start = time.perf_counter()
     rows = []

@@ -15,7 +15,6 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .units import ARCMIN
 
 if TYPE_CHECKING:
     from collections.abc import Sequence

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import math
 import textwrap
 from pathlib import Path
@@ -158,7 +159,7 @@ def _error_fields(request):
     has ``param``, ``value``, ``valid`` consistent with its message, and one that names a
     parameter (``name = value ...``, for a SceneError ``[section] key ...`` after the file name)
     says which in ``param``; a SceneError that lists several problems holds them in ``problems``
-    (issue 12 item 6)."""
+    (docs/errors.md)."""
     if not request.module.__name__.split(".")[-1].startswith(_ERROR_CORPORA):
         yield
         return
@@ -168,3 +169,63 @@ def _error_fields(request):
         yield
     problems = [p for e in seen for p in check_fields(e)]
     assert not problems, "\n".join(problems)
+
+
+# ------------------------------------------------------------------------------------------------
+# Scenes of problems/, each run once per test process (session scope) through the CLI
+# ------------------------------------------------------------------------------------------------
+PROBLEMS = Path(__file__).resolve().parents[1] / "problems"
+
+
+class SceneRun:
+    """One ``gearopt run problems/<name>.toml --out DIR --quiet``: its exit status, ``results.json``
+    as read back, the output directory, and what tests/plot_lint.py found in every figure saved."""
+
+    def __init__(self, name: str, out: Path, status: int, plot_problems: list[str]):
+        self.name, self.out, self.status, self.plot_problems = name, out, status, plot_problems
+        path = out / "results.json"
+        self.results = json.loads(path.read_text()) if status == 0 and path.exists() else None
+
+
+def _run_scene(name: str, directory: Path) -> SceneRun:
+    """Run the scene with every saved figure linted first (tests/plot_lint.py)."""
+    import matplotlib
+    import matplotlib.figure
+
+    from gearopt.cli import main
+    from plot_lint import lint_figure
+
+    found: list[str] = []
+    save = matplotlib.figure.Figure.savefig
+
+    def savefig(self, fname, *args, **kwargs):
+        tight = kwargs.get("bbox_inches", matplotlib.rcParams["savefig.bbox"]) == "tight"
+        found.extend(f"{Path(str(fname)).name}: {p}" for p in lint_figure(self, tight=tight))
+        return save(self, fname, *args, **kwargs)
+
+    out = directory / "out"
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(matplotlib.figure.Figure, "savefig", savefig)
+        status = main(["run", str(PROBLEMS / f"{name}.toml"), "--out", str(out), "--quiet"])
+    return SceneRun(name, out, status, found)
+
+
+@pytest.fixture(scope="session")
+def scene_run(tmp_path_factory):
+    """``scene_run(name) -> SceneRun``: problems/<name>.toml run through the CLI once per test process
+    (the scene tests and the physics checks of its results share the run; an error is raised again
+    for every test that asks)."""
+    runs: dict[str, SceneRun | BaseException] = {}
+
+    def get(name: str) -> SceneRun:
+        if name not in runs:
+            try:
+                runs[name] = _run_scene(name, tmp_path_factory.mktemp(name))
+            except Exception as e:  # noqa: BLE001 - re-raised below for every test that uses the run
+                runs[name] = e
+        run = runs[name]
+        if isinstance(run, BaseException):
+            raise run
+        return run
+
+    return get

@@ -1,4 +1,4 @@
-"""Consistency of the structured fields of gearopt errors with their messages (issue 12 item 6).
+"""Consistency of the structured fields of gearopt errors with their messages (gearopt.errors, docs/errors.md).
 
 :func:`check_fields` is the oracle: it reads the message as a user does (the text before ``" = "``
 names the parameter) and checks that ``param``, ``value``, ``valid`` and ``detail`` say the same.
@@ -46,7 +46,7 @@ _STATES_VALID = re.compile(r"; valid: |: expected |[Vv]alid keys: |Valid section
 
 
 def _scene_problems(e: SceneError, msg: str) -> list[str]:
-    """Problems of a :class:`SceneError` (issue 12 item 6): read the message as a user does."""
+    """Problems of a :class:`SceneError`: read the message as a user does."""
     bad = []
     for f in ("source", "problems"):
         if not hasattr(e, f):

@@ -1,5 +1,5 @@
-"""Mechanical checks of a matplotlib figure, as a gear engineer would first see its faults (issue 38,
-"Plots"): :func:`lint_figure` draws the figure and lists what it finds.
+"""Mechanical checks of a matplotlib figure, as a gear engineer would first see its faults:
+:func:`lint_figure` draws the figure and lists what it finds.
 
 Checks (each problem names the axes by its title, else its axis labels):
 

@@ -1,8 +1,6 @@
-"""Bad input, by class (issue 11): every malformed scene or API call gets one clear GearoptError
+"""Bad input, by class: every malformed scene or API call gets one clear GearoptError
 that names the key or argument, the value (abbreviated when huge) and the valid range or a hint;
 the CLI exits with status 2 without a traceback and writes nothing.
-
-The values here are deliberately other than the ones in the issue (other gears, other magnitudes).
 """
 
 from __future__ import annotations
@@ -461,7 +459,7 @@ def test_tca_sweep_arguments(crowned_tca, kwargs, name):
 
 
 def test_tca_sweep_delta_out_of_range_is_an_option_error(crowned_tca):
-    """delta is a solver option (the elastic approach), not gear data (issue 12 item 6)."""
+    """delta is a solver option (the elastic approach), not gear data: an OptionError."""
     with pytest.raises(OptionError, match="delta = 0.0 is out of range") as e:
         crowned_tca.sweep([0.0], delta=0.0)
     assert not isinstance(e.value, GeometryError) and isinstance(e.value, ValueError)

@@ -1,4 +1,4 @@
-"""Bad input in the studies added after the first audits (issue 39): measured flanks, relief starts,
+"""Bad input in the studies (gearopt.studies): measured flanks, relief starts,
 loaded TCA, Monte Carlo, sweeps, Dask addresses and ``gearopt check``. One test per class, each at
 the scene level (``gearopt.cli.main``, a problems/ scene copied into tmp_path with one key changed)
 and through the API. A refusal exits 2 with ``error: ...`` (no traceback) and writes nothing.
@@ -248,6 +248,7 @@ def test_distribution_parameters_obey_the_fixed_limits(tmp_path, capsys):
 MC_SMALL = (("samples = 1000", "samples = 6"), ("positions = 64", "positions = 16"))
 
 
+@pytest.mark.slow
 def test_mostly_infeasible_study_warns_and_none_feasible_refused(tmp_path, capsys):
     """Centre-distance tolerance +-2 mm on a 50 um backlash: most samples jam -> a warning on
     stderr and feasible_fraction / warnings in results.json; a fixed dE that jams every sample ->
@@ -298,6 +299,7 @@ def test_ltca_torque_beyond_the_elastic_model(tmp_path, capsys):
     assert np.all(r.stiffness > 0) and r.p_max < 5000
 
 
+@pytest.mark.slow
 def test_montecarlo_torque_beyond_the_elastic_model(tmp_path, capsys):
     """A loaded Monte Carlo with torques up to 1e7 N m: refused by `check` (the Hertz pressure of
     the load over the longest contact line already exceeds the limit); a torque of 5500 N m, below
@@ -324,6 +326,7 @@ def test_montecarlo_torque_beyond_the_elastic_model(tmp_path, capsys):
 
 
 # --- 6. check writes nothing -----------------------------------------------------------------------
+@pytest.mark.slow
 def test_check_writes_nothing(tmp_path, capsys, monkeypatch):
     """`gearopt check` of every scene in problems/ (and of an ltca scene with compliance = "fe")
     starts no CalculiX and writes nothing: not in the cache, not in the working directory."""

@@ -175,6 +175,7 @@ def test_subprocess_bad_scene(scene_file, tmp_path):
     assert not out.exists()
 
 
+@pytest.mark.slow
 def test_subprocess_good_scene_with_plugin_study(scene_file, tmp_path):
     (tmp_path / "dummy_plugin.py").write_text("from conftest import register_dummy\nregister_dummy()\n")
     scene = scene_file(GOOD_SCENE)
@@ -304,3 +305,15 @@ def test_fe_influence_cache_build_reports_to_the_installed_receiver(monkeypatch,
         local.local_excess(tooth, [tooth.gear.r_p, tooth.gear.r_p + 1.0], use_cache=False)
     assert len(lines) == 1 and re.fullmatch(r"FE local compression of the pinion: CalculiX section 1/2 "
                                             r"\(r = \d+\.\d{3} mm, 0 s so far\)", lines[0]), lines
+
+
+def test_python_dash_m_gearopt_is_the_cli(monkeypatch, capsys):
+    """``python -m gearopt studies`` (gearopt/__main__.py, run in this process) exits as ``gearopt
+    studies`` does, with the list of studies."""
+    import runpy
+
+    monkeypatch.setattr(sys, "argv", ["gearopt", "studies"])
+    with pytest.raises(SystemExit) as e:
+        runpy.run_module("gearopt", run_name="__main__", alter_sys=True)
+    assert e.value.code == 0
+    assert "tca" in capsys.readouterr().out

@@ -89,6 +89,7 @@ def _child(env):
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
+@pytest.mark.slow
 def test_cache_reused_by_a_new_process_and_concurrent_writers(cache):
     env = dict(os.environ, GEAROPT_CACHE_DIR=str(cache))
     # four processes compile the same graphs at once: every one succeeds, one library per graph

@@ -283,6 +283,7 @@ def boundary_crossing(ec, mis, r, member, ra):
 # ================================================================================================
 # 1. Continuity of the surface branch and the pinion-tip edge branch (derivation A)
 # ================================================================================================
+@pytest.mark.slow
 def test_surface_and_tip_edge_meet_continuously():
     ec = edge(**CROWNED)
     g = own(ec.tca.pair)
@@ -339,6 +340,7 @@ CASES_EQ = {
 }
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("case", list(CASES_EQ))
 def test_edge_equations_hold_independently(case):
     geo, gam = CASES_EQ[case]
@@ -414,6 +416,7 @@ def test_aligned_conjugate_pair_has_no_edge_contact(kind, dE):
 # ================================================================================================
 # 4. First-order TE slopes of an unmodified helical pair under a crossing angle (derivation B)
 # ================================================================================================
+@pytest.mark.slow
 def test_helical_crossing_te_slopes_first_order():
     ec = edge("helical")
     g = own(ec.tca.pair)
@@ -456,6 +459,7 @@ def _swap(name):
     return name.replace("+", "#").replace("-", "+").replace("#", "-")
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("kind, a_c, a_pl, mis", [
     ("spur", 0.0, 0.0, dict(crossing=3 * ARCMIN)),
     ("spur", 0.0003, 0.0002, dict(crossing=5 * ARCMIN)),

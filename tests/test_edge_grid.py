@@ -1,13 +1,12 @@
-"""Edge contact: no real contact discarded, results independent of the sweep grid (issue 10, items 2
-and 3).
+"""Edge contact (gearopt.contact.edge): no real contact discarded, results independent of the sweep
+grid.
 
 The reference is an oracle that shares none of the engine's equations (benchmarks/edge_oracle.py):
 the largest gear advance over the points of the pinion's finite flank that lie over the gear's
 finite flank ("patch-maximum rigid contact"), with both involute helicoids written from the
 textbook formulas and the frames written out again. It covers surface, edge, corner and edge-on-edge
 contact alike, without tangency equations. The drives here are unmodified (the oracle's formulas),
-misaligned by crossing or intersecting angles of both signs, on both flanks; none is the issue's
-example.
+misaligned by crossing or intersecting angles of both signs, on both flanks.
 """
 
 from __future__ import annotations
@@ -90,6 +89,7 @@ def _raw(r):
 # ------------------------------------------------------------------------------------------------
 # 1. The actual TE is the patch maximum: no contact missed, no spurious contact accepted
 # ------------------------------------------------------------------------------------------------
+@pytest.mark.slow
 @pytest.mark.parametrize("name", list(CASES))
 def test_envelope_is_the_patch_maximum(name):
     r = dense(name)
@@ -102,6 +102,7 @@ def test_envelope_is_the_patch_maximum(name):
     assert np.nanmax(np.abs(d_abs)) < TOL_AS, np.round(d_abs, 4)
 
 
+@pytest.mark.slow
 def test_corner_contact_found_in_the_dense_sweep():
     """The gear's tip/face corner carries the load at one position of the 41-point grid: the dense
     sweep finds it (it used to depend on one sweep-wide anchor of the corner branch)."""
@@ -128,6 +129,7 @@ def _same(ra, ia, rb, ib):
     assert na == nb
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.slow) if n in SLOW_GRID else n for n in CASES])
 def test_contacts_do_not_depend_on_the_grid(name):
     ec, mis, phi = drive(name)
@@ -170,6 +172,7 @@ def _in_cone(n, a, c):
     return coef.min(), resid
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", EDGE_ON_EDGE)
 def test_edge_on_edge_contact(name):
     ec, mis, phi = drive(name)

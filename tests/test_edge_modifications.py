@@ -22,7 +22,7 @@ from gearopt.gears import Gear, GearPair
 from gearopt.geometry.generation import generate
 from gearopt.geometry.microgeometry import Microgeometry, frame, modified_tooth
 from gearopt.geometry.modification import constant_offset
-from gearopt.meshing.tca import TCA, Misalignment
+from gearopt.meshing.tca import TCA
 from gearopt.units import RAD_TO_ARCSEC
 
 UM = 1e-3  # mm
@@ -38,6 +38,7 @@ def edge_contact(pair: GearPair) -> EdgeContact:
     return EdgeContact(TCA(pair, pinion=modified_tooth(pair, "pinion")))
 
 
+@pytest.mark.slow
 def test_line_contact_fallback_keeps_profile_crowning():
     # Profile crowning keeps line contact (the point TCA is singular): the surface branch is solved in
     # the mid section of the MODIFIED teeth. Each pair's TE is delta(L)/r_b2 with delta(L) =
@@ -60,6 +61,7 @@ def test_line_contact_fallback_keeps_profile_crowning():
     assert np.ptp(env) == pytest.approx(expected, rel=0.03)
 
 
+@pytest.mark.slow
 def test_jam_is_an_error_with_the_thickening_of_the_teeth():
     # Lead crowning C and helix slope f on both flanks: delta(s) = -C s^2 + f s / 2 (s = z / (b/2)) is
     # largest at s = f / (4 C), f^2 / (16 C) per flank: the tooth is f^2 / (8 C) thicker there, with no
@@ -76,6 +78,7 @@ def test_jam_is_an_error_with_the_thickening_of_the_teeth():
         edge_contact(spur(Microgeometry(f_H_beta=f))).sweep(np.linspace(-0.1, 0.1, 5))
 
 
+@pytest.mark.slow
 def test_backlash_admits_the_same_modifications():
     # Thinner pinion teeth (A_sne = -0.05 mm: j_bn ~ 47 um): no jam, the crowned contact is surface
     # contact at every position and conjugate (an unmodified profile).
@@ -85,6 +88,7 @@ def test_backlash_admits_the_same_modifications():
     assert np.ptp(r.te_envelope) * RAD_TO_ARCSEC < 0.01
 
 
+@pytest.mark.slow
 def test_material_added_on_the_driving_flank_is_not_beyond_the_coast_flank():
     # A tooth moved by 5 um towards the driving side (+5 um on the right flank, -5 um on the left): no
     # thicker, so no jam even at zero backlash; the gear is 5 um ahead along the normal at every position,

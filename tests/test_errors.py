@@ -1,4 +1,4 @@
-"""Structured errors (issue 12 item 6): every GearoptError carries ``param``, ``value`` and
+"""Structured errors (gearopt.errors): every GearoptError carries ``param``, ``value`` and
 ``valid``; the scene loader maps errors to ``[section] key`` from those fields; line contact in the
 point-contact TCA is a LineContactError (edge contact switches on the class, not the words);
 solver and study options raise OptionError, not GeometryError.

@@ -125,6 +125,7 @@ def test_missing_ccx_is_a_clear_error(model, monkeypatch):
         model.run()
 
 
+@pytest.mark.slow
 @needs_ccx
 def test_run_pitch_point_against_hertz_and_reaction(model, pair):
     res = model.run().to_dict()
@@ -243,6 +244,7 @@ def test_penalty_layer_factor_between_hertz_and_winkler():
             penalty_layer_factor(0.05, n=bad)
 
 
+@pytest.mark.slow
 @needs_ccx
 def test_crowned_and_helical_runs_pass_the_checks():
     """A crowned spur pinion (point contact, Hertz ellipse) and a helical pair (normal-section line
@@ -258,6 +260,7 @@ def test_crowned_and_helical_runs_pass_the_checks():
     assert 0.7 < d["contact"]["ratio_mid_to_hertz"] < 1.3
 
 
+@pytest.mark.slow
 @needs_ccx
 def test_vtu_round_trip(model, tmp_path):
     """The .vtu (meshio) holds the deck's nodes and elements, the displacement field and the nodal
@@ -360,6 +363,7 @@ def test_fea_scene_takes_the_misalignment(tmp_path):
     assert "10 mm" in str(e.value)  # the valid range: |axial| < (b1 + b2) / 2
 
 
+@pytest.mark.slow
 @needs_ccx
 def test_misaligned_crowned_pattern_moves_as_loaded_tca_predicts():
     """A crowned spur pinion under a 3 arcmin crossing: the FE contact pattern (nodal pressure
@@ -396,6 +400,7 @@ def test_misaligned_crowned_pattern_moves_as_loaded_tca_predicts():
     assert abs(pat["z_centroid"] - zc_lt) < 0.5
 
 
+@pytest.mark.slow
 def test_crowned_helical_meshes_at_every_position_of_the_cycle():
     """The lead-crowned helical drive of problems/ltca_helical.toml meshes across a whole mesh cycle:
     pairs whose contact line runs below a base circle in some face layers are graded at the nearest

@@ -1,10 +1,10 @@
 """Folded crowned flanks and undercut teeth: where the real generated flank ends, and that the TE
-envelope never drops a real contact (issue 10, item 1).
+envelope never drops a real contact.
 
 The oracle (benchmarks/cutting_oracle.py) shares none of the engine's equations: the tooth section is
 what the rack-cutter leaves standing (material removal minimised over the generating motion), and
 the TE is the rigid, penetration-free position of the two finite sections (bisection on a
-point-in-tooth test), tooth pair by tooth pair. The gears and crowning values are not the issue's.
+point-in-tooth test), tooth pair by tooth pair.
 """
 
 from __future__ import annotations

@@ -87,6 +87,7 @@ def test_chart_functions_on_synthetic_traces():
     assert ch["f_f_beta"] > 0.9e-3
 
 
+@pytest.mark.slow
 def test_iso_amounts_come_back_from_the_charts():
     mg = Microgeometry(C_alpha=0.006, f_H_alpha=-0.004, C_beta=0.010, z_Cb=2.0, f_H_beta=0.003, S_alpha=0.005)
     pair = helical_pair(mg)
@@ -155,6 +156,7 @@ def test_grid_outside_the_flank_is_refused():
         flank_deviation(generate(g), "right", 60.0 / 2, 0.0)  # beyond the tip
 
 
+@pytest.mark.slow
 def test_design_export_import_reproduces_the_te(tmp_path):
     """Design -> inspection grid -> CSV -> import as a measured flank -> TCA: the TE of the imported
     drive equals the designed one within 0.01 arcsec (aligned and misaligned). The profile grid

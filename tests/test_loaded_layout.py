@@ -25,6 +25,7 @@ def around():
     return opt, opt._around(opt.theta0.copy())
 
 
+@pytest.mark.slow
 def test_the_layout_covers_the_nlp_in_its_order(around):
     opt, cur = around
     nlp = cur.nlp
@@ -56,6 +57,7 @@ def test_the_layout_covers_the_nlp_in_its_order(around):
         assert not eq[lay.rows[k]].any()
 
 
+@pytest.mark.slow
 def test_start_point_and_bounds_by_name(around):
     opt, cur = around
     nlp, z0 = cur.nlp, cur.z0

@@ -50,14 +50,13 @@ def check_limit(opt, d, mg, p_limit):
     return worst, sw
 
 
+@pytest.mark.slow
 def test_curvature_sensitivity_matches_finite_differences(monkeypatch):
     """Jk = d(kappa1 + kappa2)/d(theta, misalignment), the Hertz term's relative curvature 1 / R*
     across the contact line (implicit function theorem on the slice equations, by AD), against central
     differences of the exact slices' own curvature (``SliceSet.kappa1/2``) on the flank slices, for
     every free amount and the crossing; at a design with profile crowning and both reliefs, where the
     curvature of the reliefs' smooth starts moves with their amounts."""
-    import gearopt.ltca.slices as slices
-
     opt = LoadedMicroOptimizer(drive(), FREE, torques=[TORQUE], cases=[Misalignment(crossing=2 * ARCMIN)],
                                n_positions=8, n_verify=16, n_slices=N_SLICES)
     th = np.array([0.012, 0.010, 0.015])
@@ -79,6 +78,7 @@ def test_curvature_sensitivity_matches_finite_differences(monkeypatch):
         assert np.max(np.abs(ad - fd)) < 1e-4 * np.max(np.abs(fd))
 
 
+@pytest.mark.slow
 def test_pressure_limit_holds_in_the_default_loaded_tca_near_relief_starts():
     """Drive (a): tip and root reliefs whose starts lie in the active profile, lead crowning and both
     relief amounts free, 250 N m aligned, p_limit 2200 MPa (no edge constraint: the limit alone shapes
@@ -97,6 +97,7 @@ def test_pressure_limit_holds_in_the_default_loaded_tca_near_relief_starts():
     assert max(np.max(d.after.p_max), np.max(d.verified.p_max)) == pytest.approx(worst, rel=1e-9)
 
 
+@pytest.mark.slow
 def test_pressure_limit_and_edges_hold_in_the_default_loaded_tca_with_profile_crowning():
     """Drive (b): 30 um of profile crowning, lead crowning and both reliefs free, 250 N m aligned,
     p_limit 2600 MPa and no edge loading (0.5 um). By the independent default LTCA: within 0.5 % of the
@@ -116,6 +117,7 @@ def test_pressure_limit_and_edges_hold_in_the_default_loaded_tca_with_profile_cr
     assert np.max(np.where(ends, r.load, 0.0)) <= EDGE_TOL * r.W
 
 
+@pytest.mark.slow
 def test_a_design_above_the_limit_in_the_default_loaded_tca_is_refused():
     """The verification's guard: a design whose default loaded TCA exceeds p_limit by more than 0.5 %
     (the optimum that the involute's curvature gave for drive (a): 2700.7 MPa against 2200) raises

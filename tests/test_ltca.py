@@ -390,6 +390,7 @@ def _coarse_member_mesh():
     return MeshOptions(n_face=2, n_half=3, n_flank=4, n_fillet=3, n_rim=2)
 
 
+@pytest.mark.slow
 @pytest.mark.calculix
 @_needs_ccx
 def test_influence_coefficients_are_a_compliance_and_are_cached(fe_cache, monkeypatch):
@@ -445,6 +446,7 @@ def test_influence_coefficients_are_a_compliance_and_are_cached(fe_cache, monkey
     assert cached and total == pytest.approx(float(ig.G.sum()), rel=1e-12)
 
 
+@pytest.mark.slow
 @pytest.mark.calculix
 @_needs_ccx
 def test_loaded_tca_with_fe_compliance(fe_cache, monkeypatch):
@@ -504,6 +506,7 @@ def test_slice_curvature_is_the_flank_surface_s():
     assert e.value.param == "curvature"
 
 
+@pytest.mark.slow
 @pytest.mark.calculix
 @_needs_ccx
 def test_local_compression_of_the_tooth_section():
@@ -565,6 +568,7 @@ def test_local_excess_is_cached_per_section_not_per_design():
     assert sec.gear.a_pl == 0.0 and dr == 0.0 and sec.gear.rack == rack
 
 
+@pytest.mark.slow
 def test_fe_compliance_adds_the_local_excess_of_both_members(fe_cache, monkeypatch):
     """At the pitch point (single pair, uniform line load f = W / b) the FE-coefficient model's
     approach with the local excess is the one without it plus 2 (1 - nu^2) / (pi E) (kappa1 + kappa2) f."""
@@ -585,6 +589,7 @@ def test_fe_compliance_adds_the_local_excess_of_both_members(fe_cache, monkeypat
     assert with_k.delta[0] - without.delta[0] == pytest.approx(expected, rel=0.02)
 
 
+@pytest.mark.slow
 def test_every_slice_lies_on_its_own_gear_revolution():
     """Regression: with strong ISO profile crowning and root relief under a crossing, Newton from the
     conjugate guess landed a few slices a full gear revolution away (phi2 + 2 pi), and the loaded TE
@@ -603,6 +608,7 @@ def test_every_slice_lies_on_its_own_gear_revolution():
     assert sw.results[0].peak_to_peak_arcsec < 60.0
 
 
+@pytest.mark.slow
 def test_relieved_pair_keeps_its_slices_where_newton_stalls():
     """A deep tip relief puts the contact of an approaching pair on the relief's steep smooth start,
     far from the unmodified drive's conjugate guess: plain Newton stalls on every slice of that pair,

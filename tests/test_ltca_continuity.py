@@ -96,6 +96,7 @@ def with_amount(L, name, value):
 
 
 # --- misalignments across the face-end event (equal faces: the gear's face ends cross the pinion's) ---
+@pytest.mark.slow
 @pytest.mark.parametrize("kind, steps", [("crossing", np.array([-1e-3, -1e-4, 0.0, 1e-4, 1e-3]) * ARCMIN),
                                          ("intersecting", np.array([-1e-3, -1e-4, 0.0, 1e-4, 1e-3]) * ARCMIN),
                                          ("axial", np.array([-1e-3, -1e-4, 0.0, 1e-4, 1e-3])),
@@ -105,6 +106,7 @@ def test_misalignment_sweeps_have_no_jumps(kind, steps):
     assert_no_jump([figures(L, Misalignment(**{kind: float(v)})) for v in steps], f"optimum, {kind}")
 
 
+@pytest.mark.slow
 def test_axial_shift_across_a_slice_has_no_jumps():
     """The gear's face end runs over the pinion slice at z = -8 mm (11 slices, 2 mm apart) as the gear
     shifts by 2 mm axially: the slice leaves the contact and its neighbour's share ends at the face."""
@@ -129,6 +131,7 @@ def test_helical_crossing_sweep_has_no_jumps():
 
 
 # --- ISO amounts in 0.1 um steps, under a crossing misalignment (the contact off the face centre) --------
+@pytest.mark.slow
 @pytest.mark.parametrize("name, centre", [("iso.C_beta", 28.29), ("iso.C_beta", 13.75), ("iso.f_H_beta", 0.0),
                                           ("iso.C_alpha", 40.0), ("iso.C_alpha_a", 3.26), ("iso.C_alpha_f", 15.16)])
 def test_iso_amount_sweeps_have_no_jumps(name, centre):
@@ -140,6 +143,7 @@ def test_iso_amount_sweeps_have_no_jumps(name, centre):
 
 
 # --- relief starts (not parameters: one drive each) ----------------------------------------------------
+@pytest.mark.slow
 @pytest.mark.parametrize("start, values", [("d_Ca", (63.98, 63.99, 64.0, 64.01)),
                                            ("d_Cf", (58.48, 58.49, 58.5, 58.51))])
 def test_relief_start_sweeps_have_no_jumps(start, values):

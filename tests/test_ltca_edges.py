@@ -116,6 +116,7 @@ def test_flank_contact_never_exceeds_the_zone_of_action_beside_a_tip_edge():
     assert n_beside >= 5  # flank slices beside tip edges were checked
 
 
+@pytest.mark.slow
 def test_face_load_factor_is_that_of_the_most_loaded_flank_contact(tmp_path):
     """K_Hbeta (peak over mean line load across the face): 1 for the uniform line contact of the
     conjugate spur at every torque; for the lead-crowned helical of ltca_helical it falls as the

@@ -57,6 +57,7 @@ def test_crowned_spur_peak_pressure_is_the_hertz_ellipse(spur_sweep, k):
     assert r.p_max == pytest.approx(h.p0, rel=0.05)
 
 
+@pytest.mark.slow
 def test_crowned_helical_peak_pressure_is_the_hertz_ellipse():
     """Helical 21/45 with the crowned pinion, at torques where one pair carries (nearly) all the load:
     within 5 % of the Hertz ellipse of the whole load (before: -9.1 / -11.1 / -14.0 %)."""

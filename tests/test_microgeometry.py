@@ -125,6 +125,7 @@ def _with_starts(kind, spec):
     return Microgeometry(**spec)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("case", sorted(CASES))
 @pytest.mark.parametrize("kind", ["spur", "helical"])
 def test_deviation_on_a_grid_equals_the_iso_definition(kind, case):
@@ -400,6 +401,7 @@ def test_an_ipopt_nlp_chooses_an_amount_through_the_tca():
     assert float(sol["x"][0]) * want == pytest.approx(want, rel=1e-6)
 
 
+@pytest.mark.slow
 def test_profile_crowning_te_equals_an_independent_2d_computation():
     """The unloaded TE of a spur pinion with ISO profile crowning C_alpha (its deviation at the
     modified point's own roll length, the evaluation range the pair's active profile), against an

@@ -211,6 +211,7 @@ def test_result_to_dict_is_json_with_units():
     assert len(d["positions"]["phi2"]) == 5
 
 
+@pytest.mark.slow
 def test_scene_runs_through_cli(tmp_path):
     from gearopt.cli import main
 
@@ -248,6 +249,7 @@ def _scene(tmp_path, body):
     return p
 
 
+@pytest.mark.slow
 def test_scene_far_from_standard_and_defaults(tmp_path):
     from gearopt.cli import main
 

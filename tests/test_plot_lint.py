@@ -1,5 +1,5 @@
 """The plot linter (tests/plot_lint.py) on small figures made to pass or to fail one check each, the
-plot style (gearopt.plot.style), and the plots of issue 38 it could not judge alone (significance of
+plot style (gearopt.plot.style), and the plots it could not judge alone (significance of
 the Monte Carlo correlations, samples without a value, equal cases, FE positions, topography
 levels)."""
 

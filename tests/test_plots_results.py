@@ -1,4 +1,4 @@
-"""Plots a gear engineer can read and results.json keys that say what they hold (issue 11).
+"""Plots a gear engineer can read and results.json keys that say what they hold (gearopt.plot, gearopt.io.results).
 
 The plot tests inspect the Axes (legend entries against the drawn artists, transfer lines, axis
 limits, clipping, layout boxes) of figures drawn from real TCA runs and from small hand-made case
@@ -155,6 +155,7 @@ def P_slug(label):
     return _slug(label)
 
 
+@pytest.mark.slow
 def test_te_plot_legend_and_layout(crowned_report, tmp_path, monkeypatch):
     _, rep = crowned_report
     figs = []
@@ -221,6 +222,7 @@ def test_bearing_contact_ellipses_clipped_to_the_flank(crowned_report):
     plt.close(fig)
 
 
+@pytest.mark.slow
 def test_conjugate_edge_case(conjugate_edge_report):
     d = json.loads(json.dumps(conjugate_edge_report.to_dict()))
     aligned, mis = d["cases"]
@@ -445,7 +447,7 @@ def test_planar_conjugate_te_plot():
     plt.close(fig)
 
 
-# --- issue 38: offsets, masked non-contacts, contact lines, legends, loaded TCA plots ---------
+# --- offsets, masked non-contacts, contact lines, legends, loaded TCA plots ----------------------
 def _offset_texts(fig):
     """The offset / scale-factor texts ("+3e1", "1e3") of every axis of ``fig`` after a draw."""
     fig.canvas.draw()
@@ -453,6 +455,7 @@ def _offset_texts(fig):
                                            ax.yaxis.get_offset_text().get_text()) if t]
 
 
+@pytest.mark.slow
 def test_no_offset_text_on_any_tca_axis(conjugate_edge_report, crowned_report, tmp_path, monkeypatch):
     """The misaligned edge drive's TE sits near +30 arcsec with a 0.005 arcsec ripple: matplotlib
     would print "+3e1" and ticks -0.000..-0.008; every tick label must be the value itself."""
@@ -661,6 +664,7 @@ def test_pair_mesh_title_names_the_scene_and_pitch_point_label_at_its_point(tmp_
         plt.close(fig)
 
 
+@pytest.mark.slow
 def test_tca_iso_grade_judges_measured_flanks_only(tmp_path):
     """[tca] iso_grade: the K-charts of a measured flank (no designed amounts on the member) carry the
     class's ISO 1328-1 tolerances and the verdict; a designed flank is never judged; a class outside

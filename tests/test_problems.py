@@ -1,4 +1,6 @@
-"""Each scene in problems/ runs through the CLI path and gives physically right scalars.
+"""The scenes of problems/ for gear data (geometry), planar TCA and TCA without edge contact run through
+the CLI path and give physically right scalars (the other studies' scenes: test_problems_edge.py,
+test_problems_loaded.py, test_problems_studies.py).
 
 Expected values are computed here from textbook formulas (docs/theory.md section 3), independently of
 gearopt's own report code.
@@ -6,35 +8,23 @@ gearopt's own report code.
 
 from __future__ import annotations
 
-import json
 import math
-import shutil
 import tomllib
-from pathlib import Path
 
-import numpy as np
 import pytest
 
-from gearopt.cli import main
 from gearopt.errors import SceneError
 from gearopt.io.scene import load_scene
 
-from plot_lint import lint_figure
-from results_doc import undocumented
-
-PROBLEMS = Path(__file__).resolve().parents[1] / "problems"
-SCENES = sorted(p for p in PROBLEMS.glob("*.toml"))
-#: pytest markers of the scene runs: IPOPT (crowning study), CalculiX (fea study), above about 5 s
-STUDY_MARKS = {"crowning": [pytest.mark.ipopt], "fea": [pytest.mark.calculix], "loaded_microgeometry": [pytest.mark.ipopt]}
-SLOW_SCENES = {"crowning_spur", "fea_spur", "fea_crowned", "edge_spur_crossed", "montecarlo_spur", "montecarlo_loaded",
-               "microgeometry_loaded", "microgeometry_pareto", "microgeometry_te_target"}
+from scenes import PROBLEMS, SCENES, check_scene_run, edge_contact, scene_param, study
 
 
-def _scene_param(scene: Path):
-    marks = list(STUDY_MARKS.get(tomllib.loads(scene.read_text())["scene"]["study"], []))
-    if scene.stem in SLOW_SCENES:
-        marks.append(pytest.mark.slow)
-    return pytest.param(scene, marks=marks, id=scene.stem)
+
+@pytest.mark.parametrize("scene", [scene_param(p) for p in SCENES if study(p) in ("geometry", "planar_tca") or (study(p) == "tca" and not edge_contact(p))])
+def test_scene_runs_and_writes(scene, scene_run):
+    """The scene runs through the CLI (once per test process: conftest.scene_run, whose results the
+    physics tests read) and writes documented results and clean plots (scenes.check_scene_run)."""
+    check_scene_run(scene, scene_run)
 
 
 def _inv(a):
@@ -44,142 +34,6 @@ def _inv(a):
 def _inv_inverse(t):
     from scipy.optimize import brentq
     return brentq(lambda a: math.tan(a) - a - t, 1e-9, 1.55, xtol=1e-15)
-
-
-@pytest.fixture
-def plot_problems(monkeypatch):
-    """Every figure saved while the test runs is linted first (tests/plot_lint.py); the list of the
-    problems found, each prefixed with its file name."""
-    import matplotlib
-    import matplotlib.figure
-
-    found = []
-    save = matplotlib.figure.Figure.savefig
-
-    def savefig(self, fname, *args, **kwargs):
-        tight = kwargs.get("bbox_inches", matplotlib.rcParams["savefig.bbox"]) == "tight"
-        found.extend(f"{Path(str(fname)).name}: {p}" for p in lint_figure(self, tight=tight))
-        return save(self, fname, *args, **kwargs)
-
-    monkeypatch.setattr(matplotlib.figure.Figure, "savefig", savefig)
-    return found
-
-
-@pytest.mark.parametrize("scene", [_scene_param(p) for p in SCENES])
-def test_scene_runs_and_writes(scene, tmp_path, plot_problems):
-    if tomllib.loads(scene.read_text())["scene"]["study"] == "fea" and shutil.which("ccx") is None:
-        pytest.skip("CalculiX (ccx) is not installed: the FE scene cannot run (make test installs it as root)")
-    out = tmp_path / "out"
-    assert main(["run", str(scene), "--out", str(out), "--quiet"]) == 0
-    res = json.loads((out / "results.json").read_text())
-    assert res["units"], "results must state units"
-    # every key is documented in docs/results.md (rows of "every study" and of this study)
-    assert undocumented(res, res["study"]) == [], "keys missing in docs/results.md"
-    pngs = sorted(p.name for p in out.glob("*.png"))
-    assert pngs, "plots must be written"
-    for p in out.glob("*.png"):
-        assert p.stat().st_size > 10_000
-    if res["study"] == "loaded_microgeometry":
-        _loaded_microgeometry_scalars(res, out)
-    if res["scene"] == "fea_crowned":
-        _fea_crowned_scalars(res)
-    # what can be checked mechanically in every plot (issue 38): no offset text, every legend entry
-    # drawn, nothing cut at the image's edge, no overlaps, no legend over the data where avoidable
-    assert plot_problems == [], "plot problems:\n" + "\n".join(plot_problems)
-
-
-def _fea_crowned_scalars(res):
-    """The crowned spur pinion under a 3 arcmin crossing (problems/fea_crowned.toml): one pair at the
-    pitch point, two at +-5.4 deg; the reaction is T / r_b1; every loaded pair's pattern integrates to
-    its contact force and its centre lies off mid face on the side the crossing moves the TCA contact
-    to (z1 < 0), by more than a millimetre at the pitch point."""
-    assert res["options"]["misalignment"]["crossing_arcmin"] == pytest.approx(3.0)
-    assert [len(p["loaded_pairs"]) for p in res["positions"]] == [2, 1, 2]
-    for p in res["positions"]:
-        assert p["reaction"]["rel_error"] < 0.01
-        for k in p["loaded_pairs"]:
-            pat = p["contact"]["pattern"][str(k)]
-            q, zl = np.array(pat["q"]), np.array(pat["z_layers"])
-            assert zl[0] == pytest.approx(-10.0) and zl[-1] == pytest.approx(10.0)  # the whole face
-            assert np.sum(q * np.diff(zl)) == pytest.approx(p["pair_force_N"][str(k)], rel=1e-6)
-            assert pat["z_centroid"] < -0.5 and p["contact_points"][str(k)]["z1"] < 0
-    assert res["positions"][1]["contact"]["pattern"]["0"]["z_centroid"] < -1.0
-
-
-def _loaded_microgeometry_scalars(res, out):
-    """The micro-geometry optimisation under load (problems/microgeometry_loaded.toml): the start design
-    loads its tip edges at every torque and case; the optimum loads none (verification grid, exact
-    loaded TCA), agrees with the exact loaded TCA within 0.01 arcsec, lowers the objective by a third,
-    keeps the pressure limit, and stays within its bounds."""
-    d = res["design"]
-    assert d["error"]["te_pp"] < 0.01
-    assert d["after"]["objective_arcsec"] < d["before"]["objective_arcsec"]
-    if res["scene"] == "microgeometry_loaded":
-        assert min(min(r) for r in d["before"]["edge_share"]) > 0.2
-        assert max(max(r) for r in d["after"]["edge_share"]) < 1e-4
-        assert d["after"]["objective_arcsec"] < 0.67 * d["before"]["objective_arcsec"]
-        assert max(max(r) for r in d["after"]["p_max_MPa"]) <= res["options"]["p_limit_MPa"] * 1.001
-        # the derivatives are taken at the design (a converged optimum: the NLP's optimum is the design)
-        assert d["sensitivities"]["model_step_um"] < 0.1 and d["sensitivities"]["at_design"]
-    sens = d["sensitivities"]
-    assert sens["at_design"] == (sens["model_step_um"] <= 1.0)
-    # the active set is read cleanly from IPOPT's central path (no degenerate constraint: unique derivatives)
-    assert sens["degenerate"] == 0 and sens["active"] >= 1
-    assert all(math.isfinite(v) for v in sens["objective_arcsec_per_Nm"]) and len(sens["objective_arcsec_per_Nm"]) == \
-        len(res["torques_Nm"])
-    for k, v in d["theta_um"].items():
-        lo, hi = res["options"]["free"][k]
-        assert lo - 1e-6 <= v <= hi + 1e-6
-    assert (out / "loaded_microgeometry.csv").read_text().count("\n") == 1 + len(res["cases"]) * len(res["torques_Nm"])
-    if "pareto" in res:
-        _pareto_scalars(res, out)
-    if res["options"]["unloaded_te"] is not None:
-        _unloaded_te_scalars(res, out)
-
-
-def _unloaded_te_scalars(res, out):
-    """The unloaded parabolic-TE target (problems/microgeometry_te_target.toml): the NLP's misfit is the
-    exact slices'; each case's misfit recomputed here from the written unloaded TE (numpy least squares
-    of the parabola plus a line) is the reported one; the term of the objective is the weighted sum
-    of the smoothed misfits; the mirror-image cases (crossing +-2') have the same unloaded TE."""
-    d, u = res["design"], res["design"]["unloaded_te"]
-    assert d["error"]["te0_rms"] < 1e-4
-    lvl = res["options"]["unloaded_te"]["level_arcsec"]
-    W = np.sum(np.array(res["options"]["weights"]), axis=0)
-    for key in ("before", "after"):
-        rms = []
-        for c, case in enumerate(u["cases"]):
-            e = case[key]
-            psi, te = np.array(e["psi"]), np.array(e["te_arcsec"])
-            assert psi.size >= 0.9 * res["options"]["verify_positions"] and np.all(np.abs(psi) <= 1.0)
-            V = np.stack([np.ones_like(psi), psi], axis=1)
-            coef, *_ = np.linalg.lstsq(V, te + lvl * psi**2, rcond=None)
-            rms.append(float(np.sqrt(np.mean((te + lvl * psi**2 - V @ coef) ** 2))))
-            assert e["rms_arcsec"] == pytest.approx(rms[-1], abs=1e-9)
-            assert d[key]["te0_rms_arcsec"][c] == pytest.approx(rms[-1], abs=1e-9)
-        weight = res["options"]["unloaded_te"]["weight"]
-        assert d[key]["te0_term_arcsec"] == pytest.approx(weight * float(np.sum(W * np.sqrt(np.array(rms) ** 2 + 1e-6))),
-                                                          rel=1e-9)
-        names = [c["name"] for c in u["cases"]]
-        assert rms[names.index("crossing +2'")] == pytest.approx(rms[names.index("crossing -2'")], abs=1e-6)
-    assert (out / "loaded_micro_unloaded_te.png").stat().st_size > 10_000
-
-
-def _pareto_scalars(res, out):
-    """The Pareto front (problems/microgeometry_pareto.toml): the optimum without a limit is the
-    scene's design; every point meets its limit on the verification grid; the loaded TE rises as
-    the limit tightens, by more than an arcsec over the front; the CSV has a row per point."""
-    pts = res["pareto"]["points"]
-    assert pts[0]["p_limit_MPa"] is None
-    assert pts[0]["objective_arcsec"] == res["design"]["after"]["objective_arcsec"]
-    ok = [p for p in pts if p["feasible"]]
-    assert len(ok) >= 3
-    for p in ok[1:]:
-        assert p["p_max_MPa"] <= p["p_limit_MPa"] * 1.001
-    te = [p["objective_arcsec"] for p in ok]
-    assert all(b >= a - 1e-6 for a, b in zip(te, te[1:])) and te[-1] > te[0] + 1.0
-    assert (out / "loaded_micro_pareto.csv").read_text().count("\n") == 1 + len(pts)
-    assert (out / "loaded_micro_pareto.png").stat().st_size > 10_000
 
 
 @pytest.mark.parametrize("scene", [p for p in SCENES if tomllib.loads(p.read_text())["scene"]["study"] == "geometry"],
@@ -247,7 +101,7 @@ def test_shaper_generation_scene(tmp_path):
 MICRO = {"microgeometry_helical", "measured_flank"}
 
 
-def _tca_scenes(edge=False):
+def tca_scenes(edge=False):
     out = []
     for p in SCENES:
         raw = tomllib.loads(p.read_text())
@@ -258,11 +112,12 @@ def _tca_scenes(edge=False):
 
 
 @pytest.fixture(scope="module")
-def tca_reports():
-    return {p.stem: load_scene(p).build().run().to_dict() for p in _tca_scenes()}
+def tca_reports(scene_run):
+    return {p.stem: scene_run(p.stem).results for p in tca_scenes()}
 
 
-@pytest.mark.parametrize("name", [p.stem for p in _tca_scenes()])
+@pytest.mark.slow
+@pytest.mark.parametrize("name", [p.stem for p in tca_scenes()])
 def test_tca_scene_physics(tca_reports, name):
     rep = tca_reports[name]
     z1 = rep["pair"]["z1"]
@@ -296,46 +151,16 @@ def test_tca_scene_physics(tca_reports, name):
     assert mis["peak_to_peak_arcsec"] == pytest.approx(aligned["peak_to_peak_arcsec"], rel=0.10)
 
 
-EDGE_EXPECT = {  # scene: (edge contact aligned, edge contact misaligned, an edge that must carry load)
-    "edge_spur_crossed": (False, True, "pinion_face-"),
-    "edge_helical_crossing": (False, True, "pinion_tip"),
-    "edge_helical_intersecting": (False, True, "gear_tip"),
-    "edge_crowned_tip": (False, True, "pinion_tip"),
-    "edge_crowned_avoided": (False, False, None),
-}
-
-
-@pytest.mark.parametrize("scene", _tca_scenes(edge=True), ids=lambda p: p.stem)
-def test_edge_scene_physics(scene):
-    rep = load_scene(scene).build().run().to_dict()
-    aligned, mis = rep["cases"]
-    exp_al, exp_mis, edge = EDGE_EXPECT[scene.stem]
-    assert aligned["edge_carries_load"] is exp_al
-    assert mis["edge_carries_load"] is exp_mis
-    for case in (aligned, mis):
-        env = [v for v in case["te_envelope_arcsec"] if v is not None]
-        assert len(env) == len(case["phi1"]), "a position without any contact"
-    if edge is not None:
-        assert edge in set(a for a in mis["active_branch"] if a)
-        # Edge contact makes the gear's angular velocity jump at the transfers (Litvin 9.6).
-        # Scale: the mean TE slope over a cycle, p-p / (pi / z1).
-        jumps = [abs(t["slope_jump"]) for t in mis["transfers"] if t["slope_jump"] is not None]
-        scale = mis["peak_to_peak_arcsec"] / 206264.806 / (math.pi / rep["pair"]["z1"])
-        assert max(jumps) > 0.5 * scale
-    if rep["pair"]["pinion_a_c"] == 0 and rep["pair"]["pinion_a_pl"] == 0:
-        # Unmodified gears: the aligned drive is conjugate, TE identically zero.
-        assert max(abs(v) for v in aligned["te_envelope_arcsec"]) < 1e-7  # 5e-13 rad
-
-
 # ------------------------------------------------------------------------------------------------
 # Micro-geometry scenes (docs/microgeometry.md)
 # ------------------------------------------------------------------------------------------------
 @pytest.fixture(scope="module")
-def micro_reports():
-    return {s: load_scene(PROBLEMS / f"{s}.toml").build().run().to_dict()
+def micro_reports(scene_run):
+    return {s: scene_run(s).results
             for s in ("microgeometry_spur", "microgeometry_helical", "measured_flank", "tca_spur_crowned")}
 
 
+@pytest.mark.slow
 def test_microgeometry_spur_is_tca_spur_crowned_in_shop_terms(micro_reports):
     """The ISO amounts of the scene are Litvin's settings of tca_spur_crowned converted (to the 0.01
     um the scene writes), and the two drives' TE agree: lead crowning = plunging exactly, the tool
@@ -354,6 +179,7 @@ def test_microgeometry_spur_is_tca_spur_crowned_in_shop_terms(micro_reports):
         assert a["peak_to_peak_arcsec"] == pytest.approx(b["peak_to_peak_arcsec"], rel=0.05)
 
 
+@pytest.mark.slow
 def test_microgeometry_helical_charts_and_tip_relief(micro_reports):
     rep = micro_reports["microgeometry_helical"]
     raw = tomllib.loads((PROBLEMS / "microgeometry_helical.toml").read_text())["pinion"]["modifications"]
@@ -384,6 +210,7 @@ def test_microgeometry_helical_charts_and_tip_relief(micro_reports):
         assert L_Ca - 0.05 * (L_a - L_Ca) <= max(L_all) <= L_Ca + 0.05 * (L_a - L_Ca)
 
 
+@pytest.mark.slow
 def test_measured_flank_reports_its_deviations(micro_reports):
     rep, design = micro_reports["measured_flank"], micro_reports["microgeometry_helical"]
     for side, slope in (("right", 2.0), ("left", -1.0)):  # measured_flank_make.py
@@ -437,109 +264,3 @@ def test_bad_measured_files_name_the_file_and_row(tmp_path):
         load_scene(f)
     assert e.value.param == "[pinion.measured] right"
     del bad
-
-
-# --- loaded TCA scenes ----------------------------------------------------------------------------
-LTCA_SCENES = ("ltca_spur", "ltca_crowned", "ltca_helical")
-
-
-@pytest.fixture(scope="module")
-def ltca_reports():
-    return {s: load_scene(PROBLEMS / f"{s}.toml").build().run().to_dict() for s in LTCA_SCENES}
-
-
-def test_ltca_spur_scene(ltca_reports):
-    d = ltca_reports["ltca_spur"]
-    assert d["unloaded_peak_to_peak_arcsec"] < 1e-6  # conjugate
-    T = [t["torque_Nm"] for t in d["torques"]]
-    assert T[0] == pytest.approx(0.1 * d["nominal_torque_Nm"]) and T[-1] == pytest.approx(1.5 * d["nominal_torque_Nm"])
-    pp = [t["peak_to_peak_arcsec"] for t in d["torques"]]
-    assert all(b > a for a, b in zip(pp, pp[1:]))  # an unmodified pair: TE grows with load
-    # ISO 6336-1 mean mesh stiffness of this standard steel pair, computed here from the standard
-    z1, z2 = d["pair"]["z1"], d["pair"]["z2"]
-    q = 0.04723 + 0.15551 / z1 + 0.25791 / z2
-    c_gamma = 1 / q * 0.8 * 0.975 * (0.75 * d["pair"]["eps_alpha"] + 0.25)
-    assert d["iso6336"]["c_gamma_alpha"] == pytest.approx(c_gamma, rel=1e-9)
-    assert 0.85 < d["iso6336"]["ltca_c_gamma_at_nominal"] / c_gamma < 1.15
-    for t in d["torques"]:
-        assert t["kkt_error_max_mm"] < 1e-7
-        share = [[v or 0.0 for v in row] for row in t["pair_share"]]
-        assert all(abs(sum(col) - 1) < 1e-9 for col in zip(*share))
-
-
-def test_ltca_crowned_and_helical_scenes(ltca_reports):
-    c = ltca_reports["ltca_crowned"]
-    assert c["unloaded_peak_to_peak_arcsec"] > 5  # the crossing's TE, absorbed by the parabola
-    t20, t200 = c["torques"][0], c["torques"][4]
-    assert t200["torque_Nm"] == 200.0 and t20["torque_Nm"] == 20.0
-    # light load: the loaded TE follows the unloaded one; at 200 N m the pattern has spread
-    assert abs(t20["peak_to_peak_arcsec"] - c["unloaded_peak_to_peak_arcsec"]) < 0.5 * c["unloaded_peak_to_peak_arcsec"]
-    assert 1000 < t200["p_max_MPa"] < 2500
-    h = ltca_reports["ltca_helical"]
-    nom = [t for t in h["torques"] if t["torque_Nm"] == h["nominal_torque_Nm"]][0]
-    spur_nom = [t for t in ltca_reports["ltca_spur"]["torques"] if t["torque_Nm"] == 200.0][0]
-    assert nom["peak_to_peak_arcsec"] < 0.25 * spur_nom["peak_to_peak_arcsec"]
-    shares = [[v or 0.0 for v in row] for row in nom["pair_share"]]
-    assert min(sum(1 for v in col if v > 0.01) for col in zip(*shares)) >= 2
-
-
-@pytest.mark.parametrize("edit, param", [
-    (("torque = 200.0", "torque = 200.0\ntorques = [100.0, 50.0]"), "[ltca] torques"),
-    (("torque = 200.0", "torque = 200.0\ntorques = [0.0, 50.0]"), "[ltca] torques"),
-    (("torque = 200.0", "torque = -1.0"), "[ltca] torque"),
-    (("E = 206000.0", "E = 206.0"), "[ltca] E"),
-    (("nu = 0.3", "nu = 0.6"), "[ltca] nu"),
-    (("torque = 200.0", "torque = 200.0\nr_int_pinion = \"29 mm\""), "[ltca] r_int_pinion"),
-    (("torque = 200.0", "torque = 200.0\nslices = 11"), "[ltca] slices"),
-])
-def test_bad_ltca_keys_name_the_key_and_write_nothing(tmp_path, edit, param):
-    params, _ = _bad_scene(tmp_path, "ltca_spur", edit)
-    assert param in params
-
-
-def _bad_scene(tmp_path, scene: str, edit) -> tuple[list, str]:
-    """Write ``problems/<scene>.toml`` with ``edit = (old, new)`` applied; check that building it raises
-    SceneError and that ``gearopt run`` fails writing nothing. Returns the error's params (its own and
-    its problems') and its message."""
-    text = (PROBLEMS / f"{scene}.toml").read_text()
-    assert edit[0] in text
-    f = tmp_path / "bad.toml"
-    f.write_text(text.replace(edit[0], edit[1], 1))
-    with pytest.raises(SceneError) as e:
-        load_scene(f).build()
-    out = tmp_path / "out"
-    assert main(["run", str(f), "--out", str(out), "--quiet"]) != 0
-    assert not out.exists()
-    return [e.value.param] + [getattr(p, "param", None) for p in getattr(e.value, "problems", [])], str(e.value)
-
-
-@pytest.mark.parametrize("edit, param", [
-    (('C_alpha = { lo = "0 um", hi = "40 um" }', 'C_gamma = { lo = "0 um", hi = "40 um" }'),
-     "[loaded_microgeometry.free.pinion] C_gamma"),
-    (('C_alpha = { lo = "0 um", hi = "40 um" }', 'C_alpha = { lo = "30 um", hi = "20 um" }'), None),
-    (('C_alpha = { lo = "0 um", hi = "40 um" }', 'C_alpha = { lo = "0 um", hi = "2 um" }'), None),  # start 5 um
-    (('d_Ca = "64 mm"      # tip relief from d = 64 mm to the tip (d_a = 66 mm)', ''), None),  # no tip relief start
-    (("torques = [100.0, 250.0]", "torques = [250.0, 100.0]"), "[loaded_microgeometry] torques"),
-    (("torques = [100.0, 250.0]", "torques = [100.0, 250.0]\nweights = [1.0]"), "[loaded_microgeometry] weights"),
-    (("p_limit = 2600.0", "p_limit = 20.0"), "[loaded_microgeometry] p_limit"),
-    (("p_limit = 2600.0", "p_limit = 2600.0\nharmonics = [1.0, -0.5]"), "[loaded_microgeometry] harmonics"),
-    (("p_limit = 2600.0", "p_limit = 2600.0\npareto = [2000.0, 2000.0]"), "[loaded_microgeometry] pareto"),
-    (("p_limit = 2600.0", "p_limit = 2600.0\npareto = [50.0]"), "[loaded_microgeometry] pareto"),
-    (('edge_margin = "0.5 um"', 'edge_margin = "0 um"'), "[loaded_microgeometry] edge_margin"),
-    (('edge_margin = "0.5 um"', 'edge_margin = "0.5 um"\nunloaded_te = { level = "-8 arcsec" }'),
-     "[loaded_microgeometry.unloaded_te] level"),
-    (('edge_margin = "0.5 um"', 'edge_margin = "0.5 um"\nunloaded_te = { level = "8 arcsec", weight = 0.0 }'),
-     "[loaded_microgeometry.unloaded_te] weight"),
-    (('edge_margin = "0.5 um"', 'edge_margin = "0.5 um"\nunloaded_te = { weight = 2.0 }'),
-     "[loaded_microgeometry.unloaded_te] level"),
-    (('edge_margin = "0.5 um"', 'edge_margin = "0.5 um"\nunloaded_te = { level = "8 arcsec", wieght = 2.0 }'),
-     "[loaded_microgeometry.unloaded_te] wieght"),
-])
-def test_bad_loaded_microgeometry_keys_name_the_key_and_write_nothing(tmp_path, edit, param):
-    """Bad keys of the loaded micro-geometry scene stop before the optimisation, naming the key (the
-    bounds of a free amount, as checked by the optimiser, name the amount), and write nothing."""
-    params, msg = _bad_scene(tmp_path, "microgeometry_loaded", edit)
-    if param is not None:
-        assert param in params
-    else:
-        assert any(p and ("C_alpha" in p or "free" in p) for p in params) or "C_alpha" in msg

@@ -1,4 +1,4 @@
-"""Robust-design studies (issue 15): ISO 1328-1 tolerances, distributions and designs against
+"""Robust-design studies (gearopt.robust): ISO 1328-1 tolerances, distributions and designs against
 scipy, the batched TCA kernel against independent TCA sweeps (misalignment, design settings, pitch
 and flank deviations), executors (serial, local processes, Dask LocalCluster, a real `dask
 scheduler` with two `dask worker` processes) bit-identical with a worker killed mid-run, an
@@ -340,6 +340,7 @@ def test_real_dask_scheduler_and_two_workers(pair, serial_run, tmp_path):
                 p.kill()
 
 
+@pytest.mark.slow
 def test_unreachable_scheduler_fails_fast_and_clearly(pair, tmp_path):
     from gearopt.cli import main
 
@@ -434,6 +435,7 @@ def test_inconsistent_sweep_ranges(pair):
 
 
 # --- the scenes -------------------------------------------------------------------------------
+@pytest.mark.slow
 def test_montecarlo_scene_physics():
     """problems/montecarlo_spur.toml: the crowned drive's parabolic TE absorbs the misalignments
     (Litvin 9.4): the crossing and intersecting angles hardly move TE peak-to-peak while the pitch
@@ -483,6 +485,7 @@ def test_wilson_interval_matches_scipy():
         assert w["lo"] == pytest.approx(ci.low, abs=1e-12) and w["hi"] == pytest.approx(ci.high, abs=1e-12)
 
 
+@pytest.mark.slow
 def test_progress_bar_on_stderr_unless_quiet(tmp_path, capfd):
     from gearopt.cli import main
     scene = tmp_path / "mc.toml"
@@ -525,6 +528,7 @@ def test_gear_deviation_as_relative_pinion_deviation(pair, name, amount, rel):
 
 
 # --- loaded TCA per sample --------------------------------------------------------------------
+@pytest.mark.slow
 def test_loaded_samples_at_tiny_torque_match_the_unloaded_kernel(pair):
     """At 0.01 N m the loaded TCA of each sample (slices, with the pitch offsets of the slice
     solver) gives the unloaded TE of the point-contact kernel (its own pitch offsets): two engines,
@@ -544,6 +548,7 @@ def test_loaded_samples_at_tiny_torque_match_the_unloaded_kernel(pair):
                                atol=0.05)
 
 
+@pytest.mark.slow
 def test_loaded_monte_carlo_reports_pressure_and_torque_sensitivity(pair):
     r = MonteCarlo(pair, 6, seed=4, misalignment=MIS, torque=Distribution("uniform", lo=40.0, hi=200.0),
                    chunk=3).run()

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import pytest
@@ -158,7 +159,7 @@ def test_good_scene_internal_units(dummy_study, scene_file):
     assert o["mode"] == "fast" and o["curv"] == 0.0  # defaults
     assert s.output == {"plots": True, "dpi": 120}
     assert s.source.name == "scene.toml"
-    with pytest.raises(Exception):
+    with pytest.raises(dataclasses.FrozenInstanceError):
         s.name = "other"  # frozen
 
 

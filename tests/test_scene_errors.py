@@ -1,4 +1,4 @@
-"""Structured errors of the scene loader's own key checks (issue 12 item 6, second part).
+"""Structured errors of the scene loader's own key checks (gearopt.io.scene).
 
 Every problem the loader finds (wrong type, unit, choice, range, unknown or missing key, a bad tool
 table) is a SceneError whose ``param`` is the ``[section] key`` as the user wrote it, ``value`` the

@@ -26,7 +26,6 @@ Every claim of the optimizer is checked by measurements made here, not by its ow
 from __future__ import annotations
 
 import functools
-import json
 import math
 import re
 from dataclasses import replace
@@ -142,7 +141,7 @@ def test_unmodified_drive_has_edge_contact_when_misaligned(name):
 @pytest.mark.slow
 @pytest.mark.ipopt
 def test_verified_level_is_measured_at_the_actual_corners(name):
-    """Issue 10, item 4: the verification's TE level is the peak-to-peak at the actual corners of
+    """The verification's TE level is the peak-to-peak at the actual corners of
     the actual TE (where consecutive pairs' TE cross), not at the NLP's fitted transfer points.
     Checked against a dense surface-TCA sweep of our own (the design has no edge contact) and by
     re-solving both pairs at every reported corner."""
@@ -170,6 +169,7 @@ def test_verified_level_is_measured_at_the_actual_corners(name):
 
 # ----------------------------------------------------------------------------------------------
 # 2. Infeasible or invalid requests
+@pytest.mark.slow
 @pytest.mark.ipopt
 def test_infeasible_ellipse_share_names_binding_constraints():
     opt = CrowningOptimizer(_drive("spur"), CrowningTarget(te_level=TE, ellipse_share=0.6),
@@ -230,7 +230,7 @@ def test_invalid_target_raises_geometry_error_naming_parameter(kw, name):
     ({"bounds": {"a_c": (0.01, 0.001)}}, "bounds"), ({"bounds": {"x": (0.0, 1.0)}}, "bounds"),
 ])
 def test_invalid_optimizer_arguments_name_the_parameter(kw, name):
-    # optimizer settings are options, not gear data (issue 12 item 6)
+    # optimizer settings are options, not gear data: OptionError
     with pytest.raises(OptionError, match=name):
         CrowningOptimizer(_drive("spur"), CrowningTarget(te_level=TE), **kw)
 
@@ -274,6 +274,7 @@ def test_perturbed_start_spur_a_pl_within_attainable_precision():
         assert abs(dev["a_pl"]) <= 1e-4, dev
 
 
+@pytest.mark.slow
 @pytest.mark.ipopt
 def test_perturbed_start_spur_a_pl_with_tight_tolerance():
     # ... and with tol = 1e-13 the perturbed starts agree to round-off.
@@ -389,6 +390,7 @@ def test_local_synthesis_spur_path_along_profile():
     assert np.abs(r.z2[0]).max() < 1e-9 and np.ptp(r.radius2[0]) > 0.1
 
 
+@pytest.mark.slow
 @pytest.mark.ipopt
 def test_local_synthesis_helical_eta2_target():
     pair = _drive("helical")
@@ -420,6 +422,7 @@ def test_local_synthesis_helical_eta2_target():
         assert np.any(np.abs(r) > np.abs(r0)), (da, dp, r, r0)
 
 
+@pytest.mark.slow
 @pytest.mark.ipopt
 def test_design_and_local_dictionaries_follow_the_documented_schema():
     from results_doc import undocumented
@@ -444,6 +447,7 @@ def test_design_and_local_dictionaries_follow_the_documented_schema():
     assert ld["reached"]["eta2_deg"] == pytest.approx(math.degrees(loc.reached["eta2"]), abs=1e-12)
 
 
+@pytest.mark.slow
 @pytest.mark.ipopt
 def test_design_reuses_the_verified_engine():
     """The optimized drive's TCA and edge contact are compiled once (in solve) and handed on: a
@@ -458,30 +462,3 @@ def test_design_reuses_the_verified_engine():
     assert np.array_equal(np.isnan(mine.te_envelope), np.isnan(fresh.te_envelope))
     assert np.allclose(mine.te_envelope, fresh.te_envelope, rtol=0, atol=1e-15, equal_nan=True)
     assert np.array_equal(mine.active, fresh.active)
-
-
-# ----------------------------------------------------------------------------------------------
-# 6. The crowning study through the CLI
-@pytest.mark.slow
-@pytest.mark.ipopt
-def test_cli_crowning_study(tmp_path):
-    from gearopt.cli import main
-
-    out = tmp_path / "out"
-    assert main(["run", str(REPO / "problems" / "crowning_spur.toml"), "--out", str(out), "--quiet"]) == 0
-    res = json.loads((out / "results.json").read_text())
-    assert res["study"] == "crowning"
-    s = res["design"]["settings"]
-    assert set(s) == {"a_c", "a_pl"} and all(math.isfinite(v) and v > 0 for v in s.values())
-    names = [c["label"] for c in res["after"]]
-    assert names == [c["label"] for c in res["before"]] == list(misalignment_cases(crossing=G3, intersecting=G3))
-    # NB: the key "edge_contact" of a case is True for every case (it marks an edge-contact
-    # analysis); whether an edge carries load is "edge_carries_load".
-    for c in res["after"]:
-        assert c["edge_carries_load"] is False, c["label"]
-        assert set(c["active_branch"]) <= {"surface"}, c["label"]
-        assert abs(c["peak_to_peak_arcsec"] / 8 - 1) <= 0.10, c["label"]
-    assert any(c["edge_carries_load"] for c in res["before"])
-    assert not any(c["edge_contact"] for c in res["design"]["cases"])
-    assert sorted(p.name for p in out.glob("*.png")) == ["before_after_contact_gear.png",
-                                                       "before_after_contact_pinion.png", "before_after_te.png"]

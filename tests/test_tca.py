@@ -237,7 +237,7 @@ def test_parabolic_rack_te_is_predicted_parabola():
 
 
 def test_parabolic_rack_apex_follows_u0():
-    z1, u_0 = 20, 0.8
+    u_0 = 0.8
     pair = spur(a_c=0.005, u_0=u_0)
     phi = np.linspace(-0.3, 0.1, 21)
     r = TCA(pair, contact="line").sweep(phi, pairs=(0,))
@@ -251,6 +251,7 @@ def test_parabolic_rack_apex_follows_u0():
 # ------------------------------------------------------------------------------------------------
 # 3. Double crowning: point contact
 # ------------------------------------------------------------------------------------------------
+@pytest.mark.slow
 def test_double_crowned_spur_aligned_path_te_and_ellipse():
     z1 = 20
     phi = np.linspace(-math.pi / z1, math.pi / z1, 21)
@@ -413,6 +414,7 @@ def test_jacobian_matches_finite_differences(contact):
     np.testing.assert_allclose(J, Jfd, atol=1e-7 * np.abs(J).max())
 
 
+@pytest.mark.slow
 def test_te_sensitivities_implicit_function_vs_sweeps():
     pair = helical(a_c=0.004, a_pl=0.003)
     tca = TCA(pair)

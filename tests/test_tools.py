@@ -19,7 +19,7 @@ from scipy.optimize import brentq
 
 from gearopt.errors import GeometryError, SceneError
 from gearopt.gears import BasicRack, Gear, GearPair
-from gearopt.geometry.generation import PARAMS, generate, generate_by_hob, generate_by_rack, generate_by_shaper
+from gearopt.geometry.generation import PARAMS, generate, generate_by_hob, generate_by_shaper
 from gearopt.geometry.tools import Hob, RackCutter, Shaper
 from gearopt.io.scene import load_scene
 from gearopt.meshing.tca import TCA, Misalignment
@@ -106,7 +106,6 @@ def test_helical_shaper_flank_is_the_involute_helicoid(case):
     T = generate(g)
     assert T.method == "shaper"
     H = Helicoid(z, m_n, x, beta_deg * DEG, hand)
-    q, zz_, p = ca.SX.sym("q"), ca.SX.sym("z"), ca.SX.sym("p", len(PARAMS))
     r_tip = m_n / math.cos(beta_deg * DEG) * z / 2 + m_n * (1 + x)
     _, a_root = cutting(*[case[i] for i in (0, 1, 2)], beta_deg * DEG, *case[5:])
     n_pts = 0
@@ -297,6 +296,7 @@ def write(tmp_path, study="geometry", hand="right", pinion='tool = {kind = "shap
     return f
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("hand", ["right", "left"])
 def test_scene_shaper_tool_round_trip_geometry(tmp_path, hand):
     sc = load_scene(write(tmp_path, hand=hand, gear='tool = {kind = "hob", z = 2, d_p0 = "75 mm", hand = "left"}'))

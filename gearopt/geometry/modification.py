@@ -36,7 +36,7 @@ from typing import Any, Callable, TYPE_CHECKING
 import casadi as ca
 import numpy as np
 
-from ..errors import ArgumentError, GeometryError, shorten
+from ..errors import ArgumentError, shorten
 
 if TYPE_CHECKING:
     from ..types import ArrayLike, Expr

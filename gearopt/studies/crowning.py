@@ -36,7 +36,6 @@ from ..meshing.tca import TCA, Misalignment
 from ..progress import heartbeat
 from ..settings import CrowningStudySettings
 from ..synthesis.crowning import SENSITIVITY_UNITS, CrowningOptimizer, CrowningTarget  # noqa: F401 - re-exported
-from ..units import ARCMIN
 
 UNITS = {"length": "mm", "angle": "rad", "te": "arcsec (suffix _arcsec)", "settings": "1/mm",
          "sensitivities": "d(TE level)/d(variable), in the unit given per variable in design.sensitivity_units "

@@ -33,7 +33,6 @@ from ..contact.edge import EdgeContact, EdgeTCAResult
 from ..errors import ArgumentError, ConvergenceError, OptionError, SynthesisError, check_number, out_of_range  # noqa: F401
 #  (SynthesisError lives in errors.py; re-exported here)
 from ..gears import GearPair
-from ..geometry.generation import PARAMS
 from ..geometry.tools import require_rack_settings
 from ..meshing.tca import TCA, Misalignment
 from ..settings import CrowningStudySettings, CrowningTarget  # noqa: F401 (CrowningTarget re-exported)

@@ -1,7 +1,8 @@
-"""Bad input, second pass (issue 11 acceptance audit): classes the first pass missed, found by a
-corpus of ~370 malformed scenes and API calls (notes/a11.md). Values differ from the issue's and
-from tests/test_bad_input.py. Limits stated in messages are checked against independent formulas
-(scipy root finding on the textbook tooth-thickness equation), not against gearopt's own code.
+"""Bad input at the limits of the gear data: pointed and short tips, tip diameters, thickness
+allowances, face widths and crowning margins beyond the tooth, unit slips of angles, and the API
+entry points' argument checks. Values differ from tests/test_bad_input.py's. Limits stated in
+messages are checked against independent formulas (scipy root finding on the textbook
+tooth-thickness equation), not against gearopt's own code.
 """
 
 from __future__ import annotations
@@ -330,5 +331,5 @@ def test_crowning_optimizer_with_no_cases_is_refused():
     from gearopt.synthesis.crowning import CrowningOptimizer, CrowningTarget
 
     pair = GearPair(pinion=Gear(z=24, m_n=2.5, b=15.0, name="pinion"), gear=Gear(z=37, m_n=2.5, b=15.0, name="gear"))
-    with pytest.raises(OptionError, match="cases"):  # an option of the optimizer, not gear data (issue 12 item 6)
+    with pytest.raises(OptionError, match="cases"):  # an option of the optimizer, not gear data
         CrowningOptimizer(pair, CrowningTarget(te_level=4e-5), cases={})

@@ -1,6 +1,7 @@
-"""One unit rule: a bare number is mm for every length; a micro-geometry amount (um) is refused
-without its unit, with the hint ``"12 um"``; ``gearopt studies`` shows TE levels in arcsec, a
-compact listing without a name and the keys of one study with it; ``--out`` shows DIR."""
+"""Units in scenes (gearopt.io.scene, gearopt.units) and in the CLI's listings. One unit rule: a
+bare number is mm for every length; a micro-geometry amount (um) is refused without its unit, with
+the hint ``"12 um"``; ``gearopt studies`` shows TE levels in arcsec, a compact listing without a name
+and the keys of one study with it; ``--out`` shows DIR."""
 
 from __future__ import annotations
 

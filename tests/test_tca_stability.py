@@ -98,6 +98,7 @@ def _phis(pair, n=21):
     return np.linspace(-math.pi / pair.pinion.z, math.pi / pair.pinion.z, n)
 
 
+@pytest.mark.slow
 @SETTINGS
 @given(gear_data(crowned=False))
 def test_conjugate_pair_has_zero_te(pair):
@@ -117,6 +118,7 @@ def _full_unknowns(tca, res, pairs):
     return phis, phi2
 
 
+@pytest.mark.slow
 @SETTINGS
 @given(gear_data(crowned=True), st.sampled_from(["none", "crossing", "intersecting", "dE"]),
        st.floats(1e-9, 2e-3))
@@ -152,6 +154,7 @@ def test_solutions_satisfy_the_equations_and_no_nan_leaks(pair, kind, size):
     assert np.all(res.radius1.ravel()[on] <= pair.pinion.r_a + 1e-9)
 
 
+@pytest.mark.slow
 @settings(max_examples=10, deadline=None, derandomize=True)
 @given(gear_data(crowned=True))
 def test_accepted_phi2_matches_high_precision_resolve(pair):
@@ -171,7 +174,7 @@ FOLD_SLOW = {"18/45 m3 a_c=0.012 a_pl=0.001", "20/40 m2 a_c=0.004 (below the fol
 @pytest.mark.parametrize("case", [pytest.param(c, marks=pytest.mark.slow) if c.name in FOLD_SLOW else c for c in FOLD_FAST],
                          ids=[c.name for c in FOLD_FAST])
 def test_large_profile_crowning_case(case):
-    """Folded flanks (issue 10): form radius where the cut tooth's flank ends, actual TE equal to the
+    """Folded flanks: form radius where the cut tooth's flank ends, actual TE equal to the
     rigid-contact oracle, the same TE from single-position sweeps."""
     r = S.run_fold_case(case)
     assert r["verified"], r["notes"]
