@@ -27,7 +27,7 @@ __all__ = [
     "generate_by_hob", "generate_by_shaper",
     "Microgeometry", "TCA", "Misalignment", "misalignment_cases", "TCAResult", "PlanarTCA", "solve_planar_tca", "EdgeContact", "EdgeTCAResult",
     "load_scene", "TCAStudy", "CrowningStudy", "LoadedMicroStudy", "inv", "inv_inverse",
-    "DEG", "ARCMIN", "ARCSEC", "deg", "to_deg",
+    "DEG", "ARCMIN", "ARCSEC", "deg", "to_deg", "__version__",
 ]
 
 

@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 
 from gearopt.errors import ArgumentError, OptionError, SceneError
-from gearopt.schema import Bounds, Field
+from gearopt.schema import Field
 from gearopt.settings import (CrowningStudySettings, CrowningTarget, FEOptions, GeometryStudySettings,
                               LoadedMicroSettings, LTCASettings, LTCAStudySettings, MeshOptions, MonteCarloSettings,
                               PlanarTCASettings, Settings, SweepSettings, TCAStudySettings, option)

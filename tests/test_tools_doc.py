@@ -90,7 +90,7 @@ def test_a_shaper_has_no_rack_settings():
     with pytest.raises(GeometryError, match=refused):
         require_rack_settings(g, "the crowning synthesis")
     with pytest.raises(GeometryError, match="a_c_max_unfolded"):
-        g.a_c_max_unfolded
+        _ = g.a_c_max_unfolded
 
 
 @pytest.mark.parametrize("path", ["gearopt/gears.py", "gearopt/geometry/generation.py", "gearopt/geometry/envelope.py",

@@ -38,7 +38,7 @@ import numpy as np
 import numpy.typing as npt
 
 from ..compiled import mapped
-from ..errors import ArgumentError, ConvergenceError, LineContactError
+from ..errors import ArgumentError, ConvergenceError
 from ..meshing.curvature import Sym, eigh2_sym, shape_matrix, unit_perp
 from ..meshing.misalignment import Misalignment
 from ..meshing.solver import REGULARITY_MIN, Branch

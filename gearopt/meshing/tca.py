@@ -41,13 +41,13 @@ import numpy as np
 import numpy.typing as npt
 
 from ..compiled import call, mapped, matrix_columns
-from ..errors import (ArgumentError, ConvergenceError, GeometryError, LineContactError, OptionError, check_number,
+from ..errors import (ArgumentError, ConvergenceError, LineContactError, OptionError, check_number,
                       out_of_range, shorten)
 from ..gears import GearPair
 from ..geometry.frames import rot_z
 from ..geometry.generation import PARAMS, FlankLimit, GeneratedTooth, generate, generate_by_rack  # noqa: F401
 from ..geometry.microgeometry import modified_tooth
-from ..units import ARCMIN, RAD_TO_ARCSEC
+from ..units import RAD_TO_ARCSEC
 from .curvature import eigh2_sym, shape_matrix, unit_perp  # noqa: F401 (eigh2_sym re-exported)
 from .layout import ParamLayout
 from .misalignment import MISALIGNMENTS, Misalignment  # noqa: F401 (re-exported)

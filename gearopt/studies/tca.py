@@ -37,7 +37,7 @@ from ..meshing.tca import TCA, Misalignment, TCAResult
 from ..report import CONJUGATE_ARCSEC, csv_cell, te_harmonics  # noqa: F401 - re-exported (their home: gearopt.report)
 from ..geometry.microgeometry import GLOBAL_AMOUNTS
 from ..settings import TCAStudySettings
-from ..units import ARCMIN, DEG
+from ..units import DEG
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..io.scene import Scene
