@@ -172,7 +172,7 @@ def _error_fields(request):
 
 
 # ------------------------------------------------------------------------------------------------
-# Scenes of problems/, each run once per test process (session scope) through the CLI
+# Scenes of problems/, each run once per test session (whichever process asks first) through the CLI
 # ------------------------------------------------------------------------------------------------
 PROBLEMS = Path(__file__).resolve().parents[1] / "problems"
 
@@ -210,17 +210,50 @@ def _run_scene(name: str, directory: Path) -> SceneRun:
     return SceneRun(name, out, status, found)
 
 
+def _shared_dir(tmp_path_factory) -> Path:
+    """A directory every test process of this session sees: under pytest-xdist the parent of the
+    worker's base temporary directory (one per session, shared by the workers), else the base."""
+    import os
+
+    base = tmp_path_factory.getbasetemp()
+    return base.parent if os.environ.get("PYTEST_XDIST_WORKER") else base
+
+
 @pytest.fixture(scope="session")
 def scene_run(tmp_path_factory):
-    """``scene_run(name) -> SceneRun``: problems/<name>.toml run through the CLI once per test process
-    (the scene tests and the physics checks of its results share the run; an error is raised again
-    for every test that asks)."""
+    """``scene_run(name) -> SceneRun``: problems/<name>.toml run through the CLI once per test session,
+    whichever test process asks first (a lock file per scene in the session's shared directory; the
+    others read the run back: its exit status, results and plot findings); the scene tests and the
+    physics checks of its results share the run; an error is raised again for every test that asks."""
+    import fcntl
+
     runs: dict[str, SceneRun | BaseException] = {}
+    shared = _shared_dir(tmp_path_factory) / "scene_runs"
+    shared.mkdir(exist_ok=True)
+
+    def run_or_read(name: str) -> SceneRun:
+        directory = shared / name
+        record = shared / f"{name}.json"
+        with open(shared / f"{name}.lock", "w") as lock:
+            fcntl.flock(lock, fcntl.LOCK_EX)  # released when the file closes
+            if not record.exists():
+                directory.mkdir(exist_ok=True)
+                try:
+                    run = _run_scene(name, directory)
+                except Exception as e:  # noqa: BLE001 - recorded, raised again for every test that asks
+                    record.write_text(json.dumps({"error": f"{type(e).__name__}: {e}"}))
+                    raise
+                record.write_text(json.dumps({"status": run.status, "plot_problems": run.plot_problems}))
+                return run
+        done = json.loads(record.read_text())
+        if "error" in done:
+            raise RuntimeError(f"problems/{name}.toml failed in another test process: {done['error']}")
+        return SceneRun(name, directory / "out", done["status"], done["plot_problems"])
 
     def get(name: str) -> SceneRun:
         if name not in runs:
             try:
-                runs[name] = _run_scene(name, tmp_path_factory.mktemp(name))
+                runs[name] = run_or_read(name)
             except Exception as e:  # noqa: BLE001 - re-raised below for every test that uses the run
                 runs[name] = e
         run = runs[name]

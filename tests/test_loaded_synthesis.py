@@ -330,11 +330,15 @@ def _assert_sensitivities_match_finite_differences(opt, S):
     # compliance part has its deflection unknowns, a noise of 2e-8 / 1e-5 over the step)
     import casadi as ca
 
+    # each re-solve starts from the optimum and its multipliers (IPOPT's warm start, the optimiser's own
+    # options): the perturbed optimum lies within the step of it
+    from gearopt.synthesis.loaded.constants import WARM_OPTS
+
     solver = ca.nlpsol("fd_check", "ipopt", nlp.problem,
-                       {**nlp.opts, "ipopt.bound_relax_factor": 0.0, "ipopt.tol": 1e-12})
+                       {**nlp.opts, **WARM_OPTS, "ipopt.bound_relax_factor": 0.0, "ipopt.tol": 1e-12})
 
     def solve(p):
-        r = solver(x0=S["z"], lbx=lbx, ubx=ubx, lbg=nlp.lbg, ubg=nlp.ubg, p=p)
+        r = solver(x0=S["z"], lam_x0=S["lam_x"], lam_g0=S["lam_g"], lbx=lbx, ubx=ubx, lbg=nlp.lbg, ubg=nlp.ubg, p=p)
         assert solver.stats()["success"]
         return np.asarray(r["x"]).ravel()[:P] * 1e-3, float(r["f"])
 

@@ -163,4 +163,4 @@ class Sensitivities:
                 "model_step": step, "at_design": step <= 10 * constants.THETA_TOL, "objective": float(r["f"]),
                 "active": int(act_g.sum() + act_x.sum()), "degenerate": degenerate,
                 "min_multiplier": min_mult,
-                "nlp": nlp, "z": z, "p": p, "bounds": (lbx, ubx), "z0": cur.z0}
+                "nlp": nlp, "z": z, "lam_g": lam_g, "lam_x": lam_x, "p": p, "bounds": (lbx, ubx), "z0": cur.z0}
