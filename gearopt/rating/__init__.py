@@ -1,0 +1,12 @@
+"""Load capacity of cylindrical gears: ISO 6336-1/-2/-3:2019 method B (docs/rating.md).
+
+:func:`rate` rates an external pair from its gear data (:class:`PairData`), operating point
+(:class:`Operation`), materials (:func:`material`, ISO 6336-5 data) and deviations
+(:class:`Accuracy`); :func:`pair_data` builds the gear data from a gearopt pair.
+"""
+
+from gearopt.rating.iso6336 import Accuracy, Geometry, Operation, PairData, Rating, geometry, rate
+from gearopt.rating.materials import GRADES, MATERIALS, Material, MaterialGroup, material
+
+__all__ = ["Accuracy", "GRADES", "Geometry", "MATERIALS", "Material", "MaterialGroup", "Operation", "PairData",
+           "Rating", "geometry", "material", "rate"]
