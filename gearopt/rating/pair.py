@@ -57,12 +57,37 @@ def reference_pair(pair: GearPair) -> GearPair:
     return GP(plain(pair.pinion), plain(pair.gear), a=pair.a)
 
 
+def face_load_factor(load: np.ndarray, width_tooth: np.ndarray) -> tuple[float, np.ndarray]:
+    """K_Hbeta of a loaded mesh cycle: peak over mean of the load per unit face width across the face.
+
+    Parameters
+    ----------
+    load : (K, N, M) array
+        Normal load of each slice node [N] (pairs K, positions N, face sections M), NaN/0 where unused.
+    width_tooth : (K, N, M) array
+        Each node's tributary width of the face [mm].
+
+    Returns
+    -------
+    (float, ndarray)
+        K_Hbeta and the cycle-mean load per unit face width at the M sections [N/mm]: at each
+        position the loads of all pairs in contact at a section over its width, averaged over the
+        cycle (the distribution across the face that ISO 6336-1's K_Hbeta describes).
+    """
+    f = np.where(np.isfinite(load), load, 0.0)
+    wt = np.nanmax(np.where(np.isfinite(width_tooth), width_tooth, 0.0), axis=(0, 1))   # (M,) section widths
+    w = np.sum(f, axis=0) / np.maximum(wt, 1e-12)[None, :]                                # (N, M) per position
+    w_mean = np.mean(w, axis=0)
+    mean = float(np.sum(w_mean * wt) / np.sum(wt))
+    return float(np.max(w_mean) / mean), w_mean
+
+
 def pair_line_loads(ltca: Any, torques: Sequence[float], misalignment: Misalignment | None,
-                    positions: int) -> tuple[list, list]:
-    """Run the loaded TCA at ``torques`` [N m]: per torque the face load factor (the engine's
-    ``K_Hbeta``: peak over mean line load across the face of the most loaded contact) and the largest
-    mean line load of a tooth pair over the mesh cycle [N/mm] (its normal load over its contact
-    line's length within the face)."""
+                    positions: int) -> dict:
+    """Run the loaded TCA at ``torques`` [N m]; per torque: ``K_Hbeta`` (:func:`face_load_factor`), the
+    face distribution ``w_face`` [N/mm] at the sections ``z_face`` [mm], ``K_Hbeta_line`` (the engine's
+    peak over mean along the most loaded contact line) and ``w_pair_max``, the largest mean line
+    load of a tooth pair over the cycle [N/mm] (its normal load over its contact line's length)."""
     from gearopt.ltca.engine import LoadedSweep
 
     S = ltca.slices(ltca.mesh_cycle(positions), mis=misalignment)
@@ -71,16 +96,20 @@ def pair_line_loads(ltca: Any, torques: Sequence[float], misalignment: Misalignm
                         te_zero_rad=S.phi2_ref, ltca=ltca)
     d = sweep.to_dict(ltca.pair.pinion.z)
     length = np.nansum(np.where(np.isfinite(S.z), S.width, 0.0), axis=2)
-    w_max = [float(np.max(r.pair_load / np.maximum(length, 1e-12))) for r in results]
-    return [t["K_Hbeta"] for t in d["torques"]], w_max
+    face = [face_load_factor(np.where(np.isfinite(S.z), r.load, 0.0), S.width_tooth) for r in results]
+    z = np.nanmax(np.where(np.isfinite(S.z), S.z, np.nan), axis=(0, 1))
+    return {"K_Hbeta": [k for k, _ in face], "w_face": [w.tolist() for _, w in face], "z_face": z.tolist(),
+            "K_Hbeta_line": [t["K_Hbeta"] for t in d["torques"]],
+            "w_pair_max": [float(np.max(r.pair_load / np.maximum(length, 1e-12))) for r in results]}
 
 
 def ltca_load_factors(pair: GearPair, torques: Sequence[float], misalignment: Misalignment | None,
                       settings: LTCAStudySettings, progress: Any = None) -> dict:
     """K_Hbeta and K_Halpha from gearopt's loaded TCA at ``torques`` [N m].
 
-    K_Hbeta: peak over mean line load across the face (ISO 6336-1:2019 3.1 definition) of the contact
-    with the largest line load of the cycle, with the pair's micro-geometry and ``misalignment``.
+    K_Hbeta: peak over mean load per unit face width across the face (ISO 6336-1:2019 definition of
+    the face load factor), the loads of all pairs in contact averaged over the mesh cycle, with the
+    pair's micro-geometry and ``misalignment`` (:func:`face_load_factor`).
     K_Halpha: the largest mean line load of a tooth pair over the cycle divided by the same of the
     unmodified, aligned pair at the same torque (ISO's K_Halpha covers the departure from the ideal
     sharing that Z_epsilon, Z_B assume), not below 1 (ISO 6336-1:2019 8.3.4).
@@ -88,7 +117,8 @@ def ltca_load_factors(pair: GearPair, torques: Sequence[float], misalignment: Mi
     Returns
     -------
     dict
-        ``K_Hbeta``, ``K_Halpha`` (lists per torque), ``K_Halpha_raw``, ``w_pair_max_N_per_mm``,
+        ``K_Hbeta``, ``K_Halpha`` (lists per torque), ``K_Halpha_raw``, ``K_Hbeta_line``,
+        ``w_face_N_per_mm`` (per torque, at ``z_face_mm``), ``w_pair_max_N_per_mm``,
         ``w_pair_max_reference_N_per_mm``.
     """
     from gearopt.ltca.engine import LTCA
@@ -96,9 +126,10 @@ def ltca_load_factors(pair: GearPair, torques: Sequence[float], misalignment: Mi
 
     say = progress or (lambda _m: None)
     say(f"rating: loaded TCA of the pair at {len(torques)} torques")
-    khb, w = pair_line_loads(LTCA(pair, settings), torques, misalignment, settings.positions)
+    act = pair_line_loads(LTCA(pair, settings), torques, misalignment, settings.positions)
     say("rating: loaded TCA of the unmodified, aligned pair (reference load sharing)")
-    _, w_ref = pair_line_loads(LTCA(reference_pair(pair), settings), torques, Mis(), settings.positions)
-    raw = [a / b for a, b in zip(w, w_ref)]
-    return {"K_Hbeta": khb, "K_Halpha": [max(1.0, r) for r in raw], "K_Halpha_raw": raw,
-            "w_pair_max_N_per_mm": w, "w_pair_max_reference_N_per_mm": w_ref}
+    ref = pair_line_loads(LTCA(reference_pair(pair), settings), torques, Mis(), settings.positions)
+    raw = [a / b for a, b in zip(act["w_pair_max"], ref["w_pair_max"])]
+    return {"K_Hbeta": act["K_Hbeta"], "K_Halpha": [max(1.0, r) for r in raw], "K_Halpha_raw": raw,
+            "K_Hbeta_line": act["K_Hbeta_line"], "w_face_N_per_mm": act["w_face"], "z_face_mm": act["z_face"],
+            "w_pair_max_N_per_mm": act["w_pair_max"], "w_pair_max_reference_N_per_mm": ref["w_pair_max"]}

@@ -192,6 +192,8 @@ class RatingStudy:
                 row[k] = {"iso": _jsonable(ri[k]), "ltca": _jsonable(rl[k])}
             i = by_t[t]
             row["K_Halpha_ltca_raw"] = lf["K_Halpha_raw"][i]
+            row["K_Hbeta_ltca_line"] = lf["K_Hbeta_line"][i]
+            row["w_face_N_per_mm"] = lf["w_face_N_per_mm"][i]
             row["w_pair_max_N_per_mm"] = lf["w_pair_max_N_per_mm"][i]
             row["w_pair_max_reference_N_per_mm"] = lf["w_pair_max_reference_N_per_mm"][i]
             rows.append(row)
@@ -208,7 +210,7 @@ class RatingStudy:
             "materials": [{"member": mem, "group": m.group.key, "grade": m.grade, "sigma_Hlim": m.sigma_Hlim,
                            "sigma_Flim": m.sigma_Flim, "source": m.group.note} for mem, m in (("pinion", m1), ("gear", m2))],
             "misalignment": mis, "misalignment_text": misalignment_text({"misalignment": mis}),
-            "torques": rows,
+            "z_face_mm": lf["z_face_mm"], "torques": rows,
             "nominal": {"torque_Nm": self.torque,
                         "used": {k: _jsonable(v) for k, v in chosen.values.items()},
                         "iso": {k: _jsonable(v) for k, v in nom_i.values.items()},
