@@ -1,0 +1,130 @@
+"""The rating study (gearopt.studies.rating): scenes, refusals, the loaded TCA's load factors, outputs.
+
+The fast tier checks the refusals (a scene with a bad key exits 2 naming it and writes nothing) and
+the face load factor of a load map built here by hand; the slow tier runs problems/rating_*.toml and
+checks the outputs against docs/results.md and the ISO relations between the two sets of factors.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import re
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from gearopt.cli import main
+from gearopt.rating.pair import face_load_factor
+
+PROBLEMS = Path(__file__).resolve().parent.parent / "problems"
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from results_doc import undocumented  # noqa: E402
+
+
+def variant(tmp_path: Path, name: str, old: str, new: str) -> Path:
+    text = (PROBLEMS / name).read_text()
+    assert old in text, old
+    path = tmp_path / name
+    path.write_text(text.replace(old, new, 1))
+    return path
+
+
+@pytest.mark.parametrize(("old", "new", "key"), [
+    ('pinion_material = "Eh"', 'pinion_material = "Steel42"', "pinion_material"),
+    ('gear_material = "Eh"', 'gear_material = "Eh"\ngear_grade = "MX"', "gear_grade"),
+    ("speed = 1500.0", "speed = 0.0", "speed"),
+    ("life = 20000.0", "life = 0.0", "life"),
+    ("z = 40", "z = -40", "z"),
+])
+def test_scene_refusals_write_nothing(tmp_path, capsys, old, new, key):
+    """Unknown material or grade, speed 0 (K_v method B), life 0, an internal gear: exit 2, the key named,
+    no output directory."""
+    scene = variant(tmp_path, "rating_spur.toml", old, new)
+    out = tmp_path / "out"
+    capsys.readouterr()
+    rc = main(["run", str(scene), "--out", str(out)])
+    err = capsys.readouterr().err
+    assert rc == 2, err
+    assert "\nerror: " in "\n" + err and "Traceback" not in err, err
+    assert re.search(rf"\b{key}\b", err), err
+    assert not out.exists()
+
+
+def test_high_contact_ratio_is_refused_before_the_ltca(tmp_path, capsys):
+    """An 80/160 pair cut by a 14.5 deg deep-tooth rack (eps_alpha = 3.2, outside ISO 6336's range):
+    refused when the study is built, naming eps_alpha; nothing written."""
+    text = (PROBLEMS / "rating_spur.toml").read_text()
+    text = text.replace('[rack]\npreset = "A"', '[rack]\nalpha_n = "14.5 deg"\nh_aP = 1.4\nh_fP = 1.65\nrho_fP = 0.2')
+    text = text.replace("[pinion]\nz = 20", "[pinion]\nz = 80").replace("[gear]\nz = 40", "[gear]\nz = 160")
+    text = text.replace('C_alpha_a = "10 um"\nd_Ca = "64 mm"', "")
+    scene = tmp_path / "rating_hcr.toml"
+    scene.write_text(text)
+    out = tmp_path / "out"
+    rc = main(["run", str(scene), "--out", str(out)])
+    err = capsys.readouterr().err
+    assert rc == 2 and "eps_alpha" in err and "2.5" in err, err
+    assert not out.exists()
+
+
+def test_face_load_factor_by_hand():
+    """One pair, one position, a load rising linearly across 5 equal sections 1:2:3:4:5 (mean 3):
+    K_Hbeta = 5/3. Two pairs in contact at a section add; an unused node (NaN) counts nothing."""
+    w = np.full((1, 1, 5), 2.0)
+    load = np.array([[[1.0, 2.0, 3.0, 4.0, 5.0]]]) * 2.0
+    k, dist = face_load_factor(load, w)
+    assert k == pytest.approx(5 / 3)
+    assert dist == pytest.approx([1, 2, 3, 4, 5])
+    two = np.concatenate([load, np.array([[[np.nan, np.nan, 0.0, 0.0, 0.0]]])], axis=0)
+    assert face_load_factor(two, np.concatenate([w, w]))[0] == pytest.approx(5 / 3)
+    flat = np.full((2, 3, 4), 10.0)
+    assert face_load_factor(flat, np.full((2, 3, 4), 1.0))[0] == pytest.approx(1.0)
+
+
+@pytest.fixture(scope="module")
+def spur_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("rating") / "rating_spur"
+    assert main(["run", str(PROBLEMS / "rating_spur.toml"), "--out", str(out)]) == 0
+    return out, json.loads((out / "results.json").read_text())
+
+
+@pytest.mark.slow
+def test_rating_spur_outputs(spur_run):
+    """Every results.json key documented; the tables and the plot written; the nominal torque rated."""
+    out, d = spur_run
+    assert undocumented(d, "rating") == []
+    assert {p.name for p in out.iterdir()} >= {"results.json", "rating_factors.csv", "rating_vs_torque.csv",
+                                               "rating_safety.png"}
+    rows = list(csv.reader((out / "rating_factors.csv").open()))
+    symbols = {r[0] for r in rows[1:]}
+    assert {"K_v", "K_Hbeta", "K_Halpha", "Z_H", "Z_E", "Z_eps", "Z_B", "Z_NT", "Z_L", "Z_v", "Z_R", "Z_X", "Y_F",
+            "Y_S", "Y_beta", "Y_B", "Y_DT", "Y_NT", "Y_deltarelT", "Y_RrelT", "Y_X", "S_H", "S_F"} <= symbols
+    assert d["load_factors_used"] == "ltca" and d["nominal"]["sources"]["K_Hbeta"] == "given"
+    assert len(d["torques"]) == 6
+
+
+@pytest.mark.slow
+def test_rating_spur_two_sets_obey_iso(spur_run):
+    """sigma_H scales with sqrt(K_Hbeta K_Halpha) and sigma_F with K_Fbeta K_Falpha between the two sets
+    (ISO 6336-2 eq. for sigma_H, 6336-3 for sigma_F); K_Fbeta = K_Hbeta^N_F with the same N_F."""
+    _, d = spur_run
+    for r in d["torques"]:
+        ratio_H = math.sqrt(r["K_Hbeta"]["ltca"] * r["K_Halpha"]["ltca"] / (r["K_Hbeta"]["iso"] * r["K_Halpha"]["iso"]))
+        for i in range(2):
+            assert r["sigma_H"]["ltca"][i] == pytest.approx(r["sigma_H"]["iso"][i] * ratio_H, rel=1e-10)
+            assert r["S_H"]["ltca"][i] == pytest.approx(r["S_H"]["iso"][i] / ratio_H, rel=1e-10)
+        nf_l = math.log(r["K_Fbeta"]["ltca"]) / math.log(r["K_Hbeta"]["ltca"])
+        nf_i = math.log(r["K_Fbeta"]["iso"]) / math.log(r["K_Hbeta"]["iso"])
+        assert nf_l == pytest.approx(nf_i, rel=1e-10)
+        # the face distribution's peak over its mean is the K_Hbeta reported
+        w = np.array(r["w_face_N_per_mm"])
+        z = np.array(d["z_face_mm"])
+        wt = np.gradient(z)
+        wt[[0, -1]] = wt[[0, -1]] / 2
+        assert r["K_Hbeta"]["ltca"] == pytest.approx(w.max() / (np.sum(w * wt) / np.sum(wt)), rel=1e-9)
+    # crowning and a crossing: the loaded TCA's K_Hbeta falls with torque (the contact spreads)
+    k = [r["K_Hbeta"]["ltca"] for r in d["torques"]]
+    assert all(b < a for a, b in zip(k, k[1:]))
