@@ -120,6 +120,18 @@ def test_face_load_factor_branches():
     assert iso.face_load_factor_F(1.3, 100.0, 18.0) == pytest.approx(1.3 ** (bh ** 2 / (1 + bh + bh ** 2)))
 
 
+def test_running_in_allowances():
+    """y_alpha: 0.075 f_pb up to 3 um for surface-hardened steel, 160/sigma_Hlim f_pb for through-hardened
+    (ISO 6336-1:2019 8.3.4); y_beta: 0.15 F_betax up to 6 um, 320/sigma_Hlim F_betax (7.6.2)."""
+    eh, v = material("Eh", "MQ"), material("V", "MQ")
+    assert iso.running_in_alpha(20.0, eh, 1.0) == pytest.approx(1.5)
+    assert iso.running_in_alpha(60.0, eh, 1.0) == 3.0
+    assert iso.running_in_alpha(20.0, v, 1.0) == pytest.approx(160 / 700 * 20)
+    assert iso.running_in_beta(20.0, eh, 1.0) == pytest.approx(3.0)
+    assert iso.running_in_beta(60.0, eh, 1.0) == 6.0
+    assert iso.running_in_beta(20.0, v, 1.0) == pytest.approx(320 / 700 * 20)
+
+
 def test_life_factor_corners():
     """Z_NT, Y_NT at their S-N corner points (ISO 6336-2 Table 2, 6336-3 Table 3, Eh)."""
     m = material("Eh", "MQ")

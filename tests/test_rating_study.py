@@ -80,6 +80,9 @@ def test_face_load_factor_by_hand():
     assert dist == pytest.approx([1, 2, 3, 4, 5])
     two = np.concatenate([load, np.array([[[np.nan, np.nan, 0.0, 0.0, 0.0]]])], axis=0)
     assert face_load_factor(two, np.concatenate([w, w]))[0] == pytest.approx(5 / 3)
+    # two positions, uniform then linear: the cycle mean is 1, 1.5, 2, 2.5, 3 (peak over mean 3/2)
+    cyc = np.array([[[1.0, 1.0, 1.0, 1.0, 1.0], [1.0, 2.0, 3.0, 4.0, 5.0]]]) * 2.0
+    assert face_load_factor(cyc, np.full((1, 2, 5), 2.0))[0] == pytest.approx(1.5)
     flat = np.full((2, 3, 4), 10.0)
     assert face_load_factor(flat, np.full((2, 3, 4), 1.0))[0] == pytest.approx(1.0)
 
