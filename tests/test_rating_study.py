@@ -131,3 +131,13 @@ def test_rating_spur_two_sets_obey_iso(spur_run):
     # crowning and a crossing: the loaded TCA's K_Hbeta falls with torque (the contact spreads)
     k = [r["K_Hbeta"]["ltca"] for r in d["torques"]]
     assert all(b < a for a, b in zip(k, k[1:]))
+
+
+from scenes import SCENES, check_scene_run, scene_param, study  # noqa: E402
+
+
+@pytest.mark.parametrize("scene", [scene_param(p) for p in SCENES if study(p) == "rating"])
+def test_rating_scenes_run_and_write(scene, scene_run):
+    """Every rating scene runs through the CLI and writes documented results and clean plots
+    (tests/scenes.check_scene_run: every key in docs/results.md, the plot linter)."""
+    check_scene_run(scene, scene_run)
