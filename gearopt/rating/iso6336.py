@@ -468,13 +468,17 @@ def log_interp(N: float, points: tuple) -> float:
     return points[-1][1]
 
 
+def life_points_H(material: Material, y_lim: float = 0.85) -> tuple:
+    """Corner points (N, Z_NT) of the pitting S-N line (ISO 6336-2:2019, clause 10, Table 2; no pitting
+    permitted): static, reference (Z_NT = 1) and 1e10 cycles (``y_lim``)."""
+    if material.group.key == "NT":
+        return ((1e5, 1.3), (2e6, 1.0), (1e10, y_lim))
+    return ((1e5, 1.6), (5e7, 1.0), (1e10, y_lim))
+
+
 def life_factor_H(N_L: float, material: Material, y_lim: float = 0.85) -> float:
     """Z_NT (ISO 6336-2:2019, clause 10, Table 2; no pitting permitted)."""
-    if material.group.key == "NT":
-        pts = ((1e5, 1.3), (2e6, 1.0), (1e10, y_lim))
-    else:
-        pts = ((1e5, 1.6), (5e7, 1.0), (1e10, y_lim))
-    return log_interp(N_L, pts)
+    return log_interp(N_L, life_points_H(material, y_lim))
 
 
 def lubricant_factors(sigma_Hlim: float, nu40: float, v: float, R_z10: float) -> dict:
@@ -584,16 +588,19 @@ def deep_tooth_factor(eps_alpha: float, beta_b: float, grade: int) -> float:
     return 0.7 if e > 2.5 else -0.666 * e + 2.366
 
 
-def life_factor_F(N_L: float, material: Material, y_lim: float = 0.85) -> float:
-    """Y_NT (ISO 6336-3:2019, clause 12, Table 3)."""
+def life_points_F(material: Material, y_lim: float = 0.85) -> tuple:
+    """Corner points (N, Y_NT) of the bending S-N line (ISO 6336-3:2019, clause 12, Table 3)."""
     k = material.group.key
     if k == "V":
-        pts = ((1e4, 2.5), (3e6, 1.0), (1e10, y_lim))
-    elif k == "NT":
-        pts = ((1e3, 1.6), (3e6, 1.0), (1e10, y_lim))
-    else:
-        pts = ((1e3, 2.5), (3e6, 1.0), (1e10, y_lim))
-    return log_interp(N_L, pts)
+        return ((1e4, 2.5), (3e6, 1.0), (1e10, y_lim))
+    if k == "NT":
+        return ((1e3, 1.6), (3e6, 1.0), (1e10, y_lim))
+    return ((1e3, 2.5), (3e6, 1.0), (1e10, y_lim))
+
+
+def life_factor_F(N_L: float, material: Material, y_lim: float = 0.85) -> float:
+    """Y_NT (ISO 6336-3:2019, clause 12, Table 3)."""
+    return log_interp(N_L, life_points_F(material, y_lim))
 
 
 def notch_sensitivity(q_s: float, material: Material) -> float:
