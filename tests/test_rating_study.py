@@ -54,6 +54,23 @@ def test_scene_refusals_write_nothing(tmp_path, capsys, old, new, key):
     assert not out.exists()
 
 
+@pytest.mark.parametrize(("old", "new", "key"), [
+    ("spectrum_share = [0.10, 0.30, 0.30, 0.20, 0.08, 0.02]", "spectrum_share = [0.10, 0.30, 0.30, 0.20, 0.08, 0.12]",
+     "spectrum_share"),
+    ("spectrum_share = [0.10, 0.30, 0.30, 0.20, 0.08, 0.02]", "spectrum_share = [0.5, 0.5]", "spectrum_share"),
+    ("spectrum_speed = [3000.0, 3000.0, 3000.0, 3000.0, 2500.0, 2000.0]", "", "spectrum_speed"),
+])
+def test_spectrum_refusals_write_nothing(tmp_path, capsys, old, new, key):
+    """Spectrum shares that do not add up to 1, lists of different lengths, a missing list: exit 2 naming
+    the key, nothing written."""
+    scene = variant(tmp_path, "rating_spectrum.toml", old, new)
+    out = tmp_path / "out"
+    rc = main(["run", str(scene), "--out", str(out)])
+    err = capsys.readouterr().err
+    assert rc == 2 and re.search(rf"\b{key}\b", err), err
+    assert not out.exists()
+
+
 def test_high_contact_ratio_is_refused_before_the_ltca(tmp_path, capsys):
     """An 80/160 pair cut by a 14.5 deg deep-tooth rack (eps_alpha = 3.2, outside ISO 6336's range):
     refused when the study is built, naming eps_alpha; nothing written."""

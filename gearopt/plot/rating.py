@@ -74,3 +74,83 @@ def plot_load_factors(d: dict, ax: Axes | None = None) -> Axes:
     ax.legend(fontsize=7, loc="upper right")
     plain_ticks(ax)
     return ax
+
+
+def plot_spectrum_sn(d: dict, ax: Axes | None = None) -> Axes:
+    """The S-N lines of pitting (Z_NT) and bending (Y_NT) as life factors against cycles (log-log), and the
+    load spectrum of each member as a stair: bin stress over its reference level (the permissible
+    stress without the life factor) against the cycles accumulated from the highest bin down
+    (ISO 6336-6:2019 Figure C.1)."""
+    import matplotlib.pyplot as plt
+
+    ax = ax or plt.gca()
+    sp = d["spectrum"]
+    bins = sp["bins"]
+    colours = {"pitting": "C0", "bending": "C3"}
+    lo_n, hi_y = 1e10, 1.0
+    for mode, sym in (("pitting", "sigma_H"), ("bending", "sigma_F")):
+        pts = np.array(sp["curves"][mode][0]["points"], float)
+        n0, y0 = pts[0]
+        n1, y1 = pts[1]
+        k = np.log(y1 / y0) / np.log(n1 / n0)
+        N = np.r_[1e2, pts[:, 0], 1e11]
+        y = np.r_[y0 * (1e2 / n0) ** k, pts[:, 1], pts[-1, 1]]
+        ax.plot(N, y, "-", color=colours[mode], lw=2, label=f"S-N line, {mode} ({'Z_NT' if mode == 'pitting' else 'Y_NT'})")
+        for i, (member, ls) in enumerate((("pinion", "-"), ("gear", "--"))):
+            ref = sp["curves"][mode][i]["sigma_ref"]
+            ratio = np.array([b[sym][i] / r for b, r in zip(bins, ref)])
+            cyc = np.array([b["cycles"][i] for b in bins])
+            order = np.argsort(-ratio)
+            cum = np.cumsum(cyc[order])
+            ax.step(np.r_[1.0, cum], np.r_[ratio[order][0], ratio[order]], where="pre", ls=ls, lw=1.2,
+                    color=colours[mode], alpha=0.8, label=f"spectrum, {member} {mode}")
+            lo_n = min(lo_n, float(cum[0]))
+            hi_y = max(hi_y, float(ratio.max()))
+    from matplotlib.ticker import FixedLocator, FuncFormatter, NullFormatter
+
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlim(max(1e2, lo_n / 10), 1e11)
+    y_lo = 0.2
+    ax.set_ylim(y_lo, 1.25 * max(hi_y, 1.7))
+    ax.yaxis.set_major_locator(FixedLocator([0.2, 0.3, 0.4, 0.5, 0.6, 0.8, 1.0, 1.2, 1.6, 2.0, 2.5, 3.0]))
+    ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _pos: f"{v:g}"))
+    ax.yaxis.set_minor_formatter(NullFormatter())
+    ax.set_xlabel("load cycles")
+    ax.set_ylabel("stress / reference level (life factor) [-]")
+    ax.set_title("S-N lines and the load spectrum")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=7, loc="lower left")
+    return ax
+
+
+def plot_spectrum_damage(d: dict, ax: Axes | None = None) -> Axes:
+    """Miner damage n_i / N_i of each spectrum bin (by its torque), pitting and bending of both members,
+    with the damage sums D and the safety factors against the spectrum S in the legend (bins below
+    the S-N line's 1e10 level do no damage)."""
+    import matplotlib.pyplot as plt
+
+    ax = ax or plt.gca()
+    sp = d["spectrum"]
+    bins = sp["bins"]
+    x = np.arange(len(bins))
+    width = 0.2
+    k = 0
+    top = 0.0
+    for mode, c in (("pitting", ("C0", "C9")), ("bending", ("C3", "C1"))):
+        for i, member in enumerate(("pinion", "gear")):
+            U = np.array([b[f"U_{mode}"][i] for b in bins], float)
+            D = sp["damage"][mode][i]
+            S = sp["safety"][mode][i]
+            ax.bar(x + (k - 1.5) * width, U, width, color=c[i], label=f"{mode} {member}: D = {D:.3g}, S = {S:.3g}")
+            top = max(top, float(np.max(U)) if U.size else 0.0)
+            k += 1
+    ax.set_ylim(0, 1.45 * top if top > 0 else 1.0)
+    ax.set_xticks(x, [f"{b['torque_Nm']:g}" for b in bins])
+    ax.set_xlabel("bin: pinion torque [N m]")
+    ax.set_ylabel("damage n_i / N_i [-]")
+    ax.set_title("Miner damage per bin (ISO 6336-6)")
+    ax.grid(alpha=0.3, axis="y")
+    ax.legend(fontsize=7, loc="upper left")
+    plain_ticks(ax)
+    return ax

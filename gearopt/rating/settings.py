@@ -14,6 +14,16 @@ from gearopt.schema import Bounds
 from gearopt.settings import LTCAStudySettings, option
 
 
+def positive_list(v: list) -> str | None:
+    """Scene and API check of a list of positive numbers (None when fine)."""
+    return None if v and all(x > 0 for x in v) else "one or more numbers > 0"
+
+
+def share_list(v: list) -> str | None:
+    """Scene and API check of a list of life shares (None when fine; their sum is checked with the spectrum)."""
+    return None if v and all(0 <= x <= 1 for x in v) else "one or more shares 0 <= share <= 1"
+
+
 @dataclass(frozen=True)
 class RatingSettings(LTCAStudySettings):
     """Options of the rating study: operating conditions, materials, accuracy, requirements, and
@@ -61,6 +71,12 @@ class RatingSettings(LTCAStudySettings):
     S_Fmin: float = option(1.4, kind="float", bounds=Bounds(lo=0.5, hi=5), doc="minimum bending safety S_Fmin")
     y_lim: float = option(0.85, kind="float", bounds=Bounds(lo=0.85, hi=1.0),
                           doc="life factors Z_NT, Y_NT at 1e10 cycles (1.0: optimum lubrication and manufacture)")
+    spectrum_torque: list | None = option(None, kind="floats", label="N m", check=positive_list,
+                                          doc="load spectrum (ISO 6336-6): pinion torque of each bin [N m]")
+    spectrum_speed: list | None = option(None, kind="floats", label="1/min", check=positive_list,
+                                         doc="load spectrum: pinion speed of each bin [1/min]")
+    spectrum_share: list | None = option(None, kind="floats", check=share_list,
+                                         doc="load spectrum: each bin's share of the life (adding up to 1)")
     load_factors: str = option("ltca", kind="str", choices=("ltca", "iso"),
                                doc="K_Hbeta, K_Halpha of the safety factors: gearopt's loaded TCA or ISO's method B "
                                    "(the other is reported beside)")

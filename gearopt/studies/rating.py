@@ -80,7 +80,22 @@ class RatingReport:
                     row += [_cell(v[0]), _cell(v[1])] if isinstance(v, list) else [_cell(v)]
             rows.append(",".join(row))
         (Path(out_dir) / "rating_vs_torque.csv").write_text("\n".join(rows) + "\n", encoding="utf-8")
-        return ["rating_factors.csv", "rating_vs_torque.csv"]
+        files = ["rating_factors.csv", "rating_vs_torque.csv"]
+        if "spectrum" in d:
+            head = ["torque_Nm", "speed_rpm", "share", "hours", "cycles_pinion", "cycles_gear"]
+            for mode, sym in (("pitting", "sigma_H"), ("bending", "sigma_F")):
+                for m in ("pinion", "gear"):
+                    head += [f"{sym}_{m}", f"N_{mode}_{m}", f"U_{mode}_{m}"]
+            rows = [",".join(head)]
+            for b in d["spectrum"]["bins"]:
+                row = [b["torque_Nm"], b["speed_rpm"], b["share"], b["hours"], *b["cycles"]]
+                for mode, sym in (("pitting", "sigma_H"), ("bending", "sigma_F")):
+                    for i in range(2):
+                        row += [b[sym][i], b[f"N_{mode}"][i], b[f"U_{mode}"][i]]
+                rows.append(",".join(_cell(v) for v in row))
+            (Path(out_dir) / "rating_spectrum.csv").write_text("\n".join(rows) + "\n", encoding="utf-8")
+            files.append("rating_spectrum.csv")
+        return files
 
     def save_plots(self, out_dir: str | Path, dpi: int = 120) -> list[str]:
         """``rating_safety.png``: safety factors against torque (both load-factor sets) beside the
@@ -94,8 +109,17 @@ class RatingReport:
         plot_safety_vs_torque(self.data, ax=axes[0])
         plot_load_factors(self.data, ax=axes[1])
         mis = self.data.get("misalignment_text") or "aligned"
-        return [save_figure(Path(out_dir), self.data["scene"], "rating_safety.png", fig,
-                            f"ISO 6336 load capacity ({mis})", dpi)]
+        files = [save_figure(Path(out_dir), self.data["scene"], "rating_safety.png", fig,
+                             f"ISO 6336 load capacity ({mis})", dpi)]
+        if "spectrum" in self.data:
+            from ..plot.rating import plot_spectrum_damage, plot_spectrum_sn
+
+            fig, axes = plt.subplots(1, 2, figsize=(14, 5.6), layout="constrained")
+            plot_spectrum_sn(self.data, ax=axes[0])
+            plot_spectrum_damage(self.data, ax=axes[1])
+            files.append(save_figure(Path(out_dir), self.data["scene"], "rating_spectrum.png", fig,
+                                     f"ISO 6336-6 load spectrum ({mis})", dpi))
+        return files
 
 
 def _cell(v: Any) -> str:
@@ -145,6 +169,7 @@ class RatingStudy:
                                    "pinion_material"),
                           material(s.gear_material, s.gear_grade, s.gear_sigma_Hlim, s.gear_sigma_Flim,
                                    "gear_material"))
+        self.bins = spectrum_bins(s)
         # the ISO rating at every torque now: a pair ISO 6336 cannot rate is refused before the LTCA runs
         self.iso = [self.rate(t) for t in self.torques]
         self.iso_nominal = self.rate(self.torque)
@@ -179,7 +204,7 @@ class RatingStudy:
 
         t0 = time.perf_counter()
         s = self.settings
-        all_t = sorted(set(self.torques) | {self.torque})
+        all_t = sorted(set(self.torques) | {self.torque} | {b.T for b in self.bins})
         lf = ltca_load_factors(self.pair, all_t, self.misalignment, s, progress)
         by_t = {t: i for i, t in enumerate(all_t)}
         lt = {t: self.rate(t, lf["K_Hbeta"][by_t[t]], lf["K_Halpha"][by_t[t]]) for t in all_t}
@@ -218,12 +243,52 @@ class RatingStudy:
                         "units": dict(chosen.units), "sources": dict(chosen.sources)},
             "timing": {"run_s": time.perf_counter() - t0},
         }
+        if self.bins:
+            from ..rating.spectrum import rate_spectrum
+
+            given = {t: (lf["K_Hbeta"][by_t[t]], lf["K_Halpha"][by_t[t]]) for t in all_t} if used == "ltca" else None
+            sp = rate_spectrum(self.pair_data, self.bins, self.operation(self.torque), *self.materials,
+                               self.accuracy(), load_factors=given)
+            data["spectrum"] = sp
         sh, sf = chosen["S_H"], chosen["S_F"]
         data["summary"] = {"S_H_min": float(min(sh)), "S_F_min": float(min(sf)),
                            "K_Hbeta_ltca": lf["K_Hbeta"][by_t[self.torque]], "K_Hbeta_iso": nom_i["K_Hbeta"],
                            "K_Halpha_ltca": lf["K_Halpha"][by_t[self.torque]], "K_Halpha_iso": nom_i["K_Halpha"],
                            "load_factors_used": used}
+        if self.bins:
+            data["summary"].update({"D_pitting_max": max(sp["damage"]["pitting"]),
+                                    "D_bending_max": max(sp["damage"]["bending"]),
+                                    "S_H_spectrum_min": min(sp["safety"]["pitting"]),
+                                    "S_F_spectrum_min": min(sp["safety"]["bending"])})
         return RatingReport(data)
+
+
+def spectrum_bins(s: Any) -> list:
+    """The load spectrum of the options as :class:`gearopt.rating.spectrum.Bin` objects ([] without one).
+
+    Raises
+    ------
+    OptionError
+        Only some of ``spectrum_torque``, ``spectrum_speed``, ``spectrum_share`` given, lists of different
+        lengths, or bins that :func:`gearopt.rating.spectrum.check_bins` refuses (shares not adding up to 1).
+    """
+    from ..errors import OptionError
+    from ..rating.spectrum import Bin, check_bins
+
+    lists = {"spectrum_torque": s.spectrum_torque, "spectrum_speed": s.spectrum_speed,
+             "spectrum_share": s.spectrum_share}
+    given = [k for k, v in lists.items() if v is not None]
+    if not given:
+        return []
+    if len(given) < 3 or len({len(v) for v in lists.values()}) != 1:
+        missing = [k for k in lists if k not in given]
+        key = missing[0] if missing else "spectrum_share"
+        raise OptionError(f"{key} = {lists[key]!r}: a load spectrum needs spectrum_torque, spectrum_speed and "
+                          "spectrum_share, lists of the same length (one entry per bin).", param=key,
+                          value=lists[key], valid="three lists of the same length")
+    bins = [Bin(float(t), float(n), float(w)) for t, n, w in zip(*lists.values())]
+    check_bins(bins)
+    return bins
 
 
 def _from_scene(scene: Any) -> RatingStudy:
