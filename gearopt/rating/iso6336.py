@@ -10,7 +10,7 @@ Units: lengths mm, forces N, stresses N/mm^2, deviations um, speeds 1/min, angle
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field
 
 from gearopt.errors import GeometryError, OptionError, out_of_range
 from gearopt.rating.materials import Material
@@ -783,7 +783,3 @@ def rate(p: PairData, op: Operation, mat1: Material, mat2: Material, acc: Accura
              Y_deltarelT=Y_d, Y_RrelT=Y_R, Y_X=Y_X, sigma_Flim=sig_Flim, sigma_FP=sigma_FP, S_F=S_F)
     return Rating(V, dict(UNITS), src)
 
-
-def fields_of(cls: type) -> tuple[str, ...]:
-    """Names of a dataclass's fields (for scene keys)."""
-    return tuple(f.name for f in fields(cls))
