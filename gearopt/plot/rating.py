@@ -137,20 +137,26 @@ def plot_spectrum_damage(d: dict, ax: Axes | None = None) -> Axes:
     width = 0.2
     k = 0
     top = 0.0
+    lines: list[str] = []
     for mode, c in (("pitting", ("C0", "C9")), ("bending", ("C3", "C1"))):
         for i, member in enumerate(("pinion", "gear")):
             U = np.array([b[f"U_{mode}"][i] for b in bins], float)
             D = sp["damage"][mode][i]
             S = sp["safety"][mode][i]
-            ax.bar(x + (k - 1.5) * width, U, width, color=c[i], label=f"{mode} {member}: D = {D:.3g}, S = {S:.3g}")
+            drawn = bool(U.size) and float(np.max(U)) > 0
+            ax.bar(x + (k - 1.5) * width, U, width, color=c[i], label=f"{mode} {member}" if drawn else None)
+            lines.append(f"{mode} {member}: D = {D:.3g}, S = {S:.3g}" + ("" if drawn else " (no damage)"))
             top = max(top, float(np.max(U)) if U.size else 0.0)
             k += 1
-    ax.set_ylim(0, 1.45 * top if top > 0 else 1.0)
+    ax.set_ylim(0, 1.6 * top if top > 0 else 1.0)
+    ax.text(0.02, 0.97, "\n".join(lines), transform=ax.transAxes, va="top", ha="left", fontsize=8,
+            bbox={"facecolor": "white", "edgecolor": "0.7", "alpha": 0.9})
     ax.set_xticks(x, [f"{b['torque_Nm']:g}" for b in bins])
     ax.set_xlabel("bin: pinion torque [N m]")
     ax.set_ylabel("damage n_i / N_i [-]")
     ax.set_title("Miner damage per bin (ISO 6336-6)")
     ax.grid(alpha=0.3, axis="y")
-    ax.legend(fontsize=7, loc="upper left")
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(fontsize=7, loc="upper right")
     plain_ticks(ax)
     return ax
