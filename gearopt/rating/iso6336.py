@@ -154,6 +154,8 @@ class Operation:
     y_lim : float
         Life factors Z_NT, Y_NT at 1e10 cycles (0.85 ... 1.0; 1.0 for optimum lubrication, material,
         manufacturing and experience; ISO 6336-2:2019 10, ISO 6336-3:2019 12).
+    Y_beta_edition : str
+        "2019" (default) or "2006": the form of Y_beta (:func:`helix_angle_factor_F`).
     K_v : float or None
         The dynamic factor given (method A/measured); None: method B.
     K_Hbeta, K_Halpha : float or None
@@ -176,6 +178,7 @@ class Operation:
     S_Fmin: float = 1.0
     Z_W: float = 1.0
     y_lim: float = 0.85
+    Y_beta_edition: str = "2019"
     K_v: float | None = None
     K_Hbeta: float | None = None
     K_Halpha: float | None = None
@@ -194,6 +197,9 @@ class Operation:
             raise out_of_range("K_A", self.K_A, ">= 1", cls=OptionError)
         if not 0.85 <= self.y_lim <= 1.0:
             raise out_of_range("y_lim", self.y_lim, "0.85 <= y_lim <= 1.0", cls=OptionError)
+        if self.Y_beta_edition not in ("2019", "2006"):
+            raise OptionError(f"Y_beta_edition = {self.Y_beta_edition!r}: valid: '2019' or '2006'.",
+                              param="Y_beta_edition", value=self.Y_beta_edition, valid="'2019' or '2006'")
         if not self.nu40 > 0:
             raise out_of_range("nu40", self.nu40, "> 0 mm^2/s", cls=OptionError)
 
@@ -503,12 +509,7 @@ def lubricant_factors(sigma_Hlim: float, nu40: float, v: float, R_z10: float) ->
 
 
 def size_factor_H(m_n: float, material: Material) -> float:
-    """Z_X (ISO 6336-2:2019, clause 13, Table 3)."""
-    k = material.group.key
-    if k == "Eh":
-        return 1.0 if m_n <= 10 else (0.9 if m_n >= 30 else 1.05 - 0.005 * m_n)
-    if k == "NT":
-        return 1.0 if m_n <= 7.5 else (0.75 if m_n >= 30 else 1.08 - 0.011 * m_n)
+    """Z_X = 1 (ISO 6336-2:2019, clause 13: 1 unless the size effect is established by experience)."""
     return 1.0
 
 
@@ -561,11 +562,13 @@ def tooth_form(i: int, p: PairData, g: Geometry) -> dict:
             "h_Fe": h_Fe, "Y_F": Y_F, "Y_S": Y_S, "q_s": q_s}
 
 
-def helix_angle_factor_F(eps_beta: float, beta: float) -> float:
-    """Y_beta (ISO 6336-3:2019, clause 8.3): (1 - eps_beta beta/120 deg) / cos^3 beta, eps_beta <= 1,
-    beta <= 30 deg in the bracket."""
+def helix_angle_factor_F(eps_beta: float, beta: float, edition: str = "2019") -> float:
+    """Y_beta: 1 - eps_beta beta/120 deg with eps_beta <= 1 and beta <= 30 deg (ISO 6336-3:2006 and
+    the bracket of 2019); ``edition="2019"`` divides it by cos^3 beta (ISO 6336-3:2019, clause 8.3,
+    as read here; not validated against a published example, docs/rating.md)."""
     bdeg = min(math.degrees(beta), 30.0)
-    return (1.0 - min(eps_beta, 1.0) * bdeg / 120.0) / math.cos(beta) ** 3
+    y0 = 1.0 - min(eps_beta, 1.0) * bdeg / 120.0
+    return y0 / math.cos(beta) ** 3 if edition == "2019" else y0
 
 
 def rim_factor(s_R: float | None, h_t: float, name: str = "s_R") -> float:
@@ -762,7 +765,7 @@ def rate(p: PairData, op: Operation, mat1: Material, mat2: Material, acc: Accura
              C_ZR=lub["C_ZR"], Z_R=lub["Z_R"], Z_W=op.Z_W, Z_X=Z_X, sigma_Hlim=sig_lim, sigma_HP=sigma_HP, S_H=S_H)
     # --- ISO 6336-3: bending
     tf = (tooth_form(0, p, g), tooth_form(1, p, g))
-    Y_beta = helix_angle_factor_F(g.eps_beta, p.beta)
+    Y_beta = helix_angle_factor_F(g.eps_beta, p.beta, op.Y_beta_edition)
     h_t = tuple((g.d_a[i] - g.d_f[i]) / 2 for i in range(2))
     Y_B = (rim_factor(op.s_R1, h_t[0], "s_R1"), rim_factor(op.s_R2, h_t[1], "s_R2"))
     Y_DT = deep_tooth_factor(g.eps_alpha, g.beta_b, acc.grade)

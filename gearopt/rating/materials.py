@@ -10,7 +10,8 @@ slip-layer thickness rho' of Y_deltarelT (ISO 6336-3:2019 Table 4).
 
 Source and status: ISO 6336-5:2016, 5.5 (Figures 9 to 12 for the case-hardened, nitrided and
 through-hardened wrought steels, read at the hardness given in ``note``). Only Eh/MQ sigma_Hlim =
-1500 N/mm^2 is confirmed by a published calculation (ISO/TR 6336-30:2017 example 1, docs/rating.md);
+1500 N/mm^2 is confirmed by a published calculation (ISO/TR 6336-30:2017 example 1, docs/rating.md) and
+Eh/MQ sigma_Flim = 430 N/mm^2 (core >= 25 HRC, J12 < 28 HRC) by a KISSsoft report of ISO 6336-5;
 check the others against the standard before relying on them, and override them per member
 (``sigma_Hlim``, ``sigma_Flim`` keys) with the values of the actual material data sheet.
 """
@@ -65,7 +66,7 @@ MATERIALS: dict[str, MaterialGroup] = {
     "Eh": MaterialGroup(
         key="Eh", iso_group="Eh", surface_hardened=True, slip_layer=0.0030,
         sigma_Hlim={"ML": 1300.0, "MQ": 1500.0, "ME": 1650.0},
-        sigma_Flim={"ML": 312.0, "MQ": 425.0, "ME": 525.0},
+        sigma_Flim={"ML": 312.0, "MQ": 430.0, "ME": 525.0},
         note="case-hardened wrought steel, surface 58..64 HRC, core >= 25 HRC (ISO 6336-5:2016 Fig. 9, 10)"),
     "NT": MaterialGroup(
         key="NT", iso_group="NT (nitr.)", surface_hardened=True, slip_layer=0.1005,

@@ -181,6 +181,7 @@ class RatingStudy:
         s = self.settings
         return Operation(T1=torque, n1=s.speed, K_A=s.K_A, L_h=s.life, nu40=s.nu40, R_z1=s.rz_flank, R_z2=s.rz_flank,
                          R_zF1=s.rz_root, R_zF2=s.rz_root, S_Hmin=s.S_Hmin, S_Fmin=s.S_Fmin, y_lim=s.y_lim,
+                         Y_beta_edition=s.y_beta_edition,
                          K_Hbeta=K_Hbeta, K_Halpha=K_Halpha)
 
     def accuracy(self) -> Any:
