@@ -47,25 +47,29 @@ def khb_table(torque: float = 100.0) -> str:
     from gearopt.geometry.microgeometry import Microgeometry
     from gearopt.io.scene import load_scene
     from gearopt.meshing.misalignment import Misalignment
-    from gearopt.rating.pair import ltca_load_factors
+    from gearopt.rating.iso6336 import geometry, rate
+    from gearopt.rating.pair import ltca_load_factors, mesh_misalignment
     from gearopt.studies.rating import RatingStudy
     from gearopt.units import ARCMIN
 
     scene = load_scene(Path(__file__).resolve().parents[1] / "problems" / "rating_spur.toml")
     study = scene.build()
     assert isinstance(study, RatingStudy)
-    pair0 = study.pair
-    iso = study.rate(torque)
-    lines = ["| crossing [arcmin] | lead crowning C_beta [um] | K_Hbeta gearopt LTCA | K_Hbeta ISO 6336-1 | "
-             "S_H pinion LTCA | S_H pinion ISO |", "|---|---|---|---|---|---|"]
+    pair0, pd = study.pair, study.pair_data
+    alpha_wt = geometry(pd).alpha_wt
+    lines = ["| crossing [arcmin] | lead crowning C_beta [um] | ISO f_ma [um] | K_Hbeta gearopt LTCA | "
+             "K_Hbeta ISO 6336-1 | S_H pinion LTCA | S_H pinion ISO |", "|---|---|---|---|---|---|---|"]
     for c_beta in (0.0, 10.0, 20.0):
         mods = dataclasses.replace(pair0.pinion.modifications or Microgeometry(), C_beta=c_beta * 1e-3)
         pinion = dataclasses.replace(pair0.pinion, modifications=mods)
         pair = type(pair0)(pinion, pair0.gear, a=pair0.a)
         for cross in (0.0, 2.0, 4.0):
+            f_ma = mesh_misalignment(pd.b, alpha_wt, cross * ARCMIN, 0.0)
+            acc = dataclasses.replace(study.accuracy(), f_ma=f_ma)
+            iso = rate(pd, study.operation(torque), *study.materials, acc)
             lf = ltca_load_factors(pair, [torque], Misalignment(crossing=cross * ARCMIN), study.settings)
-            r = study.rate(torque, lf["K_Hbeta"][0], lf["K_Halpha"][0])
-            lines.append(f"| {cross:g} | {c_beta:g} | {lf['K_Hbeta'][0]:.3f} | {iso['K_Hbeta']:.3f} | "
+            r = rate(pd, study.operation(torque, lf["K_Hbeta"][0], lf["K_Halpha"][0]), *study.materials, acc)
+            lines.append(f"| {cross:g} | {c_beta:g} | {f_ma:.1f} | {lf['K_Hbeta'][0]:.3f} | {iso['K_Hbeta']:.3f} | "
                          f"{r['S_H'][0]:.3f} | {iso['S_H'][0]:.3f} |")
     return "\n".join(lines)
 

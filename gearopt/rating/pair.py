@@ -9,6 +9,7 @@ and transverse load factors it implies (docs/rating.md, "Load factors from the l
 from __future__ import annotations
 
 import dataclasses
+import math
 from typing import TYPE_CHECKING, Any, Sequence
 
 import numpy as np
@@ -45,6 +46,14 @@ def pair_data(pair: GearPair) -> PairData:
     return PairData(z1=g1.z, z2=g2.z, m_n=g1.m_n, alpha_n=r1.alpha_n, beta=g1.beta, b=min(g1.b, g2.b), x1=g1.x,
                     x2=g2.x, a=pair.a_w, h_aP=r1.h_aP, h_fP=r1.h_fP, rho_fP=r1.rho_fP, d_a1=2 * g1.r_a,
                     d_a2=2 * g2.r_a)
+
+
+def mesh_misalignment(b: float, alpha_wt: float, crossing: float, intersecting: float) -> float:
+    """ISO 6336-1's mesh misalignment f_ma [um] equivalent to a misalignment of the axes: the separation
+    across the face width ``b`` [mm] in the plane of action that the crossing (axes skewed about the
+    centre line) and intersecting (axes tilted toward each other) angles [rad] open, b (|crossing| cos
+    alpha_wt + |intersecting| sin alpha_wt) (the two add on one of the flanks)."""
+    return 1000.0 * b * (abs(crossing) * math.cos(alpha_wt) + abs(intersecting) * math.sin(alpha_wt))
 
 
 def reference_pair(pair: GearPair) -> GearPair:

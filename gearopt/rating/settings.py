@@ -60,8 +60,9 @@ class RatingSettings(LTCAStudySettings):
                          doc="transverse base pitch deviation f_pb [um]")
     f_falpha: float = option(8.0, kind="float", bounds=Bounds(lo=0, hi=500), label="um",
                              doc="profile form deviation f_falpha [um]")
-    f_ma: float = option(10.0, kind="float", bounds=Bounds(lo=0, hi=1000), label="um",
-                         doc="mesh misalignment from manufacturing f_ma [um] (ISO's K_Hbeta)")
+    f_ma: float | None = option(None, kind="float", bounds=Bounds(lo=0, hi=1000), label="um",
+                                doc="mesh misalignment f_ma for ISO's K_Hbeta [um] (default: the scene's crossing and "
+                                    "intersecting angles across the face in the plane of action)")
     f_sh: float | None = option(None, kind="float", bounds=Bounds(lo=0, hi=1000), label="um",
                                 doc="misalignment from shaft deformation f_sh [um] (default: ISO 6336-1 with B* = 1)")
     tip_relief: float | None = option(None, kind="float", bounds=Bounds(lo=0, hi=1000), label="um",

@@ -170,6 +170,16 @@ class RatingStudy:
                           material(s.gear_material, s.gear_grade, s.gear_sigma_Hlim, s.gear_sigma_Flim,
                                    "gear_material"))
         self.bins = spectrum_bins(s)
+        if s.f_ma is None:
+            from ..rating.iso6336 import geometry
+            from ..rating.pair import mesh_misalignment
+
+            m = self.misalignment
+            self.f_ma = mesh_misalignment(self.pair_data.b, geometry(self.pair_data).alpha_wt, m.crossing,
+                                          m.intersecting)
+            self.f_ma_source = "misalignment"
+        else:
+            self.f_ma, self.f_ma_source = s.f_ma, "given"
         # the ISO rating at every torque now: a pair ISO 6336 cannot rate is refused before the LTCA runs
         self.iso = [self.rate(t) for t in self.torques]
         self.iso_nominal = self.rate(self.torque)
@@ -188,9 +198,8 @@ class RatingStudy:
         """The :class:`~gearopt.rating.iso6336.Accuracy` of the options."""
         from ..rating.iso6336 import Accuracy
 
-        s = self.settings
-        return Accuracy(f_pb=s.f_pb, f_falpha=s.f_falpha, f_ma=s.f_ma, f_sh=s.f_sh, C_a=s.tip_relief,
-                        grade=s.accuracy_grade)
+        return Accuracy(f_pb=self.settings.f_pb, f_falpha=self.settings.f_falpha, f_ma=self.f_ma,
+                        f_sh=self.settings.f_sh, C_a=self.settings.tip_relief, grade=self.settings.accuracy_grade)
 
     def rate(self, torque: float, K_Hbeta: float | None = None, K_Halpha: float | None = None) -> Any:
         """The :class:`~gearopt.rating.iso6336.Rating` at ``torque`` [N m] (ISO's load factors unless given)."""
@@ -230,7 +239,7 @@ class RatingStudy:
         m1, m2 = self.materials
         data = {
             "study": "rating", "scene": self.name, "units": UNITS, "standard": "ISO 6336-1/-2/-3:2019 method B",
-            "options": s.to_dict(), "load_factors_used": used,
+            "options": s.to_dict(), "load_factors_used": used, "f_ma_um": self.f_ma, "f_ma_source": self.f_ma_source,
             "pair": {"z1": p.z1, "z2": p.z2, "m_n": p.m_n, "alpha_n": p.alpha_n, "beta": p.beta, "b": p.b,
                      "x1": p.x1, "x2": p.x2, "a": p.a, "h_fP": p.h_fP, "rho_fP": p.rho_fP},
             "materials": [{"member": mem, "group": m.group.key, "grade": m.grade, "sigma_Hlim": m.sigma_Hlim,
