@@ -254,3 +254,15 @@ def test_given_load_factors_are_used(example):
     assert r["K_Hbeta_ISO"] == pytest.approx(example["K_Hbeta"])
     ratio = math.sqrt(1.4 * 1.1 / (example["K_Hbeta"] * example["K_Halpha"]))
     assert r["sigma_H"][0] == pytest.approx(example["sigma_H"][0] * ratio, rel=1e-12)
+
+
+def test_the_docs_api_block_runs():
+    """The API example of docs/rating.md runs as written and gives the TR example's S_H."""
+    import re
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parents[1] / "docs" / "rating.md").read_text(encoding="utf-8")
+    block = re.search(r"```python\n(.*?)```", text, re.S).group(1)
+    scope: dict = {}
+    exec(block, scope)
+    assert scope["r"]["S_H"][0] == pytest.approx(1.02853, rel=5e-4)
