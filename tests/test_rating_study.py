@@ -158,3 +158,36 @@ def test_rating_scenes_run_and_write(scene, scene_run):
     """Every rating scene runs through the CLI and writes documented results and clean plots
     (tests/scenes.check_scene_run: every key in docs/results.md, the plot linter)."""
     check_scene_run(scene, scene_run)
+
+
+def test_generated_tooth_section_matches_the_closed_form_and_follows_the_allowance():
+    """Spur: the critical section measured on gearopt's generated tooth equals ISO's closed form of the
+    basic rack (s_Fn, rho_F, h_Fe within 0.05 %); a tooth thinned by A_sne = -0.1 mm has a smaller s_Fn on
+    the generated tooth (the closed form does not know the allowance) and a larger Y_F."""
+    import dataclasses
+
+    from gearopt.io.scene import load_scene
+    from gearopt.rating.iso6336 import form_factors, geometry, tooth_form
+    from gearopt.rating.pair import generated_tooth_forms, pair_data
+
+    pair = load_scene(PROBLEMS / "rating_spur.toml").pair
+    p = pair_data(pair)
+    g = geometry(p)
+    gen = generated_tooth_forms(pair, p)
+    for i in range(2):
+        closed = tooth_form(i, p, g)
+        for k in ("s_Fn", "rho_F", "h_Fe"):
+            assert gen[i][k] == pytest.approx(closed[k], rel=5e-4), (i, k)
+    thin = type(pair)(dataclasses.replace(pair.pinion, A_sne=-0.1, A_sni=-0.1), pair.gear, a=pair.a)
+    gen_thin = generated_tooth_forms(thin)
+    assert gen_thin[0]["s_Fn"] < gen[0]["s_Fn"] - 0.05
+    Y = [form_factors(t["s_Fn"], t["h_Fe"], t["rho_F"], t["alpha_Fen"], p.m_n, p.alpha_n)["Y_F"] for t in (gen[0], gen_thin[0])]
+    assert Y[1] > Y[0]
+    # rate() uses the measured sections when given
+    from gearopt.rating import Operation, material, rate
+
+    m = material("Eh", "MQ")
+    r = rate(p, Operation(T1=100.0, n1=1500.0), m, m, None, (gen_thin[0], gen[1]))
+    assert r.sources["Y_F"] == "generated tooth"
+    assert r["Y_F"][0] == pytest.approx(Y[1], rel=1e-12)
+    assert r["s_Fn"][0] == pytest.approx(gen_thin[0]["s_Fn"], rel=1e-12)

@@ -554,12 +554,27 @@ def tooth_form(i: int, p: PairData, g: Geometry) -> dict:
     alpha_Fen = alpha_en - gamma_e
     h_Fe = 0.5 * m * ((math.cos(gamma_e) - math.sin(gamma_e) * math.tan(alpha_Fen)) * d_en / m
                       - z_n * math.cos(math.pi / 3 - theta) - G / math.cos(theta) + rho_fP / m)
-    Y_F = 6 * (h_Fe / m) * math.cos(alpha_Fen) / ((s_Fn / m) ** 2 * math.cos(an))
+    return {"z_n": z_n, "theta": theta, "d_en": d_en,
+            **form_factors(s_Fn, h_Fe, rho_F, alpha_Fen, m, an)}
+
+
+def form_factors(s_Fn: float, h_Fe: float, rho_F: float, alpha_Fen: float, m_n: float, alpha_n: float) -> dict:
+    """Y_F and Y_S from the critical section (ISO 6336-3:2019, 6.2 and 7.2).
+
+    Parameters
+    ----------
+    s_Fn, h_Fe, rho_F : float
+        Chord at the 30-degree tangent points, bending moment arm, fillet radius there [mm].
+    alpha_Fen : float
+        Load direction angle at the outer point of single contact [rad].
+    m_n, alpha_n : float
+        Normal module [mm], normal pressure angle [rad].
+    """
+    Y_F = 6 * (h_Fe / m_n) * math.cos(alpha_Fen) / ((s_Fn / m_n) ** 2 * math.cos(alpha_n))
     L = s_Fn / h_Fe
     q_s = s_Fn / (2 * rho_F)
     Y_S = (1.2 + 0.13 * L) * q_s ** (1.0 / (1.21 + 2.3 / L))
-    return {"z_n": z_n, "theta": theta, "s_Fn": s_Fn, "rho_F": rho_F, "d_en": d_en, "alpha_Fen": alpha_Fen,
-            "h_Fe": h_Fe, "Y_F": Y_F, "Y_S": Y_S, "q_s": q_s}
+    return {"s_Fn": s_Fn, "rho_F": rho_F, "alpha_Fen": alpha_Fen, "h_Fe": h_Fe, "Y_F": Y_F, "Y_S": Y_S, "q_s": q_s}
 
 
 def helix_angle_factor_F(eps_beta: float, beta: float, edition: str = "2019") -> float:
@@ -673,7 +688,8 @@ UNITS = {"F_t": "N", "v": "m/s", "d": "mm", "d_b": "mm", "d_a": "mm", "d_f": "mm
          "N_L": "cycles", "line_load": "N/mm", "rho_red": "mm"}
 
 
-def rate(p: PairData, op: Operation, mat1: Material, mat2: Material, acc: Accuracy | None = None) -> Rating:
+def rate(p: PairData, op: Operation, mat1: Material, mat2: Material, acc: Accuracy | None = None,
+         tooth_forms: tuple | None = None) -> Rating:
     """Pitting and bending safety factors of both members by ISO 6336-1/-2/-3:2019 method B.
 
     Parameters
@@ -684,6 +700,10 @@ def rate(p: PairData, op: Operation, mat1: Material, mat2: Material, acc: Accura
         Pinion's and wheel's materials (:func:`gearopt.rating.materials.material`).
     acc : Accuracy or None
         Deviations; None: ``Accuracy()``.
+    tooth_forms : (dict, dict) or None
+        The critical sections of pinion and wheel measured on their generated teeth (``s_Fn``,
+        ``h_Fe``, ``rho_F`` [mm], ``alpha_Fen`` [rad]; :func:`gearopt.rating.pair.generated_tooth_forms`)
+        in place of ISO's closed forms; None: the closed forms.
 
     Returns
     -------
@@ -765,6 +785,11 @@ def rate(p: PairData, op: Operation, mat1: Material, mat2: Material, acc: Accura
              C_ZR=lub["C_ZR"], Z_R=lub["Z_R"], Z_W=op.Z_W, Z_X=Z_X, sigma_Hlim=sig_lim, sigma_HP=sigma_HP, S_H=S_H)
     # --- ISO 6336-3: bending
     tf = (tooth_form(0, p, g), tooth_form(1, p, g))
+    src["Y_F"] = "ISO 6336-3 method B closed form"
+    if tooth_forms is not None:
+        tf = tuple({**tf[i], **form_factors(tooth_forms[i]["s_Fn"], tooth_forms[i]["h_Fe"], tooth_forms[i]["rho_F"],
+                                            tooth_forms[i]["alpha_Fen"], p.m_n, p.alpha_n)} for i in range(2))
+        src["Y_F"] = "generated tooth"
     Y_beta = helix_angle_factor_F(g.eps_beta, p.beta, op.Y_beta_edition)
     h_t = tuple((g.d_a[i] - g.d_f[i]) / 2 for i in range(2))
     Y_B = (rim_factor(op.s_R1, h_t[0], "s_R1"), rim_factor(op.s_R2, h_t[1], "s_R2"))

@@ -48,6 +48,35 @@ def pair_data(pair: GearPair) -> PairData:
                     d_a2=2 * g2.r_a)
 
 
+def generated_tooth_forms(pair: GearPair, p: PairData | None = None) -> tuple[dict, dict] | None:
+    """The critical sections of ISO 6336-3 method B measured on each member's generated tooth (its own
+    tool, tooth thickness allowance, fillet): the points where the fillet's tangent makes 30 deg with the
+    tooth centre line, the fillet radius there, and the load at the outer point of single pair contact
+    (``d_en`` of the closed form) along the flank normal (:func:`gearopt.fea.model.root_stress_estimate`).
+
+    Returns
+    -------
+    (dict, dict) or None
+        ``s_Fn``, ``h_Fe``, ``rho_F`` [mm], ``alpha_Fen`` [rad] of pinion and gear; None for a helical
+        pair (ISO rates its virtual spur gear, which is not a section of the generated tooth).
+    """
+    from gearopt.fea.model import root_stress_estimate
+    from gearopt.geometry.generation import generate
+    from gearopt.rating.iso6336 import geometry, tooth_form
+
+    if not pair.pinion.is_spur:
+        return None
+    p = pair_data(pair) if p is None else p
+    g = geometry(p)
+    out = []
+    for i, gear in enumerate((pair.pinion, pair.gear)):
+        d_en = tooth_form(i, p, g)["d_en"]
+        est = root_stress_estimate(generate(gear), 0.5 * d_en, 1.0, 1.0)
+        out.append({"s_Fn": float(est["s_Fn"]), "h_Fe": float(est["h_Fe"]), "rho_F": float(est["rho_F"]),
+                    "alpha_Fen": math.radians(est["alpha_Fen_deg"])})
+    return out[0], out[1]
+
+
 def mesh_misalignment(b: float, alpha_wt: float, crossing: float, intersecting: float) -> float:
     """ISO 6336-1's mesh misalignment f_ma [um] equivalent to a misalignment of the axes: the separation
     across the face width ``b`` [mm] in the plane of action that the crossing (axes skewed about the

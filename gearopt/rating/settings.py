@@ -72,6 +72,9 @@ class RatingSettings(LTCAStudySettings):
     S_Fmin: float = option(1.4, kind="float", bounds=Bounds(lo=0.5, hi=5), doc="minimum bending safety S_Fmin")
     y_lim: float = option(0.85, kind="float", bounds=Bounds(lo=0.85, hi=1.0),
                           doc="life factors Z_NT, Y_NT at 1e10 cycles (1.0: optimum lubrication and manufacture)")
+    tooth_form: str = option("generated", kind="str", choices=("generated", "iso"),
+                             doc="critical root section of Y_F, Y_S: measured on each member's generated tooth (spur "
+                                 "pairs; helical pairs use ISO's closed form) or ISO 6336-3's closed form")
     y_beta_edition: str = option("2019", kind="str", choices=("2019", "2006"),
                                  doc="form of Y_beta: ISO 6336-3:2019 (with 1/cos^3 beta) or 2006 (docs/rating.md)")
     spectrum_torque: list | None = option(None, kind="floats", label="N m", check=positive_list,

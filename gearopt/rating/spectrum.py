@@ -126,7 +126,8 @@ def check_bins(bins: Sequence[Bin], name: str = "spectrum") -> None:
 
 
 def rate_spectrum(p: PairData, bins: Sequence[Bin], op: Operation, mat1: Material, mat2: Material,
-                  acc: Accuracy | None = None, load_factors: dict | None = None) -> dict:
+                  acc: Accuracy | None = None, load_factors: dict | None = None,
+                  tooth_forms: tuple | None = None) -> dict:
     """Damage sums and safety factors of both members, pitting and bending, under a load spectrum.
 
     Parameters
@@ -140,6 +141,8 @@ def rate_spectrum(p: PairData, bins: Sequence[Bin], op: Operation, mat1: Materia
     acc : Accuracy or None
     load_factors : dict or None
         ``{T: (K_Hbeta, K_Halpha)}`` given per bin torque (from the loaded TCA); None: ISO's.
+    tooth_forms : (dict, dict) or None
+        As :func:`gearopt.rating.iso6336.rate`.
 
     Returns
     -------
@@ -155,7 +158,8 @@ def rate_spectrum(p: PairData, bins: Sequence[Bin], op: Operation, mat1: Materia
     ratings: list[Rating] = []
     for b in bins:
         kh = (load_factors or {}).get(b.T, (None, None))
-        ratings.append(rate(p, dataclasses.replace(op, T1=b.T, n1=b.n, K_Hbeta=kh[0], K_Halpha=kh[1]), mat1, mat2, acc))
+        ratings.append(rate(p, dataclasses.replace(op, T1=b.T, n1=b.n, K_Hbeta=kh[0], K_Halpha=kh[1]), mat1, mat2, acc,
+                            tooth_forms))
     u = p.z2 / p.z1
     hours = [b.share * op.L_h for b in bins]
     cyc = [[60.0 * b.n * h for b, h in zip(bins, hours)], [60.0 * b.n * h / u for b, h in zip(bins, hours)]]

@@ -180,6 +180,9 @@ class RatingStudy:
             self.f_ma_source = "misalignment"
         else:
             self.f_ma, self.f_ma_source = s.f_ma, "given"
+        from ..rating.pair import generated_tooth_forms
+
+        self.tooth_forms = generated_tooth_forms(pair, self.pair_data) if s.tooth_form == "generated" else None
         # the ISO rating at every torque now: a pair ISO 6336 cannot rate is refused before the LTCA runs
         self.iso = [self.rate(t) for t in self.torques]
         self.iso_nominal = self.rate(self.torque)
@@ -205,7 +208,24 @@ class RatingStudy:
         """The :class:`~gearopt.rating.iso6336.Rating` at ``torque`` [N m] (ISO's load factors unless given)."""
         from ..rating.iso6336 import rate
 
-        return rate(self.pair_data, self.operation(torque, K_Hbeta, K_Halpha), *self.materials, self.accuracy())
+        return rate(self.pair_data, self.operation(torque, K_Hbeta, K_Halpha), *self.materials, self.accuracy(),
+                    self.tooth_forms)
+
+    def tooth_form_report(self) -> dict:
+        """The critical root sections used (``source``) and both kinds per member: measured on the
+        generated teeth (None for a helical pair or ``tooth_form = "iso"``) and ISO's closed form."""
+        from ..rating.iso6336 import form_factors, geometry, tooth_form
+
+        p = self.pair_data
+        g = geometry(p)
+        keys = ("s_Fn", "h_Fe", "rho_F", "alpha_Fen", "Y_F", "Y_S")
+        closed = [{k: tooth_form(i, p, g)[k] for k in keys} for i in range(2)]
+        gen = None
+        if self.tooth_forms is not None:
+            gen = [{k: v for k, v in form_factors(t["s_Fn"], t["h_Fe"], t["rho_F"], t["alpha_Fen"], p.m_n,
+                                                  p.alpha_n).items() if k in keys} for t in self.tooth_forms]
+        return {"source": "generated tooth" if gen is not None else "ISO 6336-3 method B closed form",
+                "generated": gen, "closed_form": closed}
 
     def run(self, progress: Callable[[str], None] | None = None) -> RatingReport:
         from ..plot.tca import misalignment_text
@@ -245,7 +265,7 @@ class RatingStudy:
             "materials": [{"member": mem, "group": m.group.key, "grade": m.grade, "sigma_Hlim": m.sigma_Hlim,
                            "sigma_Flim": m.sigma_Flim, "source": m.group.note} for mem, m in (("pinion", m1), ("gear", m2))],
             "misalignment": mis, "misalignment_text": misalignment_text({"misalignment": mis}),
-            "z_face_mm": lf["z_face_mm"], "torques": rows,
+            "z_face_mm": lf["z_face_mm"], "torques": rows, "tooth_form": self.tooth_form_report(),
             "nominal": {"torque_Nm": self.torque,
                         "used": {k: _jsonable(v) for k, v in chosen.values.items()},
                         "iso": {k: _jsonable(v) for k, v in nom_i.values.items()},
@@ -258,7 +278,7 @@ class RatingStudy:
 
             given = {t: (lf["K_Hbeta"][by_t[t]], lf["K_Halpha"][by_t[t]]) for t in all_t} if used == "ltca" else None
             sp = rate_spectrum(self.pair_data, self.bins, self.operation(self.torque), *self.materials,
-                               self.accuracy(), load_factors=given)
+                               self.accuracy(), load_factors=given, tooth_forms=self.tooth_forms)
             data["spectrum"] = sp
         sh, sf = chosen["S_H"], chosen["S_F"]
         data["summary"] = {"S_H_min": float(min(sh)), "S_F_min": float(min(sf)),
