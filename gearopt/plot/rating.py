@@ -24,7 +24,7 @@ def plot_safety_vs_torque(d: dict, ax: Axes | None = None) -> Axes:
     other = "iso" if used == "ltca" else "ltca"
     name = {"ltca": "gearopt LTCA", "iso": "ISO 6336-1"}
     style = {("S_H", 0): ("C0", "o"), ("S_H", 1): ("C1", "s"), ("S_F", 0): ("C2", "^"), ("S_F", 1): ("C3", "v")}
-    top = 0.0
+    top, bottom = 0.0, np.inf
     for (sym, i), (c, mk) in style.items():
         member = ("pinion", "gear")[i]
         y = np.array([r[sym][used][i] for r in rows], float)
@@ -32,6 +32,7 @@ def plot_safety_vs_torque(d: dict, ax: Axes | None = None) -> Axes:
         ax.plot(T, y, "-", marker=mk, color=c, label=f"{sym} {member}")
         ax.plot(T, y2, "--", marker=mk, mfc="none", color=c)
         top = max(top, float(np.max(y)), float(np.max(y2)))
+        bottom = min(bottom, float(np.min(y)), float(np.min(y2)))
     o = d["options"]
     ax.axhline(o["S_Hmin"], color="0.3", ls=":", lw=1.2, label=f"S_Hmin = {o['S_Hmin']:g}")
     if o["S_Fmin"] != o["S_Hmin"]:
@@ -40,14 +41,22 @@ def plot_safety_vs_torque(d: dict, ax: Axes | None = None) -> Axes:
     ax.plot([], [], "k--", label=f"dashed: {name[other]}")
     nom = d["nominal"]["torque_Nm"]
     ax.axvline(nom, color="0.5", ls=":", lw=1, label=f"nominal {nom:.4g} N m")
+    from matplotlib.ticker import FixedLocator, FuncFormatter, NullFormatter
+
     ax.set_xlim(0, float(np.max(T)) * 1.05)
-    ax.set_ylim(0, 1.3 * top)
+    ax.set_yscale("log")  # S_H near 1 and S_F of several at light load, both readable
+    bottom = min(bottom, o["S_Hmin"], o["S_Fmin"])
+    ax.set_ylim(0.8 * bottom, 2.2 * top)
+    ax.yaxis.set_major_locator(FixedLocator([0.3, 0.5, 0.7, 0.8, 0.9, 1.0, 1.2, 1.4, 1.7, 2.0, 2.5, 3.0, 4.0, 5.0,
+                                             7.0, 10.0, 15.0, 20.0, 30.0, 50.0]))
+    ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _pos: f"{v:g}"))
+    ax.yaxis.set_minor_formatter(NullFormatter())
     ax.set_xlabel("pinion torque [N m]")
-    ax.set_ylabel("safety factor [-]")
+    ax.set_ylabel("safety factor [-] (log scale)")
     ax.set_title("safety factors against torque (ISO 6336-2/-3)")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7, loc="upper right", ncol=2)
-    plain_ticks(ax)
+    ax.xaxis.get_major_formatter().set_useOffset(False)
     return ax
 
 
