@@ -145,6 +145,10 @@ def test_rating_spur_two_sets_obey_iso(spur_run):
         wt = np.gradient(z)
         wt[[0, -1]] = wt[[0, -1]] / 2
         assert r["K_Hbeta"]["ltca"] == pytest.approx(w.max() / (np.sum(w * wt) / np.sum(wt)), rel=1e-9)
+        # K_Halpha of the loaded TCA: the pair line-load ratio to the unmodified aligned pair, at least 1
+        raw = r["w_pair_max_N_per_mm"] / r["w_pair_max_reference_N_per_mm"]
+        assert r["K_Halpha_ltca_raw"] == pytest.approx(raw, rel=1e-12)
+        assert r["K_Halpha"]["ltca"] == pytest.approx(max(1.0, raw), rel=1e-12)
     # crowning and a crossing: the loaded TCA's K_Hbeta falls with torque (the contact spreads)
     k = [r["K_Hbeta"]["ltca"] for r in d["torques"]]
     assert all(b < a for a, b in zip(k, k[1:]))
