@@ -195,3 +195,23 @@ def test_generated_tooth_section_matches_the_closed_form_and_follows_the_allowan
     assert r.sources["Y_F"] == "generated tooth"
     assert r["Y_F"][0] == pytest.approx(Y[1], rel=1e-12)
     assert r["s_Fn"][0] == pytest.approx(gen_thin[0]["s_Fn"], rel=1e-12)
+
+
+@pytest.mark.parametrize(("options", "key"), [
+    ({"pinion_material": "Steel42"}, "pinion_material"),
+    ({"gear_grade": "MX"}, "gear_grade"),
+    ({"life": 0.0}, "life"),
+    ({"spectrum_torque": [50.0, 100.0], "spectrum_speed": [1000.0, 1000.0], "spectrum_share": [0.5, 0.4]},
+     "spectrum_share"),
+    ({"spectrum_torque": [50.0, 100.0], "spectrum_share": [0.5, 0.5]}, "spectrum_speed"),
+])
+def test_api_refusals(options, key):
+    """The study's API refuses the same inputs as the scene, naming the option, before any loaded TCA runs."""
+    from gearopt.errors import GearoptError
+    from gearopt.io.scene import load_scene
+    from gearopt.studies.rating import RatingStudy
+
+    pair = load_scene(PROBLEMS / "rating_spur.toml").pair
+    with pytest.raises(GearoptError) as e:
+        RatingStudy(pair, 100.0, **options)
+    assert e.value.param == key, (e.value.param, str(e.value))
