@@ -43,7 +43,7 @@ def kisssoft_table() -> str:
     return "\n".join(lines)
 
 
-def khb_table(torque: float = 100.0) -> str:
+def khb_table(torque: float = 100.0, scene_name: str = "rating_spur.toml", crossings: tuple = (0.0, 2.0, 4.0)) -> str:
     from gearopt.geometry.microgeometry import Microgeometry
     from gearopt.io.scene import load_scene
     from gearopt.meshing.misalignment import Misalignment
@@ -52,7 +52,7 @@ def khb_table(torque: float = 100.0) -> str:
     from gearopt.studies.rating import RatingStudy
     from gearopt.units import ARCMIN
 
-    scene = load_scene(Path(__file__).resolve().parents[1] / "problems" / "rating_spur.toml")
+    scene = load_scene(Path(__file__).resolve().parents[1] / "problems" / scene_name)
     study = scene.build()
     assert isinstance(study, RatingStudy)
     pair0, pd = study.pair, study.pair_data
@@ -61,9 +61,9 @@ def khb_table(torque: float = 100.0) -> str:
              "K_Hbeta ISO 6336-1 | S_H pinion LTCA | S_H pinion ISO |", "|---|---|---|---|---|---|---|"]
     for c_beta in (0.0, 10.0, 20.0):
         mods = dataclasses.replace(pair0.pinion.modifications or Microgeometry(), C_beta=c_beta * 1e-3)
-        pinion = dataclasses.replace(pair0.pinion, modifications=mods)
+        pinion = dataclasses.replace(pair0.pinion, modifications=mods, a_pl=0.0)
         pair = type(pair0)(pinion, pair0.gear, a=pair0.a)
-        for cross in (0.0, 2.0, 4.0):
+        for cross in crossings:
             f_ma = mesh_misalignment(pd.b, alpha_wt, cross * ARCMIN, 0.0)
             acc = dataclasses.replace(study.accuracy(), f_ma=f_ma)
             iso = rate(pd, study.operation(torque), *study.materials, acc)
@@ -81,3 +81,5 @@ if __name__ == "__main__":
     print(kisssoft_table())
     print("\n### K_Hbeta: loaded TCA and ISO 6336-1 (rating_spur at 100 N m)\n")
     print(khb_table())
+    print("\n### K_Hbeta: loaded TCA and ISO 6336-1 (rating_helical, no plunging crowning, at 150 N m)\n")
+    print(khb_table(150.0, "rating_helical.toml", (0.0, 3.0, 6.0)))
