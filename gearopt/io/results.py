@@ -38,6 +38,7 @@ from typing import TYPE_CHECKING, Any, Callable
 
 from ..errors import ArgumentError, ResultsError, shorten
 from ..progress import heartbeat
+from ..summary import summarize, summary_dicts
 from ..version import __version__
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -257,6 +258,7 @@ def write_results(out_dir: str | Path, result: Any, *, scene: Scene | None = Non
         "run_time_s": None if run_time is None else round(float(run_time), 6),
     })
     data = {**data, "meta": meta}
+    data = _with_summary(data, result)
     bad = _find_nonfinite(data)
     if bad is not None:
         raise ResultsError(f"results: non-finite number (NaN or inf) at {bad}; results.json is not written (a "
@@ -293,6 +295,16 @@ def write_results(out_dir: str | Path, result: Any, *, scene: Scene | None = Non
         shutil.rmtree(tmp, ignore_errors=True)
         raise
     return [out_dir / w for w in written]
+
+
+def _with_summary(data: dict, result: Any) -> dict:
+    """``data`` with the top-level ``summary`` (docs/results.md, "summary") after ``study`` and
+    ``scene``: the result's ``summary()`` (a list of :class:`~gearopt.summary.KeyNumber`), else the
+    key numbers :func:`gearopt.summary.summarize` reads from ``data``."""
+    fn = getattr(result, "summary", None)
+    numbers = fn() if callable(fn) else summarize(data)
+    head = {k: data[k] for k in ("study", "scene") if k in data}
+    return {**head, "summary": summary_dicts(list(numbers)), **{k: v for k, v in data.items() if k not in head}}
 
 
 def _reported(tmp: Path, paths, who: str) -> list[str]:

@@ -37,6 +37,7 @@ from ..meshing.tca import TCA, Misalignment, TCAResult
 from ..report import CONJUGATE_ARCSEC, csv_cell, te_harmonics  # noqa: F401 - re-exported (their home: gearopt.report)
 from ..geometry.microgeometry import GLOBAL_AMOUNTS
 from ..settings import TCAStudySettings
+from ..summary import KeyNumber, tca_summary
 from ..units import DEG
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -77,6 +78,11 @@ class TCAReport:
         if self.inspection:
             out["inspection"] = self.inspection
         return out
+
+    def summary(self) -> list[KeyNumber]:
+        """Key numbers (:func:`gearopt.summary.tca_summary`): geometry, and per case the TE
+        peak-to-peak and harmonics, read from :meth:`to_dict`."""
+        return tca_summary(self.to_dict())
 
     def save_plots(self, out_dir: str | Path, dpi: int = 120) -> list[str]:
         """``te.png`` (TE per pair and envelope, every case), ``bearing_contact.png`` (paths of

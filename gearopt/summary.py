@@ -1,0 +1,270 @@
+"""The key numbers of a run: the small top-level ``summary`` of results.json and the first table of
+``report.html`` (docs/results.md, "summary").
+
+A key number is one scalar a gear engineer reads first (a contact ratio, the peak-to-peak TE of a
+case, the peak pressure at a torque, a Monte Carlo percentile), with a stable ``key``, a label, its
+unit and which direction is better. Every study's result object has ``summary() -> list[KeyNumber]``;
+each is computed here from the result's own dictionary (``to_dict()``, what results.json holds), so
+that the summary repeats numbers of the file and never computes new ones. A quantity a study does
+not have is absent from its summary (never 0); ``value`` is ``None`` only where the quantity exists
+but has no value (e.g. harmonics of a TE that does not span whole mesh cycles).
+
+Keys are ``<quantity>_<unit>`` with the case, torque, member or statistic in brackets:
+``te_pp_arcsec[aligned]``, ``p_max_MPa[200 Nm]``, ``mc_te_pp_arcsec[p95]``. This module imports
+nothing of gearopt (base layer); it reads plain dictionaries, so it also summarises a results.json
+read back from disk (:func:`summarize`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+from typing import Any, Callable, Literal
+
+__all__ = ["KeyNumber", "GROUPS", "summarize", "summary_dicts", "summary_from_results", "format_value",
+           "SUMMARIES"]
+
+#: The groups of key numbers, in the order the report shows them.
+GROUPS = ("geometry", "unloaded TE", "loaded", "optimisation", "FE", "Monte Carlo", "sweep")
+
+Value = float | int | str | bool | None
+
+
+@dataclass(frozen=True)
+class KeyNumber:
+    """One key number of a run.
+
+    Parameters
+    ----------
+    key : str
+        Stable identifier, ``<quantity>_<unit>`` with an optional ``[<case>]`` (``te_pp_arcsec[aligned]``);
+        the same quantity has the same key in every study and every run (docs/results.md, "summary").
+    label : str
+        Human-readable name, without the unit (``"TE peak-to-peak, aligned"``).
+    value : float, int, str, bool or None
+        The number as results.json holds it (unit ``unit``); ``None``: the quantity exists for this run
+        but has no value.
+    unit : str
+        Unit of ``value`` (``"arcsec"``, ``"mm"``, ``"MPa"``; ``""`` for a pure number).
+    better : {"lower", "higher"} or None
+        Which direction is better when two designs are compared; ``None`` where neither is.
+    group : str
+        One of :data:`GROUPS`.
+    """
+
+    key: str
+    label: str
+    value: Value
+    unit: str = ""
+    better: Literal["lower", "higher"] | None = None
+    group: str = "geometry"
+
+    def __post_init__(self) -> None:
+        if self.better not in (None, "lower", "higher"):
+            raise ValueError(f"KeyNumber {self.key!r}: better = {self.better!r}; valid: 'lower', 'higher' or None")
+        if self.group not in GROUPS:
+            raise ValueError(f"KeyNumber {self.key!r}: group = {self.group!r}; valid: {', '.join(GROUPS)}")
+        if isinstance(self.value, float) and not math.isfinite(self.value):
+            raise ValueError(f"KeyNumber {self.key!r}: value = {self.value!r} is not finite; use None for no value")
+
+    def to_dict(self) -> dict[str, Any]:
+        """The entry of results.json's ``summary``: ``{key, label, value, unit, better, group}``."""
+        return asdict(self)
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> KeyNumber:
+        """A key number from an entry of results.json's ``summary``."""
+        return cls(key=d["key"], label=d["label"], value=d["value"], unit=d.get("unit", ""),
+                   better=d.get("better"), group=d.get("group", "geometry"))
+
+    def formatted(self, digits: int = 4) -> str:
+        """``value`` for a table (:func:`format_value`), without the unit."""
+        return format_value(self.value, digits)
+
+
+def format_value(v: Value, digits: int = 4) -> str:
+    """A key number's value as text: ``digits`` significant digits for floats (a float below 1e-9 in
+    magnitude, round-off of a zero such as the backlash of a zero-backlash pair, as ``0``), integers
+    as they are, ``yes``/``no`` for booleans and an em dash for ``None`` (no value)."""
+    if v is None:
+        return "\u2014"
+    if isinstance(v, bool):
+        return "yes" if v else "no"
+    if isinstance(v, int):
+        return str(v)
+    if isinstance(v, float):
+        if abs(v) < 1e-9:
+            return "0"
+        text = f"{v:.{digits}g}"
+        return text.replace("e+0", "e").replace("e-0", "e-")
+    return str(v)
+
+
+def summary_dicts(numbers: list[KeyNumber]) -> list[dict[str, Any]]:
+    """The ``summary`` list of results.json (one dictionary per key number, in order)."""
+    keys = [n.key for n in numbers]
+    dup = sorted({k for k in keys if keys.count(k) > 1})
+    if dup:
+        raise ValueError(f"summary: duplicate keys {dup}")
+    return [n.to_dict() for n in numbers]
+
+
+def summary_from_results(data: dict[str, Any]) -> list[KeyNumber]:
+    """The key numbers of a results.json read back: its ``summary`` when it has one, else computed
+    from its arrays (:func:`summarize`; a results.json of an earlier gearopt)."""
+    if isinstance(data.get("summary"), list):
+        return [KeyNumber.from_dict(d) for d in data["summary"]]
+    return summarize(data)
+
+
+def summarize(data: dict[str, Any]) -> list[KeyNumber]:
+    """The key numbers of a study's result dictionary (``to_dict()`` or results.json), by its
+    ``study``; ``[]`` for a study without a summary function in :data:`SUMMARIES`."""
+    fn = SUMMARIES.get(data.get("study", ""))
+    return fn(data) if fn is not None else []
+
+
+# --- helpers --------------------------------------------------------------------------------------
+def _num(v: Any) -> Value:
+    """A JSON scalar as a key-number value (ints stay ints; anything else not a scalar: None)."""
+    if v is None or isinstance(v, (bool, int, str)):
+        return v
+    if isinstance(v, float):
+        return v if math.isfinite(v) else None
+    if hasattr(v, "item"):  # NumPy scalar
+        return _num(v.item())
+    return None
+
+
+def _torque_label(t: float) -> str:
+    return f"{t:g} Nm"
+
+
+def _pair_geometry(p: dict, eps_gamma: bool = False) -> list[KeyNumber]:
+    """Geometry key numbers of a ``pair`` dictionary holding ``z1``, ``z2``, ``m_n``... (tca, ltca)."""
+    out = []
+    rows = [("z1", "z1", "pinion teeth z1", ""), ("z2", "z2", "gear teeth z2", ""),
+            ("m_n", "m_n_mm", "normal module m_n", "mm"), ("beta_deg", "beta_deg", "helix angle beta", "deg"),
+            ("a", "a_mm", "centre distance a", "mm"), ("ratio", "ratio", "gear ratio z2/z1", "")]
+    for src, key, label, unit in rows:
+        if src in p:
+            out.append(KeyNumber(key, label, _num(p[src]), unit, None, "geometry"))
+    for src, key, label in (("eps_alpha", "eps_alpha", "transverse contact ratio eps_alpha"),
+                            ("eps_beta", "eps_beta", "overlap ratio eps_beta"),
+                            ("eps_gamma", "eps_gamma", "total contact ratio eps_gamma")):
+        if src in p:
+            out.append(KeyNumber(key, label, _num(p[src]), "", "higher", "geometry"))
+    if "backlash_circumferential" in p:
+        out.append(KeyNumber("backlash_circumferential_mm", "circumferential backlash j_wt (smallest)",
+                             _num(p["backlash_circumferential"]), "mm", None, "geometry"))
+    return out
+
+
+def _harmonics(h: list | None, n: int = 3) -> list[Value]:
+    return [None] * n if h is None else [_num(h[i]) if i < len(h) else None for i in range(n)]
+
+
+def _tca_cases(cases: list[dict], prefix: str = "", label_prefix: str = "") -> list[KeyNumber]:
+    """Unloaded TE per case of a tca ``cases`` list: peak-to-peak, first three harmonics, edge contact."""
+    out = []
+    for c in cases:
+        lab = c["label"]
+        out.append(KeyNumber(f"{prefix}te_pp_arcsec[{lab}]", f"{label_prefix}TE peak-to-peak, {lab}",
+                             _num(c["peak_to_peak_arcsec"]), "arcsec", "lower", "unloaded TE"))
+        for i, v in enumerate(_harmonics(c.get("harmonics_arcsec")), start=1):
+            out.append(KeyNumber(f"{prefix}te_h{i}_arcsec[{lab}]", f"{label_prefix}TE harmonic {i} (mesh order {i}), {lab}",
+                                 v, "arcsec", "lower", "unloaded TE"))
+        if c.get("edge_analysis"):
+            out.append(KeyNumber(f"{prefix}edge_contact[{lab}]", f"{label_prefix}an edge carries load, {lab}",
+                                 bool(c["edge_carries_load"]), "", "lower", "unloaded TE"))
+    return out
+
+
+# --- per study ------------------------------------------------------------------------------------
+def tca_summary(d: dict[str, Any]) -> list[KeyNumber]:
+    """tca: the pair's geometry (z, m_n, beta, a, contact ratios, backlash) and per case the TE
+    peak-to-peak, its first three mesh harmonics and, with edge contact, whether an edge carries load."""
+    return _pair_geometry(d["pair"]) + _tca_cases(d["cases"])
+
+
+def geometry_summary(d: dict[str, Any]) -> list[KeyNumber]:
+    """geometry: z, m_n, beta, a, contact ratios, backlash, tip clearances and per member the form
+    margin, the undercut margin and the tip thickness."""
+    p, m = d["pair"], d["members"]
+    pair = {"z1": m["pinion"]["z"], "z2": m["gear"]["z"], "m_n": m["pinion"]["m_n"],
+            "beta_deg": m["pinion"]["beta_deg"], **p}
+    out = _pair_geometry(pair)
+    if "backlash_circumferential_max" in p:
+        out.append(KeyNumber("backlash_circumferential_max_mm", "circumferential backlash j_wt (largest)",
+                             _num(p["backlash_circumferential_max"]), "mm", None, "geometry"))
+    for member, key in (("pinion", "tip_clearance_pinion"), ("gear", "tip_clearance_gear")):
+        if key in p:
+            out.append(KeyNumber(f"tip_clearance_mm[{member}]", f"tip clearance of the {member}", _num(p[key]),
+                                 "mm", "higher", "geometry"))
+    for member in ("pinion", "gear"):
+        g = m[member]
+        if "form_margin" in g:
+            out.append(KeyNumber(f"form_margin_mm[{member}]", f"form margin r_active_start - r_form, {member}",
+                                 _num(g["form_margin"]), "mm", "higher", "geometry"))
+        if "undercut_margin_x" in g:
+            out.append(KeyNumber(f"undercut_margin_x[{member}]", f"undercut margin x - x_min, {member}",
+                                 _num(g["undercut_margin_x"]), "", "higher", "geometry"))
+        if "s_a_over_m_n" in g:
+            out.append(KeyNumber(f"s_a_over_m_n[{member}]", f"tip thickness s_a / m_n, {member}",
+                                 _num(g["s_a_over_m_n"]), "", "higher", "geometry"))
+    return out
+
+
+def planar_tca_summary(d: dict[str, Any]) -> list[KeyNumber]:
+    """planar_tca: the ratio m12, the largest |TE| and the line of action's angle."""
+    dv = d["derived"]
+    out = [KeyNumber("m12", "gear ratio m12 = dphi1/dphi2", _num(dv["m12"]), "", None, "geometry"),
+           KeyNumber("te_max_abs_arcsec", "largest |TE|", _num(dv["te_max_abs_arcsec"]), "arcsec", "lower",
+                     "unloaded TE")]
+    loa = dv.get("line_of_action") or {}
+    if "angle_deg" in loa:
+        out.append(KeyNumber("line_of_action_angle_deg", "angle of the line of action", _num(loa["angle_deg"]),
+                             "deg", None, "geometry"))
+    return out
+
+
+def ltca_summary(d: dict[str, Any]) -> list[KeyNumber]:
+    """ltca: geometry; the unloaded TE; per torque the loaded TE peak-to-peak, the peak contact
+    pressure and the largest share of the load carried at an edge; at the nominal torque the
+    mesh stiffness c_gamma and K_Hbeta."""
+    out = _pair_geometry(d["pair"])
+    out.append(KeyNumber("te_pp_arcsec[unloaded]", "TE peak-to-peak, unloaded", _num(d["unloaded_peak_to_peak_arcsec"]),
+                         "arcsec", "lower", "unloaded TE"))
+    return out + _ltca_torques(d)
+
+
+def _ltca_torques(d: dict[str, Any], prefix: str = "", label_prefix: str = "") -> list[KeyNumber]:
+    out = []
+    torques = d["torques"]
+    for t in torques:
+        lab = _torque_label(t["torque_Nm"])
+        out.append(KeyNumber(f"{prefix}lte_pp_arcsec[{lab}]", f"{label_prefix}loaded TE peak-to-peak, {lab}",
+                             _num(t["peak_to_peak_arcsec"]), "arcsec", "lower", "loaded"))
+    for t in torques:
+        lab = _torque_label(t["torque_Nm"])
+        out.append(KeyNumber(f"{prefix}p_max_MPa[{lab}]", f"{label_prefix}peak contact pressure, {lab}",
+                             _num(t["p_max_MPa"]), "MPa", "lower", "loaded"))
+    for t in torques:
+        lab = _torque_label(t["torque_Nm"])
+        out.append(KeyNumber(f"{prefix}edge_share_max[{lab}]",
+                             f"{label_prefix}largest share of the load at an edge, {lab}",
+                             _num(t["edge_share_max"]), "", "lower", "loaded"))
+    nominal = d.get("nominal_torque_Nm")
+    nom = [t for t in torques if t["torque_Nm"] == nominal]
+    if nom:
+        t, lab = nom[0], _torque_label(nominal)
+        out.append(KeyNumber(f"{prefix}c_gamma_N_per_mm_um[{lab}]", f"{label_prefix}mesh stiffness c_gamma, {lab}",
+                             _num(t["c_gamma_N_per_mm_um"]), "N/(mm um)", None, "loaded"))
+        out.append(KeyNumber(f"{prefix}K_Hbeta[{lab}]", f"{label_prefix}face load factor K_Hbeta, {lab}",
+                             _num(t["K_Hbeta"]), "", "lower", "loaded"))
+    return out
+
+
+SUMMARIES: dict[str, Callable[[dict[str, Any]], list[KeyNumber]]] = {
+    "tca": tca_summary, "geometry": geometry_summary, "planar_tca": planar_tca_summary, "ltca": ltca_summary,
+}
