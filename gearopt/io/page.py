@@ -107,7 +107,7 @@ def _data_uri(data: bytes, mime: str) -> str:
 
 
 def figure_from_file(path: str | Path, caption: str, svg: bytes | None = None,
-                     svg_limit: int = SVG_LIMIT) -> PageFigure:
+                     svg_limit: int | None = None) -> PageFigure:
     """A page figure from an image file (PNG, JPEG or SVG), inlined as a ``data:`` URI; with ``svg``
     (the same figure rendered as SVG) no heavier than ``svg_limit`` bytes, the SVG is used instead.
 
@@ -119,15 +119,15 @@ def figure_from_file(path: str | Path, caption: str, svg: bytes | None = None,
         One line: what to read from the figure.
     svg : bytes, optional
         The figure as SVG (:class:`SVGCapture`).
-    svg_limit : int
-        Largest SVG used [bytes].
+    svg_limit : int, optional
+        Largest SVG used [bytes] (default :data:`SVG_LIMIT`).
 
     Returns
     -------
     PageFigure
     """
     p = Path(path)
-    if svg is not None and len(svg) <= svg_limit:
+    if svg is not None and len(svg) <= (SVG_LIMIT if svg_limit is None else svg_limit):
         return PageFigure(p.name, caption, _data_uri(svg, "image/svg+xml"), "svg")
     mime = mimetypes.guess_type(p.name)[0] or "application/octet-stream"
     return PageFigure(p.name, caption, _data_uri(p.read_bytes(), mime), "svg" if mime == "image/svg+xml" else "png")
@@ -183,7 +183,10 @@ def key_numbers_table(numbers: list[KeyNumber], title: str = "Key numbers") -> T
         rows.append(g)
         for n in groups[g]:
             better = {"lower": "lower", "higher": "higher"}.get(n.better or "", "")
-            rows.append([n.label, Cell(n.formatted(), "absent" if n.value is None else "", title=repr(n.value)),
+            # a yes/no quantity in its worse state (an edge carries load) is highlighted
+            flag = isinstance(n.value, bool) and n.better is not None and n.value == (n.better == "lower")
+            mark = "absent" if n.value is None else "warn" if flag else ""
+            rows.append([n.label, Cell(n.formatted(), mark, title=repr(n.value)),
                          n.unit, Cell(better, "absent" if not better else ""), Cell(n.key, "key")])
     return Table(title, ["quantity", "value", "unit", "better", "key in results.json"], rows,
                  note="4 significant digits; the full values are in results.json (summary). \u2014: no value.",
@@ -257,12 +260,12 @@ class SVGCapture:
 
     Parameters
     ----------
-    limit : int
-        Largest SVG kept [bytes] (:data:`SVG_LIMIT`).
+    limit : int, optional
+        Largest SVG kept [bytes] (default :data:`SVG_LIMIT`).
     """
 
-    def __init__(self, limit: int = SVG_LIMIT) -> None:
-        self.limit = limit
+    def __init__(self, limit: int | None = None) -> None:
+        self.limit = SVG_LIMIT if limit is None else limit
         self.svgs: dict[str, bytes] = {}
         self._saved: Any = None
 
