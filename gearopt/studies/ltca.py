@@ -113,12 +113,14 @@ class LTCAReport:
         plot_te_vs_torque(d, ax=fig.add_subplot(gs[1, 0]))
         plot_harmonics(d, ax=fig.add_subplot(gs[1, 1]))
         files = [save("ltca_te.png", fig, "loaded transmission error")]
-        fig = plt.figure(figsize=(18, 6.4), layout="constrained")
-        gs = fig.add_gridspec(2, 3)
-        plot_load_sharing(d, ax=fig.add_subplot(gs[:, 0]))
-        plot_mesh_stiffness(d, ax=fig.add_subplot(gs[:, 1]))
-        ax_q = fig.add_subplot(gs[0, 2])
-        plot_face_load(d, ax=ax_q, ax_pressure=fig.add_subplot(gs[1, 2], sharex=ax_q))
+        # two columns (three in a row shrank the text below reading size on a page or a screen): load
+        # sharing and mesh stiffness above, the load and pressure across the face below
+        fig = plt.figure(figsize=(13, 10), layout="constrained")
+        gs = fig.add_gridspec(4, 2, height_ratios=(1, 1, 0.8, 0.8))
+        plot_load_sharing(d, ax=fig.add_subplot(gs[:2, 0]))
+        plot_mesh_stiffness(d, ax=fig.add_subplot(gs[:2, 1]))
+        ax_q = fig.add_subplot(gs[2, :])
+        plot_face_load(d, ax=ax_q, ax_pressure=fig.add_subplot(gs[3, :], sharex=ax_q))
         ax_q.set_xlabel("")
         files.append(save("ltca_sharing.png", fig, "load sharing, mesh stiffness, load across the face"))
         fig, axes = plt.subplots(1, 2, figsize=(13, 5.6), layout="constrained")
