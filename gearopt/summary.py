@@ -25,7 +25,7 @@ __all__ = ["KeyNumber", "GROUPS", "summarize", "summary_dicts", "summary_from_re
            "SUMMARIES"]
 
 #: The groups of key numbers, in the order the report shows them.
-GROUPS = ("geometry", "unloaded TE", "loaded", "optimisation", "FE", "Monte Carlo", "sweep")
+GROUPS = ("geometry", "optimisation", "unloaded TE", "loaded", "FE", "Monte Carlo", "sweep")
 
 Value = float | int | str | bool | None
 
@@ -211,7 +211,7 @@ def geometry_summary(d: dict[str, Any]) -> list[KeyNumber]:
                              _num(p["backlash_circumferential_max"]), "mm", None, "geometry"))
     for member, key in (("pinion", "tip_clearance_pinion"), ("gear", "tip_clearance_gear")):
         if key in p:
-            out.append(KeyNumber(f"tip_clearance_mm[{member}]", f"tip clearance of the {member}", _num(p[key]),
+            out.append(KeyNumber(f"tip_clearance_mm[{member}]", f"tip clearance, {member}", _num(p[key]),
                                  "mm", "higher", "geometry"))
     for member in ("pinion", "gear"):
         g = m[member]

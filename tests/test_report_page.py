@@ -15,7 +15,8 @@ from pathlib import Path
 
 import pytest
 
-from gearopt.io.page import Cell, PageFigure, Table, figure_from_file, key_numbers_table, render_page
+from gearopt.io.page import (Cell, PageFigure, Table, figure_from_file, key_numbers_table, key_numbers_tables,
+                             render_page)
 from gearopt.io.results import MANIFEST, write_results
 from gearopt.summary import KeyNumber
 
@@ -124,6 +125,26 @@ def test_key_numbers_table_groups_marks_and_orders():
     assert cells["te_pp_arcsec[aligned]"].text == "18.35"
     assert cells["edge_contact[aligned]"].text == "yes" and cells["edge_contact[aligned]"].mark == "warn"
     assert cells["te_h1_arcsec[aligned]"].mark == "absent"
+
+
+def test_key_numbers_tables_put_a_quantity_over_cases_in_one_row():
+    """A quantity given at several torques (cases, statistics...) becomes one row with a column each;
+    one given once stays in the first table; a column a quantity lacks is blank, a None value a dash."""
+    k = [KeyNumber("z1", "pinion teeth z1", 20),
+         KeyNumber("lte_pp_arcsec[20 Nm]", "loaded TE peak-to-peak, 20 Nm", 4.9, "arcsec", "lower", "loaded"),
+         KeyNumber("lte_pp_arcsec[200 Nm]", "loaded TE peak-to-peak, 200 Nm", 44.1, "arcsec", "lower", "loaded"),
+         KeyNumber("p_max_MPa[200 Nm]", "peak contact pressure, 200 Nm", None, "MPa", "lower", "loaded"),
+         KeyNumber("p_max_MPa[300 Nm]", "peak contact pressure, 300 Nm", 1778.0, "MPa", "lower", "loaded"),
+         KeyNumber("K_Hbeta[200 Nm]", "face load factor K_Hbeta, 200 Nm", 1.48, "", "lower", "loaded"),
+         KeyNumber("status", "optimiser status", "Solve_Succeeded", group="optimisation")]
+    first, per_torque = key_numbers_tables(k)
+    assert [r if isinstance(r, str) else r[4].text for r in first.rows] == [
+        "geometry", "z1", "optimisation", "status", "loaded", "K_Hbeta[200 Nm]"]
+    assert per_torque.title == "loaded per torque"
+    assert per_torque.columns == ["quantity", "20 Nm", "200 Nm", "300 Nm", "unit", "better", "key"]
+    rows = {r[0]: [c.text for c in r[1:4]] for r in per_torque.rows}
+    assert rows == {"loaded TE peak-to-peak": ["4.9", "44.1", ""], "peak contact pressure": ["", "\u2014", "1778"]}
+    assert per_torque.rows[0][6].text == "lte_pp_arcsec[\u00b7]"
 
 
 # --- write_results and gearopt run -----------------------------------------------------------------------

@@ -23,7 +23,8 @@ from typing import Any, Literal
 from ..summary import GROUPS, KeyNumber
 from ..version import __version__
 
-__all__ = ["Cell", "Table", "PageFigure", "render_page", "figure_from_file", "key_numbers_table", "report_page",
+__all__ = ["Cell", "Table", "PageFigure", "render_page", "figure_from_file", "key_numbers_table", "key_numbers_tables",
+           "report_page",
            "SVGCapture", "SVG_LIMIT", "REPORT_FILE"]
 
 #: The page every run writes beside results.json.
@@ -171,9 +172,101 @@ def render_page(title: str, header: dict[str, str], tables: list[Table], warning
         generator=f"gearopt {__version__}")
 
 
+def _split_key(n: KeyNumber) -> tuple[str, str, str] | None:
+    """``(family, column, row label)`` of a key number with a bracketed argument: the key without its
+    last argument (``lte_pp_arcsec[aligned, ·]``), that argument (``100 Nm``) and the label without
+    it; None for a key without brackets or a label that does not end with the argument."""
+    if not n.key.endswith("]") or "[" not in n.key:
+        return None
+    base, arg = n.key[:-1].split("[", 1)
+    head, _, col = arg.rpartition(", ")
+    if not n.label.endswith(", " + col):
+        return None
+    family = f"{base}[{head}, \u00b7]" if head else f"{base}[\u00b7]"
+    return family, col, n.label[: -len(col) - 2]
+
+
+def _columns_kind(cols: tuple[str, ...]) -> str:
+    if all(c.endswith(" Nm") for c in cols):
+        return "torque"
+    if all(c.startswith("phi1 ") for c in cols):
+        return "position"
+    if set(cols) <= {"pinion", "gear"}:
+        return "member"
+    if all(c in ("n", "mean", "sd", "min", "max") or (c[:1] == "p" and c[1:].isdigit()) for c in cols):
+        return "statistic"
+    return "case"
+
+
+def _value_cell(n: KeyNumber) -> Cell:
+    # a yes/no quantity in its worse state (an edge carries load) is highlighted
+    flag = isinstance(n.value, bool) and n.better is not None and n.value == (n.better == "lower")
+    return Cell(n.formatted(), "absent" if n.value is None else "warn" if flag else "", title=repr(n.value))
+
+
+def key_numbers_tables(numbers: list[KeyNumber], title: str = "Key numbers") -> list[Table]:
+    """The key numbers of one run as tables, in :data:`~gearopt.summary.GROUPS` order: first one
+    table of the single quantities, grouped (quantity, value, unit, better, key); then, per group,
+    the quantities given for several cases, torques, positions, statistics or members as one row
+    each with a column per case (a table per set of columns)."""
+    order = {g: i for i, g in enumerate(GROUPS)}
+    by_group: dict[str, list[KeyNumber]] = {}
+    for n in numbers:
+        by_group.setdefault(n.group, []).append(n)
+    groups = sorted(by_group, key=lambda g: order.get(g, len(order)))
+    # families: the same quantity over several columns
+    fam_cols: dict[tuple[str, str], list[str]] = {}
+    for g in groups:
+        for n in by_group[g]:
+            sp = _split_key(n)
+            if sp is not None:
+                cols = fam_cols.setdefault((g, sp[0]), [])
+                if sp[1] not in cols:
+                    cols.append(sp[1])
+    pivot = {k for k, cols in fam_cols.items() if len(cols) > 1}
+    scalar_rows: list[Any] = []
+    tables: list[Table] = []
+    for g in groups:
+        singles = [n for n in by_group[g] if (_split_key(n) is None or (g, _split_key(n)[0]) not in pivot)]
+        if singles:
+            scalar_rows.append(g)
+        for n in singles:
+            better = n.better or ""
+            scalar_rows.append([n.label, _value_cell(n), n.unit, Cell(better, "" if better else "absent"),
+                                Cell(n.key, "key")])
+        # one table per kind of columns (cases, torques, ...: their union), rows in order of first appearance
+        sets: dict[str, dict[str, dict]] = {}
+        union: dict[str, list[str]] = {}
+        for n in by_group[g]:
+            sp = _split_key(n)
+            if sp is None or (g, sp[0]) not in pivot:
+                continue
+            kind = _columns_kind(tuple(fam_cols[(g, sp[0])]))
+            cols = union.setdefault(kind, [])
+            if sp[1] not in cols:
+                cols.append(sp[1])
+            row = sets.setdefault(kind, {}).setdefault(sp[0], {"label": sp[2], "unit": n.unit,
+                                                                "better": n.better or "", "cells": {}})
+            row["cells"][sp[1]] = n
+        for kind, rows in sets.items():
+            cols = tuple(union[kind])
+            body = []
+            for fam, r in rows.items():
+                # blank: the quantity is not given for that column (not in the summary), unlike a value None
+                cells = [_value_cell(r["cells"][c]) if c in r["cells"] else Cell("", "absent") for c in cols]
+                body.append([r["label"], *cells, r["unit"], Cell(r["better"], "" if r["better"] else "absent"),
+                             Cell(fam, "key")])
+            tables.append(Table(f"{g} per {kind}", ["quantity", *cols, "unit", "better", "key"], body,
+                                numeric=tuple(range(1, len(cols) + 1))))
+    note = "4 significant digits; the full values are in results.json (summary). \u2014: no value."
+    first = Table(title, ["quantity", "value", "unit", "better", "key in results.json"], scalar_rows, note=note,
+                  numeric=(1,))
+    return ([first] if scalar_rows else []) + tables
+
+
 def key_numbers_table(numbers: list[KeyNumber], title: str = "Key numbers") -> Table:
-    """The key numbers of one run as a table grouped by :data:`~gearopt.summary.GROUPS`: quantity,
-    value, unit, which direction is better, key (the ``summary`` key in results.json)."""
+    """The key numbers of one run as one flat table grouped by :data:`~gearopt.summary.GROUPS`:
+    quantity, value, unit, which direction is better, key (the ``summary`` key in results.json)."""
     rows: list[Any] = []
     order = {g: i for i, g in enumerate(GROUPS)}
     groups: dict[str, list[KeyNumber]] = {}
@@ -182,12 +275,9 @@ def key_numbers_table(numbers: list[KeyNumber], title: str = "Key numbers") -> T
     for g in sorted(groups, key=lambda g: order.get(g, len(order))):
         rows.append(g)
         for n in groups[g]:
-            better = {"lower": "lower", "higher": "higher"}.get(n.better or "", "")
-            # a yes/no quantity in its worse state (an edge carries load) is highlighted
-            flag = isinstance(n.value, bool) and n.better is not None and n.value == (n.better == "lower")
-            mark = "absent" if n.value is None else "warn" if flag else ""
-            rows.append([n.label, Cell(n.formatted(), mark, title=repr(n.value)),
-                         n.unit, Cell(better, "absent" if not better else ""), Cell(n.key, "key")])
+            better = n.better or ""
+            rows.append([n.label, _value_cell(n), n.unit, Cell(better, "" if better else "absent"),
+                         Cell(n.key, "key")])
     return Table(title, ["quantity", "value", "unit", "better", "key in results.json"], rows,
                  note="4 significant digits; the full values are in results.json (summary). \u2014: no value.",
                  numeric=(1,))
@@ -247,7 +337,7 @@ def report_page(data: dict[str, Any], files: list[str], captions: dict[str, str]
         if Path(f).suffix.lower() in (".png", ".svg", ".jpg", ".jpeg"):
             figures.append(figure_from_file(directory / f, captions.get(f, ""), (svgs or {}).get(f)))
     links = [(f, f) for f in files if Path(f).suffix.lower() not in (".png", ".svg", ".jpg", ".jpeg")]
-    tables = [key_numbers_table(numbers)] if numbers else []
+    tables = key_numbers_tables(numbers)
     name = header["scene"] or "run"
     return render_page(f"{name}: {header['study']}", header, tables, _warning_texts(data), figures, links)
 
