@@ -208,7 +208,7 @@ def key_numbers_tables(numbers: list[KeyNumber], title: str = "Key numbers") -> 
     """The key numbers of one run as tables, in :data:`~gearopt.summary.GROUPS` order: first one
     table of the single quantities, grouped (quantity, value, unit, better, key); then, per group,
     the quantities given for several cases, torques, positions, statistics or members as one row
-    each with a column per case (a table per set of columns)."""
+    each with a column per case, the unit in the quantity's name (a table per kind of columns)."""
     order = {g: i for i, g in enumerate(GROUPS)}
     by_group: dict[str, list[KeyNumber]] = {}
     for n in numbers:
@@ -254,9 +254,10 @@ def key_numbers_tables(numbers: list[KeyNumber], title: str = "Key numbers") -> 
             for fam, r in rows.items():
                 # blank: the quantity is not given for that column (not in the summary), unlike a value None
                 cells = [_value_cell(r["cells"][c]) if c in r["cells"] else Cell("", "absent") for c in cols]
-                body.append([r["label"], *cells, r["unit"], Cell(r["better"], "" if r["better"] else "absent"),
+                label = f"{r['label']} [{r['unit']}]" if r["unit"] else r["label"]
+                body.append([Cell(label, title=f"{r['better']} is better" if r["better"] else ""), *cells,
                              Cell(fam, "key")])
-            tables.append(Table(f"{g} per {kind}", ["quantity", *cols, "unit", "better", "key"], body,
+            tables.append(Table(f"{g} per {kind}", ["quantity", *cols, "key"], body,
                                 numeric=tuple(range(1, len(cols) + 1))))
     note = "4 significant digits; the full values are in results.json (summary). \u2014: no value."
     first = Table(title, ["quantity", "value", "unit", "better", "key in results.json"], scalar_rows, note=note,
