@@ -393,7 +393,8 @@ def robust_summary(d: dict[str, Any]) -> list[KeyNumber]:
         out.append(KeyNumber(f"p_max_MPa[nominal, {tl}]", f"peak contact pressure, nominal drive, {tl}",
                              _num(nom["p_max_MPa"]), "MPa", "lower", "loaded"))
     s = d["statistics"]
-    out.append(KeyNumber(f"{pre}n_samples", f"{what}: samples", _num(s["n_samples"]), "", None, group))
+    out.append(KeyNumber(f"{pre}n_samples", f"{what}: {'samples' if mc else 'design points'}", _num(s["n_samples"]), "",
+                         None, group))
     out.append(KeyNumber(f"{pre}feasible_fraction", f"{what}: share of samples with results",
                          _num(s["feasible_fraction"]), "", "higher", group))
     for q, stats in _STATS.items():
@@ -401,8 +402,9 @@ def robust_summary(d: dict[str, Any]) -> list[KeyNumber]:
         for st in stats:
             if q in s and st in s[q]:
                 out.append(KeyNumber(f"{pre}{key}[{st}]", f"{what}: {label}, {st}", _num(s[q][st]), unit, "lower", group))
-    for q, label in (("p_edge_contact", "probability of edge contact"),
-                     ("p_pattern_at_edge", "probability of a contact pattern at an edge")):
+    share = "probability" if mc else "share of the design points"
+    for q, label in (("p_edge_contact", f"{share} with edge contact"),
+                     ("p_pattern_at_edge", f"{share} with a contact pattern at an edge")):
         if q in s:
             out.append(KeyNumber(f"{pre}{q}", f"{what}: {label}", _num(s[q]["p"]), "", "lower", group))
     loaded = s.get("loaded") or {}

@@ -83,9 +83,9 @@ class LoadedMicroReport:
 
     #: One line per figure for report.html: what to read from it.
     captions: ClassVar[dict[str, str]] = {
-        "loaded_micro_te.png": "Loaded TE over the mesh cycle at every torque before (left) and after (middle) the "
+        "loaded_micro_te.png": "Loaded TE over the mesh cycle at every torque before (left) and after (right) the "
                                "optimisation (first case), and the loaded TE peak-to-peak against torque for every "
-                               "case (right): read how much the modification lowers the TE at the design torques.",
+                               "case (below): read how much the modification lowers the TE at the design torques.",
         "loaded_micro_pattern.png": "Loaded contact pattern on the pinion flank at the nominal torque before (left) "
                                     "and after (right), one pressure scale: read that the pattern moves off the "
                                     "edges and what peak pressure it costs.",
@@ -124,7 +124,11 @@ class LoadedMicroReport:
         def save(name, fig, title):
             return save_figure(out, self.scene, name, fig, title, dpi)
 
-        fig, axes = plt.subplots(1, 3, figsize=(18, 5), layout="constrained")
+        # before and after side by side, the TE against torque below (three in a row shrank the text
+        # below reading size on a page or a screen)
+        fig = plt.figure(figsize=(13, 9.5), layout="constrained")
+        gs = fig.add_gridspec(2, 2)
+        axes = [fig.add_subplot(gs[0, 0]), fig.add_subplot(gs[0, 1]), fig.add_subplot(gs[1, :])]
         plot_te_before_after(d["before"][0], d["after"][0], ax=axes[0], which="before")
         plot_te_before_after(d["before"][0], d["after"][0], ax=axes[1], which="after")
         lo = min(axes[0].get_ylim()[0], axes[1].get_ylim()[0])
