@@ -287,3 +287,17 @@ def test_page_figure_is_frozen():
     f = PageFigure("a.png", "c", "data:image/png;base64,")
     with pytest.raises(AttributeError):
         f.caption = "x"
+
+
+def test_a_wheel_carries_the_template_and_jinja2_is_a_dependency():
+    """The template is package data (pyproject's [tool.setuptools.package-data] matches it, so a
+    non-editable install has it) and Jinja2 is a declared dependency."""
+    import fnmatch
+    import tomllib
+
+    root = Path(__file__).resolve().parents[1]
+    cfg = tomllib.loads((root / "pyproject.toml").read_text())
+    assert any(d.split(">")[0].split("=")[0].strip().lower() == "jinja2" for d in cfg["project"]["dependencies"])
+    data = cfg["tool"]["setuptools"]["package-data"]["gearopt.io"]
+    templates = [p.relative_to(root / "gearopt" / "io").as_posix() for p in (root / "gearopt" / "io").rglob("*.j2")]
+    assert templates and all(any(fnmatch.fnmatch(t, pat) for pat in data) for t in templates)
