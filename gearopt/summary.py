@@ -21,8 +21,9 @@ import math
 from dataclasses import asdict, dataclass
 from typing import Any, Callable, Literal
 
-__all__ = ["KeyNumber", "GROUPS", "summarize", "summary_dicts", "summary_from_results", "format_value",
-           "SUMMARIES"]
+__all__ = ["KeyNumber", "GROUPS", "summarize", "summary_dicts", "summary_from_results", "format_value", "with_pair",
+           "SUMMARIES", "tca_summary", "geometry_summary", "planar_tca_summary", "ltca_summary", "crowning_summary",
+           "fea_summary", "loaded_microgeometry_summary", "robust_summary"]
 
 #: The groups of key numbers, in the order the report shows them.
 GROUPS = ("geometry", "optimisation", "unloaded TE", "loaded", "FE", "Monte Carlo", "sweep")
@@ -121,7 +122,7 @@ def summarize(data: dict[str, Any]) -> list[KeyNumber]:
     """The key numbers of a study's result dictionary (``to_dict()`` or results.json), by its
     ``study``; ``[]`` for a study without a summary function in :data:`SUMMARIES`."""
     fn = SUMMARIES.get(data.get("study", ""))
-    return fn(data) if fn is not None else []
+    return with_pair(fn(data) if fn is not None else [], data)
 
 
 # --- helpers --------------------------------------------------------------------------------------
@@ -157,8 +158,33 @@ def _pair_geometry(p: dict, eps_gamma: bool = False) -> list[KeyNumber]:
     if "backlash_circumferential" in p:
         out.append(KeyNumber("backlash_circumferential_mm", "circumferential backlash j_wt (smallest)",
                              _num(p["backlash_circumferential"]), "mm", None, "geometry"))
+    if isinstance(p.get("side"), str):
+        out.append(KeyNumber("side", "driving flank of the pinion", p["side"], "", None, "geometry"))
     out += _crowning_settings(p.get("pinion_a_c"), p.get("pinion_a_pl"))
+    iso = p.get("pinion_iso_um")
+    if isinstance(iso, dict):
+        out += _iso_amounts(iso)
     return out
+
+
+def _iso_amounts(iso: dict) -> list[KeyNumber]:
+    """The pinion's crowning in ISO 21771 terms [um] (``C_alpha``, ``f_H_alpha``, ``C_beta``, ``f_H_beta``)."""
+    return [KeyNumber(f"{k}_um[pinion]", f"pinion {k} (ISO 21771 terms)", _num(v), "um", None, "geometry")
+            for k, v in iso.items()]
+
+
+def with_pair(numbers: list[KeyNumber], data: dict[str, Any]) -> list[KeyNumber]:
+    """``numbers`` with the pair's ``z1``, ``z2``, ``m_n_mm``, ``beta_deg``, ``a_mm`` and ``side``
+    from results.json's ``meta.pair`` (written by :func:`gearopt.io.results.write_results` from the
+    scene) put in front where the study's own numbers lack them (the crowning, loaded micro-geometry
+    and robust results hold no pair block)."""
+    mp = (data.get("meta") or {}).get("pair")
+    if not isinstance(mp, dict):
+        return list(numbers)
+    have = {n.key for n in numbers}
+    extra = [n for n in _pair_geometry({k: v for k, v in mp.items() if k in ("z1", "z2", "m_n", "beta_deg", "a", "side")})
+             if n.key not in have]
+    return extra + list(numbers)
 
 
 def _crowning_settings(a_c: Any, a_pl: Any) -> list[KeyNumber]:
@@ -284,8 +310,7 @@ def crowning_summary(d: dict[str, Any]) -> list[KeyNumber]:
     de = d["design"]
     st = de.get("settings") or {}
     out = _crowning_settings(st.get("a_c"), st.get("a_pl"))
-    for k, v in (de.get("iso_um") or {}).items():
-        out.append(KeyNumber(f"{k}_um[pinion]", f"pinion {k} (ISO 21771 terms)", _num(v), "um", None, "geometry"))
+    out += _iso_amounts(de.get("iso_um") or {})
     out.append(KeyNumber("status", "optimiser status", _num(de.get("status")), "", None, "optimisation"))
     out.append(KeyNumber("objective", "optimiser objective (misfit to the target TE)", _num(de.get("objective")), "",
                          "lower", "optimisation"))
@@ -392,6 +417,9 @@ def robust_summary(d: dict[str, Any]) -> list[KeyNumber]:
                              _num(nom["loaded_te_p2p_arcsec"]), "arcsec", "lower", "loaded"))
         out.append(KeyNumber(f"p_max_MPa[nominal, {tl}]", f"peak contact pressure, nominal drive, {tl}",
                              _num(nom["p_max_MPa"]), "MPa", "lower", "loaded"))
+    side = (d.get("options") or {}).get("side")
+    if isinstance(side, str):
+        out.insert(0, KeyNumber("side", "driving flank of the pinion", side, "", None, "geometry"))
     s = d["statistics"]
     out.append(KeyNumber(f"{pre}n_samples", f"{what}: {'samples' if mc else 'design points'}", _num(s["n_samples"]), "",
                          None, group))

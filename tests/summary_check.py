@@ -110,9 +110,14 @@ def check_summary(res: dict, out: Path) -> None:
     assert undocumented_keys(keys) == [], "summary keys missing in docs/results.md's summary table"
     s = {e["key"]: e["value"] for e in entries}
     st = res["study"]
-    if "pair" in res and "z1" in res["pair"]:
-        assert s["z1"] == res["pair"]["z1"] and s["a_mm"] == res["pair"]["a"]
+    # every study names its pair: its own pair block, else meta.pair (the scene's pair)
+    pair = res["pair"] if "z1" in res.get("pair", {}) else res["meta"]["pair"]
+    assert (s["z1"], s["z2"], s["m_n_mm"], s["a_mm"]) == (pair["z1"], pair["z2"], pair["m_n"], pair["a"])
+    assert (s["z1"], s["z2"]) == (res["meta"]["pair"]["z1"], res["meta"]["pair"]["z2"])
+    if "eps_alpha" in res.get("pair", {}):
         assert s["eps_alpha"] == res["pair"]["eps_alpha"]
+    side = res.get("pair", {}).get("side") or res.get("options", {}).get("side") or res["meta"]["pair"].get("side")
+    assert s.get("side") == side
     if st == "tca":
         _check_tca_cases(s, res["cases"], res["pair"]["z1"])
     elif st == "geometry":
@@ -148,7 +153,7 @@ def check_summary(res: dict, out: Path) -> None:
         _check_tca_cases(s, res["after"], None)
         _check_tca_cases(s, res["before"], None, prefix="before.")
         assert s["pinion_a_pl_per_mm"] == res["design"]["settings"]["a_pl"]
-        assert "z1" not in s  # the crowning results hold no pair data: absent, not 0
+        assert s["C_beta_um[pinion]"] == res["design"]["iso_um"]["C_beta"]
     elif st == "loaded_microgeometry":
         for i, c in enumerate(res["cases"]):
             _check_ltca_torques(s, res["after"][i], suffix=f"{c['name']}, ")

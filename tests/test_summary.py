@@ -83,6 +83,20 @@ def test_tca_summary_repeats_the_arrays(tca_result):
             assert s[f"te_h{k}_arcsec[{lab}]"].value == pytest.approx(harmonic(case, k, 20), abs=1e-9)
         assert f"edge_contact[{lab}]" not in s  # no edge analysis: absent, not False
     assert set(s) >= {"te_pp_arcsec[aligned]", "te_pp_arcsec[misaligned]"}
+    assert s["side"].value == d["pair"]["side"] == "right"
+    assert s["C_beta_um[pinion]"].value == d["pair"]["pinion_iso_um"]["C_beta"]
     # quantities of other studies are absent, never 0
     assert not any(k.startswith(("lte_pp", "p_max", "mc_", "fe_")) for k in s)
     assert undocumented_keys(list(s)) == []
+
+
+def test_with_pair_fills_only_what_the_study_lacks():
+    from gearopt.summary import with_pair
+
+    meta = {"meta": {"pair": {"z1": 20, "z2": 40, "m_n": 3.0, "beta_deg": 0.0, "a": 90.0, "side": "right"}}}
+    own = [KeyNumber("z1", "pinion teeth z1", 21), KeyNumber("te_pp_arcsec[x]", "TE, x", 1.0, "arcsec", "lower",
+                                                            "unloaded TE")]
+    got = {k.key: k.value for k in with_pair(own, meta)}
+    assert got == {"z1": 21, "z2": 40, "m_n_mm": 3.0, "beta_deg": 0.0, "a_mm": 90.0, "side": "right",
+                   "te_pp_arcsec[x]": 1.0}
+    assert with_pair(own, {}) == own

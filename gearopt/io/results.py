@@ -38,7 +38,7 @@ from typing import TYPE_CHECKING, Any, Callable
 
 from ..errors import ArgumentError, ResultsError, shorten
 from ..progress import heartbeat
-from ..summary import summarize, summary_dicts
+from ..summary import summarize, summary_dicts, with_pair
 from .page import REPORT_FILE, SVGCapture, report_page
 from ..version import __version__
 
@@ -267,6 +267,8 @@ def write_results(out_dir: str | Path, result: Any, *, scene: Scene | None = Non
         "warnings": [{"category": str(w.get("category", "Warning")), "message": str(w.get("message", "")),
                       "source": str(w.get("source", ""))} for w in (warnings or [])],
     })
+    if scene is not None and getattr(scene, "pair", None) is not None:
+        meta["pair"] = _pair_meta(scene)
     data = {**data, "meta": meta}
     data = _with_summary(data, result)
     bad = _find_nonfinite(data)
@@ -313,12 +315,24 @@ def write_results(out_dir: str | Path, result: Any, *, scene: Scene | None = Non
     return [out_dir / w for w in written]
 
 
+def _pair_meta(scene: Any) -> dict:
+    """``meta.pair`` of results.json: the scene's pair (z1, z2, m_n [mm], beta [deg], a [mm]) and the
+    driving flank where the study's section gives one; every study's results name their pair."""
+    p = scene.pair
+    out = {"z1": int(p.pinion.z), "z2": int(p.gear.z), "m_n": float(p.pinion.m_n),
+           "beta_deg": math.degrees(p.pinion.beta), "a": float(p.a_w)}
+    side = (scene.options.get(scene.study) or {}).get("side") if isinstance(scene.options, dict) else None
+    if isinstance(side, str):
+        out["side"] = side
+    return out
+
+
 def _with_summary(data: dict, result: Any) -> dict:
     """``data`` with the top-level ``summary`` (docs/results.md, "summary") after ``study`` and
     ``scene``: the result's ``summary()`` (a list of :class:`~gearopt.summary.KeyNumber`), else the
     key numbers :func:`gearopt.summary.summarize` reads from ``data``."""
     fn = getattr(result, "summary", None)
-    numbers = fn() if callable(fn) else summarize(data)
+    numbers = with_pair(fn(), data) if callable(fn) else summarize(data)
     head = {k: data[k] for k in ("study", "scene") if k in data}
     return {**head, "summary": summary_dicts(list(numbers)), **{k: v for k, v in data.items() if k not in head}}
 
