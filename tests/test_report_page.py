@@ -301,3 +301,25 @@ def test_a_wheel_carries_the_template_and_jinja2_is_a_dependency():
     data = cfg["tool"]["setuptools"]["package-data"]["gearopt.io"]
     templates = [p.relative_to(root / "gearopt" / "io").as_posix() for p in (root / "gearopt" / "io").rglob("*.j2")]
     assert templates and all(any(fnmatch.fnmatch(t, pat) for pat in data) for t in templates)
+
+
+def test_svg_elements_counts_what_the_svg_would_hold():
+    """Figures too heavy for SVG are recognised before rendering: mesh cells and markers count, a
+    rasterized collection is one image."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    from gearopt.io.page import SVG_MAX_ELEMENTS, svg_elements
+
+    fig, ax = plt.subplots()
+    ax.pcolormesh(np.zeros((40, 60)))
+    assert svg_elements(fig) >= 2400 > SVG_MAX_ELEMENTS
+    plt.close(fig)
+    fig, ax = plt.subplots()
+    ax.scatter(np.arange(5000), np.arange(5000), rasterized=True)
+    ax.plot(np.arange(200))
+    assert svg_elements(fig) < 50
+    plt.close(fig)

@@ -25,7 +25,7 @@ from ..version import __version__
 
 __all__ = ["Cell", "Table", "PageFigure", "render_page", "figure_from_file", "key_numbers_table", "key_numbers_tables",
            "report_page",
-           "SVGCapture", "SVG_LIMIT", "REPORT_FILE"]
+           "SVGCapture", "SVG_LIMIT", "SVG_MAX_ELEMENTS", "svg_elements", "REPORT_FILE"]
 
 #: The page every run writes beside results.json.
 REPORT_FILE = "report.html"
@@ -343,6 +343,34 @@ def report_page(data: dict[str, Any], files: list[str], captions: dict[str, str]
     return render_page(f"{name}: {header['study']}", header, tables, _warning_texts(data), figures, links)
 
 
+#: Drawn elements (:func:`svg_elements`) above which a figure is not rendered as SVG at all.
+SVG_MAX_ELEMENTS = 1500
+
+
+def svg_elements(fig: Any) -> int:
+    """A rough count of the SVG elements ``fig`` would write: patches, the members of every
+    collection (markers, polygons, mesh cells; a rasterized collection is one image) and the points
+    of the lines (twenty to an element). About 200 bytes each: 1500 make the 300 kB of
+    :data:`SVG_LIMIT`."""
+    n = 0
+    for ax in fig.axes:
+        n += len(ax.patches) + len(ax.texts)
+        for c in ax.collections:
+            if c.get_rasterized():
+                n += 1
+                continue
+            coords = c.get_coordinates() if hasattr(c, "get_coordinates") else None  # a QuadMesh: its cells
+            if coords is not None:
+                n += (coords.shape[0] - 1) * (coords.shape[1] - 1)
+            else:
+                offsets = c.get_offsets() if hasattr(c, "get_offsets") else ()
+                n += max(len(c.get_paths()), len(offsets))
+        n += sum(len(line.get_xydata()) for line in ax.lines) // 20
+        if n > SVG_MAX_ELEMENTS:
+            break
+    return n
+
+
 class SVGCapture:
     """Context manager: while active, every figure saved as PNG (``Figure.savefig``) is also
     rendered as SVG into memory, same bounding box; :attr:`svgs` maps the PNG's file name to the
@@ -376,9 +404,13 @@ class SVGCapture:
         return self
 
     def add(self, fig: Any, name: str, kwargs: dict[str, Any]) -> None:
-        """Render ``fig`` as SVG under ``name`` (kept when no heavier than the limit)."""
+        """Render ``fig`` as SVG under ``name`` (kept when no heavier than the limit); a figure with
+        more drawn elements than :data:`SVG_MAX_ELEMENTS` is not rendered (its SVG would be too
+        heavy, and rendering it costs seconds)."""
         import matplotlib
 
+        if svg_elements(fig) > SVG_MAX_ELEMENTS:
+            return
         buf = io.BytesIO()
         opts = {k: kwargs[k] for k in ("bbox_inches", "pad_inches", "facecolor") if k in kwargs}
         with matplotlib.rc_context({"svg.fonttype": "path", "svg.hashsalt": name}):
