@@ -12,6 +12,7 @@ import json
 import shutil
 import warnings
 from pathlib import Path
+from urllib.parse import unquote
 
 import pytest
 
@@ -175,7 +176,7 @@ def test_write_results_writes_the_page(tmp_path):
     assert len(page.images) == 2 and page.images[0].startswith("data:image/svg+xml;base64,")
     assert page.images[1].startswith("data:image/png;base64,")
     # links to the table and results.json, which exist beside the page
-    assert set(page.links) == {"results.json", "table one.csv"}
+    assert set(page.links) == {"results.json", "table%20one.csv"}
 
 
 def test_heavy_figures_go_as_png(tmp_path, monkeypatch):
@@ -192,7 +193,7 @@ def test_no_plots_still_writes_the_page(tmp_path):
     out = tmp_path / "out"
     write_results(out, _Result(), plots=False)
     page = parse(out / "report.html")
-    assert page.images == [] and set(page.links) == {"results.json", "table one.csv"}
+    assert page.images == [] and set(page.links) == {"results.json", "table%20one.csv"}
     assert static_problems(out / "report.html") == []
 
 
@@ -275,7 +276,7 @@ def test_every_study_summary_and_page(name, scene_run):
     assert len(page.images) == len(figures), "every figure on the page"
     assert len(page.figcaptions) == len(figures)
     assert all(" read " in c or ": read" in c for c in page.figcaptions), "every figure says what to read from it"
-    assert sorted(page.links) == others, "a link to every other file"
+    assert sorted(unquote(h) for h in page.links) == others, "a link to every other file"
     assert page.tables[0][0][0] == "quantity" and len(page.tables[0]) > 3, "the key numbers first"
     if browser() is not None:
         r = browser_check(page_file)

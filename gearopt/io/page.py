@@ -19,6 +19,7 @@ import mimetypes
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
+from urllib.parse import quote
 
 from ..summary import GROUPS, KeyNumber
 from ..version import __version__
@@ -337,7 +338,7 @@ def report_page(data: dict[str, Any], files: list[str], captions: dict[str, str]
     for f in files:
         if Path(f).suffix.lower() in (".png", ".svg", ".jpg", ".jpeg"):
             figures.append(figure_from_file(directory / f, captions.get(f, ""), (svgs or {}).get(f)))
-    links = [(f, f) for f in files if Path(f).suffix.lower() not in (".png", ".svg", ".jpg", ".jpeg")]
+    links = [(quote(f), f) for f in files if Path(f).suffix.lower() not in (".png", ".svg", ".jpg", ".jpeg")]
     tables = key_numbers_tables(numbers)
     name = header["scene"] or "run"
     return render_page(f"{name}: {header['study']}", header, tables, _warning_texts(data), figures, links)
