@@ -4,11 +4,13 @@ the page, nothing fetched from elsewhere, the key numbers first, every figure wi
 every warning of the run shown) and opened in headless Chromium (every image decoded, nothing wider
 than a 1280 px window). The browser tests are skipped, with the reason, where Chromium is absent
 (``make chromium`` installs it as root). One run per scene of every study also checks its summary
-(tests/summary_check.py)."""
+(tests/summary_check.py); with GEAROPT_PAGE_SCREENSHOTS=DIR it keeps a 1280 px screenshot of each
+page in DIR, to be looked at."""
 
 from __future__ import annotations
 
 import json
+import os
 import shutil
 import warnings
 from pathlib import Path
@@ -21,7 +23,7 @@ from gearopt.io.page import (Cell, PageFigure, Table, figure_from_file, key_numb
 from gearopt.io.results import MANIFEST, write_results
 from gearopt.summary import KeyNumber
 
-from page_check import browser, browser_check, parse, static_problems
+from page_check import browser, browser_check, parse, screenshot, static_problems
 from scenes import STUDY_MARKS
 from summary_check import check_summary
 
@@ -282,6 +284,10 @@ def test_every_study_summary_and_page(name, scene_run):
         r = browser_check(page_file)
         assert r["broken"] == [] and r["n_images"] == len(figures)
         assert r["scroll_width"] <= 1280 and r["wider"] == [], f"wider than 1280 px: {r['wider']}"
+        shots = os.environ.get("GEAROPT_PAGE_SCREENSHOTS")  # a directory: keep a screenshot to look at
+        if shots:
+            Path(shots).mkdir(parents=True, exist_ok=True)
+            screenshot(page_file, Path(shots) / f"{name}.png", 1280, 9000)
 
 
 def test_page_figure_is_frozen():
