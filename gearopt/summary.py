@@ -26,7 +26,7 @@ __all__ = ["KeyNumber", "GROUPS", "summarize", "summary_dicts", "summary_from_re
            "fea_summary", "loaded_microgeometry_summary", "robust_summary"]
 
 #: The groups of key numbers, in the order the report shows them.
-GROUPS = ("geometry", "optimisation", "unloaded TE", "loaded", "FE", "Monte Carlo", "sweep")
+GROUPS = ("geometry", "inspection", "optimisation", "unloaded TE", "loaded", "FE", "Monte Carlo", "sweep")
 
 Value = float | int | str | bool | None
 
@@ -219,10 +219,31 @@ def _tca_cases(cases: list[dict], prefix: str = "", label_prefix: str = "") -> l
 
 
 # --- per study ------------------------------------------------------------------------------------
+#: The ISO 1328-1 chart values of an inspected flank in the summary: (name, label, better).
+_CHARTS = (("F_alpha", "profile total deviation F_alpha", "lower"), ("f_f_alpha", "profile form deviation f_f_alpha",
+           "lower"), ("f_H_alpha", "profile slope deviation f_H_alpha", None), ("C_alpha", "profile crowning C_alpha",
+           None), ("F_beta", "helix total deviation F_beta", "lower"), ("f_f_beta", "helix form deviation f_f_beta",
+           "lower"), ("f_H_beta", "helix slope deviation f_H_beta", None), ("C_beta", "lead crowning C_beta", None))
+
+
+def _inspection(ins: dict) -> list[KeyNumber]:
+    """Chart values [um] of every inspected flank (``inspection.<member>.<side>.charts_um``)."""
+    out = []
+    for name, label, better in _CHARTS:
+        for member, sides in ins.items():
+            for side, v in sides.items():
+                charts = v.get("charts_um") or {}
+                if name in charts:
+                    out.append(KeyNumber(f"chart_{name}_um[{member} {side}]", f"{label}, {member} {side}",
+                                         _num(charts[name]), "um", better, "inspection"))
+    return out
+
+
 def tca_summary(d: dict[str, Any]) -> list[KeyNumber]:
-    """tca: the pair's geometry (z, m_n, beta, a, contact ratios, backlash) and per case the TE
-    peak-to-peak, its first three mesh harmonics and, with edge contact, whether an edge carries load."""
-    return _pair_geometry(d["pair"]) + _tca_cases(d["cases"])
+    """tca: the pair's geometry (z, m_n, beta, a, contact ratios, backlash, the pinion's crowning),
+    the chart values of inspected flanks, and per case the TE peak-to-peak, its first three mesh
+    harmonics and, with edge contact, whether an edge carries load."""
+    return _pair_geometry(d["pair"]) + _inspection(d.get("inspection") or {}) + _tca_cases(d["cases"])
 
 
 def geometry_summary(d: dict[str, Any]) -> list[KeyNumber]:

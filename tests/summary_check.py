@@ -23,7 +23,8 @@ DOC = ROOT / "docs" / "results.md"
 # --- the documented keys ---------------------------------------------------------------------------
 _PLACE = {"<case>": r"[^\[\]]+", "<torque>": r"\d+(?:\.\d+)? Nm", "<member>": r"pinion|gear",
           "<stat>": r"mean|sd|min|max|p\d+", "<position>": r"phi1 -?\d+(?:\.\d+)? deg", "<input>": r"[\w.]+",
-          "<amount>": r"C_alpha|f_H_alpha|C_beta|f_H_beta"}
+          "<amount>": r"C_alpha|f_H_alpha|C_beta|f_H_beta",
+          "<chart>": r"F_alpha|f_f_alpha|f_H_alpha|C_alpha|F_beta|f_f_beta|f_H_beta|C_beta", "<side>": r"right|left"}
 
 
 def documented_summary_keys(doc: Path = DOC) -> list[str]:
@@ -120,6 +121,10 @@ def check_summary(res: dict, out: Path) -> None:
     assert s.get("side") == side
     if st == "tca":
         _check_tca_cases(s, res["cases"], res["pair"]["z1"])
+        for member, sides in res.get("inspection", {}).items():
+            for side, v in sides.items():
+                assert s[f"chart_F_alpha_um[{member} {side}]"] == v["charts_um"]["F_alpha"]
+                assert s[f"chart_f_H_beta_um[{member} {side}]"] == v["charts_um"]["f_H_beta"]
     elif st == "geometry":
         m = res["members"]
         assert (s["z1"], s["z2"]) == (m["pinion"]["z"], m["gear"]["z"])

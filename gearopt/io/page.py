@@ -194,6 +194,8 @@ def _columns_kind(cols: tuple[str, ...]) -> str:
         return "position"
     if set(cols) <= {"pinion", "gear"}:
         return "member"
+    if all(c in ("pinion right", "pinion left", "gear right", "gear left") for c in cols):
+        return "flank"
     if all(c in ("n", "mean", "sd", "min", "max") or (c[:1] == "p" and c[1:].isdigit()) for c in cols):
         return "statistic"
     return "case"
