@@ -33,7 +33,7 @@ PKG = ROOT / "gearopt"
 LAYERS: list[tuple[str, ...]] = [
     # base: no gearopt imports except among themselves
     ("gearopt.errors", "gearopt.units", "gearopt.version", "gearopt.types", "gearopt.report", "gearopt.progress",
-     "gearopt.compiled", "gearopt.schema", "gearopt.settings"),
+     "gearopt.compiled", "gearopt.schema", "gearopt.settings", "gearopt.summary"),
     ("gearopt.geometry",),       # basic rack, tools, surfaces (envelope, generation), micro-geometry
     ("gearopt.gears",),          # gear data (ISO 21771): a Gear holds its tool and micro-geometry
     ("gearopt.meshing",),        # TCA
@@ -45,6 +45,7 @@ LAYERS: list[tuple[str, ...]] = [
     ("gearopt.rating",),         # ISO 6336 load capacity (factors from gear data or from ltca results)
     ("gearopt.plot",),           # plots read result dictionaries
     ("gearopt.io.schema",),      # scene schema (fields, sections, tool sections)
+    ("gearopt.io.page",),        # report.html renderer (Jinja2)
     ("gearopt.io.results",),     # results.json writer
     ("gearopt.studies",),        # what a scene may ask for: builds, runs, plots
     ("gearopt.io.scene",),       # the scene loader consults the studies registry

@@ -31,9 +31,10 @@ Results: ``results.json`` (statistics, ranked sensitivities, the pattern probabi
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import ClassVar, TYPE_CHECKING
 
 from ..robust.study import UNITS, DesignSweep, MonteCarlo, RobustResult  # noqa: F401 (UNITS: results.json's units)
+from ..summary import KeyNumber, robust_summary
 
 if TYPE_CHECKING:  # pragma: no cover
     from pathlib import Path
@@ -110,6 +111,42 @@ def _distribution(name: str, d: dict):
 class RobustReport(RobustResult):
     """The result of a ``montecarlo`` or ``sweep`` scene: :class:`~gearopt.robust.study.RobustResult`
     with its figures (:func:`gearopt.plot.robust.save_plots`)."""
+
+    #: One line per figure for report.html: what to read from it (montecarlo; :attr:`captions` words
+    #: them for a sweep).
+    CAPTIONS: ClassVar[dict[str, str]] = {
+        "distribution.png": "Histograms (left) and cumulative distributions (right) of the TE peak-to-peak and first "
+                            "mesh harmonic (with a torque also the loaded TE and peak pressure), nominal drive and "
+                            "50 %/95 % marked: read the spread the tolerances give and how far the 95 % value lies "
+                            "from the nominal.",
+        "scatter.png": "TE peak-to-peak against the most influential inputs, one dot per sample, edge contact marked: "
+                       "read the trend each input drives.",
+        "sensitivity.png": "Inputs ranked by their Spearman rank correlation with the TE peak-to-peak, the grey band "
+                           "not significant at 5 %: read which tolerance or misalignment to tighten first.",
+        "pattern.png": "Probability of each point of the pinion flank being in the contact pattern, over the samples, "
+                       "nominal extent dashed: read how often the pattern reaches a face end or the tip.",
+    }
+    #: The captions of a design sweep (design points, not random samples).
+    SWEEP_CAPTIONS: ClassVar[dict[str, str]] = {
+        "distribution.png": "Histograms (left) and cumulative distributions (right) of the TE peak-to-peak and first "
+                            "mesh harmonic over the design points, nominal design and 50 %/95 % marked: read the range "
+                            "the design variables span and how many points beat the nominal.",
+        "scatter.png": "TE peak-to-peak against the most influential design variables, one dot per design point, edge "
+                       "contact marked: read the direction that lowers the TE.",
+        "sensitivity.png": "Design variables ranked by their Spearman rank correlation with the TE peak-to-peak, the "
+                           "grey band not significant at 5 %: read which variable matters most.",
+        "pattern.png": "Share of the design points whose contact pattern covers each point of the pinion flank, "
+                       "nominal extent dashed: read where the pattern goes across the design space.",
+    }
+
+    @property
+    def captions(self) -> dict[str, str]:
+        """Figure file name -> one-line caption for report.html."""
+        return dict(self.SWEEP_CAPTIONS if self.study == "sweep" else self.CAPTIONS)
+
+    def summary(self) -> list[KeyNumber]:
+        """Key numbers of the run (:func:`gearopt.summary.robust_summary`), read from :meth:`to_dict`."""
+        return robust_summary(self.to_dict())
 
     def save_plots(self, out_dir: str | Path, dpi: int = 120) -> list[str]:
         """``distribution.png``, ``scatter.png``, ``sensitivity.png``, ``pattern.png``
