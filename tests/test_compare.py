@@ -1,0 +1,245 @@
+"""``gearopt compare`` (gearopt/io/compare.py, docs/compare.md): the key-numbers table against the
+designs' own summaries, the refusals (not the same pair, not a design, another schema), the output
+directory's rules, and the comparison of real runs (slow: the scenes run)."""
+
+from __future__ import annotations
+
+import csv
+import json
+import shutil
+from pathlib import Path
+
+import pytest
+
+from gearopt.cli import main
+from gearopt.errors import GeometryError, OptionError, ResultsError
+from gearopt.io.compare import NA, compare, key_numbers, load_design
+from gearopt.version import __version__
+
+ROOT = Path(__file__).resolve().parents[1]
+DEMO = ROOT / "problems" / "tca_spur_crowned.toml"
+
+
+def _row(key, value, better="lower", unit="arcsec", group="unloaded TE", label=None):
+    return {"key": key, "label": label or key, "value": value, "unit": unit, "better": better, "group": group}
+
+
+def _result_dir(path: Path, z1=20, z2=40, m_n=3.0, side="right", summary=None, version=__version__,
+                study="tca", name=None) -> Path:
+    """A result directory as gearopt run leaves it, with a hand-written summary (no arrays)."""
+    path.mkdir(parents=True)
+    data = {"study": study, "scene": name or path.name,
+            "summary": summary if summary is not None else [],
+            "units": {"length": "mm"},
+            "pair": {"z1": z1, "z2": z2, "m_n": m_n, "side": side, "ratio": z2 / z1},
+            "meta": {"gearopt_version": version, "scene": None}}
+    (path / "results.json").write_text(json.dumps(data))
+    (path / ".gearopt-output.json").write_text(json.dumps({"written_by": "gearopt", "files": ["results.json"]}))
+    return path
+
+
+def _csv(path: Path) -> list[dict]:
+    with path.open(newline="") as fh:
+        return list(csv.DictReader(fh))
+
+
+# --- the table --------------------------------------------------------------------------------------
+def test_table_values_differences_better_and_missing(tmp_path):
+    a = _result_dir(tmp_path / "a", summary=[_row("z1", 20, None, "", "geometry"),
+                                             _row("te_pp_arcsec[aligned]", 18.0),
+                                             _row("eps_alpha", 1.6, "higher", "", "geometry"),
+                                             _row("te_h1_arcsec[aligned]", None)])
+    b = _result_dir(tmp_path / "b", summary=[_row("z1", 20, None, "", "geometry"),
+                                             _row("te_pp_arcsec[aligned]", 7.5),
+                                             _row("eps_alpha", 1.7, "higher", "", "geometry"),
+                                             _row("lte_pp_arcsec[200 Nm]", 30.0, group="loaded")])
+    out = tmp_path / "cmp"
+    compare([a, b], out, labels=["demo", "optimised"])
+    rows = {r["key"]: r for r in _csv(out / "key_numbers.csv")}
+    te = rows["te_pp_arcsec[aligned]"]
+    assert (float(te["demo"]), float(te["optimised"])) == (18.0, 7.5)
+    assert float(te["optimised - demo"]) == pytest.approx(-10.5, abs=1e-12)
+    assert te["best"] == "optimised"  # lower TE is better
+    assert rows["eps_alpha"]["best"] == "optimised"  # a higher contact ratio is better
+    assert rows["z1"]["best"] == "" and float(rows["z1"]["optimised - demo"]) == 0.0  # no direction: none marked
+    loaded = rows["lte_pp_arcsec[200 Nm]"]  # only the second design has it: n/a, never 0
+    assert loaded["demo"] == NA and float(loaded["optimised"]) == 30.0
+    assert loaded["optimised - demo"] == "" and loaded["best"] == ""
+    h1 = rows["te_h1_arcsec[aligned]"]  # the first has it without a value, the second not at all
+    assert h1["demo"] == "" and h1["optimised"] == NA
+    # the page holds the same table
+    page = (out / "report.html").read_text()
+    assert "demo" in page and "optimised" in page and NA in page
+    data = json.loads((out / "comparison.json").read_text())
+    assert [d["label"] for d in data["designs"]] == ["demo", "optimised"]
+
+
+def test_equal_values_mark_no_design(tmp_path):
+    a = _result_dir(tmp_path / "a", summary=[_row("te_pp_arcsec[aligned]", 8.0)])
+    b = _result_dir(tmp_path / "b", summary=[_row("te_pp_arcsec[aligned]", 8.0)])
+    rows = key_numbers([load_design(a), load_design(b)])
+    assert rows[0].best == [] and rows[0].differences == [None, 0.0]
+
+
+def test_cases_of_different_labels_share_a_row_by_their_misalignment(tmp_path):
+    """A tca run's "misaligned" case and a crowning run's "crossing +3'" case under the same 3'
+    crossing are one row of the table."""
+    mis = {"dE_mm": 0.0, "crossing_arcmin": 3.0, "intersecting_arcmin": 0.0, "axial_mm": 0.0}
+    a = _result_dir(tmp_path / "a", summary=[_row("te_pp_arcsec[misaligned]", 18.4)])
+    b = _result_dir(tmp_path / "b", summary=[_row("te_pp_arcsec[crossing +3']", 8.0)])
+    for d, label in ((a, "misaligned"), (b, "crossing +3'")):
+        data = json.loads((d / "results.json").read_text())
+        data["cases"] = [{"label": label, "misalignment": mis}]
+        (d / "results.json").write_text(json.dumps(data))
+    rows = key_numbers([load_design(a), load_design(b)])
+    assert [(r.key, r.values) for r in rows] == [("te_pp_arcsec[crossing +3 arcmin]", [18.4, 8.0])]
+
+
+# --- refusals -----------------------------------------------------------------------------------------
+@pytest.mark.parametrize("kw, why", [
+    (dict(z1=21, z2=53), "different ratios z2/z1"),
+    (dict(z1=21, z2=42), "different tooth numbers"),
+    (dict(m_n=4.0), "different normal modules"),
+    (dict(side="left"), "different driving flanks"),
+])
+def test_other_pair_refused_naming_both_designs(tmp_path, kw, why):
+    a = _result_dir(tmp_path / "first")
+    b = _result_dir(tmp_path / "second", **kw)
+    out = tmp_path / "cmp"
+    with pytest.raises(GeometryError, match=why) as e:
+        compare([a, b], out)
+    assert "'first'" in str(e.value) and "'second'" in str(e.value)
+    assert not out.exists() and sorted(p.name for p in tmp_path.iterdir()) == ["first", "second"]  # nothing written
+
+
+def test_scene_of_another_pair_refused_before_it_runs(tmp_path):
+    other = tmp_path / "helical.toml"
+    other.write_text(DEMO.read_text().replace("z = 40", "z = 53"))
+    a = _result_dir(tmp_path / "demo")
+    out = tmp_path / "cmp"
+    ran = []
+    with pytest.raises(GeometryError, match="different ratios"):
+        compare([a, other], out, run_scene=lambda s, d: ran.append(s))
+    assert ran == [] and not out.exists()
+
+
+def test_arguments_that_are_no_design(tmp_path):
+    a = _result_dir(tmp_path / "a")
+    foreign = tmp_path / "notes"
+    foreign.mkdir()
+    (foreign / "notes.txt").write_text("mine")
+    text = tmp_path / "x.csv"
+    text.write_text("1,2\n")
+    for bad, match in ((foreign, "without results.json"), (tmp_path / "missing", "no such file"),
+                       (text, "neither a result directory nor a scene")):
+        with pytest.raises(OptionError, match=match) as e:
+            compare([a, bad], tmp_path / "cmp")
+        assert e.value.param == "DESIGN" and str(bad) in str(e.value)
+    with pytest.raises(OptionError, match="at least two"):
+        compare([a], tmp_path / "cmp")
+    with pytest.raises(OptionError, match="2 labels for 3 designs"):
+        compare([a, a, a], tmp_path / "cmp", labels=["x", "y"])
+    assert not (tmp_path / "cmp").exists()
+
+
+def test_results_of_another_schema_refused(tmp_path):
+    a = _result_dir(tmp_path / "a")
+    old = _result_dir(tmp_path / "old", version="7.2.0")
+    with pytest.raises(ResultsError, match="written by gearopt 7.2.0"):
+        compare([a, old], tmp_path / "cmp")
+    junk = tmp_path / "junk"
+    junk.mkdir()
+    (junk / "results.json").write_text(json.dumps({"cases": []}))
+    with pytest.raises(ResultsError, match="not a gearopt results file"):
+        compare([a, junk], tmp_path / "cmp")
+    unknown = _result_dir(tmp_path / "unknown", study="gearbox")
+    with pytest.raises(ResultsError, match="'gearbox' is not a study"):
+        compare([a, unknown], tmp_path / "cmp")
+    assert not (tmp_path / "cmp").exists()
+
+
+# --- the output directory -------------------------------------------------------------------------------
+def test_out_dir_rules(tmp_path):
+    a = _result_dir(tmp_path / "a", summary=[_row("te_pp_arcsec[aligned]", 18.0)])
+    b = _result_dir(tmp_path / "b", summary=[_row("te_pp_arcsec[aligned]", 8.0)])
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / "notes.txt").write_text("keep")
+    with pytest.raises(ResultsError, match="holds files gearopt did not write"):
+        compare([a, b], mine)
+    assert sorted(p.name for p in mine.iterdir()) == ["notes.txt"]
+    with pytest.raises(ResultsError, match="the design"):  # the comparison would replace a design's files
+        compare([a, b], a)
+    # a previous comparison is replaced, a note added to it kept
+    out = tmp_path / "cmp"
+    compare([a, b], out)
+    inside = _result_dir(out / "c")  # a design kept inside the comparison's directory
+    with pytest.raises(ResultsError, match="holds the design"):
+        compare([inside, b], out)
+    shutil.rmtree(inside)
+    (out / "note.txt").write_text("keep")
+    compare([b, a], out, labels=["B", "A"])
+    assert _csv(out / "key_numbers.csv")[0]["B"] == "8.0"
+    assert (out / "note.txt").read_text() == "keep"
+    manifest = json.loads((out / ".gearopt-output.json").read_text())["files"]
+    assert "key_numbers.csv" in manifest and "report.html" in manifest and "note.txt" not in manifest
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".cmp")]  # no temporary directory left
+
+
+def test_cli_refusal_exit_status_and_message(tmp_path, capsys):
+    a = _result_dir(tmp_path / "a")
+    b = _result_dir(tmp_path / "b", z1=21, z2=53)
+    assert main(["compare", str(a), str(b), "--out", str(tmp_path / "cmp")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: gearopt compare: designs 'a'") and "different ratios" in err
+    assert not (tmp_path / "cmp").exists()
+
+
+# --- real runs (slow) ------------------------------------------------------------------------------------
+@pytest.mark.slow
+def test_two_crownings_compared_through_the_cli(tmp_path, capsys):
+    """Two tca scenes of the demo drive with different profile crowning, run by compare itself:
+    the table's numbers are those of each run's own summary, the differences right."""
+    a, b = tmp_path / "a.toml", tmp_path / "b.toml"
+    text = DEMO.read_text().replace("positions = 81", "positions = 41")
+    a.write_text(text)
+    b.write_text(text.replace('a_c = "0.002 1/mm"', 'a_c = "0.001 1/mm"').replace(
+        'name = "tca_spur_crowned"', 'name = "less_profile_crowning"'))
+    out = tmp_path / "cmp"
+    assert main(["compare", str(a), str(b), "--out", str(out), "--quiet"]) == 0
+    printed = capsys.readouterr().out.split()
+    assert str(out / "key_numbers.csv") in printed and str(out / "report.html") in printed
+    ra = json.loads((out / "tca_spur_crowned" / "results.json").read_text())
+    rb = json.loads((out / "less_profile_crowning" / "results.json").read_text())
+    rows = {r["key"]: r for r in _csv(out / "key_numbers.csv")}
+    sa = {r["key"]: r["value"] for r in ra["summary"]}
+    sb = {r["key"]: r["value"] for r in rb["summary"]}
+    pp = "te_pp_arcsec[aligned]"
+    assert float(rows[pp]["tca_spur_crowned"]) == sa[pp]
+    assert float(rows[pp]["less_profile_crowning"]) == sb[pp]
+    assert float(rows[pp]["less_profile_crowning - tca_spur_crowned"]) == pytest.approx(sb[pp] - sa[pp], abs=1e-12)
+    # less profile crowning: a lower parabola, the better TE
+    assert sb[pp] < sa[pp] and rows[pp]["best"] == "less_profile_crowning"
+    # the misaligned case is keyed by its misalignment
+    assert float(rows["te_pp_arcsec[crossing +3 arcmin]"]["tca_spur_crowned"]) == sa["te_pp_arcsec[misaligned]"]
+    for png in ("compare_te.png", "compare_contact.png", "compare_crowning.png"):
+        assert (out / png).stat().st_size > 10_000, png
+    data = json.loads((out / "comparison.json").read_text())
+    assert [f["file"] for f in data["figures"]] == ["compare_te.png", "compare_contact.png", "compare_crowning.png"]
+    assert (out / "tca_spur_crowned" / "te.png").is_file()  # the scene's own run is kept beside
+    shutil.rmtree(out)
+
+
+@pytest.mark.slow
+def test_tca_and_ltca_runs_compare_their_unloaded_te(scene_run, tmp_path):
+    """Different studies of the same pair combine what they have in common: the tca demo and the loaded
+    TCA of the same drive share the unloaded TE of the crossed case; the loaded numbers exist only for
+    the ltca run (n/a for the tca run)."""
+    tca, ltca = scene_run("tca_spur_crowned"), scene_run("ltca_crowned")
+    out = tmp_path / "cmp"
+    compare([tca.out, ltca.out], out, labels=["tca", "ltca"])
+    data = json.loads((out / "comparison.json").read_text())
+    assert "compare_te.png" in [f["file"] for f in data["figures"]]
+    rows = {r["key"]: r for r in _csv(out / "key_numbers.csv")}
+    loaded = [r for r in rows.values() if r["group"] == "loaded"]
+    assert loaded and all(r["tca"] == NA and r["ltca"] != NA for r in loaded)
