@@ -141,6 +141,7 @@ def _run(args) -> int:
 def _compare(args) -> int:
     os.environ.setdefault("MPLBACKEND", "Agg")  # figures go to files; never open a window
     import contextlib
+    import io
 
     from .io.compare import compare
 
@@ -149,8 +150,9 @@ def _compare(args) -> int:
             print(f"gearopt compare: {msg}", file=sys.stderr, flush=True)
 
     def run_scene(scene: Path, out: Path) -> None:
-        """``gearopt run SCENE --out OUT`` (its progress on stderr, its file list too)."""
-        with contextlib.redirect_stdout(sys.stderr):
+        """``gearopt run SCENE --out OUT`` (its progress on stderr; its list of files, in the temporary
+        directory, is not printed: compare prints the files at their final place)."""
+        with contextlib.redirect_stdout(io.StringIO()):
             status = main(["run", str(scene), "--out", str(out), *(["--quiet"] if args.quiet else [])])
         if status != 0:
             raise GearoptError(f"gearopt compare: the scene {scene} did not run (its error is above); nothing was "

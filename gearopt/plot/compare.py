@@ -34,7 +34,7 @@ if TYPE_CHECKING:
 
     from matplotlib.axes import Axes
 
-__all__ = ["design_color", "case_style", "case_key", "case_name", "te_cases", "match_cases", "contact_path",
+__all__ = ["comparison_figures", "save_figures", "design_color", "case_style", "case_key", "case_name", "te_cases", "match_cases", "contact_path",
            "loaded_cases", "crowning_amounts", "plot_te", "plot_contact_paths", "plot_loaded_te",
            "plot_te_vs_torque", "plot_pressure_vs_torque", "plot_load_sharing", "plot_distribution",
            "plot_crowning", "pattern_vmax"]
@@ -512,19 +512,9 @@ def _grid(n: int, width: float = 5.2, height: float = 4.2, ncols: int = 3):
     return fig, list(axes.flat[:n])
 
 
-def _save(fig, directory, name: str, dpi: int) -> str:
-    import matplotlib.pyplot as plt
-    from pathlib import Path
-
-    fig.tight_layout()
-    fig.savefig(Path(directory) / name, dpi=dpi)
-    plt.close(fig)
-    return name
-
-
-def save_figures(designs: Mapping[str, dict], directory: Any, samples: Mapping[str, Mapping[str, np.ndarray]] | None = None,
-                 dpi: int = 120) -> list[tuple[str, str]]:
-    """Draw every comparison figure the designs have data for into ``directory``.
+def comparison_figures(designs: Mapping[str, dict], samples: Mapping[str, Mapping[str, np.ndarray]] | None = None
+                       ) -> list[tuple[str, str, Any]]:
+    """Every comparison figure the designs have data for (not saved; :func:`save_figures` saves them).
 
     A figure is drawn when at least two designs have its quantity (a design without it is named in
     the panel titles or left out of the legend).
@@ -532,17 +522,15 @@ def save_figures(designs: Mapping[str, dict], directory: Any, samples: Mapping[s
     Parameters
     ----------
     designs : mapping label -> results dict
-    directory : path
     samples : mapping label -> {column: values}, optional
         The samples tables of Monte Carlo / sweep designs (for the distributions).
-    dpi : int
 
     Returns
     -------
-    list of (file name, caption)
-        The figures written, each with a one-line caption saying what to read from it.
+    list of (file name, caption, matplotlib Figure)
+        Each with a one-line caption saying what to read from it.
     """
-    out: list[tuple[str, str]] = []
+    out: list[tuple[str, str, Any]] = []
     labels = list(designs)
     per = {lab: te_cases(r) for lab, r in designs.items()}
     groups = [g for g in match_cases(per) if len(g[2]) >= 2]
@@ -552,18 +540,19 @@ def save_figures(designs: Mapping[str, dict], directory: Any, samples: Mapping[s
         for ax, (key, _, _) in zip(axes, groups):
             plot_te(designs, key, ax=ax, ylim=ylim)
         fig.suptitle("unloaded transmission error, one panel per misalignment case, same TE scale", fontsize=10)
-        out.append((_save(fig, directory, "compare_te.png", dpi),
+        out.append(("compare_te.png",
                     "Unloaded TE of each design per misalignment case, on one TE scale: compare the peak-to-peak "
-                    "(in the legend), the parabola's level and where the transfers (the corners) lie."))
+                    "(in the legend), the parabola's level and where the transfers (the corners) lie.", fig))
     paths = [g for g in groups if sum(contact_path(c) is not None for c in g[2].values()) >= 2]
     if paths:
         fig, axes = _grid(len(paths))
         for ax, (key, _, _) in zip(axes, paths):
             plot_contact_paths(designs, key, ax=ax)
         fig.suptitle("paths of contact on the pinion flank (same flank frame)", fontsize=10)
-        out.append((_save(fig, directory, "compare_contact.png", dpi),
+        out.append(("compare_contact.png",
                     "Paths of contact of the central pair on the pinion flank, per case: how far the bearing "
-                    "contact moves along the face under misalignment and how close it comes to a face end or the tip."))
+                    "contact moves along the face under misalignment and how close it comes to a face end or the tip.",
+                    fig))
     loaded = _first_loaded(designs)
     if len(loaded) >= 2:
         fig, axes = _grid(4, width=5.6, ncols=2)
@@ -571,10 +560,10 @@ def save_figures(designs: Mapping[str, dict], directory: Any, samples: Mapping[s
         plot_te_vs_torque(designs, ax=axes[1])
         plot_pressure_vs_torque(designs, ax=axes[2])
         plot_load_sharing(designs, ax=axes[3])
-        fig.suptitle("loaded TCA (first case of each design)", fontsize=10)
-        out.append((_save(fig, directory, "compare_loaded.png", dpi),
+        fig.suptitle("loaded TCA (a misalignment case all designs have, else the first of each)", fontsize=10)
+        out.append(("compare_loaded.png",
                     "Loaded TE at the nominal torque, TE peak-to-peak and peak flank pressure against torque, load "
-                    "share of the central pair: which design runs quieter and with less pressure over the duty range."))
+                    "share of the central pair: which design runs quieter and with less pressure over the duty range.", fig))
         top = pattern_vmax(designs)
         from .ltca import plot_contact_pattern
 
@@ -583,9 +572,9 @@ def save_figures(designs: Mapping[str, dict], directory: Any, samples: Mapping[s
         for ax, lab in zip(axes, names):
             plot_contact_pattern(loaded[lab], "pinion", ax=ax, vmax=top, what=lab)
         fig.suptitle(f"loaded contact pattern, one colour scale 0 ... {number(top or 0.0)} MPa", fontsize=10)
-        out.append((_save(fig, directory, "compare_pattern.png", dpi),
+        out.append(("compare_pattern.png",
                     "Loaded contact pattern on the pinion flank at each design's nominal torque, on one pressure "
-                    "scale: where the load sits on the flank and whether it reaches a face end or the tip."))
+                    "scale: where the load sits on the flank and whether it reaches a face end or the tip.", fig))
     mc = {lab: s for lab, s in (samples or {}).items() if s}
     if len(mc) >= 2:
         cols = [c for c in ("te_p2p_arcsec", "h1_arcsec", "loaded_te_p2p_arcsec", "p_max_MPa")
@@ -597,14 +586,34 @@ def save_figures(designs: Mapping[str, dict], directory: Any, samples: Mapping[s
             for ax, c in zip(axes, cols):
                 plot_distribution(mc, c, ax=ax, xlabel=text[c])
             fig.suptitle("Monte Carlo / sweep distributions", fontsize=10)
-            out.append((_save(fig, directory, "compare_distribution.png", dpi),
+            out.append(("compare_distribution.png",
                         "Cumulative distributions over the samples: a curve further left is the better design; "
-                        "the median and 95th percentile of each are in the legend."))
+                        "the median and 95th percentile of each are in the legend.", fig))
     if sum(bool(crowning_amounts(r)) for r in designs.values()) >= 2:
         import matplotlib.pyplot as plt
 
         fig = plt.figure(figsize=(6.4, 4.4))
         plot_crowning(designs, ax=fig.gca())
-        out.append((_save(fig, directory, "compare_crowning.png", dpi),
-                    "The pinion's crowning and slopes of each design in ISO 21771 terms [um], as a drawing states them."))
+        out.append(("compare_crowning.png",
+                    "The pinion's crowning and slopes of each design in ISO 21771 terms [um], as a drawing states them.", fig))
+    return out
+
+
+def save_figures(designs: Mapping[str, dict], directory: Any, samples: Mapping[str, Mapping[str, np.ndarray]] | None = None,
+                 dpi: int = 120) -> list[tuple[str, str]]:
+    """Draw every comparison figure (:func:`comparison_figures`) into ``directory`` as PNG.
+
+    Returns
+    -------
+    list of (file name, caption)
+    """
+    import matplotlib.pyplot as plt
+    from pathlib import Path
+
+    out = []
+    for name, caption, fig in comparison_figures(designs, samples):
+        fig.tight_layout()
+        fig.savefig(Path(directory) / name, dpi=dpi)
+        plt.close(fig)
+        out.append((name, caption))
     return out
