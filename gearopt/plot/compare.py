@@ -37,7 +37,7 @@ if TYPE_CHECKING:
 __all__ = ["comparison_figures", "save_figures", "design_color", "case_style", "case_key", "case_name", "te_cases", "match_cases", "contact_path",
            "loaded_cases", "crowning_amounts", "plot_te", "plot_contact_paths", "plot_loaded_te",
            "plot_te_vs_torque", "plot_pressure_vs_torque", "plot_load_sharing", "plot_distribution",
-           "plot_crowning", "pattern_vmax"]
+           "plot_crowning", "pattern_vmax", "common_torque"]
 
 _LINESTYLES = ("-", "--", ":", "-.")
 #: the pinion's micro-geometry amounts compared by :func:`plot_crowning` (ISO 21771 names)
@@ -233,7 +233,11 @@ def plot_te(designs: Mapping[str, dict], case: tuple, ax: Axes | None = None, yl
     missing = [lab for lab in designs if lab not in by]
     ax.set_title(name + (f"\n(not in {', '.join(missing)})" if missing else ""), fontsize=9)
     ax.set_xlabel("pinion angle phi1 [deg]")
-    ax.set_ylabel("actual TE [arcsec] (+: gear ahead)\nzero: pair 0 at phi1 = 0")
+    from .tca import te_zero_text
+
+    zeros = sorted({te_zero_text(c) for c in by.values()}) or ["zero: pair 0 at phi1 = 0"]
+    zero = zeros[0] if len(zeros) == 1 else "zero: pair 0 at phi1 = 0, or the aligned conjugate drive (edge contact)"
+    ax.set_ylabel(f"actual TE [arcsec] (+: gear ahead)\n{zero}")
     if ylim is not None:
         ax.set_ylim(*ylim)
     ax.grid(alpha=0.3)
@@ -313,6 +317,27 @@ def _nominal(d: dict) -> dict:
     return rows[-1] if nom is None else min(rows, key=lambda t: abs(t["torque_Nm"] - nom))
 
 
+def common_torque(loaded: Mapping[str, dict]) -> float | None:
+    """The torque [N m] at which loaded designs are compared over the mesh cycle: one that every
+    design analysed (within 1e-6 N m), the nearest to the first design's nominal torque; None when
+    they share none (each is then shown at its own nominal torque)."""
+    sets = [[float(t["torque_Nm"]) for t in d["torques"]] for d in loaded.values()]
+    if not sets:
+        return None
+    common = [T for T in sets[0] if all(any(abs(T - u) <= 1e-6 for u in s) for s in sets[1:])]
+    if not common:
+        return None
+    nom = _nominal(next(iter(loaded.values())))["torque_Nm"]
+    return min(common, key=lambda T: abs(T - nom))
+
+
+def _at_torque(d: dict, torque: float | None) -> dict:
+    """The row of ``d["torques"]`` at ``torque`` (the nominal one when None)."""
+    if torque is None:
+        return _nominal(d)
+    return min(d["torques"], key=lambda t: abs(t["torque_Nm"] - torque))
+
+
 def _first_loaded(designs: Mapping[str, dict]) -> dict[str, dict]:
     """One loaded TCA case per design that has one (label -> ltca dict): the first misalignment
     case (of the first such design) that every design with loaded cases has, else each design's
@@ -326,17 +351,19 @@ def _first_loaded(designs: Mapping[str, dict]) -> dict[str, dict]:
 
 
 def plot_loaded_te(designs: Mapping[str, dict], ax: Axes | None = None) -> Axes:
-    """Loaded TE [arcsec] over the pinion angle [deg] at each design's nominal torque (solid) with
-    its unloaded TE (dotted), one colour per design (the first loaded case of each design)."""
+    """Loaded TE [arcsec] over the pinion angle [deg] at a torque all designs analysed
+    (:func:`common_torque`; else each design's nominal torque), solid, with its unloaded TE (dotted),
+    one colour per design."""
     import matplotlib.pyplot as plt
 
     ax = ax or plt.figure().gca()
     loaded = _first_loaded(designs)
+    torque = common_torque(loaded)
     for i, label in enumerate(designs):
         d = loaded.get(label)
         if d is None:
             continue
-        t = _nominal(d)
+        t = _at_torque(d, torque)
         phi = np.degrees(_f(d["phi1"]))
         ax.plot(phi, _f(t["te_loaded_arcsec"]), color=design_color(i), lw=_lw(i),
                 label=f"{label}: {number(t['torque_Nm'])} N m, p-p {number(t['peak_to_peak_arcsec'])} arcsec")
@@ -344,7 +371,8 @@ def plot_loaded_te(designs: Mapping[str, dict], ax: Axes | None = None) -> Axes:
                 label=f"{label}: unloaded")
     ax.set_xlabel("pinion angle phi1 [deg]")
     ax.set_ylabel("TE [arcsec] (+: gear ahead)\nzero: unloaded pair 0 at phi1 = 0")
-    ax.set_title("loaded TE at the nominal torque (dotted: unloaded)", fontsize=9)
+    at = "the nominal torques" if torque is None else f"{number(torque)} N m"
+    ax.set_title(f"loaded TE at {at} (dotted: unloaded)", fontsize=9)
     ax.grid(alpha=0.3)
     _legend(ax)
     plain_ticks(ax)
@@ -392,24 +420,26 @@ def plot_pressure_vs_torque(designs: Mapping[str, dict], ax: Axes | None = None)
 
 
 def plot_load_sharing(designs: Mapping[str, dict], ax: Axes | None = None) -> Axes:
-    """Load share of the central tooth pair (pair 0) over the pinion angle [deg] at each design's
-    nominal torque, one colour per design."""
+    """Load share of the central tooth pair (pair 0) over the pinion angle [deg] at a torque all
+    designs analysed (:func:`common_torque`; else each design's nominal torque), one colour per design."""
     import matplotlib.pyplot as plt
 
     ax = ax or plt.figure().gca()
     loaded = _first_loaded(designs)
+    torque = common_torque(loaded)
     for i, label in enumerate(designs):
         d = loaded.get(label)
         if d is None or 0 not in d["pairs"]:
             continue
-        t = _nominal(d)
+        t = _at_torque(d, torque)
         share = _f(t["pair_share"][list(d["pairs"]).index(0)])
         ax.plot(np.degrees(_f(d["phi1"])), share, color=design_color(i), lw=_lw(i),
                 label=f"{label}: {number(t['torque_Nm'])} N m")
     ax.set_xlabel("pinion angle phi1 [deg]")
     ax.set_ylabel("load share of tooth pair 0 [-]")
     ax.set_ylim(-0.02, 1.05)
-    ax.set_title("load sharing of the central pair at the nominal torque", fontsize=9)
+    at = "the nominal torques" if torque is None else f"{number(torque)} N m"
+    ax.set_title(f"load sharing of the central pair at {at}", fontsize=9)
     ax.grid(alpha=0.3)
     _legend(ax)
     plain_ticks(ax)
