@@ -9,6 +9,7 @@ import json
 import shutil
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from gearopt.cli import main
@@ -243,3 +244,54 @@ def test_tca_and_ltca_runs_compare_their_unloaded_te(scene_run, tmp_path):
     rows = {r["key"]: r for r in _csv(out / "key_numbers.csv")}
     loaded = [r for r in rows.values() if r["group"] == "loaded"]
     assert loaded and all(r["tca"] == NA and r["ltca"] != NA for r in loaded)
+
+
+def test_monte_carlo_designs_compare_their_sample_distributions(tmp_path):
+    """The samples tables beside two montecarlo results are read (empty cells: samples that did not
+    solve) and drawn as distributions."""
+    dirs = []
+    for name, values in (("class6", ["21.0", "18.5", "", "19.0"]), ("class5", ["12.0", "11.5", "13.0", "12.5"])):
+        d = _result_dir(tmp_path / name, study="montecarlo",
+                        summary=[_row("mc_te_pp_arcsec[p50]", float(sorted(v for v in values if v)[1]),
+                                      group="Monte Carlo")])
+        data = json.loads((d / "results.json").read_text())
+        data["samples_csv"] = "samples.csv"
+        (d / "results.json").write_text(json.dumps(data))
+        (d / "samples.csv").write_text("sample,te_p2p_arcsec\n" + "".join(f"{i},{v}\n" for i, v in enumerate(values)))
+        dirs.append(d)
+    design = load_design(dirs[0])
+    te = design.samples["te_p2p_arcsec"]
+    assert te.size == 4 and np.isnan(te[2]) and te[0] == 21.0
+    out = tmp_path / "cmp"
+    compare(dirs, out)
+    data = json.loads((out / "comparison.json").read_text())
+    assert [f["file"] for f in data["figures"]] == ["compare_distribution.png"]
+    assert data["key_numbers"][0]["best"] == ["class5"]
+
+
+@pytest.mark.slow
+def test_loaded_designs_on_one_pressure_scale(scene_run):
+    """Two ltca runs of the 20/40 drive: the contact patterns share one colour scale up to the larger
+    of the two designs' peak flank pressures; the loaded TE is compared at a torque both analysed."""
+    import matplotlib.pyplot as plt
+
+    from gearopt.plot.compare import common_torque, comparison_figures
+    from gearopt.plot.style import plot_style
+
+    res = {lab: scene_run(name).results for lab, name in (("unmodified", "ltca_spur"), ("crowned", "ltca_crowned"))}
+    top = 0.0
+    for r in res.values():
+        pat = r["pattern"]
+        top = max([top] + [p for p, e in zip(pat["p0_MPa"], pat["edge"]) if p is not None and not e])
+    with plot_style():
+        figs = {name: fig for name, _, fig in comparison_figures(res)}
+    # ltca_spur runs aligned, ltca_crowned under a 3' crossing: no common case for the unloaded TE panels
+    assert sorted(figs) == ["compare_loaded.png", "compare_pattern.png"]
+    meshes = [c for ax in figs["compare_pattern.png"].axes for c in ax.collections if hasattr(c, "get_clim")
+              and c.get_array() is not None and c.get_array().ndim >= 1]
+    assert len(meshes) >= 2 and all(m.get_clim() == pytest.approx((0.0, top)) for m in meshes)
+    shared = set(res["unmodified"]["options"]["torques_Nm"]) & set(res["crowned"]["options"]["torques_Nm"])
+    assert common_torque(res) in shared
+    assert common_torque(res) == min(shared, key=lambda T: abs(T - res["unmodified"]["nominal_torque_Nm"]))
+    for f in figs.values():
+        plt.close(f)
