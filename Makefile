@@ -10,7 +10,7 @@ STAMP   := $(VENV)/.installed
 SCENE   ?= problems/tca_spur_crowned.toml
 OUT     ?= out/tca_spur_crowned
 
-.PHONY: demo lint check test bench ccx clean distclean venv
+.PHONY: demo lint check test bench ccx chromium clean distclean venv
 
 venv: $(STAMP)
 
@@ -42,7 +42,7 @@ check: lint
 
 # The whole suite on every core (pytest-xdist), one test file per worker so that module fixtures are
 # built once (the files are cut so that none bounds the wall time: docs/testing.md).
-test: ccx lint
+test: ccx chromium lint
 	$(VPY) -m pytest -q -n auto --dist loadfile
 
 # Every benchmark with its defaults; the two comparison tools need their arguments (run them by hand).
@@ -65,6 +65,19 @@ ccx:
 	     && command -v ccx >/dev/null 2>&1; then echo "installed $$(command -v ccx)"; \
 	  else echo "note: could not install calculix-ccx (see $$log); FE features will be unavailable."; fi; \
 	else echo "note: ccx (CalculiX) not found and not root: FE features will be unavailable."; fi
+
+# Chromium, headless, for the test that opens report.html in a real browser (tests/test_report_page.py):
+# best effort like ccx, never fails the build; without it that test is skipped with the reason.
+chromium:
+	@if command -v chromium >/dev/null 2>&1 || command -v chromium-browser >/dev/null 2>&1; then :; \
+	elif [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then \
+	  log="$${TMPDIR:-/tmp}/gearopt-chromium-install.log"; \
+	  echo "installing Chromium (apt-get install chromium; log: $$log) ..."; \
+	  if ( timeout 900 apt-get update -qq && DEBIAN_FRONTEND=noninteractive timeout 900 \
+	       apt-get install -y -qq --no-install-recommends chromium ) >"$$log" 2>&1 \
+	     && command -v chromium >/dev/null 2>&1; then echo "installed $$(command -v chromium)"; \
+	  else echo "note: could not install chromium (see $$log); the browser test of report.html will be skipped."; fi; \
+	else echo "note: chromium not found and not root: the browser test of report.html will be skipped."; fi
 
 clean:
 	rm -rf out .pytest_cache .hypothesis build *.egg-info

@@ -109,7 +109,8 @@ def _run(args) -> int:
     out = check_out_dir(args.out_text if args.out_text is not None else Path("out") / args.scene.stem, args.scene)
     say(f"building study {scene.study!r} for scene {scene.name!r}")
     sink = None if args.quiet else say  # long work deep in the library reports here (gearopt.progress)
-    with _in_scene(scene), reporting(sink):
+    caught = _Warnings()
+    with _in_scene(scene), reporting(sink), caught:
         study = scene.build()
     say("running")
     t0 = time.perf_counter()
@@ -128,11 +129,11 @@ def _run(args) -> int:
                               "montecarlo and sweep studies run on a Dask cluster.", param="--scheduler",
                               value=args.scheduler, valid="a montecarlo or sweep scene")
         kwargs["scheduler"] = args.scheduler
-    with _in_scene(scene), reporting(sink):
+    with _in_scene(scene), reporting(sink), caught:
         result = run(**kwargs)
     run_time = time.perf_counter() - t0
     say(f"done in {run_time:.2f} s; writing {out}")
-    paths = write_results(out, result, scene=scene, run_time=run_time, progress=say)
+    paths = write_results(out, result, scene=scene, run_time=run_time, progress=say, warnings=caught.records)
     for p in paths:
         print(p)
     return 0
@@ -163,6 +164,43 @@ def _compare(args) -> int:
     for p in paths:
         print(p)
     return 0
+
+
+class _Warnings:
+    """Context manager (re-entrant in sequence): records every Python warning shown while active, as
+    ``{"category", "message", "source"}`` in :attr:`records` (results.json ``meta.warnings``,
+    report.html), and still shows it on stderr as Python would (the filters are unchanged)."""
+
+    def __init__(self):
+        self.records: list[dict[str, str]] = []
+        self._ctx = None
+
+    def __enter__(self):
+        import warnings
+
+        self._ctx = warnings.catch_warnings()
+        self._ctx.__enter__()  # restores warnings.showwarning (and the filters) on exit
+        show = warnings.showwarning
+
+        def record(message, category, filename, lineno, file=None, line=None):
+            self.records.append({"category": category.__name__, "message": str(message),
+                                 "source": f"{_short_path(filename)}:{lineno}"})
+            show(message, category, filename, lineno, file, line)
+
+        warnings.showwarning = record
+        return self
+
+    def __exit__(self, *exc):
+        return self._ctx.__exit__(*exc)
+
+
+def _short_path(filename: str) -> str:
+    """A source file as ``gearopt/...`` when it is part of the package, else its name."""
+    p = Path(filename)
+    parts = p.parts
+    if "gearopt" in parts:
+        return "/".join(parts[len(parts) - 1 - parts[::-1].index("gearopt"):])
+    return p.name
 
 
 class _in_scene:

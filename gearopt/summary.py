@@ -157,6 +157,18 @@ def _pair_geometry(p: dict, eps_gamma: bool = False) -> list[KeyNumber]:
     if "backlash_circumferential" in p:
         out.append(KeyNumber("backlash_circumferential_mm", "circumferential backlash j_wt (smallest)",
                              _num(p["backlash_circumferential"]), "mm", None, "geometry"))
+    out += _crowning_settings(p.get("pinion_a_c"), p.get("pinion_a_pl"))
+    return out
+
+
+def _crowning_settings(a_c: Any, a_pl: Any) -> list[KeyNumber]:
+    """The pinion's crowning settings (Litvin's parabola coefficients a_c, a_pl [1/mm]) where given."""
+    out = []
+    if a_c is not None:
+        out.append(KeyNumber("pinion_a_c_per_mm", "pinion profile crowning a_c", _num(a_c), "1/mm", None, "geometry"))
+    if a_pl is not None:
+        out.append(KeyNumber("pinion_a_pl_per_mm", "pinion lead crowning a_pl", _num(a_pl), "1/mm", None,
+                             "geometry"))
     return out
 
 
@@ -265,6 +277,146 @@ def _ltca_torques(d: dict[str, Any], prefix: str = "", label_prefix: str = "") -
     return out
 
 
+def crowning_summary(d: dict[str, Any]) -> list[KeyNumber]:
+    """crowning: the optimised settings (a_c, a_pl and in ISO terms), IPOPT's status and objective,
+    the verified TE level per case, and the unloaded TE of every case after the optimisation
+    (plain keys, as the tca study's) and before it (``before.`` keys)."""
+    de = d["design"]
+    st = de.get("settings") or {}
+    out = _crowning_settings(st.get("a_c"), st.get("a_pl"))
+    for k, v in (de.get("iso_um") or {}).items():
+        out.append(KeyNumber(f"{k}_um[pinion]", f"pinion {k} (ISO 21771 terms)", _num(v), "um", None, "geometry"))
+    out.append(KeyNumber("status", "optimiser status", _num(de.get("status")), "", None, "optimisation"))
+    out.append(KeyNumber("objective", "optimiser objective (misfit to the target TE)", _num(de.get("objective")), "",
+                         "lower", "optimisation"))
+    if de.get("target_te_level_arcsec") is not None:
+        out.append(KeyNumber("target_te_level_arcsec", "target TE level", _num(de["target_te_level_arcsec"]),
+                             "arcsec", None, "optimisation"))
+    for c in de.get("cases") or []:
+        out.append(KeyNumber(f"te_level_arcsec[{c['name']}]", f"verified TE level, {c['name']}",
+                             _num(c["te_level_arcsec"]), "arcsec", None, "optimisation"))
+    return out + _tca_cases(d["after"]) + _tca_cases(d["before"], "before.", "before: ")
+
+
+def _position_label(phi1: float) -> str:
+    return f"phi1 {math.degrees(phi1):.4g} deg"
+
+
+def fea_summary(d: dict[str, Any]) -> list[KeyNumber]:
+    """fea: the drive and per position the loaded TE, the largest contact pressure, its ratio to
+    Hertz and the largest principal root stress at mid face of each member."""
+    out = _pair_geometry(d["pair"])
+    for p in d["positions"]:
+        pos = _position_label(p["phi1"])
+        out.append(KeyNumber(f"fe_loaded_te_arcsec[{pos}]", f"FE loaded TE, {pos}", _num(p.get("loaded_te_arcsec")),
+                             "arcsec", None, "FE"))
+        c = p.get("contact") or {}
+        out.append(KeyNumber(f"fe_p_max_MPa[{pos}]", f"FE largest contact pressure, {pos}", _num(c.get("p_max")),
+                             "MPa", "lower", "FE"))
+        if "ratio_mid_to_hertz" in c:
+            out.append(KeyNumber(f"fe_p_over_hertz[{pos}]", f"FE mid-section pressure / Hertz p0, {pos}",
+                                 _num(c["ratio_mid_to_hertz"]), "", None, "FE"))
+        for member, r in (p.get("root") or {}).items():
+            out.append(KeyNumber(f"fe_root_max_principal_MPa[{member}, {pos}]",
+                                 f"FE root stress (largest principal, mid face), {member}, {pos}",
+                                 _num(r.get("max_principal_mid")), "MPa", "lower", "FE"))
+    return out
+
+
+def loaded_microgeometry_summary(d: dict[str, Any]) -> list[KeyNumber]:
+    """loaded_microgeometry: the optimised amounts, the optimiser's status, objective and binding
+    constraints, and per case and torque the loaded TE peak-to-peak, peak pressure and edge share
+    of the verification after (plain keys) and before (``before.`` keys) the optimisation."""
+    de = d["design"]
+    out = [KeyNumber(f"theta_um[{k}]", f"optimised amount {k}", _num(v), "um", None, "optimisation")
+           for k, v in (de.get("theta_um") or {}).items()]
+    out.append(KeyNumber("status", "optimiser status", _num(de.get("status")), "", None, "optimisation"))
+    ver, bef = de.get("verified") or {}, de.get("before") or {}
+    if "objective_arcsec" in ver:
+        out.append(KeyNumber("objective_arcsec", "objective (weighted loaded TE), optimum verified",
+                             _num(ver["objective_arcsec"]), "arcsec", "lower", "optimisation"))
+    if "objective_arcsec" in bef:
+        out.append(KeyNumber("before.objective_arcsec", "objective (weighted loaded TE), start design",
+                             _num(bef["objective_arcsec"]), "arcsec", "lower", "optimisation"))
+    if de.get("binding") is not None:
+        out.append(KeyNumber("binding", "binding constraints at the optimum", "; ".join(de["binding"]) or "none", "",
+                             None, "optimisation"))
+    names = [c["name"] for c in d["cases"]]
+    for prefix, lp, runs in (("", "", d["after"]), ("before.", "before: ", d["before"])):
+        for name, run in zip(names, runs):
+            out.append(KeyNumber(f"{prefix}te_pp_arcsec[unloaded, {name}]", f"{lp}TE peak-to-peak, unloaded, {name}",
+                                 _num(run["unloaded_peak_to_peak_arcsec"]), "arcsec", "lower", "unloaded TE"))
+        for q, key, label, unit in (("peak_to_peak_arcsec", "lte_pp_arcsec", "loaded TE peak-to-peak", "arcsec"),
+                                    ("p_max_MPa", "p_max_MPa", "peak contact pressure", "MPa"),
+                                    ("edge_share_max", "edge_share_max", "largest share of the load at an edge", "")):
+            for name, run in zip(names, runs):
+                for t in run["torques"]:
+                    tl = _torque_label(t["torque_Nm"])
+                    out.append(KeyNumber(f"{prefix}{key}[{name}, {tl}]", f"{lp}{label}, {name}, {tl}", _num(t[q]),
+                                         unit, "lower", "loaded"))
+    return out
+
+
+#: Statistics of the Monte Carlo / sweep distributions in the summary, per quantity.
+_STATS = {"te_p2p_arcsec": ("mean", "sd", "p5", "p50", "p95", "max"), "h1_arcsec": ("p50", "p95")}
+_LOADED_STATS = {"te_p2p_arcsec": ("mean", "p5", "p50", "p95", "max"), "p_max_MPa": ("p50", "p95", "max"),
+                 "edge_share_max": ("p95", "max")}
+_STAT_KEYS = {"te_p2p_arcsec": ("te_pp_arcsec", "TE peak-to-peak", "arcsec"),
+              "h1_arcsec": ("te_h1_arcsec", "TE harmonic 1", "arcsec")}
+_LOADED_KEYS = {"te_p2p_arcsec": ("lte_pp_arcsec", "loaded TE peak-to-peak", "arcsec"),
+                "p_max_MPa": ("p_max_MPa", "peak contact pressure", "MPa"),
+                "edge_share_max": ("edge_share_max", "largest share of the load at an edge", "")}
+
+
+def robust_summary(d: dict[str, Any]) -> list[KeyNumber]:
+    """montecarlo and sweep: the nominal drive (unloaded TE, edge contact; with a torque its loaded
+    TE and peak pressure), the distributions' statistics of the TE peak-to-peak and first harmonic
+    (and of the loaded quantities), the probabilities of edge contact and of a pattern at an edge
+    and the share of samples with results. Keys ``mc_*`` (montecarlo) or ``sweep_*`` (sweep)."""
+    mc = d["study"] == "montecarlo"
+    pre, group, what = ("mc_", "Monte Carlo", "Monte Carlo") if mc else ("sweep_", "sweep", "sweep")
+    nom = d.get("nominal") or {}
+    out = []
+    if "te_p2p_arcsec" in nom:
+        out.append(KeyNumber("te_pp_arcsec[nominal]", "TE peak-to-peak, nominal drive", _num(nom["te_p2p_arcsec"]),
+                             "arcsec", "lower", "unloaded TE"))
+    if "h1_arcsec" in nom:
+        out.append(KeyNumber("te_h1_arcsec[nominal]", "TE harmonic 1, nominal drive", _num(nom["h1_arcsec"]),
+                             "arcsec", "lower", "unloaded TE"))
+    if "edge_contact" in nom:
+        out.append(KeyNumber("edge_contact[nominal]", "an edge carries load, nominal drive", _num(nom["edge_contact"]),
+                             "", "lower", "unloaded TE"))
+    if "loaded_te_p2p_arcsec" in nom:
+        tl = _torque_label(nom["torque_Nm"])
+        out.append(KeyNumber(f"lte_pp_arcsec[nominal, {tl}]", f"loaded TE peak-to-peak, nominal drive, {tl}",
+                             _num(nom["loaded_te_p2p_arcsec"]), "arcsec", "lower", "loaded"))
+        out.append(KeyNumber(f"p_max_MPa[nominal, {tl}]", f"peak contact pressure, nominal drive, {tl}",
+                             _num(nom["p_max_MPa"]), "MPa", "lower", "loaded"))
+    s = d["statistics"]
+    out.append(KeyNumber(f"{pre}n_samples", f"{what}: samples", _num(s["n_samples"]), "", None, group))
+    out.append(KeyNumber(f"{pre}feasible_fraction", f"{what}: share of samples with results",
+                         _num(s["feasible_fraction"]), "", "higher", group))
+    for q, stats in _STATS.items():
+        key, label, unit = _STAT_KEYS[q]
+        for st in stats:
+            if q in s and st in s[q]:
+                out.append(KeyNumber(f"{pre}{key}[{st}]", f"{what}: {label}, {st}", _num(s[q][st]), unit, "lower", group))
+    for q, label in (("p_edge_contact", "probability of edge contact"),
+                     ("p_pattern_at_edge", "probability of a contact pattern at an edge")):
+        if q in s:
+            out.append(KeyNumber(f"{pre}{q}", f"{what}: {label}", _num(s[q]["p"]), "", "lower", group))
+    loaded = s.get("loaded") or {}
+    for q, stats in _LOADED_STATS.items():
+        key, label, unit = _LOADED_KEYS[q]
+        for st in stats:
+            if q in loaded and st in loaded[q]:
+                out.append(KeyNumber(f"{pre}{key}[{st}]", f"{what}: {label}, {st}", _num(loaded[q][st]), unit,
+                                     "lower", group))
+    return out
+
+
 SUMMARIES: dict[str, Callable[[dict[str, Any]], list[KeyNumber]]] = {
     "tca": tca_summary, "geometry": geometry_summary, "planar_tca": planar_tca_summary, "ltca": ltca_summary,
+    "crowning": crowning_summary, "fea": fea_summary, "loaded_microgeometry": loaded_microgeometry_summary,
+    "montecarlo": robust_summary, "sweep": robust_summary,
 }

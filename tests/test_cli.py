@@ -42,7 +42,7 @@ def test_run_good_scene_writes_results_and_plots(dummy_study, scene_file, tmp_pa
     assert main(["run", str(scene), "--out", str(out)]) == 0
     captured = capsys.readouterr()
     printed = captured.out.split()
-    assert printed == [str(out / "results.json"), str(out / "dummy.png")]
+    assert printed == [str(out / "results.json"), str(out / "dummy.png"), str(out / "report.html")]
     assert "gearopt: loading" in captured.err and "dummy study running" in captured.err
     data = json.loads((out / "results.json").read_text())
     assert data["units"]["r_a"] == "mm"
@@ -61,8 +61,8 @@ def test_run_quiet_and_no_plots(dummy_study, scene_file, tmp_path, capsys):
     assert main(["run", str(scene), "--out", str(out), "--quiet"]) == 0
     captured = capsys.readouterr()
     assert captured.err == ""
-    assert captured.out.split() == [str(out / "results.json")]
-    assert sorted(p.name for p in out.iterdir()) == [MANIFEST, "results.json"]
+    assert captured.out.split() == [str(out / "results.json"), str(out / "report.html")]
+    assert sorted(p.name for p in out.iterdir()) == [MANIFEST, "report.html", "results.json"]
 
 
 def test_run_replaces_previous_output_only_on_success(dummy_study, scene_file, tmp_path, capsys):
@@ -75,7 +75,7 @@ def test_run_replaces_previous_output_only_on_success(dummy_study, scene_file, t
     scene = scene_file(GOOD_SCENE.replace("n = 4", "n = 4\nfail_plots = true"))
     with pytest.raises(RuntimeError, match="on purpose"):
         main(["run", str(scene), "--out", str(out), "-q"])
-    assert sorted(p.name for p in out.iterdir()) == [MANIFEST, "dummy.png", "results.json"]
+    assert sorted(p.name for p in out.iterdir()) == [MANIFEST, "dummy.png", "report.html", "results.json"]
     assert (out / "results.json").read_text() == first
     assert leftovers(tmp_path) == []
     # NaN in the results: a clear error (exit 2, no traceback), nothing written either
@@ -87,7 +87,7 @@ def test_run_replaces_previous_output_only_on_success(dummy_study, scene_file, t
     # success replaces the previous output's files
     scene = scene_file(GOOD_SCENE)
     assert main(["run", str(scene), "--out", str(out), "-q"]) == 0
-    assert sorted(p.name for p in out.iterdir()) == [MANIFEST, "dummy.png", "results.json"]
+    assert sorted(p.name for p in out.iterdir()) == [MANIFEST, "dummy.png", "report.html", "results.json"]
     assert json.loads((out / "results.json").read_text())["n"] == 4
     assert leftovers(tmp_path) == []
 
@@ -186,7 +186,7 @@ def test_subprocess_good_scene_with_plugin_study(scene_file, tmp_path):
                        capture_output=True, text=True, cwd=tmp_path, env=env, timeout=120)
     assert r.returncode == 0, r.stderr
     assert (out / "results.json").is_file() and (out / "dummy.png").is_file()
-    assert r.stdout.split() == [str(out / "results.json"), str(out / "dummy.png")]
+    assert r.stdout.split() == [str(out / "results.json"), str(out / "dummy.png"), str(out / "report.html")]
 
 
 # ----------------------------------------------------------------------------------------------

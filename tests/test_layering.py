@@ -44,6 +44,7 @@ LAYERS: list[tuple[str, ...]] = [
     ("gearopt.robust",),         # Monte Carlo, sweeps
     ("gearopt.plot",),           # plots read result dictionaries
     ("gearopt.io.schema",),      # scene schema (fields, sections, tool sections)
+    ("gearopt.io.page",),        # report.html renderer (Jinja2)
     ("gearopt.io.results",),     # results.json writer
     ("gearopt.studies",),        # what a scene may ask for: builds, runs, plots
     ("gearopt.io.scene",),       # the scene loader consults the studies registry

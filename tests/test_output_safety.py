@@ -61,8 +61,8 @@ def test_empty_directory_is_used(dummy_study, scene_file, tmp_path, capsys):
     out = tmp_path / "o"
     out.mkdir()
     assert run(capsys, scene, "--out", out)[0] == 0
-    assert sorted(tree(out)) == [MANIFEST, "dummy.png", "results.json"]
-    assert sorted(json.loads((out / MANIFEST).read_text())["files"]) == ["dummy.png", "results.json"]
+    assert sorted(tree(out)) == [MANIFEST, "dummy.png", "report.html", "results.json"]
+    assert sorted(json.loads((out / MANIFEST).read_text())["files"]) == ["dummy.png", "report.html", "results.json"]
 
 
 def test_previous_output_is_replaced_and_a_note_added_later_is_kept(dummy_study, scene_file, tmp_path, capsys):
@@ -72,9 +72,9 @@ def test_previous_output_is_replaced_and_a_note_added_later_is_kept(dummy_study,
     assert run(capsys, scene_file(GOOD_SCENE + "[output]\nplots = false\n"), "--out", out)[0] == 0
     files = tree(out)
     # the plot of the first run is gone (gearopt wrote it), the user's note is not
-    assert sorted(files) == [MANIFEST, "notes.txt", "results.json"]
+    assert sorted(files) == [MANIFEST, "notes.txt", "report.html", "results.json"]
     assert files["notes.txt"] == b"looked at it, fine"
-    assert json.loads(files[MANIFEST])["files"] == ["results.json"]
+    assert json.loads(files[MANIFEST])["files"] == ["report.html", "results.json"]
     assert hidden_leftovers(tmp_path) == []
 
 

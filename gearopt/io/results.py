@@ -39,6 +39,7 @@ from typing import TYPE_CHECKING, Any, Callable
 from ..errors import ArgumentError, ResultsError, shorten
 from ..progress import heartbeat
 from ..summary import summarize, summary_dicts
+from .page import REPORT_FILE, SVGCapture, report_page
 from ..version import __version__
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -197,8 +198,9 @@ def check_out_dir(out_dir: str | Path, scene_file: str | Path | None = None) -> 
 
 def write_results(out_dir: str | Path, result: Any, *, scene: Scene | None = None, run_time: float | None = None,
                   plots: bool | None = None,
-                  progress: Callable[[str], None] | None = None) -> list[Path]:
-    """Write ``results.json`` (and the plots) of ``result`` into ``out_dir``.
+                  progress: Callable[[str], None] | None = None,
+                  warnings: list[dict[str, str]] | None = None) -> list[Path]:
+    """Write ``results.json``, the tables, the plots and ``report.html`` of ``result`` into ``out_dir``.
 
     Parameters
     ----------
@@ -216,12 +218,18 @@ def write_results(out_dir: str | Path, result: Any, *, scene: Scene | None = Non
         Write plots (default: the scene's ``[output] plots``, else True).
     progress : callable(str), optional
         Receives progress lines.
+    warnings : list of dict, optional
+        The warnings the run raised, ``{"category", "message", "source"}`` each (``gearopt run``
+        records them): ``meta.warnings`` of results.json (``[]`` when not given) and highlighted in
+        ``report.html``.
 
     Returns
     -------
     list[Path]
-        The written files in their final place: ``results.json`` first, then the tables and the
-        plots (the manifest :data:`MANIFEST` is written too, not listed).
+        The written files in their final place: ``results.json`` first, then the tables, the
+        plots and ``report.html`` (:func:`gearopt.io.page.report_page`: the key numbers, the
+        warnings, every plot with its caption from the result's ``captions`` mapping, links to the
+        other files); the manifest :data:`MANIFEST` is written too, not listed.
 
     Raises
     ------
@@ -256,6 +264,8 @@ def write_results(out_dir: str | Path, result: Any, *, scene: Scene | None = Non
         "study": scene.study if scene is not None else None,
         "timestamp": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
         "run_time_s": None if run_time is None else round(float(run_time), 6),
+        "warnings": [{"category": str(w.get("category", "Warning")), "message": str(w.get("message", "")),
+                      "source": str(w.get("source", ""))} for w in (warnings or [])],
     })
     data = {**data, "meta": meta}
     data = _with_summary(data, result)
@@ -284,9 +294,15 @@ def write_results(out_dir: str | Path, result: Any, *, scene: Scene | None = Non
             if scene is not None and _accepts(result.save_plots, "dpi"):
                 kwargs["dpi"] = scene.output.get("dpi", 120)
             from ..plot.style import plot_style
-            # one style for every study's figures (no offset notation, ...)
-            with plot_style(), heartbeat(progress, "writing plots", every=15.0):
+            # one style for every study's figures (no offset notation, ...); each also as SVG for the page
+            with plot_style(), heartbeat(progress, "writing plots", every=15.0), SVGCapture() as svg:
                 written += _reported(tmp, result.save_plots(str(tmp), **kwargs), "save_plots")
+        else:
+            svg = None
+        captions = getattr(result, "captions", None) or {}
+        page = report_page(data, written, dict(captions), svg.svgs if svg is not None else None, tmp)
+        (tmp / REPORT_FILE).write_text(page, encoding="utf-8")
+        written.append(REPORT_FILE)
         install_output(tmp, out_dir)
     except OSError as e:
         shutil.rmtree(tmp, ignore_errors=True)

@@ -25,7 +25,7 @@ import math
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any, Callable, ClassVar
 
 import numpy as np
 
@@ -36,6 +36,7 @@ from ..meshing.tca import TCA, Misalignment
 from ..progress import heartbeat
 from ..settings import CrowningStudySettings
 from ..synthesis.crowning import SENSITIVITY_UNITS, CrowningOptimizer, CrowningTarget  # noqa: F401 - re-exported
+from ..summary import KeyNumber, crowning_summary
 
 UNITS = {"length": "mm", "angle": "rad", "te": "arcsec (suffix _arcsec)", "settings": "1/mm",
          "sensitivities": "d(TE level)/d(variable), in the unit given per variable in design.sensitivity_units "
@@ -53,6 +54,22 @@ class CrowningReport:
     def to_dict(self) -> dict:
         return {"study": "crowning", "scene": self.scene, "units": UNITS, "design": self.design,
                 "before": self.before, "after": self.after, "timing": self.timing}
+
+    #: One line per figure for report.html: what to read from it.
+    captions: ClassVar[dict[str, str]] = {
+        "before_after_te.png": "Actual TE of every misalignment case before (left) and after (right) the crowning "
+                               "optimisation, each row on common axes: read that after it every case shows the "
+                               "predesigned parabolic TE of the target level, with no edge contact.",
+        "before_after_contact_gear.png": "Paths of contact on the gear flank before (left) and after (right), one row "
+                                         "per case: read that the optimised path stays on the flank surface, clear of "
+                                         "the face ends, in every case.",
+        "before_after_contact_pinion.png": "Paths of contact on the pinion flank before (left) and after (right), one "
+                                           "row per case: read the same on the pinion.",
+    }
+
+    def summary(self) -> list[KeyNumber]:
+        """Key numbers of the run (:func:`gearopt.summary.crowning_summary`), read from :meth:`to_dict`."""
+        return crowning_summary(self.to_dict())
 
     def save_plots(self, out_dir: str | Path, dpi: int = 120) -> list[str]:
         import matplotlib.pyplot as plt

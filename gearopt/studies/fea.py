@@ -19,9 +19,11 @@ import math
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Callable, Sequence
+from typing import Callable, ClassVar, Sequence, TYPE_CHECKING
 
 import numpy as np
+
+from ..summary import KeyNumber, fea_summary
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..fea.model import FEOptions, GearFEModel
@@ -56,6 +58,25 @@ class FEReport:
             r.write_vtu(Path(out_dir) / name)
             files.append(name)
         return files
+
+    #: One line per figure for report.html: what to read from it.
+    captions: ClassVar[dict[str, str]] = {
+        "fea_mesh.png": "The FE model's middle transverse section at the first position, with the contact zone "
+                        "enlarged: read whether the mesh resolves the Hertz half-width.",
+        "fea_contact.png": "Contact pressure along the pinion profile through the contact point, FE against Hertz, at "
+                           "each position: read the peak pressure and how closely the FE follows Hertz.",
+        "fea_pattern.png": "Load per mm of face of each loaded tooth pair across the face: read how evenly the face "
+                           "carries the load (misalignment moves it to one end).",
+        "fea_root.png": "Largest principal root stress of pinion and gear (left axis) and the peak contact pressure "
+                        "(right axis) at the analysed positions, with the ISO 6336-3 estimate: read the highest root "
+                        "stress and where in the mesh it occurs.",
+        "fea_te.png": "Loaded transmission error of the FE model at the analysed positions: read the difference "
+                      "between single- and double-pair contact (the loaded TE variation).",
+    }
+
+    def summary(self) -> list[KeyNumber]:
+        """Key numbers of the run (:func:`gearopt.summary.fea_summary`), read from :meth:`to_dict`."""
+        return fea_summary(self.to_dict())
 
     def save_plots(self, out_dir: str | Path, dpi: int = 120) -> list[str]:
         """``fea_mesh.png`` (transverse section of the model at the first position, element edges),

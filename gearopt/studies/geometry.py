@@ -15,7 +15,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
-from typing import Any, Callable
+from typing import Any, Callable, ClassVar
 from pathlib import Path
 
 import numpy as np
@@ -24,6 +24,7 @@ from ..gears import Gear, GearPair
 from ..geometry.generation import GeneratedTooth, Hob, Shaper, default_params, generate, rack_profile_functions
 from ..geometry.tools import RackCutter
 from ..settings import GeometryStudySettings
+from ..summary import KeyNumber, geometry_summary
 from ..units import DEG
 
 UNITS = {"length": "mm (suffix _um: micrometres)", "angle": "rad (suffix _deg: degrees)", "ratio": "-", "time": "s",
@@ -56,6 +57,21 @@ class GeometryReport:
         return {"study": "geometry", "scene": self.scene, "units": UNITS, "pair": self.pair,
                 "members": self.members, "profiles": self.profiles, "rack_cutter": self.rack,
                 "timing": self.timing}
+
+    #: One line per figure for report.html: what to read from it.
+    captions: ClassVar[dict[str, str]] = {
+        "profiles.png": "Transverse tooth profiles of pinion and gear with the tip, pitch, base, form and root "
+                        "circles: read the tip thickness, the fillet (red) and whether the involute reaches down to "
+                        "the form circle (no undercut).",
+        "pair_mesh.png": "The pair in mesh with the line of action and the path of contact A-E: read the length of "
+                         "contact (contact ratio) and the tip clearances.",
+        "rack_mesh.png": "Each member with its generating rack-cutter (Litvin Fig. 10.3.2): read the profile shift "
+                         "(datum line against the pitch line) and how the rack cuts the fillet.",
+    }
+
+    def summary(self) -> list[KeyNumber]:
+        """Key numbers of the run (:func:`gearopt.summary.geometry_summary`), read from :meth:`to_dict`."""
+        return geometry_summary(self.to_dict())
 
     def save_plots(self, out_dir: str | Path, dpi: int = 120) -> list[str]:
         """Write ``profiles.png``, ``pair_mesh.png`` and ``rack_mesh.png`` into ``out_dir``."""

@@ -40,12 +40,13 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Callable, Sequence
+from typing import Any, Callable, ClassVar, Sequence, TYPE_CHECKING
 
 import numpy as np
 
 from ..geometry.microgeometry import GLOBAL_AMOUNTS, RELIEF_AMOUNTS
 from ..progress import heartbeat
+from ..summary import KeyNumber, loaded_microgeometry_summary
 from ..units import RAD_TO_ARCSEC
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -79,6 +80,28 @@ class LoadedMicroReport:
         if self.pareto is not None:
             out["pareto"] = self.pareto
         return out
+
+    #: One line per figure for report.html: what to read from it.
+    captions: ClassVar[dict[str, str]] = {
+        "loaded_micro_te.png": "Loaded TE over the mesh cycle at every torque before (left) and after (middle) the "
+                               "optimisation (first case), and the loaded TE peak-to-peak against torque for every "
+                               "case (right): read how much the modification lowers the TE at the design torques.",
+        "loaded_micro_pattern.png": "Loaded contact pattern on the pinion flank at the nominal torque before (left) "
+                                    "and after (right), one pressure scale: read that the pattern moves off the "
+                                    "edges and what peak pressure it costs.",
+        "loaded_micro_sharing.png": "Load sharing of the tooth pairs at the nominal torque before (left) and after "
+                                    "(right): read the longer single-pair zone that the relief gives.",
+        "loaded_micro_rounds.png": "Objective of each trust-region round, true (dots) against the linearised NLP's "
+                                   "optimum (squares): read that the rounds converged.",
+        "loaded_micro_pareto.png": "Pareto front of the weighted loaded TE against the peak pressure, with the start "
+                                   "design: read the price in pressure of a lower TE.",
+        "loaded_micro_unloaded_te.png": "Unloaded TE of every case before and after, against its target parabola: "
+                                        "read how well the optimum keeps the unloaded TE on target.",
+    }
+
+    def summary(self) -> list[KeyNumber]:
+        """Key numbers of the run (:func:`gearopt.summary.loaded_microgeometry_summary`), read from :meth:`to_dict`."""
+        return loaded_microgeometry_summary(self.to_dict())
 
     def save_plots(self, out_dir: str | Path, dpi: int = 120) -> list[str]:
         """``loaded_micro_te.png`` (loaded TE over the mesh cycle at every torque, before and after, in

@@ -29,11 +29,12 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from typing import TYPE_CHECKING, Any, Callable, Sequence
+from typing import Any, Callable, ClassVar, Sequence, TYPE_CHECKING
 
 import numpy as np
 
 from ..units import DEG
+from ..summary import KeyNumber, ltca_summary
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..gears import GearPair
@@ -68,6 +69,23 @@ class LTCAReport:
         out.update(self.data)
         out["timing"] = self.timing
         return out
+
+    #: One line per figure for report.html: what to read from it.
+    captions: ClassVar[dict[str, str]] = {
+        "ltca_te.png": "Loaded TE over one mesh cycle at every torque (top), its peak-to-peak and first harmonic "
+                       "against torque (bottom left) and its mesh harmonics (bottom right): read how the TE grows "
+                       "with load and at which torque it is smallest.",
+        "ltca_sharing.png": "Load share of the tooth pairs over the mesh cycle, mesh stiffness per torque against "
+                            "ISO 6336-1's c_gamma, and the load across the face at the position of peak pressure: "
+                            "read where one pair carries the whole load and how evenly the face is loaded.",
+        "ltca_pattern.png": "Loaded contact pattern on the pinion and gear flanks at the nominal torque, coloured by "
+                            "the largest Hertz pressure over the mesh cycle; crosses mark a loaded tip edge: read "
+                            "whether the pattern stays inside the flank and off the tip (edge loading).",
+    }
+
+    def summary(self) -> list[KeyNumber]:
+        """Key numbers of the run (:func:`gearopt.summary.ltca_summary`), read from :meth:`to_dict`."""
+        return ltca_summary(self.to_dict())
 
     def save_plots(self, out_dir: str | Path, dpi: int = 120) -> list[str]:
         """``ltca_te.png`` (loaded TE at every torque; TE against torque; harmonics),

@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
-from typing import Any, Callable, Sequence
+from typing import Any, Callable, ClassVar, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -33,6 +33,7 @@ from numpy.typing import ArrayLike
 from ..errors import GeometryError, SceneError
 from ..meshing.planar import PlanarTCA, PlanarTCAResult, closed_form, profile_points
 from ..settings import PlanarTCASettings
+from ..summary import KeyNumber, planar_tca_summary
 from ..units import DEG
 
 UNITS = {"length": "mm", "angle": "rad (suffix _deg: degrees)", "te": "rad", "te_arcsec": "arcsec",
@@ -59,6 +60,19 @@ class PlanarTCAReport:
         return {"study": "planar_tca", "scene": self.scene, "units": units, **d,
                 "profiles": self.profiles, "notes": list(self.notes),
                 "timing": {**d["timing"], **self.timing}}
+
+    #: One line per figure for report.html: what to read from it.
+    captions: ClassVar[dict[str, str]] = {
+        "line_of_action.png": "Base and operating pitch circles, the profiles and the solved contact points (Litvin "
+                              "Fig. 9.4.5), with the meshing zone enlarged: read that the contact points lie on one "
+                              "straight line of action, tangent to both base circles.",
+        "transmission_error.png": "Transmission error at the solved positions: read that it is zero up to round-off "
+                                  "(conjugate involute profiles, constant ratio m12).",
+    }
+
+    def summary(self) -> list[KeyNumber]:
+        """Key numbers of the run (:func:`gearopt.summary.planar_tca_summary`), read from :meth:`to_dict`."""
+        return planar_tca_summary(self.to_dict())
 
     def save_plots(self, out_dir: str | Path, dpi: int = 120) -> list[str]:
         """Write ``line_of_action.png`` (Fig. 9.4.5) and ``transmission_error.png`` into ``out_dir``."""

@@ -31,9 +31,10 @@ Results: ``results.json`` (statistics, ranked sensitivities, the pattern probabi
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import ClassVar, TYPE_CHECKING
 
 from ..robust.study import UNITS, DesignSweep, MonteCarlo, RobustResult  # noqa: F401 (UNITS: results.json's units)
+from ..summary import KeyNumber, robust_summary
 
 if TYPE_CHECKING:  # pragma: no cover
     from pathlib import Path
@@ -110,6 +111,24 @@ def _distribution(name: str, d: dict):
 class RobustReport(RobustResult):
     """The result of a ``montecarlo`` or ``sweep`` scene: :class:`~gearopt.robust.study.RobustResult`
     with its figures (:func:`gearopt.plot.robust.save_plots`)."""
+
+    #: One line per figure for report.html: what to read from it.
+    captions: ClassVar[dict[str, str]] = {
+        "distribution.png": "Histograms (left) and cumulative distributions (right) of the TE peak-to-peak and first "
+                            "mesh harmonic (with a torque also the loaded TE and peak pressure), nominal drive and "
+                            "50 %/95 % marked: read the spread the tolerances give and how far the 95 % value lies "
+                            "from the nominal.",
+        "scatter.png": "TE peak-to-peak against the most influential inputs, one dot per sample, edge contact marked: "
+                       "read the trend each input drives.",
+        "sensitivity.png": "Inputs ranked by their Spearman rank correlation with the TE peak-to-peak, the grey band "
+                           "not significant at 5 %: read which tolerance or misalignment to tighten first.",
+        "pattern.png": "Probability of each point of the pinion flank being in the contact pattern, over the samples, "
+                       "nominal extent dashed: read how often the pattern reaches a face end or the tip.",
+    }
+
+    def summary(self) -> list[KeyNumber]:
+        """Key numbers of the run (:func:`gearopt.summary.robust_summary`), read from :meth:`to_dict`."""
+        return robust_summary(self.to_dict())
 
     def save_plots(self, out_dir: str | Path, dpi: int = 120) -> list[str]:
         """``distribution.png``, ``scatter.png``, ``sensitivity.png``, ``pattern.png``

@@ -26,7 +26,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, Callable
+from typing import Any, Callable, ClassVar, TYPE_CHECKING
 from pathlib import Path
 
 import numpy as np
@@ -78,6 +78,39 @@ class TCAReport:
         if self.inspection:
             out["inspection"] = self.inspection
         return out
+
+    #: One line per figure for report.html: what to read from it (the edge-contact variants in
+    #: :attr:`EDGE_CAPTIONS`).
+    CAPTIONS: ClassVar[dict[str, str]] = {
+        "te.png": "Transmission error of each tooth pair (dashed) and the actual TE (their envelope, black) over two "
+                  "mesh cycles, one row per case: read the peak-to-peak and the parabolic shape between the transfers "
+                  "(grey lines), where the driving pair changes.",
+        "bearing_contact.png": "Path of contact (red) and contact ellipses (blue) on the pinion (left) and gear (right) "
+                               "flanks, one row per case; the grey box is the active flank: read whether the bearing "
+                               "pattern stays inside it, clear of the face ends and the tip.",
+        "compare.png": "The cases overlaid: actual TE (left) and path of contact on the gear flank (right): read how far "
+                       "the misalignment shifts the TE and moves the contact across the face.",
+        "topography.png": "Flank topography, ISO transverse deviation from the involute over the active flank: read "
+                          "the crowning and reliefs the flank carries (design or measurement).",
+        "k_charts.png": "Profile (left) and lead (right) charts evaluated from the flanks, with the ISO 1328-1 tolerances "
+                        "where a measured flank is judged: read the deviations F, f_f, f_H against the class.",
+    }
+    #: The captions of the figures with edge contact analysed (``[tca] edge_contact = true``).
+    EDGE_CAPTIONS: ClassVar[dict[str, str]] = {
+        **CAPTIONS,
+        "te.png": "Transmission error with edge contact (Litvin 9.6), one row per case: surface and edge branches of "
+                  "the central pair and the actual TE; read whether an edge (tip or face end) carries the load and "
+                  "the TE level it gives.",
+        "bearing_contact.png": "Paths of contact of the central pair split into their surface and edge parts, on the "
+                               "pinion (left) and gear (right) flanks, one row per case: read where an edge of the "
+                               "flank touches (face end, tip) instead of the surface.",
+    }
+
+    @property
+    def captions(self) -> dict[str, str]:
+        """Figure file name -> one-line caption for report.html."""
+        edge = bool(self.cases and self.cases[0].get("edge_analysis"))
+        return dict(self.EDGE_CAPTIONS if edge else self.CAPTIONS)
 
     def summary(self) -> list[KeyNumber]:
         """Key numbers (:func:`gearopt.summary.tca_summary`): geometry, and per case the TE

@@ -1,0 +1,166 @@
+"""The checks of results.json's ``summary`` (docs/results.md, "summary"), independent of
+gearopt.summary: the documented keys read from the page's table, and every key number recomputed
+from the arrays of results.json (peak-to-peak of the TE envelope, its DFT harmonics, the largest
+pressure over the positions, percentiles of samples.csv) or read from the scalar it names. Used by
+tests/test_summary.py and, for every scene, tests/test_report_page.py."""
+
+from __future__ import annotations
+
+import csv
+import math
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from gearopt.summary import GROUPS
+
+ROOT = Path(__file__).resolve().parents[1]
+DOC = ROOT / "docs" / "results.md"
+
+
+# --- the documented keys ---------------------------------------------------------------------------
+_PLACE = {"<case>": r"[^\[\]]+", "<torque>": r"\d+(?:\.\d+)? Nm", "<member>": r"pinion|gear",
+          "<stat>": r"mean|sd|min|max|p\d+", "<position>": r"phi1 -?\d+(?:\.\d+)? deg", "<input>": r"[\w.]+",
+          "<amount>": r"C_alpha|f_H_alpha|C_beta|f_H_beta"}
+
+
+def documented_summary_keys(doc: Path = DOC) -> list[str]:
+    """Regular expressions of the keys of the table in docs/results.md's section ``## summary``."""
+    text = doc.read_text(encoding="utf-8")
+    section = text.split("\n## summary\n", 1)[1].split("\n## ", 1)[0]
+    pats = []
+    for line in section.splitlines():
+        if not line.startswith("| `"):
+            continue
+        for tok in re.findall(r"`([^`]+)`", line.split("|")[1]):
+            pat = re.escape(tok)
+            for ph, rx in _PLACE.items():
+                pat = pat.replace(re.escape(ph), f"(?:{rx})")
+            pats.append(pat)
+    return pats
+
+
+def undocumented_keys(keys: list[str], doc: Path = DOC) -> list[str]:
+    pats = documented_summary_keys(doc)
+    base = [p for p in pats if not p.startswith(("before", "sweep_"))]
+
+    def ok(k: str) -> bool:
+        if k.startswith("before."):
+            return ok(k[len("before."):])
+        if k.startswith("sweep_"):
+            k = "mc_" + k[len("sweep_"):]
+        return any(re.fullmatch(p, k) for p in base)
+
+    return [k for k in keys if not ok(k)]
+
+
+def te_pp(case: dict) -> float:
+    env = np.array([np.nan if v is None else v for v in case["te_envelope_arcsec"]], float)
+    return float(np.nanmax(env) - np.nanmin(env))
+
+
+def harmonic(case: dict, k: int, z1: int) -> float:
+    """Amplitude of mesh order k of the TE envelope (a DFT over the whole cycles the samples span)."""
+    env = np.array(case["te_envelope_arcsec"], float)
+    phi = np.array(case["phi1"], float)
+    cycles = round((phi[1] - phi[0]) * len(phi) * z1 / (2 * math.pi))
+    spec = np.fft.fft(env) / len(env)
+    return float(2 * abs(spec[k * cycles]))
+
+
+def _check_tca_cases(s: dict, cases: list, z1: int | None, prefix: str = "") -> None:
+    for c in cases:
+        lab = c["label"]
+        assert s[f"{prefix}te_pp_arcsec[{lab}]"] == pytest.approx(te_pp(c), abs=1e-9)
+        if c.get("harmonics_arcsec") is not None and z1 is not None:
+            assert s[f"{prefix}te_h1_arcsec[{lab}]"] == pytest.approx(harmonic(c, 1, z1), abs=1e-9)
+        if c.get("edge_analysis"):
+            assert s[f"{prefix}edge_contact[{lab}]"] is c["edge_carries_load"]
+
+
+def _check_ltca_torques(s: dict, run: dict, suffix: str = "", prefix: str = "") -> None:
+    for t in run["torques"]:
+        lab = f"{t['torque_Nm']:g} Nm"
+        te = np.array(t["te_loaded_arcsec"], float)
+        assert s[f"{prefix}lte_pp_arcsec[{suffix}{lab}]"] == pytest.approx(te.max() - te.min(), abs=1e-9)
+        assert s[f"{prefix}p_max_MPa[{suffix}{lab}]"] == pytest.approx(max(t["p_max_per_position_MPa"]), abs=1e-9)
+        assert s[f"{prefix}edge_share_max[{suffix}{lab}]"] == pytest.approx(max(t["edge_share"]), abs=1e-12)
+
+
+def _samples(out: Path) -> dict[str, np.ndarray]:
+    with open(out / "samples.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    return {k: np.array([float(r[k]) if r[k] != "" else np.nan for r in rows]) for k in rows[0]}
+
+
+def check_summary(res: dict, out: Path) -> None:
+    """The checks of a scene run's ``summary`` (results.json ``res`` in directory ``out``): its place
+    and form, every key documented, and every value equal to the number recomputed here from the
+    arrays of results.json (or samples.csv) or read from the scalar it names."""
+    assert list(res)[:3] == ["study", "scene", "summary"], "summary right after study and scene"
+    entries = res["summary"]
+    assert entries, "every study has key numbers"
+    for e in entries:
+        assert set(e) == {"key", "label", "value", "unit", "better", "group"}
+        assert e["group"] in GROUPS and e["better"] in (None, "lower", "higher")
+    keys = [e["key"] for e in entries]
+    assert len(set(keys)) == len(keys)
+    assert undocumented_keys(keys) == [], "summary keys missing in docs/results.md's summary table"
+    s = {e["key"]: e["value"] for e in entries}
+    st = res["study"]
+    if "pair" in res and "z1" in res["pair"]:
+        assert s["z1"] == res["pair"]["z1"] and s["a_mm"] == res["pair"]["a"]
+        assert s["eps_alpha"] == res["pair"]["eps_alpha"]
+    if st == "tca":
+        _check_tca_cases(s, res["cases"], res["pair"]["z1"])
+    elif st == "geometry":
+        m = res["members"]
+        assert (s["z1"], s["z2"]) == (m["pinion"]["z"], m["gear"]["z"])
+        assert s["eps_gamma"] == pytest.approx(s["eps_alpha"] + s["eps_beta"])
+        for member in ("pinion", "gear"):
+            assert s[f"form_margin_mm[{member}]"] == pytest.approx(m[member]["r_active_start"] - m[member]["r_form"])
+    elif st == "planar_tca":
+        te = np.array(res["positions"]["te_arcsec"], float)
+        assert s["te_max_abs_arcsec"] == pytest.approx(np.abs(te).max(), abs=1e-12)
+    elif st == "ltca":
+        u = np.array(res["te_unloaded_arcsec"], float)
+        assert s["te_pp_arcsec[unloaded]"] == pytest.approx(u.max() - u.min(), abs=1e-9)
+        _check_ltca_torques(s, res)
+        assert f"K_Hbeta[{res['nominal_torque_Nm']:g} Nm]" in s
+    elif st in ("montecarlo", "sweep"):
+        pre = "mc_" if st == "montecarlo" else "sweep_"
+        smp = _samples(out)
+        te = smp["te_p2p_arcsec"][np.isfinite(smp["te_p2p_arcsec"])]
+        assert s[f"{pre}n_samples"] == len(smp["sample"])
+        assert s[f"{pre}te_pp_arcsec[p95]"] == pytest.approx(np.percentile(te, 95), rel=1e-12)
+        assert s[f"{pre}te_pp_arcsec[p50]"] == pytest.approx(np.median(te), rel=1e-12)
+        assert s[f"{pre}te_pp_arcsec[max]"] == pytest.approx(te.max(), rel=1e-12)
+        edge = smp["edge_contact"][np.isfinite(smp["te_p2p_arcsec"])]
+        assert s[f"{pre}p_edge_contact"] == pytest.approx(edge.mean(), abs=1e-12)
+        if "loaded_te_p2p_arcsec" in smp:
+            lte = smp["loaded_te_p2p_arcsec"][np.isfinite(smp["loaded_te_p2p_arcsec"])]
+            assert s[f"{pre}lte_pp_arcsec[p95]"] == pytest.approx(np.percentile(lte, 95), rel=1e-12)
+        else:
+            assert not any(k.startswith(f"{pre}lte") or k.startswith("lte") for k in s)
+    elif st == "crowning":
+        _check_tca_cases(s, res["after"], None)
+        _check_tca_cases(s, res["before"], None, prefix="before.")
+        assert s["pinion_a_pl_per_mm"] == res["design"]["settings"]["a_pl"]
+        assert "z1" not in s  # the crowning results hold no pair data: absent, not 0
+    elif st == "loaded_microgeometry":
+        for i, c in enumerate(res["cases"]):
+            _check_ltca_torques(s, res["after"][i], suffix=f"{c['name']}, ")
+            _check_ltca_torques(s, res["before"][i], suffix=f"{c['name']}, ", prefix="before.")
+        for k, v in res["design"]["theta_um"].items():
+            assert s[f"theta_um[{k}]"] == v
+    elif st == "fea":
+        for p in res["positions"]:
+            pos = f"phi1 {math.degrees(p['phi1']):.4g} deg"
+            assert s[f"fe_loaded_te_arcsec[{pos}]"] == p["loaded_te_arcsec"]
+            assert s[f"fe_p_max_MPa[{pos}]"] == p["contact"]["p_max"]
+            for member in ("pinion", "gear"):
+                assert s[f"fe_root_max_principal_MPa[{member}, {pos}]"] == p["root"][member]["max_principal_mid"]
+    else:  # pragma: no cover - a new study: add its checks here
+        pytest.fail(f"no summary checks for study {st!r}")
