@@ -53,10 +53,15 @@ def test_table_values_differences_better_and_missing(tmp_path):
     b = _result_dir(tmp_path / "b", summary=[_row("z1", 20, None, "", "geometry"),
                                              _row("te_pp_arcsec[aligned]", 7.5),
                                              _row("eps_alpha", 1.7, "higher", "", "geometry"),
-                                             _row("lte_pp_arcsec[200 Nm]", 30.0, group="loaded")])
+                                             _row("lte_pp_arcsec[200 Nm]", 30.0, group="loaded"),
+                                             _row("before.te_pp_arcsec[aligned]", 0.0)])
     out = tmp_path / "cmp"
     compare([a, b], out, labels=["demo", "optimised"])
-    rows = {r["key"]: r for r in _csv(out / "key_numbers.csv")}
+    table = _csv(out / "key_numbers.csv")
+    rows = {r["key"]: r for r in table}
+    # by group, the quantities both designs have first; the start design of an optimisation left out
+    assert [r["key"] for r in table] == ["z1", "eps_alpha", "te_pp_arcsec[aligned]", "te_h1_arcsec[aligned]",
+                                         "lte_pp_arcsec[200 Nm]"]
     te = rows["te_pp_arcsec[aligned]"]
     assert (float(te["demo"]), float(te["optimised"])) == (18.0, 7.5)
     assert float(te["optimised - demo"]) == pytest.approx(-10.5, abs=1e-12)

@@ -380,10 +380,14 @@ def _case_names(results: dict) -> dict[str, str]:
 
 def design_numbers(design: Design) -> list[KeyNumber]:
     """A design's key numbers, the cases named by their misalignment (``te_pp_arcsec[misaligned]``
-    of a tca run with a 3' crossing becomes ``te_pp_arcsec[crossing +3 arcmin]``)."""
+    of a tca run with a 3' crossing becomes ``te_pp_arcsec[crossing +3 arcmin]``); of an optimisation
+    (crowning, loaded_microgeometry) the optimum's numbers only (its ``before.*`` keys, the start
+    design, are left out)."""
     names = _case_names(design.results)
     out = []
     for n in _summary(design.results):
+        if n.key.startswith("before."):  # the start design of an optimisation: the optimum is compared
+            continue
         m = re.fullmatch(r"(.*)\[(.*)\]", n.key)
         if m and m.group(2) in names and names[m.group(2)] != m.group(2):
             case, new = m.group(2), names[m.group(2)]
@@ -395,8 +399,9 @@ def design_numbers(design: Design) -> list[KeyNumber]:
 
 def key_numbers(designs: Sequence[Design]) -> list[KeyRow]:
     """The key-numbers table of the designs: every quantity of their summaries (:func:`design_numbers`;
-    grouped as :data:`gearopt.summary.GROUPS`, in the order of first appearance within a group), one
-    value per design (None: the design does not have it).
+    grouped as :data:`gearopt.summary.GROUPS`; within a group the quantities every design has first,
+    each part in the order of first appearance), one value per design (None: the design does not
+    have it).
 
     The difference is each design's value minus the first design's; ``best`` marks the design(s)
     with the lower or higher value as the row's ``better`` says, among at least two numbers that
@@ -409,7 +414,10 @@ def key_numbers(designs: Sequence[Design]) -> list[KeyRow]:
     for numbers in per:
         for key, n in numbers.items():
             order.setdefault(key, n)
-    heads = sorted(order.values(), key=lambda n: GROUPS.index(n.group) if n.group in GROUPS else len(GROUPS))
+    # by group; within a group the quantities every design has first (the comparison proper)
+    shared = {k for k in order if all(k in numbers for numbers in per)}
+    heads = sorted(order.values(), key=lambda n: (GROUPS.index(n.group) if n.group in GROUPS else len(GROUPS),
+                                                  n.key not in shared))
     rows = []
     for head in heads:
         values = [numbers[head.key].value if head.key in numbers else None for numbers in per]
@@ -598,29 +606,46 @@ def _run_here(scene_file: Path, directory: Path) -> None:
 
 def comparison_dict(designs: Sequence[Design], rows: Sequence[KeyRow], figures: Sequence[tuple[str, str]],
                     out: Path) -> dict:
-    """The content of ``comparison.json`` (and of the page): designs, key numbers, figures."""
-    labels = [d.label for d in designs]
+    """The content of ``comparison.json`` (and of the page): designs, key numbers, figures.
 
-    def where(d: Design) -> str:
+    ``key_numbers[].values`` holds a label only when that design has the quantity (an absent label:
+    the design does not have it, never 0); ``differences`` each further design's value minus the
+    first design's where both are numbers."""
+    labels = [d.label for d in designs]
+    full = Path(os.path.abspath(out))
+
+    def place(d: Design) -> str:
+        """The design's result directory relative to the comparison (links of the page)."""
         if d.scene is not None and d.directory is not None:
-            return f"{d.source} (run into {out / d.directory.name})"
-        return str(d.source)
+            return d.directory.name
+        return os.path.relpath(os.path.abspath(d.source), full)
 
     return {
         "kind": "comparison",
-        "designs": [{"label": d.label, "source": str(d.source), "where": where(d), "study": d.study,
-                     "scene": d.results.get("scene"), "pair": d.identity,
-                     "directory": d.directory.name if d.scene is not None and d.directory is not None else str(d.source),
+        "designs": [{"label": d.label, "source": str(d.source), "study": d.study,
+                     "scene": d.results.get("scene"), "pair": d.identity, "directory": place(d),
+                     "ran_here": d.scene is not None,
+                     "has_report": d.directory is not None and (d.directory / "report.html").is_file(),
                      "gearopt_version": (d.results.get("meta") or {}).get("gearopt_version"),
-                     "timestamp": (d.results.get("meta") or {}).get("timestamp")} for d in designs],
+                     "timestamp": (d.results.get("meta") or {}).get("timestamp"),
+                     "warnings": _warnings(d.results)} for d in designs],
         "key_numbers": [{"key": r.key, "label": r.label, "unit": r.unit, "group": r.group, "better": r.better,
-                         "values": dict(zip(labels, r.values)),
-                         "differences": {lab: v for lab, v in zip(labels[1:], r.differences[1:])},
+                         "values": {lab: v for lab, v, ok in zip(labels, r.values, r.present) if ok},
+                         "differences": {lab: v for lab, v in zip(labels[1:], r.differences[1:]) if v is not None},
                          "best": [labels[i] for i in r.best]} for r in rows],
         "figures": [{"file": f, "caption": c} for f, c in figures],
         "meta": {"gearopt_version": __version__,
                  "timestamp": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")},
     }
+
+
+def _warnings(results: dict) -> list[str]:
+    """A design's warnings: those its run recorded (``meta.warnings``) and the result's own (``warnings``)."""
+    out = []
+    for w in (results.get("meta") or {}).get("warnings") or []:
+        out.append(f"{w.get('category', 'Warning')}: {w.get('message', '')}" if isinstance(w, dict) else str(w))
+    out += [str(w) for w in results.get("warnings") or [] if all(str(w) not in o for o in out)]
+    return out
 
 
 def _write(designs: Sequence[Design], tmp: Path, out: Path, dpi: int, page) -> list[str]:
@@ -648,26 +673,67 @@ def _jsonable(obj: Any) -> Any:
 
 
 def write_page(data: dict, directory: Path) -> str:
-    """Write ``report.html`` of a comparison (``data``: :func:`comparison_dict`) into ``directory``:
-    the designs, the key-numbers table (the better value marked, ``n/a`` where a design has none),
-    then every figure inline with its caption. Returns the file name."""
-    import html
+    """Write ``report.html`` of a comparison (``data``: :func:`comparison_dict`) into ``directory``
+    (:func:`gearopt.io.page.render_page`): the key-numbers table first (one column per design, the
+    better value marked, ``n/a`` where a design does not have the quantity, the differences to the
+    first design), the designs, their warnings, then every figure inline with its caption; links to
+    the table, comparison.json and each design's own page. Returns the file name."""
+    from ..summary import format_value
+    from .page import REPORT_FILE, Cell, Table, figure_from_file, render_page
 
-    labels = [d["label"] for d in data["designs"]]
-    rows = []
+    designs = data["designs"]
+    labels = [d["label"] for d in designs]
+    first = labels[0]
+    rows: list[Any] = []
+    group = None
     for r in data["key_numbers"]:
-        cells = []
+        if r["group"] != group:
+            group = r["group"]
+            rows.append(group)
+        cells: list[Any] = [r["label"], r["unit"], Cell(r["better"] or "", "" if r["better"] else "absent")]
         for lab in labels:
-            v = r["values"].get(lab)
-            cells.append(f"<td{' class=best' if lab in r['best'] else ''}>{html.escape(NA if v is None else str(v))}</td>")
-        rows.append(f"<tr><td>{html.escape(r['label'])}</td><td>{html.escape(r['unit'])}</td>{''.join(cells)}</tr>")
-    import base64
+            if lab not in r["values"]:
+                cells.append(Cell(NA, "absent", title=f"{lab} does not have this quantity"))
+            else:
+                v = r["values"][lab]
+                cells.append(Cell(format_value(v), "better" if lab in r["best"] else "", title=repr(v)))
+        for lab in labels[1:]:
+            dv = r["differences"].get(lab)
+            cells.append(Cell("" if dv is None else ("0" if abs(dv) < 1e-9 else f"{dv:+.4g}"), title=repr(dv)))
+        rows.append(cells)
+    ncol = 3 + len(labels)
+    table = Table("Key numbers", ["quantity", "unit", "better", *labels, *[f"{lab} \u2212 {first}" for lab in labels[1:]]],
+                  rows, note=f"4 significant digits (full values in {KEY_NUMBERS_FILE}); bold green: the better design "
+                             f"of a row; {NA}: the design does not have the quantity; differences to {first}.",
+                  numeric=tuple(range(3, ncol + len(labels) - 1)))
 
-    figs = "".join(f"<figure><img src='data:image/png;base64,"
-                   f"{base64.b64encode((Path(directory) / f['file']).read_bytes()).decode()}'>"
-                   f"<figcaption>{html.escape(f['caption'])}</figcaption></figure>" for f in data["figures"])
-    head = "".join(f"<th>{html.escape(lab)}</th>" for lab in labels)
-    text = (f"<!doctype html><html><head><meta charset=utf-8><title>comparison</title></head><body>"
-            f"<table><tr><th>quantity</th><th>unit</th>{head}</tr>{''.join(rows)}</table>{figs}</body></html>")
-    (Path(directory) / "report.html").write_text(text, encoding="utf-8")
-    return "report.html"
+    def pair_text(p: dict) -> str:
+        z = f"{p['z1']}/{p['z2']}" if p.get("z1") else "\u2014"
+        m = "\u2014" if p.get("m_n") is None else f"{format_value(float(p['m_n']))} mm"
+        return f"z {z}, m_n {m}, driving flank {p.get('side') or chr(0x2014)}"
+
+    design_rows = [[d["label"], d["study"] or "", d["scene"] or "", pair_text(d["pair"]),
+                    f"{d['source']} (run here into {d['directory']}/)" if d["ran_here"] else d["source"],
+                    str(d["gearopt_version"] or ""), str(d["timestamp"] or "").replace("T", " ").replace("+00:00", "")]
+                   for d in designs]
+    tables = [table, Table("Designs", ["label", "study", "scene", "pair", "source", "gearopt", "date (UTC)"],
+                           design_rows)]
+    warnings = [f"{d['label']}: {w}" for d in designs for w in d["warnings"]]
+    figures = [figure_from_file(Path(directory) / f["file"], f["caption"]) for f in data["figures"]]
+    links = [(KEY_NUMBERS_FILE, f"{KEY_NUMBERS_FILE}: the key numbers at full precision"),
+             (COMPARISON_FILE, f"{COMPARISON_FILE}: designs, key numbers, figures")]
+    for d in designs:
+        if d["has_report"]:
+            links.append((f"{d['directory']}/{REPORT_FILE}", f"{d['label']}: its own report"))
+        links.append((f"{d['directory']}/{RESULTS_FILE}", f"{d['label']}: results.json"))
+    studies = sorted({d["study"] or "" for d in designs})
+    header = {"designs": ", ".join(labels), "studies": ", ".join(studies),
+              "date (UTC)": data["meta"]["timestamp"].replace("T", " ").replace("+00:00", ""),
+              "gearopt": data["meta"]["gearopt_version"]}
+    intro = ("The same gear pair in several designs, overlaid on the same axes and scales: one colour per design "
+             f"({first} first, drawn thicker), one line style per misalignment case.")
+    if not data["figures"]:
+        intro += " The designs have no plotted quantity in common (only the key numbers are compared)."
+    text = render_page(f"Comparison: {' vs '.join(labels)}", header, tables, warnings, figures, links, intro=intro)
+    (Path(directory) / REPORT_FILE).write_text(text, encoding="utf-8")
+    return REPORT_FILE
