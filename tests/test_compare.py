@@ -300,3 +300,52 @@ def test_loaded_designs_on_one_pressure_scale(scene_run):
     assert common_torque(res) == min(shared, key=lambda T: abs(T - res["unmodified"]["nominal_torque_Nm"]))
     for f in figs.values():
         plt.close(f)
+
+
+# --- the page ----------------------------------------------------------------------------------------------
+def _mc_pair(tmp_path) -> list[Path]:
+    dirs = []
+    for name, values, p95 in (("class6", [21.0, 18.5, 19.0, 23.0], 22.7), ("class5", [12.0, 11.5, 13.0, 12.5], 12.9)):
+        d = _result_dir(tmp_path / name, study="montecarlo",
+                        summary=[_row("z1", 20, None, "", "geometry"),
+                                 _row("mc_te_pp_arcsec[p95]", p95, group="Monte Carlo"),
+                                 *([_row("mc_p_edge", 0.1, group="Monte Carlo", unit="")] if name == "class6" else [])])
+        data = json.loads((d / "results.json").read_text())
+        data["samples_csv"] = "samples.csv"
+        data["warnings"] = ["only 60 % of the samples are feasible"] if name == "class6" else []
+        (d / "results.json").write_text(json.dumps(data))
+        (d / "samples.csv").write_text("sample,te_p2p_arcsec\n" + "".join(f"{i},{v}\n" for i, v in enumerate(values)))
+        dirs.append(d)
+    return dirs
+
+
+def test_page_table_first_figures_inline_links_beside(tmp_path):
+    from page_check import parse, static_problems
+
+    out = tmp_path / "cmp"
+    compare(_mc_pair(tmp_path), out, labels=["class 6", "class 5"])
+    page = out / "report.html"
+    assert static_problems(page) == []  # images inline, links to files beside the page, nothing fetched
+    parsed = parse(page)
+    table = parsed.tables[0]  # the key numbers come first
+    assert table[0] == ["quantity", "unit", "better", "class 6", "class 5", "class 5 \u2212 class 6"]
+    cells = {r[0]: r for r in table[1:] if len(r) > 1}
+    assert cells["mc_te_pp_arcsec[p95]"][3:] == ["22.7", "12.9", "-9.8"]
+    assert cells["mc_p_edge"][3:5] == ["0.1", NA]  # class 5 has no such number: n/a, never 0
+    text = " ".join(parsed.text)
+    assert "class 6: only 60 % of the samples are feasible" in text  # a design's warning, highlighted
+    assert parsed.figcaptions and len(parsed.images) == 1
+    assert sorted(parsed.links) == ["comparison.json", "key_numbers.csv"]  # the designs lie elsewhere
+
+
+def test_page_in_a_browser(tmp_path):
+    from page_check import browser, browser_check
+
+    if browser() is None:
+        pytest.skip("Chromium is not installed (make chromium installs it as root): the page is not opened")
+    out = tmp_path / "cmp"
+    compare(_mc_pair(tmp_path), out)
+    r = browser_check(out / "report.html", width=1280)
+    assert r["n_images"] == 1 and r["broken"] == []
+    assert r["scroll_width"] <= r["inner_width"] and r["wider"] == []  # nothing overflows 1280 px
+    assert r["smallest_table_font_px"] >= 11

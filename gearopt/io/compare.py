@@ -722,10 +722,11 @@ def write_page(data: dict, directory: Path) -> str:
     figures = [figure_from_file(Path(directory) / f["file"], f["caption"]) for f in data["figures"]]
     links = [(KEY_NUMBERS_FILE, f"{KEY_NUMBERS_FILE}: the key numbers at full precision"),
              (COMPARISON_FILE, f"{COMPARISON_FILE}: designs, key numbers, figures")]
-    for d in designs:
-        if d["has_report"]:
+    for d in designs:  # the runs made here (inside this directory; a design elsewhere is named in "Designs")
+        if d["ran_here"] and d["has_report"]:
             links.append((f"{d['directory']}/{REPORT_FILE}", f"{d['label']}: its own report"))
-        links.append((f"{d['directory']}/{RESULTS_FILE}", f"{d['label']}: results.json"))
+        if d["ran_here"]:
+            links.append((f"{d['directory']}/{RESULTS_FILE}", f"{d['label']}: results.json"))
     studies = sorted({d["study"] or "" for d in designs})
     header = {"designs": ", ".join(labels), "studies": ", ".join(studies),
               "date (UTC)": data["meta"]["timestamp"].replace("T", " ").replace("+00:00", ""),
