@@ -137,3 +137,10 @@ def test_distribution_medians_in_the_legend():
     assert f"(n = {b.size - 7})" in texts[1]
     assert "[arcsec]" in ax.get_xlabel()
     _lint(fig)
+
+
+def test_a_path_hidden_under_another_says_so(designs):
+    fig, ax = plt.subplots()
+    plot_contact_paths(designs, (), ax=ax)  # aligned: both paths at z = 0
+    assert [t.get_text() for t in ax.get_legend().get_texts()] == ["demo", "optimised (on demo's path)"]
+    plt.close(fig)

@@ -275,6 +275,21 @@ def _flank_frame(ax: Axes, lims: Sequence[dict]) -> None:
     ax.set_ylim(rf - pad, ra + pad)
 
 
+def _same_path(a: tuple[np.ndarray, np.ndarray], b: tuple[np.ndarray, np.ndarray], lim: dict | None) -> bool:
+    """True when two paths of contact lie on each other within 1 % of the flank's size (face width
+    across, active profile up): one hides the other in the drawing."""
+    if lim is None:
+        return False
+    pts = []
+    for z, r in (a, b):
+        ok = np.isfinite(z) & np.isfinite(r)
+        pts.append(np.c_[z[ok] / lim["b"], r[ok] / max(lim["r_a"] - lim["r_form"], 1e-9)])
+    if not all(p.size for p in pts):
+        return False
+    d = np.sqrt(((pts[0][:, None, :] - pts[1][None, :, :]) ** 2).sum(-1))
+    return bool(d.min(axis=1).max() <= 0.01 and d.min(axis=0).max() <= 0.01)
+
+
 def plot_contact_paths(designs: Mapping[str, dict], case: tuple, member: str = "pinion",
                        ax: Axes | None = None) -> Axes:
     """Paths of contact of the central tooth pair on the ``member`` flank (axial position z [mm]
@@ -293,13 +308,17 @@ def plot_contact_paths(designs: Mapping[str, dict], case: tuple, member: str = "
             lims.append(lim)
     if lims:
         _flank_frame(ax, lims)
-    drawn = []
+    drawn: list[str] = []
+    seen: list[tuple[str, tuple[np.ndarray, np.ndarray]]] = []
     for i, label in enumerate(designs):
         c = by.get(label)
         path = contact_path(c, member) if c is not None else None
         if path is None or not np.isfinite(path[0]).any():
             continue
-        ax.plot(path[0], path[1], color=design_color(i), ls=case_style(j), lw=_lw(i), label=label)
+        same = [lab for lab, p in seen if _same_path(p, path, lims[0] if lims else None)]
+        ax.plot(path[0], path[1], color=design_color(i), ls=case_style(j), lw=_lw(i),
+                label=label + (f" (on {same[0]}'s path)" if same else ""))
+        seen.append((label, path))
         drawn.append(label)
     missing = [lab for lab in designs if lab not in drawn]
     ax.set_title(f"{member} flank, {name}" + (f"\n(no path: {', '.join(missing)})" if missing else ""), fontsize=9)
