@@ -14,10 +14,11 @@ import pytest
 
 from gearopt.cli import main
 from gearopt.errors import GeometryError, OptionError, ResultsError
-from gearopt.io.compare import NA, compare, key_numbers, load_design
+from gearopt.io.compare import compare, key_numbers, load_design
 from gearopt.version import __version__
 
 ROOT = Path(__file__).resolve().parents[1]
+NA = "n/a"  # what the table shows for a quantity a design does not have (docs/compare.md), never 0
 DEMO = ROOT / "problems" / "tca_spur_crowned.toml"
 
 
@@ -349,3 +350,24 @@ def test_page_in_a_browser(tmp_path):
     assert r["n_images"] == 1 and r["broken"] == []
     assert r["scroll_width"] <= r["inner_width"] and r["wider"] == []  # nothing overflows 1280 px
     assert r["smallest_table_font_px"] >= 11
+
+
+def test_bad_scene_refused_and_a_failed_run_leaves_nothing(tmp_path):
+    from gearopt.errors import GearoptError, SceneError
+
+    a = _result_dir(tmp_path / "a")
+    bad = tmp_path / "bad.toml"
+    bad.write_text(DEMO.read_text().replace("z = 20", "z = -20"))
+    with pytest.raises(SceneError, match=r"\[pinion\] z"):
+        compare([a, bad], tmp_path / "cmp")
+    good = tmp_path / "good.toml"
+    good.write_text(DEMO.read_text())
+
+    def fails(scene, directory):
+        directory.mkdir()
+        (directory / "results.json").write_text("{}")  # half-written when the run fails
+        raise GearoptError(f"the scene {scene} did not run")
+
+    with pytest.raises(GearoptError, match="did not run"):
+        compare([a, good], tmp_path / "cmp", run_scene=fails)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a", "bad.toml", "good.toml"]  # no output, no temporary
