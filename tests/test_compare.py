@@ -238,15 +238,23 @@ def test_two_crownings_compared_through_the_cli(tmp_path, capsys):
 
 
 @pytest.mark.slow
-def test_tca_and_ltca_runs_compare_their_unloaded_te(scene_run, tmp_path):
+def test_tca_scene_and_ltca_run_compare_their_unloaded_te(scene_run, tmp_path):
     """Different studies of the same pair combine what they have in common: the tca demo and the loaded
     TCA of the same drive share the unloaded TE of the crossed case; the loaded numbers exist only for
     the ltca run (n/a for the tca run)."""
-    tca, ltca = scene_run("tca_spur_crowned"), scene_run("ltca_crowned")
+    ltca = scene_run("ltca_crowned")
     out = tmp_path / "cmp"
-    compare([tca.out, ltca.out], out, labels=["tca", "ltca"])
+    # the tca design as a scene, run here by the library's own runner (no run_scene given)
+    compare([DEMO, ltca.out], out, labels=["tca", "ltca"])
+    assert json.loads((out / "tca" / "results.json").read_text())["study"] == "tca"
     data = json.loads((out / "comparison.json").read_text())
     assert "compare_te.png" in [f["file"] for f in data["figures"]]
+    # the unloaded TE of the 3' crossing on one row: the tca case and the ltca run's unloaded slices
+    te = {r["key"]: r for r in data["key_numbers"]}["te_pp_arcsec[crossing +3 arcmin]"]["values"]
+    tca = json.loads((out / "tca" / "results.json").read_text())
+    assert te["tca"] == tca["cases"][1]["peak_to_peak_arcsec"]
+    assert te["ltca"] == ltca.results["unloaded_peak_to_peak_arcsec"]
+    assert te["ltca"] == pytest.approx(te["tca"], rel=0.02)  # the same drive, one mesh cycle of 64 positions
     rows = {r["key"]: r for r in _csv(out / "key_numbers.csv")}
     loaded = [r for r in rows.values() if r["group"] == "loaded"]
     assert loaded and all(r["tca"] == NA and r["ltca"] != NA for r in loaded)

@@ -375,6 +375,8 @@ def _case_names(results: dict) -> dict[str, str]:
         lab = c.get("label")
         if isinstance(lab, str) and "misalignment" in c:
             out[lab] = case_name(c["misalignment"])
+    if results.get("study") == "ltca" and isinstance(results.get("misalignment"), dict):
+        out["unloaded"] = case_name(results["misalignment"])  # te_pp_arcsec[unloaded]: the unloaded TE of its case
     return out
 
 
