@@ -101,12 +101,13 @@ def test_render_page_escapes_and_inlines(tmp_path):
 def test_static_checks_find_what_is_wrong(tmp_path):
     """The checks of page_check.py fail on a planted page: a linked image, a missing file, a remote
     script and style sheet, a link leaving the directory."""
-    bad = tmp_path / "bad.html"
+    (tmp_path / "page").mkdir()
+    bad = tmp_path / "page" / "bad.html"
     bad.write_text('<html><head><link rel="stylesheet" href="https://cdn.example/x.css">'
                    '<script src="http://example.com/x.js"></script></head><body>'
                    '<img src="te.png"><a href="missing.csv">m</a><a href="../outside.txt">o</a>'
                    '<a href="https://example.com">w</a></body></html>')
-    (tmp_path.parent / "outside.txt").write_text("x")
+    (tmp_path / "outside.txt").write_text("x")
     found = static_problems(bad)
     assert any("image not inline" in f for f in found)
     assert any("missing.csv" in f for f in found)

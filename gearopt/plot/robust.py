@@ -297,10 +297,14 @@ def save_plots(result: RobustResult, out_dir: str | Path, dpi: int = 120) -> lis
                   + ("; loaded TE and peak pressure" if loaded else ""))]
     ranked = [r["input"] for r in d["sensitivities"].get("te_p2p", [])][:4]
     if ranked:
-        fig, axes = plt.subplots(1, len(ranked), figsize=(4 * len(ranked), 3.8), squeeze=False,
-                                 layout="constrained")
-        for ax, nm in zip(axes[0], ranked):
+        # two columns at most: four panels in one row shrink to unreadable text on a page or a screen
+        cols = min(2, len(ranked))
+        rows = -(-len(ranked) // cols)
+        fig, axes = plt.subplots(rows, cols, figsize=(5.5 * cols, 4.2 * rows), squeeze=False, layout="constrained")
+        for ax, nm in zip(axes.ravel(), ranked):
             plot_scatter(d, nm, "te_p2p", ax=ax)
+        for ax in axes.ravel()[len(ranked):]:
+            ax.set_visible(False)
         files.append(save("scatter.png", fig, "TE peak-to-peak against the most influential inputs"))
         fig, ax = plt.subplots(figsize=(9, 0.5 + 0.45 * len(d["sensitivities"]["te_p2p"]) + 2.2),
                                layout="constrained")
