@@ -508,8 +508,7 @@ def _check_places(out: Path, designs: Sequence[Design]) -> None:
 
 def compare(arguments: Sequence[str | Path], out: str | Path, labels: Sequence[str] | None = None,
             run_scene: Callable[[Path, Path], None] | None = None,
-            progress: Callable[[str], None] | None = None, dpi: int = 120,
-            page: Callable[[dict, Path], str] | None = None) -> list[Path]:
+            progress: Callable[[str], None] | None = None, dpi: int = 120) -> list[Path]:
     """Compare designs and write the comparison into ``out`` (module docstring).
 
     Parameters
@@ -527,8 +526,6 @@ def compare(arguments: Sequence[str | Path], out: str | Path, labels: Sequence[s
         Receives progress lines.
     dpi : int
         Resolution of the figures.
-    page : callable(comparison dict, directory) -> file name, optional
-        Writes the comparison page into the directory (default :func:`write_page`).
 
     Returns
     -------
@@ -577,7 +574,7 @@ def compare(arguments: Sequence[str | Path], out: str | Path, labels: Sequence[s
             d.samples = _samples(d.directory, d.results)
         check_comparable(designs)
         say(f"comparing {', '.join(d.label for d in designs)}")
-        written = _write(designs, tmp, out, dpi, page)
+        written = _write(designs, tmp, out, dpi)
         os.chmod(tmp, 0o777 & ~_umask())
         install_output(tmp, out)
     except BaseException:
@@ -650,21 +647,22 @@ def _warnings(results: dict) -> list[str]:
     return out
 
 
-def _write(designs: Sequence[Design], tmp: Path, out: Path, dpi: int, page) -> list[str]:
+def _write(designs: Sequence[Design], tmp: Path, out: Path, dpi: int) -> list[str]:
     from ..plot.compare import save_figures
     from ..plot.style import plot_style
+    from .page import SVGCapture
 
     labels = [d.label for d in designs]
     rows = key_numbers(designs)
     write_key_numbers_csv(rows, labels, tmp / KEY_NUMBERS_FILE)
-    with plot_style():
+    with plot_style(), SVGCapture() as capture:  # light figures also as SVG for the page
         figures = save_figures({d.label: d.results for d in designs}, tmp,
                                samples={d.label: d.samples for d in designs if d.samples}, dpi=dpi)
     data = comparison_dict(designs, rows, figures, out)
     (tmp / COMPARISON_FILE).write_text(json.dumps(data, indent=1, ensure_ascii=False, default=_jsonable) + "\n",
                                        encoding="utf-8")
     written = [KEY_NUMBERS_FILE, *[f for f, _ in figures], COMPARISON_FILE]
-    written.append((page or write_page)(data, tmp))
+    written.append(write_page(data, tmp, capture.svgs))
     return written
 
 
@@ -674,12 +672,14 @@ def _jsonable(obj: Any) -> Any:
     return str(obj)
 
 
-def write_page(data: dict, directory: Path) -> str:
+def write_page(data: dict, directory: Path, svgs: dict[str, bytes] | None = None) -> str:
     """Write ``report.html`` of a comparison (``data``: :func:`comparison_dict`) into ``directory``
     (:func:`gearopt.io.page.render_page`): the key-numbers table first (one column per design, the
     better value marked, ``n/a`` where a design does not have the quantity, the differences to the
     first design), the designs, their warnings, then every figure inline with its caption; links to
-    the table, comparison.json and each design's own page. Returns the file name."""
+    the table, comparison.json and each design's own page. A figure goes in as SVG when ``svgs``
+    (:class:`gearopt.io.page.SVGCapture`) holds a light enough rendering of it, else as PNG.
+    Returns the file name."""
     from ..summary import format_value
     from .page import REPORT_FILE, Cell, Table, figure_from_file, render_page
 
@@ -721,7 +721,8 @@ def write_page(data: dict, directory: Path) -> str:
     tables = [table, Table("Designs", ["label", "study", "scene", "pair", "source", "gearopt", "date (UTC)"],
                            design_rows)]
     warnings = [f"{d['label']}: {w}" for d in designs for w in d["warnings"]]
-    figures = [figure_from_file(Path(directory) / f["file"], f["caption"]) for f in data["figures"]]
+    figures = [figure_from_file(Path(directory) / f["file"], f["caption"], (svgs or {}).get(f["file"]))
+               for f in data["figures"]]
     links = [(KEY_NUMBERS_FILE, f"{KEY_NUMBERS_FILE}: the key numbers at full precision"),
              (COMPARISON_FILE, f"{COMPARISON_FILE}: designs, key numbers, figures")]
     for d in designs:  # the runs made here (inside this directory; a design elsewhere is named in "Designs")
