@@ -379,3 +379,37 @@ def test_bad_scene_refused_and_a_failed_run_leaves_nothing(tmp_path):
     with pytest.raises(GearoptError, match="did not run"):
         compare([a, good], tmp_path / "cmp", run_scene=fails)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a", "bad.toml", "good.toml"]  # no output, no temporary
+
+
+@pytest.mark.slow
+@pytest.mark.ipopt
+def test_the_documented_comparison_of_the_demo_and_its_optimised_crowning(tmp_path, monkeypatch):
+    """The command of docs/compare.md, as written there (run from the repository root, into a
+    temporary --out), and the numbers that page states."""
+    import re
+    import shlex
+
+    doc = (ROOT / "docs" / "compare.md").read_text()
+    block = re.search(r"## The demo against its optimised crowning\n\n```sh\n(.*?)```", doc, re.S).group(1)
+    argv = shlex.split(block.replace("\\\n", " "))
+    assert argv[:2] == ["gearopt", "compare"]
+    argv[argv.index("--out") + 1] = str(tmp_path / "compare_crowning")
+    monkeypatch.chdir(ROOT)
+    assert main([*argv[1:], "--quiet"]) == 0
+    out = tmp_path / "compare_crowning"
+    rows = {r["key"]: r for r in _csv(out / "key_numbers.csv")}
+    pp = rows["te_pp_arcsec[aligned]"]
+    assert round(float(pp["demo crowning"]), 1) == 18.4 and round(float(pp["optimised crowning"]), 1) == 7.9
+    assert pp["best"] == "optimised crowning"
+    crossed = rows["te_pp_arcsec[crossing +3 arcmin]"]
+    assert crossed["demo crowning"] != NA and crossed["optimised crowning"] != NA
+    opt = json.loads((out / "optimised_crowning" / "results.json").read_text())
+    iso = opt["design"]["iso_um"]
+    assert (round(iso["C_alpha"], 1), round(iso["C_beta"], 1)) == (5.7, 4.9)
+    demo = json.loads((out / "demo_crowning" / "results.json").read_text())["pair"]["pinion_iso_um"]
+    assert (round(demo["C_alpha"], 1), round(demo["C_beta"], 1)) == (13.5, 13.7)
+    path = [c for c in opt["after"] if c["misalignment"]["crossing_arcmin"] == 3.0][0]
+    z = [v for v in path["paths_central_pair"]["surface"]["pinion"]["axial"] if v is not None]
+    assert -8.6 < min(z) and max(z) < -8.2  # "z = -8.3 ... -8.5 mm, 1.5 mm from the face end"
+    data = json.loads((out / "comparison.json").read_text())
+    assert [f["file"] for f in data["figures"]] == ["compare_te.png", "compare_contact.png", "compare_crowning.png"]
