@@ -27,7 +27,7 @@ def _row(key, value, better="lower", unit="arcsec", group="unloaded TE", label=N
 
 
 def _result_dir(path: Path, z1=20, z2=40, m_n=3.0, side="right", summary=None, version=__version__,
-                study="tca", name=None) -> Path:
+                study="tca", name=None, pair=True) -> Path:
     """A result directory as gearopt run leaves it, with a hand-written summary (no arrays)."""
     path.mkdir(parents=True)
     data = {"study": study, "scene": name or path.name,
@@ -35,6 +35,8 @@ def _result_dir(path: Path, z1=20, z2=40, m_n=3.0, side="right", summary=None, v
             "units": {"length": "mm"},
             "pair": {"z1": z1, "z2": z2, "m_n": m_n, "side": side, "ratio": z2 / z1},
             "meta": {"gearopt_version": version, "scene": None}}
+    if not pair:
+        del data["pair"]
     (path / "results.json").write_text(json.dumps(data))
     (path / ".gearopt-output.json").write_text(json.dumps({"written_by": "gearopt", "files": ["results.json"]}))
     return path
@@ -128,6 +130,17 @@ def test_scene_of_another_pair_refused_before_it_runs(tmp_path):
     with pytest.raises(GeometryError, match="different ratios"):
         compare([a, other], out, run_scene=lambda s, d: ran.append(s))
     assert ran == [] and not out.exists()
+
+
+def test_a_design_whose_pair_is_unknown_is_compared_with_a_note(tmp_path):
+    """A crowning result states no pair; without its scene the pair is not checked, and the page
+    says so for that design."""
+    a = _result_dir(tmp_path / "a")
+    b = _result_dir(tmp_path / "b", study="crowning", pair=False)
+    compare([a, b], tmp_path / "cmp")
+    notes = {d["label"]: d["warnings"] for d in json.loads((tmp_path / "cmp" / "comparison.json").read_text())["designs"]}
+    assert notes["a"] == [] and "z1, z2, m_n are not in its results" in notes["b"][0]
+    assert "b: its z1, z2, m_n are not in its results" in (tmp_path / "cmp" / "report.html").read_text()
 
 
 def test_arguments_that_are_no_design(tmp_path):

@@ -573,6 +573,9 @@ def compare(arguments: Sequence[str | Path], out: str | Path, labels: Sequence[s
             d.identity = pair_identity(d.results, d.scene)
             d.samples = _samples(d.directory, d.results)
         check_comparable(designs)
+        for d in designs:
+            for note in _unchecked(d):
+                say(f"{d.label}: {note}")
         say(f"comparing {', '.join(d.label for d in designs)}")
         written = _write(designs, tmp, out, dpi)
         os.chmod(tmp, 0o777 & ~_umask())
@@ -627,7 +630,7 @@ def comparison_dict(designs: Sequence[Design], rows: Sequence[KeyRow], figures: 
                      "has_report": d.directory is not None and (d.directory / "report.html").is_file(),
                      "gearopt_version": (d.results.get("meta") or {}).get("gearopt_version"),
                      "timestamp": (d.results.get("meta") or {}).get("timestamp"),
-                     "warnings": _warnings(d.results)} for d in designs],
+                     "warnings": _warnings(d.results) + _unchecked(d)} for d in designs],
         "key_numbers": [{"key": r.key, "label": r.label, "unit": r.unit, "group": r.group, "better": r.better,
                          "values": {lab: v for lab, v, ok in zip(labels, r.values, r.present) if ok},
                          "differences": {lab: v for lab, v in zip(labels[1:], r.differences[1:]) if v is not None},
@@ -636,6 +639,15 @@ def comparison_dict(designs: Sequence[Design], rows: Sequence[KeyRow], figures: 
         "meta": {"gearopt_version": __version__,
                  "timestamp": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")},
     }
+
+
+def _unchecked(d: Design) -> list[str]:
+    """A note when the design's pair could not be checked (neither its results nor a scene state it)."""
+    missing = [k for k in ("z1", "z2", "m_n") if d.identity.get(k) is None]
+    if not missing:
+        return []
+    return [f"its {', '.join(missing)} are not in its results and its scene ({d.results.get('meta', {}).get('scene')}) "
+            "was not found: whether it is the same pair as the others was not checked."]
 
 
 def _warnings(results: dict) -> list[str]:
