@@ -426,3 +426,12 @@ def test_the_documented_comparison_of_the_demo_and_its_optimised_crowning(tmp_pa
     assert -8.6 < min(z) and max(z) < -8.2  # "z = -8.3 ... -8.5 mm, 1.5 mm from the face end"
     data = json.loads((out / "comparison.json").read_text())
     assert [f["file"] for f in data["figures"]] == ["compare_te.png", "compare_contact.png", "compare_crowning.png"]
+
+
+def test_designs_of_the_same_name_get_distinct_labels(tmp_path):
+    a = _result_dir(tmp_path / "x" / "run", name="demo")
+    b = _result_dir(tmp_path / "y" / "run", name="demo")
+    c = _result_dir(tmp_path / "z" / "other", name="demo")
+    compare([a, b, c], tmp_path / "cmp")
+    labels = [d["label"] for d in json.loads((tmp_path / "cmp" / "comparison.json").read_text())["designs"]]
+    assert labels == ["demo (#1)", "demo (#2)", "demo (other)"]

@@ -144,3 +144,23 @@ def test_a_path_hidden_under_another_says_so(designs):
     plot_contact_paths(designs, (), ax=ax)  # aligned: both paths at z = 0
     assert [t.get_text() for t in ax.get_legend().get_texts()] == ["demo", "optimised (on demo's path)"]
     plt.close(fig)
+
+
+def test_fe_designs_per_position():
+    def fea(te, p, root):
+        return {"study": "fea", "options": {"torque_Nmm": 100000.0},
+                "positions": [{"phi1": math.radians(a), "loaded_te_arcsec": t, "contact": {"p_max": q},
+                               "root": {"pinion": {"max_principal_mid": r}, "gear": {"max_principal_mid": r - 30}}}
+                              for a, t, q, r in zip((-6, 0, 6), te, p, root)]}
+
+    designs = {"coarse": fea((-52, -88, -50), (1361, 1663, 1648), (229, 299, 225)),
+               "fine": fea((-50, -85, -49), (1500, 1800, 1750), (231, 301, 227))}
+    with plot_style():
+        figs = {name: fig for name, _, fig in comparison_figures(designs)}
+    fig = figs["compare_fea.png"]
+    te, p, root = [ax for ax in fig.axes if ax.get_visible()]
+    assert list(p.get_lines()[1].get_ydata()) == [1500, 1800, 1750]
+    assert [t.get_text() for t in te.get_legend().get_texts()] == ["coarse: 100 N m", "fine: 100 N m"]
+    assert len(root.get_lines()) == 4  # pinion and gear of each design
+    assert "[MPa]" in p.get_ylabel() and "[arcsec]" in te.get_ylabel() and "[deg]" in te.get_xlabel()
+    _lint(fig)

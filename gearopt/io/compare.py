@@ -481,13 +481,15 @@ def _unique_labels(designs: Sequence[Design], labels: Sequence[str] | None) -> N
         for d, lab in zip(designs, labels):
             d.label = str(lab).strip()
         return
-    seen: dict[str, int] = {}
-    for d in designs:
-        base = d.label
-        if base in seen or [e for e in designs if e is not d and e.label == base]:
-            alt = f"{base} ({d.source.name})"
-            d.label = alt if alt not in seen else f"{base} ({len(seen) + 1})"
-        seen[d.label] = 1
+    # default labels (scene names) given twice: the directory or file name added, else the position
+    base = [d.label for d in designs]
+    for d, b in zip(designs, base):
+        if base.count(b) > 1 and d.source.name != b:
+            d.label = f"{b} ({d.source.name})"
+    now = [d.label for d in designs]
+    for i, (d, b) in enumerate(zip(designs, base)):
+        if now.count(d.label) > 1:
+            d.label = f"{b} (#{i + 1})"
 
 
 def _slug(label: str) -> str:

@@ -37,7 +37,7 @@ if TYPE_CHECKING:
 __all__ = ["comparison_figures", "save_figures", "design_color", "case_style", "case_key", "case_name", "te_cases", "match_cases", "contact_path",
            "loaded_cases", "crowning_amounts", "plot_te", "plot_contact_paths", "plot_loaded_te",
            "plot_te_vs_torque", "plot_pressure_vs_torque", "plot_load_sharing", "plot_distribution",
-           "plot_crowning", "pattern_vmax", "common_torque"]
+           "plot_crowning", "pattern_vmax", "common_torque", "fea_positions", "plot_fea"]
 
 _LINESTYLES = ("-", "--", ":", "-.")
 #: the pinion's micro-geometry amounts compared by :func:`plot_crowning` (ISO 21771 names)
@@ -550,6 +550,61 @@ def plot_crowning(designs: Mapping[str, dict], ax: Axes | None = None) -> Axes:
     return ax
 
 
+def fea_positions(res: dict) -> dict[str, np.ndarray] | None:
+    """The FE positions of a design (``fea`` study): pinion angle ``phi1`` [rad], loaded TE
+    ``te`` [arcsec], largest contact pressure ``p_max`` [MPa] and the largest principal root stress
+    at mid face ``root_pinion``, ``root_gear`` [MPa] per position (NaN where absent); None for other
+    studies."""
+    if res.get("study") != "fea" or not res.get("positions"):
+        return None
+    pos = res["positions"]
+
+    def col(get) -> np.ndarray:
+        out = []
+        for p in pos:
+            try:
+                v = get(p)
+            except (KeyError, TypeError):
+                v = None
+            out.append(np.nan if v is None else float(v))
+        return np.array(out, float)
+
+    return {"phi1": col(lambda p: p["phi1"]), "te": col(lambda p: p["loaded_te_arcsec"]),
+            "p_max": col(lambda p: p["contact"]["p_max"]),
+            "root_pinion": col(lambda p: p["root"]["pinion"]["max_principal_mid"]),
+            "root_gear": col(lambda p: p["root"]["gear"]["max_principal_mid"])}
+
+
+def plot_fea(designs: Mapping[str, dict], quantity: str = "te", ax: Axes | None = None) -> Axes:
+    """One FE quantity per position against the pinion angle [deg] (:func:`fea_positions`: ``te``
+    loaded TE [arcsec], ``p_max`` contact pressure [MPa], ``root`` root stress of pinion (solid) and
+    gear (dashed) [MPa]), one colour per design, the torque in the legend."""
+    import matplotlib.pyplot as plt
+
+    ax = ax or plt.figure().gca()
+    text = {"te": ("loaded TE [arcsec] (+: gear ahead)", "loaded TE per position"),
+            "p_max": ("largest contact pressure [MPa]", "contact pressure per position"),
+            "root": ("largest principal root stress, mid face [MPa]", "root stress per position (dashed: gear)")}
+    for i, (label, res) in enumerate(designs.items()):
+        f = fea_positions(res)
+        if f is None:
+            continue
+        phi = np.degrees(f["phi1"])
+        torque = (res.get("options") or {}).get("torque_Nmm")
+        lab = label + ("" if torque is None else f": {number(torque / 1000.0)} N m")
+        keys = ["root_pinion", "root_gear"] if quantity == "root" else [quantity]
+        for k, ls in zip(keys, ("-", "--")):
+            ax.plot(phi, f[k], "o", ls=ls, color=design_color(i), lw=_lw(i), ms=5,
+                    label=lab if ls == "-" else None)
+    ax.set_xlabel("pinion angle phi1 [deg]")
+    ax.set_ylabel(text[quantity][0])
+    ax.set_title(text[quantity][1], fontsize=9)
+    ax.grid(alpha=0.3)
+    _legend(ax)
+    plain_ticks(ax)
+    return ax
+
+
 def _grid(n: int, width: float = 5.2, height: float = 4.2, ncols: int = 3):
     import matplotlib.pyplot as plt
 
@@ -638,6 +693,14 @@ def comparison_figures(designs: Mapping[str, dict], samples: Mapping[str, Mappin
             out.append(("compare_distribution.png",
                         "Cumulative distributions over the samples: a curve further left is the better design; "
                         "the median and 95th percentile of each are in the legend.", fig))
+    if sum(fea_positions(r) is not None for r in designs.values()) >= 2:
+        fig, axes = _grid(3, width=5.2)
+        for ax, q in zip(axes, ("te", "p_max", "root")):
+            plot_fea(designs, q, ax=ax)
+        fig.suptitle("finite element model (CalculiX) per position", fontsize=10)
+        out.append(("compare_fea.png",
+                    "FE loaded TE, contact pressure and root stress per position: the stiffer, less loaded design at "
+                    "each position (the torques are in the legends).", fig))
     if sum(bool(crowning_amounts(r)) for r in designs.values()) >= 2:
         import matplotlib.pyplot as plt
 
