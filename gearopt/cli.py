@@ -9,6 +9,12 @@
                                                    gearopt.io.results); progress lines on stderr
                                                    unless --quiet (--scheduler: a Dask cluster for
                                                    the montecarlo and sweep studies)
+    gearopt compare A B [C ...] --out DIR [--labels a,b,c]
+                                                   compare designs of the same pair: each a result
+                                                   directory of gearopt run or a scene (run first
+                                                   into DIR/<label>/); writes key_numbers.csv, the
+                                                   overlaid figures and report.html into DIR
+                                                   (gearopt.io.compare, docs/compare.md)
     gearopt check SCENE.toml                       validate a scene (and build its study), write nothing
     gearopt studies [NAME]                         list the studies, one line each; with NAME (a study
                                                    or "common"), the keys of its scene sections
@@ -47,6 +53,18 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--quiet", "-q", action="store_true", help="no progress lines or bars on stderr")
     r.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="Dask scheduler (tcp://host:port) that runs the samples of a montecarlo or sweep study")
+    cp = sub.add_parser("compare", help="compare designs of the same gear pair: overlaid figures, key-numbers table, "
+                        "report.html (docs/compare.md)")
+    cp.add_argument("designs", nargs="+", metavar="DESIGN",
+                    help="a result directory of gearopt run (with results.json) or a scene file (.toml, run first "
+                         "into DIR/<label>/); two or more")
+    cp.add_argument("--out", "-o", dest="out_text", type=str, required=True, metavar="DIR",
+                    help="output directory: created, or, when it is a previous gearopt output, its files are replaced "
+                         "on success; a directory holding other files is refused")
+    cp.add_argument("--labels", default=None, metavar="A,B,...",
+                    help="the designs' names in the figures and the table, comma-separated, one per design (default: "
+                         "the scene names)")
+    cp.add_argument("--quiet", "-q", action="store_true", help="no progress lines on stderr")
     c = sub.add_parser("check", help="validate a scene without running or writing anything")
     c.add_argument("scene", type=Path, help="scene file (.toml)")
     st = sub.add_parser("studies", help="list the studies (one line each); with NAME, the keys of that study's "
@@ -66,6 +84,8 @@ def main(argv: list[str] | None = None) -> int:
             return _run(args)
         if args.command == "check":
             return _check(args)
+        if args.command == "compare":
+            return _compare(args)
         return _studies(args.name, markdown=args.markdown)
     except GearoptError as e:
         print(f"error: {e}", file=sys.stderr)
@@ -114,6 +134,33 @@ def _run(args) -> int:
     run_time = time.perf_counter() - t0
     say(f"done in {run_time:.2f} s; writing {out}")
     paths = write_results(out, result, scene=scene, run_time=run_time, progress=say, warnings=caught.records)
+    for p in paths:
+        print(p)
+    return 0
+
+
+def _compare(args) -> int:
+    os.environ.setdefault("MPLBACKEND", "Agg")  # figures go to files; never open a window
+    import contextlib
+    import io
+
+    from .io.compare import compare
+
+    def say(msg: str) -> None:
+        if not args.quiet:
+            print(f"gearopt compare: {msg}", file=sys.stderr, flush=True)
+
+    def run_scene(scene: Path, out: Path) -> None:
+        """``gearopt run SCENE --out OUT`` (its progress on stderr; its list of files, in the temporary
+        directory, is not printed: compare prints the files at their final place)."""
+        with contextlib.redirect_stdout(io.StringIO()):
+            status = main(["run", str(scene), "--out", str(out), *(["--quiet"] if args.quiet else [])])
+        if status != 0:
+            raise GearoptError(f"gearopt compare: the scene {scene} did not run (its error is above); nothing was "
+                               "written.", param="DESIGN", value=str(scene))
+
+    labels = None if args.labels is None else [s.strip() for s in args.labels.split(",")]
+    paths = compare(args.designs, args.out_text, labels=labels, run_scene=run_scene, progress=say)
     for p in paths:
         print(p)
     return 0
