@@ -396,9 +396,11 @@ def test_bad_scene_refused_and_a_failed_run_leaves_nothing(tmp_path):
 
 @pytest.mark.slow
 @pytest.mark.ipopt
-def test_the_documented_comparison_of_the_demo_and_its_optimised_crowning(tmp_path, monkeypatch):
+def test_the_documented_comparison_of_the_demo_and_its_optimised_crowning(tmp_path, monkeypatch, scene_run):
     """The command of docs/compare.md, as written there (run from the repository root, into a
-    temporary --out), and the numbers that page states."""
+    temporary --out; its two scenes replaced by their runs of this test session, which is what the
+    command runs first: test_two_crownings_compared_through_the_cli runs scenes through compare),
+    and the numbers that page states."""
     import re
     import shlex
 
@@ -407,6 +409,10 @@ def test_the_documented_comparison_of_the_demo_and_its_optimised_crowning(tmp_pa
     argv = shlex.split(block.replace("\\\n", " "))
     assert argv[:2] == ["gearopt", "compare"]
     argv[argv.index("--out") + 1] = str(tmp_path / "compare_crowning")
+    scenes = [a for a in argv if a.startswith("problems/") and a.endswith(".toml")]
+    assert scenes == ["problems/tca_spur_crowned.toml", "problems/crowning_spur.toml"]
+    runs = {a: scene_run(Path(a).stem).out for a in scenes}
+    argv = [str(runs.get(a, a)) for a in argv]
     monkeypatch.chdir(ROOT)
     assert main([*argv[1:], "--quiet"]) == 0
     out = tmp_path / "compare_crowning"
@@ -416,10 +422,10 @@ def test_the_documented_comparison_of_the_demo_and_its_optimised_crowning(tmp_pa
     assert pp["best"] == "optimised crowning"
     crossed = rows["te_pp_arcsec[crossing +3 arcmin]"]
     assert crossed["demo crowning"] != NA and crossed["optimised crowning"] != NA
-    opt = json.loads((out / "optimised_crowning" / "results.json").read_text())
+    opt = json.loads((runs["problems/crowning_spur.toml"] / "results.json").read_text())
     iso = opt["design"]["iso_um"]
     assert (round(iso["C_alpha"], 1), round(iso["C_beta"], 1)) == (5.7, 4.9)
-    demo = json.loads((out / "demo_crowning" / "results.json").read_text())["pair"]["pinion_iso_um"]
+    demo = json.loads((runs["problems/tca_spur_crowned.toml"] / "results.json").read_text())["pair"]["pinion_iso_um"]
     assert (round(demo["C_alpha"], 1), round(demo["C_beta"], 1)) == (13.5, 13.7)
     path = [c for c in opt["after"] if c["misalignment"]["crossing_arcmin"] == 3.0][0]
     z = [v for v in path["paths_central_pair"]["surface"]["pinion"]["axial"] if v is not None]
