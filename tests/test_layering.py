@@ -55,7 +55,7 @@ LAYERS: list[tuple[str, ...]] = [
 ]
 TOP = ("gearopt.studies", "gearopt.plot", "gearopt.io", "gearopt.cli")
 LIBRARY_BELOW_TOP = ("gearopt.gears", "gearopt.geometry", "gearopt.meshing", "gearopt.contact", "gearopt.fea",
-                     "gearopt.ltca", "gearopt.synthesis", "gearopt.robust")
+                     "gearopt.ltca", "gearopt.synthesis", "gearopt.robust", "gearopt.rating")
 
 
 @dataclass
