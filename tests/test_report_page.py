@@ -154,7 +154,7 @@ def test_key_numbers_tables_put_a_quantity_over_cases_in_one_row():
 # --- write_results and gearopt run -----------------------------------------------------------------------
 def test_write_results_writes_the_page(tmp_path):
     out = tmp_path / "out"
-    files = write_results(out, _Result(heavy_points=20_000),
+    files = write_results(out, _Result(heavy_points=20_000), svg=True,
                           warnings=[{"category": "UserWarning", "message": "p_max above <limit>", "source": "x.py:1"}])
     assert files[-1] == out / "report.html"
     assert "report.html" in json.loads((out / MANIFEST).read_text())["files"]
@@ -186,9 +186,24 @@ def test_heavy_figures_go_as_png(tmp_path, monkeypatch):
 
     monkeypatch.setattr(page_mod, "SVG_LIMIT", 2000)  # every figure "heavy"
     out = tmp_path / "out"
-    write_results(out, _Result())
+    write_results(out, _Result(), svg=True)
     page = parse(out / "report.html")
     assert page.images and all(i.startswith("data:image/png;base64,") for i in page.images)
+
+
+def test_figures_go_as_their_png_unless_svg_is_asked_for(tmp_path, monkeypatch):
+    """By default the page embeds the PNGs as written (no second drawing of any figure); a scene's
+    ``[output] svg = true`` asks for SVG."""
+    import gearopt.io.page as page_mod
+
+    drawn = []
+    monkeypatch.setattr(page_mod.SVGCapture, "add", lambda self, fig, name, kw: drawn.append(name))
+    write_results(tmp_path / "out", _Result())
+    page = parse(tmp_path / "out" / "report.html")
+    assert page.images and all(i.startswith("data:image/png;base64,") for i in page.images)
+    assert drawn == []
+    write_results(tmp_path / "out2", _Result(), svg=True)
+    assert drawn
 
 
 def test_no_plots_still_writes_the_page(tmp_path):

@@ -157,7 +157,7 @@ def test_good_scene_internal_units(dummy_study, scene_file):
     assert o["span"] == pytest.approx(0.5 * INCH)
     assert o["angle"] == pytest.approx(math.radians(20))
     assert o["mode"] == "fast" and o["curv"] == 0.0  # defaults
-    assert s.output == {"plots": True, "dpi": 120}
+    assert s.output == {"plots": True, "dpi": 120, "svg": False}
     assert s.source.name == "scene.toml"
     with pytest.raises(dataclasses.FrozenInstanceError):
         s.name = "other"  # frozen

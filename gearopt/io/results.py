@@ -26,6 +26,7 @@ their work and :func:`write_results` (or :func:`install_output`) at the end.
 
 from __future__ import annotations
 
+import contextlib
 import datetime as _dt
 import inspect
 import json
@@ -199,7 +200,7 @@ def check_out_dir(out_dir: str | Path, scene_file: str | Path | None = None) -> 
 def write_results(out_dir: str | Path, result: Any, *, scene: Scene | None = None, run_time: float | None = None,
                   plots: bool | None = None,
                   progress: Callable[[str], None] | None = None,
-                  warnings: list[dict[str, str]] | None = None) -> list[Path]:
+                  warnings: list[dict[str, str]] | None = None, svg: bool | None = None) -> list[Path]:
     """Write ``results.json``, the tables, the plots and ``report.html`` of ``result`` into ``out_dir``.
 
     Parameters
@@ -218,6 +219,9 @@ def write_results(out_dir: str | Path, result: Any, *, scene: Scene | None = Non
         Write plots (default: the scene's ``[output] plots``, else True).
     progress : callable(str), optional
         Receives progress lines.
+    svg : bool, optional
+        Show each light figure in report.html as SVG instead of its PNG (default: the scene's
+        ``[output] svg``, else False); each such figure is drawn a second time.
     warnings : list of dict, optional
         The warnings the run raised, ``{"category", "message", "source"}`` each (``gearopt run``
         records them): ``meta.warnings`` of results.json (``[]`` when not given) and highlighted in
@@ -296,8 +300,12 @@ def write_results(out_dir: str | Path, result: Any, *, scene: Scene | None = Non
             if scene is not None and _accepts(result.save_plots, "dpi"):
                 kwargs["dpi"] = scene.output.get("dpi", 120)
             from ..plot.style import plot_style
-            # one style for every study's figures (no offset notation, ...); each also as SVG for the page
-            with plot_style(), heartbeat(progress, "writing plots", every=15.0), SVGCapture() as svg:
+            # one style for every study's figures (no offset notation, ...); each also as SVG for the
+            # page where the scene asks for it ([output] svg: a second drawing of every figure)
+            if svg is None:
+                svg = bool(scene.output.get("svg", False)) if scene is not None else False
+            svg = SVGCapture() if svg else None
+            with plot_style(), heartbeat(progress, "writing plots", every=15.0), svg or contextlib.nullcontext():
                 written += _reported(tmp, result.save_plots(str(tmp), **kwargs), "save_plots")
         else:
             svg = None

@@ -177,6 +177,9 @@ COMMON_SECTIONS: list[Section] = [
     Section("output", [
         Field("plots", "bool", default=True, doc="write plots next to results.json"),
         Field("dpi", "int", default=120, check=Bounds(lo=10, hi=2400), doc="resolution of raster plots"),
+        Field("svg", "bool", default=False,
+              doc="report.html shows each light figure as SVG (sharp at any zoom) instead of its PNG; each "
+                  "such figure is drawn a second time, about doubling the time spent on plots"),
     ], doc="what to write"),
 ]
 
@@ -197,7 +200,7 @@ class Scene:
         The study's sections: ``options[section][key]`` in internal units (mm, rad, 1/mm);
         absent optional keys without default are ``None``.
     output : dict
-        ``{"plots": bool, "dpi": int}``.
+        ``{"plots": bool, "dpi": int, "svg": bool}``.
     source : Path
         The scene file.
     """
