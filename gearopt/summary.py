@@ -26,7 +26,7 @@ __all__ = ["KeyNumber", "GROUPS", "summarize", "summary_dicts", "summary_from_re
            "fea_summary", "loaded_microgeometry_summary", "robust_summary"]
 
 #: The groups of key numbers, in the order the report shows them.
-GROUPS = ("geometry", "inspection", "optimisation", "unloaded TE", "loaded", "FE", "Monte Carlo", "sweep")
+GROUPS = ("geometry", "inspection", "optimisation", "unloaded TE", "loaded", "rating", "FE", "Monte Carlo", "sweep")
 
 Value = float | int | str | bool | None
 
@@ -466,8 +466,47 @@ def robust_summary(d: dict[str, Any]) -> list[KeyNumber]:
     return out
 
 
+_MEMBERS = ("pinion", "gear")
+
+
+def rating_summary(d: dict[str, Any]) -> list[KeyNumber]:
+    """rating: at the nominal torque (``nominal``) the safety factors of the set of load factors used
+    (``nominal.used``: the smaller of the two members and each member's), the stresses, both methods'
+    K_Hbeta and K_Halpha (``nominal.ltca``, ``nominal.iso``) and which was used; with a load spectrum
+    (``spectrum``) the larger damage sum and the smaller safety factor per mode."""
+    out = [KeyNumber("z1", "pinion teeth z1", _num(d["pair"]["z1"]), "", None, "geometry"),
+           KeyNumber("z2", "gear teeth z2", _num(d["pair"]["z2"]), "", None, "geometry"),
+           KeyNumber("m_n_mm", "normal module m_n", _num(d["pair"]["m_n"]), "mm", None, "geometry")]
+    nom = d["nominal"]
+    used, T = nom["used"], _torque_label(nom["torque_Nm"])
+    for sym, mode in (("S_H", "pitting"), ("S_F", "bending")):
+        out.append(KeyNumber(f"{sym}_min[{T}]", f"{mode} safety {sym}, the weaker member", _num(min(used[sym])), "",
+                             "higher", "rating"))
+        for m, member in enumerate(_MEMBERS):
+            out.append(KeyNumber(f"{sym}[{member}, {T}]", f"{mode} safety {sym}, {member}", _num(used[sym][m]), "",
+                                 "higher", "rating"))
+    for sym, label in (("sigma_H", "contact stress sigma_H"), ("sigma_F", "tooth-root stress sigma_F")):
+        for m, member in enumerate(_MEMBERS):
+            out.append(KeyNumber(f"{sym}_MPa[{member}, {T}]", f"{label}, {member}", _num(used[sym][m]), "MPa", "lower",
+                                 "rating"))
+    for sym, label in (("K_Hbeta", "face load factor K_Hbeta"), ("K_Halpha", "transverse load factor K_Halpha")):
+        for method, name in (("ltca", "gearopt loaded TCA"), ("iso", "ISO 6336-1")):
+            out.append(KeyNumber(f"{sym}[{method}, {T}]", f"{label}, {name}", _num(nom[method][sym]), "", "lower",
+                                 "rating"))
+    out.append(KeyNumber("load_factors_used", "load factors used for the safety factors", _num(d["load_factors_used"]),
+                         "", None, "rating"))
+    sp = d.get("spectrum")
+    if sp:
+        for mode, sym in (("pitting", "S_H"), ("bending", "S_F")):
+            out.append(KeyNumber(f"D_{mode}_max", f"Miner damage sum, {mode}, the larger member",
+                                 _num(max(sp["damage"][mode])), "", "lower", "rating"))
+            out.append(KeyNumber(f"{sym}_spectrum_min", f"{mode} safety against the load spectrum, the weaker member",
+                                 _num(min(sp["safety"][mode])), "", "higher", "rating"))
+    return out
+
+
 SUMMARIES: dict[str, Callable[[dict[str, Any]], list[KeyNumber]]] = {
     "tca": tca_summary, "geometry": geometry_summary, "planar_tca": planar_tca_summary, "ltca": ltca_summary,
     "crowning": crowning_summary, "fea": fea_summary, "loaded_microgeometry": loaded_microgeometry_summary,
-    "montecarlo": robust_summary, "sweep": robust_summary,
+    "montecarlo": robust_summary, "sweep": robust_summary, "rating": rating_summary,
 }

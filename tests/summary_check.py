@@ -24,7 +24,8 @@ DOC = ROOT / "docs" / "results.md"
 _PLACE = {"<case>": r"[^\[\]]+", "<torque>": r"\d+(?:\.\d+)? Nm", "<member>": r"pinion|gear",
           "<stat>": r"mean|sd|min|max|p\d+", "<position>": r"phi1 -?\d+(?:\.\d+)? deg", "<input>": r"[\w.]+",
           "<amount>": r"C_alpha|f_H_alpha|C_beta|f_H_beta",
-          "<chart>": r"F_alpha|f_f_alpha|f_H_alpha|C_alpha|F_beta|f_f_beta|f_H_beta|C_beta", "<side>": r"right|left"}
+          "<chart>": r"F_alpha|f_f_alpha|f_H_alpha|C_alpha|F_beta|f_f_beta|f_H_beta|C_beta", "<side>": r"right|left",
+          "<method>": r"ltca|iso"}
 
 
 def documented_summary_keys(doc: Path = DOC) -> list[str]:
@@ -172,5 +173,18 @@ def check_summary(res: dict, out: Path) -> None:
             assert s[f"fe_p_max_MPa[{pos}]"] == p["contact"]["p_max"]
             for member in ("pinion", "gear"):
                 assert s[f"fe_root_max_principal_MPa[{member}, {pos}]"] == p["root"][member]["max_principal_mid"]
+    elif st == "rating":
+        nom = res["nominal"]
+        T = f"{nom['torque_Nm']:g} Nm"
+        for sym in ("S_H", "S_F"):
+            assert s[f"{sym}_min[{T}]"] == min(nom["used"][sym])
+            assert [s[f"{sym}[{m}, {T}]"] for m in ("pinion", "gear")] == nom["used"][sym]
+        assert s[f"K_Hbeta[ltca, {T}]"] == nom["ltca"]["K_Hbeta"] and s[f"K_Hbeta[iso, {T}]"] == nom["iso"]["K_Hbeta"]
+        assert s["load_factors_used"] == res["load_factors_used"]
+        if "spectrum" in res:
+            assert s["D_pitting_max"] == max(res["spectrum"]["damage"]["pitting"])
+            assert s["S_F_spectrum_min"] == min(res["spectrum"]["safety"]["bending"])
+        else:
+            assert "D_pitting_max" not in s
     else:  # pragma: no cover - a new study: add its checks here
         pytest.fail(f"no summary checks for study {st!r}")

@@ -16,7 +16,9 @@ from __future__ import annotations
 import math
 import time
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Callable, Sequence
+from typing import TYPE_CHECKING, Any, Callable, ClassVar, Sequence
+
+from ..summary import KeyNumber, rating_summary
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..gears import GearPair
@@ -46,6 +48,20 @@ class RatingReport:
     def to_dict(self) -> dict:
         """The results.json dictionary (docs/results.md, "rating")."""
         return self.data
+
+    #: One line per figure for report.html: what to read from it.
+    captions: ClassVar[dict[str, str]] = {
+        "rating_safety.png": "Pitting (S_H) and bending (S_F) safety factors of both members against torque, solid "
+                             "with gearopt's loaded-TCA load factors, dashed with ISO 6336-1's (left), and the two "
+                             "methods' K_Hbeta and K_Halpha (right): read the torque at which a safety factor falls "
+                             "below its minimum, and how far the two methods' load factors differ.",
+        "rating_spectrum.png": "The S-N curves of pitting and bending with the load spectrum's bins on them (left) "
+                               "and the Miner damage of each bin (right): read which bins consume the life.",
+    }
+
+    def summary(self) -> list[KeyNumber]:
+        """Key numbers of the run (:func:`gearopt.summary.rating_summary`), read from :meth:`to_dict`."""
+        return rating_summary(self.data)
 
     def save_tables(self, out_dir: str | Path) -> list[str]:
         """``rating_factors.csv`` (symbol, unit, both sets' pinion/pair and gear values at the nominal
@@ -280,16 +296,6 @@ class RatingStudy:
             sp = rate_spectrum(self.pair_data, self.bins, self.operation(self.torque), *self.materials,
                                self.accuracy(), load_factors=given, tooth_forms=self.tooth_forms)
             data["spectrum"] = sp
-        sh, sf = chosen["S_H"], chosen["S_F"]
-        data["summary"] = {"S_H_min": float(min(sh)), "S_F_min": float(min(sf)),
-                           "K_Hbeta_ltca": lf["K_Hbeta"][by_t[self.torque]], "K_Hbeta_iso": nom_i["K_Hbeta"],
-                           "K_Halpha_ltca": lf["K_Halpha"][by_t[self.torque]], "K_Halpha_iso": nom_i["K_Halpha"],
-                           "load_factors_used": used}
-        if self.bins:
-            data["summary"].update({"D_pitting_max": max(sp["damage"]["pitting"]),
-                                    "D_bending_max": max(sp["damage"]["bending"]),
-                                    "S_H_spectrum_min": min(sp["safety"]["pitting"]),
-                                    "S_F_spectrum_min": min(sp["safety"]["bending"])})
         return RatingReport(data)
 
 
