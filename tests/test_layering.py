@@ -42,6 +42,7 @@ LAYERS: list[tuple[str, ...]] = [
     ("gearopt.ltca",),           # loaded TCA
     ("gearopt.synthesis",),      # optimisation of settings and micro-geometry
     ("gearopt.robust",),         # Monte Carlo, sweeps
+    ("gearopt.dynamics",),       # gear dynamics driven by the loaded TCA
     ("gearopt.plot",),           # plots read result dictionaries
     ("gearopt.io.schema",),      # scene schema (fields, sections, tool sections)
     ("gearopt.io.results",),     # results.json writer

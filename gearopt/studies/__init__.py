@@ -42,7 +42,8 @@ if TYPE_CHECKING:  # pragma: no cover
 #: Study modules shipped with gearopt (imported lazily by :func:`_load_builtin`).
 BUILTIN_MODULES = ("gearopt.studies.geometry", "gearopt.studies.planar_tca", "gearopt.studies.tca",
                    "gearopt.studies.crowning", "gearopt.studies.fea", "gearopt.studies.ltca",
-                   "gearopt.studies.robust", "gearopt.studies.loaded_microgeometry")
+                   "gearopt.studies.robust", "gearopt.studies.loaded_microgeometry",
+                   "gearopt.studies.dynamics")
 #: Environment variable naming extra study modules to import (comma-separated).
 ENV_MODULES = "GEAROPT_STUDY_MODULES"
 
