@@ -16,7 +16,7 @@ with the generalised forces ``g``: ``k_s s + c_s s'`` for a shaft and, for the m
 form (a) of Ozguven & Houser / Kahraman & Singh: the time-varying stiffness acting on the gap to
 the *unloaded* TE),
 
-    F = k(phi) [h(x - e(phi)) - h(-(x - e(phi)) - b_j)] + c_m x'                  (2)
+    F = k(phi) [h(s) - h(-s - b_j)] + c_m x' [h'(s) + h'(-s - b_j)],   s = x - e(phi)   (2)
 
 ``phi`` the mesh phase (``2 pi`` per mesh cycle, ``phi = omega_m t``), ``k(phi)`` the loaded TCA's
 secant mesh stiffness at the operating torque (``W / delta``), ``e(phi) = -TE_unloaded l_2`` the
@@ -24,7 +24,8 @@ unloaded TE as a displacement along the line of action, ``b_j`` the backlash alo
 ``h(s) = (s + sqrt(s^2 + eps^2)) / 2`` a smoothed ``max(s, 0)`` (eps = ``smoothing`` x the static
 deflection ``W / k_mean``; the smoothing keeps (2) differentiable for CVODES and Newton's method;
 its error is ``eps^2 / (4 s)``, 2.5e-7 of the static deflection at eps = 1e-3). The first term is
-the drive flank (no force where the teeth separate), the second the back flank beyond the backlash.
+the drive flank (no force where the teeth separate), the second the back flank beyond the backlash;
+the mesh damping acts while one of them is in contact (``h'``, a smooth step from 0 to 1).
 In the quasi-static limit ``F = W`` and ``x = e + W / k = e + delta``: the loaded TE
 ``TE_loaded = -x / l_2`` of the loaded TCA, exactly at its positions. ``c_m = 2 zeta sqrt(k_mean
 m_e)``, ``m_e = (l_1^2/J_1 + l_2^2/J_2)^-1``; shafts ``c_s = 2 zeta sqrt(k_s J_a J_b / (J_a + J_b))``.
@@ -355,7 +356,9 @@ class GearDynamics:
                     hpos = 0.5 * (s + ca.sqrt(s**2 + eps**2))
                     sb = -s - train.backlash
                     hneg = 0.5 * (sb + ca.sqrt(sb**2 + eps**2))
-                    F = k * (hpos - hneg) + self.c_mesh * qd[i]
+                    # the damping acts only while a flank pair is in contact: the smooth steps h'(s)
+                    on = 0.5 * (1 + s / ca.sqrt(s**2 + eps**2)) + 0.5 * (1 + sb / ca.sqrt(sb**2 + eps**2))
+                    F = k * (hpos - hneg) + self.c_mesh * qd[i] * on
                 else:
                     F = k * s + self.c_mesh * qd[i]
                 g.append(F)
@@ -501,6 +504,12 @@ class GearDynamics:
             progress(f"dynamics: upward sweep of {len(s)} speeds done")
         if both:
             out.down = self._branch(s[::-1], out.up[-1] if out.up[-1].converged else None)[::-1]
+            # a branch that ends at a fold (no solution nearby, none from the static state) continues
+            # on the other branch's solution at that speed: the jump of a sweep in that direction
+            for a, b in ((out.up, out.down), (out.down, out.up)):
+                for i, r in enumerate(a):
+                    if not r.converged and b[i].converged:
+                        a[i] = self.solve(float(s[i]), b[i].y0)
         out.time_s = time.perf_counter() - t0
         return out
 
