@@ -427,7 +427,7 @@ class GearDynamics:
         r = np.array(self._var(x0=np.r_[np.asarray(y0, float), np.eye(m).ravel(order="F")], p=p)["xf"]).ravel()
         return r[:m], r[m:].reshape((m, m), order="F")
 
-    def shoot(self, y0: npt.ArrayLike, p: npt.ArrayLike, max_iter: int = 40) -> tuple[np.ndarray, float]:
+    def shoot(self, y0: npt.ArrayLike, p: npt.ArrayLike, max_iter: int = 12) -> tuple[np.ndarray, float]:
         """Newton's method on ``G(y0) = Phi(y0) - y0 = 0`` with the Jacobian ``M - I`` (M the
         monodromy matrix), each step halved until the residual falls; returns ``(y0, max|G|)``."""
         y = np.asarray(y0, float).copy()
@@ -446,7 +446,7 @@ class GearDynamics:
             except np.linalg.LinAlgError:
                 return y, math.inf
             t = 1.0
-            while t > 1e-3:
+            while t > 0.03:
                 yn = y + t * dy
                 try:
                     yTn, Mn = self.flow(yn, p)

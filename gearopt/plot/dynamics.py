@@ -23,7 +23,8 @@ def _arr(v: list) -> np.ndarray:
 def plot_dynamic_factor(d: dict, ax: Axes | None = None) -> Axes:
     """K_v (peak dynamic over static mesh force) against pinion speed for every case: the upward
     branch solid, the downward dashed (they differ where two steady states coexist), speeds with
-    contact loss marked x; ISO 6336-1's n_E1 (dotted) and the model's linear resonance (dash-dot)."""
+    contact loss marked x; ISO 6336-1's n_E1 (dotted) and the speeds where mesh order 1 meets a natural
+    frequency of the linear model (dash-dot). The K_v axis starts at 0 when K_v exceeds 2."""
     import matplotlib.pyplot as plt
 
     ax = ax or plt.gca()
@@ -38,14 +39,18 @@ def plot_dynamic_factor(d: dict, ax: Axes | None = None) -> Axes:
             if loss.any():
                 ax.plot(v[loss], kv[loss], "x", color=col, ms=5,
                         label=f"{c['name']}: contact loss" if br == "up" else None)
-        ax.axvline(c["resonance_speeds_linear_rpm"]["order1"][0], color=col, ls="-.", lw=0.9,
-                   label=f"{c['name']}: linear resonance {c['resonance_speeds_linear_rpm']['order1'][0]:.0f} rpm")
+        res = [n for n in c["resonance_speeds_linear_rpm"]["order1"] if v[0] <= n <= v[-1]]
+        for j, n in enumerate(res):
+            ax.axvline(n, color=col, ls="-.", lw=0.9,
+                       label=f"{c['name']}: linear modes, order 1: " + ", ".join(f"{r:.0f}" for r in res) + " rpm"
+                       if j == 0 else None)
     ax.axvline(d["model"]["n_E1_iso_rpm"], color="k", ls=":", lw=1.2,
                label=f"ISO 6336-1 n_E1 = {d['model']['n_E1_iso_rpm']:.0f} rpm")
     ax.axhline(1.0, color="0.5", lw=0.8)
     ax.set_xlabel("pinion speed [rpm]")
     ax.set_ylabel("K_v = peak dynamic / static mesh force")
-    ax.set_ylim(bottom=0)
+    if ax.get_ylim()[1] > 2.0:
+        ax.set_ylim(bottom=0)
     ax.set_title(f"dynamic factor at {d['options']['torque_Nm']:g} N m (damping ratio {d['options']['damping']:g})")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7, ncol=3)
