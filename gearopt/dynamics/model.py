@@ -408,15 +408,16 @@ class GearDynamics:
         return np.r_[q / self.ref, np.zeros(self.n)]
 
     def solve(self, speed_rpm: float, guess: npt.ArrayLike | None = None, floquet: bool = False,
-              params: npt.ArrayLike | None = None) -> PeriodicSolution:
+              params: npt.ArrayLike | None = None, restart: bool = True) -> PeriodicSolution:
         """The period-1 steady state at pinion speed ``speed_rpm`` [rpm] (> 0) from ``guess`` (a
-        scaled state; default the static one); ``floquet``: also the Floquet multipliers."""
+        scaled state; default the static one; ``restart``: from the static one too when ``guess``
+        fails); ``floquet``: also the Floquet multipliers."""
         om = self.omega_mesh(_positive("speed", speed_rpm, "pinion speed [rpm]"))
         p = np.r_[om, self._p if params is None else np.asarray(params, float)]
         y0 = self.static_guess() if guess is None else np.asarray(guess, float)
         sol, res = self.shoot(y0, p)
         ok = bool(np.all(np.isfinite(sol)) and res < self.newton_tol)
-        if not ok and guess is not None:  # continuation lost the branch: restart from the static state
+        if not ok and guess is not None and restart:  # continuation lost the branch: from the static state
             return self.solve(speed_rpm, None, floquet, params)
         return self._fill(speed_rpm, om, sol, ok, res, p, floquet)
 
@@ -485,7 +486,8 @@ class GearDynamics:
         out: list[PeriodicSolution] = [] if start is None else [start]
         for v in speeds:
             g = _secant(out, float(v))
-            r = self.solve(float(v), g)
+            # past a failed speed the static state failed already: no second restart in a row
+            r = self.solve(float(v), g, restart=not out or out[-1].converged)
             out.append(r)
         return out[1:] if start is not None else out
 
