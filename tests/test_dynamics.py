@@ -249,3 +249,31 @@ def test_torque_without_a_loaded_tca_is_refused(spur):
     with pytest.raises(OptionError) as e:
         DynamicsStudy(pair, 200.0, inertia_pinion=0.0)
     assert e.value.param == "inertia_pinion"
+
+
+@pytest.mark.parametrize("ratio", [0.5, 0.93])
+def test_peak_sensitivity_by_ad_matches_finite_differences(ratio):
+    """d K_v / d P (AD through the shooting solution, implicit-function theorem) against central
+    differences of re-solved models, for the load and the harmonics of k and e (the mean stiffness
+    also sets c_m and the scales, which the AD derivative holds: left out); 0.93 loses contact."""
+    tr = DriveTrain(J_pinion=J1, J_gear=J2, l_pinion=L1, l_gear=L2, zeta=0.05, backlash=1e-4)
+    P0 = MeshExcitation([K0, 0.15 * K0, 0.02 * K0], [0.05 * K0, 0.01 * K0], [0.0, 12e-6, 2e-6], [1e-6, 0.5e-6],
+                        W).params()
+
+    def model(P):
+        exc = MeshExcitation(P[1:4], P[4:6], P[6:9], P[9:11], P[0])
+        gd = GearDynamics(tr, exc, Z1, tol=1e-12, newton_tol=1e-10)
+        s = gd.solve(ratio * n_res())
+        assert s.converged
+        return gd, s, float(s.force.max() / P[0])
+
+    gd, s, _ = model(P0)
+    g = gd.peak_sensitivity(s)
+    assert g.shape == P0.shape
+    for i in (0, 2, 3, 4, 5, 7, 8, 9, 10):
+        h = 1e-4 * abs(P0[i])
+        Pp, Pm = P0.copy(), P0.copy()
+        Pp[i] += h
+        Pm[i] -= h
+        fd = (model(Pp)[2] - model(Pm)[2]) / (2 * h)
+        assert g[i] == pytest.approx(fd, rel=2e-3, abs=1e-6 / abs(P0[i])), i

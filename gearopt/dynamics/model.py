@@ -371,6 +371,7 @@ class GearDynamics:
         self._out = ca.Function("out", [tau, y, p_all], [q[mesh], Fm, gap])
         dae = {"x": y, "p": p_all, "t": tau, "ode": ydot}
         opts = {"abstol": tol, "reltol": tol, "max_num_steps": 200000}
+        self._dae, self._opts = dae, opts
         self._flow = ca.integrator("flow", "cvodes", dae, 0.0, 2 * math.pi, opts)
         grid = np.linspace(0, 2 * math.pi, self.samples + 1)[1:]
         self._grid = ca.integrator("grid", "cvodes", dae, 0.0, list(grid), opts)
@@ -462,6 +463,38 @@ class GearDynamics:
                 return y, res
             y, G, M, res = yn, Gn, Mn, rn
         return y, res
+
+    def peak_sensitivity(self, sol: PeriodicSolution) -> np.ndarray:
+        """d K_v / d P: the derivative of the dynamic factor ``max_k F(phi_k) / W`` (the largest of the
+        solution's samples) with respect to the excitation's parameters ``P`` =
+        :meth:`MeshExcitation.params` (W, then the Fourier coefficients of k [N/m] and e [m]), by AD
+        through the periodic solution: with ``G(y0, P) = Phi(y0, P) - y0 = 0`` the implicit-function
+        theorem gives ``dy0/dP = -G_y^-1 G_P`` (integrator sensitivities), and the force at the peak
+        sample ``F(Phi_k(y0, P), P)`` is differentiated along it (the peak's sample held: the
+        derivative of the sampled maximum wherever that sample stays the largest).
+
+        Parameters
+        ----------
+        sol : PeriodicSolution
+            A converged solution of this model (at its speed, with the model's own parameters).
+        """
+        check_converged(sol)
+        k = int(np.argmax(sol.force))
+        y0 = ca.MX.sym("y0", 2 * self.n)
+        P = ca.MX.sym("P", self.n_p)
+        pa = ca.vertcat(sol.omega_m, P)
+        if k == 0:
+            yk = y0
+        else:
+            to_peak = ca.integrator("to_peak", "cvodes", self._dae, 0.0, float(sol.phi[k]), self._opts)
+            yk = to_peak(x0=y0, p=pa)["xf"]
+        F = self._out(float(sol.phi[k]), yk, pa)[1]
+        Kv = F / P[0]
+        G = self._flow(x0=y0, p=pa)["xf"] - y0
+        fn = ca.Function("dKv", [y0, P], [ca.jacobian(Kv, y0), ca.jacobian(Kv, P), ca.jacobian(G, y0),
+                                          ca.jacobian(G, P)])
+        Ky, KP, Gy, GP = (np.array(v) for v in fn(sol.y0, self._p))
+        return (KP - Ky @ np.linalg.solve(Gy, GP)).ravel()
 
     def _fill(self, speed, om, y0, ok, res, p, floquet) -> PeriodicSolution:
         phi = np.linspace(0, 2 * math.pi, self.samples + 1)[:-1]
