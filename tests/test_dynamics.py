@@ -277,3 +277,26 @@ def test_peak_sensitivity_by_ad_matches_finite_differences(ratio):
         Pm[i] -= h
         fd = (model(Pp)[2] - model(Pm)[2]) / (2 * h)
         assert g[i] == pytest.approx(fd, rel=2e-3, abs=1e-6 / abs(P0[i])), i
+
+
+@pytest.mark.slow  # about a minute: five loaded TCAs of modified drives
+def test_microgeometry_sensitivity_matches_finite_differences():
+    """d K_v / d(tip relief amount, its start diameter) of the relieved ltca_spur pinion at 15,000 rpm:
+    the AD chain (excitation -> K_v) times the loaded TCA's differences against the difference of K_v
+    re-solved with the displaced designs' excitations (the same model's damping), to 2e-3."""
+    from gearopt.dynamics.drive import microgeometry_sensitivity
+    from gearopt.geometry.microgeometry import Microgeometry
+
+    mods = Microgeometry(C_alpha_a=0.025, d_Ca=62.0, tip_shape="linear")
+    pair = GearPair(Gear(z=20, m_n=3.0, b=20.0, modifications=mods), Gear(z=40, m_n=3.0, b=20.0))
+    r = microgeometry_sensitivity(pair, 200.0, 15000.0, "pinion", ["C_alpha_a", "d_Ca"], rel_step=2e-4)
+    gd, sol = r["model"], r["solution"]
+    for key, v in r["keys"].items():
+        kv = []
+        for P in (v["P_plus"], v["P_minus"]):
+            s = gd.solve(15000.0, sol.y0, params=P)
+            assert s.converged
+            kv.append(float(s.force.max() / P[0]))
+        fd = (kv[0] - kv[1]) / (2 * v["step_mm"])
+        assert v["dKv_dmm"] == pytest.approx(fd, rel=2e-3), key
+    assert r["keys"]["C_alpha_a"]["dKv_dmm"] != 0.0
