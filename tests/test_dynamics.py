@@ -300,3 +300,27 @@ def test_microgeometry_sensitivity_matches_finite_differences():
         fd = (kv[0] - kv[1]) / (2 * v["step_mm"])
         assert v["dKv_dmm"] == pytest.approx(fd, rel=2e-3), key
     assert r["keys"]["C_alpha_a"]["dKv_dmm"] != 0.0
+
+
+def test_small_study_writes_documented_results_plots_and_tables(tmp_path, spur):
+    """The study through the API on a coarse grid (fast): every results key documented in
+    docs/results.md, both plots and both tables written, K_v about 1 at the lowest speed."""
+    from results_doc import undocumented
+
+    from gearopt.studies.dynamics import DynamicsStudy
+
+    pair, _ = spur
+    study = DynamicsStudy(pair, 200.0, positions=16, n_slices=5, speeds=4, speed_min=500.0, speed_max=20000.0,
+                          samples=32)
+    rep = study.run()
+    d = rep.to_dict()
+    assert undocumented(d, "dynamics") == []
+    c = d["cases"][0]
+    assert c["speeds_rpm"][0] == pytest.approx(500.0) and len(c["speeds_rpm"]) == 4
+    assert c["up"]["K_v"][0] == pytest.approx(1.0, abs=0.1)
+    files = rep.save_plots(tmp_path) + rep.save_tables(tmp_path)
+    assert files == ["dynamics_factor.png", "dynamics_cycle.png", "dynamics_speeds.csv", "dynamics_cycles.csv"]
+    for f in files:
+        assert (tmp_path / f).stat().st_size > 1000
+    head = (tmp_path / "dynamics_speeds.csv").read_text().splitlines()[0]
+    assert head.startswith("case,branch,speed_rpm,converged,K_v")
