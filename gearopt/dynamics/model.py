@@ -34,9 +34,9 @@ Periodic steady state
 ---------------------
 Time is scaled to the mesh phase (``tau = phi``, period ``2 pi``) and each coordinate by its static
 value, so one integrator (CasADi CVODES) serves every speed with ``omega_m`` as a parameter; the
-period-1 steady state solves ``Phi(y0; omega_m) - y0 = 0`` (shooting) with CasADi's Newton
-rootfinder, the Jacobian from the integrator's forward sensitivities. The monodromy matrix
-``dPhi/dy0`` at the solution gives the Floquet multipliers. A speed sweep continues from the
+period-1 steady state solves ``Phi(y0; omega_m) - y0 = 0`` (shooting) by Newton's method, the
+Jacobian ``M - I`` from the monodromy matrix ``M = dPhi/dy0`` integrated with the state as the
+variational equations (:meth:`GearDynamics.flow`); M at the solution gives the Floquet multipliers. A speed sweep continues from the
 previous speed's solution, upward and downward: where the two branches differ both are reported
 (the jump of the softening response with contact loss).
 """
@@ -381,13 +381,6 @@ class GearDynamics:
         var = ca.mtimes(ca.jacobian(ydot, y), Phi)
         dae_v = {"x": ca.vertcat(y, ca.vec(Phi)), "p": p_all, "t": tau, "ode": ca.vertcat(ydot, ca.vec(var))}
         self._var = ca.integrator("variational", "cvodes", dae_v, 0.0, 2 * math.pi, opts)
-        y0 = ca.MX.sym("y0", 2 * n)
-        pm = ca.MX.sym("p", p_all.numel())
-        yT = self._flow(x0=y0, p=pm)["xf"]
-        self._G = ca.Function("G", [y0, pm], [yT - y0])
-        self._mono = ca.Function("mono", [y0, pm], [ca.jacobian(yT, y0)])
-        self._newton = ca.rootfinder("shoot", "newton", self._G,
-                                     {"abstol": newton_tol, "max_iter": 30, "error_on_fail": False})
         self._p = excitation.params()
 
     # --------------------------------------------------------------------------------------
