@@ -324,3 +324,20 @@ def test_small_study_writes_documented_results_plots_and_tables(tmp_path, spur):
         assert (tmp_path / f).stat().st_size > 1000
     head = (tmp_path / "dynamics_speeds.csv").read_text().splitlines()[0]
     assert head.startswith("case,branch,speed_rpm,converged,K_v")
+
+
+def test_misalignment_reaches_the_excitation(spur):
+    """A crossing angle changes the loaded TCA the model is driven by (its unloaded TE is no longer
+    flat for this conjugate pair) and is reported in the results."""
+    from gearopt.meshing.misalignment import Misalignment
+    from gearopt.studies.dynamics import DynamicsStudy
+    from gearopt.units import ARCMIN
+
+    pair, _ = spur
+    kw = dict(positions=16, n_slices=5, speeds=3, speed_min=500.0, speed_max=2000.0, samples=32)
+    aligned = DynamicsStudy(pair, 200.0, **kw).run().to_dict()
+    crossed = DynamicsStudy(pair, 200.0, misalignment=Misalignment(crossing=3 * ARCMIN), **kw).run().to_dict()
+    assert crossed["model"]["misalignment"]["crossing_arcmin"] == pytest.approx(3.0)
+    te_a = np.array(aligned["cases"][0]["static"]["te_loaded_arcsec"])
+    te_c = np.array(crossed["cases"][0]["static"]["te_loaded_arcsec"])
+    assert np.max(np.abs(te_c - te_a)) > 1.0  # arcsec

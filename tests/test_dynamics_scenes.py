@@ -47,6 +47,7 @@ def test_dynamics_helical_has_the_shaft_modes(scene_run):
     (("damping = 0.05", "damping = 0.05\ninertia_pinion = 0.0"), "[dynamics] inertia_pinion"),
     (("torque = 200.0 ", "torque = 90000.0 "), "[dynamics] torque"),
     (("speed_min = 2000.0", "speed_min = 40000.0"), "[dynamics] speed_max"),
+    (("damping = 0.05", 'damping = 0.05\ndE = "-0.5 mm"'), "[dynamics] dE"),
 ])
 def test_bad_keys_name_the_key_and_write_nothing(tmp_path, edit, param):
     params, msg = bad_scene(tmp_path, "dynamics_spur", edit)

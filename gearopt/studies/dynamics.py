@@ -6,7 +6,8 @@ contact loss and jumps.
 Scene section ``[dynamics]``: ``torque`` (pinion torque [N m], required), the inertias
 ``inertia_pinion``, ``inertia_gear`` [kg m^2] (default the bodies' solid discs), optional
 ``inertia_drive`` / ``shaft_stiffness_drive`` and ``inertia_load`` / ``shaft_stiffness_load``
-[kg m^2, N m/rad], ``E``, ``nu``, and the options of :class:`gearopt.dynamics.settings.DynamicsSettings`.
+[kg m^2, N m/rad], ``E``, ``nu``, the misalignment (``dE``, ``crossing``, ``intersecting``, ``axial``;
+default aligned), and the options of :class:`gearopt.dynamics.settings.DynamicsSettings`.
 
 results.json keys: docs/results.md ("dynamics"); ``dynamics_speeds.csv`` (per case, branch and speed)
 and ``dynamics_cycles.csv`` (dynamic mesh force and TE over the cycle at every speed) beside it.
@@ -29,6 +30,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from ..dynamics.settings import DynamicsSettings
     from ..gears import GearPair
     from ..ltca.compliance import Material
+    from ..meshing.misalignment import Misalignment
 
 UNITS = {"speed": "rpm (pinion)", "force": "N", "te": "arcsec (suffix _arcsec), um along the line of action (_um)",
          "stiffness": "N/um", "inertia": "kg m^2", "shaft_stiffness": "N m/rad", "frequency": "Hz", "phase": "rad",
@@ -182,6 +184,8 @@ class DynamicsStudy:
         Rotary inertias [kg m^2] (> 0; default the bodies' solid discs of ISO 6336-1).
     inertia_drive, shaft_stiffness_drive, inertia_load, shaft_stiffness_load : float, optional
         Drive and load inertias [kg m^2] with their shafts' torsional stiffness [N m/rad] (> 0, in pairs).
+    misalignment : Misalignment, optional
+        The drive's misalignment (default aligned): the loaded TCA's k(phi) and e(phi) follow it.
     name : str
     """
 
@@ -189,7 +193,8 @@ class DynamicsStudy:
                  material: Material | None = None, inertia_pinion: float | None = None,
                  inertia_gear: float | None = None, inertia_drive: float | None = None,
                  shaft_stiffness_drive: float | None = None, inertia_load: float | None = None,
-                 shaft_stiffness_load: float | None = None, name: str = "dynamics", **options: Any) -> None:
+                 shaft_stiffness_load: float | None = None, misalignment: Misalignment | None = None,
+                 name: str = "dynamics", **options: Any) -> None:
         from ..dynamics.drive import drive_train
         from ..dynamics.settings import DynamicsSettings
         from ..errors import OptionError, check_number, out_of_range
@@ -204,6 +209,10 @@ class DynamicsStudy:
         check_torque_range(pair, torque, self.material)
         LTCA(pair, s, material=self.material)  # the LTCA options, checked before any run
         self.pair, self.torque, self.settings, self.name = pair, float(torque), s, name
+        from ..meshing.misalignment import Misalignment as Mis
+
+        self.misalignment = misalignment or Mis()
+        self.misalignment.check(pair, "misalignment")
         self.inertias = {"J_pinion": inertia_pinion, "J_gear": inertia_gear, "J_drive": inertia_drive,
                          "k_drive": shaft_stiffness_drive, "J_load": inertia_load, "k_load": shaft_stiffness_load}
         self.train = drive_train(pair, s.damping, s.backlash, **self.inertias)
@@ -232,7 +241,8 @@ class DynamicsStudy:
         for name, pair in self._pairs():
             if progress:
                 progress(f"dynamics: loaded TCA of {name} at {self.torque:g} N m")
-            lm = loaded_mesh(pair, self.torque, s, positions=s.positions, material=self.material)
+            lm = loaded_mesh(pair, self.torque, s, positions=s.positions, material=self.material,
+                             misalignment=self.misalignment)
             gd = GearDynamics(tr, lm.excitation(s.harmonics), z1, smoothing=s.smoothing, samples=s.samples,
                               tol=1e-9, newton_tol=1e-7)
             fn = gd.natural_frequencies()
@@ -265,6 +275,9 @@ class DynamicsStudy:
                    "n_slices": s.n_slices, "side": s.side, "compare_unmodified": s.compare_unmodified,
                    "E_MPa": self.material.E, "nu": self.material.nu,
                    "excitation": "k(phi) on the gap to the unloaded TE (form (a), docs/dynamics.md)"}
+        from ..report import misalignment_dict
+
+        model["misalignment"] = misalignment_dict(self.misalignment)
         return DynamicsReport(self.name, pair, options, model, cases, cycles, timing)
 
     def _case(self, name: str, lm: Any, gd: GearDynamics, sw: SpeedSweep, fn: np.ndarray) -> dict:
@@ -316,10 +329,14 @@ def _from_scene(scene: Any) -> DynamicsStudy:
     from ..errors import GeometryError, OptionError
     from ..ltca.compliance import Material
 
+    from .tca import check_misalignment_keys, misalignment_from
+
     o = scene.options.get("dynamics", {}) or {}
+    check_misalignment_keys(scene, "dynamics", o, signs=(1,))
     try:
         return DynamicsStudy(scene.pair, o["torque"], settings=DynamicsSettings.from_scene(o),
                              material=Material(E=o["E"], nu=o["nu"]), name=scene.name,
+                             misalignment=misalignment_from(o),
                              **{k: o.get(k) for k in INERTIA_KEYS})
     except (GeometryError, OptionError) as e:
         raise scene.study_error("dynamics", e) from e
@@ -330,6 +347,7 @@ def _register() -> None:
     from ..schema import Bounds, Field
     from . import StudySpec, register
     from .ltca import material_fields
+    from .tca import misalignment_fields
 
     inertia = [Field(k, "float", check=Bounds(lo=0, lo_open=True, hi=1e6),
                      doc=("torsional stiffness of the " + k.split("_")[-1] + " shaft [N*m/rad]") if k.startswith("shaft")
@@ -347,6 +365,7 @@ def _register() -> None:
             "speed_min", "speed_max", "speeds", "damping", "backlash", *inertia,
             "side", "positions", "n_slices", *material_fields(), "coupling", "compliance",
             "harmonics", "smoothing", "samples", "compare_unmodified",
+            *misalignment_fields(),
         ], required=True)],
         settings=(DynamicsSettings,),
         build=_from_scene,
