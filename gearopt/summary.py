@@ -26,7 +26,8 @@ __all__ = ["KeyNumber", "GROUPS", "summarize", "summary_dicts", "summary_from_re
            "fea_summary", "loaded_microgeometry_summary", "robust_summary"]
 
 #: The groups of key numbers, in the order the report shows them.
-GROUPS = ("geometry", "inspection", "optimisation", "unloaded TE", "loaded", "rating", "FE", "Monte Carlo", "sweep")
+GROUPS = ("geometry", "inspection", "optimisation", "unloaded TE", "loaded", "rating", "dynamics", "FE", "Monte Carlo",
+          "sweep")
 
 Value = float | int | str | bool | None
 
@@ -505,8 +506,39 @@ def rating_summary(d: dict[str, Any]) -> list[KeyNumber]:
     return out
 
 
+def dynamics_summary(d: dict[str, Any]) -> list[KeyNumber]:
+    """dynamics: the pair's geometry, ISO 6336-1's n_E1 (``model``) and per case (``cases[]``) the
+    static loaded TE, the largest dynamic factor of both branches and its speed, the model's n_E1
+    with the loaded TCA's c_gamma, the lowest speed with contact loss (``null``: none in the sweep),
+    the number of jumps and the largest mesh-order-1 amplitude of the dynamic TE."""
+    out = _pair_geometry(d["pair"])
+    T = _torque_label(d["options"]["torque_Nm"])
+    out.append(KeyNumber("n_E1_iso_rpm", "resonance speed n_E1, ISO 6336-1 (c_gamma of ISO)",
+                         _num(d["model"]["n_E1_iso_rpm"]), "rpm", None, "dynamics"))
+    for c in d["cases"]:
+        n = c["name"]
+        out.append(KeyNumber(f"lte_pp_arcsec[{n}, {T}]", f"loaded TE peak-to-peak, {n}",
+                             _num(c["static"]["te_loaded_peak_to_peak_arcsec"]), "arcsec", "lower", "loaded"))
+        out.append(KeyNumber(f"K_v_max[{n}]", f"largest dynamic factor K_v over the sweep, {n}", _num(c["K_v_max"]), "",
+                             "lower", "dynamics"))
+        out.append(KeyNumber(f"K_v_max_speed_rpm[{n}]", f"pinion speed of the largest K_v, {n}",
+                             _num(c["K_v_max_speed_rpm"]), "rpm", None, "dynamics"))
+        out.append(KeyNumber(f"n_E1_ltca_rpm[{n}]", f"resonance speed n_E1 with the loaded TCA's c_gamma, {n}",
+                             _num(c["n_E1_ltca_rpm"]), "rpm", None, "dynamics"))
+        loss = c["contact_loss_speeds_rpm"]
+        out.append(KeyNumber(f"contact_loss_from_rpm[{n}]", f"lowest speed with contact loss, {n}",
+                             _num(min(loss)) if loss else None, "rpm", "higher", "dynamics"))
+        out.append(KeyNumber(f"jumps[{n}]", f"jumps between coexisting steady states, {n}", len(c["jumps"]), "",
+                             "lower", "dynamics"))
+        o1 = [v[0] for br in ("up", "down") for v in (c[br]["order_te_um"] or []) if v is not None and v[0] is not None]
+        out.append(KeyNumber(f"order1_te_um_max[{n}]", f"largest mesh-order-1 amplitude of the dynamic TE, {n}",
+                             _num(max(o1)) if o1 else None, "um", "lower", "dynamics"))
+    return out
+
+
 SUMMARIES: dict[str, Callable[[dict[str, Any]], list[KeyNumber]]] = {
     "tca": tca_summary, "geometry": geometry_summary, "planar_tca": planar_tca_summary, "ltca": ltca_summary,
     "crowning": crowning_summary, "fea": fea_summary, "loaded_microgeometry": loaded_microgeometry_summary,
     "montecarlo": robust_summary, "sweep": robust_summary, "rating": rating_summary,
+    "dynamics": dynamics_summary,
 }

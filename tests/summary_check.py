@@ -113,7 +113,7 @@ def check_summary(res: dict, out: Path) -> None:
     s = {e["key"]: e["value"] for e in entries}
     st = res["study"]
     # every study names its pair: its own pair block, else meta.pair (the scene's pair)
-    pair = res["pair"] if "z1" in res.get("pair", {}) else res["meta"]["pair"]
+    pair = res["pair"] if {"z1", "a"} <= set(res.get("pair", {})) else res["meta"]["pair"]
     assert (s["z1"], s["z2"], s["m_n_mm"], s["a_mm"]) == (pair["z1"], pair["z2"], pair["m_n"], pair["a"])
     assert (s["z1"], s["z2"]) == (res["meta"]["pair"]["z1"], res["meta"]["pair"]["z2"])
     if "eps_alpha" in res.get("pair", {}):
@@ -186,5 +186,14 @@ def check_summary(res: dict, out: Path) -> None:
             assert s["S_F_spectrum_min"] == min(res["spectrum"]["safety"]["bending"])
         else:
             assert "D_pitting_max" not in s
+    elif st == "dynamics":
+        T = f"{res['options']['torque_Nm']:g} Nm"
+        for c in res["cases"]:
+            n = c["name"]
+            assert s[f"K_v_max[{n}]"] == max(k for b in ("up", "down") for k in c[b]["K_v"] if k is not None)
+            assert s[f"lte_pp_arcsec[{n}, {T}]"] == pytest.approx(np.ptp(c["static"]["te_loaded_arcsec"]), rel=1e-9)
+            loss = [v for b in ("up", "down") for v, lost in zip(c["speeds_rpm"], c[b]["contact_loss"]) if lost]
+            assert s[f"contact_loss_from_rpm[{n}]"] == (min(loss) if loss else None)
+            assert s[f"jumps[{n}]"] == len(c["jumps"])
     else:  # pragma: no cover - a new study: add its checks here
         pytest.fail(f"no summary checks for study {st!r}")

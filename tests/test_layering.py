@@ -43,6 +43,7 @@ LAYERS: list[tuple[str, ...]] = [
     ("gearopt.synthesis",),      # optimisation of settings and micro-geometry
     ("gearopt.robust",),         # Monte Carlo, sweeps
     ("gearopt.rating",),         # ISO 6336 load capacity (factors from gear data or from ltca results)
+    ("gearopt.dynamics",),       # gear dynamics driven by the loaded TCA
     ("gearopt.plot",),           # plots read result dictionaries
     ("gearopt.io.schema",),      # scene schema (fields, sections, tool sections)
     ("gearopt.io.page",),        # report.html renderer (Jinja2)

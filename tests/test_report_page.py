@@ -267,7 +267,7 @@ def test_browser_opens_the_page(tmp_path):
 # --- every study's scene: summary, page, browser (slow) -------------------------------------------------
 #: One scene per study (and the edge-contact and measured-flank variants of tca).
 PAGE_SCENES = ["tca_spur_crowned", "edge_spur_crossed", "measured_flank", "spur_geometry", "problem_9_4_1", "ltca_spur",
-               "montecarlo_loaded", "doe_helical", "crowning_spur", "microgeometry_loaded", "fea_spur", "rating_spectrum"]
+               "montecarlo_loaded", "doe_helical", "crowning_spur", "microgeometry_loaded", "fea_spur", "rating_spectrum", "dynamics_spur"]
 
 
 def _study(name: str) -> str:

@@ -43,7 +43,7 @@ if TYPE_CHECKING:  # pragma: no cover
 BUILTIN_MODULES = ("gearopt.studies.geometry", "gearopt.studies.planar_tca", "gearopt.studies.tca",
                    "gearopt.studies.crowning", "gearopt.studies.fea", "gearopt.studies.ltca",
                    "gearopt.studies.robust", "gearopt.studies.loaded_microgeometry",
-                   "gearopt.studies.rating")
+                   "gearopt.studies.rating", "gearopt.studies.dynamics")
 #: Environment variable naming extra study modules to import (comma-separated).
 ENV_MODULES = "GEAROPT_STUDY_MODULES"
 
