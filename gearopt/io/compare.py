@@ -750,6 +750,9 @@ def write_page(data: dict, directory: Path, svgs: dict[str, bytes] | None = None
               "gearopt": data["meta"]["gearopt_version"]}
     intro = ("The same gear pair in several designs, overlaid on the same axes and scales: one colour per design "
              f"({first} first, drawn thicker), one line style per misalignment case.")
+    if any(f["file"].startswith("compare_rating") for f in data["figures"]):
+        intro += (" In the ISO 6336 rating figures the line style is the member (solid pinion, dashed gear) or the "
+                  "method of the load factor (solid gearopt's loaded TCA, dashed ISO 6336-1).")
     if not data["figures"]:
         intro += " The designs have no plotted quantity in common (only the key numbers are compared)."
     text = render_page(f"Comparison: {' vs '.join(labels)}", header, tables, warnings, figures, links, intro=intro)
