@@ -696,7 +696,7 @@ def plot_safety(designs: Mapping[str, dict], sym: str = "S_H", ax: Axes | None =
     ax.yaxis.set_minor_formatter(NullFormatter())
     ax.set_ylabel(f"{mode} safety {sym} [-] (log scale)")
     ax.set_title(f"{mode} safety {sym} against torque (ISO 6336-{2 if sym == 'S_H' else 3})", fontsize=9)
-    ax.grid(alpha=0.3, which="both")
+    ax.grid(alpha=0.3)
     ax.xaxis.get_major_formatter().set_useOffset(False)
     _legend(ax)
     return ax
@@ -760,7 +760,8 @@ def plot_rating_spectrum(designs: Mapping[str, dict], quantity: str = "damage", 
             ax.annotate(text, (bar.get_x() + bar.get_width() / 2, max(np.nan_to_num(v), 0.0)), ha="center",
                         va="bottom", fontsize=7, xytext=(0, 2), textcoords="offset points")
         top = max(top, float(np.nanmax(h)) if np.isfinite(h).any() else 0.0)
-        if quantity == "safety":
+    if quantity == "safety":  # each design's minimum over its own bars
+        for slot, (_label, _i, r) in enumerate(shown):
             for g, (mode, _m) in enumerate(groups):
                 v = float(r["options"]["S_Hmin" if mode == "pitting" else "S_Fmin"])
                 xb = x[g] - 0.4 + w * slot
@@ -776,7 +777,7 @@ def plot_rating_spectrum(designs: Mapping[str, dict], quantity: str = "damage", 
         ax.set_title("safety factors against the load spectrum (ISO 6336-6)", fontsize=9)
     ax.set_ylim(0, 1.2 * top if top > 0 else 1.0)
     ax.grid(alpha=0.3, axis="y")
-    _legend(ax, bbox_to_anchor=(0.5, -0.25), ncol=2)
+    _legend(ax, bbox_to_anchor=(0.5, -0.25), ncol=len(shown) + 1)
     plain_ticks(ax)
     return ax
 
