@@ -155,6 +155,7 @@ def test_spectrum_damage_and_safety_bars():
                                                                     "bending\npinion", "bending\ngear"]
     assert "Miner damage sum D [-]" in damage.get_ylabel() and "S [-]" in safety.get_ylabel()
     # each design's minimum over its bars: S_Hmin over pitting, S_Fmin over bending
+    assert [t.get_text() for t in safety.get_legend().get_texts()] == ["3'", "1'", "minimum safety S_Hmin, S_Fmin"]
     mins = sorted({round(line.get_ydata()[0], 9) for line in safety.get_lines()})
     assert mins == [1.0, 1.4]
     assert safety.get_ylim()[1] > 1.8

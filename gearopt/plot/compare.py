@@ -777,7 +777,11 @@ def plot_rating_spectrum(designs: Mapping[str, dict], quantity: str = "damage", 
         ax.set_title("safety factors against the load spectrum (ISO 6336-6)", fontsize=9)
     ax.set_ylim(0, 1.2 * top if top > 0 else 1.0)
     ax.grid(alpha=0.3, axis="y")
-    _legend(ax, bbox_to_anchor=(0.5, -0.25), ncol=len(shown) + 1)
+    handles, names = ax.get_legend_handles_labels()
+    if handles:  # the designs first, then the minimum line
+        order = sorted(range(len(names)), key=lambda k: names[k].startswith("minimum"))
+        ax.legend([handles[k] for k in order], [names[k] for k in order],
+                  **{**_BELOW, "bbox_to_anchor": (0.5, -0.25), "ncol": len(shown) + 1})
     plain_ticks(ax)
     return ax
 
