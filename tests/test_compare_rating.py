@@ -167,6 +167,23 @@ def test_spectrum_damage_and_safety_bars():
     plt.close(one["compare_rating.png"][1])
 
 
+def test_a_better_value_the_table_cannot_show_is_not_marked(tmp_path):
+    """K_Halpha of gearopt's loaded TCA of two rating runs, 1.0000384 and 1.0000613 (a 2' and a 4' crossing):
+    both shown as 1 on the page, neither marked better; 1.0000384 against 1.0009 is."""
+    from gearopt.io.compare import load_design, key_numbers
+
+    def design(name, k):
+        res = _rating(1.05, 2.9, 1.8)
+        res["nominal"]["ltca"]["K_Halpha"] = k
+        return load_design(_rating_dir(tmp_path / name, res))
+
+    rows = {r.key: r for r in key_numbers([design("a", 1.0000384), design("b", 1.0000613)])}
+    assert rows["K_Halpha[ltca, 100 Nm]"].best == []
+    assert rows["K_Halpha[ltca, 100 Nm]"].differences[1] == pytest.approx(2.29e-5, rel=1e-9)  # still the real one
+    rows = {r.key: r for r in key_numbers([design("c", 1.0000384), design("d", 1.0009)])}
+    assert rows["K_Halpha[ltca, 100 Nm]"].best == [0]
+
+
 def test_a_rating_and_a_tca_design_have_no_rating_figure():
     tca = {"study": "tca", "cases": []}
     assert rating_of(tca) is None and rating_of(_rating(1.0, 3.0, 1.8)) is not None
@@ -197,6 +214,8 @@ def test_the_table_marks_the_higher_safety_and_the_lower_stress(tmp_path):
     assert rows["sigma_H_MPa[pinion, 100 Nm]"]["best"] == ["crossing 1'"]  # the lower stress
     assert rows["K_Hbeta[ltca, 100 Nm]"]["best"] == ["crossing 1'"]  # the lower face load factor
     assert rows["load_factors_used"]["best"] == []  # no direction
+    # K_Halpha (LTCA) 1.0 against 1.0: equal, none marked; the gear's safety within 4 digits: none either
+    assert rows["K_Halpha[ltca, 100 Nm]"]["best"] == []
     assert [f["file"] for f in data["figures"]] == ["compare_rating.png"]
     page = (out / "report.html").read_text()
     assert "Pitting and bending safety of pinion (solid) and gear (dashed) against torque" in page  # the caption
