@@ -214,7 +214,7 @@ def test_the_table_marks_the_higher_safety_and_the_lower_stress(tmp_path):
     assert rows["sigma_H_MPa[pinion, 100 Nm]"]["best"] == ["crossing 1'"]  # the lower stress
     assert rows["K_Hbeta[ltca, 100 Nm]"]["best"] == ["crossing 1'"]  # the lower face load factor
     assert rows["load_factors_used"]["best"] == []  # no direction
-    # K_Halpha (LTCA) 1.0 against 1.0: equal, none marked; the gear's safety within 4 digits: none either
+    # K_Halpha (LTCA) 1.0 against 1.0: equal, none marked
     assert rows["K_Halpha[ltca, 100 Nm]"]["best"] == []
     assert [f["file"] for f in data["figures"]] == ["compare_rating.png"]
     page = (out / "report.html").read_text()
