@@ -407,7 +407,8 @@ def key_numbers(designs: Sequence[Design]) -> list[KeyRow]:
 
     The difference is each design's value minus the first design's; ``best`` marks the design(s)
     with the lower or higher value as the row's ``better`` says, among at least two numbers that
-    are not all equal.
+    are not all equal to 4 significant digits (relative :data:`SAME_RELATIVE`: a K_Halpha of 1.00004
+    against 1.00006 marks neither).
     """
     from ..summary import GROUPS
 
@@ -430,12 +431,22 @@ def key_numbers(designs: Sequence[Design]) -> list[KeyRow]:
         best = []
         if better and len(nums) >= 2:
             target = (min if better == "lower" else max)(v for _, v in nums)
-            best = [i for i, v in nums if v == target]
-            if len(best) == len(nums):  # all equal: none is better
+            best = [i for i, v in nums if _same(v, target)]
+            if len(best) == len(nums):  # all equal as the table shows them: none is better
                 best = []
         rows.append(KeyRow(head.key, head.label, head.unit, head.group, better, values, diffs, best,
                            [head.key in numbers for numbers in per]))
     return rows
+
+
+#: relative difference below which two key numbers are the same: half a unit of the 4th significant digit
+#: the page shows (a better value that the table cannot show is none)
+SAME_RELATIVE = 5e-5
+
+
+def _same(a: float, b: float) -> bool:
+    """``a`` and ``b`` agree to the page's 4 significant digits (:data:`SAME_RELATIVE`)."""
+    return abs(a - b) <= SAME_RELATIVE * max(abs(a), abs(b))
 
 
 def _cell(v: Any) -> str:
@@ -750,6 +761,9 @@ def write_page(data: dict, directory: Path, svgs: dict[str, bytes] | None = None
               "gearopt": data["meta"]["gearopt_version"]}
     intro = ("The same gear pair in several designs, overlaid on the same axes and scales: one colour per design "
              f"({first} first, drawn thicker), one line style per misalignment case.")
+    if any(f["file"].startswith("compare_rating") for f in data["figures"]):
+        intro += (" In the ISO 6336 rating figures the line style is the member (solid pinion, dashed gear) or the "
+                  "method of the load factor (solid gearopt's loaded TCA, dashed ISO 6336-1).")
     if not data["figures"]:
         intro += " The designs have no plotted quantity in common (only the key numbers are compared)."
     text = render_page(f"Comparison: {' vs '.join(labels)}", header, tables, warnings, figures, links, intro=intro)
