@@ -56,7 +56,8 @@ LAYERS: list[tuple[str, ...]] = [
 ]
 TOP = ("gearopt.studies", "gearopt.plot", "gearopt.io", "gearopt.cli")
 LIBRARY_BELOW_TOP = ("gearopt.gears", "gearopt.geometry", "gearopt.meshing", "gearopt.contact", "gearopt.fea",
-                     "gearopt.ltca", "gearopt.synthesis", "gearopt.robust", "gearopt.rating")
+                     "gearopt.ltca", "gearopt.synthesis", "gearopt.robust", "gearopt.rating",
+                     "gearopt.dynamics")
 
 
 @dataclass
