@@ -295,28 +295,27 @@ def single_stiffness(p: PairData, g: Geometry, line_load: float) -> dict:
             "c_gamma_beta": 0.85 * c_ga}
 
 
+def _running_in(deviation: float, material: Material, v: float, k: float) -> float:
+    """The running-in allowance for ``deviation`` [um]: y_alpha with ``k`` = 1 (ISO 6336-1:2019 8.3.4),
+    y_beta with ``k`` = 2 (7.6.2; every constant of y_beta is twice that of y_alpha)."""
+    if material.group.surface_hardened:
+        return k * min(0.075 * deviation, 3.0)
+    y = k * 160.0 / material.sigma_Hlim * deviation
+    if 5 < v <= 10:
+        y = min(y, k * 12800.0 / material.sigma_Hlim)
+    elif v > 10:
+        y = min(y, k * 6400.0 / material.sigma_Hlim)
+    return y
+
+
 def running_in_alpha(f_pb: float, material: Material, v: float) -> float:
     """Running-in allowance y_alpha for a base pitch deviation f_pb [um] (ISO 6336-1:2019 8.3.4)."""
-    if material.group.surface_hardened:
-        return min(0.075 * f_pb, 3.0)
-    y = 160.0 / material.sigma_Hlim * f_pb
-    if 5 < v <= 10:
-        y = min(y, 12800.0 / material.sigma_Hlim)
-    elif v > 10:
-        y = min(y, 6400.0 / material.sigma_Hlim)
-    return y
+    return _running_in(f_pb, material, v, 1.0)
 
 
 def running_in_beta(F_betax: float, material: Material, v: float) -> float:
     """Running-in allowance y_beta [um] (ISO 6336-1:2019 7.6.2)."""
-    if material.group.surface_hardened:
-        return min(0.15 * F_betax, 6.0)
-    y = 320.0 / material.sigma_Hlim * F_betax
-    if 5 < v <= 10:
-        y = min(y, 25600.0 / material.sigma_Hlim)
-    elif v > 10:
-        y = min(y, 12800.0 / material.sigma_Hlim)
-    return y
+    return _running_in(F_betax, material, v, 2.0)
 
 
 def reduced_mass(g: Geometry, density: float) -> float:
