@@ -12,11 +12,15 @@ import csv
 import json
 import re
 import shutil
+import sys
 from pathlib import Path
 
 import pytest
 
 from gearopt.cli import main
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from results_doc import undocumented  # noqa: E402
 
 PROBLEMS = Path(__file__).resolve().parent.parent / "problems"
 #: FE over ISO's sigma_F0, the band of docs/rating.md: ISO's method B is a conservative engineering
@@ -39,7 +43,8 @@ def variant(tmp_path: Path, name: str, edits: list[tuple[str, str]]) -> Path:
 
 
 def test_fe_root_without_ccx_is_refused_naming_the_key(tmp_path, capsys, monkeypatch):
-    """``fe_root = true`` with no ccx on PATH: exit 2, the key named, CalculiX named, nothing written."""
+    """``fe_root = true`` with no ccx on PATH: exit 2, the key named, CalculiX named, before the loaded TCA
+    runs (not after minutes of it), nothing written."""
     real = shutil.which
     monkeypatch.setattr(shutil, "which", lambda exe, *a, **k: None if "ccx" in str(exe) else real(exe, *a, **k))
     monkeypatch.delenv("GEAROPT_CCX", raising=False)
@@ -50,6 +55,7 @@ def test_fe_root_without_ccx_is_refused_naming_the_key(tmp_path, capsys, monkeyp
     err = capsys.readouterr().err
     assert rc == 2, err
     assert re.search(r"\bfe_root\b", err) and "CalculiX" in err and "Traceback" not in err, err
+    assert "loaded TCA" not in err, err
     assert not out.exists()
 
 
@@ -69,7 +75,8 @@ def test_fe_root_of_a_helical_pair_is_refused(tmp_path, capsys):
 def test_fe_root_stress_of_rating_spur_within_the_band_of_iso(tmp_path, capsys):
     """rating_spur at 100 N m, ``fe_root = true``: each member's FE root stress (load at its outer point of
     single pair contact, one pair loaded) lies within BAND of ISO's sigma_F0; the contact in the FE model
-    is at ISO's d_en (within 0.5 %); results.json and rating_factors.csv hold the comparison."""
+    is at ISO's d_en (within 0.5 %); results.json (every key in docs/results.md) and rating_factors.csv hold
+    the comparison."""
     scene = variant(tmp_path, "rating_spur.toml", [("n_slices = 21", "n_slices = 21\nfe_root = true"),
                                                    ("torques = [25.0, 50.0, 100.0, 150.0, 200.0, 250.0]",
                                                     "torques = [100.0]")])
@@ -86,6 +93,7 @@ def test_fe_root_stress_of_rating_spur_within_the_band_of_iso(tmp_path, capsys):
         ratio = m["sigma_FE"] / iso[i]
         assert BAND[0] <= ratio <= BAND[1], (m["member"], ratio)
         assert m["gap_pct"] == pytest.approx(100 * (ratio - 1), rel=1e-9)
+    assert undocumented(d, "rating") == []
     rows = {r["symbol"]: r for r in csv.DictReader((out / "rating_factors.csv").open())}
     assert float(rows["sigma_F0_FE"]["used_gear"]) == pytest.approx(fe[1]["sigma_FE"], rel=1e-9)
     assert float(rows["sigma_F0_FE"]["iso_pinion_or_pair"]) == pytest.approx(iso[0], rel=1e-9)
