@@ -5,7 +5,8 @@ micro-geometry and misalignment) and from ISO's method B, side by side.
 Scene section ``[rating]``: ``torque`` (nominal pinion torque [N m], required), ``torques`` (the
 torques rated, increasing; default 25 ... 150 % of ``torque``), the misalignment keys of ``[ltca]``,
 and the options of :class:`gearopt.rating.settings.RatingSettings` (speed, life, materials, accuracy,
-``load_factors = "ltca" | "iso"``: the set the safety factors use).
+``load_factors = "ltca" | "iso"``: the set the safety factors use; ``fe_root = true``: the FE tooth-root
+stress of both members beside ISO's sigma_F0, :mod:`gearopt.rating.fe_root`, CalculiX).
 
 Outputs: results.json (docs/results.md, "rating"), ``rating_factors.csv`` (every factor at the
 nominal torque, both sets), ``rating_vs_torque.csv``, ``rating_safety.png``.
