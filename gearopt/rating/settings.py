@@ -86,3 +86,7 @@ class RatingSettings(LTCAStudySettings):
     load_factors: str = option("ltca", kind="str", choices=("ltca", "iso"),
                                doc="K_Hbeta, K_Halpha of the safety factors: gearopt's loaded TCA or ISO's method B "
                                    "(the other is reported beside)")
+    fe_root: bool = option(False, kind="bool",
+                           doc="also compute the tooth-root stress of both members with the FE model (CalculiX ccx, "
+                               "coarse mesh, two runs) at each one's outer point of single pair contact and report it "
+                               "beside ISO's sigma_F0 (spur pairs; docs/rating.md)")

@@ -5,7 +5,8 @@ micro-geometry and misalignment) and from ISO's method B, side by side.
 Scene section ``[rating]``: ``torque`` (nominal pinion torque [N m], required), ``torques`` (the
 torques rated, increasing; default 25 ... 150 % of ``torque``), the misalignment keys of ``[ltca]``,
 and the options of :class:`gearopt.rating.settings.RatingSettings` (speed, life, materials, accuracy,
-``load_factors = "ltca" | "iso"``: the set the safety factors use).
+``load_factors = "ltca" | "iso"``: the set the safety factors use; ``fe_root = true``: the FE tooth-root
+stress of both members beside ISO's sigma_F0, :mod:`gearopt.rating.fe_root`, CalculiX).
 
 Outputs: results.json (docs/results.md, "rating"), ``rating_factors.csv`` (every factor at the
 nominal torque, both sets), ``rating_vs_torque.csv``, ``rating_safety.png``.
@@ -78,6 +79,11 @@ class RatingReport:
 
         for k in used:
             lines.append(",".join([k, units.get(k, "-"), *cells(used[k]), *cells(iso.get(k))]))
+        if "fe_root" in d:  # FE root stress (both columns of "used") beside ISO's sigma_F0, and the gap
+            fe = d["fe_root"]["members"]
+            lines.append(",".join(["sigma_F0_FE", "N/mm^2", _cell(fe[0]["sigma_FE"]), _cell(fe[1]["sigma_FE"]),
+                                   _cell(fe[0]["sigma_F0_iso"]), _cell(fe[1]["sigma_F0_iso"])]))
+            lines.append(",".join(["sigma_F0_FE_gap", "%", _cell(fe[0]["gap_pct"]), _cell(fe[1]["gap_pct"]), "", ""]))
         (Path(out_dir) / "rating_factors.csv").write_text("\n".join(lines) + "\n", encoding="utf-8")
         head = ["torque_Nm"]
         for k in ROW_KEYS:
@@ -199,6 +205,8 @@ class RatingStudy:
         from ..rating.pair import generated_tooth_forms
 
         self.tooth_forms = generated_tooth_forms(pair, self.pair_data) if s.tooth_form == "generated" else None
+        if s.fe_root:
+            check_fe_root(pair)
         # the ISO rating at every torque now: a pair ISO 6336 cannot rate is refused before the LTCA runs
         self.iso = [self.rate(t) for t in self.torques]
         self.iso_nominal = self.rate(self.torque)
@@ -289,6 +297,15 @@ class RatingStudy:
                         "units": dict(chosen.units), "sources": dict(chosen.sources)},
             "timing": {"run_s": time.perf_counter() - t0},
         }
+        if s.fe_root:
+            from ..rating.fe_root import fe_root_stress
+            from ..rating.iso6336 import geometry, tooth_form
+
+            g = geometry(p)
+            d_en = (tooth_form(0, p, g)["d_en"], tooth_form(1, p, g)["d_en"])
+            data["fe_root"] = fe_root_stress(self.pair, self.torque, d_en, nom_i["sigma_F0"], progress)
+            data["timing"]["fe_root_s"] = data["fe_root"]["run_s"]
+            data["timing"]["run_s"] = time.perf_counter() - t0
         if self.bins:
             from ..rating.spectrum import rate_spectrum
 
@@ -297,6 +314,24 @@ class RatingStudy:
                                self.accuracy(), load_factors=given, tooth_forms=self.tooth_forms)
             data["spectrum"] = sp
         return RatingReport(data)
+
+
+def check_fe_root(pair: GearPair) -> None:
+    """Before any run: ``fe_root = true`` needs CalculiX and a spur pair (an OptionError naming the key)."""
+    from ..errors import OptionError
+    from ..fea.calculix import CCX_ENV, ccx_path
+
+    if not (pair.pinion.is_spur and pair.gear.is_spur):
+        raise OptionError(f"fe_root = true: the FE root stress is compared with ISO 6336-3 for spur pairs only (this "
+                          f"pair has beta = {math.degrees(pair.pinion.beta):.4g} deg: ISO rates a helical pair through "
+                          "its virtual spur gear, whose outer point of single contact is no position of the real mesh). "
+                          "Valid: fe_root = false for a helical pair.", param="fe_root", value=True,
+                          valid="false for a helical pair")
+    if ccx_path() is None:
+        raise OptionError(f"fe_root = true needs CalculiX (ccx), which is not installed or not on PATH. Install it "
+                          f"(Debian/Ubuntu: apt-get install calculix-ccx; `make ccx`), set {CCX_ENV} to the executable, "
+                          "or set fe_root = false.", param="fe_root", value=True,
+                          valid="false without CalculiX")
 
 
 def spectrum_bins(s: Any) -> list:
