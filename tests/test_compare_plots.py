@@ -164,3 +164,46 @@ def test_fe_designs_per_position():
     assert len(root.get_lines()) == 4  # pinion and gear of each design
     assert "[MPa]" in p.get_ylabel() and "[arcsec]" in te.get_ylabel() and "[deg]" in te.get_xlabel()
     _lint(fig)
+
+
+def _dynamics(n_E1: float, peak: float, speed_peak: float, cases=("as_given", "unmodified"), loss_from=None) -> dict:
+    """A dynamics result: K_v a resonance curve of height ``peak`` at ``speed_peak`` [rpm] per case."""
+    v = np.linspace(2000.0, 32000.0, 31)
+    out = []
+    for j, name in enumerate(cases):
+        kv = 1.0 + (peak - 1.0 + j) / (1.0 + ((v - speed_peak) / 1500.0) ** 2)
+        loss = [bool(loss_from is not None and s >= loss_from) for s in v]
+        out.append({"name": name, "speeds_rpm": v.tolist(), "K_v_max": float(kv.max()),
+                    "K_v_max_speed_rpm": float(v[np.argmax(kv)]),
+                    "up": {"K_v": kv.tolist(), "contact_loss": loss},
+                    "down": {"K_v": (kv * 1.01).tolist(), "contact_loss": loss}})
+    return {"study": "dynamics", "model": {"n_E1_iso_rpm": n_E1}, "cases": out}
+
+
+def test_dynamics_designs_share_one_speed_axis_per_case():
+    """Two dynamics designs: one panel per case both have (a case one design lacks gets no panel of
+    its own), each design in its colour with its K_v peak in the legend, its n_E1 dotted."""
+    designs = {"relieved": _dynamics(21100.0, 1.8, 20000.0),
+               "stiffer": _dynamics(23000.0, 2.5, 21000.0, cases=("as_given",), loss_from=20000.0)}
+    with plot_style():
+        figs = {name: fig for name, _, fig in comparison_figures(designs)}
+    fig = figs["compare_dynamics.png"]
+    axes = [ax for ax in fig.axes if ax.get_visible()]
+    assert len(axes) == 1  # "unmodified" is in one design only
+    ax = axes[0]
+    texts = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert any(t.startswith("relieved: speed up, K_v max 1.8") for t in texts)
+    assert any(t.startswith("stiffer: speed up, K_v max 2.5") for t in texts)
+    assert "stiffer: contact loss" in texts and "relieved: contact loss" not in texts
+    assert any("n_E1 = 23000 rpm" in t for t in texts)
+    colours = {line.get_color() for line in ax.get_lines() if line.get_label().startswith("relieved")}
+    assert colours == {"C0"}
+    assert "[rpm]" in ax.get_xlabel()
+    _lint(fig)
+
+
+def test_a_dynamics_design_alone_draws_no_dynamics_figure():
+    designs = {"a": _dynamics(21100.0, 1.8, 19600.0), "b": {"study": "tca", "cases": []}}
+    with plot_style():
+        names = [name for name, _, fig in comparison_figures(designs)]
+    assert "compare_dynamics.png" not in names

@@ -910,6 +910,21 @@ def comparison_figures(designs: Mapping[str, dict], samples: Mapping[str, Mappin
                         "Miner damage sums and safety factors against each design's load spectrum per mode and member: "
                         "the lower damage and the higher safety is the better design (0: no bin above the endurance "
                         "level).", fig))
+    dyn = {lab: r for lab, r in designs.items() if r.get("study") == "dynamics" and r.get("cases")}
+    if len(dyn) >= 2:
+        from .dynamics import plot_compare_dynamic_factor
+
+        names = list(dict.fromkeys(c["name"] for r in dyn.values() for c in r["cases"]))
+        names = [n for n in names if sum(any(c["name"] == n for c in r["cases"]) for r in dyn.values()) >= 2]
+        if names:
+            fig, axes = _grid(len(names), width=7.0, height=5.0, ncols=2)
+            for ax, n in zip(axes, names):
+                plot_compare_dynamic_factor(dyn, n, ax=ax)
+            fig.suptitle("gear dynamics: dynamic factor against pinion speed, one panel per case", fontsize=10)
+            out.append(("compare_dynamics.png",
+                        "Dynamic factor K_v of each design against pinion speed, per case, with each design's ISO "
+                        "n_E1: which design resonates where, how high K_v rises there and from which speed its teeth "
+                        "lose contact (x).", fig))
     return out
 
 

@@ -125,3 +125,43 @@ def plot_cycle_te(d: dict, case: int = 0, ax: Axes | None = None) -> Axes:
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7)
     return ax
+
+
+def plot_compare_dynamic_factor(designs: dict, case: str, ax: Axes | None = None) -> Axes:
+    """K_v against pinion speed of the case named ``case`` of every design of the ``dynamics`` study
+    (``designs``: label -> results dict, in the order of the comparison), one colour per design
+    (``C0``, ``C1``, ... as every comparison figure), the upward branch solid and the downward dashed,
+    speeds with contact loss marked x; each design's ISO 6336-1 n_E1 dotted in its colour. A design
+    without the case is named in the title."""
+    import matplotlib.pyplot as plt
+
+    ax = ax or plt.gca()
+    missing = []
+    for i, (label, d) in enumerate(designs.items()):
+        col = f"C{i % 10}"
+        c = next((c for c in d["cases"] if c["name"] == case), None)
+        if c is None:
+            missing.append(label)
+            continue
+        v = np.array(c["speeds_rpm"], float)
+        for br, ls in (("up", "-"), ("down", "--")):
+            kv = _arr(c[br]["K_v"])
+            ax.plot(v, kv, ls, color=col, lw=2.2 if i == 0 else 1.5,
+                    label=f"{label}: speed {br}, K_v max {c['K_v_max']:.3g} at {c['K_v_max_speed_rpm']:.0f} rpm"
+                    if br == "up" else None)
+            loss = np.array([bool(x) for x in c[br]["contact_loss"]])
+            if loss.any():
+                ax.plot(v[loss], kv[loss], "x", color=col, ms=5, label=f"{label}: contact loss" if br == "up" else None)
+        ax.axvline(d["model"]["n_E1_iso_rpm"], color=col, ls=":", lw=1.1,
+                   label=f"{label}: ISO 6336-1 n_E1 = {d['model']['n_E1_iso_rpm']:.0f} rpm")
+    ax.axhline(1.0, color="0.5", lw=0.8)
+    ax.set_xlabel("pinion speed [rpm]")
+    ax.set_ylabel("K_v = peak dynamic / static mesh force")
+    if ax.get_ylim()[1] > 2.0:
+        ax.set_ylim(bottom=0)
+    ax.set_title(f"dynamic factor, case {case} (solid: speed up, dashed: down)"
+                 + (f"; not in {', '.join(missing)}" if missing else ""), fontsize=9)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=2)
+    plain_ticks(ax)
+    return ax
