@@ -46,16 +46,22 @@ def plot_dynamic_factor(d: dict, ax: Axes | None = None) -> Axes:
                        if j == 0 else None)
     ax.axvline(d["model"]["n_E1_iso_rpm"], color="k", ls=":", lw=1.2,
                label=f"ISO 6336-1 n_E1 = {d['model']['n_E1_iso_rpm']:.0f} rpm")
+    _kv_axes(ax, f"dynamic factor at {d['options']['torque_Nm']:g} N m (damping ratio {d['options']['damping']:g})")
+    ax.legend(fontsize=7, ncol=3)
+    return ax
+
+
+def _kv_axes(ax: Axes, title: str, fontsize: float | None = None) -> None:
+    """The axes of a K_v-against-speed plot: the K_v = 1 line, labels with units, K_v from 0 where it
+    exceeds 2, the title, a grid and plain ticks."""
     ax.axhline(1.0, color="0.5", lw=0.8)
     ax.set_xlabel("pinion speed [rpm]")
     ax.set_ylabel("K_v = peak dynamic / static mesh force")
     if ax.get_ylim()[1] > 2.0:
         ax.set_ylim(bottom=0)
-    ax.set_title(f"dynamic factor at {d['options']['torque_Nm']:g} N m (damping ratio {d['options']['damping']:g})")
+    ax.set_title(title, fontsize=fontsize)
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=7, ncol=3)
     plain_ticks(ax)
-    return ax
 
 
 def plot_order_amplitudes(d: dict, case: int = 0, ax: Axes | None = None) -> Axes:
@@ -154,14 +160,7 @@ def plot_compare_dynamic_factor(designs: dict, case: str, ax: Axes | None = None
                 ax.plot(v[loss], kv[loss], "x", color=col, ms=5, label=f"{label}: contact loss" if br == "up" else None)
         ax.axvline(d["model"]["n_E1_iso_rpm"], color=col, ls=":", lw=1.1,
                    label=f"{label}: ISO 6336-1 n_E1 = {d['model']['n_E1_iso_rpm']:.0f} rpm")
-    ax.axhline(1.0, color="0.5", lw=0.8)
-    ax.set_xlabel("pinion speed [rpm]")
-    ax.set_ylabel("K_v = peak dynamic / static mesh force")
-    if ax.get_ylim()[1] > 2.0:
-        ax.set_ylim(bottom=0)
-    ax.set_title(f"dynamic factor, case {case} (solid: speed up, dashed: down)"
-                 + (f"; not in {', '.join(missing)}" if missing else ""), fontsize=9)
-    ax.grid(alpha=0.3)
+    _kv_axes(ax, f"dynamic factor, case {case} (solid: speed up, dashed: down)"
+             + (f"; not in {', '.join(missing)}" if missing else ""), fontsize=9)
     ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=2)
-    plain_ticks(ax)
     return ax
