@@ -93,12 +93,7 @@ def fe_root_stress(pair: GearPair, torque: float, d_en: tuple[float, float], sig
     from gearopt.rating.pair import reference_pair
     from gearopt.settings import MeshOptions
 
-    if not (pair.pinion.is_spur and pair.gear.is_spur):
-        raise OptionError(f"fe_root = true: the FE root stress is compared with ISO 6336-3 for spur pairs only (this "
-                          f"pair has beta = {math.degrees(pair.pinion.beta):.4g} deg); ISO rates a helical pair "
-                          "through its virtual spur gear, whose outer point of single contact is no position of the "
-                          "real mesh. Valid: fe_root = false for a helical pair.", param="fe_root", value=True,
-                          valid="false for a helical pair")
+    require_spur(pair)
     require_ccx()
     say = progress or (lambda _m: None)
     t0 = time.perf_counter()
@@ -123,3 +118,20 @@ def fe_root_stress(pair: GearPair, torque: float, d_en: tuple[float, float], sig
                     "n_elements": d["n_elements"], "ccx_s": d["timing"]["ccx_s"]})
     return {"members": out, "mesh": {**COARSE_MESH, "n_hertz": COARSE_N_HERTZ, "teeth": opt.teeth},
             "pair": "the rated pair without micro-geometry, aligned", "run_s": time.perf_counter() - t0}
+
+
+def require_spur(pair: GearPair) -> None:
+    """``fe_root = true`` needs a spur pair: ISO 6336-3 rates a helical pair through its virtual spur
+    gear, whose outer point of single contact is no position of the real mesh.
+
+    Raises
+    ------
+    OptionError
+        A helical pair (naming ``fe_root``).
+    """
+    if not (pair.pinion.is_spur and pair.gear.is_spur):
+        raise OptionError(f"fe_root = true: the FE root stress is compared with ISO 6336-3 for spur pairs only (this "
+                          f"pair has beta = {math.degrees(pair.pinion.beta):.4g} deg: ISO rates a helical pair through "
+                          "its virtual spur gear, whose outer point of single contact is no position of the real mesh). "
+                          "Valid: fe_root = false for a helical pair.", param="fe_root", value=True,
+                          valid="false for a helical pair")

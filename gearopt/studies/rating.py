@@ -320,13 +320,9 @@ def check_fe_root(pair: GearPair) -> None:
     """Before any run: ``fe_root = true`` needs CalculiX and a spur pair (an OptionError naming the key)."""
     from ..errors import OptionError
     from ..fea.calculix import CCX_ENV, ccx_path
+    from ..rating.fe_root import require_spur
 
-    if not (pair.pinion.is_spur and pair.gear.is_spur):
-        raise OptionError(f"fe_root = true: the FE root stress is compared with ISO 6336-3 for spur pairs only (this "
-                          f"pair has beta = {math.degrees(pair.pinion.beta):.4g} deg: ISO rates a helical pair through "
-                          "its virtual spur gear, whose outer point of single contact is no position of the real mesh). "
-                          "Valid: fe_root = false for a helical pair.", param="fe_root", value=True,
-                          valid="false for a helical pair")
+    require_spur(pair)
     if ccx_path() is None:
         raise OptionError(f"fe_root = true needs CalculiX (ccx), which is not installed or not on PATH. Install it "
                           f"(Debian/Ubuntu: apt-get install calculix-ccx; `make ccx`), set {CCX_ENV} to the executable, "
