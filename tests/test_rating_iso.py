@@ -126,10 +126,10 @@ def test_running_in_allowances():
     eh, v = material("Eh", "MQ"), material("V", "MQ")
     assert iso.running_in_alpha(20.0, eh, 1.0) == pytest.approx(1.5)
     assert iso.running_in_alpha(60.0, eh, 1.0) == 3.0
-    assert iso.running_in_alpha(20.0, v, 1.0) == pytest.approx(160 / 700 * 20)
+    assert iso.running_in_alpha(20.0, v, 1.0) == pytest.approx(160 / v.sigma_Hlim * 20)
     assert iso.running_in_beta(20.0, eh, 1.0) == pytest.approx(3.0)
     assert iso.running_in_beta(60.0, eh, 1.0) == 6.0
-    assert iso.running_in_beta(20.0, v, 1.0) == pytest.approx(320 / 700 * 20)
+    assert iso.running_in_beta(20.0, v, 1.0) == pytest.approx(320 / v.sigma_Hlim * 20)
 
 
 def test_life_factor_corners():

@@ -8,12 +8,16 @@ factors Z_NT / Y_NT (ISO 6336-2:2019 Table 2, ISO 6336-3:2019 Table 3 lines), th
 allowances y_alpha, y_beta (ISO 6336-1:2019 8.3.4, 7.6.2), the roughness and size factors and the
 slip-layer thickness rho' of Y_deltarelT (ISO 6336-3:2019 Table 4).
 
-Source and status: ISO 6336-5:2016, 5.5 (Figures 9 to 12 for the case-hardened, nitrided and
-through-hardened wrought steels, read at the hardness given in ``note``). Only Eh/MQ sigma_Hlim =
-1500 N/mm^2 is confirmed by a published calculation (ISO/TR 6336-30:2017 example 1, docs/rating.md) and
-Eh/MQ sigma_Flim = 430 N/mm^2 (core >= 25 HRC, J12 < 28 HRC) by a KISSsoft report of ISO 6336-5;
-check the others against the standard before relying on them, and override them per member
-(``sigma_Hlim``, ``sigma_Flim`` keys) with the values of the actual material data sheet.
+Source and status: ISO 6336-5:2016, 5.5, Table 1 (sigma_lim = A x + B, x the surface hardness, per
+material, stress and grade; the Figures 5 to 12 draw the same lines). Checked against two public
+transcriptions of Table 1 (docs/rating.md, "Materials"): NT (nitr.) all six numbers and Eh
+sigma_Hlim (ML, MQ, ME) and sigma_Flim (ML, ME) agree with Table 1 (A = 0); V is Table 1's
+through-hardened wrought alloy steel lines (rows 24 to 26, 30 to 32) at 300 HV. Eh/MQ sigma_Flim =
+430 N/mm^2 is not a Table 1 row: Table 1 has 425 (core >= 25 HRC, lower hardenability), 461 (core
+>= 25 HRC, higher hardenability) and 500 (core >= 30 HRC); 430 is the value of a KISSsoft report's
+18CrNiMo7-6 (sigma_FE = 860). Eh/MQ sigma_Hlim = 1500 N/mm^2 is also confirmed by a published
+calculation (ISO/TR 6336-30:2017 example 1). Override them per member (``sigma_Hlim``,
+``sigma_Flim`` keys) with the values of the actual material data sheet.
 """
 
 from __future__ import annotations
@@ -62,6 +66,20 @@ class MaterialGroup:
     density: float = 7.83e-6   # [kg/mm^3]
 
 
+#: The hardness at which the through-hardened alloy steel group V is tabulated [HV].
+HV_V = 300.0
+#: ISO 6336-5:2016 Table 1, through-hardened wrought alloy steel (V), sigma_lim = A HV + B [N/mm^2]:
+#: (A, B) per grade for contact (H, rows 24 to 26) and bending (F, rows 30 to 32), valid 200 ... 360 HV
+#: (ME: 390 HV).
+V_ALLOY_TABLE1 = {"H": {"ML": (1.313, 188.0), "MQ": (1.313, 373.0), "ME": (2.213, 260.0)},
+                  "F": {"ML": (0.423, 104.0), "MQ": (0.425, 187.0), "ME": (0.358, 231.0)}}
+
+
+def _table1(ab: tuple[float, float], x: float) -> float:
+    """sigma_lim = A x + B (ISO 6336-5:2016, 5.5) [N/mm^2]."""
+    return round(ab[0] * x + ab[1], 6)
+
+
 MATERIALS: dict[str, MaterialGroup] = {
     "Eh": MaterialGroup(
         key="Eh", iso_group="Eh", surface_hardened=True, slip_layer=0.0030,
@@ -75,9 +93,9 @@ MATERIALS: dict[str, MaterialGroup] = {
         note="nitriding steel, gas-nitrided, surface >= 650 HV (ISO 6336-5:2016 Fig. 11, 12)"),
     "V": MaterialGroup(
         key="V", iso_group="V", surface_hardened=False, slip_layer=0.0194,
-        sigma_Hlim={"ML": 620.0, "MQ": 700.0, "ME": 770.0},
-        sigma_Flim={"ML": 230.0, "MQ": 300.0, "ME": 330.0},
-        note="through-hardened wrought alloy steel at 300 HV (ISO 6336-5:2016 Fig. 5, 6)"),
+        sigma_Hlim={g: _table1(ab, HV_V) for g, ab in V_ALLOY_TABLE1["H"].items()},
+        sigma_Flim={g: _table1(ab, HV_V) for g, ab in V_ALLOY_TABLE1["F"].items()},
+        note=f"through-hardened wrought alloy steel at {HV_V:g} HV (ISO 6336-5:2016 Table 1 rows 24-26, 30-32)"),
 }
 
 
