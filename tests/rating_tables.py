@@ -5,7 +5,11 @@
 3. K_Hbeta of gearopt's loaded TCA beside ISO 6336-1 method B's for the 20/40 spur drive of
    problems/rating_spur.toml at 100 N m, over crossing angles and lead crownings.
 
-Run: ``PYTHONPATH=. python tests/rating_tables.py`` (about a minute: 2 loaded TCA runs per cell).
+4. With ``--fe`` only: the FE root stress of rating_spur at 100 N m beside ISO's sigma_F0 over mesh
+   refinement and element type (CalculiX; 12 ccx runs, ~10 min on an idle machine).
+
+Run: ``PYTHONPATH=. python tests/rating_tables.py`` (about a minute: 2 loaded TCA runs per cell);
+``PYTHONPATH=. python tests/rating_tables.py --fe`` for table 4.
 """
 
 from __future__ import annotations
@@ -74,7 +78,40 @@ def khb_table(torque: float = 100.0, scene_name: str = "rating_spur.toml", cross
     return "\n".join(lines)
 
 
+#: (n_half, n_flank, n_fillet, n_rim, n_face), element type: the refinement table of docs/rating.md
+FE_LEVELS = [((4, 6, 4, 3, 2), "C3D8"), ((6, 8, 10, 4, 2), "C3D8"), ((8, 10, 16, 6, 2), "C3D8"),
+             ((8, 10, 16, 6, 4), "C3D8"), ((6, 8, 10, 4, 2), "C3D8I"), ((8, 10, 16, 6, 2), "C3D8I")]
+
+
+def fe_table(torque: float = 100.0) -> str:
+    from gearopt.io.scene import load_scene
+    from gearopt.rating.fe_root import fe_root_stress
+    from gearopt.rating.iso6336 import geometry, tooth_form
+    from gearopt.studies.rating import RatingStudy
+
+    scene = load_scene(Path(__file__).resolve().parents[1] / "problems" / "rating_spur.toml")
+    study = RatingStudy(scene.pair, torque)
+    p = study.pair_data
+    d_en = (tooth_form(0, p, geometry(p))["d_en"], tooth_form(1, p, geometry(p))["d_en"])
+    s0 = study.iso_nominal["sigma_F0"]
+    lines = ["| mesh n_half / n_flank / n_fillet / n_rim, n_face | elements | element | sigma_FE pinion | ratio pinion | "
+             "sigma_FE gear | ratio gear | neighbour pairs' force [N] |", "|---|---|---|---|---|---|---|---|",
+             f"| ISO sigma_F0 (generated tooth) | | | {s0[0]:.1f} | | {s0[1]:.1f} | | |"]
+    for (nh, nfl, nfi, nr, nf), et in FE_LEVELS:
+        fe = fe_root_stress(scene.pair, torque, d_en, s0, mesh=dict(n_half=nh, n_flank=nfl, n_fillet=nfi, n_rim=nr,
+                                                                      n_face=nf), element_type=et)["members"]
+        other = sum(v for m in fe for k, v in m["pair_force_N"].items() if k != "0")
+        lines.append(f"| {nh} / {nfl} / {nfi} / {nr}, {nf} | {fe[0]['n_elements']} / {fe[1]['n_elements']} | {et} | "
+                     f"{fe[0]['sigma_FE']:.1f} | {fe[0]['sigma_FE'] / s0[0]:.3f} | {fe[1]['sigma_FE']:.1f} | "
+                     f"{fe[1]['sigma_FE'] / s0[1]:.3f} | {other:g} |")
+    return "\n".join(lines)
+
+
 if __name__ == "__main__":
+    if "--fe" in sys.argv[1:]:
+        print("### FE root stress beside ISO's sigma_F0 (rating_spur at 100 N m, the rated pair alone)\n")
+        print(fe_table())
+        raise SystemExit(0)
     print("### ISO/TR 6336-30:2017 example 1\n")
     print(tr_table())
     print("\n### Bending: a KISSsoft report (ISO 6336:2006 method B)\n")
