@@ -1,4 +1,4 @@
-"""``gearopt compare`` of ISO 6336 rating designs (gearopt/plot/compare.py, docs/compare.md): the safety
+"""``gearopt compare`` of ISO 6336 rating designs (gearopt/plot/compare/rating.py, docs/compare.md): the safety
 factors of both members against torque with the minimum lines, both methods' load factors, the load
 spectrum's damage and safety, and the key-numbers table's rating rows. Fast: hand-made rating results
 with the keys of a real rating results.json; the comparison of two real runs is slow (the scenes run)."""

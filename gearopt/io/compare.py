@@ -10,7 +10,7 @@ gearopt output, everything written into a temporary sibling and moved into place
   column per design, the difference of every further design to the first and the better design
   (by the row's ``better``); a number a design does not have is ``n/a``, never 0;
 * ``compare_*.png``: the designs overlaid on the same axes and scales
-  (:func:`gearopt.plot.compare.save_figures`);
+  (:func:`gearopt.plot.compare.figures.save_figures`);
 * ``comparison.json``: the designs (label, source, study, pair), the table and the figures with
   their captions;
 * ``report.html``: the table first, then the figures with their captions;
@@ -366,9 +366,10 @@ def _summary(results: dict) -> list[KeyNumber]:
 
 def _case_names(results: dict) -> dict[str, str]:
     """Per case label of a design (``[[tca.cases]]`` names, ``misaligned``...), the name of its
-    misalignment (:func:`gearopt.plot.compare.case_name`), so that the cases of two designs with the
+    misalignment (:func:`gearopt.plot.compare.common.case_name`), so that the cases of two designs with the
     same misalignment share their key numbers whatever their labels."""
-    from ..plot.compare import case_name, te_cases
+    from ..plot.compare.common import case_name
+    from ..plot.compare.unloaded import te_cases
 
     out = {}
     for c in te_cases(results):
@@ -673,7 +674,7 @@ def _warnings(results: dict) -> list[str]:
 
 
 def _write(designs: Sequence[Design], tmp: Path, out: Path, dpi: int) -> list[str]:
-    from ..plot.compare import save_figures
+    from ..plot.compare.figures import save_figures
     from ..plot.style import plot_style
     from .page import SVGCapture
 
