@@ -17,6 +17,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import pytest  # noqa: E402
 
 from gearopt.io.results import write_results  # noqa: E402
+from gearopt.version import __version__  # noqa: E402
 from gearopt.warning_log import WarningLog, source_text  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -127,3 +128,35 @@ def test_the_log_records_and_still_shows():
     assert [(r["category"], r["message"]) for r in log.records] == [("RuntimeWarning", "two"), ("UserWarning", "three")]
     assert source_text("/x/y/gearopt/plot/tca.py", 7) == "gearopt/plot/tca.py:7"
     assert source_text("/x/y/script.py", 3) == "script.py:3"
+
+
+def _design_dir(path: Path) -> Path:
+    """A tca result directory as gearopt run leaves it (pair, no arrays: no figure of its own)."""
+    path.mkdir(parents=True)
+    data = {"study": "tca", "scene": path.name, "summary": [], "units": {"length": "mm"},
+            "pair": {"z1": 20, "z2": 40, "m_n": 3.0, "side": "right", "ratio": 2.0},
+            "meta": {"gearopt_version": __version__, "scene": None, "warnings": []}}
+    (path / "results.json").write_text(json.dumps(data))
+    (path / ".gearopt-output.json").write_text(json.dumps({"written_by": "gearopt", "files": ["results.json"]}))
+    return path
+
+
+def test_a_warning_of_a_comparison_figure_is_in_comparison_json_and_on_the_page(tmp_path, monkeypatch):
+    """``gearopt compare``: a warning planted in one group's figures (gearopt.plot.compare.figures) is in
+    comparison.json ``meta.warnings`` with its source and on the comparison page."""
+    import gearopt.plot.compare.figures as figures
+    from gearopt.io.compare import compare
+
+    def dynamics_figures(designs):
+        warnings.warn("planted: design 'b' has no K_v, left out", UserWarning, stacklevel=1)
+        return []
+
+    monkeypatch.setattr(figures, "dynamics_figures", dynamics_figures)
+    out = tmp_path / "cmp"
+    with pytest.warns(UserWarning, match="planted"):
+        compare([_design_dir(tmp_path / "a"), _design_dir(tmp_path / "b")], out)
+    meta = json.loads((out / "comparison.json").read_text())["meta"]
+    assert meta["warnings"] == [{"category": "UserWarning", "message": "planted: design 'b' has no K_v, left out",
+                                 "source": f"test_plot_warnings.py:{dynamics_figures.__code__.co_firstlineno + 1}"}]
+    page = (out / "report.html").read_text()
+    assert "comparison figures: UserWarning: planted: design" in page
