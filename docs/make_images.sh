@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Regenerate the README's pictures (docs/img/*.png) from real scene runs.
+# Regenerate the pictures of README.md and docs/features.md (docs/img/*.png) from real scene runs.
 # Run from the repository root after `make demo` has created .venv:  bash docs/make_images.sh
 # fea_spur needs CalculiX (`ccx`, Debian/Ubuntu: apt-get install calculix-ccx).
 set -euo pipefail

@@ -97,6 +97,7 @@ def _run(args) -> int:
     from .io.results import write_results
     from .io.scene import load_scene
     from .progress import reporting
+    from .warning_log import WarningLog
 
     def say(msg: str) -> None:
         if not args.quiet:
@@ -109,7 +110,7 @@ def _run(args) -> int:
     out = check_out_dir(args.out_text if args.out_text is not None else Path("out") / args.scene.stem, args.scene)
     say(f"building study {scene.study!r} for scene {scene.name!r}")
     sink = None if args.quiet else say  # long work deep in the library reports here (gearopt.progress)
-    caught = _Warnings()
+    caught = WarningLog()
     with _in_scene(scene), reporting(sink), caught:
         study = scene.build()
     say("running")
@@ -164,43 +165,6 @@ def _compare(args) -> int:
     for p in paths:
         print(p)
     return 0
-
-
-class _Warnings:
-    """Context manager (re-entrant in sequence): records every Python warning shown while active, as
-    ``{"category", "message", "source"}`` in :attr:`records` (results.json ``meta.warnings``,
-    report.html), and still shows it on stderr as Python would (the filters are unchanged)."""
-
-    def __init__(self):
-        self.records: list[dict[str, str]] = []
-        self._ctx = None
-
-    def __enter__(self):
-        import warnings
-
-        self._ctx = warnings.catch_warnings()
-        self._ctx.__enter__()  # restores warnings.showwarning (and the filters) on exit
-        show = warnings.showwarning
-
-        def record(message, category, filename, lineno, file=None, line=None):
-            self.records.append({"category": category.__name__, "message": str(message),
-                                 "source": f"{_short_path(filename)}:{lineno}"})
-            show(message, category, filename, lineno, file, line)
-
-        warnings.showwarning = record
-        return self
-
-    def __exit__(self, *exc):
-        return self._ctx.__exit__(*exc)
-
-
-def _short_path(filename: str) -> str:
-    """A source file as ``gearopt/...`` when it is part of the package, else its name."""
-    p = Path(filename)
-    parts = p.parts
-    if "gearopt" in parts:
-        return "/".join(parts[len(parts) - 1 - parts[::-1].index("gearopt"):])
-    return p.name
 
 
 class _in_scene:

@@ -471,29 +471,33 @@ _MEMBERS = ("pinion", "gear")
 
 
 def rating_summary(d: dict[str, Any]) -> list[KeyNumber]:
-    """rating: at the nominal torque (``nominal``) the safety factors of the set of load factors used
-    (``nominal.used``: the smaller of the two members and each member's), the stresses, both methods'
-    K_Hbeta and K_Halpha (``nominal.ltca``, ``nominal.iso``) and which was used; with a load spectrum
-    (``spectrum``) the larger damage sum and the smaller safety factor per mode."""
+    """rating: the nominal torque (``nominal.torque_Nm``) and at it the safety factors of the set of
+    load factors used (``nominal.used``: the smaller of the two members and each member's), the
+    stresses, both methods' K_Hbeta and K_Halpha (``nominal.ltca``, ``nominal.iso``) and which was used;
+    with a load spectrum (``spectrum``) the larger damage sum and the smaller safety factor per mode.
+    The keys do not carry the torque: the same quantity of two designs rated at different nominal
+    torques shares its row of a comparison, beside the row of the torques."""
     out = [KeyNumber("z1", "pinion teeth z1", _num(d["pair"]["z1"]), "", None, "geometry"),
            KeyNumber("z2", "gear teeth z2", _num(d["pair"]["z2"]), "", None, "geometry"),
            KeyNumber("m_n_mm", "normal module m_n", _num(d["pair"]["m_n"]), "mm", None, "geometry")]
     nom = d["nominal"]
-    used, T = nom["used"], _torque_label(nom["torque_Nm"])
+    used = nom["used"]
+    out.append(KeyNumber("nominal_torque_Nm", "nominal pinion torque of the rating", _num(nom["torque_Nm"]), "N m",
+                         None, "rating"))
     for sym, mode in (("S_H", "pitting"), ("S_F", "bending")):
-        out.append(KeyNumber(f"{sym}_min[{T}]", f"{mode} safety {sym}, the weaker member", _num(min(used[sym])), "",
-                             "higher", "rating"))
+        out.append(KeyNumber(f"{sym}_min", f"{mode} safety {sym} at the nominal torque, the weaker member",
+                             _num(min(used[sym])), "", "higher", "rating"))
         for m, member in enumerate(_MEMBERS):
-            out.append(KeyNumber(f"{sym}[{member}, {T}]", f"{mode} safety {sym}, {member}", _num(used[sym][m]), "",
-                                 "higher", "rating"))
+            out.append(KeyNumber(f"{sym}[{member}]", f"{mode} safety {sym} at the nominal torque, {member}",
+                                 _num(used[sym][m]), "", "higher", "rating"))
     for sym, label in (("sigma_H", "contact stress sigma_H"), ("sigma_F", "tooth-root stress sigma_F")):
         for m, member in enumerate(_MEMBERS):
-            out.append(KeyNumber(f"{sym}_MPa[{member}, {T}]", f"{label}, {member}", _num(used[sym][m]), "MPa", "lower",
-                                 "rating"))
+            out.append(KeyNumber(f"{sym}_MPa[{member}]", f"{label} at the nominal torque, {member}", _num(used[sym][m]),
+                                 "MPa", "lower", "rating"))
     for sym, label in (("K_Hbeta", "face load factor K_Hbeta"), ("K_Halpha", "transverse load factor K_Halpha")):
         for method, name in (("ltca", "gearopt loaded TCA"), ("iso", "ISO 6336-1")):
-            out.append(KeyNumber(f"{sym}[{method}, {T}]", f"{label}, {name}", _num(nom[method][sym]), "", "lower",
-                                 "rating"))
+            out.append(KeyNumber(f"{sym}[{method}]", f"{label} at the nominal torque, {name}", _num(nom[method][sym]),
+                                 "", "lower", "rating"))
     out.append(KeyNumber("load_factors_used", "load factors used for the safety factors", _num(d["load_factors_used"]),
                          "", None, "rating"))
     sp = d.get("spectrum")

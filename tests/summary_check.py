@@ -175,11 +175,15 @@ def check_summary(res: dict, out: Path) -> None:
                 assert s[f"fe_root_max_principal_MPa[{member}, {pos}]"] == p["root"][member]["max_principal_mid"]
     elif st == "rating":
         nom = res["nominal"]
-        T = f"{nom['torque_Nm']:g} Nm"
+        assert s["nominal_torque_Nm"] == nom["torque_Nm"]
         for sym in ("S_H", "S_F"):
-            assert s[f"{sym}_min[{T}]"] == min(nom["used"][sym])
-            assert [s[f"{sym}[{m}, {T}]"] for m in ("pinion", "gear")] == nom["used"][sym]
-        assert s[f"K_Hbeta[ltca, {T}]"] == nom["ltca"]["K_Hbeta"] and s[f"K_Hbeta[iso, {T}]"] == nom["iso"]["K_Hbeta"]
+            assert s[f"{sym}_min"] == min(nom["used"][sym])
+            assert [s[f"{sym}[{m}]"] for m in ("pinion", "gear")] == nom["used"][sym]
+            assert [s[f"{sym.replace('S_', 'sigma_')}_MPa[{m}]"] for m in ("pinion", "gear")] == \
+                nom["used"][sym.replace("S_", "sigma_")]
+        assert s["K_Hbeta[ltca]"] == nom["ltca"]["K_Hbeta"] and s["K_Hbeta[iso]"] == nom["iso"]["K_Hbeta"]
+        assert s["K_Halpha[ltca]"] == nom["ltca"]["K_Halpha"] and s["K_Halpha[iso]"] == nom["iso"]["K_Halpha"]
+        assert not any(k.endswith(" Nm]") for k in s), "a rating key carries the torque"
         assert s["load_factors_used"] == res["load_factors_used"]
         if "spectrum" in res:
             assert s["D_pitting_max"] == max(res["spectrum"]["damage"]["pitting"])

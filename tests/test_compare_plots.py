@@ -1,4 +1,4 @@
-"""The comparison figures (gearopt/plot/compare.py): the designs on the same axes and scales, a legend
+"""The comparison figures (gearopt/plot/compare/): the designs on the same axes and scales, a legend
 naming every design, units on the axes, and no mechanical fault (tests/plot_lint.py). Fast: the
 designs are hand-made result dictionaries (parabolic TE, a straight path of contact)."""
 

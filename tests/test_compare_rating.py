@@ -1,4 +1,4 @@
-"""``gearopt compare`` of ISO 6336 rating designs (gearopt/plot/compare.py, docs/compare.md): the safety
+"""``gearopt compare`` of ISO 6336 rating designs (gearopt/plot/compare/rating.py, docs/compare.md): the safety
 factors of both members against torque with the minimum lines, both methods' load factors, the load
 spectrum's damage and safety, and the key-numbers table's rating rows. Fast: hand-made rating results
 with the keys of a real rating results.json; the comparison of two real runs is slow (the scenes run)."""
@@ -6,6 +6,7 @@ with the keys of a real rating results.json; the comparison of two real runs is 
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 import matplotlib
@@ -167,6 +168,35 @@ def test_spectrum_damage_and_safety_bars():
     plt.close(one["compare_rating.png"][1])
 
 
+def _at_nominal(res: dict, k: int) -> dict:
+    """``res`` rated at the nominal torque ``TORQUES[k]`` instead (its ``nominal`` from that row)."""
+    row, used = res["torques"][k], res["load_factors_used"]
+    res["nominal"] = {"torque_Nm": row["torque_Nm"],
+                      "used": {q: row[q][used] for q in ("S_H", "S_F", "sigma_H", "sigma_F")},
+                      **{m: {q: row[q][m] for q in ("K_Hbeta", "K_Halpha")} for m in ("iso", "ltca")}}
+    return res
+
+
+def test_designs_rated_at_different_torques_share_their_rows(tmp_path):
+    """The same quantity of two designs rated at 100 and 200 N m is one row of the table (the keys do not
+    carry the torque), beside the row of the nominal torques."""
+    a = _rating_dir(tmp_path / "a", _rating(1.05, 2.9, 1.8))
+    b = _rating_dir(tmp_path / "b", _at_nominal(_rating(1.2, 3.2, 1.5), 3))
+    out = tmp_path / "cmp"
+    compare([a, b], out, labels=["100", "200"])
+    rows = {r["key"]: r for r in json.loads((out / "comparison.json").read_text())["key_numbers"]}
+    assert rows["nominal_torque_Nm"]["values"] == {"100": 100.0, "200": 200.0}
+    assert rows["nominal_torque_Nm"]["unit"] == "N m" and rows["nominal_torque_Nm"]["best"] == []
+    # S_H = s / sqrt(T / 100) of the pinion: 1.05 at 100 N m, 1.2 / sqrt(2) at 200 N m
+    assert rows["S_H_min"]["values"] == {"100": 1.05, "200": pytest.approx(1.2 / math.sqrt(2.0), rel=1e-12)}
+    assert rows["S_H_min"]["best"] == ["100"]
+    # S_F = s * 100 / T: 2.9 against 3.2 / 2
+    assert rows["S_F[pinion]"]["values"] == {"100": 2.9, "200": pytest.approx(1.6, rel=1e-12)}
+    assert set(rows["K_Hbeta[ltca]"]["values"]) == {"100", "200"}
+    assert not [k for k in rows if k.endswith(" Nm]")]
+    page = (out / "report.html").read_text()
+    assert "nominal pinion torque of the rating" in page
+
 def test_a_better_value_the_table_cannot_show_is_not_marked(tmp_path):
     """K_Halpha of gearopt's loaded TCA of two rating runs, 1.0000384 and 1.0000613 (a 2' and a 4' crossing):
     both shown as 1 on the page, neither marked better; 1.0000384 against 1.0009 is."""
@@ -178,10 +208,10 @@ def test_a_better_value_the_table_cannot_show_is_not_marked(tmp_path):
         return load_design(_rating_dir(tmp_path / name, res))
 
     rows = {r.key: r for r in key_numbers([design("a", 1.0000384), design("b", 1.0000613)])}
-    assert rows["K_Halpha[ltca, 100 Nm]"].best == []
-    assert rows["K_Halpha[ltca, 100 Nm]"].differences[1] == pytest.approx(2.29e-5, rel=1e-9)  # still the real one
+    assert rows["K_Halpha[ltca]"].best == []
+    assert rows["K_Halpha[ltca]"].differences[1] == pytest.approx(2.29e-5, rel=1e-9)  # still the real one
     rows = {r.key: r for r in key_numbers([design("c", 1.0000384), design("d", 1.0009)])}
-    assert rows["K_Halpha[ltca, 100 Nm]"].best == [0]
+    assert rows["K_Halpha[ltca]"].best == [0]
 
 
 def test_a_rating_and_a_tca_design_have_no_rating_figure():
@@ -208,14 +238,14 @@ def test_the_table_marks_the_higher_safety_and_the_lower_stress(tmp_path):
     compare([a, b], out, labels=["crossing 2'", "crossing 1'"])
     data = json.loads((out / "comparison.json").read_text())
     rows = {r["key"]: r for r in data["key_numbers"]}
-    assert rows["S_H_min[100 Nm]"]["values"] == {"crossing 2'": 1.05, "crossing 1'": 1.2}
-    assert rows["S_H_min[100 Nm]"]["best"] == ["crossing 1'"]  # the higher safety is better
-    assert rows["S_H_min[100 Nm]"]["differences"]["crossing 1'"] == pytest.approx(0.15, abs=1e-12)
-    assert rows["sigma_H_MPa[pinion, 100 Nm]"]["best"] == ["crossing 1'"]  # the lower stress
-    assert rows["K_Hbeta[ltca, 100 Nm]"]["best"] == ["crossing 1'"]  # the lower face load factor
+    assert rows["S_H_min"]["values"] == {"crossing 2'": 1.05, "crossing 1'": 1.2}
+    assert rows["S_H_min"]["best"] == ["crossing 1'"]  # the higher safety is better
+    assert rows["S_H_min"]["differences"]["crossing 1'"] == pytest.approx(0.15, abs=1e-12)
+    assert rows["sigma_H_MPa[pinion]"]["best"] == ["crossing 1'"]  # the lower stress
+    assert rows["K_Hbeta[ltca]"]["best"] == ["crossing 1'"]  # the lower face load factor
     assert rows["load_factors_used"]["best"] == []  # no direction
     # K_Halpha (LTCA) 1.0 against 1.0: equal, none marked
-    assert rows["K_Halpha[ltca, 100 Nm]"]["best"] == []
+    assert rows["K_Halpha[ltca]"]["best"] == []
     assert [f["file"] for f in data["figures"]] == ["compare_rating.png"]
     page = (out / "report.html").read_text()
     assert "Pitting and bending safety of pinion (solid) and gear (dashed) against torque" in page  # the caption
@@ -246,10 +276,10 @@ def test_two_real_rating_runs_compared(scene_run, tmp_path):
     rows = {r["key"]: r for r in data["key_numbers"]}
     s2 = {r["key"]: r["value"] for r in spur.results["summary"]}
     s4 = {r["key"]: r["value"] for r in r4["summary"]}
-    key = "S_H_min[100 Nm]"
+    key = "S_H_min"
     assert rows[key]["values"] == {"2'": s2[key], "4'": s4[key]}
     assert rows[key]["best"] == ["2'"] and s4[key] < s2[key]
-    assert rows["K_Hbeta[ltca, 100 Nm]"]["best"] == ["2'"]
+    assert rows["K_Hbeta[ltca]"]["best"] == ["2'"]
     # the figure draws each run's own safety factors
     designs = {"2'": spur.results, "4'": r4}
     fig, ax = plt.subplots()

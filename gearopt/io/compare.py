@@ -10,7 +10,7 @@ gearopt output, everything written into a temporary sibling and moved into place
   column per design, the difference of every further design to the first and the better design
   (by the row's ``better``); a number a design does not have is ``n/a``, never 0;
 * ``compare_*.png``: the designs overlaid on the same axes and scales
-  (:func:`gearopt.plot.compare.save_figures`);
+  (:func:`gearopt.plot.compare.figures.save_figures`);
 * ``comparison.json``: the designs (label, source, study, pair), the table and the figures with
   their captions;
 * ``report.html``: the table first, then the figures with their captions;
@@ -366,9 +366,10 @@ def _summary(results: dict) -> list[KeyNumber]:
 
 def _case_names(results: dict) -> dict[str, str]:
     """Per case label of a design (``[[tca.cases]]`` names, ``misaligned``...), the name of its
-    misalignment (:func:`gearopt.plot.compare.case_name`), so that the cases of two designs with the
+    misalignment (:func:`gearopt.plot.compare.common.case_name`), so that the cases of two designs with the
     same misalignment share their key numbers whatever their labels."""
-    from ..plot.compare import case_name, te_cases
+    from ..plot.compare.common import case_name
+    from ..plot.compare.unloaded import te_cases
 
     out = {}
     for c in te_cases(results):
@@ -620,12 +621,13 @@ def _run_here(scene_file: Path, directory: Path) -> None:
 
 
 def comparison_dict(designs: Sequence[Design], rows: Sequence[KeyRow], figures: Sequence[tuple[str, str]],
-                    out: Path) -> dict:
+                    out: Path, warnings: Sequence[dict[str, str]] = ()) -> dict:
     """The content of ``comparison.json`` (and of the page): designs, key numbers, figures.
 
     ``key_numbers[].values`` holds a label only when that design has the quantity (an absent label:
     the design does not have it, never 0); ``differences`` each further design's value minus the
-    first design's where both are numbers."""
+    first design's where both are numbers; ``meta.warnings`` the warnings raised while the figures
+    were drawn (``warnings``: ``{"category", "message", "source"}`` each, as results.json's)."""
     labels = [d.label for d in designs]
     full = Path(os.path.abspath(out))
 
@@ -650,7 +652,8 @@ def comparison_dict(designs: Sequence[Design], rows: Sequence[KeyRow], figures: 
                          "best": [labels[i] for i in r.best]} for r in rows],
         "figures": [{"file": f, "caption": c} for f, c in figures],
         "meta": {"gearopt_version": __version__,
-                 "timestamp": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")},
+                 "timestamp": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+                 "warnings": [dict(w) for w in warnings]},
     }
 
 
@@ -673,17 +676,19 @@ def _warnings(results: dict) -> list[str]:
 
 
 def _write(designs: Sequence[Design], tmp: Path, out: Path, dpi: int) -> list[str]:
-    from ..plot.compare import save_figures
+    from ..plot.compare.figures import save_figures
     from ..plot.style import plot_style
+    from ..warning_log import WarningLog
     from .page import SVGCapture
 
     labels = [d.label for d in designs]
     rows = key_numbers(designs)
     write_key_numbers_csv(rows, labels, tmp / KEY_NUMBERS_FILE)
-    with plot_style(), SVGCapture() as capture:  # light figures also as SVG for the page
+    drawing = WarningLog()  # a figure that leaves a design or a case out says so by a warning
+    with drawing, plot_style(), SVGCapture() as capture:  # light figures also as SVG for the page
         figures = save_figures({d.label: d.results for d in designs}, tmp,
                                samples={d.label: d.samples for d in designs if d.samples}, dpi=dpi)
-    data = comparison_dict(designs, rows, figures, out)
+    data = comparison_dict(designs, rows, figures, out, drawing.records)
     (tmp / COMPARISON_FILE).write_text(json.dumps(data, indent=1, ensure_ascii=False, default=_jsonable) + "\n",
                                        encoding="utf-8")
     written = [KEY_NUMBERS_FILE, *[f for f, _ in figures], COMPARISON_FILE]
@@ -746,6 +751,8 @@ def write_page(data: dict, directory: Path, svgs: dict[str, bytes] | None = None
     tables = [table, Table("Designs", ["label", "study", "scene", "pair", "source", "gearopt", "date (UTC)"],
                            design_rows)]
     warnings = [f"{d['label']}: {w}" for d in designs for w in d["warnings"]]
+    warnings += [f"comparison figures: {w['category']}: {w['message']} ({w['source']})"
+                 for w in data["meta"].get("warnings") or []]
     figures = [figure_from_file(Path(directory) / f["file"], f["caption"], (svgs or {}).get(f["file"]))
                for f in data["figures"]]
     links = [(KEY_NUMBERS_FILE, f"{KEY_NUMBERS_FILE}: the key numbers at full precision"),

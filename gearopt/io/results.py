@@ -42,6 +42,7 @@ from ..progress import heartbeat
 from ..summary import summarize, summary_dicts, with_pair
 from .page import REPORT_FILE, SVGCapture, report_page
 from ..version import __version__
+from ..warning_log import WarningLog
 
 if TYPE_CHECKING:  # pragma: no cover
     from .scene import Scene
@@ -224,8 +225,9 @@ def write_results(out_dir: str | Path, result: Any, *, scene: Scene | None = Non
         ``[output] svg``, else False); each such figure is drawn a second time.
     warnings : list of dict, optional
         The warnings the run raised, ``{"category", "message", "source"}`` each (``gearopt run``
-        records them): ``meta.warnings`` of results.json (``[]`` when not given) and highlighted in
-        ``report.html``.
+        records them): ``meta.warnings`` of results.json, followed by those shown while the tables
+        and plots are written (:class:`~gearopt.warning_log.WarningLog`; ``[]`` when there are none),
+        and highlighted in ``report.html``.
 
     Returns
     -------
@@ -280,7 +282,6 @@ def write_results(out_dir: str | Path, result: Any, *, scene: Scene | None = Non
         raise ResultsError(f"results: non-finite number (NaN or inf) at {bad}; results.json is not written (a "
                            "position without contact is null in the arrays; a non-finite scalar means the study "
                            "has no valid result for these inputs).")
-    text = json.dumps(data, indent=2, allow_nan=False, default=_jsonable, ensure_ascii=False) + "\n"
 
     parent = out_dir.parent
     try:
@@ -290,10 +291,13 @@ def write_results(out_dir: str | Path, result: Any, *, scene: Scene | None = Non
         raise ResultsError(f"cannot create the output directory {out_dir}: {e.strerror or e}.") from None
     try:
         os.chmod(tmp, 0o777 & ~_umask())  # mkdtemp makes it 0700; give it the usual mode
-        (tmp / RESULTS_FILE).write_text(text, encoding="utf-8")
         written = [RESULTS_FILE]
+        # the warnings shown while the tables and plots are written (a plot that leaves a case out)
+        # join meta.warnings: results.json is written after them
+        drawing = WarningLog()
         if callable(getattr(result, "save_tables", None)):
-            written += _reported(tmp, result.save_tables(str(tmp)), "save_tables")
+            with drawing:
+                written += _reported(tmp, result.save_tables(str(tmp)), "save_tables")
         if plots:
             say(f"writing plots to {out_dir}")
             kwargs = {}
@@ -305,10 +309,14 @@ def write_results(out_dir: str | Path, result: Any, *, scene: Scene | None = Non
             if svg is None:
                 svg = bool(scene.output.get("svg", False)) if scene is not None else False
             svg = SVGCapture() if svg else None
-            with plot_style(), heartbeat(progress, "writing plots", every=15.0), svg or contextlib.nullcontext():
+            with drawing, plot_style(), heartbeat(progress, "writing plots", every=15.0), \
+                    svg or contextlib.nullcontext():
                 written += _reported(tmp, result.save_plots(str(tmp), **kwargs), "save_plots")
         else:
             svg = None
+        data["meta"]["warnings"] += drawing.records
+        text = json.dumps(data, indent=2, allow_nan=False, default=_jsonable, ensure_ascii=False) + "\n"
+        (tmp / RESULTS_FILE).write_text(text, encoding="utf-8")
         captions = getattr(result, "captions", None) or {}
         page = report_page(data, written, dict(captions), svg.svgs if svg is not None else None, tmp)
         (tmp / REPORT_FILE).write_text(page, encoding="utf-8")
