@@ -11,11 +11,11 @@ slip-layer thickness rho' of Y_deltarelT (ISO 6336-3:2019 Table 4).
 Source and status: ISO 6336-5:2016, 5.5, Table 1 (sigma_lim = A x + B, x the surface hardness, per
 material, stress and grade; the Figures 5 to 12 draw the same lines). Checked against two public
 transcriptions of Table 1 (docs/rating.md, "Materials"): NT (nitr.) all six numbers and Eh
-sigma_Hlim (ML, MQ, ME) and sigma_Flim (ML, ME) agree with Table 1 (A = 0); V is Table 1's
+sigma_Hlim (ML, MQ, ME) and sigma_Flim (ML, MQ, ME) agree with Table 1 (A = 0); V is Table 1's
 through-hardened wrought alloy steel lines (rows 24 to 26, 30 to 32) at 300 HV. Eh/MQ sigma_Flim =
-430 N/mm^2 is not a Table 1 row: Table 1 has 425 (core >= 25 HRC, lower hardenability), 461 (core
->= 25 HRC, higher hardenability) and 500 (core >= 30 HRC); 430 is the value of a KISSsoft report's
-18CrNiMo7-6 (sigma_FE = 860). Eh/MQ sigma_Hlim = 1500 N/mm^2 is also confirmed by a published
+425 N/mm^2 is Table 1's row for core >= 25 HRC with the lower hardenability (the conservative one of
+its three MQ rows: 461 for the higher hardenability, 500 for core >= 30 HRC; set ``sigma_Flim`` for
+the actual core). Eh/MQ sigma_Hlim = 1500 N/mm^2 is also confirmed by a published
 calculation (ISO/TR 6336-30:2017 example 1). Override them per member (``sigma_Hlim``,
 ``sigma_Flim`` keys) with the values of the actual material data sheet.
 """
@@ -84,7 +84,7 @@ MATERIALS: dict[str, MaterialGroup] = {
     "Eh": MaterialGroup(
         key="Eh", iso_group="Eh", surface_hardened=True, slip_layer=0.0030,
         sigma_Hlim={"ML": 1300.0, "MQ": 1500.0, "ME": 1650.0},
-        sigma_Flim={"ML": 312.0, "MQ": 430.0, "ME": 525.0},
+        sigma_Flim={"ML": 312.0, "MQ": 425.0, "ME": 525.0},
         note="case-hardened wrought steel, surface 58..64 HRC, core >= 25 HRC (ISO 6336-5:2016 Fig. 9, 10)"),
     "NT": MaterialGroup(
         key="NT", iso_group="NT (nitr.)", surface_hardened=True, slip_layer=0.1005,
