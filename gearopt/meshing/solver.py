@@ -16,7 +16,7 @@ import casadi as ca
 import numpy as np
 import numpy.typing as npt
 
-from ..compiled import ColumnMap, call, compile_function, map_columns, mapped, use_compiled
+from ..compiled import ColumnMap, call, map_columns, mapped, select
 from ..settings import ContactSettings  # re-exported: declared with the other option sets (gearopt.settings)
 
 NORMAL_TOL = 1e-8  #: accepted contact points have n1 . n2 < -1 + NORMAL_TOL (tangency, not crossing)
@@ -37,8 +37,10 @@ class SolverSettings:
         Acceptance threshold on the residual norm [mm].
     jit : {"auto", True, False}
         Run mapped sweeps as compiled C (:mod:`gearopt.compiled`: generated once per graph, cached on
-        disk across processes): "auto" from :data:`gearopt.compiled.MIN_COLUMNS` columns on when a C
-        compiler works, True always (a warning and the interpreter when none works), False never.
+        disk across processes): "auto" whenever the library is in the cache, whatever the size; on a
+        cache miss from :data:`gearopt.compiled.MIN_COLUMNS` columns on (compiled at once), smaller
+        sweeps run interpreted while it compiles in the background (:func:`gearopt.compiled.select`);
+        True always (a warning and the interpreter when no compiler works), False never.
         Compiled and interpreted sweeps agree to round-off (tests/test_tca_jit.py).
     """
 
@@ -247,14 +249,19 @@ class Branch:
 
     def mapped(self, n: int, n_total: int | None = None, extra: bool = False) -> ColumnMap:
         """(W0, P) -> (W, residual norm, n1 . n2, regularity[, the extra outputs]) on columns (any
-        number; numpy in and out): the compiled column (:func:`gearopt.compiled.use_compiled` for
-        ``n_total`` columns in all, default n) or the interpreted one."""
-        fast = self.solver == "fast_newton" and use_compiled(self.jit, n if n_total is None else n_total)
+        number; numpy in and out): the compiled column when :func:`gearopt.compiled.select` gives
+        it for ``n_total`` columns in all (default n: under ``jit="auto"`` whenever its library is
+        in the disk cache; on a miss compiled at once from ``MIN_COLUMNS`` columns on, else in the
+        background while this call runs interpreted), or the interpreted one."""
         extra = bool(extra) and self.one_x is not None
-        key = ("columns", fast, extra)
+        fast = self.solver == "fast_newton" and self.jit is not False
+        done = ("columns", True, extra)
+        if fast and done in self._maps:  # once compiled, always (the library does not go away)
+            return self._maps[done]
+        col = self.one_x if extra else self.one
+        f = select(col, self.jit, n if n_total is None else n_total) if fast else None
+        key = ("columns", f is not None, extra)
         if key not in self._maps:
-            col = self.one_x if extra else self.one
-            f = compile_function(col) if fast else None
             if f is not None:
                 self._maps[key] = ColumnMap(col, lambda m: map_columns(f, m))
             elif extra:
@@ -304,7 +311,7 @@ class Branch:
         tooth pair's slices, or a whole branch, would drop out without a word.
 
         ``n_total``: columns of the whole job these belong to (chooses compiled or interpreted,
-        :func:`gearopt.compiled.use_compiled`; default the columns given). ``extra``: the first
+        :func:`gearopt.compiled.select`; default the columns given). ``extra``: the first
         pass also returns the ``extra`` Function's outputs at every column's solved point, in
         ``stats["extra"]`` (by name), and the columns that continuation changed afterwards in
         ``stats["rescued"]`` (their extra outputs are those of the first pass: recompute them).

@@ -343,8 +343,11 @@ class TCA:
     jit : {"auto", True, False}
         Run the mapped sweep (rootfinder + checks, and the contact outputs) as compiled C
         (:mod:`gearopt.compiled`: compiled once per graph, 0.2-0.8 s, cached on disk across
-        processes, then ~10x faster; see benchmarks/bench_tca.py): "auto" (default) for sweeps of
-        at least :data:`gearopt.compiled.MIN_COLUMNS` columns, True for every sweep, False never.
+        processes, then ~10x faster; see benchmarks/bench_compiled.py): "auto" (default) whenever
+        the library is in the cache, whatever the sweep's size; on a cache miss a sweep of at least
+        :data:`gearopt.compiled.MIN_COLUMNS` columns compiles at once, a smaller one runs
+        interpreted while the library compiles in the background (:func:`gearopt.compiled.select`).
+        True for every sweep, False never.
         Without a working C compiler the interpreted Functions run, after a one-line warning.
     """
 
