@@ -423,10 +423,13 @@ class ColumnMap:
         The Function of one column (for ``name_out`` and the shapes).
     factory : callable(m) -> casadi.Function
         The column Function mapped over m columns (compiled, threaded or interpreted).
+    compiled : bool
+        Whether ``factory`` maps a compiled library (what :func:`select` chose; for tests and
+        benchmarks: which path a sweep took).
     """
 
-    def __init__(self, column: ca.Function, factory: Callable[[int], ca.Function]) -> None:
-        self.column, self.factory = column, factory
+    def __init__(self, column: ca.Function, factory: Callable[[int], ca.Function], compiled: bool = False) -> None:
+        self.column, self.factory, self.compiled = column, factory, bool(compiled)
         self._maps: dict[tuple, _Signature] = {}
         self._sig = _Signature(column)
 
@@ -517,7 +520,9 @@ def mapped(f: ca.Function, n: int, jit: bool | str = "auto", n_total: int | None
     here, once: a ColumnMap built on a cache miss stays interpreted (build a new one to pick up a
     library compiled since)."""
     g = select(f, jit, n if n_total is None else n_total)
-    return ColumnMap(f, (lambda m: map_columns(g, m)) if g is not None else f.map)
+    if g is None:
+        return ColumnMap(f, f.map)
+    return ColumnMap(f, lambda m: map_columns(g, m), compiled=True)
 
 
 class _Signature:

@@ -263,7 +263,7 @@ class Branch:
         key = ("columns", f is not None, extra)
         if key not in self._maps:
             if f is not None:
-                self._maps[key] = ColumnMap(col, lambda m: map_columns(f, m))
+                self._maps[key] = ColumnMap(col, lambda m: map_columns(f, m), compiled=True)
             elif extra:
                 self._maps[key] = ColumnMap(col, col.map)
             else:
