@@ -588,7 +588,14 @@ def call(f: ca.Function, *args: ArrayLike) -> list[np.ndarray]:
     if isinstance(f, ColumnMap):
         out = f(*args)
         return [out] if f.column.n_out() == 1 else out
-    return _Signature(f)(*args)
+    key = id(f)
+    hit = _signatures.get(key)
+    if hit is None or hit[0]() is not f:  # shapes queried once per live Function object
+        hit = _signatures[key] = (weakref.ref(f, lambda _, k=key: _signatures.pop(k, None)), _Signature(f))
+    return hit[1](*args)
+
+
+_signatures: dict[int, tuple] = {}  # id of a Function -> (weak reference, its _Signature)
 
 
 def nlpsol(name: str, plugin: str, nlp: dict, opts: dict, jit: bool = False) -> ca.Function:

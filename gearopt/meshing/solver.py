@@ -162,7 +162,8 @@ class Branch:
 
     def predict(self, w_a: npt.ArrayLike, prm_a: npt.ArrayLike, dphi: npt.ArrayLike) -> np.ndarray:
         """First guesses ``w_a + dw/dphi1 * dphi`` (nw, len(dphi)) around the solved anchor."""
-        dw = np.asarray(self.dw(w_a, prm_a)).ravel()
+        one = select(self.dw, self.jit, 1)  # one column: the Function itself, compiled when cached
+        dw = call(self.dw if one is None else one, np.asarray(w_a, float), np.asarray(prm_a, float))[0].ravel()
         return np.asarray(w_a)[:, None] + dw[:, None] * np.asarray(dphi)[None, :]
 
     def predict_knots(self, w_a: npt.ArrayLike, prm_a: npt.ArrayLike, phi: np.ndarray, anchor: float,
@@ -205,12 +206,10 @@ class Branch:
         okk = np.asarray(self.accept(res.ravel(), n1n2.ravel(), reg.ravel()), bool)
         if not okk.any():
             return lin
-        key = ("dw",)
-        if key not in self._maps:  # interpreted: a few dozen knots (compiling would cost more on a cold cache)
-            self._maps[key] = mapped(self.dw, knots.size, False)
+        dw_map = self._dw_map(knots.size)
         dWk = np.full(Wk.shape, np.nan)
         g = np.flatnonzero(okk)
-        dWk[:, g] = call(self._maps[key], Wk[:, g], prm_k[:, g])[0]
+        dWk[:, g] = call(dw_map, Wk[:, g], prm_k[:, g])[0]
         # knots that failed from the anchor's prediction: again from a solved neighbour knot (Newton
         # only; rounds while any is rescued)
         tried = np.zeros(knots.size, bool)
@@ -229,7 +228,7 @@ class Branch:
                 break
             g = cand[good]
             Wk[:, g], okk[g] = Wc[:, good], True
-            dWk[:, g] = call(self._maps[key], Wc[:, good], prm_k[:, g])[0]
+            dWk[:, g] = call(dw_map, Wc[:, good], prm_k[:, g])[0]
         i = np.clip(np.floor((phi - knots[0]) / spacing).astype(int), 0, knots.size - 2)
         t = (phi - knots[i]) / spacing
         both = okk[i] & okk[i + 1]
@@ -268,6 +267,18 @@ class Branch:
                 self._maps[key] = ColumnMap(col, col.map)
             else:
                 self._maps[key] = ColumnMap(col, lambda m: self._interpreted(self.rf_fast, m, "sweep"))
+        return self._maps[key]
+
+    def _dw_map(self, n: int) -> ColumnMap:
+        """The implicit-function derivative dw/dphi1 on columns: compiled when its library is in the
+        cache (:func:`gearopt.compiled.select`; a miss compiles in the background: a few dozen
+        columns never pay for a compile in the call), else interpreted."""
+        done = ("dw", True)
+        if done in self._maps:
+            return self._maps[done]
+        key = ("dw", select(self.dw, self.jit, n) is not None)
+        if key not in self._maps:
+            self._maps[key] = mapped(self.dw, n, self.jit if key[1] else False)
         return self._maps[key]
 
     def _interpreted(self, rf, n: int, what: str) -> ca.Function:
