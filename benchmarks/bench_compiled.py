@@ -3,6 +3,8 @@
 
     python benchmarks/bench_compiled.py          # about 2 minutes on 2 cores
     python benchmarks/bench_compiled.py --quick  # fewer positions and repeats, about 1 minute
+    python benchmarks/bench_compiled.py --base-tree /tmp/base   # also the small sweep of another
+                                                 # checkout (e.g. `git worktree add /tmp/base REV`)
 
 Case: the crowned, misaligned spur pair of benchmarks/bench_tca.py (pinion z=20, m_n=3, b=20, a_c=0.002,
 a_pl=0.0004; gear z=40; crossing 3', intersecting 2', dE=0.05 mm). Sweeps:
@@ -65,6 +67,38 @@ print(json.dumps({"build": t1 - t0, "first": t2 - t1, "counts": compiled.counts(
 """
 
 
+SMALL = CASE + """
+import json, sys, time
+import numpy as np
+tca = TCA(pair)
+phi = np.linspace(-math.pi / 20, math.pi / 20, 64)
+tca.sweep(phi, mis=mis)
+time.sleep(3.0)  # a background compile of a cold cache (this tree) finishes; the old tree compiles nothing
+tca = TCA(pair)
+ts = []
+for _ in range(5 * int(sys.argv[1])):
+    t0 = time.perf_counter()
+    tca.sweep(phi, mis=mis)
+    ts.append(time.perf_counter() - t0)
+import gearopt
+print(json.dumps({"us": min(ts) / 192 * 1e6, "from": gearopt.__file__}))
+"""
+
+
+def small_in(tree, repeat):
+    """us per position-pair of the default small sweep (64 x 3, warm) run by the gearopt of ``tree``."""
+    env = dict(os.environ, PYTHONPATH=str(tree))
+    # run from an empty folder: `python -c` puts the working directory first on sys.path
+    out = subprocess.run([sys.executable, "-c", SMALL, "1"], env=env, capture_output=True, text=True, timeout=600,
+                         cwd=tempfile.gettempdir())
+    if out.returncode != 0:
+        raise RuntimeError(out.stderr[-800:])
+    res = json.loads(out.stdout.strip().splitlines()[-1])
+    if not res["from"].startswith(os.path.abspath(tree)):
+        raise RuntimeError(f"{tree}: gearopt was imported from {res['from']}")
+    return res["us"]
+
+
 def best(f, k=5):
     ts = []
     for _ in range(k):
@@ -89,6 +123,10 @@ def main(argv):
         if a.startswith("--repeat="):
             repeat = max(1, int(a.split("=", 1)[1]))
     n_large = 512 if quick else 2048
+    base_tree = next((a.split("=", 1)[1] for a in argv if a.startswith("--base-tree=")), None)
+    if "--base-tree" in argv:
+        base_tree = argv[argv.index("--base-tree") + 1]
+    here = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     cache = tempfile.mkdtemp(prefix="gearopt-bench-cache-")
     os.environ["GEAROPT_CACHE_DIR"] = cache
     ns: dict = {}
@@ -157,6 +195,7 @@ def main(argv):
 
     rows = {}  # (sweep, row) -> list of us/pos-pair over the repeats
     fs = []
+    trees = {"base": [], "here": []}
 
     def timed(key, f, cols):
         rows.setdefault(key, []).append(best(f) / cols * 1e6)
@@ -164,6 +203,9 @@ def main(argv):
     k_old = min(cpus, (n_large * 3 if n_large * 3 < compiled.CHUNK else compiled.CHUNK) // compiled.MIN_PER_THREAD)
     for _ in range(repeat):
         fs.append(best(run_fsolve, 2) / m * 1e6)
+        if base_tree:  # the same warm cache: this tree's libraries; the base tree reads what it can use
+            trees["base"].append(small_in(base_tree, repeat))
+            trees["here"].append(small_in(here, repeat))
         for name, (phi, pairs) in sweeps.items():
             cols = phi.size * len(pairs)
             timed((name, "interpreted"), lambda: tca_i.sweep(phi, mis=mis, pairs=pairs), cols)
@@ -204,6 +246,14 @@ def main(argv):
             path += f", {k_new} thread{'s' if k_new > 1 else ''} (idle-core rule now)"
         err = f"{errs[name][0]:.1e}" if row != "interpreted" else "0"
         print(f"| {name} | {cols} | {labels[row]}: {path} | {stat(us)} | {stat(fs / us)}x | {err} |")
+    if base_tree:
+        print()
+        print("| small sweep (64 x 3), default `jit=\"auto\"`, new process, warm cache | us per position-pair | "
+              "vs fsolve, same run |")
+        print("|---|---|---|")
+        for label, tree in (("before", base_tree), ("after", here)):
+            v = np.array(trees["base" if label == "before" else "here"])
+            print(f"| {label}: {tree} | {stat(v)} | {stat(fs / v)}x |")
     print()
     print("same accepted points, compiled vs interpreted: " + ", ".join(f"{k} {v[1]}" for k, v in errs.items()))
     print(f"cold cache, small sweep (jit=\"auto\"): the first call {t_first_small:.3f} s "
