@@ -582,6 +582,13 @@ class TCA:
                 raise ArgumentError(f"w0 = {shorten(str(w0.tolist()))}: expected {n_w} finite numbers (the unknowns "
                                     f"[mm] for {self.contact_type} contact), got {w0.size}.",
                                     param="w0", value=w0.tolist(), valid=f"{n_w} finite numbers")
+        return self._solve_at(phi1, w0, p1, p2, mis, z_section)
+
+    def _solve_at(self, phi1: float, w0: np.ndarray | None, p1: np.ndarray, p2: np.ndarray, mis: Misalignment,
+                  z_section: float) -> np.ndarray:
+        """:meth:`solve_point` on arguments already checked (by it, or by :func:`check_sweep_args`)."""
+        if w0 is None:
+            w0 = self.guess(p1, p2, z_section)
         prm = self.prm([phi1], p1, p2, mis, z_section)[:, 0]
         key = ("anchor", _bytes(w0), _bytes(prm))  # everything the solve depends on
         hit = self._memo.get(key)
@@ -709,7 +716,7 @@ class TCA:
         K, N = len(pairs), phi1.size
         phis = np.concatenate([phi1 - 2 * math.pi * k / g1.z for k in pairs])
         prm = self.prm(phis, p1, p2, mis, z_section)
-        w_a = self.solve_point(anchor, None, p1, p2, mis, z_section)
+        w_a = self._solve_at(anchor, None, p1, p2, mis, z_section)  # (arguments checked above)
         prm_a = self.prm([anchor], p1, p2, mis, z_section)[:, 0]
         if continuation:  # every pair is the same branch w(phi1 - 2 pi k / z1): guesses from its knots
             W0 = self.branch.predict_knots(w_a, prm_a, phis, anchor, lambda v: self.prm(v, p1, p2, mis, z_section),
