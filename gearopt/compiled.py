@@ -77,6 +77,7 @@ _threads: list[int | None] = [None]
 _noted: set[str] = set()
 _counts = {"built": 0, "loaded": 0}
 _pending: dict[str, threading.Thread] = {}  # library path -> its background compile
+_failed: set[str] = set()  # library paths whose background compile failed (not tried again)
 _lock = threading.Lock()
 
 
@@ -253,7 +254,7 @@ def background() -> bool:
 def compile_in_background(f: ca.Function) -> threading.Thread | None:
     """Compile ``f`` into the disk cache in a background thread (one per library and process) and
     return the thread; None when the library is loaded or on disk already, a compile of it is under
-    way, or no compiler works. The thread is not a daemon: a process waits for its compiles at exit,
+    way or failed before in this process, or no compiler works. The thread is not a daemon: a process waits for its compiles at exit,
     so no half-written scratch directory is left in the cache. The caller keeps running ``f``
     interpreted; :func:`cached_function` finds the library once the thread is done."""
     if compiler() is None:
@@ -263,7 +264,7 @@ def compile_in_background(f: ca.Function) -> threading.Thread | None:
         return None
     key = str(path)
     with _lock:
-        if key in _loaded or key in _pending or path.exists():
+        if key in _loaded or key in _pending or key in _failed or path.exists():
             return None
         job = threading.Thread(target=_background_job, args=(f, key), name=f"gearopt-compile-{f.name()}")
         _pending[key] = job
@@ -272,14 +273,16 @@ def compile_in_background(f: ca.Function) -> threading.Thread | None:
 
 
 def _background_job(f: ca.Function, key: str) -> None:
+    # (no warning from this thread: the warnings filters are process-wide; a failed build is kept in
+    # _failed, so it is not tried again in the background, and a synchronous compile reports it)
     try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")  # a failed build is reported by the next synchronous compile
-            err = _build(f, Path(key), compiler()[0]) if not Path(key).exists() else None
+        err = _build(f, Path(key), compiler()[0]) if not Path(key).exists() else None
         if err is None:
             _counts["built"] += 1
+        else:
+            _failed.add(key)
     except Exception:  # noqa: BLE001 - never let a background compile raise into the interpreter
-        pass
+        _failed.add(key)
     finally:
         with _lock:
             _pending.pop(key, None)

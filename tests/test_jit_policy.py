@@ -128,3 +128,22 @@ def test_map_sizes_pad_at_most_a_fifth():
         assert m >= k and (m <= 8 or (m - k) / m < 0.2), (k, m)
     assert compiled.map_size(192) == 192 and compiled.map_size(193) == 224
     assert len(sizes) <= 4 * 13  # a few sizes per octave: few maps to build
+
+
+def test_failed_background_compile_is_not_retried(fresh, monkeypatch):
+    """A background compile that fails leaves the calls interpreted, is not started again on every
+    call, and touches no warnings filter (those are process-wide)."""
+    import warnings
+
+    calls = []
+    monkeypatch.setattr(compiled, "_build", lambda *a: calls.append(a) or "cc exited with 1: broken")
+    monkeypatch.setattr(compiled, "_failed", set())
+    f = _fun(5.5)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        filters = list(warnings.filters)
+        for _ in range(3):
+            assert not compiled.mapped(f, 16, "auto").compiled
+            assert compiled.wait_for_background(60)
+        assert warnings.filters == filters
+    assert len(calls) == 1 and not list(fresh.glob("*.so"))
