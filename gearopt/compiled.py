@@ -42,6 +42,7 @@ note) per process, and the callers run the interpreted Function.
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import hashlib
 import math
@@ -61,7 +62,7 @@ import numpy as np
 from .errors import ArgumentError, OptionError
 
 if TYPE_CHECKING:
-    from collections.abc import Callable
+    from collections.abc import Callable, Iterator
     from numpy.typing import ArrayLike
 
 FLAGS = ("-O2", "-shared", "-fPIC")  #: compiler flags (part of the cache key)
@@ -77,6 +78,7 @@ _threads: list[int | None] = [None]
 _noted: set[str] = set()
 _counts = {"built": 0, "loaded": 0}
 _pending: dict[str, threading.Thread] = {}  # library path -> its background compile
+_quiet = [0]  # open no_background() blocks
 _failed: set[str] = set()  # library paths whose background compile failed (not tried again)
 _lock = threading.Lock()
 
@@ -247,8 +249,22 @@ def cached_function(f: ca.Function) -> ca.Function | None:
 
 def background() -> bool:
     """Whether a cache miss of a small ``jit="auto"`` sweep compiles in the background
-    (``GEAROPT_JIT_BACKGROUND``, default on; ``0``, ``false``, ``no`` or ``off``: it does not)."""
+    (``GEAROPT_JIT_BACKGROUND``, default on; ``0``, ``false``, ``no`` or ``off``: it does not; off
+    too inside :func:`no_background`)."""
+    if _quiet[0]:
+        return False
     return os.environ.get("GEAROPT_JIT_BACKGROUND", "1").strip().lower() not in ("0", "false", "no", "off")
+
+
+@contextlib.contextmanager
+def no_background() -> Iterator[None]:
+    """Within the block no background compile starts (small sweeps of a cache miss run interpreted
+    and write nothing to the cache): for what must leave the disk untouched (``gearopt check``)."""
+    _quiet[0] += 1
+    try:
+        yield
+    finally:
+        _quiet[0] -= 1
 
 
 def compile_in_background(f: ca.Function) -> threading.Thread | None:

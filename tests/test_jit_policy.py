@@ -147,3 +147,16 @@ def test_failed_background_compile_is_not_retried(fresh, monkeypatch):
             assert compiled.wait_for_background(60)
         assert warnings.filters == filters
     assert len(calls) == 1 and not list(fresh.glob("*.so"))
+
+
+def test_no_background_block_writes_nothing(fresh, monkeypatch):
+    """Inside compiled.no_background() (what `gearopt check` runs in) a small cache miss starts no
+    compile and the cache stays empty; after the block the next call starts one."""
+    gate, ran = _gated_build(monkeypatch)
+    f = _fun(6.5)
+    with compiled.no_background():
+        assert not compiled.mapped(f, 16, "auto").compiled
+        assert not compiled._pending and not fresh.exists()
+    assert not compiled.mapped(f, 16, "auto").compiled and len(compiled._pending) == 1
+    gate.set()
+    assert compiled.wait_for_background(60) and len(ran) == 1

@@ -16,7 +16,7 @@ import casadi as ca
 import numpy as np
 import numpy.typing as npt
 
-from ..compiled import ColumnMap, call, map_columns, mapped, select
+from ..compiled import ColumnMap, available, cached_function, call, map_columns, mapped, select
 from ..settings import ContactSettings  # re-exported: declared with the other option sets (gearopt.settings)
 
 NORMAL_TOL = 1e-8  #: accepted contact points have n1 . n2 < -1 + NORMAL_TOL (tangency, not crossing)
@@ -162,7 +162,9 @@ class Branch:
 
     def predict(self, w_a: npt.ArrayLike, prm_a: npt.ArrayLike, dphi: npt.ArrayLike) -> np.ndarray:
         """First guesses ``w_a + dw/dphi1 * dphi`` (nw, len(dphi)) around the solved anchor."""
-        one = select(self.dw, self.jit, 1)  # one column: the Function itself, compiled when cached
+        # one column: the Function itself, compiled when its library is cached (one column never
+        # pays for a compile, so a miss starts none)
+        one = cached_function(self.dw) if self.jit is not False and available() else None
         dw = call(self.dw if one is None else one, np.asarray(w_a, float), np.asarray(prm_a, float))[0].ravel()
         return np.asarray(w_a)[:, None] + dw[:, None] * np.asarray(dphi)[None, :]
 
