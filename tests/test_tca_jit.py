@@ -76,3 +76,27 @@ def test_small_sweep_compiled_from_a_warm_cache_and_never_waits_for_a_cold_one(t
         np.testing.assert_allclose(other.phi2, cold.phi2, rtol=0, atol=1e-14)
         np.testing.assert_allclose(other.te_envelope, cold.te_envelope, rtol=0, atol=1e-14)
         np.testing.assert_allclose(other.ellipse_a, cold.ellipse_a, rtol=1e-10)
+
+
+def test_anchor_memo_gives_the_numbers_of_a_new_solve(tmp_path, monkeypatch):
+    """The anchor solve is kept per exact inputs: sweeps alternating between two misalignments and
+    two crownings give, bit for bit, what a new TCA gives for each (no stale anchor)."""
+    monkeypatch.setenv("GEAROPT_CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.setenv("GEAROPT_JIT_BACKGROUND", "0")
+    rack = BasicRack.iso53("A", a_c=0.002)
+    pair = GearPair(Gear(z=19, m_n=2.0, b=16, rack=rack, a_pl=4e-4, name="pinion"), Gear(z=37, m_n=2.0, b=16, name="gear"))
+    phi = np.linspace(-math.pi / 19, math.pi / 19, 9)
+    tca = TCA(pair, jit=False)
+    p1 = tca.pinion.p0.copy()
+    p1b = p1.copy()
+    p1b[tca.pinion.param_names.index("a_c")] *= 1.5
+    cases = [(Misalignment(crossing=2 * ARCMIN), p1), (Misalignment(dE=0.03), p1), (Misalignment(crossing=2 * ARCMIN), p1b)]
+    first = [tca.sweep(phi, p1=p, mis=m, pairs=(0,)) for m, p in cases]
+    again = [tca.sweep(phi, p1=p, mis=m, pairs=(0,)) for m, p in cases[::-1]][::-1]
+    ref = TCA(pair, jit=False)  # each case once: every anchor solved anew
+    for (m, p), a, b in zip(cases, first, again):
+        new = ref.sweep(phi, p1=p, mis=m, pairs=(0,))
+        for r in (a, b):
+            assert np.array_equal(r.phi2, new.phi2, equal_nan=True)
+            assert np.array_equal(r.te_envelope, new.te_envelope, equal_nan=True)
+    assert not np.array_equal(first[0].phi2, first[1].phi2) and not np.array_equal(first[0].phi2, first[2].phi2)
