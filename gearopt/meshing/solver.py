@@ -164,7 +164,11 @@ class Branch:
         """First guesses ``w_a + dw/dphi1 * dphi`` (nw, len(dphi)) around the solved anchor."""
         # one column: the Function itself, compiled when its library is cached (one column never
         # pays for a compile, so a miss starts none)
-        one = cached_function(self.dw) if self.jit is not False and available() else None
+        one = self._maps.get(("dw", "one"))
+        if one is None and self.jit is not False and available():
+            one = cached_function(self.dw)
+            if one is not None:
+                self._maps[("dw", "one")] = one
         dw = call(self.dw if one is None else one, np.asarray(w_a, float), np.asarray(prm_a, float))[0].ravel()
         return np.asarray(w_a)[:, None] + dw[:, None] * np.asarray(dphi)[None, :]
 
