@@ -1,21 +1,33 @@
-"""The compiled engine (gearopt.compiled): default TCA sweep vs the interpreted one vs scipy's fsolve,
-cold and warm disk cache, a new process with a warm cache, in one run (docs/scale.md).
+"""The compiled engine (gearopt.compiled): every figure of docs/scale.md section 2 and of the
+"Compiled sweeps (issue 43)" section of docs/benchmarks.md, in one run.
 
-    python benchmarks/bench_compiled.py          # about 1 minute
-    python benchmarks/bench_compiled.py --quick  # fewer positions
+    python benchmarks/bench_compiled.py          # about 2 minutes on 2 cores
+    python benchmarks/bench_compiled.py --quick  # fewer positions and repeats, about 1 minute
+    python benchmarks/bench_compiled.py --base-tree /tmp/base   # also the small sweep of another
+                                                 # checkout (e.g. `git worktree add /tmp/base REV`)
 
 Case: the crowned, misaligned spur pair of benchmarks/bench_tca.py (pinion z=20, m_n=3, b=20, a_c=0.002,
-a_pl=0.0004; gear z=40; crossing 3', intersecting 2', dE=0.05 mm), N pinion angles over one cycle,
-tooth pairs -1, 0, 1 (3N columns; the default ``jit="auto"`` compiles sweeps of at least
-``gearopt.compiled.MIN_COLUMNS`` columns). The cache directory is a fresh temporary one, so "cold"
-includes code generation and gcc. "us/pos-pair" is the warm wall time of ``TCA.sweep`` (everything it
-does: anchor solve, predictor, mapped solve, checks, continuation, contact ellipses) divided by the
-columns, best of 5. fsolve: ``scipy.optimize.fsolve`` (finite-difference Jacobian, default xtol) on
-the same equations (called through CasADi's buffer API) from the same first guesses, per column,
-on 200 positions of pair 0 (one thread). The default sweep splits its compiled columns over
-``gearopt.compiled.threads()`` threads (the CPUs of the process); the 1-thread row is the same
-sweep with ``set_threads(1)``. The new-process row starts a Python process with the warm cache and
-times its first sweep (after building the TCA).
+a_pl=0.0004; gear z=40; crossing 3', intersecting 2', dE=0.05 mm). Sweeps:
+
+* **small**: one mesh cycle, 64 pinion angles x tooth pairs -1, 0, 1 (192 columns), what a user
+  calls day to day;
+* **tca study**: 81 angles x pairs -2 ... 2 (405 columns; the `tca` study's default is two such
+  sweeps, 810 columns);
+* **large**: 2048 angles x 3 pairs (6144 columns; ``--quick``: 512).
+
+Rows: ``jit=False`` (interpreted: what ``jit="auto"`` ran below ``MIN_COLUMNS = 1024`` columns before
+issue 43), the default ``jit="auto"`` with a warm disk cache (compiled whatever the size since issue
+43), and for the large sweep the compiled sweep with the thread count of the old rule
+(``min(cpus, columns // 512)`` threads whatever the load: ``set_threads(cpus)``), 1 thread, and the
+default rule (threads only on idle cores, ``compiled.threads_for``).
+"us/pos-pair": warm wall time of ``TCA.sweep`` (everything it does) per column, best of 5 calls.
+fsolve: ``scipy.optimize.fsolve`` (finite-difference Jacobian, default xtol) on the same equations
+(called through CasADi's buffer API) from the same first guesses, per column, 200 positions of pair 0.
+
+Noise: the whole set of timings is repeated (``--repeat``, default 3; interleaved, so a change of the
+machine's load hits every row alike) and each figure is given as the median with the range over the
+repeats; the ratios are taken within each repeat. The load average is printed with the tables.
+The cache directory is a fresh temporary one: the cold rows include code generation and gcc.
 """
 
 from __future__ import annotations
@@ -50,8 +62,41 @@ tca = TCA(pair)
 t1 = time.perf_counter()
 sw = tca.sweep(np.linspace(-math.pi / 20, math.pi / 20, N), mis=mis)
 t2 = time.perf_counter()
-print(json.dumps({"build": t1 - t0, "first": t2 - t1, "counts": compiled.counts()}))
+print(json.dumps({"build": t1 - t0, "first": t2 - t1, "counts": compiled.counts(),
+                  "compiled": tca.branch.mapped(3 * N, extra=True).compiled}))
 """
+
+
+SMALL = CASE + """
+import json, sys, time
+import numpy as np
+tca = TCA(pair)
+phi = np.linspace(-math.pi / 20, math.pi / 20, 64)
+tca.sweep(phi, mis=mis)
+time.sleep(3.0)  # a background compile of a cold cache (this tree) finishes; the old tree compiles nothing
+tca = TCA(pair)
+ts = []
+for _ in range(5 * int(sys.argv[1])):
+    t0 = time.perf_counter()
+    tca.sweep(phi, mis=mis)
+    ts.append(time.perf_counter() - t0)
+import gearopt
+print(json.dumps({"us": min(ts) / 192 * 1e6, "from": gearopt.__file__}))
+"""
+
+
+def small_in(tree, repeat):
+    """us per position-pair of the default small sweep (64 x 3, warm) run by the gearopt of ``tree``."""
+    env = dict(os.environ, PYTHONPATH=str(tree))
+    # run from an empty folder: `python -c` puts the working directory first on sys.path
+    out = subprocess.run([sys.executable, "-c", SMALL, "1"], env=env, capture_output=True, text=True, timeout=600,
+                         cwd=tempfile.gettempdir())
+    if out.returncode != 0:
+        raise RuntimeError(out.stderr[-800:])
+    res = json.loads(out.stdout.strip().splitlines()[-1])
+    if not res["from"].startswith(os.path.abspath(tree)):
+        raise RuntimeError(f"{tree}: gearopt was imported from {res['from']}")
+    return res["us"]
 
 
 def best(f, k=5):
@@ -63,9 +108,25 @@ def best(f, k=5):
     return min(ts)
 
 
+def stat(v):
+    """'median (min-max)' of the repeats."""
+    v = np.asarray(v, float)
+    if v.size == 1:
+        return f"{v[0]:.2f}"
+    return f"{np.median(v):.2f} ({v.min():.2f}-{v.max():.2f})"
+
+
 def main(argv):
     quick = "--quick" in argv
-    N = 512 if quick else 2048
+    repeat = 2 if quick else 3
+    for a in argv:
+        if a.startswith("--repeat="):
+            repeat = max(1, int(a.split("=", 1)[1]))
+    n_large = 512 if quick else 2048
+    base_tree = next((a.split("=", 1)[1] for a in argv if a.startswith("--base-tree=")), None)
+    if "--base-tree" in argv:
+        base_tree = argv[argv.index("--base-tree") + 1]
+    here = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     cache = tempfile.mkdtemp(prefix="gearopt-bench-cache-")
     os.environ["GEAROPT_CACHE_DIR"] = cache
     ns: dict = {}
@@ -73,46 +134,50 @@ def main(argv):
     from scipy.optimize import fsolve
 
     from gearopt import compiled
-    from gearopt.meshing.tca import TCA
+    from gearopt.meshing.tca import TCA, Misalignment
 
     pair, mis = ns["pair"], ns["mis"]
-    phi = np.linspace(-math.pi / 20, math.pi / 20, N)
-    cols = 3 * N
-    rows = []
+    load0 = os.getloadavg()
+    cpus = len(os.sched_getaffinity(0))
+    sweeps = {"small": (np.linspace(-math.pi / 20, math.pi / 20, 64), (-1, 0, 1)),
+              "tca study": (np.linspace(-math.pi / 20, math.pi / 20, 81), (-2, -1, 0, 1, 2)),
+              "large": (np.linspace(-math.pi / 20, math.pi / 20, n_large), (-1, 0, 1))}
+
+    # cold cache: the first small sweep under jit="auto" runs interpreted and compiles in the background
+    tca_c = TCA(pair)  # the default: jit="auto"
+    phi_s, pairs_s = sweeps["small"]
+    t0 = time.perf_counter()
+    tca_c.sweep(phi_s, mis=mis, pairs=pairs_s)
+    t_first_small = time.perf_counter() - t0
+    first_small_compiled = tca_c.branch.mapped(phi_s.size * 3, extra=True).compiled
+    compiled.wait_for_background()
+    t_background = time.perf_counter() - t0
+    # cold cache, large sweep: compiled within the call (a fresh TCA of the same graphs finds the cache warm,
+    # so this is timed in a child with its own empty cache)
+    cold_env = dict(os.environ, GEAROPT_CACHE_DIR=tempfile.mkdtemp(prefix="gearopt-bench-cold-"))
+    out = subprocess.run([sys.executable, "-c", CHILD, str(n_large)], env=cold_env, capture_output=True, text=True,
+                         timeout=900)
+    cold_large = json.loads(out.stdout.strip().splitlines()[-1]) if out.returncode == 0 else None
 
     tca_i = TCA(pair, jit=False)
-    tca_i.sweep(phi, mis=mis)
-    t_i = best(lambda: tca_i.sweep(phi, mis=mis))
-    ref = tca_i.sweep(phi, mis=mis)
-    rows.append(("TCA.sweep, interpreted (jit=False)", 0.0, t_i / cols * 1e6, 0.0))
-
-    tca_c = TCA(pair)  # the default: jit="auto"
-    t0 = time.perf_counter()
-    tca_c.sweep(phi, mis=mis)
-    t_cold = time.perf_counter() - t0
-    t_c = best(lambda: tca_c.sweep(phi, mis=mis))
-    sw = tca_c.sweep(phi, mis=mis)
-    both = ref.converged & sw.converged
-    err = float(np.max(np.abs(sw.phi2[both] - ref.phi2[both])))
-    same = bool(np.array_equal(ref.converged, sw.converged))
-    n_threads = compiled.threads()
-    rows.append((f"TCA.sweep, default (compiled, {n_threads} threads)", t_cold, t_c / cols * 1e6, err))
-    compiled.set_threads(1)
-    t_1 = best(lambda: tca_c.sweep(phi, mis=mis))
-    sw1 = tca_c.sweep(phi, mis=mis)
-    compiled.set_threads(None)
-    same1 = bool(np.array_equal(sw1.phi2, sw.phi2, equal_nan=True))
-    err1 = float(np.max(np.abs(sw1.phi2[both] - ref.phi2[both])))
-    rows.append(("TCA.sweep, compiled, 1 thread (GEAROPT_THREADS=1)", 0.0, t_1 / cols * 1e6, err1))
+    refs, errs, paths = {}, {}, {}
+    for name, (phi, pairs) in sweeps.items():
+        tca_i.sweep(phi, mis=mis, pairs=pairs)
+        tca_c.sweep(phi, mis=mis, pairs=pairs)
+        a, b = tca_i.sweep(phi, mis=mis, pairs=pairs), tca_c.sweep(phi, mis=mis, pairs=pairs)
+        both = a.converged & b.converged
+        refs[name] = (a, b)
+        errs[name] = (float(np.max(np.abs(a.phi2[both] - b.phi2[both]))),
+                      bool(np.array_equal(a.converged, b.converged)))
+        paths[name] = tca_c.branch.mapped(phi.size * len(pairs), extra=True).compiled
 
     # fsolve per column on pair 0 (a subset), same equations and first guesses as the sweep's
-    m = 200
+    m = 100 if quick else 200
     sub = np.linspace(-math.pi / 20, math.pi / 20, m)
     prm = tca_c.prm(sub, mis=mis)
     w_a = tca_c.solve_point(0.0, None, None, None, mis)
     W0 = tca_c.branch.predict(w_a, tca_c.prm([0.0], mis=mis)[:, 0], sub)
-    # the residual through CasADi's buffer API (no numpy <-> DM conversion per call: fsolve's best case)
-    buf, trig = tca_c.residual.buffer()
+    buf, trig = tca_c.residual.buffer()  # fsolve's best case: no numpy <-> DM conversion per call
     x_in, p_in, f_out = np.zeros(W0.shape[0]), np.zeros(prm.shape[0]), np.zeros(W0.shape[0])
     buf.set_arg(0, memoryview(x_in))
     buf.set_arg(1, memoryview(p_in))
@@ -124,28 +189,92 @@ def main(argv):
         return f_out.copy()
 
     def run_fsolve():
-        out = []
         for i in range(m):
             p_in[:] = prm[:, i]
-            out.append(fsolve(fun, W0[:, i]))
-        return out
+            fsolve(fun, W0[:, i])
 
-    t_fs = best(run_fsolve, 2) / m
-    rows.append(("scipy fsolve (FD Jacobian), per column, pair 0", 0.0, t_fs * 1e6, float("nan")))
+    rows = {}  # (sweep, row) -> list of us/pos-pair over the repeats
+    fs = []
+    trees = {"base": [], "here": []}
 
-    out = subprocess.run([sys.executable, "-c", CHILD, str(N)], env=dict(os.environ), capture_output=True, text=True,
+    def timed(key, f, cols):
+        rows.setdefault(key, []).append(best(f) / cols * 1e6)
+
+    k_old = min(cpus, (n_large * 3 if n_large * 3 < compiled.CHUNK else compiled.CHUNK) // compiled.MIN_PER_THREAD)
+    for _ in range(repeat):
+        fs.append(best(run_fsolve, 2) / m * 1e6)
+        if base_tree:  # the same warm cache: this tree's libraries; the base tree reads what it can use
+            trees["base"].append(small_in(base_tree, repeat))
+            trees["here"].append(small_in(here, repeat))
+        for name, (phi, pairs) in sweeps.items():
+            cols = phi.size * len(pairs)
+            timed((name, "interpreted"), lambda: tca_i.sweep(phi, mis=mis, pairs=pairs), cols)
+            timed((name, "default"), lambda: tca_c.sweep(phi, mis=mis, pairs=pairs), cols)
+        # the same small sweep with a new misalignment at every call: the anchor is solved each time
+        # (the memo of section 1 never hits), as in a loop over designs or samples
+        phi, pairs = sweeps["small"]
+        step = iter(range(1, 10**6))
+        timed(("small", "new misalignment"), lambda: tca_c.sweep(phi, mis=Misalignment(
+            crossing=mis.crossing, intersecting=mis.intersecting, dE=mis.dE + 1e-7 * next(step)), pairs=pairs),
+            phi.size * len(pairs))
+        phi, pairs = sweeps["large"]
+        cols = phi.size * len(pairs)
+        for label, n in (("old thread rule", max(1, k_old)), ("1 thread", 1)):
+            compiled.set_threads(n)
+            try:
+                timed(("large", label), lambda: tca_c.sweep(phi, mis=mis, pairs=pairs), cols)
+            finally:
+                compiled.set_threads(None)
+    fs = np.array(fs)
+    k_new = compiled.threads_for(compiled.CHUNK if n_large * 3 >= compiled.CHUNK else n_large * 3)
+
+    out = subprocess.run([sys.executable, "-c", CHILD, str(64)], env=dict(os.environ), capture_output=True, text=True,
                          timeout=600)
     child = json.loads(out.stdout.strip().splitlines()[-1]) if out.returncode == 0 else None
+    load1 = os.getloadavg()
 
-    print(f"case: crowned misaligned spur 20/40, {N} positions x 3 pairs = {cols} columns; cache {cache}")
-    print(f"| {'sweep':48s} | cold compile s | us/pos-pair | vs fsolve | max |dphi2| vs interpreted [rad] |")
-    print(f"|{'-' * 50}|----------------|-------------|-----------|-------------------------------|")
-    for name, tc, us, e in rows:
-        print(f"| {name:48s} | {tc:14.2f} | {us:11.2f} | {t_fs * 1e6 / us:8.1f}x | {e:29.1e} |")
-    print(f"same accepted points, compiled vs interpreted: {same}; 1 thread vs {n_threads}: bit-identical {same1}")
+    print(f"case: crowned misaligned spur 20/40; cache {cache}; {cpus} CPUs; repeats {repeat} "
+          f"(median (min-max) over them); load average {load0[0]:.2f} at start, {load1[0]:.2f} at end")
+    print(f"fsolve (FD Jacobian, default xtol), per column, {m} positions of pair 0: {stat(fs)} us")
+    print()
+    print("| sweep | columns | path | us per position-pair (warm) | vs fsolve, same run | max abs(dphi2) vs interpreted [rad] |")
+    print("|---|---|---|---|---|---|")
+    labels = {"interpreted": "`jit=False` (interpreted; `jit=\"auto\"` here before issue 43)",
+              "default": "default `jit=\"auto\"`, warm cache",
+              "new misalignment": "default, warm cache, a new misalignment at every call (anchor solved each time)",
+              "old thread rule": f"compiled, {max(1, k_old)} threads (old rule: whatever the load)",
+              "1 thread": "compiled, 1 thread (`set_threads(1)`)"}
+    for (name, row), us in rows.items():
+        phi, pairs = sweeps[name]
+        cols = phi.size * len(pairs)
+        us = np.array(us)
+        path = ("compiled" if paths[name] else "interpreted") if row in ("default", "new misalignment") else \
+            ("interpreted" if row == "interpreted" else "compiled")
+        if row == "default" and paths[name] and name == "large":
+            path += f", {k_new} thread{'s' if k_new > 1 else ''} (idle-core rule now)"
+        err = f"{errs[name][0]:.1e}" if row != "interpreted" else "0"
+        print(f"| {name} | {cols} | {labels[row]}: {path} | {stat(us)} | {stat(fs / us)}x | {err} |")
+    if base_tree:
+        print()
+        print("| small sweep (64 x 3), default `jit=\"auto\"`, new process, warm cache | us per position-pair | "
+              "vs fsolve, same run |")
+        print("|---|---|---|")
+        for label, tree in (("before", base_tree), ("after", here)):
+            v = np.array(trees["base" if label == "before" else "here"])
+            print(f"| {label}: {tree} | {stat(v)} | {stat(fs / v)}x |")
+    print()
+    print("same accepted points, compiled vs interpreted: " + ", ".join(f"{k} {v[1]}" for k, v in errs.items()))
+    print(f"cold cache, small sweep (jit=\"auto\"): the first call {t_first_small:.3f} s "
+          f"({'compiled' if first_small_compiled else 'interpreted'}; the library compiled in the background, "
+          f"ready after {t_background:.2f} s)")
+    if cold_large:
+        print(f"cold cache, large sweep (new process): TCA build {cold_large['build']:.2f} s, first sweep "
+              f"{cold_large['first']:.2f} s (code generation and gcc in the call; libraries built "
+              f"{cold_large['counts']['built']})")
     if child:
-        print(f"new process, warm cache: TCA build {child['build']:.3f} s, first sweep {child['first']:.3f} s "
-              f"(libraries compiled {child['counts']['built']}, loaded {child['counts']['loaded']})")
+        print(f"new process, warm cache, small sweep: TCA build {child['build']:.3f} s, first sweep "
+              f"{child['first']:.3f} s ({'compiled' if child['compiled'] else 'interpreted'}; libraries compiled "
+              f"{child['counts']['built']}, loaded {child['counts']['loaded']})")
     else:
         print("new process failed:", out.stderr[-500:])
     print("compiler:", compiled.compiler())

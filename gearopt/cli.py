@@ -192,8 +192,10 @@ class _in_scene:
 def _check(args) -> int:
     from .io.scene import load_scene
 
+    from .compiled import no_background
+
     scene = load_scene(args.scene)
-    with _in_scene(scene):
+    with _in_scene(scene), no_background():  # a check writes nothing, not even the compile cache
         scene.build()
     p, g = scene.pair.pinion, scene.pair.gear
     print(f"ok: {args.scene}: scene {scene.name!r}, study {scene.study!r}, z = {p.z}/{g.z}, "

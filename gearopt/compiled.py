@@ -24,7 +24,17 @@ Settings (environment):
     The C compiler (default the first of ``cc``, ``gcc``, ``clang`` on the ``PATH``).
 ``GEAROPT_THREADS``
     Threads over which a compiled mapped call splits its columns (default: the CPUs of the
-    process; :func:`set_threads` in code).
+    process that are idle, :func:`threads_for`; :func:`set_threads` in code).
+``GEAROPT_JIT_BACKGROUND``
+    ``0``: under ``jit="auto"`` a sweep below :data:`MIN_COLUMNS` columns whose library is not in
+    the cache stays interpreted and compiles nothing (default ``1``: the library is compiled in a
+    background thread, and the calls after it is ready run compiled).
+
+When a sweep runs compiled (``jit="auto"``, :func:`select`): whenever its library is in the disk
+cache, whatever its size (loading costs milliseconds); on a cache miss, a sweep of at least
+:data:`MIN_COLUMNS` columns compiles at once (the compile pays within the call), a smaller one runs
+interpreted while the library compiles in a background thread (:func:`compile_in_background`), so a
+small sweep never waits for the compiler; the next call finds the library.
 
 Without a working compiler :func:`compile_function` returns None after one warning (a one-line
 note) per process, and the callers run the interpreted Function.
@@ -32,12 +42,15 @@ note) per process, and the callers run the interpreted Function.
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import hashlib
+import math
 import os
 import shutil
 import subprocess
 import tempfile
+import threading
 import warnings
 import weakref
 from pathlib import Path
@@ -49,11 +62,13 @@ import numpy as np
 from .errors import ArgumentError, OptionError
 
 if TYPE_CHECKING:
-    from collections.abc import Callable
+    from collections.abc import Callable, Iterator
     from numpy.typing import ArrayLike
 
 FLAGS = ("-O2", "-shared", "-fPIC")  #: compiler flags (part of the cache key)
-MIN_COLUMNS = 1024  #: jit="auto": mapped solves of at least this many columns run compiled
+#: jit="auto", cache miss: mapped solves of at least this many columns compile at once (the compile,
+#: 0.2-2.5 s, pays within the call); smaller ones run interpreted while it compiles in the background
+MIN_COLUMNS = 1024
 
 MIN_PER_THREAD = 512  #: a compiled mapped call is split over threads only with at least this many columns each
 
@@ -62,6 +77,10 @@ _keys: dict[tuple, tuple] = {}  # (id of a Function, compiler) -> (weak referenc
 _threads: list[int | None] = [None]
 _noted: set[str] = set()
 _counts = {"built": 0, "loaded": 0}
+_pending: dict[str, threading.Thread] = {}  # library path -> its background compile
+_quiet = [0]  # open no_background() blocks
+_failed: set[str] = set()  # library paths whose background compile failed (not tried again)
+_lock = threading.Lock()
 
 
 def counts() -> dict:
@@ -162,14 +181,17 @@ def compile_function(f: ca.Function) -> ca.Function | None:
         _note("cc", "gearopt: no C compiler found (cc, gcc or clang; or set CC): sweeps run interpreted, "
                     "about 10x slower. Install one (e.g. apt-get install gcc) for the compiled engine.")
         return None
-    try:
-        path = library_path(f)
-    except Exception as e:  # noqa: BLE001 - a Function CasADi cannot serialise: stay interpreted
-        _note("serialize", f"gearopt: {f.name()} cannot be serialised ({e!s:.120}); it runs interpreted.")
+    path = _path_or_none(f)
+    if path is None:
         return None
     key = str(path)
     if key in _loaded:
         return _loaded[key]
+    job = _pending.get(key)
+    if job is not None:  # being compiled in the background: wait for it rather than compile twice
+        job.join()
+        if key in _loaded:
+            return _loaded[key]
     for attempt in (0, 1):
         built = False
         if not path.exists():
@@ -189,6 +211,128 @@ def compile_function(f: ca.Function) -> ca.Function | None:
         _loaded[key] = g
         _counts["built" if built else "loaded"] += 1
         return g
+    return None
+
+
+def _path_or_none(f: ca.Function) -> Path | None:
+    """:func:`library_path`, or None (one warning) for a Function CasADi cannot serialise."""
+    try:
+        return library_path(f)
+    except Exception as e:  # noqa: BLE001 - a Function CasADi cannot serialise: stay interpreted
+        _note("serialize", f"gearopt: {f.name()} cannot be serialised ({e!s:.120}); it runs interpreted.")
+        return None
+
+
+def cached_function(f: ca.Function) -> ca.Function | None:
+    """``f``'s compiled library if it is in the disk cache (loaded: milliseconds), else None; never
+    compiles. None too without a working compiler (the cache key names the compiler)."""
+    if compiler() is None:
+        return None
+    path = _path_or_none(f)
+    if path is None:
+        return None
+    key = str(path)
+    if key in _loaded:
+        return _loaded[key]
+    if key in _pending and _pending[key].is_alive():
+        return None
+    if not path.exists():
+        return None
+    try:
+        g = ca.external(f.name(), key)
+    except Exception:  # noqa: BLE001 - a truncated or foreign file: compile_function rebuilds it
+        return None
+    _loaded[key] = g
+    _counts["loaded"] += 1
+    return g
+
+
+def background() -> bool:
+    """Whether a cache miss of a small ``jit="auto"`` sweep compiles in the background
+    (``GEAROPT_JIT_BACKGROUND``, default on; ``0``, ``false``, ``no`` or ``off``: it does not; off
+    too inside :func:`no_background`)."""
+    if _quiet[0]:
+        return False
+    return os.environ.get("GEAROPT_JIT_BACKGROUND", "1").strip().lower() not in ("0", "false", "no", "off")
+
+
+@contextlib.contextmanager
+def no_background() -> Iterator[None]:
+    """Within the block no background compile starts (small sweeps of a cache miss run interpreted
+    and write nothing to the cache): for what must leave the disk untouched (``gearopt check``)."""
+    _quiet[0] += 1
+    try:
+        yield
+    finally:
+        _quiet[0] -= 1
+
+
+def compile_in_background(f: ca.Function) -> threading.Thread | None:
+    """Compile ``f`` into the disk cache in a background thread (one per library and process) and
+    return the thread; None when the library is loaded or on disk already, a compile of it is under
+    way or failed before in this process, or no compiler works. The thread is not a daemon: a process waits for its compiles at exit,
+    so no half-written scratch directory is left in the cache. The caller keeps running ``f``
+    interpreted; :func:`cached_function` finds the library once the thread is done."""
+    if compiler() is None:
+        return None
+    path = _path_or_none(f)
+    if path is None:
+        return None
+    key = str(path)
+    with _lock:
+        if key in _loaded or key in _pending or key in _failed or path.exists():
+            return None
+        job = threading.Thread(target=_background_job, args=(f, key), name=f"gearopt-compile-{f.name()}")
+        _pending[key] = job
+    job.start()
+    return job
+
+
+def _background_job(f: ca.Function, key: str) -> None:
+    # (no warning from this thread: the warnings filters are process-wide; a failed build is kept in
+    # _failed, so it is not tried again in the background, and a synchronous compile reports it)
+    try:
+        err = _build(f, Path(key), compiler()[0]) if not Path(key).exists() else None
+        if err is None:
+            _counts["built"] += 1
+        else:
+            _failed.add(key)
+    except Exception:  # noqa: BLE001 - never let a background compile raise into the interpreter
+        _failed.add(key)
+    finally:
+        with _lock:
+            _pending.pop(key, None)
+
+
+def wait_for_background(timeout: float | None = None) -> bool:
+    """Wait for this process's background compiles (:func:`compile_in_background`); True when none
+    is left running. ``timeout`` [s] per compile (None: no limit)."""
+    for job in list(_pending.values()):
+        job.join(timeout)
+    return not any(j.is_alive() for j in list(_pending.values()))
+
+
+def select(f: ca.Function, jit: bool | str, n: int) -> ca.Function | None:
+    """The compiled Function that evaluates ``n`` columns of ``f`` under the ``jit`` setting, or
+    None for the interpreted ``f``.
+
+    ``jit=True``: compiled (compiling on a cache miss; None without a compiler). ``False``: None.
+    ``"auto"``: the cached library whenever there is one, whatever ``n``; on a cache miss, compiled
+    at once when ``n >= MIN_COLUMNS``, else None while the library compiles in the background
+    (:func:`compile_in_background`, unless :func:`background` is off). Compiled and interpreted
+    columns agree to round-off (tests/test_tca_jit.py), so which one runs changes no result beyond it.
+    """
+    if jit is True:
+        return compile_function(f)
+    if jit != "auto" or not available():
+        return None
+    g = cached_function(f)
+    if g is not None:
+        return g
+    if n >= MIN_COLUMNS:
+        return compile_function(f)
+    if background():
+        compile_in_background(f)
     return None
 
 
@@ -243,6 +387,35 @@ def threads() -> int:
         return max(1, os.cpu_count() or 1)
 
 
+def threads_for(n: int) -> int:
+    """Threads for a compiled mapped call of ``n`` columns: ``min(threads(), n // MIN_PER_THREAD)``
+    (a thread's share must outweigh starting it), and, unless the count was set
+    (:func:`set_threads`, ``GEAROPT_THREADS``), at most the CPUs idle now: ``floor(cpus + 1 -
+    load)`` with ``load`` the 1-minute load average (this process's own running thread counts in it).
+    On a machine whose cores are busy a second thread only waits for a core and the call gets slower
+    (2 threads 7.0 us vs 1 thread 3.9 us per column measured under load), so the rule keeps one."""
+    k = min(threads(), n // MIN_PER_THREAD)
+    if k <= 1:
+        return 1
+    if _threads[0] is None and not os.environ.get("GEAROPT_THREADS", "").strip():
+        k = min(k, idle_cpus())
+    return max(1, k)
+
+
+def idle_cpus() -> int:
+    """CPUs of this process left idle by the others: ``floor(cpus + 1 - load average over 1 min)``,
+    between 1 and the CPUs (all of them where the load average is unknown)."""
+    try:
+        cpus = max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # not on Linux
+        cpus = max(1, os.cpu_count() or 1)
+    try:
+        load = os.getloadavg()[0]
+    except (AttributeError, OSError):
+        return cpus
+    return int(min(cpus, max(1, math.floor(cpus + 1 - load))))
+
+
 def set_threads(n: int | None) -> None:
     """Threads of the compiled mapped calls of this process (None: back to the default of
     :func:`threads`). The robust-design workers use 1 (one process per core)."""
@@ -269,10 +442,13 @@ class ColumnMap:
         The Function of one column (for ``name_out`` and the shapes).
     factory : callable(m) -> casadi.Function
         The column Function mapped over m columns (compiled, threaded or interpreted).
+    compiled : bool
+        Whether ``factory`` maps a compiled library (what :func:`select` chose; for tests and
+        benchmarks: which path a sweep took).
     """
 
-    def __init__(self, column: ca.Function, factory: Callable[[int], ca.Function]) -> None:
-        self.column, self.factory = column, factory
+    def __init__(self, column: ca.Function, factory: Callable[[int], ca.Function], compiled: bool = False) -> None:
+        self.column, self.factory, self.compiled = column, factory, bool(compiled)
         self._maps: dict[tuple, _Signature] = {}
         self._sig = _Signature(column)
 
@@ -285,7 +461,7 @@ class ColumnMap:
         return state
 
     def _map(self, m: int) -> _Signature:
-        key = (m, threads())
+        key = (m, threads_for(m))
         if key not in self._maps:
             self._maps[key] = _Signature(self.factory(m))
         return self._maps[key]
@@ -310,7 +486,7 @@ class ColumnMap:
         start = 0
         while start < n:
             k = min(CHUNK, n - start)
-            m = CHUNK if k == CHUNK else max(8, 1 << (k - 1).bit_length())
+            m = CHUNK if k == CHUNK else map_size(k)
             if m == k:
                 chunk = [v[:, start * c:(start + k) * c] for v, c in zip(a, cin)]
             else:
@@ -324,6 +500,16 @@ class ColumnMap:
         return outs[0] if len(outs) == 1 else outs
 
 
+def map_size(k: int) -> int:
+    """Columns of the map that evaluates ``k`` columns (the rest padded): the smallest of 8 and
+    ``2^j * q / 4`` (q = 4, 5, 6, 7) that holds them, so at most a fifth of a call is padding (the
+    padded columns are solved too) while the sizes, whose maps are built once each, stay few."""
+    if k <= 8:
+        return 8
+    j = (k - 1).bit_length() - 1  # 2^j < k <= 2^(j+1)
+    return next(m for m in ((q << j) >> 2 for q in (5, 6, 7, 8)) if m >= k)  # j >= 3: whole numbers
+
+
 def matrix_columns(idx: np.ndarray, c: int) -> np.ndarray:
     """Matrix columns of the columns ``idx`` of a map whose Function has c columns per column."""
     return idx if c == 1 else (idx[:, None] * c + np.arange(c)).ravel()
@@ -331,14 +517,15 @@ def matrix_columns(idx: np.ndarray, c: int) -> np.ndarray:
 
 def map_columns(g: ca.Function, n: int) -> ca.Function:
     """The compiled column Function ``g`` mapped over ``n`` columns, split over
-    ``min(threads(), n // MIN_PER_THREAD)`` threads (CasADi's thread map) when that is more than one."""
-    k = min(threads(), n // MIN_PER_THREAD)
+    :func:`threads_for` ``(n)`` threads (CasADi's thread map) when that is more than one."""
+    k = threads_for(n)
     return g.map(n, "thread", k) if k > 1 else g.map(n)
 
 
 def use_compiled(jit: bool | str, n: int) -> bool:
-    """Whether a mapped call of ``n`` columns runs compiled under the ``jit`` setting
-    (True: always; False: never; "auto": from :data:`MIN_COLUMNS` columns on, if a compiler works)."""
+    """Whether a mapped call of ``n`` columns compiles on a cache miss under the ``jit`` setting
+    (True: always; False: never; "auto": from :data:`MIN_COLUMNS` columns on, if a compiler works).
+    Whatever this says, ``jit="auto"`` runs a library that is in the cache (:func:`select`)."""
     if jit is True:
         return True
     if jit == "auto":
@@ -347,10 +534,14 @@ def use_compiled(jit: bool | str, n: int) -> bool:
 
 
 def mapped(f: ca.Function, n: int, jit: bool | str = "auto", n_total: int | None = None) -> ColumnMap:
-    """``f`` on columns (:class:`ColumnMap`): the compiled library's maps when :func:`use_compiled`
-    (for ``n_total`` columns in all, default n) and it builds, else the interpreted maps."""
-    g = compile_function(f) if use_compiled(jit, n if n_total is None else n_total) else None
-    return ColumnMap(f, (lambda m: map_columns(g, m)) if g is not None else f.map)
+    """``f`` on columns (:class:`ColumnMap`): the compiled library's maps when :func:`select` gives
+    one (for ``n_total`` columns in all, default n), else the interpreted maps. The choice is made
+    here, once: a ColumnMap built on a cache miss stays interpreted (build a new one to pick up a
+    library compiled since)."""
+    g = select(f, jit, n if n_total is None else n_total)
+    if g is None:
+        return ColumnMap(f, f.map)
+    return ColumnMap(f, lambda m: map_columns(g, m), compiled=True)
 
 
 class _Signature:
@@ -416,7 +607,14 @@ def call(f: ca.Function, *args: ArrayLike) -> list[np.ndarray]:
     if isinstance(f, ColumnMap):
         out = f(*args)
         return [out] if f.column.n_out() == 1 else out
-    return _Signature(f)(*args)
+    key = id(f)
+    hit = _signatures.get(key)
+    if hit is None or hit[0]() is not f:  # shapes queried once per live Function object
+        hit = _signatures[key] = (weakref.ref(f, lambda _, k=key: _signatures.pop(k, None)), _Signature(f))
+    return hit[1](*args)
+
+
+_signatures: dict[int, tuple] = {}  # id of a Function -> (weak reference, its _Signature)
 
 
 def nlpsol(name: str, plugin: str, nlp: dict, opts: dict, jit: bool = False) -> ca.Function:

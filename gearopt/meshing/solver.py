@@ -16,7 +16,7 @@ import casadi as ca
 import numpy as np
 import numpy.typing as npt
 
-from ..compiled import ColumnMap, call, compile_function, map_columns, mapped, use_compiled
+from ..compiled import ColumnMap, available, cached_function, call, map_columns, mapped, select
 from ..settings import ContactSettings  # re-exported: declared with the other option sets (gearopt.settings)
 
 NORMAL_TOL = 1e-8  #: accepted contact points have n1 . n2 < -1 + NORMAL_TOL (tangency, not crossing)
@@ -37,8 +37,10 @@ class SolverSettings:
         Acceptance threshold on the residual norm [mm].
     jit : {"auto", True, False}
         Run mapped sweeps as compiled C (:mod:`gearopt.compiled`: generated once per graph, cached on
-        disk across processes): "auto" from :data:`gearopt.compiled.MIN_COLUMNS` columns on when a C
-        compiler works, True always (a warning and the interpreter when none works), False never.
+        disk across processes): "auto" whenever the library is in the cache, whatever the size; on a
+        cache miss from :data:`gearopt.compiled.MIN_COLUMNS` columns on (compiled at once), smaller
+        sweeps run interpreted while it compiles in the background (:func:`gearopt.compiled.select`);
+        True always (a warning and the interpreter when no compiler works), False never.
         Compiled and interpreted sweeps agree to round-off (tests/test_tca_jit.py).
     """
 
@@ -160,7 +162,14 @@ class Branch:
 
     def predict(self, w_a: npt.ArrayLike, prm_a: npt.ArrayLike, dphi: npt.ArrayLike) -> np.ndarray:
         """First guesses ``w_a + dw/dphi1 * dphi`` (nw, len(dphi)) around the solved anchor."""
-        dw = np.asarray(self.dw(w_a, prm_a)).ravel()
+        # one column: the Function itself, compiled when its library is cached (one column never
+        # pays for a compile, so a miss starts none)
+        one = self._maps.get(("dw", "one"))
+        if one is None and self.jit is not False and available():
+            one = cached_function(self.dw)
+            if one is not None:
+                self._maps[("dw", "one")] = one
+        dw = call(self.dw if one is None else one, np.asarray(w_a, float), np.asarray(prm_a, float))[0].ravel()
         return np.asarray(w_a)[:, None] + dw[:, None] * np.asarray(dphi)[None, :]
 
     def predict_knots(self, w_a: npt.ArrayLike, prm_a: npt.ArrayLike, phi: np.ndarray, anchor: float,
@@ -203,12 +212,10 @@ class Branch:
         okk = np.asarray(self.accept(res.ravel(), n1n2.ravel(), reg.ravel()), bool)
         if not okk.any():
             return lin
-        key = ("dw",)
-        if key not in self._maps:  # interpreted: a few dozen knots (compiling would cost more on a cold cache)
-            self._maps[key] = mapped(self.dw, knots.size, False)
+        dw_map = self._dw_map(knots.size)
         dWk = np.full(Wk.shape, np.nan)
         g = np.flatnonzero(okk)
-        dWk[:, g] = call(self._maps[key], Wk[:, g], prm_k[:, g])[0]
+        dWk[:, g] = call(dw_map, Wk[:, g], prm_k[:, g])[0]
         # knots that failed from the anchor's prediction: again from a solved neighbour knot (Newton
         # only; rounds while any is rescued)
         tried = np.zeros(knots.size, bool)
@@ -227,7 +234,7 @@ class Branch:
                 break
             g = cand[good]
             Wk[:, g], okk[g] = Wc[:, good], True
-            dWk[:, g] = call(self._maps[key], Wc[:, good], prm_k[:, g])[0]
+            dWk[:, g] = call(dw_map, Wc[:, good], prm_k[:, g])[0]
         i = np.clip(np.floor((phi - knots[0]) / spacing).astype(int), 0, knots.size - 2)
         t = (phi - knots[i]) / spacing
         both = okk[i] & okk[i + 1]
@@ -247,20 +254,37 @@ class Branch:
 
     def mapped(self, n: int, n_total: int | None = None, extra: bool = False) -> ColumnMap:
         """(W0, P) -> (W, residual norm, n1 . n2, regularity[, the extra outputs]) on columns (any
-        number; numpy in and out): the compiled column (:func:`gearopt.compiled.use_compiled` for
-        ``n_total`` columns in all, default n) or the interpreted one."""
-        fast = self.solver == "fast_newton" and use_compiled(self.jit, n if n_total is None else n_total)
+        number; numpy in and out): the compiled column when :func:`gearopt.compiled.select` gives
+        it for ``n_total`` columns in all (default n: under ``jit="auto"`` whenever its library is
+        in the disk cache; on a miss compiled at once from ``MIN_COLUMNS`` columns on, else in the
+        background while this call runs interpreted), or the interpreted one."""
         extra = bool(extra) and self.one_x is not None
-        key = ("columns", fast, extra)
+        fast = self.solver == "fast_newton" and self.jit is not False
+        done = ("columns", True, extra)
+        if fast and done in self._maps:  # once compiled, always (the library does not go away)
+            return self._maps[done]
+        col = self.one_x if extra else self.one
+        f = select(col, self.jit, n if n_total is None else n_total) if fast else None
+        key = ("columns", f is not None, extra)
         if key not in self._maps:
-            col = self.one_x if extra else self.one
-            f = compile_function(col) if fast else None
             if f is not None:
-                self._maps[key] = ColumnMap(col, lambda m: map_columns(f, m))
+                self._maps[key] = ColumnMap(col, lambda m: map_columns(f, m), compiled=True)
             elif extra:
                 self._maps[key] = ColumnMap(col, col.map)
             else:
                 self._maps[key] = ColumnMap(col, lambda m: self._interpreted(self.rf_fast, m, "sweep"))
+        return self._maps[key]
+
+    def _dw_map(self, n: int) -> ColumnMap:
+        """The implicit-function derivative dw/dphi1 on columns: compiled when its library is in the
+        cache (:func:`gearopt.compiled.select`; a miss compiles in the background: a few dozen
+        columns never pay for a compile in the call), else interpreted."""
+        done = ("dw", True)
+        if done in self._maps:
+            return self._maps[done]
+        key = ("dw", select(self.dw, self.jit, n) is not None)
+        if key not in self._maps:
+            self._maps[key] = mapped(self.dw, n, self.jit if key[1] else False)
         return self._maps[key]
 
     def _interpreted(self, rf, n: int, what: str) -> ca.Function:
@@ -304,7 +328,7 @@ class Branch:
         tooth pair's slices, or a whole branch, would drop out without a word.
 
         ``n_total``: columns of the whole job these belong to (chooses compiled or interpreted,
-        :func:`gearopt.compiled.use_compiled`; default the columns given). ``extra``: the first
+        :func:`gearopt.compiled.select`; default the columns given). ``extra``: the first
         pass also returns the ``extra`` Function's outputs at every column's solved point, in
         ``stats["extra"]`` (by name), and the columns that continuation changed afterwards in
         ``stats["rescued"]`` (their extra outputs are those of the first pass: recompute them).

@@ -72,6 +72,11 @@ class SweepArgs(NamedTuple):
     pairs: tuple[int, ...]  #: tooth pairs (pinion tooth numbers)
 
 
+def _bytes(v) -> bytes:
+    """Exact key of a parameter vector (None: the member's defaults)."""
+    return b"" if v is None else np.ascontiguousarray(np.asarray(v, float)).tobytes()
+
+
 def check_sweep_args(tca: TCA, phi1: npt.ArrayLike, p1: npt.ArrayLike | None = None, p2: npt.ArrayLike | None = None,
                      mis: Misalignment | None = None, pairs: Sequence[int] = (-1, 0, 1), delta: float | None = None,
                      anchor: float = 0.0, z_section: float | None = 0.0) -> SweepArgs:
@@ -343,8 +348,11 @@ class TCA:
     jit : {"auto", True, False}
         Run the mapped sweep (rootfinder + checks, and the contact outputs) as compiled C
         (:mod:`gearopt.compiled`: compiled once per graph, 0.2-0.8 s, cached on disk across
-        processes, then ~10x faster; see benchmarks/bench_tca.py): "auto" (default) for sweeps of
-        at least :data:`gearopt.compiled.MIN_COLUMNS` columns, True for every sweep, False never.
+        processes, then ~10x faster; see benchmarks/bench_compiled.py): "auto" (default) whenever
+        the library is in the cache, whatever the sweep's size; on a cache miss a sweep of at least
+        :data:`gearopt.compiled.MIN_COLUMNS` columns compiles at once, a smaller one runs
+        interpreted while the library compiles in the background (:func:`gearopt.compiled.select`).
+        True for every sweep, False never.
         Without a working C compiler the interpreted Functions run, after a one-line warning.
     """
 
@@ -488,6 +496,9 @@ class TCA:
         self.branch = Branch("tca", self.residual, checks, functools.partial(accept_tangency, tol=self.tol), self.tol,
                              self.solver, self.jit, extra=self.sweep_outputs)
         self._maps: dict = {}
+        # solved anchors and pitch-point guesses by their exact inputs (a repeated sweep of the same
+        # design and misalignment solves its anchor once; the outputs are those of a new solve)
+        self._memo: dict = {}
 
     def _contact_mapped(self, n: int):
         """The sweep's contact quantities on the few columns continuation rescued (interpreted)."""
@@ -519,11 +530,22 @@ class TCA:
     def guess(self, p1: npt.ArrayLike | None = None, p2: npt.ArrayLike | None = None, z_section: float = 0.0) -> np.ndarray:
         """First guess at the pitch point: both flanks at their operating pitch radii, mid face
         (the unknown vector of this TCA: 5 entries, or 4 for line contact)."""
-        pair = self.pair
-        r_w1 = pair.r_w1
-        u1 = self.pinion.u_at_radius(r_w1, z_section, self.side, p1)
-        u2 = self.gear.u_at_radius(pair.a_w - r_w1, z_section, self.side, p2)
-        return self._reduce([u1, z_section, u2, z_section, 0.0])
+        key = ("guess", _bytes(p1), _bytes(p2), float(z_section))
+        hit = self._memo.get(key)
+        if hit is None:
+            pair = self.pair
+            r_w1 = pair.r_w1
+            u1 = self.pinion.u_at_radius(r_w1, z_section, self.side, p1)
+            u2 = self.gear.u_at_radius(pair.a_w - r_w1, z_section, self.side, p2)
+            hit = self._remember(key, self._reduce([u1, z_section, u2, z_section, 0.0]))
+        return hit.copy()
+
+    def _remember(self, key: tuple, value: np.ndarray) -> np.ndarray:
+        """Keep ``value`` under ``key`` in the memo of guesses and anchors (the oldest go beyond 64)."""
+        if len(self._memo) >= 64:
+            self._memo.pop(next(iter(self._memo)))
+        self._memo[key] = value
+        return value
 
     def _accept(self, res, n1n2, reg):
         """Acceptance of solved points: residual below tol, outward normals opposite (n1 . n2 = -1
@@ -560,7 +582,18 @@ class TCA:
                 raise ArgumentError(f"w0 = {shorten(str(w0.tolist()))}: expected {n_w} finite numbers (the unknowns "
                                     f"[mm] for {self.contact_type} contact), got {w0.size}.",
                                     param="w0", value=w0.tolist(), valid=f"{n_w} finite numbers")
+        return self._solve_at(phi1, w0, p1, p2, mis, z_section)
+
+    def _solve_at(self, phi1: float, w0: np.ndarray | None, p1: np.ndarray, p2: np.ndarray, mis: Misalignment,
+                  z_section: float) -> np.ndarray:
+        """:meth:`solve_point` on arguments already checked (by it, or by :func:`check_sweep_args`)."""
+        if w0 is None:
+            w0 = self.guess(p1, p2, z_section)
         prm = self.prm([phi1], p1, p2, mis, z_section)[:, 0]
+        key = ("anchor", _bytes(w0), _bytes(prm))  # everything the solve depends on
+        hit = self._memo.get(key)
+        if hit is not None:
+            return hit.copy()
         J = np.asarray(self.jacobian(w0, prm))
         if self.contact_type == "point" and np.linalg.cond(J) > 1e14:
             raise LineContactError(
@@ -604,7 +637,7 @@ class TCA:
                     "longitudinally)." if self.contact_type == "line" else " Start from another guess.")
             raise ConvergenceError(f"{at}: the surfaces cross instead of touching (n1 . n2 = {n1n2:.12f}, must be "
                                    f"-1 within {NORMAL_TOL:g}).{hint}")
-        return w
+        return self._remember(key, w).copy()
 
     def _root_facts(self, w, prm, wf) -> str:
         """What a rejected root is, in words: for each flank whose regularity (r_u x r_z) . n has
@@ -683,7 +716,7 @@ class TCA:
         K, N = len(pairs), phi1.size
         phis = np.concatenate([phi1 - 2 * math.pi * k / g1.z for k in pairs])
         prm = self.prm(phis, p1, p2, mis, z_section)
-        w_a = self.solve_point(anchor, None, p1, p2, mis, z_section)
+        w_a = self._solve_at(anchor, None, p1, p2, mis, z_section)  # (arguments checked above)
         prm_a = self.prm([anchor], p1, p2, mis, z_section)[:, 0]
         if continuation:  # every pair is the same branch w(phi1 - 2 pi k / z1): guesses from its knots
             W0 = self.branch.predict_knots(w_a, prm_a, phis, anchor, lambda v: self.prm(v, p1, p2, mis, z_section),
