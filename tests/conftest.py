@@ -4,10 +4,16 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import textwrap
 from pathlib import Path
 
 import pytest
+
+# Small sweeps of a graph not yet in the disk cache run interpreted and compile nothing in the
+# background (gearopt.compiled, GEAROPT_JIT_BACKGROUND): the suite's CPU goes to its tests, as on a
+# clean CI machine; tests/test_jit_policy.py switches the background compile on where it tests it.
+os.environ.setdefault("GEAROPT_JIT_BACKGROUND", "0")
 
 DUMMY = "dummy"
 
