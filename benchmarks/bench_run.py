@@ -15,7 +15,8 @@ Each run is one fresh process (``python -c DRIVER``, ``MPLBACKEND=Agg``) that ca
 - ``wall``: the process, start to exit, seen from outside (interpreter start-up and exit included).
 
 Imports made lazily inside a phase count in that phase. The first run of each scene is a warm-up
-(the CasADi disk cache, the ``.pyc`` files, the OS file cache) and is not shown; the table gives the
+(the CasADi disk cache, the ``.pyc`` files, written even where ``PYTHONDONTWRITEBYTECODE`` is set,
+the OS file cache) and is not shown; the table gives the
 median of the ``--repeat`` runs after it ("warm" = second run and later). With ``--base REV`` the
 revision is checked out into a temporary git worktree and its runs alternate with the working tree's,
 so that the ratio ``here/base`` of each phase is measured under the same load (the absolute times
@@ -93,6 +94,7 @@ def run_once(tree: Path, scene: str, out: Path) -> dict[str, dict[str, float]]:
     """One process of ``gearopt run`` (the package of ``tree``); its phase times in s, ``{"wall": {phase:
     s}, "cpu": {phase: s}}`` (CPU: user + system time of the process, less sensitive to the load)."""
     env = dict(os.environ, PYTHONPATH=str(tree), MPLBACKEND="Agg")
+    env.pop("PYTHONDONTWRITEBYTECODE", None)  # a user's warm run reads the .pyc files the first run wrote
     r0 = resource.getrusage(resource.RUSAGE_CHILDREN)
     t = time.perf_counter()
     p = subprocess.run([sys.executable, "-c", DRIVER, f"problems/{scene}.toml", str(out)], cwd=tree, env=env,
@@ -128,6 +130,8 @@ def main(argv: list[str] | None = None) -> int:
     if unknown:
         ap.error(f"unknown scene(s) {unknown}; known: {', '.join(known)}")
     work = Path(tempfile.mkdtemp(prefix="gearopt-bench-run-"))
+    print(f"outputs in {work} (base/<scene>, here/<scene>: compare them with benchmarks/compare_results.py)",
+          file=sys.stderr)
     trees = {"here": ROOT}
     if a.base:
         base = work / "base-tree"
