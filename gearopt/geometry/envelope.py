@@ -372,8 +372,6 @@ class GeneratedTooth:
         GeometryError
             If the flank folds at or above the tip circle (no active flank at all).
         """
-        from scipy.optimize import brentq
-
         p = self.p0 if p is None else np.asarray(p, float).ravel()
         fl, fi = self._limit_eval(side)
         g = self.gear
@@ -413,6 +411,8 @@ class GeneratedTooth:
         for k, sgn in ((2, orient), (3, -1.0)):  # orient * reg > 0 and -d radius/du > 0 on the valid branch
             a, b = sgn * ev(lo, k), sgn * ev(hi, k)
             if a > 0 >= b:
+                from scipy.optimize import brentq  # only for a fold: scipy.optimize takes ~0.3 s to import
+
                 roots.append(brentq(lambda t: sgn * ev(t, k), lo, hi, xtol=1e-14, rtol=1e-15, maxiter=200))
         u_fold = min(roots) if roots else hi
         r_fold = math.hypot(ev(u_fold, 0), ev(u_fold, 1))

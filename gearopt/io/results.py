@@ -277,11 +277,15 @@ def write_results(out_dir: str | Path, result: Any, *, scene: Scene | None = Non
         meta["pair"] = _pair_meta(scene)
     data = {**data, "meta": meta}
     data = _with_summary(data, result)
-    bad = _find_nonfinite(data)
-    if bad is not None:
+    try:  # allow_nan=False refuses NaN and inf; the walk that names where runs only then
+        text = json.dumps(data, indent=2, allow_nan=False, default=_jsonable, ensure_ascii=False) + "\n"
+    except ValueError:
+        bad = _find_nonfinite(data)
+        if bad is None:
+            raise
         raise ResultsError(f"results: non-finite number (NaN or inf) at {bad}; results.json is not written (a "
                            "position without contact is null in the arrays; a non-finite scalar means the study "
-                           "has no valid result for these inputs).")
+                           "has no valid result for these inputs).") from None
 
     parent = out_dir.parent
     try:
