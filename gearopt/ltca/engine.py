@@ -616,11 +616,80 @@ class LTCA:
         return LoadedSweep(slices=S, results=results, separation_time=t_sep, structure=st,
                            te_zero_rad=S.phi2_ref, ltca=self)
 
-    def _fixed_point(self, A, s, hz: HertzNodes, Cs, W, f_min, F0=None, lam=None):
+    def _fixed_point(self, A, s, hz: HertzNodes, Cs, W, f_min, F0=None, lam=None, block=None):
         """The contact QP over the slices ``A`` (N, n) of each position (separations ``s``, Hertz data
         ``hz`` (N, n) and compliance ``Cs`` (N, n, n), :class:`ContactStructure`), with the Hertz fixed point:
         ``(F (N, n), done (N,), change (N,), iterations (N,))``. ``lam`` (N, n): each slice's lever
-        about the pinion axis over ``r_b1 cos(beta_b)`` (the equilibrium ``sum lam F = W``; default 1)."""
+        about the pinion axis over ``r_b1 cos(beta_b)`` (the equilibrium ``sum lam F = W``; default 1).
+        ``block``: the nodes per tooth pair (``Cs`` is block diagonal: pairs are not coupled); default
+        one block.
+
+        Each Newton step's QP is solved by the primal-dual active-set method on all positions at once
+        (:func:`contact_active_set`), started from the previous step's contact set; a position where
+        that does not settle is solved again by qpOASES (:meth:`_fixed_point_qpoases`)."""
+        N, n = A.shape
+        M = n if block is None else int(block)
+        K = n // M
+        Cv = Cs.reshape(N, K, M, K, M)
+        if K > 1:
+            off = Cv.copy()
+            off[:, np.arange(K), :, np.arange(K), :] = 0.0
+            if np.any(off):  # pairs coupled: one block
+                K, M, Cv = 1, n, Cs.reshape(N, 1, n, 1, n)
+        Cb = np.moveaxis(Cv[:, np.arange(K), :, np.arange(K), :], 0, 1)  # (N, K, M, M)
+        valid = A
+        lamv = np.where(valid, np.ones((N, n)) if lam is None else lam, 0.0)
+        lv = np.where(valid, hz.length, 1.0)
+        Rv, h1v, h2v = (np.where(valid, v, 1.0) for v in (hz.R, hz.h1, hz.h2))
+        # start: the load spread over the active contact length, or the previous round's loads
+        Fc = np.where(valid, W * lv / np.maximum((lv * valid).sum(axis=1, keepdims=True), 1e-12), 0.0)
+        P = valid.copy()
+        if F0 is not None:
+            Fc = np.where(valid, F0, 0.0)
+            P = valid & (F0 > 0)
+            P = np.where(P.any(axis=1, keepdims=True), P, valid)
+        it = np.zeros(N, int)
+        done = np.zeros(N, bool)
+        change = np.zeros(N)
+        bad = np.zeros(N, bool)
+        wt = self._weber_tangent(N * n)
+        shp = (N, K, M)
+        diag = np.arange(M)
+        for i in range(HERTZ_MAX_ITER):
+            # Newton step of the Hertz law (Josephy-Newton: the QP with the approach linearised at the
+            # last loads, delta_H(F) ~ c F_k + dc (F - F_k), dc = d(c f)/df by AD); its fixed point is the
+            # contact law's, reached quadratically (the secant compliance c alone converges linearly)
+            cH, dc = (np.asarray(v).reshape(N, n) for v in wt((Fc / lv).ravel()[None, :], Rv.ravel()[None, :],
+                                                                h1v.ravel()[None, :], h2v.ravel()[None, :], f_min))
+            dc = np.maximum(dc, 0.5 * cH)  # keeps the QP convex far from the solution (a damped step)
+            C = Cb.copy()
+            C[..., diag, diag] += np.where(valid, dc / lv, 0.0).reshape(shp)
+            sk = s + np.where(valid, (cH - dc) / lv * Fc, 0.0)
+            Fn, Pn, ok = contact_active_set(C, sk.reshape(shp), lamv.reshape(shp), valid.reshape(shp), W,
+                                            P.reshape(shp))
+            Fn, P = Fn.reshape(N, n), Pn.reshape(N, n)
+            bad |= ~ok
+            Fn = np.where(valid, np.maximum(Fn, 0.0), 0.0)
+            change = np.max(np.abs(Fn - Fc), axis=1) / W
+            it = np.where(done, it, i + 1)
+            done = change <= HERTZ_TOL
+            Fc = Fn
+            if (done | bad).all():
+                break
+        if bad.any():
+            # the active-set iteration did not settle at some position: qpOASES there (the same QP)
+            j = np.flatnonzero(bad)
+            sub = HertzNodes(length=hz.length[j], R=hz.R[j], h1=hz.h1[j], h2=hz.h2[j])
+            Fj, dj, cj, ij = self._fixed_point_qpoases(A[j], s[j], sub, Cs[j], W, f_min, F0=F0 if F0 is None else F0[j],
+                                                       lam=None if lam is None else lam[j])
+            Fc[j], done[j], change[j], it[j] = Fj, dj, cj, ij
+        return Fc, done, change, it
+
+    def _fixed_point_qpoases(self, A, s, hz: HertzNodes, Cs, W, f_min, F0=None, lam=None):
+        """The contact QP over the slices ``A`` (N, n) of each position (separations ``s``, Hertz data
+        ``hz`` (N, n) and compliance ``Cs`` (N, n, n), :class:`ContactStructure`), with the Hertz fixed point,
+        each Newton step's QP solved by qpOASES (mapped over the positions); arguments and returns as
+        :meth:`_fixed_point`."""
         N, n = A.shape
         nc = int(max(A.sum(axis=1).max(), 1))  # padded to the largest count
         gi = np.zeros((N, nc), int)
@@ -719,7 +788,7 @@ class LTCA:
         Cs = st.Cs
         F = None
         for _outer in range(OUTER_MAX):
-            F, done, change, it = self._fixed_point(A, s, hz, Cs, W, f_min, F0=F, lam=lam)
+            F, done, change, it = self._fixed_point(A, s, hz, Cs, W, f_min, F0=F, lam=lam, block=M)
             if not done.all():
                 raise ConvergenceError(f"loaded TCA at {torque:g} N m: the Hertz fixed point did not settle in "
                                        f"{HERTZ_MAX_ITER} QP solves at {int((~done).sum())} positions (largest load "
@@ -770,6 +839,80 @@ class LTCA:
             lever=lam_k * g1.r_b * cb)
         check_validity(result, self.pair, self.material)
         return result
+
+#: primal-dual active-set iterations of one contact QP (:func:`contact_active_set`) before qpOASES takes over
+ACTIVE_SET_MAX_ITER = 40
+
+
+def contact_active_set(C: np.ndarray, s: np.ndarray, lam: np.ndarray, valid: np.ndarray, W: float,
+                       P0: np.ndarray | None = None, max_iter: int = ACTIVE_SET_MAX_ITER
+                       ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The contact QP ``min 1/2 F^T C F + s^T F  s.t.  F >= 0, sum lam F = W`` of many positions at
+    once, by the primal-dual active-set method (Hintermüller, Ito & Kunisch 2002, for this
+    complementarity problem the classical load-distribution iteration of loaded TCA).
+
+    With a contact set P, the loads on P solve ``C_PP F_P - lam_P delta = -s_P`` and ``lam_P^T F_P = W``
+    (``F = 0`` off P; ``delta`` the approach, the equality's multiplier); the gaps are
+    ``g = s + C F - lam delta``. The next set keeps the nodes of P whose load is positive and adds
+    those off P whose gap is negative; when the set repeats, ``F >= 0`` on P, ``g = 0`` on P and
+    ``g >= 0`` off it: the QP's optimality conditions, so its unique minimiser (C positive definite).
+    The compliance of different tooth pairs is not coupled, so each pair's block is solved alone
+    and the approach follows from the load balance.
+
+    Parameters
+    ----------
+    C : (N, K, M, M) array
+        Compliance blocks of the K tooth pairs at N positions [mm/N], symmetric positive definite on
+        the valid nodes.
+    s : (N, K, M) array
+        Separations [mm]. lam : (N, K, M) array: the equality's coefficients (levers, > 0 on valid nodes).
+    valid : (N, K, M) bool array
+        Nodes that may carry load (others carry none).
+    W : float
+        Total normal load [N] (> 0).
+    P0 : (N, K, M) bool array, optional
+        The contact set to start from (a warm start: the previous Newton step's; default every valid node).
+    max_iter : int
+        Iterations before a position is given up.
+
+    Returns
+    -------
+    F : (N, K, M) array
+        Loads [N] (NaN where not settled).
+    P : (N, K, M) bool array
+        The final contact sets.
+    ok : (N,) bool array
+        The iteration settled at the position.
+    """
+    N, K, M = s.shape
+    P = valid.copy() if P0 is None else (P0 & valid)
+    F = np.full(s.shape, np.nan)
+    ok = np.zeros(N, bool)
+    todo = np.flatnonzero(valid.any(axis=(1, 2)))
+    eye = np.eye(M, dtype=bool)
+    # hysteresis of the set changes (a node at zero load within rounding neither leaves nor re-enters)
+    f_tol = 1e-13 * W
+    for _ in range(max_iter):
+        if todo.size == 0:
+            break
+        Pt, Ct, st, lt, vt = P[todo], C[todo], s[todo], lam[todo], valid[todo]
+        Cm = np.where(Pt[..., :, None] & Pt[..., None, :], Ct, 0.0) + (~Pt)[..., :, None] * eye
+        rhs = np.stack([np.where(Pt, -st, 0.0), np.where(Pt, lt, 0.0)], axis=-1)
+        xy = np.linalg.solve(Cm, rhs)
+        x, y = xy[..., 0], xy[..., 1]
+        ly = np.einsum("tkm,tkm->t", lt, y)
+        empty = ~Pt.any(axis=(1, 2))
+        d = (W - np.einsum("tkm,tkm->t", lt, x)) / np.where(empty, 1.0, ly)
+        Ft = x + d[:, None, None] * y
+        g = st + np.einsum("tkij,tkj->tki", Ct, Ft) - d[:, None, None] * lt
+        g_tol = 1e-13 * np.maximum(np.abs(d), np.max(np.abs(st), axis=(1, 2)))[:, None, None]
+        Pn = vt & np.where(Pt, Ft > -f_tol, g < -g_tol)
+        same = np.all(Pn == Pt, axis=(1, 2)) & ~empty
+        F[todo[same]] = Ft[same]
+        ok[todo[same]] = True
+        P[todo] = Pn
+        todo = todo[~same & ~empty]
+    return F, P, ok
 
 
 @dataclass
