@@ -246,6 +246,19 @@ def weber_tangent(material: Material) -> ca.Function:
                        ["f", "R_star", "h1", "h2", "f_min"], ["c", "dc"])
 
 
+def weber_tangent_array(f: npt.ArrayLike, R_star: npt.ArrayLike, h1: npt.ArrayLike, h2: npt.ArrayLike,
+                        material: Material, f_min: float) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`weber_tangent` on numpy arrays (elementwise, any common shape): ``(c, dc)`` [mm^2/N] with
+    ``c = delta / f`` as :func:`weber_contact` and ``dc = d(c f)/df = c + f dc/df``; the logarithm's
+    derivative is ``dc/df = -2 (1 - nu^2) / (pi E f)`` above ``f_min`` and 0 below it (where ``c`` is
+    held at its value at ``f_min``)."""
+    f = np.asarray(f, float)
+    m = material
+    c = weber_compliance(f, R_star, h1, h2, m.E, m.nu, m.E_star, f_min, smoothing="max")
+    slope = np.where(f > f_min, -2.0 * (1.0 - m.nu**2) / (math.pi * m.E) / np.maximum(f, f_min), 0.0)
+    return c, c + f * slope
+
+
 def coupling(z: npt.ArrayLike, widths: npt.ArrayLike, lam: float) -> np.ndarray:
     """Discrete Green's function of ``w - lam^2 w'' = f`` on the face with free ends [1/mm].
 

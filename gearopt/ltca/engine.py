@@ -45,7 +45,7 @@ from ..meshing.tca import TCA
 from ..settings import LTCASettings
 from ..units import RAD_TO_ARCSEC
 from .compliance import (Material, ToothCompliance, body_coupling_length, face_matrix_batch,
-                         weber_contact, weber_tangent)
+                         weber_contact, weber_tangent, weber_tangent_array)
 from .slices import SliceSet, SliceSolver
 
 if TYPE_CHECKING:
@@ -652,15 +652,13 @@ class LTCA:
         done = np.zeros(N, bool)
         change = np.zeros(N)
         bad = np.zeros(N, bool)
-        wt = self._weber_tangent(N * n)
         shp = (N, K, M)
         diag = np.arange(M)
         for i in range(HERTZ_MAX_ITER):
             # Newton step of the Hertz law (Josephy-Newton: the QP with the approach linearised at the
             # last loads, delta_H(F) ~ c F_k + dc (F - F_k), dc = d(c f)/df by AD); its fixed point is the
             # contact law's, reached quadratically (the secant compliance c alone converges linearly)
-            cH, dc = (np.asarray(v).reshape(N, n) for v in wt((Fc / lv).ravel()[None, :], Rv.ravel()[None, :],
-                                                                h1v.ravel()[None, :], h2v.ravel()[None, :], f_min))
+            cH, dc = weber_tangent_array(Fc / lv, Rv, h1v, h2v, self.material, f_min)
             dc = np.maximum(dc, 0.5 * cH)  # keeps the QP convex far from the solution (a damped step)
             C = Cb.copy()
             C[..., diag, diag] += np.where(valid, dc / lv, 0.0).reshape(shp)

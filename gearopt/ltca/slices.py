@@ -490,6 +490,116 @@ def _interp_sections(zsec, vals, zz) -> np.ndarray:
 
 
 def _partial_widths(Z, Wd, act, margin, b, edge=None, tips=None, solved=None, te=None):
+    """Each node's share of the contact along rows of slice nodes (:func:`_partial_widths_rows`, whose
+    arguments and returns these are): rows whose nodes are all used (the fixed grid of
+    :func:`slice_nodes`) gap by gap for all rows at once, any other row by the row loop. The
+    arithmetic of each gap is the row loop's, in the same order, so both give the same numbers."""
+    R, M = Z.shape
+    full = np.all(np.isfinite(Z), axis=1)
+    if M < 2 or not full.any():
+        return _partial_widths_rows(Z, Wd, act, margin, b, edge, tips, solved, te)
+    out = np.zeros((R, M))
+    LO = np.full(Z.shape, np.nan)
+    HI = np.full(Z.shape, np.nan)
+    TB = np.full(Z.shape, np.nan)
+    OF = np.full(Z.shape, -1)
+    TT = np.zeros(Z.shape)
+    kind = np.zeros(Z.shape, int) if edge is None else edge
+    solved = np.ones(Z.shape, bool) if solved is None else solved
+    rows = np.arange(R)
+
+    def put(sel, m, lo, hi):
+        # out[r, m] += hi - lo; the node's interval grows to [lo, hi] (rows sel, nodes m)
+        r = rows[sel]
+        out[r, m[sel]] += hi[sel] - lo[sel]
+        cur = LO[r, m[sel]]
+        LO[r, m[sel]] = np.where(np.isfinite(cur), np.minimum(cur, lo[sel]), lo[sel])
+        cur = HI[r, m[sel]]
+        HI[r, m[sel]] = np.where(np.isfinite(cur), np.maximum(cur, hi[sel]), hi[sel])
+
+    def tau_of(i, o):
+        # tau_of of _partial_widths_rows for every row (nodes i, o: (R,) index arrays)
+        ki, ko = kind[rows, i], kind[rows, o]
+        tau = np.full(R, 0.5)
+        if tips is None:
+            return tau
+        mixed = (ki > 0) != (ko > 0)
+        fl = np.where(ko > 0, i, o)
+        ed = np.where(ko > 0, o, i)
+        k = np.maximum(kind[rows, ed], 1)
+        mi = tips[2 * (k - 1), rows, fl]
+        mo = tips[2 * (k - 1) + 1, rows, ed]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            good = mixed & np.isfinite(mi) & np.isfinite(mo) & (mi >= 0) & (0 > mo)
+            f = mi / (mi - mo)
+        return np.where(good, np.where(fl == i, f, 1.0 - f), tau)
+
+    for p in range(M - 1):
+        q = p + 1
+        zp, zq = Z[:, p], Z[:, q]
+        h = zq - zp
+        ap, aq = act[:, p] & full, act[:, q] & full
+        P_, Q_ = np.full(R, p), np.full(R, q)
+        both = ap & aq
+        if both.any():
+            zt = zp + tau_of(P_, Q_) * h
+            put(both, P_, zp, zt)
+            put(both, Q_, zt, zq)
+        one = ap != aq
+        if not one.any():
+            continue
+        i = np.where(ap, p, q)
+        o = np.where(ap, q, p)
+        sgn = np.where(ap, 1.0, -1.0)
+        zi = Z[rows, i]
+        mi, mo = margin[:, rows, i], margin[:, rows, o]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            cross = np.isfinite(mi) & np.isfinite(mo) & (mi >= 0) & (mo < 0)
+            ratio = np.where(cross, mi / (mi - mo), np.inf)
+        anyc = cross.any(axis=0)
+        # no boundary found between them: i keeps half the gap
+        half = one & ~anyc
+        if half.any():
+            zm = zi + sgn * 0.5 * h
+            put(half, i, np.minimum(zi, zm), np.maximum(zi, zm))
+        sel = one & anyc
+        if not sel.any():
+            continue
+        t = np.clip(np.min(ratio, axis=0), 0.0, 1.0)
+        zs = zi + sgn * t * h
+        if te is not None:
+            te_i, te_o = te[rows, i], te[rows, o]
+            tb = np.where(np.isfinite(te_o), te_i + t * (te_o - te_i), te_i)
+            upd = sel & np.isfinite(te_i)
+            cur = TB[rows, i]
+            TB[rows[upd], i[upd]] = np.where(np.isfinite(cur), np.maximum(cur, tb), tb)[upd]
+        same_kind = (kind[rows, i] > 0) == (kind[rows, o] > 0)
+        tau = tau_of(i, o)
+        so = solved[rows, o]
+        share_i = np.where(~so, t, np.where(same_kind, t - t * t / 2, np.minimum(t, tau)))
+        share_o = np.where(~so, 0.0, np.where(same_kind, t * t / 2, np.maximum(t - tau, 0.0)))
+        zend = zi + sgn * share_i * h
+        put(sel, i, np.minimum(zi, zend), np.maximum(zi, zend))
+        po = sel & (share_o >= PARTNER_MIN)
+        if po.any():
+            zo = zs - sgn * share_o * h
+            put(po, o, np.minimum(zo, zs), np.maximum(zo, zs))
+            better = po & (t > TT[rows, o])
+            OF[rows[better], o[better]] = i[better]
+            TT[rows[better], o[better]] = t[better]
+    part = (out > 0) & ~act
+    out = np.where(act, np.maximum(out, 1e-9), np.where(part, out, Wd))
+    res = [out, LO, HI, part, TB, np.where(part, OF, -1), np.where(part, TT, 0.0)]
+    if not full.all():
+        j = np.flatnonzero(~full)
+        sub = _partial_widths_rows(Z[j], Wd[j], act[j], margin[:, j], b, None if edge is None else edge[j],
+                                   None if tips is None else tips[:, j], solved[j], None if te is None else te[j])
+        for v, w in zip(res, sub):
+            v[j] = w
+    return tuple(res)
+
+
+def _partial_widths_rows(Z, Wd, act, margin, b, edge=None, tips=None, solved=None, te=None):
     """Each node's share of the contact along a row of slice nodes (pinion sections ``Z`` (rows, M),
     ascending, unused NaN), gap by gap between neighbouring nodes p < q, h = z_q - z_p:
 
