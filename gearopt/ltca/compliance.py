@@ -274,8 +274,16 @@ def coupling(z: npt.ArrayLike, widths: npt.ArrayLike, lam: float) -> np.ndarray:
 def coupling_batch(z: np.ndarray, widths: np.ndarray, lam: float) -> np.ndarray:
     """:func:`coupling` of many slice rows at once: ``z``, ``widths`` (B, M) [mm], each row's used
     nodes first (unused: ``z`` NaN); returns (B, M, M) with zero rows/columns at unused nodes."""
-    used = np.isfinite(np.asarray(z, float))
-    G = np.linalg.inv(coupling_stiffness_batch(z, widths, lam))
+    z = np.asarray(z, float)
+    widths = np.asarray(widths, float)
+    used = np.isfinite(z)
+    # rows of one grid repeat (the slices are fixed to the tooth): each distinct row inverted once
+    key = np.concatenate([np.where(used, z, np.inf), np.where(np.isfinite(widths), widths, -np.inf)], axis=1)
+    uniq, first, inv = np.unique(key, axis=0, return_index=True, return_inverse=True)
+    if uniq.shape[0] < z.shape[0]:
+        G = np.linalg.inv(coupling_stiffness_batch(z[first], widths[first], lam))[inv.ravel()]
+    else:
+        G = np.linalg.inv(coupling_stiffness_batch(z, widths, lam))
     return np.where(used[:, :, None] & used[:, None, :], G, 0.0)
 
 

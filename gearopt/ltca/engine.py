@@ -795,8 +795,7 @@ class LTCA:
             cH, bH, p0 = weber_contact(F / length, R, h1, h2, self.material, f_min)
             d = s + np.einsum("nij,nj->ni", Cs, F) + np.where(A, cH / length * F, 0.0)
             loaded = A & (F > 1e-9 * W)
-            delta = np.array([np.median(d[j, loaded[j]] / lam[j, loaded[j]]) if loaded[j].any() else np.nan
-                              for j in range(N)])
+            delta = row_median(np.where(loaded, d / lam, np.nan))
             add = A_all & ~A & (d < np.where(np.isfinite(delta), delta, np.inf)[:, None] * lam - KKT_ADD_TOL)
             if not add.any():
                 break
@@ -837,6 +836,17 @@ class LTCA:
             lever=lam_k * g1.r_b * cb)
         check_validity(result, self.pair, self.material)
         return result
+
+def row_median(a: np.ndarray) -> np.ndarray:
+    """Median of each row of ``a`` (N, n) over its finite entries (NaN: none), as ``np.median`` of
+    those entries gives it (the mean of the two middle ones of an even count)."""
+    a = np.sort(np.where(np.isfinite(a), a, np.inf), axis=1)
+    c = np.isfinite(a).sum(axis=1)
+    rows = np.arange(a.shape[0])
+    lo, hi = a[rows, np.maximum((c - 1) // 2, 0)], a[rows, np.minimum(c // 2, a.shape[1] - 1)]
+    with np.errstate(invalid="ignore"):
+        return np.where(c > 0, np.where(c % 2 == 1, lo, (lo + hi) / 2), np.nan)
+
 
 #: primal-dual active-set iterations of one contact QP (:func:`contact_active_set`) before qpOASES takes over
 ACTIVE_SET_MAX_ITER = 40

@@ -37,7 +37,7 @@ import casadi as ca
 import numpy as np
 import numpy.typing as npt
 
-from ..compiled import mapped
+from ..compiled import mapped, use_compiled
 from ..errors import ArgumentError, ConvergenceError
 from ..meshing.curvature import Sym, eigh2_sym, shape_matrix, unit_perp
 from ..meshing.misalignment import Misalignment
@@ -48,6 +48,7 @@ SLICE_NORMAL_TOL = 0.05  #: accepted slice points have n1 . n2 < -1 + this (crow
 _SECTIONS = (-0.5, -0.25, 0.0, 0.25, 0.5)  #: pinion sections of the conjugate first guesses [b1]
 PARTNER_MIN = 1e-4  #: smallest weight [share of the slice spacing] with which a node past a boundary joins the contact
 EDGE_CHUNK = 256  #: columns per mapped tip-edge solve (one compiled size)
+CONJUGATE_CACHE = 4  #: first-guess sets (conjugate sections) a SliceSolver keeps (per angles and tool shifts)
 
 
 @dataclass
@@ -245,6 +246,8 @@ class SliceSolver:
             self.edge_branch[member] = Branch(f"ltca_tip{member}", Ge, ce, self._accept_edge, tca.tol, tca.solver,
                                               tca.jit)
         self._line = None
+        self._geo_maps: dict = {}
+        self._conj_cache: dict = {}
 
     def _accept(self, res, n1n2, reg):
         return np.isfinite(res) & (res <= self.tca.tol) & (n1n2 < -1 + SLICE_NORMAL_TOL) & (reg > REGULARITY_MIN)
@@ -264,9 +267,20 @@ class SliceSolver:
         ``phis``: {z: (4, P) unknowns (u1, u2, z2, r_p2 phi2), NaN where none} (first guesses)."""
         from ..contact.edge import conjugate_sections
 
+        # they depend on the angles and the tool shifts in p1, p2 only (not on the modifications or the
+        # misalignment): kept for the last few calls (a torque or misalignment sweep, an optimiser's
+        # designs at the same positions solve them once)
+        key = (np.asarray(phis, float).tobytes(), np.asarray(p1, float).tobytes(), np.asarray(p2, float).tobytes())
+        hit = self._conj_cache.get(key)
+        if hit is not None:
+            return {z: W.copy() for z, W in hit.items()}
         b1 = self.tca.pair.pinion.b
         secs = conjugate_sections(self.tca, self._line_tca(), phis, p1, p2, [s * b1 for s in _SECTIONS])
-        return {z: W[[0, 2, 3, 4]] for z, W in secs.items()}
+        out = {z: W[[0, 2, 3, 4]] for z, W in secs.items()}
+        if len(self._conj_cache) >= CONJUGATE_CACHE:
+            self._conj_cache.pop(next(iter(self._conj_cache)))
+        self._conj_cache[key] = {z: W.copy() for z, W in out.items()}
+        return out
 
     def solve(self, phi1: npt.ArrayLike, p1: npt.ArrayLike | None = None, p2: npt.ArrayLike | None = None,
               mis: Misalignment | None = None, pairs: Sequence[int] = (-1, 0, 1), n_slices: int = 21,
@@ -423,7 +437,10 @@ class SliceSolver:
     def _geometry(self, W, prm) -> dict:
         """Both flanks' points and normals and the fixed-frame point at the columns of ``W``:
         {name: (3, columns)}."""
-        f = mapped(self.geometry, W.shape[1], self.tca.jit)
+        key = use_compiled(self.tca.jit, W.shape[1])
+        if key not in self._geo_maps:  # one ColumnMap (its maps built once) per mode
+            self._geo_maps[key] = mapped(self.geometry, W.shape[1], self.tca.jit)
+        f = self._geo_maps[key]
         return {n: np.array(v) for n, v in zip(self.geometry.name_out(), f(W, prm))}
 
     def _tip_edges(self, W, ok, prm, geo, g1, g2, n_keep):
