@@ -631,12 +631,10 @@ class LTCA:
         M = n if block is None else int(block)
         K = n // M
         Cv = Cs.reshape(N, K, M, K, M)
-        if K > 1:
-            off = Cv.copy()
-            off[:, np.arange(K), :, np.arange(K), :] = 0.0
-            if np.any(off):  # pairs coupled: one block
-                K, M, Cv = 1, n, Cs.reshape(N, 1, n, 1, n)
         Cb = np.moveaxis(Cv[:, np.arange(K), :, np.arange(K), :], 0, 1)  # (N, K, M, M)
+        if any(np.any(Cv[:, k, :, j, :]) for k in range(K) for j in range(K) if j != k):  # pairs coupled: one block
+            K, M = 1, n
+            Cb = Cs.reshape(N, 1, n, n)
         valid = A
         lamv = np.where(valid, np.ones((N, n)) if lam is None else lam, 0.0)
         lv = np.where(valid, hz.length, 1.0)
@@ -653,18 +651,15 @@ class LTCA:
         change = np.zeros(N)
         bad = np.zeros(N, bool)
         shp = (N, K, M)
-        diag = np.arange(M)
         for i in range(HERTZ_MAX_ITER):
             # Newton step of the Hertz law (Josephy-Newton: the QP with the approach linearised at the
             # last loads, delta_H(F) ~ c F_k + dc (F - F_k), dc = d(c f)/df by AD); its fixed point is the
             # contact law's, reached quadratically (the secant compliance c alone converges linearly)
             cH, dc = weber_tangent_array(Fc / lv, Rv, h1v, h2v, self.material, f_min)
             dc = np.maximum(dc, 0.5 * cH)  # keeps the QP convex far from the solution (a damped step)
-            C = Cb.copy()
-            C[..., diag, diag] += np.where(valid, dc / lv, 0.0).reshape(shp)
             sk = s + np.where(valid, (cH - dc) / lv * Fc, 0.0)
-            Fn, Pn, ok = contact_active_set(C, sk.reshape(shp), lamv.reshape(shp), valid.reshape(shp), W,
-                                            P.reshape(shp))
+            Fn, Pn, ok = contact_active_set(Cb, sk.reshape(shp), lamv.reshape(shp), valid.reshape(shp), W,
+                                            P.reshape(shp), diag=np.where(valid, dc / lv, 0.0).reshape(shp))
             Fn, P = Fn.reshape(N, n), Pn.reshape(N, n)
             bad |= ~ok
             Fn = np.where(valid, np.maximum(Fn, 0.0), 0.0)
@@ -853,8 +848,8 @@ ACTIVE_SET_MAX_ITER = 40
 
 
 def contact_active_set(C: np.ndarray, s: np.ndarray, lam: np.ndarray, valid: np.ndarray, W: float,
-                       P0: np.ndarray | None = None, max_iter: int = ACTIVE_SET_MAX_ITER
-                       ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                       P0: np.ndarray | None = None, max_iter: int = ACTIVE_SET_MAX_ITER,
+                       diag: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The contact QP ``min 1/2 F^T C F + s^T F  s.t.  F >= 0, sum lam F = W`` of many positions at
     once, by the primal-dual active-set method (Hintermüller, Ito & Kunisch 2002, for this
     complementarity problem the classical load-distribution iteration of loaded TCA).
@@ -864,8 +859,8 @@ def contact_active_set(C: np.ndarray, s: np.ndarray, lam: np.ndarray, valid: np.
     ``g = s + C F - lam delta``. The next set keeps the nodes of P whose load is positive and adds
     those off P whose gap is negative; when the set repeats, ``F >= 0`` on P, ``g = 0`` on P and
     ``g >= 0`` off it: the QP's optimality conditions, so its unique minimiser (C positive definite).
-    The compliance of different tooth pairs is not coupled, so each pair's block is solved alone
-    and the approach follows from the load balance.
+    The compliance of different tooth pairs is not coupled, so each pair with nodes in P is solved
+    alone (the others carry nothing) and the approach follows from the load balance.
 
     Parameters
     ----------
@@ -882,6 +877,8 @@ def contact_active_set(C: np.ndarray, s: np.ndarray, lam: np.ndarray, valid: np.
         The contact set to start from (a warm start: the previous Newton step's; default every valid node).
     max_iter : int
         Iterations before a position is given up.
+    diag : (N, K, M) array, optional
+        Added to the diagonal of ``C`` [mm/N] (the Hertz term of a Newton step).
 
     Returns
     -------
@@ -897,24 +894,36 @@ def contact_active_set(C: np.ndarray, s: np.ndarray, lam: np.ndarray, valid: np.
     F = np.full(s.shape, np.nan)
     ok = np.zeros(N, bool)
     todo = np.flatnonzero(valid.any(axis=(1, 2)))
-    eye = np.eye(M, dtype=bool)
+    eye = np.eye(M)
     # hysteresis of the set changes (a node at zero load within rounding neither leaves nor re-enters)
     f_tol = 1e-13 * W
     for _ in range(max_iter):
         if todo.size == 0:
             break
-        Pt, Ct, st, lt, vt = P[todo], C[todo], s[todo], lam[todo], valid[todo]
-        Cm = np.where(Pt[..., :, None] & Pt[..., None, :], Ct, 0.0) + (~Pt)[..., :, None] * eye
-        rhs = np.stack([np.where(Pt, -st, 0.0), np.where(Pt, lt, 0.0)], axis=-1)
-        xy = np.linalg.solve(Cm, rhs)
+        Pt = P[todo]
+        # only the pairs with contact nodes (the others carry nothing and add nothing to the gaps)
+        tb, kb = np.nonzero(Pt.any(axis=2))
+        nb = todo[tb]
+        Pb, Cb = Pt[tb, kb], C[nb, kb]
+        if diag is not None:
+            Cb = Cb + diag[nb, kb][:, :, None] * eye
+        Cm = np.where(Pb[:, :, None] & Pb[:, None, :], Cb, 0.0) + (~Pb)[:, :, None] * eye
+        sb, lb = s[nb, kb], lam[nb, kb]
+        xy = np.linalg.solve(Cm, np.stack([np.where(Pb, -sb, 0.0), np.where(Pb, lb, 0.0)], axis=-1))
         x, y = xy[..., 0], xy[..., 1]
-        ly = np.einsum("tkm,tkm->t", lt, y)
+        lx = np.bincount(tb, weights=np.sum(lb * x, axis=1), minlength=todo.size)
+        ly = np.bincount(tb, weights=np.sum(lb * y, axis=1), minlength=todo.size)
         empty = ~Pt.any(axis=(1, 2))
-        d = (W - np.einsum("tkm,tkm->t", lt, x)) / np.where(empty, 1.0, ly)
-        Ft = x + d[:, None, None] * y
-        g = st + np.einsum("tkij,tkj->tki", Ct, Ft) - d[:, None, None] * lt
+        d = (W - lx) / np.where(empty, 1.0, ly)
+        Fb = x + d[tb, None] * y
+        Ft = np.zeros(Pt.shape)
+        Ft[tb, kb] = Fb
+        CF = np.zeros(Pt.shape)
+        CF[tb, kb] = (Cb @ Fb[:, :, None])[:, :, 0]
+        st, lt = s[todo], lam[todo]
+        g = st + CF - d[:, None, None] * lt
         g_tol = 1e-13 * np.maximum(np.abs(d), np.max(np.abs(st), axis=(1, 2)))[:, None, None]
-        Pn = vt & np.where(Pt, Ft > -f_tol, g < -g_tol)
+        Pn = valid[todo] & np.where(Pt, Ft > -f_tol, g < -g_tol)
         same = np.all(Pn == Pt, axis=(1, 2)) & ~empty
         F[todo[same]] = Ft[same]
         ok[todo[same]] = True
