@@ -659,7 +659,8 @@ class LTCA:
             dc = np.maximum(dc, 0.5 * cH)  # keeps the QP convex far from the solution (a damped step)
             sk = s + np.where(valid, (cH - dc) / lv * Fc, 0.0)
             Fn, Pn, ok = contact_active_set(Cb, sk.reshape(shp), lamv.reshape(shp), valid.reshape(shp), W,
-                                            P.reshape(shp), diag=np.where(valid, dc / lv, 0.0).reshape(shp))
+                                            P.reshape(shp), max_iter=ACTIVE_SET_MAX_ITER,
+                                            diag=np.where(valid, dc / lv, 0.0).reshape(shp))
             Fn, P = Fn.reshape(N, n), Pn.reshape(N, n)
             bad |= ~ok
             Fn = np.where(valid, np.maximum(Fn, 0.0), 0.0)
