@@ -11,7 +11,8 @@ are the optimality conditions of the convex QP
     min_F  1/2 F^T C F + s^T F    s.t.  F >= 0,  sum lam F = W,
 
 whose equality multiplier is the loaded approach ``delta`` [mm] (the pinion's rigid advance along the
-flank contact normal). CasADi's conic solver (qpOASES, an active-set method) solves it; the Hertz
+flank contact normal). The primal-dual active-set method solves it at every position at once
+(:func:`contact_active_set`; qpOASES, CasADi's conic plugin, where that does not settle); the Hertz
 part of C depends on the load (Weber's logarithm), so the QP is re-solved with the Hertz approach
 linearised at the last loads (a Newton step, tangent by AD) until the loads stop changing (the
 nonlinear contact law holds at the solution). Each solution is checked against the contact
