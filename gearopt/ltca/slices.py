@@ -538,18 +538,20 @@ def _partial_widths(Z, Wd, act, margin, b, edge=None, tips=None, solved=None, te
         # tau_of of _partial_widths_rows for every row (nodes i, o: (R,) index arrays)
         ki, ko = kind[rows, i], kind[rows, o]
         tau = np.full(R, 0.5)
-        if tips is None:
+        r = np.flatnonzero((ki > 0) != (ko > 0))  # a flank node beside an edge node
+        if tips is None or r.size == 0:
             return tau
-        mixed = (ki > 0) != (ko > 0)
+        i, o, ko = i[r], o[r], ko[r]
         fl = np.where(ko > 0, i, o)
         ed = np.where(ko > 0, o, i)
-        k = np.maximum(kind[rows, ed], 1)
-        mi = tips[2 * (k - 1), rows, fl]
-        mo = tips[2 * (k - 1) + 1, rows, ed]
+        k = kind[r, ed]
+        mi = tips[2 * (k - 1), r, fl]
+        mo = tips[2 * (k - 1) + 1, r, ed]
         with np.errstate(invalid="ignore", divide="ignore"):
-            good = mixed & np.isfinite(mi) & np.isfinite(mo) & (mi >= 0) & (0 > mo)
+            good = np.isfinite(mi) & np.isfinite(mo) & (mi >= 0) & (0 > mo)
             f = mi / (mi - mo)
-        return np.where(good, np.where(fl == i, f, 1.0 - f), tau)
+        tau[r] = np.where(good, np.where(fl == i, f, 1.0 - f), 0.5)
+        return tau
 
     for p in range(M - 1):
         q = p + 1
