@@ -329,7 +329,9 @@ class SliceSolver:
         W0 = _interp_sections(zsec, Wsec[:, :, inv], zz)
         have = np.all(np.isfinite(W0), axis=0) & used
         W0 = np.where(have, W0, 0.0)
-        groups = [np.flatnonzero(have[g * M:(g + 1) * M]) + g * M for g in range(K * N + 1)]
+        # one group per row of slice nodes (a pair at a position, and the TE zero's): its columns with a guess
+        flat = np.flatnonzero(have[:(K * N + 1) * M])
+        groups = np.split(flat, np.cumsum(np.bincount(flat // M, minlength=K * N + 1))[:-1])
         W, res, n1n2, reg, ok, st = self.branch.solve(W0, prm, groups)
         # the gear angle on the guess's revolution (the kinematics are 2 pi periodic in phi2, and
         # Newton from a distant start may land a revolution away); farther than a gear pitch from the
