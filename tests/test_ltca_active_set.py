@@ -162,3 +162,13 @@ def test_vectorised_contact_widths_equal_the_row_loop(monkeypatch, make, mis):
     assert ref.stats["n_partner"] > 0
     for name in ("width", "z_lo", "z_hi", "te", "active", "inside", "te_bound", "partner_of", "partner_t"):
         assert np.array_equal(getattr(fast, name), getattr(ref, name), equal_nan=True), name
+
+
+def test_a_torque_sweep_warm_started_from_the_previous_torque_gives_each_torque_alone():
+    L = LTCA(crowned(), n_slices=11)
+    S = L.slices(L.mesh_cycle(16), mis=Misalignment(crossing=3 * ARCMIN))
+    sweep = L.solve([20.0, 150.0, 400.0], slices=S).results
+    for r in sweep:
+        alone = L.solve(r.torque, slices=S).results[0]
+        assert np.max(np.abs(r.load - alone.load)) < 1e-10 * r.W
+        assert np.max(np.abs(r.te_loaded_arcsec - alone.te_loaded_arcsec)) < 1e-9

@@ -613,17 +613,20 @@ class LTCA:
         S = slices if slices is not None else self.slices(phi1, p1, p2, mis, pairs, offsets)
         t_sep = time.perf_counter() - t0
         st = self.structure(S)
-        results = [self._solve_one(float(t), S, st) for t in T]
+        results = []
+        for t in T:  # each torque's first contact set: the previous torque's (a warm start)
+            results.append(self._solve_one(float(t), S, st, start=results[-1] if results else None))
         return LoadedSweep(slices=S, results=results, separation_time=t_sep, structure=st,
                            te_zero_rad=S.phi2_ref, ltca=self)
 
-    def _fixed_point(self, A, s, hz: HertzNodes, Cs, W, f_min, F0=None, lam=None, block=None):
+    def _fixed_point(self, A, s, hz: HertzNodes, Cs, W, f_min, F0=None, lam=None, block=None, P0=None):
         """The contact QP over the slices ``A`` (N, n) of each position (separations ``s``, Hertz data
         ``hz`` (N, n) and compliance ``Cs`` (N, n, n), :class:`ContactStructure`), with the Hertz fixed point:
         ``(F (N, n), done (N,), change (N,), iterations (N,))``. ``lam`` (N, n): each slice's lever
         about the pinion axis over ``r_b1 cos(beta_b)`` (the equilibrium ``sum lam F = W``; default 1).
         ``block``: the nodes per tooth pair (``Cs`` is block diagonal: pairs are not coupled); default
-        one block.
+        one block. ``P0`` (N, n): without ``F0``, the active-set method's first contact set (default every
+        slice of ``A``; the solution does not depend on it).
 
         Each Newton step's QP is solved by the primal-dual active-set method on all positions at once
         (:func:`contact_active_set`), started from the previous step's contact set; a position where
@@ -642,7 +645,8 @@ class LTCA:
         Rv, h1v, h2v = (np.where(valid, v, 1.0) for v in (hz.R, hz.h1, hz.h2))
         # start: the load spread over the active contact length, or the previous round's loads
         Fc = np.where(valid, W * lv / np.maximum((lv * valid).sum(axis=1, keepdims=True), 1e-12), 0.0)
-        P = valid.copy()
+        P = valid.copy() if P0 is None else valid & P0
+        P = np.where(P.any(axis=1, keepdims=True), P, valid)
         if F0 is not None:
             Fc = np.where(valid, F0, 0.0)
             P = valid & (F0 > 0)
@@ -738,7 +742,8 @@ class LTCA:
         F[jj, gi[jj, cc]] = Fc[jj, cc]
         return F, done, change, it
 
-    def _solve_one(self, torque: float, S: SliceSet, st: ContactStructure) -> LoadedResult:
+    def _solve_one(self, torque: float, S: SliceSet, st: ContactStructure,
+                   start: LoadedResult | None = None) -> LoadedResult:
         t0 = time.perf_counter()
         g1, g2 = self.pair.pinion, self.pair.gear
         cb = self.cos_bb
@@ -782,8 +787,11 @@ class LTCA:
         A = A_all & (~edge | (s <= guess))
         Cs = st.Cs
         F = None
+        # the active-set method's first contact set: the slices loaded at the previous torque (the QP's
+        # solution does not depend on it)
+        P0 = None if start is None else np.transpose(start.load > 0, (1, 0, 2)).reshape(N, n)
         for _outer in range(OUTER_MAX):
-            F, done, change, it = self._fixed_point(A, s, hz, Cs, W, f_min, F0=F, lam=lam, block=M)
+            F, done, change, it = self._fixed_point(A, s, hz, Cs, W, f_min, F0=F, lam=lam, block=M, P0=P0)
             if not done.all():
                 raise ConvergenceError(f"loaded TCA at {torque:g} N m: the Hertz fixed point did not settle in "
                                        f"{HERTZ_MAX_ITER} QP solves at {int((~done).sum())} positions (largest load "
