@@ -59,7 +59,9 @@ EDGE_RADIUS = 0.05  #: rounding of an unrelieved tip edge [m_n]: the Hertz radiu
 EDGE_GUESS = 2.0  #: first QP round: tip edges within this many times the ISO-estimated approach
 OUTER_MAX = 10  #: QP rounds that add tip-edge slices found closed after a solve
 KKT_ADD_TOL = 1e-12  #: a left-out slice whose gap falls below the approach by more than this [mm] is added
-QP_SOLVER = "qpoases"  #: CasADi conic plugin of the contact QP
+QP_SOLVER = "qpoases"  #: CasADi conic plugin of the contact QP where the active-set method does not settle
+#: the contact QP's solver as results.json names it (``options.qp_solver``)
+QP_METHOD = "active-set (qpoases where it does not settle)"
 F_MIN_SHARE = 1e-3  #: Weber's logarithm uses at least this share of the mean line load
 #: Range of validity of the linear-elastic contact model (refused beyond it, :func:`check_validity`).
 #: Peak Hertz pressure of the flank contact [MPa] for steel (E = 206000 MPa), scaled by E / 206000
@@ -837,7 +839,7 @@ class LTCA:
             load=Fk, line_load=np.where(np.isfinite(S.z), Fk / width, np.nan),
             p0=p0_k, b_H=bH_k, pair_load=pair_load,
             share=(lam_k * Fk).sum(axis=2) / W, stiffness=W / delta / 1e3, kkt_error=kkt, hertz_iterations=it,
-            solve_time=time.perf_counter() - t0, face_width=g1.b, stats={"qp_solver": QP_SOLVER}, edge=S.edge,
+            solve_time=time.perf_counter() - t0, face_width=g1.b, stats={"qp_solver": QP_METHOD}, edge=S.edge,
             lever=lam_k * g1.r_b * cb)
         check_validity(result, self.pair, self.material)
         return result
