@@ -844,6 +844,7 @@ class LTCA:
         check_validity(result, self.pair, self.material)
         return result
 
+
 def row_median(a: np.ndarray) -> np.ndarray:
     """Median of each row of ``a`` (N, n) over its finite entries (NaN: none), as ``np.median`` of
     those entries gives it (the mean of the two middle ones of an even count)."""
@@ -868,9 +869,10 @@ def contact_active_set(C: np.ndarray, s: np.ndarray, lam: np.ndarray, valid: np.
 
     With a contact set P, the loads on P solve ``C_PP F_P - lam_P delta = -s_P`` and ``lam_P^T F_P = W``
     (``F = 0`` off P; ``delta`` the approach, the equality's multiplier); the gaps are
-    ``g = s + C F - lam delta``. The next set keeps the nodes of P whose load is positive and adds
-    those off P whose gap is negative; when the set repeats, ``F >= 0`` on P, ``g = 0`` on P and
-    ``g >= 0`` off it: the QP's optimality conditions, so its unique minimiser (C positive definite).
+    ``g = s + C F - lam delta``. The next set keeps the nodes of P whose load is not negative (to
+    1e-13 W) and adds those off P whose gap is negative (to 1e-13 of the approach); when the set
+    repeats, ``F >= 0`` on P, ``g = 0`` on P and ``g >= 0`` off it: the QP's optimality conditions,
+    so its unique minimiser (C positive definite).
     The compliance of different tooth pairs is not coupled, so each pair with nodes in P is solved
     alone (the others carry nothing) and the approach follows from the load balance.
 
@@ -880,7 +882,9 @@ def contact_active_set(C: np.ndarray, s: np.ndarray, lam: np.ndarray, valid: np.
         Compliance blocks of the K tooth pairs at N positions [mm/N], symmetric positive definite on
         the valid nodes.
     s : (N, K, M) array
-        Separations [mm]. lam : (N, K, M) array: the equality's coefficients (levers, > 0 on valid nodes).
+        Separations [mm].
+    lam : (N, K, M) array
+        The equality's coefficients (each slice's lever over ``r_b1 cos(beta_b)``, > 0 on valid nodes).
     valid : (N, K, M) bool array
         Nodes that may carry load (others carry none).
     W : float
