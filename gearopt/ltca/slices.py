@@ -249,6 +249,12 @@ class SliceSolver:
         self._geo_maps: dict = {}
         self._conj_cache: dict = {}
 
+    def __getstate__(self):
+        # the geometry's maps hold compiled libraries (rebuilt on demand where it lands)
+        state = dict(self.__dict__)
+        state["_geo_maps"] = {}
+        return state
+
     def _accept(self, res, n1n2, reg):
         return np.isfinite(res) & (res <= self.tca.tol) & (n1n2 < -1 + SLICE_NORMAL_TOL) & (reg > REGULARITY_MIN)
 
