@@ -246,6 +246,19 @@ def weber_tangent(material: Material) -> ca.Function:
                        ["f", "R_star", "h1", "h2", "f_min"], ["c", "dc"])
 
 
+def weber_tangent_array(f: npt.ArrayLike, R_star: npt.ArrayLike, h1: npt.ArrayLike, h2: npt.ArrayLike,
+                        material: Material, f_min: float) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`weber_tangent` on numpy arrays (elementwise, any common shape): ``(c, dc)`` [mm^2/N] with
+    ``c = delta / f`` as :func:`weber_contact` and ``dc = d(c f)/df = c + f dc/df``; the logarithm's
+    derivative is ``dc/df = -2 (1 - nu^2) / (pi E f)`` above ``f_min`` and 0 below it (where ``c`` is
+    held at its value at ``f_min``)."""
+    f = np.asarray(f, float)
+    m = material
+    c = weber_compliance(f, R_star, h1, h2, m.E, m.nu, m.E_star, f_min, smoothing="max")
+    slope = np.where(f > f_min, -2.0 * (1.0 - m.nu**2) / (math.pi * m.E) / np.maximum(f, f_min), 0.0)
+    return c, c + f * slope
+
+
 def coupling(z: npt.ArrayLike, widths: npt.ArrayLike, lam: float) -> np.ndarray:
     """Discrete Green's function of ``w - lam^2 w'' = f`` on the face with free ends [1/mm].
 
@@ -261,8 +274,16 @@ def coupling(z: npt.ArrayLike, widths: npt.ArrayLike, lam: float) -> np.ndarray:
 def coupling_batch(z: np.ndarray, widths: np.ndarray, lam: float) -> np.ndarray:
     """:func:`coupling` of many slice rows at once: ``z``, ``widths`` (B, M) [mm], each row's used
     nodes first (unused: ``z`` NaN); returns (B, M, M) with zero rows/columns at unused nodes."""
-    used = np.isfinite(np.asarray(z, float))
-    G = np.linalg.inv(coupling_stiffness_batch(z, widths, lam))
+    z = np.asarray(z, float)
+    widths = np.asarray(widths, float)
+    used = np.isfinite(z)
+    # rows of one grid repeat (the slices are fixed to the tooth): each distinct row inverted once
+    key = np.concatenate([np.where(used, z, np.inf), np.where(np.isfinite(widths), widths, -np.inf)], axis=1)
+    uniq, first, inv = np.unique(key, axis=0, return_index=True, return_inverse=True)
+    if uniq.shape[0] < z.shape[0]:
+        G = np.linalg.inv(coupling_stiffness_batch(z[first], widths[first], lam))[inv.ravel()]
+    else:
+        G = np.linalg.inv(coupling_stiffness_batch(z, widths, lam))
     return np.where(used[:, :, None] & used[:, None, :], G, 0.0)
 
 

@@ -11,7 +11,8 @@ are the optimality conditions of the convex QP
     min_F  1/2 F^T C F + s^T F    s.t.  F >= 0,  sum lam F = W,
 
 whose equality multiplier is the loaded approach ``delta`` [mm] (the pinion's rigid advance along the
-flank contact normal). CasADi's conic solver (qpOASES, an active-set method) solves it; the Hertz
+flank contact normal). The primal-dual active-set method solves it at every position at once
+(:func:`contact_active_set`; qpOASES, CasADi's conic plugin, where that does not settle); the Hertz
 part of C depends on the load (Weber's logarithm), so the QP is re-solved with the Hertz approach
 linearised at the last loads (a Newton step, tangent by AD) until the loads stop changing (the
 nonlinear contact law holds at the solution). Each solution is checked against the contact
@@ -45,7 +46,7 @@ from ..meshing.tca import TCA
 from ..settings import LTCASettings
 from ..units import RAD_TO_ARCSEC
 from .compliance import (Material, ToothCompliance, body_coupling_length, face_matrix_batch,
-                         weber_contact, weber_tangent)
+                         weber_contact, weber_tangent, weber_tangent_array)
 from .slices import SliceSet, SliceSolver
 
 if TYPE_CHECKING:
@@ -58,7 +59,9 @@ EDGE_RADIUS = 0.05  #: rounding of an unrelieved tip edge [m_n]: the Hertz radiu
 EDGE_GUESS = 2.0  #: first QP round: tip edges within this many times the ISO-estimated approach
 OUTER_MAX = 10  #: QP rounds that add tip-edge slices found closed after a solve
 KKT_ADD_TOL = 1e-12  #: a left-out slice whose gap falls below the approach by more than this [mm] is added
-QP_SOLVER = "qpoases"  #: CasADi conic plugin of the contact QP
+QP_SOLVER = "qpoases"  #: CasADi conic plugin of the contact QP where the active-set method does not settle
+#: the contact QP's solver as results.json names it (``options.qp_solver``)
+QP_METHOD = "active-set (qpoases where it does not settle)"
 F_MIN_SHARE = 1e-3  #: Weber's logarithm uses at least this share of the mean line load
 #: Range of validity of the linear-elastic contact model (refused beyond it, :func:`check_validity`).
 #: Peak Hertz pressure of the flank contact [MPa] for steel (E = 206000 MPa), scaled by E / 206000
@@ -612,15 +615,82 @@ class LTCA:
         S = slices if slices is not None else self.slices(phi1, p1, p2, mis, pairs, offsets)
         t_sep = time.perf_counter() - t0
         st = self.structure(S)
-        results = [self._solve_one(float(t), S, st) for t in T]
+        results = []
+        for t in T:  # each torque's first contact set: the previous torque's (a warm start)
+            results.append(self._solve_one(float(t), S, st, start=results[-1] if results else None))
         return LoadedSweep(slices=S, results=results, separation_time=t_sep, structure=st,
                            te_zero_rad=S.phi2_ref, ltca=self)
 
-    def _fixed_point(self, A, s, hz: HertzNodes, Cs, W, f_min, F0=None, lam=None):
+    def _fixed_point(self, A, s, hz: HertzNodes, Cs, W, f_min, F0=None, lam=None, block=None, P0=None):
         """The contact QP over the slices ``A`` (N, n) of each position (separations ``s``, Hertz data
         ``hz`` (N, n) and compliance ``Cs`` (N, n, n), :class:`ContactStructure`), with the Hertz fixed point:
         ``(F (N, n), done (N,), change (N,), iterations (N,))``. ``lam`` (N, n): each slice's lever
-        about the pinion axis over ``r_b1 cos(beta_b)`` (the equilibrium ``sum lam F = W``; default 1)."""
+        about the pinion axis over ``r_b1 cos(beta_b)`` (the equilibrium ``sum lam F = W``; default 1).
+        ``block``: the nodes per tooth pair (``Cs`` is block diagonal: pairs are not coupled); default
+        one block. ``P0`` (N, n): without ``F0``, the active-set method's first contact set (default every
+        slice of ``A``; the solution does not depend on it).
+
+        Each Newton step's QP is solved by the primal-dual active-set method on all positions at once
+        (:func:`contact_active_set`), started from the previous step's contact set; a position where
+        that does not settle is solved again by qpOASES (:meth:`_fixed_point_qpoases`)."""
+        N, n = A.shape
+        M = n if block is None else int(block)
+        K = n // M
+        Cv = Cs.reshape(N, K, M, K, M)
+        Cb = np.moveaxis(Cv[:, np.arange(K), :, np.arange(K), :], 0, 1)  # (N, K, M, M)
+        if any(np.any(Cv[:, k, :, j, :]) for k in range(K) for j in range(K) if j != k):  # pairs coupled: one block
+            K, M = 1, n
+            Cb = Cs.reshape(N, 1, n, n)
+        valid = A
+        lamv = np.where(valid, np.ones((N, n)) if lam is None else lam, 0.0)
+        lv = np.where(valid, hz.length, 1.0)
+        Rv, h1v, h2v = (np.where(valid, v, 1.0) for v in (hz.R, hz.h1, hz.h2))
+        # start: the load spread over the active contact length, or the previous round's loads
+        Fc = np.where(valid, W * lv / np.maximum((lv * valid).sum(axis=1, keepdims=True), 1e-12), 0.0)
+        P = valid.copy() if P0 is None else valid & P0
+        P = np.where(P.any(axis=1, keepdims=True), P, valid)
+        if F0 is not None:
+            Fc = np.where(valid, F0, 0.0)
+            P = valid & (F0 > 0)
+            P = np.where(P.any(axis=1, keepdims=True), P, valid)
+        it = np.zeros(N, int)
+        done = np.zeros(N, bool)
+        change = np.zeros(N)
+        bad = np.zeros(N, bool)
+        shp = (N, K, M)
+        for i in range(HERTZ_MAX_ITER):
+            # Newton step of the Hertz law (Josephy-Newton: the QP with the approach linearised at the
+            # last loads, delta_H(F) ~ c F_k + dc (F - F_k), dc = d(c f)/df by AD); its fixed point is the
+            # contact law's, reached quadratically (the secant compliance c alone converges linearly)
+            cH, dc = weber_tangent_array(Fc / lv, Rv, h1v, h2v, self.material, f_min)
+            dc = np.maximum(dc, 0.5 * cH)  # keeps the QP convex far from the solution (a damped step)
+            sk = s + np.where(valid, (cH - dc) / lv * Fc, 0.0)
+            Fn, Pn, ok = contact_active_set(Cb, sk.reshape(shp), lamv.reshape(shp), valid.reshape(shp), W,
+                                            P.reshape(shp), max_iter=ACTIVE_SET_MAX_ITER,
+                                            diag=np.where(valid, dc / lv, 0.0).reshape(shp))
+            Fn, P = Fn.reshape(N, n), Pn.reshape(N, n)
+            bad |= ~ok
+            Fn = np.where(valid, np.maximum(Fn, 0.0), 0.0)
+            change = np.max(np.abs(Fn - Fc), axis=1) / W
+            it = np.where(done, it, i + 1)
+            done = change <= HERTZ_TOL
+            Fc = Fn
+            if (done | bad).all():
+                break
+        if bad.any():
+            # the active-set iteration did not settle at some position: qpOASES there (the same QP)
+            j = np.flatnonzero(bad)
+            sub = HertzNodes(length=hz.length[j], R=hz.R[j], h1=hz.h1[j], h2=hz.h2[j])
+            Fj, dj, cj, ij = self._fixed_point_qpoases(A[j], s[j], sub, Cs[j], W, f_min, F0=F0 if F0 is None else F0[j],
+                                                       lam=None if lam is None else lam[j])
+            Fc[j], done[j], change[j], it[j] = Fj, dj, cj, ij
+        return Fc, done, change, it
+
+    def _fixed_point_qpoases(self, A, s, hz: HertzNodes, Cs, W, f_min, F0=None, lam=None):
+        """The contact QP over the slices ``A`` (N, n) of each position (separations ``s``, Hertz data
+        ``hz`` (N, n) and compliance ``Cs`` (N, n, n), :class:`ContactStructure`), with the Hertz fixed point,
+        each Newton step's QP solved by qpOASES (mapped over the positions); arguments and returns as
+        :meth:`_fixed_point`."""
         N, n = A.shape
         nc = int(max(A.sum(axis=1).max(), 1))  # padded to the largest count
         gi = np.zeros((N, nc), int)
@@ -674,7 +744,8 @@ class LTCA:
         F[jj, gi[jj, cc]] = Fc[jj, cc]
         return F, done, change, it
 
-    def _solve_one(self, torque: float, S: SliceSet, st: ContactStructure) -> LoadedResult:
+    def _solve_one(self, torque: float, S: SliceSet, st: ContactStructure,
+                   start: LoadedResult | None = None) -> LoadedResult:
         t0 = time.perf_counter()
         g1, g2 = self.pair.pinion, self.pair.gear
         cb = self.cos_bb
@@ -718,8 +789,11 @@ class LTCA:
         A = A_all & (~edge | (s <= guess))
         Cs = st.Cs
         F = None
+        # the active-set method's first contact set: the slices loaded at the previous torque (the QP's
+        # solution does not depend on it)
+        P0 = None if start is None else np.transpose(start.load > 0, (1, 0, 2)).reshape(N, n)
         for _outer in range(OUTER_MAX):
-            F, done, change, it = self._fixed_point(A, s, hz, Cs, W, f_min, F0=F, lam=lam)
+            F, done, change, it = self._fixed_point(A, s, hz, Cs, W, f_min, F0=F, lam=lam, block=M, P0=P0)
             if not done.all():
                 raise ConvergenceError(f"loaded TCA at {torque:g} N m: the Hertz fixed point did not settle in "
                                        f"{HERTZ_MAX_ITER} QP solves at {int((~done).sum())} positions (largest load "
@@ -728,8 +802,7 @@ class LTCA:
             cH, bH, p0 = weber_contact(F / length, R, h1, h2, self.material, f_min)
             d = s + np.einsum("nij,nj->ni", Cs, F) + np.where(A, cH / length * F, 0.0)
             loaded = A & (F > 1e-9 * W)
-            delta = np.array([np.median(d[j, loaded[j]] / lam[j, loaded[j]]) if loaded[j].any() else np.nan
-                              for j in range(N)])
+            delta = row_median(np.where(loaded, d / lam, np.nan))
             add = A_all & ~A & (d < np.where(np.isfinite(delta), delta, np.inf)[:, None] * lam - KKT_ADD_TOL)
             if not add.any():
                 break
@@ -766,10 +839,113 @@ class LTCA:
             load=Fk, line_load=np.where(np.isfinite(S.z), Fk / width, np.nan),
             p0=p0_k, b_H=bH_k, pair_load=pair_load,
             share=(lam_k * Fk).sum(axis=2) / W, stiffness=W / delta / 1e3, kkt_error=kkt, hertz_iterations=it,
-            solve_time=time.perf_counter() - t0, face_width=g1.b, stats={"qp_solver": QP_SOLVER}, edge=S.edge,
+            solve_time=time.perf_counter() - t0, face_width=g1.b, stats={"qp_solver": QP_METHOD}, edge=S.edge,
             lever=lam_k * g1.r_b * cb)
         check_validity(result, self.pair, self.material)
         return result
+
+
+def row_median(a: np.ndarray) -> np.ndarray:
+    """Median of each row of ``a`` (N, n) over its finite entries (NaN: none), as ``np.median`` of
+    those entries gives it (the mean of the two middle ones of an even count)."""
+    a = np.sort(np.where(np.isfinite(a), a, np.inf), axis=1)
+    c = np.isfinite(a).sum(axis=1)
+    rows = np.arange(a.shape[0])
+    lo, hi = a[rows, np.maximum((c - 1) // 2, 0)], a[rows, np.minimum(c // 2, a.shape[1] - 1)]
+    with np.errstate(invalid="ignore"):
+        return np.where(c > 0, np.where(c % 2 == 1, lo, (lo + hi) / 2), np.nan)
+
+
+#: primal-dual active-set iterations of one contact QP (:func:`contact_active_set`) before qpOASES takes over
+ACTIVE_SET_MAX_ITER = 40
+
+
+def contact_active_set(C: np.ndarray, s: np.ndarray, lam: np.ndarray, valid: np.ndarray, W: float,
+                       P0: np.ndarray | None = None, max_iter: int = ACTIVE_SET_MAX_ITER,
+                       diag: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The contact QP ``min 1/2 F^T C F + s^T F  s.t.  F >= 0, sum lam F = W`` of many positions at
+    once, by the primal-dual active-set method (Hintermüller, Ito & Kunisch 2002, for this
+    complementarity problem the classical load-distribution iteration of loaded TCA).
+
+    With a contact set P, the loads on P solve ``C_PP F_P - lam_P delta = -s_P`` and ``lam_P^T F_P = W``
+    (``F = 0`` off P; ``delta`` the approach, the equality's multiplier); the gaps are
+    ``g = s + C F - lam delta``. The next set keeps the nodes of P whose load is not negative (to
+    1e-13 W) and adds those off P whose gap is negative (to 1e-13 of the approach); when the set
+    repeats, ``F >= 0`` on P, ``g = 0`` on P and ``g >= 0`` off it: the QP's optimality conditions,
+    so its unique minimiser (C positive definite).
+    The compliance of different tooth pairs is not coupled, so each pair with nodes in P is solved
+    alone (the others carry nothing) and the approach follows from the load balance.
+
+    Parameters
+    ----------
+    C : (N, K, M, M) array
+        Compliance blocks of the K tooth pairs at N positions [mm/N], symmetric positive definite on
+        the valid nodes.
+    s : (N, K, M) array
+        Separations [mm].
+    lam : (N, K, M) array
+        The equality's coefficients (each slice's lever over ``r_b1 cos(beta_b)``, > 0 on valid nodes).
+    valid : (N, K, M) bool array
+        Nodes that may carry load (others carry none).
+    W : float
+        Total normal load [N] (> 0).
+    P0 : (N, K, M) bool array, optional
+        The contact set to start from (a warm start: the previous Newton step's; default every valid node).
+    max_iter : int
+        Iterations before a position is given up.
+    diag : (N, K, M) array, optional
+        Added to the diagonal of ``C`` [mm/N] (the Hertz term of a Newton step).
+
+    Returns
+    -------
+    F : (N, K, M) array
+        Loads [N] (NaN where not settled).
+    P : (N, K, M) bool array
+        The final contact sets.
+    ok : (N,) bool array
+        The iteration settled at the position.
+    """
+    N, K, M = s.shape
+    P = valid.copy() if P0 is None else (P0 & valid)
+    F = np.full(s.shape, np.nan)
+    ok = np.zeros(N, bool)
+    todo = np.flatnonzero(valid.any(axis=(1, 2)))
+    eye = np.eye(M)
+    # hysteresis of the set changes (a node at zero load within rounding neither leaves nor re-enters)
+    f_tol = 1e-13 * W
+    for _ in range(max_iter):
+        if todo.size == 0:
+            break
+        Pt = P[todo]
+        # only the pairs with contact nodes (the others carry nothing and add nothing to the gaps)
+        tb, kb = np.nonzero(Pt.any(axis=2))
+        nb = todo[tb]
+        Pb, Cb = Pt[tb, kb], C[nb, kb]
+        if diag is not None:
+            Cb = Cb + diag[nb, kb][:, :, None] * eye
+        Cm = np.where(Pb[:, :, None] & Pb[:, None, :], Cb, 0.0) + (~Pb)[:, :, None] * eye
+        sb, lb = s[nb, kb], lam[nb, kb]
+        xy = np.linalg.solve(Cm, np.stack([np.where(Pb, -sb, 0.0), np.where(Pb, lb, 0.0)], axis=-1))
+        x, y = xy[..., 0], xy[..., 1]
+        lx = np.bincount(tb, weights=np.sum(lb * x, axis=1), minlength=todo.size)
+        ly = np.bincount(tb, weights=np.sum(lb * y, axis=1), minlength=todo.size)
+        empty = ~Pt.any(axis=(1, 2))
+        d = (W - lx) / np.where(empty, 1.0, ly)
+        Fb = x + d[tb, None] * y
+        Ft = np.zeros(Pt.shape)
+        Ft[tb, kb] = Fb
+        CF = np.zeros(Pt.shape)
+        CF[tb, kb] = (Cb @ Fb[:, :, None])[:, :, 0]
+        st, lt = s[todo], lam[todo]
+        g = st + CF - d[:, None, None] * lt
+        g_tol = 1e-13 * np.maximum(np.abs(d), np.max(np.abs(st), axis=(1, 2)))[:, None, None]
+        Pn = valid[todo] & np.where(Pt, Ft > -f_tol, g < -g_tol)
+        same = np.all(Pn == Pt, axis=(1, 2)) & ~empty
+        F[todo[same]] = Ft[same]
+        ok[todo[same]] = True
+        P[todo] = Pn
+        todo = todo[~same & ~empty]
+    return F, P, ok
 
 
 @dataclass

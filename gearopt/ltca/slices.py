@@ -37,7 +37,7 @@ import casadi as ca
 import numpy as np
 import numpy.typing as npt
 
-from ..compiled import mapped
+from ..compiled import mapped, use_compiled
 from ..errors import ArgumentError, ConvergenceError
 from ..meshing.curvature import Sym, eigh2_sym, shape_matrix, unit_perp
 from ..meshing.misalignment import Misalignment
@@ -48,6 +48,7 @@ SLICE_NORMAL_TOL = 0.05  #: accepted slice points have n1 . n2 < -1 + this (crow
 _SECTIONS = (-0.5, -0.25, 0.0, 0.25, 0.5)  #: pinion sections of the conjugate first guesses [b1]
 PARTNER_MIN = 1e-4  #: smallest weight [share of the slice spacing] with which a node past a boundary joins the contact
 EDGE_CHUNK = 256  #: columns per mapped tip-edge solve (one compiled size)
+CONJUGATE_CACHE = 4  #: first-guess sets (conjugate sections) a SliceSolver keeps (per angles and tool shifts)
 
 
 @dataclass
@@ -245,6 +246,14 @@ class SliceSolver:
             self.edge_branch[member] = Branch(f"ltca_tip{member}", Ge, ce, self._accept_edge, tca.tol, tca.solver,
                                               tca.jit)
         self._line = None
+        self._geo_maps: dict = {}
+        self._conj_cache: dict = {}
+
+    def __getstate__(self):
+        # the geometry's maps hold compiled libraries (rebuilt on demand where it lands)
+        state = dict(self.__dict__)
+        state["_geo_maps"] = {}
+        return state
 
     def _accept(self, res, n1n2, reg):
         return np.isfinite(res) & (res <= self.tca.tol) & (n1n2 < -1 + SLICE_NORMAL_TOL) & (reg > REGULARITY_MIN)
@@ -264,9 +273,20 @@ class SliceSolver:
         ``phis``: {z: (4, P) unknowns (u1, u2, z2, r_p2 phi2), NaN where none} (first guesses)."""
         from ..contact.edge import conjugate_sections
 
+        # they depend on the angles and the tool shifts in p1, p2 only (not on the modifications or the
+        # misalignment): kept for the last few calls (a torque or misalignment sweep, an optimiser's
+        # designs at the same positions solve them once)
+        key = (np.asarray(phis, float).tobytes(), np.asarray(p1, float).tobytes(), np.asarray(p2, float).tobytes())
+        hit = self._conj_cache.get(key)
+        if hit is not None:
+            return {z: W.copy() for z, W in hit.items()}
         b1 = self.tca.pair.pinion.b
         secs = conjugate_sections(self.tca, self._line_tca(), phis, p1, p2, [s * b1 for s in _SECTIONS])
-        return {z: W[[0, 2, 3, 4]] for z, W in secs.items()}
+        out = {z: W[[0, 2, 3, 4]] for z, W in secs.items()}
+        if len(self._conj_cache) >= CONJUGATE_CACHE:
+            self._conj_cache.pop(next(iter(self._conj_cache)))
+        self._conj_cache[key] = {z: W.copy() for z, W in out.items()}
+        return out
 
     def solve(self, phi1: npt.ArrayLike, p1: npt.ArrayLike | None = None, p2: npt.ArrayLike | None = None,
               mis: Misalignment | None = None, pairs: Sequence[int] = (-1, 0, 1), n_slices: int = 21,
@@ -315,7 +335,9 @@ class SliceSolver:
         W0 = _interp_sections(zsec, Wsec[:, :, inv], zz)
         have = np.all(np.isfinite(W0), axis=0) & used
         W0 = np.where(have, W0, 0.0)
-        groups = [np.flatnonzero(have[g * M:(g + 1) * M]) + g * M for g in range(K * N + 1)]
+        # one group per row of slice nodes (a pair at a position, and the TE zero's): its columns with a guess
+        flat = np.flatnonzero(have[:(K * N + 1) * M])
+        groups = np.split(flat, np.cumsum(np.bincount(flat // M, minlength=K * N + 1))[:-1])
         W, res, n1n2, reg, ok, st = self.branch.solve(W0, prm, groups)
         # the gear angle on the guess's revolution (the kinematics are 2 pi periodic in phi2, and
         # Newton from a distant start may land a revolution away); farther than a gear pitch from the
@@ -423,7 +445,10 @@ class SliceSolver:
     def _geometry(self, W, prm) -> dict:
         """Both flanks' points and normals and the fixed-frame point at the columns of ``W``:
         {name: (3, columns)}."""
-        f = mapped(self.geometry, W.shape[1], self.tca.jit)
+        key = use_compiled(self.tca.jit, W.shape[1])
+        if key not in self._geo_maps:  # one ColumnMap (its maps built once) per mode
+            self._geo_maps[key] = mapped(self.geometry, W.shape[1], self.tca.jit)
+        f = self._geo_maps[key]
         return {n: np.array(v) for n, v in zip(self.geometry.name_out(), f(W, prm))}
 
     def _tip_edges(self, W, ok, prm, geo, g1, g2, n_keep):
@@ -490,6 +515,118 @@ def _interp_sections(zsec, vals, zz) -> np.ndarray:
 
 
 def _partial_widths(Z, Wd, act, margin, b, edge=None, tips=None, solved=None, te=None):
+    """Each node's share of the contact along rows of slice nodes (:func:`_partial_widths_rows`, whose
+    arguments and returns these are): rows whose nodes are all used (the fixed grid of
+    :func:`slice_nodes`) gap by gap for all rows at once, any other row by the row loop. The
+    arithmetic of each gap is the row loop's, in the same order, so both give the same numbers."""
+    R, M = Z.shape
+    full = np.all(np.isfinite(Z), axis=1)
+    if M < 2 or not full.any():
+        return _partial_widths_rows(Z, Wd, act, margin, b, edge, tips, solved, te)
+    out = np.zeros((R, M))
+    LO = np.full(Z.shape, np.nan)
+    HI = np.full(Z.shape, np.nan)
+    TB = np.full(Z.shape, np.nan)
+    OF = np.full(Z.shape, -1)
+    TT = np.zeros(Z.shape)
+    kind = np.zeros(Z.shape, int) if edge is None else edge
+    solved = np.ones(Z.shape, bool) if solved is None else solved
+    rows = np.arange(R)
+
+    def put(sel, m, lo, hi):
+        # out[r, m] += hi - lo; the node's interval grows to [lo, hi] (rows sel, nodes m)
+        r = rows[sel]
+        out[r, m[sel]] += hi[sel] - lo[sel]
+        cur = LO[r, m[sel]]
+        LO[r, m[sel]] = np.where(np.isfinite(cur), np.minimum(cur, lo[sel]), lo[sel])
+        cur = HI[r, m[sel]]
+        HI[r, m[sel]] = np.where(np.isfinite(cur), np.maximum(cur, hi[sel]), hi[sel])
+
+    def tau_of(i, o):
+        # tau_of of _partial_widths_rows for every row (nodes i, o: (R,) index arrays)
+        ki, ko = kind[rows, i], kind[rows, o]
+        tau = np.full(R, 0.5)
+        r = np.flatnonzero((ki > 0) != (ko > 0))  # a flank node beside an edge node
+        if tips is None or r.size == 0:
+            return tau
+        i, o, ko = i[r], o[r], ko[r]
+        fl = np.where(ko > 0, i, o)
+        ed = np.where(ko > 0, o, i)
+        k = kind[r, ed]
+        mi = tips[2 * (k - 1), r, fl]
+        mo = tips[2 * (k - 1) + 1, r, ed]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            good = np.isfinite(mi) & np.isfinite(mo) & (mi >= 0) & (0 > mo)
+            f = mi / (mi - mo)
+        tau[r] = np.where(good, np.where(fl == i, f, 1.0 - f), 0.5)
+        return tau
+
+    for p in range(M - 1):
+        q = p + 1
+        zp, zq = Z[:, p], Z[:, q]
+        h = zq - zp
+        ap, aq = act[:, p] & full, act[:, q] & full
+        P_, Q_ = np.full(R, p), np.full(R, q)
+        both = ap & aq
+        if both.any():
+            zt = zp + tau_of(P_, Q_) * h
+            put(both, P_, zp, zt)
+            put(both, Q_, zt, zq)
+        one = ap != aq
+        if not one.any():
+            continue
+        i = np.where(ap, p, q)
+        o = np.where(ap, q, p)
+        sgn = np.where(ap, 1.0, -1.0)
+        zi = Z[rows, i]
+        mi, mo = margin[:, rows, i], margin[:, rows, o]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            cross = np.isfinite(mi) & np.isfinite(mo) & (mi >= 0) & (mo < 0)
+            ratio = np.where(cross, mi / (mi - mo), np.inf)
+        anyc = cross.any(axis=0)
+        # no boundary found between them: i keeps half the gap
+        half = one & ~anyc
+        if half.any():
+            zm = zi + sgn * 0.5 * h
+            put(half, i, np.minimum(zi, zm), np.maximum(zi, zm))
+        sel = one & anyc
+        if not sel.any():
+            continue
+        t = np.clip(np.min(ratio, axis=0), 0.0, 1.0)
+        zs = zi + sgn * t * h
+        if te is not None:
+            te_i, te_o = te[rows, i], te[rows, o]
+            tb = np.where(np.isfinite(te_o), te_i + t * (te_o - te_i), te_i)
+            upd = sel & np.isfinite(te_i)
+            cur = TB[rows, i]
+            TB[rows[upd], i[upd]] = np.where(np.isfinite(cur), np.maximum(cur, tb), tb)[upd]
+        same_kind = (kind[rows, i] > 0) == (kind[rows, o] > 0)
+        tau = tau_of(i, o)
+        so = solved[rows, o]
+        share_i = np.where(~so, t, np.where(same_kind, t - t * t / 2, np.minimum(t, tau)))
+        share_o = np.where(~so, 0.0, np.where(same_kind, t * t / 2, np.maximum(t - tau, 0.0)))
+        zend = zi + sgn * share_i * h
+        put(sel, i, np.minimum(zi, zend), np.maximum(zi, zend))
+        po = sel & (share_o >= PARTNER_MIN)
+        if po.any():
+            zo = zs - sgn * share_o * h
+            put(po, o, np.minimum(zo, zs), np.maximum(zo, zs))
+            better = po & (t > TT[rows, o])
+            OF[rows[better], o[better]] = i[better]
+            TT[rows[better], o[better]] = t[better]
+    part = (out > 0) & ~act
+    out = np.where(act, np.maximum(out, 1e-9), np.where(part, out, Wd))
+    res = [out, LO, HI, part, TB, np.where(part, OF, -1), np.where(part, TT, 0.0)]
+    if not full.all():
+        j = np.flatnonzero(~full)
+        sub = _partial_widths_rows(Z[j], Wd[j], act[j], margin[:, j], b, None if edge is None else edge[j],
+                                   None if tips is None else tips[:, j], solved[j], None if te is None else te[j])
+        for v, w in zip(res, sub):
+            v[j] = w
+    return tuple(res)
+
+
+def _partial_widths_rows(Z, Wd, act, margin, b, edge=None, tips=None, solved=None, te=None):
     """Each node's share of the contact along a row of slice nodes (pinion sections ``Z`` (rows, M),
     ascending, unused NaN), gap by gap between neighbouring nodes p < q, h = z_q - z_p:
 

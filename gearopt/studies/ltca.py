@@ -227,7 +227,7 @@ class LTCAStudy:
             if progress:
                 progress(f"ltca: torque {t:.4g} N m")
             results.append(L.solve(t, slices=S).results[0])
-        from ..ltca.engine import LoadedSweep
+        from ..ltca.engine import QP_METHOD, LoadedSweep
 
         sweep = LoadedSweep(slices=S, results=results, separation_time=0.0, structure=L.structure(S),
                             te_zero_rad=S.phi2_ref, ltca=L)
@@ -239,7 +239,7 @@ class LTCAStudy:
         m = L.material
         options = {"E_MPa": m.E, "nu": m.nu, "n_slices": L.n_slices, "positions": self.positions,
                    "coupling_mm": L.coupling_length, "body_coupling_mm": list(L.body_coupling), "r_int_mm": list(L.r_int), "compliance": L.compliance,
-                   "qp_solver": "qpoases", "torques_Nm": self.torques}
+                   "qp_solver": QP_METHOD, "torques_Nm": self.torques}
         iso = iso6336_stiffness(p)
         nom = min(data["torques"], key=lambda r: abs(r["torque_Nm"] - self.torque))
         iso["ltca_c_gamma_at_nominal"] = nom["c_gamma_N_per_mm_um"]
