@@ -341,3 +341,23 @@ def test_misalignment_reaches_the_excitation(spur):
     te_a = np.array(aligned["cases"][0]["static"]["te_loaded_arcsec"])
     te_c = np.array(crossed["cases"][0]["static"]["te_loaded_arcsec"])
     assert np.max(np.abs(te_c - te_a)) > 1.0  # arcsec
+
+
+def test_no_mesh_damping_force_where_the_teeth_separate():
+    """Equation (2): the mesh damping acts only while a flank pair is in contact (h'(s) gates it). At a
+    speed with contact loss, where the drive flanks are apart by more than 100 eps (and the back flanks
+    not yet closed) the mesh force is zero to 1e-4 W, although the mesh coordinate moves fast there
+    (an ungated c_m x' would be several percent of W)."""
+    zeta, E, bl, sm = 0.05, 12e-6, 100e-6, 1e-3
+    k0, eps_k = K0, 0.15
+    tr = DriveTrain(J_pinion=J1, J_gear=J2, l_pinion=L1, l_gear=L2, zeta=zeta, backlash=bl)
+    gd = GearDynamics(tr, MeshExcitation([k0, k0 * eps_k], [0.0], [0.0, E], [0.0], W), Z1, smoothing=sm, samples=256)
+    s = gd.solve(0.93 * n_res())
+    assert s.converged and s.contact_loss()
+    eps = sm * W / k0
+    apart = (s.gap < -100 * eps) & (s.gap > -bl + 100 * eps)
+    assert apart.sum() >= 10
+    xdot = np.gradient(s.x, s.phi) * s.omega_m  # m/s (periodic samples: the ends are one-sided, fine here)
+    c_m = 2 * zeta * math.sqrt(k0 * M_E)
+    assert np.max(np.abs(c_m * xdot[apart])) > 0.01 * W  # what an ungated damper would carry
+    assert np.max(np.abs(s.force[apart])) < 1e-4 * W
