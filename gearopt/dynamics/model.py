@@ -170,6 +170,16 @@ class DriveTrain:
         return B @ Minv @ B.T, B @ Minv @ T, np.array([ks, cs]), names, mesh
 
 
+def fourier_series(v: npt.ArrayLike, H: int) -> tuple[np.ndarray, np.ndarray]:
+    """Coefficients ``(a_0 ... a_H, b_1 ... b_H)`` of the trigonometric interpolation
+    ``a_0 + sum_h a_h cos(h phi) + b_h sin(h phi)`` of ``N`` equally spaced samples over one cycle
+    (``phi_j = 2 pi j / N``) along axis 0 (linear in the samples: the same map takes their tangents)."""
+    v = np.asarray(v, float)
+    N = v.shape[0]
+    c = np.fft.rfft(v, axis=0) / N
+    return np.concatenate([c[:1].real, 2 * c[1:H + 1].real]), -2 * c[1:H + 1].imag
+
+
 @dataclass(frozen=True)
 class MeshExcitation:
     """Mesh stiffness k(phi) [N/m] and unloaded TE e(phi) [m along the line of action] over one mesh
@@ -217,14 +227,8 @@ class MeshExcitation:
         if not 0 <= H <= (N - 1) // 2:
             raise out_of_range("harmonics", H, f"0 <= harmonics <= {(N - 1) // 2} (half the positions)", cls=OptionError)
 
-        def series(v):
-            c = np.fft.rfft(v) / N
-            a = np.r_[c[0].real, 2 * c[1:H + 1].real]
-            b = -2 * c[1:H + 1].imag
-            return a, b
-
-        kc, ks = series(k)
-        ec, es = series(e)
+        kc, ks = fourier_series(k, H)
+        ec, es = fourier_series(e, H)
         return cls(kc, ks, ec, es, float(W))
 
     def evaluate(self, phi: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray]:
@@ -347,7 +351,13 @@ class GearDynamics:
         e = ecs[0] + ca.dot(ecs[1:], Ct) + ca.dot(ess, St) if H else ecs[0]
         q = y[:n] * ref
         qd = om * y[n:] * ref  # d/dt = omega_m d/dtau
-        eps = smoothing * x_ref
+        # the mesh damping c_m = 2 zeta sqrt(k_mean m_e) and the smoothing width eps = smoothing W / k_mean
+        # follow the parameters' mean stiffness and load (exactly the model's own values at its own
+        # parameters): a derivative with respect to P is that of the model built from the displaced
+        # excitation (section 7 of docs/dynamics.md)
+        kr = kcs[0] / k0
+        c_m = self.c_mesh * ca.sqrt(kr)
+        eps = smoothing * x_ref * (Wp / W / kr if W > 0 else 1.0)
         g = []
         for i in range(n):
             if i == mesh:
@@ -358,9 +368,9 @@ class GearDynamics:
                     hneg = 0.5 * (sb + ca.sqrt(sb**2 + eps**2))
                     # the damping acts only while a flank pair is in contact: the smooth steps h'(s)
                     on = 0.5 * (1 + s / ca.sqrt(s**2 + eps**2)) + 0.5 * (1 + sb / ca.sqrt(sb**2 + eps**2))
-                    F = k * (hpos - hneg) + self.c_mesh * qd[i] * on
+                    F = k * (hpos - hneg) + c_m * qd[i] * on
                 else:
-                    F = k * s + self.c_mesh * qd[i]
+                    F = k * s + c_m * qd[i]
                 g.append(F)
                 Fm, gap = F, s
             else:
@@ -382,6 +392,7 @@ class GearDynamics:
         dae_v = {"x": ca.vertcat(y, ca.vec(Phi)), "p": p_all, "t": tau, "ode": ca.vertcat(ydot, ca.vec(var))}
         self._var = ca.integrator("variational", "cvodes", dae_v, 0.0, 2 * math.pi, opts)
         self._p = excitation.params()
+        self._ks: ca.Function | None = None
 
     # --------------------------------------------------------------------------------------
     def omega_mesh(self, speed_rpm: float) -> float:
@@ -488,6 +499,52 @@ class GearDynamics:
                                           ca.jacobian(G, P)])
         Ky, KP, Gy, GP = (np.array(v) for v in fn(sol.y0, self._p))
         return (KP - Ky @ np.linalg.solve(Gy, GP)).ravel()
+
+    def smooth_peak(self, sol: PeriodicSolution, rho: float = 50.0) -> tuple[float, np.ndarray, float]:
+        """A smooth peak of the dynamic factor over the cycle and its derivative with respect to the
+        excitation's parameters ``P`` (:meth:`MeshExcitation.params`), by AD through the periodic solution.
+
+        ``K~ = (1/rho) ln( (1/N) sum_k exp(rho F(phi_k) / W) )`` over the solution's ``N`` samples (the
+        Kreisselmeier-Steinhauser aggregate: ``max F/W - ln(N)/rho <= K~ <= max F/W``, smooth where the
+        sampled maximum is not). With ``G(y0, P) = Phi(y0, P) - y0 = 0`` the implicit-function theorem
+        gives ``dy0/dP = -G_y^-1 G_P``; the samples ``F(Phi_k(y0, P), P)`` are differentiated along it
+        (adjoint sensitivities of CVODES through CasADi). The mesh damping and the smoothing width follow
+        the mean stiffness and the load in ``P`` (the derivative is that of a model built from the
+        displaced excitation).
+
+        Parameters
+        ----------
+        sol : PeriodicSolution
+            A converged solution of this model (its own parameters).
+        rho : float
+            Aggregation parameter (> 0) [1 per unit of K_v].
+
+        Returns
+        -------
+        (K~, dK~/dP (n_p,), sigma_min)
+            ``sigma_min``: the smallest singular value of ``G_y = M - I`` (near 0 at a fold of the
+            branch, where the derivative does not exist).
+        """
+        check_converged(sol)
+        rho = _positive("rho", rho, "the aggregation parameter")
+        if self._ks is None:
+            m = 2 * self.n
+            y0, P, om, c, r = ca.MX.sym("y0", m), ca.MX.sym("P", self.n_p), ca.MX.sym("om"), ca.MX.sym("c"), \
+                ca.MX.sym("rho")
+            pa = ca.vertcat(om, P)
+            Y = self._grid(x0=y0, p=pa)["xf"]
+            cols = ca.horzcat(y0, Y[:, :-1])
+            phi = np.linspace(0, 2 * math.pi, self.samples + 1)[:-1]
+            F = self._out.map(self.samples)(ca.DM(phi).T, cols, ca.repmat(pa, 1, self.samples))[1]
+            Kt = c + ca.log(ca.sum2(ca.exp(r * (F / P[0] - c))) / self.samples) / r
+            G = self._flow(x0=y0, p=pa)["xf"] - y0
+            self._ks = ca.Function("smooth_peak", [y0, P, om, c, r],
+                                   [Kt, ca.jacobian(Kt, y0), ca.jacobian(Kt, P), ca.jacobian(G, y0),
+                                    ca.jacobian(G, P)])
+        Kt, Ky, KP, Gy, GP = (np.array(v) for v in self._ks(sol.y0, self._p, sol.omega_m,
+                                                              float(sol.force.max() / self._p[0]), rho))
+        sig = float(np.linalg.svd(Gy, compute_uv=False)[-1])
+        return float(Kt.item()), (KP - Ky @ np.linalg.solve(Gy, GP)).ravel(), sig
 
     def _fill(self, speed, om, y0, ok, res, p, floquet) -> PeriodicSolution:
         phi = np.linspace(0, 2 * math.pi, self.samples + 1)[:-1]

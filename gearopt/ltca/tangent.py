@@ -66,9 +66,9 @@ class LoadedTangent:
         Derivative of the secant mesh stiffness ``W / delta`` [N/um per um].
     margin_um : (N, P) array
         Per position and amount, the smallest change [um] of that amount alone at which the linearised
-        solution changes its active set (a loaded slice's force reaches zero or an open slice's gap
-        closes; 0 at a kink of the unloaded TE, ``te0_kink``): a finite difference larger than this
-        straddles a kink.
+        solution changes its active set (a loaded slice's force reaches zero, an open slice's gap
+        closes, another slice takes over the unloaded TE; 0 at a kink of the unloaded TE,
+        ``te0_kink``): a finite difference larger than this straddles a kink.
     te0_at_crossing : (N,) bool
         The unloaded TE of the position is that of a contact line's crossing of a flank boundary with
         no partner slice: its derivative is the inside slice's (approximate).
@@ -214,8 +214,8 @@ def loaded_tangents(pair: GearPair, torque: float, amounts: Sequence[str], setti
         f = _slice_sensitivity(L, kind, idx).map(kk.size)
         out = [np.asarray(v).T for v in f(S.w[kk, nn, mm].T, prm)]
         dte[kk, nn, mm], dk[kk, nn, mm], dl1[kk, nn, mm], dl2[kk, nn, mm] = out[:4]
-        for i, v in enumerate(out[4:]):  # (cols, P x 3) -> (cols, 3, P), CasADi's column-major vec
-            dpts[i, kk, nn, mm] = v.reshape(-1, P, 3).transpose(0, 2, 1)
+        for i, v in enumerate(out[4:]):  # (cols, 3 P): vec of (P, 3), column-major -> (cols, 3, P)
+            dpts[i, kk, nn, mm] = v.reshape(-1, 3, P)
     # a partner's TE is interpolated to the crossing (SliceSet.partner_t, held): so is its tangent
     te_own = dte.copy()
     if S.partner_of is not None:
@@ -231,6 +231,7 @@ def loaded_tangents(pair: GearPair, torque: float, amounts: Sequence[str], setti
     dte0 = np.zeros((N, P))
     at_crossing = np.zeros(N, bool)
     kink = np.zeros((N, P), bool)
+    te0_margin = np.full((N, P), np.inf)
     for n in range(N):
         tie = cand[:, n, :] >= te0[n] - TIE_TOL
         if not tie.any():  # a crossing without a partner: the inside neighbour's
@@ -241,6 +242,13 @@ def loaded_tangents(pair: GearPair, torque: float, amounts: Sequence[str], setti
         hi, lo = D.max(axis=0), D.min(axis=0)
         dte0[n] = 0.5 * (hi + lo)
         kink[n] = (hi - lo) > 1e-9 * np.maximum(np.abs(D).max(axis=0), 1e-300)
+        # another slice overtakes the unloaded TE after a change of (te0 - te) / (its tangent - te0's) [um]
+        other = np.isfinite(cand[:, n, :]) & ~tie
+        if other.any():
+            gap = (te0[n] - cand[:, n, :][other])[:, None]
+            rate = np.maximum(dte[:, n][other] - dte0[n], -(dte[:, n][other] - dte0[n])) * UM
+            with np.errstate(divide="ignore"):
+                te0_margin[n] = np.where(rate > 0, gap / rate, np.inf).min(axis=0)
 
     # the compliance and the Hertz depths move with the slices' points: their derivative along the
     # points' tangent (central difference of the compliance model, LTCA.structure, step FD_STEP mm of amount)
@@ -318,7 +326,7 @@ def loaded_tangents(pair: GearPair, torque: float, amounts: Sequence[str], setti
                 h_off = np.full((1, P), np.inf)
         margin[n] = np.minimum(h_on.min(axis=0) if nl else np.inf, h_off.min(axis=0))
     d_delta *= UM
-    margin = np.where(kink, 0.0, margin)
+    margin = np.where(kink, 0.0, np.minimum(margin, te0_margin))
     dte0 *= UM
     d_te_loaded = dte0 - d_delta / lever
     d_stiffness = -W / r.delta[:, None] ** 2 * d_delta / 1e3
