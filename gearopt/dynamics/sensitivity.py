@@ -207,9 +207,9 @@ def speed_range_sensitivity(pair: GearPair, torque: float, amounts: Sequence[str
     dP = excitation_tangent(lm, tg, s.harmonics)
     kt, dkt, sig = [], [], []
     for sol in sols:
-        k, g, sm = gd.smooth_peak(sol, rho)
+        k, g, sm = gd.smooth_peak(sol, rho, directions=dP)
         kt.append(k)
-        dkt.append(g @ dP)
+        dkt.append(g)
         sig.append(sm)
     kt, dkt, sig = np.array(kt), np.array(dkt), np.array(sig)
     J, w = aggregate_objective(kt, rho, aggregate)
