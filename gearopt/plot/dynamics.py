@@ -49,7 +49,7 @@ def plot_dynamic_factor(d: dict, ax: Axes | None = None) -> Axes:
                 ax.plot(v[failed], np.full(failed.sum(), 0.02), "^" if br == "up" else "v", color=col, ms=7,
                         transform=ax.get_xaxis_transform(), clip_on=False,
                         label=f"{c['name']}, {'up' if br == 'up' else 'down'}: no steady state found "
-                              f"({int(failed.sum())} speeds)")
+                              f"({int(failed.sum())} speed{'s' if failed.sum() != 1 else ''})")
         res = [n for n in c["resonance_speeds_linear_rpm"]["order1"] if v[0] <= n <= v[-1]]
         for j, n in enumerate(res):
             ax.axvline(n, color=col, ls="-.", lw=0.9,
