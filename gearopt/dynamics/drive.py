@@ -118,8 +118,10 @@ def microgeometry_sensitivity(pair: GearPair, torque: float, speed_rpm: float, m
     """d K_v / d (micro-geometry amount) at one speed: the AD derivative of the dynamic factor with
     respect to the excitation (:meth:`GearDynamics.peak_sensitivity`) chained with the derivative of
     the excitation (Fourier coefficients of the loaded TCA's k and e) with respect to each amount,
-    the latter by central differences of the loaded TCA (two solves per amount). The model's
-    damping coefficient and scales stay those of the given design.
+    the latter by central differences of the loaded TCA (two solves per amount). The mesh damping
+    follows the displaced designs' mean stiffness (:class:`GearDynamics`); the state scales stay those
+    of the given design. For amounts (not starts such as ``d_Ca``) the AD chain through the loaded TCA
+    is :func:`gearopt.dynamics.sensitivity.speed_range_sensitivity`.
 
     Parameters
     ----------
