@@ -9,7 +9,9 @@ ratio 0.05, one degree of freedom of m_e = 0.1508 kg) against the closed-form am
 (2) the Mathieu chart: Floquet multipliers of k0 (1 + 0.2 cos phi) without damping, the edges of the
 first principal region found by bisection against McLachlan's transition curves; (3) the low-speed
 limit of the ltca_spur drive at 200 N m (loaded TCA, 64 positions) against its static loaded TE;
-(4) the 200-speed sweep (up only, then up and down) of that drive from 0.2 to 1.5 x its resonance.
+(4) the 200-speed sweep (up only, then up and down) of that drive from 0.2 to 1.5 x its resonance, with
+the counts of converged speeds and of the branch's jumps; (5) the speed-range sensitivity to two
+micro-geometry amounts (docs/dynamics.md section 7).
 """
 
 from __future__ import annotations
@@ -104,8 +106,30 @@ def sweep(pair, lm) -> None:
     t_both = time.perf_counter() - t0
     ok = sum(s.converged for s in sw.up)
     ok2 = sum(s.converged for s in sw2.up + sw2.down)
+    jumped = [f"{s.speed_rpm:.0f}" for s in sw.up if s.jumped]
+    failed = [f"{s.speed_rpm:.0f}" for s in sw.up if not s.converged]
+    failed2 = [f"{s.speed_rpm:.0f}" for s in sw2.up + sw2.down if not s.converged]
     print(f"200-speed sweep of ltca_spur at 200 N m ({lm.excitation().harmonics} harmonics): build {t_build:.2f} s, "
-          f"up {t_up:.1f} s ({ok}/200 converged), up and down {t_both:.1f} s ({ok2}/400)")
+          f"up {t_up:.1f} s ({ok}/200 converged, {len(jumped)} jumps of the branch at {', '.join(jumped) or '-'} rpm, "
+          f"not converged: {', '.join(failed) or 'none'}), up and down {t_both:.1f} s ({ok2}/400"
+          f"{', not converged: ' + ', '.join(failed2) if failed2 else ''})")
+
+
+def sensitivity() -> None:
+    """The KS objective of K_v over 40 speeds (0.5 ... 1.3 x the resonance) of the relieved ltca_spur pinion
+    and its gradient per um of the tip relief and the profile crowning (docs/dynamics.md section 7)."""
+    from gearopt.dynamics.sensitivity import speed_range_sensitivity
+    from gearopt.geometry.microgeometry import Microgeometry
+
+    mods = Microgeometry(C_alpha_a=0.025, d_Ca=62.0, tip_shape="linear")
+    pair = GearPair(Gear(z=20, m_n=3.0, b=20.0, modifications=mods), Gear(z=40, m_n=3.0, b=20.0))
+    t0 = time.perf_counter()
+    r = speed_range_sensitivity(pair, 200.0, ["pinion.C_alpha_a", "pinion.C_alpha"], np.linspace(9500, 24500, 40))
+    g = ", ".join(f"{n} {v:+.3e}" for n, v in zip(r.names, r.gradient))
+    print(f"speed-range sensitivity (40 speeds, KS rho {r.rho:g}): J = {r.objective:.4f}, dJ/d(amount) per um: {g}; "
+          f"{len(r.speeds_rpm)} speeds in J, excluded {r.excluded_speeds_rpm or 'none'}; "
+          f"{time.perf_counter() - t0:.1f} s (loaded TCA + tangents {r.time_s['ltca_tangent']:.1f} s, sweep "
+          f"{r.time_s['sweep']:.1f} s, gradient {r.time_s['gradient']:.1f} s)")
 
 
 def main() -> None:
@@ -121,6 +145,8 @@ def main() -> None:
         mathieu()
         low_speed(pair, lm)
     sweep(pair, lm)
+    if not a.quick:
+        sensitivity()
 
 
 if __name__ == "__main__":

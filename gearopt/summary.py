@@ -514,7 +514,8 @@ def dynamics_summary(d: dict[str, Any]) -> list[KeyNumber]:
     """dynamics: the pair's geometry, ISO 6336-1's n_E1 (``model``) and per case (``cases[]``) the
     static loaded TE, the largest dynamic factor of both branches and its speed, the model's n_E1
     with the loaded TCA's c_gamma, the lowest speed with contact loss (``null``: none in the sweep),
-    the number of jumps and the largest mesh-order-1 amplitude of the dynamic TE."""
+    the number of jumps, the number of speeds without a converged steady state and the largest
+    mesh-order-1 amplitude of the dynamic TE."""
     out = _pair_geometry(d["pair"])
     T = _torque_label(d["options"]["torque_Nm"])
     out.append(KeyNumber("n_E1_iso_rpm", "resonance speed n_E1, ISO 6336-1 (c_gamma of ISO)",
@@ -534,6 +535,8 @@ def dynamics_summary(d: dict[str, Any]) -> list[KeyNumber]:
                              _num(min(loss)) if loss else None, "rpm", "higher", "dynamics"))
         out.append(KeyNumber(f"jumps[{n}]", f"jumps between coexisting steady states, {n}", len(c["jumps"]), "",
                              "lower", "dynamics"))
+        out.append(KeyNumber(f"not_converged[{n}]", f"speeds without a steady state found (either branch), {n}",
+                             len(c.get("not_converged_speeds_rpm", [])), "", "lower", "dynamics"))
         o1 = [v[0] for br in ("up", "down") for v in (c[br]["order_te_um"] or []) if v is not None and v[0] is not None]
         out.append(KeyNumber(f"order1_te_um_max[{n}]", f"largest mesh-order-1 amplitude of the dynamic TE, {n}",
                              _num(max(o1)) if o1 else None, "um", "lower", "dynamics"))

@@ -341,3 +341,69 @@ def test_misalignment_reaches_the_excitation(spur):
     te_a = np.array(aligned["cases"][0]["static"]["te_loaded_arcsec"])
     te_c = np.array(crossed["cases"][0]["static"]["te_loaded_arcsec"])
     assert np.max(np.abs(te_c - te_a)) > 1.0  # arcsec
+
+
+def test_no_mesh_damping_force_where_the_teeth_separate():
+    """Equation (2): the mesh damping acts only while a flank pair is in contact (h'(s) gates it). At a
+    speed with contact loss, where the drive flanks are apart by more than 100 eps (and the back flanks
+    not yet closed) the mesh force is zero to 1e-4 W, although the mesh coordinate moves fast there
+    (an ungated c_m x' would be several percent of W)."""
+    zeta, E, bl, sm = 0.05, 12e-6, 100e-6, 1e-3
+    k0, eps_k = K0, 0.15
+    tr = DriveTrain(J_pinion=J1, J_gear=J2, l_pinion=L1, l_gear=L2, zeta=zeta, backlash=bl)
+    gd = GearDynamics(tr, MeshExcitation([k0, k0 * eps_k], [0.0], [0.0, E], [0.0], W), Z1, smoothing=sm, samples=256)
+    s = gd.solve(0.93 * n_res())
+    assert s.converged and s.contact_loss()
+    eps = sm * W / k0
+    apart = (s.gap < -100 * eps) & (s.gap > -bl + 100 * eps)
+    assert apart.sum() >= 10
+    xdot = np.gradient(s.x, s.phi) * s.omega_m  # m/s (periodic samples: the ends are one-sided, fine here)
+    c_m = 2 * zeta * math.sqrt(k0 * M_E)
+    assert np.max(np.abs(c_m * xdot[apart])) > 0.01 * W  # what an ungated damper would carry
+    assert np.max(np.abs(s.force[apart])) < 1e-4 * W
+
+
+def test_upward_sweep_jumps_to_the_other_branch_at_the_fold():
+    """Sweeping up only: where the lower branch ends at its fold the sweep jumps (the motion integrated
+    on from the last steady state) and continues on the other branch, marked ``jumped``: every speed
+    converges (without the jump the branch is lost from there on), and the jumped solution is the
+    downward sweep's steady state there, well above the lower branch's last K_v."""
+    tr = DriveTrain(J_pinion=J1, J_gear=J2, l_pinion=L1, l_gear=L2, zeta=0.03, backlash=1e-3)
+    gd = GearDynamics(tr, MeshExcitation([K0, 0.0], [0.0], [0.0, 8e-6], [0.0], W), Z1)
+    v = np.linspace(0.4, 1.2, 33) * n_res()
+    up = gd.sweep(v, both=False).up
+    both = gd.sweep(v)
+    assert all(s.converged for s in up)
+    jumped = [i for i, s in enumerate(up) if s.jumped]
+    assert jumped
+    for i in jumped:
+        assert up[i].force.max() == pytest.approx(both.down[i].force.max(), rel=1e-6)
+        assert up[i].force.max() > 1.2 * up[i - 1].force.max()  # up onto the resonant branch (softening)
+
+
+def test_unconverged_and_jumped_speeds_are_reported_and_plotted(spur):
+    """A speed without a steady state is never a silent number: K_v null, listed, counted in the summary,
+    marked on dynamics_factor.png (a triangle at the bottom, with the count in the legend); a jump of
+    the continuation is circled."""
+    import matplotlib.pyplot as plt  # (conftest: the Agg backend)
+
+    from gearopt.plot.dynamics import plot_dynamic_factor
+    from gearopt.studies.dynamics import DynamicsStudy
+    from gearopt.summary import dynamics_summary
+
+    pair, _ = spur
+    d = DynamicsStudy(pair, 200.0, positions=16, n_slices=5, speeds=4, speed_min=500.0, speed_max=20000.0,
+                      samples=32).run().to_dict()
+    c = d["cases"][0]
+    assert c["not_converged_speeds_rpm"] == [] and len(c["up"]["jumped"]) == 4
+    c["up"]["converged"][1], c["up"]["K_v"][1] = False, None
+    c["not_converged_speeds_rpm"] = [c["speeds_rpm"][1]]
+    c["up"]["jumped"][2] = True
+    keys = {k.key: k.value for k in dynamics_summary(d)}
+    assert keys["not_converged[as_given]"] == 1
+    fig, ax = plt.subplots()
+    plot_dynamic_factor(d, ax=ax)
+    labels = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert any("no steady state found (1 speed)" in t for t in labels)
+    assert any("jumped" in t for t in labels)
+    plt.close(fig)

@@ -16,6 +16,7 @@ from .model import DriveTrain, MeshExcitation, solid_disc_inertia
 if TYPE_CHECKING:
     from ..gears import GearPair
     from ..ltca.compliance import Material
+    from ..ltca.engine import LoadedResult
     from ..meshing.misalignment import Misalignment
     from ..settings import LTCASettings
 
@@ -68,10 +69,17 @@ def loaded_mesh(pair: GearPair, torque: float, settings: LTCASettings | None = N
     phi = L.mesh_cycle(positions)
     r = L.solve(float(torque), phi1=phi, mis=misalignment).results[0]
     check_validity(r, pair, L.material)
+    return loaded_mesh_of(pair, r)
+
+
+def loaded_mesh_of(pair: GearPair, result: LoadedResult) -> LoadedMesh:
+    """The :class:`LoadedMesh` of a loaded TCA ``result`` of ``pair`` over one mesh cycle (equally
+    spaced positions, :meth:`gearopt.ltca.engine.LTCA.mesh_cycle`)."""
+    r, phi = result, np.asarray(result.phi1, float)
     z1 = pair.pinion.z
     return LoadedMesh(phi1=phi, phase=z1 * (phi - phi[0]), stiffness=np.asarray(r.stiffness, float),
                       te_unloaded=np.asarray(r.te_unloaded, float), te_loaded=np.asarray(r.te_loaded, float),
-                      W=float(r.W), torque=float(torque),
+                      W=float(r.W), torque=float(r.torque),
                       lever_gear=pair.gear.r_b * math.cos(pair.pinion.beta_b) * 1e-3, c_gamma=float(r.c_gamma))
 
 
@@ -110,8 +118,10 @@ def microgeometry_sensitivity(pair: GearPair, torque: float, speed_rpm: float, m
     """d K_v / d (micro-geometry amount) at one speed: the AD derivative of the dynamic factor with
     respect to the excitation (:meth:`GearDynamics.peak_sensitivity`) chained with the derivative of
     the excitation (Fourier coefficients of the loaded TCA's k and e) with respect to each amount,
-    the latter by central differences of the loaded TCA (two solves per amount). The model's
-    damping coefficient and scales stay those of the given design.
+    the latter by central differences of the loaded TCA (two solves per amount). The mesh damping
+    follows the displaced designs' mean stiffness (:class:`GearDynamics`); the state scales stay those
+    of the given design. For amounts (not starts such as ``d_Ca``) the AD chain through the loaded TCA
+    is :func:`gearopt.dynamics.sensitivity.speed_range_sensitivity`.
 
     Parameters
     ----------

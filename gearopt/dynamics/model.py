@@ -53,6 +53,11 @@ import numpy.typing as npt
 
 from ..errors import ConvergenceError, OptionError, check_number, out_of_range
 
+#: CVODES options of the smooth peak's derivatives: forward sensitivities under the error control (the
+#: adjoint's interpolated backward solve missed 7e-5 of the derivative in the load at contact loss)
+SENS_OPTS: dict = {"fsens_err_con": True, "ad_weight": 0.0}
+JUMP_PERIODS = 60  #: mesh periods the motion is integrated on at most where a branch ends (GearDynamics.jump)
+JUMP_EVERY = 10  #: ... trying the shooting every this many periods
 RHO_STEEL = 7830.0  #: density of steel [kg/m^3] (ISO 6336-1 method B's solid-disc masses)
 
 
@@ -170,6 +175,16 @@ class DriveTrain:
         return B @ Minv @ B.T, B @ Minv @ T, np.array([ks, cs]), names, mesh
 
 
+def fourier_series(v: npt.ArrayLike, H: int) -> tuple[np.ndarray, np.ndarray]:
+    """Coefficients ``(a_0 ... a_H, b_1 ... b_H)`` of the trigonometric interpolation
+    ``a_0 + sum_h a_h cos(h phi) + b_h sin(h phi)`` of ``N`` equally spaced samples over one cycle
+    (``phi_j = 2 pi j / N``) along axis 0 (linear in the samples: the same map takes their tangents)."""
+    v = np.asarray(v, float)
+    N = v.shape[0]
+    c = np.fft.rfft(v, axis=0) / N
+    return np.concatenate([c[:1].real, 2 * c[1:H + 1].real]), -2 * c[1:H + 1].imag
+
+
 @dataclass(frozen=True)
 class MeshExcitation:
     """Mesh stiffness k(phi) [N/m] and unloaded TE e(phi) [m along the line of action] over one mesh
@@ -217,14 +232,8 @@ class MeshExcitation:
         if not 0 <= H <= (N - 1) // 2:
             raise out_of_range("harmonics", H, f"0 <= harmonics <= {(N - 1) // 2} (half the positions)", cls=OptionError)
 
-        def series(v):
-            c = np.fft.rfft(v) / N
-            a = np.r_[c[0].real, 2 * c[1:H + 1].real]
-            b = -2 * c[1:H + 1].imag
-            return a, b
-
-        kc, ks = series(k)
-        ec, es = series(e)
+        kc, ks = fourier_series(k, H)
+        ec, es = fourier_series(e, H)
         return cls(kc, ks, ec, es, float(W))
 
     def evaluate(self, phi: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray]:
@@ -250,6 +259,8 @@ class PeriodicSolution:
     phi : (N,) mesh phase [rad]; x : (N,) mesh coordinate [m]; force : (N,) dynamic mesh force [N]
     (stiffness and damping terms of (2)); gap : (N,) ``x - e`` [m] (< 0: the teeth separate).
     multipliers : Floquet multipliers (complex) or None.
+    jumped : the continuation lost its branch here (a fold) and the solution was found by integrating
+        the motion on from the previous speed's steady state (the jump a sweep makes, :meth:`GearDynamics.jump`).
     """
 
     speed_rpm: float
@@ -262,6 +273,7 @@ class PeriodicSolution:
     force: np.ndarray
     gap: np.ndarray
     multipliers: np.ndarray | None = None
+    jumped: bool = False
 
     def contact_loss(self) -> bool:
         """Whether the drive flanks separate somewhere in the cycle (gap < 0)."""
@@ -347,7 +359,12 @@ class GearDynamics:
         e = ecs[0] + ca.dot(ecs[1:], Ct) + ca.dot(ess, St) if H else ecs[0]
         q = y[:n] * ref
         qd = om * y[n:] * ref  # d/dt = omega_m d/dtau
-        eps = smoothing * x_ref
+        # the mesh damping c_m = 2 zeta sqrt(k_mean m_e) and the smoothing width eps = smoothing W / k_mean
+        # follow the parameters' mean stiffness and load (exactly the model's own values at its own
+        # parameters): a derivative with respect to P is that of the model built from the displaced
+        # excitation (section 7 of docs/dynamics.md)
+        c_fac = ca.sqrt(kcs[0] / k0)  # c_m / self.c_mesh: exactly 1 at the model's own parameters
+        eps = smoothing * (Wp / kcs[0]) if W > 0 else smoothing * x_ref
         g = []
         for i in range(n):
             if i == mesh:
@@ -358,9 +375,9 @@ class GearDynamics:
                     hneg = 0.5 * (sb + ca.sqrt(sb**2 + eps**2))
                     # the damping acts only while a flank pair is in contact: the smooth steps h'(s)
                     on = 0.5 * (1 + s / ca.sqrt(s**2 + eps**2)) + 0.5 * (1 + sb / ca.sqrt(sb**2 + eps**2))
-                    F = k * (hpos - hneg) + self.c_mesh * qd[i] * on
+                    F = k * (hpos - hneg) + self.c_mesh * qd[i] * on * c_fac
                 else:
-                    F = k * s + self.c_mesh * qd[i]
+                    F = k * s + self.c_mesh * qd[i] * c_fac
                 g.append(F)
                 Fm, gap = F, s
             else:
@@ -382,6 +399,7 @@ class GearDynamics:
         dae_v = {"x": ca.vertcat(y, ca.vec(Phi)), "p": p_all, "t": tau, "ode": ca.vertcat(ydot, ca.vec(var))}
         self._var = ca.integrator("variational", "cvodes", dae_v, 0.0, 2 * math.pi, opts)
         self._p = excitation.params()
+        self._ks: dict[int, ca.Function] = {}
 
     # --------------------------------------------------------------------------------------
     def omega_mesh(self, speed_rpm: float) -> float:
@@ -489,6 +507,63 @@ class GearDynamics:
         Ky, KP, Gy, GP = (np.array(v) for v in fn(sol.y0, self._p))
         return (KP - Ky @ np.linalg.solve(Gy, GP)).ravel()
 
+    def smooth_peak(self, sol: PeriodicSolution, rho: float = 50.0,
+                    directions: npt.ArrayLike | None = None) -> tuple[float, np.ndarray, float]:
+        """A smooth peak of the dynamic factor over the cycle and its derivative with respect to the
+        excitation's parameters ``P`` (:meth:`MeshExcitation.params`), by AD through the periodic solution.
+
+        ``K~ = (1/rho) ln( (1/N) sum_k exp(rho F(phi_k) / W) )`` over the solution's ``N`` samples (the
+        Kreisselmeier-Steinhauser aggregate: ``max F/W - ln(N)/rho <= K~ <= max F/W``, smooth where the
+        sampled maximum is not). With ``G(y0, P) = Phi(y0, P) - y0 = 0`` the implicit-function theorem
+        gives ``dy0/dP = -G_y^-1 G_P``; the samples ``F(Phi_k(y0, P), P)`` are differentiated along it
+        (forward sensitivities of CVODES through CasADi). The mesh damping and the smoothing width follow
+        the mean stiffness and the load in ``P`` (the derivative is that of a model built from the
+        displaced excitation).
+
+        Parameters
+        ----------
+        sol : PeriodicSolution
+            A converged solution of this model (its own parameters).
+        rho : float
+            Aggregation parameter (> 0) [1 per unit of K_v].
+        directions : (n_p, m) array, optional
+            Directions in P (e.g. ``dP/d(amount)``): the derivative along each (m forward sensitivities
+            instead of n_p); default every parameter.
+
+        Returns
+        -------
+        (K~, dK~ (n_p,) or (m,), sigma_min)
+            ``sigma_min``: the smallest singular value of ``G_y = M - I`` (near 0 at a fold of the
+            branch, where the derivative does not exist).
+        """
+        check_converged(sol)
+        rho = _positive("rho", rho, "the aggregation parameter")
+        D = np.eye(self.n_p) if directions is None else np.asarray(directions, float).reshape(self.n_p, -1)
+        m_dir = D.shape[1]
+        if m_dir not in self._ks:
+            m = 2 * self.n
+            y0, P, om, c, r = (ca.MX.sym(v, k) for v, k in (("y0", m), ("P", self.n_p), ("om", 1), ("c", 1),
+                                                              ("rho", 1)))
+            Dm = ca.MX.sym("D", self.n_p, m_dir)
+            pa = ca.vertcat(om, P)
+            opts = dict(self._opts, **SENS_OPTS)
+            grid = ca.integrator("grid_s", "cvodes", self._dae, 0.0,
+                                 list(np.linspace(0, 2 * math.pi, self.samples + 1)[1:]), opts)
+            flow = ca.integrator("flow_s", "cvodes", self._dae, 0.0, 2 * math.pi, opts)
+            Y = grid(x0=y0, p=pa)["xf"]
+            cols = ca.horzcat(y0, Y[:, :-1])
+            phi = np.linspace(0, 2 * math.pi, self.samples + 1)[:-1]
+            F = self._out.map(self.samples)(ca.DM(phi).T, cols, ca.repmat(pa, 1, self.samples))[1]
+            Kt = c + ca.log(ca.sum2(ca.exp(r * (F / P[0] - c))) / self.samples) / r
+            G = flow(x0=y0, p=pa)["xf"] - y0
+            self._ks[m_dir] = ca.Function("smooth_peak", [y0, P, om, c, r, Dm],
+                                          [Kt, ca.jacobian(Kt, y0), ca.jtimes(Kt, P, Dm), ca.jacobian(G, y0),
+                                           ca.jtimes(G, P, Dm)])
+        Kt, Ky, KD, Gy, GD = (np.array(v) for v in self._ks[m_dir](
+            sol.y0, self._p, sol.omega_m, float(sol.force.max() / self._p[0]), rho, D))
+        sig = float(np.linalg.svd(Gy, compute_uv=False)[-1])
+        return float(Kt.item()), (KD - Ky @ np.linalg.solve(Gy, GD)).ravel(), sig
+
     def _fill(self, speed, om, y0, ok, res, p, floquet) -> PeriodicSolution:
         phi = np.linspace(0, 2 * math.pi, self.samples + 1)[:-1]
         if ok:
@@ -514,8 +589,39 @@ class GearDynamics:
             g = _secant(out, float(v))
             # past a failed speed the static state failed already: no second restart in a row
             r = self.solve(float(v), g, restart=not out or out[-1].converged)
+            if not r.converged:
+                last = next((q for q in reversed(out) if q.converged), None)
+                if last is not None:  # the branch ended at a fold: jump as the running drive does
+                    j = self.jump(float(v), last.y0)
+                    r = j if j.converged else r
             out.append(r)
         return out[1:] if start is not None else out
+
+    def jump(self, speed_rpm: float, y0: npt.ArrayLike, periods: int = JUMP_PERIODS,
+             every: int = JUMP_EVERY) -> PeriodicSolution:
+        """The steady state the motion settles on at ``speed_rpm`` [rpm] from the state ``y0`` (scaled;
+        e.g. the previous speed's steady state where its branch ends at a fold): the flow integrated on,
+        mesh period by mesh period (the transient of the jump), with Newton's method on the shooting
+        condition tried from it every ``every`` periods, at most ``periods`` periods. The solution is
+        marked ``jumped``; not converged when no attempt converged."""
+        om = self.omega_mesh(_positive("speed", speed_rpm, "pinion speed [rpm]"))
+        p = np.r_[om, self._p]
+        y = np.asarray(y0, float).copy()
+        sol, res = y, math.inf
+        for k in range(1, periods + 1):
+            try:
+                y = self.flow(y, p)[0]
+            except RuntimeError:
+                break
+            if not np.all(np.isfinite(y)):
+                break
+            if k % every == 0:
+                sol, res = self.shoot(y, p)
+                if np.all(np.isfinite(sol)) and res < self.newton_tol:
+                    out = self._fill(speed_rpm, om, sol, True, res, p, False)
+                    out.jumped = True
+                    return out
+        return self._fill(speed_rpm, om, sol, False, res, p, False)
 
     def sweep(self, speeds_rpm: Sequence[float], progress: Callable[[str], None] | None = None,
               both: bool = True) -> SpeedSweep:
@@ -547,8 +653,8 @@ def _secant(prev: list[PeriodicSolution], v: float) -> np.ndarray | None:
     ok = [r for r in prev[-2:] if r.converged]
     if not ok:
         return None
-    if len(ok) == 1 or len(prev) < 2 or not prev[-2].converged:
-        return ok[-1].y0
+    if len(ok) == 1 or len(prev) < 2 or not prev[-2].converged or prev[-1].jumped:
+        return ok[-1].y0  # (the secant through a jump would join two branches)
     a, b = prev[-2], prev[-1]
     if b.speed_rpm == a.speed_rpm:
         return b.y0

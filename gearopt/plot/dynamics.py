@@ -23,7 +23,8 @@ def _arr(v: list) -> np.ndarray:
 def plot_dynamic_factor(d: dict, ax: Axes | None = None) -> Axes:
     """K_v (peak dynamic over static mesh force) against pinion speed for every case: the upward
     branch solid, the downward dashed (they differ where two steady states coexist), speeds with
-    contact loss marked x; ISO 6336-1's n_E1 (dotted) and the speeds where mesh order 1 meets a natural
+    contact loss marked x, the jumps of the continuation (a branch lost at a fold) circled, speeds
+    without a steady state marked by triangles at the bottom (up ^, down v); ISO 6336-1's n_E1 (dotted) and the speeds where mesh order 1 meets a natural
     frequency of the linear model (dash-dot). The K_v axis starts at 0 when K_v exceeds 2."""
     import matplotlib.pyplot as plt
 
@@ -39,6 +40,16 @@ def plot_dynamic_factor(d: dict, ax: Axes | None = None) -> Axes:
             if loss.any():
                 ax.plot(v[loss], kv[loss], "x", color=col, ms=5,
                         label=f"{c['name']}: contact loss" if br == "up" else None)
+            jumped = np.array([bool(x) for x in c[br].get("jumped", [False] * len(v))])
+            if jumped.any():
+                ax.plot(v[jumped], kv[jumped], "o", mfc="none", color=col, ms=8, mew=1.2,
+                        label=f"{c['name']}, {'up' if br == 'up' else 'down'}: branch lost, jumped")
+            failed = ~np.array([bool(x) for x in c[br]["converged"]])
+            if failed.any():  # no steady state found: no K_v to draw, a mark at the bottom instead
+                ax.plot(v[failed], np.full(failed.sum(), 0.02), "^" if br == "up" else "v", color=col, ms=7,
+                        transform=ax.get_xaxis_transform(), clip_on=False,
+                        label=f"{c['name']}, {'up' if br == 'up' else 'down'}: no steady state found "
+                              f"({int(failed.sum())} speed{'s' if failed.sum() != 1 else ''})")
         res = [n for n in c["resonance_speeds_linear_rpm"]["order1"] if v[0] <= n <= v[-1]]
         for j, n in enumerate(res):
             ax.axvline(n, color=col, ls="-.", lw=0.9,

@@ -43,10 +43,12 @@ INERTIA_KEYS = ("inertia_pinion", "inertia_gear", "inertia_drive", "shaft_stiffn
 
 def _branch_dict(sols: list[PeriodicSolution], W: float, lever: float, backlash: float) -> dict:
     """Per speed: K_v, converged, contact loss, back-flank contact, mesh-order amplitudes of the
-    dynamic TE [um] and force [N] (orders 1 ... ORDERS), TE peak-to-peak [um]."""
-    kv, conv, loss, back, amp, famp, pp = [], [], [], [], [], [], []
+    dynamic TE [um] and force [N] (orders 1 ... ORDERS), TE peak-to-peak [um], and whether the branch's
+    continuation jumped there (:meth:`GearDynamics.jump`)."""
+    kv, conv, loss, back, amp, famp, pp, jumped = [], [], [], [], [], [], [], []
     for s in sols:
         conv.append(bool(s.converged))
+        jumped.append(bool(s.jumped))
         if not s.converged:
             kv.append(None), loss.append(None), back.append(None), pp.append(None)
             amp.append([None] * ORDERS), famp.append([None] * ORDERS)
@@ -59,7 +61,7 @@ def _branch_dict(sols: list[PeriodicSolution], W: float, lever: float, backlash:
         famp.append([float(2 * abs(cf[h])) for h in range(1, ORDERS + 1)])
         pp.append(float(np.ptp(s.x) * 1e6))
     return {"K_v": kv, "converged": conv, "contact_loss": loss, "back_flank": back, "order_te_um": amp,
-            "order_force_N": famp, "te_peak_to_peak_um": pp}
+            "order_force_N": famp, "te_peak_to_peak_um": pp, "jumped": jumped}
 
 
 def _peaks(speeds: np.ndarray, kv: list) -> list[float]:
@@ -157,13 +159,14 @@ class DynamicsReport:
         mesh force [N] and TE [um along the line of action]."""
         head = ["case", "branch", "speed_rpm", "converged", "K_v", "contact_loss", "back_flank", "te_pp_um"]
         head += [f"order{h}_te_um" for h in range(1, ORDERS + 1)] + [f"order{h}_force_N" for h in range(1, ORDERS + 1)]
+        head += ["jumped"]
         rows = [",".join(head)]
         for c in self.cases:
             for br in ("up", "down"):
                 b = c[br]
                 for i, v in enumerate(c["speeds_rpm"]):
                     row = [c["name"], br, v, b["converged"][i], b["K_v"][i], b["contact_loss"][i], b["back_flank"][i],
-                           b["te_peak_to_peak_um"][i], *b["order_te_um"][i], *b["order_force_N"][i]]
+                           b["te_peak_to_peak_um"][i], *b["order_te_um"][i], *b["order_force_N"][i], b["jumped"][i]]
                     rows.append(",".join(_cell(x) for x in row))
         (Path(out_dir) / "dynamics_speeds.csv").write_text("\n".join(rows) + "\n", encoding="utf-8")
         rows = ["case,speed_rpm,phase_rad,force_N,te_um"]
@@ -310,6 +313,7 @@ class DynamicsStudy:
         loss = sorted({float(v) for b in (up, down) for v, c in zip(speeds, b["contact_loss"]) if c})
         back = sorted({float(v) for b in (up, down) for v, c in zip(speeds, b["back_flank"]) if c})
         failed = sorted({float(v) for b in (up, down) for v, c in zip(speeds, b["converged"]) if not c})
+        jumped = sorted({float(v) for b in (up, down) for v, c in zip(speeds, b["jumped"]) if c})
         # the cycle at three speeds: the lowest, the K_v peak and the highest (up branch, where converged)
         picks = []
         for i in (0, int(np.nanargmax([k if k is not None else -1 for k in up["K_v"]])), len(speeds) - 1):
@@ -337,7 +341,8 @@ class DynamicsStudy:
             "K_v_max_branch": kmax[2],
             "resonance_speeds_rpm": {"up": _peaks(speeds, up["K_v"]), "down": _peaks(speeds, down["K_v"])},
             "contact_loss_speeds_rpm": loss, "back_flank_speeds_rpm": back, "coexisting_speeds_rpm": coexist,
-            "jumps": jumps, "not_converged_speeds_rpm": failed, "cycle": cyc, "sweep_time_s": sw.time_s,
+            "jumps": jumps, "not_converged_speeds_rpm": failed, "jumped_speeds_rpm": jumped, "cycle": cyc,
+            "sweep_time_s": sw.time_s,
         }
 
 
