@@ -610,7 +610,8 @@ def call(f: ca.Function, *args: ArrayLike) -> list[np.ndarray]:
     key = id(f)
     hit = _signatures.get(key)
     if hit is None or hit[0]() is not f:  # shapes queried once per live Function object
-        hit = _signatures[key] = (weakref.ref(f, lambda _, k=key: _signatures.pop(k, None)), _Signature(f))
+        # the callback holds the dict itself: at interpreter exit the module's globals are already None
+        hit = _signatures[key] = (weakref.ref(f, lambda _, k=key, d=_signatures: d.pop(k, None)), _Signature(f))
     return hit[1](*args)
 
 

@@ -716,7 +716,7 @@ class TCA:
         K, N = len(pairs), phi1.size
         phis = np.concatenate([phi1 - 2 * math.pi * k / g1.z for k in pairs])
         prm = self.prm(phis, p1, p2, mis, z_section)
-        w_a = self._solve_at(anchor, None, p1, p2, mis, z_section)  # (arguments checked above)
+        w_a = self.solve_point(anchor, None, p1, p2, mis, z_section)  # the public anchor solve (EdgeContact and tests wrap it)
         prm_a = self.prm([anchor], p1, p2, mis, z_section)[:, 0]
         if continuation:  # every pair is the same branch w(phi1 - 2 pi k / z1): guesses from its knots
             W0 = self.branch.predict_knots(w_a, prm_a, phis, anchor, lambda v: self.prm(v, p1, p2, mis, z_section),
