@@ -70,6 +70,25 @@ def test_fe_root_of_a_helical_pair_is_refused(tmp_path, capsys):
     assert not out.exists()
 
 
+@pytest.mark.parametrize(("kw", "param"), [(dict(mesh={"n_faces": 4}), "n_faces"),
+                                             (dict(mesh={"n_face": 0}), "n_face"),
+                                             (dict(element_type="C3D20"), "element_type")])
+def test_fe_root_stress_refuses_bad_mesh_options_before_any_run(kw, param, monkeypatch):
+    """The API's mesh override and element type are checked before ccx is looked for: an unknown key
+    or a value out of range is an error naming it (not a TypeError, not a CalculiX error)."""
+    from gearopt.errors import GearoptError
+    from gearopt.gears import Gear, GearPair
+    from gearopt.rating import fe_root
+
+    import gearopt.fea.calculix as calculix
+
+    monkeypatch.setattr(calculix, "require_ccx", lambda: pytest.fail("ccx looked for before the options were checked"))
+    pair = GearPair(Gear(z=20, m_n=3.0, b=20.0), Gear(z=40, m_n=3.0, b=20.0))
+    with pytest.raises(GearoptError) as e:
+        fe_root.fe_root_stress(pair, 100.0, (62.0, 122.0), (100.0, 100.0), **kw)
+    assert param in str(e.value) and e.value.param is not None
+
+
 @pytest.mark.slow
 @pytest.mark.calculix
 @_no_ccx

@@ -120,7 +120,9 @@ def fe_root_stress(pair: GearPair, torque: float, d_en: tuple[float, float], sig
     Raises
     ------
     OptionError
-        A helical pair (``fe_root``).
+        A helical pair (``fe_root``), an element type or element count out of its range.
+    ArgumentError
+        A ``mesh`` key that is not a field of :class:`gearopt.settings.MeshOptions`.
     CalculixError
         ccx missing (from :func:`gearopt.fea.calculix.require_ccx`) or a run that fails its checks.
     """
@@ -130,14 +132,15 @@ def fe_root_stress(pair: GearPair, torque: float, d_en: tuple[float, float], sig
     from gearopt.settings import MeshOptions
 
     require_spur(pair)
+    # the options first (an unknown mesh key or element type names itself before anything runs)
+    mesh_counts = {**COARSE_MESH, **(mesh or {})}
+    opt = FEOptions(torque=1e3 * torque, n_hertz=COARSE_N_HERTZ, mesh=MeshOptions.of(**mesh_counts),
+                    element_type=element_type)
     require_ccx()
     say = progress or (lambda _m: None)
     t0 = time.perf_counter()
     ref = reference_pair(pair)
     tca = model_tca(ref)
-    mesh_counts = {**COARSE_MESH, **(mesh or {})}
-    opt = FEOptions(torque=1e3 * torque, n_hertz=COARSE_N_HERTZ, mesh=MeshOptions(**mesh_counts),
-                    element_type=element_type)
     out = []
     for i, name in enumerate(("pinion", "gear")):
         phi1 = opsc_angle(ref, i, d_en[i])
