@@ -129,8 +129,14 @@ def pair_line_loads(ltca: Any, torques: Sequence[float], misalignment: Misalignm
     from gearopt.ltca.engine import LoadedSweep
 
     S = ltca.slices(ltca.mesh_cycle(positions), mis=misalignment)
-    results = [ltca.solve(t, slices=S).results[0] for t in torques]
-    sweep = LoadedSweep(slices=S, results=results, separation_time=0.0, structure=ltca.structure(S),
+    # one call over the distinct torques in increasing order: the contact structure once, each torque's
+    # contact set started from the previous one's; then back in the caller's order
+    T = [float(t) for t in torques]
+    distinct = sorted(set(T))
+    solved = ltca.solve(distinct, slices=S)
+    by_torque = dict(zip(distinct, solved.results))
+    results = [by_torque[t] for t in T]
+    sweep = LoadedSweep(slices=S, results=results, separation_time=0.0, structure=solved.structure,
                         te_zero_rad=S.phi2_ref, ltca=ltca)
     d = sweep.to_dict(ltca.pair.pinion.z)
     length = np.nansum(np.where(np.isfinite(S.z), S.width, 0.0), axis=2)

@@ -222,15 +222,12 @@ class LTCAStudy:
             progress(f"ltca: unloaded separations ({self.positions} positions x {len(L.default_pairs())} pairs x "
                      f"{L.n_slices} slices)")
         S = L.slices(phi, mis=self.misalignment)
-        results = []
-        for t in self.torques:
-            if progress:
-                progress(f"ltca: torque {t:.4g} N m")
-            results.append(L.solve(t, slices=S).results[0])
-        from ..ltca.engine import QP_METHOD, LoadedSweep
-
-        sweep = LoadedSweep(slices=S, results=results, separation_time=0.0, structure=L.structure(S),
-                            te_zero_rad=S.phi2_ref, ltca=L)
+        if progress:
+            progress(f"ltca: {len(self.torques)} torques, {min(self.torques):.4g} ... {max(self.torques):.4g} N m")
+        # one call: the contact structure once, each torque's contact set started from the previous one's
+        sweep = L.solve(self.torques, slices=S)
+        results = sweep.results
+        from ..ltca.engine import QP_METHOD
         data = sweep.to_dict(p.pinion.z, nominal=self.torque)
         pair = {"z1": p.pinion.z, "z2": p.gear.z, "m_n": p.pinion.m_n, "beta_deg": p.pinion.beta / DEG, "a": p.a_w,
                 "b": min(p.pinion.b, p.gear.b), "b1": p.pinion.b, "b2": p.gear.b, "r_b1": p.pinion.r_b,
