@@ -45,6 +45,7 @@ from typing import TYPE_CHECKING
 import casadi as ca
 import numpy as np
 
+from ..compiled import ColumnMap, mapped
 from ..errors import ConvergenceError, GearoptError, GeometryError, LineContactError, OptionError, out_of_range
 from ..errors import ArgumentError
 from ..report import CONJUGATE_ARCSEC, arr, misalignment_dict, pair_numbers, te_harmonics
@@ -327,6 +328,9 @@ class EdgeContact:
                                          tca.jit)
         self._line: TCA | None = None
         self._line_modified: TCA | None = None
+        self._colmaps: dict[tuple, ColumnMap] = {}  # the flank evaluators on columns (:meth:`_columns`)
+        # first guesses and coast clearances by their exact inputs (the cases of a study share them)
+        self._memo: dict[tuple, object] = {}
         self.build_time = time.perf_counter() - t0
 
     def _limit_curve(self, member: int):
@@ -378,6 +382,17 @@ class EdgeContact:
                                           contact="line")
         return self._line_modified
 
+    #: entries of the memo of first guesses and clearances (the oldest go first)
+    _MEMO_SIZE = 16
+
+    def _remember(self, key: tuple, value):
+        """Keep ``value`` under ``key`` in the memo (the oldest entry goes beyond ``_MEMO_SIZE``)."""
+        if len(self._memo) >= self._MEMO_SIZE:
+            self._memo.pop(next(iter(self._memo)))
+        self._memo[key] = value
+        return value
+
+    # ------------------------------------------------------------------------------------------
     def sweep(self, phi1: ArrayLike, p1: Param = None, p2: Param = None, mis: Misalignment | None = None,
               pairs: Sequence[int] = (-1, 0, 1)) -> EdgeTCAResult:
         """Surface and edge contact over ``phi1`` [rad] for the tooth pairs ``pairs``.
@@ -422,13 +437,13 @@ class EdgeContact:
         # conjugate contact of the aligned, unmodified drive in several pinion sections at the same
         # phi1, moved onto the edge; of the accepted roots the one that gives the gear the largest
         # advance among those on the finite flanks is kept (the gear rests against it).
-        sections = self._sections(uphi, p1, p2)
+        guesses = self._first_guesses(uphi, p1, p2)
         for b, name in enumerate(self.edges, start=1):
             member, kind, _ = _edge_kind(name)
             if kind == "limit" and not np.array_equal(p1 if member == 1 else p2, self.teeth[member].p0):
                 stats[name] = "skipped: the flank-limit edge is built for the member as built (p0)"
                 continue
-            W0s = self._guesses(name, sections, p1, p2)
+            W0s = guesses[name]
             if not W0s:
                 stats[name] = "no first guess"
                 continue
@@ -436,10 +451,15 @@ class EdgeContact:
             G = len(W0s)
             W0 = np.hstack(W0s)
             P = np.tile(uprm, (1, G))
+            # only the columns with a first guess are solved (the others are no contact)
             good0 = np.all(np.isfinite(W0), axis=0)
-            W0 = np.where(good0, W0, 0.0)
-            W, res, cn, reg = (np.asarray(v) for v in br.mapped(W0.shape[1])(W0, P))
-            res, cn, reg = res.ravel(), cn.ravel(), reg.ravel()
+            W = np.full(W0.shape, np.nan)
+            res, cn, reg = (np.full(W0.shape[1], np.nan) for _ in range(3))
+            if good0.any():
+                g = np.flatnonzero(good0)
+                W[:, g], res[g], cn[g], reg[g] = (
+                    np.asarray(v).ravel() if i else np.asarray(v)
+                    for i, v in enumerate(br.mapped(g.size, W0.shape[1])(W0[:, g], P[:, g])))
             ok = np.asarray(br.accept(res, cn, reg), bool) & good0
             W = np.where(ok, W, np.nan)
             Mu = uphi.size
@@ -458,6 +478,18 @@ class EdgeContact:
     # ------------------------------------------------------------------------------------------
     _SECTIONS = (-0.5, -0.25, 0.0, 0.25, 0.5)  #: pinion sections of the first guesses [b1]
 
+    def _first_guesses(self, uphi, p1, p2) -> dict:
+        """{edge name: list of (5, M) first guesses} at the pair-0 angles ``uphi``
+        (:meth:`_guesses` from :meth:`_sections`): they depend on the angles and the settings only,
+        not on the misalignment, so they are memoised per exact (uphi, p1, p2) and the cases of a
+        study solve them once. Callers must not write into the arrays."""
+        key = ("guesses", _key(uphi), _key(p1), _key(p2))
+        hit = self._memo.get(key)
+        if hit is None:
+            sections = self._sections(uphi, p1, p2)
+            hit = self._remember(key, {name: self._guesses(name, sections, p1, p2) for name in self.edges})
+        return hit
+
     def _sections(self, uphi, p1, p2) -> dict:
         """Conjugate contact of the aligned drive with the crowning removed in the pinion sections
         z = s b1 (s in _SECTIONS) at each angle of ``uphi``: {s: (5, M) full unknowns, NaN where
@@ -466,18 +498,37 @@ class EdgeContact:
         secs = conjugate_sections(self.tca, self._line_tca(), uphi, p1, p2, [s * b1 for s in self._SECTIONS])
         return {s: secs[s * b1] for s in self._SECTIONS if s * b1 in secs}
 
+    def _columns(self, what: str, member: int) -> ColumnMap:
+        """A flank evaluator of ``member`` on any number of columns, built once per EdgeContact
+        (:class:`gearopt.compiled.ColumnMap`: maps of a few fixed sizes, numpy in and out; the
+        compiled library when it is in the disk cache, as the branches' solves): ``"radius"``
+        (u, z, p) -> (transverse radius [mm], d radius / du) of the driving flank, ``"point"``
+        (u, z, p) -> the flank point r [mm] (the surface's first output only)."""
+        key = (what, member)
+        cm = self._colmaps.get(key)
+        if cm is None:
+            tooth, side = self.teeth[member], self.tca.side
+            if what == "radius":
+                f = tooth.radius_function(side)
+            else:
+                s = tooth.surface(side, "flank")
+                u, z, p = ca.SX.sym("u"), ca.SX.sym("z"), ca.SX.sym("p", s.size1_in(2))
+                f = ca.Function(f"flank_point{member}", [u, z, p], [s(u, z, p)[0]], ["u", "z", "p"], ["r"])
+            cm = self._colmaps[key] = mapped(f, 1, self.tca.jit)
+        return cm
+
     def _u_at(self, member, radius, z, p):
         """Vectorised flank parameter u at transverse ``radius`` and axial ``z`` (Newton; NaN where
         it fails)."""
         tooth = self.teeth[member]
         z = np.asarray(z, float)
         n = z.size
-        f = tooth.radius_function(self.tca.side).map(n)
+        f = self._columns("radius", member)
         u = np.full(n, float(tooth.extras.get("q_pitch", 0.0)))
         P = np.tile(np.asarray(p, float)[:, None], n)
-        zz = np.where(np.isfinite(z), z, 0.0)
+        zz = np.where(np.isfinite(z), z, 0.0)[None, :]
         for _ in range(40):
-            rad, d = (np.asarray(v).ravel() for v in f(u, zz, P))
+            rad, d = (v.ravel() for v in f(u[None, :], zz, P))
             with np.errstate(invalid="ignore", divide="ignore"):
                 step = np.where(d < 0, (rad - radius) / d, np.nan)
             u = u - step
@@ -546,14 +597,14 @@ class EdgeContact:
     def _radius(self, member, Q, prm=None):
         """Transverse radius of the contact point on ``member`` for the columns of Q (NaN-safe)."""
         tooth = self.teeth[member]
-        f = tooth.surface(self.tca.side, "flank")
         iu, iz = (0, 1) if member == 1 else (2, 3)
         p = tooth.p0 if prm is None else prm
         good = np.isfinite(Q[iu]) & np.isfinite(Q[iz])
         out = np.full(Q.shape[1], np.nan)
         if good.any():
             n = int(good.sum())
-            r = np.asarray(f.map(n)(Q[iu][good], Q[iz][good], np.tile(np.asarray(p)[:, None], n))[0])
+            r = self._columns("point", member)(Q[iu][good][None, :], Q[iz][good][None, :],
+                                               np.tile(np.asarray(p, float)[:, None], n))
             out[good] = np.hypot(r[0], r[1])
         return out
 
@@ -640,7 +691,15 @@ class EdgeContact:
         """Upper bound of the gear's advance over the conjugate position of the aligned drive [rad]:
         circumferential backlash plus the pinion thinning by crowning plus what the misalignment can
         open, on the operating pitch circle of the gear (a generous bound of the coast-side
-        clearance), plus the rigid displacement of the gear by the misalignment."""
+        clearance), plus the rigid displacement of the gear by the misalignment. Memoised per exact
+        (p1, p2, mis)."""
+        key = ("coast", _key(p1), _key(p2), _key([getattr(mis, k) for k in mis.names()]))
+        hit = self._memo.get(key)
+        if hit is None:
+            hit = self._remember(key, self._coast_clearance_of(p1, p2, mis))
+        return hit
+
+    def _coast_clearance_of(self, p1, p2, mis: Misalignment) -> float:
         pair, tca = self.tca.pair, self.tca
         g1 = pair.pinion
         r_w2 = pair.r_w2
@@ -798,6 +857,11 @@ def _flank_deviation_grid(tooth, side: str, p, zs, n_u: int) -> np.ndarray:
         u = np.linspace(u_a, u_f, n_u)
         out[:, j] = tooth.normal_deviation(side, u, np.full(n_u, float(z)), p)
     return out
+
+
+def _key(v) -> bytes:
+    """Exact key of a numeric vector (its float64 bytes: -0.0 and 0.0 differ, NaN keys itself)."""
+    return np.ascontiguousarray(np.asarray(v, float)).tobytes()
 
 
 def _edge_kind(name: str):
