@@ -486,8 +486,7 @@ class EdgeContact:
         key = ("guesses", _key(uphi), _key(p1), _key(p2))
         hit = self._memo.get(key)
         if hit is None:
-            sections = self._sections(uphi, p1, p2)
-            hit = self._remember(key, {name: self._guesses(name, sections, p1, p2) for name in self.edges})
+            hit = self._remember(key, self._guesses(self._sections(uphi, p1, p2), p1, p2))
         return hit
 
     def _sections(self, uphi, p1, p2) -> dict:
@@ -536,23 +535,17 @@ class EdgeContact:
                 break
         return np.where(np.isfinite(z) & np.isfinite(u), u, np.nan)
 
-    def _guesses(self, name, sections, p1, p2) -> list:
-        """First guesses (5, M) for branch ``name`` from the conjugate section solutions."""
-        member, kind, sign = _edge_kind(name)
+    def _guesses(self, sections, p1, p2) -> dict:
+        """First guesses {edge name: list of (5, M)} from the conjugate section solutions
+        ``sections`` ({s: (5, M)}): the section points moved onto each edge (slid along the face
+        width onto a face end, along the profile onto the tip circle, or the contact line
+        interpolated to where it crosses a tip circle). The points put on a member's tip circle
+        are solved together (:meth:`_u_at` once per member: a point's u depends on its own z only)."""
         secs = [sections[s] for s in self._SECTIONS if s in sections]
         if not secs:
-            return []
+            return {name: [] for name in self.edges}
         prm_of = {1: p1, 2: p2}
-        if kind == "limit":  # the conjugate section points moved onto the flank's end u = U(z)
-            iu, iz = (0, 1) if member == 1 else (2, 3)
-            U = self._limit_u[member]
-            guesses = []
-            for S in secs:
-                q0 = S.copy()
-                zz = np.where(np.isfinite(q0[iz]), q0[iz], 0.0)
-                q0[iu] = np.asarray(U.map(zz.size)(zz[None, :])).ravel()
-                guesses.append(q0)
-            return guesses
+        tips: dict[int, list] = {1: [], 2: []}  # points whose u_m is put on member m's tip circle
 
         def on_face(Qs, m, sg):  # slide the conjugate point along the face width onto the face end m
             q0 = Qs.copy()
@@ -561,16 +554,16 @@ class EdgeContact:
             q0[3] += shift
             return q0
 
-        def on_tip(Qs, m):
-            q0 = Qs.copy()
-            iu, iz = (0, 1) if m == 1 else (2, 3)
-            q0[iu] = self._u_at(m, self.members[m].r_a, q0[iz], prm_of[m])
+        def on_tip(q0, m):  # q0's u_m onto member m's tip circle (in place, below: it reads z_m only)
+            tips[m].append(q0)
             return q0
 
-        def tip_crossing(m):
-            """The conjugate contact line interpolated to where it crosses member m's tip circle."""
-            rads = np.stack([self._radius(m, S, prm_of[m]) for S in secs]) - self.members[m].r_a
-            M = rads.shape[1]
+        # The conjugate contact line interpolated to where it crosses member m's tip circle.
+        S_all = np.hstack(secs)
+        M = secs[0].shape[1]
+        crossing = {}
+        for m in (1, 2):
+            rads = self._radius(m, S_all, prm_of[m]).reshape(len(secs), M) - self.members[m].r_a
             out = np.full((5, M), np.nan)
             for j in range(len(secs) - 1):
                 f0, f1 = rads[j], rads[j + 1]
@@ -578,21 +571,51 @@ class EdgeContact:
                 with np.errstate(invalid="ignore", divide="ignore"):
                     t = np.where(br, f0 / (f0 - f1), np.nan)
                 out = np.where(br, secs[j] + t * (secs[j + 1] - secs[j]), out)
-            return on_tip(out, m)
+            crossing[m] = out
+        # the crossings on the tip circles (the tip edges' first guesses, and slid onto a face end
+        # for the tip/face crossings, once they are solved)
+        tipx = {m: on_tip(crossing[m].copy(), m) for m in (1, 2)}
+        slide = []  # (name, face member, face sign, tip member): on_face of a solved tip crossing
 
-        if kind == "face":
-            return [on_face(secs[0 if sign < 0 else -1], member, sign)]
-        if kind == "corner":
-            return [on_tip(on_face(secs[0 if sign < 0 else -1], member, sign), member)]
-        if kind == "tip":
-            return [tip_crossing(member)] + [on_tip(S, member) for S in secs]
-        # edge on edge
-        (m1, k1, s1), (m2, k2, s2) = (EDGES[e] for e in sign)
-        if k1 == "tip" and k2 == "tip":
-            return [on_tip(tip_crossing(1), 2), on_tip(tip_crossing(2), 1)]
-        face_m, face_s, tip_m = (m2, s2, m1) if k2 == "face" else (m1, s1, m2)
-        return [on_tip(on_face(secs[0 if face_s < 0 else -1], face_m, face_s), tip_m),
-                on_face(tip_crossing(tip_m), face_m, face_s)]
+        out = {}
+        for name in self.edges:
+            member, kind, sign = _edge_kind(name)
+            if kind == "limit":  # the conjugate section points moved onto the flank's end u = U(z)
+                iu, iz = (0, 1) if member == 1 else (2, 3)
+                U = self._limit_u[member]
+                guesses = []
+                for S in secs:
+                    q0 = S.copy()
+                    zz = np.where(np.isfinite(q0[iz]), q0[iz], 0.0)
+                    q0[iu] = np.asarray(U.map(zz.size)(zz[None, :])).ravel()
+                    guesses.append(q0)
+                out[name] = guesses
+            elif kind == "face":
+                out[name] = [on_face(secs[0 if sign < 0 else -1], member, sign)]
+            elif kind == "corner":
+                out[name] = [on_tip(on_face(secs[0 if sign < 0 else -1], member, sign), member)]
+            elif kind == "tip":
+                out[name] = [tipx[member]] + [on_tip(S.copy(), member) for S in secs]
+            else:  # edge on edge
+                (m1, k1, s1), (m2, k2, s2) = (EDGES[e] for e in sign)
+                if k1 == "tip" and k2 == "tip":  # each tip crossing onto both tip circles
+                    out[name] = [on_tip(on_tip(crossing[1].copy(), 1), 2), on_tip(on_tip(crossing[2].copy(), 2), 1)]
+                else:
+                    face_m, face_s, tip_m = (m2, s2, m1) if k2 == "face" else (m1, s1, m2)
+                    out[name] = [on_tip(on_face(secs[0 if face_s < 0 else -1], face_m, face_s), tip_m)]
+                    slide.append((name, face_m, face_s, tip_m))
+        for m in (1, 2):
+            if tips[m]:
+                iu, iz = (0, 1) if m == 1 else (2, 3)
+                z = np.concatenate([q[iz] for q in tips[m]])
+                u = self._u_at(m, self.members[m].r_a, z, prm_of[m])
+                n = 0
+                for q in tips[m]:
+                    q[iu] = u[n:n + q.shape[1]]
+                    n += q.shape[1]
+        for name, face_m, face_s, tip_m in slide:
+            out[name].append(on_face(tipx[tip_m], face_m, face_s))
+        return out
 
     def _radius(self, member, Q, prm=None):
         """Transverse radius of the contact point on ``member`` for the columns of Q (NaN-safe)."""
