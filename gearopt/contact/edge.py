@@ -438,6 +438,8 @@ class EdgeContact:
         # phi1, moved onto the edge; of the accepted roots the one that gives the gear the largest
         # advance among those on the finite flanks is kept (the gear rests against it).
         guesses = self._first_guesses(uphi, p1, p2)
+        Mu = uphi.size
+        solved = []  # (branch index, name, G, W, ok, cone) of every branch solved
         for b, name in enumerate(self.edges, start=1):
             member, kind, _ = _edge_kind(name)
             if kind == "limit" and not np.array_equal(p1 if member == 1 else p2, self.teeth[member].p0):
@@ -450,20 +452,26 @@ class EdgeContact:
             br = self.branches[name]
             G = len(W0s)
             W0 = np.hstack(W0s)
-            P = np.tile(uprm, (1, G))
             # only the columns with a first guess are solved (the others are no contact)
             good0 = np.all(np.isfinite(W0), axis=0)
             W = np.full(W0.shape, np.nan)
             res, cn, reg = (np.full(W0.shape[1], np.nan) for _ in range(3))
             if good0.any():
                 g = np.flatnonzero(good0)
+                P = uprm[:, g % Mu]  # column j of the G stacked guesses is at the angle uphi[j % Mu]
                 W[:, g], res[g], cn[g], reg[g] = (
                     np.asarray(v).ravel() if i else np.asarray(v)
-                    for i, v in enumerate(br.mapped(g.size, W0.shape[1])(W0[:, g], P[:, g])))
+                    for i, v in enumerate(br.mapped(g.size, W0.shape[1])(W0[:, g], P)))
             ok = np.asarray(br.accept(res, cn, reg), bool) & good0
-            W = np.where(ok, W, np.nan)
-            Mu = uphi.size
-            valid = self._inside(W, np.tile(uphi, G), p1, p2, mis) & ok
+            solved.append((b, name, G, np.where(ok, W, np.nan), ok, cn))
+            stats[name] = None  # (below; keeps the branches' order)
+        if solved:  # which roots lie on the finite flanks: every branch's columns in one call
+            W_all = np.hstack([W for *_, W, _, _ in solved])
+            inside = self._inside(W_all, np.tile(uphi, sum(G for _, _, G, *_ in solved)), p1, p2, mis)
+        start = 0
+        for b, name, G, W, ok, cn in solved:
+            valid = inside[start:start + G * Mu] & ok
+            start += G * Mu
             te_g = np.where(ok, W[4] / tca.scale2, -np.inf).reshape(G, Mu)
             score = np.where(valid.reshape(G, Mu), te_g, -np.inf)
             # valid roots first; otherwise the largest accepted one (reported as converged, not valid)
@@ -471,7 +479,7 @@ class EdgeContact:
             cols = pick * Mu + np.arange(Mu)
             Wb, okb, cnb = W[:, cols], ok[cols], cn[cols]
             Q[b], conv[b], cone[b] = Wb[:, inv_idx], okb[inv_idx], cnb[inv_idx]
-            stats[name] = {"n_starts": int(W0.shape[1]), "n_accepted": int(ok.sum()), "n_positions": int(okb.sum())}
+            stats[name] = {"n_starts": int(W.shape[1]), "n_accepted": int(ok.sum()), "n_positions": int(okb.sum())}
         return self._combine(_EdgeSolved(phi1=phi1, pairs=pairs, names=names, Q=Q, conv=conv, cone=cone, prm=prm,
                                          mis=mis, surf=surf, stats=stats, t0=t0, p1=p1, p2=p2))
 
@@ -632,14 +640,15 @@ class EdgeContact:
         return out
 
     # ------------------------------------------------------------------------------------------
-    def _inside(self, W, phis, p1, p2, mis):
+    def _inside(self, W, phis, p1, p2, mis, radii=None):
         """Columns of W (full unknowns at the pair-0 angles ``phis``) whose point lies on both finite
         active flanks and is reachable: the gear at most the coast-side clearance ahead of the
         conjugate position (or the coast flanks would interpenetrate) and less than half a gear
-        pitch behind it (that would be another tooth)."""
+        pitch behind it (that would be another tooth). ``radii``: the transverse radii of the points
+        on pinion and gear (:meth:`_radius`) when the caller has them."""
         g1, g2 = self.members[1], self.members[2]
         eps = 1e-9
-        rad1, rad2 = self._radius(1, W, p1), self._radius(2, W, p2)
+        rad1, rad2 = (self._radius(1, W, p1), self._radius(2, W, p2)) if radii is None else radii
         with np.errstate(invalid="ignore"):
             # Form limit: the true end of each generated flank in the point's section (TCA.on_flank).
             in1 = (np.abs(W[1]) <= g1.b / 2 + eps) & self.tca.on_flank(1, W[0], W[1], p1) & (rad1 <= g1.r_a + eps)
@@ -655,11 +664,13 @@ class EdgeContact:
         g1, g2 = self.members[1], self.members[2]
         K, N = len(pairs), phi1.size
         B = len(names)
-        rad1 = np.stack([self._radius(1, Q[b], p1) for b in range(B)])
-        rad2 = np.stack([self._radius(2, Q[b], p2) for b in range(B)])
+        # every branch's columns in one call (each column is evaluated by itself)
+        Qall = Q.transpose(1, 0, 2).reshape(5, B * Q.shape[2])
+        rad1, rad2 = self._radius(1, Qall, p1), self._radius(2, Qall, p2)
         z1, z2 = Q[:, 1, :], Q[:, 3, :]
         phis = prm[tca.layout.index("phi1")]
-        valid = conv & np.stack([self._inside(Q[b], phis, p1, p2, mis) for b in range(B)])
+        valid = conv & self._inside(Qall, np.tile(phis, B), p1, p2, mis, radii=(rad1, rad2)).reshape(conv.shape)
+        rad1, rad2 = rad1.reshape(conv.shape), rad2.reshape(conv.shape)
         shift2 = np.concatenate([np.full(N, 2 * math.pi * k / g2.z) for k in pairs])
         phi2 = Q[:, 4, :] / tca.scale2 + shift2[None, :]
         # Raw TE: the gear angle ahead of the conjugate position of the aligned, unmodified drive
