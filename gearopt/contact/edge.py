@@ -834,20 +834,26 @@ def conjugate_sections(tca: TCA, line_tca: TCA, phis: ArrayLike, p1: Param, p2: 
     flat1[lay.p_index("pinion", "x")] = p1[lay.p_index("pinion", "x")]
     flat2[lay.p_index("gear", "x")] = p2[lay.p_index("gear", "x")]
     phis = np.asarray(phis, float)
-    out = {}
+    aligned = Misalignment()
+    found, W0s, prms = [], [], []
     for zs in z_sections:
         try:
-            w_a = line_tca.solve_point(0.0, None, flat1, flat2, Misalignment(), zs)
+            w_a = line_tca.solve_point(0.0, None, flat1, flat2, aligned, zs)
         except ConvergenceError:
             continue
-        prm_l = line_tca.prm(phis, flat1, flat2, Misalignment(), zs)
-        W0 = line_tca.branch.predict(w_a, line_tca.prm([0.0], flat1, flat2, Misalignment(), zs)[:, 0], phis)
-        W, res, _, _ = (np.asarray(v) for v in line_tca.branch.mapped(phis.size, phis.size * len(z_sections))(W0, prm_l))
-        res = res.ravel()
-        Wf = np.asarray(line_tca.w_full.map(phis.size)(W, np.full((1, phis.size), zs)))
-        Wf[:, ~(np.isfinite(res) & (res <= 1e-8))] = np.nan
-        out[zs] = Wf
-    return out
+        found.append(zs)
+        prms.append(line_tca.prm(phis, flat1, flat2, aligned, zs))
+        W0s.append(line_tca.branch.predict(w_a, line_tca.prm([0.0], flat1, flat2, aligned, zs)[:, 0], phis))
+    if not found:
+        return {}
+    # every section's columns in one mapped solve and one w_full map (each column solved by itself)
+    n = phis.size * len(found)
+    W, res, _, _ = (np.asarray(v) for v in line_tca.branch.mapped(n, phis.size * len(z_sections))(
+        np.hstack(W0s), np.hstack(prms)))
+    res = res.ravel()
+    Wf = np.asarray(line_tca.w_full.map(n)(W, np.repeat(np.asarray(found, float), phis.size)[None, :]))
+    Wf[:, ~(np.isfinite(res) & (res <= 1e-8))] = np.nan
+    return {zs: Wf[:, j * phis.size:(j + 1) * phis.size] for j, zs in enumerate(found)}
 
 
 @dataclass(frozen=True)
