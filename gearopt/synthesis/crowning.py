@@ -566,7 +566,9 @@ def actual_level(ec: EdgeContact, r: EdgeTCAResult, mis: Misalignment, zooms: in
     interpolation in the last bracket, error ~A w^2 for a bracket w), or, where the earlier contact
     ends without crossing, the lowest envelope value found. The peak (a smooth maximum) is
     refined by the same zooming around the highest sample. TE values of the extra sweeps are put
-    on the zero of ``r`` through a shared reference position.
+    on the zero of ``r`` through a shared reference position. Each zoom of all the brackets and
+    of the peak is one engine sweep (``zooms`` sweeps in all): a position's TE does not depend on
+    the other positions of a sweep (:meth:`EdgeContact.sweep`).
 
     Returns
     -------
@@ -580,78 +582,98 @@ def actual_level(ec: EdgeContact, r: EdgeTCAResult, mis: Misalignment, zooms: in
     pairs = r.pairs
     drv, act = r.driving, r.active
 
-    def sub(grid, ks, i_ref):
-        """TE of the pairs ``ks`` at ``grid`` on the zero of r (shared positions phi[i_ref],
-        phi[i_ref + 1]: each pair is shifted where both sweeps have it)."""
-        refs = [i_ref, min(i_ref + 1, phi.size - 1)]
-        rr = ec.sweep(np.r_[phi[refs], grid], mis=mis, pairs=ks)
-        te = rr.te_pair.copy()
-        for j, k in enumerate(ks):
-            shift = math.nan
-            for c, i_r in enumerate(refs):
-                ref = r.te_pair[pairs.index(k), i_r]
-                if np.isfinite(ref) and np.isfinite(te[j, c]):
-                    shift = ref - te[j, c]
-                    break
-            te[j] += shift
-        return te[:, 2:]
+    def subs(requests):
+        """TE of the pairs ``ks`` at ``grid`` on the zero of r for each request (grid, ks, i_ref),
+        all from one engine sweep (every position is solved by itself, EdgeContact.sweep: a
+        position's TE does not depend on the others). Shared positions phi[i_ref], phi[i_ref + 1]
+        precede each grid: each pair is shifted where both sweeps have it."""
+        ks_all = tuple(sorted({k for _, ks, _ in requests for k in ks}))
+        cols, starts = [], []
+        for grid, _, i_ref in requests:
+            starts.append(sum(c.size for c in cols))
+            cols.append(np.r_[phi[[i_ref, min(i_ref + 1, phi.size - 1)]], grid])
+        rr = ec.sweep(np.concatenate(cols), mis=mis, pairs=ks_all)
+        out = []
+        for (grid, ks, i_ref), s0 in zip(requests, starts):
+            refs = [i_ref, min(i_ref + 1, phi.size - 1)]
+            te = rr.te_pair[[ks_all.index(k) for k in ks], s0:s0 + 2 + grid.size].copy()
+            for j, k in enumerate(ks):
+                shift = math.nan
+                for c, i_r in enumerate(refs):
+                    ref = r.te_pair[pairs.index(k), i_r]
+                    if np.isfinite(ref) and np.isfinite(te[j, c]):
+                        shift = ref - te[j, c]
+                        break
+                te[j] += shift
+            out.append(te[:, 2:])
+        return out
 
-    corners = []
+    # the corners: every change of the driving (pair, feature) between two samples, bracketed
+    corners_at = []
     lows = [float(np.nanmin(env))] if np.isfinite(env).any() else []
     for i in range(phi.size - 1):
         if drv[i] < 0 or drv[i + 1] < 0 or (drv[i], act[i]) == (drv[i + 1], act[i + 1]):
             continue
         ka, kb = pairs[drv[i]], pairs[drv[i + 1]]
-        ks = (ka,) if ka == kb else (ka, kb)
-        lo, hi = phi[i], phi[i + 1]
         best = (float(phi[i + 1]), float(env[i + 1])) if env[i + 1] < env[i] else (float(phi[i]), float(env[i]))
-        cross = None
-        for _ in range(zooms):
-            g = np.linspace(lo, hi, points)
-            te = sub(g, ks, i)
-            e = np.nanmax(np.where(np.isfinite(te), te, -np.inf), axis=0)
-            fin = np.isfinite(e)
-            if fin.any():
-                j = int(np.argmin(np.where(fin, e, np.inf)))
-                if e[j] < best[1]:
-                    best = (float(g[j]), float(e[j]))
-            if len(ks) == 1:
-                # one pair changes its feature: the corner is the envelope minimum near it
-                j = int(np.argmin(np.where(fin, e, np.inf)))
-                lo, hi = g[max(j - 1, 0)], g[min(j + 1, points - 1)]
-                continue
-            f = te[0] - te[1]
-            a_ok = np.isfinite(f) & (f >= 0)
-            if not a_ok.any() or a_ok.all():
-                break
-            j = int(np.flatnonzero(a_ok)[-1])
-            if j + 1 >= points:
-                break
-            lo, hi = g[j], g[j + 1]
-            if np.isfinite(f[j + 1]):  # both curves on the bracket: where they cross (the finest wins)
-                t = f[j] / (f[j] - f[j + 1])
-                cross = (float(lo + t * (hi - lo)), float(te[0, j] + t * (te[0, j + 1] - te[0, j])))
-        if cross is not None:
-            best = cross
-        corners.append(best)
-        lows.append(best[1])
+        corners_at.append({"i": i, "ks": (ka,) if ka == kb else (ka, kb), "lo": phi[i], "hi": phi[i + 1],
+                           "best": best, "cross": None, "live": True})
     # the peak: zoom around the highest sample
     peak = (math.nan, math.nan)
+    apex = None
     if np.isfinite(env).any():
         i = int(np.nanargmax(env))
         peak = (float(phi[i]), float(env[i]))
         if drv[i] >= 0:
-            k = (pairs[drv[i]],)
             h = float(np.median(np.diff(phi))) if phi.size > 1 else 1e-3
-            lo, hi = phi[i] - h, phi[i] + h  # the apex may lie beyond the first or last sample
-            for _ in range(zooms):
-                g = np.linspace(lo, hi, points)
-                e = sub(g, k, i)[0]
+            # the apex may lie beyond the first or last sample
+            apex = {"i": i, "ks": (pairs[drv[i]],), "lo": phi[i] - h, "hi": phi[i] + h, "live": True}
+    # each zoom of every bracket and of the peak in one engine sweep
+    for _ in range(zooms):
+        live = [c for c in corners_at if c["live"]] + ([apex] if apex is not None and apex["live"] else [])
+        if not live:
+            break
+        grids = [np.linspace(c["lo"], c["hi"], points) for c in live]
+        for c, g, te in zip(live, grids, subs([(g, c["ks"], c["i"]) for c, g in zip(live, grids)])):
+            if c is apex:
+                e = te[0]
                 if not np.isfinite(e).any():
-                    break
+                    c["live"] = False
+                    continue
                 j = int(np.nanargmax(e))
                 if e[j] > peak[1]:
                     peak = (float(g[j]), float(e[j]))
-                lo, hi = g[max(j - 1, 0)], g[min(j + 1, points - 1)]
+                c["lo"], c["hi"] = g[max(j - 1, 0)], g[min(j + 1, points - 1)]
+                continue
+            e = np.nanmax(np.where(np.isfinite(te), te, -np.inf), axis=0)
+            fin = np.isfinite(e)
+            if fin.any():
+                j = int(np.argmin(np.where(fin, e, np.inf)))
+                if e[j] < c["best"][1]:
+                    c["best"] = (float(g[j]), float(e[j]))
+            if len(c["ks"]) == 1:
+                # one pair changes its feature: the corner is the envelope minimum near it
+                j = int(np.argmin(np.where(fin, e, np.inf)))
+                c["lo"], c["hi"] = g[max(j - 1, 0)], g[min(j + 1, points - 1)]
+                continue
+            f = te[0] - te[1]
+            a_ok = np.isfinite(f) & (f >= 0)
+            if not a_ok.any() or a_ok.all():
+                c["live"] = False
+                continue
+            j = int(np.flatnonzero(a_ok)[-1])
+            if j + 1 >= points:
+                c["live"] = False
+                continue
+            c["lo"], c["hi"] = g[j], g[j + 1]
+            if np.isfinite(f[j + 1]):  # both curves on the bracket: where they cross (the finest wins)
+                t = f[j] / (f[j] - f[j + 1])
+                lo, hi = c["lo"], c["hi"]
+                c["cross"] = (float(lo + t * (hi - lo)), float(te[0, j] + t * (te[0, j + 1] - te[0, j])))
+    corners = []
+    for c in corners_at:
+        best = c["cross"] if c["cross"] is not None else c["best"]
+        corners.append(best)
+        lows.append(best[1])
     level = peak[1] - min(lows) if lows else math.nan
     return float(level), corners, peak
