@@ -382,6 +382,16 @@ class EdgeContact:
                                           contact="line")
         return self._line_modified
 
+    def __getstate__(self):
+        # picklable like Branch: the column evaluators (possibly compiled libraries) and the memo
+        # are rebuilt on demand where it lands
+        state = dict(self.__dict__)
+        state["_colmaps"], state["_memo"] = {}, {}
+        return state
+
+    def __setstate__(self, state):
+        self.__dict__.update(state)
+
     #: entries of the memo of first guesses and clearances (the oldest go first)
     _MEMO_SIZE = 16
 
