@@ -37,6 +37,8 @@ envelope of its valid branches; the actual TE is the upper envelope over the pai
 
 from __future__ import annotations
 
+import functools
+import hashlib
 import math
 import time
 from dataclasses import dataclass, field
@@ -324,8 +326,7 @@ class EdgeContact:
             G = ca.Function(f"edge_{_cname(name)}", [q, prm], [F], ["w", "prm"], ["F"])
             checks = ca.Function(f"edge_checks_{_cname(name)}", [q, prm], [cone, reg], ["w", "prm"], ["cone", "reg"])
             self.residuals[name] = G
-            self.branches[name] = Branch(f"edge_{_cname(name)}", G, checks, self._accept, tca.tol, tca.solver,
-                                         tca.jit)
+            self.branches[name] = _branch(f"edge_{_cname(name)}", G, checks, tca.tol, tca.solver, tca.jit)
         self._line: TCA | None = None
         self._line_modified: TCA | None = None
         self._colmaps: dict[tuple, ColumnMap] = {}  # the flank evaluators on columns (:meth:`_columns`)
@@ -357,9 +358,7 @@ class EdgeContact:
         return ca.Function(f"limit_u{member}", [zs], [expr])
 
     def _accept(self, res, cone, reg):
-        # Edge contact: residual small, the edge touches from outside (cone >= 0, see __init__),
-        # both flanks regular at the point.
-        return np.isfinite(res) & (res <= self.tca.tol) & (cone > -1e-9) & (reg > REGULARITY_MIN)
+        return _accept_edge(res, cone, reg, self.tca.tol)
 
     # ------------------------------------------------------------------------------------------
     def _line_tca(self) -> TCA:
@@ -907,6 +906,31 @@ def _flank_deviation_grid(tooth, side: str, p, zs, n_u: int) -> np.ndarray:
         u = np.linspace(u_a, u_f, n_u)
         out[:, j] = tooth.normal_deviation(side, u, np.full(n_u, float(z)), p)
     return out
+
+
+def _accept_edge(res, cone, reg, tol):
+    # Edge contact: residual small, the edge touches from outside (cone >= 0, see
+    # EdgeContact.__init__), both flanks regular at the point.
+    return np.isfinite(res) & (res <= tol) & (cone > -1e-9) & (reg > REGULARITY_MIN)
+
+
+#: Branches by their exact equations (:func:`_branch`): the edge system of a drive is the same graph
+#: for every crowning and misalignment (symbolic parameters), so the drives before and after a
+#: crowning optimisation share their rootfinders and compiled maps. The oldest go beyond 64.
+_BRANCHES: dict[tuple, Branch] = {}
+
+
+def _branch(name: str, G: ca.Function, checks: ca.Function, tol: float, solver: str, jit) -> Branch:
+    """The :class:`Branch` of the edge system ``G`` with ``checks`` (built once per process for
+    each exact graph, tolerance, solver and jit setting: the key is the serialised Functions)."""
+    key = (name, hashlib.sha256((G.serialize() + checks.serialize()).encode()).hexdigest(), float(tol), solver,
+           str(jit))
+    br = _BRANCHES.get(key)
+    if br is None:
+        if len(_BRANCHES) >= 64:
+            _BRANCHES.pop(next(iter(_BRANCHES)))
+        br = _BRANCHES[key] = Branch(name, G, checks, functools.partial(_accept_edge, tol=tol), tol, solver, jit)
+    return br
 
 
 def _key(v) -> bytes:
