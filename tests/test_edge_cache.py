@@ -5,6 +5,7 @@
   and a sweep that reuses them gives the numbers of a fresh EdgeContact bit for bit.
 - The flank evaluators on columns (transverse radius and flank point) are built once per
   EdgeContact and give, column by column, what the surface Function gives for one point.
+- Drives that differ only in crowning share the edge branches (the same equations).
 - A position's TE does not depend on the other positions of a sweep (what ``actual_level``'s one
   sweep per zoom rests on): the TE of a merged grid is the TE of its parts.
 
@@ -137,3 +138,16 @@ def test_actual_level_sweeps_once_per_zoom(ec, monkeypatch):
     env = r.te_envelope[np.isfinite(r.te_envelope)]
     assert peak[1] >= env.max() - 1e-15 and min(c[1] for c in corners) <= env.max()
     assert level >= env.max() - env.min() - 1e-15
+
+
+def test_drives_differing_in_crowning_share_the_edge_branches(ec):
+    # crowning and plunging are symbolic parameters of the flanks: the same edge equations
+    p = Gear(z=20, m_n=3.0, b=20, a_pl=5e-4, rack=BasicRack(a_c=1e-3), name="pinion")
+    other = EdgeContact(TCA(GearPair(p, Gear(z=40, m_n=3.0, b=20, name="gear")), jit=False))
+    assert all(other.branches[n] is ec.branches[n] for n in ec.edges)
+    # a narrower pinion is another system (its face ends are numbers of the graph)
+    p = Gear(z=20, m_n=3.0, b=18, a_pl=2e-4, rack=BasicRack(a_c=4e-4), name="pinion")
+    narrow = EdgeContact(TCA(GearPair(p, Gear(z=40, m_n=3.0, b=20, name="gear")), jit=False))
+    assert narrow.branches["pinion_face+"] is not ec.branches["pinion_face+"]
+    # and a compiled setting is another branch
+    assert EdgeContact(TCA(pair(), jit=True)).branches["gear_tip"] is not ec.branches["gear_tip"]
