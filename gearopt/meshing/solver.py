@@ -120,6 +120,7 @@ class Branch:
                                                                      "show_eval_warnings": False,
                                                                      "jacobian_function": jac})
         self._maps: dict[int, ca.Function] = {}
+        self._dw_memo: dict = {}  # dw/dphi1 at solved anchors by their exact (w, prm) (predict)
         # one column: solve from W0, then the residual norm and the checks at the solution (the
         # compiled unit); what is evaluated there is one SX graph with common subexpressions
         # eliminated (the checks and the caller's extra outputs share the surfaces' derivatives)
@@ -148,6 +149,7 @@ class Branch:
         return state
 
     def __setstate__(self, state):
+        state.setdefault("_dw_memo", {})
         self.__dict__.update(state)
 
     def newton(self, w0: npt.ArrayLike, prm: npt.ArrayLike) -> np.ndarray:
@@ -161,16 +163,24 @@ class Branch:
         return res, n1n2, reg, bool(self.accept(res, n1n2, reg))
 
     def predict(self, w_a: npt.ArrayLike, prm_a: npt.ArrayLike, dphi: npt.ArrayLike) -> np.ndarray:
-        """First guesses ``w_a + dw/dphi1 * dphi`` (nw, len(dphi)) around the solved anchor."""
-        # one column: the Function itself, compiled when its library is cached (one column never
-        # pays for a compile, so a miss starts none)
-        one = self._maps.get(("dw", "one"))
-        if one is None and self.jit is not False and available():
-            one = cached_function(self.dw)
-            if one is not None:
-                self._maps[("dw", "one")] = one
-        dw = call(self.dw if one is None else one, np.asarray(w_a, float), np.asarray(prm_a, float))[0].ravel()
-        return np.asarray(w_a)[:, None] + dw[:, None] * np.asarray(dphi)[None, :]
+        """First guesses ``w_a + dw/dphi1 * dphi`` (nw, len(dphi)) around the solved anchor (dw/dphi1
+        kept per exact anchor: a repeated sweep of the same design and case evaluates it once)."""
+        w_a, prm_a = np.asarray(w_a, float), np.asarray(prm_a, float)
+        key = (w_a.tobytes(), prm_a.tobytes())
+        dw = self._dw_memo.get(key)
+        if dw is None:
+            # one column: the Function itself, compiled when its library is cached (one column never
+            # pays for a compile, so a miss starts none)
+            one = self._maps.get(("dw", "one"))
+            if one is None and self.jit is not False and available():
+                one = cached_function(self.dw)
+                if one is not None:
+                    self._maps[("dw", "one")] = one
+            dw = call(self.dw if one is None else one, w_a, prm_a)[0].ravel()
+            if len(self._dw_memo) >= 64:
+                self._dw_memo.pop(next(iter(self._dw_memo)))
+            self._dw_memo[key] = dw
+        return w_a[:, None] + dw[:, None] * np.asarray(dphi)[None, :]
 
     def predict_knots(self, w_a: npt.ArrayLike, prm_a: npt.ArrayLike, phi: np.ndarray, anchor: float,
                       prm_of: Callable[[np.ndarray], np.ndarray], spacing: float,
