@@ -17,10 +17,12 @@ import numpy as np
 import numpy.typing as npt
 
 from ..compiled import ColumnMap, available, cached_function, call, map_columns, mapped, select
+from ..errors import ArgumentError
 from ..settings import ContactSettings  # re-exported: declared with the other option sets (gearopt.settings)
 
 NORMAL_TOL = 1e-8  #: accepted contact points have n1 . n2 < -1 + NORMAL_TOL (tangency, not crossing)
 REGULARITY_MIN = 1e-6  #: and (dr/du x dr/dz) . n > REGULARITY_MIN on both flanks' valid branches (no cusp)
+TAYLOR_STEP = 1e-3  #: [rad] step of the central difference that gives d2w/dphi1^2 at the anchor (Branch.predict)
 STALL_RES = 0.5  #: [mm or 1] a Newton residual below this, above the tolerance, stalled near a root (line-search Newton retries it)
 
 
@@ -63,6 +65,13 @@ class BranchSolution(NamedTuple):
     #: ``n_fast`` (accepted at the first pass), ``n_retry`` (by continuation), ``n_line_search``;
     #: with ``extra``: ``extra`` (the Function's outputs by name) and ``rescued`` (columns changed later)
     stats: dict
+
+
+def sorted_unique(x: np.ndarray) -> np.ndarray:
+    """The distinct values of ``x`` in ascending order (``np.unique`` without its first-call import of
+    ``numpy.ma``, which costs a new process tens of milliseconds)."""
+    x = np.sort(np.asarray(x).ravel())
+    return x[np.concatenate(([True], x[1:] != x[:-1]))] if x.size else x
 
 
 def accept_tangency(res: np.ndarray, n1n2: np.ndarray, reg: np.ndarray, tol: float) -> np.ndarray:
@@ -162,29 +171,49 @@ class Branch:
         n1n2, reg = (float(v) for v in self.checks(w, prm))
         return res, n1n2, reg, bool(self.accept(res, n1n2, reg))
 
-    def predict(self, w_a: npt.ArrayLike, prm_a: npt.ArrayLike, dphi: npt.ArrayLike) -> np.ndarray:
-        """First guesses ``w_a + dw/dphi1 * dphi`` (nw, len(dphi)) around the solved anchor (dw/dphi1
-        kept per exact anchor: a repeated sweep of the same design and case evaluates it once)."""
+    def predict(self, w_a: npt.ArrayLike, prm_a: npt.ArrayLike, dphi: npt.ArrayLike, order: int = 1) -> np.ndarray:
+        """First guesses (nw, len(dphi)) around the solved anchor at the pinion angles ``anchor +
+        dphi`` [rad]: the Taylor polynomial of the solution branch w(phi1), ``w_a + w' dphi`` (``order``
+        1) or ``w_a + w' dphi + w'' dphi^2 / 2`` (``order`` 2). w' = dw/dphi1 is the implicit-function
+        derivative; w'' its derivative along the branch, the central difference of w' at
+        ``(w_a +- h w', phi1 +- h)`` with h = :data:`TAYLOR_STEP` (error O(h^2): the points leave
+        the branch by O(h^2) on both sides alike, which the difference cancels). Both are kept per
+        exact anchor: a repeated sweep of the same design and case evaluates them once."""
         w_a, prm_a = np.asarray(w_a, float), np.asarray(prm_a, float)
+        if order not in (1, 2):
+            raise ArgumentError(f"order = {order!r}: the predictor is linear (1) or quadratic (2)", param="order",
+                                value=order, valid="1 or 2")
         key = (w_a.tobytes(), prm_a.tobytes())
-        dw = self._dw_memo.get(key)
-        if dw is None:
-            # one column: the Function itself, compiled when its library is cached (one column never
-            # pays for a compile, so a miss starts none)
-            one = self._maps.get(("dw", "one"))
-            if one is None and self.jit is not False and available():
-                one = cached_function(self.dw)
-                if one is not None:
-                    self._maps[("dw", "one")] = one
-            dw = call(self.dw if one is None else one, w_a, prm_a)[0].ravel()
+        hit = self._dw_memo.get(key)
+        if hit is None:
+            hit = [self._dw_at(w_a, prm_a), None]
             if len(self._dw_memo) >= 64:
                 self._dw_memo.pop(next(iter(self._dw_memo)))
-            self._dw_memo[key] = dw
-        return w_a[:, None] + dw[:, None] * np.asarray(dphi)[None, :]
+            self._dw_memo[key] = hit
+        dw = hit[0]
+        dphi = np.asarray(dphi)
+        if order == 1:
+            return w_a[:, None] + dw[:, None] * dphi[None, :]
+        if hit[1] is None:
+            h = TAYLOR_STEP
+            step = np.zeros(prm_a.shape)
+            step[0] = h  # prm[0] is phi1
+            hit[1] = (self._dw_at(w_a + h * dw, prm_a + step) - self._dw_at(w_a - h * dw, prm_a - step)) / (2 * h)
+        return w_a[:, None] + dw[:, None] * dphi[None, :] + (0.5 * hit[1])[:, None] * (dphi * dphi)[None, :]
+
+    def _dw_at(self, w: np.ndarray, prm: np.ndarray) -> np.ndarray:
+        """dw/dphi1 at one column: the Function itself, compiled when its library is cached (one
+        column never pays for a compile, so a miss starts none)."""
+        one = self._maps.get(("dw", "one"))
+        if one is None and self.jit is not False and available():
+            one = cached_function(self.dw)
+            if one is not None:
+                self._maps[("dw", "one")] = one
+        return call(self.dw if one is None else one, w, prm)[0].ravel()
 
     def predict_knots(self, w_a: npt.ArrayLike, prm_a: npt.ArrayLike, phi: np.ndarray, anchor: float,
                       prm_of: Callable[[np.ndarray], np.ndarray], spacing: float,
-                      n_total: int | None = None) -> np.ndarray:
+                      n_total: int | None = None, order: int = 1) -> np.ndarray:
         """First guesses (nw, len(phi)) for the positions ``phi`` [rad] of one smooth solution branch
         from solved knots: the branch is solved on a fixed grid ``anchor + j * spacing`` covering
         ``phi`` (:meth:`solve`, from the anchor's prediction), and each position is predicted by the
@@ -206,9 +235,12 @@ class Branch:
             Knot spacing [rad].
         n_total : int, optional
             Columns of the whole sweep (chooses compiled or interpreted for the knots' solve).
+        order : {1, 2}
+            The anchor's prediction (:meth:`predict`) of the knots, and of the positions where
+            there are none (a coarse sweep) or none was solved.
         """
         phi = np.asarray(phi, float)
-        lin = self.predict(w_a, prm_a, phi - anchor)
+        lin = self.predict(w_a, prm_a, phi - anchor, order)
         if phi.size == 0:
             return lin
         j0 = int(np.floor((phi.min() - anchor) / spacing))
@@ -218,7 +250,8 @@ class Branch:
             return lin
         prm_k = prm_of(knots)
         n_all = phi.size if n_total is None else n_total
-        Wk, res, n1n2, reg = call(self.mapped(knots.size, n_all), self.predict(w_a, prm_a, knots - anchor), prm_k)
+        Wk, res, n1n2, reg = call(self.mapped(knots.size, n_all), self.predict(w_a, prm_a, knots - anchor, order),
+                                  prm_k)
         okk = np.asarray(self.accept(res.ravel(), n1n2.ravel(), reg.ravel()), bool)
         if not okk.any():
             return lin
@@ -319,12 +352,20 @@ class Branch:
     @staticmethod
     def _from(fun, cols, anchors, W, prm, n_total):
         """``fun(m, n_total)`` (a mapped solve) at the columns ``cols`` from the solutions at
-        ``anchors``, padded to a power of two (few distinct map sizes): (W, res, n1n2, reg)."""
-        m = max(8, 1 << int(cols.size - 1).bit_length())
-        pad = np.concatenate([np.arange(cols.size), np.zeros(m - cols.size, int)])
-        Wr, rr, dr, gr = call(fun(m, n_total), W[:, anchors[pad]], prm[:, cols[pad]])[:4]
-        return Wr[:, :cols.size].copy(), rr.ravel()[:cols.size].copy(), dr.ravel()[:cols.size].copy(), \
-            gr.ravel()[:cols.size].copy()
+        ``anchors`` (the ColumnMap pads the call to one of its few map sizes): (W, res, n1n2, reg)."""
+        Wr, rr, dr, gr = call(fun(cols.size, n_total), W[:, anchors], prm[:, cols])[:4]
+        return Wr, rr.ravel(), dr.ravel(), gr.ravel()
+
+    @staticmethod
+    def _candidates(ok: np.ndarray, order: np.ndarray, start: np.ndarray, max_gap: int) -> tuple[np.ndarray, np.ndarray]:
+        """Continuation candidates of the groups concatenated in ``order`` (``start``: the position
+        in ``order`` where each entry's group begins): the columns not accepted within ``max_gap``
+        after the last accepted one of their group, and that one (their anchors), in ``order``."""
+        okv = ok[order]
+        pos = np.arange(order.size)
+        last = np.maximum.accumulate(np.where(okv, pos, -1))
+        j = np.flatnonzero(~okv & (last >= start) & (pos - last <= max_gap))
+        return order[j], order[last[j]]
 
     def solve(self, W0: np.ndarray, prm: np.ndarray, groups: Sequence[npt.ArrayLike], max_gap: int = 4,
               n_total: int | None = None, extra: bool = False) -> BranchSolution:
@@ -368,7 +409,7 @@ class Branch:
         for g in groups:
             if not ok[g].any():
                 s = g[np.isfinite(res[g]) & (res[g] > self.tol) & (res[g] < STALL_RES)]
-                stalled.append(s[np.unique([0, s.size // 2, s.size - 1])] if s.size > 3 else s)
+                stalled.append(s[sorted_unique(np.array([0, s.size // 2, s.size - 1]))] if s.size > 3 else s)
         stalled = np.concatenate(stalled) if stalled else np.zeros(0, int)
         n_line = int(stalled.size)
         if stalled.size:
@@ -379,23 +420,18 @@ class Branch:
             W[:, g], res[g], n1n2[g], reg[g], ok[g] = Wr[:, good], rr[good], dr[good], gr[good], True
             rescued.append(g)
         groups = [g for g in groups if g.size > 1]
+        sizes = np.array([g.size for g in groups], int)
+        start = np.repeat(np.cumsum(sizes) - sizes, sizes)  # where each entry's group begins
         for forward in (True, False):
-            orders = groups if forward else [g[::-1] for g in groups]
+            order = np.concatenate([g if forward else g[::-1] for g in groups]) if groups else np.zeros(0, int)
             tried: set = set()
             while True:
                 cols, anchors = [], []
-                for o in orders:
-                    okv = ok[o]
-                    if okv.all() or not okv.any():
-                        continue
-                    pos = np.arange(o.size)
-                    last = np.maximum.accumulate(np.where(okv, pos, -1))
-                    j = np.flatnonzero(~okv & (last >= 0) & (pos - last <= max_gap))
-                    for c, a in zip(o[j], o[last[j]]):
-                        if (c, a) not in tried:
-                            tried.add((c, a))
-                            cols.append(c)
-                            anchors.append(a)
+                for c, a in zip(*(v.tolist() for v in self._candidates(ok, order, start, max_gap))):
+                    if (c, a) not in tried:
+                        tried.add((c, a))
+                        cols.append(c)
+                        anchors.append(a)
                 if not cols:
                     break
                 cols, anchors = np.array(cols), np.array(anchors)
@@ -417,5 +453,5 @@ class Branch:
         stats = {"n_fast": n_fast, "n_retry": n_retry, "n_line_search": n_line}
         if extra:
             stats["extra"] = dict(zip(self.extra.name_out(), first[4:]))
-            stats["rescued"] = np.unique(np.concatenate(rescued)) if rescued else np.zeros(0, int)
+            stats["rescued"] = sorted_unique(np.concatenate(rescued)) if rescued else np.zeros(0, int)
         return BranchSolution(W=W, res=res, n1n2=n1n2, reg=reg, ok=ok, stats=stats)

@@ -739,7 +739,7 @@ class TCA:
         prm_a = self.prm([anchor], p1, p2, mis, z_section)[:, 0]
         if continuation:  # every pair is the same branch w(phi1 - 2 pi k / z1): guesses from its knots
             W0 = self.branch.predict_knots(w_a, prm_a, phis, anchor, lambda v: self.prm(v, p1, p2, mis, z_section),
-                                           2 * math.pi / g1.z / KNOTS_PER_PITCH, n_total=phis.size)
+                                           2 * math.pi / g1.z / KNOTS_PER_PITCH, n_total=phis.size, order=2)
         else:
             W0 = self.branch.predict(w_a, prm_a, phis - anchor)
         groups = [np.arange(k * N, (k + 1) * N) for k in range(K)] if continuation else []
@@ -828,8 +828,9 @@ class TCA:
         kap1 = c["kappa1"].T.copy()
         kap2 = c["kappa2"].T.copy()
         lam = c["lam"].T
-        with np.errstate(divide="ignore", invalid="ignore"):
-            ax_len = np.where(lam > 0, np.sqrt(2 * delta / np.where(lam > 0, lam, 1.0)), np.inf)
+        ax_len = np.full(lam.shape, np.inf)  # no contact ellipse where K1 + K2 is not positive (or NaN)
+        pos = lam > 0
+        ax_len[pos] = np.sqrt(2 * delta / lam[pos])
         ea, eb = ax_len[:, 0].copy(), ax_len[:, 1].copy()
         # [major, minor] x (3,) in the gear frame, then the same in the pinion frame
         edirs = np.concatenate([c["dir2"], c["dir1"]]).reshape(2, 3, K * N, 2).transpose(0, 2, 3, 1).copy()
