@@ -498,7 +498,7 @@ class ColumnMap:
 
     Building a CasADi map of n columns costs about 2.8 us per column (its dense n-column sparsity
     patterns), as much as the compiled solve of the column itself; so the columns are evaluated in
-    chunks of :data:`CHUNK` (the last one padded to a power of two, at least 8), whose maps are
+    chunks of :data:`CHUNK` (the last one padded to one of a few sizes, :func:`map_size`), whose maps are
     built once per ColumnMap and process. Inputs and outputs are numpy arrays (:func:`call`).
 
     Parameters
@@ -577,11 +577,12 @@ class ColumnMap:
 
 
 def map_size(k: int) -> int:
-    """Columns of the map that evaluates ``k`` columns (the rest padded): the smallest of 8 and
-    ``2^j * q / 4`` (q = 4, 5, 6, 7) that holds them, so at most a fifth of a call is padding (the
-    padded columns are solved too) while the sizes, whose maps are built once each, stay few."""
+    """Columns of the map that evaluates ``k`` columns (the rest padded): ``k`` itself up to 8,
+    else the smallest ``2^j * q / 4`` (q = 5, 6, 7, 8) that holds them, so at most a fifth of a
+    call is padding (the padded columns are solved too) while the sizes, whose maps are built once
+    each, stay few."""
     if k <= 8:
-        return 8
+        return max(k, 1)
     j = (k - 1).bit_length() - 1  # 2^j < k <= 2^(j+1)
     return next(m for m in ((q << j) >> 2 for q in (5, 6, 7, 8)) if m >= k)  # j >= 3: whole numbers
 
@@ -669,17 +670,19 @@ class _Signature:
             if self._buf is None:
                 buf, trigger = f.buffer()
                 ins = [np.empty((c, r)) for r, c in self.shape_in]  # CasADi's column-major layout
-                outs = [np.empty((c, r)) for r, c in self.shape_out]
+                ends = np.cumsum([0] + [r * c for r, c in self.shape_out]).tolist()
+                block = np.empty(ends[-1])  # every output, one after the other
                 for i, a in enumerate(ins):
                     buf.set_arg(i, memoryview(a))
-                for i, o in enumerate(outs):
-                    buf.set_res(i, memoryview(o))
-                self._buf = (buf, trigger, ins, outs)
-            buf, trigger, ins, outs = self._buf
+                for i in range(len(self.shape_out)):
+                    buf.set_res(i, memoryview(block[ends[i]:ends[i + 1]]))
+                self._buf = (buf, trigger, ins, block, ends)
+            buf, trigger, ins, block, ends = self._buf
             for a, into in zip(args, ins):
                 into[...] = a.T
             trigger()
-            return [o.T.copy(order="F") for o in outs]
+            out = block.copy()  # the outputs: (rows, columns) views of one new array
+            return [out[ends[i]:ends[i + 1]].reshape(c, r).T for i, (r, c) in enumerate(self.shape_out)]
         finally:
             self._busy.release()
 

@@ -392,9 +392,8 @@ class Branch:
         n_total = prm.shape[1] if n_total is None else n_total
         extra = bool(extra) and self.one_x is not None
         first = call(self.mapped(prm.shape[1], n_total, extra), W0, prm)
-        W, res, n1n2, reg = first[:4]
-        res, n1n2, reg = res.ravel().copy(), n1n2.ravel().copy(), reg.ravel().copy()
-        W = W.copy()
+        W, res, n1n2, reg = first[:4]  # (new arrays: changed in place below)
+        res, n1n2, reg = res.ravel(), n1n2.ravel(), reg.ravel()
         ok = np.asarray(self.accept(res, n1n2, reg), bool)
         n_fast, n_retry = int(ok.sum()), 0
         rescued: list = []

@@ -90,9 +90,10 @@ def check_sweep_args(tca: TCA, phi1: npt.ArrayLike, p1: npt.ArrayLike | None = N
     pair = tca.pair
     g1 = pair.pinion
     try:
-        if np.asarray(phi1).dtype.kind in "USb":  # "0.1" would convert: the API takes numbers in rad
+        arr = np.asarray(phi1)
+        if arr.dtype.kind in "USb":  # "0.1" would convert: the API takes numbers in rad
             raise TypeError
-        arr = np.asarray(phi1, dtype=float)
+        arr = arr.astype(float, copy=False)
     except (TypeError, ValueError):
         raise ArgumentError(f"phi1 = {_describe(phi1)}: expected a sequence of pinion angles [rad] (numbers).",
                             param="phi1", value=phi1, valid="a sequence of pinion angles [rad] (numbers)") from None
@@ -104,8 +105,9 @@ def check_sweep_args(tca: TCA, phi1: npt.ArrayLike, p1: npt.ArrayLike | None = N
         raise ArgumentError("phi1 is empty: a sweep needs at least one pinion angle [rad] (one mesh cycle is "
                             f"2 pi / z1 = {2 * math.pi / g1.z:.6g} rad).",
                             param="phi1", valid="at least one pinion angle [rad]")
-    bad = np.flatnonzero(~np.isfinite(arr))
-    if bad.size:
+    fin = np.isfinite(arr)
+    if not fin.all():
+        bad = np.flatnonzero(~fin)
         raise ArgumentError(f"phi1[{bad[0]}] = {arr[bad[0]]}: every pinion angle must be a finite number [rad] "
                             f"({bad.size} of {arr.size} are not).",
                             param=f"phi1[{bad[0]}]", value=float(arr[bad[0]]), valid="a finite number [rad]")
@@ -736,7 +738,8 @@ class TCA:
         phis = np.concatenate([phi1 - 2 * math.pi * k / g1.z for k in pairs])
         prm = self.prm(phis, p1, p2, mis, z_section)
         w_a = self.solve_point(anchor, None, p1, p2, mis, z_section)  # the public anchor solve (EdgeContact and tests wrap it)
-        prm_a = self.prm([anchor], p1, p2, mis, z_section)[:, 0]
+        prm_a = prm[:, 0].copy()  # the anchor's column: the same but phi1
+        prm_a[self._phi_row] = anchor
         if continuation:  # every pair is the same branch w(phi1 - 2 pi k / z1): guesses from its knots
             W0 = self.branch.predict_knots(w_a, prm_a, phis, anchor, lambda v: self.prm(v, p1, p2, mis, z_section),
                                            2 * math.pi / g1.z / KNOTS_PER_PITCH, n_total=phis.size, order=2)
@@ -838,12 +841,12 @@ class TCA:
         for a in (kap1, kap2, ea, eb):
             a[bad] = np.nan
         edirs[:, bad] = np.nan
-        nan = np.nan
+        # (phi2, te and the radii are NaN where not accepted already: W and the points are)
         return TCAResult(
-            phi1=phi1, pairs=pairs, phi2=np.where(okk, phi2, nan), te=np.where(okk, te, nan),
+            phi1=phi1, pairs=pairs, phi2=phi2, te=te,
             te_envelope=env, driving=driving, u1=shp(W[0]), z1=z1, u2=shp(W[2]), z2=z2,
             r1=r1.T.reshape(K, N, 3), r2=r2.T.reshape(K, N, 3), rf=rf1.T.reshape(K, N, 3),
-            radius1=np.where(okk, radius1, nan), radius2=np.where(okk, radius2, nan),
+            radius1=radius1, radius2=radius2,
             kappa1=kap1.reshape(K, N, 2), kappa2=kap2.reshape(K, N, 2),
             ellipse_a=ea.reshape(K, N), ellipse_b=eb.reshape(K, N), ellipse_dir2=edir.reshape(K, N, 2, 3),
             ellipse_dir1=edir1.reshape(K, N, 2, 3),
