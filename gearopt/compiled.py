@@ -149,7 +149,7 @@ def cache_key(f: ca.Function) -> str:
     """SHA-256 key of ``f``'s compiled library (the serialised Function, CasADi, compiler, flags)."""
     cc = compiler()
     h = hashlib.sha256()
-    for part in (f.serialize(), ca.__version__, cc[1] if cc else "", " ".join(FLAGS), SOURCE_PATCH):
+    for part in (f.serialize(), ca.__version__, cc[1] if cc else "", " ".join(FLAGS)):
         h.update(part.encode() if isinstance(part, str) else bytes(part))
         h.update(b"\0")
     return h.hexdigest()
@@ -341,69 +341,12 @@ def select(f: ca.Function, jit: bool | str, n: int) -> ca.Function | None:
     return None
 
 
-#: Name of the edit :func:`patch_source` makes to the generated C (part of the cache key).
-SOURCE_PATCH = "newton-dense-lu-1"
-
-# fast_newton's step in CasADi's generated runtime (casadi_newton): J dx = F by the general sparse
-# Householder QR (casadi_qr), about 2500 instructions for the 5 x 5 Jacobian of a TCA column, 40 %
-# of the column's solve.
-_NEWTON_QR = """    casadi_qr(m->sp_a, m->jac_g_x, m->lin_w,
-              m->sp_v,  m->lin_v, m->sp_r, m->lin_r, m->lin_beta,
-              m->prinv, m->pc);
-    casadi_qr_solve(m->g, 1, 0, m->sp_v, m->lin_v, m->sp_r, m->lin_r, m->lin_beta,
-                    m->prinv, m->pc, m->lin_w);
-"""
-# The same step for up to 8 unknowns by dense Gaussian elimination with partial (row) pivoting, in
-# place on F (backward stable like the QR; the Newton iterates agree with QR's to round-off).
-_NEWTON_LU = """    if (m->n <= 8) {
-      casadi_int n = m->n, i, j, k, c, p;
-      casadi_real a[64], t;
-      const casadi_int *colind = m->sp_a + 2, *row = colind + n + 1;
-      for (i=0; i<n*n; ++i) a[i] = 0;
-      for (c=0; c<n; ++c) for (k=colind[c]; k<colind[c+1]; ++k) a[row[k]*n+c] = m->jac_g_x[k];
-      for (k=0; k<n; ++k) {
-        p = k;
-        for (i=k+1; i<n; ++i) if (fabs(a[i*n+k]) > fabs(a[p*n+k])) p = i;
-        if (p != k) {
-          for (j=0; j<n; ++j) { t = a[k*n+j]; a[k*n+j] = a[p*n+j]; a[p*n+j] = t; }
-          t = m->g[k]; m->g[k] = m->g[p]; m->g[p] = t;
-        }
-        for (i=k+1; i<n; ++i) {
-          t = a[i*n+k] / a[k*n+k];
-          for (j=k+1; j<n; ++j) a[i*n+j] -= t*a[k*n+j];
-          m->g[i] -= t*m->g[k];
-        }
-      }
-      for (i=n-1; i>=0; --i) {
-        t = m->g[i];
-        for (j=i+1; j<n; ++j) t -= a[i*n+j]*m->g[j];
-        m->g[i] = t / a[i*n+i];
-      }
-    } else {
-""" + "".join("  " + line + "\n" for line in _NEWTON_QR.splitlines()) + """    }
-"""
-
-
-def patch_source(text: str) -> str:
-    """The generated C ``text`` with fast_newton's step (``casadi_newton``) solving J dx = F by dense
-    Gaussian elimination with partial pivoting for systems of up to 8 unknowns instead of CasADi's
-    sparse QR: a TCA column's compiled solve takes about 15 % less time (its Newton iterates agree
-    with the interpreted rootfinder's, which keeps the QR, to round-off: about 1e-14 relative).
-    Text without that step (no rootfinder, or another CasADi runtime) is returned unchanged."""
-    return text.replace(_NEWTON_QR, _NEWTON_LU) if "int casadi_newton(" in text else text
-
-
 def _build(f: ca.Function, path: Path, cc: str) -> str | None:
     """Generate and compile ``f`` into ``path`` (atomic rename); None on success, else the reason."""
     def generate(tmp, src):
         cg = ca.CodeGenerator(src, {"with_header": False})
         cg.add(f)
         cg.generate(tmp + os.sep)
-        file = os.path.join(tmp, src)
-        with open(file) as fh:
-            text = fh.read()
-        with open(file, "w") as fh:
-            fh.write(patch_source(text))
     return _compile_into(generate, f"{f.name()}.c", path, cc)
 
 

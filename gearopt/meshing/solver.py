@@ -17,12 +17,10 @@ import numpy as np
 import numpy.typing as npt
 
 from ..compiled import ColumnMap, available, cached_function, call, map_columns, mapped, select
-from ..errors import ArgumentError
 from ..settings import ContactSettings  # re-exported: declared with the other option sets (gearopt.settings)
 
 NORMAL_TOL = 1e-8  #: accepted contact points have n1 . n2 < -1 + NORMAL_TOL (tangency, not crossing)
 REGULARITY_MIN = 1e-6  #: and (dr/du x dr/dz) . n > REGULARITY_MIN on both flanks' valid branches (no cusp)
-TAYLOR_STEP = 1e-3  #: [rad] step of the central difference that gives d2w/dphi1^2 at the anchor (Branch.predict)
 STALL_RES = 0.5  #: [mm or 1] a Newton residual below this, above the tolerance, stalled near a root (line-search Newton retries it)
 
 
@@ -171,35 +169,18 @@ class Branch:
         n1n2, reg = (float(v) for v in self.checks(w, prm))
         return res, n1n2, reg, bool(self.accept(res, n1n2, reg))
 
-    def predict(self, w_a: npt.ArrayLike, prm_a: npt.ArrayLike, dphi: npt.ArrayLike, order: int = 1) -> np.ndarray:
-        """First guesses (nw, len(dphi)) around the solved anchor at the pinion angles ``anchor +
-        dphi`` [rad]: the Taylor polynomial of the solution branch w(phi1), ``w_a + w' dphi`` (``order``
-        1) or ``w_a + w' dphi + w'' dphi^2 / 2`` (``order`` 2). w' = dw/dphi1 is the implicit-function
-        derivative; w'' its derivative along the branch, the central difference of w' at
-        ``(w_a +- h w', phi1 +- h)`` with h = :data:`TAYLOR_STEP` (error O(h^2): the points leave
-        the branch by O(h^2) on both sides alike, which the difference cancels). Both are kept per
-        exact anchor: a repeated sweep of the same design and case evaluates them once."""
+    def predict(self, w_a: npt.ArrayLike, prm_a: npt.ArrayLike, dphi: npt.ArrayLike) -> np.ndarray:
+        """First guesses ``w_a + dw/dphi1 * dphi`` (nw, len(dphi)) around the solved anchor (dw/dphi1
+        kept per exact anchor: a repeated sweep of the same design and case evaluates it once)."""
         w_a, prm_a = np.asarray(w_a, float), np.asarray(prm_a, float)
-        if order not in (1, 2):
-            raise ArgumentError(f"order = {order!r}: the predictor is linear (1) or quadratic (2)", param="order",
-                                value=order, valid="1 or 2")
         key = (w_a.tobytes(), prm_a.tobytes())
-        hit = self._dw_memo.get(key)
-        if hit is None:
-            hit = [self._dw_at(w_a, prm_a), None]
+        dw = self._dw_memo.get(key)
+        if dw is None:
+            dw = self._dw_at(w_a, prm_a)
             if len(self._dw_memo) >= 64:
                 self._dw_memo.pop(next(iter(self._dw_memo)))
-            self._dw_memo[key] = hit
-        dw = hit[0]
-        dphi = np.asarray(dphi)
-        if order == 1:
-            return w_a[:, None] + dw[:, None] * dphi[None, :]
-        if hit[1] is None:
-            h = TAYLOR_STEP
-            step = np.zeros(prm_a.shape)
-            step[0] = h  # prm[0] is phi1
-            hit[1] = (self._dw_at(w_a + h * dw, prm_a + step) - self._dw_at(w_a - h * dw, prm_a - step)) / (2 * h)
-        return w_a[:, None] + dw[:, None] * dphi[None, :] + (0.5 * hit[1])[:, None] * (dphi * dphi)[None, :]
+            self._dw_memo[key] = dw
+        return w_a[:, None] + dw[:, None] * np.asarray(dphi)[None, :]
 
     def _dw_at(self, w: np.ndarray, prm: np.ndarray) -> np.ndarray:
         """dw/dphi1 at one column: the Function itself, compiled when its library is cached (one
@@ -213,7 +194,7 @@ class Branch:
 
     def predict_knots(self, w_a: npt.ArrayLike, prm_a: npt.ArrayLike, phi: np.ndarray, anchor: float,
                       prm_of: Callable[[np.ndarray], np.ndarray], spacing: float,
-                      n_total: int | None = None, order: int = 1) -> np.ndarray:
+                      n_total: int | None = None) -> np.ndarray:
         """First guesses (nw, len(phi)) for the positions ``phi`` [rad] of one smooth solution branch
         from solved knots: the branch is solved on a fixed grid ``anchor + j * spacing`` covering
         ``phi`` (:meth:`solve`, from the anchor's prediction), and each position is predicted by the
@@ -235,12 +216,9 @@ class Branch:
             Knot spacing [rad].
         n_total : int, optional
             Columns of the whole sweep (chooses compiled or interpreted for the knots' solve).
-        order : {1, 2}
-            The anchor's prediction (:meth:`predict`) of the knots, and of the positions where
-            there are none (a coarse sweep) or none was solved.
         """
         phi = np.asarray(phi, float)
-        lin = self.predict(w_a, prm_a, phi - anchor, order)
+        lin = self.predict(w_a, prm_a, phi - anchor)
         if phi.size == 0:
             return lin
         j0 = int(np.floor((phi.min() - anchor) / spacing))
@@ -250,8 +228,7 @@ class Branch:
             return lin
         prm_k = prm_of(knots)
         n_all = phi.size if n_total is None else n_total
-        Wk, res, n1n2, reg = call(self.mapped(knots.size, n_all), self.predict(w_a, prm_a, knots - anchor, order),
-                                  prm_k)
+        Wk, res, n1n2, reg = call(self.mapped(knots.size, n_all), self.predict(w_a, prm_a, knots - anchor), prm_k)
         okk = np.asarray(self.accept(res.ravel(), n1n2.ravel(), reg.ravel()), bool)
         if not okk.any():
             return lin

@@ -742,7 +742,7 @@ class TCA:
         prm_a[self._phi_row] = anchor
         if continuation:  # every pair is the same branch w(phi1 - 2 pi k / z1): guesses from its knots
             W0 = self.branch.predict_knots(w_a, prm_a, phis, anchor, lambda v: self.prm(v, p1, p2, mis, z_section),
-                                           2 * math.pi / g1.z / KNOTS_PER_PITCH, n_total=phis.size, order=2)
+                                           2 * math.pi / g1.z / KNOTS_PER_PITCH, n_total=phis.size)
         else:
             W0 = self.branch.predict(w_a, prm_a, phis - anchor)
         groups = [np.arange(k * N, (k + 1) * N) for k in range(K)] if continuation else []
