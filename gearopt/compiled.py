@@ -402,6 +402,8 @@ def threads_for(n: int) -> int:
     load)`` with ``load`` the 1-minute load average (this process's own running thread counts in it).
     On a machine whose cores are busy a second thread only waits for a core and the call gets slower
     (2 threads 7.0 us vs 1 thread 3.9 us per column measured under load), so the rule keeps one."""
+    if n < 2 * MIN_PER_THREAD:  # one thread whatever the setting (asked first: threads() reads the system)
+        return 1
     k = min(threads(), n // MIN_PER_THREAD)
     if k <= 1:
         return 1
