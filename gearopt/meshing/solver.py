@@ -8,6 +8,7 @@ settings and the acceptance tolerances live here, documented, and supply the sce
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import NamedTuple
@@ -221,11 +222,11 @@ class Branch:
         lin = self.predict(w_a, prm_a, phi - anchor)
         if phi.size == 0:
             return lin
-        j0 = int(np.floor((phi.min() - anchor) / spacing))
-        j1 = int(np.ceil((phi.max() - anchor) / spacing))
-        knots = anchor + spacing * np.arange(j0, max(j1, j0 + 1) + 1)
-        if knots.size * 4 > phi.size:  # a coarse sweep: the knots would cost as much as the positions
+        j0 = math.floor((float(phi.min()) - anchor) / spacing)
+        j1 = math.ceil((float(phi.max()) - anchor) / spacing)
+        if (max(j1, j0 + 1) + 1 - j0) * 4 > phi.size:  # a coarse sweep: the knots would cost as much as the positions
             return lin
+        knots = anchor + spacing * np.arange(j0, max(j1, j0 + 1) + 1)
         prm_k = prm_of(knots)
         n_all = phi.size if n_total is None else n_total
         Wk, res, n1n2, reg = call(self.mapped(knots.size, n_all), self.predict(w_a, prm_a, knots - anchor), prm_k)
