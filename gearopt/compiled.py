@@ -65,7 +65,12 @@ if TYPE_CHECKING:
     from collections.abc import Callable, Iterator
     from numpy.typing import ArrayLike
 
-FLAGS = ("-O2", "-shared", "-fPIC")  #: compiler flags (part of the cache key)
+#: compiler flags (part of the cache key). Besides -O2: the generated helpers (casadi_qr, casadi_sq, ...)
+#: are global symbols, which -fno-semantic-interposition lets gcc inline instead of calling through
+#: the PLT, and -fno-math-errno makes sqrt one instruction; neither reorders or contracts floating-point
+#: operations, so the results are the same bit for bit (tests/test_compiled_flags.py), about 10 % faster.
+FLAGS = ("-O2", "-shared", "-fPIC", "-fno-semantic-interposition", "-fno-math-errno")
+BASE_FLAGS = ("-O2", "-shared", "-fPIC")  #: what a compiler that refuses FLAGS is given instead (same key)
 #: jit="auto", cache miss: mapped solves of at least this many columns compile at once (the compile,
 #: 0.2-2.5 s, pays within the call); smaller ones run interpreted while it compiles in the background
 MIN_COLUMNS = 1024
@@ -356,8 +361,11 @@ def _compile_into(generate, src: str, path: Path, cc: str) -> str | None:
     try:
         generate(tmp, src)
         so = os.path.join(tmp, "lib.so")
-        out = subprocess.run([cc, *FLAGS, "-o", so, os.path.join(tmp, src), "-lm"], capture_output=True, text=True,
-                             timeout=3600)
+        for flags in (FLAGS, BASE_FLAGS):  # a compiler that does not know the extra flags: without them
+            out = subprocess.run([cc, *flags, "-o", so, os.path.join(tmp, src), "-lm"], capture_output=True,
+                                 text=True, timeout=3600)
+            if out.returncode == 0:
+                break
         if out.returncode != 0:
             return f"{cc} exited with {out.returncode}: {out.stderr.strip()[:300]}"
         os.replace(so, path)  # atomic: a concurrent reader sees the old file or the whole new one
@@ -394,6 +402,8 @@ def threads_for(n: int) -> int:
     load)`` with ``load`` the 1-minute load average (this process's own running thread counts in it).
     On a machine whose cores are busy a second thread only waits for a core and the call gets slower
     (2 threads 7.0 us vs 1 thread 3.9 us per column measured under load), so the rule keeps one."""
+    if n < 2 * MIN_PER_THREAD:  # one thread whatever the setting (asked first: threads() reads the system)
+        return 1
     k = min(threads(), n // MIN_PER_THREAD)
     if k <= 1:
         return 1
@@ -433,7 +443,7 @@ class ColumnMap:
 
     Building a CasADi map of n columns costs about 2.8 us per column (its dense n-column sparsity
     patterns), as much as the compiled solve of the column itself; so the columns are evaluated in
-    chunks of :data:`CHUNK` (the last one padded to a power of two, at least 8), whose maps are
+    chunks of :data:`CHUNK` (the last one padded to one of a few sizes, :func:`map_size`), whose maps are
     built once per ColumnMap and process. Inputs and outputs are numpy arrays (:func:`call`).
 
     Parameters
@@ -477,12 +487,23 @@ class ColumnMap:
         cin = [c for _, c in sig.shape_in]
         a = [v.reshape(r, -1, order="F") if v.ndim != 2 else v for v, (r, _) in zip(a, sig.shape_in)]
         n = a[0].shape[1] // cin[0]
-        for v, (r, c), name in zip(a, sig.shape_in, self.column.name_in()):
+        for i, (v, (r, c)) in enumerate(zip(a, sig.shape_in)):
             if v.shape != (r, c * n):
+                name = self.column.name_in(i)
                 raise ArgumentError(f"{self.column.name()}: input {name} of {n} columns must be ({r}, {c * n}), "
                                     f"got {v.shape}", param=name, value=v.shape, valid=f"shape ({r}, {c * n})")
-        outs = [np.empty((r, c * n), order="F") for r, c in sig.shape_out]
         cout = [c for _, c in sig.shape_out]
+        if 0 < n <= CHUNK:  # one mapped call: its outputs (new arrays) are the result
+            m = map_size(n)
+            if m == n:
+                res = self._map(m)(*a)
+            else:
+                sel = np.arange(m)
+                sel[n:] = 0  # padding: copies of the first column
+                res = [r[:, :n * c] for r, c in zip(self._map(m)(*(v[:, matrix_columns(sel, c)] for v, c in zip(a, cin))),
+                                                    cout)]
+            return res[0] if len(res) == 1 else res
+        outs = [np.empty((r, c * n), order="F") for r, c in sig.shape_out]
         start = 0
         while start < n:
             k = min(CHUNK, n - start)
@@ -501,11 +522,12 @@ class ColumnMap:
 
 
 def map_size(k: int) -> int:
-    """Columns of the map that evaluates ``k`` columns (the rest padded): the smallest of 8 and
-    ``2^j * q / 4`` (q = 4, 5, 6, 7) that holds them, so at most a fifth of a call is padding (the
-    padded columns are solved too) while the sizes, whose maps are built once each, stay few."""
+    """Columns of the map that evaluates ``k`` columns (the rest padded): ``k`` itself up to 8,
+    else the smallest ``2^j * q / 4`` (q = 5, 6, 7, 8) that holds them, so at most a fifth of a
+    call is padding (the padded columns are solved too) while the sizes, whose maps are built once
+    each, stay few."""
     if k <= 8:
-        return 8
+        return max(k, 1)
     j = (k - 1).bit_length() - 1  # 2^j < k <= 2^(j+1)
     return next(m for m in ((q << j) >> 2 for q in (5, 6, 7, 8)) if m >= k)  # j >= 3: whole numbers
 
@@ -546,7 +568,8 @@ def mapped(f: ca.Function, n: int, jit: bool | str = "auto", n_total: int | None
 
 class _Signature:
     """Shapes and density of a Function's inputs and outputs (queried once: each query crosses
-    into CasADi)."""
+    into CasADi), and the Function's buffer (:meth:`casadi.Function.buffer`) with its input and
+    output arrays, made once and reused by every call (the numbers are copied in and out)."""
 
     def __init__(self, f: ca.Function):
         self.f = f
@@ -554,6 +577,29 @@ class _Signature:
         self.shape_out = [(f.size1_out(i), f.size2_out(i)) for i in range(f.n_out())]
         self.dense = all(f.sparsity_in(i).is_dense() for i in range(f.n_in())) and \
             all(f.sparsity_out(i).is_dense() for i in range(f.n_out()))
+        self._buf: tuple | None = None
+        self._busy = threading.Lock()
+
+    def __getstate__(self):
+        state = dict(self.__dict__)
+        state["_buf"], state["_busy"] = None, None
+        return state
+
+    def __setstate__(self, state):
+        self.__dict__.update(state)
+        self._busy = threading.Lock()
+
+    def _shaped(self, i: int, a, shape: tuple[int, int]) -> np.ndarray:
+        a = np.asarray(a, dtype=float)
+        if a.shape != shape:
+            if a.size == shape[0] * shape[1]:
+                a = a.reshape(shape, order="F")
+            elif a.size == 1:
+                a = np.full(shape, float(a.ravel()[0]))
+            else:
+                raise ArgumentError(f"{self.f.name()}: input {self.f.name_in(i)} has shape {shape}, got {a.shape}",
+                                    param=self.f.name_in(i), value=a.shape, valid=f"shape {shape}")
+        return a
 
     def __call__(self, *args) -> list[np.ndarray]:
         f = self.f
@@ -562,18 +608,34 @@ class _Signature:
                                 param="args", value=len(args), valid=f"{len(self.shape_in)} arrays")
         if not self.dense:
             return [np.asarray(v) for v in f.call(list(args))]
-        buf, trigger = f.buffer()
+        args = [self._shaped(i, a, shape) for i, (a, shape) in enumerate(zip(args, self.shape_in))]
+        if not self._busy.acquire(blocking=False):  # another thread is in this Function: a buffer of its own
+            return self._fresh(args)
+        try:
+            if self._buf is None:
+                buf, trigger = f.buffer()
+                ins = [np.empty((c, r)) for r, c in self.shape_in]  # CasADi's column-major layout
+                ends = np.cumsum([0] + [r * c for r, c in self.shape_out]).tolist()
+                block = np.empty(ends[-1])  # every output, one after the other
+                for i, a in enumerate(ins):
+                    buf.set_arg(i, memoryview(a))
+                for i in range(len(self.shape_out)):
+                    buf.set_res(i, memoryview(block[ends[i]:ends[i + 1]]))
+                self._buf = (buf, trigger, ins, block, ends)
+            buf, trigger, ins, block, ends = self._buf
+            for a, into in zip(args, ins):
+                into[...] = a.T
+            trigger()
+            out = block.copy()  # the outputs: (rows, columns) views of one new array
+            return [out[ends[i]:ends[i + 1]].reshape(c, r).T for i, (r, c) in enumerate(self.shape_out)]
+        finally:
+            self._busy.release()
+
+    def _fresh(self, args: list[np.ndarray]) -> list[np.ndarray]:
+        """The call through a buffer of its own (numbers read and written in place)."""
+        buf, trigger = self.f.buffer()
         keep = []
-        for i, (a, shape) in enumerate(zip(args, self.shape_in)):
-            a = np.asarray(a, dtype=float)
-            if a.shape != shape:
-                if a.size == shape[0] * shape[1]:
-                    a = a.reshape(shape, order="F")
-                elif a.size == 1:
-                    a = np.full(shape, float(a.ravel()[0]))
-                else:
-                    raise ArgumentError(f"{f.name()}: input {f.name_in(i)} has shape {shape}, got {a.shape}",
-                                        param=f.name_in(i), value=a.shape, valid=f"shape {shape}")
+        for i, a in enumerate(args):
             a = np.ascontiguousarray(a.T)  # CasADi's column-major layout
             keep.append(a)
             buf.set_arg(i, memoryview(a))

@@ -28,6 +28,7 @@ if TYPE_CHECKING:
     from ..gears import GearPair
 
 ANGLE_MAX = 600 * ARCMIN  #: largest misalignment angle accepted [rad] (10 deg)
+_NAMES: dict = {}  # (class, unit) -> names of its kinds (Misalignment.names)
 
 
 def _kind(unit: str, doc: str, scene_max: float, mirror: float, default=0.0):
@@ -76,7 +77,11 @@ class Misalignment:
     @classmethod
     def names(cls, unit: str | None = None) -> tuple:
         """Names of the kinds (all, or those of one unit, "length" or "angle"), in vector order."""
-        return tuple(f.name for f in fields(cls) if unit is None or f.metadata["unit"] == unit)
+        key = (cls, unit)
+        hit = _NAMES.get(key)
+        if hit is None:  # (the fields of a class do not change: looked up once)
+            hit = _NAMES[key] = tuple(f.name for f in fields(cls) if unit is None or f.metadata["unit"] == unit)
+        return hit
 
     @classmethod
     def mirror_sign(cls, name: str) -> float | None:

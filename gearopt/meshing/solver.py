@@ -8,6 +8,7 @@ settings and the acceptance tolerances live here, documented, and supply the sce
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import NamedTuple
@@ -65,6 +66,13 @@ class BranchSolution(NamedTuple):
     stats: dict
 
 
+def sorted_unique(x: np.ndarray) -> np.ndarray:
+    """The distinct values of ``x`` in ascending order (``np.unique`` without its first-call import of
+    ``numpy.ma``, which costs a new process tens of milliseconds)."""
+    x = np.sort(np.asarray(x).ravel())
+    return x[np.concatenate(([True], x[1:] != x[:-1]))] if x.size else x
+
+
 def accept_tangency(res: np.ndarray, n1n2: np.ndarray, reg: np.ndarray, tol: float) -> np.ndarray:
     """Acceptance of solved points: residual norm <= ``tol`` [mm], outward normals opposite
     (n1 . n2 < -1 + NORMAL_TOL: tangency, not crossing) and both surfaces regular (reg >
@@ -120,6 +128,7 @@ class Branch:
                                                                      "show_eval_warnings": False,
                                                                      "jacobian_function": jac})
         self._maps: dict[int, ca.Function] = {}
+        self._dw_memo: dict = {}  # dw/dphi1 at solved anchors by their exact (w, prm) (predict)
         # one column: solve from W0, then the residual norm and the checks at the solution (the
         # compiled unit); what is evaluated there is one SX graph with common subexpressions
         # eliminated (the checks and the caller's extra outputs share the surfaces' derivatives)
@@ -148,6 +157,7 @@ class Branch:
         return state
 
     def __setstate__(self, state):
+        state.setdefault("_dw_memo", {})
         self.__dict__.update(state)
 
     def newton(self, w0: npt.ArrayLike, prm: npt.ArrayLike) -> np.ndarray:
@@ -161,16 +171,27 @@ class Branch:
         return res, n1n2, reg, bool(self.accept(res, n1n2, reg))
 
     def predict(self, w_a: npt.ArrayLike, prm_a: npt.ArrayLike, dphi: npt.ArrayLike) -> np.ndarray:
-        """First guesses ``w_a + dw/dphi1 * dphi`` (nw, len(dphi)) around the solved anchor."""
-        # one column: the Function itself, compiled when its library is cached (one column never
-        # pays for a compile, so a miss starts none)
+        """First guesses ``w_a + dw/dphi1 * dphi`` (nw, len(dphi)) around the solved anchor (dw/dphi1
+        kept per exact anchor: a repeated sweep of the same design and case evaluates it once)."""
+        w_a, prm_a = np.asarray(w_a, float), np.asarray(prm_a, float)
+        key = (w_a.tobytes(), prm_a.tobytes())
+        dw = self._dw_memo.get(key)
+        if dw is None:
+            dw = self._dw_at(w_a, prm_a)
+            if len(self._dw_memo) >= 64:
+                self._dw_memo.pop(next(iter(self._dw_memo)))
+            self._dw_memo[key] = dw
+        return w_a[:, None] + dw[:, None] * np.asarray(dphi)[None, :]
+
+    def _dw_at(self, w: np.ndarray, prm: np.ndarray) -> np.ndarray:
+        """dw/dphi1 at one column: the Function itself, compiled when its library is cached (one
+        column never pays for a compile, so a miss starts none)."""
         one = self._maps.get(("dw", "one"))
         if one is None and self.jit is not False and available():
             one = cached_function(self.dw)
             if one is not None:
                 self._maps[("dw", "one")] = one
-        dw = call(self.dw if one is None else one, np.asarray(w_a, float), np.asarray(prm_a, float))[0].ravel()
-        return np.asarray(w_a)[:, None] + dw[:, None] * np.asarray(dphi)[None, :]
+        return call(self.dw if one is None else one, w, prm)[0].ravel()
 
     def predict_knots(self, w_a: npt.ArrayLike, prm_a: npt.ArrayLike, phi: np.ndarray, anchor: float,
                       prm_of: Callable[[np.ndarray], np.ndarray], spacing: float,
@@ -201,11 +222,11 @@ class Branch:
         lin = self.predict(w_a, prm_a, phi - anchor)
         if phi.size == 0:
             return lin
-        j0 = int(np.floor((phi.min() - anchor) / spacing))
-        j1 = int(np.ceil((phi.max() - anchor) / spacing))
-        knots = anchor + spacing * np.arange(j0, max(j1, j0 + 1) + 1)
-        if knots.size * 4 > phi.size:  # a coarse sweep: the knots would cost as much as the positions
+        j0 = math.floor((float(phi.min()) - anchor) / spacing)
+        j1 = math.ceil((float(phi.max()) - anchor) / spacing)
+        if (max(j1, j0 + 1) + 1 - j0) * 4 > phi.size:  # a coarse sweep: the knots would cost as much as the positions
             return lin
+        knots = anchor + spacing * np.arange(j0, max(j1, j0 + 1) + 1)
         prm_k = prm_of(knots)
         n_all = phi.size if n_total is None else n_total
         Wk, res, n1n2, reg = call(self.mapped(knots.size, n_all), self.predict(w_a, prm_a, knots - anchor), prm_k)
@@ -309,12 +330,20 @@ class Branch:
     @staticmethod
     def _from(fun, cols, anchors, W, prm, n_total):
         """``fun(m, n_total)`` (a mapped solve) at the columns ``cols`` from the solutions at
-        ``anchors``, padded to a power of two (few distinct map sizes): (W, res, n1n2, reg)."""
-        m = max(8, 1 << int(cols.size - 1).bit_length())
-        pad = np.concatenate([np.arange(cols.size), np.zeros(m - cols.size, int)])
-        Wr, rr, dr, gr = call(fun(m, n_total), W[:, anchors[pad]], prm[:, cols[pad]])[:4]
-        return Wr[:, :cols.size].copy(), rr.ravel()[:cols.size].copy(), dr.ravel()[:cols.size].copy(), \
-            gr.ravel()[:cols.size].copy()
+        ``anchors`` (the ColumnMap pads the call to one of its few map sizes): (W, res, n1n2, reg)."""
+        Wr, rr, dr, gr = call(fun(cols.size, n_total), W[:, anchors], prm[:, cols])[:4]
+        return Wr, rr.ravel(), dr.ravel(), gr.ravel()
+
+    @staticmethod
+    def _candidates(ok: np.ndarray, order: np.ndarray, start: np.ndarray, max_gap: int) -> tuple[np.ndarray, np.ndarray]:
+        """Continuation candidates of the groups concatenated in ``order`` (``start``: the position
+        in ``order`` where each entry's group begins): the columns not accepted within ``max_gap``
+        after the last accepted one of their group, and that one (their anchors), in ``order``."""
+        okv = ok[order]
+        pos = np.arange(order.size)
+        last = np.maximum.accumulate(np.where(okv, pos, -1))
+        j = np.flatnonzero(~okv & (last >= start) & (pos - last <= max_gap))
+        return order[j], order[last[j]]
 
     def solve(self, W0: np.ndarray, prm: np.ndarray, groups: Sequence[npt.ArrayLike], max_gap: int = 4,
               n_total: int | None = None, extra: bool = False) -> BranchSolution:
@@ -341,9 +370,8 @@ class Branch:
         n_total = prm.shape[1] if n_total is None else n_total
         extra = bool(extra) and self.one_x is not None
         first = call(self.mapped(prm.shape[1], n_total, extra), W0, prm)
-        W, res, n1n2, reg = first[:4]
-        res, n1n2, reg = res.ravel().copy(), n1n2.ravel().copy(), reg.ravel().copy()
-        W = W.copy()
+        W, res, n1n2, reg = first[:4]  # (new arrays: changed in place below)
+        res, n1n2, reg = res.ravel(), n1n2.ravel(), reg.ravel()
         ok = np.asarray(self.accept(res, n1n2, reg), bool)
         n_fast, n_retry = int(ok.sum()), 0
         rescued: list = []
@@ -358,7 +386,7 @@ class Branch:
         for g in groups:
             if not ok[g].any():
                 s = g[np.isfinite(res[g]) & (res[g] > self.tol) & (res[g] < STALL_RES)]
-                stalled.append(s[np.unique([0, s.size // 2, s.size - 1])] if s.size > 3 else s)
+                stalled.append(s[sorted_unique(np.array([0, s.size // 2, s.size - 1]))] if s.size > 3 else s)
         stalled = np.concatenate(stalled) if stalled else np.zeros(0, int)
         n_line = int(stalled.size)
         if stalled.size:
@@ -369,23 +397,18 @@ class Branch:
             W[:, g], res[g], n1n2[g], reg[g], ok[g] = Wr[:, good], rr[good], dr[good], gr[good], True
             rescued.append(g)
         groups = [g for g in groups if g.size > 1]
+        sizes = np.array([g.size for g in groups], int)
+        start = np.repeat(np.cumsum(sizes) - sizes, sizes)  # where each entry's group begins
         for forward in (True, False):
-            orders = groups if forward else [g[::-1] for g in groups]
+            order = np.concatenate([g if forward else g[::-1] for g in groups]) if groups else np.zeros(0, int)
             tried: set = set()
             while True:
                 cols, anchors = [], []
-                for o in orders:
-                    okv = ok[o]
-                    if okv.all() or not okv.any():
-                        continue
-                    pos = np.arange(o.size)
-                    last = np.maximum.accumulate(np.where(okv, pos, -1))
-                    j = np.flatnonzero(~okv & (last >= 0) & (pos - last <= max_gap))
-                    for c, a in zip(o[j], o[last[j]]):
-                        if (c, a) not in tried:
-                            tried.add((c, a))
-                            cols.append(c)
-                            anchors.append(a)
+                for c, a in zip(*(v.tolist() for v in self._candidates(ok, order, start, max_gap))):
+                    if (c, a) not in tried:
+                        tried.add((c, a))
+                        cols.append(c)
+                        anchors.append(a)
                 if not cols:
                     break
                 cols, anchors = np.array(cols), np.array(anchors)
@@ -407,5 +430,5 @@ class Branch:
         stats = {"n_fast": n_fast, "n_retry": n_retry, "n_line_search": n_line}
         if extra:
             stats["extra"] = dict(zip(self.extra.name_out(), first[4:]))
-            stats["rescued"] = np.unique(np.concatenate(rescued)) if rescued else np.zeros(0, int)
+            stats["rescued"] = sorted_unique(np.concatenate(rescued)) if rescued else np.zeros(0, int)
         return BranchSolution(W=W, res=res, n1n2=n1n2, reg=reg, ok=ok, stats=stats)

@@ -90,9 +90,10 @@ def check_sweep_args(tca: TCA, phi1: npt.ArrayLike, p1: npt.ArrayLike | None = N
     pair = tca.pair
     g1 = pair.pinion
     try:
-        if np.asarray(phi1).dtype.kind in "USb":  # "0.1" would convert: the API takes numbers in rad
+        arr = np.asarray(phi1)
+        if arr.dtype.kind in "USb":  # "0.1" would convert: the API takes numbers in rad
             raise TypeError
-        arr = np.asarray(phi1, dtype=float)
+        arr = arr.astype(float, copy=False)
     except (TypeError, ValueError):
         raise ArgumentError(f"phi1 = {_describe(phi1)}: expected a sequence of pinion angles [rad] (numbers).",
                             param="phi1", value=phi1, valid="a sequence of pinion angles [rad] (numbers)") from None
@@ -104,8 +105,9 @@ def check_sweep_args(tca: TCA, phi1: npt.ArrayLike, p1: npt.ArrayLike | None = N
         raise ArgumentError("phi1 is empty: a sweep needs at least one pinion angle [rad] (one mesh cycle is "
                             f"2 pi / z1 = {2 * math.pi / g1.z:.6g} rad).",
                             param="phi1", valid="at least one pinion angle [rad]")
-    bad = np.flatnonzero(~np.isfinite(arr))
-    if bad.size:
+    fin = np.isfinite(arr)
+    if not fin.all():
+        bad = np.flatnonzero(~fin)
         raise ArgumentError(f"phi1[{bad[0]}] = {arr[bad[0]]}: every pinion angle must be a finite number [rad] "
                             f"({bad.size} of {arr.size} are not).",
                             param=f"phi1[{bad[0]}]", value=float(arr[bad[0]]), valid="a finite number [rad]")
@@ -137,7 +139,13 @@ def check_sweep_args(tca: TCA, phi1: npt.ArrayLike, p1: npt.ArrayLike | None = N
                           for k in Misalignment.names())
         raise ArgumentError(f"mis = {_describe(mis)}: expected a gearopt.meshing.tca.Misalignment ({kinds}).{hint}",
                             param="mis", value=mis, valid="a gearopt.meshing.tca.Misalignment")
-    mis.check(pair, "mis")
+    checked = getattr(tca, "_checked_mis", None)  # misalignments this TCA's pair accepted (frozen: same answer)
+    if checked is None or mis not in checked:
+        mis.check(pair, "mis")
+        if checked is not None:
+            if len(checked) >= 256:
+                checked.clear()
+            checked.add(mis)
     try:
         seq = list(pairs)
     except TypeError:
@@ -452,6 +460,7 @@ class TCA:
             F = ca.vertcat(rf1 - rf2, ca.dot(nf1, t2u), ca.dot(nf1, t2z))
         prm = lay.build(sym)
         self._nprm = prm.numel()
+        self._phi_row = lay.index("phi1")
         self.residual = ca.Function("tca_residual", [w, prm], [F], ["w", "prm"], ["F"], {"cse": True})
         self.jacobian = ca.Function("tca_jacobian", [w, prm], [ca.jacobian(F, w)], ["w", "prm"], ["J"])
         # Curvatures and contact ellipse (Litvin ch. 9; docs/theory.md section 8) at a solved point.
@@ -499,6 +508,8 @@ class TCA:
         # solved anchors and pitch-point guesses by their exact inputs (a repeated sweep of the same
         # design and misalignment solves its anchor once; the outputs are those of a new solve)
         self._memo: dict = {}
+        self._columns: dict = {}  # parameter columns by design and misalignment (prm)
+        self._checked_mis: set = set()  # misalignments check_sweep_args accepted for this pair
 
     def _contact_mapped(self, n: int):
         """The sweep's contact quantities on the few columns continuation rescued (interpreted)."""
@@ -511,10 +522,20 @@ class TCA:
             mis: Misalignment | None = None, z_section: float = 0.0) -> np.ndarray:
         """Parameter matrix (n_prm, N) for the positions ``phi1`` (:meth:`ParamLayout.pack`, rows
         named by ``self.layout``)."""
-        p1 = self.pinion.p0 if p1 is None else np.asarray(p1, float)
-        p2 = self.gear.p0 if p2 is None else np.asarray(p2, float)
-        return self.layout.pack(phi1, {"pinion": p1, "gear": p2, "mis": mis or Misalignment(),
-                                       "z_section": z_section})
+        mis = mis or Misalignment()
+        key = (_bytes(p1), _bytes(p2), mis.vector().tobytes(), z_section)  # exact (-0.0 is not 0.0 here)
+        hit = self._columns.get(key)
+        if hit is None:  # the column without phi1 (every entry but phi1 is the same in each column)
+            p1 = self.pinion.p0 if p1 is None else np.asarray(p1, float)
+            p2 = self.gear.p0 if p2 is None else np.asarray(p2, float)
+            if len(self._columns) >= 64:
+                self._columns.pop(next(iter(self._columns)))
+            hit = self._columns[key] = self.layout.pack([0.0], {"pinion": p1, "gear": p2, "mis": mis,
+                                                                 "z_section": z_section})[:, 0]
+        phi1 = np.atleast_1d(np.asarray(phi1, dtype=float))
+        out = np.tile(hit[:, None], phi1.size)
+        out[self._phi_row] = phi1
+        return out
 
     def _full_numeric(self, W, z_section: float) -> np.ndarray:
         """:attr:`w_full` of the solved columns W (nw, n) in numpy: (5, n) (u1, z1, u2, z2, r_p2 phi2)."""
@@ -717,7 +738,8 @@ class TCA:
         phis = np.concatenate([phi1 - 2 * math.pi * k / g1.z for k in pairs])
         prm = self.prm(phis, p1, p2, mis, z_section)
         w_a = self.solve_point(anchor, None, p1, p2, mis, z_section)  # the public anchor solve (EdgeContact and tests wrap it)
-        prm_a = self.prm([anchor], p1, p2, mis, z_section)[:, 0]
+        prm_a = prm[:, 0].copy()  # the anchor's column: the same but phi1
+        prm_a[self._phi_row] = anchor
         if continuation:  # every pair is the same branch w(phi1 - 2 pi k / z1): guesses from its knots
             W0 = self.branch.predict_knots(w_a, prm_a, phis, anchor, lambda v: self.prm(v, p1, p2, mis, z_section),
                                            2 * math.pi / g1.z / KNOTS_PER_PITCH, n_total=phis.size)
@@ -738,7 +760,7 @@ class TCA:
         Wf[:, ~ok] = np.nan
         # TE zero: phi2 of pair 0 at phi1 = 0 (the same for every sweep of this design and case).
         w_0 = w_a if anchor == 0.0 else self.solve_point(0.0, w_a, p1, p2, mis, z_section)
-        phi2_ref = float(np.asarray(self._full(w_0, z_section)).ravel()[4]) / self.scale2
+        phi2_ref = float(self._full_numeric(np.asarray(w_0, float)[:, None], z_section)[4, 0]) / self.scale2
         solve_time = time.perf_counter() - t0
         stats = {"n_positions": int(phis.size), "n_fast": n_fast, "n_retry": n_retry,
                  "n_failed": int((~ok).sum()), "build_s": self.build_time, "solver": self.solver,
@@ -757,23 +779,29 @@ class TCA:
         phi1, pairs, W, ok, res, n1n2 = sv.phi1, sv.pairs, sv.W, sv.ok, sv.res, sv.n1n2
         delta, mis, solve_time, stats, phi2_ref, p1, p2 = (sv.delta, sv.mis, sv.solve_time, sv.stats, sv.phi2_ref,
                                                            sv.p1, sv.p2)
-        r1, r2, rf1 = (np.where(ok, sv.contact[n], np.nan) for n in ("r1", "r2", "rf1"))
+        c = sv.contact
+        # the contact points of pinion, gear and in S_f, NaN where not accepted (one masked array)
+        pts = np.where(ok, np.concatenate([c["r1"], c["r2"], c["rf1"]]), np.nan)
+        r1, r2, rf1 = pts[0:3], pts[3:6], pts[6:9]
         g1, g2 = self.pair.pinion, self.pair.gear
         K, N = len(pairs), phi1.size
+        okk = ok.reshape(K, N)
         shp = lambda a: a.reshape(K, N)  # noqa: E731
         phi2 = shp(W[4] / self.scale2) + np.array([2 * math.pi * k / g2.z for k in pairs])[:, None]
         # TE relative to the pair-0 gear angle at phi1 = 0, so that every pair and sweep shares one zero.
         ratio = g1.z / g2.z
         te = phi2 - ratio * phi1[None, :] - phi2_ref
-        radius1 = shp(np.hypot(r1[0], r1[1]))
-        radius2 = shp(np.hypot(r2[0], r2[1]))
+        radii = np.hypot(pts[[0, 3]], pts[[1, 4]])  # transverse radii of the points on pinion and gear
+        radius1, radius2 = shp(radii[0]), shp(radii[1])
         z1, z2 = shp(W[1]), shp(W[3])
         eps = 1e-9
         # Above the true end of each generated flank (junction, fold or crossing; per section z).
         lim1 = self.on_flank(1, shp(W[0]), z1, p1)
         lim2 = self.on_flank(2, shp(W[2]), z2, p2)
-        on = (ok.reshape(K, N) & (np.abs(z1) <= g1.b / 2 + eps) & (np.abs(z2) <= g2.b / 2 + eps)
-              & lim1 & (radius1 <= g1.r_a + eps) & lim2 & (radius2 <= g2.r_a + eps))
+        # on the face and inside the tip circle (NaN, where not accepted, compares False)
+        inside = ((np.abs(z1) <= g1.b / 2 + eps) & (np.abs(z2) <= g2.b / 2 + eps) & (radius1 <= g1.r_a + eps)
+                  & (radius2 <= g2.r_a + eps))
+        on = okk & inside & lim1 & lim2
         te_on = np.where(on, te, -np.inf)
         drv = np.argmax(te_on, axis=0)
         env = te_on[drv, np.arange(N)]
@@ -781,43 +809,48 @@ class TCA:
         # A tangency past the end of a folded flank that the tool cut off at a ridge (a convex edge):
         # that pair's real contact is on the ridge, at a TE between the surface one and nothing; if
         # the surface TE is above the envelope, the surface contacts cannot tell the actual TE there.
-        ridge = np.zeros((K, N), bool)
+        ridge = None
         for member, lim_ok, uu, pp in ((1, lim1, W[0], p1), (2, lim2, W[2], p2)):
             if self.flank_limit(member, 0.0, pp).kind == "intersection":
-                ridge |= (ok.reshape(K, N) & ~lim_ok & np.isfinite(shp(uu)) & (np.abs(z1) <= g1.b / 2 + eps)
-                          & (np.abs(z2) <= g2.b / 2 + eps) & (radius1 <= g1.r_a + eps) & (radius2 <= g2.r_a + eps))
-        # (a tie within round-off, e.g. conjugate line contact, changes nothing: the ridge TE <= the surface TE)
-        unknown = (ridge & (np.where(ridge, te, -np.inf) > np.where(has, env, -np.inf)[None, :] + 1e-13)).any(axis=0)
-        if unknown.any():
-            has = has & ~unknown
-            stats["ridge_contact"] = (
-                f"{int(unknown.sum())} of {N} positions: a tooth pair's contact falls past the end of a folded "
-                "flank, where the tool cut it off at a ridge; that pair rests on the ridge (edge contact), "
-                "so the actual TE there is NaN here: analyse edge contact (gearopt.contact.EdgeContact)")
+                r_m = okk & ~lim_ok & np.isfinite(shp(uu)) & inside
+                ridge = r_m if ridge is None else ridge | r_m
+        if ridge is not None:
+            # (a tie within round-off, e.g. conjugate line contact, changes nothing: the ridge TE <= the surface TE)
+            unknown = (ridge & (np.where(ridge, te, -np.inf) > np.where(has, env, -np.inf)[None, :] + 1e-13)).any(axis=0)
+            if unknown.any():
+                has = has & ~unknown
+                stats["ridge_contact"] = (
+                    f"{int(unknown.sum())} of {N} positions: a tooth pair's contact falls past the end of a folded "
+                    "flank, where the tool cut it off at a ridge; that pair rests on the ridge (edge contact), "
+                    "so the actual TE there is NaN here: analyse edge contact (gearopt.contact.EdgeContact)")
         env = np.where(has, env, np.nan)
         driving = np.where(has, drv, -1)
         # Curvatures and contact ellipse (eigen-decomposition of K1 + K2 in the common basis, in the
         # compiled sweep outputs): semi-axes sqrt(2 delta / lam), NaN where not converged.
         bad = ~ok
-        kap1 = sv.contact["kappa1"].T.copy()
-        kap2 = sv.contact["kappa2"].T.copy()
-        lam = sv.contact["lam"].T
-        with np.errstate(divide="ignore", invalid="ignore"):
-            ax_len = np.where(lam > 0, np.sqrt(2 * delta / np.where(lam > 0, lam, 1.0)), np.inf)
+        kap1 = c["kappa1"].T.copy()
+        kap2 = c["kappa2"].T.copy()
+        lam = c["lam"].T
+        ax_len = np.full(lam.shape, np.inf)  # no contact ellipse where K1 + K2 is not positive (or NaN)
+        pos = lam > 0
+        ax_len[pos] = np.sqrt(2 * delta / lam[pos])
         ea, eb = ax_len[:, 0].copy(), ax_len[:, 1].copy()
-        edir = sv.contact["dir2"].reshape(3, K * N, 2).transpose(1, 2, 0).copy()  # [major, minor] x (3,), gear frame
-        edir1 = sv.contact["dir1"].reshape(3, K * N, 2).transpose(1, 2, 0).copy()  # the same in the pinion frame
-        for a in (kap1, kap2, ea, eb, edir, edir1):
+        # [major, minor] x (3,) in the gear frame, then the same in the pinion frame
+        edirs = np.concatenate([c["dir2"], c["dir1"]]).reshape(2, 3, K * N, 2).transpose(0, 2, 3, 1).copy()
+        edir, edir1 = edirs[0], edirs[1]
+        for a in (kap1, kap2, ea, eb):
             a[bad] = np.nan
+        edirs[:, bad] = np.nan
+        # (phi2, te and the radii are NaN where not accepted already: W and the points are)
         return TCAResult(
-            phi1=phi1, pairs=pairs, phi2=np.where(ok.reshape(K, N), phi2, np.nan), te=np.where(ok.reshape(K, N), te, np.nan),
+            phi1=phi1, pairs=pairs, phi2=phi2, te=te,
             te_envelope=env, driving=driving, u1=shp(W[0]), z1=z1, u2=shp(W[2]), z2=z2,
             r1=r1.T.reshape(K, N, 3), r2=r2.T.reshape(K, N, 3), rf=rf1.T.reshape(K, N, 3),
-            radius1=np.where(ok.reshape(K, N), radius1, np.nan), radius2=np.where(ok.reshape(K, N), radius2, np.nan),
+            radius1=radius1, radius2=radius2,
             kappa1=kap1.reshape(K, N, 2), kappa2=kap2.reshape(K, N, 2),
             ellipse_a=ea.reshape(K, N), ellipse_b=eb.reshape(K, N), ellipse_dir2=edir.reshape(K, N, 2, 3),
             ellipse_dir1=edir1.reshape(K, N, 2, 3),
-            residual=res.reshape(K, N), normal_dot=n1n2.reshape(K, N), converged=ok.reshape(K, N), on_surface=on,
+            residual=res.reshape(K, N), normal_dot=n1n2.reshape(K, N), converged=okk, on_surface=on,
             delta=delta, misalignment=mis, solve_time=solve_time, stats=stats)
 
     def _orientation(self, tooth: GeneratedTooth, r_w: float) -> float:
@@ -873,8 +906,10 @@ class TCA:
         NaN points are False."""
         u, z = np.asarray(u, float), np.asarray(z, float)
         s_grid, u_grid = self.limit_table(member, p)
-        b = (self.pair.pinion if member == 1 else self.pair.gear).b
         fin = np.isfinite(u) & np.isfinite(z)
+        if s_grid.size == 1:  # one limit in every section (compared where finite only)
+            return np.less_equal(u, u_grid[0] + 1e-8, out=np.zeros(u.shape, bool), where=fin)
+        b = (self.pair.pinion if member == 1 else self.pair.gear).b
         s = np.clip(np.where(fin, z, 0.0) ** 2, 0.0, (b / 2) ** 2)
         u_lim = np.interp(s, s_grid, u_grid) if s_grid.size > 1 else np.full(u.shape, u_grid[0])
         if s_grid.size > 1:  # within the table interval's own variation of the limit (the
