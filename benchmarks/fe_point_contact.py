@@ -30,7 +30,7 @@ RECORD = Path(__file__).resolve().parent / "data" / "fe_point_contact.json"
 def run(torque: float, level: str) -> dict:
     """One FE run of the crowned a_pl 2e-3 drive at ``torque`` [N m] and mesh ``level``."""
     pair = drives()["crowned a_pl 2e-3"]
-    opts = FEOptions(torque=torque * 1e3, E=210000.0, nu=0.3, **{**LEVELS, **VERY_FINE}[level])
+    opts = FEOptions(torque=torque * 1e3, E=210000.0, nu=0.3, timeout=7200.0, **{**LEVELS, **VERY_FINE}[level])
     t0 = time.perf_counter()
     m = GearFEModel(pair, 0.0, opts)
     d = m.run().to_dict()
