@@ -38,6 +38,10 @@ peak at that half-width (gearopt.fea.model.penalty_layer_factor, 0.97-0.99 at th
 the reference loaded TCA, which has no such layer, is compared with in the "err %" column after it.
 "max dsh": the largest difference between FE and loaded TCA in the share of any pair in mesh (of the
 total; FE runs recorded since 2026-11-28 keep every pair's share).
+"LTCA-an" (the default analytical compliance's approach) is not like for like: the FE members are
+3-tooth sectors held at their sides and rim bottom, whose body is 0.43-0.60 of the analytical model's
+full-gear body term (Sainsot et al.) at the same bore, while the teeth agree within 5 %
+(benchmarks/ltca_face_coupling.py --body; docs/ltca.md section 7, "part by part").
 """
 
 from __future__ import annotations
