@@ -93,6 +93,18 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _run(args) -> int:
+    from .cli_plots import PlotProcesses
+
+    # first: a process that imports matplotlib while the scene is read and run, to draw the plots
+    plotter = PlotProcesses.start()
+    try:
+        return _run_scene(args, plotter)
+    finally:
+        if plotter is not None:
+            plotter.close()
+
+
+def _run_scene(args, plotter) -> int:
     os.environ.setdefault("MPLBACKEND", "Agg")  # plots go to files; never open a window
     from .io.results import write_results
     from .io.scene import load_scene
@@ -113,6 +125,8 @@ def _run(args) -> int:
     caught = WarningLog()
     with _in_scene(scene), reporting(sink), caught:
         study = scene.build()
+    if plotter is not None:
+        plotter.prepare(type(study).__module__)  # the result's class: imported while the study runs
     say("running")
     t0 = time.perf_counter()
     run = study.run
@@ -134,7 +148,8 @@ def _run(args) -> int:
         result = run(**kwargs)
     run_time = time.perf_counter() - t0
     say(f"done in {run_time:.2f} s; writing {out}")
-    paths = write_results(out, result, scene=scene, run_time=run_time, progress=say, warnings=caught.records)
+    paths = write_results(out, result, scene=scene, run_time=run_time, progress=say, warnings=caught.records,
+                          plotter=plotter)
     for p in paths:
         print(p)
     return 0
