@@ -1,0 +1,219 @@
+"""The figures of ``gearopt run`` drawn in forked processes (gearopt.cli_plots) and saved with
+gearopt.plot.saving: every file written once between the processes, the same pixels as drawn in one
+process, errors and warnings of a drawing process brought back to the CLI, and the cases where the
+CLI draws itself."""
+
+from __future__ import annotations
+
+import os
+import pickle
+import threading
+import warnings
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import pytest  # noqa: E402
+from PIL import Image  # noqa: E402
+
+from gearopt.cli_plots import PlotProcesses  # noqa: E402
+from gearopt.plot.saving import png_saving  # noqa: E402
+from gearopt.plot.style import plot_style  # noqa: E402
+
+NAMES = ["a.png", "b.png", "c.png", "d.png", "e.png"]
+
+
+class Figures:
+    """A picklable study result: one small figure per name, different pixels in each; ``fail``
+    raises in ``save_plots`` after the first figure, ``warn`` warns while drawing."""
+
+    def __init__(self, names=NAMES, fail=False, warn=False):
+        self.names, self.fail, self.warn = list(names), fail, warn
+
+    def save_plots(self, directory, dpi=40):
+        out = []
+        for i, name in enumerate(self.names):
+            if self.fail and i == 1:
+                raise ValueError("figure b: drawing failed on purpose")
+            if self.warn:
+                warnings.warn(f"figure {name}: a case left out", UserWarning)
+            fig, ax = plt.subplots(figsize=(2, 1.5))
+            ax.plot([0, 1, 2], [0, i, 2 * i])
+            ax.set_title(name)
+            fig.savefig(Path(directory) / name, dpi=dpi)
+            plt.close(fig)
+            out.append(name)
+        return out
+
+
+def pixels(path):
+    return np.asarray(Image.open(path).convert("RGBA"))
+
+
+@pytest.fixture
+def processes():
+    if threading.active_count() != 1:
+        pytest.skip("another thread runs in this process: the CLI would not fork")
+    p = PlotProcesses.start(count=2)
+    if p is None:
+        pytest.skip("no fork here (not Linux)")
+    yield p
+    p.close()
+
+
+# --- gearopt.plot.saving ----------------------------------------------------------------------------
+def test_png_saving_shares_the_files_out_every_file_once(tmp_path):
+    written = {}
+    for index in range(3):
+        d = tmp_path / f"share{index}"
+        d.mkdir()
+        with png_saving(index, 3):
+            assert Figures().save_plots(d) == NAMES  # every share returns every name
+        written[index] = sorted(p.name for p in d.iterdir())
+    assert written == {0: ["a.png", "d.png"], 1: ["b.png", "e.png"], 2: ["c.png"]}
+
+
+def test_png_saving_gives_the_pixels_of_plain_savefig_with_zlib_level_1(tmp_path, monkeypatch):
+    (tmp_path / "plain").mkdir()
+    (tmp_path / "fast").mkdir()
+    Figures().save_plots(tmp_path / "plain")
+    levels = []
+    import PIL.Image
+
+    save = PIL.Image.Image.save
+
+    def spy(self, fp, format=None, **params):
+        levels.append(params.get("compress_level"))
+        return save(self, fp, format, **params)
+
+    monkeypatch.setattr(PIL.Image.Image, "save", spy)
+    with png_saving():
+        Figures().save_plots(tmp_path / "fast")
+    assert levels == [1] * len(NAMES)
+    for name in NAMES:
+        assert np.array_equal(pixels(tmp_path / "plain" / name), pixels(tmp_path / "fast" / name)), name
+    import matplotlib.figure
+    assert matplotlib.figure.Figure.savefig.__name__ == "savefig" and "png_saving" not in repr(
+        matplotlib.figure.Figure.savefig)  # restored
+
+
+def test_png_saving_leaves_file_objects_and_other_formats_alone(tmp_path):
+    import io
+
+    fig, ax = plt.subplots(figsize=(1, 1))
+    ax.plot([0, 1])
+    buf = io.BytesIO()
+    with png_saving(1, 2):  # share 1 of 2: the first .png path would be share 0's
+        fig.savefig(buf, format="png")
+        fig.savefig(tmp_path / "x.svg")
+        fig.savefig(tmp_path / "first.png")
+        fig.savefig(tmp_path / "second.png")
+    plt.close(fig)
+    assert buf.getvalue()[:4] == b"\x89PNG"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["second.png", "x.svg"]
+
+
+@pytest.mark.parametrize("index, count, level", [(0, 0, 1), (2, 2, 1), (-1, 2, 1), (0, 1, 10)])
+def test_png_saving_refuses_a_bad_share_or_level(index, count, level):
+    with pytest.raises(ValueError, match="png_saving"):
+        with png_saving(index, count, level):
+            pass
+
+
+# --- gearopt.cli_plots ------------------------------------------------------------------------------
+def test_processes_write_every_file_with_the_pixels_of_one_process(tmp_path, processes):
+    serial, forked = tmp_path / "serial", tmp_path / "forked"
+    serial.mkdir()
+    forked.mkdir()
+    with plot_style():  # as write_results draws in its own process
+        Figures().save_plots(serial)
+    assert processes.submit(Figures(), forked, {"dpi": 40})
+    files, shown = processes.wait()
+    assert files == NAMES and shown == []
+    assert sorted(p.name for p in forked.iterdir()) == NAMES
+    for name in NAMES:
+        assert np.array_equal(pixels(serial / name), pixels(forked / name)), name
+    assert processes.cpu_time > 0
+    # the same processes draw the next result too
+    again = tmp_path / "again"
+    again.mkdir()
+    assert processes.submit(Figures(NAMES[:2]), again, {})
+    assert processes.wait()[0] == NAMES[:2]
+
+
+def test_an_error_while_drawing_is_raised_in_the_cli_with_its_traceback(tmp_path, processes):
+    assert processes.submit(Figures(fail=True), tmp_path, {})
+    with pytest.raises(ValueError, match="figure b: drawing failed on purpose") as info:
+        processes.wait()
+    notes = "\n".join(getattr(info.value, "__notes__", []))
+    assert "raised while drawing the plots in process" in notes and "save_plots" in notes
+
+
+def test_warnings_of_every_drawing_process_come_back_once(tmp_path, processes, capsys):
+    assert processes.submit(Figures(NAMES[:3], warn=True), tmp_path, {})
+    files, shown = processes.wait()
+    assert [w["message"] for w in shown] == [f"figure {n}: a case left out" for n in NAMES[:3]]
+    assert {w["category"] for w in shown} == {"UserWarning"}
+    err = capsys.readouterr().err
+    assert all(err.count(f"figure {n}: a case left out") == 1 for n in NAMES[:3]), err
+
+
+def test_a_result_that_does_not_pickle_is_left_to_the_cli(tmp_path, processes):
+    r = Figures()
+    r.callback = lambda: None
+    with pytest.raises((pickle.PicklingError, AttributeError, TypeError)):
+        pickle.dumps(r)
+    assert processes.submit(r, tmp_path, {}) is False
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_close_ends_the_drawing_process(processes):
+    pid = processes.pid
+    processes.close()
+    with pytest.raises(ChildProcessError):
+        os.waitpid(pid, 0)
+    processes.close()  # again: nothing
+
+
+def test_no_processes_for_another_backend_or_one_core(monkeypatch):
+    monkeypatch.setenv("MPLBACKEND", "pdf")
+    assert PlotProcesses.start() is None
+    monkeypatch.setenv("MPLBACKEND", "Agg")
+    monkeypatch.setattr("gearopt.cli_plots.usable_cores", lambda: 1)
+    assert PlotProcesses.start() is None
+    with pytest.raises(ValueError, match="count"):
+        PlotProcesses.start(count=0)
+
+
+@pytest.mark.slow
+def test_gearopt_run_writes_the_same_plots_with_processes_as_on_one_core(tmp_path):
+    """The demo run twice: as usual (drawing processes where there are two cores) and pinned to one
+    core (the CLI draws itself): the same files, the same pixels, the same key numbers."""
+    import json
+    import subprocess
+    import sys
+
+    root = Path(__file__).resolve().parents[1]
+    if len(os.sched_getaffinity(0)) < 2:
+        pytest.skip("one core: the drawing processes are not used")
+    env = dict(os.environ, PYTHONPATH=str(root))
+    env.pop("MPLBACKEND", None)
+    outs = {}
+    for how, pin in (("processes", None), ("one_core", lambda: os.sched_setaffinity(0, {min(os.sched_getaffinity(0))}))):
+        out = tmp_path / how
+        p = subprocess.run([sys.executable, "-m", "gearopt", "run", "problems/tca_spur_crowned.toml", "--out", str(out),
+                            "--quiet"], cwd=root, env=env, capture_output=True, text=True, timeout=600, preexec_fn=pin)
+        assert p.returncode == 0, p.stderr[-2000:]
+        outs[how] = out
+    a, b = outs["processes"], outs["one_core"]
+    names = sorted(p.name for p in a.iterdir())
+    assert names == sorted(p.name for p in b.iterdir())
+    pngs = [n for n in names if n.endswith(".png")]
+    assert pngs == ["bearing_contact.png", "compare.png", "te.png"]
+    for n in pngs:
+        assert np.array_equal(pixels(a / n), pixels(b / n)), n
+    ra, rb = (json.loads((d / "results.json").read_text()) for d in (a, b))
+    assert ra["summary"] == rb["summary"] and ra["meta"]["warnings"] == rb["meta"]["warnings"]
