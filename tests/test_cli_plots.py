@@ -5,6 +5,7 @@ CLI draws itself."""
 
 from __future__ import annotations
 
+import contextlib
 import os
 import pickle
 import threading
@@ -114,6 +115,60 @@ def test_png_saving_leaves_file_objects_and_other_formats_alone(tmp_path):
     plt.close(fig)
     assert buf.getvalue()[:4] == b"\x89PNG"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["second.png", "x.svg"]
+
+
+def _laid_out(extra_text=False):
+    fig, axes = plt.subplots(2, 2, figsize=(6, 4.5), layout="constrained")
+    for i, ax in enumerate(axes.ravel()):
+        ax.plot([0, 1, 2], [0, i, 2 * i], label=f"curve {i}")
+        ax.set_title(f"panel {i}")
+        ax.set_xlabel("pinion angle [deg]")
+        ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.3), frameon=False)  # under the axes
+    fig.suptitle("a two-line\nfigure title")
+    if extra_text:
+        fig.text(1.02, 0.5, "a note outside the layout")
+    return fig
+
+
+def test_png_saving_lays_a_constrained_figure_out_once_with_the_tight_box(tmp_path, monkeypatch):
+    import matplotlib.figure
+
+    draws = []
+    draw = matplotlib.figure.Figure.draw
+    monkeypatch.setattr(matplotlib.figure.Figure, "draw", lambda self, r: draws.append(1) or draw(self, r))
+    with plot_style():  # bbox_inches="tight"; each figure new (the layout depends on where it starts)
+        fig = _laid_out()
+        fig.savefig(tmp_path / "tight.png", dpi=80)
+        plt.close(fig)
+        plain = len(draws)
+        fig = _laid_out()
+        with png_saving():
+            fig.savefig(tmp_path / "fast.png", dpi=80)
+    assert plain == 2 and len(draws) == plain + 1  # one draw instead of two (and no tight-box pass)
+    assert fig.get_layout_engine() is not None  # the figure keeps its layout engine
+    plt.close(fig)
+    a, b = pixels(tmp_path / "tight.png"), pixels(tmp_path / "fast.png")
+    assert abs(a.shape[0] - b.shape[0]) <= 0.03 * a.shape[0] and abs(a.shape[1] - b.shape[1]) <= 0.03 * a.shape[1]
+
+    def ink(img):  # rows and columns with something drawn
+        drawn = (img[..., :3] < 250).any(axis=2)
+        return drawn.any(axis=1).sum(), drawn.any(axis=0).sum()
+
+    # everything is in the picture: the same extent of ink (the titles, the legends under the axes)
+    assert all(abs(p - q) <= 2 for p, q in zip(ink(a), ink(b))), (ink(a), ink(b))
+    for img in (a, b):  # a white margin all round
+        assert (img[:3] >= 250).all() and (img[-3:] >= 250).all() and (img[:, :3] >= 250).all() and \
+            (img[:, -3:] >= 250).all()
+
+
+def test_png_saving_saves_a_figure_with_a_text_outside_the_layout_as_usual(tmp_path):
+    with plot_style():
+        for name, saving in (("tight.png", contextlib.nullcontext()), ("fast.png", png_saving())):
+            fig = _laid_out(extra_text=True)
+            with saving:
+                fig.savefig(tmp_path / name, dpi=80)
+            plt.close(fig)
+    assert np.array_equal(pixels(tmp_path / "tight.png"), pixels(tmp_path / "fast.png"))
 
 
 @pytest.mark.parametrize("index, count, level", [(0, 0, 1), (2, 2, 1), (-1, 2, 1), (0, 1, 10)])
