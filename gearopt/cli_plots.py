@@ -6,9 +6,9 @@ study takes 0.3 s. :meth:`PlotProcesses.start`, called by the CLI before it impo
 forks one process that imports matplotlib (and the study's module, :meth:`PlotProcesses.prepare`)
 while the CLI reads the scene and runs the study. :meth:`PlotProcesses.submit` sends it the
 result (pickled); that process forks ``count - 1`` siblings of itself (matplotlib imported once,
-shared copy-on-write) and each calls the result's ``save_plots`` under gearopt's plot style with its
-share of the PNG files (:func:`gearopt.plot.saving.png_saving`): the same files as one process
-would write, each drawn by one process. Warnings shown while drawing are gathered, shown once by the CLI
+shared copy-on-write) and each calls the result's ``save_plots`` under gearopt's plot style, drawing
+the PNG files it reaches first (:func:`gearopt.plot.saving.png_saving`): the same files as one
+process would write, each drawn by one process, a process done with a quick figure taking the next. Warnings shown while drawing are gathered, shown once by the CLI
 and returned for results.json; an error raised by ``save_plots`` is raised again in the CLI.
 
 Used only where it is safe and pays: Linux (``fork``), two or more usable cores, no thread but the
@@ -32,8 +32,8 @@ from typing import Any
 
 __all__ = ["MAX_PROCESSES", "PlotProcesses", "usable_cores"]
 
-#: largest number of drawing processes (a run writes 2-5 figures; each process builds every figure)
-MAX_PROCESSES = 3
+#: largest number of drawing processes (a run writes 2-5 figures)
+MAX_PROCESSES = 4
 
 _HEADER = struct.Struct("!Q")
 
@@ -99,7 +99,7 @@ class PlotProcesses:
         Parameters
         ----------
         count : int, optional
-            Number of drawing processes, >= 1 (default: one more than the usable cores, at most
+            Number of drawing processes, >= 1 (default: the usable cores, at most
             :data:`MAX_PROCESSES`; None is returned below two cores).
 
         Returns
@@ -112,9 +112,7 @@ class PlotProcesses:
             cores = usable_cores()
             if cores < 2:
                 return None
-            # one more than the cores: a study's figures differ in cost, and a core that finished its
-            # share takes up the third one (crowning: three figures of ~2 s on two cores)
-            count = min(cores + 1, MAX_PROCESSES)
+            count = min(cores, MAX_PROCESSES)
         elif count < 1:
             raise ValueError(f"PlotProcesses.start(count={count}): count must be >= 1")
         if os.environ.get("MPLBACKEND", "agg").lower() != "agg":
@@ -259,13 +257,25 @@ def _serve(sock: socket.socket, count: int) -> None:
 
 
 def _draw(payload: bytes, directory: str, kwargs: dict, count: int, children: list[int]) -> tuple:
-    """Fork ``count - 1`` siblings, draw share 0 here, gather the siblings' replies: ``(kind, files,
-    warnings, cpu_s, error)``."""
+    """Fork ``count - 1`` siblings, all draw (each figure the first to reach it), gather the
+    siblings' replies: ``(kind, files, warnings, cpu_s, error)``."""
+    import shutil
+    import tempfile
+
     t0 = time.process_time()
     try:
         result = pickle.loads(payload)
     except Exception as e:  # noqa: BLE001
         return ("error", [], [], time.process_time() - t0, _portable(e))
+    claims = tempfile.mkdtemp(prefix="gearopt-plots-")
+    try:
+        return _draw_shared(result, directory, kwargs, count, children, claims, t0)
+    finally:
+        shutil.rmtree(claims, ignore_errors=True)
+
+
+def _draw_shared(result: Any, directory: str, kwargs: dict, count: int, children: list[int], claims: str,
+                 t0: float) -> tuple:
     socks = []
     for k in range(1, count):
         mine, theirs = socket.socketpair()
@@ -274,14 +284,14 @@ def _draw(payload: bytes, directory: str, kwargs: dict, count: int, children: li
             status = 1
             try:
                 mine.close()
-                _send(theirs, _share(result, directory, kwargs, k, count))
+                _send(theirs, _share(result, directory, kwargs, claims))
                 status = 0
             finally:
                 os._exit(status)
         theirs.close()
         children.append(pid)
         socks.append((pid, mine))
-    replies = [_share(result, directory, kwargs, 0, count)]
+    replies = [_share(result, directory, kwargs, claims)]
     for pid, s in socks:
         try:
             replies.append(_recv(s))
@@ -300,8 +310,8 @@ def _draw(payload: bytes, directory: str, kwargs: dict, count: int, children: li
     return ("ok", replies[0][1], records, cpu, None)
 
 
-def _share(result: Any, directory: str, kwargs: dict, index: int, count: int) -> tuple:
-    """Share ``index`` of ``count``: ``result.save_plots`` drawing only its PNG files."""
+def _share(result: Any, directory: str, kwargs: dict, claims: str) -> tuple:
+    """``result.save_plots`` drawing the PNG files this process reaches first (``claims``)."""
     import warnings
 
     from .plot.saving import png_saving
@@ -312,7 +322,7 @@ def _share(result: Any, directory: str, kwargs: dict, index: int, count: int) ->
     warnings.showwarning = lambda *a, **k: None  # recorded here, shown once by the CLI
     log = WarningLog()
     try:
-        with log, plot_style(), png_saving(index, count):
+        with log, plot_style(), png_saving(claims):
             files = result.save_plots(directory, **kwargs)
         return ("ok", [str(f) for f in files or []], log.records, time.process_time() - t0, None)
     except Exception as e:  # noqa: BLE001 - raised again in the CLI

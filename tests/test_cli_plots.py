@@ -21,7 +21,7 @@ import pytest  # noqa: E402
 from PIL import Image  # noqa: E402
 
 from gearopt.cli_plots import PlotProcesses  # noqa: E402
-from gearopt.plot.saving import png_saving  # noqa: E402
+from gearopt.plot.saving import drawn_here, png_saving  # noqa: E402
 from gearopt.plot.style import plot_style  # noqa: E402
 
 NAMES = ["a.png", "b.png", "c.png", "d.png", "e.png"]
@@ -66,15 +66,23 @@ def processes():
 
 
 # --- gearopt.plot.saving ----------------------------------------------------------------------------
-def test_png_saving_shares_the_files_out_every_file_once(tmp_path):
-    written = {}
-    for index in range(3):
-        d = tmp_path / f"share{index}"
-        d.mkdir()
-        with png_saving(index, 3):
-            assert Figures().save_plots(d) == NAMES  # every share returns every name
-        written[index] = sorted(p.name for p in d.iterdir())
-    assert written == {0: ["a.png", "d.png"], 1: ["b.png", "e.png"], 2: ["c.png"]}
+def test_png_saving_with_claims_draws_each_file_in_the_first_process_to_reach_it(tmp_path):
+    claims = tmp_path / "claims"
+    claims.mkdir()
+    first, second = tmp_path / "first", tmp_path / "second"
+    first.mkdir()
+    second.mkdir()
+    with png_saving(claims):  # "another process" that reached b.png and d.png first
+        assert drawn_here(second / "b.png") and drawn_here(second / "d.png")
+        assert drawn_here(second / "b.png")  # still its own
+    with png_saving(claims):
+        assert Figures().save_plots(second) == NAMES  # every name returned, taken or not
+        assert not drawn_here(second / "b.png")
+    assert sorted(p.name for p in second.iterdir()) == ["a.png", "c.png", "e.png"]
+    with png_saving(claims):  # other paths: not taken
+        Figures().save_plots(first)
+    assert sorted(p.name for p in first.iterdir()) == NAMES
+    assert drawn_here(second / "b.png")  # outside png_saving: every file drawn here
 
 
 def test_png_saving_gives_the_pixels_of_plain_savefig_with_zlib_level_1(tmp_path, monkeypatch):
@@ -107,14 +115,18 @@ def test_png_saving_leaves_file_objects_and_other_formats_alone(tmp_path):
     fig, ax = plt.subplots(figsize=(1, 1))
     ax.plot([0, 1])
     buf = io.BytesIO()
-    with png_saving(1, 2):  # share 1 of 2: the first .png path would be share 0's
+    claims = tmp_path / "claims"
+    claims.mkdir()
+    with png_saving(claims):  # taken by "another process"
+        assert drawn_here(tmp_path / "taken.png")
+    with png_saving(claims):
         fig.savefig(buf, format="png")
         fig.savefig(tmp_path / "x.svg")
-        fig.savefig(tmp_path / "first.png")
-        fig.savefig(tmp_path / "second.png")
+        fig.savefig(tmp_path / "taken.png")
+        fig.savefig(tmp_path / "free.png")
     plt.close(fig)
     assert buf.getvalue()[:4] == b"\x89PNG"
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["second.png", "x.svg"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["claims", "free.png", "x.svg"]
 
 
 def _laid_out(extra_text=False):
@@ -171,10 +183,12 @@ def test_png_saving_saves_a_figure_with_a_text_outside_the_layout_as_usual(tmp_p
     assert np.array_equal(pixels(tmp_path / "tight.png"), pixels(tmp_path / "fast.png"))
 
 
-@pytest.mark.parametrize("index, count, level", [(0, 0, 1), (2, 2, 1), (-1, 2, 1), (0, 1, 10)])
-def test_png_saving_refuses_a_bad_share_or_level(index, count, level):
-    with pytest.raises(ValueError, match="png_saving"):
-        with png_saving(index, count, level):
+def test_png_saving_refuses_a_bad_level_or_claims_directory(tmp_path):
+    with pytest.raises(ValueError, match="compress_level = 10"):
+        with png_saving(compress_level=10):
+            pass
+    with pytest.raises(ValueError, match="not a directory"):
+        with png_saving(tmp_path / "absent"):
             pass
 
 

@@ -14,11 +14,13 @@ between processes that draw them side by side (:mod:`gearopt.cli_plots`).
   room at an edge (an axes of fixed aspect narrower than its cell). A figure with anything the
   layout does not place (a figure legend, a text but the sup-title and -labels, ...) is saved as
   usual;
-* with ``count > 1`` draws and writes only this process's share of the files: the ``index``-th,
-  the ``index + count``-th, ... distinct file name in the order they are saved. ``count``
-  processes that run the same ``save_plots``, each with its ``index``, write every file once
-  between them; a figure of another share is built but neither drawn nor written. Saving to a
-  file object or another format is never shared out.
+* with ``claims`` (a directory shared by several processes that run the same ``save_plots`` side
+  by side) draws and writes a PNG file only if this process is the first to reach it (creates
+  its claim file there); a process that finds a file taken moves on to the next, so that a
+  process done with a quick figure takes the next one while another draws a slow one. Between
+  them the processes write every file once. :func:`drawn_here` tells a ``save_plots`` whether to
+  build a figure at all; a figure built but taken by another process is neither drawn nor
+  written. Saving to a file object or another format is never shared out.
 
 It picks no backend; figures saved outside it are saved as matplotlib does.
 """
@@ -26,53 +28,53 @@ It picks no backend; figures saved outside it are saved as matplotlib does.
 from __future__ import annotations
 
 import contextlib
+import hashlib
 import os
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
     from collections.abc import Iterator
 
-__all__ = ["PNG_COMPRESS_LEVEL", "png_saving"]
+__all__ = ["PNG_COMPRESS_LEVEL", "drawn_here", "png_saving"]
 
 #: zlib compression level of the PNG files gearopt run writes (0-9; Pillow's default is 6)
 PNG_COMPRESS_LEVEL = 1
 
 
 @contextlib.contextmanager
-def png_saving(index: int = 0, count: int = 1, compress_level: int = PNG_COMPRESS_LEVEL) -> Iterator[None]:
+def png_saving(claims: str | os.PathLike | None = None,
+               compress_level: int = PNG_COMPRESS_LEVEL) -> Iterator[None]:
     """Context manager: ``Figure.savefig`` to ``.png`` paths with ``compress_level``, a constrained
-    layout laid out once, and only share ``index`` of ``count`` of the files (see the module
-    docstring).
+    layout laid out once, and with ``claims`` only the files this process reaches first (see the
+    module docstring).
 
     Parameters
     ----------
-    index : int
-        This process's share, ``0 <= index < count``.
-    count : int
-        Number of processes the PNG files are shared out between, >= 1 (1: every file).
+    claims : path, optional
+        An existing directory shared by the processes that draw the same figures side by side
+        (it gets one empty file per PNG file); None: every file is drawn here.
     compress_level : int
         zlib level of the PNG files, 0 (none, fastest) ... 9 (smallest).
 
     Raises
     ------
     ValueError
-        ``count < 1``, ``index`` outside ``0 ... count - 1`` or ``compress_level`` outside 0 ... 9.
+        ``compress_level`` outside 0 ... 9, or ``claims`` not a directory.
     """
-    if count < 1 or not 0 <= index < count:
-        raise ValueError(f"png_saving: index = {index}, count = {count}: need count >= 1 and 0 <= index < count")
     if not 0 <= compress_level <= 9:
         raise ValueError(f"png_saving: compress_level = {compress_level}: need 0 ... 9")
+    if claims is not None and not os.path.isdir(claims):
+        raise ValueError(f"png_saving: claims = {os.fspath(claims)!r}: not a directory")
     import matplotlib.figure
 
     saved = matplotlib.figure.Figure.savefig
-    order: dict[str, int] = {}
+    share = _Share(None if claims is None else os.fspath(claims))
 
     def savefig(fig: Any, fname: Any, *args: Any, **kwargs: Any) -> Any:
         fmt = kwargs.get("format")
         if isinstance(fname, (str, os.PathLike)) and (
                 str(fmt).lower() == "png" if fmt is not None else os.fspath(fname).lower().endswith(".png")):
-            n = order.setdefault(os.path.abspath(os.fspath(fname)), len(order))
-            if n % count != index:
+            if not share.owns(fname):
                 return None
             kwargs["pil_kwargs"] = {"compress_level": compress_level, **(kwargs.get("pil_kwargs") or {})}
             if not args and _tight_by_layout(fig, kwargs):
@@ -80,10 +82,56 @@ def png_saving(index: int = 0, count: int = 1, compress_level: int = PNG_COMPRES
         return saved(fig, fname, *args, **kwargs)
 
     matplotlib.figure.Figure.savefig = savefig
+    _shares.append(share)
     try:
         yield
     finally:
+        _shares.remove(share)
         matplotlib.figure.Figure.savefig = saved
+
+
+class _Share:
+    """The PNG files of one :func:`png_saving`: with a claims directory, those this process claimed
+    first (an exclusive create of the claim file is atomic between processes)."""
+
+    def __init__(self, claims: str | None) -> None:
+        self.claims = claims
+        self.mine: dict[str, bool] = {}
+
+    def owns(self, path: Any) -> bool:
+        if self.claims is None:
+            return True
+        key = os.path.abspath(os.fspath(path))
+        if key not in self.mine:
+            name = hashlib.sha1(key.encode("utf-8", "surrogateescape")).hexdigest()
+            try:
+                os.close(os.open(os.path.join(self.claims, name), os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o600))
+                self.mine[key] = True
+            except FileExistsError:
+                self.mine[key] = False
+        return self.mine[key]
+
+
+_shares: list[_Share] = []  # the active png_saving contexts, innermost last
+
+
+def drawn_here(path: str | os.PathLike) -> bool:
+    """Whether the PNG file ``path`` is drawn in this process: False only inside
+    :func:`png_saving` with ``claims`` when another process has taken the file (then ``savefig``
+    to it writes nothing, and a ``save_plots`` may skip building the figure; it still returns the
+    file's name). True claims the file for this process: call it just before building the
+    figure.
+
+    Parameters
+    ----------
+    path : path
+        The PNG file a figure is about to be saved to.
+
+    Returns
+    -------
+    bool
+    """
+    return not _shares or _shares[-1].owns(path)
 
 
 def _tight_by_layout(fig: Any, kwargs: dict) -> bool:
