@@ -175,26 +175,30 @@ class PlotProcesses:
             return False
         return True
 
-    def wait(self) -> tuple[list[str], list[dict[str, str]]]:
+    def wait(self) -> tuple[list[str], list[dict[str, str]]] | None:
         """Wait for the plots :meth:`submit` asked for.
 
         Returns
         -------
-        tuple
+        tuple or None
             ``(files, warnings)``: what ``save_plots`` returned (file names) and the warnings shown
-            while drawing (``{"category", "message", "source"}``; shown here on stderr, once).
+            while drawing (``{"category", "message", "source"}``; shown here on stderr, once); None
+            when the drawing processes could not draw (the result's class cannot be imported there,
+            or the process ended without an answer): then the caller draws itself.
 
         Raises
         ------
         Exception
-            What ``save_plots`` raised in a drawing process (the first share's), with that process's
-            traceback as a note; RuntimeError when the drawing process ended without an answer.
+            What ``save_plots`` raised in a drawing process (the first one's), with that process's
+            traceback as a note.
         """
         try:
             kind, files, records, cpu, err = _recv(self.sock)
         except (OSError, EOFError):
-            raise RuntimeError(f"gearopt run: the drawing process {self.pid} ended without drawing the plots") from None
+            return None
         self.cpu_time = cpu
+        if kind == "unavailable":
+            return None
         for r in records:
             print(f"{r['source']}: {r['category']}: {r['message']}", file=sys.stderr)
         if kind == "error":
@@ -265,8 +269,8 @@ def _draw(payload: bytes, directory: str, kwargs: dict, count: int, children: li
     t0 = time.process_time()
     try:
         result = pickle.loads(payload)
-    except Exception as e:  # noqa: BLE001
-        return ("error", [], [], time.process_time() - t0, _portable(e))
+    except Exception:  # noqa: BLE001 - its class not importable here (a study module loaded from a file)
+        return ("unavailable", [], [], time.process_time() - t0, None)
     claims = tempfile.mkdtemp(prefix="gearopt-plots-")
     try:
         return _draw_shared(result, directory, kwargs, count, children, claims, t0)

@@ -239,6 +239,20 @@ def test_a_result_that_does_not_pickle_is_left_to_the_cli(tmp_path, processes):
     assert list(tmp_path.iterdir()) == []
 
 
+def test_a_result_whose_class_the_drawing_process_lacks_is_left_to_the_cli(tmp_path, processes, monkeypatch):
+    import sys
+    import types
+
+    late = types.ModuleType("late_study_module")  # imported here after the drawing process was forked
+    late.Late = type("Late", (Figures,), {"__module__": "late_study_module"})
+    monkeypatch.setitem(sys.modules, "late_study_module", late)
+    assert processes.submit(late.Late(), tmp_path, {})
+    assert processes.wait() is None
+    assert list(tmp_path.iterdir()) == []
+    assert processes.submit(Figures(NAMES[:1]), tmp_path, {})  # still there for the next result
+    assert processes.wait()[0] == NAMES[:1]
+
+
 def test_close_ends_the_drawing_process(processes):
     pid = processes.pid
     processes.close()

@@ -231,9 +231,10 @@ def write_results(out_dir: str | Path, result: Any, *, scene: Scene | None = Non
         and highlighted in ``report.html``.
     plotter : object, optional
         Draws the plots elsewhere while the tables are written: ``plotter.submit(result, directory,
-        kwargs)`` starts ``result.save_plots(directory, **kwargs)`` (False when it cannot: then they
-        are drawn here), ``plotter.wait()`` returns ``(files, warnings)`` (what ``save_plots``
-        returned, the warnings shown meanwhile) and ``plotter.close()`` stops it after an error;
+        kwargs)`` starts ``result.save_plots(directory, **kwargs)`` (False when it cannot),
+        ``plotter.wait()`` returns ``(files, warnings)`` (what ``save_plots`` returned, the warnings
+        shown meanwhile; None when it could not draw: then they are drawn here) and
+        ``plotter.close()`` stops it after an error;
         ``gearopt run`` passes its :class:`gearopt.cli_plots.PlotProcesses`. Not used with ``svg``.
 
     Returns
@@ -327,10 +328,13 @@ def write_results(out_dir: str | Path, result: Any, *, scene: Scene | None = Non
         else:
             tables = []
         if plots:
+            done = None
             if pending:
                 page_template()  # loaded meanwhile
                 with heartbeat(progress, "writing plots", every=15.0):
-                    files, shown = plotter.wait()
+                    done = plotter.wait()
+            if done is not None:
+                files, shown = done
                 drawing.records += [w for w in shown if w not in drawing.records]
             else:
                 from ..plot.saving import png_saving
