@@ -120,6 +120,9 @@ def _run_scene(args, plotter) -> int:
     say(f"loading {args.scene}")
     scene = load_scene(args.scene)
     out = check_out_dir(args.out_text if args.out_text is not None else Path("out") / args.scene.stem, args.scene)
+    if plotter is not None and (not scene.output.get("plots", True) or scene.output.get("svg", False)):
+        plotter.close()  # no plots, or SVG copies drawn beside them: not for the drawing processes
+        plotter = None
     say(f"building study {scene.study!r} for scene {scene.name!r}")
     sink = None if args.quiet else say  # long work deep in the library reports here (gearopt.progress)
     caught = WarningLog()
