@@ -129,7 +129,7 @@ def test_png_saving_leaves_file_objects_and_other_formats_alone(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["claims", "free.png", "x.svg"]
 
 
-def _laid_out(extra_text=False):
+def _laid_out(extra_text=False, equal=False):
     fig, axes = plt.subplots(2, 2, figsize=(6, 4.5), layout="constrained")
     for i, ax in enumerate(axes.ravel()):
         ax.plot([0, 1, 2], [0, i, 2 * i], label=f"curve {i}")
@@ -139,6 +139,8 @@ def _laid_out(extra_text=False):
     fig.suptitle("a two-line\nfigure title")
     if extra_text:
         fig.text(1.02, 0.5, "a note outside the layout")
+    if equal:  # drawn to scale: narrower than its cell
+        axes[0, 0].set_aspect("equal")
     return fig
 
 
@@ -173,10 +175,11 @@ def test_png_saving_lays_a_constrained_figure_out_once_with_the_tight_box(tmp_pa
             (img[:, -3:] >= 250).all()
 
 
-def test_png_saving_saves_a_figure_with_a_text_outside_the_layout_as_usual(tmp_path):
+@pytest.mark.parametrize("extra_text, equal", [(True, False), (False, True)])
+def test_png_saving_saves_a_figure_with_a_text_outside_the_layout_or_to_scale_as_usual(tmp_path, extra_text, equal):
     with plot_style():
         for name, saving in (("tight.png", contextlib.nullcontext()), ("fast.png", png_saving())):
-            fig = _laid_out(extra_text=True)
+            fig = _laid_out(extra_text, equal)
             with saving:
                 fig.savefig(tmp_path / name, dpi=80)
             plt.close(fig)

@@ -10,10 +10,10 @@ between processes that draw them side by side (:mod:`gearopt.cli_plots`).
 * saves a figure laid out by matplotlib's constrained layout with ``bbox_inches="tight"`` (gearopt's
   style) after one layout and one draw, as the figure's area with the ``pad_inches`` margin around
   the layout's own padding, instead of the layout, a draw to place the artists, a pass for their
-  extents (the tight box) and the draw: a quarter to a third less time, the same picture, the image a few pixels larger where the layout leaves
-  room at an edge (an axes of fixed aspect narrower than its cell). A figure with anything the
-  layout does not place (a figure legend, a text but the sup-title and -labels, ...) is saved as
-  usual;
+  extents (the tight box) and the draw: a quarter to a third less time, the same picture, the
+  image a few pixels larger where the layout leaves room at an edge. A figure with anything the
+  layout does not place (a figure legend, a text but the sup-title and -labels, ...) or with an
+  axes of fixed aspect (narrower than its cell: room the tight box crops) is saved as usual;
 * with ``claims`` (a directory shared by several processes that run the same ``save_plots`` side
   by side) draws and writes a PNG file only if this process is the first to reach it (creates
   its claim file there); a process that finds a file taken moves on to the next, so that a
@@ -136,8 +136,9 @@ def drawn_here(path: str | os.PathLike) -> bool:
 
 def _tight_by_layout(fig: Any, kwargs: dict) -> bool:
     """Whether ``fig``, saved with ``bbox_inches="tight"``, can be saved as its constrained layout
-    leaves it: laid out by the constrained layout engine, and nothing outside the layout's reach
-    (figure legends, texts other than the sup-title and -labels, lines, patches, images, subfigures)."""
+    leaves it: laid out by the constrained layout engine, nothing outside the layout's reach
+    (figure legends, texts other than the sup-title and -labels, lines, patches, images, subfigures)
+    and no axes of fixed aspect (a mesh drawn to scale: the layout leaves room beside it)."""
     import matplotlib
     from matplotlib.layout_engine import ConstrainedLayoutEngine
 
@@ -149,6 +150,8 @@ def _tight_by_layout(fig: Any, kwargs: dict) -> bool:
         return False
     if fig.legends or fig.lines or fig.patches or fig.images or fig.artists or fig.subfigs:
         return False
+    if any(ax.get_aspect() != "auto" for ax in fig.axes):  # narrower than its cell: tight crops the room
+        return False
     sup = {fig.get_suptitle(), fig.get_supxlabel(), fig.get_supylabel()} - {""}
     return all(t.get_text() in sup and t.get_in_layout() for t in fig.texts)
 
@@ -159,7 +162,7 @@ def _save_laid_out(saved: Any, fig: Any, fname: Any, kwargs: dict) -> Any:
     padding: what ``bbox_inches="tight"`` gives, where the layout fills the figure, without the
     two extra passes over every artist that finding the tight box takes (a draw to place them,
     then their extents). Where the layout leaves room (an axes of fixed aspect narrower than its
-    cell), that room stays in the image, up to a few per cent of its size. Falls back to the usual
+    cell; not taken here), that room would stay in the image. Falls back to the usual
     ``savefig`` when the layout engine warns (it could not fit the decorations)."""
     import warnings
 
