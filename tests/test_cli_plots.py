@@ -303,3 +303,31 @@ def test_gearopt_run_writes_the_same_plots_with_processes_as_on_one_core(tmp_pat
         assert np.array_equal(pixels(a / n), pixels(b / n)), n
     ra, rb = (json.loads((d / "results.json").read_text()) for d in (a, b))
     assert ra["summary"] == rb["summary"] and ra["meta"]["warnings"] == rb["meta"]["warnings"]
+
+
+def test_gearopt_run_leaves_matplotlib_to_the_drawing_process(tmp_path):
+    """The CLI process of gearopt run never imports matplotlib (about 0.5 s): the drawing process
+    imports it while the study runs and writes the figure (the dummy study of tests/conftest.py)."""
+    import subprocess
+    import sys
+
+    from conftest import GOOD_SCENE
+
+    if len(os.sched_getaffinity(0)) < 2:
+        pytest.skip("one core: the CLI draws itself")
+    root, tests = Path(__file__).resolve().parents[1], Path(__file__).resolve().parent
+    scene = tmp_path / "scene.toml"
+    scene.write_text(GOOD_SCENE)
+    code = ("import sys\n"
+            "from conftest import register_dummy\n"
+            "register_dummy()\n"
+            "import gearopt.cli\n"
+            f"rc = gearopt.cli.main(['run', {str(scene)!r}, '--out', {str(tmp_path / 'out')!r}, '--quiet'])\n"
+            "print('RC', rc, 'matplotlib' in sys.modules)\n")
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(root), str(tests)]))
+    env.pop("MPLBACKEND", None)
+    p = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, env=env, capture_output=True, text=True,
+                       timeout=300)
+    assert p.returncode == 0, p.stderr[-2000:]
+    assert p.stdout.strip().splitlines()[-1] == "RC 0 False"
+    assert (tmp_path / "out" / "dummy.png").stat().st_size > 0
