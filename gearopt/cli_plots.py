@@ -229,7 +229,10 @@ def _serve(sock: socket.socket, count: int) -> None:
     import importlib
     import signal
 
+    import shutil
+
     children: list[int] = []
+    claims: list[str] = []
 
     def terminate(*_: Any) -> None:  # the CLI ends this process: end the siblings it forked too, first
         for pid in children:
@@ -238,6 +241,8 @@ def _serve(sock: socket.socket, count: int) -> None:
                 os.waitpid(pid, 0)
             except (ProcessLookupError, ChildProcessError):
                 pass
+        for d in claims:
+            shutil.rmtree(d, ignore_errors=True)
         os._exit(1)
 
     signal.signal(signal.SIGTERM, terminate)
@@ -257,10 +262,10 @@ def _serve(sock: socket.socket, count: int) -> None:
             except Exception:  # noqa: BLE001 - unpickling the result will say what is missing
                 pass
         elif msg[0] == "draw":
-            _send(sock, _draw(msg[1], msg[2], msg[3], count, children))
+            _send(sock, _draw(msg[1], msg[2], msg[3], count, children, claims))
 
 
-def _draw(payload: bytes, directory: str, kwargs: dict, count: int, children: list[int]) -> tuple:
+def _draw(payload: bytes, directory: str, kwargs: dict, count: int, children: list[int], claims: list[str]) -> tuple:
     """Fork ``count - 1`` siblings, all draw (each figure the first to reach it), gather the
     siblings' replies: ``(kind, files, warnings, cpu_s, error)``."""
     import shutil
@@ -271,11 +276,11 @@ def _draw(payload: bytes, directory: str, kwargs: dict, count: int, children: li
         result = pickle.loads(payload)
     except Exception:  # noqa: BLE001 - its class not importable here (a study module loaded from a file)
         return ("unavailable", [], [], time.process_time() - t0, None)
-    claims = tempfile.mkdtemp(prefix="gearopt-plots-")
+    claims.append(tempfile.mkdtemp(prefix="gearopt-plots-"))  # removed here, or by terminate()
     try:
-        return _draw_shared(result, directory, kwargs, count, children, claims, t0)
+        return _draw_shared(result, directory, kwargs, count, children, claims[-1], t0)
     finally:
-        shutil.rmtree(claims, ignore_errors=True)
+        shutil.rmtree(claims.pop(), ignore_errors=True)
 
 
 def _draw_shared(result: Any, directory: str, kwargs: dict, count: int, children: list[int], claims: str,

@@ -264,6 +264,34 @@ def test_close_ends_the_drawing_process(processes):
     processes.close()  # again: nothing
 
 
+class Slow(Figures):
+    """Figures drawn slowly: 0.4 s before each."""
+
+    def save_plots(self, directory, dpi=40):
+        import time
+
+        out = []
+        for name in self.names:
+            time.sleep(0.4)
+            out += Figures([name]).save_plots(directory, dpi)
+        return out
+
+
+def test_close_while_drawing_stops_every_drawing_process_and_leaves_no_claims(tmp_path, processes):
+    import glob
+    import tempfile
+    import time
+
+    before = set(glob.glob(os.path.join(tempfile.gettempdir(), "gearopt-plots-*")))
+    assert processes.submit(Slow(), tmp_path, {})
+    time.sleep(1.0)  # drawing has begun
+    processes.close()
+    written = sorted(p.name for p in tmp_path.iterdir())
+    time.sleep(1.5)  # no drawing process writes after close()
+    assert sorted(p.name for p in tmp_path.iterdir()) == written and len(written) < len(NAMES)
+    assert set(glob.glob(os.path.join(tempfile.gettempdir(), "gearopt-plots-*"))) == before
+
+
 def test_no_processes_for_another_backend_or_one_core(monkeypatch):
     monkeypatch.setenv("MPLBACKEND", "pdf")
     assert PlotProcesses.start() is None
