@@ -93,6 +93,18 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _run(args) -> int:
+    from .cli_plots import PlotProcesses
+
+    # first: a process that imports matplotlib while the scene is read and run, to draw the plots
+    plotter = PlotProcesses.start()
+    try:
+        return _run_scene(args, plotter)
+    finally:
+        if plotter is not None:
+            plotter.close()
+
+
+def _run_scene(args, plotter) -> int:
     os.environ.setdefault("MPLBACKEND", "Agg")  # plots go to files; never open a window
     from .io.results import write_results
     from .io.scene import load_scene
@@ -108,11 +120,16 @@ def _run(args) -> int:
     say(f"loading {args.scene}")
     scene = load_scene(args.scene)
     out = check_out_dir(args.out_text if args.out_text is not None else Path("out") / args.scene.stem, args.scene)
+    if plotter is not None and (not scene.output.get("plots", True) or scene.output.get("svg", False)):
+        plotter.close()  # no plots, or SVG copies drawn beside them: not for the drawing processes
+        plotter = None
     say(f"building study {scene.study!r} for scene {scene.name!r}")
     sink = None if args.quiet else say  # long work deep in the library reports here (gearopt.progress)
     caught = WarningLog()
     with _in_scene(scene), reporting(sink), caught:
         study = scene.build()
+    if plotter is not None:
+        plotter.prepare(type(study).__module__)  # the result's class: imported while the study runs
     say("running")
     t0 = time.perf_counter()
     run = study.run
@@ -134,7 +151,8 @@ def _run(args) -> int:
         result = run(**kwargs)
     run_time = time.perf_counter() - t0
     say(f"done in {run_time:.2f} s; writing {out}")
-    paths = write_results(out, result, scene=scene, run_time=run_time, progress=say, warnings=caught.records)
+    paths = write_results(out, result, scene=scene, run_time=run_time, progress=say, warnings=caught.records,
+                          plotter=plotter)
     for p in paths:
         print(p)
     return 0

@@ -52,7 +52,7 @@ LAYERS: list[tuple[str, ...]] = [
     ("gearopt.io.scene",),       # the scene loader consults the studies registry
     ("gearopt.io",),             # the io package's __init__
     ("gearopt",),                # the package root (re-exports)
-    ("gearopt.cli", "gearopt.__main__"),  # the command line
+    ("gearopt.cli", "gearopt.cli_plots", "gearopt.__main__"),  # the command line
 ]
 TOP = ("gearopt.studies", "gearopt.plot", "gearopt.io", "gearopt.cli")
 LIBRARY_BELOW_TOP = ("gearopt.gears", "gearopt.geometry", "gearopt.meshing", "gearopt.contact", "gearopt.fea",
@@ -118,6 +118,8 @@ def parse_module(name: str, source: str, is_package: bool, graph: Graph) -> None
                 f = child.func
                 if (isinstance(f, ast.Attribute) and f.attr == "use" and isinstance(f.value, ast.Name)
                         and f.value.id in mpl_aliases):
+                    graph.backend_calls.append((name, child.lineno))
+                elif isinstance(f, ast.Attribute) and f.attr == "switch_backend":  # pyplot.switch_backend
                     graph.backend_calls.append((name, child.lineno))
             visit(child, inner)
 
@@ -371,4 +373,9 @@ def test_a_planted_private_import_is_refused():
 
 def test_a_planted_backend_call_is_refused():
     g = _planted("gearopt.plot.planted", "import matplotlib as mpl\n\ndef f():\n    mpl.use('Agg')\n")
+    assert _new(backend_violations, g) == ["gearopt.plot.planted:4"]
+
+
+def test_a_planted_switch_backend_call_is_refused():
+    g = _planted("gearopt.plot.planted", "import matplotlib.pyplot as plt\n\ndef f():\n    plt.switch_backend('Agg')\n")
     assert _new(backend_violations, g) == ["gearopt.plot.planted:4"]

@@ -40,7 +40,7 @@ from typing import TYPE_CHECKING, Any, Callable
 from ..errors import ArgumentError, ResultsError, shorten
 from ..progress import heartbeat
 from ..summary import summarize, summary_dicts, with_pair
-from .page import REPORT_FILE, SVGCapture, report_page
+from .page import REPORT_FILE, SVGCapture, page_template, report_page
 from ..version import __version__
 from ..warning_log import WarningLog
 
@@ -201,7 +201,8 @@ def check_out_dir(out_dir: str | Path, scene_file: str | Path | None = None) -> 
 def write_results(out_dir: str | Path, result: Any, *, scene: Scene | None = None, run_time: float | None = None,
                   plots: bool | None = None,
                   progress: Callable[[str], None] | None = None,
-                  warnings: list[dict[str, str]] | None = None, svg: bool | None = None) -> list[Path]:
+                  warnings: list[dict[str, str]] | None = None, svg: bool | None = None,
+                  plotter: Any = None) -> list[Path]:
     """Write ``results.json``, the tables, the plots and ``report.html`` of ``result`` into ``out_dir``.
 
     Parameters
@@ -228,6 +229,13 @@ def write_results(out_dir: str | Path, result: Any, *, scene: Scene | None = Non
         records them): ``meta.warnings`` of results.json, followed by those shown while the tables
         and plots are written (:class:`~gearopt.warning_log.WarningLog`; ``[]`` when there are none),
         and highlighted in ``report.html``.
+    plotter : object, optional
+        Draws the plots elsewhere while the tables are written: ``plotter.submit(result, directory,
+        kwargs)`` starts ``result.save_plots(directory, **kwargs)`` (False when it cannot),
+        ``plotter.wait()`` returns ``(files, warnings)`` (what ``save_plots`` returned, the warnings
+        shown meanwhile; None when it could not draw: then they are drawn here) and
+        ``plotter.close()`` stops it after an error;
+        ``gearopt run`` passes its :class:`gearopt.cli_plots.PlotProcesses`. Not used with ``svg``.
 
     Returns
     -------
@@ -293,33 +301,55 @@ def write_results(out_dir: str | Path, result: Any, *, scene: Scene | None = Non
         tmp = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.tmp-", dir=parent)).resolve()
     except OSError as e:
         raise ResultsError(f"cannot create the output directory {out_dir}: {e.strerror or e}.") from None
+    pending = False
+    want_svg = svg
     try:
         os.chmod(tmp, 0o777 & ~_umask())  # mkdtemp makes it 0700; give it the usual mode
         written = [RESULTS_FILE]
         # the warnings shown while the tables and plots are written (a plot that leaves a case out)
         # join meta.warnings: results.json is written after them
         drawing = WarningLog()
-        if callable(getattr(result, "save_tables", None)):
-            with drawing:
-                written += _reported(tmp, result.save_tables(str(tmp)), "save_tables")
+        svg = None
         if plots:
             say(f"writing plots to {out_dir}")
             kwargs = {}
             if scene is not None and _accepts(result.save_plots, "dpi"):
                 kwargs["dpi"] = scene.output.get("dpi", 120)
-            from ..plot.style import plot_style
-            # one style for every study's figures (no offset notation, ...); each also as SVG for the
-            # page where the scene asks for it ([output] svg: a second drawing of every figure)
-            if svg is None:
-                svg = bool(scene.output.get("svg", False)) if scene is not None else False
-            svg = SVGCapture() if svg else None
-            with drawing, plot_style(), heartbeat(progress, "writing plots", every=15.0), \
-                    svg or contextlib.nullcontext():
-                written += _reported(tmp, result.save_plots(str(tmp), **kwargs), "save_plots")
+            # each figure also as SVG for the page where the scene asks for it ([output] svg: a second
+            # drawing of every figure)
+            if want_svg is None:
+                want_svg = bool(scene.output.get("svg", False)) if scene is not None else False
+            svg = SVGCapture() if want_svg else None
+            # drawn elsewhere (gearopt run: other processes) while the tables are written here
+            pending = plotter is not None and svg is None and plotter.submit(result, str(tmp), kwargs)
+        if callable(getattr(result, "save_tables", None)):
+            with drawing:
+                tables = _reported(tmp, result.save_tables(str(tmp)), "save_tables")
         else:
-            svg = None
-        data["meta"]["warnings"] += drawing.records
-        text = json.dumps(data, indent=2, allow_nan=False, default=_jsonable, ensure_ascii=False) + "\n"
+            tables = []
+        if plots:
+            done = None
+            if pending:
+                page_template()  # loaded meanwhile
+                with heartbeat(progress, "writing plots", every=15.0):
+                    done = plotter.wait()
+            if done is not None:
+                files, shown = done
+                drawing.records += [w for w in shown if w not in drawing.records]
+            else:
+                from ..plot.saving import png_saving
+                from ..plot.style import plot_style
+                # one style for every study's figures (no offset notation, ...); PNG files compressed
+                # for speed
+                with drawing, plot_style(), png_saving(), heartbeat(progress, "writing plots", every=15.0), \
+                        svg or contextlib.nullcontext():
+                    files = result.save_plots(str(tmp), **kwargs)
+            written += tables + _reported(tmp, files, "save_plots")
+        else:
+            written += tables
+        if drawing.records:  # shown while the tables and plots were written: they join meta.warnings
+            data["meta"]["warnings"] += drawing.records
+            text = json.dumps(data, indent=2, allow_nan=False, default=_jsonable, ensure_ascii=False) + "\n"
         (tmp / RESULTS_FILE).write_text(text, encoding="utf-8")
         captions = getattr(result, "captions", None) or {}
         page = report_page(data, written, dict(captions), svg.svgs if svg is not None else None, tmp)
@@ -327,9 +357,13 @@ def write_results(out_dir: str | Path, result: Any, *, scene: Scene | None = Non
         written.append(REPORT_FILE)
         install_output(tmp, out_dir)
     except OSError as e:
+        if pending:
+            plotter.close()
         shutil.rmtree(tmp, ignore_errors=True)
         raise ResultsError(f"cannot write the results to {out_dir}: {e.strerror or e}; nothing was written.") from None
     except BaseException:
+        if pending:  # no drawing process writes into tmp any more
+            plotter.close()
         shutil.rmtree(tmp, ignore_errors=True)
         raise
     return [out_dir / w for w in written]

@@ -270,6 +270,8 @@ def save_plots(result: RobustResult, out_dir: str | Path, dpi: int = 120) -> lis
     correlations, those not significant at 5 % grey)."""
     import matplotlib.pyplot as plt
 
+    from .saving import drawn_here
+
     out = Path(out_dir)
 
     frac = usable_fraction(result.figures)
@@ -284,36 +286,45 @@ def save_plots(result: RobustResult, out_dir: str | Path, dpi: int = 120) -> lis
     d = {"figures": result.figures, "inputs": result.inputs, "statistics": result.statistics(),
          "sensitivities": result.sensitivities(), "nominal": result.nominal}
     loaded = "loaded_te_p2p" in result.figures
-    fig, axes = plt.subplots(3 if loaded else 2, 2, figsize=(12, 12 if loaded else 8), layout="constrained")
-    plot_histogram(d, "te_p2p", ax=axes[0, 0])
-    plot_cdf(d, "te_p2p", ax=axes[0, 1])
-    plot_histogram(d, "h1", ax=axes[1, 0])
-    plot_cdf(d, "h1", ax=axes[1, 1])
-    if loaded:
-        plot_histogram(d, "loaded_te_p2p", ax=axes[2, 0])
-        plot_histogram(d, "p_max", ax=axes[2, 1])
-    what = "Monte Carlo" if result.study == "montecarlo" else "design sweep"
-    files = [save("distribution.png", fig, f"{what} of {result.n} samples: TE peak-to-peak and first mesh harmonic"
-                  + ("; loaded TE and peak pressure" if loaded else ""))]
+    # a figure another process draws (gearopt run, gearopt.plot.saving) is not built here
+    files = ["distribution.png"]
+    if drawn_here(out / "distribution.png"):
+        fig, axes = plt.subplots(3 if loaded else 2, 2, figsize=(12, 12 if loaded else 8), layout="constrained")
+        plot_histogram(d, "te_p2p", ax=axes[0, 0])
+        plot_cdf(d, "te_p2p", ax=axes[0, 1])
+        plot_histogram(d, "h1", ax=axes[1, 0])
+        plot_cdf(d, "h1", ax=axes[1, 1])
+        if loaded:
+            plot_histogram(d, "loaded_te_p2p", ax=axes[2, 0])
+            plot_histogram(d, "p_max", ax=axes[2, 1])
+        what = "Monte Carlo" if result.study == "montecarlo" else "design sweep"
+        save("distribution.png", fig, f"{what} of {result.n} samples: TE peak-to-peak and first mesh harmonic"
+             + ("; loaded TE and peak pressure" if loaded else ""))
     ranked = [r["input"] for r in d["sensitivities"].get("te_p2p", [])][:4]
     if ranked:
-        # two columns at most: four panels in one row shrink to unreadable text on a page or a screen
-        cols = min(2, len(ranked))
-        rows = -(-len(ranked) // cols)
-        fig, axes = plt.subplots(rows, cols, figsize=(5.5 * cols, 4.2 * rows), squeeze=False, layout="constrained")
-        for ax, nm in zip(axes.ravel(), ranked):
-            plot_scatter(d, nm, "te_p2p", ax=ax)
-        for ax in axes.ravel()[len(ranked):]:
-            ax.set_visible(False)
-        files.append(save("scatter.png", fig, "TE peak-to-peak against the most influential inputs"))
-        fig, ax = plt.subplots(figsize=(9, 0.5 + 0.45 * len(d["sensitivities"]["te_p2p"]) + 2.2),
-                               layout="constrained")
-        plot_sensitivity(d, "te_p2p", ax=ax)
-        files.append(save("sensitivity.png", fig, "which inputs drive the TE peak-to-peak (Spearman rank "
-                          "correlation)"))
-    fig, ax = plt.subplots(figsize=(9, 5.5), layout="constrained")
-    plot_pattern_probability({"pattern_count": result.pattern_count, "grid_z": result.grid_z, "grid_r": result.grid_r,
-                              "n": int(result.figures["ok"].sum()), "limits": result.limits,
-                              "nominal": result.nominal}, ax=ax)
-    files.append(save("pattern.png", fig, "contact pattern envelope on the pinion flank (every pair over the cycle)"))
+        files.append("scatter.png")
+        if drawn_here(out / "scatter.png"):
+            # two columns at most: four panels in one row shrink to unreadable text on a page or a screen
+            cols = min(2, len(ranked))
+            rows = -(-len(ranked) // cols)
+            fig, axes = plt.subplots(rows, cols, figsize=(5.5 * cols, 4.2 * rows), squeeze=False,
+                                     layout="constrained")
+            for ax, nm in zip(axes.ravel(), ranked):
+                plot_scatter(d, nm, "te_p2p", ax=ax)
+            for ax in axes.ravel()[len(ranked):]:
+                ax.set_visible(False)
+            save("scatter.png", fig, "TE peak-to-peak against the most influential inputs")
+        files.append("sensitivity.png")
+        if drawn_here(out / "sensitivity.png"):
+            fig, ax = plt.subplots(figsize=(9, 0.5 + 0.45 * len(d["sensitivities"]["te_p2p"]) + 2.2),
+                                   layout="constrained")
+            plot_sensitivity(d, "te_p2p", ax=ax)
+            save("sensitivity.png", fig, "which inputs drive the TE peak-to-peak (Spearman rank correlation)")
+    files.append("pattern.png")
+    if drawn_here(out / "pattern.png"):
+        fig, ax = plt.subplots(figsize=(9, 5.5), layout="constrained")
+        plot_pattern_probability({"pattern_count": result.pattern_count, "grid_z": result.grid_z,
+                                  "grid_r": result.grid_r, "n": int(result.figures["ok"].sum()),
+                                  "limits": result.limits, "nominal": result.nominal}, ax=ax)
+        save("pattern.png", fig, "contact pattern envelope on the pinion flank (every pair over the cycle)")
     return files

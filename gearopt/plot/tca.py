@@ -270,17 +270,18 @@ def plot_bearing_contact(case: dict, member: str = "gear", ax: Axes | None = Non
         A = _f(case["ellipse_semi_major_mm"])
         B = _f(case["ellipse_semi_minor_mm"])
         dirs = m["ellipse_dirs"]
-        drawn = 0
+        zs, rs = [], []  # every ellipse in one line, separated by NaN (one artist to lay out and draw)
         for i in range(0, len(z), max(1, every)):
             if not on[i] or not np.isfinite(A[i]) or dirs[i] is None or None in dirs[i]:
                 continue
             a = min(A[i], 2 * b)  # a near-line contact ellipse is shortened for the drawing
             ez, er = _ellipse_on_map(xyz[i], dirs[i], a, B[i])
-            (line,) = ax.plot(ez, er, color="C0", lw=0.7,
-                              label=f"contact ellipses (every {every}th position), clipped at the flank edges"
-                              if drawn == 0 else None)
+            zs += [ez, [np.nan]]
+            rs += [er, [np.nan]]
+        if zs:
+            (line,) = ax.plot(np.concatenate(zs), np.concatenate(rs), color="C0", lw=0.7,
+                              label=f"contact ellipses (every {every}th position), clipped at the flank edges")
             line.set_clip_path(rect)
-            drawn += 1
     line = (case.get("stats") or {}).get("contact") == "line"
     what = ("line contact: the path in one pinion section only (the contact line spans the face)" if line
             else f"contact ellipses for the approach delta = {delta * 1000:.2f} um")

@@ -75,12 +75,16 @@ class CrowningReport:
         import matplotlib.pyplot as plt
         from pathlib import Path
 
+        from ..plot.saving import drawn_here
         from ..plot.tca import plot_crowning_comparison
 
         out = Path(out_dir)
         files = []
         for name, member in (("before_after_te.png", None), ("before_after_contact_gear.png", "gear"),
                              ("before_after_contact_pinion.png", "pinion")):
+            files.append(name)
+            if not drawn_here(out / name):  # another process draws it (gearopt run, gearopt.plot.saving)
+                continue
             n = len(self.after)
             fig, axes = plt.subplots(n, 2, figsize=(13, 3.6 * n + (0.6 * n if member else 0)), squeeze=False,
                                      layout="constrained")
@@ -90,7 +94,6 @@ class CrowningReport:
                          "(each row on common axes)")
             fig.savefig(out / name, dpi=dpi, bbox_inches="tight")
             plt.close(fig)
-            files.append(name)
         return files
 
 

@@ -124,6 +124,7 @@ class TCAReport:
         import matplotlib.pyplot as plt
         from pathlib import Path
 
+        from ..plot.saving import drawn_here
         from ..plot.tca import plot_bearing_contact, plot_compare, plot_te
         from ..plot.ticks import plain_ticks
 
@@ -146,19 +147,26 @@ class TCAReport:
             plt.close(fig)
             return name
 
-        fig, axes = plt.subplots(n, 1, figsize=(9, 3.7 * n), squeeze=False, layout="constrained")
-        for ax, case in zip(axes[:, 0], self.cases):
-            plot_te_case(case, ax=ax)
-        files = [save("te.png", fig, te_title)]
-        fig, axes = plt.subplots(n, 2, figsize=(12, 4.4 * n), squeeze=False, layout="constrained")
-        for row, case in zip(axes, self.cases):
-            plot_paths(case, "pinion", ax=row[0])
-            plot_paths(case, "gear", ax=row[1])
-        files.append(save("bearing_contact.png", fig, path_title))
+        # a figure another process draws (gearopt run, gearopt.plot.saving) is not built here
+        files = ["te.png"]
+        if drawn_here(out / "te.png"):
+            fig, axes = plt.subplots(n, 1, figsize=(9, 3.7 * n), squeeze=False, layout="constrained")
+            for ax, case in zip(axes[:, 0], self.cases):
+                plot_te_case(case, ax=ax)
+            save("te.png", fig, te_title)
+        files.append("bearing_contact.png")
+        if drawn_here(out / "bearing_contact.png"):
+            fig, axes = plt.subplots(n, 2, figsize=(12, 4.4 * n), squeeze=False, layout="constrained")
+            for row, case in zip(axes, self.cases):
+                plot_paths(case, "pinion", ax=row[0])
+                plot_paths(case, "gear", ax=row[1])
+            save("bearing_contact.png", fig, path_title)
         if n > 1 and not edge:
-            fig, axes = plt.subplots(1, 2, figsize=(12, 4.5), layout="constrained")
-            plot_compare({c["label"]: c for c in self.cases}, axes=axes)
-            files.append(save("compare.png", fig, "cases compared (actual TE, path of contact on the gear flank)"))
+            files.append("compare.png")
+            if drawn_here(out / "compare.png"):
+                fig, axes = plt.subplots(1, 2, figsize=(12, 4.5), layout="constrained")
+                plot_compare({c["label"]: c for c in self.cases}, axes=axes)
+                save("compare.png", fig, "cases compared (actual TE, path of contact on the gear flank)")
         if self.inspection:
             from ..plot.topography import plot_lead_chart, plot_profile_chart, plot_topography
 
