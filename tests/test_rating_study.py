@@ -8,7 +8,6 @@ checks the outputs against docs/results.md and the ISO relations between the two
 from __future__ import annotations
 
 import csv
-import json
 import math
 import re
 import sys
@@ -105,10 +104,12 @@ def test_face_load_factor_by_hand():
 
 
 @pytest.fixture(scope="module")
-def spur_run(tmp_path_factory):
-    out = tmp_path_factory.mktemp("rating") / "rating_spur"
-    assert main(["run", str(PROBLEMS / "rating_spur.toml"), "--out", str(out)]) == 0
-    return out, json.loads((out / "results.json").read_text())
+def spur_run(scene_run):
+    """problems/rating_spur.toml through the CLI: the session's shared run (conftest.scene_run), its
+    output directory and results."""
+    run = scene_run("rating_spur")
+    assert run.status == 0
+    return run.out, run.results
 
 
 @pytest.mark.slow
