@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..errors import CalculixError, GearoptError  # noqa: F401  (CalculixError lives in errors.py; re-exported)
+from ..compiled import idle_cpus
 
 if TYPE_CHECKING:
     from collections.abc import Sequence
@@ -135,8 +136,13 @@ def run_ccx(deck: Deck | None, jobname: str = "gear", threads: int = 2, timeout:
             keep_dir: str | os.PathLike | None = None, inp: str | None = None) -> CcxRun:
     """Write the deck (or the input text ``inp``) and run ``ccx -i jobname`` in a temporary directory
     (or ``keep_dir``, which keeps the files). Raises :class:`CalculixError` on a missing executable,
-    timeout or failure."""
+    timeout or failure.
+
+    ``threads`` is an upper bound: ccx gets at most the CPUs idle now (:func:`gearopt.compiled.idle_cpus`,
+    the 1-minute load average), because on busy cores a second solver thread only waits for a core
+    (measured: 35-50 % more ccx CPU at the same wall time, the same results)."""
     exe = require_ccx()
+    threads = max(1, min(int(threads), idle_cpus()))
     tmp = None
     if keep_dir is None:
         tmp = tempfile.TemporaryDirectory(prefix="gearopt-ccx-")
