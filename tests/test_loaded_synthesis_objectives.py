@@ -16,7 +16,8 @@ from gearopt.meshing.misalignment import Misalignment
 from gearopt.synthesis.loaded import EDGE_TOL, LoadedMicroOptimizer
 from gearopt.units import ARCMIN, RAD_TO_ARCSEC
 
-from test_loaded_synthesis import FREE, drive, optimizer
+from test_loaded_synthesis import (FREE, assert_sensitivities_match_finite_differences, drive, exact_separations,
+                                   optimizer)
 
 
 @pytest.mark.slow
@@ -43,7 +44,7 @@ def test_litvin_settings_as_design_variables():
     for j, h in ((0, 1e-6), (1, 1e-6)):
         e = np.zeros(th.size)
         e[j] = h
-        lp, lm = opt.linearise(th + e), opt.linearise(th - e)
+        lp, lm = exact_separations(opt, th + e), exact_separations(opt, th - e)
         S = lin[1].slices
         both = S.inside & lp[1].slices.inside & lm[1].slices.inside
         fd = (lp[1].a - lm[1].a) / (2 * h)
@@ -150,22 +151,31 @@ def test_harmonics_objective_matches_the_fft_of_the_exact_loaded_te():
 
 
 @pytest.fixture(scope="module")
-def te0_designs():
-    """Optima with the unloaded parabolic-TE target (8 arcsec) at a light and a heavy weight; edge
-    loading allowed, so that the profile crowning is free to serve either term."""
-    return {w: optimizer(te_level=8.0 / RAD_TO_ARCSEC, te_weight=w, edge_margin=None).solve() for w in (0.1, 10.0)}
+def te0_solved():
+    """``{weight: (optimizer, optimum)}`` with the unloaded parabolic-TE target (8 arcsec) at a light and
+    a heavy weight; edge loading allowed, so that the profile crowning is free to serve either term."""
+    out = {}
+    for w in (0.1, 10.0):
+        opt = optimizer(te_level=8.0 / RAD_TO_ARCSEC, te_weight=w, edge_margin=None)
+        out[w] = (opt, opt.solve())
+    return out
+
+
+@pytest.fixture(scope="module")
+def te0_designs(te0_solved):
+    """The optima of :func:`te0_solved` by weight."""
+    return {w: d for w, (_, d) in te0_solved.items()}
 
 
 @pytest.mark.slow
 @pytest.mark.ipopt
-def test_unloaded_te_target_is_the_tcas_unloaded_te_against_its_parabola(te0_designs):
+def test_unloaded_te_target_is_the_tcas_unloaded_te_against_its_parabola(te0_solved):
     """The unloaded-TE term: at the optimum, each case's RMS misfit (verified by the exact slices and
     predicted by the NLP) equals a numpy least-squares fit of c0 + c1 psi - 8" psi^2 to the TCA's own
     unloaded TE (the rootfinder sweep of pair 0 over the NLP's positions, nothing of the loaded
     model); the NLP's term at its solution (its own c0, c1) equals the weighted sum of those fits; the
     pair centred on each position is found on any grid (shifted by one pitch: pair 1)."""
-    d = te0_designs[0.1]
-    opt = optimizer(te_level=8.0 / RAD_TO_ARCSEC, te_weight=0.1, edge_margin=None)
+    opt, d = te0_solved[0.1]
     th = np.array(list(d.theta.values()))
     p1, p2 = opt.params(th)
     z1 = opt.pair.pinion.z
@@ -214,6 +224,20 @@ def test_heavier_unloaded_te_weight_lowers_the_misfit(te0_designs):
     assert hi.after.objective > lo.after.objective
     for d in (lo, hi):
         assert d.error["te0_rms"] < 1e-5 and d.error["objective"] < 0.01
+
+
+@pytest.mark.slow
+@pytest.mark.ipopt
+def test_sensitivities_with_the_unloaded_te_target_match_finite_differences(te0_solved):
+    """With the unloaded-TE target in the objective (its zero-load contact blocks and the projection of
+    the least-squares fit in the NLP), the AD sensitivities of the optimum (weight 0.1, edge loading
+    allowed) match central differences of the NLP re-solved at perturbed torques and misalignments
+    (tests/test_loaded_synthesis.py, every torque and every misalignment kind). (The weight 1 with the
+    edges held open: benchmarks/loaded_te_target_open.py, where the loop stops away from the NLP's optimum.)"""
+    opt, d = te0_solved[0.1]
+    S = opt.sensitivities(d)
+    assert S["degenerate"] == 0 and S["active"] > opt.torques.size
+    assert_sensitivities_match_finite_differences(opt, S)
 
 
 @pytest.mark.slow
