@@ -36,15 +36,16 @@ def optimizer(**kw):
     return LoadedMicroOptimizer(drive(), FREE, **opts)
 
 
-def exact_separations(opt, theta):
-    """Per case: the exact slices of the design ``theta`` [mm] (:meth:`LTCA.slices`, nothing of the
-    linearisation) and every active slice's absolute separation ``-te r_b2 cos(beta_b)`` [mm] (zero where
-    inactive), for central differences of the separations."""
+def exact_separations(opt, theta, cases=None):
+    """Per case (the indices ``cases`` of ``opt.cases``, default all): the exact slices of the design
+    ``theta`` [mm] (:meth:`LTCA.slices`, nothing of the linearisation) and every active slice's absolute
+    separation ``-te r_b2 cos(beta_b)`` [mm] (zero where inactive), for central differences of the
+    separations."""
     p1, p2 = opt.params(theta)
     lever = opt.pair.gear.r_b * opt.ltca.cos_bb
     out = []
-    for mis in opt.cases:
-        S = opt.ltca.slices(opt.phi1, p1, p2, mis)
+    for c in range(len(opt.cases)) if cases is None else cases:
+        S = opt.ltca.slices(opt.phi1, p1, p2, opt.cases[c])
         out.append(SimpleNamespace(slices=S, a=np.where(S.active, -S.te * lever, 0.0)))
     return out
 
