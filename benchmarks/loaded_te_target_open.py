@@ -9,12 +9,14 @@ with every slice and no radius finds its optimum about 22 um away (``model_step`
 with edge loading allowed is tested (tests/test_loaded_synthesis_objectives.py::
 test_sensitivities_with_the_unloaded_te_target_match_finite_differences).
 
-    python benchmarks/loaded_te_target_open.py        # about a minute alone on one core
+    python benchmarks/loaded_te_target_open.py            # about a minute alone on one core
+    python benchmarks/loaded_te_target_open.py --strict   # exit status 1 while the case is open
 
 Prints the optimum, the loop's stop and the sensitivities' ``model_step``; when the NLP's optimum is at
 the design, also checks the AD sensitivities against central differences of the re-solved NLP (as the
-tests do). Exit status 1 while the case is open (``model_step`` above 1e-4 mm, or the check fails),
-0 when it is fixed: then the test belongs back in tests/test_loaded_synthesis_objectives.py.
+tests do). With ``--strict`` the exit status is 1 while the case is open (``model_step`` above 1e-4 mm,
+or the check fails; without it 0, so that ``make bench`` runs on), 0 when it is fixed: then the test
+belongs back in tests/test_loaded_synthesis_objectives.py.
 """
 
 from __future__ import annotations
@@ -26,7 +28,12 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def main() -> int:
+def main(argv: list[str] | None = None) -> int:
+    import argparse
+
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--strict", action="store_true", help="exit status 1 while the case is open")
+    strict = ap.parse_args(argv).strict
     sys.path.insert(0, str(ROOT / "tests"))
     from test_loaded_synthesis import assert_sensitivities_match_finite_differences, optimizer
 
@@ -41,13 +48,13 @@ def main() -> int:
           f"({time.perf_counter() - t0:.1f} s)")
     if sens["model_step"] >= 1e-4:
         print("open: the NLP's optimum lies away from the design; no derivative of the design to check")
-        return 1
+        return int(strict)
     try:
         assert sens["degenerate"] == 0
         assert_sensitivities_match_finite_differences(opt, sens)
     except AssertionError as e:
         print(f"open: the sensitivities do not match central differences: {e}")
-        return 1
+        return int(strict)
     print("fixed: the sensitivities match central differences; move the test back into the suite")
     return 0
 
