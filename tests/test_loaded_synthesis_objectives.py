@@ -33,8 +33,9 @@ def test_litvin_settings_as_design_variables():
     # 24 positions: at 16 (with the bodies coupled over their depth and each flank's own curvature,
     # 2026-11-28) the loop stops with 0.0127 % of the load on a flank slice at the pinion's tip at
     # -3.38 deg of the crossed case (the SynthesisError that says so; docs/loaded_synthesis.md section 8).
-    # The top torque alone (the duty cycle of two torques: test_loaded_synthesis.py; with 100 N m too this
-    # took twice the time, 2026-11-29); the crossed case alone leaves a face end loaded within a_pl's bounds
+    # The top torque alone (a duty cycle of two torques: test_loaded_synthesis.py; with 100 N m too this
+    # took twice the time, 2026-11-29); with the crossed case alone no design within these bounds opened
+    # the face end (SynthesisError, 2026-11-29), so both cases stay
     opt = LoadedMicroOptimizer(drive(C_alpha=0.0, C_beta=0.0), free, torques=[250.0],
                                cases=[Misalignment(), Misalignment(crossing=2 * ARCMIN)], n_positions=24,
                                n_verify=32, n_slices=11)

@@ -128,8 +128,7 @@ def test_unmodified_drive_has_edge_contact_when_misaligned(name):
     pair = _drive(name)
     assert pair.pinion.rack.a_c == 0 and pair.pinion.a_pl == 0
     ec = EdgeContact(TCA(pair))
-    # a misaligned line-contact drive rests on a face end over the whole cycle: 40 positions find it (the
-    # same verdict per case as 160, 2026-11-29, at a third of the time)
+    # 40 positions of our own grid: the same verdict per case as 160 (2026-11-29), at a third of the time
     phi = _phi_grid(pair, 40)
     for cname, mis in _cases().items():
         r = ec.sweep(phi, mis=mis, pairs=EDGE_PAIRS)
