@@ -359,3 +359,23 @@ def test_gearopt_run_leaves_matplotlib_to_the_drawing_process(tmp_path):
     assert p.returncode == 0, p.stderr[-2000:]
     assert p.stdout.strip().splitlines()[-1] == "RC 0 False"
     assert (tmp_path / "out" / "dummy.png").stat().st_size > 0
+
+
+def test_the_forking_tests_run_in_a_process_without_other_threads():
+    """Under pytest-xdist (``make test``) a worker runs threads of its own, so the tests above that
+    fork skip there; this runs them in a fresh single-threaded pytest process instead, so that CI
+    tests the drawing processes too."""
+    if threading.active_count() == 1:
+        pytest.skip("single-threaded here: the forking tests above ran in this process")
+    if not (hasattr(os, "fork") and os.uname().sysname == "Linux"):
+        pytest.skip("no fork here (not Linux)")
+    import subprocess
+    import sys
+
+    root = Path(__file__).resolve().parents[1]
+    proc = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:xdist", "-p", "no:cacheprovider",
+                           "-m", "not slow", str(Path(__file__)), "-k", "processes or close"],
+                          cwd=root, capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-2000:]
+    assert "skipped" not in proc.stdout.splitlines()[-1], proc.stdout[-1000:]
+    assert " passed" in proc.stdout.splitlines()[-1]
