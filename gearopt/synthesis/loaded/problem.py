@@ -87,6 +87,8 @@ class LoadedProblem:
         #: term weighs te_weight times the loaded objective's per case, and so may its multipliers)
         self._w_mean = float(np.mean(self.weights)) * (1.0 + (self.te_weight if self.te_level is not None else 0.0))
         self._mult = np.ones((T, C))  #: how many cases of the duty cycle each (torque, case) stands for
+        #: the last trust-region pass's final NLP, its solution, parameters and radius (:meth:`_trust_region`)
+        self.last_solve: tuple | None = None
 
 
     # ------------------------------------------------------------------------------------------
