@@ -10,6 +10,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
+from gearopt import compiled
 from gearopt.gears import Gear, GearPair
 from gearopt.geometry.microgeometry import Microgeometry
 from gearopt.synthesis.loaded import LoadedMicroOptimizer
@@ -114,6 +115,30 @@ def test_the_start_designs_nlp_along_the_smoothing_path_reaches_the_direct_optim
     P = len(opt.free)
     assert abs(float(path["f"]) - float(direct["f"])) < 1e-7 * abs(float(direct["f"]))
     assert np.max(np.abs(np.asarray(path["x"])[:P] - np.asarray(direct["x"])[:P])) < 1e-5  # [um]
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not compiled.available(), reason="no C compiler")
+def test_the_sensitivities_run_compiled_when_cached_and_agree_with_the_interpreted(small, monkeypatch):
+    """With ``jit`` and the sensitivities' libraries in the disk cache, a linearisation runs them compiled
+    (a ColumnMap built interpreted on a cache miss is replaced once the library is there), with the
+    interpreted separations' derivatives (J, Jm, Jr, Jk) to round-off; without ``jit``, interpreted."""
+    small.phi1 = small.ltca.mesh_cycle(small.n_positions)
+    th = small.theta0.copy()
+    monkeypatch.setattr(small, "jit", False)
+    monkeypatch.setattr(small, "_sens_maps", {})
+    interp = small.linearise(th)
+    assert small._sens_maps and not any(m.compiled for m in small._sens_maps.values())
+    monkeypatch.setattr(small, "jit", True)  # the interpreted maps are kept until a library is there
+    for k in small._sens_maps:
+        assert compiled.compile_function(small._sensitivity(k)) is not None  # (loaded, or compiled now)
+    comp = small.linearise(th)
+    assert all(m.compiled for m in small._sens_maps.values())
+    for a, c in zip(comp, interp):
+        for k in ("J", "Jm", "Jr", "Jk"):
+            va, vc = getattr(a, k), getattr(c, k)
+            assert np.allclose(va, vc, rtol=1e-12, atol=1e-12 * np.max(np.abs(vc)))
+        assert np.count_nonzero(c.J) > 0
 
 
 class _Toy(LoadedMicroOptimizer):
