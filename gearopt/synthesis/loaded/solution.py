@@ -154,8 +154,9 @@ class NLPSolution:
     def _multipliers(self, prev, nlp):
         """The multipliers of an earlier NLP's solution ``prev = (nlp, solution)`` carried to ``nlp``,
         row by row: a row of a slice, a block or a torque-case keeps its multiplier where the earlier
-        NLP had the same row (the same torque, case, position and slice), else 0. ``None`` when the
-        two grids of positions differ."""
+        NLP had the same row (the same torque, case, position and slice; a position matched by its
+        angle, so a refined grid's rows find theirs), else 0. ``None`` when the new grid does not hold
+        every position of the earlier one."""
         pn, r = prev
         # each earlier position by its place on the new grid (a refined grid holds the earlier one)
         at = np.searchsorted(nlp.phi1, pn.phi1)
