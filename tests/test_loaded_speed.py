@@ -1,7 +1,7 @@
-"""The loaded micro-geometry optimiser's IPOPT starts (issue 43, docs/benchmarks.md "Loaded optimiser"):
-a refined grid's first NLP starts from the last pass's multipliers, carried by position; the NLP
-around the start design is solved along the smoothing's path and reaches the direct cold solve's
-optimum; the trust-region loop hands each pass's final solve to the next."""
+"""The loaded micro-geometry optimiser's speed (issue 43, docs/benchmarks.md "Loaded optimiser"): a
+refined grid's first NLP starts from the last pass's multipliers, carried by position, and the
+trust-region loop hands each pass's final solve to the next; the linearisation's sensitivities run
+compiled once their library is cached."""
 
 from __future__ import annotations
 
@@ -14,9 +14,9 @@ from gearopt import compiled
 from gearopt.gears import Gear, GearPair
 from gearopt.geometry.microgeometry import Microgeometry
 from gearopt.synthesis.loaded import LoadedMicroOptimizer
-from gearopt.synthesis.loaded.constants import MU, MU_PATH
+from gearopt.synthesis.loaded.constants import MU
 from gearopt.synthesis.loaded.layout import nlp_layout
-from gearopt.synthesis.loaded.trust_region import MU_AT, LocalModel
+from gearopt.synthesis.loaded.trust_region import LocalModel
 
 FREE = {"pinion.C_alpha": (0.0, 0.04), "pinion.C_beta": (0.0, 0.04)}
 
@@ -89,35 +89,6 @@ def test_multipliers_carry_onto_a_refined_grid_by_position(small):
 
 
 @pytest.mark.slow
-@pytest.mark.ipopt
-def test_the_start_designs_nlp_along_the_smoothing_path_reaches_the_direct_optimum(small, monkeypatch):
-    """An NLP marked ``continuation`` is solved at every smoothing of MU_PATH, then at MU, each from
-    the last solution and multipliers, and ends at the optimum of the direct cold solve at MU."""
-    opt = small
-    opt.phi1 = opt.ltca.mesh_cycle(opt.n_positions)
-    th = opt.theta0.copy()
-    cur = opt._around(th, 0.02)
-    direct, st_d, it_d = _solve(opt, cur, th, 0.01)
-    assert st_d["success"]
-    cur.nlp.continuation = True
-    seen = []
-    real = type(opt)._warm_solver
-
-    def spy(nlp):
-        f = real(nlp)
-        return lambda **kw: seen.append(float(np.asarray(kw["p"])[MU_AT])) or f(**kw)
-
-    monkeypatch.setattr(type(opt), "_warm_solver", staticmethod(spy))
-    path, st_p, it_p = _solve(opt, cur, th, 0.01)
-    assert st_p["success"]
-    assert seen == [*MU_PATH[1:], MU]  # the first smoothing cold, every later one warm, MU last
-    assert it_p > cur.nlp.warm.stats()["iter_count"]  # the iterations of every stage are counted
-    P = len(opt.free)
-    assert abs(float(path["f"]) - float(direct["f"])) < 1e-7 * abs(float(direct["f"]))
-    assert np.max(np.abs(np.asarray(path["x"])[:P] - np.asarray(direct["x"])[:P])) < 1e-5  # [um]
-
-
-@pytest.mark.slow
 def test_the_sensitivities_switch_to_the_compiled_library_once_it_is_cached(small, monkeypatch):
     """With ``jit``, a linearisation's sensitivities run interpreted while their library is not in the
     disk cache, and the compiled library's maps from the first linearisation after it is (gearopt.compiled
@@ -150,7 +121,7 @@ def test_the_sensitivities_switch_to_the_compiled_library_once_it_is_cached(smal
 class _Toy(LoadedMicroOptimizer):
     """The trust-region loop and ``solve`` (unchanged) on a one-amount problem solved in closed form
     (merit (t - 30)^2 [t in um]); the verification adds one position once. Records every NLP solve's
-    ``prev`` and the continuation mark of its NLP."""
+    ``prev``."""
 
     def __init__(self):  # none of the drive's machinery: the loop alone
         self.free, self.lo, self.hi = ("pinion.C_alpha",), np.array([0.0]), np.array([0.1])
@@ -192,7 +163,7 @@ class _Toy(LoadedMicroOptimizer):
                           check=chk, merit=self._merit(chk, rho), time=0.0)
 
     def _solve_nlp(self, nlp, z0, lbx, ubx, p, prev=None):
-        self.solves.append((prev, getattr(nlp, "continuation", False), nlp.phi1.size))
+        self.solves.append((prev, nlp.phi1.size))
         t = float(np.clip(30.0, lbx[0], ubx[0]))
         return ({"x": [t], "f": (t - 30.0) ** 2}, {"return_status": "Solve_Succeeded", "success": True}, 1)
 
@@ -205,20 +176,15 @@ class _Toy(LoadedMicroOptimizer):
         pass
 
 
-def test_a_refinement_starts_from_the_last_passs_final_solve_and_only_the_first_nlp_continues():
+def test_a_refinement_starts_from_the_last_passs_final_solve():
     toy = _Toy()
     d = toy.solve()
     assert d.theta["pinion.C_alpha"] == pytest.approx(0.030, abs=1e-12)
-    sizes = [s[2] for s in toy.solves]
+    sizes = [s[1] for s in toy.solves]
     assert sizes[0] == 2 and sizes[-1] == 3  # two passes: the grid grew by the verification's position
+    assert toy.solves[0][0] is None  # the first NLP: nothing earlier
     first_refined = sizes.index(3)
-    prev, cont, _ = toy.solves[first_refined]
+    prev, _ = toy.solves[first_refined]
     assert prev is not None and prev[0].phi1.size == 2  # the last pass's final NLP and solution
-    last_of_pass_1 = toy.solves[first_refined - 1]  # the final NLP's own solve (the design fixed)
-    assert prev[1]["x"] == [30.0] and last_of_pass_1[2] == 2
-    assert toy.solves[0][1] is True and toy.solves[0][0] is None  # the start design's NLP: continuation
-    assert not any(c for _, c, n in toy.solves[1:] if n == 3)  # a refinement's NLPs: no continuation
-    # a given start (a Pareto front's last optimum): no continuation
-    toy2 = _Toy()
-    toy2.solve(start=[0.01])
-    assert not any(c for _, c, _ in toy2.solves)
+    assert prev[1]["x"] == [30.0] and toy.solves[first_refined - 1][1] == 2
+    assert toy.last_solve[0].phi1.size == 3  # the refined pass's own final solve

@@ -22,11 +22,6 @@ F_TOL = 1e-4  #: ... or when the NLP predicts a decrease of the objective below 
 WARM_OPTS = {"ipopt.warm_start_init_point": "yes", "ipopt.mu_init": 1e-4, "ipopt.warm_start_bound_push": 1e-9,
              "ipopt.warm_start_mult_bound_push": 1e-9, "ipopt.warm_start_slack_bound_push": 1e-9,
              "ipopt.max_iter": 300}
-#: the smoothing's continuation of the NLP around the start design (:meth:`TrustRegion._solve_nlp`): solved
-#: cold at the first, then from each solution and its multipliers at the next, and at ``MU`` last (the start
-#: design lies far from the optimum: 240 -> 143 IPOPT iterations on problems/microgeometry_loaded.toml, the
-#: same solution to 3e-12 um; nearer the optimum the direct cold start takes fewer)
-MU_PATH = (1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7)
 HARM_EPS = 1e-3  #: [arcsec] smoothing of a harmonic amplitude at zero, sqrt(a^2 + b^2 + eps^2)
 TE0_EPS = 1e-3  #: [arcsec] smoothing of the unloaded TE's RMS misfit to its parabola at zero, sqrt(rms^2 + eps^2)
 DEGENERATE_REL = 1e-6  #: an active constraint whose multiplier is below this times the largest is degenerate

@@ -404,8 +404,6 @@ class LoadedNLP:
     te0: Te0Slices | None  #: the unloaded-TE target's slices, or None
     te0_term: ca.Function  #: the unloaded-TE target's term of the objective, ``z -> te0_term``
     warm: ca.Function | None = None  #: the warm-start IPOPT solver, once built (:meth:`TrustRegion._solve_nlp`)
-    #: solved cold along the smoothing's path (the NLP around the start design, :meth:`TrustRegion._solve_nlp`)
-    continuation: bool = False
     _solver: ca.Function | None = field(default=None, repr=False)
 
     @property

@@ -110,10 +110,7 @@ class LoadedMicroOptimizer(LoadedProblem, MirrorReduction, Verification, Lineari
             red.phi1 = self.phi1
             # (a refinement goes on from the optimum with the penalty weight the last pass needed, its
             # IPOPT from the last pass's multipliers)
-            # (the pair's own design, the first start, lies far from the optimum: its NLP is solved along the
-            # smoothing's path; a given start, e.g. a Pareto front's last optimum, is near one)
-            theta, cur, pred, it, status, rho, stop = red._trust_region(theta, rounds, progress, rho, prev=last,
-                                                                        continuation=start is None and refine == 0)
+            theta, cur, pred, it, status, rho, stop = red._trust_region(theta, rounds, progress, rho, prev=last)
             last = red.last_solve
             iters += it
             after = self.check(theta, fine)

@@ -13,13 +13,12 @@ import numpy as np
 
 from ..crowning import SynthesisError
 from . import constants
-from .constants import EDGE_TOL, MAX_ROUNDS, MU, MU_PATH, RHO, RHO_MAX, SLACK_TOL, TR_START, WARM_OPTS
+from .constants import EDGE_TOL, MAX_ROUNDS, RHO, RHO_MAX, SLACK_TOL, TR_START, WARM_OPTS
 from .layout import param_layout
 from .nlp import LoadedNLP
 from .results import LoadedCheck
 
 RHO_AT = param_layout(0, 0)["rho"].start  #: the penalty weight's place among the NLP's parameters
-MU_AT = param_layout(0, 0)["mu"].start  #: the smoothing's place among the NLP's parameters
 
 
 @dataclass
@@ -37,8 +36,7 @@ class LocalModel:
 class TrustRegion:
     """The trust-region loop of linearisations and the NLP solves."""
 
-    def _trust_region(self, theta, rounds: list, progress=None, rho: float = RHO, prev: tuple | None = None,
-                      continuation: bool = False):
+    def _trust_region(self, theta, rounds: list, progress=None, rho: float = RHO, prev: tuple | None = None):
         """Optimise and verify (module docstring).
 
         A trust-region loop of linearisations: the NLP around the design ``theta_k`` is solved with
@@ -55,14 +53,12 @@ class TrustRegion:
         ``rho``: the first weight (a refinement of the grid starts from the weight the last pass ended
         with); ``prev``: the last pass's final NLP and solution (:attr:`last_solve`), whose multipliers
         start the first round's IPOPT (:meth:`_multipliers` carries them to the refined grid).
-        The final NLP's own solve is kept as :attr:`last_solve`. ``continuation``: the first NLP (around a
-        start design far from the optimum) is solved along the smoothing's path (:meth:`_solve_nlp`)."""
+        The final NLP's own solve is kept as :attr:`last_solve`."""
         p = self._pvec(rho)
         radius = TR_START * float(np.max(self.hi - self.lo))
         iters, status, pred, stop = 0, "", None, "trust radius"
         last_viol = 0.0  # the model's constraint violation (relative, > 1: violated) at the last accepted step
         cur = self._around(theta, 2 * radius, rho)
-        cur.nlp.continuation = continuation and prev is None
         for rnd in range(MAX_ROUNDS):
             nlp = cur.nlp
             lbx, ubx = self._bounds(nlp)
@@ -168,28 +164,11 @@ class TrustRegion:
         """Solve ``nlp`` from ``z0``. With ``prev`` (an earlier NLP of the same positions, or of a grid
         they are part of, and its solution), first from its multipliers (:meth:`_multipliers`) and a
         small barrier parameter (``WARM_OPTS``): near the earlier optimum a few tens of iterations
-        instead of hundreds; where that fails, from the cold start. Without ``prev``, an NLP marked
-        ``continuation`` (around the start design) is solved along the smoothing's path ``MU_PATH``: cold at its first value, then from each
-        solution and its multipliers at the next, ``MU`` last; where a step fails, the cold start.
-        Returns the solution, IPOPT's stats and the iterations of all."""
+        instead of hundreds; where that fails, from the cold start. Returns the solution, IPOPT's stats
+        and the iterations of both."""
         args = dict(x0=z0, lbx=lbx, ubx=ubx, lbg=nlp.lbg, ubg=nlp.ubg, p=p)
         its = 0
         lam = None if prev is None or not np.array_equal(prev[2], p) else self._multipliers(prev[:2], nlp)
-        if lam is None and nlp.continuation and p[MU_AT] == MU:
-            q = np.array(p, float)
-            for k, mu in enumerate((*MU_PATH, MU)):
-                q[MU_AT] = mu
-                if k == 0:
-                    r = nlp.solver(**{**args, "p": q})
-                    st = nlp.solver.stats()
-                else:
-                    r = self._warm_solver(nlp)(**{**args, "x0": r["x"], "p": q}, lam_x0=r["lam_x"], lam_g0=r["lam_g"])
-                    st = nlp.warm.stats()
-                its += int(st["iter_count"])
-                if not st["success"]:
-                    break
-            else:
-                return r, st, its
         if lam is not None:
             r = self._warm_solver(nlp)(lam_x0=lam[0], lam_g0=lam[1], **args)
             st = nlp.warm.stats()
