@@ -21,13 +21,31 @@ The grid search, like the optimiser, solves one case of each mirror-image pair (
 every design of this grid, docs/loaded_synthesis.md section 5): 3 loaded-TCA evaluations per design.
 
 Prints a markdown table: objective reached, edge load, loaded-TCA evaluations, wall time.
+
+``--scene NAME``: instead, the time of a scene's optimisation (issue 43: ``microgeometry_loaded``
+<= 8 s warm, <= 20 s cold), each run one fresh process that reads the scene, builds its study
+(``build``) and calls ``LoadedMicroOptimizer.solve`` (``solve``); wall and CPU time (user + system,
+less sensitive to the load of the machine), IPOPT iterations, trust-region rounds and the optimum.
+The first run of each tree is cold (a new, empty ``GEAROPT_CACHE``: every compiled library built),
+the ``--repeat`` runs after it warm (the same cache). With ``--base REV`` the revision is exported
+(``git archive``) to a temporary folder and its runs alternate with the working tree's; the optimum
+of each is compared with the base's.
+
+    python benchmarks/bench_loaded_synthesis.py --scene microgeometry_loaded --base 32efd09
 """
 
 from __future__ import annotations
 
 import argparse
 import itertools
+import json
+import os
+import resource
+import shutil
+import statistics
+import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -38,6 +56,91 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "tests"))
 
 
+SCENE_DRIVER = r"""
+import json, sys, time
+t0, c0 = time.perf_counter(), time.process_time()
+from gearopt.io.scene import load_scene
+opt = load_scene(sys.argv[1]).build().optimizer
+t1, c1 = time.perf_counter(), time.process_time()
+d = opt.solve()
+t2, c2 = time.perf_counter(), time.process_time()
+print("BENCH_SCENE " + json.dumps({
+    "build": t1 - t0, "solve": t2 - t1, "build_cpu": c1 - c0, "solve_cpu": c2 - c1, "iterations": d.iterations,
+    "rounds": len(d.rounds), "round_iterations": [r["iterations"] for r in d.rounds],
+    "ipopt": sum(r["nlp_s"] for r in d.rounds), "theta_um": [v * 1e3 for v in d.theta.values()],
+    "objective": d.after.objective, "predicted": d.predicted["objective"], "positions": int(d.phi1.size)}))
+"""
+
+
+def scene_run(tree: Path, scene: str, cache: Path) -> dict:
+    """One fresh process of :data:`SCENE_DRIVER` on ``tree``'s package and ``problems/<scene>.toml``, with
+    the disk caches in ``cache``; its numbers, with the process's CPU time (``cpu``, children included)."""
+    env = dict(os.environ, PYTHONPATH=str(tree), GEAROPT_CACHE=str(cache), MPLBACKEND="Agg")
+    env.pop("GEAROPT_CACHE_DIR", None)
+    r0 = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t = time.perf_counter()
+    p = subprocess.run([sys.executable, "-c", SCENE_DRIVER, f"problems/{scene}.toml"], cwd=tree, env=env,
+                       capture_output=True, text=True)
+    wall = time.perf_counter() - t
+    r1 = resource.getrusage(resource.RUSAGE_CHILDREN)
+    line = [s for s in p.stdout.splitlines() if s.startswith("BENCH_SCENE ")]
+    if p.returncode or not line:
+        raise SystemExit(f"bench_loaded_synthesis: {scene} in {tree} failed (rc {p.returncode}):\n{p.stderr[-3000:]}")
+    out = json.loads(line[-1].split(" ", 1)[1])
+    out.update(process=wall, cpu=(r1.ru_utime - r0.ru_utime) + (r1.ru_stime - r0.ru_stime))
+    return out
+
+
+def scene_main(scene: str, base: str | None, repeat: int) -> int:
+    """``--scene``: cold and warm optimisation times of ``scene`` here (and at ``base``), module docstring."""
+    work = Path(tempfile.mkdtemp(prefix="gearopt-bench-loaded-"))
+    trees = {"here": ROOT}
+    try:
+        if base:
+            bt = work / "base-tree"
+            bt.mkdir()
+            arc = subprocess.run(["git", "archive", base], cwd=ROOT, capture_output=True)
+            if arc.returncode:
+                print(f"bench_loaded_synthesis: git archive {base!r} failed: {arc.stderr.decode().strip()}", file=sys.stderr)
+                return 2
+            subprocess.run(["tar", "-x", "-C", str(bt)], input=arc.stdout, check=True)
+            trees = {"base": bt, "here": ROOT}
+        runs = {k: [] for k in trees}
+        for i in range(repeat + 1):  # run 0: cold (an empty cache)
+            for k, tree in trees.items():
+                r = scene_run(tree, scene, work / f"cache-{k}")
+                runs[k].append(r)
+                print(f"  {k} run {i} ({'cold' if i == 0 else 'warm'}): build {r['build']:.2f} s, solve {r['solve']:.2f} s "
+                      f"(CPU {r['build_cpu']:.2f} + {r['solve_cpu']:.2f} s), {r['iterations']} IPOPT iterations "
+                      f"{r['round_iterations']}, load {os.getloadavg()[0]:.2f}", file=sys.stderr, flush=True)
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
+    load = os.getloadavg()
+    print(f"{scene}: optimisation (scene read, study built, LoadedMicroOptimizer.solve) in fresh processes; "
+          f"warm: median of {repeat}; load average {load[0]:.2f} {load[1]:.2f} {load[2]:.2f} on {os.cpu_count()} CPUs\n")
+    print("| tree | cold build + solve [s] | cold CPU [s] | warm build + solve [s] | warm CPU [s] | warm solve [s] "
+          "| IPOPT iterations (per round) | IPOPT [s] | NLP positions | objective [arcsec] | design [um] |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    med = {}
+    for k, rs in runs.items():
+        c, w = rs[0], rs[1:]
+        m = {q: statistics.median(r[q] for r in w) for q in ("build", "solve", "build_cpu", "solve_cpu", "ipopt")}
+        med[k] = m
+        print(f"| {k} | {c['build'] + c['solve']:.1f} | {c['build_cpu'] + c['solve_cpu']:.1f} | {m['build'] + m['solve']:.1f} "
+              f"| {m['build_cpu'] + m['solve_cpu']:.1f} | {m['solve']:.1f} | {w[-1]['iterations']} {w[-1]['round_iterations']} "
+              f"| {m['ipopt']:.1f} | {w[-1]['positions']} | {w[-1]['objective']:.9f} "
+              f"| {' / '.join(f'{v:.6f}' for v in w[-1]['theta_um'])} |")
+    if base:
+        h, b = runs["here"][-1], runs["base"][-1]
+        for q, what in (("build", "warm build + solve, wall"), ("build_cpu", "warm build + solve, CPU")):
+            s = "_cpu" if q.endswith("cpu") else ""
+            print(f"\nhere/base, {what}: {(med['here'][q] + med['here']['solve' + s]) / (med['base'][q] + med['base']['solve' + s]):.2f}", end="")
+        dth = max(abs(x - y) for x, y in zip(h["theta_um"], b["theta_um"]))
+        print(f"\noptimum here - base: largest amount {dth:.3g} um, objective {h['objective'] - b['objective']:+.3g} arcsec, "
+              f"NLP prediction {h['predicted'] - b['predicted']:+.3g} arcsec")
+    return 0
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--levels", type=int, default=5, help="grid levels per amount (default 5)")
@@ -46,7 +149,17 @@ def main(argv=None):
     ap.add_argument("--search", choices=("grid", "de", "both"), default="grid",
                     help="derivative-free search: the grid (default), scipy's differential evolution, or both")
     ap.add_argument("--de-maxiter", type=int, default=9, help="differential evolution: generations (default 9)")
+    ap.add_argument("--scene", default=None, metavar="NAME",
+                    help="time the optimisation of problems/NAME.toml instead (cold and warm, module docstring)")
+    ap.add_argument("--base", default=None, metavar="REV", help="--scene: also time the git revision REV")
+    ap.add_argument("--repeat", type=int, default=2, help="--scene: warm runs per tree after the cold one (default 2)")
     args = ap.parse_args(argv)
+    if args.scene is not None:
+        if args.repeat < 1:
+            ap.error(f"--repeat = {args.repeat}: must be >= 1")
+        if not (ROOT / "problems" / f"{args.scene}.toml").is_file():
+            ap.error(f"--scene {args.scene!r}: no problems/{args.scene}.toml")
+        return scene_main(args.scene, args.base, args.repeat)
 
     from gearopt.meshing.misalignment import Misalignment
     from gearopt.studies.crowning import misalignment_cases

@@ -13,6 +13,7 @@ import casadi as ca
 import numpy as np
 import numpy.typing as npt
 
+from ... import compiled
 from ...ltca.engine import ContactStructure
 from ...ltca.slices import SliceSet
 from ...meshing.misalignment import Misalignment
@@ -96,6 +97,17 @@ class Lineariser:
                                            ["dw3", "dr1", "dr2", "dk"])
         return self._sens[kind]
 
+    def _sensitivity_columns(self, kind: int, n: int) -> compiled.ColumnMap:
+        """:meth:`_sensitivity` of slice kind ``kind`` on ``n`` columns: with ``jit``, the compiled library
+        from the disk cache (:func:`gearopt.compiled.mapped`, ``jit="auto"``: on a cache miss it compiles in
+        the background while these columns run interpreted, and a later call picks it up); the AD graph
+        interpreted took most of a linearisation (4 s of the 7 of problems/microgeometry_loaded.toml)."""
+        f = self._sensitivity(kind)
+        cm = self._sens_maps.get(kind)
+        if cm is None or (not cm.compiled and self.jit and compiled.cached_function(f) is not None):
+            cm = self._sens_maps[kind] = compiled.mapped(f, n, jit="auto" if self.jit else False)
+        return cm
+
     def linearise(self, theta: npt.ArrayLike) -> list[Linearisation]:
         """Slices, compliance and the separations' sensitivities of the design ``theta`` [mm]: one
         :class:`Linearisation` per case."""
@@ -120,7 +132,7 @@ class Lineariser:
                 prm = self.tca.prm(phis[kk, nn], p1, p2, mis)
                 prm[self.tca.layout.index("z_section"), :] = S.z[kk, nn, mm]
                 wv = S.w[kk, nn, mm].T
-                f = self._sensitivity(kind).map(wv.shape[1])
+                f = self._sensitivity_columns(kind, wv.shape[1])
                 dw3, dr1, dr2, dk = (np.asarray(v).T for v in f(wv, prm))
                 J[kk, nn, mm] = dw3 / self.pair.gear.r_p * (-lever)
                 Jr[kk, nn, mm] = np.stack([dr1, dr2], axis=1)

@@ -105,11 +105,13 @@ class LoadedMicroOptimizer(LoadedProblem, MirrorReduction, Verification, Lineari
         of = np.zeros(len(self.cases), int)
         for i, k in enumerate(classes):
             of[k] = i
-        rho = RHO
+        rho, last = RHO, None
         for refine in range(MAX_REFINE + 1):
             red.phi1 = self.phi1
-            # (a refinement goes on from the optimum with the penalty weight the last pass needed)
-            theta, cur, pred, it, status, rho, stop = red._trust_region(theta, rounds, progress, rho)
+            # (a refinement goes on from the optimum with the penalty weight the last pass needed, its
+            # IPOPT from the last pass's multipliers)
+            theta, cur, pred, it, status, rho, stop = red._trust_region(theta, rounds, progress, rho, prev=last)
+            last = red.last_solve
             iters += it
             after = self.check(theta, fine)
             add = self._violated_positions(after, fine)

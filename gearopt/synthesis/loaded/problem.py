@@ -59,6 +59,7 @@ class LoadedProblem:
         # the loop solves the slices of every case several hundred columns at a time, dozens of times:
         # compiled whenever a C compiler is present (8x faster than interpreted at 500 columns)
         jit = available() if jit == "auto" else bool(jit)
+        self.jit = jit  #: whether the slices and the separations' sensitivities run as compiled C
         self.tca = TCA(pair, side=side, pinion=modified_tooth(pair, "pinion", force_iso=True),
                        gear=modified_tooth(pair, "gear", force_iso=True), jit=jit)
         # the default loaded TCA (each flank's own curvature in the Hertz term, docs/ltca.md section 3): the
@@ -82,11 +83,14 @@ class LoadedProblem:
             raise out_of_range(f"free.{n}", f"{float(t) * k:g} {u}", f"the start design's {n} must lie within its bounds "
                                f"{self.lo[i] * k:g} ... {self.hi[i] * k:g} {u}", cls=OptionError)
         self._sens = {}
+        self._sens_maps = {}  #: per slice kind, the sensitivities on columns (:meth:`Lineariser._sensitivity_columns`)
         self._has_settings = any(n.split(".", 1)[1] in SETTINGS for n in self.free)
         #: the penalty's weight scale (that of the full duty cycle; an unloaded-TE target adds its weight: its
         #: term weighs te_weight times the loaded objective's per case, and so may its multipliers)
         self._w_mean = float(np.mean(self.weights)) * (1.0 + (self.te_weight if self.te_level is not None else 0.0))
         self._mult = np.ones((T, C))  #: how many cases of the duty cycle each (torque, case) stands for
+        #: the last trust-region pass's final NLP, its solution, parameters and radius (:meth:`_trust_region`)
+        self.last_solve: tuple | None = None
 
 
     # ------------------------------------------------------------------------------------------

@@ -154,26 +154,30 @@ class NLPSolution:
     def _multipliers(self, prev, nlp):
         """The multipliers of an earlier NLP's solution ``prev = (nlp, solution)`` carried to ``nlp``,
         row by row: a row of a slice, a block or a torque-case keeps its multiplier where the earlier
-        NLP had the same row (the same torque, case, position and slice), else 0. ``None`` when the
-        two grids of positions differ."""
+        NLP had the same row (the same torque, case, position and slice; a position matched by its
+        angle, so a refined grid's rows find theirs), else 0. ``None`` when the new grid does not hold
+        every position of the earlier one."""
         pn, r = prev
-        if not np.array_equal(pn.phi1, nlp.phi1):
+        # each earlier position by its place on the new grid (a refined grid holds the earlier one)
+        at = np.searchsorted(nlp.phi1, pn.phi1)
+        if np.any(at >= nlp.phi1.size) or not np.array_equal(nlp.phi1[np.minimum(at, nlp.phi1.size - 1)], pn.phi1):
             return None
         lg, lx = (np.asarray(r[k]).ravel() for k in ("lam_g", "lam_x"))
 
-        def code(k):  # (torque, case, position, slice) -> one key
+        def code(k, n):  # (torque, case, position, slice) -> one key, the position on the new grid
             k = np.asarray(k, np.int64).reshape(-1, 4)
-            return ((k[:, 0] * 1000 + k[:, 1]) * 100000 + k[:, 2]) * 1000000 + k[:, 3]
+            pos = at[k[:, 2]] if n is pn else k[:, 2]
+            return ((k[:, 0] * 1000 + k[:, 1]) * 100000 + pos) * 1000000 + k[:, 3]
 
         def rows(n):  # the keys of every constraint row, by the rows' block (:data:`.layout.ROWS`)
-            kx = code(n.keys)
-            kb = code([(b.torque, b.case, b.position, 0) for b in n.blocks])
-            out = dict(stiffness=code(n.w_keys) * 4 + n.w_part, gap=kx, complementarity=kx, balance=kb, te_hi=kb, te_lo=kb,
-                       pressure=kx[n.rows["flank"]], edge=kx[n.rows["ends"]])
+            kx = code(n.keys, n)
+            kb = code([(b.torque, b.case, b.position, 0) for b in n.blocks], n)
+            out = dict(stiffness=code(n.w_keys, n) * 4 + n.w_part, gap=kx, complementarity=kx, balance=kb, te_hi=kb,
+                       te_lo=kb, pressure=kx[n.rows["flank"]], edge=kx[n.rows["ends"]])
             if n.te0 is not None:  # the unloaded-TE target's rows (torque index T: zero load)
-                k0 = code(n.te0.keys)
+                k0 = code(n.te0.keys, n)
                 out.update(te0_gap=k0, te0_complementarity=k0,
-                           te0_balance=code([(self.torques.size, c, m, 0) for c, m, _, _ in n.te0.blocks]))
+                           te0_balance=code([(self.torques.size, c, m, 0) for c, m, _, _ in n.te0.blocks], n))
             return out
 
         def carry(kp, vp, kn):

@@ -36,7 +36,7 @@ class LocalModel:
 class TrustRegion:
     """The trust-region loop of linearisations and the NLP solves."""
 
-    def _trust_region(self, theta, rounds: list, progress=None, rho: float = RHO):
+    def _trust_region(self, theta, rounds: list, progress=None, rho: float = RHO, prev: tuple | None = None):
         """Optimise and verify (module docstring).
 
         A trust-region loop of linearisations: the NLP around the design ``theta_k`` is solved with
@@ -51,10 +51,12 @@ class TrustRegion:
         NLP's optima of two accepted steps in a row needed a slack (the second's not tenfold smaller
         than the first's), the weight grows tenfold after the second step, for the next round.
         ``rho``: the first weight (a refinement of the grid starts from the weight the last pass ended
-        with)."""
+        with); ``prev``: the last pass's final NLP and solution (:attr:`last_solve`), whose multipliers
+        start the first round's IPOPT (:meth:`_multipliers` carries them to the refined grid).
+        The final NLP's own solve is kept as :attr:`last_solve`."""
         p = self._pvec(rho)
         radius = TR_START * float(np.max(self.hi - self.lo))
-        iters, status, pred, prev, stop = 0, "", None, None, "trust radius"
+        iters, status, pred, stop = 0, "", None, "trust radius"
         last_viol = 0.0  # the model's constraint violation (relative, > 1: violated) at the last accepted step
         cur = self._around(theta, 2 * radius, rho)
         for rnd in range(MAX_ROUNDS):
@@ -150,6 +152,7 @@ class TrustRegion:
         th = nlp.layout.unknowns["theta"]
         lbx[th] = ubx[th] = theta * 1e3
         r, st, _ = self._solve_nlp(nlp, cur.z0, lbx, ubx, p, prev)
+        self.last_solve = (nlp, r, np.array(p, float), radius)
         if not st["success"]:
             raise SynthesisError(f"loaded micro-geometry: the NLP at the final design failed "
                                  f"({st['return_status']}).", param="ipopt", value=st["return_status"])
@@ -158,17 +161,16 @@ class TrustRegion:
         return theta, cur, pred, iters, status, rho, stop
 
     def _solve_nlp(self, nlp, z0, lbx, ubx, p, prev=None):
-        """Solve ``nlp`` from ``z0``. With ``prev`` (an earlier NLP of the same positions and its
-        solution), first from its multipliers (:meth:`_multipliers`) and a small barrier parameter
-        (``WARM_OPTS``): near the earlier optimum a few tens of iterations instead of hundreds; where
-        that fails, from the cold start. Returns the solution, IPOPT's stats and the iterations of both."""
+        """Solve ``nlp`` from ``z0``. With ``prev`` (an earlier NLP of the same positions, or of a grid
+        they are part of, and its solution), first from its multipliers (:meth:`_multipliers`) and a
+        small barrier parameter (``WARM_OPTS``): near the earlier optimum a few tens of iterations
+        instead of hundreds; where that fails, from the cold start. Returns the solution, IPOPT's stats
+        and the iterations of both."""
         args = dict(x0=z0, lbx=lbx, ubx=ubx, lbg=nlp.lbg, ubg=nlp.ubg, p=p)
         its = 0
         lam = None if prev is None or not np.array_equal(prev[2], p) else self._multipliers(prev[:2], nlp)
         if lam is not None:
-            if nlp.warm is None:
-                nlp.warm = ca.nlpsol("loaded_microgeometry_warm", "ipopt", nlp.problem, {**nlp.opts, **WARM_OPTS})
-            r = nlp.warm(lam_x0=lam[0], lam_g0=lam[1], **args)
+            r = self._warm_solver(nlp)(lam_x0=lam[0], lam_g0=lam[1], **args)
             st = nlp.warm.stats()
             its += int(st["iter_count"])
             if st["success"]:
@@ -176,6 +178,13 @@ class TrustRegion:
         r = nlp.solver(**args)
         st = nlp.solver.stats()
         return r, st, its + int(st["iter_count"])
+
+    @staticmethod
+    def _warm_solver(nlp) -> ca.Function:
+        """The IPOPT solver of ``nlp`` from a given point and multipliers (``WARM_OPTS``), built on first use."""
+        if nlp.warm is None:
+            nlp.warm = ca.nlpsol("loaded_microgeometry_warm", "ipopt", nlp.problem, {**nlp.opts, **WARM_OPTS})
+        return nlp.warm
 
     def _around(self, theta, radius: float = np.inf, rho: float = RHO) -> LocalModel:
         """Linearisation, NLP and start point at ``theta``, with the exact loaded TCA there; the NLP

@@ -1,0 +1,190 @@
+"""The loaded micro-geometry optimiser's speed (issue 43, docs/benchmarks.md "Loaded optimiser"): a
+refined grid's first NLP starts from the last pass's multipliers, carried by position, and the
+trust-region loop hands each pass's final solve to the next; the linearisation's sensitivities run
+compiled once their library is cached."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from gearopt import compiled
+from gearopt.gears import Gear, GearPair
+from gearopt.geometry.microgeometry import Microgeometry
+from gearopt.synthesis.loaded import LoadedMicroOptimizer
+from gearopt.synthesis.loaded.constants import MU
+from gearopt.synthesis.loaded.layout import nlp_layout
+from gearopt.synthesis.loaded.trust_region import LocalModel
+
+FREE = {"pinion.C_alpha": (0.0, 0.04), "pinion.C_beta": (0.0, 0.04)}
+
+
+@pytest.fixture(scope="module")
+def small():
+    """A small duty cycle (one torque, the aligned drive, 8 positions, 7 slices)."""
+    pair = GearPair(Gear(z=20, m_n=3.0, b=20.0, modifications=Microgeometry(C_alpha=0.005, C_beta=0.010)),
+                    Gear(z=40, m_n=3.0, b=20.0))
+    return LoadedMicroOptimizer(pair, FREE, torques=[200.0], n_positions=8, n_verify=16, n_slices=7)
+
+
+def _solve(opt, cur, theta, radius, prev=None):
+    nlp = cur.nlp
+    lbx, ubx = opt._bounds(nlp)
+    th = nlp.layout.unknowns["theta"]
+    lbx[th] = np.maximum(opt.lo, theta - radius) * 1e3
+    ubx[th] = np.minimum(opt.hi, theta + radius) * 1e3
+    return opt._solve_nlp(nlp, cur.z0, lbx, ubx, opt._pvec(1000.0), prev)
+
+
+@pytest.mark.slow
+@pytest.mark.ipopt
+def test_multipliers_carry_onto_a_refined_grid_by_position(small):
+    """The NLP of a grid with one position more (a refinement) takes each row's multiplier from the row
+    of the same torque, case, position (by its angle, not its index) and slice; the new position's rows
+    start at 0; a grid that does not hold the earlier one gets nothing."""
+    opt = small
+    th = opt.theta0.copy()
+    grid = opt.ltca.mesh_cycle(opt.n_positions)
+    opt.phi1 = grid
+    a = opt._around(th, 0.004)
+    ra, st, _ = _solve(opt, a, th, 0.004)
+    assert st["success"]
+    finer = np.sort(np.append(grid, 0.5 * (grid[1] + grid[2])))  # a position between the 2nd and 3rd
+    opt.phi1 = finer
+    b = opt._around(th, 0.004)
+    lam = opt._multipliers((a.nlp, ra), b.nlp)
+    assert lam is not None
+    lg = lam[1]
+    na, nb = a.nlp, b.nlp
+    rows_a = na.layout.rows.take(np.asarray(ra["lam_g"]).ravel(), "complementarity")
+    rows_b = nb.layout.rows.take(lg, "complementarity")
+    key = lambda n, k, phi: (int(k[0]), int(k[1]), float(phi[k[2]]), int(k[3]))  # noqa: E731
+    old = {key(na, k, grid): v for k, v in zip(na.keys, rows_a)}
+    new_pos = int(np.flatnonzero(~np.isin(finer, grid))[0])
+    hits = 0
+    for k, v in zip(nb.keys, rows_b):
+        if k[2] == new_pos:
+            assert v == 0.0
+        else:
+            assert v == old.get(key(nb, k, finer), 0.0)
+            hits += key(nb, k, finer) in old
+    assert hits > 0.5 * nb.sizes["nx"] and np.count_nonzero(rows_b) > 0
+    # positions after the new one moved up by one index: their rows still found their own multipliers
+    later = [i for i, k in enumerate(nb.keys) if k[2] > new_pos and key(nb, k, finer) in old]
+    assert later and all(rows_b[i] == old[key(nb, nb.keys[i], finer)] for i in later)
+    # the warm solve on the refined grid converges (no cold fallback) to the cold solve's optimum
+    cold, st_c, _ = _solve(opt, b, th, 0.004)
+    warm, st_w, it_w = _solve(opt, b, th, 0.004, prev=(na, ra, np.array(opt._pvec(1000.0), float)))
+    assert st_c["success"] and st_w["success"] and it_w == nb.warm.stats()["iter_count"]
+    assert abs(float(warm["f"]) - float(cold["f"])) < 1e-7 * abs(float(cold["f"]))
+    P = len(opt.free)
+    assert np.max(np.abs(np.asarray(warm["x"])[:P] - np.asarray(cold["x"])[:P])) < 1e-5  # [um]
+    # a grid that does not hold every earlier position: nothing carried
+    opt.phi1 = grid + 1e-3
+    c = opt._around(th, 0.004)
+    assert opt._multipliers((na, ra), c.nlp) is None
+    opt.phi1 = grid
+
+
+@pytest.mark.slow
+def test_the_sensitivities_switch_to_the_compiled_library_once_it_is_cached(small, monkeypatch):
+    """With ``jit``, a linearisation's sensitivities run interpreted while their library is not in the
+    disk cache, and the compiled library's maps from the first linearisation after it is (gearopt.compiled
+    stood in by the graph itself: which maps run is what is tested; compiled and interpreted columns agree
+    to round-off, tests/test_tca_jit.py); without ``jit``, interpreted whatever the cache holds."""
+    small.phi1 = small.ltca.mesh_cycle(small.n_positions)
+    th = small.theta0.copy()
+    cache = {}
+    monkeypatch.setattr(compiled, "cached_function", lambda f: cache.get(f.name()))
+    monkeypatch.setattr(compiled, "select", lambda f, jit, n: cache.get(f.name()) if jit else None)
+    monkeypatch.setattr(small, "_sens_maps", {})
+    monkeypatch.setattr(small, "jit", True)
+    miss = small.linearise(th)  # a cache miss: interpreted
+    kinds = sorted(small._sens_maps)
+    assert kinds and not any(m.compiled for m in small._sens_maps.values())
+    for k in kinds:  # the libraries arrive in the cache
+        cache[small._sensitivity(k).name()] = small._sensitivity(k)
+    hit = small.linearise(th)
+    assert all(small._sens_maps[k].compiled for k in kinds)
+    monkeypatch.setattr(small, "jit", False)
+    monkeypatch.setattr(small, "_sens_maps", {})
+    off = small.linearise(th)
+    assert not any(m.compiled for m in small._sens_maps.values())
+    for a, b, c in zip(miss, hit, off):
+        for k in ("J", "Jm", "Jr", "Jk"):
+            assert np.array_equal(getattr(a, k), getattr(c, k)) and np.array_equal(getattr(b, k), getattr(c, k))
+        assert np.count_nonzero(c.J) > 0
+
+
+class _Toy(LoadedMicroOptimizer):
+    """The trust-region loop and ``solve`` (unchanged) on a one-amount problem solved in closed form
+    (merit (t - 30)^2 [t in um]); the verification adds one position once. Records every NLP solve's
+    ``prev``."""
+
+    def __init__(self):  # none of the drive's machinery: the loop alone
+        self.free, self.lo, self.hi = ("pinion.C_alpha",), np.array([0.0]), np.array([0.1])
+        self.theta0, self.cases, self.p_limit, self.te_level = np.array([0.0]), (None,), None, None
+        self.n_positions, self.n_verify, self.refine = 2, 4, [0.25]
+        self.ltca = SimpleNamespace(mesh_cycle=lambda n: np.linspace(0.0, 1.0, n, endpoint=False))
+        self._has_settings, self.phi1, self.solves, self.last_solve = False, np.zeros(2), [], None
+
+    def _reduced(self):
+        return self
+
+    def _pvec(self, rho):
+        return [1.0, 0.0, MU, rho]
+
+    def _bounds(self, nlp):
+        return np.array([0.0]), np.array([100.0])
+
+    def check(self, theta, phi1=None, known=None):
+        t = float(theta[0]) * 1e3
+        return SimpleNamespace(t=t, te_pp=np.array([[(t - 30.0) ** 2]]), objective=(t - 30.0) ** 2, sweeps=())
+
+    def _violated_positions(self, chk, phi1):
+        add, self.refine = np.array(self.refine), []
+        return add
+
+    def _raise_if_verification_fails(self, *checks):
+        pass
+
+    def _binding(self, theta, pred, ver):
+        return ()
+
+    def _merit(self, chk, rho=1000.0):
+        return chk.objective
+
+    def _around(self, theta, radius=np.inf, rho=1000.0):
+        chk = self.check(theta)
+        lay = nlp_layout(P=1, nx=1, nB=0, TC=0, nw=0, n0=0, nB0=0, n_pressure=0, n_edge=0, n_torques=1, n_kinds=4)
+        return LocalModel(nlp=SimpleNamespace(sizes={"nx": 1}, layout=lay, phi1=self.phi1.copy()), z0=theta * 1e3,
+                          check=chk, merit=self._merit(chk, rho), time=0.0)
+
+    def _solve_nlp(self, nlp, z0, lbx, ubx, p, prev=None):
+        self.solves.append((prev, nlp.phi1.size))
+        t = float(np.clip(30.0, lbx[0], ubx[0]))
+        return ({"x": [t], "f": (t - 30.0) ** 2}, {"return_status": "Solve_Succeeded", "success": True}, 1)
+
+    def _predicted(self, nlp, zs):
+        t = float(zs[0])
+        return {"slack_p": np.array([[-1.0]]), "slack_e": np.array([[0.0]]), "te_pp": np.array([[(t - 30.0) ** 2]]),
+                "objective": (t - 30.0) ** 2}
+
+    def _raise_if_infeasible(self, pred, chk=None):
+        pass
+
+
+def test_a_refinement_starts_from_the_last_passs_final_solve():
+    toy = _Toy()
+    d = toy.solve()
+    assert d.theta["pinion.C_alpha"] == pytest.approx(0.030, abs=1e-12)
+    sizes = [s[1] for s in toy.solves]
+    assert sizes[0] == 2 and sizes[-1] == 3  # two passes: the grid grew by the verification's position
+    assert toy.solves[0][0] is None  # the first NLP: nothing earlier
+    first_refined = sizes.index(3)
+    prev, _ = toy.solves[first_refined]
+    assert prev is not None and prev[0].phi1.size == 2  # the last pass's final NLP and solution
+    assert prev[1]["x"] == [30.0] and toy.solves[first_refined - 1][1] == 2
+    assert toy.last_solve[0].phi1.size == 3  # the refined pass's own final solve
