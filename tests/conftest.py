@@ -212,6 +212,10 @@ def _run_scene(name: str, directory: Path) -> SceneRun:
     out = directory / "out"
     with pytest.MonkeyPatch.context() as mp:
         mp.setattr(matplotlib.figure.Figure, "savefig", savefig)
+        # the figures drawn in this process, so that the lint above sees every one of them (forked
+        # drawing processes, gearopt.cli_plots, would lint into their own copy of ``found``; their
+        # pixels equal this process's: tests/test_cli_plots.py)
+        mp.setattr("gearopt.cli_plots.PlotProcesses.start", classmethod(lambda cls, count=None: None))
         status = main(["run", str(PROBLEMS / f"{name}.toml"), "--out", str(out), "--quiet"])
     return SceneRun(name, out, status, found)
 

@@ -107,6 +107,9 @@ def test_a_warning_planted_in_a_plot_of_a_scene_is_recorded(tmp_path, monkeypatc
         return drawn(*args, **kwargs)
 
     monkeypatch.setattr(geometry_plots, "plot_tooth", plot_tooth)
+    # drawn in this process (pytest.warns sees this process's warnings; the drawing processes' warnings
+    # coming back once: tests/test_cli_plots.py)
+    monkeypatch.setattr("gearopt.cli_plots.PlotProcesses.start", classmethod(lambda cls, count=None: None))
     out = tmp_path / "o"
     with pytest.warns(UserWarning, match="planted"):
         assert main(["run", str(ROOT / "problems" / "spur_geometry.toml"), "--out", str(out), "-q"]) == 0

@@ -129,7 +129,7 @@ def plot_rounds(design: dict, ax: Axes | None = None, objective: str = "weighted
             ax.annotate(f" NLP grid {grid[i - 1]} -> {grid[i]} positions", (i - 0.5, 1.0), xycoords=("data", "axes fraction"),
                         xytext=(2, -2), textcoords="offset points", fontsize=7, va="top", color="0.3")
     ax.set_xlabel("trust-region round")
-    ax.set_ylabel(f"objective ({objective} + penalties) [arcsec]")
+    ax.set_ylabel(f"objective [arcsec]\n{objective} + penalties")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7)
     return ax
