@@ -130,27 +130,32 @@ class DynamicsReport:
         import matplotlib.pyplot as plt
 
         from ..plot.dynamics import plot_cycle_force, plot_cycle_te, plot_dynamic_factor, plot_order_amplitudes
+        from ..plot.saving import drawn_here
         from ..plot.ticks import plain_ticks
         from .ltca import save_figure
 
         out = Path(out_dir)
         d = self.to_dict()
         n = len(d["cases"])
-        fig = plt.figure(figsize=(14, 4.2 * (1 + n)), layout="constrained")
-        gs = fig.add_gridspec(1 + n, 1)
-        plot_dynamic_factor(d, ax=fig.add_subplot(gs[0]))
-        for i in range(n):
-            plot_order_amplitudes(d, i, ax=fig.add_subplot(gs[1 + i]))
-        plain_ticks(*fig.axes)
-        files = [save_figure(out, self.scene, "dynamics_factor.png", fig,
-                             "dynamic factor and mesh-order response against pinion speed", dpi)]
-        fig, axes = plt.subplots(n, 2, figsize=(14, 4.4 * n), layout="constrained", squeeze=False)
-        for i in range(n):
-            plot_cycle_force(d, i, ax=axes[i, 0])
-            plot_cycle_te(d, i, ax=axes[i, 1])
-        plain_ticks(*fig.axes)
-        files.append(save_figure(out, self.scene, "dynamics_cycle.png", fig,
-                                 "dynamic mesh force and TE over the mesh cycle", dpi))
+        # a figure another process draws (gearopt run, gearopt.plot.saving) is not built here
+        files = ["dynamics_factor.png", "dynamics_cycle.png"]
+        if drawn_here(out / "dynamics_factor.png"):
+            fig = plt.figure(figsize=(14, 4.2 * (1 + n)), layout="constrained")
+            gs = fig.add_gridspec(1 + n, 1)
+            plot_dynamic_factor(d, ax=fig.add_subplot(gs[0]))
+            for i in range(n):
+                plot_order_amplitudes(d, i, ax=fig.add_subplot(gs[1 + i]))
+            plain_ticks(*fig.axes)
+            save_figure(out, self.scene, "dynamics_factor.png", fig,
+                        "dynamic factor and mesh-order response against pinion speed", dpi)
+        if drawn_here(out / "dynamics_cycle.png"):
+            fig, axes = plt.subplots(n, 2, figsize=(14, 4.4 * n), layout="constrained", squeeze=False)
+            for i in range(n):
+                plot_cycle_force(d, i, ax=axes[i, 0])
+                plot_cycle_te(d, i, ax=axes[i, 1])
+            plain_ticks(*fig.axes)
+            save_figure(out, self.scene, "dynamics_cycle.png", fig,
+                        "dynamic mesh force and TE over the mesh cycle", dpi)
         return files
 
     def save_tables(self, out_dir: str | Path) -> list[str]:

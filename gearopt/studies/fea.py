@@ -86,35 +86,30 @@ class FEReport:
         import matplotlib.pyplot as plt
 
         from ..plot.fea import plot_contact_pressure, plot_line_load, plot_loaded_te, plot_mesh, plot_root_stress
+        from ..plot.saving import drawn_here
 
         out = Path(out_dir)
         d = self.to_dict()
-        fig, axes = plt.subplots(1, 2, figsize=(13, 6))
-        plot_mesh(d, ax=axes[0])
-        plot_mesh(d, ax=axes[1], zoom=True)
-        fig.tight_layout()
-        fig.savefig(out / "fea_mesh.png", dpi=dpi, bbox_inches="tight")
-        plt.close(fig)
-        fig, ax = plt.subplots(figsize=(9, 5))
-        plot_contact_pressure(d, ax=ax)
-        fig.tight_layout()
-        fig.savefig(out / "fea_contact.png", dpi=dpi, bbox_inches="tight")
-        plt.close(fig)
-        fig, ax = plt.subplots(figsize=(8, 4.5))
-        plot_root_stress(d, ax=ax)
-        fig.tight_layout()
-        fig.savefig(out / "fea_root.png", dpi=dpi, bbox_inches="tight")
-        plt.close(fig)
-        fig, ax = plt.subplots(figsize=(8, 4.5))
-        plot_loaded_te(d, ax=ax)
-        fig.tight_layout()
-        fig.savefig(out / "fea_te.png", dpi=dpi, bbox_inches="tight")
-        plt.close(fig)
-        fig, ax = plt.subplots(figsize=(9, 5))
-        plot_line_load(d, ax=ax)
-        fig.tight_layout()
-        fig.savefig(out / "fea_pattern.png", dpi=dpi, bbox_inches="tight")
-        plt.close(fig)
+
+        def save(name, fig):
+            fig.tight_layout()
+            fig.savefig(out / name, dpi=dpi, bbox_inches="tight")
+            plt.close(fig)
+
+        # a figure another process draws (gearopt run, gearopt.plot.saving) is not built here
+        if drawn_here(out / "fea_mesh.png"):
+            fig, axes = plt.subplots(1, 2, figsize=(13, 6))
+            plot_mesh(d, ax=axes[0])
+            plot_mesh(d, ax=axes[1], zoom=True)
+            save("fea_mesh.png", fig)
+        for name, plot, size in (("fea_contact.png", plot_contact_pressure, (9, 5)),
+                                 ("fea_root.png", plot_root_stress, (8, 4.5)),
+                                 ("fea_te.png", plot_loaded_te, (8, 4.5)),
+                                 ("fea_pattern.png", plot_line_load, (9, 5))):
+            if drawn_here(out / name):
+                fig, ax = plt.subplots(figsize=size)
+                plot(d, ax=ax)
+                save(name, fig)
         return ["fea_mesh.png", "fea_contact.png", "fea_root.png", "fea_te.png", "fea_pattern.png"]
 
 

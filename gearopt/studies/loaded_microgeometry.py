@@ -116,6 +116,7 @@ class LoadedMicroReport:
         from ..plot.loaded_synthesis import (plot_pareto, plot_rounds, plot_te_before_after,
                                              plot_te_vs_torque_before_after, plot_unloaded_te)
         from ..plot.ltca import plot_contact_pattern, plot_load_sharing
+        from ..plot.saving import drawn_here
         from .ltca import save_figure
 
         out = Path(out_dir)
@@ -124,50 +125,62 @@ class LoadedMicroReport:
         def save(name, fig, title):
             return save_figure(out, self.scene, name, fig, title, dpi)
 
+        # a figure another process draws (gearopt run, gearopt.plot.saving) is not built here
+        files = ["loaded_micro_te.png", "loaded_micro_pattern.png", "loaded_micro_sharing.png",
+                 "loaded_micro_rounds.png"]
         # before and after side by side, the TE against torque below (three in a row shrank the text
         # below reading size on a page or a screen)
-        fig = plt.figure(figsize=(13, 9.5), layout="constrained")
-        gs = fig.add_gridspec(2, 2)
-        axes = [fig.add_subplot(gs[0, 0]), fig.add_subplot(gs[0, 1]), fig.add_subplot(gs[1, :])]
-        plot_te_before_after(d["before"][0], d["after"][0], ax=axes[0], which="before")
-        plot_te_before_after(d["before"][0], d["after"][0], ax=axes[1], which="after")
-        lo = min(axes[0].get_ylim()[0], axes[1].get_ylim()[0])
-        hi = max(axes[0].get_ylim()[1], axes[1].get_ylim()[1])
-        axes[0].set_ylim(lo, hi)
-        axes[1].set_ylim(lo, hi)
-        plot_te_vs_torque_before_after(d, ax=axes[2])
-        files = [save("loaded_micro_te.png", fig, "loaded TE before and after the micro-geometry optimisation")]
-        fig, axes = plt.subplots(1, 2, figsize=(13, 5), layout="constrained")
-        pmax = max(max(t["p_max_MPa"] for t in d["before"][0]["torques"]),
-                   max(t["p_max_MPa"] for t in d["after"][0]["torques"]))
-        plot_contact_pattern(d["before"][0], "pinion", ax=axes[0], vmax=pmax)
-        axes[0].set_title("before: " + axes[0].get_title())
-        plot_contact_pattern(d["after"][0], "pinion", ax=axes[1], vmax=pmax)
-        axes[1].set_title("after: " + axes[1].get_title())
-        files.append(save("loaded_micro_pattern.png", fig, f"loaded contact pattern, {d['cases'][0]['name']}"))
-        fig, axes = plt.subplots(1, 2, figsize=(13, 4.5), layout="constrained")
-        for ax, key in zip(axes, ("before", "after")):
-            plot_load_sharing(d[key][0], ax=ax)
-            ax.set_title(f"{key}: " + ax.get_title())
-        files.append(save("loaded_micro_sharing.png", fig, f"load sharing of the tooth pairs, {d['cases'][0]['name']}"))
-        fig, ax = plt.subplots(figsize=(7, 4.5), layout="constrained")
+        if drawn_here(out / "loaded_micro_te.png"):
+            fig = plt.figure(figsize=(13, 9.5), layout="constrained")
+            gs = fig.add_gridspec(2, 2)
+            axes = [fig.add_subplot(gs[0, 0]), fig.add_subplot(gs[0, 1]), fig.add_subplot(gs[1, :])]
+            plot_te_before_after(d["before"][0], d["after"][0], ax=axes[0], which="before")
+            plot_te_before_after(d["before"][0], d["after"][0], ax=axes[1], which="after")
+            lo = min(axes[0].get_ylim()[0], axes[1].get_ylim()[0])
+            hi = max(axes[0].get_ylim()[1], axes[1].get_ylim()[1])
+            axes[0].set_ylim(lo, hi)
+            axes[1].set_ylim(lo, hi)
+            plot_te_vs_torque_before_after(d, ax=axes[2])
+            save("loaded_micro_te.png", fig, "loaded TE before and after the micro-geometry optimisation")
+        if drawn_here(out / "loaded_micro_pattern.png"):
+            fig, axes = plt.subplots(1, 2, figsize=(13, 5), layout="constrained")
+            pmax = max(max(t["p_max_MPa"] for t in d["before"][0]["torques"]),
+                       max(t["p_max_MPa"] for t in d["after"][0]["torques"]))
+            plot_contact_pattern(d["before"][0], "pinion", ax=axes[0], vmax=pmax)
+            axes[0].set_title("before: " + axes[0].get_title())
+            plot_contact_pattern(d["after"][0], "pinion", ax=axes[1], vmax=pmax)
+            axes[1].set_title("after: " + axes[1].get_title())
+            save("loaded_micro_pattern.png", fig, f"loaded contact pattern, {d['cases'][0]['name']}")
+        if drawn_here(out / "loaded_micro_sharing.png"):
+            fig, axes = plt.subplots(1, 2, figsize=(13, 4.5), layout="constrained")
+            for ax, key in zip(axes, ("before", "after")):
+                plot_load_sharing(d[key][0], ax=ax)
+                ax.set_title(f"{key}: " + ax.get_title())
+            save("loaded_micro_sharing.png", fig, f"load sharing of the tooth pairs, {d['cases'][0]['name']}")
         harm = self.options.get("harmonics") is not None
-        what = "weighted mesh harmonics" if harm else "weighted TE p-p"
-        plot_rounds(d["design"], ax=ax, objective=what + (" + unloaded TE" if self.options.get("unloaded_te") else ""))
-        files.append(save("loaded_micro_rounds.png", fig, "trust-region rounds"))
+        if drawn_here(out / "loaded_micro_rounds.png"):
+            fig, ax = plt.subplots(figsize=(7, 4.5), layout="constrained")
+            what = "weighted mesh harmonics" if harm else "weighted TE p-p"
+            plot_rounds(d["design"], ax=ax,
+                        objective=what + (" + unloaded TE" if self.options.get("unloaded_te") else ""))
+            save("loaded_micro_rounds.png", fig, "trust-region rounds")
         if self.pareto is not None:
-            fig, ax = plt.subplots(figsize=(7.5, 5), layout="constrained")
-            b = d["design"]["before"]
-            plot_pareto(self.pareto, ax=ax, before={"objective_arcsec": b["objective_arcsec"],
-                                                    "p_max_MPa": float(np.max(b["p_max_MPa"]))},
-                        objective="weighted loaded TE harmonics" if harm else "weighted loaded TE peak-to-peak")
-            files.append(save("loaded_micro_pareto.png", fig, "Pareto front"))
+            files.append("loaded_micro_pareto.png")
+            if drawn_here(out / "loaded_micro_pareto.png"):
+                fig, ax = plt.subplots(figsize=(7.5, 5), layout="constrained")
+                b = d["design"]["before"]
+                plot_pareto(self.pareto, ax=ax, before={"objective_arcsec": b["objective_arcsec"],
+                                                        "p_max_MPa": float(np.max(b["p_max_MPa"]))},
+                            objective="weighted loaded TE harmonics" if harm else "weighted loaded TE peak-to-peak")
+                save("loaded_micro_pareto.png", fig, "Pareto front")
         if d["design"].get("unloaded_te") is not None:
-            C = len(d["cases"])
-            fig, axes = plt.subplots(1, C, figsize=(6 * C, 4.5), layout="constrained", squeeze=False)
-            for c in range(C):
-                plot_unloaded_te(d, ax=axes[0, c], case=c)
-            files.append(save("loaded_micro_unloaded_te.png", fig, "unloaded TE against its target parabola"))
+            files.append("loaded_micro_unloaded_te.png")
+            if drawn_here(out / "loaded_micro_unloaded_te.png"):
+                C = len(d["cases"])
+                fig, axes = plt.subplots(1, C, figsize=(6 * C, 4.5), layout="constrained", squeeze=False)
+                for c in range(C):
+                    plot_unloaded_te(d, ax=axes[0, c], case=c)
+                save("loaded_micro_unloaded_te.png", fig, "unloaded TE against its target parabola")
         return files
 
     def save_tables(self, out_dir: str | Path) -> list[str]:

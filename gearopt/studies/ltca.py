@@ -95,6 +95,7 @@ class LTCAReport:
 
         from ..plot.ltca import (plot_contact_pattern, plot_face_load, plot_harmonics, plot_load_sharing,
                                  plot_loaded_te, plot_mesh_stiffness, plot_te_vs_torque)
+        from ..plot.saving import drawn_here
         from ..plot.tca import misalignment_text
         from ..plot.ticks import plain_ticks
 
@@ -107,30 +108,35 @@ class LTCAReport:
             plain_ticks(*fig.axes)
             return save_figure(out, self.scene, name, fig, f"{title} ({mis})", dpi)
 
-        fig = plt.figure(figsize=(13, 8), layout="constrained")
-        gs = fig.add_gridspec(2, 2)
-        plot_loaded_te(d, ax=fig.add_subplot(gs[0, :]))
-        plot_te_vs_torque(d, ax=fig.add_subplot(gs[1, 0]))
-        plot_harmonics(d, ax=fig.add_subplot(gs[1, 1]))
-        files = [save("ltca_te.png", fig, "loaded transmission error")]
+        # a figure another process draws (gearopt run, gearopt.plot.saving) is not built here
+        files = ["ltca_te.png", "ltca_sharing.png", "ltca_pattern.png"]
+        if drawn_here(out / "ltca_te.png"):
+            fig = plt.figure(figsize=(13, 8), layout="constrained")
+            gs = fig.add_gridspec(2, 2)
+            plot_loaded_te(d, ax=fig.add_subplot(gs[0, :]))
+            plot_te_vs_torque(d, ax=fig.add_subplot(gs[1, 0]))
+            plot_harmonics(d, ax=fig.add_subplot(gs[1, 1]))
+            save("ltca_te.png", fig, "loaded transmission error")
         # two columns (three in a row shrank the text below reading size on a page or a screen): load
         # sharing and mesh stiffness above, the load and pressure across the face below
-        fig = plt.figure(figsize=(13, 10), layout="constrained")
-        gs = fig.add_gridspec(4, 2, height_ratios=(1, 1, 0.8, 0.8))
-        plot_load_sharing(d, ax=fig.add_subplot(gs[:2, 0]))
-        plot_mesh_stiffness(d, ax=fig.add_subplot(gs[:2, 1]))
-        ax_q = fig.add_subplot(gs[2, :])
-        plot_face_load(d, ax=ax_q, ax_pressure=fig.add_subplot(gs[3, :], sharex=ax_q))
-        ax_q.set_xlabel("")
-        files.append(save("ltca_sharing.png", fig, "load sharing, mesh stiffness, load across the face"))
-        fig, axes = plt.subplots(1, 2, figsize=(13, 5.6), layout="constrained")
-        pat = d["pattern"]
-        p_flank = np.where(np.array(pat.get("edge", [0] * len(pat["p0_MPa"]))) > 0, 0.0,
-                           np.array(pat["p0_MPa"], float))  # one scale for both flanks; tip edges are marked
-        vmax = max(float(np.nanmax(p_flank)), 1.0) if p_flank.size else 1.0
-        plot_contact_pattern(d, "pinion", ax=axes[0], vmax=vmax)
-        plot_contact_pattern(d, "gear", ax=axes[1], vmax=vmax)
-        files.append(save("ltca_pattern.png", fig, "loaded contact pattern, largest pressure over the mesh cycle"))
+        if drawn_here(out / "ltca_sharing.png"):
+            fig = plt.figure(figsize=(13, 10), layout="constrained")
+            gs = fig.add_gridspec(4, 2, height_ratios=(1, 1, 0.8, 0.8))
+            plot_load_sharing(d, ax=fig.add_subplot(gs[:2, 0]))
+            plot_mesh_stiffness(d, ax=fig.add_subplot(gs[:2, 1]))
+            ax_q = fig.add_subplot(gs[2, :])
+            plot_face_load(d, ax=ax_q, ax_pressure=fig.add_subplot(gs[3, :], sharex=ax_q))
+            ax_q.set_xlabel("")
+            save("ltca_sharing.png", fig, "load sharing, mesh stiffness, load across the face")
+        if drawn_here(out / "ltca_pattern.png"):
+            fig, axes = plt.subplots(1, 2, figsize=(13, 5.6), layout="constrained")
+            pat = d["pattern"]
+            p_flank = np.where(np.array(pat.get("edge", [0] * len(pat["p0_MPa"]))) > 0, 0.0,
+                               np.array(pat["p0_MPa"], float))  # one scale for both flanks; tip edges are marked
+            vmax = max(float(np.nanmax(p_flank)), 1.0) if p_flank.size else 1.0
+            plot_contact_pattern(d, "pinion", ax=axes[0], vmax=vmax)
+            plot_contact_pattern(d, "gear", ax=axes[1], vmax=vmax)
+            save("ltca_pattern.png", fig, "loaded contact pattern, largest pressure over the mesh cycle")
         return files
 
     def save_tables(self, out_dir: str | Path) -> list[str]:

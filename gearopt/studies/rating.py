@@ -125,22 +125,28 @@ class RatingReport:
         import matplotlib.pyplot as plt
 
         from ..plot.rating import plot_load_factors, plot_safety_vs_torque
+        from ..plot.saving import drawn_here
         from .ltca import save_figure
 
-        fig, axes = plt.subplots(1, 2, figsize=(14, 5.6), layout="constrained")
-        plot_safety_vs_torque(self.data, ax=axes[0])
-        plot_load_factors(self.data, ax=axes[1])
+        out = Path(out_dir)
         mis = self.data.get("misalignment_text") or "aligned"
-        files = [save_figure(Path(out_dir), self.data["scene"], "rating_safety.png", fig,
-                             f"ISO 6336 load capacity ({mis})", dpi)]
-        if "spectrum" in self.data:
-            from ..plot.rating import plot_spectrum_damage, plot_spectrum_sn
-
+        # a figure another process draws (gearopt run, gearopt.plot.saving) is not built here
+        files = ["rating_safety.png"]
+        if drawn_here(out / "rating_safety.png"):
             fig, axes = plt.subplots(1, 2, figsize=(14, 5.6), layout="constrained")
-            plot_spectrum_sn(self.data, ax=axes[0])
-            plot_spectrum_damage(self.data, ax=axes[1])
-            files.append(save_figure(Path(out_dir), self.data["scene"], "rating_spectrum.png", fig,
-                                     f"ISO 6336-6 load spectrum ({mis})", dpi))
+            plot_safety_vs_torque(self.data, ax=axes[0])
+            plot_load_factors(self.data, ax=axes[1])
+            save_figure(out, self.data["scene"], "rating_safety.png", fig, f"ISO 6336 load capacity ({mis})", dpi)
+        if "spectrum" in self.data:
+            files.append("rating_spectrum.png")
+            if drawn_here(out / "rating_spectrum.png"):
+                from ..plot.rating import plot_spectrum_damage, plot_spectrum_sn
+
+                fig, axes = plt.subplots(1, 2, figsize=(14, 5.6), layout="constrained")
+                plot_spectrum_sn(self.data, ax=axes[0])
+                plot_spectrum_damage(self.data, ax=axes[1])
+                save_figure(out, self.data["scene"], "rating_spectrum.png", fig,
+                            f"ISO 6336-6 load spectrum ({mis})", dpi)
         return files
 
 
