@@ -1,0 +1,243 @@
+"""The gear body of loaded TCA's default (analytical) compliance against a full gear in CalculiX, and the
+validation of the default compliance's approach against an FE reference with full-gear bodies
+(docs/ltca.md section 7, "The same validation with the default (analytical) compliance").
+
+    python benchmarks/fe_full_gear_body.py            # (b) the 20/40 pinion's body per flank row: 3- to
+                                                      # 19-tooth sectors held at the bore and both sides /
+                                                      # at the bore only, and the full gear (20 teeth, the
+                                                      # seam merged) held at its bore r_f / 2, against
+                                                      # Sainsot's term (about 5 min of ccx, then cached)
+    python benchmarks/fe_full_gear_body.py --mesh     # + the full gear's body at the pitch row on finer meshes
+    python benchmarks/fe_full_gear_body.py --validate # (c) the validation positions of docs/ltca.md section 7
+                                                      # (very fine FE level, recorded) with the FE reference's
+                                                      # members' bodies replaced by full gears held at r_f / 2
+                                                      # (about 20 min of ccx for the six members, then cached)
+
+Everything is per unit face width under a normal line load uniform over the face, at the response point of
+the flank row on the tooth's middle line in the middle face layer
+(:func:`gearopt.fea.influence.line_load_compliance`), in um mm/N, E 210 GPa, nu 0.3. The tooth: the member
+held 0.3 m_n below its root circle (3 teeth, bottom and sides held); a body: a deep member minus that tooth.
+
+(c), stated as what it is: the FE contact model's members (3-tooth sectors on a 1.5 m_n rim, held at the
+rim's bottom and sides) are not re-run as full gears. Instead each member's body difference ``dC(r_i, r_j) =
+C_full(r_i, r_j) - C_sector(r_i, r_j)`` (line loads on the flank rows, the full gear held at its bore r_f / 2,
+the sector as the contact model's member, the same mesh) is added to its FE influence grid, spread along the
+face by the Pasternak kernel of the body's depth r_f / 2 (``gearopt.ltca.compliance.coupling``; a uniform
+line load gets exactly dC), and loaded TCA with FE coefficients is solved with the sector grids and with the
+full-gear grids. The reference is the recorded FE contact model's result corrected by the difference:
+approach_ref = approach_FE + (approach_full - approach_sector), likewise the section pressure and the share.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+import time
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+from gearopt.fea import MeshOptions
+from gearopt.fea.influence import line_load_compliance
+from gearopt.gears import BasicRack, Gear, GearPair
+from gearopt.ltca import Material
+from gearopt.ltca.compliance import ToothCompliance, coupling
+from gearopt.meshing.tca import TCA
+
+E, NU = 210000.0, 0.3
+ROOT = Path(__file__).resolve().parents[1]
+#: the line-load mesh: the influence grids' rows (n_flank 8, n_fillet 5), 4 face layers (a uniform line load;
+#: 4 and 10 layers agree within 0.3 % on the 3-tooth sector), 8 elements through the rim
+MESH = MeshOptions(n_face=4, n_half=6, n_flank=8, n_fillet=5, n_rim=8)
+SECTORS = (3, 5, 7, 9, 13, 19)
+
+
+def pinion_pair() -> GearPair:
+    """The 20/40 drive of docs/ltca.md section 7's part-by-part table (pinion a_pl 2e-3, a_c 2e-3)."""
+    return GearPair(Gear(z=20, m_n=3, b=20, a_pl=2e-3, rack=BasicRack.iso53("A", a_c=2e-3)), Gear(z=40, m_n=3, b=20))
+
+
+def flank_points(tooth, radius):
+    """(xy, outward normals) of the right flank at mid face at ``radius`` [mm] (transverse frame)."""
+    pr = tooth.transverse_profile(z=0.0, n=400)["right_flank"]
+    rr = np.hypot(pr[:, 0], pr[:, 1])
+    o = np.argsort(rr)
+    pr, rr = pr[o], rr[o]
+    tg = np.gradient(pr, axis=0)
+    nrm = np.stack([tg[:, 1], -tg[:, 0]], 1)
+    nrm *= np.sign(nrm[:, :1] * pr[:, :1])
+    j = np.array([int(np.argmin(np.abs(rr - r))) for r in np.atleast_1d(radius)])
+    return pr[j], nrm[j]
+
+
+def member_compliances(tooth, r_form, r_bore, rows=None, mesh=MESH):
+    """{label: LineLoadCompliance} of one member: the tooth (rim 0.3 m_n), the contact model's member (rim 1.5
+    m_n, sector), the full gear held at ``r_bore``."""
+    z = tooth.gear.z
+    kw = dict(E=E, nu=NU, r_form=r_form, rows=rows)
+    return {"tooth": line_load_compliance(tooth, mesh=replace(mesh, rim_depth=0.3), teeth=3, support="sector", **kw),
+            "sector 1.5": line_load_compliance(tooth, mesh=replace(mesh, rim_depth=1.5), teeth=3, support="sector", **kw),
+            "full": line_load_compliance(tooth, mesh=mesh, teeth=z, support="bore", r_bore=r_bore, **kw)}
+
+
+def body_study(fine_mesh: bool) -> int:
+    """(b): the 20/40 pinion's body per row, sectors held / free against the full gear and Sainsot."""
+    pair = pinion_pair()
+    tca = TCA(pair)
+    tooth = tca.pinion.unmodified
+    r_f = tooth.r_root
+    r_bore = 0.5 * r_f
+    depth = (r_f - r_bore) / pair.pinion.m_n
+    r_form = tca.form_radius(1)
+    mesh = replace(MESH, rim_depth=depth)
+    t0 = time.perf_counter()
+    base = line_load_compliance(tooth, E, NU, mesh=replace(MESH, rim_depth=0.3), teeth=3, r_form=r_form)
+    full = line_load_compliance(tooth, E, NU, mesh=mesh, teeth=pair.pinion.z, support="bore", r_form=r_form)
+    sec = {(n, s): line_load_compliance(tooth, E, NU, mesh=mesh, teeth=n, support=s, r_form=r_form)
+           for n in SECTORS for s in ("sector", "bore")}
+    r = base.radius
+    an = ToothCompliance(tooth, Material(E=E, nu=NU), r_bore, member="pinion")
+    c = an.per_width(*flank_points(tooth, r))
+    sainsot = 1e3 * c.foundation
+    t_an = 1e3 * (c.total - c.foundation)
+    b0 = 1e3 * np.diag(base.C)
+    body = {k: 1e3 * np.diag(v.C) - b0 for k, v in sec.items()}
+    b_full = 1e3 * np.diag(full.C) - b0
+    print(f"20/40 pinion (a_pl 2e-3), bore r_f / 2 = {r_bore:.3f} mm (rim {depth:.4g} m_n), mesh {MESH!r}; "
+          f"ccx / cache {time.perf_counter() - t0:.0f} s")
+    print("body per unit face width [um mm/N] = member - tooth (rim 0.3 m_n); 'held': bore and both sides, "
+          "'free': the bore only")
+    print(f"{'r [mm]':>7} {'tooth':>7} {'an.tooth':>8} " + " ".join(f"{f'{n} held':>8} {f'{n} free':>8}" for n in SECTORS)
+          + f" {'full gear':>9} {'Sainsot':>8} {'full/Sainsot':>12} {'full/an.':>8}")
+    for i in range(r.size):
+        print(f"{r[i]:7.2f} {b0[i]:7.4f} {t_an[i]:8.4f} "
+              + " ".join(f"{body[(n, 'sector')][i]:8.4f} {body[(n, 'bore')][i]:8.4f}" for n in SECTORS)
+              + f" {b_full[i]:9.4f} {sainsot[i]:8.4f} {b_full[i] / sainsot[i]:12.3f}"
+              f" {(b_full[i] + b0[i] - t_an[i]) / sainsot[i]:8.3f}")
+    print("('full/an.': the full gear minus the analytical tooth, over Sainsot: the body as Sainsot et al. define it)")
+    if fine_mesh:
+        i = int(np.argmin(np.abs(r - pair.pinion.r_p)))
+        print(f"\nthe full gear's body at the pitch row (r {r[i]:.2f} mm) on finer meshes [um mm/N]:")
+        for m in (MESH, replace(MESH, n_half=8, n_rim=12), replace(MESH, n_half=8, n_rim=16, n_flank=12, n_fillet=6)):
+            rows_m = None
+            t = line_load_compliance(tooth, E, NU, mesh=replace(m, rim_depth=0.3), teeth=3, r_form=r_form)
+            rows_m = [int(np.argmin(np.abs(t.radius - r[i])))]
+            t = line_load_compliance(tooth, E, NU, mesh=replace(m, rim_depth=0.3), teeth=3, r_form=r_form, rows=rows_m)
+            f = line_load_compliance(tooth, E, NU, mesh=replace(m, rim_depth=depth), teeth=pair.pinion.z, support="bore",
+                                     r_form=r_form, rows=rows_m)
+            k = rows_m[0]
+            print(f"  n_half {m.n_half} n_rim {m.n_rim} n_flank {m.n_flank}: tooth {1e3 * t.C[k, k]:.4f}, full gear "
+                  f"{1e3 * f.C[k, k]:.4f}, body {1e3 * (f.C[k, k] - t.C[k, k]):.4f} (Sainsot {sainsot[i]:.4f}) "
+                  f"ccx {f.ccx_s:.0f} s{' (cached)' if f.cached else ''}")
+    return 0
+
+
+def full_gear_grid(grid, tooth, gear, r_form):
+    """``grid`` (a member's FE influence grid, the contact model's sector) with its body replaced by the full
+    gear's held at ``r_int = r_f / 2``: ``G + dC(r_i, r_j) A^-1(z_a, z_b)`` (see the module docstring).
+    Returns (new grid, dC at the grid rows [mm^2/N], the coupling length [mm])."""
+    r_bore = 0.5 * gear.r_f
+    cs = member_compliances(tooth, r_form, r_bore)
+    D = cs["full"].C - cs["sector 1.5"].C  # (rows, rows) [mm^2/N], the same mesh
+    D = 0.5 * (D + D.T)
+    rl = cs["full"].radius
+    Dg = np.array([[np.interp(ri, rl, [np.interp(rj, rl, D[k]) for k in range(rl.size)]) for rj in grid.radius]
+                   for ri in grid.radius])
+    z = grid.z
+    w = np.zeros(z.size)
+    w[:-1] += 0.5 * np.diff(z)
+    w[1:] += 0.5 * np.diff(z)
+    lam = tooth.r_root - r_bore  # the body's depth: loaded TCA's body coupling length (docs/ltca.md section 2)
+    K = coupling(z, w, lam)
+    G = grid.G + Dg[:, None, :, None] * K[None, :, None, :]
+    return replace(grid, G=G), Dg, lam
+
+
+def validate() -> int:
+    """(c): the default compliance's approach, pressure and share against the FE reference corrected to
+    full-gear bodies (the very fine level's recorded FE results)."""
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    from validate_ltca_fe import RECORD, T, drives
+
+    from gearopt.fea import FEOptions, GearFEModel
+    from gearopt.ltca.engine import LTCA
+
+    record = json.loads(RECORD.read_text())["very fine"]
+    mat = Material(E=E, nu=NU)
+    names = [n for n in drives() if "tip relief" not in n]
+    print(f"{T:g} N m; FE: the recorded contact model at the very fine level ({RECORD.relative_to(ROOT)}); "
+          "'full': corrected to full-gear bodies held at r_f / 2")
+    print(f"{'drive':<34} {'phi1':>6} {'FE app':>7} {'d(full)':>7} {'ref app':>7} {'LTCA-an':>7} {'err %':>6} "
+          f"{'FE p':>7} {'ref p':>7} {'LTCA-an p':>9} {'err %':>6} {'FE sh':>6} {'ref sh':>6} {'an sh':>6} {'d sh':>6}")
+    out = {}
+    for name in names:
+        pair, mis = drives()[name]
+        step = 2 * math.pi / pair.pinion.z
+        fracs = ("0", "-0.3", "+0.3")
+        phis = [float(f) * step for f in fracs]
+        cb = math.cos(pair.pinion.beta_b)
+        res, Ss = {}, {}
+        for label in ("analytical", "fe", "full"):
+            L = LTCA(pair, material=mat, compliance="analytical" if label == "analytical" else "fe")
+            if label == "full":
+                g1, g2 = L.influence
+                t1, t2 = L.tca.pinion.unmodified, L.tca.gear.unmodified
+                n1, d1, lam1 = full_gear_grid(g1, t1, pair.pinion, L.tca.form_radius(1))
+                n2, d2, lam2 = full_gear_grid(g2, t2, pair.gear, L.tca.form_radius(2))
+                L.influence = (n1, n2)
+                ip = int(np.argmin(np.abs(g1.radius - pair.pinion.r_p)))
+                print(f"{name}: body difference full - sector at the pinion's pitch row {1e3 * d1[ip, ip]:.4f} um mm/N "
+                      f"(lam {lam1:.1f} mm), at the gear's rows {np.round(1e3 * np.diag(d2), 4).tolist()}", flush=True)
+            S = L.slices(phi1=np.array(phis), mis=mis)
+            res[label], Ss[label] = L.solve(T, slices=S).results[0], S
+        for j, ph in enumerate(phis):
+            rec = record.get(name, {}).get(fracs[j])
+            if rec is None:
+                print(f"{name:<34} {math.degrees(ph):6.2f}: no FE result recorded at the very fine level")
+                continue
+            m = GearFEModel(pair, ph, FEOptions(torque=T * 1e3, E=E, nu=NU), mis=mis)
+            k0 = min(m.hertz, key=lambda k: abs(m.contact[k]["radius1"] - pair.pinion.r_p))
+            z_sec = m.contact[k0]["z1"]
+            q = {}
+            for label, r in res.items():
+                S = Ss[label]
+                kk = r.pairs.index(k0)
+                ok = np.isfinite(S.z[kk, j]) & S.active[kk, j] & (S.edge[kk, j] == 0)
+                o = np.argsort(S.z[kk, j][ok])
+                q[label] = (1e3 * r.delta[j] / cb, float(np.interp(z_sec, S.z[kk, j][ok][o], r.p0[kk, j][ok][o])),
+                            float(r.share[kk, j]))
+            fe = (rec["approach_um"], rec["p_max_mid_MPa"], rec["share"])
+            ref = tuple(f + (a - b) for f, a, b in zip(fe, q["full"], q["fe"]))
+            an = q["analytical"]
+            print(f"{name:<34} {math.degrees(ph):6.2f} {fe[0]:7.3f} {ref[0] - fe[0]:+7.3f} {ref[0]:7.3f} {an[0]:7.3f} "
+                  f"{100 * (an[0] / ref[0] - 1):+6.1f} {fe[1]:7.1f} {ref[1]:7.1f} {an[1]:9.1f} {100 * (an[1] / ref[1] - 1):+6.1f} "
+                  f"{fe[2]:6.3f} {ref[2]:6.3f} {an[2]:6.3f} {an[2] - ref[2]:+6.3f}", flush=True)
+            out.setdefault(name, {})[fracs[j]] = {"fe": fe, "sector_ltca_fe": q["fe"], "full_ltca_fe": q["full"],
+                                                  "reference": ref, "analytical": an}
+    path = ROOT / "benchmarks" / "data" / "fe_full_gear_reference.json"
+    path.write_text(json.dumps({"_about": "benchmarks/fe_full_gear_body.py --validate: (approach um, section p MPa, "
+                                "share) per drive and position (pitches); fe: the recorded very fine FE contact model; "
+                                "reference: fe + (full_ltca_fe - sector_ltca_fe)", "date": time.strftime("%Y-%m-%d"),
+                                "torque_Nm": T, "runs": out}, indent=1) + "\n")
+    print(f"recorded in {path.relative_to(ROOT)}")
+    return 0
+
+
+def main(argv):
+    if "-h" in argv or "--help" in argv:
+        print(__doc__)
+        return 0
+    bad = [a for a in argv if a not in ("--mesh", "--validate")]
+    if bad:
+        print(f"fe_full_gear_body.py: unknown argument {bad[0]!r}: expected --mesh or --validate (see --help)",
+              file=sys.stderr)
+        return 2
+    if "--validate" in argv:
+        return validate()
+    return body_study("--mesh" in argv)
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
