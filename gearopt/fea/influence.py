@@ -256,6 +256,10 @@ def check_teeth(teeth: int, z: int) -> int:
     return int(teeth)
 
 
+#: Element types of :func:`line_load_compliance` (those of ``FEOptions.element_type``).
+ELEMENTS = ("C3D8", "C3D8I")
+
+
 @dataclass(frozen=True)
 class LineLoadCompliance:
     """A member's normal compliance per unit face width under line loads uniform over the face
@@ -288,8 +292,8 @@ class LineLoadCompliance:
 
 def line_load_compliance(tooth: GeneratedTooth, E: float = 206000.0, nu: float = 0.3, mesh: MeshOptions | None = None,
                          teeth: int = 3, support: str = "sector", r_form: float | None = None,
-                         rows: ArrayLike | None = None, r_bore: float | None = None, use_cache: bool = True,
-                         threads: int = 2) -> LineLoadCompliance:
+                         rows: ArrayLike | None = None, r_bore: float | None = None, element: str = "C3D8",
+                         use_cache: bool = True, threads: int = 2) -> LineLoadCompliance:
     """The central tooth's compliance per unit face width under a line load uniform over the face, per
     flank row (one CalculiX load case a loaded row, not one per grid point as :func:`influence_grid`).
 
@@ -320,6 +324,9 @@ def line_load_compliance(tooth: GeneratedTooth, E: float = 206000.0, nu: float =
     r_bore : float, optional
         Radius of the rim's bottom arc [mm] (the bore of a full gear) instead of ``r_f - rim_depth m_n``
         (:class:`gearopt.fea.mesh.ToothMesher`'s ``r_rim``).
+    element : {"C3D8", "C3D8I"}
+        CalculiX element type (C3D8I: incompatible modes, without the full-integration hexahedron's shear
+        locking in bending; ``FEOptions.element_type``'s choices).
     use_cache : bool
         Read and write the on-disk cache (:func:`gearopt.fea.cache.cache_dir`).
     threads : int
@@ -334,6 +341,8 @@ def line_load_compliance(tooth: GeneratedTooth, E: float = 206000.0, nu: float =
     teeth = check_teeth(teeth, tooth.gear.z)
     if support not in SUPPORTS:
         raise out_of_range("support", support, " or ".join(repr(v) for v in SUPPORTS), cls=OptionError)
+    if element not in ELEMENTS:
+        raise out_of_range("element", element, " or ".join(repr(v) for v in ELEMENTS), cls=OptionError)
     m = ToothMesher(tooth, mesh, r_rim=r_bore)
     ids = tuple(range(-(teeth // 2), teeth - teeth // 2))
     mm = build_member(m, ids, {}, tooth.gear.name or "member", 0.0)
@@ -356,7 +365,8 @@ def line_load_compliance(tooth: GeneratedTooth, E: float = 206000.0, nu: float =
     if loaded.size == 0 or np.any((loaded < 0) | (loaded >= nr)) or np.unique(loaded).size != loaded.size:
         raise out_of_range("rows", np.asarray(rows).tolist(), f"distinct row indices 0 <= i < {nr}",
                            cls=ArgumentError)
-    key = _key(tooth, E, nu, mesh, teeth, r_form, support, what=f"line:r_rim {m.r_rim:.9g}:" + ",".join(str(int(i)) for i in loaded))
+    key = _key(tooth, E, nu, mesh, teeth, r_form, support, what=f"line:r_rim {m.r_rim:.9g}:" + ",".join(str(int(i)) for i in loaded)
+               + ("" if element == "C3D8" else f":{element}"))
     path = cache_dir() / f"{key}.npz"
     if use_cache and path.exists():
         try:
@@ -387,7 +397,7 @@ def line_load_compliance(tooth: GeneratedTooth, E: float = 206000.0, nu: float =
     trib[1:] += 0.5 * np.diff(zl)
     lines = ["** gearopt: a tooth's compliance under uniform line loads (unit N/mm per row)", "*NODE, NSET=NALL"]
     lines += [f"{i + 1}, {x:.12e}, {y:.12e}, {z:.12e}" for i, (x, y, z) in enumerate(X)]
-    lines.append("*ELEMENT, TYPE=C3D8, ELSET=EALL")
+    lines.append(f"*ELEMENT, TYPE={element}, ELSET=EALL")
     lines += [f"{i + 1}, " + ", ".join(str(int(n) + 1) for n in e) for i, e in enumerate(mm.elements)]
     lines += ["*NSET, NSET=FIX"] + [", ".join(str(int(v)) for v in fixed[i:i + 16]) for i in range(0, fixed.size, 16)]
     ridx = np.unique(resp_pair) + 1
