@@ -76,7 +76,8 @@ def test_bore_radius_replaces_the_rim_depth(member):
 
 @pytest.mark.parametrize("kw, match", [(dict(teeth=0), "teeth = 0"), (dict(teeth=13), "teeth = 13.*1 <= teeth <= 12"),
                                        (dict(teeth=2.5), "teeth = 2.5"), (dict(support="sides"), "support = 'sides'"),
-                                       (dict(rows=[9]), "rows"), (dict(rows=[1, 1]), "rows")])
+                                       (dict(rows=[9]), "rows"), (dict(rows=[1, 1]), "rows"),
+                                       (dict(element="C3D20"), "element = .C3D20.")])
 def test_bad_arguments_are_named(member, kw, match):
     tooth, r_form = member
     with pytest.raises(GearoptError, match=match):
