@@ -78,12 +78,30 @@ def member_compliances(tooth, r_form, r_bore, mesh=MESH):
     ``r_bore`` (loaded at its lowest, middle and highest row; the other columns quadratic in the loaded row's
     radius, then symmetrised: 0.5 % of the largest entry on the 20/40 pinion against all nine rows loaded)."""
     kw = dict(E=E, nu=NU, r_form=r_form)
+    t03 = line_load_compliance(tooth, mesh=replace(mesh, rim_depth=0.3), teeth=3, support="sector", **kw)
     sec = line_load_compliance(tooth, mesh=replace(mesh, rim_depth=1.5), teeth=3, support="sector", **kw)
     r = sec.radius
     cols = [0, r.size // 2, r.size - 1]
     full = line_load_compliance(tooth, mesh=mesh, teeth=tooth.gear.z, support="bore", r_bore=r_bore, rows=cols, **kw)
     F = np.array([[np.polyval(np.polyfit(r[cols], full.C[i, cols], 2), rj) for rj in r] for i in range(r.size)])
-    return {"sector 1.5": 0.5 * (sec.C + sec.C.T), "full": 0.5 * (F + F.T)}, r
+    return {"tooth": 0.5 * (t03.C + t03.C.T), "sector 1.5": 0.5 * (sec.C + sec.C.T), "full": 0.5 * (F + F.T)}, r
+
+
+class FEBody:
+    """A :class:`~gearopt.ltca.compliance.ToothCompliance` whose body term (Sainsot's) is scaled at each flank
+    radius by the full gear's FE body over it (a diagnostic of the validation, not a model: docs/ltca.md
+    section 7)."""
+
+    def __init__(self, tc, radius, ratio):
+        self.tc, self.radius, self.ratio = tc, np.asarray(radius), np.asarray(ratio)
+
+    def __getattr__(self, name):
+        return getattr(self.tc, name)
+
+    def per_width(self, xy, n_xy):
+        c = self.tc.per_width(xy, n_xy)
+        k = np.interp(np.hypot(*np.atleast_2d(xy).T), self.radius, self.ratio)
+        return replace(c, foundation=k * c.foundation, total=c.total + (k - 1.0) * c.foundation)
 
 
 def body_study(fine_mesh: bool) -> int:
@@ -146,6 +164,9 @@ def full_gear_grid(grid, tooth, gear, r_form):
     r_bore = 0.5 * gear.r_f
     cs, rl = member_compliances(tooth, r_form, r_bore)
     D = cs["full"] - cs["sector 1.5"]  # (rows, rows) [mm^2/N], the same mesh
+    sainsot = ToothCompliance(tooth, Material(E=E, nu=NU), r_bore, member=gear.name or "member").per_width(
+        *flank_points(tooth, rl)).foundation
+    ratio = (np.diag(cs["full"]) - np.diag(cs["tooth"])) / sainsot  # the full gear's body over Sainsot's, per row
     Dg = np.array([[np.interp(ri, rl, [np.interp(rj, rl, D[k]) for k in range(rl.size)]) for rj in grid.radius]
                    for ri in grid.radius])
     z = grid.z
@@ -155,7 +176,7 @@ def full_gear_grid(grid, tooth, gear, r_form):
     lam = tooth.r_root - r_bore  # the body's depth: loaded TCA's body coupling length (docs/ltca.md section 2)
     K = coupling(z, w, lam)
     G = grid.G + Dg[:, None, :, None] * K[None, :, None, :]
-    return replace(grid, G=G), Dg, lam
+    return replace(grid, G=G), Dg, lam, (rl, ratio)
 
 
 def validate() -> int:
@@ -173,7 +194,8 @@ def validate() -> int:
     print(f"{T:g} N m; FE: the recorded contact model at the very fine level ({RECORD.relative_to(ROOT)}); "
           "'full': corrected to full-gear bodies held at r_f / 2")
     print(f"{'drive':<34} {'phi1':>6} {'FE app':>7} {'d(full)':>7} {'ref app':>7} {'LTCA-an':>7} {'err %':>6} "
-          f"{'FE p':>7} {'ref p':>7} {'LTCA-an p':>9} {'err %':>6} {'FE sh':>6} {'ref sh':>6} {'an sh':>6} {'d sh':>6}")
+          f"{'FE p':>7} {'ref p':>7} {'LTCA-an p':>9} {'err %':>6} {'FE sh':>6} {'ref sh':>6} {'an sh':>6} {'d sh':>6} | "
+          "diagnostic, Sainsot's term x the full gear's FE body over it: approach, err %, p, err %, share")
     out = {}
     for name in names:
         pair, mis = drives()[name]
@@ -182,17 +204,21 @@ def validate() -> int:
         phis = [float(f) * step for f in fracs]
         cb = math.cos(pair.pinion.beta_b)
         res, Ss = {}, {}
-        for label in ("analytical", "fe", "full"):
-            L = LTCA(pair, material=mat, compliance="analytical" if label == "analytical" else "fe")
+        for label in ("full", "analytical", "fe", "an, FE body"):
+            L = LTCA(pair, material=mat, compliance="fe" if label in ("fe", "full") else "analytical")
             if label == "full":
                 g1, g2 = L.influence
                 t1, t2 = L.tca.pinion.unmodified, L.tca.gear.unmodified
-                n1, d1, lam1 = full_gear_grid(g1, t1, pair.pinion, L.tca.form_radius(1))
-                n2, d2, lam2 = full_gear_grid(g2, t2, pair.gear, L.tca.form_radius(2))
+                n1, d1, lam1, rat1 = full_gear_grid(g1, t1, pair.pinion, L.tca.form_radius(1))
+                n2, d2, lam2, rat2 = full_gear_grid(g2, t2, pair.gear, L.tca.form_radius(2))
                 L.influence = (n1, n2)
                 ip = int(np.argmin(np.abs(g1.radius - pair.pinion.r_p)))
                 print(f"{name}: body difference full - sector at the pinion's pitch row {1e3 * d1[ip, ip]:.4f} um mm/N "
-                      f"(lam {lam1:.1f} mm), at the gear's rows {np.round(1e3 * np.diag(d2), 4).tolist()}", flush=True)
+                      f"(lam {lam1:.1f} mm), at the gear's rows {np.round(1e3 * np.diag(d2), 4).tolist()}; the full "
+                      f"gear's body over Sainsot's, pinion rows {np.round(rat1[1], 3).tolist()}, gear rows "
+                      f"{np.round(rat2[1], 3).tolist()}", flush=True)
+            if label == "an, FE body":
+                L.teeth = (FEBody(L.teeth[0], *rat1), FEBody(L.teeth[1], *rat2))
             S = L.slices(phi1=np.array(phis), mis=mis)
             res[label], Ss[label] = L.solve(T, slices=S).results[0], S
         for j, ph in enumerate(phis):
@@ -213,12 +239,13 @@ def validate() -> int:
                             float(r.share[kk, j]))
             fe = (rec["approach_um"], rec["p_max_mid_MPa"], rec["share"])
             ref = tuple(f + (a - b) for f, a, b in zip(fe, q["full"], q["fe"]))
-            an = q["analytical"]
+            an, anb = q["analytical"], q["an, FE body"]
             print(f"{name:<34} {math.degrees(ph):6.2f} {fe[0]:7.3f} {ref[0] - fe[0]:+7.3f} {ref[0]:7.3f} {an[0]:7.3f} "
                   f"{100 * (an[0] / ref[0] - 1):+6.1f} {fe[1]:7.1f} {ref[1]:7.1f} {an[1]:9.1f} {100 * (an[1] / ref[1] - 1):+6.1f} "
-                  f"{fe[2]:6.3f} {ref[2]:6.3f} {an[2]:6.3f} {an[2] - ref[2]:+6.3f}", flush=True)
+                  f"{fe[2]:6.3f} {ref[2]:6.3f} {an[2]:6.3f} {an[2] - ref[2]:+6.3f} | {anb[0]:7.3f} {100 * (anb[0] / ref[0] - 1):+6.1f}"
+                  f" {anb[1]:7.1f} {100 * (anb[1] / ref[1] - 1):+6.1f} {anb[2]:6.3f}", flush=True)
             out.setdefault(name, {})[fracs[j]] = {"fe": fe, "sector_ltca_fe": q["fe"], "full_ltca_fe": q["full"],
-                                                  "reference": ref, "analytical": an}
+                                                  "reference": ref, "analytical": an, "analytical_fe_body": anb}
     path = ROOT / "benchmarks" / "data" / "fe_full_gear_reference.json"
     path.write_text(json.dumps({"_about": "benchmarks/fe_full_gear_body.py --validate: (approach um, section p MPa, "
                                 "share) per drive and position (pitches); fe: the recorded very fine FE contact model; "
