@@ -72,19 +72,25 @@ def flank_points(tooth, radius):
     return pr[j], nrm[j]
 
 
-def member_compliances(tooth, r_form, r_bore, mesh=MESH):
-    """{label: (rows, rows) compliance [mm^2/N]} of one member and its row radii [mm]: the contact model's
-    member (3 teeth, rim 1.5 m_n, bottom and sides held; every row loaded) and the full gear held at
-    ``r_bore`` (loaded at its lowest, middle and highest row; the other columns quadratic in the loaded row's
-    radius, then symmetrised: 0.5 % of the largest entry on the 20/40 pinion against all nine rows loaded)."""
+def member_bodies(tooth, r_form, r_bore, mesh=MESH):
+    """Body differences (rows, rows) [mm^2/N] of one member and its row radii [mm]: ``{"full - sector": the full
+    gear held at r_bore minus the contact model's member (3 teeth, rim 1.5 m_n, bottom and sides held), "full -
+    tooth": the full gear minus the tooth (rim 0.3 m_n)}``. The full gear is loaded at its lowest, middle and
+    highest row, the members at every row; each difference (the teeth cancel: the same mesh) is quadratic in
+    the loaded row's radius between the three (0.5 % of the largest entry on the 20/40 pinion against all nine
+    rows loaded), then symmetrised."""
     kw = dict(E=E, nu=NU, r_form=r_form)
     t03 = line_load_compliance(tooth, mesh=replace(mesh, rim_depth=0.3), teeth=3, support="sector", **kw)
     sec = line_load_compliance(tooth, mesh=replace(mesh, rim_depth=1.5), teeth=3, support="sector", **kw)
     r = sec.radius
     cols = [0, r.size // 2, r.size - 1]
     full = line_load_compliance(tooth, mesh=mesh, teeth=tooth.gear.z, support="bore", r_bore=r_bore, rows=cols, **kw)
-    F = np.array([[np.polyval(np.polyfit(r[cols], full.C[i, cols], 2), rj) for rj in r] for i in range(r.size)])
-    return {"tooth": 0.5 * (t03.C + t03.C.T), "sector 1.5": 0.5 * (sec.C + sec.C.T), "full": 0.5 * (F + F.T)}, r
+    out = {}
+    for label, other in (("full - sector", sec), ("full - tooth", t03)):
+        D = full.C[:, cols] - other.C[:, cols]
+        D = np.array([[np.polyval(np.polyfit(r[cols], D[i], 2), rj) for rj in r] for i in range(r.size)])
+        out[label] = 0.5 * (D + D.T)
+    return out, r
 
 
 class FEBody:
@@ -162,11 +168,11 @@ def full_gear_grid(grid, tooth, gear, r_form):
     gear's held at ``r_int = r_f / 2``: ``G + dC(r_i, r_j) A^-1(z_a, z_b)`` (see the module docstring).
     Returns (new grid, dC at the grid rows [mm^2/N], the coupling length [mm])."""
     r_bore = 0.5 * gear.r_f
-    cs, rl = member_compliances(tooth, r_form, r_bore)
-    D = cs["full"] - cs["sector 1.5"]  # (rows, rows) [mm^2/N], the same mesh
+    cs, rl = member_bodies(tooth, r_form, r_bore)
+    D = cs["full - sector"]  # (rows, rows) [mm^2/N], the same mesh
     sainsot = ToothCompliance(tooth, Material(E=E, nu=NU), r_bore, member=gear.name or "member").per_width(
         *flank_points(tooth, rl)).foundation
-    ratio = (np.diag(cs["full"]) - np.diag(cs["tooth"])) / sainsot  # the full gear's body over Sainsot's, per row
+    ratio = np.diag(cs["full - tooth"]) / sainsot  # the full gear's body over Sainsot's, per row
     Dg = np.array([[np.interp(ri, rl, [np.interp(rj, rl, D[k]) for k in range(rl.size)]) for rj in grid.radius]
                    for ri in grid.radius])
     z = grid.z
