@@ -160,6 +160,17 @@ def body_study(fine_mesh: bool) -> int:
             print(f"  {el} n_half {m.n_half} n_rim {m.n_rim}: tooth {1e3 * t.C[k, k]:.4f}, full gear "
                   f"{1e3 * f.C[k, k]:.4f}, body {1e3 * (f.C[k, k] - t.C[k, k]):.4f} (Sainsot {sainsot[i]:.4f}) "
                   f"ccx {f.ccx_s:.0f} s{' (cached)' if f.cached else ''}")
+        # the third dimension: the same gear 2 mm wide (towards plane stress) and 80 mm wide (plane strain)
+        for b, nf in ((2.0, 2), (80.0, 8)):
+            pb = GearPair(Gear(z=20, m_n=3, b=b, a_pl=2e-3 * 20 / b, rack=BasicRack.iso53("A", a_c=2e-3)),
+                          Gear(z=40, m_n=3, b=b))
+            tb = TCA(pb)
+            kw = dict(E=E, nu=NU, r_form=tb.form_radius(1), rows=[3])
+            m = replace(MESH, n_face=nf)
+            t = line_load_compliance(tb.pinion.unmodified, mesh=replace(m, rim_depth=0.3), teeth=3, **kw)
+            f = line_load_compliance(tb.pinion.unmodified, mesh=m, teeth=20, support="bore",
+                                     r_bore=0.5 * tb.pinion.unmodified.r_root, **kw)
+            print(f"  face width {b:g} mm (n_face {nf}): body {1e3 * (f.C[3, 3] - t.C[3, 3]):.4f} at r {t.radius[3]:.2f} mm")
     return 0
 
 
