@@ -11,7 +11,9 @@ validation of the default compliance's approach against an FE reference with ful
     python benchmarks/fe_full_gear_body.py --validate # (c) the validation positions of docs/ltca.md section 7
                                                       # (very fine FE level, recorded) with the FE reference's
                                                       # members' bodies replaced by full gears held at r_f / 2
-                                                      # (about 20 min of ccx for the six members, then cached)
+                                                      # (about 15 min of ccx for the eight members, then cached)
+    python benchmarks/fe_full_gear_body.py --validate --lam-factor 0.5  # the body difference spread along the
+                                                      # face over half (or X times) the body's depth (not recorded)
 
 Everything is per unit face width under a normal line load uniform over the face, at the response point of
 the flank row on the tooth's middle line in the middle face layer
@@ -174,7 +176,7 @@ def body_study(fine_mesh: bool) -> int:
     return 0
 
 
-def full_gear_grid(grid, tooth, gear, r_form):
+def full_gear_grid(grid, tooth, gear, r_form, lam_factor=1.0):
     """``grid`` (a member's FE influence grid, the contact model's sector) with its body replaced by the full
     gear's held at ``r_int = r_f / 2``: ``G + dC(r_i, r_j) A^-1(z_a, z_b)`` (see the module docstring).
     Returns (new grid, dC at the grid rows [mm^2/N], the coupling length [mm])."""
@@ -190,13 +192,13 @@ def full_gear_grid(grid, tooth, gear, r_form):
     w = np.zeros(z.size)
     w[:-1] += 0.5 * np.diff(z)
     w[1:] += 0.5 * np.diff(z)
-    lam = tooth.r_root - r_bore  # the body's depth: loaded TCA's body coupling length (docs/ltca.md section 2)
+    lam = lam_factor * (tooth.r_root - r_bore)  # the body's depth: loaded TCA's body coupling length (section 2)
     K = coupling(z, w, lam)
     G = grid.G + Dg[:, None, :, None] * K[None, :, None, :]
     return replace(grid, G=G), Dg, lam, (rl, ratio)
 
 
-def validate() -> int:
+def validate(lam_factor: float = 1.0) -> int:
     """(c): the default compliance's approach, pressure and share against the FE reference corrected to
     full-gear bodies (the very fine level's recorded FE results)."""
     sys.path.insert(0, str(ROOT / "benchmarks"))
@@ -226,8 +228,8 @@ def validate() -> int:
             if label == "full":
                 g1, g2 = L.influence
                 t1, t2 = L.tca.pinion.unmodified, L.tca.gear.unmodified
-                n1, d1, lam1, rat1 = full_gear_grid(g1, t1, pair.pinion, L.tca.form_radius(1))
-                n2, d2, lam2, rat2 = full_gear_grid(g2, t2, pair.gear, L.tca.form_radius(2))
+                n1, d1, lam1, rat1 = full_gear_grid(g1, t1, pair.pinion, L.tca.form_radius(1), lam_factor)
+                n2, d2, lam2, rat2 = full_gear_grid(g2, t2, pair.gear, L.tca.form_radius(2), lam_factor)
                 L.influence = (n1, n2)
                 ip = int(np.argmin(np.abs(g1.radius - pair.pinion.r_p)))
                 print(f"{name}: body difference full - sector at the pinion's pitch row {1e3 * d1[ip, ip]:.4f} um mm/N "
@@ -263,6 +265,8 @@ def validate() -> int:
                   f" {anb[1]:7.1f} {100 * (anb[1] / ref[1] - 1):+6.1f} {anb[2]:6.3f}", flush=True)
             out.setdefault(name, {})[fracs[j]] = {"fe": fe, "sector_ltca_fe": q["fe"], "full_ltca_fe": q["full"],
                                                   "reference": ref, "analytical": an, "analytical_fe_body": anb}
+    if lam_factor != 1.0:
+        return 0  # a sensitivity run: not recorded
     path = ROOT / "benchmarks" / "data" / "fe_full_gear_reference.json"
     path.write_text(json.dumps({"_about": "benchmarks/fe_full_gear_body.py --validate: (approach um, section p MPa, "
                                 "share) per drive and position (pitches); fe: the recorded very fine FE contact model; "
@@ -276,13 +280,24 @@ def main(argv):
     if "-h" in argv or "--help" in argv:
         print(__doc__)
         return 0
+    lam_factor = 1.0
+    if "--lam-factor" in argv:
+        i = argv.index("--lam-factor")
+        try:
+            lam_factor = float(argv[i + 1])
+        except (IndexError, ValueError):
+            lam_factor = float("nan")
+        if not 0.05 <= lam_factor <= 20:
+            print("fe_full_gear_body.py: --lam-factor needs a number 0.05 <= x <= 20 (see --help)", file=sys.stderr)
+            return 2
+        argv = argv[:i] + argv[i + 2:]
     bad = [a for a in argv if a not in ("--mesh", "--validate")]
     if bad:
-        print(f"fe_full_gear_body.py: unknown argument {bad[0]!r}: expected --mesh or --validate (see --help)",
-              file=sys.stderr)
+        print(f"fe_full_gear_body.py: unknown argument {bad[0]!r}: expected --mesh, --validate or --lam-factor X "
+              "(see --help)", file=sys.stderr)
         return 2
     if "--validate" in argv:
-        return validate()
+        return validate(lam_factor)
     return body_study("--mesh" in argv)
 
 
