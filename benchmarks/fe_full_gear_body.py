@@ -14,6 +14,13 @@ validation of the default compliance's approach against an FE reference with ful
                                                       # (about 15 min of ccx for the eight members, then cached)
     python benchmarks/fe_full_gear_body.py --validate --lam-factor 0.5  # the body difference spread along the
                                                       # face over half (or X times) the body's depth (not recorded)
+    python benchmarks/fe_full_gear_body.py --sainsot  # Sainsot's term on the 20/40 pinion's rows as implemented
+                                                      # and with the readings of its inputs found elsewhere, against
+                                                      # the full gear's FE body (cached line loads)
+    python benchmarks/fe_full_gear_body.py --helical  # the helical deficit part by part (cached grids, ~1 min):
+                                                      # per row the FE tooth against the analytical tooth, per pair
+                                                      # the approach's share under one load distribution, and a
+                                                      # point load at mid face and at the face end
 
 Everything is per unit face width under a normal line load uniform over the face, at the response point of
 the flank row on the tooth's middle line in the middle face layer
@@ -97,11 +104,11 @@ def member_bodies(tooth, r_form, r_bore, mesh=MESH):
 
 class FEBody:
     """A :class:`~gearopt.ltca.compliance.ToothCompliance` whose body term (Sainsot's) is scaled at each flank
-    radius by the full gear's FE body over it (a diagnostic of the validation, not a model: docs/ltca.md
-    section 7)."""
+    radius by ``ratio``, the full gear's FE body over it, and whose teeth (bending, shear, compression) by
+    ``teeth`` (a diagnostic of the validation, not a model: docs/ltca.md section 7)."""
 
-    def __init__(self, tc, radius, ratio):
-        self.tc, self.radius, self.ratio = tc, np.asarray(radius), np.asarray(ratio)
+    def __init__(self, tc, radius, ratio, teeth=1.0):
+        self.tc, self.radius, self.ratio, self.teeth = tc, np.asarray(radius), np.asarray(ratio), float(teeth)
 
     def __getattr__(self, name):
         return getattr(self.tc, name)
@@ -109,7 +116,9 @@ class FEBody:
     def per_width(self, xy, n_xy):
         c = self.tc.per_width(xy, n_xy)
         k = np.interp(np.hypot(*np.atleast_2d(xy).T), self.radius, self.ratio)
-        return replace(c, foundation=k * c.foundation, total=c.total + (k - 1.0) * c.foundation)
+        kt = self.teeth
+        return replace(c, bending=kt * c.bending, shear=kt * c.shear, compression=kt * c.compression,
+                       foundation=k * c.foundation, total=kt * (c.total - c.foundation) + k * c.foundation)
 
 
 def body_study(fine_mesh: bool) -> int:
@@ -214,7 +223,8 @@ def validate(lam_factor: float = 1.0) -> int:
           "'full': corrected to full-gear bodies held at r_f / 2")
     print(f"{'drive':<34} {'phi1':>6} {'FE app':>7} {'d(full)':>7} {'ref app':>7} {'LTCA-an':>7} {'err %':>6} "
           f"{'FE p':>7} {'ref p':>7} {'LTCA-an p':>9} {'err %':>6} {'FE sh':>6} {'ref sh':>6} {'an sh':>6} {'d sh':>6} | "
-          "diagnostic, Sainsot's term x the full gear's FE body over it: approach, err %, p, err %, share")
+          "diagnostic, Sainsot's term x the full gear's FE body over it: approach, err %, p, err %, share | the same "
+          "with the teeth / cos(beta_b)")
     out = {}
     for name in names:
         pair, mis = drives()[name]
@@ -223,7 +233,7 @@ def validate(lam_factor: float = 1.0) -> int:
         phis = [float(f) * step for f in fracs]
         cb = math.cos(pair.pinion.beta_b)
         res, Ss = {}, {}
-        for label in ("full", "analytical", "fe", "an, FE body"):
+        for label in ("full", "analytical", "fe", "an, FE body", "an, FE body, teeth / cos beta_b"):
             L = LTCA(pair, material=mat, compliance="fe" if label in ("fe", "full") else "analytical")
             if label == "full":
                 g1, g2 = L.influence
@@ -236,8 +246,11 @@ def validate(lam_factor: float = 1.0) -> int:
                       f"(lam {lam1:.1f} mm), at the gear's rows {np.round(1e3 * np.diag(d2), 4).tolist()}; the full "
                       f"gear's body over Sainsot's, pinion rows {np.round(rat1[1], 3).tolist()}, gear rows "
                       f"{np.round(rat2[1], 3).tolist()}", flush=True)
-            if label == "an, FE body":
-                L.teeth = (FEBody(L.teeth[0], *rat1), FEBody(L.teeth[1], *rat2))
+            if label.startswith("an, FE body"):
+                # the FE body is a normal compliance per unit face width; loaded TCA's slice terms are transverse
+                # and enter the normal compliance times cos^2(beta_b) (LTCA.structure): the ratio over that
+                kt = 1.0 / cb if label.endswith("cos beta_b") else 1.0
+                L.teeth = tuple(FEBody(t, rl, rat / cb**2, kt) for t, (rl, rat) in zip(L.teeth, (rat1, rat2)))
             S = L.slices(phi1=np.array(phis), mis=mis)
             res[label], Ss[label] = L.solve(T, slices=S).results[0], S
         for j, ph in enumerate(phis):
@@ -258,13 +271,15 @@ def validate(lam_factor: float = 1.0) -> int:
                             float(r.share[kk, j]))
             fe = (rec["approach_um"], rec["p_max_mid_MPa"], rec["share"])
             ref = tuple(f + (a - b) for f, a, b in zip(fe, q["full"], q["fe"]))
-            an, anb = q["analytical"], q["an, FE body"]
+            an, anb, ant = q["analytical"], q["an, FE body"], q["an, FE body, teeth / cos beta_b"]
             print(f"{name:<34} {math.degrees(ph):6.2f} {fe[0]:7.3f} {ref[0] - fe[0]:+7.3f} {ref[0]:7.3f} {an[0]:7.3f} "
                   f"{100 * (an[0] / ref[0] - 1):+6.1f} {fe[1]:7.1f} {ref[1]:7.1f} {an[1]:9.1f} {100 * (an[1] / ref[1] - 1):+6.1f} "
                   f"{fe[2]:6.3f} {ref[2]:6.3f} {an[2]:6.3f} {an[2] - ref[2]:+6.3f} | {anb[0]:7.3f} {100 * (anb[0] / ref[0] - 1):+6.1f}"
-                  f" {anb[1]:7.1f} {100 * (anb[1] / ref[1] - 1):+6.1f} {anb[2]:6.3f}", flush=True)
+                  f" {anb[1]:7.1f} {100 * (anb[1] / ref[1] - 1):+6.1f} {anb[2]:6.3f} | {ant[0]:7.3f} "
+                  f"{100 * (ant[0] / ref[0] - 1):+6.1f} {ant[1]:7.1f} {100 * (ant[1] / ref[1] - 1):+6.1f} {ant[2]:6.3f}", flush=True)
             out.setdefault(name, {})[fracs[j]] = {"fe": fe, "sector_ltca_fe": q["fe"], "full_ltca_fe": q["full"],
-                                                  "reference": ref, "analytical": an, "analytical_fe_body": anb}
+                                                  "reference": ref, "analytical": an, "analytical_fe_body": anb,
+                                                  "analytical_fe_body_teeth_over_cos_beta_b": ant}
     if lam_factor != 1.0:
         return 0  # a sensitivity run: not recorded
     path = ROOT / "benchmarks" / "data" / "fe_full_gear_reference.json"
@@ -273,6 +288,145 @@ def validate(lam_factor: float = 1.0) -> int:
                                 "reference: fe + (full_ltca_fe - sector_ltca_fe)", "date": time.strftime("%Y-%m-%d"),
                                 "torque_Nm": T, "runs": out}, indent=1) + "\n")
     print(f"recorded in {path.relative_to(ROOT)}")
+    return 0
+
+
+def sainsot_readings() -> int:
+    """Sainsot's body term on the 20/40 pinion's rows (bore r_f / 2) as implemented and with the other readings
+    of its inputs found in published implementations, against the full gear's FE body (the table of
+    :func:`body_study`, cached)."""
+    pair = pinion_pair()
+    tca = TCA(pair)
+    tooth = tca.pinion.unmodified
+    r_bore = 0.5 * tooth.r_root
+    r_form = tca.form_radius(1)
+    base = line_load_compliance(tooth, E, NU, mesh=replace(MESH, rim_depth=0.3), teeth=3, r_form=r_form)
+    full = line_load_compliance(tooth, E, NU, mesh=replace(MESH, rim_depth=(tooth.r_root - r_bore) / pair.pinion.m_n),
+                                teeth=pair.pinion.z, support="bore", r_form=r_form)
+    r = base.radius
+    fe = 1e3 * (np.diag(full.C) - np.diag(base.C))
+    tc = ToothCompliance(tooth, Material(E=E, nu=NU), r_bore, member="pinion")
+    xy, n = flank_points(tooth, r)
+    c = tc.per_width(xy, n)
+    n = n / np.linalg.norm(n, axis=1, keepdims=True)
+    cg, sg = np.abs(n[:, 0]), np.abs(n[:, 1])
+    L, M, P, Q = (tc.sainsot[k] for k in "LMPQ")
+
+    def term(u_f, S_f, modulus=E):
+        x = u_f / S_f
+        return 1e3 * cg**2 / modulus * (L * x**2 + M * x + P * (1.0 + Q * (sg / cg) ** 2))
+
+    print(f"20/40 pinion: r_f {tc.r_f:.3f} mm, theta_f {tc.theta_f:.4f} rad (pi / z = {math.pi / pair.pinion.z:.4f}), "
+          f"h_fi {tc.h_fi:.3f}, S_f {tc.S_f:.3f} mm; L* {L:.4f} M* {M:.4f} P* {P:.4f} Q* {Q:.4f}")
+    readings = {"as implemented": term(c.eta_F, tc.S_f),
+                "S_f = 2 r_f theta_f (arc)": term(c.eta_F, 2 * tc.r_f * tc.theta_f),
+                "u_f from the root chord": term(c.eta_F + tc.r_f * (1 - math.cos(tc.theta_f)), tc.S_f),
+                "u_f = r - r_f (radial)": term(np.hypot(*xy.T) - tc.r_f, tc.S_f),
+                "E / (1 - nu^2)": term(c.eta_F, tc.S_f, E / (1 - NU**2))}
+    print("Sainsot's term [um mm/N] (the full gear's FE body over it)")
+    print(f"{'r [mm]':>7} {'FE body':>8} " + " ".join(f"{k:>27}" for k in readings))
+    for i in range(r.size):
+        print(f"{r[i]:7.2f} {fe[i]:8.4f} " + " ".join(f"{v[i]:.4f} ({fe[i] / v[i]:.3f})".rjust(27) for v in readings.values()))
+    return 0
+
+
+def helical_split() -> int:
+    """The helical deficit part by part: (1) per flank row, the FE tooth (held 0.3 m_n below its root, line
+    load) over the analytical tooth's normal compliance ``cos^2(beta_b) c`` on the spur 20/40 and the helical
+    21/45; (2) at phi1 = 0 of the helical 21/45, 200 N m, each pair's share of the approach
+    ``(F^T C F + sum F c_Hertz F / l) / sum F`` with one load distribution F (the FE-coefficient solve with
+    full-gear grids) for the FE full-gear grids and for the analytical model with the FE body (and with its
+    teeth over cos(beta_b)); (3) a point load at mid face and at the face end of a flank row, FE full-gear
+    grid against the analytical model with the FE body."""
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    from validate_ltca_fe import T, drives
+
+    from gearopt.ltca.compliance import face_matrix_batch, weber_contact
+    from gearopt.ltca.engine import LTCA
+
+    mat = Material(E=E, nu=NU)
+    print("(1) FE tooth (rim 0.3 m_n, line load) over the analytical tooth's normal compliance, per row (low to high)")
+    for name in ("spur 20/40 conjugate", "helical 15 deg"):
+        pair, _ = drives()[name]
+        tca = TCA(pair)
+        cb = math.cos(pair.pinion.beta_b)
+        for m, (g, t) in enumerate(((pair.pinion, tca.pinion), (pair.gear, tca.gear)), start=1):
+            tooth = t.unmodified
+            t03 = line_load_compliance(tooth, E, NU, mesh=replace(MESH, rim_depth=0.3), teeth=3, r_form=tca.form_radius(m))
+            c = ToothCompliance(tooth, mat, 0.5 * g.r_f).per_width(*flank_points(tooth, t03.radius))
+            ratio = np.diag(t03.C) / (cb**2 * (c.total - c.foundation))
+            print(f"  {name} {'pinion' if m == 1 else 'gear':<6} (cos^2 beta_b {cb**2:.4f}): "
+                  + " ".join(f"{x:.3f}" for x in ratio))
+    name = "helical 15 deg"
+    pair, mis = drives()[name]
+    cb = math.cos(pair.pinion.beta_b)
+    Lf = LTCA(pair, material=mat, compliance="fe")
+    g1, g2 = Lf.influence
+    full = [full_gear_grid(g, t.unmodified, gear, Lf.tca.form_radius(m + 1))
+            for m, (g, t, gear) in enumerate(zip((g1, g2), (Lf.tca.pinion, Lf.tca.gear), (pair.pinion, pair.gear)))]
+    Lf.influence = (full[0][0], full[1][0])
+    S = Lf.slices(phi1=np.array([0.0]), mis=mis)
+    rf = Lf.solve(T, slices=S).results[0]
+    F = np.nan_to_num(rf.load[:, 0, :])
+    K, _, M = S.z.shape
+    wt = S.width if S.width_tooth is None else S.width_tooth
+    print(f"\n(2) {name}, phi1 = 0, {T:g} N m: pair loads " + ", ".join(
+        f"{p}: {F[k].sum() / F.sum():.3f}" for k, p in enumerate(rf.pairs)) + " (the FE-coefficient solve, full-gear grids); "
+        "approach parts [um] = (F^T C F + sum F c_H F / l) / sum F / cos(beta_b)")
+    scale = 1e3 / F.sum() / cb
+
+    def weber(st, k):
+        ln = st.length[k, 0]
+        w = weber_contact(np.maximum(F[k] / ln, 0.0), st.R[k, 0], st.h1[k, 0], st.h2[k, 0], mat, 1e-3)
+        return float(np.nansum(F[k] * w.compliance * F[k] / ln))
+
+    stf = Lf.structure(S)
+    rows = {"FE full-gear grids": [(float(F[k] @ stf.Cs[0][k * M:(k + 1) * M, k * M:(k + 1) * M] @ F[k]), weber(stf, k))
+                                   for k in range(K)]}
+    for kt in (1.0, 1.0 / cb):
+        La = LTCA(pair, material=mat)
+        La.teeth = tuple(FEBody(t, rl, rat / cb**2, kt) for t, (rl, rat) in zip(La.teeth, (full[0][3], full[1][3])))
+        st = La.structure(S)
+        lab = "analytical, FE body" + (", teeth / cos(beta_b)" if kt != 1.0 else "")
+        rows[lab] = [(float(F[k] @ st.Cs[0][k * M:(k + 1) * M, k * M:(k + 1) * M] @ F[k]), weber(st, k)) for k in range(K)]
+        if kt == 1.0:
+            teeth = [float(F[k] @ (cb**2 * face_matrix_batch(S.z[:, 0, :], wt[:, 0, :], [(st.parts[0].compliance[:, 0, :],
+                                                                                          st.parts[0].coupling_length)]))[k] @ F[k])
+                     for k in range(K)]
+    print(f"  {'':<40} " + " ".join(f"{'pair ' + str(p):>22}" for p in rf.pairs) + f" {'sum':>8}")
+    for lab, v in rows.items():
+        print(f"  {lab:<40} " + " ".join(f"{scale * (a + b):8.3f} ({scale * a:5.3f}+{scale * b:5.3f})" for a, b in v)
+              + f" {scale * sum(a + b for a, b in v):8.3f}")
+    fe_rows = rows["FE full-gear grids"]
+    for lab in list(rows)[1:]:
+        print(f"  {lab + ' / FE':<40} " + " ".join(f"{(a + b) / (c + d):22.3f}" for (a, b), (c, d) in zip(rows[lab], fe_rows)))
+    print("  (the analytical teeth's part: " + ", ".join(f"{scale * x:.3f}" for x in teeth) + " um; the solved approaches: "
+          f"FE full-gear grids {1e3 * rf.delta[0] / cb:.3f} um)")
+    print("\n(3) a point load on a flank row, FE full-gear grid [um/N] against the analytical model with the FE body")
+    for name in ("spur 20/40 conjugate", "helical 15 deg"):
+        pair, _ = drives()[name]
+        cb = math.cos(pair.pinion.beta_b)
+        Lf = LTCA(pair, material=mat, compliance="fe")
+        La = LTCA(pair, material=mat)
+        for m, (g, gear) in enumerate(zip(Lf.influence, (pair.pinion, pair.gear))):
+            t = (Lf.tca.pinion, Lf.tca.gear)[m].unmodified
+            grid, _, _, (rl, rat) = full_gear_grid(g, t, gear, Lf.tca.form_radius(m + 1))
+            tc = FEBody(La.teeth[m], rl, rat / cb**2)
+            z = grid.z
+            w = np.zeros(z.size)
+            w[:-1] += 0.5 * np.diff(z)
+            w[1:] += 0.5 * np.diff(z)
+            mid = z.size // 2
+            print(f"  {name} {'pinion' if m == 0 else 'gear'} (face nodes every {z[1] - z[0]:.2f} mm): r [mm], FE mid, "
+                  "an. mid, FE end, an. end, FE end / mid, an. end / mid")
+            for i in range(1, grid.radius.size - 1, 2):
+                c = tc.per_width(*flank_points(t, np.array([grid.radius[i]])))
+                A = cb**2 * face_matrix_batch(z[None], w[None], [
+                    (np.full((1, z.size), (c.total - c.foundation)[0]), La.coupling_length),
+                    (np.full((1, z.size), c.foundation[0]), La.body_coupling[m])])[0]
+                G = grid.G[i, :, i, :]
+                print(f"    {grid.radius[i]:6.2f} {1e3 * G[mid, mid]:7.4f} {1e3 * A[mid, mid]:7.4f} {1e3 * G[0, 0]:7.4f} "
+                      f"{1e3 * A[0, 0]:7.4f} {G[0, 0] / G[mid, mid]:6.3f} {A[0, 0] / A[mid, mid]:6.3f}")
     return 0
 
 
@@ -291,11 +445,15 @@ def main(argv):
             print("fe_full_gear_body.py: --lam-factor needs a number 0.05 <= x <= 20 (see --help)", file=sys.stderr)
             return 2
         argv = argv[:i] + argv[i + 2:]
-    bad = [a for a in argv if a not in ("--mesh", "--validate")]
+    bad = [a for a in argv if a not in ("--mesh", "--validate", "--sainsot", "--helical")]
     if bad:
-        print(f"fe_full_gear_body.py: unknown argument {bad[0]!r}: expected --mesh, --validate or --lam-factor X "
-              "(see --help)", file=sys.stderr)
+        print(f"fe_full_gear_body.py: unknown argument {bad[0]!r}: expected --mesh, --validate, --sainsot, --helical "
+              "or --lam-factor X (see --help)", file=sys.stderr)
         return 2
+    if "--sainsot" in argv:
+        return sainsot_readings()
+    if "--helical" in argv:
+        return helical_split()
     if "--validate" in argv:
         return validate(lam_factor)
     return body_study("--mesh" in argv)
