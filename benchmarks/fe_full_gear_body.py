@@ -426,7 +426,26 @@ def helical_split() -> int:
                     (np.full((1, z.size), c.foundation[0]), La.body_coupling[m])])[0]
                 G = grid.G[i, :, i, :]
                 print(f"    {grid.radius[i]:6.2f} {1e3 * G[mid, mid]:7.4f} {1e3 * A[mid, mid]:7.4f} {1e3 * G[0, 0]:7.4f} "
-                      f"{1e3 * A[0, 0]:7.4f} {G[0, 0] / G[mid, mid]:6.3f} {A[0, 0] / A[mid, mid]:6.3f}")
+                      f"{1e3 * A[0, 0]:7.4f} {G[0, 0] / G[mid, mid]:6.3f} {A[0, 0] / A[mid, mid]:6.3f}; a uniform line load, "
+                      f"FE / an. at mid face {(G @ w)[mid] / (A @ w)[mid]:.3f}, at the face end {(G @ w)[0] / (A @ w)[0]:.3f}")
+    # (4) a face-end factor on the teeth's compliance per slice, 1 + a exp(-d / lam) (d: distance to the nearer face
+    # end), on the helical 21/45 at phi1 = 0 with the loads of (2): each pair's approach over the FE grids'
+    print("\n(4) the helical 21/45, phi1 = 0: the teeth's compliance per slice times 1 + a exp(-d / lam_teeth) near the "
+          "face ends (teeth over cos(beta_b), FE body), each pair's approach over the FE grids' (loads of (2))")
+    pair, _ = drives()["helical 15 deg"]
+    cb = math.cos(pair.pinion.beta_b)
+    La = LTCA(pair, material=mat)
+    La.teeth = tuple(FEBody(t, rl, rat / cb**2, 1.0 / cb) for t, (rl, rat) in zip(La.teeth, (full[0][3], full[1][3])))
+    st = La.structure(S)
+    d = 0.5 * pair.pinion.b - np.abs(np.nan_to_num(S.z[:, 0, :]))
+    fe = np.array([scale * (a + b) for a, b in rows["FE full-gear grids"]])
+    for a in (0.0, 0.5, 1.0):
+        g = 1.0 + a * np.exp(-np.maximum(d, 0.0) / st.parts[0].coupling_length)
+        terms = [(st.parts[0].compliance[:, 0, :] * g, st.parts[0].coupling_length)] + [
+            (p.compliance[:, 0, :], p.coupling_length) for p in st.parts[1:]]
+        blk = np.nan_to_num(cb**2 * face_matrix_batch(S.z[:, 0, :], wt[:, 0, :], terms))
+        an = np.array([scale * (float(F[k] @ blk[k] @ F[k]) + weber(st, k)) for k in range(K)])
+        print(f"  a {a:3.1f}: " + " ".join(f"{x:.3f}" for x in an / fe) + f"; sum {an.sum():.3f} um (FE grids {fe.sum():.3f})")
     return 0
 
 
