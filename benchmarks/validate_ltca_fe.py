@@ -41,7 +41,8 @@ total; FE runs recorded since 2026-11-28 keep every pair's share).
 "LTCA-an" (the default analytical compliance's approach) is not like for like: the FE members are
 3-tooth sectors held at their sides and rim bottom, whose body is 0.43-0.60 of the analytical model's
 full-gear body term (Sainsot et al.) at the same bore, while the teeth agree within 5 %
-(benchmarks/ltca_face_coupling.py --body; docs/ltca.md section 7, "part by part").
+(benchmarks/ltca_face_coupling.py --body; docs/ltca.md section 7, "part by part"). Its reference with
+full-gear bodies held at r_f / 2: benchmarks/fe_full_gear_body.py --validate.
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """Influence coefficients of a member's teeth from its CalculiX model, for loaded TCA (docs/ltca.md).
 
 One member (``teeth`` teeth, rim of ``rim_depth`` modules held at its bottom arc and both sector
-sides, as the contact model holds its members) is meshed by the FE mesher (section 9.5). A unit
+sides, as the contact model holds its members; or at its bottom arc only, ``support = "bore"``) is meshed by the FE mesher (section 9.5). A unit
 normal force is applied, one load case (``*STEP``) each, at every node of a grid on the driving flank
 of the central tooth (its flank rows within the active profile, every face layer). The response at
 grid point i is the displacement along the flank normal at the point where the load line of i (the
@@ -29,13 +29,13 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..errors import GeometryError, out_of_range
+from ..errors import ArgumentError, GeometryError, OptionError, out_of_range
 from ..progress import current, heartbeat
 from ..geometry.generation import GeneratedTooth
 from .calculix import CalculixError, read_dat, run_ccx
 from .cache import cache_dir, save_npz  # noqa: F401  (cache_dir: re-exported)
 from .local import local_excess
-from .mesh import MeshOptions, ToothMesher, build_member, middle_points
+from .mesh import SUPPORTS, MeshOptions, ToothMesher, build_member, middle_points
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
@@ -92,16 +92,19 @@ class InfluenceGrid:
         return 0.5 * (C + C.T)
 
 
-def _key(tooth: GeneratedTooth, E: float, nu: float, mesh: MeshOptions, teeth: int, r_form) -> str:
+def _key(tooth: GeneratedTooth, E: float, nu: float, mesh: MeshOptions, teeth: int, r_form, support: str = "sector",
+         what: str = "grid") -> str:
     g = tooth.gear
     d = {"v": CACHE_VERSION, "gear": repr(g), "p": np.round(tooth.p0, 15).tolist(), "names": list(tooth.param_names),
          "E": E, "nu": nu, "mesh": repr(mesh), "teeth": teeth, "r_form": None if r_form is None else round(r_form, 9)}
+    if support != "sector" or what != "grid":  # (the default grid's key as before: the cached grids stay valid)
+        d.update(support=support, what=what)
     return hashlib.sha256(json.dumps(d, sort_keys=True).encode()).hexdigest()[:24]
 
 
 def influence_grid(tooth: GeneratedTooth, E: float = 206000.0, nu: float = 0.3, mesh: MeshOptions | None = None,
                    teeth: int = 3, side: str = "right", r_form: float | None = None, use_cache: bool = True,
-                   threads: int = 2, local: bool = True) -> InfluenceGrid:
+                   threads: int = 2, local: bool = True, support: str = "sector") -> InfluenceGrid:
     """Influence coefficients of ``tooth``'s driving flank (see the module docstring).
 
     Parameters
@@ -122,6 +125,11 @@ def influence_grid(tooth: GeneratedTooth, E: float = 206000.0, nu: float = 0.3, 
     local : bool
         Also compute the local-compression excess ``kappa`` at the grid rows
         (:func:`gearopt.fea.local.local_excess`, cached on its own).
+    support : {"sector", "bore"}
+        How the member is held (:meth:`gearopt.fea.mesh.MemberMesh.held`): ``"sector"`` (default) the
+        rim's bottom arc and both sector sides, as the contact model's members; ``"bore"`` the bottom
+        arc only (with ``teeth`` = the member's tooth count: a full gear held at its bore ``r_f -
+        rim_depth m_n``).
 
     Returns
     -------
@@ -130,7 +138,10 @@ def influence_grid(tooth: GeneratedTooth, E: float = 206000.0, nu: float = 0.3, 
     if side != "right":
         raise out_of_range("side", side, "'right' (the FE model loads the right flank)")
     mesh = mesh or MeshOptions(n_face=6, n_half=6, n_flank=8, n_fillet=5, n_rim=4)
-    key = _key(tooth, E, nu, mesh, teeth, r_form)
+    check_teeth(teeth, tooth.gear.z)
+    if support not in SUPPORTS:
+        raise out_of_range("support", support, " or ".join(repr(v) for v in SUPPORTS), cls=OptionError)
+    key = _key(tooth, E, nu, mesh, teeth, r_form, support)
     path = cache_dir() / f"{key}.npz"
     if use_cache and path.exists():
         try:
@@ -173,7 +184,7 @@ def influence_grid(tooth: GeneratedTooth, E: float = 206000.0, nu: float = 0.3, 
     # (Weber's depth h is measured to there; the middle node of the same row lies off the load line, and
     # the bending slope between the two points is of the order of the whole local term)
     resp_pair, resp_w, depth = middle_points(X, nodes, load, normals, mid_rows, nh)
-    fixed = np.unique(np.r_[mm.rim_bottom, mm.rim_sides]) + 1
+    fixed = mm.held(support) + 1
     lines = ["** gearopt: influence coefficients of a tooth flank (unit normal loads)", "*NODE, NSET=NALL"]
     lines += [f"{i + 1}, {x:.12e}, {y:.12e}, {z:.12e}" for i, (x, y, z) in enumerate(X)]
     lines.append("*ELEMENT, TYPE=C3D8, ELSET=EALL")
@@ -231,3 +242,202 @@ def influence_grid(tooth: GeneratedTooth, E: float = 206000.0, nu: float = 0.3, 
 
 def _with_local(grid: InfluenceGrid, tooth, E, nu, use_cache, threads) -> InfluenceGrid:
     return replace(grid, kappa=local_excess(tooth, grid.radius, E, nu, use_cache=use_cache, threads=threads))
+
+
+def check_teeth(teeth: int, z: int) -> int:
+    """``teeth``, the teeth of a member model, checked: an integer 1 <= teeth <= z (z: every tooth, a full
+    ring)."""
+    if isinstance(teeth, bool) or not isinstance(teeth, (int, np.integer)):
+        raise ArgumentError(f"teeth = {teeth!r:.40}: expected an integer number of teeth.", param="teeth",
+                            value=teeth, valid=f"an integer, 1 <= teeth <= {z}")
+    if not 1 <= teeth <= z:
+        raise out_of_range("teeth", teeth, f"1 <= teeth <= {z} (the member's tooth count: a full ring)",
+                           cls=OptionError)
+    return int(teeth)
+
+
+#: Element types of :func:`line_load_compliance` (those of ``FEOptions.element_type``).
+ELEMENTS = ("C3D8", "C3D8I")
+
+
+@dataclass(frozen=True)
+class LineLoadCompliance:
+    """A member's normal compliance per unit face width under line loads uniform over the face
+    (:func:`line_load_compliance`).
+
+    Attributes
+    ----------
+    radius : (nr,) radii of the loaded flank rows, ascending [mm].
+    C : (nr, nr) normal displacement at the response point of row i in the middle face layer per unit
+        line load [N/mm] uniform over the face on row j [mm^2/N] (``C[i, i]``: the row's own compliance
+        per unit face width, the quantity of the analytical model's per-width terms).
+    support : how the member was held; teeth : its teeth; full_ring : every tooth (a closed ring).
+    ccx_s : CalculiX time [s]; cached : read from the cache; key : the cache key.
+    """
+
+    radius: np.ndarray
+    C: np.ndarray
+    support: str
+    teeth: int
+    full_ring: bool
+    ccx_s: float
+    cached: bool
+    key: str
+
+    def at(self, radius: ArrayLike) -> np.ndarray:
+        """The own compliance ``C[i, i]`` at flank radii ``radius`` [mm] (linear between rows, constant
+        beyond) [mm^2/N]."""
+        return np.interp(np.asarray(radius, float), self.radius, np.diag(self.C))
+
+
+def line_load_compliance(tooth: GeneratedTooth, E: float = 206000.0, nu: float = 0.3, mesh: MeshOptions | None = None,
+                         teeth: int = 3, support: str = "sector", r_form: float | None = None,
+                         rows: ArrayLike | None = None, r_bore: float | None = None, element: str = "C3D8",
+                         use_cache: bool = True, threads: int = 2) -> LineLoadCompliance:
+    """The central tooth's compliance per unit face width under a line load uniform over the face, per
+    flank row (one CalculiX load case a loaded row, not one per grid point as :func:`influence_grid`).
+
+    The member is meshed and held as in :func:`influence_grid`; the load of row j is a normal line load
+    of 1 N/mm along the row (nodal forces with the face layers' tributary widths, each along its node's
+    flank normal); the response at row i is the displacement along row i's normal at the point where
+    its load line meets the tooth's middle line, in the middle face layer. With ``teeth`` equal to the
+    member's tooth count and ``support = "bore"`` the model is a full gear held at its bore, the body
+    of the analytical model's Sainsot term (docs/ltca.md section 7).
+
+    Parameters
+    ----------
+    tooth : GeneratedTooth
+    E, nu : float
+        Young's modulus [MPa] and Poisson's ratio.
+    mesh : MeshOptions
+        Element counts (``n_face`` layers; default: ``n_face = 4``, ``n_half = 4``, ``n_flank = 8``,
+        ``n_fillet = 4``, ``n_rim = 8``, ``rim_depth`` 1.5 m_n).
+    teeth : int
+        Teeth of the model, 1 <= teeth <= z (the central one loaded; z: the full ring, seam merged).
+    support : {"sector", "bore"}
+        :meth:`gearopt.fea.mesh.MemberMesh.held`.
+    r_form : float, optional
+        Lowest radius of the rows [mm] (default: the flank's end).
+    rows : array of int, optional
+        Indices of the loaded rows among those above ``r_form`` (ascending radius; default: all). The
+        responses are taken at every row.
+    r_bore : float, optional
+        Radius of the rim's bottom arc [mm] (the bore of a full gear) instead of ``r_f - rim_depth m_n``
+        (:class:`gearopt.fea.mesh.ToothMesher`'s ``r_rim``).
+    element : {"C3D8", "C3D8I"}
+        CalculiX element type (C3D8I: incompatible modes, without the full-integration hexahedron's shear
+        locking in bending; ``FEOptions.element_type``'s choices).
+    use_cache : bool
+        Read and write the on-disk cache (:func:`gearopt.fea.cache.cache_dir`).
+    threads : int
+        CalculiX threads.
+
+    Returns
+    -------
+    LineLoadCompliance
+        ``C`` has a column for each loaded row (the others NaN).
+    """
+    mesh = mesh or MeshOptions(n_face=4, n_half=4, n_flank=8, n_fillet=4, n_rim=8)
+    teeth = check_teeth(teeth, tooth.gear.z)
+    if support not in SUPPORTS:
+        raise out_of_range("support", support, " or ".join(repr(v) for v in SUPPORTS), cls=OptionError)
+    if element not in ELEMENTS:
+        raise out_of_range("element", element, " or ".join(repr(v) for v in ELEMENTS), cls=OptionError)
+    m = ToothMesher(tooth, mesh, r_rim=r_bore)
+    ids = tuple(range(-(teeth // 2), teeth - teeth // 2))
+    mm = build_member(m, ids, {}, tooth.gear.name or "member", 0.0)
+    fixed = mm.held(support) + 1  # (checks support against a full ring)
+    t = [t for t in mm.teeth if t["k"] == 0][0]
+    nodes = t["nodes"]
+    r0, r1 = t["section"].segments["flank"]
+    nh = t["section"].n_half
+    X = mm.nodes
+    L = nodes.shape[0]
+    all_rows = [r for r in range(r0, r1 + 1) if r_form is None
+                or np.hypot(*X[nodes[L // 2, r, -1], :2]) >= r_form - 1e-9]
+    if len(all_rows) < 2:
+        raise GeometryError(f"line_load_compliance: fewer than 2 flank rows above r_form = {r_form:.6g} mm; refine "
+                            "n_flank.", param="mesh.n_flank", value=mesh.n_flank)
+    radius = np.array([np.hypot(*X[nodes[L // 2, r, -1], :2]) for r in all_rows])
+    order = np.argsort(radius)  # ascending radius
+    nr = len(all_rows)
+    loaded = np.arange(nr) if rows is None else np.asarray(rows, int).ravel()
+    if loaded.size == 0 or np.any((loaded < 0) | (loaded >= nr)) or np.unique(loaded).size != loaded.size:
+        raise out_of_range("rows", np.asarray(rows).tolist(), f"distinct row indices 0 <= i < {nr}",
+                           cls=ArgumentError)
+    key = _key(tooth, E, nu, mesh, teeth, r_form, support, what=f"line:r_rim {m.r_rim:.9g}:" + ",".join(str(int(i)) for i in loaded)
+               + ("" if element == "C3D8" else f":{element}"))
+    path = cache_dir() / f"{key}.npz"
+    if use_cache and path.exists():
+        try:
+            d = np.load(path)
+            return LineLoadCompliance(radius=d["radius"], C=d["C"], support=support, teeth=teeth,
+                                      full_ring=mm.full_ring, ccx_s=float(d["ccx_s"]), cached=True, key=key)
+        except (OSError, KeyError, ValueError):
+            pass  # a damaged file: compute again
+    load = np.array([[nodes[layer, r, -1] for layer in range(L)] for r in all_rows])  # (nr, nz)
+    surf = tooth.surface("right", "flank")
+    u_rows = t["u_rows"]
+    normals = np.zeros(load.shape + (3,))
+    for i, r in enumerate(all_rows):
+        for layer in range(L):
+            zl = X[load[i, layer], 2]
+            uu = u_rows[r] if np.ndim(u_rows) == 1 else u_rows[layer][r]
+            if r == r0:
+                uu = tooth.u_at_radius(tooth.gear.r_a, zl, "right", tooth.p0)
+            normals[i, layer] = np.asarray(surf(uu, zl, tooth.p0)[1]).ravel()
+    mid_rows = np.arange(0, t["section"].segments["fillet"][1] + 1)
+    resp_pair, resp_w, _ = middle_points(X, nodes, load, normals, mid_rows, nh)
+    resp_pair = resp_pair.reshape(nr, L, 2)[:, L // 2]
+    resp_w = resp_w.reshape(nr, L)[:, L // 2]
+    n_mid = normals[:, L // 2]
+    zl = X[load[0], 2]
+    trib = np.zeros(L)  # tributary face widths of the layers (trapezoidal rule) [mm]
+    trib[:-1] += 0.5 * np.diff(zl)
+    trib[1:] += 0.5 * np.diff(zl)
+    lines = ["** gearopt: a tooth's compliance under uniform line loads (unit N/mm per row)", "*NODE, NSET=NALL"]
+    lines += [f"{i + 1}, {x:.12e}, {y:.12e}, {z:.12e}" for i, (x, y, z) in enumerate(X)]
+    lines.append(f"*ELEMENT, TYPE={element}, ELSET=EALL")
+    lines += [f"{i + 1}, " + ", ".join(str(int(n) + 1) for n in e) for i, e in enumerate(mm.elements)]
+    lines += ["*NSET, NSET=FIX"] + [", ".join(str(int(v)) for v in fixed[i:i + 16]) for i in range(0, fixed.size, 16)]
+    ridx = np.unique(resp_pair) + 1
+    lines += ["*NSET, NSET=RESP"] + [", ".join(str(int(v)) for v in ridx[i:i + 16]) for i in range(0, ridx.size, 16)]
+    lines += ["*MATERIAL, NAME=STEEL", "*ELASTIC", f"{E:.6e}, {nu:.6f}", "*SOLID SECTION, ELSET=EALL, MATERIAL=STEEL",
+              "*BOUNDARY", "FIX, 1, 3"]
+    for j in order[loaded]:  # the j-th row by ascending radius
+        lines += ["*STEP", "*STATIC", "*CLOAD, OP=NEW"]
+        for layer in range(L):
+            f = -normals[j, layer] * trib[layer]  # into the tooth
+            lines += [f"{load[j, layer] + 1}, {c + 1}, {f[c]:.12e}" for c in range(3)]
+        lines += ["*NODE PRINT, NSET=RESP", "U", "*END STEP"]
+    say = current()
+    label = f"FE line-load compliance of the {tooth.gear.name or 'member'} ({teeth} teeth, support {support!r})"
+    if say:
+        say(f"{label}: CalculiX, {loaded.size} load cases on {len(X)} nodes")
+    t0 = time.perf_counter()
+    with heartbeat(say, f"{label}: CalculiX running", every=15.0):
+        run = run_ccx(None, jobname="lineload", threads=threads, inp="\n".join(lines) + "\n")
+    ccx_s = time.perf_counter() - t0
+    blocks = [b for b in read_dat(run.dat) if b.what.startswith("displacements") and (b.set or "").upper() == "RESP"]
+    if len(blocks) != loaded.size:
+        raise CalculixError(f"line_load_compliance: ccx wrote {len(blocks)} displacement blocks for {loaded.size} "
+                            "load cases.")
+    pos = {int(v): i for i, v in enumerate(ridx)}
+    ia = np.array([pos[int(v) + 1] for v in resp_pair[:, 0]])
+    ib = np.array([pos[int(v) + 1] for v in resp_pair[:, 1]])
+    C = np.full((nr, nr), np.nan)
+    inv = np.empty(nr, int)
+    inv[order] = np.arange(nr)
+    for jj, b in zip(loaded, blocks):
+        Um = np.zeros((ridx.size, 3))
+        for row in b.rows:
+            Um[pos[int(row[0])]] = row[1:4]
+        U = (1.0 - resp_w)[:, None] * Um[ia] + resp_w[:, None] * Um[ib]
+        C[inv, jj] = -np.einsum("ij,ij->i", U, n_mid)  # rows of U by mesh row; into ascending radius
+    if not np.all(np.isfinite(C[:, loaded])) or np.any(np.diag(C)[loaded] <= 0):
+        raise CalculixError("line_load_compliance: non-finite or non-positive self-compliance in the ccx results.")
+    out = LineLoadCompliance(radius=radius[order], C=C, support=support, teeth=teeth, full_ring=mm.full_ring,
+                             ccx_s=ccx_s, cached=False, key=key)
+    if use_cache:
+        save_npz(path, radius=out.radius, C=C, ccx_s=ccx_s)
+    return out

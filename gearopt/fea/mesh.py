@@ -34,7 +34,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..errors import GeometryError, out_of_range  # noqa: F401
+from ..errors import GeometryError, OptionError, out_of_range
 from ..geometry.frames import rot_z_points
 from ..geometry.generation import GeneratedTooth
 from ..settings import MeshOptions  # noqa: F401 - the option set of the mesh, declared in gearopt.settings
@@ -42,6 +42,10 @@ from ..settings import MeshOptions  # noqa: F401 - the option set of the mesh, d
 if TYPE_CHECKING:
     from collections.abc import Sequence
     from ..types import ArrayLike, Param
+
+#: How a member mesh is held (:meth:`MemberMesh.held`): "sector" (rim bottom and sector sides, the contact
+#: model's members) or "bore" (the rim's bottom arc only: with every tooth meshed, a gear held at its bore).
+SUPPORTS = ("sector", "bore")
 
 #: C3D8 faces (ccx / Abaqus numbering S1..S6) as node positions 0..7 of the element.
 HEX_FACES = {1: (0, 1, 2, 3), 2: (4, 7, 6, 5), 3: (0, 4, 5, 1), 4: (1, 5, 6, 2), 5: (2, 6, 7, 3), 6: (3, 7, 4, 0)}
@@ -103,16 +107,26 @@ class ToothMesher:
     z_layers : array, optional
         Axial positions of the face layers [mm], ascending from -b/2 to b/2 (default: ``n_face``
         uniform elements).
+    r_rim : float, optional
+        Radius of the rim's bottom arc [mm] instead of ``r_f - rim_depth m_n`` (e.g. a bore deeper than
+        the ``fea.rim_depth`` range: the full gear of :func:`gearopt.fea.influence.line_load_compliance`);
+        ``0.15 r_f < r_rim < r_f``.
     """
 
     def __init__(self, tooth: GeneratedTooth, options: MeshOptions, p: Param = None,
-                 z_layers: ArrayLike | None = None) -> None:
+                 z_layers: ArrayLike | None = None, r_rim: float | None = None) -> None:
         self.tooth, self.opt = tooth, options
         self.p = tooth.p0 if p is None else np.asarray(p, float)
         g = tooth.gear
         self.gear = g
         self.r_a, self.r_f = g.r_a, tooth.r_root
-        self.r_rim = self.r_f - options.rim_depth * g.m_n
+        if r_rim is not None:
+            if not (isinstance(r_rim, (int, float)) and 0.15 * self.r_f < r_rim < self.r_f):
+                raise out_of_range("r_rim", r_rim, f"{0.15 * self.r_f:.6g} < r_rim < {self.r_f:.6g} mm (above 0.15 r_f, "
+                                   "below the root circle)", cls=OptionError)
+            self.r_rim = float(r_rim)
+        else:
+            self.r_rim = self.r_f - options.rim_depth * g.m_n
         if self.r_rim <= 0.15 * self.r_f:
             raise GeometryError(f"{g.name}: rim_depth = {options.rim_depth} m_n leaves no hub (r_rim = "
                                 f"{self.r_rim:.4g} mm); use a smaller fea.rim_depth.", param="fea.rim_depth",
@@ -267,6 +281,38 @@ class MemberMesh:
     r_rim: float
     meta: dict = field(default_factory=dict)
 
+    def held(self, support: str = "sector") -> np.ndarray:
+        """0-based indices of the nodes held fixed for ``support``.
+
+        Parameters
+        ----------
+        support : {"sector", "bore"}
+            ``"sector"``: the rim's bottom arc and both sector sides (the contact model's members,
+            docs/fea.md); ``"bore"``: the rim's bottom arc only, the sides free. A mesh of every tooth
+            of the member (:attr:`full_ring`) is a gear held at its bore ``r_rim`` with ``"bore"``;
+            it has no sides, and ``"sector"`` is refused for it.
+
+        Returns
+        -------
+        ndarray of int
+            Sorted node indices.
+        """
+        if support not in SUPPORTS:
+            raise out_of_range("support", support, " or ".join(repr(s) for s in SUPPORTS), cls=OptionError)
+        if support == "bore":
+            return np.unique(self.rim_bottom)
+        if self.full_ring:
+            raise OptionError(f"support = 'sector': the mesh of {self.name} is a full ring (every tooth, the seam "
+                              "merged) and has no sector sides; use support = 'bore'.", param="support",
+                              value=support, valid="'bore' for a full ring")
+        return np.unique(np.r_[self.rim_bottom, self.rim_sides])
+
+    @property
+    def full_ring(self) -> bool:
+        """Whether the mesh holds every tooth of the member, the last tooth's radial line merged with the
+        first's (a closed ring, no sector sides)."""
+        return bool(self.meta.get("full_ring", False))
+
 
 def build_member(mesher: ToothMesher, tooth_ids: Sequence[int], contact_u: dict, name: str,
                  col_first: float) -> MemberMesh:
@@ -328,8 +374,10 @@ def build_member(mesher: ToothMesher, tooth_ids: Sequence[int], contact_u: dict,
     first, last = teeth[0], teeth[-1]
     rs = first["section"].segments["rim"][0]
     sides = np.unique(np.concatenate([first["nodes"][:, rs:, -1].ravel(), last["nodes"][:, rs:, 0].ravel()]))
+    # every tooth of the member: the first tooth's right radial line is the last one's left (merged above)
+    ring = len(set(int(k) % mesher.gear.z for k in tooth_ids)) == mesher.gear.z
     return MemberMesh(name=name, nodes=P, elements=E, teeth=teeth, rim_bottom=bottom, rim_sides=sides,
-                      r_rim=mesher.r_rim, meta={"r_f": mesher.r_f, "r_a": mesher.r_a, "z": mesher.z})
+                      r_rim=mesher.r_rim, meta={"r_f": mesher.r_f, "r_a": mesher.r_a, "z": mesher.z, "full_ring": ring})
 
 
 def hex_volume_sign(P: np.ndarray, E: np.ndarray) -> np.ndarray:
