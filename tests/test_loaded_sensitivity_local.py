@@ -12,6 +12,7 @@ import pytest
 
 from gearopt.meshing.misalignment import Misalignment
 from gearopt.synthesis.loaded.constants import THETA_TOL, WARM_OPTS
+from gearopt.synthesis.loaded.verify import Verification
 from gearopt.units import ARCMIN, RAD_TO_ARCSEC
 
 from test_loaded_synthesis import optimizer
@@ -108,3 +109,49 @@ def test_sensitivities_with_the_te_target_at_weight_1_match_central_differences(
     diffs = richardson_differences(opt, S)
     assert_derivatives_match(diffs)
     assert sum(np.max(np.abs(d["fd_theta"])) > 1e-6 for d in diffs) >= 3  # the design does move
+
+
+# -- the loop's message where an edge stays loaded (docs/loaded_synthesis.md section 8) ---------------
+
+
+def _edge_pred(p_max: float) -> dict:
+    """A final NLP's values (``_predicted``) with 0.13 % of the load left on an edge at 250 N m, crossed."""
+    return {"slack_p": np.zeros((2, 2)), "slack_e": np.array([[0.0, 0.0], [0.0, 1.3e-3]]),
+            "p_max": np.array([[2100.0, 2150.0], [2400.0, p_max]])}
+
+
+class _LimitsOnly(Verification):
+    """The verification's checks with the tests' limits and bounds alone (the optimiser's constructor,
+    its TCA functions, is not needed for a message): 4 free pinion amounts of 0 ... 40 um, 100 and 250 N m,
+    aligned and 2 arcmin crossed, edges open by 0.5 um, p_limit 2500 MPa."""
+
+    def __init__(self):
+        self.free = ["pinion.C_alpha", "pinion.C_beta", "pinion.C_alpha_a", "pinion.C_alpha_f"]
+        self.lo, self.hi = np.zeros(4), np.full(4, 0.04)
+        self.torques = np.array([100.0, 250.0])
+        self.cases = (Misalignment(), Misalignment(crossing=2 * ARCMIN))
+        self.edge_margin, self.p_limit = 5e-4, 2500.0
+
+
+def test_an_edge_left_loaded_at_the_pressure_limit_names_the_trade_not_the_bounds():
+    """microgeometry_loaded at p_limit 2500 MPa ended with the pinion's tip edge loaded and the message
+    "Free or widen the pinion's tip relief (C_alpha_a)", where the tip relief was free at 1.05 um of
+    0 ... 40 um: what kept the loop from opening the edge was the pressure limit. The message now says
+    that the relief is free inside its bounds and that the peak pressure is at p_limit."""
+    from gearopt.errors import SynthesisError
+
+    opt = _LimitsOnly()
+    theta = np.array([40.0, 22.62, 1.05, 11.93]) * 1e-3
+    hint = "Free or widen the pinion's tip relief (C_alpha_a)"
+    msg = opt._edge_remedy(hint, _edge_pred(2499.8), None, theta)
+    assert "pinion.C_alpha_a that would open it is free and inside its bounds (1.05 um in 0 ... 40 um)" in msg
+    assert "2499.8 MPa, at p_limit = 2500 MPa" in msg and "Raise p_limit" in msg and "Free or widen" not in msg
+    # the relief at its upper bound: the bounds are the remedy; a pressure well below the limit is not named
+    at_bound = np.array([40.0, 22.62, 40.0, 11.93]) * 1e-3
+    assert opt._edge_remedy(hint, _edge_pred(2300.0), None, at_bound) == hint + ", or lower edge_margin."
+    # the relief free inside its bounds, the pressure not binding: another modification
+    msg = opt._edge_remedy(hint, _edge_pred(2300.0), None, theta)
+    assert "free and inside its bounds" in msg and "p_limit" not in msg
+    with pytest.raises(SynthesisError, match="trade against each other") as e:
+        opt._raise_if_infeasible(_edge_pred(2499.8), None, theta)
+    assert e.value.param == "edge_margin" and "0.13 % of the normal load" in str(e.value)
