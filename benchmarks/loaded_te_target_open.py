@@ -57,7 +57,7 @@ def main(argv: list[str] | None = None) -> int:
         return int(strict)
     diffs = richardson_differences(opt, sens)
     names = [f"torque {t:g} N m" for t in opt.torques] + list(Misalignment.names())
-    print("| parameter | largest |AD - FD| / largest |FD| (design) | objective AD | FD |")
+    print("| parameter | design: largest abs(AD - FD) / largest abs(FD) | objective AD | FD |")
     print("|---|---|---|---|")
     for n, d in zip(names, diffs):
         rel = np.max(np.abs(d["ad_theta"] - d["fd_theta"])) / max(np.max(np.abs(d["fd_theta"])), 1e-300)
