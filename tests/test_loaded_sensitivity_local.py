@@ -88,8 +88,9 @@ def test_sensitivities_nlp_stays_at_the_loops_optimum_with_the_te_target(te_targ
     """The sensitivities' NLP (every slice, no trust radius) has its optimum at the loop's design: with
     IPOPT cold from the exact loaded TCA's start it left for another stationary point 31 um away (merit
     150.0 against 125.08 arcsec at the design, with an edge slack), so no derivative of the design was
-    given (``at_design`` False). Solved first with the design held and then free from that solution's
-    multipliers, it stays within THETA_TOL; no active row is degenerate."""
+    given (``at_design`` False). Where the cold solve leaves the design, the NLP is now solved with the
+    design held and then free from that solution's multipliers: its optimum lies within THETA_TOL of
+    the design; no active row is degenerate."""
     opt, design, S = te_target
     assert design.stop == "converged"
     assert S["model_step"] < THETA_TOL and S["at_design"]
@@ -99,6 +100,7 @@ def test_sensitivities_nlp_stays_at_the_loops_optimum_with_the_te_target(te_targ
     # the other stationary point lay 25 arcsec above)
     ver = design.verified
     assert S["objective"] == pytest.approx(ver.objective + ver.te0_term, abs=0.5)
+
 
 @pytest.mark.slow
 @pytest.mark.ipopt
