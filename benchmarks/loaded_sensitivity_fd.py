@@ -1,6 +1,6 @@
 """Sensitivities of the loaded micro-geometry optimum to a misalignment added to every case
 (``LoadedMicroOptimizer.sensitivities``, docs/loaded_synthesis.md section 6) against central finite
-differences of re-solved optima, on every loaded_microgeometry scene.
+differences of re-solved optima, on every loaded_microgeometry scene and on problems/optimize_microgeometry.py.
 
 For each scene the optimum is solved (``opt.solve()``), then again for the duty cycle with every case
 offset by ``+h`` and ``-h`` of one misalignment kind (``opt.shifted``), each from the optimum and on its
@@ -14,7 +14,7 @@ every optimum is solved with ``THETA_TOL`` = ``--theta-tol`` (default 1e-7 mm) a
 loop's stop on a negligible predicted decrease, so that small steps (default 0.01 arcmin, 0.005 mm)
 stay within one active set and above the noise.
 
-    python benchmarks/loaded_sensitivity_fd.py                       # 3 scenes x crossing, dE (~30 min alone)
+    python benchmarks/loaded_sensitivity_fd.py                       # 4 scenes x crossing, dE (~40 min alone)
     python benchmarks/loaded_sensitivity_fd.py --only microgeometry_pareto --kinds crossing
     python benchmarks/loaded_sensitivity_fd.py --h-angle 0.05 --h-length 0.05 --theta-tol 1e-4   # the issue's steps
 
@@ -33,7 +33,28 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-SCENES = ("microgeometry_loaded", "microgeometry_pareto", "microgeometry_te_target")
+#: the loaded_microgeometry scenes (problems/*.toml) and the script problems/optimize_microgeometry.py
+SCENES = ("microgeometry_loaded", "microgeometry_pareto", "microgeometry_te_target", "optimize_microgeometry")
+
+
+def build_optimizer(name: str):
+    """The scene's optimiser: a problems/<name>.toml scene's, or that of problems/optimize_microgeometry.py
+    (its drive, free amounts, duty cycle and options restated here: that script builds its study inside
+    ``main``; aligned and 2 arcmin crossed, no mirror image, so the full problem's KKT system)."""
+    if name != "optimize_microgeometry":
+        from gearopt.io.scene import load_scene
+
+        return load_scene(ROOT / "problems" / f"{name}.toml").build().optimizer
+    from gearopt import ARCMIN, Gear, GearPair, LoadedMicroStudy, Microgeometry, misalignment_cases
+
+    um = 1e-3
+    start = Microgeometry(C_alpha=5 * um, C_beta=10 * um, d_Ca=64.0, d_Cf=58.5)
+    pair = GearPair(Gear(z=20, m_n=3.0, b=20, name="pinion", modifications=start),
+                    Gear(z=40, m_n=3.0, b=20, name="gear"))
+    free = {f"pinion.{a}": (0.0, 40 * um) for a in ("C_alpha", "C_beta", "C_alpha_a", "C_alpha_f")}
+    cases = {k: v for k, v in misalignment_cases(crossing=2 * ARCMIN).items() if not k.startswith("crossing -")}
+    return LoadedMicroStudy(pair, free, torque=250.0, torques=[100.0, 250.0], cases=cases, edge_margin=0.5 * um,
+                            n_positions=16, n_verify=32, n_slices=11, name="optimize_microgeometry").optimizer
 
 
 def fd_check(opt, design, sens, kind: str, h: float) -> dict:
@@ -82,11 +103,10 @@ def opt_theta_tol() -> float:
 
 def main(argv=None) -> int:
     from gearopt.errors import SynthesisError
-    from gearopt.io.scene import load_scene
     from gearopt.units import ARCMIN
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--only", default=None, help="one scene name (default: all three)")
+    ap.add_argument("--only", default=None, help="one scene name (default: all four)")
     ap.add_argument("--kinds", default="crossing,dE", help="misalignment kinds, comma-separated")
     ap.add_argument("--h-angle", type=float, default=0.01, help="step of an angle [arcmin]")
     ap.add_argument("--h-length", type=float, default=0.005, help="step of a length [mm]")
@@ -112,7 +132,7 @@ def main(argv=None) -> int:
     records, fail = [], False
     for name in scenes:
         t0 = time.perf_counter()
-        opt = load_scene(ROOT / "problems" / f"{name}.toml").build().optimizer
+        opt = build_optimizer(name)
         design = opt.solve()
         sens = opt.sensitivities(design)
         print(f"\n## {name}: optimum {design.theta_um()} um, stop {design.stop}, mirror-odd kinds by symmetry "

@@ -157,7 +157,7 @@ class TrustRegion:
             raise SynthesisError(f"loaded micro-geometry: the NLP at the final design failed "
                                  f"({st['return_status']}).", param="ipopt", value=st["return_status"])
         pred = self._predicted(nlp, np.asarray(r["x"]).ravel())
-        self._raise_if_infeasible(pred, cur.check)
+        self._raise_if_infeasible(pred, cur.check, theta)
         return theta, cur, pred, iters, status, rho, stop
 
     def _solve_nlp(self, nlp, z0, lbx, ubx, p, prev=None):

@@ -6,6 +6,7 @@ target's misfit, the merit the trust-region loop compares, and the errors a fail
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 import numpy.typing as npt
@@ -137,7 +138,13 @@ class Verification:
                     bad |= np.max(r.p0_flank, axis=(0, 2)) > self.p_limit * (1 + SLACK_TOL)
         return np.asarray(phi1)[bad]
 
-    def _raise_if_infeasible(self, pred, chk: LoadedCheck | None = None):
+    def _raise_if_infeasible(self, pred, chk: LoadedCheck | None = None, theta: np.ndarray | None = None):
+        """``SynthesisError`` where the final design's NLP (``pred``, :meth:`_predicted`) still needs a
+        pressure or edge slack: the loop (a local method, its penalty at its largest weight) found no
+        design meeting the limit. For an edge the message names the edge (``chk``: the exact loaded
+        TCA of the design) and says what keeps the loop from opening it: where the relief that would
+        is free and inside its bounds (``theta`` [mm], the design) it is not the bounds, and where the
+        peak flank pressure there is at ``p_limit`` the two limits trade against each other."""
         for kind, what, tol in (("slack_p", "p_max", SLACK_TOL), ("slack_e", "edge", EDGE_TOL)):
             s = pred[kind]
             if np.max(s) > tol:
@@ -156,8 +163,37 @@ class Verification:
                     f"loaded micro-geometry: the optimiser found no design within the bounds of {list(self.free)} that keeps every tip edge "
                     f"and face end {self.edge_margin * 1e3:g} um open at {self.torques[t]:g} N m, case {c} "
                     f"({case_text(self.cases[c])}): {where} still carries {100 * s[t, c]:.3g} % of the "
-                    f"normal load. {hint}, or lower edge_margin.", param="edge_margin",
+                    f"normal load. {self._edge_remedy(hint, pred, chk, theta)}", param="edge_margin",
                     value=float(s[t, c]))
+
+    def _edge_remedy(self, hint: str, pred: dict, chk: LoadedCheck | None, theta: np.ndarray | None) -> str:
+        """What to change where an edge stays loaded (:meth:`_raise_if_infeasible`): ``hint`` (the relief
+        that opens the edge, :func:`edge_where`) unless that relief is free and inside its bounds at
+        ``theta``; and where the peak flank pressure of the design (``chk``, else ``pred``) is at
+        ``p_limit`` (within ``10 SLACK_TOL`` of ``p_limit^2``), that the pressure limit is what the edge
+        trades against."""
+        free_inside = None
+        m = re.search(r"\((C_\w+)\)", hint)
+        name = f"pinion.{m.group(1)}" if m else None
+        if theta is not None and name in self.free:
+            i = self.free.index(name)
+            if self.lo[i] + 1e-7 < theta[i] < self.hi[i] - 1e-7:
+                free_inside = (f"The {name} that would open it is free and inside its bounds ({theta[i] * 1e3:.2f} um "
+                               f"in {self.lo[i] * 1e3:g} ... {self.hi[i] * 1e3:g} um)")
+        binding = None
+        if self.p_limit is not None:
+            pm = float(np.max(chk.p_max if chk is not None else pred["p_max"]))
+            if pm**2 >= self.p_limit**2 * (1.0 - 10 * SLACK_TOL):
+                binding = (f"the peak flank pressure of this design is {pm:.1f} MPa, at p_limit = {self.p_limit:g} MPa: "
+                           "the pressure limit and the open edges trade against each other here, and the loop (a local "
+                           "method) found no design meeting both")
+        if free_inside and binding:
+            return f"{free_inside}; {binding}. Raise p_limit or lower edge_margin."
+        if binding:
+            return f"{binding[0].upper()}{binding[1:]}. {hint}, raise p_limit or lower edge_margin."
+        if free_inside:
+            return f"{free_inside}. Free another modification, or lower edge_margin."
+        return f"{hint}, or lower edge_margin."
 
     def _raise_if_verification_fails(self, *checks: LoadedCheck):
         """``SynthesisError`` where the default loaded TCA of the optimum (``checks``: on the NLP's grid and
