@@ -181,17 +181,14 @@ def compile_function(f: ca.Function) -> ca.Function | None:
         compiler works or the cache directory cannot be written (one warning per process and
         cause; the caller then runs ``f`` interpreted).
     """
-    cc = compiler()
+    cc, path, g = _library(f)
     if cc is None:
         _note("cc", "gearopt: no C compiler found (cc, gcc or clang; or set CC): sweeps run interpreted, "
                     "about 10x slower. Install one (e.g. apt-get install gcc) for the compiled engine.")
         return None
-    path = _path_or_none(f)
-    if path is None:
-        return None
+    if path is None or g is not None:
+        return g
     key = str(path)
-    if key in _loaded:
-        return _loaded[key]
     job = _pending.get(key)
     if job is not None:  # being compiled in the background: wait for it rather than compile twice
         job.join()
@@ -228,17 +225,24 @@ def _path_or_none(f: ca.Function) -> Path | None:
         return None
 
 
+def _library(f: ca.Function) -> tuple[tuple[str, str] | None, Path | None, ca.Function | None]:
+    """What :func:`compile_function`, :func:`cached_function` and :func:`compile_in_background` look up
+    first: the compiler (None: none works), ``f``'s library path in the cache (None without a compiler
+    or for a Function CasADi cannot serialise) and the library if this process loaded it already."""
+    cc = compiler()
+    if cc is None:
+        return None, None, None
+    path = _path_or_none(f)
+    return cc, path, None if path is None else _loaded.get(str(path))
+
+
 def cached_function(f: ca.Function) -> ca.Function | None:
     """``f``'s compiled library if it is in the disk cache (loaded: milliseconds), else None; never
     compiles. None too without a working compiler (the cache key names the compiler)."""
-    if compiler() is None:
-        return None
-    path = _path_or_none(f)
-    if path is None:
-        return None
+    cc, path, g = _library(f)
+    if cc is None or path is None or g is not None:
+        return g
     key = str(path)
-    if key in _loaded:
-        return _loaded[key]
     if key in _pending and _pending[key].is_alive():
         return None
     if not path.exists():
@@ -278,10 +282,8 @@ def compile_in_background(f: ca.Function) -> threading.Thread | None:
     way or failed before in this process, or no compiler works. The thread is not a daemon: a process waits for its compiles at exit,
     so no half-written scratch directory is left in the cache. The caller keeps running ``f``
     interpreted; :func:`cached_function` finds the library once the thread is done."""
-    if compiler() is None:
-        return None
-    path = _path_or_none(f)
-    if path is None:
+    _, path, g = _library(f)
+    if path is None or g is not None:
         return None
     key = str(path)
     with _lock:
@@ -479,30 +481,33 @@ class ColumnMap:
     def __call__(self, *args: ArrayLike) -> np.ndarray | list[np.ndarray]:
         """Outputs (rows, columns * their columns per column) as numpy arrays: a list, or the
         array itself for a one-output Function (like a CasADi call)."""
+        res = self.outputs(*args)
+        return res[0] if len(res) == 1 else res
+
+    def outputs(self, *args: ArrayLike) -> list[np.ndarray]:
+        """The outputs as a list of numpy arrays (rows, columns * their columns per column),
+        whatever their number (what :func:`call` returns)."""
         sig = self._sig
+        if len(args) != len(sig.shape_in):
+            raise ArgumentError(f"{self.column.name()} takes {len(sig.shape_in)} inputs, {len(args)} given",
+                                param="args", value=len(args), valid=f"{len(sig.shape_in)} arrays")
         a = [np.asarray(v, dtype=float) for v in args]
-        if len(a) != len(sig.shape_in):
-            raise ArgumentError(f"{self.column.name()} takes {len(sig.shape_in)} inputs, {len(a)} given",
-                                param="args", value=len(a), valid=f"{len(sig.shape_in)} arrays")
-        cin = [c for _, c in sig.shape_in]
         a = [v.reshape(r, -1, order="F") if v.ndim != 2 else v for v, (r, _) in zip(a, sig.shape_in)]
+        cin, cout = sig.cols_in, sig.cols_out
         n = a[0].shape[1] // cin[0]
         for i, (v, (r, c)) in enumerate(zip(a, sig.shape_in)):
             if v.shape != (r, c * n):
                 name = self.column.name_in(i)
                 raise ArgumentError(f"{self.column.name()}: input {name} of {n} columns must be ({r}, {c * n}), "
                                     f"got {v.shape}", param=name, value=v.shape, valid=f"shape ({r}, {c * n})")
-        cout = [c for _, c in sig.shape_out]
         if 0 < n <= CHUNK:  # one mapped call: its outputs (new arrays) are the result
             m = map_size(n)
             if m == n:
-                res = self._map(m)(*a)
-            else:
-                sel = np.arange(m)
-                sel[n:] = 0  # padding: copies of the first column
-                res = [r[:, :n * c] for r, c in zip(self._map(m)(*(v[:, matrix_columns(sel, c)] for v, c in zip(a, cin))),
-                                                    cout)]
-            return res[0] if len(res) == 1 else res
+                return self._map(m).run(a)
+            sel = np.arange(m)
+            sel[n:] = 0  # padding: copies of the first column
+            res = self._map(m).run([v[:, matrix_columns(sel, c)] for v, c in zip(a, cin)])
+            return [r[:, :n * c] for r, c in zip(res, cout)]
         outs = [np.empty((r, c * n), order="F") for r, c in sig.shape_out]
         start = 0
         while start < n:
@@ -514,11 +519,11 @@ class ColumnMap:
                 sel = np.arange(start, start + m)
                 sel[k:] = start  # padding: copies of the chunk's first column
                 chunk = [v[:, matrix_columns(sel, c)] for v, c in zip(a, cin)]
-            res = self._map(m)(*chunk)
+            res = self._map(m).run(chunk)
             for o, r, c in zip(outs, res, cout):
                 o[:, start * c:(start + k) * c] = r[:, :k * c]
             start += k
-        return outs[0] if len(outs) == 1 else outs
+        return outs
 
 
 def map_size(k: int) -> int:
@@ -575,8 +580,14 @@ class _Signature:
         self.f = f
         self.shape_in = [(f.size1_in(i), f.size2_in(i)) for i in range(f.n_in())]
         self.shape_out = [(f.size1_out(i), f.size2_out(i)) for i in range(f.n_out())]
+        self.cols_in = [c for _, c in self.shape_in]
+        self.cols_out = [c for _, c in self.shape_out]
         self.dense = all(f.sparsity_in(i).is_dense() for i in range(f.n_in())) and \
             all(f.sparsity_out(i).is_dense() for i in range(f.n_out()))
+        ends = np.cumsum([0] + [r * c for r, c in self.shape_out]).tolist()
+        #: where each output lies in the block of all outputs: (start, end, columns, rows)
+        self._views = [(ends[i], ends[i + 1], c, r) for i, (r, c) in enumerate(self.shape_out)]
+        self._size = ends[-1]
         self._buf: tuple | None = None
         self._busy = threading.Lock()
 
@@ -608,26 +619,31 @@ class _Signature:
                                 param="args", value=len(args), valid=f"{len(self.shape_in)} arrays")
         if not self.dense:
             return [np.asarray(v) for v in f.call(list(args))]
-        args = [self._shaped(i, a, shape) for i, (a, shape) in enumerate(zip(args, self.shape_in))]
+        return self.run([self._shaped(i, a, shape) for i, (a, shape) in enumerate(zip(args, self.shape_in))])
+
+    def run(self, args: list[np.ndarray]) -> list[np.ndarray]:
+        """The call on float arrays of the inputs' shapes (checked by the caller: :meth:`__call__`,
+        :meth:`ColumnMap.outputs`)."""
+        if not self.dense:
+            return [np.asarray(v) for v in self.f.call(list(args))]
         if not self._busy.acquire(blocking=False):  # another thread is in this Function: a buffer of its own
             return self._fresh(args)
         try:
             if self._buf is None:
-                buf, trigger = f.buffer()
+                buf, trigger = self.f.buffer()
                 ins = [np.empty((c, r)) for r, c in self.shape_in]  # CasADi's column-major layout
-                ends = np.cumsum([0] + [r * c for r, c in self.shape_out]).tolist()
-                block = np.empty(ends[-1])  # every output, one after the other
+                block = np.empty(self._size)  # every output, one after the other
                 for i, a in enumerate(ins):
                     buf.set_arg(i, memoryview(a))
-                for i in range(len(self.shape_out)):
-                    buf.set_res(i, memoryview(block[ends[i]:ends[i + 1]]))
-                self._buf = (buf, trigger, ins, block, ends)
-            buf, trigger, ins, block, ends = self._buf
+                for i, (a, b, _, _) in enumerate(self._views):
+                    buf.set_res(i, memoryview(block[a:b]))
+                self._buf = (buf, trigger, ins, block)
+            _, trigger, ins, block = self._buf
             for a, into in zip(args, ins):
                 into[...] = a.T
             trigger()
             out = block.copy()  # the outputs: (rows, columns) views of one new array
-            return [out[ends[i]:ends[i + 1]].reshape(c, r).T for i, (r, c) in enumerate(self.shape_out)]
+            return [out[a:b].reshape(c, r).T for a, b, c, r in self._views]
         finally:
             self._busy.release()
 
@@ -667,8 +683,7 @@ def call(f: ca.Function, *args: ArrayLike) -> list[np.ndarray]:
         One (rows, columns) float array per output (Fortran-ordered views).
     """
     if isinstance(f, ColumnMap):
-        out = f(*args)
-        return [out] if f.column.n_out() == 1 else out
+        return f.outputs(*args)
     key = id(f)
     hit = _signatures.get(key)
     if hit is None or hit[0]() is not f:  # shapes queried once per live Function object
