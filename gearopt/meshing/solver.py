@@ -135,6 +135,7 @@ class Branch:
         c = checks(w, p)
         post = [ca.norm_2(F), c[0], c[1]]
         self.extra = extra
+        self._extra_names = extra.name_out() if extra is not None else []  # (asked once: a call into CasADi)
         w0 = ca.MX.sym("W0", nw)
         pp = ca.MX.sym("P", npr)
         wf = self.rf_fast(w0, pp)
@@ -158,6 +159,8 @@ class Branch:
 
     def __setstate__(self, state):
         state.setdefault("_dw_memo", {})
+        if "_extra_names" not in state:
+            state["_extra_names"] = state["extra"].name_out() if state.get("extra") is not None else []
         self.__dict__.update(state)
 
     def newton(self, w0: npt.ArrayLike, prm: npt.ArrayLike) -> np.ndarray:
@@ -400,7 +403,9 @@ class Branch:
         sizes = np.array([g.size for g in groups], int)
         start = np.repeat(np.cumsum(sizes) - sizes, sizes)  # where each entry's group begins
         for forward in (True, False):
-            order = np.concatenate([g if forward else g[::-1] for g in groups]) if groups else np.zeros(0, int)
+            if not groups:
+                break
+            order = np.concatenate([g if forward else g[::-1] for g in groups])
             tried: set = set()
             while True:
                 cols, anchors = [], []
@@ -422,13 +427,13 @@ class Branch:
                     for a, b in zip((Wr, rr, dr, gr), out):
                         a[..., slow] = b
                 good = np.asarray(self.accept(rr, dr, gr), bool) & ~ok[cols]
+                if not good.any():
+                    break
                 g = cols[good]
                 W[:, g], res[g], n1n2[g], reg[g], ok[g] = Wr[:, good], rr[good], dr[good], gr[good], True
                 rescued.append(g)
-                if not good.any():
-                    break
         stats = {"n_fast": n_fast, "n_retry": n_retry, "n_line_search": n_line}
         if extra:
-            stats["extra"] = dict(zip(self.extra.name_out(), first[4:]))
+            stats["extra"] = dict(zip(self._extra_names, first[4:]))
             stats["rescued"] = sorted_unique(np.concatenate(rescued)) if rescued else np.zeros(0, int)
         return BranchSolution(W=W, res=res, n1n2=n1n2, reg=reg, ok=ok, stats=stats)
