@@ -819,10 +819,10 @@ class TCA:
                                                            sv.p1, sv.p2)
         c = sv.contact
         K, N = len(pairs), phi1.size
-        bad = ~ok
-        col = ok[:, None]  # accepted, per column (for the (K N, ...) arrays below)
+        bad = np.flatnonzero(~ok)  # the columns not accepted
         # the contact points [pinion, gear, S_f] x column x xyz, NaN where not accepted (one array)
-        pts = np.where(col[None], np.stack([c["r1"].T, c["r2"].T, c["rf1"].T]), np.nan)
+        pts = np.concatenate([c["r1"].T, c["r2"].T, c["rf1"].T]).reshape(3, K * N, 3)
+        pts[:, bad] = np.nan
         g1, g2 = self.pair.pinion, self.pair.gear
         okk = ok.reshape(K, N)
         shp = lambda a: a.reshape(K, N)  # noqa: E731
@@ -867,19 +867,19 @@ class TCA:
         driving = np.where(has, drv, -1)
         # Curvatures and contact ellipse (eigen-decomposition of K1 + K2 in the common basis, in the
         # compiled sweep outputs): semi-axes sqrt(2 delta / lam), NaN where not converged.
-        kap1 = np.where(col, c["kappa1"].T, np.nan)
-        kap2 = np.where(col, c["kappa2"].T, np.nan)
+        kap1 = c["kappa1"].T.copy()
+        kap2 = c["kappa2"].T.copy()
         lam = c["lam"].T
         ax_len = np.full(lam.shape, np.inf)  # no contact ellipse where K1 + K2 is not positive (or NaN)
         pos = lam > 0
-        np.divide(2 * delta, lam, out=ax_len, where=pos)
-        np.sqrt(ax_len, out=ax_len, where=pos)
-        ax_len[bad] = np.nan
-        ea, eb = ax_len.T.copy()
+        ax_len[pos] = np.sqrt(2 * delta / lam[pos])
         # [major, minor] x (3,) in the gear frame and in the pinion frame (each output (3, 2 K N):
         # column 2 j + a holds axis a of column j)
-        edir = np.where(col[:, :, None], c["dir2"].T.reshape(K * N, 2, 3), np.nan)
-        edir1 = np.where(col[:, :, None], c["dir1"].T.reshape(K * N, 2, 3), np.nan)
+        edir = c["dir2"].T.reshape(K * N, 2, 3).copy()
+        edir1 = c["dir1"].T.reshape(K * N, 2, 3).copy()
+        for a in (kap1, kap2, ax_len, edir, edir1):
+            a[bad] = np.nan
+        ea, eb = ax_len.T.copy()
         # (phi2, te and the radii are NaN where not accepted already: W and the points are)
         return TCAResult(
             phi1=phi1, pairs=pairs, phi2=phi2, te=te,
