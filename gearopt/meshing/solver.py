@@ -409,7 +409,10 @@ class Branch:
             tried: set = set()
             while True:
                 cols, anchors = [], []
-                for c, a in zip(*(v.tolist() for v in self._candidates(ok, order, start, max_gap))):
+                cand, anch = self._candidates(ok, order, start, max_gap)
+                if cand.size == 0:
+                    break
+                for c, a in zip(cand.tolist(), anch.tolist()):
                     if (c, a) not in tried:
                         tried.add((c, a))
                         cols.append(c)

@@ -773,7 +773,8 @@ class TCA:
         phi1, p1, p2, mis, pairs = check_sweep_args(self, phi1, p1, p2, mis, pairs, delta, anchor, z_section)
         g1 = self.pair.pinion
         K, N = len(pairs), phi1.size
-        phis = np.concatenate([phi1 - 2 * math.pi * k / g1.z for k in pairs])
+        # pair k's positions phi1 - 2 pi k / z1, pair after pair
+        phis = (phi1[None, :] - np.array([2 * math.pi * k / g1.z for k in pairs])[:, None]).ravel()
         prm = self.prm(phis, p1, p2, mis, z_section)
         w_a = self.solve_point(anchor, None, p1, p2, mis, z_section)  # the public anchor solve (EdgeContact and tests wrap it)
         prm_a = prm[:, 0].copy()  # the anchor's column: the same but phi1
@@ -783,7 +784,7 @@ class TCA:
                                            2 * math.pi / g1.z / KNOTS_PER_PITCH, n_total=phis.size)
         else:
             W0 = self.branch.predict(w_a, prm_a, phis - anchor)
-        groups = [np.arange(k * N, (k + 1) * N) for k in range(K)] if continuation else []
+        groups = list(np.arange(K * N).reshape(K, N)) if continuation else []
         # solved with the contact quantities at each point in the same compiled pass
         W, res, n1n2, reg, ok, st = self.branch.solve(W0, prm, groups, extra=True)
         n_fast, n_retry = st["n_fast"], st["n_retry"]
