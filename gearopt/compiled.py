@@ -34,7 +34,9 @@ When a sweep runs compiled (``jit="auto"``, :func:`select`): whenever its librar
 cache, whatever its size (loading costs milliseconds); on a cache miss, a sweep of at least
 :data:`MIN_COLUMNS` columns compiles at once (the compile pays within the call), a smaller one runs
 interpreted while the library compiles in a background thread (:func:`compile_in_background`), so a
-small sweep never waits for the compiler; the next call finds the library.
+small sweep never waits for the compiler; the next call finds the library. A map size that a
+process calls again and again (:data:`MAP_LIBRARY_CALLS`) gets a library of its own, the loop over its
+columns in C (:func:`map_library`, compiled in the background; the same numbers bit for bit).
 
 Without a working compiler :func:`compile_function` returns None after one warning (a one-line
 note) per process, and the callers run the interpreted Function.
@@ -77,8 +79,9 @@ MIN_COLUMNS = 1024
 
 MIN_PER_THREAD = 512  #: a compiled mapped call is split over threads only with at least this many columns each
 #: a compiled ColumnMap's serial map of one size compiles as a library of its own (ColumnMap._settle) from
-#: this call of the size on (a one-off sweep does not start a compile; a repeated one does)
-MAP_LIBRARY_CALLS = 3
+#: this call of the size on: a size a process calls again and again (a loop over designs, samples or
+#: misalignments, a benchmark), not the few calls of a scene, which would only wait for the compile at exit
+MAP_LIBRARY_CALLS = 8
 
 _loaded: dict[str, ca.Function] = {}
 _keys: dict[tuple, tuple] = {}  # (id of a Function, compiler) -> (weak reference, cache key)
