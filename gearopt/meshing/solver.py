@@ -376,7 +376,7 @@ class Branch:
         W, res, n1n2, reg = first[:4]  # (new arrays: changed in place below)
         res, n1n2, reg = res.ravel(), n1n2.ravel(), reg.ravel()
         ok = np.asarray(self.accept(res, n1n2, reg), bool)
-        n_fast, n_retry = int(ok.sum()), 0
+        n_fast, n_retry = int(np.count_nonzero(ok)), 0
         rescued: list = []
         groups = [np.asarray(g, int) for g in groups if len(g) > 0]
         # a group none of whose columns was accepted has no anchor for continuation: where Newton

@@ -802,7 +802,7 @@ class TCA:
         phi2_ref = float(self._full_numeric(np.asarray(w_0, float)[:, None], z_section)[4, 0]) / self.scale2
         solve_time = time.perf_counter() - t0
         stats = {"n_positions": int(phis.size), "n_fast": n_fast, "n_retry": n_retry,
-                 "n_failed": int((~ok).sum()), "build_s": self.build_time, "solver": self.solver,
+                 "n_failed": ok.size - int(np.count_nonzero(ok)), "build_s": self.build_time, "solver": self.solver,
                  "contact": self.contact_type}
         folded = self.folding(p1, p2)
         if folded:
