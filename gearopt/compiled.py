@@ -516,7 +516,7 @@ class ColumnMap:
                 job = compile_in_background(self.column.map(m)) if background() else None
                 if job is None:  # on disk already (another process), or no compile here: look once
                     g = map_library(self.column, m)
-                    del self._open[key]
+                    self._open.pop(key, None)
                     if g is not None:
                         sig = self._maps[key] = _Signature(g)
                     return sig
@@ -524,7 +524,7 @@ class ColumnMap:
             return sig
         if job.is_alive():
             return sig
-        del self._open[key]  # compiled (or failed: then CasADi's map stays)
+        self._open.pop(key, None)  # compiled (or failed: then CasADi's map stays)
         g = map_library(self.column, m)
         if g is not None:
             sig = self._maps[key] = _Signature(g)

@@ -592,6 +592,15 @@ class TCA:
             hit = self._remember(key, self._reduce([u1, z_section, u2, z_section, 0.0]))
         return hit.copy()
 
+    def _pitch_angles(self, pairs: tuple[int, ...], member: int) -> np.ndarray:
+        """``2 pi k / z`` [rad] of the tooth pairs k on member 1 (pinion) or 2 (gear), kept per pairs."""
+        key = ("pitch", member, pairs)
+        hit = self._memo.get(key)
+        if hit is None:
+            z = (self.pair.pinion if member == 1 else self.pair.gear).z
+            hit = self._remember(key, np.array([2 * math.pi * k / z for k in pairs]))
+        return hit
+
     def _remember(self, key: tuple, value: np.ndarray) -> np.ndarray:
         """Keep ``value`` under ``key`` in the memo of guesses and anchors (the oldest go beyond 64)."""
         if len(self._memo) >= 64:
@@ -774,7 +783,7 @@ class TCA:
         g1 = self.pair.pinion
         K, N = len(pairs), phi1.size
         # pair k's positions phi1 - 2 pi k / z1, pair after pair
-        phis = (phi1[None, :] - np.array([2 * math.pi * k / g1.z for k in pairs])[:, None]).ravel()
+        phis = (phi1[None, :] - self._pitch_angles(pairs, 1)[:, None]).ravel()
         prm = self.prm(phis, p1, p2, mis, z_section)
         w_a = self.solve_point(anchor, None, p1, p2, mis, z_section)  # the public anchor solve (EdgeContact and tests wrap it)
         prm_a = prm[:, 0].copy()  # the anchor's column: the same but phi1
@@ -795,11 +804,12 @@ class TCA:
             for name, v in zip(f_c.name_out(), call(f_c, W[:, fix], prm[:, fix])):
                 width = v.shape[1] // fix.size
                 c[name][:, matrix_columns(fix, width)] = v
-        Wf = self._full_numeric(W, z_section)
+        Wf = self._full_numeric(W, z_section) if self.contact_type == "line" else W  # (W: this sweep's own array)
         Wf[:, ~ok] = np.nan
-        # TE zero: phi2 of pair 0 at phi1 = 0 (the same for every sweep of this design and case).
+        # TE zero: phi2 of pair 0 at phi1 = 0 (the same for every sweep of this design and case);
+        # r_p2 phi2 is the last unknown for point and line contact alike
         w_0 = w_a if anchor == 0.0 else self.solve_point(0.0, w_a, p1, p2, mis, z_section)
-        phi2_ref = float(self._full_numeric(np.asarray(w_0, float)[:, None], z_section)[4, 0]) / self.scale2
+        phi2_ref = float(np.asarray(w_0, float)[-1]) / self.scale2
         solve_time = time.perf_counter() - t0
         stats = {"n_positions": int(phis.size), "n_fast": n_fast, "n_retry": n_retry,
                  "n_failed": ok.size - int(np.count_nonzero(ok)), "build_s": self.build_time, "solver": self.solver,
@@ -827,7 +837,7 @@ class TCA:
         g1, g2 = self.pair.pinion, self.pair.gear
         okk = ok.reshape(K, N)
         shp = lambda a: a.reshape(K, N)  # noqa: E731
-        phi2 = shp(W[4] / self.scale2) + np.array([2 * math.pi * k / g2.z for k in pairs])[:, None]
+        phi2 = shp(W[4] / self.scale2) + self._pitch_angles(pairs, 2)[:, None]
         # TE relative to the pair-0 gear angle at phi1 = 0, so that every pair and sweep shares one zero.
         ratio = g1.z / g2.z
         te = phi2 - ratio * phi1[None, :] - phi2_ref
@@ -841,7 +851,8 @@ class TCA:
         # on the face (|z1| <= b1 / 2, |z2| <= b2 / 2) and inside the tip circles (NaN, where not
         # accepted, compares False)
         edge = np.array([[g1.b / 2 + eps, g1.r_a + eps], [g2.b / 2 + eps, g2.r_a + eps]])
-        inside = shp(((np.abs(W[1:4:2]) <= edge[:, :1]) & (radii <= edge[:, 1:])).all(axis=0))
+        inside = (np.abs(W[1:4:2]) <= edge[:, :1]) & (radii <= edge[:, 1:])
+        inside = shp(inside[0] & inside[1])
         on = okk & inside & lim1 & lim2
         te_on = np.where(on, te, -np.inf)
         drv = np.argmax(te_on, axis=0)
