@@ -248,13 +248,22 @@ def cached_function(f: ca.Function) -> ca.Function | None:
     cc, path, g = _library(f)
     if cc is None or path is None or g is not None:
         return g
+    return _load(f.name(), path)
+
+
+def _load(name: str, path: Path) -> ca.Function | None:
+    """The library at ``path`` (its Function ``name``), loaded once per process; None while it is
+    compiled in the background here, when it is not on disk, or cannot be loaded."""
     key = str(path)
+    g = _loaded.get(key)
+    if g is not None:
+        return g
     if key in _pending and _pending[key].is_alive():
         return None
     if not path.exists():
         return None
     try:
-        g = ca.external(f.name(), key)
+        g = ca.external(name, key)
     except Exception:  # noqa: BLE001 - a truncated or foreign file: compile_function rebuilds it
         return None
     _loaded[key] = g
@@ -291,21 +300,26 @@ def compile_in_background(f: ca.Function) -> threading.Thread | None:
     _, path, g = _library(f)
     if path is None or g is not None:
         return None
+    return _start(path, lambda: f, f.name())
+
+
+def _start(path: Path, make: Callable[[], ca.Function], name: str) -> threading.Thread | None:
+    """Compile ``make()`` into ``path`` in a background thread (:func:`compile_in_background`)."""
     key = str(path)
     with _lock:
         if key in _loaded or key in _pending or key in _failed or path.exists():
             return None
-        job = threading.Thread(target=_background_job, args=(f, key), name=f"gearopt-compile-{f.name()}")
+        job = threading.Thread(target=_background_job, args=(make, key), name=f"gearopt-compile-{name}")
         _pending[key] = job
     job.start()
     return job
 
 
-def _background_job(f: ca.Function, key: str) -> None:
+def _background_job(make: Callable[[], ca.Function], key: str) -> None:
     # (no warning from this thread: the warnings filters are process-wide; a failed build is kept in
     # _failed, so it is not tried again in the background, and a synchronous compile reports it)
     try:
-        err = _build(f, Path(key), compiler()[0]) if not Path(key).exists() else None
+        err = _build(make(), Path(key), compiler()[0]) if not Path(key).exists() else None
         if err is None:
             _counts["built"] += 1
         else:
@@ -513,7 +527,7 @@ class ColumnMap:
         job = state[1]
         if job is None:
             if state[0] >= MAP_LIBRARY_CALLS:
-                job = compile_in_background(self.column.map(m)) if background() else None
+                job = _compile_map(self.column, m) if background() else None
                 if job is None:  # on disk already (another process), or no compile here: look once
                     g = map_library(self.column, m)
                     self._open.pop(key, None)
@@ -583,10 +597,39 @@ def map_library(column: ca.Function, m: int) -> ca.Function | None:
     cache, else None (never compiles; :class:`ColumnMap` compiles it in the background for a size
     it calls again and again). Its numbers are those of the column's own library mapped by CasADi,
     bit for bit, about 0.3 us less per column (CasADi's map calls the column's library through its
-    generic evaluation, once per column)."""
-    if not available():
+    generic evaluation, once per column). Its key derives from the column's (:func:`map_library_path`),
+    so looking it up builds and serialises no map."""
+    path = map_library_path(column, m)
+    return None if path is None else _load(f"map{m}_{column.name()}", path)
+
+
+def map_library_path(column: ca.Function, m: int) -> Path | None:
+    """Where the library of ``column.map(m)`` lives in the cache: ``map<m>_<name>-<key>.so``, the key
+    the SHA-256 of the column library's name (its own key: graph, CasADi, compiler, flags) and m;
+    None without a compiler or for a column CasADi cannot serialise."""
+    if compiler() is None:
         return None
-    return cached_function(column.map(m))
+    col = _path_or_none(column)
+    if col is None:
+        return None
+    return col.parent / f"map{m}_{column.name()}-{hashlib.sha256(f'{col.name}/map{m}'.encode()).hexdigest()[:24]}.so"
+
+
+def _compile_map(column: ca.Function, m: int) -> threading.Thread | None:
+    """Compile ``column.map(m)`` into :func:`map_library_path` in the background (the map is built
+    in the compile's thread)."""
+    path = map_library_path(column, m)
+    if path is None:
+        return None
+    name = f"map{m}_{column.name()}"
+
+    def make() -> ca.Function:
+        f = column.map(m)
+        if f.name() != name:  # the name the library is loaded by
+            raise RuntimeError(f"CasADi named the map {f.name()}, not {name}")
+        return f
+
+    return _start(path, make, name)
 
 
 def map_size(k: int) -> int:

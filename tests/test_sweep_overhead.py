@@ -183,23 +183,29 @@ def test_map_library_gives_the_numbers_of_casadis_map_bit_for_bit(tmp_path, monk
 
 
 def test_map_library_not_compiled_for_a_one_off_size_or_without_background(tmp_path, monkeypatch):
-    """Fewer calls of a size than MAP_LIBRARY_CALLS, or the background compile off, start no compile."""
+    """Fewer calls of a size than MAP_LIBRARY_CALLS, or the background compile off, start no compile;
+    looking the map's library up builds no map (its key derives from the column's)."""
     monkeypatch.setenv("GEAROPT_CACHE_DIR", str(tmp_path / "cache"))
     monkeypatch.setattr(compiled, "_loaded", {})
     monkeypatch.setattr(compiled, "_pending", {})
-    started = []
-    monkeypatch.setattr(compiled, "compile_in_background", lambda f: started.append(f.name()))
-    cm = compiled.ColumnMap(_newton_column(), lambda m: _newton_column().map(m), compiled=True)
+    built = []
+    monkeypatch.setattr(compiled, "_build", lambda f, path, cc: built.append(f.name()) or "not here")
+    col = _newton_column()
+    cm = compiled.ColumnMap(col, lambda m: col.map(m), compiled=True)
     W0, P = np.zeros((2, 3)), np.ones((2, 3))
     monkeypatch.delenv("GEAROPT_JIT_BACKGROUND", raising=False)
     for _ in range(compiled.MAP_LIBRARY_CALLS - 1):
         compiled.call(cm, W0, P)
-    assert started == []
+    assert compiled.wait_for_background(60) and built == [] and cm._open
     monkeypatch.setenv("GEAROPT_JIT_BACKGROUND", "0")
-    cm2 = compiled.ColumnMap(_newton_column(), lambda m: _newton_column().map(m), compiled=True)
+    cm2 = compiled.ColumnMap(col, lambda m: col.map(m), compiled=True)
     for _ in range(compiled.MAP_LIBRARY_CALLS + 2):
         compiled.call(cm2, W0, P)
-    assert started == [] and not cm2._open  # looked once, then settled on CasADi's map
+    assert compiled.wait_for_background(60) and built == [] and not cm2._open  # looked once, then settled
+    if compiled.available():
+        path = compiled.map_library_path(col, 3)
+        assert path.name.startswith("map3_ovh_col-") and path.parent == compiled.library_path(col).parent
+        assert path != compiled.map_library_path(col, 4)
 
 
 @needs_cc
