@@ -225,8 +225,8 @@ class Branch:
         lin = self.predict(w_a, prm_a, phi - anchor)
         if phi.size == 0:
             return lin
-        j0 = math.floor((float(phi.min()) - anchor) / spacing)
-        j1 = math.ceil((float(phi.max()) - anchor) / spacing)
+        j0 = math.floor((float(np.minimum.reduce(phi)) - anchor) / spacing)
+        j1 = math.ceil((float(np.maximum.reduce(phi)) - anchor) / spacing)
         if (max(j1, j0 + 1) + 1 - j0) * 4 > phi.size:  # a coarse sweep: the knots would cost as much as the positions
             return lin
         knots = anchor + spacing * np.arange(j0, max(j1, j0 + 1) + 1)
