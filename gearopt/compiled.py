@@ -477,10 +477,17 @@ class ColumnMap:
     compiled : bool
         Whether ``factory`` maps a compiled library (what :func:`select` chose; for tests and
         benchmarks: which path a sweep took).
+    own_maps : bool
+        With ``compiled``: a map size called again and again gets a compiled library of its own
+        (:func:`map_library`, from its :data:`MAP_LIBRARY_CALLS`-th call). For the sweeps a user
+        repeats (the TCA's); off by default, so that other repeated maps (loaded TCA, optimisers)
+        do not compile more in the background.
     """
 
-    def __init__(self, column: ca.Function, factory: Callable[[int], ca.Function], compiled: bool = False) -> None:
+    def __init__(self, column: ca.Function, factory: Callable[[int], ca.Function], compiled: bool = False,
+                 own_maps: bool = False) -> None:
         self.column, self.factory, self.compiled = column, factory, bool(compiled)
+        self.own_maps = bool(own_maps) and self.compiled
         self._maps: dict[tuple, _Signature] = {}
         self._sig = _Signature(column)
         self._open: dict[tuple, list] = {}  # map keys still on CasADi's map: [calls, background compile]
@@ -495,6 +502,7 @@ class ColumnMap:
 
     def __setstate__(self, state):
         state.setdefault("_open", {})
+        state.setdefault("own_maps", False)
         self.__dict__.update(state)
 
     def _map(self, m: int) -> _Signature:
@@ -505,14 +513,14 @@ class ColumnMap:
         return sig
 
     def _settle(self, key: tuple[int, int], sig: _Signature | None) -> _Signature:
-        """The map of ``key = (m, threads)``. A compiled column's serial map of m columns is a library
+        """The map of ``key = (m, threads)``. With ``own_maps``, a compiled column's serial map of m columns is a library
         of its own once one is in the cache (:func:`map_library`: the loop over the columns in C);
         until then CasADi's map of the column's library, and from the :data:`MAP_LIBRARY_CALLS`-th
         call of that size on (a size that is called again and again) the map's library compiles in
         the background (:func:`compile_in_background`); the first call after it is done switches.
         The numbers are the same bit for bit (tests/test_sweep_overhead.py)."""
         m, k = key
-        if not self.compiled or k > 1:
+        if not self.own_maps or k > 1:
             sig = self._maps[key] = _Signature(self.factory(m))
             return sig
         state = self._open.get(key)

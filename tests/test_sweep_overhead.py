@@ -164,7 +164,9 @@ def test_map_library_gives_the_numbers_of_casadis_map_bit_for_bit(tmp_path, monk
     W0, P = rng.normal(size=(2, 40)), rng.uniform(0.5, 2.0, size=(2, 40))
     ref = [np.asarray(v) for v in compiled.compile_function(f).map(40)(W0, P)]
     assert compiled.map_library(f, 40) is None  # nothing compiled for the map yet
-    cm = compiled.mapped(f, 40, True)
+    lib_f = compiled.compile_function(f)
+    assert not compiled.mapped(f, 40, True).own_maps  # other maps than the TCA's: CasADi's map of the library
+    cm = compiled.ColumnMap(f, lambda m: compiled.map_columns(lib_f, m), compiled=True, own_maps=True)
     for _ in range(compiled.MAP_LIBRARY_CALLS):
         out = compiled.call(cm, W0, P)
         assert cm._maps[(40, 1)].f.class_name() == "Map"  # CasADi's map of the column's library
@@ -176,7 +178,7 @@ def test_map_library_gives_the_numbers_of_casadis_map_bit_for_bit(tmp_path, monk
     assert lib is not None and cm._maps[(40, 1)].f is lib and not cm._open
     for x, y in zip(ref, out):
         assert np.array_equal(x, y, equal_nan=True)
-    fresh = compiled.mapped(f, 40, True)  # a new ColumnMap (e.g. a new process): the library at once
+    fresh = compiled.ColumnMap(f, lambda m: compiled.map_columns(lib_f, m), compiled=True, own_maps=True)  # (a new process)
     for x, y in zip(ref, compiled.call(fresh, W0, P)):
         assert np.array_equal(x, y, equal_nan=True)
     assert fresh._maps[(40, 1)].f is lib
@@ -191,14 +193,14 @@ def test_map_library_not_compiled_for_a_one_off_size_or_without_background(tmp_p
     built = []
     monkeypatch.setattr(compiled, "_build", lambda f, path, cc: built.append(f.name()) or "not here")
     col = _newton_column()
-    cm = compiled.ColumnMap(col, lambda m: col.map(m), compiled=True)
+    cm = compiled.ColumnMap(col, lambda m: col.map(m), compiled=True, own_maps=True)
     W0, P = np.zeros((2, 3)), np.ones((2, 3))
     monkeypatch.delenv("GEAROPT_JIT_BACKGROUND", raising=False)
     for _ in range(compiled.MAP_LIBRARY_CALLS - 1):
         compiled.call(cm, W0, P)
     assert compiled.wait_for_background(60) and built == [] and cm._open
     monkeypatch.setenv("GEAROPT_JIT_BACKGROUND", "0")
-    cm2 = compiled.ColumnMap(col, lambda m: col.map(m), compiled=True)
+    cm2 = compiled.ColumnMap(col, lambda m: col.map(m), compiled=True, own_maps=True)
     for _ in range(compiled.MAP_LIBRARY_CALLS + 2):
         compiled.call(cm2, W0, P)
     assert compiled.wait_for_background(60) and built == [] and not cm2._open  # looked once, then settled
@@ -221,7 +223,7 @@ def test_repeated_sweep_checks_its_arguments_once_and_looks_up_no_library(crowne
     phi = np.linspace(-0.1, 0.1, 9)
     for _ in range(compiled.MAP_LIBRARY_CALLS + 1):
         first = tca.sweep(phi, mis=mis)
-    assert tca.branch.mapped(27, extra=True).compiled
+    assert tca.branch.mapped(27, extra=True).compiled and tca.branch.mapped(27, extra=True).own_maps
     calls = []
     real = tca_mod.check_sweep_args
 

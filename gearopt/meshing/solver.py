@@ -98,13 +98,19 @@ class Branch:
         Residual tolerance [mm] (used by ``accept``).
     solver : {"fast_newton", "newton"}
     jit : bool
+    extra : casadi.Function, optional
+        ``(w, prm) -> outputs`` at the solved point, evaluated in the same compiled pass
+        (``solve(..., extra=True)``).
+    own_maps : bool
+        Compiled map sizes called again and again get libraries of their own
+        (:class:`gearopt.compiled.ColumnMap`, ``own_maps``): for the sweeps a user repeats.
     """
 
     def __init__(self, name: str, G: ca.Function, checks: ca.Function, accept: Callable[..., np.ndarray], tol: float,
                  solver: str = SolverSettings.solver, jit: bool | str = SolverSettings.jit,
-                 extra: ca.Function | None = None):
+                 extra: ca.Function | None = None, own_maps: bool = False):
         self.name, self.G, self.checks, self.accept, self.tol = name, G, checks, accept, tol
-        self.solver, self.jit = solver, jit
+        self.solver, self.jit, self.own_maps = solver, jit, own_maps
         nw, npr = G.size1_in(0), G.size1_in(1)
         w, p = ca.SX.sym("w", nw), ca.SX.sym("p", npr)
         F = G(w, p)
@@ -159,6 +165,7 @@ class Branch:
 
     def __setstate__(self, state):
         state.setdefault("_dw_memo", {})
+        state.setdefault("own_maps", False)
         if "_extra_names" not in state:
             state["_extra_names"] = state["extra"].name_out() if state.get("extra") is not None else []
         self.__dict__.update(state)
@@ -292,7 +299,7 @@ class Branch:
         key = ("columns", f is not None, extra)
         if key not in self._maps:
             if f is not None:
-                self._maps[key] = ColumnMap(col, lambda m: map_columns(f, m), compiled=True)
+                self._maps[key] = ColumnMap(col, lambda m: map_columns(f, m), compiled=True, own_maps=self.own_maps)
             elif extra:
                 self._maps[key] = ColumnMap(col, col.map)
             else:
