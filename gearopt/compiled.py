@@ -34,7 +34,9 @@ When a sweep runs compiled (``jit="auto"``, :func:`select`): whenever its librar
 cache, whatever its size (loading costs milliseconds); on a cache miss, a sweep of at least
 :data:`MIN_COLUMNS` columns compiles at once (the compile pays within the call), a smaller one runs
 interpreted while the library compiles in a background thread (:func:`compile_in_background`), so a
-small sweep never waits for the compiler; the next call finds the library.
+small sweep never waits for the compiler; the next call finds the library. A map size that a
+process calls again and again (:data:`MAP_LIBRARY_CALLS`) gets a library of its own, the loop over its
+columns in C (:func:`map_library`, compiled in the background; the same numbers bit for bit).
 
 Without a working compiler :func:`compile_function` returns None after one warning (a one-line
 note) per process, and the callers run the interpreted Function.
@@ -76,6 +78,10 @@ BASE_FLAGS = ("-O2", "-shared", "-fPIC")  #: what a compiler that refuses FLAGS 
 MIN_COLUMNS = 1024
 
 MIN_PER_THREAD = 512  #: a compiled mapped call is split over threads only with at least this many columns each
+#: a compiled ColumnMap's serial map of one size compiles as a library of its own (ColumnMap._settle) from
+#: this call of the size on: a size a process calls again and again (a loop over designs, samples or
+#: misalignments, a benchmark), not the few calls of a scene, which would only wait for the compile at exit
+MAP_LIBRARY_CALLS = 8
 
 _loaded: dict[str, ca.Function] = {}
 _keys: dict[tuple, tuple] = {}  # (id of a Function, compiler) -> (weak reference, cache key)
@@ -181,17 +187,14 @@ def compile_function(f: ca.Function) -> ca.Function | None:
         compiler works or the cache directory cannot be written (one warning per process and
         cause; the caller then runs ``f`` interpreted).
     """
-    cc = compiler()
+    cc, path, g = _library(f)
     if cc is None:
         _note("cc", "gearopt: no C compiler found (cc, gcc or clang; or set CC): sweeps run interpreted, "
                     "about 10x slower. Install one (e.g. apt-get install gcc) for the compiled engine.")
         return None
-    path = _path_or_none(f)
-    if path is None:
-        return None
+    if path is None or g is not None:
+        return g
     key = str(path)
-    if key in _loaded:
-        return _loaded[key]
     job = _pending.get(key)
     if job is not None:  # being compiled in the background: wait for it rather than compile twice
         job.join()
@@ -228,23 +231,39 @@ def _path_or_none(f: ca.Function) -> Path | None:
         return None
 
 
+def _library(f: ca.Function) -> tuple[tuple[str, str] | None, Path | None, ca.Function | None]:
+    """What :func:`compile_function`, :func:`cached_function` and :func:`compile_in_background` look up
+    first: the compiler (None: none works), ``f``'s library path in the cache (None without a compiler
+    or for a Function CasADi cannot serialise) and the library if this process loaded it already."""
+    cc = compiler()
+    if cc is None:
+        return None, None, None
+    path = _path_or_none(f)
+    return cc, path, None if path is None else _loaded.get(str(path))
+
+
 def cached_function(f: ca.Function) -> ca.Function | None:
     """``f``'s compiled library if it is in the disk cache (loaded: milliseconds), else None; never
     compiles. None too without a working compiler (the cache key names the compiler)."""
-    if compiler() is None:
-        return None
-    path = _path_or_none(f)
-    if path is None:
-        return None
+    cc, path, g = _library(f)
+    if cc is None or path is None or g is not None:
+        return g
+    return _load(f.name(), path)
+
+
+def _load(name: str, path: Path) -> ca.Function | None:
+    """The library at ``path`` (its Function ``name``), loaded once per process; None while it is
+    compiled in the background here, when it is not on disk, or cannot be loaded."""
     key = str(path)
-    if key in _loaded:
-        return _loaded[key]
+    g = _loaded.get(key)
+    if g is not None:
+        return g
     if key in _pending and _pending[key].is_alive():
         return None
     if not path.exists():
         return None
     try:
-        g = ca.external(f.name(), key)
+        g = ca.external(name, key)
     except Exception:  # noqa: BLE001 - a truncated or foreign file: compile_function rebuilds it
         return None
     _loaded[key] = g
@@ -278,26 +297,29 @@ def compile_in_background(f: ca.Function) -> threading.Thread | None:
     way or failed before in this process, or no compiler works. The thread is not a daemon: a process waits for its compiles at exit,
     so no half-written scratch directory is left in the cache. The caller keeps running ``f``
     interpreted; :func:`cached_function` finds the library once the thread is done."""
-    if compiler() is None:
+    _, path, g = _library(f)
+    if path is None or g is not None:
         return None
-    path = _path_or_none(f)
-    if path is None:
-        return None
+    return _start(path, lambda: f, f.name())
+
+
+def _start(path: Path, make: Callable[[], ca.Function], name: str) -> threading.Thread | None:
+    """Compile ``make()`` into ``path`` in a background thread (:func:`compile_in_background`)."""
     key = str(path)
     with _lock:
         if key in _loaded or key in _pending or key in _failed or path.exists():
             return None
-        job = threading.Thread(target=_background_job, args=(f, key), name=f"gearopt-compile-{f.name()}")
+        job = threading.Thread(target=_background_job, args=(make, key), name=f"gearopt-compile-{name}")
         _pending[key] = job
     job.start()
     return job
 
 
-def _background_job(f: ca.Function, key: str) -> None:
+def _background_job(make: Callable[[], ca.Function], key: str) -> None:
     # (no warning from this thread: the warnings filters are process-wide; a failed build is kept in
     # _failed, so it is not tried again in the background, and a synchronous compile reports it)
     try:
-        err = _build(f, Path(key), compiler()[0]) if not Path(key).exists() else None
+        err = _build(make(), Path(key), compiler()[0]) if not Path(key).exists() else None
         if err is None:
             _counts["built"] += 1
         else:
@@ -455,54 +477,111 @@ class ColumnMap:
     compiled : bool
         Whether ``factory`` maps a compiled library (what :func:`select` chose; for tests and
         benchmarks: which path a sweep took).
+    own_maps : bool
+        With ``compiled``: a map size called again and again gets a compiled library of its own
+        (:func:`map_library`, from its :data:`MAP_LIBRARY_CALLS`-th call). For the sweeps a user
+        repeats (the TCA's); off by default, so that other repeated maps (loaded TCA, optimisers)
+        do not compile more in the background.
     """
 
-    def __init__(self, column: ca.Function, factory: Callable[[int], ca.Function], compiled: bool = False) -> None:
+    def __init__(self, column: ca.Function, factory: Callable[[int], ca.Function], compiled: bool = False,
+                 own_maps: bool = False) -> None:
         self.column, self.factory, self.compiled = column, factory, bool(compiled)
+        self.own_maps = bool(own_maps) and self.compiled
         self._maps: dict[tuple, _Signature] = {}
         self._sig = _Signature(column)
+        self._open: dict[tuple, list] = {}  # map keys still on CasADi's map: [calls, background compile]
 
     def name_out(self) -> list[str]:
         return self.column.name_out()
 
     def __getstate__(self):
         state = dict(self.__dict__)
-        state["_maps"] = {}
+        state["_maps"], state["_open"] = {}, {}
         return state
+
+    def __setstate__(self, state):
+        state.setdefault("_open", {})
+        state.setdefault("own_maps", False)
+        self.__dict__.update(state)
 
     def _map(self, m: int) -> _Signature:
         key = (m, threads_for(m))
-        if key not in self._maps:
-            self._maps[key] = _Signature(self.factory(m))
-        return self._maps[key]
+        sig = self._maps.get(key)
+        if sig is None or key in self._open:
+            sig = self._settle(key, sig)
+        return sig
+
+    def _settle(self, key: tuple[int, int], sig: _Signature | None) -> _Signature:
+        """The map of ``key = (m, threads)``. With ``own_maps``, a compiled column's serial map of m columns is a library
+        of its own once one is in the cache (:func:`map_library`: the loop over the columns in C);
+        until then CasADi's map of the column's library, and from the :data:`MAP_LIBRARY_CALLS`-th
+        call of that size on (a size that is called again and again) the map's library compiles in
+        the background (:func:`compile_in_background`); the first call after it is done switches.
+        The numbers are the same bit for bit (tests/test_sweep_overhead.py)."""
+        m, k = key
+        if not self.own_maps or k > 1:
+            sig = self._maps[key] = _Signature(self.factory(m))
+            return sig
+        state = self._open.get(key)
+        if state is None:  # the first call of this size
+            g = map_library(self.column, m)
+            if g is not None:
+                sig = self._maps[key] = _Signature(g)
+                return sig
+            sig = self._maps[key] = _Signature(self.factory(m))
+            self._open[key] = state = [0, None]
+        state[0] += 1
+        job = state[1]
+        if job is None:
+            if state[0] >= MAP_LIBRARY_CALLS:
+                job = _compile_map(self.column, m) if background() else None
+                if job is None:  # on disk already (another process), or no compile here: look once
+                    g = map_library(self.column, m)
+                    self._open.pop(key, None)
+                    if g is not None:
+                        sig = self._maps[key] = _Signature(g)
+                    return sig
+                state[1] = job
+            return sig
+        if job.is_alive():
+            return sig
+        self._open.pop(key, None)  # compiled (or failed: then CasADi's map stays)
+        g = map_library(self.column, m)
+        if g is not None:
+            sig = self._maps[key] = _Signature(g)
+        return sig
 
     def __call__(self, *args: ArrayLike) -> np.ndarray | list[np.ndarray]:
         """Outputs (rows, columns * their columns per column) as numpy arrays: a list, or the
         array itself for a one-output Function (like a CasADi call)."""
+        res = self.outputs(*args)
+        return res[0] if len(res) == 1 else res
+
+    def outputs(self, *args: ArrayLike) -> list[np.ndarray]:
+        """The outputs as a list of numpy arrays (rows, columns * their columns per column),
+        whatever their number (what :func:`call` returns)."""
         sig = self._sig
+        if len(args) != len(sig.shape_in):
+            raise ArgumentError(f"{self.column.name()} takes {len(sig.shape_in)} inputs, {len(args)} given",
+                                param="args", value=len(args), valid=f"{len(sig.shape_in)} arrays")
         a = [np.asarray(v, dtype=float) for v in args]
-        if len(a) != len(sig.shape_in):
-            raise ArgumentError(f"{self.column.name()} takes {len(sig.shape_in)} inputs, {len(a)} given",
-                                param="args", value=len(a), valid=f"{len(sig.shape_in)} arrays")
-        cin = [c for _, c in sig.shape_in]
         a = [v.reshape(r, -1, order="F") if v.ndim != 2 else v for v, (r, _) in zip(a, sig.shape_in)]
+        cin, cout = sig.cols_in, sig.cols_out
         n = a[0].shape[1] // cin[0]
         for i, (v, (r, c)) in enumerate(zip(a, sig.shape_in)):
             if v.shape != (r, c * n):
                 name = self.column.name_in(i)
                 raise ArgumentError(f"{self.column.name()}: input {name} of {n} columns must be ({r}, {c * n}), "
                                     f"got {v.shape}", param=name, value=v.shape, valid=f"shape ({r}, {c * n})")
-        cout = [c for _, c in sig.shape_out]
         if 0 < n <= CHUNK:  # one mapped call: its outputs (new arrays) are the result
             m = map_size(n)
             if m == n:
-                res = self._map(m)(*a)
-            else:
-                sel = np.arange(m)
-                sel[n:] = 0  # padding: copies of the first column
-                res = [r[:, :n * c] for r, c in zip(self._map(m)(*(v[:, matrix_columns(sel, c)] for v, c in zip(a, cin))),
-                                                    cout)]
-            return res[0] if len(res) == 1 else res
+                return self._map(m).run(a)
+            sel = np.arange(m)
+            sel[n:] = 0  # padding: copies of the first column
+            res = self._map(m).run([v[:, matrix_columns(sel, c)] for v, c in zip(a, cin)])
+            return [r[:, :n * c] for r, c in zip(res, cout)]
         outs = [np.empty((r, c * n), order="F") for r, c in sig.shape_out]
         start = 0
         while start < n:
@@ -514,11 +593,51 @@ class ColumnMap:
                 sel = np.arange(start, start + m)
                 sel[k:] = start  # padding: copies of the chunk's first column
                 chunk = [v[:, matrix_columns(sel, c)] for v, c in zip(a, cin)]
-            res = self._map(m)(*chunk)
+            res = self._map(m).run(chunk)
             for o, r, c in zip(outs, res, cout):
                 o[:, start * c:(start + k) * c] = r[:, :k * c]
             start += k
-        return outs[0] if len(outs) == 1 else outs
+        return outs
+
+
+def map_library(column: ca.Function, m: int) -> ca.Function | None:
+    """The compiled library of ``column.map(m)`` (the loop over m columns in C) if it is in the disk
+    cache, else None (never compiles; :class:`ColumnMap` compiles it in the background for a size
+    it calls again and again). Its numbers are those of the column's own library mapped by CasADi,
+    bit for bit, about 0.3 us less per column (CasADi's map calls the column's library through its
+    generic evaluation, once per column). Its key derives from the column's (:func:`map_library_path`),
+    so looking it up builds and serialises no map."""
+    path = map_library_path(column, m)
+    return None if path is None else _load(f"map{m}_{column.name()}", path)
+
+
+def map_library_path(column: ca.Function, m: int) -> Path | None:
+    """Where the library of ``column.map(m)`` lives in the cache: ``map<m>_<name>-<key>.so``, the key
+    the SHA-256 of the column library's name (its own key: graph, CasADi, compiler, flags) and m;
+    None without a compiler or for a column CasADi cannot serialise."""
+    if compiler() is None:
+        return None
+    col = _path_or_none(column)
+    if col is None:
+        return None
+    return col.parent / f"map{m}_{column.name()}-{hashlib.sha256(f'{col.name}/map{m}'.encode()).hexdigest()[:24]}.so"
+
+
+def _compile_map(column: ca.Function, m: int) -> threading.Thread | None:
+    """Compile ``column.map(m)`` into :func:`map_library_path` in the background (the map is built
+    in the compile's thread)."""
+    path = map_library_path(column, m)
+    if path is None:
+        return None
+    name = f"map{m}_{column.name()}"
+
+    def make() -> ca.Function:
+        f = column.map(m)
+        if f.name() != name:  # the name the library is loaded by
+            raise RuntimeError(f"CasADi named the map {f.name()}, not {name}")
+        return f
+
+    return _start(path, make, name)
 
 
 def map_size(k: int) -> int:
@@ -575,8 +694,14 @@ class _Signature:
         self.f = f
         self.shape_in = [(f.size1_in(i), f.size2_in(i)) for i in range(f.n_in())]
         self.shape_out = [(f.size1_out(i), f.size2_out(i)) for i in range(f.n_out())]
+        self.cols_in = [c for _, c in self.shape_in]
+        self.cols_out = [c for _, c in self.shape_out]
         self.dense = all(f.sparsity_in(i).is_dense() for i in range(f.n_in())) and \
             all(f.sparsity_out(i).is_dense() for i in range(f.n_out()))
+        ends = np.cumsum([0] + [r * c for r, c in self.shape_out]).tolist()
+        #: where each output lies in the block of all outputs: (start, end, columns, rows)
+        self._views = [(ends[i], ends[i + 1], c, r) for i, (r, c) in enumerate(self.shape_out)]
+        self._size = ends[-1]
         self._buf: tuple | None = None
         self._busy = threading.Lock()
 
@@ -608,26 +733,31 @@ class _Signature:
                                 param="args", value=len(args), valid=f"{len(self.shape_in)} arrays")
         if not self.dense:
             return [np.asarray(v) for v in f.call(list(args))]
-        args = [self._shaped(i, a, shape) for i, (a, shape) in enumerate(zip(args, self.shape_in))]
+        return self.run([self._shaped(i, a, shape) for i, (a, shape) in enumerate(zip(args, self.shape_in))])
+
+    def run(self, args: list[np.ndarray]) -> list[np.ndarray]:
+        """The call on float arrays of the inputs' shapes (checked by the caller: :meth:`__call__`,
+        :meth:`ColumnMap.outputs`)."""
+        if not self.dense:
+            return [np.asarray(v) for v in self.f.call(list(args))]
         if not self._busy.acquire(blocking=False):  # another thread is in this Function: a buffer of its own
             return self._fresh(args)
         try:
             if self._buf is None:
-                buf, trigger = f.buffer()
+                buf, trigger = self.f.buffer()
                 ins = [np.empty((c, r)) for r, c in self.shape_in]  # CasADi's column-major layout
-                ends = np.cumsum([0] + [r * c for r, c in self.shape_out]).tolist()
-                block = np.empty(ends[-1])  # every output, one after the other
+                block = np.empty(self._size)  # every output, one after the other
                 for i, a in enumerate(ins):
                     buf.set_arg(i, memoryview(a))
-                for i in range(len(self.shape_out)):
-                    buf.set_res(i, memoryview(block[ends[i]:ends[i + 1]]))
-                self._buf = (buf, trigger, ins, block, ends)
-            buf, trigger, ins, block, ends = self._buf
+                for i, (a, b, _, _) in enumerate(self._views):
+                    buf.set_res(i, memoryview(block[a:b]))
+                self._buf = (buf, trigger, ins, block)
+            _, trigger, ins, block = self._buf
             for a, into in zip(args, ins):
                 into[...] = a.T
             trigger()
             out = block.copy()  # the outputs: (rows, columns) views of one new array
-            return [out[ends[i]:ends[i + 1]].reshape(c, r).T for i, (r, c) in enumerate(self.shape_out)]
+            return [out[a:b].reshape(c, r).T for a, b, c, r in self._views]
         finally:
             self._busy.release()
 
@@ -667,8 +797,7 @@ def call(f: ca.Function, *args: ArrayLike) -> list[np.ndarray]:
         One (rows, columns) float array per output (Fortran-ordered views).
     """
     if isinstance(f, ColumnMap):
-        out = f(*args)
-        return [out] if f.column.n_out() == 1 else out
+        return f.outputs(*args)
     key = id(f)
     hit = _signatures.get(key)
     if hit is None or hit[0]() is not f:  # shapes queried once per live Function object

@@ -147,3 +147,153 @@ def test_repeated_sweep_equals_the_first_and_a_new_tca(crowned):
         for name in ("phi2", "te", "te_envelope", "u1", "z2", "r1", "rf", "kappa1", "ellipse_a", "ellipse_dir2",
                      "residual", "on_surface", "converged", "driving"):
             assert np.array_equal(getattr(r, name), getattr(first, name), equal_nan=True), name
+
+
+@needs_cc
+def test_map_library_gives_the_numbers_of_casadis_map_bit_for_bit(tmp_path, monkeypatch):
+    """A compiled ColumnMap called again and again with one size compiles that size's map as a
+    library of its own (the loop over the columns in C) in the background and switches to it once
+    it is done: the same numbers bit for bit as CasADi's map of the column's library; a new
+    ColumnMap finds it in the cache at its first call; its pickled state drops the background job."""
+    monkeypatch.setenv("GEAROPT_CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.delenv("GEAROPT_JIT_BACKGROUND", raising=False)
+    monkeypatch.setattr(compiled, "_loaded", {})
+    monkeypatch.setattr(compiled, "_pending", {})
+    f = _newton_column()
+    rng = np.random.default_rng(5)
+    W0, P = rng.normal(size=(2, 40)), rng.uniform(0.5, 2.0, size=(2, 40))
+    ref = [np.asarray(v) for v in compiled.compile_function(f).map(40)(W0, P)]
+    assert compiled.map_library(f, 40) is None  # nothing compiled for the map yet
+    lib_f = compiled.compile_function(f)
+    assert not compiled.mapped(f, 40, True).own_maps  # other maps than the TCA's: CasADi's map of the library
+    cm = compiled.ColumnMap(f, lambda m: compiled.map_columns(lib_f, m), compiled=True, own_maps=True)
+    for _ in range(compiled.MAP_LIBRARY_CALLS):
+        out = compiled.call(cm, W0, P)
+        assert cm._maps[(40, 1)].f.class_name() == "Map"  # CasADi's map of the column's library
+    assert cm._open and cm.__getstate__()["_open"] == {}  # (a thread does not pickle)
+    assert compiled.wait_for_background(120)
+    out = compiled.call(cm, W0, P)  # the first call after the compile: the map's own library
+    assert cm._maps[(40, 1)].f.class_name() != "Map"
+    lib = compiled.map_library(f, 40)
+    assert lib is not None and cm._maps[(40, 1)].f is lib and not cm._open
+    for x, y in zip(ref, out):
+        assert np.array_equal(x, y, equal_nan=True)
+    fresh = compiled.ColumnMap(f, lambda m: compiled.map_columns(lib_f, m), compiled=True, own_maps=True)  # (a new process)
+    for x, y in zip(ref, compiled.call(fresh, W0, P)):
+        assert np.array_equal(x, y, equal_nan=True)
+    assert fresh._maps[(40, 1)].f is lib
+
+
+def test_map_library_not_compiled_for_a_one_off_size_or_without_background(tmp_path, monkeypatch):
+    """Fewer calls of a size than MAP_LIBRARY_CALLS, or the background compile off, start no compile;
+    looking the map's library up builds no map (its key derives from the column's)."""
+    monkeypatch.setenv("GEAROPT_CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.setattr(compiled, "_loaded", {})
+    monkeypatch.setattr(compiled, "_pending", {})
+    built = []
+    monkeypatch.setattr(compiled, "_build", lambda f, path, cc: built.append(f.name()) or "not here")
+    col = _newton_column()
+    cm = compiled.ColumnMap(col, lambda m: col.map(m), compiled=True, own_maps=True)
+    W0, P = np.zeros((2, 3)), np.ones((2, 3))
+    monkeypatch.delenv("GEAROPT_JIT_BACKGROUND", raising=False)
+    for _ in range(compiled.MAP_LIBRARY_CALLS - 1):
+        compiled.call(cm, W0, P)
+    assert compiled.wait_for_background(60) and built == [] and cm._open
+    monkeypatch.setenv("GEAROPT_JIT_BACKGROUND", "0")
+    cm2 = compiled.ColumnMap(col, lambda m: col.map(m), compiled=True, own_maps=True)
+    for _ in range(compiled.MAP_LIBRARY_CALLS + 2):
+        compiled.call(cm2, W0, P)
+    assert compiled.wait_for_background(60) and built == [] and not cm2._open  # looked once, then settled
+    if compiled.available():
+        path = compiled.map_library_path(col, 3)
+        assert path.name.startswith("map3_ovh_col-") and path.parent == compiled.library_path(col).parent
+        assert path != compiled.map_library_path(col, 4)
+
+
+@needs_cc
+def test_repeated_sweep_checks_its_arguments_once_and_looks_up_no_library(crowned, monkeypatch):
+    """A repeated compiled sweep checks its arguments once (the anchor solve of the same arguments
+    returns the remembered solution without checking them again) and looks up no library path
+    (the compiled maps are settled after the first few calls)."""
+    from gearopt.meshing import solver
+    from gearopt.meshing import tca as tca_mod
+
+    tca = TCA(crowned.pair, jit=True)
+    mis = Misalignment(crossing=3 * ARCMIN, dE=0.05)
+    phi = np.linspace(-0.1, 0.1, 9)
+    for _ in range(compiled.MAP_LIBRARY_CALLS + 1):
+        first = tca.sweep(phi, mis=mis)
+    assert tca.branch.mapped(27, extra=True).compiled and tca.branch.mapped(27, extra=True).own_maps
+    calls = []
+    real = tca_mod.check_sweep_args
+
+    def counting(*a, **kw):
+        calls.append(a[1])
+        return real(*a, **kw)
+
+    monkeypatch.setattr(tca_mod, "check_sweep_args", counting)
+    for name in ("select", "cached_function", "mapped"):
+        monkeypatch.setattr(solver, name, lambda *a, **kw: pytest.fail("a library looked up in a repeated sweep"))
+    monkeypatch.setattr(compiled, "library_path", lambda *a, **kw: pytest.fail("a cache path looked up"))
+    for _ in range(2):
+        again = tca.sweep(phi, mis=mis)
+    assert len(calls) == 2  # once per sweep (twice before: the anchor's solve_point checked them again)
+    for name in ("phi2", "te", "te_envelope", "r1", "kappa2", "ellipse_b", "ellipse_dir1", "converged"):
+        assert np.array_equal(getattr(again, name), getattr(first, name), equal_nan=True), name
+
+
+def test_remembered_anchor_equals_a_fresh_solve_and_bad_input_still_fails(crowned):
+    """solve_point's remembered solutions (by the exact arguments) equal a new TCA's solve; a new
+    design is solved anew; bad arguments are refused whatever was solved before."""
+    from gearopt.errors import ArgumentError
+
+    mis = Misalignment(crossing=2 * ARCMIN)
+    p1 = crowned.pinion.p0.copy()
+    a = crowned.solve_point(0.0, None, p1, None, mis)
+    b = crowned.solve_point(0.0, None, p1, None, mis)
+    fresh = TCA(crowned.pair, jit=False).solve_point(0.0, None, p1, None, mis)
+    assert np.array_equal(a, fresh) and np.array_equal(b, fresh)
+    b[:] = 0.0  # the caller's copy
+    assert np.array_equal(crowned.solve_point(0.0, None, p1, None, mis), fresh)
+    p1[1] *= 1.5  # another design
+    other = crowned.solve_point(0.0, None, p1, None, mis)
+    assert not np.array_equal(other, fresh)
+    assert np.array_equal(other, TCA(crowned.pair, jit=False).solve_point(0.0, None, p1, None, mis))
+    with pytest.raises(ArgumentError, match="phi1"):
+        crowned.solve_point(float("nan"), None, p1, None, mis)
+    with pytest.raises(ArgumentError, match="p1"):
+        crowned.solve_point(0.0, None, np.r_[p1, 1.0], None, mis)
+
+
+def test_result_arrays_are_the_sweep_outputs_at_the_solved_points(crowned):
+    """The result's points, curvatures and ellipse axes are the contact Function's outputs at each
+    accepted column, in the documented layout ((K, N, 3) points, (K, N, 2) curvatures, (K, N, 2, 3)
+    [major, minor] directions), NaN where not accepted."""
+    mis = Misalignment(crossing=3 * ARCMIN, intersecting=2 * ARCMIN, dE=0.05)
+    phi = np.linspace(-math.pi / 20, math.pi / 20, 16)
+    pairs = (-1, 0, 1)
+    r = crowned.sweep(phi, mis=mis, pairs=pairs)
+    assert (~r.converged).any() and r.converged.any()
+    f = crowned.sweep_outputs
+    z1 = crowned.pair.pinion.z
+    for k, pk in enumerate(pairs):
+        for j in range(phi.size):
+            if not r.converged[k, j]:
+                for name in ("r1", "rf", "kappa1", "ellipse_a", "ellipse_dir2", "ellipse_dir1"):
+                    assert np.isnan(getattr(r, name)[k, j]).all(), name
+                continue
+            w = np.array([r.u1[k, j], r.z1[k, j], r.u2[k, j], r.z2[k, j], r.phi2[k, j]])
+            w[4] = (r.phi2[k, j] - 2 * math.pi * pk / crowned.pair.gear.z) * crowned.scale2
+            prm = crowned.prm([phi[j] - 2 * math.pi * pk / z1], mis=mis)[:, 0]
+            out = dict(zip(f.name_out(), (np.asarray(v) for v in f(w, prm))))
+            tol = {"rtol": 1e-9, "atol": 1e-9}
+            np.testing.assert_allclose(r.r1[k, j], out["r1"].ravel(), **tol)
+            np.testing.assert_allclose(r.r2[k, j], out["r2"].ravel(), **tol)
+            np.testing.assert_allclose(r.rf[k, j], out["rf1"].ravel(), **tol)
+            np.testing.assert_allclose(r.kappa1[k, j], out["kappa1"].ravel(), **tol)
+            np.testing.assert_allclose(r.kappa2[k, j], out["kappa2"].ravel(), **tol)
+            lam = out["lam"].ravel()
+            np.testing.assert_allclose([r.ellipse_a[k, j], r.ellipse_b[k, j]], np.sqrt(2 * r.delta / lam), rtol=1e-9)
+            np.testing.assert_allclose(r.ellipse_dir2[k, j], out["dir2"].T, **tol)  # rows: major, minor
+            np.testing.assert_allclose(r.ellipse_dir1[k, j], out["dir1"].T, **tol)
+            np.testing.assert_allclose(r.radius1[k, j], np.hypot(*out["r1"].ravel()[:2]), rtol=1e-12)

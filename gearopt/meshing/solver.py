@@ -98,13 +98,19 @@ class Branch:
         Residual tolerance [mm] (used by ``accept``).
     solver : {"fast_newton", "newton"}
     jit : bool
+    extra : casadi.Function, optional
+        ``(w, prm) -> outputs`` at the solved point, evaluated in the same compiled pass
+        (``solve(..., extra=True)``).
+    own_maps : bool
+        Compiled map sizes called again and again get libraries of their own
+        (:class:`gearopt.compiled.ColumnMap`, ``own_maps``): for the sweeps a user repeats.
     """
 
     def __init__(self, name: str, G: ca.Function, checks: ca.Function, accept: Callable[..., np.ndarray], tol: float,
                  solver: str = SolverSettings.solver, jit: bool | str = SolverSettings.jit,
-                 extra: ca.Function | None = None):
+                 extra: ca.Function | None = None, own_maps: bool = False):
         self.name, self.G, self.checks, self.accept, self.tol = name, G, checks, accept, tol
-        self.solver, self.jit = solver, jit
+        self.solver, self.jit, self.own_maps = solver, jit, own_maps
         nw, npr = G.size1_in(0), G.size1_in(1)
         w, p = ca.SX.sym("w", nw), ca.SX.sym("p", npr)
         F = G(w, p)
@@ -135,6 +141,7 @@ class Branch:
         c = checks(w, p)
         post = [ca.norm_2(F), c[0], c[1]]
         self.extra = extra
+        self._extra_names = extra.name_out() if extra is not None else []  # (asked once: a call into CasADi)
         w0 = ca.MX.sym("W0", nw)
         pp = ca.MX.sym("P", npr)
         wf = self.rf_fast(w0, pp)
@@ -158,6 +165,9 @@ class Branch:
 
     def __setstate__(self, state):
         state.setdefault("_dw_memo", {})
+        state.setdefault("own_maps", False)
+        if "_extra_names" not in state:
+            state["_extra_names"] = state["extra"].name_out() if state.get("extra") is not None else []
         self.__dict__.update(state)
 
     def newton(self, w0: npt.ArrayLike, prm: npt.ArrayLike) -> np.ndarray:
@@ -222,8 +232,8 @@ class Branch:
         lin = self.predict(w_a, prm_a, phi - anchor)
         if phi.size == 0:
             return lin
-        j0 = math.floor((float(phi.min()) - anchor) / spacing)
-        j1 = math.ceil((float(phi.max()) - anchor) / spacing)
+        j0 = math.floor((float(np.minimum.reduce(phi)) - anchor) / spacing)
+        j1 = math.ceil((float(np.maximum.reduce(phi)) - anchor) / spacing)
         if (max(j1, j0 + 1) + 1 - j0) * 4 > phi.size:  # a coarse sweep: the knots would cost as much as the positions
             return lin
         knots = anchor + spacing * np.arange(j0, max(j1, j0 + 1) + 1)
@@ -289,7 +299,7 @@ class Branch:
         key = ("columns", f is not None, extra)
         if key not in self._maps:
             if f is not None:
-                self._maps[key] = ColumnMap(col, lambda m: map_columns(f, m), compiled=True)
+                self._maps[key] = ColumnMap(col, lambda m: map_columns(f, m), compiled=True, own_maps=self.own_maps)
             elif extra:
                 self._maps[key] = ColumnMap(col, col.map)
             else:
@@ -373,7 +383,7 @@ class Branch:
         W, res, n1n2, reg = first[:4]  # (new arrays: changed in place below)
         res, n1n2, reg = res.ravel(), n1n2.ravel(), reg.ravel()
         ok = np.asarray(self.accept(res, n1n2, reg), bool)
-        n_fast, n_retry = int(ok.sum()), 0
+        n_fast, n_retry = int(np.count_nonzero(ok)), 0
         rescued: list = []
         groups = [np.asarray(g, int) for g in groups if len(g) > 0]
         # a group none of whose columns was accepted has no anchor for continuation: where Newton
@@ -400,11 +410,16 @@ class Branch:
         sizes = np.array([g.size for g in groups], int)
         start = np.repeat(np.cumsum(sizes) - sizes, sizes)  # where each entry's group begins
         for forward in (True, False):
-            order = np.concatenate([g if forward else g[::-1] for g in groups]) if groups else np.zeros(0, int)
+            if not groups:
+                break
+            order = np.concatenate([g if forward else g[::-1] for g in groups])
             tried: set = set()
             while True:
                 cols, anchors = [], []
-                for c, a in zip(*(v.tolist() for v in self._candidates(ok, order, start, max_gap))):
+                cand, anch = self._candidates(ok, order, start, max_gap)
+                if cand.size == 0:
+                    break
+                for c, a in zip(cand.tolist(), anch.tolist()):
                     if (c, a) not in tried:
                         tried.add((c, a))
                         cols.append(c)
@@ -422,13 +437,13 @@ class Branch:
                     for a, b in zip((Wr, rr, dr, gr), out):
                         a[..., slow] = b
                 good = np.asarray(self.accept(rr, dr, gr), bool) & ~ok[cols]
+                if not good.any():
+                    break
                 g = cols[good]
                 W[:, g], res[g], n1n2[g], reg[g], ok[g] = Wr[:, good], rr[good], dr[good], gr[good], True
                 rescued.append(g)
-                if not good.any():
-                    break
         stats = {"n_fast": n_fast, "n_retry": n_retry, "n_line_search": n_line}
         if extra:
-            stats["extra"] = dict(zip(self.extra.name_out(), first[4:]))
+            stats["extra"] = dict(zip(self._extra_names, first[4:]))
             stats["rescued"] = sorted_unique(np.concatenate(rescued)) if rescued else np.zeros(0, int)
         return BranchSolution(W=W, res=res, n1n2=n1n2, reg=reg, ok=ok, stats=stats)

@@ -77,6 +77,35 @@ def _bytes(v) -> bytes:
     return b"" if v is None else np.ascontiguousarray(np.asarray(v, float)).tobytes()
 
 
+def default_vector(tca: TCA, name: str, tooth: GeneratedTooth) -> np.ndarray:
+    """``tooth.p0`` (a new array), kept per TCA under ``name`` ("p1" or "p2"): the teeth of a TCA are
+    fixed when it is built, and assembling p0 from the gear's data costs a few microseconds a sweep."""
+    kept = getattr(tca, "_defaults", None)
+    if kept is None:
+        return np.asarray(tooth.p0, float)
+    if name not in kept:
+        kept[name] = np.asarray(tooth.p0, float)
+    return kept[name].copy()
+
+
+def _point_key(phi1, w0, p1, p2, mis, z_section) -> tuple | None:
+    """Exact key of :meth:`TCA.solve_point`'s arguments when they are of the kinds a sweep passes (floats,
+    no first guess, float vectors or None, a Misalignment or None); None for any other (checked and
+    solved at every call)."""
+    if w0 is not None or not isinstance(phi1, float) or not isinstance(z_section, float) \
+            or not (mis is None or isinstance(mis, Misalignment)):
+        return None
+    parts = ["point", np.array([phi1, z_section]).tobytes(), b"" if mis is None else mis.vector().tobytes()]
+    for p in (p1, p2):
+        if p is None:
+            parts.append(None)
+        elif isinstance(p, np.ndarray) and p.dtype == np.float64 and p.ndim == 1:
+            parts.append(p.tobytes())
+        else:
+            return None
+    return tuple(parts)
+
+
 def check_sweep_args(tca: TCA, phi1: npt.ArrayLike, p1: npt.ArrayLike | None = None, p2: npt.ArrayLike | None = None,
                      mis: Misalignment | None = None, pairs: Sequence[int] = (-1, 0, 1), delta: float | None = None,
                      anchor: float = 0.0, z_section: float | None = 0.0) -> SweepArgs:
@@ -114,7 +143,7 @@ def check_sweep_args(tca: TCA, phi1: npt.ArrayLike, p1: npt.ArrayLike | None = N
     vecs = []
     for name, p, tooth in (("p1", p1, tca.pinion), ("p2", p2, tca.gear)):
         if p is None:
-            vecs.append(np.asarray(tooth.p0, float))
+            vecs.append(default_vector(tca, name, tooth))
             continue
         names = tooth.param_names  # PARAMS, then the theta of any flank modification
         try:
@@ -503,13 +532,14 @@ class TCA:
             ["w", "prm"], ["r1", "r2", "rf1", "kappa1", "kappa2", "lam", "dir2", "dir1"])
         checks = ca.Function("tca_checks", [w, prm], [ca.dot(nf1, nf2), reg], ["w", "prm"], ["n1n2", "reg"])
         self.branch = Branch("tca", self.residual, checks, functools.partial(accept_tangency, tol=self.tol), self.tol,
-                             self.solver, self.jit, extra=self.sweep_outputs)
+                             self.solver, self.jit, extra=self.sweep_outputs, own_maps=True)
         self._maps: dict = {}
         # solved anchors and pitch-point guesses by their exact inputs (a repeated sweep of the same
         # design and misalignment solves its anchor once; the outputs are those of a new solve)
         self._memo: dict = {}
         self._columns: dict = {}  # parameter columns by design and misalignment (prm)
         self._checked_mis: set = set()  # misalignments check_sweep_args accepted for this pair
+        self._defaults: dict = {}  # the teeth's p0 (default_vector)
 
     def _contact_mapped(self, n: int):
         """The sweep's contact quantities on the few columns continuation rescued (interpreted)."""
@@ -533,7 +563,8 @@ class TCA:
             hit = self._columns[key] = self.layout.pack([0.0], {"pinion": p1, "gear": p2, "mis": mis,
                                                                  "z_section": z_section})[:, 0]
         phi1 = np.atleast_1d(np.asarray(phi1, dtype=float))
-        out = np.tile(hit[:, None], phi1.size)
+        out = np.empty((hit.size, phi1.size))
+        out[...] = hit[:, None]
         out[self._phi_row] = phi1
         return out
 
@@ -561,6 +592,15 @@ class TCA:
             hit = self._remember(key, self._reduce([u1, z_section, u2, z_section, 0.0]))
         return hit.copy()
 
+    def _pitch_angles(self, pairs: tuple[int, ...], member: int) -> np.ndarray:
+        """``2 pi k / z`` [rad] of the tooth pairs k on member 1 (pinion) or 2 (gear), kept per pairs."""
+        key = ("pitch", member, pairs)
+        hit = self._memo.get(key)
+        if hit is None:
+            z = (self.pair.pinion if member == 1 else self.pair.gear).z
+            hit = self._remember(key, np.array([2 * math.pi * k / z for k in pairs]))
+        return hit
+
     def _remember(self, key: tuple, value: np.ndarray) -> np.ndarray:
         """Keep ``value`` under ``key`` in the memo of guesses and anchors (the oldest go beyond 64)."""
         if len(self._memo) >= 64:
@@ -587,9 +627,16 @@ class TCA:
         w : ndarray
             The unknowns (u1, z1, u2, z2, r_p2 phi2) [mm]; (u1, u2, z2, r_p2 phi2) for line contact.
         """
+        known = _point_key(phi1, w0, p1, p2, mis, z_section)
+        if known is not None:  # the same arguments as a solve that passed the checks: its solution
+            hit = self._memo.get(known)
+            if hit is not None:
+                return hit.copy()
         phi1 = check_number("phi1", phi1, "a finite pinion angle [rad]")
         z_section = check_number("z_section", z_section, "a finite pinion section [mm]")
         _, p1, p2, mis, _ = check_sweep_args(self, [phi1], p1, p2, mis, pairs=(0,), z_section=z_section)
+        if known is not None:
+            return self._remember(known, self._solve_at(phi1, w0, p1, p2, mis, z_section)).copy()
         n_w = 4 if self.contact_type == "line" else 5
         if w0 is None:
             w0 = self.guess(p1, p2, z_section)
@@ -735,7 +782,8 @@ class TCA:
         phi1, p1, p2, mis, pairs = check_sweep_args(self, phi1, p1, p2, mis, pairs, delta, anchor, z_section)
         g1 = self.pair.pinion
         K, N = len(pairs), phi1.size
-        phis = np.concatenate([phi1 - 2 * math.pi * k / g1.z for k in pairs])
+        # pair k's positions phi1 - 2 pi k / z1, pair after pair
+        phis = (phi1[None, :] - self._pitch_angles(pairs, 1)[:, None]).ravel()
         prm = self.prm(phis, p1, p2, mis, z_section)
         w_a = self.solve_point(anchor, None, p1, p2, mis, z_section)  # the public anchor solve (EdgeContact and tests wrap it)
         prm_a = prm[:, 0].copy()  # the anchor's column: the same but phi1
@@ -745,7 +793,7 @@ class TCA:
                                            2 * math.pi / g1.z / KNOTS_PER_PITCH, n_total=phis.size)
         else:
             W0 = self.branch.predict(w_a, prm_a, phis - anchor)
-        groups = [np.arange(k * N, (k + 1) * N) for k in range(K)] if continuation else []
+        groups = list(np.arange(K * N).reshape(K, N)) if continuation else []
         # solved with the contact quantities at each point in the same compiled pass
         W, res, n1n2, reg, ok, st = self.branch.solve(W0, prm, groups, extra=True)
         n_fast, n_retry = st["n_fast"], st["n_retry"]
@@ -756,14 +804,15 @@ class TCA:
             for name, v in zip(f_c.name_out(), call(f_c, W[:, fix], prm[:, fix])):
                 width = v.shape[1] // fix.size
                 c[name][:, matrix_columns(fix, width)] = v
-        Wf = self._full_numeric(W, z_section)
+        Wf = self._full_numeric(W, z_section) if self.contact_type == "line" else W  # (W: this sweep's own array)
         Wf[:, ~ok] = np.nan
-        # TE zero: phi2 of pair 0 at phi1 = 0 (the same for every sweep of this design and case).
+        # TE zero: phi2 of pair 0 at phi1 = 0 (the same for every sweep of this design and case);
+        # r_p2 phi2 is the last unknown for point and line contact alike
         w_0 = w_a if anchor == 0.0 else self.solve_point(0.0, w_a, p1, p2, mis, z_section)
-        phi2_ref = float(self._full_numeric(np.asarray(w_0, float)[:, None], z_section)[4, 0]) / self.scale2
+        phi2_ref = float(np.asarray(w_0, float)[-1]) / self.scale2
         solve_time = time.perf_counter() - t0
         stats = {"n_positions": int(phis.size), "n_fast": n_fast, "n_retry": n_retry,
-                 "n_failed": int((~ok).sum()), "build_s": self.build_time, "solver": self.solver,
+                 "n_failed": ok.size - int(np.count_nonzero(ok)), "build_s": self.build_time, "solver": self.solver,
                  "contact": self.contact_type}
         folded = self.folding(p1, p2)
         if folded:
@@ -780,27 +829,30 @@ class TCA:
         delta, mis, solve_time, stats, phi2_ref, p1, p2 = (sv.delta, sv.mis, sv.solve_time, sv.stats, sv.phi2_ref,
                                                            sv.p1, sv.p2)
         c = sv.contact
-        # the contact points of pinion, gear and in S_f, NaN where not accepted (one masked array)
-        pts = np.where(ok, np.concatenate([c["r1"], c["r2"], c["rf1"]]), np.nan)
-        r1, r2, rf1 = pts[0:3], pts[3:6], pts[6:9]
-        g1, g2 = self.pair.pinion, self.pair.gear
         K, N = len(pairs), phi1.size
+        bad = np.flatnonzero(~ok)  # the columns not accepted
+        # the contact points [pinion, gear, S_f] x column x xyz, NaN where not accepted (one array)
+        pts = np.concatenate([c["r1"].T, c["r2"].T, c["rf1"].T]).reshape(3, K * N, 3)
+        pts[:, bad] = np.nan
+        g1, g2 = self.pair.pinion, self.pair.gear
         okk = ok.reshape(K, N)
         shp = lambda a: a.reshape(K, N)  # noqa: E731
-        phi2 = shp(W[4] / self.scale2) + np.array([2 * math.pi * k / g2.z for k in pairs])[:, None]
+        phi2 = shp(W[4] / self.scale2) + self._pitch_angles(pairs, 2)[:, None]
         # TE relative to the pair-0 gear angle at phi1 = 0, so that every pair and sweep shares one zero.
         ratio = g1.z / g2.z
         te = phi2 - ratio * phi1[None, :] - phi2_ref
-        radii = np.hypot(pts[[0, 3]], pts[[1, 4]])  # transverse radii of the points on pinion and gear
+        radii = np.hypot(pts[:2, :, 0], pts[:2, :, 1])  # transverse radii of the points on pinion and gear
         radius1, radius2 = shp(radii[0]), shp(radii[1])
         z1, z2 = shp(W[1]), shp(W[3])
         eps = 1e-9
         # Above the true end of each generated flank (junction, fold or crossing; per section z).
         lim1 = self.on_flank(1, shp(W[0]), z1, p1)
         lim2 = self.on_flank(2, shp(W[2]), z2, p2)
-        # on the face and inside the tip circle (NaN, where not accepted, compares False)
-        inside = ((np.abs(z1) <= g1.b / 2 + eps) & (np.abs(z2) <= g2.b / 2 + eps) & (radius1 <= g1.r_a + eps)
-                  & (radius2 <= g2.r_a + eps))
+        # on the face (|z1| <= b1 / 2, |z2| <= b2 / 2) and inside the tip circles (NaN, where not
+        # accepted, compares False)
+        edge = np.array([[g1.b / 2 + eps, g1.r_a + eps], [g2.b / 2 + eps, g2.r_a + eps]])
+        inside = (np.abs(W[1:4:2]) <= edge[:, :1]) & (radii <= edge[:, 1:])
+        inside = shp(inside[0] & inside[1])
         on = okk & inside & lim1 & lim2
         te_on = np.where(on, te, -np.inf)
         drv = np.argmax(te_on, axis=0)
@@ -827,25 +879,24 @@ class TCA:
         driving = np.where(has, drv, -1)
         # Curvatures and contact ellipse (eigen-decomposition of K1 + K2 in the common basis, in the
         # compiled sweep outputs): semi-axes sqrt(2 delta / lam), NaN where not converged.
-        bad = ~ok
         kap1 = c["kappa1"].T.copy()
         kap2 = c["kappa2"].T.copy()
         lam = c["lam"].T
         ax_len = np.full(lam.shape, np.inf)  # no contact ellipse where K1 + K2 is not positive (or NaN)
         pos = lam > 0
         ax_len[pos] = np.sqrt(2 * delta / lam[pos])
-        ea, eb = ax_len[:, 0].copy(), ax_len[:, 1].copy()
-        # [major, minor] x (3,) in the gear frame, then the same in the pinion frame
-        edirs = np.concatenate([c["dir2"], c["dir1"]]).reshape(2, 3, K * N, 2).transpose(0, 2, 3, 1).copy()
-        edir, edir1 = edirs[0], edirs[1]
-        for a in (kap1, kap2, ea, eb):
+        # [major, minor] x (3,) in the gear frame and in the pinion frame (each output (3, 2 K N):
+        # column 2 j + a holds axis a of column j)
+        edir = c["dir2"].T.reshape(K * N, 2, 3).copy()
+        edir1 = c["dir1"].T.reshape(K * N, 2, 3).copy()
+        for a in (kap1, kap2, ax_len, edir, edir1):
             a[bad] = np.nan
-        edirs[:, bad] = np.nan
+        ea, eb = ax_len.T.copy()
         # (phi2, te and the radii are NaN where not accepted already: W and the points are)
         return TCAResult(
             phi1=phi1, pairs=pairs, phi2=phi2, te=te,
             te_envelope=env, driving=driving, u1=shp(W[0]), z1=z1, u2=shp(W[2]), z2=z2,
-            r1=r1.T.reshape(K, N, 3), r2=r2.T.reshape(K, N, 3), rf=rf1.T.reshape(K, N, 3),
+            r1=pts[0].reshape(K, N, 3), r2=pts[1].reshape(K, N, 3), rf=pts[2].reshape(K, N, 3),
             radius1=radius1, radius2=radius2,
             kappa1=kap1.reshape(K, N, 2), kappa2=kap2.reshape(K, N, 2),
             ellipse_a=ea.reshape(K, N), ellipse_b=eb.reshape(K, N), ellipse_dir2=edir.reshape(K, N, 2, 3),
