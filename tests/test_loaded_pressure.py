@@ -30,12 +30,17 @@ def drive(**mg):
     return GearPair(Gear(z=20, m_n=3.0, b=20.0, modifications=Microgeometry(**mg)), Gear(z=40, m_n=3.0, b=20.0))
 
 
-def independent_peaks(mg: dict, theta: dict, phi1) -> tuple[np.ndarray, object]:
-    """Peak flank pressure [MPa] per position of the default loaded TCA of the drive with the amounts
-    ``theta`` [mm] (a new pair and a new ``LTCA(pair)``: each flank's own curvature, nothing of the
-    optimiser), and its sweep."""
+def independent_ltca(mg: dict, theta: dict) -> LTCA:
+    """The default loaded TCA of the drive with the amounts ``theta`` [mm] (a new pair and a new
+    ``LTCA(pair)``: each flank's own curvature, nothing of the optimiser)."""
     amounts = {**mg, **{k.split(".", 1)[1]: v for k, v in theta.items()}}
-    sw = LTCA(drive(**amounts), n_slices=N_SLICES).solve(TORQUE, phi1=phi1)
+    return LTCA(drive(**amounts), n_slices=N_SLICES)
+
+
+def independent_peaks(ltca: LTCA, phi1) -> tuple[np.ndarray, object]:
+    """Peak flank pressure [MPa] per position of ``ltca`` (:func:`independent_ltca`) at the torque,
+    and its sweep."""
+    sw = ltca.solve(TORQUE, phi1=phi1)
     return np.max(sw.results[0].p0_flank, axis=(0, 2)), sw
 
 
@@ -43,8 +48,9 @@ def check_limit(opt, d, mg, p_limit):
     """The optimum's pressure by the independent default loaded TCA, at the NLP's positions and on the
     verification grid: at most p_limit + 0.5 % everywhere; returns the largest."""
     worst = 0.0
+    ltca = independent_ltca(mg, d.theta)
     for phi1 in (d.phi1, opt.ltca.mesh_cycle(opt.n_verify)):
-        p, sw = independent_peaks(mg, d.theta, phi1)
+        p, sw = independent_peaks(ltca, phi1)
         assert np.all(p <= p_limit * 1.005), (p.max(), np.degrees(phi1[np.argmax(p)]))
         worst = max(worst, float(p.max()))
     return worst, sw

@@ -159,10 +159,13 @@ def test_harmonics_objective_matches_the_fft_of_the_exact_loaded_te():
 def te0_solved():
     """``{weight: (optimizer, optimum)}`` with the unloaded parabolic-TE target (8 arcsec) at a light and
     a heavy weight; edge loading allowed, so that the profile crowning is free to serve either term."""
-    out = {}
+    out, start = {}, None
     for w in (0.1, 10.0):
         opt = optimizer(te_level=8.0 / RAD_TO_ARCSEC, te_weight=w, edge_margin=None)
-        out[w] = (opt, opt.solve())
+        out[w] = (opt, opt.solve(start=start))
+        # the heavy weight's loop starts from the light weight's optimum (its "before" design stays the
+        # drive's own): 8 s instead of 17 s, 2026-11-29 (a cold start's first NLP took 401 IPOPT iterations)
+        start = np.array(list(out[w][1].theta.values()))
     return out
 
 
