@@ -22,6 +22,7 @@ are declared there, with their defaults and ranges: ``te_level``, ``ellipse_shar
 from __future__ import annotations
 
 import math
+import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -107,21 +108,12 @@ class CrowningStudy:
         self.pair, self.target, self.cases, self.quiet, self.name = pair, target, cases, s.quiet, name
         self.optimizer = CrowningOptimizer(pair, target, cases=cases, positions=s.positions)
 
-    def run(self, progress: Callable[[str], None] | None = None) -> CrowningReport:
-        t0 = time.perf_counter()
-        z1 = self.pair.pinion.z
-        pitch = 2 * math.pi / z1
-        phi = np.linspace(-pitch, pitch, 162, endpoint=False)
+    def _optimise(self, phi: np.ndarray, progress: Callable[[str], None] | None, alongside: bool = False) -> tuple:
+        """Build and solve the NLP, then the TCA of the optimised drive at ``phi`` [rad]: (design,
+        the cases' dicts)."""
         if progress:
-            progress(f"crowning: TCA of the drive before optimization ({len(self.cases)} cases)")
-        with heartbeat(progress, "crowning: TCA of the drive before optimization", every=15.0):
-            ec0 = EdgeContact(TCA(self.pair))
-            lim0 = {"pinion": {"b": self.pair.pinion.b, "r_a": self.pair.pinion.r_a, "r_form": ec0.r_form[1]},
-                    "gear": {"b": self.pair.gear.b, "r_a": self.pair.gear.r_a, "r_form": ec0.r_form[2]}}
-            before = [ec0.sweep(phi, mis=m, pairs=(-2, -1, 0, 1, 2)).to_dict(c, z1, lim0)
-                      for c, m in self.cases.items()]
-        if progress:
-            progress("crowning: building the NLP")
+            progress("crowning: building the NLP" + (f" (the TCA of the drive before optimization, {len(self.cases)} "
+                                                     "cases, alongside)" if alongside else ""))
         with heartbeat(progress, "crowning: building the NLP", every=15.0):
             self.optimizer.build(verbose=not self.quiet)
         if progress:
@@ -138,10 +130,152 @@ class CrowningStudy:
         with heartbeat(progress, "crowning: TCA of the optimised drive", every=15.0):
             after = [ec1.sweep(phi, mis=m, pairs=(-2, -1, 0, 1, 2)).to_dict(c, d.pair.pinion.z, lim1)
                      for c, m in self.cases.items()]
+        return d, after
+
+    def run(self, progress: Callable[[str], None] | None = None) -> CrowningReport:
+        t0 = time.perf_counter()
+        z1 = self.pair.pinion.z
+        pitch = 2 * math.pi / z1
+        phi = np.linspace(-pitch, pitch, 162, endpoint=False)
+
+        def before_tca() -> list:
+            ec0 = EdgeContact(TCA(self.pair))
+            lim0 = {"pinion": {"b": self.pair.pinion.b, "r_a": self.pair.pinion.r_a, "r_form": ec0.r_form[1]},
+                    "gear": {"b": self.pair.gear.b, "r_a": self.pair.gear.r_a, "r_form": ec0.r_form[2]}}
+            return [ec0.sweep(phi, mis=m, pairs=(-2, -1, 0, 1, 2)).to_dict(c, z1, lim0)
+                    for c, m in self.cases.items()]
+
+        # The drive before optimisation does not depend on the optimisation: its TCA runs in a forked
+        # process where that applies (ForkedCall) while this one builds and solves the NLP and sweeps
+        # the optimised drive; otherwise here, first, as the results are the same either way.
+        side = ForkedCall(before_tca)
+        try:
+            if not side.forked:
+                if progress:
+                    progress(f"crowning: TCA of the drive before optimization ({len(self.cases)} cases)")
+                with heartbeat(progress, "crowning: TCA of the drive before optimization", every=15.0):
+                    side.result()
+            try:
+                d, after = self._optimise(phi, progress, alongside=side.forked)
+            except Exception:
+                side.result()  # an error of the drive before optimisation first, as without the fork
+                raise
+            if progress and side.forked:
+                progress("crowning: waiting for the TCA of the drive before optimization")
+            before = side.result()
+        finally:
+            side.close()
         design = d.to_dict()
         self.design = d
         return CrowningReport(scene=self.name, design=design, before=before, after=after,
                               timing={"run_s": time.perf_counter() - t0})
+
+
+class ForkedCall:
+    """``fn()`` computed in a forked process while the caller goes on; :meth:`result` gives its
+    value (pickled back through a pipe), :meth:`close` ends the process if it still runs.
+
+    A fork copies the whole process (every compiled Function, cache and memo of the caller), so the
+    value is the one ``fn()`` gives here, number for number. Forked only where that is safe and
+    pays: Linux, two or more usable cores and no thread but the calling one (a fork copies only
+    that thread); otherwise, and when the forked process fails (it then says nothing of why),
+    :meth:`result` calls ``fn()`` itself, so that its error is raised here.
+
+    Parameters
+    ----------
+    fn : callable
+        Called without arguments; its value must pickle.
+    """
+
+    #: fork where it applies (False: always compute in :meth:`result`)
+    enabled: ClassVar[bool] = True
+
+    def __init__(self, fn: Callable[[], Any]) -> None:
+        import os
+        import threading
+
+        self.fn = fn
+        self.pid: int | None = None
+        self._fd: int | None = None
+        self._done = False
+        self._value: Any = None
+        try:
+            cores = len(os.sched_getaffinity(0))
+        except (AttributeError, OSError):
+            cores = 1
+        if not (self.enabled and sys.platform.startswith("linux") and hasattr(os, "fork") and cores >= 2
+                and threading.active_count() == 1):
+            return
+        import pickle
+
+        r, w = os.pipe()
+        sys.stdout.flush()
+        sys.stderr.flush()
+        pid = os.fork()
+        if pid == 0:  # the forked process: fn(), its value down the pipe, never returns
+            status = 1
+            try:
+                os.close(r)
+                try:
+                    data = pickle.dumps(("ok", fn()), protocol=pickle.HIGHEST_PROTOCOL)
+                except BaseException:  # noqa: BLE001 - the caller computes it again and raises it there
+                    data = pickle.dumps(("error", None))
+                with os.fdopen(w, "wb") as f:
+                    f.write(data)
+                status = 0
+            finally:
+                os._exit(status)
+        os.close(w)
+        self.pid, self._fd = pid, r
+
+    @property
+    def forked(self) -> bool:
+        """Whether ``fn()`` runs in a forked process."""
+        return self.pid is not None
+
+    def result(self) -> Any:
+        """``fn()``'s value: from the forked process (waiting for it), or computed here (where none
+        was forked or it failed; ``fn()``'s error is raised). Computed once."""
+        if self._done:
+            return self._value
+        if self.pid is not None:
+            import os
+            import pickle
+
+            try:
+                with os.fdopen(self._fd, "rb") as f:
+                    self._fd = None
+                    data = f.read()
+                kind, value = pickle.loads(data)
+            except Exception:  # noqa: BLE001 - a forked process that died: computed here
+                kind, value = "error", None
+            finally:
+                self.close()
+            if kind == "ok":
+                self._value, self._done = value, True
+                return value
+        self._value, self._done = self.fn(), True
+        return self._value
+
+    def close(self) -> None:
+        """End the forked process if it still runs, and wait for it (calling it again does nothing)."""
+        import os
+        import signal
+
+        if self._fd is not None:
+            os.close(self._fd)
+            self._fd = None
+        if self.pid is None:
+            return
+        pid, self.pid = self.pid, None
+        try:
+            os.kill(pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+        try:
+            os.waitpid(pid, 0)
+        except ChildProcessError:
+            pass
 
 
 def _from_scene(scene) -> CrowningStudy:
