@@ -420,9 +420,9 @@ def test_processes_for_gives_one_process_per_named_figure_up_to_the_maximum():
 
 
 def test_three_figures_are_drawn_by_three_processes_on_two(tmp_path, processes):
-    # each figure takes a second: three processes each take one (two would leave one to draw two)
+    # each figure takes 1.5 s: three processes each take one (two would leave one to draw two)
     assert processes.count == 2
-    assert processes.submit(SlowFigures(NAMES[:3], 1.0), tmp_path, {})
+    assert processes.submit(SlowFigures(NAMES[:3], 1.5), tmp_path, {})
     files, _ = processes.wait()
     assert files == NAMES[:3]
     pids = {(tmp_path / f"{n}.pid").read_text() for n in NAMES[:3]}

@@ -17,6 +17,10 @@ are declared there, with their defaults and ranges: ``te_level``, ``ellipse_shar
 ``positions``      TCA positions per case in the NLP (default 41).
 ``objective``      "sum" (default) or "worst".
 ``quiet``          no IPOPT iteration output (default true).
+
+The TCA of the drive before optimisation does not depend on the optimisation: on Linux with two or
+more cores it runs in a forked process while the NLP is built and solved (:class:`ForkedCall`; the
+same numbers as computed in place).
 """
 
 from __future__ import annotations
