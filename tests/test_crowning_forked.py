@@ -89,7 +89,7 @@ def untimed(x):
 
 
 @pytest.mark.slow
-def test_crowning_study_before_drive_is_the_same_forked_or_not(monkeypatch, forking):
+def test_crowning_study_before_and_after_are_the_same_forked_or_not(monkeypatch, forking):
     from gearopt.io.scene import load_scene
 
     runs = {}

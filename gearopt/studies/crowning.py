@@ -131,9 +131,25 @@ class CrowningStudy:
         ec1 = d.edge if d.edge is not None else EdgeContact(TCA(d.pair))  # compiled once, in solve()
         lim1 = {"pinion": {"b": d.pair.pinion.b, "r_a": d.pair.pinion.r_a, "r_form": ec1.r_form[1]},
                 "gear": {"b": d.pair.gear.b, "r_a": d.pair.gear.r_a, "r_form": ec1.r_form[2]}}
+        def swept(cases: list) -> list:
+            return [ec1.sweep(phi, mis=m, pairs=(-2, -1, 0, 1, 2)).to_dict(c, d.pair.pinion.z, lim1) for c, m in cases]
+
+        # The first case here (it solves the first guesses, which the other cases share), then the
+        # last ones in a forked process (ForkedCall: the same numbers) beside the others here.
+        items = list(self.cases.items())
+        half = (len(items) + 2) // 2
         with heartbeat(progress, "crowning: TCA of the optimised drive", every=15.0):
-            after = [ec1.sweep(phi, mis=m, pairs=(-2, -1, 0, 1, 2)).to_dict(c, d.pair.pinion.z, lim1)
-                     for c, m in self.cases.items()]
+            after = swept(items[:1])
+        tail = items[half:]
+        rest = ForkedCall(lambda: swept(tail)) if tail else None
+        try:
+            with heartbeat(progress, "crowning: TCA of the optimised drive", every=15.0):
+                after += swept(items[1:half])
+                if rest is not None:
+                    after += rest.result()
+        finally:
+            if rest is not None:
+                rest.close()
         return d, after
 
     def run(self, progress: Callable[[str], None] | None = None) -> CrowningReport:
