@@ -1,6 +1,7 @@
-"""The crowning study's TCA of the drive before optimisation, run in a forked process alongside the
-NLP (gearopt.studies.crowning.ForkedCall): the value is the one computed in the caller, a failed or
-unforkable call is computed in the caller (its error raised there), close() ends the process."""
+"""The crowning study's TCA of the drive before optimisation (and of the optimised drive's last
+cases), run in a forked process alongside the NLP (gearopt.studies.crowning.ForkedCall): the value
+is the one computed in the caller, a failed or unforkable call is computed in the caller (its error
+raised there), close() ends the process."""
 
 from __future__ import annotations
 
