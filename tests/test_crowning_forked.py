@@ -15,7 +15,8 @@ from gearopt.studies.crowning import ForkedCall
 
 
 @pytest.fixture
-def forking():
+def forking(monkeypatch):
+    monkeypatch.setattr(ForkedCall, "min_idle_cores", None)  # fork also on a busy machine
     if threading.active_count() != 1:
         pytest.skip("another thread runs in this process: ForkedCall computes in the caller")
     probe = ForkedCall(lambda: None)
@@ -35,8 +36,9 @@ def test_the_value_comes_from_another_process(forking):
     assert not call.forked
 
 
-def test_disabled_or_threaded_computes_in_the_caller(monkeypatch):
+def test_disabled_threaded_or_busy_computes_in_the_caller(monkeypatch):
     me = os.getpid()
+    monkeypatch.setattr(ForkedCall, "min_idle_cores", None)
     monkeypatch.setattr(ForkedCall, "enabled", False)
     call = ForkedCall(os.getpid)
     assert not call.forked and call.result() == me
@@ -50,6 +52,16 @@ def test_disabled_or_threaded_computes_in_the_caller(monkeypatch):
     finally:
         stop.set()
         t.join()
+    # every core busy (more runnable tasks than cores): no fork
+    monkeypatch.setattr(ForkedCall, "idle_cores", staticmethod(lambda: 0))
+    monkeypatch.setattr(ForkedCall, "min_idle_cores", 1)
+    call = ForkedCall(os.getpid)
+    assert not call.forked and call.result() == me
+
+
+def test_idle_cores_counts_the_running_tasks_of_the_machine():
+    n = ForkedCall.idle_cores()
+    assert isinstance(n, int) and n <= len(os.sched_getaffinity(0))
 
 
 def test_a_failure_in_the_forked_process_is_computed_again_in_the_caller(forking):

@@ -197,9 +197,10 @@ class ForkedCall:
 
     A fork copies the whole process (every compiled Function, cache and memo of the caller), so the
     value is the one ``fn()`` gives here, number for number. Forked only where that is safe and
-    pays: Linux, two or more usable cores and no thread but the calling one (a fork copies only
-    that thread); otherwise, and when the forked process fails (it then says nothing of why),
-    :meth:`result` calls ``fn()`` itself, so that its error is raised here.
+    pays: Linux, two or more usable cores, a core idle now (:attr:`min_idle_cores`) and no thread
+    but the calling one (a fork copies only that thread); otherwise, and when the forked process
+    fails (it then says nothing of why), :meth:`result` calls ``fn()`` itself, so that its error is
+    raised here.
 
     Parameters
     ----------
@@ -209,6 +210,27 @@ class ForkedCall:
 
     #: fork where it applies (False: always compute in :meth:`result`)
     enabled: ClassVar[bool] = True
+    #: fork only with at least this many cores idle at the call (:meth:`idle_cores`; None: whatever
+    #: the load): on a machine whose cores are busy the forked process only waits for one, and the
+    #: fork and the work it repeats (its own edge branches) make the run slower
+    min_idle_cores: ClassVar[int | None] = 1
+
+    @staticmethod
+    def idle_cores() -> int:
+        """Cores not running a task at this moment: the usable cores less the runnable tasks of the
+        machine other than this one (``/proc/loadavg``); the usable cores where that is unknown."""
+        import os
+
+        try:
+            cores = len(os.sched_getaffinity(0))
+        except (AttributeError, OSError):
+            return os.cpu_count() or 1
+        try:
+            with open("/proc/loadavg") as f:
+                running = int(f.read().split()[3].split("/")[0])
+        except (OSError, ValueError, IndexError):
+            return cores
+        return cores - max(running - 1, 0)
 
     def __init__(self, fn: Callable[[], Any]) -> None:
         import os
@@ -225,6 +247,8 @@ class ForkedCall:
             cores = 1
         if not (self.enabled and sys.platform.startswith("linux") and hasattr(os, "fork") and cores >= 2
                 and threading.active_count() == 1):
+            return
+        if self.min_idle_cores is not None and self.idle_cores() < self.min_idle_cores:
             return
         import pickle
 
