@@ -291,7 +291,8 @@ def processes_for(result: Any, count: int) -> int:
 
     The figures are CPU-bound and of similar cost in a study (the crowning study's three take about
     1.3 s each): three processes on two cores finish three figures in about 1.5 figure times,
-    where two processes, one of them drawing two figures in turn, take two.
+    where two processes, one of them drawing two figures in turn, take two. Only where a core is
+    idle now (:func:`gearopt.forking.idle_cores`); on a busy machine ``count``.
 
     Parameters
     ----------
@@ -308,7 +309,13 @@ def processes_for(result: Any, count: int) -> int:
         figures = len(getattr(result, "captions", None) or ())
     except Exception:  # noqa: BLE001 - a captions property that fails: the cores decide
         figures = 0
-    return max(count, min(figures, MAX_PROCESSES))
+    if figures <= count:
+        return count
+    from .forking import idle_cores
+
+    # more processes than cores only on an idle machine (a core free beside this process): on busy
+    # cores the extra process's own start (its first figure) is extra work, not a gain
+    return max(count, min(figures, MAX_PROCESSES)) if idle_cores() >= 1 else count
 
 
 def _draw_shared(result: Any, directory: str, kwargs: dict, count: int, children: list[int], claims: str,

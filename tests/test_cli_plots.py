@@ -403,8 +403,10 @@ class SlowFigures(Figures):
         return super().save_plots(directory, dpi)
 
 
-def test_processes_for_gives_one_process_per_named_figure_up_to_the_maximum():
+def test_processes_for_gives_one_process_per_named_figure_up_to_the_maximum(monkeypatch):
     from gearopt.cli_plots import MAX_PROCESSES, processes_for
+
+    monkeypatch.setattr("gearopt.forking.idle_cores", lambda: 1)  # an idle machine
 
     assert processes_for(SlowFigures(NAMES[:3], 0), 2) == 3
     assert processes_for(SlowFigures(NAMES[:1], 0), 2) == 2  # never fewer than the cores
@@ -417,13 +419,23 @@ def test_processes_for_gives_one_process_per_named_figure_up_to_the_maximum():
             raise RuntimeError("no captions")
 
     assert processes_for(Broken(), 3) == 3
+    monkeypatch.setattr("gearopt.forking.idle_cores", lambda: 0)  # every core busy: one per core
+    assert processes_for(SlowFigures(NAMES[:3], 0), 2) == 2
 
 
-def test_three_figures_are_drawn_by_three_processes_on_two(tmp_path, processes):
+def test_three_figures_are_drawn_by_three_processes_on_two(tmp_path, monkeypatch):
     # each figure takes 1.5 s: three processes each take one (two would leave one to draw two)
-    assert processes.count == 2
-    assert processes.submit(SlowFigures(NAMES[:3], 1.5), tmp_path, {})
-    files, _ = processes.wait()
+    if threading.active_count() != 1:
+        pytest.skip("another thread runs in this process: the CLI would not fork")
+    monkeypatch.setattr("gearopt.forking.idle_cores", lambda: 1)  # an idle machine, in the drawing process too
+    processes = PlotProcesses.start(count=2)
+    if processes is None:
+        pytest.skip("no fork here (not Linux)")
+    try:
+        assert processes.submit(SlowFigures(NAMES[:3], 1.5), tmp_path, {})
+        files, _ = processes.wait()
+    finally:
+        processes.close()
     assert files == NAMES[:3]
     pids = {(tmp_path / f"{n}.pid").read_text() for n in NAMES[:3]}
     assert len(pids) == 3, pids

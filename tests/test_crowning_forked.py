@@ -1,5 +1,5 @@
 """The crowning study's TCA of the drive before optimisation (and of the optimised drive's last
-cases), run in a forked process alongside the NLP (gearopt.studies.crowning.ForkedCall): the value
+cases), run in a forked process alongside the NLP (gearopt.forking.ForkedCall): the value
 is the one computed in the caller, a failed or unforkable call is computed in the caller (its error
 raised there), close() ends the process."""
 
@@ -11,7 +11,7 @@ import time
 
 import pytest
 
-from gearopt.studies.crowning import ForkedCall
+from gearopt.forking import ForkedCall, idle_cores
 
 
 @pytest.fixture
@@ -53,14 +53,14 @@ def test_disabled_threaded_or_busy_computes_in_the_caller(monkeypatch):
         stop.set()
         t.join()
     # every core busy (more runnable tasks than cores): no fork
-    monkeypatch.setattr(ForkedCall, "idle_cores", staticmethod(lambda: 0))
+    monkeypatch.setattr("gearopt.forking.idle_cores", lambda: 0)
     monkeypatch.setattr(ForkedCall, "min_idle_cores", 1)
     call = ForkedCall(os.getpid)
     assert not call.forked and call.result() == me
 
 
 def test_idle_cores_counts_the_running_tasks_of_the_machine():
-    n = ForkedCall.idle_cores()
+    n = idle_cores()
     assert isinstance(n, int) and n <= len(os.sched_getaffinity(0))
 
 
