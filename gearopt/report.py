@@ -40,7 +40,10 @@ def csv_cell(v: object) -> str:
 def arr(a: ArrayLike) -> list:
     """An array as nested lists of floats, non-finite entries (no contact) as ``None``."""
     a = np.asarray(a, dtype=float)
-    return [None if not np.isfinite(v) else float(v) for v in a.ravel()] if a.ndim == 1 else [arr(row) for row in a]
+    if a.ndim != 1:
+        return [arr(row) for row in a]
+    # tolist() gives the same Python floats as float(v), without a numpy scalar per entry
+    return [v if f else None for v, f in zip(a.tolist(), np.isfinite(a).tolist())]
 
 
 def finite_or_none(v: float | None) -> float | None:

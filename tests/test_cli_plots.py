@@ -379,3 +379,64 @@ def test_the_forking_tests_run_in_a_process_without_other_threads():
     assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-2000:]
     assert "skipped" not in proc.stdout.splitlines()[-1], proc.stdout[-1000:]
     assert " passed" in proc.stdout.splitlines()[-1]
+
+
+class SlowFigures(Figures):
+    """Figures that name themselves in ``captions`` and take ``seconds`` each; every figure drawn
+    leaves ``<name>.pid`` with the number of the process that drew it."""
+
+    def __init__(self, names, seconds):
+        super().__init__(names)
+        self.seconds = seconds
+
+    @property
+    def captions(self):
+        return {n: f"figure {n}" for n in self.names}
+
+    def save_plots(self, directory, dpi=40):
+        import time
+
+        for name in self.names:
+            if drawn_here(Path(directory) / name):
+                (Path(directory) / f"{name}.pid").write_text(str(os.getpid()))
+                time.sleep(self.seconds)
+        return super().save_plots(directory, dpi)
+
+
+def test_processes_for_gives_one_process_per_named_figure_up_to_the_maximum(monkeypatch):
+    from gearopt.cli_plots import MAX_PROCESSES, processes_for
+
+    monkeypatch.setattr("gearopt.forking.idle_cores", lambda: 1)  # an idle machine
+
+    assert processes_for(SlowFigures(NAMES[:3], 0), 2) == 3
+    assert processes_for(SlowFigures(NAMES[:1], 0), 2) == 2  # never fewer than the cores
+    assert processes_for(SlowFigures(NAMES * 2, 0), 2) == MAX_PROCESSES
+    assert processes_for(Figures(), 2) == 2  # no captions: the cores decide
+
+    class Broken(Figures):
+        @property
+        def captions(self):
+            raise RuntimeError("no captions")
+
+    assert processes_for(Broken(), 3) == 3
+    monkeypatch.setattr("gearopt.forking.idle_cores", lambda: 0)  # every core busy: one per core
+    assert processes_for(SlowFigures(NAMES[:3], 0), 2) == 2
+
+
+def test_three_figures_are_drawn_by_three_processes_on_two(tmp_path, monkeypatch):
+    # each figure takes 1.5 s: three processes each take one (two would leave one to draw two)
+    if threading.active_count() != 1:
+        pytest.skip("another thread runs in this process: the CLI would not fork")
+    monkeypatch.setattr("gearopt.forking.idle_cores", lambda: 1)  # an idle machine, in the drawing process too
+    processes = PlotProcesses.start(count=2)
+    if processes is None:
+        pytest.skip("no fork here (not Linux)")
+    try:
+        assert processes.submit(SlowFigures(NAMES[:3], 1.5), tmp_path, {})
+        files, _ = processes.wait()
+    finally:
+        processes.close()
+    assert files == NAMES[:3]
+    pids = {(tmp_path / f"{n}.pid").read_text() for n in NAMES[:3]}
+    assert len(pids) == 3, pids
+    assert sorted(p.name for p in tmp_path.glob("*.png")) == NAMES[:3]

@@ -17,6 +17,10 @@ are declared there, with their defaults and ranges: ``te_level``, ``ellipse_shar
 ``positions``      TCA positions per case in the NLP (default 41).
 ``objective``      "sum" (default) or "worst".
 ``quiet``          no IPOPT iteration output (default true).
+
+The TCA of the drive before optimisation does not depend on the optimisation: on Linux with two or
+more cores it runs in a forked process while the NLP is built and solved (:class:`ForkedCall`; the
+same numbers as computed in place).
 """
 
 from __future__ import annotations
@@ -30,6 +34,7 @@ from typing import Any, Callable, ClassVar
 import numpy as np
 
 from ..contact.edge import EdgeContact
+from ..forking import ForkedCall
 from ..gears import GearPair
 from ..meshing.misalignment import misalignment_cases  # noqa: F401 - re-exported (the crowning study's cases)
 from ..meshing.tca import TCA, Misalignment
@@ -107,21 +112,12 @@ class CrowningStudy:
         self.pair, self.target, self.cases, self.quiet, self.name = pair, target, cases, s.quiet, name
         self.optimizer = CrowningOptimizer(pair, target, cases=cases, positions=s.positions)
 
-    def run(self, progress: Callable[[str], None] | None = None) -> CrowningReport:
-        t0 = time.perf_counter()
-        z1 = self.pair.pinion.z
-        pitch = 2 * math.pi / z1
-        phi = np.linspace(-pitch, pitch, 162, endpoint=False)
+    def _optimise(self, phi: np.ndarray, progress: Callable[[str], None] | None, alongside: bool = False) -> tuple:
+        """Build and solve the NLP, then the TCA of the optimised drive at ``phi`` [rad]: (design,
+        the cases' dicts)."""
         if progress:
-            progress(f"crowning: TCA of the drive before optimization ({len(self.cases)} cases)")
-        with heartbeat(progress, "crowning: TCA of the drive before optimization", every=15.0):
-            ec0 = EdgeContact(TCA(self.pair))
-            lim0 = {"pinion": {"b": self.pair.pinion.b, "r_a": self.pair.pinion.r_a, "r_form": ec0.r_form[1]},
-                    "gear": {"b": self.pair.gear.b, "r_a": self.pair.gear.r_a, "r_form": ec0.r_form[2]}}
-            before = [ec0.sweep(phi, mis=m, pairs=(-2, -1, 0, 1, 2)).to_dict(c, z1, lim0)
-                      for c, m in self.cases.items()]
-        if progress:
-            progress("crowning: building the NLP")
+            progress("crowning: building the NLP" + (f" (the TCA of the drive before optimization, {len(self.cases)} "
+                                                     "cases, alongside)" if alongside else ""))
         with heartbeat(progress, "crowning: building the NLP", every=15.0):
             self.optimizer.build(verbose=not self.quiet)
         if progress:
@@ -135,9 +131,60 @@ class CrowningStudy:
         ec1 = d.edge if d.edge is not None else EdgeContact(TCA(d.pair))  # compiled once, in solve()
         lim1 = {"pinion": {"b": d.pair.pinion.b, "r_a": d.pair.pinion.r_a, "r_form": ec1.r_form[1]},
                 "gear": {"b": d.pair.gear.b, "r_a": d.pair.gear.r_a, "r_form": ec1.r_form[2]}}
+        def swept(cases: list) -> list:
+            return [ec1.sweep(phi, mis=m, pairs=(-2, -1, 0, 1, 2)).to_dict(c, d.pair.pinion.z, lim1) for c, m in cases]
+
+        # The first case here (it solves the first guesses, which the other cases share), then the
+        # last ones in a forked process (ForkedCall: the same numbers) beside the others here.
+        items = list(self.cases.items())
+        half = (len(items) + 2) // 2
         with heartbeat(progress, "crowning: TCA of the optimised drive", every=15.0):
-            after = [ec1.sweep(phi, mis=m, pairs=(-2, -1, 0, 1, 2)).to_dict(c, d.pair.pinion.z, lim1)
-                     for c, m in self.cases.items()]
+            after = swept(items[:1])
+        tail = items[half:]
+        rest = ForkedCall(lambda: swept(tail)) if tail else None
+        try:
+            with heartbeat(progress, "crowning: TCA of the optimised drive", every=15.0):
+                after += swept(items[1:half])
+                if rest is not None:
+                    after += rest.result()
+        finally:
+            if rest is not None:
+                rest.close()
+        return d, after
+
+    def run(self, progress: Callable[[str], None] | None = None) -> CrowningReport:
+        t0 = time.perf_counter()
+        z1 = self.pair.pinion.z
+        pitch = 2 * math.pi / z1
+        phi = np.linspace(-pitch, pitch, 162, endpoint=False)
+
+        def before_tca() -> list:
+            ec0 = EdgeContact(TCA(self.pair))
+            lim0 = {"pinion": {"b": self.pair.pinion.b, "r_a": self.pair.pinion.r_a, "r_form": ec0.r_form[1]},
+                    "gear": {"b": self.pair.gear.b, "r_a": self.pair.gear.r_a, "r_form": ec0.r_form[2]}}
+            return [ec0.sweep(phi, mis=m, pairs=(-2, -1, 0, 1, 2)).to_dict(c, z1, lim0)
+                    for c, m in self.cases.items()]
+
+        # The drive before optimisation does not depend on the optimisation: its TCA runs in a forked
+        # process where that applies (ForkedCall) while this one builds and solves the NLP and sweeps
+        # the optimised drive; otherwise here, first, as the results are the same either way.
+        side = ForkedCall(before_tca)
+        try:
+            if not side.forked:
+                if progress:
+                    progress(f"crowning: TCA of the drive before optimization ({len(self.cases)} cases)")
+                with heartbeat(progress, "crowning: TCA of the drive before optimization", every=15.0):
+                    side.result()
+            try:
+                d, after = self._optimise(phi, progress, alongside=side.forked)
+            except Exception:
+                side.result()  # an error of the drive before optimisation first, as without the fork
+                raise
+            if progress and side.forked:
+                progress("crowning: waiting for the TCA of the drive before optimization")
+            before = side.result()
+        finally:
+            side.close()
         design = d.to_dict()
         self.design = d
         return CrowningReport(scene=self.name, design=design, before=before, after=after,

@@ -1,0 +1,115 @@
+"""The crowning study's TCA of the drive before optimisation (and of the optimised drive's last
+cases), run in a forked process alongside the NLP (gearopt.forking.ForkedCall): the value
+is the one computed in the caller, a failed or unforkable call is computed in the caller (its error
+raised there), close() ends the process."""
+
+from __future__ import annotations
+
+import os
+import threading
+import time
+
+import pytest
+
+from gearopt.forking import ForkedCall, idle_cores
+
+
+@pytest.fixture
+def forking(monkeypatch):
+    monkeypatch.setattr(ForkedCall, "min_idle_cores", None)  # fork also on a busy machine
+    if threading.active_count() != 1:
+        pytest.skip("another thread runs in this process: ForkedCall computes in the caller")
+    probe = ForkedCall(lambda: None)
+    forked = probe.forked
+    probe.close()
+    if not forked:
+        pytest.skip("no fork here (not Linux, or one core)")
+
+
+def test_the_value_comes_from_another_process(forking):
+    me = os.getpid()
+    call = ForkedCall(lambda: (os.getpid(), [1.5, None, {"a": "b"}]))
+    assert call.forked
+    pid, value = call.result()
+    assert pid != me and value == [1.5, None, {"a": "b"}]
+    assert call.result() == (pid, value)  # computed once
+    assert not call.forked
+
+
+def test_disabled_threaded_or_busy_computes_in_the_caller(monkeypatch):
+    me = os.getpid()
+    monkeypatch.setattr(ForkedCall, "min_idle_cores", None)
+    monkeypatch.setattr(ForkedCall, "enabled", False)
+    call = ForkedCall(os.getpid)
+    assert not call.forked and call.result() == me
+    monkeypatch.setattr(ForkedCall, "enabled", True)
+    stop = threading.Event()
+    t = threading.Thread(target=stop.wait)
+    t.start()
+    try:
+        call = ForkedCall(os.getpid)
+        assert not call.forked and call.result() == me
+    finally:
+        stop.set()
+        t.join()
+    # every core busy (more runnable tasks than cores): no fork
+    monkeypatch.setattr("gearopt.forking.idle_cores", lambda: 0)
+    monkeypatch.setattr(ForkedCall, "min_idle_cores", 1)
+    call = ForkedCall(os.getpid)
+    assert not call.forked and call.result() == me
+
+
+def test_idle_cores_counts_the_running_tasks_of_the_machine():
+    n = idle_cores()
+    assert isinstance(n, int) and n <= len(os.sched_getaffinity(0))
+
+
+def test_a_failure_in_the_forked_process_is_computed_again_in_the_caller(forking):
+    me = os.getpid()
+
+    def fn():
+        if os.getpid() != me:
+            raise RuntimeError("failed in the forked process")
+        return "computed here"
+
+    assert ForkedCall(fn).result() == "computed here"
+
+    def bad():
+        raise ValueError("bad geometry, key 'x' = 3")
+
+    with pytest.raises(ValueError, match="bad geometry"):  # raised in the caller, by the caller's own call
+        ForkedCall(bad).result()
+
+
+def test_close_ends_a_running_forked_process(forking):
+    call = ForkedCall(lambda: time.sleep(60))
+    pid = call.pid
+    t = time.perf_counter()
+    call.close()
+    assert time.perf_counter() - t < 10
+    with pytest.raises(ProcessLookupError):
+        os.kill(pid, 0)
+    call.close()  # again: nothing
+
+
+def untimed(x):
+    """``x`` without its wall times (keys ending in ``_s``: solve and build times)."""
+    if isinstance(x, dict):
+        return {k: untimed(v) for k, v in x.items() if not k.endswith("_s")}
+    if isinstance(x, list):
+        return [untimed(v) for v in x]
+    return x
+
+
+@pytest.mark.slow
+def test_crowning_study_before_and_after_are_the_same_forked_or_not(monkeypatch, forking):
+    from gearopt.io.scene import load_scene
+
+    runs = {}
+    for enabled in (True, False):
+        monkeypatch.setattr(ForkedCall, "enabled", enabled)
+        study = load_scene("problems/crowning_spur.toml").build()
+        runs[enabled] = study.run().to_dict()
+    assert untimed(runs[True]["before"]) == untimed(runs[False]["before"])
+    assert untimed(runs[True]["after"]) == untimed(runs[False]["after"])
+    assert runs[True]["before"][1]["edge_carries_load"]  # the drive before has edge contact (crossing +3')
