@@ -55,9 +55,14 @@ def pixels(path):
 
 
 @pytest.fixture
-def processes():
+def processes(tmp_path_factory, monkeypatch):
     if threading.active_count() != 1:
         pytest.skip("another thread runs in this process: the CLI would not fork")
+    # the drawing processes' temporary directories (claims) in a directory of this test's own, so that
+    # what other test processes create in the shared /tmp meanwhile is not taken for theirs
+    import tempfile
+
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path_factory.mktemp("plots_tmp")))
     p = PlotProcesses.start(count=2)
     if p is None:
         pytest.skip("no fork here (not Linux)")
@@ -285,6 +290,7 @@ def test_close_while_drawing_stops_every_drawing_process_and_leaves_no_claims(tm
     before = set(glob.glob(os.path.join(tempfile.gettempdir(), "gearopt-plots-*")))
     assert processes.submit(Slow(), tmp_path, {})
     time.sleep(1.0)  # drawing has begun
+    assert set(glob.glob(os.path.join(tempfile.gettempdir(), "gearopt-plots-*"))) - before  # its claims
     processes.close()
     written = sorted(p.name for p in tmp_path.iterdir())
     time.sleep(1.5)  # no drawing process writes after close()
