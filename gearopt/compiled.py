@@ -272,6 +272,12 @@ def no_background() -> Iterator[None]:
         _quiet[0] -= 1
 
 
+def writes_nothing() -> bool:
+    """True within :func:`no_background`: nothing may be written to gearopt's disk caches (the
+    compiled libraries here, the measured-flank splines of :mod:`gearopt.geometry.microgeometry`)."""
+    return _quiet[0] > 0
+
+
 def compile_in_background(f: ca.Function) -> threading.Thread | None:
     """Compile ``f`` into the disk cache in a background thread (one per library and process) and
     return the thread; None when the library is loaded or on disk already, a compile of it is under

@@ -575,7 +575,7 @@ def _grid_spline(name: str, Lx: np.ndarray, zx: np.ndarray, E2: np.ndarray) -> c
     Grid coordinates in mm, values in mm."""
     import hashlib
 
-    from ..compiled import cache_root
+    from ..compiled import cache_root, writes_nothing
 
     h = hashlib.sha256()
     for part in (ca.__version__, name, str(SPLINE_DEGREE)):
@@ -594,13 +594,14 @@ def _grid_spline(name: str, Lx: np.ndarray, zx: np.ndarray, E2: np.ndarray) -> c
         if f is None or f.name() != name:
             f = ca.interpolant(name, "bspline", [Lx.tolist(), zx.tolist()], E2.ravel(order="F").tolist(),
                                {"degree": [SPLINE_DEGREE, SPLINE_DEGREE]})
-            try:  # best effort: a read-only or full cache costs only the next build
-                path.parent.mkdir(parents=True, exist_ok=True)
-                tmp = path.with_suffix(f".{os.getpid()}.tmp")
-                tmp.write_text(f.serialize())
-                os.replace(tmp, path)
-            except OSError:
-                pass
+            if not writes_nothing():  # (gearopt check leaves the disk untouched)
+                try:  # best effort: a read-only or full cache costs only the next build
+                    path.parent.mkdir(parents=True, exist_ok=True)
+                    tmp = path.with_suffix(f".{os.getpid()}.tmp")
+                    tmp.write_text(f.serialize())
+                    os.replace(tmp, path)
+                except OSError:
+                    pass
     _SPLINES[key] = f
     while len(_SPLINES) > _SPLINES_KEPT:
         _SPLINES.pop(next(iter(_SPLINES)))
