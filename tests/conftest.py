@@ -281,12 +281,22 @@ def scene_run(tmp_path_factory):
 #: Studies whose scene runs form the work unit ``scenes-loaded`` (the others: ``scenes``).
 LOADED_SCENE_STUDIES = ("ltca", "loaded_microgeometry")
 
-#: CPU of each work unit of the whole suite [s] on this 2-core machine (a test file, or one of the two
-#: units of scene runs): only their order matters (heaviest first, so that no heavy unit starts last
-#: and the two workers end together); a unit not listed counts 0 and keeps its place. Re-measure with
-#: ``python tests/suite_units.py JUNIT.xml`` (a junit report of ``make test``) after a change that moves
-#: a unit by a minute.
-UNIT_COST: dict[str, float] = {}
+#: Time of each work unit of the whole suite [s] (a test file, or one of the two units of scene runs;
+#: the junit times of a ``make test`` at 10a7ca1 under load, 2026-11-29): only their order matters
+#: (heaviest first, so that no heavy unit starts last and the two workers end together); a unit not
+#: listed counts 0 and keeps its place. Re-measure with ``python tests/suite_units.py JUNIT.xml`` (a
+#: junit report of ``make test``) after a change that moves a unit by a minute.
+UNIT_COST: dict[str, float] = {
+    "scenes": 451, "scenes-loaded": 280, "test_loaded_synthesis_objectives.py": 163, "test_fea.py": 114,
+    "test_loaded_synthesis.py": 111, "test_robust.py": 96, "test_ltca.py": 95, "test_plots_results.py": 82,
+    "test_dynamics.py": 80, "test_inspection.py": 58, "test_dynamics_sensitivity.py": 53, "test_flank_limit.py": 45,
+    "test_synthesis.py": 44, "test_edge_grid.py": 37, "test_bad_input_studies.py": 32, "test_tca_stability.py": 29,
+    "test_loaded_pressure.py": 27, "test_microgeometry.py": 26, "test_ltca_continuity.py": 24,
+    "test_edge_modifications.py": 22, "test_rating_fe.py": 20, "test_loaded_layout.py": 18,
+    "test_loaded_sensitivity.py": 15, "test_edge.py": 14, "test_problems_loaded.py": 13, "test_cli_plots.py": 10,
+    "test_tca.py": 10, "test_compare.py": 8, "test_ltca_edges.py": 8, "test_report_page.py": 8, "test_tools.py": 7,
+    "test_compiled.py": 6, "test_cli.py": 6, "test_compare_rating.py": 6, "test_modification.py": 6,
+    "test_settings.py": 5, "test_ltca_point_contact.py": 5}
 
 #: Environment variable: the file in which the workers leave each test's work unit for the controller.
 UNITS_FILE_ENV = "GEAROPT_TEST_UNITS_FILE"
