@@ -79,6 +79,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("junit", nargs="+")
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--scale", type=float, default=1.0, help="factor on the junit times")
+    ap.add_argument("--loadfile", action="store_true",
+                    help="also simulate --dist loadfile (a unit per file, most tests first: pytest-xdist's default)")
     a = ap.parse_args(argv)
     plugin = _Units()
     rc = pytest.main(["--collect-only", "-q", "-p", "no:cacheprovider", str(TESTS), *extra], plugins=[plugin])
@@ -105,6 +107,14 @@ def main(argv: list[str] | None = None) -> int:
     handed = sorted(costs, key=lambda u: (-listed.get(u, 0.0), first[u]))
     for k, (end, units) in enumerate(simulate([(u, costs[u]) for u in handed], a.workers)):
         print(f"worker {k}: ends at {end:.0f} s; {len(units)} units, first {units[:6]}")
+    if a.loadfile:
+        files: dict[str, list[float]] = {}
+        by_test = {nodeid: c for unit in per_unit for (nodeid, _), c in zip(per_unit[unit], costs[unit])}
+        for nodeid, _ in plugin.items:
+            files.setdefault(nodeid.split("::")[0], []).append(by_test[nodeid])
+        order = sorted(files, key=lambda f: -len(files[f]))  # stable: xdist's loadscope reorder
+        for k, (end, units) in enumerate(simulate([(f, files[f]) for f in order], a.workers)):
+            print(f"--dist loadfile, worker {k}: ends at {end:.0f} s; {len(units)} files")
     return 0
 
 
