@@ -96,7 +96,7 @@ def counts() -> dict:
 def cache_root() -> Path:
     """Root of gearopt's disk caches: ``GEAROPT_CACHE``, else ``$XDG_CACHE_HOME/gearopt``, else
     ``~/.cache/gearopt`` (compiled libraries in ``compiled/``, FE influence coefficients in
-    ``influence/``)."""
+    ``influence/``, measured flanks' B-splines in ``interpolant/``)."""
     env = os.environ.get("GEAROPT_CACHE")
     if env:
         return Path(env).expanduser()
