@@ -40,10 +40,11 @@ lint: $(STAMP)
 check: lint
 	$(VPY) -m pytest -q -n auto --dist loadfile -m "not slow"
 
-# The whole suite on every core (pytest-xdist), one test file per worker so that module fixtures are
-# built once (the files are cut so that none bounds the wall time: docs/testing.md).
+# The whole suite on every core (pytest-xdist): a test file's tests on one worker so that its module
+# fixtures are built once, the tests that read a scene run on the worker that runs the scene, the
+# heaviest units first (tests/conftest.py work_unit and UNIT_COST; docs/testing.md).
 test: ccx chromium lint
-	$(VPY) -m pytest -q -n auto --dist loadfile
+	$(VPY) -m pytest -q -n auto --dist loadgroup
 
 # Every benchmark with its defaults; the two comparison tools need their arguments (run them by hand).
 BENCH_TOOLS := benchmarks/compare_results.py benchmarks/results_unchanged.py

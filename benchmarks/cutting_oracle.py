@@ -18,6 +18,7 @@ of rotation, the pitch-point datum phi1 = phi2 = 0); TE is compared up to its co
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -30,10 +31,13 @@ N_OUTLINE = 6000
 JUMP = N_OUTLINE // 75  # a jump of the cutting outline point (another part of the tool)
 
 
+@functools.lru_cache(maxsize=32)
 def tool_outline(m, alpha, h_fP, rho_fP, a_c=0.0, u_0=0.0, h_top=1.6, n=N_OUTLINE, beta=0.0):
     """Transverse outline of the rack-cutter tooth that cuts the right flank [mm]: (xi, eta) from
     ``h_top`` modules above the datum line down the flank, round the tip fillet and to the middle of
-    the tip land. xi along the datum line (tooth centre at 0), eta towards the gear outside."""
+    the tip land. xi along the datum line (tooth centre at 0), eta towards the gear outside.
+    Computed once per tool (the corner bisection of :func:`cut_boundary` asks again for every
+    radius it tries); the array is read-only."""
     tb = (math.sin(alpha), -math.cos(alpha))
     nb = (-math.cos(alpha), -math.sin(alpha))
 
@@ -61,6 +65,7 @@ def tool_outline(m, alpha, h_fP, rho_fP, a_c=0.0, u_0=0.0, h_top=1.6, n=N_OUTLIN
     land = np.c_[np.linspace(C[0], math.pi * m / 2, 20), np.full(20, -h_f)]
     P = np.vstack([fl, fi[1:], land[1:]])
     P[:, 0] /= math.cos(beta)  # the transverse section of the helical rack
+    P.setflags(write=False)
     return P
 
 

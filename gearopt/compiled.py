@@ -102,7 +102,7 @@ def counts() -> dict:
 def cache_root() -> Path:
     """Root of gearopt's disk caches: ``GEAROPT_CACHE``, else ``$XDG_CACHE_HOME/gearopt``, else
     ``~/.cache/gearopt`` (compiled libraries in ``compiled/``, FE influence coefficients in
-    ``influence/``)."""
+    ``influence/``, measured flanks' B-splines in ``interpolant/``)."""
     env = os.environ.get("GEAROPT_CACHE")
     if env:
         return Path(env).expanduser()
@@ -289,6 +289,12 @@ def no_background() -> Iterator[None]:
         yield
     finally:
         _quiet[0] -= 1
+
+
+def writes_nothing() -> bool:
+    """True within :func:`no_background`: nothing may be written to gearopt's disk caches (the
+    compiled libraries here, the measured-flank splines of :mod:`gearopt.geometry.microgeometry`)."""
+    return _quiet[0] > 0
 
 
 def compile_in_background(f: ca.Function) -> threading.Thread | None:

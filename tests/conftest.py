@@ -272,3 +272,103 @@ def scene_run(tmp_path_factory):
         return run
 
     return get
+
+
+
+# ------------------------------------------------------------------------------------------------
+# How pytest-xdist hands out the whole suite (make test: -n auto --dist loadgroup)
+# ------------------------------------------------------------------------------------------------
+#: Studies whose scene runs form the work unit ``scenes-loaded`` (the others: ``scenes``).
+LOADED_SCENE_STUDIES = ("ltca", "loaded_microgeometry")
+
+#: Time of each work unit of the whole suite [s] (a test file, or one of the two units of scene runs;
+#: the junit times of a ``make test`` at 10a7ca1 under load, 2026-11-29): only their order matters
+#: (heaviest first, so that no heavy unit starts last and the two workers end together); a unit not
+#: listed counts 0 and keeps its place. Re-measure with ``python tests/suite_units.py JUNIT.xml`` (a
+#: junit report of ``make test``) after a change that moves a unit by a minute.
+UNIT_COST: dict[str, float] = {
+    "scenes": 451, "scenes-loaded": 280, "test_loaded_synthesis_objectives.py": 163, "test_fea.py": 114,
+    "test_loaded_synthesis.py": 111, "test_robust.py": 96, "test_ltca.py": 95, "test_plots_results.py": 82,
+    "test_dynamics.py": 80, "test_inspection.py": 58, "test_dynamics_sensitivity.py": 53, "test_flank_limit.py": 45,
+    "test_synthesis.py": 44, "test_edge_grid.py": 37, "test_bad_input_studies.py": 32, "test_tca_stability.py": 29,
+    "test_loaded_pressure.py": 27, "test_microgeometry.py": 26, "test_ltca_continuity.py": 24,
+    "test_edge_modifications.py": 22, "test_rating_fe.py": 20, "test_loaded_layout.py": 18,
+    "test_loaded_sensitivity.py": 15, "test_edge.py": 14, "test_problems_loaded.py": 13, "test_cli_plots.py": 10,
+    "test_tca.py": 10, "test_compare.py": 8, "test_ltca_edges.py": 8, "test_report_page.py": 8, "test_tools.py": 7,
+    "test_compiled.py": 6, "test_cli.py": 6, "test_compare_rating.py": 6, "test_modification.py": 6,
+    "test_settings.py": 5, "test_ltca_point_contact.py": 5}
+
+#: Environment variable: the file in which the workers leave each test's work unit for the controller.
+UNITS_FILE_ENV = "GEAROPT_TEST_UNITS_FILE"
+
+
+def work_unit(item: pytest.Item) -> str:
+    """The pytest-xdist work unit of a test: every test that reads a scene run (``scene_run``) joins
+    the unit of its scenes' family (``scenes`` or ``scenes-loaded``), so that one process runs each
+    scene and no other process waits for it (conftest.scene_run's lock); every other test its file's
+    unit, so that a file's module fixtures are built once."""
+    import tomllib
+
+    if "scene_run" not in getattr(item, "fixturenames", ()):
+        return item.path.name
+    params = getattr(getattr(item, "callspec", None), "params", {})
+    scene = params.get("scene", params.get("name"))
+    if isinstance(scene, (str, Path)) and (PROBLEMS / f"{Path(scene).stem}.toml").is_file():
+        studied = tomllib.loads((PROBLEMS / f"{Path(scene).stem}.toml").read_text())["scene"]["study"]
+        return "scenes-loaded" if studied in LOADED_SCENE_STUDIES else "scenes"
+    return "scenes-loaded" if item.path.name == "test_problems_loaded.py" else "scenes"
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    """The pytest-xdist controller under ``--dist loadgroup``: a file for the workers' work units."""
+    import tempfile
+
+    if (getattr(config.option, "dist", "no") == "loadgroup" and getattr(config.option, "numprocesses", None)
+            and not os.environ.get("PYTEST_XDIST_WORKER")):
+        fd, path = tempfile.mkstemp(prefix="gearopt-test-units-", suffix=".json")
+        os.close(fd)
+        os.environ[UNITS_FILE_ENV] = path  # the workers, started after this, inherit it
+        config.add_cleanup(lambda: Path(path).unlink(missing_ok=True))
+
+
+@pytest.hookimpl(tryfirst=True)
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    """A pytest-xdist worker under ``--dist loadgroup``: the tests ordered by work unit, heaviest unit
+    first (:data:`UNIT_COST`, then the order of collection), and each test's unit written for the
+    controller's scheduler (:func:`pytest_xdist_make_scheduler`)."""
+    path = os.environ.get(UNITS_FILE_ENV)
+    if not (path and os.environ.get("PYTEST_XDIST_WORKER")):
+        return
+    unit = {item.nodeid: work_unit(item) for item in items}
+    first: dict[str, int] = {}
+    for i, item in enumerate(items):
+        first.setdefault(unit[item.nodeid], i)
+    items.sort(key=lambda it: (-UNIT_COST.get(unit[it.nodeid], 0.0), first[unit[it.nodeid]]))
+    tmp = f"{path}.{os.environ['PYTEST_XDIST_WORKER']}"
+    Path(tmp).write_text(json.dumps(unit))
+    os.replace(tmp, path)  # every worker writes the same
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_xdist_make_scheduler(config: pytest.Config, log):
+    """``--dist loadgroup``: pytest-xdist's scope scheduling over :func:`work_unit` (read from the
+    workers' file), the units in the workers' order (heaviest first: the longest-processing-time-first
+    rule; each worker takes the next unit when it has at most two tests left). pytest-xdist's own
+    ``loadgroup`` (``xdist_group`` marks) does not group under pytest >= 9 (it renames ``_nodeid``)."""
+    if getattr(config.option, "dist", "no") != "loadgroup":
+        return None
+    from xdist.scheduler import LoadScopeScheduling
+
+    class UnitScheduling(LoadScopeScheduling):
+        units: dict[str, str] | None = None
+
+        def _split_scope(self, nodeid: str) -> str:
+            if self.units is None:
+                try:
+                    self.units = json.loads(Path(os.environ[UNITS_FILE_ENV]).read_text())
+                except (KeyError, OSError, ValueError):
+                    self.units = {}  # then one unit per file, as --dist loadfile
+            return self.units.get(nodeid) or nodeid.split("::", 1)[0]
+
+    config.option.loadscopereorder = False  # the workers' order, not by number of tests
+    return UnitScheduling(config, log)

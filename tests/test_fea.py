@@ -274,8 +274,9 @@ def test_crowned_run_passes_the_checks(scene_run):
 @needs_ccx
 def test_helical_run_passes_the_checks():
     """A helical pair (normal-section line contact) with a coarse mesh: reaction = T / r_b1, pressure
-    near its Hertz reference (measured 0.935)."""
-    coarse = dict(n_hertz=2.0, mesh=MeshOptions(n_face=4, n_half=4, n_flank=6, n_fillet=4, n_rim=3))
+    near its Hertz reference (measured 1.092 on this section, 2560 elements, 8 s of CPU; 0.935 on the
+    4/6/4/3 one, 5760 elements, 17 s)."""
+    coarse = dict(n_hertz=2.0, mesh=MeshOptions(n_face=4, n_half=2, n_flank=4, n_fillet=2, n_rim=2))
     d = GearFEModel(_helical_pair(15), 0.0, FEOptions(torque=100e3, threads=THREADS, **coarse)).run().to_dict()
     assert d["reaction"]["rel_error"] < 0.01
     assert d["contact"]["hertz_kind"] == "line"

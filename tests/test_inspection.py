@@ -214,3 +214,40 @@ def test_measured_gear_runs_through_edge_contact_and_synthesis_like_the_designed
     assert la.status == lb.status == "Solve_Succeeded"
     for k in ("a_c", "a_pl"):  # (curvatures and their derivatives from a 61 x 21 grid: 1e-3)
         assert lb.settings[k] == pytest.approx(la.settings[k], rel=2e-3)
+
+
+def test_measured_spline_is_fitted_once_and_read_back_bit_for_bit(tmp_path, monkeypatch):
+    """A measured grid's B-spline (CasADi's least-squares fit: seconds on a real grid) is fitted once:
+    kept in the process and on disk (``interpolant/`` under GEAROPT_CACHE), read back in another process
+    as the same function bit for bit (the deviations it gives); within ``no_background`` (what
+    ``gearopt check`` runs in) nothing is written."""
+    import casadi as ca
+
+    import gearopt.geometry.microgeometry as mgm
+    from gearopt.compiled import no_background
+
+    fits = []
+    fit = ca.interpolant
+    monkeypatch.setattr(ca, "interpolant", lambda *a, **k: fits.append(a[0]) or fit(*a, **k))
+    monkeypatch.setenv("GEAROPT_CACHE", str(tmp_path / "cache"))
+    monkeypatch.setattr(mgm, "_SPLINES", {})  # a fresh process
+    design = helical_pair(Microgeometry(C_beta=0.010, f_H_beta=0.003))
+    g = design.pinion
+    grid = inspect_flank(modified_tooth(design, "pinion"), "right", n_profile=21, n_face=11,
+                         d_range=(2 * g.r_form + 0.01, 2 * g.r_a))
+    measured = helical_pair(Microgeometry(measured=(grid,)))
+    R, z = np.linspace(g.r_form + 0.1, g.r_a - 0.1, 7), np.linspace(-14.0, 14.0, 5)
+
+    def deviation():
+        return flank_deviation(modified_tooth(measured, "pinion"), "right", R[:, None], z[None, :])
+
+    first = deviation()
+    assert len(fits) == 1 and len(list((tmp_path / "cache" / "interpolant").glob("*.casadi"))) == 1
+    assert np.array_equal(deviation(), first) and len(fits) == 1  # this process's
+    monkeypatch.setattr(mgm, "_SPLINES", {})
+    assert np.array_equal(deviation(), first) and len(fits) == 1  # the disk's
+    monkeypatch.setattr(mgm, "_SPLINES", {})
+    monkeypatch.setenv("GEAROPT_CACHE", str(tmp_path / "check"))
+    with no_background():
+        assert np.array_equal(deviation(), first) and len(fits) == 2
+    assert not (tmp_path / "check").exists()

@@ -677,7 +677,8 @@ def test_tca_iso_grade_judges_measured_flanks_only(tmp_path):
     problems = Path(__file__).resolve().parents[1] / "problems"
     for f in ("measured_flank_right.csv", "measured_flank_left.csv"):
         _sh.copy(problems / f, tmp_path / f)
-    text = (problems / "measured_flank.toml").read_text().replace("positions = 81", "positions = 41\niso_grade = 5")
+    # a few positions: the tolerances and the verdict judge the flanks, not the TCA's sweep
+    text = (problems / "measured_flank.toml").read_text().replace("positions = 81", "positions = 9\niso_grade = 5")
     (tmp_path / "mf.toml").write_text(text)
     assert cli_main(["run", str(tmp_path / "mf.toml"), "--out", str(tmp_path / "out"), "--quiet"]) == 0
     res = json.loads((tmp_path / "out" / "results.json").read_text())
@@ -687,7 +688,8 @@ def test_tca_iso_grade_judges_measured_flanks_only(tmp_path):
     # designed amounts: not judged
     text2 = (problems / "microgeometry_spur.toml").read_text()
     assert "[tca]" in text2
-    (tmp_path / "ms.toml").write_text(text2.replace("[tca]", "[tca]\niso_grade = 5", 1))
+    assert "positions = 81" in text2
+    (tmp_path / "ms.toml").write_text(text2.replace("[tca]", "[tca]\niso_grade = 5", 1).replace("positions = 81", "positions = 9"))
     assert cli_main(["run", str(tmp_path / "ms.toml"), "--out", str(tmp_path / "out2"), "--quiet"]) == 0
     res2 = json.loads((tmp_path / "out2" / "results.json").read_text())
     assert all("tolerances_um" not in d for sides in res2["inspection"].values() for d in sides.values())

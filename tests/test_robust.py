@@ -341,14 +341,19 @@ def test_real_dask_scheduler_and_two_workers(pair, serial_run, tmp_path):
 
 
 @pytest.mark.slow
-def test_unreachable_scheduler_fails_fast_and_clearly(pair, tmp_path):
+def test_unreachable_scheduler_fails_fast_and_clearly(pair, tmp_path, monkeypatch):
     from gearopt.cli import main
+    from gearopt.robust import execution
 
     addr = f"tcp://127.0.0.1:{_free_port()}"
+    # the connection's time-out as an argument (default execution.CONNECT_TIMEOUT, 5 s): 1 s here
+    connect = execution.connect
+    monkeypatch.setattr(execution, "connect", lambda scheduler: connect(scheduler, timeout=1.0))
     t0 = time.perf_counter()
     with pytest.raises(ExecutionError) as e:
         MonteCarlo(pair, 8, misalignment=MIS).run(scheduler=addr)
-    assert time.perf_counter() - t0 < 30  # the connection gives up after 5 s (+ the build)
+    assert time.perf_counter() - t0 < 26  # the connection gives up after 1 s (+ the build)
+    assert "within 1 s" in str(e.value)
     assert addr in str(e.value) and "dask scheduler" in str(e.value)
     out = tmp_path / "out"
     assert main(["run", str(ROOT / "problems" / "montecarlo_spur.toml"), "--out", str(out), "--quiet",

@@ -62,6 +62,7 @@ parabolic, and its amount at the tip (face end) is exact.
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass, field, fields
 from typing import TYPE_CHECKING
 
@@ -561,6 +562,52 @@ SPLINE_DEGREE = 5  #: B-spline degree of a measured grid (quintic: the synthesis
 RECEDE = 1e-3  #: [1/mm] beyond the extended grid the flank recedes by RECEDE * excess^2 (no contact out there)
 
 
+#: In-process memo of :func:`_grid_spline` (key: the spline's name and nodes' bytes), newest last.
+_SPLINES: dict[str, ca.Function] = {}
+_SPLINES_KEPT = 16
+
+
+def _grid_spline(name: str, Lx: np.ndarray, zx: np.ndarray, E2: np.ndarray) -> ca.Function:
+    """``ca.interpolant(name, "bspline", [Lx, zx], E2, degree SPLINE_DEGREE)``, built once per grid:
+    CasADi fits the coefficients by an iterative least-squares solve (about 3 s of CPU for a 135 x 35
+    grid), so the Function is kept in this process and, serialised, on disk (``interpolant/`` in
+    :func:`gearopt.compiled.cache_root`; the same Function bit for bit, its derivatives included).
+    Grid coordinates in mm, values in mm."""
+    import hashlib
+
+    from ..compiled import cache_root, writes_nothing
+
+    h = hashlib.sha256()
+    for part in (ca.__version__, name, str(SPLINE_DEGREE)):
+        h.update(part.encode() + b"\0")
+    for a in (Lx, zx, E2):
+        a = np.ascontiguousarray(a, dtype=float)
+        h.update(str(a.shape).encode() + a.tobytes())
+    key = h.hexdigest()
+    f = _SPLINES.pop(key, None)
+    if f is None:
+        path = cache_root() / "interpolant" / f"{key[:40]}.casadi"
+        try:
+            f = ca.Function.deserialize(path.read_text())
+        except (OSError, RuntimeError):
+            f = None
+        if f is None or f.name() != name:
+            f = ca.interpolant(name, "bspline", [Lx.tolist(), zx.tolist()], E2.ravel(order="F").tolist(),
+                               {"degree": [SPLINE_DEGREE, SPLINE_DEGREE]})
+            if not writes_nothing():  # (gearopt check leaves the disk untouched)
+                try:  # best effort: a read-only or full cache costs only the next build
+                    path.parent.mkdir(parents=True, exist_ok=True)
+                    tmp = path.with_suffix(f".{os.getpid()}.tmp")
+                    tmp.write_text(f.serialize())
+                    os.replace(tmp, path)
+                except OSError:
+                    pass
+    _SPLINES[key] = f
+    while len(_SPLINES) > _SPLINES_KEPT:
+        _SPLINES.pop(next(iter(_SPLINES)))
+    return f
+
+
 def measured_modification(grid: FlankGrid, fr: Frame, name: str = "measured") -> FlankModification:
     """A measured grid (``FlankGrid``: ISO transverse deviations [mm] over roll length ``L_y`` or
     diameter ``d_y`` x axial position) as a FlankModification of its flank, composed like the ISO
@@ -614,8 +661,7 @@ def measured_modification(grid: FlankGrid, fr: Frame, name: str = "measured") ->
 
     Lx, E1 = ghosts(L, E, 0)
     zx, E2 = ghosts(z, E1, 1)
-    f = ca.interpolant(f"{name}_spline", "bspline", [Lx.tolist(), zx.tolist()], E2.ravel(order="F").tolist(),
-                       {"degree": [SPLINE_DEGREE, SPLINE_DEGREE]})
+    f = _grid_spline(f"{name}_spline", Lx, zx, E2)
 
     def delta(u, zz, r, th):
         L = roll_length_of(r, fr.r_b)
