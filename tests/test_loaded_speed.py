@@ -172,7 +172,7 @@ class _Toy(LoadedMicroOptimizer):
         return {"slack_p": np.array([[-1.0]]), "slack_e": np.array([[0.0]]), "te_pp": np.array([[(t - 30.0) ** 2]]),
                 "objective": (t - 30.0) ** 2}
 
-    def _raise_if_infeasible(self, pred, chk=None):
+    def _raise_if_infeasible(self, pred, chk=None, theta=None):
         pass
 
 

@@ -233,7 +233,7 @@ class _PenaltyToy(LoadedMicroOptimizer):
         return {"slack_p": np.array([[-1.0]]), "slack_e": np.array([[max(0.0, t - 20.0) * 1e-3]]),
                 "te_pp": np.array([[(t - 80.0) ** 2]]), "objective": (t - 80.0) ** 2}
 
-    def _raise_if_infeasible(self, pred, chk=None):
+    def _raise_if_infeasible(self, pred, chk=None, theta=None):
         pass
 
 
