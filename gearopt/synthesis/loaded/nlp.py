@@ -22,6 +22,9 @@ from .edges import edge_weight_lin
 from .layout import Block, NLPLayout, Te0Block, Te0Slices, block_vector, nlp_layout, param_layout
 from .verify import harmonic_rows
 
+#: IPOPT's ``mumps_mem_percent`` for the loaded NLP: MUMPS's workspace over its estimate [%] (:meth:`NLPBuilder._nlp`)
+MUMPS_MEM_PERCENT = 50
+
 
 class NLPBuilder:
     """The duty-cycle NLP around a linearisation."""
@@ -290,9 +293,13 @@ class NLPBuilder:
         # monotone barrier from 0.01; docs/loaded_synthesis.md section 5). (Without IPOPT's gradient
         # scaling some rounds took 2-6x fewer iterations, but the smallest design derivatives of the
         # sensitivities lost their accuracy.)
+        # MUMPS's workspace: 50 % over its analysis's estimate (IPOPT's default 1000 % is fresh memory
+        # that every factorisation allocates and the kernel zeroes page by page: 24 % of IPOPT's CPU time
+        # on this NLP under load, docs/benchmarks.md "Loaded optimiser"); a factorisation that needs more
+        # is repeated by IPOPT with the workspace doubled, so the iterates are the same bit for bit
         opts = {"ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes", "ipopt.tol": 1e-9,
                 "ipopt.max_iter": 1000, "ipopt.mu_strategy": "adaptive", "ipopt.mu_init": 1e-2, "error_on_fail": False,
-                **getattr(self, "_extra_opts", {})}
+                "ipopt.mumps_mem_percent": MUMPS_MEM_PERCENT, **getattr(self, "_extra_opts", {})}
         return LoadedNLP(problem=nlp, opts=opts, phi1=self.phi1.copy(), rows=rows, gap=ca.Function("gap", [z, tq, dm], [gap]), lbg=lbg,
                     ubg=ubg, layout=layout, sizes=layout.sizes(), blocks=blocks, ct=ct, edge=tipe, ew=np.clip(ew, 0.0, 1.0),
                     lever=lever, Wt=Wt,
