@@ -257,11 +257,12 @@ exec {cc} "$@"
 
 @pytest.mark.slow
 @pytest.mark.ipopt
-def test_mumps_workspace_is_small_and_leaves_the_iterates_bit_for_bit(small):
+def test_solver_options_and_oracle_leave_the_iterates_bit_for_bit(small):
     """The loaded NLP's IPOPT gives MUMPS a workspace of at most 100 % over its estimate (IPOPT's
     default, 1000 %, is memory every factorisation allocates afresh and the kernel zeroes: about a
     quarter of IPOPT's time on microgeometry_loaded); the iterates are those of the default workspace
-    bit for bit (a factorisation that needs more is repeated by IPOPT with a larger one)."""
+    bit for bit (a factorisation that needs more is repeated by IPOPT with a larger one). The cold and
+    warm solvers share one oracle Function."""
     from gearopt.synthesis.loaded.nlp import LoadedNLP
 
     opt = small
@@ -277,3 +278,14 @@ def test_mumps_workspace_is_small_and_leaves_the_iterates_bit_for_bit(small):
                                 0.004)
     assert st_s["success"] and st_b["success"] and it_s == it_b
     assert np.array_equal(np.asarray(small_ws["x"]), np.asarray(big_ws["x"]))
+    # the cold and the warm solver of an NLP are built from its one oracle Function (its derivatives'
+    # construction shared), and solve as the solver built from the problem's expressions, bit for bit
+    import casadi as ca
+    from gearopt.synthesis.loaded.trust_region import TrustRegion
+
+    warm = TrustRegion._warm_solver(cur.nlp)
+    assert cur.nlp.solver.oracle().__hash__() == warm.oracle().__hash__() == cur.nlp.oracle.__hash__()
+    own = ca.nlpsol("own", "ipopt", cur.nlp.problem, cur.nlp.opts)
+    lbx, ubx = opt._bounds(cur.nlp)
+    args = dict(x0=cur.z0, lbx=lbx, ubx=ubx, lbg=cur.nlp.lbg, ubg=cur.nlp.ubg, p=opt._pvec(1000.0))
+    assert np.array_equal(np.asarray(own(**args)["x"]), np.asarray(cur.nlp.solver(**args)["x"]))

@@ -412,12 +412,23 @@ class LoadedNLP:
     te0_term: ca.Function  #: the unloaded-TE target's term of the objective, ``z -> te0_term``
     warm: ca.Function | None = None  #: the warm-start IPOPT solver, once built (:meth:`TrustRegion._solve_nlp`)
     _solver: ca.Function | None = field(default=None, repr=False)
+    _oracle: ca.Function | None = field(default=None, repr=False)
+
+    @property
+    def oracle(self) -> ca.Function:
+        """:attr:`problem` as one Function ``(x, p) -> (f, g)`` (built on first use), from which the
+        cold and the warm solver are built: the two share its derivatives' construction (a third less
+        time to build both; the same iterates bit for bit as from :attr:`problem` itself)."""
+        if self._oracle is None:
+            pr = self.problem
+            self._oracle = ca.Function("nlp", [pr["x"], pr["p"]], [pr["f"], pr["g"]], ["x", "p"], ["f", "g"])
+        return self._oracle
 
     @property
     def solver(self) -> ca.Function:
-        """The cold-start IPOPT solver of :attr:`problem` (built on first use)."""
+        """The cold-start IPOPT solver of :attr:`problem` (built on first use, from :attr:`oracle`)."""
         if self._solver is None:
-            self._solver = ca.nlpsol("loaded_microgeometry", "ipopt", self.problem, self.opts)
+            self._solver = ca.nlpsol("loaded_microgeometry", "ipopt", self.oracle, self.opts)
         return self._solver
 
     @solver.setter
