@@ -44,15 +44,19 @@ note) per process, and the callers run the interpreted Function.
 
 from __future__ import annotations
 
+import atexit
 import contextlib
 import functools
 import hashlib
+import json
 import math
 import os
 import shutil
 import subprocess
+import sys
 import tempfile
 import threading
+import time
 import warnings
 import weakref
 from pathlib import Path
@@ -300,9 +304,12 @@ def writes_nothing() -> bool:
 def compile_in_background(f: ca.Function) -> threading.Thread | None:
     """Compile ``f`` into the disk cache in a background thread (one per library and process) and
     return the thread; None when the library is loaded or on disk already, a compile of it is under
-    way or failed before in this process, or no compiler works. The thread is not a daemon: a process waits for its compiles at exit,
-    so no half-written scratch directory is left in the cache. The caller keeps running ``f``
-    interpreted; :func:`cached_function` finds the library once the thread is done."""
+    way or failed before in this process, or no compiler works. The compiler runs detached
+    (:func:`_compile_into`): a process that ends before it does never waits for it, the compile goes
+    on and moves the library into the cache by an atomic rename (the thread, a daemon, only waits for
+    it; at exit the process waits only while the C source is being written, :func:`_exit_wait`). The
+    caller keeps running ``f`` interpreted; :func:`cached_function` finds the library once it is there
+    (in this process or the next)."""
     _, path, g = _library(f)
     if path is None or g is not None:
         return None
@@ -315,7 +322,8 @@ def _start(path: Path, make: Callable[[], ca.Function], name: str) -> threading.
     with _lock:
         if key in _loaded or key in _pending or key in _failed or path.exists():
             return None
-        job = threading.Thread(target=_background_job, args=(make, key), name=f"gearopt-compile-{name}")
+        job = threading.Thread(target=_background_job, args=(make, key), name=f"gearopt-compile-{name}",
+                               daemon=True)
         _pending[key] = job
     job.start()
     return job
@@ -324,6 +332,7 @@ def _start(path: Path, make: Callable[[], ca.Function], name: str) -> threading.
 def _background_job(make: Callable[[], ca.Function], key: str) -> None:
     # (no warning from this thread: the warnings filters are process-wide; a failed build is kept in
     # _failed, so it is not tried again in the background, and a synchronous compile reports it)
+    _detached.on = True
     try:
         err = _build(make(), Path(key), compiler()[0]) if not Path(key).exists() else None
         if err is None:
@@ -387,6 +396,9 @@ def _compile_into(generate, src: str, path: Path, cc: str) -> str | None:
     except OSError as e:
         return f"cache directory {path.parent} not writable: {e}"
     try:
+        if getattr(_detached, "on", False):  # a background compile: the compiler, rename and clean-up detached
+            generate(tmp, src)
+            return _compile_detached(tmp, src, path, cc)
         generate(tmp, src)
         so = os.path.join(tmp, "lib.so")
         for flags in (FLAGS, BASE_FLAGS):  # a compiler that does not know the extra flags: without them
@@ -402,6 +414,75 @@ def _compile_into(generate, src: str, path: Path, cc: str) -> str | None:
         return str(e)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
+
+
+#: the detached compile of a background job (:func:`_compile_detached`): argv[1:] = scratch directory,
+#: C source, library path, compiler, the flags (JSON); it compiles into the scratch directory, moves
+#: the library into place by an atomic rename, removes the scratch directory and reports a failure
+#: on its standard output (whose reader may be gone: the process that started it may have ended)
+_DETACHED_JOB = r"""
+import json, os, shutil, subprocess, sys
+tmp, src, path, cc, flag_sets = sys.argv[1], sys.argv[2], sys.argv[3], sys.argv[4], json.loads(sys.argv[5])
+so = os.path.join(tmp, "lib.so")
+err = None
+try:
+    for flags in flag_sets:
+        out = subprocess.run([cc, *flags, "-o", so, os.path.join(tmp, src), "-lm"], capture_output=True, text=True,
+                             timeout=3600)
+        if out.returncode == 0:
+            break
+    if out.returncode != 0:
+        err = f"{cc} exited with {out.returncode}: {out.stderr.strip()[:300]}"
+    else:
+        os.replace(so, path)
+except (OSError, subprocess.SubprocessError) as e:
+    err = str(e)
+finally:
+    shutil.rmtree(tmp, ignore_errors=True)
+if err is not None:
+    try:
+        os.write(1, err.encode())
+    except OSError:
+        pass
+    sys.exit(1)
+"""
+
+
+def _compile_detached(tmp: str, src: str, path: Path, cc: str) -> str | None:
+    """Compile the C source ``src`` of the scratch directory ``tmp`` into ``path`` in a detached
+    process (its own session, no inherited descriptors: the process that starts it may end first,
+    neither waits for the other); wait for it while this process runs. The library appears at
+    ``path`` only whole (atomic rename). None on success, else the reason."""
+    try:
+        job = subprocess.Popen([sys.executable, "-I", "-S", "-c", _DETACHED_JOB, tmp, src, str(path), cc,
+                                json.dumps([list(FLAGS), list(BASE_FLAGS)])],
+                               stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                               start_new_session=True, close_fds=True)
+    except OSError as e:
+        shutil.rmtree(tmp, ignore_errors=True)
+        return str(e)
+    finally:
+        _spawned.add(str(path))
+    out, _ = job.communicate()
+    if job.returncode != 0:
+        return out.decode(errors="replace").strip() or f"the compile exited with {job.returncode}"
+    return None if path.exists() else f"{path} missing after the compile"
+
+
+_detached = threading.local()  # .on: this thread's compiles run detached (background jobs)
+_spawned: set[str] = set()  # library paths whose background job has handed its compile to a detached process
+
+
+def _exit_wait(timeout: float = 120.0) -> None:
+    """At exit: wait while a background job has not yet handed its compile to a detached process
+    (it writes the C source first, a fraction of a second: an interpreter ending then would leave a
+    half-written scratch directory), not for the compile."""
+    end = time.monotonic() + timeout
+    while time.monotonic() < end and any(job.is_alive() and key not in _spawned for key, job in list(_pending.items())):
+        time.sleep(0.01)
+
+
+atexit.register(_exit_wait)
 
 
 def threads() -> int:

@@ -5,6 +5,7 @@ compiled once their library is cached."""
 
 from __future__ import annotations
 
+from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
@@ -188,3 +189,103 @@ def test_a_refinement_starts_from_the_last_passs_final_solve():
     assert prev is not None and prev[0].phi1.size == 2  # the last pass's final NLP and solution
     assert prev[1]["x"] == [30.0] and toy.solves[first_refined - 1][1] == 2
     assert toy.last_solve[0].phi1.size == 3  # the refined pass's own final solve
+
+
+_EXITER = r"""
+import sys
+import casadi as ca
+from gearopt import compiled
+x = ca.SX.sym("x")
+f = ca.Function("exit_test", [x], [ca.sin(x) * 3.25 + x**2], ["x"], ["y"])
+assert compiled.compile_in_background(f) is not None
+print(compiled.library_path(f), flush=True)
+"""
+
+
+@pytest.mark.skipif(not compiled.available(), reason="no C compiler")
+def test_a_process_never_waits_at_exit_for_its_background_compile(tmp_path, monkeypatch):
+    """A process that started a background compile (the linearisation's sensitivities on a cache miss)
+    ends without waiting for the compiler; the compile goes on detached and its library appears in the
+    cache whole (atomic rename: a half-written file is never at the library's path) and loads. The
+    compiler here is held at a gate (a file) the test opens only after the process has ended: a
+    process that waited for it at exit would hang (timeout) instead."""
+    import os
+    import subprocess
+    import sys
+    import time
+
+    cc = compiled.compiler()[0]
+    gate = tmp_path / "gate"
+    fake = tmp_path / "cc"
+    fake.write_text(f"""#!/bin/sh
+if [ "$1" = "--version" ]; then exec {cc} --version; fi
+out=""; prev=""
+for a in "$@"; do [ "$prev" = "-o" ] && out="$a"; prev="$a"; done
+printf 'half a library' > "$out"
+i=0; while [ ! -e {gate} ] && [ $i -lt 1200 ]; do sleep 0.05; i=$((i+1)); done
+exec {cc} "$@"
+""")
+    fake.chmod(0o755)
+    cache = tmp_path / "cache"
+    env = dict(os.environ, CC=str(fake), GEAROPT_CACHE_DIR=str(cache), GEAROPT_JIT_BACKGROUND="1")
+    p = subprocess.run([sys.executable, "-c", _EXITER], env=env, capture_output=True, text=True, timeout=45)
+    assert p.returncode == 0, p.stderr
+    lib = Path(p.stdout.strip().splitlines()[-1])
+    assert lib.parent == cache
+    # the process has ended; its compiler still waits at the gate with a partial output in scratch
+    for _ in range(400):
+        if list(cache.glob(".build-*/lib.so")):
+            break
+        time.sleep(0.05)
+    assert list(cache.glob(".build-*/lib.so")) and not lib.exists()
+    gate.touch()
+    for _ in range(1200):
+        if lib.exists():
+            break
+        time.sleep(0.05)
+    assert lib.exists()
+    for _ in range(200):  # the detached job removes its scratch directory after the rename
+        if not list(cache.glob(".build-*")):
+            break
+        time.sleep(0.05)
+    assert not list(cache.glob(".build-*"))
+    import casadi as ca
+
+    g = ca.external("exit_test", str(lib))
+    assert float(g(0.5)) == pytest.approx(np.sin(0.5) * 3.25 + 0.25, rel=1e-15)
+
+
+@pytest.mark.slow
+@pytest.mark.ipopt
+def test_solver_options_and_oracle_leave_the_iterates_bit_for_bit(small):
+    """The loaded NLP's IPOPT gives MUMPS a workspace of at most 100 % over its estimate (IPOPT's
+    default, 1000 %, is memory every factorisation allocates afresh and the kernel zeroes: about a
+    quarter of IPOPT's time on microgeometry_loaded); the iterates are those of the default workspace
+    bit for bit (a factorisation that needs more is repeated by IPOPT with a larger one). The cold and
+    warm solvers share one oracle Function."""
+    from gearopt.synthesis.loaded.nlp import LoadedNLP
+
+    opt = small
+    th = opt.theta0.copy()
+    opt.phi1 = opt.ltca.mesh_cycle(opt.n_positions)
+    cur = opt._around(th, 0.004)
+    assert cur.nlp.opts["ipopt.mumps_mem_percent"] <= 100
+    small_ws, st_s, it_s = _solve(opt, cur, th, 0.004)
+    default = {k: v for k, v in cur.nlp.opts.items() if k != "ipopt.mumps_mem_percent"}
+    ref = LoadedNLP(**{**{k: getattr(cur.nlp, k) for k in LoadedNLP.__dataclass_fields__ if not k.startswith("_")
+                          and k not in ("warm",)}, "opts": default})
+    big_ws, st_b, it_b = _solve(opt, LocalModel(nlp=ref, z0=cur.z0, check=cur.check, merit=cur.merit, time=0.0), th,
+                                0.004)
+    assert st_s["success"] and st_b["success"] and it_s == it_b
+    assert np.array_equal(np.asarray(small_ws["x"]), np.asarray(big_ws["x"]))
+    # the cold and the warm solver of an NLP are built from its one oracle Function (its derivatives'
+    # construction shared), and solve as the solver built from the problem's expressions, bit for bit
+    import casadi as ca
+    from gearopt.synthesis.loaded.trust_region import TrustRegion
+
+    warm = TrustRegion._warm_solver(cur.nlp)
+    assert cur.nlp.solver.oracle().__hash__() == warm.oracle().__hash__() == cur.nlp.oracle.__hash__()
+    own = ca.nlpsol("own", "ipopt", cur.nlp.problem, cur.nlp.opts)
+    lbx, ubx = opt._bounds(cur.nlp)
+    args = dict(x0=cur.z0, lbx=lbx, ubx=ubx, lbg=cur.nlp.lbg, ubg=cur.nlp.ubg, p=opt._pvec(1000.0))
+    assert np.array_equal(np.asarray(own(**args)["x"]), np.asarray(cur.nlp.solver(**args)["x"]))

@@ -22,6 +22,9 @@ from .edges import edge_weight_lin
 from .layout import Block, NLPLayout, Te0Block, Te0Slices, block_vector, nlp_layout, param_layout
 from .verify import harmonic_rows
 
+#: IPOPT's ``mumps_mem_percent`` for the loaded NLP: MUMPS's workspace over its estimate [%] (:meth:`NLPBuilder._nlp`)
+MUMPS_MEM_PERCENT = 50
+
 
 class NLPBuilder:
     """The duty-cycle NLP around a linearisation."""
@@ -290,9 +293,13 @@ class NLPBuilder:
         # monotone barrier from 0.01; docs/loaded_synthesis.md section 5). (Without IPOPT's gradient
         # scaling some rounds took 2-6x fewer iterations, but the smallest design derivatives of the
         # sensitivities lost their accuracy.)
+        # MUMPS's workspace: 50 % over its analysis's estimate (IPOPT's default 1000 % is fresh memory
+        # that every factorisation allocates and the kernel zeroes page by page: 24 % of IPOPT's CPU time
+        # on this NLP under load, docs/benchmarks.md "Loaded optimiser"); a factorisation that needs more
+        # is repeated by IPOPT with the workspace doubled, so the iterates are the same bit for bit
         opts = {"ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes", "ipopt.tol": 1e-9,
                 "ipopt.max_iter": 1000, "ipopt.mu_strategy": "adaptive", "ipopt.mu_init": 1e-2, "error_on_fail": False,
-                **getattr(self, "_extra_opts", {})}
+                "ipopt.mumps_mem_percent": MUMPS_MEM_PERCENT, **getattr(self, "_extra_opts", {})}
         return LoadedNLP(problem=nlp, opts=opts, phi1=self.phi1.copy(), rows=rows, gap=ca.Function("gap", [z, tq, dm], [gap]), lbg=lbg,
                     ubg=ubg, layout=layout, sizes=layout.sizes(), blocks=blocks, ct=ct, edge=tipe, ew=np.clip(ew, 0.0, 1.0),
                     lever=lever, Wt=Wt,
@@ -405,12 +412,23 @@ class LoadedNLP:
     te0_term: ca.Function  #: the unloaded-TE target's term of the objective, ``z -> te0_term``
     warm: ca.Function | None = None  #: the warm-start IPOPT solver, once built (:meth:`TrustRegion._solve_nlp`)
     _solver: ca.Function | None = field(default=None, repr=False)
+    _oracle: ca.Function | None = field(default=None, repr=False)
+
+    @property
+    def oracle(self) -> ca.Function:
+        """:attr:`problem` as one Function ``(x, p) -> (f, g)`` (built on first use), from which the
+        cold and the warm solver are built: the two share its derivatives' construction (a third less
+        time to build both; the same iterates bit for bit as from :attr:`problem` itself)."""
+        if self._oracle is None:
+            pr = self.problem
+            self._oracle = ca.Function("nlp", [pr["x"], pr["p"]], [pr["f"], pr["g"]], ["x", "p"], ["f", "g"])
+        return self._oracle
 
     @property
     def solver(self) -> ca.Function:
-        """The cold-start IPOPT solver of :attr:`problem` (built on first use)."""
+        """The cold-start IPOPT solver of :attr:`problem` (built on first use, from :attr:`oracle`)."""
         if self._solver is None:
-            self._solver = ca.nlpsol("loaded_microgeometry", "ipopt", self.problem, self.opts)
+            self._solver = ca.nlpsol("loaded_microgeometry", "ipopt", self.oracle, self.opts)
         return self._solver
 
     @solver.setter
