@@ -113,3 +113,26 @@ def test_crowning_study_before_and_after_are_the_same_forked_or_not(monkeypatch,
     assert untimed(runs[True]["before"]) == untimed(runs[False]["before"])
     assert untimed(runs[True]["after"]) == untimed(runs[False]["after"])
     assert runs[True]["before"][1]["edge_carries_load"]  # the drive before has edge contact (crossing +3')
+
+
+def test_the_forking_tests_run_in_a_process_without_other_threads(request):
+    """Under pytest-xdist (``make test``) a worker runs threads of its own, so the tests above that
+    fork skip there; this runs them in a fresh single-threaded pytest process instead (the slow one
+    too where this run selects slow tests), so that CI tests the forked calls."""
+    if threading.active_count() == 1:
+        pytest.skip("single-threaded here: the forking tests above ran in this process")
+    if not (hasattr(os, "fork") and os.uname().sysname == "Linux" and len(os.sched_getaffinity(0)) >= 2):
+        pytest.skip("no fork here (not Linux, or one core)")
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    marks = request.config.getoption("-m") or ""
+    proc = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:xdist", "-p", "no:cacheprovider",
+                           *(["-m", marks] if marks else []), str(Path(__file__)),
+                           "-k", "not without_other_threads"],
+                          cwd=root, capture_output=True, text=True, timeout=900)
+    last = proc.stdout.splitlines()[-1] if proc.stdout else ""
+    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-2000:]
+    assert "skipped" not in last and " passed" in last, proc.stdout[-1000:]
