@@ -241,7 +241,7 @@ def test_sensitivities_with_the_unloaded_te_target_match_finite_differences(te0_
     the least-squares fit in the NLP), the AD sensitivities of the optimum (weight 0.1, edge loading
     allowed) match central differences of the NLP re-solved at perturbed torques and misalignments
     (tests/test_loaded_synthesis.py, every torque and every misalignment kind). (The weight 1 with the
-    edges held open: benchmarks/loaded_te_target_open.py, where the loop stops away from the NLP's optimum.)"""
+    edges held open: tests/test_loaded_sensitivity_local.py.)"""
     opt, d = te0_solved[0.1]
     S = opt.sensitivities(d)
     assert S["degenerate"] == 0 and S["active"] > opt.torques.size
