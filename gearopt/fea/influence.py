@@ -102,6 +102,43 @@ def _key(tooth: GeneratedTooth, E: float, nu: float, mesh: MeshOptions, teeth: i
     return hashlib.sha256(json.dumps(d, sort_keys=True).encode()).hexdigest()[:24]
 
 
+
+def _flank_loads(tooth: GeneratedTooth, t: dict, X: np.ndarray, rows: list[int]) -> tuple[np.ndarray, np.ndarray]:
+    """The load nodes of the flank ``rows`` of the member's tooth ``t`` in every face layer, (nr, nz),
+    and the flank's outward unit normals there, (nr, nz, 3), from the surface itself (the tip row at
+    the tip circle)."""
+    nodes = t["nodes"]
+    L = nodes.shape[0]
+    r0 = t["section"].segments["flank"][0]
+    load = np.array([[nodes[layer, r, -1] for layer in range(L)] for r in rows])
+    surf = tooth.surface("right", "flank")
+    u_rows = t["u_rows"]
+    normals = np.zeros(load.shape + (3,))
+    for i, r in enumerate(rows):
+        for layer in range(L):
+            zl = X[load[i, layer], 2]
+            uu = u_rows[r] if np.ndim(u_rows) == 1 else u_rows[layer][r]
+            if r == r0:
+                uu = tooth.u_at_radius(tooth.gear.r_a, zl, "right", tooth.p0)
+            normals[i, layer] = np.asarray(surf(uu, zl, tooth.p0)[1]).ravel()
+    return load, normals
+
+
+def _deck_head(title: str, X: np.ndarray, elements: np.ndarray, element: str, fixed: np.ndarray,
+               ridx: np.ndarray, E: float, nu: float) -> list[str]:
+    """The CalculiX deck's lines before its steps: nodes, elements of type ``element``, the held
+    node set FIX and the response node set RESP (``fixed``, ``ridx``: 1-based node numbers), the
+    material and the boundary."""
+    lines = [f"** gearopt: {title}", "*NODE, NSET=NALL"]
+    lines += [f"{i + 1}, {x:.12e}, {y:.12e}, {z:.12e}" for i, (x, y, z) in enumerate(X)]
+    lines.append(f"*ELEMENT, TYPE={element}, ELSET=EALL")
+    lines += [f"{i + 1}, " + ", ".join(str(int(n) + 1) for n in e) for i, e in enumerate(elements)]
+    lines += ["*NSET, NSET=FIX"] + [", ".join(str(int(v)) for v in fixed[i:i + 16]) for i in range(0, fixed.size, 16)]
+    lines += ["*NSET, NSET=RESP"] + [", ".join(str(int(v)) for v in ridx[i:i + 16]) for i in range(0, ridx.size, 16)]
+    lines += ["*MATERIAL, NAME=STEEL", "*ELASTIC", f"{E:.6e}, {nu:.6f}", "*SOLID SECTION, ELSET=EALL, MATERIAL=STEEL",
+              "*BOUNDARY", "FIX, 1, 3"]
+    return lines
+
 def influence_grid(tooth: GeneratedTooth, E: float = 206000.0, nu: float = 0.3, mesh: MeshOptions | None = None,
                    teeth: int = 3, side: str = "right", r_form: float | None = None, use_cache: bool = True,
                    threads: int = 2, local: bool = True, support: str = "sector") -> InfluenceGrid:
@@ -166,34 +203,17 @@ def influence_grid(tooth: GeneratedTooth, E: float = 206000.0, nu: float = 0.3, 
         raise GeometryError(f"influence_grid: fewer than 2 flank rows above r_form = {r_form:.6g} mm; refine n_flank.",
                             param="mesh.n_flank", value=mesh.n_flank)
     L = nodes.shape[0]
-    load = np.array([[nodes[layer, r, -1] for layer in range(L)] for r in rows])  # (nr, nz)
+    load, normals = _flank_loads(tooth, t, X, rows)
     mid_rows = np.arange(0, t["section"].segments["fillet"][1] + 1)  # the middle line, tip to fillet end
-    # outward unit normals of the flank at the load nodes, from the surface itself
-    surf = tooth.surface("right", "flank")
-    u_rows = t["u_rows"]
-    normals = np.zeros(load.shape + (3,))
-    for i, r in enumerate(rows):
-        for layer in range(L):
-            zl = X[load[i, layer], 2]
-            uu = u_rows[r] if np.ndim(u_rows) == 1 else u_rows[layer][r]
-            if r == r0:
-                uu = tooth.u_at_radius(tooth.gear.r_a, zl, "right", tooth.p0)
-            normals[i, layer] = np.asarray(surf(uu, zl, tooth.p0)[1]).ravel()
     # held like the contact model's members (docs/fea.md): the rim's bottom arc and both sector sides
     # response point of each load: where the load line meets the tooth's middle line in its layer
     # (Weber's depth h is measured to there; the middle node of the same row lies off the load line, and
     # the bending slope between the two points is of the order of the whole local term)
     resp_pair, resp_w, depth = middle_points(X, nodes, load, normals, mid_rows, nh)
     fixed = mm.held(support) + 1
-    lines = ["** gearopt: influence coefficients of a tooth flank (unit normal loads)", "*NODE, NSET=NALL"]
-    lines += [f"{i + 1}, {x:.12e}, {y:.12e}, {z:.12e}" for i, (x, y, z) in enumerate(X)]
-    lines.append("*ELEMENT, TYPE=C3D8, ELSET=EALL")
-    lines += [f"{i + 1}, " + ", ".join(str(int(n) + 1) for n in e) for i, e in enumerate(mm.elements)]
-    lines += ["*NSET, NSET=FIX"] + [", ".join(str(int(v)) for v in fixed[i:i + 16]) for i in range(0, fixed.size, 16)]
-    ridx = np.unique(resp_pair) + 1
-    lines += ["*NSET, NSET=RESP"] + [", ".join(str(int(v)) for v in ridx[i:i + 16]) for i in range(0, ridx.size, 16)]
-    lines += ["*MATERIAL, NAME=STEEL", "*ELASTIC", f"{E:.6e}, {nu:.6f}", "*SOLID SECTION, ELSET=EALL, MATERIAL=STEEL",
-              "*BOUNDARY", "FIX, 1, 3"]
+    ridx = np.unique(resp_pair) + 1  # the response nodes, 1-based
+    lines = _deck_head("influence coefficients of a tooth flank (unit normal loads)", X, mm.elements, "C3D8",
+                       fixed, ridx, E, nu)
     flat_load = load.ravel()
     flat_n = normals.reshape(-1, 3)
     for j, (nid, nv) in enumerate(zip(flat_load, flat_n)):
@@ -375,17 +395,7 @@ def line_load_compliance(tooth: GeneratedTooth, E: float = 206000.0, nu: float =
                                       full_ring=mm.full_ring, ccx_s=float(d["ccx_s"]), cached=True, key=key)
         except (OSError, KeyError, ValueError):
             pass  # a damaged file: compute again
-    load = np.array([[nodes[layer, r, -1] for layer in range(L)] for r in all_rows])  # (nr, nz)
-    surf = tooth.surface("right", "flank")
-    u_rows = t["u_rows"]
-    normals = np.zeros(load.shape + (3,))
-    for i, r in enumerate(all_rows):
-        for layer in range(L):
-            zl = X[load[i, layer], 2]
-            uu = u_rows[r] if np.ndim(u_rows) == 1 else u_rows[layer][r]
-            if r == r0:
-                uu = tooth.u_at_radius(tooth.gear.r_a, zl, "right", tooth.p0)
-            normals[i, layer] = np.asarray(surf(uu, zl, tooth.p0)[1]).ravel()
+    load, normals = _flank_loads(tooth, t, X, all_rows)
     mid_rows = np.arange(0, t["section"].segments["fillet"][1] + 1)
     resp_pair, resp_w, _ = middle_points(X, nodes, load, normals, mid_rows, nh)
     resp_pair = resp_pair.reshape(nr, L, 2)[:, L // 2]
@@ -395,15 +405,9 @@ def line_load_compliance(tooth: GeneratedTooth, E: float = 206000.0, nu: float =
     trib = np.zeros(L)  # tributary face widths of the layers (trapezoidal rule) [mm]
     trib[:-1] += 0.5 * np.diff(zl)
     trib[1:] += 0.5 * np.diff(zl)
-    lines = ["** gearopt: a tooth's compliance under uniform line loads (unit N/mm per row)", "*NODE, NSET=NALL"]
-    lines += [f"{i + 1}, {x:.12e}, {y:.12e}, {z:.12e}" for i, (x, y, z) in enumerate(X)]
-    lines.append(f"*ELEMENT, TYPE={element}, ELSET=EALL")
-    lines += [f"{i + 1}, " + ", ".join(str(int(n) + 1) for n in e) for i, e in enumerate(mm.elements)]
-    lines += ["*NSET, NSET=FIX"] + [", ".join(str(int(v)) for v in fixed[i:i + 16]) for i in range(0, fixed.size, 16)]
-    ridx = np.unique(resp_pair) + 1
-    lines += ["*NSET, NSET=RESP"] + [", ".join(str(int(v)) for v in ridx[i:i + 16]) for i in range(0, ridx.size, 16)]
-    lines += ["*MATERIAL, NAME=STEEL", "*ELASTIC", f"{E:.6e}, {nu:.6f}", "*SOLID SECTION, ELSET=EALL, MATERIAL=STEEL",
-              "*BOUNDARY", "FIX, 1, 3"]
+    ridx = np.unique(resp_pair) + 1  # the response nodes, 1-based
+    lines = _deck_head("a tooth's compliance under uniform line loads (unit N/mm per row)", X, mm.elements, element,
+                       fixed, ridx, E, nu)
     for j in order[loaded]:  # the j-th row by ascending radius
         lines += ["*STEP", "*STATIC", "*CLOAD, OP=NEW"]
         for layer in range(L):
