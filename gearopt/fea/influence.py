@@ -139,6 +139,32 @@ def _deck_head(title: str, X: np.ndarray, elements: np.ndarray, element: str, fi
               "*BOUNDARY", "FIX, 1, 3"]
     return lines
 
+
+def _run_deck(lines: list[str], jobname: str, who: str, n_cases: int, ridx: np.ndarray, resp_pair: np.ndarray,
+              resp_w: np.ndarray, threads: int, say, label: str) -> tuple[list[np.ndarray], float]:
+    """Run the deck ``lines`` (``n_cases`` load steps, each printing the displacements of the node set
+    RESP, ``ridx``) and return per step the displacement of every response point, interpolated
+    between its node pair ``resp_pair`` with weights ``resp_w`` ((M, 3) arrays), and CalculiX's wall
+    time [s]."""
+    t0 = time.perf_counter()
+    with heartbeat(say, f"{label}: CalculiX running", every=15.0):
+        run = run_ccx(None, jobname=jobname, threads=threads, inp="\n".join(lines) + "\n")
+    ccx_s = time.perf_counter() - t0
+    blocks = [b for b in read_dat(run.dat) if b.what.startswith("displacements") and (b.set or "").upper() == "RESP"]
+    if len(blocks) != n_cases:
+        raise CalculixError(f"{who}: ccx wrote {len(blocks)} displacement blocks for {n_cases} load cases.")
+    pos = {int(v): i for i, v in enumerate(ridx)}
+    ia = np.array([pos[int(v) + 1] for v in resp_pair[:, 0]])
+    ib = np.array([pos[int(v) + 1] for v in resp_pair[:, 1]])
+    out = []
+    for b in blocks:
+        Um = np.zeros((ridx.size, 3))
+        for row in b.rows:
+            Um[pos[int(row[0])]] = row[1:4]
+        out.append((1.0 - resp_w)[:, None] * Um[ia] + resp_w[:, None] * Um[ib])
+    return out, ccx_s
+
+
 def influence_grid(tooth: GeneratedTooth, E: float = 206000.0, nu: float = 0.3, mesh: MeshOptions | None = None,
                    teeth: int = 3, side: str = "right", r_form: float | None = None, use_cache: bool = True,
                    threads: int = 2, local: bool = True, support: str = "sector") -> InfluenceGrid:
@@ -224,25 +250,12 @@ def influence_grid(tooth: GeneratedTooth, E: float = 206000.0, nu: float = 0.3, 
     label = f"FE influence coefficients of the {tooth.gear.name or 'member'}"
     if say:
         say(f"{label}: CalculiX, {flat_load.size} unit loads on {len(X)} nodes (cached afterwards in {cache_dir()})")
-    t0 = time.perf_counter()
-    with heartbeat(say, f"{label}: CalculiX running", every=15.0):
-        run = run_ccx(None, jobname="influence", threads=threads, inp="\n".join(lines) + "\n")
-    ccx_s = time.perf_counter() - t0
+    n = flat_load.size
+    responses, ccx_s = _run_deck(lines, "influence", "influence_grid", n, ridx, resp_pair, resp_w, threads, say, label)
     if say:
         say(f"{label}: done in {ccx_s:.1f} s")
-    blocks = [b for b in read_dat(run.dat) if b.what.startswith("displacements") and (b.set or "").upper() == "RESP"]
-    n = flat_load.size
-    if len(blocks) != n:
-        raise CalculixError(f"influence_grid: ccx wrote {len(blocks)} displacement blocks for {n} load cases.")
-    pos = {int(v): i for i, v in enumerate(ridx)}
-    ia = np.array([pos[int(v) + 1] for v in resp_pair[:, 0]])
-    ib = np.array([pos[int(v) + 1] for v in resp_pair[:, 1]])
     G = np.zeros((n, n))
-    for j, b in enumerate(blocks):
-        Um = np.zeros((ridx.size, 3))
-        for row in b.rows:
-            Um[pos[int(row[0])]] = row[1:4]
-        U = (1.0 - resp_w)[:, None] * Um[ia] + resp_w[:, None] * Um[ib]
+    for j, U in enumerate(responses):
         G[:, j] = -np.einsum("ij,ij->i", U, flat_n)  # displacement into the tooth along the normal
     if not np.all(np.isfinite(G)) or np.any(np.diag(G) <= 0):
         raise CalculixError("influence_grid: non-finite or non-positive self-compliance in the ccx results.")
@@ -418,25 +431,12 @@ def line_load_compliance(tooth: GeneratedTooth, E: float = 206000.0, nu: float =
     label = f"FE line-load compliance of the {tooth.gear.name or 'member'} ({teeth} teeth, support {support!r})"
     if say:
         say(f"{label}: CalculiX, {loaded.size} load cases on {len(X)} nodes")
-    t0 = time.perf_counter()
-    with heartbeat(say, f"{label}: CalculiX running", every=15.0):
-        run = run_ccx(None, jobname="lineload", threads=threads, inp="\n".join(lines) + "\n")
-    ccx_s = time.perf_counter() - t0
-    blocks = [b for b in read_dat(run.dat) if b.what.startswith("displacements") and (b.set or "").upper() == "RESP"]
-    if len(blocks) != loaded.size:
-        raise CalculixError(f"line_load_compliance: ccx wrote {len(blocks)} displacement blocks for {loaded.size} "
-                            "load cases.")
-    pos = {int(v): i for i, v in enumerate(ridx)}
-    ia = np.array([pos[int(v) + 1] for v in resp_pair[:, 0]])
-    ib = np.array([pos[int(v) + 1] for v in resp_pair[:, 1]])
+    responses, ccx_s = _run_deck(lines, "lineload", "line_load_compliance", loaded.size, ridx, resp_pair, resp_w,
+                                 threads, say, label)
     C = np.full((nr, nr), np.nan)
     inv = np.empty(nr, int)
     inv[order] = np.arange(nr)
-    for jj, b in zip(loaded, blocks):
-        Um = np.zeros((ridx.size, 3))
-        for row in b.rows:
-            Um[pos[int(row[0])]] = row[1:4]
-        U = (1.0 - resp_w)[:, None] * Um[ia] + resp_w[:, None] * Um[ib]
+    for jj, U in zip(loaded, responses):
         C[inv, jj] = -np.einsum("ij,ij->i", U, n_mid)  # rows of U by mesh row; into ascending radius
     if not np.all(np.isfinite(C[:, loaded])) or np.any(np.diag(C)[loaded] <= 0):
         raise CalculixError("line_load_compliance: non-finite or non-positive self-compliance in the ccx results.")
