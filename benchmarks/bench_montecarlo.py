@@ -13,6 +13,7 @@ figures are bit-identical to the serial run.
 
 from __future__ import annotations
 
+import argparse
 import os
 import sys
 import time
@@ -29,7 +30,11 @@ def main():
     from gearopt.meshing.misalignment import Misalignment
     from gearopt.robust.study import MonteCarlo
 
-    n = int(sys.argv[1]) if len(sys.argv) > 1 else 10_000
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("samples", nargs="?", type=int, default=10_000, help="Monte Carlo samples (default 10000)")
+    n = ap.parse_args().samples
+    if n < 1:
+        ap.error(f"samples = {n}: expected a whole number >= 1")
     scene = load_scene(ROOT / "problems" / "montecarlo_spur.toml")
     study = scene.build()
     kw = dict(seed=study.seed, misalignment={k[4:]: d for k, d in study.inputs.items()
