@@ -251,3 +251,22 @@ def test_measured_spline_is_fitted_once_and_read_back_bit_for_bit(tmp_path, monk
     with no_background():
         assert np.array_equal(deviation(), first) and len(fits) == 2
     assert not (tmp_path / "check").exists()
+
+
+@pytest.mark.parametrize("n_profile, n_face", [(9, 6), (9, 9), (5, 5)])
+def test_coarse_measured_grid_gives_the_designed_flank(n_profile, n_face, tmp_path, monkeypatch):
+    """A coarse measured grid (9 profile rows: its ghost nodes a quarter span out coincide with two
+    steps, which round-off made two nodes at one place: CasADi refused "Gridpoints must be strictly
+    increasing") is the designed flank between its nodes: the crowned, helix-slope and profile-crowned
+    flank is quadratic, which the quintic spline through the grid and its edge parabolas reproduces."""
+    monkeypatch.setenv("GEAROPT_CACHE", str(tmp_path / "cache"))
+    design = helical_pair(Microgeometry(C_beta=0.010, f_H_beta=0.003, C_alpha=0.004))
+    g = design.pinion
+    grid = inspect_flank(modified_tooth(design, "pinion"), "right", n_profile=n_profile, n_face=n_face,
+                         d_range=(2 * g.r_form + 0.01, 2 * g.r_a))
+    measured = helical_pair(Microgeometry(measured=(grid,)))
+    R, z = np.linspace(g.r_form + 0.3, g.r_a - 0.3, 5), np.linspace(-12.0, 12.0, 5)
+    ref = flank_deviation(modified_tooth(design, "pinion"), "right", R[:, None], z[None, :])
+    got = flank_deviation(modified_tooth(measured, "pinion"), "right", R[:, None], z[None, :])
+    assert np.ptp(ref) > 0.008  # [mm]: the flank is modified
+    assert np.max(np.abs(got - ref)) < 1e-6  # [mm]

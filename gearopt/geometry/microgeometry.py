@@ -647,8 +647,15 @@ def measured_modification(grid: FlankGrid, fr: Frame, name: str = "measured") ->
     def ghosts(x, Y, axis):
         """x extended on each side (GHOST_STEPS, GHOST_SPANS), Y along ``axis`` on the edge parabolas."""
         h0, h1, span = x[1] - x[0], x[-1] - x[-2], x[-1] - x[0]
-        off0 = np.unique(np.r_[np.array(GHOST_STEPS) * h0, [t * span for t in GHOST_SPANS if t * span > 2 * h0]])
-        off1 = np.unique(np.r_[np.array(GHOST_STEPS) * h1, [t * span for t in GHOST_SPANS if t * span > 2 * h1]])
+
+        def offsets(h):
+            # the steps and the spans beyond two steps, sorted; offsets within round-off of each other
+            # are one node (a span equal to two steps in exact arithmetic, e.g. 9 nodes and a quarter
+            # span, differs by an ulp and would give two nodes at one place after x[0] - off)
+            off = np.sort(np.r_[np.array(GHOST_STEPS) * h, [t * span for t in GHOST_SPANS if t * span > 2 * h]])
+            return off[np.r_[True, np.diff(off) > 1e-9 * span]]
+
+        off0, off1 = offsets(h0), offsets(h1)
         lo = x[0] - off0[::-1]
         hi = x[-1] + off1
         sp = make_interp_spline(x, Y, k=3, axis=axis)
