@@ -282,21 +282,19 @@ def scene_run(tmp_path_factory):
 LOADED_SCENE_STUDIES = ("ltca", "loaded_microgeometry")
 
 #: Time of each work unit of the whole suite [s] (a test file, or one of the two units of scene runs;
-#: the junit times of a ``make test`` at 10a7ca1 under load, 2026-11-29): only their order matters
+#: the junit times of the whole suite on the idle machine, 2026-11-29 10:18, main after the merge): only their order matters
 #: (heaviest first, so that no heavy unit starts last and the two workers end together); a unit not
 #: listed counts 0 and keeps its place. Re-measure with ``python tests/suite_units.py JUNIT.xml`` (a
 #: junit report of ``make test``) after a change that moves a unit by a minute.
 UNIT_COST: dict[str, float] = {
-    "scenes": 451, "scenes-loaded": 280, "test_loaded_synthesis_objectives.py": 163, "test_fea.py": 114,
-    "test_loaded_synthesis.py": 111, "test_robust.py": 96, "test_ltca.py": 95, "test_plots_results.py": 82,
-    "test_dynamics.py": 80, "test_inspection.py": 58, "test_dynamics_sensitivity.py": 53, "test_flank_limit.py": 45,
-    "test_synthesis.py": 44, "test_edge_grid.py": 37, "test_bad_input_studies.py": 32, "test_tca_stability.py": 29,
-    "test_loaded_pressure.py": 27, "test_microgeometry.py": 26, "test_ltca_continuity.py": 24,
-    "test_edge_modifications.py": 22, "test_rating_fe.py": 20, "test_loaded_layout.py": 18,
-    "test_loaded_sensitivity.py": 15, "test_edge.py": 14, "test_problems_loaded.py": 13, "test_cli_plots.py": 10,
-    "test_tca.py": 10, "test_compare.py": 8, "test_ltca_edges.py": 8, "test_report_page.py": 8, "test_tools.py": 7,
-    "test_compiled.py": 6, "test_cli.py": 6, "test_compare_rating.py": 6, "test_modification.py": 6,
-    "test_settings.py": 5, "test_ltca_point_contact.py": 5}
+    "scenes": 322, "scenes-loaded": 112, "test_loaded_synthesis_objectives.py": 94, "test_robust.py": 76,
+    "test_loaded_synthesis.py": 65, "test_inspection.py": 53, "test_fea.py": 52, "test_ltca.py": 45,
+    "test_loaded_sensitivity_local.py": 42, "test_edge_grid.py": 37, "test_synthesis.py": 31,
+    "test_tca_stability.py": 30, "test_loaded_pressure.py": 29, "test_plots_results.py": 28, "test_dynamics.py": 25,
+    "test_dynamics_sensitivity.py": 24, "test_bad_input_studies.py": 23, "test_flank_limit.py": 22,
+    "test_rating_fe.py": 21, "test_ltca_continuity.py": 19, "test_cli_plots.py": 16, "test_loaded_sensitivity.py": 14,
+    "test_tca.py": 13, "test_microgeometry.py": 12, "test_edge_modifications.py": 9, "test_ltca_edges.py": 8,
+    "test_compare.py": 7, "test_edge.py": 7, "test_compare_rating.py": 6, "test_cli.py": 5, "test_problems_loaded.py": 5}
 
 #: Environment variable: the file in which the workers leave each test's work unit for the controller.
 UNITS_FILE_ENV = "GEAROPT_TEST_UNITS_FILE"
