@@ -1,7 +1,8 @@
 """The crowning study's TCA of the drive before optimisation (and of the optimised drive's last
-cases), run in a forked process alongside the NLP (gearopt.forking.ForkedCall): the value
-is the one computed in the caller, a failed or unforkable call is computed in the caller (its error
-raised there), close() ends the process."""
+cases), and the crowning optimizer's verification sweeps of its last cases, run in a forked process
+alongside the caller (gearopt.forking.ForkedCall): the value is the one computed in the caller, a
+failed or unforkable call is computed in the caller (its error raised there), close() ends the
+process."""
 
 from __future__ import annotations
 
@@ -99,6 +100,45 @@ def untimed(x):
     if isinstance(x, list):
         return [untimed(v) for v in x]
     return x
+
+
+@pytest.mark.ipopt
+def test_the_crowning_optimizers_verification_forks_its_last_cases_with_the_same_numbers(monkeypatch, forking):
+    """CrowningOptimizer.solve's verification sweeps: the last cases in a forked process, every
+    case's verified TE, corners, peak and path the same as all computed here."""
+    import numpy as np
+
+    import gearopt.synthesis.crowning as crowning
+    from gearopt.gears import Gear, GearPair
+    from gearopt.meshing.misalignment import misalignment_cases
+    from gearopt.synthesis import CrowningOptimizer, CrowningTarget
+    from gearopt.units import ARCMIN, ARCSEC
+
+    calls = []
+
+    class Recorded(ForkedCall):
+        def __init__(self, fn):
+            super().__init__(fn)
+            calls.append(self.forked)
+
+    monkeypatch.setattr(crowning, "ForkedCall", Recorded, raising=False)  # absent: no fork there
+    pair = GearPair(Gear(z=20, m_n=3, b=20, name="pinion"), Gear(z=40, m_n=3, b=20, name="gear"))
+    cases = misalignment_cases(crossing=3 * ARCMIN)  # aligned, +-3': the last one forked
+    opt = CrowningOptimizer(pair, CrowningTarget(te_level=8 * ARCSEC), cases=cases, positions=21)
+    forked = opt.solve(sensitivities=False).cases
+    assert calls == [True]
+    monkeypatch.setattr(ForkedCall, "enabled", False)
+    here = opt.solve(sensitivities=False).cases
+    assert calls == [True, False]
+    assert [c.name for c in forked] == [c.name for c in here] == list(cases)
+    for a, b in zip(forked, here):
+        assert (a.te_level_tca, a.edge_contact, a.corners, a.peak, a.fit_rms, a.transfer_phi1) == \
+               (b.te_level_tca, b.edge_contact, b.corners, b.peak, b.fit_rms, b.transfer_phi1)
+        np.testing.assert_array_equal(a.te_envelope, b.te_envelope)
+        for member in ("pinion", "gear"):
+            for x, y in zip(a.path[member], b.path[member]):
+                np.testing.assert_array_equal(x, y)
+        np.testing.assert_array_equal(a.result.te, b.result.te)
 
 
 @pytest.mark.slow
