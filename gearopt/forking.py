@@ -10,9 +10,22 @@ from __future__ import annotations
 
 import os
 import sys
+import threading
+import weakref
 from typing import Any, Callable, ClassVar
 
-__all__ = ["ForkedCall", "idle_cores"]
+__all__ = ["ForkedCall", "fork_beside", "idle_cores"]
+
+#: threads beside which a ForkedCall may fork, each with the lock it holds for all its work
+_BESIDE: weakref.WeakKeyDictionary[threading.Thread, Any] = weakref.WeakKeyDictionary()
+
+
+def fork_beside(thread: threading.Thread, lock: Any) -> None:
+    """Let :class:`ForkedCall` fork while ``thread`` runs: a thread that only waits, and holds
+    ``lock`` (a :class:`threading.Lock`) for all else it does (e.g. :class:`gearopt.progress.heartbeat`,
+    writing a line). :class:`ForkedCall` holds ``lock`` across the fork, so the forked process (which
+    copies only the calling thread) starts with none of that thread's work half done."""
+    _BESIDE[thread] = lock
 
 
 def idle_cores() -> int:
@@ -39,7 +52,8 @@ class ForkedCall:
     A fork copies the whole process (every compiled Function, cache and memo of the caller), so the
     value is the one ``fn()`` gives here, number for number. Forked only where that is safe and
     pays: Linux, two or more usable cores, a core idle now (:attr:`min_idle_cores`) and no thread
-    but the calling one (a fork copies only that thread); otherwise, and when the forked process
+    but the calling one (a fork copies only that thread) except those declared by
+    :func:`fork_beside` (a progress heartbeat); otherwise, and when the forked process
     fails (it then says nothing of why), :meth:`result` calls ``fn()`` itself, so that its error is
     raised here.
 
@@ -58,8 +72,6 @@ class ForkedCall:
 
 
     def __init__(self, fn: Callable[[], Any]) -> None:
-        import threading
-
         self.fn = fn
         self.pid: int | None = None
         self._fd: int | None = None
@@ -69,8 +81,10 @@ class ForkedCall:
             cores = len(os.sched_getaffinity(0))
         except (AttributeError, OSError):
             cores = 1
+        me = threading.current_thread()
+        locks = [_BESIDE.get(t) for t in threading.enumerate() if t is not me]
         if not (self.enabled and sys.platform.startswith("linux") and hasattr(os, "fork") and cores >= 2
-                and threading.active_count() == 1):
+                and all(lock is not None for lock in locks)):
             return
         if self.min_idle_cores is not None and idle_cores() < self.min_idle_cores:
             return
@@ -79,7 +93,17 @@ class ForkedCall:
         r, w = os.pipe()
         sys.stdout.flush()
         sys.stderr.flush()
-        pid = os.fork()
+        import warnings
+
+        for lock in locks:  # no thread beside this one half-way through its work at the fork
+            lock.acquire()
+        try:
+            with warnings.catch_warnings():  # Python >= 3.12 warns of a fork beside threads: fork_beside's
+                warnings.simplefilter("ignore", DeprecationWarning)
+                pid = os.fork()
+        finally:
+            for lock in locks:  # here and in the forked process (its copies)
+                lock.release()
         if pid == 0:  # the forked process: fn(), its value down the pipe, never returns
             status = 1
             try:

@@ -60,6 +60,31 @@ def test_disabled_threaded_or_busy_computes_in_the_caller(monkeypatch):
     assert not call.forked and call.result() == me
 
 
+def test_forks_beside_a_progress_heartbeat_but_not_beside_another_thread(forking):
+    """A heartbeat (gearopt.progress, declared by fork_beside) runs during the crowning optimizer's
+    solve under `gearopt run` without --quiet: the verification still forks beside it."""
+    from gearopt.progress import heartbeat
+
+    me = os.getpid()
+    lines = []
+    with heartbeat(lines.append, "test", every=0.01):
+        assert threading.active_count() == 2
+        call = ForkedCall(os.getpid)
+        assert call.forked and call.result() != me
+        time.sleep(0.05)
+    assert lines  # the heartbeat went on reporting here
+    stop = threading.Event()
+    t = threading.Thread(target=stop.wait)
+    t.start()
+    try:
+        with heartbeat(lines.append, "test", every=1.0):
+            call = ForkedCall(os.getpid)
+            assert not call.forked and call.result() == me
+    finally:
+        stop.set()
+        t.join()
+
+
 def test_idle_cores_counts_the_running_tasks_of_the_machine():
     n = idle_cores()
     assert isinstance(n, int) and n <= len(os.sched_getaffinity(0))
