@@ -14,7 +14,7 @@ import threading
 import weakref
 from typing import Any, Callable, ClassVar
 
-__all__ = ["ForkedCall", "fork_beside", "idle_cores"]
+__all__ = ["ForkedCall", "fork_beside", "idle_cores", "running_children"]
 
 #: threads beside which a ForkedCall may fork, each with the lock it holds for all its work
 _BESIDE: weakref.WeakKeyDictionary[threading.Thread, Any] = weakref.WeakKeyDictionary()
@@ -28,9 +28,36 @@ def fork_beside(thread: threading.Thread, lock: Any) -> None:
     _BESIDE[thread] = lock
 
 
+def running_children() -> int:
+    """This process's child processes running or runnable now (state ``R`` in ``/proc``; 0 where
+    that is unknown): work of this same run, such as ``gearopt run``'s drawing process importing
+    matplotlib (:mod:`gearopt.cli_plots`), which :func:`idle_cores` does not count as load."""
+    n = 0
+    try:
+        tids = os.listdir("/proc/self/task")
+    except OSError:
+        return 0
+    for tid in tids:
+        try:
+            with open(f"/proc/self/task/{tid}/children") as f:
+                pids = f.read().split()
+        except OSError:
+            continue
+        for pid in pids:
+            try:
+                with open(f"/proc/{pid}/stat") as f:
+                    stat = f.read()
+            except OSError:
+                continue
+            if stat[stat.rindex(")") + 2:].startswith("R"):  # field 3, after "pid (comm) "
+                n += 1
+    return n
+
+
 def idle_cores() -> int:
     """Cores not running a task at this moment: the usable cores less the machine's runnable tasks
-    other than this one (``/proc/loadavg``, instantaneous, unlike the 1-minute load average of
+    other than this one and its own running children (:func:`running_children`, this run's work)
+    (``/proc/loadavg``, instantaneous, unlike the 1-minute load average of
     :func:`gearopt.compiled.idle_cpus`); the usable cores where that is unknown. Negative on a
     machine with more runnable tasks than cores."""
     try:
@@ -42,7 +69,7 @@ def idle_cores() -> int:
             running = int(f.read().split()[3].split("/")[0])
     except (OSError, ValueError, IndexError):
         return cores
-    return cores - max(running - 1, 0)
+    return cores - max(running - 1 - running_children(), 0)
 
 
 class ForkedCall:

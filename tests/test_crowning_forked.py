@@ -12,7 +12,7 @@ import time
 
 import pytest
 
-from gearopt.forking import ForkedCall, idle_cores
+from gearopt.forking import ForkedCall, idle_cores, running_children
 
 
 @pytest.fixture
@@ -88,6 +88,32 @@ def test_forks_beside_a_progress_heartbeat_but_not_beside_another_thread(forking
 def test_idle_cores_counts_the_running_tasks_of_the_machine():
     n = idle_cores()
     assert isinstance(n, int) and n <= len(os.sched_getaffinity(0))
+
+
+def test_running_children_counts_this_processs_own_running_children():
+    """A child of this process that computes counts (not as load in idle_cores: gearopt run's
+    drawing process importing matplotlib while the crowning study forks), one that sleeps does not."""
+    if not (hasattr(os, "fork") and os.path.exists(f"/proc/self/task/{os.getpid()}/children")):
+        pytest.skip("no /proc children list here")
+    before = running_children()
+    pids = []
+    try:
+        for busy in (True, False):
+            pid = os.fork()
+            if pid == 0:  # spin or sleep 20 s, ended below
+                t = time.time()
+                while time.time() - t < 20:
+                    if not busy:
+                        time.sleep(20)
+                os._exit(0)
+            pids.append(pid)
+        time.sleep(0.3)
+        assert running_children() == before + 1
+    finally:
+        for pid in pids:
+            os.kill(pid, 9)
+            os.waitpid(pid, 0)
+    assert running_children() == before
 
 
 def test_a_failure_in_the_forked_process_is_computed_again_in_the_caller(forking):
