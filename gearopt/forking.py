@@ -1,8 +1,9 @@
 """A call computed in a forked process while the caller goes on (:class:`ForkedCall`), and the
 number of cores idle at this moment (:func:`idle_cores`), which decides whether a fork pays.
 
-Used by the crowning study (the TCA of the drive before optimisation beside the NLP) and by
-``gearopt run``'s drawing processes (:mod:`gearopt.cli_plots`: a process per figure beyond the
+Used by the crowning study (the TCA of the drive before optimisation beside the NLP, the last
+cases of the optimised drive's sweeps) and its optimizer (the verification sweeps of the last cases,
+:class:`gearopt.synthesis.crowning.CrowningOptimizer`), and by ``gearopt run``'s drawing processes (:mod:`gearopt.cli_plots`: a process per figure beyond the
 cores only on an idle machine).
 """
 
