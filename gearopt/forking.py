@@ -1,8 +1,9 @@
 """A call computed in a forked process while the caller goes on (:class:`ForkedCall`), and the
 number of cores idle at this moment (:func:`idle_cores`), which decides whether a fork pays.
 
-Used by the crowning study (the TCA of the drive before optimisation beside the NLP) and by
-``gearopt run``'s drawing processes (:mod:`gearopt.cli_plots`: a process per figure beyond the
+Used by the crowning study (the TCA of the drive before optimisation beside the NLP, the last
+cases of the optimised drive's sweeps) and its optimizer (the verification sweeps of the last cases,
+:class:`gearopt.synthesis.crowning.CrowningOptimizer`), and by ``gearopt run``'s drawing processes (:mod:`gearopt.cli_plots`: a process per figure beyond the
 cores only on an idle machine).
 """
 
@@ -10,14 +11,54 @@ from __future__ import annotations
 
 import os
 import sys
+import threading
+import weakref
 from typing import Any, Callable, ClassVar
 
-__all__ = ["ForkedCall", "idle_cores"]
+__all__ = ["ForkedCall", "fork_beside", "idle_cores", "running_children"]
+
+#: threads beside which a ForkedCall may fork, each with the lock it holds for all its work
+_BESIDE: weakref.WeakKeyDictionary[threading.Thread, Any] = weakref.WeakKeyDictionary()
+
+
+def fork_beside(thread: threading.Thread, lock: Any) -> None:
+    """Let :class:`ForkedCall` fork while ``thread`` runs: a thread that only waits, and holds
+    ``lock`` (a :class:`threading.Lock`) for all else it does (e.g. :class:`gearopt.progress.heartbeat`,
+    writing a line). :class:`ForkedCall` holds ``lock`` across the fork, so the forked process (which
+    copies only the calling thread) starts with none of that thread's work half done."""
+    _BESIDE[thread] = lock
+
+
+def running_children() -> int:
+    """This process's child processes running or runnable now (state ``R`` in ``/proc``; 0 where
+    that is unknown): work of this same run, such as ``gearopt run``'s drawing process importing
+    matplotlib (:mod:`gearopt.cli_plots`), which :func:`idle_cores` does not count as load."""
+    n = 0
+    try:
+        tids = os.listdir("/proc/self/task")
+    except OSError:
+        return 0
+    for tid in tids:
+        try:
+            with open(f"/proc/self/task/{tid}/children") as f:
+                pids = f.read().split()
+        except OSError:
+            continue
+        for pid in pids:
+            try:
+                with open(f"/proc/{pid}/stat") as f:
+                    stat = f.read()
+            except OSError:
+                continue
+            if stat[stat.rindex(")") + 2:].startswith("R"):  # field 3, after "pid (comm) "
+                n += 1
+    return n
 
 
 def idle_cores() -> int:
     """Cores not running a task at this moment: the usable cores less the machine's runnable tasks
-    other than this one (``/proc/loadavg``, instantaneous, unlike the 1-minute load average of
+    other than this one and its own running children (:func:`running_children`, this run's work)
+    (``/proc/loadavg``, instantaneous, unlike the 1-minute load average of
     :func:`gearopt.compiled.idle_cpus`); the usable cores where that is unknown. Negative on a
     machine with more runnable tasks than cores."""
     try:
@@ -29,7 +70,7 @@ def idle_cores() -> int:
             running = int(f.read().split()[3].split("/")[0])
     except (OSError, ValueError, IndexError):
         return cores
-    return cores - max(running - 1, 0)
+    return cores - max(running - 1 - running_children(), 0)
 
 
 class ForkedCall:
@@ -39,7 +80,8 @@ class ForkedCall:
     A fork copies the whole process (every compiled Function, cache and memo of the caller), so the
     value is the one ``fn()`` gives here, number for number. Forked only where that is safe and
     pays: Linux, two or more usable cores, a core idle now (:attr:`min_idle_cores`) and no thread
-    but the calling one (a fork copies only that thread); otherwise, and when the forked process
+    but the calling one (a fork copies only that thread) except those declared by
+    :func:`fork_beside` (a progress heartbeat); otherwise, and when the forked process
     fails (it then says nothing of why), :meth:`result` calls ``fn()`` itself, so that its error is
     raised here.
 
@@ -58,8 +100,6 @@ class ForkedCall:
 
 
     def __init__(self, fn: Callable[[], Any]) -> None:
-        import threading
-
         self.fn = fn
         self.pid: int | None = None
         self._fd: int | None = None
@@ -69,8 +109,10 @@ class ForkedCall:
             cores = len(os.sched_getaffinity(0))
         except (AttributeError, OSError):
             cores = 1
+        me = threading.current_thread()
+        locks = [_BESIDE.get(t) for t in threading.enumerate() if t is not me]
         if not (self.enabled and sys.platform.startswith("linux") and hasattr(os, "fork") and cores >= 2
-                and threading.active_count() == 1):
+                and all(lock is not None for lock in locks)):
             return
         if self.min_idle_cores is not None and idle_cores() < self.min_idle_cores:
             return
@@ -79,7 +121,17 @@ class ForkedCall:
         r, w = os.pipe()
         sys.stdout.flush()
         sys.stderr.flush()
-        pid = os.fork()
+        import warnings
+
+        for lock in locks:  # no thread beside this one half-way through its work at the fork
+            lock.acquire()
+        try:
+            with warnings.catch_warnings():  # Python >= 3.12 warns of a fork beside threads: fork_beside's
+                warnings.simplefilter("ignore", DeprecationWarning)
+                pid = os.fork()
+        finally:
+            for lock in locks:  # here and in the forked process (its copies)
+                lock.release()
         if pid == 0:  # the forked process: fn(), its value down the pipe, never returns
             status = 1
             try:

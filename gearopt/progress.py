@@ -19,6 +19,8 @@ import threading
 import time
 from typing import Callable, Iterator
 
+from .forking import fork_beside
+
 __all__ = ["heartbeat", "reporting", "current"]
 
 Progress = Callable[[str], None]
@@ -94,6 +96,7 @@ class heartbeat:
             return None
         self.t0 = self._last = time.perf_counter()
         self._thread = threading.Thread(target=self._beat, name="gearopt-heartbeat", daemon=True)
+        fork_beside(self._thread, self._lock)  # it reports under _lock only: a fork may copy the caller beside it
         self._thread.start()
         return self._say
 

@@ -1,7 +1,8 @@
 """The crowning study's TCA of the drive before optimisation (and of the optimised drive's last
-cases), run in a forked process alongside the NLP (gearopt.forking.ForkedCall): the value
-is the one computed in the caller, a failed or unforkable call is computed in the caller (its error
-raised there), close() ends the process."""
+cases), and the crowning optimizer's verification sweeps of its last cases, run in a forked process
+alongside the caller (gearopt.forking.ForkedCall): the value is the one computed in the caller, a
+failed or unforkable call is computed in the caller (its error raised there), close() ends the
+process."""
 
 from __future__ import annotations
 
@@ -11,7 +12,7 @@ import time
 
 import pytest
 
-from gearopt.forking import ForkedCall, idle_cores
+from gearopt.forking import ForkedCall, idle_cores, running_children
 
 
 @pytest.fixture
@@ -59,9 +60,60 @@ def test_disabled_threaded_or_busy_computes_in_the_caller(monkeypatch):
     assert not call.forked and call.result() == me
 
 
+def test_forks_beside_a_progress_heartbeat_but_not_beside_another_thread(forking):
+    """A heartbeat (gearopt.progress, declared by fork_beside) runs during the crowning optimizer's
+    solve under `gearopt run` without --quiet: the verification still forks beside it."""
+    from gearopt.progress import heartbeat
+
+    me = os.getpid()
+    lines = []
+    with heartbeat(lines.append, "test", every=0.01):
+        assert threading.active_count() == 2
+        call = ForkedCall(os.getpid)
+        assert call.forked and call.result() != me
+        time.sleep(0.05)
+    assert lines  # the heartbeat went on reporting here
+    stop = threading.Event()
+    t = threading.Thread(target=stop.wait)
+    t.start()
+    try:
+        with heartbeat(lines.append, "test", every=1.0):
+            call = ForkedCall(os.getpid)
+            assert not call.forked and call.result() == me
+    finally:
+        stop.set()
+        t.join()
+
+
 def test_idle_cores_counts_the_running_tasks_of_the_machine():
     n = idle_cores()
     assert isinstance(n, int) and n <= len(os.sched_getaffinity(0))
+
+
+def test_running_children_counts_this_processs_own_running_children():
+    """A child of this process that computes counts (not as load in idle_cores: gearopt run's
+    drawing process importing matplotlib while the crowning study forks), one that sleeps does not."""
+    if not (hasattr(os, "fork") and os.path.exists(f"/proc/self/task/{os.getpid()}/children")):
+        pytest.skip("no /proc children list here")
+    before = running_children()
+    pids = []
+    try:
+        for busy in (True, False):
+            pid = os.fork()
+            if pid == 0:  # spin or sleep 20 s, ended below
+                t = time.time()
+                while time.time() - t < 20:
+                    if not busy:
+                        time.sleep(20)
+                os._exit(0)
+            pids.append(pid)
+        time.sleep(0.3)
+        assert running_children() == before + 1
+    finally:
+        for pid in pids:
+            os.kill(pid, 9)
+            os.waitpid(pid, 0)
+    assert running_children() == before
 
 
 def test_a_failure_in_the_forked_process_is_computed_again_in_the_caller(forking):
@@ -99,6 +151,45 @@ def untimed(x):
     if isinstance(x, list):
         return [untimed(v) for v in x]
     return x
+
+
+@pytest.mark.ipopt
+def test_the_crowning_optimizers_verification_forks_its_last_cases_with_the_same_numbers(monkeypatch, forking):
+    """CrowningOptimizer.solve's verification sweeps: the last cases in a forked process, every
+    case's verified TE, corners, peak and path the same as all computed here."""
+    import numpy as np
+
+    import gearopt.synthesis.crowning as crowning
+    from gearopt.gears import Gear, GearPair
+    from gearopt.meshing.misalignment import misalignment_cases
+    from gearopt.synthesis import CrowningOptimizer, CrowningTarget
+    from gearopt.units import ARCMIN, ARCSEC
+
+    calls = []
+
+    class Recorded(ForkedCall):
+        def __init__(self, fn):
+            super().__init__(fn)
+            calls.append(self.forked)
+
+    monkeypatch.setattr(crowning, "ForkedCall", Recorded, raising=False)  # absent: no fork there
+    pair = GearPair(Gear(z=20, m_n=3, b=20, name="pinion"), Gear(z=40, m_n=3, b=20, name="gear"))
+    cases = misalignment_cases(crossing=3 * ARCMIN)  # aligned, +-3': the last one forked
+    opt = CrowningOptimizer(pair, CrowningTarget(te_level=8 * ARCSEC), cases=cases, positions=21)
+    forked = opt.solve(sensitivities=False).cases
+    assert calls == [True]
+    monkeypatch.setattr(ForkedCall, "enabled", False)
+    here = opt.solve(sensitivities=False).cases
+    assert calls == [True, False]
+    assert [c.name for c in forked] == [c.name for c in here] == list(cases)
+    for a, b in zip(forked, here):
+        assert (a.te_level_tca, a.edge_contact, a.corners, a.peak, a.fit_rms, a.transfer_phi1) == \
+               (b.te_level_tca, b.edge_contact, b.corners, b.peak, b.fit_rms, b.transfer_phi1)
+        np.testing.assert_array_equal(a.te_envelope, b.te_envelope)
+        for member in ("pinion", "gear"):
+            for x, y in zip(a.path[member], b.path[member]):
+                np.testing.assert_array_equal(x, y)
+        np.testing.assert_array_equal(a.result.te, b.result.te)
 
 
 @pytest.mark.slow

@@ -32,6 +32,7 @@ from ..compiled import nlpsol
 from ..contact.edge import EdgeContact, EdgeTCAResult
 from ..errors import ArgumentError, ConvergenceError, OptionError, SynthesisError, check_number, out_of_range  # noqa: F401
 #  (SynthesisError lives in errors.py; re-exported here)
+from ..forking import ForkedCall
 from ..gears import GearPair
 from ..geometry.tools import require_rack_settings
 from ..meshing.tca import TCA, Misalignment
@@ -504,20 +505,42 @@ class CrowningOptimizer:
         phi = np.linspace(-pitch, pitch, 4 * self.positions, endpoint=False)
         if ec is None:
             ec = EdgeContact(TCA(pair, side=self.side))
-        out = []
         fits = dict(zip(self.cases, (float(v) for v in self._fit_terms(X))))
-        for cname, mis in self.cases.items():
-            c1 = X[self._c_index[cname] + 1] * self.target.te_level
-            r = ec.sweep(phi, mis=mis, pairs=(-2, -1, 0, 1, 2))
-            level, corners, peak = actual_level(ec, r, mis)
-            phi_t = pitch / 2 + c1 / (2 * self._A_t)
-            k0 = r.pairs.index(0)
-            v = r.valid[0, k0]
-            path = {"pinion": (r.z1[0, k0][v], r.radius1[0, k0][v]), "gear": (r.z2[0, k0][v], r.radius2[0, k0][v])}
-            out.append(CaseReport(name=cname, misalignment=mis, fit_rms=float(np.sqrt(fits[cname])) * self.target.te_level,
-                                  te_level_tca=level, edge_contact=r.edge_contact(),
-                                  transfer_phi1=(float(phi_t - pitch), float(phi_t)), phi1=phi,
-                                  te_envelope=r.te_envelope, path=path, result=r, corners=tuple(corners), peak=peak))
+
+        def checked(items: list) -> list:
+            out = []
+            for cname, mis in items:
+                c1 = X[self._c_index[cname] + 1] * self.target.te_level
+                r = ec.sweep(phi, mis=mis, pairs=(-2, -1, 0, 1, 2))
+                level, corners, peak = actual_level(ec, r, mis)
+                phi_t = pitch / 2 + c1 / (2 * self._A_t)
+                k0 = r.pairs.index(0)
+                v = r.valid[0, k0]
+                path = {"pinion": (r.z1[0, k0][v], r.radius1[0, k0][v]), "gear": (r.z2[0, k0][v], r.radius2[0, k0][v])}
+                out.append(CaseReport(name=cname, misalignment=mis,
+                                      fit_rms=float(np.sqrt(fits[cname])) * self.target.te_level,
+                                      te_level_tca=level, edge_contact=r.edge_contact(),
+                                      transfer_phi1=(float(phi_t - pitch), float(phi_t)), phi1=phi,
+                                      te_envelope=r.te_envelope, path=path, result=r, corners=tuple(corners),
+                                      peak=peak))
+            return out
+
+        # The first case here (its sweep solves the first guesses, memoised per angle and setting and
+        # shared by the other cases: EdgeContact._first_guesses), then the last cases in a forked
+        # process (ForkedCall: the same numbers, as a case's sweeps do not depend on the cases swept
+        # before) beside the others here; all of them here where forking does not apply.
+        items = list(self.cases.items())
+        half = (len(items) + 2) // 2
+        out = checked(items[:1])
+        tail = items[half:]
+        rest = ForkedCall(lambda: checked(tail)) if tail else None
+        try:
+            out += checked(items[1:half])
+            if rest is not None:
+                out += rest.result()
+        finally:
+            if rest is not None:
+                rest.close()
         return out
 
     def sensitivities(self, pair: GearPair, tca: TCA | None = None) -> dict:
