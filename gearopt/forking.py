@@ -15,7 +15,7 @@ import threading
 import weakref
 from typing import Any, Callable, ClassVar
 
-__all__ = ["ForkedCall", "fork_beside", "idle_cores", "running_children"]
+__all__ = ["ForkedCall", "fork_beside", "idle_cores", "running_children", "split_forked"]
 
 #: threads beside which a ForkedCall may fork, each with the lock it holds for all its work
 _BESIDE: weakref.WeakKeyDictionary[threading.Thread, Any] = weakref.WeakKeyDictionary()
@@ -194,3 +194,29 @@ class ForkedCall:
             os.waitpid(pid, 0)
         except ChildProcessError:
             pass
+
+
+def split_forked(fn: Callable[[list], list], items: Any, around: Callable[[], Any] | None = None) -> list:
+    """``fn(items)`` for independent ``items`` in three parts: the first item here (its work may fill
+    memos the others share), the last half in a :class:`ForkedCall` beside the middle ones here; the
+    parts' lists concatenated in the items' order, the same numbers as ``fn(items)`` where ``fn`` of
+    an item does not depend on the items before it. ``around``: a context manager factory entered
+    around each part done here (e.g. a progress heartbeat)."""
+    import contextlib
+
+    items = list(items)
+    ctx = around or contextlib.nullcontext
+    half = (len(items) + 2) // 2
+    with ctx():
+        out = list(fn(items[:1]))
+    tail = items[half:]
+    rest = ForkedCall(lambda: fn(tail)) if tail else None
+    try:
+        with ctx():
+            out += fn(items[1:half])
+            if rest is not None:
+                out += rest.result()
+    finally:
+        if rest is not None:
+            rest.close()
+    return out

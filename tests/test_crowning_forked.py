@@ -159,7 +159,7 @@ def test_the_crowning_optimizers_verification_forks_its_last_cases_with_the_same
     case's verified TE, corners, peak and path the same as all computed here."""
     import numpy as np
 
-    import gearopt.synthesis.crowning as crowning
+    import gearopt.forking as forking
     from gearopt.gears import Gear, GearPair
     from gearopt.meshing.misalignment import misalignment_cases
     from gearopt.synthesis import CrowningOptimizer, CrowningTarget
@@ -172,7 +172,7 @@ def test_the_crowning_optimizers_verification_forks_its_last_cases_with_the_same
             super().__init__(fn)
             calls.append(self.forked)
 
-    monkeypatch.setattr(crowning, "ForkedCall", Recorded, raising=False)  # absent: no fork there
+    monkeypatch.setattr(forking, "ForkedCall", Recorded)  # the verification's split_forked forks by it
     pair = GearPair(Gear(z=20, m_n=3, b=20, name="pinion"), Gear(z=40, m_n=3, b=20, name="gear"))
     cases = misalignment_cases(crossing=3 * ARCMIN)  # aligned, +-3': the last one forked
     opt = CrowningOptimizer(pair, CrowningTarget(te_level=8 * ARCSEC), cases=cases, positions=21)

@@ -34,7 +34,7 @@ from typing import Any, Callable, ClassVar
 import numpy as np
 
 from ..contact.edge import EdgeContact
-from ..forking import ForkedCall
+from ..forking import ForkedCall, split_forked
 from ..gears import GearPair
 from ..meshing.misalignment import misalignment_cases  # noqa: F401 - re-exported (the crowning study's cases)
 from ..meshing.tca import TCA, Misalignment
@@ -135,21 +135,9 @@ class CrowningStudy:
             return [ec1.sweep(phi, mis=m, pairs=(-2, -1, 0, 1, 2)).to_dict(c, d.pair.pinion.z, lim1) for c, m in cases]
 
         # The first case here (it solves the first guesses, which the other cases share), then the
-        # last ones in a forked process (ForkedCall: the same numbers) beside the others here.
-        items = list(self.cases.items())
-        half = (len(items) + 2) // 2
-        with heartbeat(progress, "crowning: TCA of the optimised drive", every=15.0):
-            after = swept(items[:1])
-        tail = items[half:]
-        rest = ForkedCall(lambda: swept(tail)) if tail else None
-        try:
-            with heartbeat(progress, "crowning: TCA of the optimised drive", every=15.0):
-                after += swept(items[1:half])
-                if rest is not None:
-                    after += rest.result()
-        finally:
-            if rest is not None:
-                rest.close()
+        # last ones in a forked process (split_forked, ForkedCall: the same numbers) beside the others here.
+        after = split_forked(swept, self.cases.items(),
+                             around=lambda: heartbeat(progress, "crowning: TCA of the optimised drive", every=15.0))
         return d, after
 
     def run(self, progress: Callable[[str], None] | None = None) -> CrowningReport:

@@ -32,7 +32,7 @@ from ..compiled import nlpsol
 from ..contact.edge import EdgeContact, EdgeTCAResult
 from ..errors import ArgumentError, ConvergenceError, OptionError, SynthesisError, check_number, out_of_range  # noqa: F401
 #  (SynthesisError lives in errors.py; re-exported here)
-from ..forking import ForkedCall
+from ..forking import split_forked
 from ..gears import GearPair
 from ..geometry.tools import require_rack_settings
 from ..meshing.tca import TCA, Misalignment
@@ -527,21 +527,9 @@ class CrowningOptimizer:
 
         # The first case here (its sweep solves the first guesses, memoised per angle and setting and
         # shared by the other cases: EdgeContact._first_guesses), then the last cases in a forked
-        # process (ForkedCall: the same numbers, as a case's sweeps do not depend on the cases swept
+        # process (split_forked: the same numbers, as a case's sweeps do not depend on the cases swept
         # before) beside the others here; all of them here where forking does not apply.
-        items = list(self.cases.items())
-        half = (len(items) + 2) // 2
-        out = checked(items[:1])
-        tail = items[half:]
-        rest = ForkedCall(lambda: checked(tail)) if tail else None
-        try:
-            out += checked(items[1:half])
-            if rest is not None:
-                out += rest.result()
-        finally:
-            if rest is not None:
-                rest.close()
-        return out
+        return split_forked(checked, self.cases.items())
 
     def sensitivities(self, pair: GearPair, tca: TCA | None = None) -> dict:
         """d(TE level)/d(variable) of every case by AD through the TCA equations (implicit
