@@ -111,6 +111,47 @@ def small_in(tree, repeat):
 CLOCK = [time.perf_counter]  # --cpu: time.process_time
 
 
+def newton_steps(tca, W0, prm, abstol=1e-15, abstol_step=1e-9, max_iter=30):
+    """Newton steps (Jacobian evaluations) per column from the first guesses ``W0`` under the rule of
+    the sweep's compiled ``fast_newton`` (stop when max|F| <= abstol, or after a step with
+    max|dw| <= abstol_step): the rootfinder reports no count, so it is replayed here in numpy with the
+    TCA's residual and Jacobian Functions. max_iter + 1: not converged (NaN, off the surfaces)."""
+    out = np.full(W0.shape[1], max_iter + 1)
+    for j in range(W0.shape[1]):
+        w, p = W0[:, j].copy(), prm[:, j]
+        for k in range(max_iter):
+            F = np.asarray(tca.residual(w, p)).ravel()
+            if not np.all(np.isfinite(F)):
+                break
+            if np.max(np.abs(F)) <= abstol:
+                out[j] = k
+                break
+            dw = np.linalg.solve(np.asarray(tca.jacobian(w, p)), F)
+            w = w - dw
+            if np.max(np.abs(dw)) <= abstol_step:
+                out[j] = k + 1
+                break
+    return out
+
+
+def sweep_guesses(tca, phi, mis, pairs):
+    """(first guesses, parameter columns) of a sweep's first mapped solve (``Branch.solve``'s inputs)."""
+    seen = {}
+    solve = tca.branch.solve
+
+    def spy(W0, prm, *a, **k):
+        seen.setdefault("W0", W0.copy())
+        seen.setdefault("prm", prm.copy())
+        return solve(W0, prm, *a, **k)
+
+    tca.branch.solve = spy
+    try:
+        tca.sweep(phi, mis=mis, pairs=pairs)
+    finally:
+        del tca.branch.solve
+    return seen["W0"], seen["prm"]
+
+
 def best(f, k=5):
     clock = CLOCK[0]
     ts = []
@@ -198,6 +239,14 @@ def main(argv):
         finally:
             compiled.set_threads(None)
     compiled.wait_for_background()
+
+    # Newton steps per column of the small sweep: from its first guesses, and from the linear
+    # prediction around the anchor (what a coarse sweep started from before the Taylor guesses)
+    W0s, prm_s = sweep_guesses(tca_c, phi_s, mis, pairs_s)
+    w_an = tca_c.solve_point(0.0, None, None, None, mis)
+    lin = tca_c.branch.predict(w_an, tca_c.prm([0.0], mis=mis)[:, 0], prm_s[tca_c._phi_row])
+    steps = {"the sweep's first guesses": newton_steps(tca_c, W0s, prm_s),
+             "linear prediction from the anchor": newton_steps(tca_c, lin, prm_s)}
 
     # fsolve per column on pair 0 (a subset), same equations and first guesses as the sweep's
     m = 100 if quick else 200
@@ -292,6 +341,13 @@ def main(argv):
             v = np.array(trees["base" if label == "before" else "here"])
             print(f"| {label}: {tree} | {stat(v)} | {stat(fs / v)}x |")
     print()
+    print("Newton steps per column, small sweep (64 x 3; the compiled fast_newton's rule replayed in numpy):")
+    for label, v in steps.items():
+        ok = v <= 30
+        print(f"  {label}: mean {v[ok].mean():.2f} over the {ok.sum()} converging columns, "
+              f"histogram {np.bincount(v[ok]).tolist()} (steps 0, 1, ...), {int((~ok).sum())} not converging")
+    print(f"threads of the small sweep's map: {compiled.threads_for(phi_s.size * len(pairs_s))} "
+          f"(below 2 x MIN_PER_THREAD = {2 * compiled.MIN_PER_THREAD} columns always 1)")
     print("same accepted points, compiled vs interpreted: " + ", ".join(f"{k} {v[1]}" for k, v in errs.items()))
     print(f"cold cache, small sweep (jit=\"auto\"): the first call {t_first_small:.3f} s "
           f"({'compiled' if first_small_compiled else 'interpreted'}; the library compiled in the background, "

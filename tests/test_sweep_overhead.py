@@ -297,3 +297,69 @@ def test_result_arrays_are_the_sweep_outputs_at_the_solved_points(crowned):
             np.testing.assert_allclose(r.ellipse_dir2[k, j], out["dir2"].T, **tol)  # rows: major, minor
             np.testing.assert_allclose(r.ellipse_dir1[k, j], out["dir1"].T, **tol)
             np.testing.assert_allclose(r.radius1[k, j], np.hypot(*out["r1"].ravel()[:2]), rtol=1e-12)
+
+
+def _branch_point(tca: TCA, phi1: float, mis: Misalignment) -> tuple[np.ndarray, np.ndarray]:
+    """The solved point of the branch at ``phi1`` (line-search Newton from the linear prediction)."""
+    w_a = tca.solve_point(0.0, None, None, None, mis)
+    prm_a = tca.prm([0.0], mis=mis)[:, 0]
+    prm = tca.prm([phi1], mis=mis)[:, 0]
+    return tca.branch.newton(tca.branch.predict(w_a, prm_a, [phi1])[:, 0], prm), prm
+
+
+def test_taylor_terms_are_the_derivatives_of_the_solved_branch(crowned):
+    """d1, d2, d3 of taylor_function at a solved point equal central differences of solutions of
+    the contact equations at neighbouring angles (solved independently, line-search Newton)."""
+    mis = Misalignment(crossing=3 * ARCMIN, intersecting=2 * ARCMIN, dE=0.05)
+    h = 2e-3
+    W = np.column_stack([_branch_point(crowned, k * h, mis)[0] for k in (-2, -1, 0, 1, 2)])
+    d = [np.asarray(v).ravel() for v in crowned.branch.taylor_function()(W[:, 2], crowned.prm([0.0], mis=mis)[:, 0])]
+    fd1 = (W[:, 3] - W[:, 1]) / (2 * h)
+    fd2 = (W[:, 3] - 2 * W[:, 2] + W[:, 1]) / h ** 2
+    fd3 = (W[:, 4] - 2 * W[:, 3] + 2 * W[:, 1] - W[:, 0]) / (2 * h ** 3)
+    scale = lambda v: np.max(np.abs(v)) + 1e-9  # noqa: E731
+    assert np.max(np.abs(d[0] - fd1)) < 1e-4 * scale(fd1)
+    assert np.max(np.abs(d[1] - fd2)) < 1e-3 * scale(fd2)
+    assert np.max(np.abs(d[2] - fd3)) < 2e-2 * scale(fd3)
+
+
+def test_taylor_guesses_are_closer_and_the_sweep_the_same(crowned):
+    """A coarse sweep (one cycle of three pairs: too few positions for the knots) starts from the
+    cubic Taylor guesses: at +-1.5 pitches from the anchor they are far closer to the solutions than
+    the linear prediction, and the sweep accepts the same points with the same numbers to round-off
+    as from the linear guesses."""
+    mis = Misalignment(crossing=3 * ARCMIN, intersecting=2 * ARCMIN, dE=0.05)
+    br = crowned.branch
+    w_a = crowned.solve_point(0.0, None, None, None, mis)
+    prm_a = crowned.prm([0.0], mis=mis)[:, 0]
+    far = [0.1, -0.15, 0.2]
+    sol = np.column_stack([_branch_point(crowned, v, mis)[0] for v in far])
+    err_lin = np.max(np.abs(br.predict(w_a, prm_a, far) - sol), axis=0)
+    err_tay = np.max(np.abs(br.predict_taylor(w_a, prm_a, far) - sol), axis=0)
+    assert np.all(err_tay < 0.05 * err_lin)
+    phi = np.linspace(-math.pi / 20, math.pi / 20, 64)
+    saved = br.predict_taylor
+    used = []
+    br.predict_taylor = lambda *args: used.append(1) or saved(*args)
+    try:
+        a = crowned.sweep(phi, mis=mis)
+    finally:
+        br.predict_taylor = saved
+    assert used  # the coarse sweep's guesses
+    br.predict_taylor = br.predict  # the linear guesses
+    try:
+        b = crowned.sweep(phi, mis=mis)
+    finally:
+        br.predict_taylor = saved
+    assert np.array_equal(a.converged, b.converged) and np.array_equal(a.on_surface, b.on_surface)
+    ok = a.converged
+    assert np.max(np.abs(a.phi2[ok] - b.phi2[ok])) < 1e-14
+    assert np.max(np.abs(a.u1[ok] - b.u1[ok])) < 1e-11 and np.max(np.abs(a.z1[ok] - b.z1[ok])) < 1e-11
+
+
+def test_taylor_prediction_falls_back_to_linear_when_not_finite(crowned):
+    """Derivatives that are not finite (a singular Jacobian) give the linear prediction."""
+    br = crowned.branch
+    w = np.full(5, np.nan)
+    prm = crowned.prm([0.0])[:, 0]
+    assert np.array_equal(br.predict_taylor(w, prm, [0.1, 0.2]), br.predict(w, prm, [0.1, 0.2]), equal_nan=True)

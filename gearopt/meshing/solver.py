@@ -135,6 +135,8 @@ class Branch:
                                                                      "jacobian_function": jac})
         self._maps: dict[int, ca.Function] = {}
         self._dw_memo: dict = {}  # dw/dphi1 at solved anchors by their exact (w, prm) (predict)
+        self._taylor_memo: dict = {}  # the branch's Taylor terms at solved anchors (predict_taylor)
+        self._taylor: ca.Function | None = None  # built on first use (taylor_function)
         # one column: solve from W0, then the residual norm and the checks at the solution (the
         # compiled unit); what is evaluated there is one SX graph with common subexpressions
         # eliminated (the checks and the caller's extra outputs share the surfaces' derivatives)
@@ -165,6 +167,8 @@ class Branch:
 
     def __setstate__(self, state):
         state.setdefault("_dw_memo", {})
+        state.setdefault("_taylor_memo", {})
+        state.setdefault("_taylor", None)
         state.setdefault("own_maps", False)
         if "_extra_names" not in state:
             state["_extra_names"] = state["extra"].name_out() if state.get("extra") is not None else []
@@ -192,6 +196,62 @@ class Branch:
                 self._dw_memo.pop(next(iter(self._dw_memo)))
             self._dw_memo[key] = dw
         return w_a[:, None] + dw[:, None] * np.asarray(dphi)[None, :]
+
+    def taylor_function(self) -> ca.Function:
+        """``(w, prm) -> (d1, d2, d3)``: the first three derivatives of the solution branch w(phi1)
+        with respect to phi1 (``prm[0]``) at a solved point, by the implicit function theorem.
+
+        Along the branch ``F(w(phi1 + s), prm + s e_0) = 0`` for all s; with ``J = dF/dw``:
+        ``d1 = -J^-1 dF/dphi1``, ``d2 = -J^-1 d^2/ds^2 F(w + s d1, prm + s e_0)`` and
+        ``d3 = -J^-1 d^3/ds^3 F(w + s d1 + s^2 d2 / 2, prm + s e_0)`` at s = 0 (the terms of the
+        next order enter the s-derivative of that order only through ``J``). Built on first use
+        (one SX graph)."""
+        if self._taylor is None:
+            G = self.G
+            nw, npr = G.size1_in(0), G.size1_in(1)
+            w, p, s = ca.SX.sym("w", nw), ca.SX.sym("p", npr), ca.SX.sym("s")
+            shift = ca.vertcat(s, ca.SX.zeros(npr - 1))
+            F = G(w, p)
+            J = ca.jacobian(F, w)
+            d1 = -ca.solve(J, ca.jacobian(F, p)[:, 0])
+
+            def along(c, order):
+                e = G(c, p + shift)
+                for _ in range(order):
+                    e = ca.jacobian(e, s)
+                return ca.substitute(e, s, 0)
+
+            d2 = -ca.solve(J, along(w + s * d1, 2))
+            d3 = -ca.solve(J, along(w + s * d1 + 0.5 * s ** 2 * d2, 3))
+            self._taylor = ca.Function(f"{self.name}_taylor", [w, p], [d1, d2, d3], ["w", "prm"],
+                                       ["d1", "d2", "d3"], {"cse": True})
+        return self._taylor
+
+    def predict_taylor(self, w_a: npt.ArrayLike, prm_a: npt.ArrayLike, dphi: npt.ArrayLike) -> np.ndarray:
+        """First guesses (nw, len(dphi)) from the cubic Taylor polynomial of the branch around the
+        solved anchor, ``w_a + d1 dphi + d2 dphi^2 / 2 + d3 dphi^3 / 6`` (:meth:`taylor_function`;
+        kept per exact anchor): the guess error is O(dphi^4) instead of the linear prediction's
+        O(dphi^2), so that Newton takes about 2.2 steps instead of 3.5 on a one-cycle sweep of three
+        tooth pairs (benchmarks/bench_compiled.py). The linear prediction (:meth:`predict`) where
+        the derivatives are not finite (a singular Jacobian).
+
+        The Function runs compiled when its library is in the disk cache; under ``jit="auto"`` a
+        miss compiles it in the background (one column never waits for the compiler) and it is
+        evaluated interpreted meanwhile."""
+        w_a, prm_a = np.asarray(w_a, float), np.asarray(prm_a, float)
+        key = (w_a.tobytes(), prm_a.tobytes())
+        d = self._taylor_memo.get(key)
+        if d is None:
+            f = self.taylor_function()
+            g = select(f, self.jit, 1) if self.jit is not False else None
+            d = np.column_stack([v.ravel() for v in call(f if g is None else g, w_a, prm_a)])
+            if len(self._taylor_memo) >= 64:
+                self._taylor_memo.pop(next(iter(self._taylor_memo)))
+            self._taylor_memo[key] = d
+        if not np.all(np.isfinite(d)):
+            return self.predict(w_a, prm_a, dphi)
+        h = np.asarray(dphi, float)[None, :]
+        return w_a[:, None] + h * (d[:, :1] + h * (d[:, 1:2] / 2 + h * (d[:, 2:] / 6)))
 
     def _dw_at(self, w: np.ndarray, prm: np.ndarray) -> np.ndarray:
         """dw/dphi1 at one column: the Function itself, compiled when its library is cached (one
@@ -235,7 +295,7 @@ class Branch:
         j0 = math.floor((float(np.minimum.reduce(phi)) - anchor) / spacing)
         j1 = math.ceil((float(np.maximum.reduce(phi)) - anchor) / spacing)
         if (max(j1, j0 + 1) + 1 - j0) * 4 > phi.size:  # a coarse sweep: the knots would cost as much as the positions
-            return lin
+            return self.predict_taylor(w_a, prm_a, phi - anchor)
         knots = anchor + spacing * np.arange(j0, max(j1, j0 + 1) + 1)
         prm_k = prm_of(knots)
         n_all = phi.size if n_total is None else n_total
