@@ -698,6 +698,38 @@ def map_library(column: ca.Function, m: int) -> ca.Function | None:
     return None if path is None else _load(f"map{m}_{column.name()}", path)
 
 
+def derived_library_path(base: ca.Function, name: str, tag: str) -> Path | None:
+    """Where the library of a Function named ``name``, built from ``base`` by a fixed construction
+    that ``tag`` names, lives in the cache: ``<name>-<key>.so``, the key the SHA-256 of the library
+    name of ``base`` (its own key: graph, CasADi, compiler, flags) and ``tag`` (which must change
+    whenever the construction does); None without a compiler or for a ``base`` CasADi cannot
+    serialise. Looking it up builds nothing (the derived graph can cost tens of milliseconds)."""
+    if compiler() is None:
+        return None
+    col = _path_or_none(base)
+    if col is None:
+        return None
+    return col.parent / f"{name}-{hashlib.sha256(f'{col.name}/{tag}'.encode()).hexdigest()[:24]}.so"
+
+
+def derived_library(base: ca.Function, name: str, tag: str) -> ca.Function | None:
+    """The library of :func:`derived_library_path` if it is in the disk cache (loaded once per
+    process), else None; never compiles (:func:`compile_derived`)."""
+    path = derived_library_path(base, name, tag)
+    return None if path is None else _load(name, path)
+
+
+def compile_derived(base: ca.Function, f: ca.Function, tag: str) -> threading.Thread | None:
+    """Compile ``f`` (built from ``base`` by the construction ``tag``) into
+    :func:`derived_library_path` in a background thread, like :func:`compile_in_background`; None
+    when it is there already, being compiled, failed before, background compiles are off
+    (:func:`background`) or no compiler works."""
+    if not background():
+        return None
+    path = derived_library_path(base, f.name(), tag)
+    return None if path is None else _start(path, lambda: f, f.name())
+
+
 def map_library_path(column: ca.Function, m: int) -> Path | None:
     """Where the library of ``column.map(m)`` lives in the cache: ``map<m>_<name>-<key>.so``, the key
     the SHA-256 of the column library's name (its own key: graph, CasADi, compiler, flags) and m;

@@ -17,12 +17,19 @@ import casadi as ca
 import numpy as np
 import numpy.typing as npt
 
-from ..compiled import ColumnMap, available, cached_function, call, map_columns, mapped, select
+from ..compiled import (ColumnMap, available, cached_function, call, compile_derived, derived_library, map_columns,
+                        mapped, select)
 from ..settings import ContactSettings  # re-exported: declared with the other option sets (gearopt.settings)
 
 NORMAL_TOL = 1e-8  #: accepted contact points have n1 . n2 < -1 + NORMAL_TOL (tangency, not crossing)
 REGULARITY_MIN = 1e-6  #: and (dr/du x dr/dz) . n > REGULARITY_MIN on both flanks' valid branches (no cusp)
 STALL_RES = 0.5  #: [mm or 1] a Newton residual below this, above the tolerance, stalled near a root (line-search Newton retries it)
+#: a coarse continuation sweep (too few positions for the knots, Branch.predict_knots) of at least this many
+#: columns starts from the cubic Taylor guesses (Branch.predict_taylor): their terms at a new anchor cost about
+#: what 1.3 Newton steps fewer save on some 40-60 columns (evaluation, and the graph where not cached)
+TAYLOR_MIN_COLUMNS = 64
+#: names the construction of Branch.taylor_function in the key of its compiled library (change it with the code)
+TAYLOR_TAG = "taylor3/1"
 
 
 @dataclass(frozen=True)
@@ -235,16 +242,16 @@ class Branch:
         tooth pairs (benchmarks/bench_compiled.py). The linear prediction (:meth:`predict`) where
         the derivatives are not finite (a singular Jacobian).
 
-        The Function runs compiled when its library is in the disk cache; under ``jit="auto"`` a
-        miss compiles it in the background (one column never waits for the compiler) and it is
-        evaluated interpreted meanwhile."""
+        The Function runs compiled when its library is in the disk cache (found by a key derived
+        from the residual's, :func:`gearopt.compiled.derived_library`, without building the graph);
+        unless ``jit=False``, a miss compiles it in the background (one column never waits for the
+        compiler) and it is evaluated interpreted meanwhile."""
         w_a, prm_a = np.asarray(w_a, float), np.asarray(prm_a, float)
         key = (w_a.tobytes(), prm_a.tobytes())
         d = self._taylor_memo.get(key)
         if d is None:
-            f = self.taylor_function()
-            g = select(f, self.jit, 1) if self.jit is not False else None
-            d = np.column_stack([v.ravel() for v in call(f if g is None else g, w_a, prm_a)])
+            g = self._taylor_compiled()
+            d = np.column_stack([v.ravel() for v in call(self.taylor_function() if g is None else g, w_a, prm_a)])
             if len(self._taylor_memo) >= 64:
                 self._taylor_memo.pop(next(iter(self._taylor_memo)))
             self._taylor_memo[key] = d
@@ -252,6 +259,19 @@ class Branch:
             return self.predict(w_a, prm_a, dphi)
         h = np.asarray(dphi, float)[None, :]
         return w_a[:, None] + h * (d[:, :1] + h * (d[:, 1:2] / 2 + h * (d[:, 2:] / 6)))
+
+    def _taylor_compiled(self) -> ca.Function | None:
+        """:meth:`taylor_function`'s library: loaded from the disk cache, or None (and compiled in the
+        background unless ``jit=False``)."""
+        key = ("taylor", "compiled")
+        g = self._maps.get(key)
+        if g is None and self.jit is not False and available():
+            g = derived_library(self.G, f"{self.name}_taylor", TAYLOR_TAG)
+            if g is None:
+                compile_derived(self.G, self.taylor_function(), TAYLOR_TAG)
+            else:
+                self._maps[key] = g
+        return g
 
     def _dw_at(self, w: np.ndarray, prm: np.ndarray) -> np.ndarray:
         """dw/dphi1 at one column: the Function itself, compiled when its library is cached (one
@@ -272,7 +292,10 @@ class Branch:
         cubic Hermite interpolant of the knot solutions and their implicit-function derivatives
         dw/dphi1 (error O(spacing^4): Newton then converges in one or two steps instead of four to
         nine from the anchor's linear prediction), or linearly from the nearest solved knot where a
-        knot of its interval failed, or from the anchor where none was solved.
+        knot of its interval failed, or from the anchor where none was solved. A coarse sweep, whose
+        knots would cost as much as its positions (more than a quarter of their number), starts from
+        the anchor's prediction instead: the cubic Taylor one (:meth:`predict_taylor`) from
+        :data:`TAYLOR_MIN_COLUMNS` positions on, else the linear one (:meth:`predict`).
 
         The grid depends only on ``anchor`` and ``spacing`` (not on the other positions), so a
         position's guess is the same in any sweep that covers it.
@@ -289,13 +312,15 @@ class Branch:
             Columns of the whole sweep (chooses compiled or interpreted for the knots' solve).
         """
         phi = np.asarray(phi, float)
-        lin = self.predict(w_a, prm_a, phi - anchor)
         if phi.size == 0:
-            return lin
+            return self.predict(w_a, prm_a, phi - anchor)
         j0 = math.floor((float(np.minimum.reduce(phi)) - anchor) / spacing)
         j1 = math.ceil((float(np.maximum.reduce(phi)) - anchor) / spacing)
         if (max(j1, j0 + 1) + 1 - j0) * 4 > phi.size:  # a coarse sweep: the knots would cost as much as the positions
-            return self.predict_taylor(w_a, prm_a, phi - anchor)
+            if phi.size >= TAYLOR_MIN_COLUMNS:
+                return self.predict_taylor(w_a, prm_a, phi - anchor)
+            return self.predict(w_a, prm_a, phi - anchor)
+        lin = self.predict(w_a, prm_a, phi - anchor)
         knots = anchor + spacing * np.arange(j0, max(j1, j0 + 1) + 1)
         prm_k = prm_of(knots)
         n_all = phi.size if n_total is None else n_total
