@@ -363,3 +363,48 @@ def test_taylor_prediction_falls_back_to_linear_when_not_finite(crowned):
     w = np.full(5, np.nan)
     prm = crowned.prm([0.0])[:, 0]
     assert np.array_equal(br.predict_taylor(w, prm, [0.1, 0.2]), br.predict(w, prm, [0.1, 0.2]), equal_nan=True)
+
+
+@needs_cc
+def test_derived_library_found_without_building_and_keyed_by_its_construction(tmp_path, monkeypatch):
+    """A Function built from another by a named construction (the TCA's Taylor terms from its
+    residual) compiles in the background into a path keyed by the base's key and the tag: found
+    there afterwards with the interpreted numbers bit for bit, not under another tag; with the
+    background compiles off nothing compiles."""
+    monkeypatch.setenv("GEAROPT_CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.delenv("GEAROPT_JIT_BACKGROUND", raising=False)
+    monkeypatch.setattr(compiled, "_loaded", {})
+    monkeypatch.setattr(compiled, "_pending", {})
+    base = _newton_column()
+    w, p = ca.SX.sym("w", 2), ca.SX.sym("p", 2)
+    f = ca.Function("ovh_derived", [w, p], [ca.sin(w[0]) * p[1] + ca.exp(w[1] - p[0])])
+    assert compiled.derived_library(base, "ovh_derived", "t/1") is None
+    monkeypatch.setenv("GEAROPT_JIT_BACKGROUND", "0")
+    assert compiled.compile_derived(base, f, "t/1") is None
+    monkeypatch.delenv("GEAROPT_JIT_BACKGROUND")
+    assert compiled.compile_derived(base, f, "t/1") is not None
+    assert compiled.wait_for_background(120)
+    g = compiled.derived_library(base, "ovh_derived", "t/1")
+    assert g is not None and compiled.derived_library(base, "ovh_derived", "t/2") is None
+    x, q = np.array([0.3, -0.2]), np.array([1.1, 0.7])
+    assert np.array_equal(np.asarray(g(x, q)), np.asarray(f(x, q)))
+    path = compiled.derived_library_path(base, "ovh_derived", "t/1")
+    assert path.exists() and path.parent == compiled.library_path(base).parent
+
+
+def test_taylor_guesses_only_from_taylor_min_columns(crowned, monkeypatch):
+    """A coarse sweep of fewer than TAYLOR_MIN_COLUMNS columns keeps the linear prediction; from
+    TAYLOR_MIN_COLUMNS on it starts from the Taylor guesses."""
+    from gearopt.meshing import solver
+
+    mis = Misalignment(crossing=3 * ARCMIN, intersecting=2 * ARCMIN, dE=0.05)
+    br = crowned.branch
+    used = []
+    saved = br.predict_taylor
+    monkeypatch.setattr(br, "predict_taylor", lambda *a: used.append(1) or saved(*a))
+    n = solver.TAYLOR_MIN_COLUMNS - 1
+    phi = np.linspace(-0.15, 0.15, n)  # one pair: n columns, 17 knots (coarse: more than n / 4)
+    crowned.sweep(phi, mis=mis, pairs=(0,))
+    assert not used
+    crowned.sweep(np.linspace(-0.15, 0.15, n + 1), mis=mis, pairs=(0,))
+    assert used
