@@ -248,17 +248,19 @@ class Branch:
         compiler) and it is evaluated interpreted meanwhile."""
         w_a, prm_a = np.asarray(w_a, float), np.asarray(prm_a, float)
         key = (w_a.tobytes(), prm_a.tobytes())
-        d = self._taylor_memo.get(key)
-        if d is None:
+        c = self._taylor_memo.get(key)
+        if c is None:
             g = self._taylor_compiled()
             d = np.column_stack([v.ravel() for v in call(self.taylor_function() if g is None else g, w_a, prm_a)])
+            # the polynomial's coefficients (nw, 1) each; () where a derivative is not finite
+            c = (d[:, :1], d[:, 1:2] / 2, d[:, 2:] / 6) if np.all(np.isfinite(d)) else ()
             if len(self._taylor_memo) >= 64:
                 self._taylor_memo.pop(next(iter(self._taylor_memo)))
-            self._taylor_memo[key] = d
-        if not np.all(np.isfinite(d)):
+            self._taylor_memo[key] = c
+        if not c:
             return self.predict(w_a, prm_a, dphi)
         h = np.asarray(dphi, float)[None, :]
-        return w_a[:, None] + h * (d[:, :1] + h * (d[:, 1:2] / 2 + h * (d[:, 2:] / 6)))
+        return w_a[:, None] + h * (c[0] + h * (c[1] + h * c[2]))
 
     def _taylor_compiled(self) -> ca.Function | None:
         """:meth:`taylor_function`'s library: loaded from the disk cache, or None (and compiled in the

@@ -850,7 +850,9 @@ class TCA:
         lim2 = self.on_flank(2, shp(W[2]), z2, p2)
         # on the face (|z1| <= b1 / 2, |z2| <= b2 / 2) and inside the tip circles (NaN, where not
         # accepted, compares False)
-        edge = np.array([[g1.b / 2 + eps, g1.r_a + eps], [g2.b / 2 + eps, g2.r_a + eps]])
+        edge = self._memo.get("edge")
+        if edge is None:  # (the pair is fixed when the TCA is built)
+            edge = self._remember("edge", np.array([[g1.b / 2 + eps, g1.r_a + eps], [g2.b / 2 + eps, g2.r_a + eps]]))
         inside = (np.abs(W[1:4:2]) <= edge[:, :1]) & (radii <= edge[:, 1:])
         inside = shp(inside[0] & inside[1])
         on = okk & inside & lim1 & lim2
