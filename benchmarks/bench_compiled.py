@@ -21,7 +21,8 @@ issue 43), the default ``jit="auto"`` with a warm disk cache (compiled whatever 
 43), and for the large sweep the compiled sweep with the thread count of the old rule
 (``min(cpus, columns // 512)`` threads whatever the load: ``set_threads(cpus)``), 1 thread, and the
 default rule (threads only on idle cores, ``compiled.threads_for``).
-"us/pos-pair": warm wall time of ``TCA.sweep`` (everything it does) per column, best of 5 calls;
+"us/pos-pair": warm wall time of ``TCA.sweep`` (everything it does) per column, best of 5 calls (the
+small sweep in a new process of this tree and of ``--base-tree``: best of ``NEW_PROCESS_SWEEPS`` = 300);
 warm: the column's library in the cache and each sweep called often enough before that its map
 sizes run their own compiled libraries (``compiled.ColumnMap``, ``MAP_LIBRARY_CALLS``).
 fsolve: ``scipy.optimize.fsolve`` (finite-difference Jacobian, default xtol) on the same equations
@@ -94,11 +95,18 @@ print(json.dumps({"us": min(ts) / 192 * 1e6, "from": gearopt.__file__}))
 """
 
 
+#: warm small sweeps timed in each new process (the best is its figure): a few hundred, so that a loaded
+#: machine's scatter (+-30 % from one call to the next at load 15) does not decide a comparison of trees
+NEW_PROCESS_SWEEPS = 300
+
+
 def small_in(tree, repeat):
-    """us per position-pair of the default small sweep (64 x 3, warm) run by the gearopt of ``tree``."""
+    """us per position-pair of the default small sweep (64 x 3, warm) run by the gearopt of ``tree``: the
+    best of NEW_PROCESS_SWEEPS calls in a new process."""
     env = dict(os.environ, PYTHONPATH=str(tree))
     # run from an empty folder: `python -c` puts the working directory first on sys.path
-    out = subprocess.run([sys.executable, "-c", SMALL, "1", CLOCK[0].__name__], env=env, capture_output=True, text=True, timeout=600,
+    out = subprocess.run([sys.executable, "-c", SMALL, str(NEW_PROCESS_SWEEPS // 5), CLOCK[0].__name__], env=env,
+                         capture_output=True, text=True, timeout=600,
                          cwd=tempfile.gettempdir())
     if out.returncode != 0:
         raise RuntimeError(out.stderr[-800:])
@@ -334,7 +342,8 @@ def main(argv):
         print(f"| {name} | {cols} | {labels[row]}: {path} | {stat(us)} | {stat(fs / us)}x | {err} |")
     if base_tree:
         print()
-        print("| small sweep (64 x 3), default `jit=\"auto\"`, new process, warm cache | us per position-pair | "
+        print(f"| small sweep (64 x 3), default `jit=\"auto\"`, new process, warm cache, best of {NEW_PROCESS_SWEEPS} "
+              "| us per position-pair | "
               "vs fsolve, same run |")
         print("|---|---|---|")
         for label, tree in (("before", base_tree), ("after", here)):
