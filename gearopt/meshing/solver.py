@@ -8,6 +8,7 @@ settings and the acceptance tolerances live here, documented, and supply the sce
 
 from __future__ import annotations
 
+import hashlib
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -30,6 +31,7 @@ STALL_RES = 0.5  #: [mm or 1] a Newton residual below this, above the tolerance,
 TAYLOR_MIN_COLUMNS = 64
 #: names the construction of Branch.taylor_function in the key of its compiled library (change it with the code)
 TAYLOR_TAG = "taylor3/1"
+_taylor_graphs: dict = {}  # Branch.taylor_function by (branch name, SHA-256 of the residual's graph): built once a process
 
 
 @dataclass(frozen=True)
@@ -212,7 +214,10 @@ class Branch:
         ``d1 = -J^-1 dF/dphi1``, ``d2 = -J^-1 d^2/ds^2 F(w + s d1, prm + s e_0)`` and
         ``d3 = -J^-1 d^3/ds^3 F(w + s d1 + s^2 d2 / 2, prm + s e_0)`` at s = 0 (the terms of the
         next order enter the s-derivative of that order only through ``J``). Built on first use
-        (one SX graph)."""
+        (one SX graph, about 0.1 s), once a process for every branch of the same residual graph."""
+        if self._taylor is None:
+            key = (self.name, hashlib.sha256(self.G.serialize().encode()).digest())  # (the same graph: the same bytes)
+            self._taylor = _taylor_graphs.get(key)
         if self._taylor is None:
             G = self.G
             nw, npr = G.size1_in(0), G.size1_in(1)
@@ -232,6 +237,9 @@ class Branch:
             d3 = -ca.solve(J, along(w + s * d1 + 0.5 * s ** 2 * d2, 3))
             self._taylor = ca.Function(f"{self.name}_taylor", [w, p], [d1, d2, d3], ["w", "prm"],
                                        ["d1", "d2", "d3"], {"cse": True})
+            if len(_taylor_graphs) >= 16:
+                _taylor_graphs.pop(next(iter(_taylor_graphs)))
+            _taylor_graphs[key] = self._taylor
         return self._taylor
 
     def predict_taylor(self, w_a: npt.ArrayLike, prm_a: npt.ArrayLike, dphi: npt.ArrayLike) -> np.ndarray:
