@@ -200,7 +200,9 @@ def test_measured_gear_runs_through_edge_contact_and_synthesis_like_the_designed
     design = pair_with(mg)
     tooth = modified_tooth(design, "gear")
     g = design.gear
-    grids = tuple(read_grid_csv(write_grid_csv(inspect_flank(tooth, sd, n_profile=61, n_face=21,
+    # a 31 x 11 grid (the imported B-spline's curvatures agree with the design's to 1e-5 here, and the
+    # measured gear's edge-contact solvers are built in half the time of a 61 x 21 grid's)
+    grids = tuple(read_grid_csv(write_grid_csv(inspect_flank(tooth, sd, n_profile=31, n_face=11,
                                                              d_range=(2 * g.r_form + 0.01, 2 * g.r_a)),
                                                tmp_path / f"{sd}.csv")) for sd in ("right", "left"))
     measured = pair_with(Microgeometry(measured=grids))
@@ -212,7 +214,7 @@ def test_measured_gear_runs_through_edge_contact_and_synthesis_like_the_designed
     target = LocalTarget(mprime21=-0.006, major_axis=12.0)
     la, lb = local_synthesis(design, target), local_synthesis(measured, target)
     assert la.status == lb.status == "Solve_Succeeded"
-    for k in ("a_c", "a_pl"):  # (curvatures and their derivatives from a 61 x 21 grid: 1e-3)
+    for k in ("a_c", "a_pl"):  # (curvatures and their derivatives from a measured grid: 1e-3)
         assert lb.settings[k] == pytest.approx(la.settings[k], rel=2e-3)
 
 

@@ -273,42 +273,19 @@ def test_processes_and_local_dask_are_bit_identical_and_survive_a_killed_worker(
         assert _same(r, serial_run), executor
 
 
-@pytest.mark.slow
-def test_dask_resubmits_a_lost_chunk(pair, serial_run, tmp_path):
-    """A chunk whose task the cluster lost (CancelledError) is resubmitted with the kernel scattered
-    again: same numbers; a chunk lost every time gives an ExecutionError naming it."""
-    from faulty_kernel import LoseOnceKernel
-
-    from gearopt.robust import execution
-
-    mc = MonteCarlo(pair, 96, seed=5, misalignment=MIS, iso_grade=6, f_a=0.02, chunk=16, executor="dask", workers=2)
-    marker = tmp_path / "lost-once"
-    loser = _swap_kernel(mc, LoseOnceKernel, marker)
-    r = mc.run()
-    assert marker.exists()
-    assert _same(r, serial_run)
-
-    class Always(LoseOnceKernel):
-        def evaluate(self, chunk):
-            marker.unlink(missing_ok=True)
-            return super().evaluate(chunk)
-
-    kernel = loser(mc._tca(), 1)
-    kernel.__class__ = Always
-    with pytest.raises(ExecutionError, match="lost"):
-        execution.run_chunks(kernel, [{"p1": np.zeros((1, 1))}], executor="dask", workers=1)
-
-
 def _free_port():
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         return s.getsockname()[1]
 
 
-@pytest.mark.slow
-def test_real_dask_scheduler_and_two_workers(pair, serial_run, tmp_path):
-    from faulty_kernel import DieOnceKernel
-
+@pytest.fixture(scope="class")
+def dask_cli_cluster():
+    """A real ``dask scheduler`` and two ``dask worker`` processes (each under its nanny, which
+    restarts a worker that dies), started from the command line: the scheduler's address. Shared by
+    the tests of :class:`TestDaskCommandLineCluster` (one cluster start instead of one LocalCluster
+    per run: the worker processes' imports are most of their CPU) and stopped after them (idle Dask
+    processes keep polling)."""
     dask = shutil.which("dask", path=os.path.dirname(sys.executable)) or shutil.which("dask")
     if dask is None:
         pytest.skip("the dask command line is not installed")
@@ -324,12 +301,7 @@ def test_real_dask_scheduler_and_two_workers(pair, serial_run, tmp_path):
         from distributed import Client
         with Client(addr, timeout="30s") as c:
             c.wait_for_workers(2, timeout=60)
-        mc = MonteCarlo(pair, 96, seed=5, misalignment=MIS, iso_grade=6, f_a=0.02, chunk=16)
-        marker = tmp_path / "died-cli"
-        _swap_kernel(mc, DieOnceKernel, marker)
-        r = mc.run(scheduler=addr)
-        assert marker.exists()
-        assert _same(r, serial_run)
+        yield addr
     finally:
         for p in procs[::-1]:
             p.terminate()
@@ -338,6 +310,49 @@ def test_real_dask_scheduler_and_two_workers(pair, serial_run, tmp_path):
                 p.wait(timeout=20)
             except subprocess.TimeoutExpired:
                 p.kill()
+
+
+@pytest.mark.slow
+class TestDaskCommandLineCluster:
+    """A real `dask scheduler` with two `dask worker` processes (:func:`dask_cli_cluster`): a lost chunk
+    resubmitted, a killed worker's chunk rerun; the numbers of the serial run."""
+
+    def test_dask_resubmits_a_lost_chunk(self, pair, serial_run, tmp_path, dask_cli_cluster):
+        """A chunk whose task the cluster lost (CancelledError) is resubmitted with the kernel scattered
+        again: same numbers; a chunk lost every time gives an ExecutionError naming it (on the scheduler
+        of :func:`dask_cli_cluster`: the resubmission is the executor's, whatever the cluster; the
+        LocalCluster of ``executor="dask"`` is
+        test_processes_and_local_dask_are_bit_identical_and_survive_a_killed_worker's)."""
+        from faulty_kernel import LoseOnceKernel
+
+        from gearopt.robust import execution
+
+        mc = MonteCarlo(pair, 96, seed=5, misalignment=MIS, iso_grade=6, f_a=0.02, chunk=16)
+        marker = tmp_path / "lost-once"
+        loser = _swap_kernel(mc, LoseOnceKernel, marker)
+        r = mc.run(scheduler=dask_cli_cluster)
+        assert marker.exists()
+        assert _same(r, serial_run)
+
+        class Always(LoseOnceKernel):
+            def evaluate(self, chunk):
+                marker.unlink(missing_ok=True)
+                return super().evaluate(chunk)
+
+        kernel = loser(mc._tca(), 1)
+        kernel.__class__ = Always
+        with pytest.raises(ExecutionError, match="lost"):
+            execution.run_chunks(kernel, [{"p1": np.zeros((1, 1))}], scheduler=dask_cli_cluster)
+
+    def test_real_dask_scheduler_and_two_workers(self, pair, serial_run, tmp_path, dask_cli_cluster):
+        from faulty_kernel import DieOnceKernel
+
+        mc = MonteCarlo(pair, 96, seed=5, misalignment=MIS, iso_grade=6, f_a=0.02, chunk=16)
+        marker = tmp_path / "died-cli"
+        _swap_kernel(mc, DieOnceKernel, marker)
+        r = mc.run(scheduler=dask_cli_cluster)
+        assert marker.exists()
+        assert _same(r, serial_run)
 
 
 @pytest.mark.slow
@@ -494,7 +509,9 @@ def test_wilson_interval_matches_scipy():
 def test_progress_bar_on_stderr_unless_quiet(tmp_path, capfd):
     from gearopt.cli import main
     scene = tmp_path / "mc.toml"
-    scene.write_text((ROOT / "problems" / "montecarlo_spur.toml").read_text().replace("samples = 1000", "samples = 64"))
+    # no figures: the bar is the study's, not the drawing's
+    scene.write_text((ROOT / "problems" / "montecarlo_spur.toml").read_text().replace("samples = 1000", "samples = 64")
+                     + "\n[output]\nplots = false\n")
     assert main(["run", str(scene), "--out", str(tmp_path / "a")]) == 0
     err = capfd.readouterr().err
     assert "64/64" in err and "sample" in err
