@@ -403,8 +403,11 @@ def test_influence_coefficients_are_a_compliance_and_are_cached(fe_cache, monkey
     from gearopt.geometry.generation import generate
 
     monkeypatch.setenv("GEAROPT_CACHE", str(fe_cache))
-    tooth = generate(Gear(z=20, m_n=3.0, b=20.0, name="pinion"))
-    ig = influence_grid(tooth, mesh=_coarse_member_mesh())
+    # the pinion's grid as LTCA(spur(), compliance="fe") asks for it (its form radius as r_form): the
+    # same cache entry, so test_loaded_tca_with_fe_compliance below reads it instead of running ccx again
+    tooth = generate(spur().pinion)
+    r_form = TCA(spur()).form_radius(1)
+    ig = influence_grid(tooth, mesh=_coarse_member_mesh(), r_form=r_form)
     assert not ig.cached
     nr, nz = ig.radius.size, ig.z.size
     G = ig.G.reshape(nr * nz, nr * nz)
@@ -432,13 +435,14 @@ def test_influence_coefficients_are_a_compliance_and_are_cached(fe_cache, monkey
     # (a spur tooth's middle line is its symmetry axis, so both are the same construction; the middle
     # node of the same row lies 0.2-15 % nearer, from root to tip)
     assert np.allclose(ig.depth[:, nz // 2], h, rtol=1e-6), (ig.depth[:, nz // 2], h)
-    again = influence_grid(tooth, mesh=_coarse_member_mesh())
+    again = influence_grid(tooth, mesh=_coarse_member_mesh(), r_form=r_form)
     assert again.cached and np.array_equal(again.G, ig.G) and np.array_equal(again.depth, ig.depth)
     # a new process reads the cache (no CalculiX run)
     code = ("import json; from gearopt.gears import Gear; from gearopt.geometry.generation import generate; "
             "from gearopt.fea.influence import influence_grid; from gearopt.fea.mesh import MeshOptions; "
-            "ig = influence_grid(generate(Gear(z=20, m_n=3.0, b=20.0, name='pinion')), mesh=MeshOptions(n_face=2, "
-            "n_half=3, n_flank=4, n_fillet=3, n_rim=2)); print(json.dumps([ig.cached, float(ig.G.sum())]))")
+            "ig = influence_grid(generate(Gear(z=20, m_n=3.0, b=20.0)), mesh=MeshOptions(n_face=2, "
+            f"n_half=3, n_flank=4, n_fillet=3, n_rim=2), r_form={r_form!r}); "
+            "print(json.dumps([ig.cached, float(ig.G.sum())]))")
     env = dict(os.environ, GEAROPT_CACHE=str(fe_cache), PATH="/nonexistent",
                PYTHONPATH=os.pathsep.join(sys.path))
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=300)
@@ -450,6 +454,9 @@ def test_influence_coefficients_are_a_compliance_and_are_cached(fe_cache, monkey
 @pytest.mark.calculix
 @_needs_ccx
 def test_loaded_tca_with_fe_compliance(fe_cache, monkeypatch):
+    """Loaded TCA on the members' FE influence grids (the pinion's from the module's cache where the
+    test above ran: the same call): geometry alone at zero load, a KKT point under load, a mesh
+    stiffness of the analytical model's order."""
     monkeypatch.setenv("GEAROPT_CACHE", str(fe_cache))
     pair = spur()
     La = LTCA(pair, n_slices=11)

@@ -6,6 +6,7 @@ measured behaviour this module relies on (two-step loading, LINEAR penalty ~50 E
 
 from __future__ import annotations
 
+import math
 import os
 import re
 import shutil
@@ -19,7 +20,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..errors import CalculixError, GearoptError  # noqa: F401  (CalculixError lives in errors.py; re-exported)
-from ..compiled import idle_cpus
+from ..compiled import idle_cpus as load_average_idle_cpus
 
 if TYPE_CHECKING:
     from collections.abc import Sequence
@@ -123,6 +124,44 @@ def write_inp(deck: Deck, path: str | os.PathLike) -> Path:
 # ---------------------------------------------------------------------------------------------
 # runner
 # ---------------------------------------------------------------------------------------------
+PROC_STAT = "/proc/stat"  #: the kernel's CPU time counters (Linux)
+
+
+def _cpu_times() -> tuple[int, int, int] | None:
+    """(idle ticks, all ticks, CPUs) of the machine from :data:`PROC_STAT`, or None where unreadable."""
+    try:
+        with open(PROC_STAT) as fh:
+            lines = fh.read().splitlines()
+        t = [int(v) for v in lines[0].split()[1:9]]  # user nice system idle iowait irq softirq steal
+        n = sum(1 for ln in lines if ln.startswith("cpu") and ln[3:4].isdigit())
+    except (OSError, ValueError, IndexError):
+        return None
+    return t[3] + t[4], sum(t), n
+
+
+def idle_cpus_now(window: float = 0.1) -> int:
+    """CPUs idle now: the machine's idle share of CPU time over ``window`` [s] (``/proc/stat``) times its
+    CPUs, rounded down after a 15 % allowance, between 1 and this process's usable CPUs.
+
+    Unlike the 1-minute load average (:func:`gearopt.compiled.idle_cpus`, the fallback where
+    ``/proc/stat`` is unreadable), this sees a core that went idle a moment ago: a test worker that ran
+    for the last minute keeps the load average at 1 or more, so a ccx started when the other core
+    had just finished its work got one thread from the load average."""
+    try:
+        usable = max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # not on Linux
+        usable = max(1, os.cpu_count() or 1)
+    a = _cpu_times()
+    if a is None:
+        return load_average_idle_cpus()
+    time.sleep(window)
+    b = _cpu_times()
+    if b is None or b[1] <= a[1]:
+        return load_average_idle_cpus()
+    share = (b[0] - a[0]) / (b[1] - a[1])
+    return int(min(usable, max(1, math.floor(share * b[2] + 0.15))))
+
+
 @dataclass
 class CcxRun:
     dat: str
@@ -138,11 +177,13 @@ def run_ccx(deck: Deck | None, jobname: str = "gear", threads: int = 2, timeout:
     (or ``keep_dir``, which keeps the files). Raises :class:`CalculixError` on a missing executable,
     timeout or failure.
 
-    ``threads`` is an upper bound: ccx gets at most the CPUs idle now (:func:`gearopt.compiled.idle_cpus`,
-    the 1-minute load average), because on busy cores a second solver thread only waits for a core
-    (measured: 35-50 % more ccx CPU at the same wall time, the same results)."""
+    ``threads`` is an upper bound: ccx gets at most the CPUs idle now (:func:`idle_cpus_now`), because on
+    busy cores a second solver thread only waits for a core (measured: 35-50 % more ccx CPU at the same
+    wall time, the same results: SPOOLES on 1 and 2 threads writes the same ``.dat``)."""
     exe = require_ccx()
-    threads = max(1, min(int(threads), idle_cpus()))
+    threads = max(1, int(threads))
+    if threads > 1:
+        threads = max(1, min(threads, idle_cpus_now()))
     tmp = None
     if keep_dir is None:
         tmp = tempfile.TemporaryDirectory(prefix="gearopt-ccx-")
