@@ -56,6 +56,15 @@ def check_limit(opt, d, mg, p_limit):
     return worst, sw
 
 
+@pytest.fixture(scope="module")
+def drive_a():
+    """The optimiser of drive (a): the drive's tip and root reliefs, lead crowning and both relief amounts
+    free, 250 N m aligned, p_limit 2200 MPa, edge loading allowed (built once: its loaded TCA's functions
+    are what the two tests of drive (a) share; :meth:`solve` and :meth:`check` take their grids)."""
+    return LoadedMicroOptimizer(drive(), FREE, torques=[TORQUE], n_positions=8, n_verify=16, n_slices=N_SLICES,
+                                p_limit=2200.0, edge_margin=None)
+
+
 @pytest.mark.slow
 def test_curvature_sensitivity_matches_finite_differences(monkeypatch):
     """Jk = d(kappa1 + kappa2)/d(theta, misalignment), the Hertz term's relative curvature 1 / R*
@@ -85,7 +94,7 @@ def test_curvature_sensitivity_matches_finite_differences(monkeypatch):
 
 
 @pytest.mark.slow
-def test_pressure_limit_holds_in_the_default_loaded_tca_near_relief_starts():
+def test_pressure_limit_holds_in_the_default_loaded_tca_near_relief_starts(drive_a):
     """Drive (a): tip and root reliefs whose starts lie in the active profile, lead crowning and both
     relief amounts free, 250 N m aligned, p_limit 2200 MPa (no edge constraint: the limit alone shapes
     the reliefs). The optimum by the independent default LTCA stays within 0.5 % of the limit at every
@@ -94,8 +103,7 @@ def test_pressure_limit_holds_in_the_default_loaded_tca_near_relief_starts():
     40.00 um, read 2700.7 MPa there (+22.8 %, at the relief starts)."""
     p_limit = 2200.0
     mg = {}
-    opt = LoadedMicroOptimizer(drive(), FREE, torques=[TORQUE], n_positions=8, n_verify=16, n_slices=N_SLICES,
-                               p_limit=p_limit, edge_margin=None)
+    opt = drive_a
     d = opt.solve()
     worst, _ = check_limit(opt, d, mg, p_limit)
     assert worst > 0.99 * p_limit
@@ -124,12 +132,11 @@ def test_pressure_limit_and_edges_hold_in_the_default_loaded_tca_with_profile_cr
 
 
 @pytest.mark.slow
-def test_a_design_above_the_limit_in_the_default_loaded_tca_is_refused():
+def test_a_design_above_the_limit_in_the_default_loaded_tca_is_refused(drive_a):
     """The verification's guard: a design whose default loaded TCA exceeds p_limit by more than 0.5 %
     (the optimum that the involute's curvature gave for drive (a): 2700.7 MPa against 2200) raises
     SynthesisError naming p_limit, the torque, the case and the position; it is never returned."""
-    opt = LoadedMicroOptimizer(drive(), FREE, torques=[TORQUE], n_positions=8, n_verify=16, n_slices=N_SLICES,
-                               p_limit=2200.0, edge_margin=None)
+    opt = drive_a
     chk = opt.check(np.array([0.01057, 0.040, 0.040]), opt.ltca.mesh_cycle(16))
     with pytest.raises(SynthesisError) as e:
         opt._raise_if_verification_fails(chk)

@@ -75,10 +75,19 @@ def assert_derivatives_match(diffs: list[dict], rel: float = 1e-3) -> None:
         assert d["ad_f"] == pytest.approx(d["fd_f"], rel=rel, abs=1e-6 * max(1.0, abs(d["fd_f"]))), f"parameter {j}"
 
 
+#: The loop's start [mm] for :func:`te_target`: 3 um or more off the optimum in every amount (its merit 139.9
+#: against the optimum's 125.1 arcsec, 2026-11-29), from which the loop reaches the optimum of the drive's
+#: own start design (to 0.01 um) in 18.4 s of CPU instead of 27.3 s. The NLP behind the sensitivities
+#: still leaves that design when solved cold (the test below fails with the held-design fallback of
+#: ``Sensitivities`` removed). (The loop from the drive's own start design with this target:
+#: problems/microgeometry_te_target.toml's scene.)
+TE_TARGET_START = np.array([12.0, 20.0, 28.0, 36.0]) * 1e-3
+
+
 @pytest.fixture(scope="module")
 def te_target():
     opt = te_target_optimizer()
-    design = opt.solve()
+    design = opt.solve(start=TE_TARGET_START)
     return opt, design, opt.sensitivities(design)
 
 
@@ -100,6 +109,8 @@ def test_sensitivities_nlp_stays_at_the_loops_optimum_with_the_te_target(te_targ
     # the other stationary point lay 25 arcsec above)
     ver = design.verified
     assert S["objective"] == pytest.approx(ver.objective + ver.te0_term, abs=0.5)
+    # the loop did the work: its start (TE_TARGET_START) lies well above the optimum
+    assert opt._merit(opt.check(TE_TARGET_START), design.rho) > opt._merit(ver, design.rho) + 5.0
 
 
 @pytest.mark.slow

@@ -55,9 +55,16 @@ def opt():
     return optimizer()
 
 
+#: The loop's start [mm] for :func:`design`: 3 um or more off the optimum in every amount (its merit 97.1
+#: against the optimum's 74.2 arcsec, 2026-11-29), from which the loop reaches the optimum of the drive's
+#: own start design (to 0.01 um) in 11.6 s of CPU instead of 21.9 s; the "before" design stays the drive's
+#: own. (The loop from the drive's own start design: problems/microgeometry_loaded.toml's scene.)
+DESIGN_START = np.array([37.0, 26.0, 4.0, 10.0]) * 1e-3
+
+
 @pytest.fixture(scope="module")
 def design(opt):
-    return opt.solve()
+    return opt.solve(start=DESIGN_START)
 
 
 @pytest.fixture(scope="module")
@@ -322,6 +329,8 @@ def test_optimum_is_verified_by_the_exact_loaded_tca(opt, design):
             assert opt._merit(opt.check(t)) > best - 0.05
     # the verification grid (finer than the NLP's) shows the same improvement
     assert d.after.objective < 0.8 * d.before.objective
+    # the loop did the work: its start (DESIGN_START) lies well above the optimum
+    assert opt._merit(opt.check(DESIGN_START)) > best + 5.0
 
 
 @pytest.mark.slow

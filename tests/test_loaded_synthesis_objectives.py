@@ -64,14 +64,16 @@ def test_litvin_settings_as_design_variables():
 @pytest.mark.ipopt
 def test_unreachable_limits_name_the_constraint_and_the_case():
     """A pressure limit below what any design reaches, and edges that only a relief left fixed could
-    open, stop with SynthesisError naming the constraint, the torque, the case and the value."""
-    opt = LoadedMicroOptimizer(drive(), {"pinion.C_beta": (0.0, 0.04)}, torques=[250.0], n_positions=12,
-                               n_slices=9, p_limit=600.0, edge_margin=None)
+    open, stop with SynthesisError naming the constraint, the torque, the case and the value (on 8
+    positions, the fewest the optimiser takes, and 7 slices: the messages do not depend on the grid;
+    6.1 s of CPU against 6.8 s on 12 and 9)."""
+    opt = LoadedMicroOptimizer(drive(), {"pinion.C_beta": (0.0, 0.04)}, torques=[250.0], n_positions=8,
+                               n_slices=7, p_limit=600.0, edge_margin=None)
     with pytest.raises(SynthesisError) as e:
         opt.solve()
     assert e.value.param == "p_limit" and e.value.value > 600.0
     assert "250 N m" in str(e.value) and "aligned" in str(e.value)
-    opt = LoadedMicroOptimizer(drive(), {"pinion.C_beta": (0.0, 0.04)}, torques=[250.0], n_positions=12, n_slices=9)
+    opt = LoadedMicroOptimizer(drive(), {"pinion.C_beta": (0.0, 0.04)}, torques=[250.0], n_positions=8, n_slices=7)
     with pytest.raises(SynthesisError) as e:
         opt.solve()
     assert e.value.param == "edge_margin" and e.value.value > 0
