@@ -180,13 +180,20 @@ class Sensitivities:
         # and through the held data's motion with the design along the optimum's own derivatives
         dfdp = Lp + dL_design @ dth
         step = float(np.max(np.abs(lay.unknowns.take(z, "theta") * 1e-3 - theta)))
+        # the active set by constraint block and the free amounts on a bound (lower -1, upper +1), for
+        # comparing the active sets of two optima (benchmarks/loaded_sensitivity_fd.py)
+        on = np.zeros(lbg.size, bool)
+        on[I_[act_g]] = True
+        blocks = {k: int(on[lay.rows[k]].sum()) for k in lay.rows.names if lay.rows.count(k)}
+        thx = np.arange(z.size)[lay.unknowns["theta"]]
+        at_bound = {n: (int(np.sign(lam_x[i])) if act_x[i] else 0) for n, i in zip(self.free, thx)}
         return {"d_objective_d_torque": dfdp[tq] / self.torques, "d_theta_d_torque": dth[:, tq] / self.torques[None, :],
                 "d_objective_d_mis": dfdp[mis], "d_theta_d_mis": dth[:, mis],
                 "model_step": step, "at_design": step <= 10 * constants.THETA_TOL, "objective": float(r["f"]),
                 "active": int(act_g.sum() + act_x.sum()), "degenerate": degenerate,
                 "min_multiplier": min_mult,
                 "nlp": nlp, "z": z, "lam_g": lam_g, "lam_x": lam_x, "p": p, "bounds": (lbx, ubx), "z0": z0,
-                "held_data": bool(held)}
+                "held_data": bool(held), "active_rows": blocks, "active_bounds": at_bound}
 
     def _local_solution(self, nlp, z0: np.ndarray, theta: np.ndarray, lbx: np.ndarray, ubx: np.ndarray,
                         p: np.ndarray) -> dict:
