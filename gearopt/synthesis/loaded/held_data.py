@@ -1,33 +1,39 @@
-"""The data the loaded NLP holds at its linearisation, to first order in the misalignment
-(docs/loaded_synthesis.md section 6.3): the compliance of every slice node (each part: the teeth,
-each member's body), its Hertz depths ``h1``, ``h2`` and, with FE influence coefficients, the dense
-compliance blocks, as they move with the slices' contact points when a misalignment is added to every
-case; and the derivatives of the NLP's constraints and Lagrangian through them, for the KKT
-sensitivities (:meth:`~gearopt.synthesis.loaded.sensitivity.Sensitivities.kkt_sensitivities`).
+"""The data the loaded NLP holds at its linearisation, to first order in the design and the
+misalignment (docs/loaded_synthesis.md section 6.3), for the KKT sensitivities
+(:meth:`~gearopt.synthesis.loaded.sensitivity.Sensitivities.kkt_sensitivities`).
 
-The NLP sees a misalignment through the separations, the relative curvature and the edge weights
-(linear in it, :mod:`.linearise`); the compliance and the Hertz depths it holds at the linearisation.
-They are functions of the slices' contact points and force directions (:meth:`gearopt.ltca.engine.LTCA
-.structure`), and the points move along the profile with the centre distance. Here the motion of every
-flank slice's point, normal and gear section with each misalignment kind is the total derivative along
-the solution of the slice equations (the implicit function theorem, by CasADi AD of the slice geometry,
-as :meth:`~gearopt.synthesis.loaded.linearise.Lineariser._sensitivity`), and the held data move with it
-through ``LTCA.structure`` itself (the same function that computes them, evaluated at the points moved
-by ``+-eps`` along that tangent: a central directional difference of a smooth numpy function; no
-derivative written by hand). The NLP is then built around the same linearisation with those data and
-its constraint rows and the gradient of its Lagrangian differenced at the solution.
+The NLP sees the design and a misalignment through the separations, the relative curvature and the
+edge weights (linear in both, :mod:`.linearise`); the compliance of every slice node (each part: the
+teeth, each member's body; with FE influence coefficients the dense blocks), the Hertz depths ``h1``,
+``h2``, the levers ``lam`` and their separation correction ``da`` it holds at the linearisation. They
+are functions of the slices' contact points, force directions, levers and TE (:meth:`gearopt.ltca
+.engine.LTCA.structure`, :meth:`~gearopt.synthesis.loaded.linearise.Lineariser.linearise`), and the
+points move along the profile with the centre distance (and with the design). Here the motion of every
+active slice's point, line of action, gear section, levers and TE in each design amount and
+misalignment kind is the total derivative along the solution of its slice equations (flank or tip
+edge: the implicit function theorem, by CasADi AD of the slice geometry ``LTCA.slices`` evaluates),
+and the held data move with it through the same functions that compute them (``LTCA.structure``
+and the levers' correction, evaluated at the points moved by ``+-eps`` along that tangent: a central
+directional difference of smooth numpy functions; no derivative written by hand). The NLP is then
+built around the linearisation with those data, and its constraint rows, the gradient of its
+Lagrangian and the Lagrangian differenced at the solution (:func:`held_derivatives`).
 
 Held as before: the contact lengths and the face coupling (the slices are fixed to the tooth: their
-widths and sections do not move), tip-edge slices' data (their Hertz radius and depth are the edge
-rounding's), and the levers (1 on a flank).
+widths and sections do not move) and a tip edge's Hertz radius (the edge rounding's).
 """
 
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Callable
+from typing import TYPE_CHECKING
 
 import casadi as ca
 import numpy as np
+
+if TYPE_CHECKING:
+    from .linearise import Lineariser, Linearisation
+    from .nlp import LoadedNLP
 
 
 #: the largest motion of a contact point [mm] of the central directional difference through
@@ -36,7 +42,7 @@ import numpy as np
 POINT_STEP = 1e-5
 
 
-def point_tangent_function(lr, kind: int) -> ca.Function:
+def point_tangent_function(lr: Lineariser, kind: int) -> ca.Function:
     """``(w, prm) -> (dr1, dr2, dn1, dn2, dz2, dl1, dl2, dte)`` of a slice of ``kind`` (0: flank, 1/2:
     the pinion's / gear's tip edge): the total derivatives of its point on the pinion and on the gear
     (own frames) [mm per unit], of the force's line of action in each member's frame (``SliceSet.nc1``,
@@ -76,7 +82,7 @@ def point_tangent_function(lr, kind: int) -> ca.Function:
 TANGENTS = (("r1", 3), ("r2", 3), ("n1", 3), ("n2", 3), ("z2", 1), ("lever1", 1), ("lever2", 1), ("te", 1))
 
 
-def point_tangents(lr, theta: np.ndarray, lin: list) -> list[dict]:
+def point_tangents(lr: Lineariser, theta: np.ndarray, lin: list[Linearisation]) -> list[dict]:
     """Per case of ``lin`` (the :class:`~gearopt.synthesis.loaded.linearise.Linearisation` of the design
     ``theta`` [mm]): the tangents of :func:`point_tangent_function` at every active slice, as arrays
     ``r1``, ``r2``, ``n1``, ``n2`` (K, N, M, 3, P + Q) and ``z2``, ``lever1``, ``lever2``, ``te``
@@ -111,7 +117,7 @@ def point_tangents(lr, theta: np.ndarray, lin: list) -> list[dict]:
     return out
 
 
-def moved(lr, L, tg: dict, col: int, step: float):
+def moved(lr: Lineariser, L: Linearisation, tg: dict, col: int, step: float) -> Linearisation:
     """The linearisation ``L`` with the data the NLP holds at it (``LTCA.structure`` of its slices, the
     levers ``lam`` and their separation correction ``da``, :meth:`~gearopt.synthesis.loaded.linearise
     .Lineariser.linearise`) of every active slice's point, line of action, gear section, levers and TE
@@ -136,7 +142,8 @@ def moved(lr, L, tg: dict, col: int, step: float):
     return dataclasses.replace(L, structure=st, lam=lam, da=da)
 
 
-def held_derivatives(lr, theta: np.ndarray, lin: list, nlp, build, z: np.ndarray, p: np.ndarray,
+def held_derivatives(lr: Lineariser, theta: np.ndarray, lin: list[Linearisation], nlp: LoadedNLP,
+                     build: Callable[[list[Linearisation]], LoadedNLP], z: np.ndarray, p: np.ndarray,
                      lam: np.ndarray, columns: list[int]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The derivatives of the NLP's constraint rows, of the gradient of its Lagrangian in the unknowns
     and of the Lagrangian, at the solution ``z`` with multipliers ``lam`` and parameters ``p``, through

@@ -22,7 +22,8 @@ class Sensitivities:
 
     def sensitivities(self, design: MicroDesign, held: bool = True) -> dict:
         """Sensitivities of the optimum to the torques and to a misalignment added to every case
-        (docs/loaded_synthesis.md section 6): :meth:`kkt_sensitivities` of the duty cycle, or where its
+        (docs/loaded_synthesis.md section 6; ``held``: as :meth:`kkt_sensitivities`, the held data's
+        motion taken in): :meth:`kkt_sensitivities` of the duty cycle, or where its
         cases are mirror images of each other (:meth:`mirror_classes`) of the problem with one case per
         class, with each mirror-odd kind's derivatives by symmetry.
 
@@ -46,15 +47,17 @@ class Sensitivities:
         classes = self.mirror_classes()
         if classes is None:
             return {**self.kkt_sensitivities(design, held=held), "mirror_odd": []}
-        out = self._reduced().kkt_sensitivities(design, held=held)
         kinds = Misalignment.names()
         odd = [j for j, k in enumerate(kinds) if Misalignment.mirror_sign(k) < 0]
+        # (the held data's motion in the odd kinds is not needed: their derivatives are zero)
+        out = self._reduced().kkt_sensitivities(design, held=held,
+                                                held_kinds=[k for j, k in enumerate(kinds) if j not in odd])
         out["d_theta_d_mis"][:, odd] = 0.0
         out["d_objective_d_mis"][odd] = 0.0
         out["mirror_odd"] = [kinds[j] for j in odd]
         return out
 
-    def kkt_sensitivities(self, design: MicroDesign, held: bool = True) -> dict:
+    def kkt_sensitivities(self, design: MicroDesign, held: bool = True, held_kinds: list[str] | None = None) -> dict:
         """Sensitivities of the optimum to the torques and to a misalignment, by AD (docs/loaded_synthesis.md),
         of this optimiser's own cases (:meth:`sensitivities` handles mirror-image cases).
 
@@ -68,6 +71,26 @@ class Sensitivities:
         as one sparse system for all parameters (the optimum's derivatives at a fixed active set,
         Fiacco). The optimal objective's derivatives are those of the Lagrangian in the parameters
         (the envelope theorem).
+
+        With ``held`` (default) the derivatives are those of the trust-region loop's optimum, the fixed
+        point at which the NLP built around a design has its optimum there: the compliance, Hertz
+        depths and levers the NLP holds at its linearisation move with the contact points, which the
+        design and a misalignment move (:mod:`.held_data`, docs/loaded_synthesis.md section 6.3); their
+        motion enters the KKT system (the design's columns of the Hessian and the constraint Jacobian,
+        the misalignment's columns of the parameters) and the objective's derivatives. Without it they
+        are the NLP's own at fixed held data (its derivatives in its parameters ``torque_scale`` and
+        ``mis_offset``, which differ from re-solved optima's: on problems/optimize_microgeometry.py's
+        drive -17.9 against -10.9 um of tip relief per mm of dE).
+
+        Parameters
+        ----------
+        design : MicroDesign
+            The optimum (:meth:`solve`).
+        held : bool
+            Whether the held data move with the design and the misalignment (default True).
+        held_kinds : list of str, optional
+            The misalignment kinds (``Misalignment.names()``) whose motion of the held data is taken in
+            (default all; :meth:`sensitivities` leaves out the kinds that are zero by symmetry).
 
         Returns
         -------
@@ -85,7 +108,10 @@ class Sensitivities:
             neither clearly active nor inactive (0: the derivatives are unique; else they hold on the
             side of the active set chosen, each such row counted active when its indicator is above
             1/2); ``min_multiplier``: the smallest active multiplier over the largest;
-            ``nlp`` / ``z`` / ``p``: the NLP, its solution and parameters (for checks).
+            ``nlp`` / ``z`` / ``p``: the NLP, its solution and parameters (for checks);
+            ``held_data``: ``held``; ``active_rows``: the active rows of each inequality block by
+            name (:data:`.layout.ROWS`); ``active_bounds``: per free amount -1 / +1 on its lower /
+            upper bound, else 0 (to compare the active sets of two optima).
 
         Raises
         ------
@@ -158,8 +184,11 @@ class Sensitivities:
             # motion in the design into the design's columns of the Hessian and the constraint Jacobian
             # (the implicit function theorem on the fixed point; theta is in um in the NLP)
             n_mis = mis.stop - mis.start
-            dg, dgz, dL = held_derivatives(self, theta, lin, nlp, lambda ln: self._nlp(ln, theta, keep, np.inf),
-                                           z, p, lam_a, list(range(P + n_mis)))
+            names = Misalignment.names()
+            cols = list(range(P)) + [P + j for j in range(n_mis) if held_kinds is None or names[j] in held_kinds]
+            dg, dgz, dL = np.zeros((gv.size, P + n_mis)), np.zeros((z.size, P + n_mis)), np.zeros(P + n_mis)
+            dg[:, cols], dgz[:, cols], dL[cols] = held_derivatives(
+                self, theta, lin, nlp, lambda ln: self._nlp(ln, theta, keep, np.inf), z, p, lam_a, cols)
             thc = lay.unknowns["theta"]
             H, Jg, Gp, Lzp = H.tolil(), Jg.tolil(), Gp.tolil(), Lzp.tolil()
             H[:, thc] = H[:, thc].toarray() + dgz[:, :P] * 1e-3
