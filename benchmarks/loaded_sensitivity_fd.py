@@ -59,7 +59,8 @@ def build_optimizer(name: str):
 
 def active_set(opt, design) -> dict | str:
     """The active set of an optimum: the active rows of each constraint block of its sensitivities'
-    NLP and the free amounts on a bound (``kkt_sensitivities``'s ``active_rows``, ``active_bounds``; the
+    NLP, the free amounts on a bound and per case the active slices and tip-edge slices (a slice
+    whose point crosses a flank's end or a tip changes the NLP's slices) (``kkt_sensitivities``'s ``active_rows``, ``active_bounds``; the
     NLP's own derivatives, ``held=False``: only the active set is read), or the error text."""
     from gearopt.errors import SynthesisError
 
@@ -67,7 +68,7 @@ def active_set(opt, design) -> dict | str:
         S = opt.kkt_sensitivities(design, held=False)
     except SynthesisError as exc:
         return str(exc)[:120]
-    return {"rows": S["active_rows"], "bounds": S["active_bounds"]}
+    return {"rows": S["active_rows"], "bounds": S["active_bounds"], "slices": S["slices"]}
 
 
 def verdict(r: dict, base_set, odd: bool) -> tuple[bool | None, str]:
@@ -89,7 +90,7 @@ def verdict(r: dict, base_set, odd: bool) -> tuple[bool | None, str]:
             return None, f"not compared: the active set of a re-solved optimum is unknown ({bad[0]})"
         changed = [s for s in sets if s != base_set]
         if changed and not odd:
-            return None, (f"not compared: the re-solved optimum's active set changes within the steps "
+            return None, (f"not compared: the re-solved optimum's active set or slice set changes within the steps "
                           f"(optimum {base_set}, re-solved {changed[0]})")
     jump = np.abs(np.array(r["plus_um"]) - np.array(r["other_um"]))
     if np.any(jump > 0.25 * np.max(np.abs(fd)) + 4 * noise) and not odd:

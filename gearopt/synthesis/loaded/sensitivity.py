@@ -111,7 +111,8 @@ class Sensitivities:
             ``nlp`` / ``z`` / ``p``: the NLP, its solution and parameters (for checks);
             ``held_data``: ``held``; ``active_rows``: the active rows of each inequality block by
             name (:data:`.layout.ROWS`); ``active_bounds``: per free amount -1 / +1 on its lower /
-            upper bound, else 0 (to compare the active sets of two optima).
+            upper bound, else 0; ``slices``: per case, the active slices and the tip-edge slices among
+            them (to compare the active sets and slice sets of two optima).
 
         Raises
         ------
@@ -222,7 +223,10 @@ class Sensitivities:
                 "active": int(act_g.sum() + act_x.sum()), "degenerate": degenerate,
                 "min_multiplier": min_mult,
                 "nlp": nlp, "z": z, "lam_g": lam_g, "lam_x": lam_x, "p": p, "bounds": (lbx, ubx), "z0": z0,
-                "held_data": bool(held), "active_rows": blocks, "active_bounds": at_bound}
+                "held_data": bool(held), "active_rows": blocks, "active_bounds": at_bound,
+                "slices": [(int(L.slices.active.sum()), int(0 if L.slices.edge is None else np.sum(L.slices.active
+                                                                                                & (L.slices.edge > 0))))
+                           for L in lin]}
 
     def _local_solution(self, nlp, z0: np.ndarray, theta: np.ndarray, lbx: np.ndarray, ubx: np.ndarray,
                         p: np.ndarray) -> dict:
