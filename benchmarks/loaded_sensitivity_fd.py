@@ -71,10 +71,12 @@ def active_set(opt, design) -> dict | str:
     return {"rows": S["active_rows"], "bounds": S["active_bounds"], "slices": S["slices"]}
 
 
-def verdict(r: dict, base_set, odd: bool) -> tuple[bool | None, str]:
+def verdict(r: dict, base_set, odd: bool, base_stop: str = "converged") -> tuple[bool | None, str]:
     """Whether the AD derivatives agree with the differences (None: not compared) and why.
 
-    Not compared where the re-solved optima lie on another active set than the optimum (a bound or a
+    Not compared where a loop (the optimum's or a re-solved one's) stopped on its trust radius (its
+    optimum is not known to ``THETA_TOL``: the differences are not bounded by the noise bound), where
+    the re-solved optima lie on another active set than the optimum (a bound or a
     constraint block's count of active rows changes) or jump (the one-sided difference quotients over
     the two steps differ by more than a quarter of the largest difference plus four noise bounds: a
     kink or another local optimum within the steps). A mirror-odd kind of a mirror-symmetric duty
@@ -83,6 +85,9 @@ def verdict(r: dict, base_set, odd: bool) -> tuple[bool | None, str]:
     Else: within twice the noise bound plus 5 % of the difference."""
     ad, fd = np.array(r["ad_um"]), np.array(r["fd_um"])
     noise = r["noise_um"]
+    stops = [base_stop] + list(r["stops"])
+    if any(s != "converged" for s in stops) and not odd:
+        return None, f"not compared: a loop stopped on its trust radius (optimum, re-solved: {stops})"
     sets = [s for s in r["active_sets"] if s is not None]
     if base_set is not None and sets:
         bad = [s for s in sets if isinstance(s, str)]
@@ -207,7 +212,7 @@ def main(argv=None) -> int:
                 print(f"| {n} | {r['ad_um'][i] * scale:.4g} | {r['fd_um'][i] * scale:.4g} | "
                       f"{r['plus_um'][i] * scale:.4g} | {r['other_um'][i] * scale:.4g} |")
             print(f"| objective [arcsec/{unit}] | {r['ad_objective'] * scale:.4g} | {r['fd_objective'] * scale:.4g} | | |")
-            r["ok"], why = verdict(r, base_set, kind in sens["mirror_odd"])
+            r["ok"], why = verdict(r, base_set, kind in sens["mirror_odd"], design.stop)
             fail |= r["ok"] is False
             print(why)
         print(f"({time.perf_counter() - t0:.0f} s)")
