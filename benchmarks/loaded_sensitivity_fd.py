@@ -18,8 +18,15 @@ stay within one active set and above the noise.
     python benchmarks/loaded_sensitivity_fd.py --only microgeometry_pareto --kinds crossing
     python benchmarks/loaded_sensitivity_fd.py --h-angle 0.05 --h-length 0.05 --theta-tol 1e-4   # the issue's steps
 
-``--h-angle`` [arcmin] and ``--h-length`` [mm] are the steps; exit status 1 when an AD derivative is
-off the central difference by more than twice the noise bound plus 5 % of the difference.
+``--h-angle`` [arcmin] and ``--h-length`` [mm] are the steps. Each re-solved optimum's active set
+(the active rows of each constraint block, the amounts on a bound, the active and tip-edge slices per
+case) is compared with the optimum's, and the one-sided quotients over the two steps with each other:
+where a loop stopped on its trust radius, the active set or the slice set changes, or the quotients
+disagree (a kink or another local optimum), the kind is reported as not compared (:func:`verdict`).
+Exit status 1 when a compared AD derivative is off the difference by more than twice the noise bound
+plus 5 % of the difference (docs/loaded_synthesis.md section 6.3).
+
+    python benchmarks/loaded_sensitivity_fd.py --only optimize_microgeometry --kinds dE --h-length 0.0005 --theta-tol 1e-8
 """
 
 from __future__ import annotations
