@@ -66,7 +66,7 @@ def build_optimizer(name: str):
 
 def active_set(opt, design) -> dict | str:
     """The active set of an optimum: the active rows of each constraint block of its sensitivities'
-    NLP, the free amounts on a bound and per case the active slices and tip-edge slices (a slice
+    NLP, the free amounts on a bound, the positions of the loaded TE's extremes and per case the active slices and tip-edge slices (a slice
     whose point crosses a flank's end or a tip changes the NLP's slices) (``kkt_sensitivities``'s ``active_rows``, ``active_bounds``; the
     NLP's own derivatives, ``held=False``: only the active set is read), or the error text."""
     from gearopt.errors import SynthesisError
@@ -75,7 +75,7 @@ def active_set(opt, design) -> dict | str:
         S = opt.kkt_sensitivities(design, held=False)
     except SynthesisError as exc:
         return str(exc)[:120]
-    return {"rows": S["active_rows"], "bounds": S["active_bounds"], "slices": S["slices"]}
+    return {"rows": S["active_rows"], "bounds": S["active_bounds"], "slices": S["slices"], "peaks": S["peaks"]}
 
 
 def verdict(r: dict, base_set, odd: bool, base_stop: str = "converged") -> tuple[bool | None, str]:

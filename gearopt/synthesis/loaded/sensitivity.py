@@ -111,7 +111,9 @@ class Sensitivities:
             ``nlp`` / ``z`` / ``p``: the NLP, its solution and parameters (for checks);
             ``held_data``: ``held``; ``active_rows``: the active rows of each inequality block by
             name (:data:`.layout.ROWS`); ``active_bounds``: per free amount -1 / +1 on its lower /
-            upper bound, else 0; ``slices``: per case, the active slices and the tip-edge slices among
+            upper bound, else 0; ``peaks``: the (torque, case, position) of each active ``te_hi`` and
+            ``te_lo`` row (the positions of the loaded TE's maxima and minima) and, under ``edge``, the
+            (torque, case, position, flat slice) of each active edge row; ``slices``: per case, the active slices and the tip-edge slices among
             them (to compare the active sets and slice sets of two optima).
 
         Raises
@@ -215,6 +217,13 @@ class Sensitivities:
         on = np.zeros(lbg.size, bool)
         on[I_[act_g]] = True
         blocks = {k: int(on[lay.rows[k]].sum()) for k in lay.rows.names if lay.rows.count(k)}
+        # the TE's extremes: (torque, case, position) of each active te_hi / te_lo row (one per block)
+        peaks = {k: [tuple(int(v) for v in nlp.blocks[i][:3]) for i in np.flatnonzero(on[lay.rows[k]])]
+                 for k in ("te_hi", "te_lo") if lay.rows.count(k) == len(nlp.blocks)}
+        # and the (torque, case, position, flat slice) of each active edge row
+        ends = nlp.rows["ends"]
+        if lay.rows.count("edge") == ends.size:
+            peaks["edge"] = [tuple(int(v) for v in nlp.keys[ends[i]]) for i in np.flatnonzero(on[lay.rows["edge"]])]
         thx = np.arange(z.size)[lay.unknowns["theta"]]
         at_bound = {n: (int(np.sign(lam_x[i])) if act_x[i] else 0) for n, i in zip(self.free, thx)}
         return {"d_objective_d_torque": dfdp[tq] / self.torques, "d_theta_d_torque": dth[:, tq] / self.torques[None, :],
@@ -223,7 +232,7 @@ class Sensitivities:
                 "active": int(act_g.sum() + act_x.sum()), "degenerate": degenerate,
                 "min_multiplier": min_mult,
                 "nlp": nlp, "z": z, "lam_g": lam_g, "lam_x": lam_x, "p": p, "bounds": (lbx, ubx), "z0": z0,
-                "held_data": bool(held), "active_rows": blocks, "active_bounds": at_bound,
+                "held_data": bool(held), "active_rows": blocks, "active_bounds": at_bound, "peaks": peaks,
                 "slices": [(int(L.slices.active.sum()), int(0 if L.slices.edge is None else np.sum(L.slices.active
                                                                                                 & (L.slices.edge > 0))))
                            for L in lin]}
