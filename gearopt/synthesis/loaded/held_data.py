@@ -19,10 +19,9 @@ built around the linearisation with those data, and its constraint rows, the gra
 Lagrangian and the Lagrangian differenced at the solution (:func:`held_derivatives`).
 
 Held as before: the contact lengths and the face coupling (the slices are fixed to the tooth) and a tip
-edge's Hertz radius (the edge rounding's). Not exact: the contact width of a flank slice beside a
-tip-edge slice (``SliceSet.width``, split at the zero of the tip margin, which moves with the points)
-is held too: the margins it is computed from are not kept in the ``SliceSet`` (docs/loaded_synthesis.md
-section 6.3).
+edge's Hertz radius (the edge rounding's). The contact width of a flank slice beside a tip-edge slice
+(``SliceSet.width``, split at the zero of the tip margin) moves with the points and is held too: with
+the edges kept open those slices carry no load (docs/loaded_synthesis.md section 6.3).
 """
 
 from __future__ import annotations
