@@ -12,6 +12,7 @@ from ...meshing.misalignment import Misalignment
 from ..crowning import SynthesisError
 from . import constants
 from .constants import WARM_OPTS
+from .held_data import held_derivatives
 from .kkt import central_path_indicators, csc_of_dm, degenerate_constraints, sparse_lu
 from .results import MicroDesign
 
@@ -19,9 +20,10 @@ from .results import MicroDesign
 class Sensitivities:
     """Sensitivities of an optimum by the KKT system of its active set."""
 
-    def sensitivities(self, design: MicroDesign) -> dict:
+    def sensitivities(self, design: MicroDesign, held: bool = True) -> dict:
         """Sensitivities of the optimum to the torques and to a misalignment added to every case
-        (docs/loaded_synthesis.md section 6): :meth:`kkt_sensitivities` of the duty cycle, or where its
+        (docs/loaded_synthesis.md section 6; ``held``: as :meth:`kkt_sensitivities`, the held data's
+        motion taken in): :meth:`kkt_sensitivities` of the duty cycle, or where its
         cases are mirror images of each other (:meth:`mirror_classes`) of the problem with one case per
         class, with each mirror-odd kind's derivatives by symmetry.
 
@@ -44,16 +46,18 @@ class Sensitivities:
         """
         classes = self.mirror_classes()
         if classes is None:
-            return {**self.kkt_sensitivities(design), "mirror_odd": []}
-        out = self._reduced().kkt_sensitivities(design)
+            return {**self.kkt_sensitivities(design, held=held), "mirror_odd": []}
         kinds = Misalignment.names()
         odd = [j for j, k in enumerate(kinds) if Misalignment.mirror_sign(k) < 0]
+        # (the held data's motion in the odd kinds is not needed: their derivatives are zero)
+        out = self._reduced().kkt_sensitivities(design, held=held,
+                                                held_kinds=[k for j, k in enumerate(kinds) if j not in odd])
         out["d_theta_d_mis"][:, odd] = 0.0
         out["d_objective_d_mis"][odd] = 0.0
         out["mirror_odd"] = [kinds[j] for j in odd]
         return out
 
-    def kkt_sensitivities(self, design: MicroDesign) -> dict:
+    def kkt_sensitivities(self, design: MicroDesign, held: bool = True, held_kinds: list[str] | None = None) -> dict:
         """Sensitivities of the optimum to the torques and to a misalignment, by AD (docs/loaded_synthesis.md),
         of this optimiser's own cases (:meth:`sensitivities` handles mirror-image cases).
 
@@ -67,6 +71,26 @@ class Sensitivities:
         as one sparse system for all parameters (the optimum's derivatives at a fixed active set,
         Fiacco). The optimal objective's derivatives are those of the Lagrangian in the parameters
         (the envelope theorem).
+
+        With ``held`` (default) the derivatives are those of the trust-region loop's optimum, the fixed
+        point at which the NLP built around a design has its optimum there: the compliance, Hertz
+        depths and levers the NLP holds at its linearisation move with the contact points, which the
+        design and a misalignment move (:mod:`.held_data`, docs/loaded_synthesis.md section 6.3); their
+        motion enters the KKT system (the design's columns of the Hessian and the constraint Jacobian,
+        the misalignment's columns of the parameters) and the objective's derivatives. Without it they
+        are the NLP's own at fixed held data (its derivatives in its parameters ``torque_scale`` and
+        ``mis_offset``, which differ from re-solved optima's: on problems/optimize_microgeometry.py's
+        drive -17.9 against -10.9 um of tip relief per mm of dE).
+
+        Parameters
+        ----------
+        design : MicroDesign
+            The optimum (:meth:`solve`).
+        held : bool
+            Whether the held data move with the design and the misalignment (default True).
+        held_kinds : list of str, optional
+            The misalignment kinds (``Misalignment.names()``) whose motion of the held data is taken in
+            (default all; :meth:`sensitivities` leaves out the kinds that are zero by symmetry).
 
         Returns
         -------
@@ -84,7 +108,13 @@ class Sensitivities:
             neither clearly active nor inactive (0: the derivatives are unique; else they hold on the
             side of the active set chosen, each such row counted active when its indicator is above
             1/2); ``min_multiplier``: the smallest active multiplier over the largest;
-            ``nlp`` / ``z`` / ``p``: the NLP, its solution and parameters (for checks).
+            ``nlp`` / ``z`` / ``p``: the NLP, its solution and parameters (for checks);
+            ``held_data``: ``held``; ``active_rows``: the active rows of each inequality block by
+            name (:data:`.layout.ROWS`); ``active_bounds``: per free amount -1 / +1 on its lower /
+            upper bound, else 0; ``peaks``: the (torque, case, position) of each active ``te_hi`` and
+            ``te_lo`` row (the positions of the loaded TE's maxima and minima) and, under ``edge``, the
+            (torque, case, position, flat slice) of each active edge row; ``slices``: per case, the active slices and the tip-edge slices among
+            them (to compare the active sets and slice sets of two optima).
 
         Raises
         ------
@@ -97,11 +127,16 @@ class Sensitivities:
         theta = np.array([design.theta[n] for n in self.free])
         if design.phi1 is not None:
             self.phi1 = np.asarray(design.phi1, float)
-        cur = self._around(theta, np.inf, design.rho)
-        nlp = cur.nlp
+        # the NLP of :meth:`_around` with every active slice and no trust radius, its linearisation kept
+        # (the held data's derivatives need it)
+        lin = self.linearise(theta)
+        sweeps = [self.ltca.solve(self.torques, slices=L.slices) for L in lin]
+        keep = self._keep(lin, sweeps, np.inf)
+        nlp = self._nlp(lin, theta, keep, np.inf)
+        z0 = self._start(nlp, lin, theta, sweeps)
         lbx, ubx = self._bounds(nlp)
         p = np.array(self._pvec(design.rho), float)
-        r = self._local_solution(nlp, cur.z0, theta, lbx, ubx, p)
+        r = self._local_solution(nlp, z0, theta, lbx, ubx, p)
         z, lam_g, lam_x = (np.asarray(r[k]).ravel() for k in ("x", "lam_g", "lam_x"))
         pr = nlp.problem
         zs, ps, g, f = pr["x"], pr["p"], pr["g"], pr["f"]
@@ -138,6 +173,34 @@ class Sensitivities:
         lam_a[I_[~act_g]] = 0.0
         H, _, _, _, Lzp, Lp = fun(z, p, lam_a)
         H, Lzp = csc_of_dm(H), csc_of_dm(Lzp)
+        Lp = np.asarray(Lp).ravel()
+        # the columns of the torque scales and of the misalignment offsets among the parameters ``sel``
+        tq, mis = (slice(lay.params[k].start - sel.start, lay.params[k].stop - sel.start)
+                   for k in ("torque_scale", "mis_offset"))
+        P = len(self.free)
+        dL_design = np.zeros(P)
+        if held:
+            # the compliance, Hertz depths and levers the NLP holds at the linearisation move with the
+            # contact points, which the design and a misalignment move (:mod:`.held_data`). The loop's
+            # optimum is a fixed point: the NLP built at theta* has its optimum at theta*. Its derivatives
+            # take the held data's motion in the misalignment into the parameters' columns, and their
+            # motion in the design into the design's columns of the Hessian and the constraint Jacobian
+            # (the implicit function theorem on the fixed point; theta is in um in the NLP)
+            n_mis = mis.stop - mis.start
+            names = Misalignment.names()
+            cols = list(range(P)) + [P + j for j in range(n_mis) if held_kinds is None or names[j] in held_kinds]
+            dg, dgz, dL = np.zeros((gv.size, P + n_mis)), np.zeros((z.size, P + n_mis)), np.zeros(P + n_mis)
+            dg[:, cols], dgz[:, cols], dL[cols] = held_derivatives(
+                self, theta, lin, nlp, lambda ln: self._nlp(ln, theta, keep, np.inf), z, p, lam_a, cols)
+            thc = lay.unknowns["theta"]
+            H, Jg, Gp, Lzp = H.tolil(), Jg.tolil(), Gp.tolil(), Lzp.tolil()
+            H[:, thc] = H[:, thc].toarray() + dgz[:, :P] * 1e-3
+            Jg[:, thc] = Jg[:, thc].toarray() + dg[:, :P] * 1e-3
+            Gp[:, mis] = Gp[:, mis].toarray() + dg[:, P:]
+            Lzp[:, mis] = Lzp[:, mis].toarray() + dgz[:, P:]
+            H, Jg, Gp, Lzp = H.tocsc(), Jg.tocsc(), Gp.tocsc(), Lzp.tocsc()
+            Lp[mis] += dL[P:]
+            dL_design = dL[:P]
         rows = np.concatenate([E, I_[act_g]])
         B = np.flatnonzero(act_x)
         A = sp_.vstack([Jg[rows], sp_.csc_matrix((np.ones(B.size), (np.arange(B.size), B)), shape=(B.size, z.size))])
@@ -145,17 +208,34 @@ class Sensitivities:
         rhs = -sp_.vstack([Lzp, Gp[rows], sp_.csc_matrix((B.size, Lzp.shape[1]))]).toarray()
         sol = sparse_lu(K, "the active set's KKT system").solve(rhs)
         dth = lay.unknowns.take(sol, "theta") * 1e-3  # theta is in um in the NLP
-        dfdp = np.asarray(Lp).ravel()
-        # the columns of the torque scales and of the misalignment offsets among the parameters ``sel``
-        tq, mis = (slice(lay.params[k].start - sel.start, lay.params[k].stop - sel.start)
-                   for k in ("torque_scale", "mis_offset"))
+        # the optimal objective's derivatives: the Lagrangian's in the parameters (the envelope theorem),
+        # and through the held data's motion with the design along the optimum's own derivatives
+        dfdp = Lp + dL_design @ dth
         step = float(np.max(np.abs(lay.unknowns.take(z, "theta") * 1e-3 - theta)))
+        # the active set by constraint block and the free amounts on a bound (lower -1, upper +1), for
+        # comparing the active sets of two optima (benchmarks/loaded_sensitivity_fd.py)
+        on = np.zeros(lbg.size, bool)
+        on[I_[act_g]] = True
+        blocks = {k: int(on[lay.rows[k]].sum()) for k in lay.rows.names if lay.rows.count(k)}
+        # the TE's extremes: (torque, case, position) of each active te_hi / te_lo row (one per block)
+        peaks = {k: [tuple(int(v) for v in nlp.blocks[i][:3]) for i in np.flatnonzero(on[lay.rows[k]])]
+                 for k in ("te_hi", "te_lo") if lay.rows.count(k) == len(nlp.blocks)}
+        # and the (torque, case, position, flat slice) of each active edge row
+        ends = nlp.rows["ends"]
+        if lay.rows.count("edge") == ends.size:
+            peaks["edge"] = [tuple(int(v) for v in nlp.keys[ends[i]]) for i in np.flatnonzero(on[lay.rows["edge"]])]
+        thx = np.arange(z.size)[lay.unknowns["theta"]]
+        at_bound = {n: (int(np.sign(lam_x[i])) if act_x[i] else 0) for n, i in zip(self.free, thx)}
         return {"d_objective_d_torque": dfdp[tq] / self.torques, "d_theta_d_torque": dth[:, tq] / self.torques[None, :],
                 "d_objective_d_mis": dfdp[mis], "d_theta_d_mis": dth[:, mis],
                 "model_step": step, "at_design": step <= 10 * constants.THETA_TOL, "objective": float(r["f"]),
                 "active": int(act_g.sum() + act_x.sum()), "degenerate": degenerate,
                 "min_multiplier": min_mult,
-                "nlp": nlp, "z": z, "lam_g": lam_g, "lam_x": lam_x, "p": p, "bounds": (lbx, ubx), "z0": cur.z0}
+                "nlp": nlp, "z": z, "lam_g": lam_g, "lam_x": lam_x, "p": p, "bounds": (lbx, ubx), "z0": z0,
+                "held_data": bool(held), "active_rows": blocks, "active_bounds": at_bound, "peaks": peaks,
+                "slices": [(int(L.slices.active.sum()), int(0 if L.slices.edge is None else np.sum(L.slices.active
+                                                                                                & (L.slices.edge > 0))))
+                           for L in lin]}
 
     def _local_solution(self, nlp, z0: np.ndarray, theta: np.ndarray, lbx: np.ndarray, ubx: np.ndarray,
                         p: np.ndarray) -> dict:

@@ -1,0 +1,94 @@
+"""Sensitivities of the loaded micro-geometry optimum to the centre distance and the torque against
+differences of re-solved optima (docs/loaded_synthesis.md section 6.3): the NLP holds the compliance,
+the Hertz depths and the levers at its linearisation, and they move with the contact points
+(gearopt.synthesis.loaded.held_data); without that motion the dE derivatives are off by a factor
+of two on the tip relief and of the wrong sign on the root relief (``held=False``)."""
+
+from __future__ import annotations
+
+import copy
+
+import numpy as np
+import pytest
+
+from gearopt.gears import Gear, GearPair
+from gearopt.geometry.microgeometry import Microgeometry
+from gearopt.meshing.misalignment import Misalignment
+from gearopt.synthesis.loaded import LoadedMicroOptimizer, constants
+
+UM = 1e-3
+#: the re-solves' design tolerance [mm]: a difference quotient over h is known to about THETA_TOL / h
+THETA_TOL = 1e-7
+
+
+@pytest.fixture(scope="module")
+def optimum():
+    """The small drive of problems/optimize_microgeometry.py (20/40, m 3, b 20, tip and root relief
+    starts 64 / 58.5 mm) at one torque and aligned, four free amounts, 8 positions and 7 slices; the
+    loop converged to a tight tolerance (it stops on its step alone)."""
+    mp = pytest.MonkeyPatch()
+    mp.setattr(constants, "THETA_TOL", THETA_TOL)
+    mp.setattr(constants, "F_TOL", 1e-12)
+    start = Microgeometry(C_alpha=5 * UM, C_beta=10 * UM, d_Ca=64.0, d_Cf=58.5)
+    pair = GearPair(Gear(z=20, m_n=3.0, b=20.0, modifications=start), Gear(z=40, m_n=3.0, b=20.0))
+    free = {f"pinion.{a}": (0.0, 40 * UM) for a in ("C_alpha", "C_beta", "C_alpha_a", "C_alpha_f")}
+    opt = LoadedMicroOptimizer(pair, free, [250.0], cases=[Misalignment()], n_positions=8, n_verify=8, n_slices=7)
+    design = opt.solve()
+    assert design.stop == "converged"
+    theta = np.array([design.theta[n] for n in opt.free])
+    yield opt, design, theta, opt.sensitivities(design)
+    mp.undo()
+
+
+def _agree(ad, fd, noise):
+    """AD within twice the differences' noise bound plus 2 % of the difference."""
+    return np.all(np.abs(ad - fd) <= 2 * noise + 0.02 * np.abs(fd)), (ad, fd)
+
+
+@pytest.mark.slow
+@pytest.mark.ipopt
+def test_centre_distance_sensitivities_match_re_solved_optima(optimum):
+    """dE [mm]: the scenes sit on the zero-backlash centre distance, so the second-order forward
+    difference over 0, h and 2h (h = 0.005 mm) of optima re-solved from the optimum on its grid; the
+    design's derivatives and the optimal objective's. Before the held data moved: C_alpha_a -16.2
+    and C_alpha_f -8.9 um per mm against -7.6 and +0.39 re-solved."""
+    opt, design, theta, S = optimum
+    assert S["at_design"] and S["degenerate"] == 0
+    j = Misalignment.names().index("dE")
+    h = 0.005
+    th, obj = {}, {}
+    # the zero point re-solved as the offset optima are (from the optimum, on its grid): the first
+    # solve's path may end a few nm away on the same branch
+    for k in (0, 1, 2):
+        d = opt.shifted(Misalignment(dE=k * h)).solve(start=theta, grid=design.phi1)
+        assert d.stop == "converged"
+        th[k] = np.array([d.theta[n] for n in opt.free])
+        obj[k] = d.predicted["objective"]
+    fd = (-3 * th[0] + 4 * th[1] - th[2]) / (2 * h)
+    # one active set over the steps: the one-sided quotients over h and 2h agree (no jump, no kink)
+    assert np.all(np.abs((th[1] - th[0]) / h - (th[2] - th[0]) / (2 * h)) < 0.05 * np.max(np.abs(fd)))
+    ok, info = _agree(S["d_theta_d_mis"][:, j], fd, 4 * THETA_TOL / h)
+    assert ok, info
+    fd_obj = (-3 * obj[0] + 4 * obj[1] - obj[2]) / (2 * h)
+    assert S["d_objective_d_mis"][j] == pytest.approx(fd_obj, rel=0.02)
+
+
+@pytest.mark.slow
+@pytest.mark.ipopt
+def test_torque_sensitivities_match_re_solved_optima(optimum):
+    """The torque (central difference over +-1 N m of re-solved optima): the design moves the contact
+    points too, so the loop's optimum is a fixed point of the held data (the NLP's own derivatives,
+    ``held=False``, were 6 % off on C_beta)."""
+    opt, design, theta, S = optimum
+    h = 1.0
+    th, obj = {}, {}
+    for s in (1, -1):
+        o = copy.copy(opt)
+        o.torques = opt.torques + s * h
+        o.phi1 = opt.phi1.copy()
+        d = o.solve(start=theta, grid=design.phi1)
+        th[s], obj[s] = np.array([d.theta[n] for n in opt.free]), d.predicted["objective"]
+    fd = (th[1] - th[-1]) / (2 * h)
+    ok, info = _agree(S["d_theta_d_torque"][:, 0], fd, THETA_TOL / h)
+    assert ok, info
+    assert S["d_objective_d_torque"][0] == pytest.approx((obj[1] - obj[-1]) / (2 * h), rel=0.01)
