@@ -11,7 +11,9 @@ validation of the default compliance's approach against an FE reference with ful
     python benchmarks/fe_full_gear_body.py --validate # (c) the validation positions of docs/ltca.md section 7
                                                       # (very fine FE level, recorded) with the FE reference's
                                                       # members' bodies replaced by full gears held at r_f / 2
-                                                      # (about 15 min of ccx for the eight members, then cached)
+                                                      # (about 15 min of ccx for the eight members, then cached):
+                                                      # the default compliance (the refitted body, helical normal
+                                                      # compliance) and the model before (Sainsot 2004, cos^2)
     python benchmarks/fe_full_gear_body.py --validate --lam-factor 0.5  # the body difference spread along the
                                                       # face over half (or X times) the body's depth (not recorded)
     python benchmarks/fe_full_gear_body.py --sainsot  # Sainsot's term on the 20/40 pinion's rows as implemented
