@@ -476,6 +476,14 @@ class LTCASettings(Settings):
     body_coupling: float | None = option(None, kind="length", bounds=Bounds(lo=0), key="",
                                          doc="coupling length of the gear bodies' term across the face, both members "
                                              "(default: each member's own)")
+    body: str = option("full_gear_fit", kind="str", choices=("full_gear_fit", "sainsot2004"), key="",
+                       doc="the gear body's term of the analytical compliance: Sainsot's form refitted to plane-stress "
+                           "FE full gears held at their bores (benchmarks/fe_body_fit.py), or Sainsot, Velex & "
+                           "Duverger's 2004 coefficients (docs/ltca.md section 2)")
+    helical: str = option("normal", kind="str", choices=("normal", "transverse"), key="",
+                          doc="a helical member's slice compliance along the normal: the teeth (bending, shear, "
+                              "compression) cos(beta_b) and the body once the transverse slice's (FE full gears, "
+                              "docs/ltca.md section 7), or both cos^2(beta_b) of it (the model before 2026-11-29)")
 
 
 @dataclass(frozen=True)

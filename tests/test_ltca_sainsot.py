@@ -1,7 +1,8 @@
 """Sainsot, Velex & Duverger (2004)'s gear-body term as published (docs/ltca.md section 7, "Sainsot, Velex &
 Duverger's term as others write it"): ``cos^2(alpha_m) / E [L* (u_f/S_f)^2 + M* (u_f/S_f) + P* (1 + Q*
 tan^2(alpha_m))]`` per unit face width, evaluated here from the tooth's geometry independently of
-gearopt.ltca.compliance."""
+gearopt.ltca.compliance. Since 2026-11-29 the term is selected with ``body = "sainsot2004"`` (the default body is
+the refit to FE full gears, tests/test_ltca_body.py)."""
 
 from __future__ import annotations
 
@@ -48,7 +49,7 @@ def test_body_term_is_the_published_formula(r_int_ratio):
     nrm *= np.sign(nrm[:, :1] * fl[:, :1])
     nrm /= np.linalg.norm(nrm, axis=1, keepdims=True)
     pick = [40, 150, 260]
-    got = ToothCompliance(tooth, Material(E=E, nu=nu), r_int).per_width(fl[pick], nrm[pick]).foundation
+    got = ToothCompliance(tooth, Material(E=E, nu=nu), r_int, body="sainsot2004").per_width(fl[pick], nrm[pick]).foundation
     for j, i in enumerate(pick):
         (x, y), (nx, ny) = fl[i], nrm[i]
         alpha_m = math.atan2(abs(ny), abs(nx))  # load line against the normal to the centreline

@@ -7,8 +7,10 @@ along the contact normal is the sum of
   clamped at the root circle (Weber 1949; the energy form of Cornell 1981, plane strain),
   integrated over the member's own generated transverse section (flank and fillet, as cut by
   its tool: :meth:`~gearopt.geometry.generation.GeneratedTooth.transverse_profile`);
-* the gear-body (fillet-foundation) term of Sainsot, Velex & Duverger (2004), with their fitted
-  coefficients;
+* the gear-body (fillet-foundation) term in the form of Sainsot, Velex & Duverger (2004), with
+  coefficients refitted to plane-stress FE full gears held at their bores (:data:`FULL_GEAR_FIT`,
+  ``benchmarks/fe_body_fit.py``; their own coefficients, :data:`SAINSOT`, with ``body =
+  "sainsot2004"``);
 * the local contact approach of Weber & Banaschek (1953) for two cylinders in line contact,
   measured to the tooth centrelines (nonlinear in the load);
 
@@ -20,6 +22,11 @@ member's body (the foundation term) over the body's depth under the root, ``r_f 
 every slice by the plane-strain value ``c f``; a concentrated load spreads each part over about
 ``2 lambda`` of its own. Different tooth pairs are not coupled (the rim is taken as rigid beyond the
 foundation term).
+
+A helical slice is the transverse section; ``LTCA.structure`` projects its compliance on the normal with
+``cos^2(beta_b)``. With ``helical = "normal"`` (the default) the teeth's terms are divided by ``cos(beta_b)``
+and the body's by ``cos^2(beta_b)`` first, so that along the normal the teeth give ``cos(beta_b) c`` and the
+body its transverse term, as the FE full gears of docs/ltca.md section 7 do.
 
 Units: mm, N, MPa. A compliance per unit face width ``c`` [mm^2/N] gives the deflection [mm] of
 a line load [N/mm].
@@ -36,7 +43,7 @@ import numpy as np
 import numpy.typing as npt
 
 from ..contact.hertz import contact_modulus, hertz_half_width, hertz_peak_pressure, weber_compliance
-from ..errors import check_number, out_of_range
+from ..errors import OptionError, check_number, out_of_range
 from ..geometry.generation import GeneratedTooth
 
 if TYPE_CHECKING:
@@ -50,7 +57,23 @@ SAINSOT = {
     "P": (-50.952e-5, 185.50e-3, 0.0538e-4, 53.300e-3, 0.2895, 0.9236),
     "Q": (-6.2042e-5, 9.0889e-3, -4.0964e-4, 7.8297e-3, -0.1472, 0.6904),
 }
-H_FI_RANGE = (1.4, 7.0)  #: r_f / r_int range of Sainsot's fit
+#: Sainsot's form refitted to plane-stress FE full gears held at their bores (``python benchmarks/fe_body_fit.py``,
+#: benchmarks/data/fe_body_fit.json "fit"; docs/ltca.md section 2): (A, B, C, D, E, F) as in :data:`SAINSOT`
+FULL_GEAR_FIT = {
+    "L": (-0.0020638671, -0.0023743527, -0.0014725576, 0.032304562, 0.091524566, 4.7190922),
+    "M": (-0.000733008, -0.065105097, -0.07464273, 0.13578915, 1.8187467, -2.018936),
+    "P": (-0.0023697979, 0.11815735, -0.0017226827, 0.1172066, 0.80993175, -0.73684653),
+    "Q": (0.0024626774, 0.076810368, -0.0074923544, -0.040982144, -0.55951671, 1.4454141),
+}
+#: the range of ``theta_f`` [rad] of the FE gears :data:`FULL_GEAR_FIT` was fitted to (80 and 14 teeth): outside it
+#: the polynomials take the nearer end (1/theta_f^2 terms do not extrapolate; the FE body per unit face width at
+#: one bore ratio changes by a few percent from 40 to 80 teeth, docs/ltca.md section 2)
+FULL_GEAR_FIT_THETA = (0.037661, 0.215206)
+#: the body terms by name (``LTCASettings.body``): the coefficients of Sainsot's polynomials
+BODY_TERMS = {"full_gear_fit": FULL_GEAR_FIT, "sainsot2004": SAINSOT}
+#: how a helical tooth's transverse compliance enters the normal one (``LTCASettings.helical``)
+HELICAL = ("normal", "transverse")
+H_FI_RANGE = (1.4, 7.0)  #: r_f / r_int range of Sainsot's fit and of the refit to FE full gears
 SHEAR_FACTOR = 1.2  #: shear correction of a rectangular section (energy method)
 
 
@@ -112,17 +135,43 @@ class ToothCompliance:
         The member's generated tooth (its transverse section at mid face is the beam).
     material : Material
     r_int : float
-        Inner radius of the gear body [mm], where it is held (the bore); Sainsot's formula is
-        fitted for ``1.4 <= r_f / r_int <= 7``. The body deflects more the deeper it is (its
+        Inner radius of the gear body [mm], where it is held (the bore); both fits cover
+        ``1.4 <= r_f / r_int <= 7``. The body deflects more the deeper it is (its
         bore is the fixed reference).
     member : str
         "pinion" or "gear" (for messages).
     n : int
         Points of the beam quadrature.
+    body : {"full_gear_fit", "sainsot2004"}
+        The body term's coefficients: :data:`FULL_GEAR_FIT` (Sainsot's form refitted to FE full gears
+        held at their bores, docs/ltca.md section 2) or Sainsot et al.'s own, :data:`SAINSOT`.
+    helical : {"normal", "transverse"}
+        For a helical member (``beta_b > 0``): ``"normal"`` divides the teeth's terms by ``cos(beta_b)``
+        and the body's by ``cos^2(beta_b)`` (the values are transverse compliances that loaded TCA
+        multiplies by ``cos^2(beta_b)``), ``"transverse"`` leaves them. A spur member: no difference.
+
+    Raises
+    ------
+    GeometryError
+        ``r_int`` outside ``r_f / 7 <= r_int <= r_f / 1.4`` (the range of both fits).
+    OptionError
+        ``body`` or ``helical`` not one of the names above.
     """
 
     def __init__(self, tooth: GeneratedTooth, material: Material, r_int: float, n: int = 600,
-                 member: str = "gear"):
+                 member: str = "gear", body: str = "full_gear_fit", helical: str = "normal"):
+        if body not in BODY_TERMS:
+            raise out_of_range("body", body, " or ".join(repr(k) for k in BODY_TERMS), cls=OptionError)
+        if helical not in HELICAL:
+            raise out_of_range("helical", helical, " or ".join(repr(k) for k in HELICAL), cls=OptionError)
+        self.body = body
+        self.helical = helical
+        # LTCA.structure projects these transverse compliances on the normal with cos^2(beta_b). The FE full
+        # gears (docs/ltca.md section 7) give a helical member's teeth cos(beta_b) c_teeth and its body the
+        # transverse term itself along the normal, per unit face width: the factors that make the projection so
+        cb = math.cos(float(tooth.gear.beta_b))
+        self.teeth_factor = 1.0 / cb if helical == "normal" else 1.0
+        self.body_factor = 1.0 / cb**2 if helical == "normal" else 1.0
         self.material = material
         pr = tooth.transverse_profile(z=0.0, n=n // 2)
         P = np.vstack([pr["right_flank"], pr["right_fillet"][1:]])
@@ -133,13 +182,14 @@ class ToothCompliance:
         lo, hi = self.r_f / H_FI_RANGE[1], self.r_f / H_FI_RANGE[0]
         if not lo <= r_int <= hi:
             raise out_of_range(f"{member}.r_int", r_int, f"{lo:.6g} <= r_int <= {hi:.6g} mm (inner radius of the "
-                               f"gear body: Sainsot's foundation term is fitted for {H_FI_RANGE[0]} <= r_f / r_int <= "
+                               f"gear body: the body term (Sainsot's form) is fitted for {H_FI_RANGE[0]} <= r_f / r_int <= "
                                f"{H_FI_RANGE[1]}, r_f = {self.r_f:.6g} mm)")
         self.r_int = float(r_int)
         self.h_fi = self.r_f / self.r_int
         self.S_f = 2.0 * self.r_f * math.sin(self.theta_f)
-        coef = {k: a / self.theta_f**2 + b * self.h_fi**2 + c * self.h_fi / self.theta_f + d / self.theta_f
-                + e * self.h_fi + f for k, (a, b, c, d, e, f) in SAINSOT.items()}
+        th = self.theta_f if body == "sainsot2004" else float(np.clip(self.theta_f, *FULL_GEAR_FIT_THETA))
+        coef = {k: a / th**2 + b * self.h_fi**2 + c * self.h_fi / th + d / th + e * self.h_fi + f
+                for k, (a, b, c, d, e, f) in BODY_TERMS[body].items()}
         self.sainsot = coef
         # half thickness x(y) along the tooth centreline (the +y axis), from the root circle up
         y, x = P[:, 1], np.abs(P[:, 0])
@@ -189,12 +239,13 @@ class ToothCompliance:
         I0, I1, I2 = (np.interp(etaP, self._eta, Ik) for Ik in self._I)
         J = np.interp(etaP, self._eta, self._J)
         m = self.material
-        bend = cos_g**2 / m.E_plane * 12.0 * (etaF**2 * I0 - 2.0 * etaF * I1 + I2)
-        shear = cos_g**2 * SHEAR_FACTOR * 2.0 * (1.0 + m.nu) / m.E * J
-        comp = sin_g**2 / m.E_plane * J
+        kt = self.teeth_factor
+        bend = kt * cos_g**2 / m.E_plane * 12.0 * (etaF**2 * I0 - 2.0 * etaF * I1 + I2)
+        shear = kt * cos_g**2 * SHEAR_FACTOR * 2.0 * (1.0 + m.nu) / m.E * J
+        comp = kt * sin_g**2 / m.E_plane * J
         c = self.sainsot
         ratio = etaF / self.S_f
-        found = cos_g**2 / m.E * (c["L"] * ratio**2 + c["M"] * ratio + c["P"] * (1.0 + c["Q"] * (sin_g / cos_g) ** 2))
+        found = self.body_factor * cos_g**2 / m.E * (c["L"] * ratio**2 + c["M"] * ratio + c["P"] * (1.0 + c["Q"] * (sin_g / cos_g) ** 2))
         return SliceCompliance(bending=bend, shear=shear, compression=comp, foundation=found,
                                total=bend + shear + comp + found, h=xP / cos_g, eta_F=etaF)
 

@@ -342,8 +342,8 @@ class LTCA:
     ----------
     pair : GearPair
     settings : gearopt.settings.LTCASettings, optional
-        ``side``, ``n_slices``, ``coupling``, ``compliance``, ``curvature``, ``body_coupling`` as one
-        object; keyword arguments replace its fields. Their defaults and ranges are declared there only.
+        ``side``, ``n_slices``, ``coupling``, ``compliance``, ``curvature``, ``body_coupling``, ``body``,
+        ``helical`` as one object; keyword arguments replace its fields. Their defaults and ranges are declared there only.
     side : {"right", "left"}
         Driving flank of the pinion.
     material : Material
@@ -367,6 +367,15 @@ class LTCA:
         with the same Weber-Banaschek contact term.
     fe_mesh : MeshOptions, optional
         Member mesh of the FE influence coefficients (default: that of ``influence_grid``).
+    body : {"full_gear_fit", "sainsot2004"}
+        The gear body's term of the analytical compliance (:class:`~gearopt.ltca.compliance.ToothCompliance`):
+        Sainsot's form refitted to FE full gears held at their bores (default), or Sainsot, Velex &
+        Duverger's 2004 coefficients.
+    helical : {"normal", "transverse"}
+        A helical member's slice compliance along the normal (per unit face width): the teeth's
+        (bending, shear, compression) ``cos(beta_b)`` times the transverse slice's and the body's once
+        the transverse term (default; the FE full gears of docs/ltca.md section 7), or both
+        ``cos^2(beta_b)`` times it (the projection of the transverse slice, the model before 2026-11-29).
     curvature : {"surface", "involute"}
         The flanks' curvature across the contact line in the Hertz term: each modified surface's own
         at the slice's point (by AD; profile crowning, reliefs and their smooth starts raise it), or
@@ -377,7 +386,8 @@ class LTCA:
     def __init__(self, pair: GearPair, settings: LTCASettings | None = None, *, material: Material | None = None,
                  r_int: float | None = None, tca: TCA | None = None, fe_mesh: MeshOptions | None = None,
                  **options: Any):
-        # side, n_slices, coupling, compliance, curvature, body_coupling: defaults and checks of LTCASettings
+        # side, n_slices, coupling, compliance, curvature, body_coupling, body, helical: defaults and checks
+        # of LTCASettings
         s = LTCASettings.of(settings, **options)
         side, n_slices, coupling, compliance = s.side, s.n_slices, s.coupling, s.compliance
         curvature, body_coupling = s.curvature, s.body_coupling
@@ -399,8 +409,9 @@ class LTCA:
             r_int = (0.5 * g1.r_f, 0.5 * g2.r_f)
         self.r_int = tuple(float(check_number(f"{n}.r_int", v, "inner radius of the gear body [mm]"))
                            for n, v in zip(("pinion", "gear"), r_int))
-        self.teeth = (ToothCompliance(self.tca.pinion.unmodified, material, self.r_int[0], member="pinion"),
-                      ToothCompliance(self.tca.gear.unmodified, material, self.r_int[1], member="gear"))
+        tk = dict(body=s.body, helical=s.helical)
+        self.teeth = (ToothCompliance(self.tca.pinion.unmodified, material, self.r_int[0], member="pinion", **tk),
+                      ToothCompliance(self.tca.gear.unmodified, material, self.r_int[1], member="gear", **tk))
         lam = 0.5 * (g1.r_a - g1.r_f) if coupling is None else coupling
         if not 0.0 <= lam <= 10 * g1.b:
             raise out_of_range("coupling", lam, f"0 <= coupling <= {10 * g1.b:g} mm (10 face widths)", cls=OptionError)

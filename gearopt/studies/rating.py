@@ -384,7 +384,7 @@ def _register() -> None:
     from .ltca import torque_fields
     from .tca import misalignment_fields
 
-    keys = [k for k in RatingSettings.options() if k not in ("curvature", "body_coupling")]
+    keys = [k for k, (o, _) in RatingSettings.options().items() if o.key != ""]  # the scene keys (not curvature, ...)
     register(StudySpec(
         name="rating",
         doc="ISO 6336 pitting and bending safety, with K_Hbeta and K_Halpha from the loaded TCA beside ISO's",
