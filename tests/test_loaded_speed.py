@@ -273,7 +273,7 @@ def test_solver_options_and_oracle_leave_the_iterates_bit_for_bit(small):
     small_ws, st_s, it_s = _solve(opt, cur, th, 0.004)
     default = {k: v for k, v in cur.nlp.opts.items() if k != "ipopt.mumps_mem_percent"}
     ref = LoadedNLP(**{**{k: getattr(cur.nlp, k) for k in LoadedNLP.__dataclass_fields__ if not k.startswith("_")
-                          and k not in ("warm",)}, "opts": default})
+                          and k not in ("warm", "cold")}, "opts": default})
     big_ws, st_b, it_b = _solve(opt, LocalModel(nlp=ref, z0=cur.z0, check=cur.check, merit=cur.merit, time=0.0), th,
                                 0.004)
     assert st_s["success"] and st_b["success"] and it_s == it_b
@@ -289,3 +289,70 @@ def test_solver_options_and_oracle_leave_the_iterates_bit_for_bit(small):
     lbx, ubx = opt._bounds(cur.nlp)
     args = dict(x0=cur.z0, lbx=lbx, ubx=ubx, lbg=cur.nlp.lbg, ubg=cur.nlp.ubg, p=opt._pvec(1000.0))
     assert np.array_equal(np.asarray(own(**args)["x"]), np.asarray(cur.nlp.solver(**args)["x"]))
+
+
+@pytest.mark.slow
+@pytest.mark.ipopt
+def test_the_loops_cold_solves_take_the_monotone_barrier_to_the_adaptive_optimum(small):
+    """The trust-region loop solves an NLP from its start point with the monotone barrier
+    (``nlp.COLD_OPTS``: on microgeometry_loaded 311 instead of 392 iterations in its three cold NLPs,
+    docs/benchmarks.md "Loaded optimiser (issue 43), session of 12:00"), in a solver of its own: the
+    NLP's :attr:`solver` (the adaptive barrier, which the sensitivities' re-solves build on) stays
+    unbuilt. The optimum is the adaptive barrier's to 1e-6 um and 1e-6 arcsec."""
+    from gearopt.synthesis.loaded.nlp import COLD_OPTS
+
+    opt = small
+    th = opt.theta0.copy()
+    opt.phi1 = opt.ltca.mesh_cycle(opt.n_positions)
+    cur = opt._around(th, 0.004)
+    r, st, it = _solve(opt, cur, th, 0.004)
+    assert st["success"] and it > 0
+    assert COLD_OPTS["ipopt.mu_strategy"] == "monotone"
+    assert cur.nlp.cold is not None and not cur.nlp.solver_built and cur.nlp.warm is None
+    assert cur.nlp.opts.get("ipopt.mu_strategy") == "adaptive"  # the NLP's own options unchanged
+    lbx, ubx = opt._bounds(cur.nlp)
+    th_i = cur.nlp.layout.unknowns["theta"]
+    lbx[th_i] = np.maximum(opt.lo, th - 0.004) * 1e3
+    ubx[th_i] = np.minimum(opt.hi, th + 0.004) * 1e3
+    ref = cur.nlp.solver(x0=cur.z0, lbx=lbx, ubx=ubx, lbg=cur.nlp.lbg, ubg=cur.nlp.ubg, p=opt._pvec(1000.0))
+    assert cur.nlp.solver.stats()["success"]
+    x, xr = np.asarray(r["x"]).ravel(), np.asarray(ref["x"]).ravel()
+    assert np.max(np.abs(x[th_i] - xr[th_i])) < 1e-6  # [um]
+    assert abs(float(r["f"]) - float(ref["f"])) < 1e-6  # [arcsec]
+    assert np.max(np.abs(x[th_i] - th * 1e3)) > 0.1  # the design moved: a real optimisation
+
+
+@pytest.mark.slow
+def test_a_first_run_solves_the_slices_interpreted_while_they_compile_in_the_background(monkeypatch):
+    """Under ``jit="auto"`` the optimiser's slices of fewer than ``compiled.MIN_COLUMNS`` columns whose
+    library is not in the disk cache run interpreted while it compiles in the background (the loop's
+    later solves pick it up): a first run no longer waits for five compiles before its first
+    linearisation. ``jit=True`` compiles at once, ``jit=False`` never; with the background compiles off
+    (``GEAROPT_JIT_BACKGROUND=0``, this suite's default) ``"auto"`` compiles at once too."""
+    monkeypatch.setenv("GEAROPT_JIT_BACKGROUND", "0")
+    off = LoadedMicroOptimizer(GearPair(Gear(z=20, m_n=3.0, b=20.0), Gear(z=40, m_n=3.0, b=20.0)),
+                               {"pinion.C_alpha": (0.0, 0.04)}, torques=[200.0], n_positions=8, n_verify=16)
+    assert off.tca.jit is compiled.available()
+    monkeypatch.setenv("GEAROPT_JIT_BACKGROUND", "1")
+    opt = LoadedMicroOptimizer(GearPair(Gear(z=20, m_n=3.0, b=20.0, modifications=Microgeometry(C_alpha=0.005)),
+                                        Gear(z=40, m_n=3.0, b=20.0)), {"pinion.C_alpha": (0.0, 0.04)},
+                               torques=[200.0], n_positions=8, n_verify=16, n_slices=5)
+    assert opt.tca.jit == "auto"
+    assert opt.jit is compiled.available()  # the sensitivities: compiled whenever a compiler is present
+    if not compiled.available():
+        return
+    fg, bg = [], []
+    monkeypatch.setattr(compiled, "cached_function", lambda f: None)  # every library a cache miss
+    monkeypatch.setattr(compiled, "compile_function", lambda f: fg.append(f.name()))
+    monkeypatch.setattr(compiled, "compile_in_background", lambda f: bg.append(f.name()))
+    p1, p2 = opt.params(opt.theta0)
+    S = opt.ltca.slices(opt.phi1, p1, p2, opt.cases[0])
+    assert S.active.any()
+    assert fg == [] and any(n.startswith("ltca_slice") for n in bg)
+    forced = LoadedMicroOptimizer(opt.pair, {"pinion.C_alpha": (0.0, 0.04)}, torques=[200.0], n_positions=8,
+                                  n_verify=16, n_slices=5, jit=True)
+    assert forced.tca.jit is True
+    forced.ltca.slices(forced.phi1, p1, p2, forced.cases[0])
+    assert any(n.startswith("ltca_slice") for n in fg)  # compiled at once (here: the stub's None, interpreted)
+    assert LoadedMicroOptimizer(opt.pair, {"pinion.C_alpha": (0.0, 0.04)}, torques=[200.0], n_positions=8,
+                                n_verify=16, n_slices=5, jit=False).tca.jit is False
