@@ -24,15 +24,6 @@ from .verify import harmonic_rows
 
 #: IPOPT's ``mumps_mem_percent`` for the loaded NLP: MUMPS's workspace over its estimate [%] (:meth:`NLPBuilder._nlp`)
 MUMPS_MEM_PERCENT = 50
-#: IPOPT's options of the trust-region loop's cold solves (:attr:`LoadedNLP.cold`) over the NLP's own: the
-#: monotone (Fiacco-McCormick) barrier from ``mu_init``. On problems/microgeometry_loaded.toml the three cold
-#: NLPs took 151 / 93 / 67 iterations instead of the adaptive barrier's 240 / 73 / 79 (its quality-function
-#: oracle chases mu down to 1e-11 and back up while the smoothed complementarity's curvature, 1/sqrt(MU),
-#: stalls the steps), each at the same optimum to 1e-6 um (the monotone barrier stops at a larger final mu:
-#: the objective 3e-8 arcsec higher). The warm solves, the NLP's own :attr:`LoadedNLP.solver` and the
-#: sensitivities' re-solves keep the adaptive barrier (monotone there: re-solves at perturbed torques that
-#: land on other local optima, docs/benchmarks.md "Loaded optimiser")
-COLD_OPTS = {"ipopt.mu_strategy": "monotone"}
 
 
 class NLPBuilder:
@@ -420,8 +411,6 @@ class LoadedNLP:
     te0: Te0Slices | None  #: the unloaded-TE target's slices, or None
     te0_term: ca.Function  #: the unloaded-TE target's term of the objective, ``z -> te0_term``
     warm: ca.Function | None = None  #: the warm-start IPOPT solver, once built (:meth:`TrustRegion._solve_nlp`)
-    #: the trust-region loop's cold-start IPOPT solver (:data:`COLD_OPTS`), once built (:meth:`TrustRegion._solve_nlp`)
-    cold: ca.Function | None = None
     _solver: ca.Function | None = field(default=None, repr=False)
     _oracle: ca.Function | None = field(default=None, repr=False)
 

@@ -15,7 +15,7 @@ from ..crowning import SynthesisError
 from . import constants
 from .constants import EDGE_TOL, MAX_ROUNDS, RHO, RHO_MAX, SLACK_TOL, TR_START, WARM_OPTS
 from .layout import param_layout
-from .nlp import COLD_OPTS, LoadedNLP
+from .nlp import LoadedNLP
 from .results import LoadedCheck
 
 RHO_AT = param_layout(0, 0)["rho"].start  #: the penalty weight's place among the NLP's parameters
@@ -175,18 +175,9 @@ class TrustRegion:
             its += int(st["iter_count"])
             if st["success"]:
                 return r, st, its
-        cold = self._cold_solver(nlp)
-        r = cold(**args)
-        st = cold.stats()
+        r = nlp.solver(**args)
+        st = nlp.solver.stats()
         return r, st, its + int(st["iter_count"])
-
-    @staticmethod
-    def _cold_solver(nlp) -> ca.Function:
-        """The loop's IPOPT solver of ``nlp`` from its start point (:data:`~.nlp.COLD_OPTS`: the monotone
-        barrier), built on first use from the NLP's oracle."""
-        if nlp.cold is None:
-            nlp.cold = ca.nlpsol("loaded_microgeometry_cold", "ipopt", nlp.oracle, {**nlp.opts, **COLD_OPTS})
-        return nlp.cold
 
     @staticmethod
     def _warm_solver(nlp) -> ca.Function:
