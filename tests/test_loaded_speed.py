@@ -289,3 +289,39 @@ def test_solver_options_and_oracle_leave_the_iterates_bit_for_bit(small):
     lbx, ubx = opt._bounds(cur.nlp)
     args = dict(x0=cur.z0, lbx=lbx, ubx=ubx, lbg=cur.nlp.lbg, ubg=cur.nlp.ubg, p=opt._pvec(1000.0))
     assert np.array_equal(np.asarray(own(**args)["x"]), np.asarray(cur.nlp.solver(**args)["x"]))
+
+
+@pytest.mark.slow
+def test_a_first_run_solves_the_slices_interpreted_while_they_compile_in_the_background(monkeypatch):
+    """Under ``jit="auto"`` the optimiser's slices of fewer than ``compiled.MIN_COLUMNS`` columns whose
+    library is not in the disk cache run interpreted while it compiles in the background (the loop's
+    later solves pick it up): a first run no longer waits for five compiles before its first
+    linearisation. ``jit=True`` compiles at once, ``jit=False`` never; with the background compiles off
+    (``GEAROPT_JIT_BACKGROUND=0``, this suite's default) ``"auto"`` compiles at once too."""
+    monkeypatch.setenv("GEAROPT_JIT_BACKGROUND", "0")
+    off = LoadedMicroOptimizer(GearPair(Gear(z=20, m_n=3.0, b=20.0), Gear(z=40, m_n=3.0, b=20.0)),
+                               {"pinion.C_alpha": (0.0, 0.04)}, torques=[200.0], n_positions=8, n_verify=16)
+    assert off.tca.jit is compiled.available()
+    monkeypatch.setenv("GEAROPT_JIT_BACKGROUND", "1")
+    opt = LoadedMicroOptimizer(GearPair(Gear(z=20, m_n=3.0, b=20.0, modifications=Microgeometry(C_alpha=0.005)),
+                                        Gear(z=40, m_n=3.0, b=20.0)), {"pinion.C_alpha": (0.0, 0.04)},
+                               torques=[200.0], n_positions=8, n_verify=16, n_slices=5)
+    assert opt.tca.jit == "auto"
+    assert opt.jit is compiled.available()  # the sensitivities: compiled whenever a compiler is present
+    if not compiled.available():
+        return
+    fg, bg = [], []
+    monkeypatch.setattr(compiled, "cached_function", lambda f: None)  # every library a cache miss
+    monkeypatch.setattr(compiled, "compile_function", lambda f: fg.append(f.name()))
+    monkeypatch.setattr(compiled, "compile_in_background", lambda f: bg.append(f.name()))
+    p1, p2 = opt.params(opt.theta0)
+    S = opt.ltca.slices(opt.phi1, p1, p2, opt.cases[0])
+    assert S.active.any()
+    assert fg == [] and any(n.startswith("ltca_slice") for n in bg)
+    forced = LoadedMicroOptimizer(opt.pair, {"pinion.C_alpha": (0.0, 0.04)}, torques=[200.0], n_positions=8,
+                                  n_verify=16, n_slices=5, jit=True)
+    assert forced.tca.jit is True
+    forced.ltca.slices(forced.phi1, p1, p2, forced.cases[0])
+    assert any(n.startswith("ltca_slice") for n in fg)  # compiled at once (here: the stub's None, interpreted)
+    assert LoadedMicroOptimizer(opt.pair, {"pinion.C_alpha": (0.0, 0.04)}, torques=[200.0], n_positions=8,
+                                n_verify=16, n_slices=5, jit=False).tca.jit is False

@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from ...compiled import available
+from ...compiled import available, background
 from ...errors import ArgumentError, OptionError, out_of_range
 from ...gears import GearPair
 from ...geometry.microgeometry import AMOUNT_MAX_PER_M, RELIEF_AMOUNTS, Microgeometry, modified_tooth
@@ -57,11 +57,18 @@ class LoadedProblem:
         if not (isinstance(jit, (bool, np.bool_)) or (isinstance(jit, str) and jit == "auto")):
             raise out_of_range("jit", jit, "'auto', True or False (solve the slices as compiled C)", cls=OptionError)
         # the loop solves the slices of every case several hundred columns at a time, dozens of times:
-        # compiled whenever a C compiler is present (8x faster than interpreted at 500 columns)
+        # compiled whenever a C compiler is present (8x faster than interpreted at 500 columns). Under
+        # "auto" the slices' libraries are the disk cache's whenever they are there; on a cache miss (a
+        # first run) a solve of fewer than compiled.MIN_COLUMNS columns runs interpreted while its
+        # library compiles in the background, and the loop's later solves pick it up (gearopt.compiled
+        # .select), instead of every solve waiting for five compiles before the first linearisation. With
+        # the background compiles off (GEAROPT_JIT_BACKGROUND=0, the test suite) a miss compiles at once,
+        # as under jit=True: "auto" would then leave the loop's slices interpreted for good
+        tca_jit = "auto" if jit == "auto" and background() else (available() if jit == "auto" else bool(jit))
         jit = available() if jit == "auto" else bool(jit)
         self.jit = jit  #: whether the slices and the separations' sensitivities run as compiled C
         self.tca = TCA(pair, side=side, pinion=modified_tooth(pair, "pinion", force_iso=True),
-                       gear=modified_tooth(pair, "gear", force_iso=True), jit=jit)
+                       gear=modified_tooth(pair, "gear", force_iso=True), jit=tca_jit)
         # the default loaded TCA (each flank's own curvature in the Hertz term, docs/ltca.md section 3): the
         # linearisation, the trust region's exact steps and the verification all use it, and the NLP's
         # pressure rows its curvature linearised in the design (docs/loaded_synthesis.md section 3)
