@@ -272,3 +272,19 @@ def test_coarse_measured_grid_gives_the_designed_flank(n_profile, n_face, tmp_pa
     got = flank_deviation(modified_tooth(measured, "pinion"), "right", R[:, None], z[None, :])
     assert np.ptp(ref) > 0.008  # [mm]: the flank is modified
     assert np.max(np.abs(got - ref)) < 1e-6  # [mm]
+
+
+def test_measured_flanks_sweep_without_the_taylor_guesses(tmp_path, monkeypatch):
+    """A measured flank is a quintic spline through its grid, piecewise in its knots: the TCA's coarse
+    sweeps start from the linear prediction there, not from the cubic Taylor one (whose third
+    derivatives of the large piecewise graph took 4-5 minutes to compile and, from those guesses, a
+    measured drive's 41-position TE left the designed one by 1.2 arcsec:
+    test_design_export_import_reproduces_the_te). A designed drive keeps them."""
+    monkeypatch.setenv("GEAROPT_CACHE", str(tmp_path / "cache"))
+    design = helical_pair(Microgeometry(C_beta=0.010))
+    g = design.pinion
+    grid = inspect_flank(modified_tooth(design, "pinion"), "right", n_profile=9, n_face=6,
+                         d_range=(2 * g.r_form + 0.01, 2 * g.r_a))
+    measured = helical_pair(Microgeometry(measured=(grid,)))
+    assert TCA(design).branch.taylor
+    assert not TCA(measured).branch.taylor

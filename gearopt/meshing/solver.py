@@ -113,13 +113,20 @@ class Branch:
     own_maps : bool
         Compiled map sizes called again and again get libraries of their own
         (:class:`gearopt.compiled.ColumnMap`, ``own_maps``): for the sweeps a user repeats.
+    taylor : bool
+        Coarse sweeps of :data:`TAYLOR_MIN_COLUMNS` positions or more start from the cubic Taylor
+        prediction (:meth:`predict_taylor`); False for a piecewise residual (measured flanks).
     """
 
     def __init__(self, name: str, G: ca.Function, checks: ca.Function, accept: Callable[..., np.ndarray], tol: float,
                  solver: str = SolverSettings.solver, jit: bool | str = SolverSettings.jit,
-                 extra: ca.Function | None = None, own_maps: bool = False):
+                 extra: ca.Function | None = None, own_maps: bool = False, taylor: bool = True):
         self.name, self.G, self.checks, self.accept, self.tol = name, G, checks, accept, tol
         self.solver, self.jit, self.own_maps = solver, jit, own_maps
+        #: coarse sweeps start from the cubic Taylor prediction (:meth:`predict_taylor`); False where
+        #: the residual is piecewise (measured flanks: their third derivatives jump at every knot of
+        #: the grid and the graph is large)
+        self.taylor = bool(taylor)
         nw, npr = G.size1_in(0), G.size1_in(1)
         w, p = ca.SX.sym("w", nw), ca.SX.sym("p", npr)
         F = G(w, p)
@@ -305,7 +312,8 @@ class Branch:
         knot of its interval failed, or from the anchor where none was solved. A coarse sweep, whose
         knots would cost as much as its positions (more than a quarter of their number), starts from
         the anchor's prediction instead: the cubic Taylor one (:meth:`predict_taylor`) from
-        :data:`TAYLOR_MIN_COLUMNS` positions on, else the linear one (:meth:`predict`).
+        :data:`TAYLOR_MIN_COLUMNS` positions on where ``taylor`` (not on measured flanks), else the
+        linear one (:meth:`predict`).
 
         The grid depends only on ``anchor`` and ``spacing`` (not on the other positions), so a
         position's guess is the same in any sweep that covers it.
@@ -327,7 +335,7 @@ class Branch:
         j0 = math.floor((float(np.minimum.reduce(phi)) - anchor) / spacing)
         j1 = math.ceil((float(np.maximum.reduce(phi)) - anchor) / spacing)
         if (max(j1, j0 + 1) + 1 - j0) * 4 > phi.size:  # a coarse sweep: the knots would cost as much as the positions
-            if phi.size >= TAYLOR_MIN_COLUMNS:
+            if self.taylor and phi.size >= TAYLOR_MIN_COLUMNS:
                 return self.predict_taylor(w_a, prm_a, phi - anchor)
             return self.predict(w_a, prm_a, phi - anchor)
         lin = self.predict(w_a, prm_a, phi - anchor)

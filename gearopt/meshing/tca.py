@@ -532,7 +532,9 @@ class TCA:
             ["w", "prm"], ["r1", "r2", "rf1", "kappa1", "kappa2", "lam", "dir2", "dir1"])
         checks = ca.Function("tca_checks", [w, prm], [ca.dot(nf1, nf2), reg], ["w", "prm"], ["n1n2", "reg"])
         self.branch = Branch("tca", self.residual, checks, functools.partial(accept_tangency, tol=self.tol), self.tol,
-                             self.solver, self.jit, extra=self.sweep_outputs, own_maps=True)
+                             self.solver, self.jit, extra=self.sweep_outputs, own_maps=True,
+                             taylor=not any(g.modifications is not None and g.modifications.measured
+                                            for g in (pair.pinion, pair.gear)))
         self._maps: dict = {}
         # solved anchors and pitch-point guesses by their exact inputs (a repeated sweep of the same
         # design and misalignment solves its anchor once; the outputs are those of a new solve)
