@@ -282,19 +282,22 @@ def scene_run(tmp_path_factory):
 LOADED_SCENE_STUDIES = ("ltca", "loaded_microgeometry")
 
 #: Time of each work unit of the whole suite [s] (a test file, or one of the two units of scene runs;
-#: the junit times of the whole suite on the idle machine, 2026-11-29 10:18, main after the merge): only their order matters
+#: the junit times of the whole suite on the idle machine, 2026-11-29 13:07, main after the merge): only their order matters
 #: (heaviest first, so that no heavy unit starts last and the two workers end together); a unit not
 #: listed counts 0 and keeps its place. Re-measure with ``python tests/suite_units.py JUNIT.xml`` (a
 #: junit report of ``make test``) after a change that moves a unit by a minute.
 UNIT_COST: dict[str, float] = {
-    "scenes": 322, "scenes-loaded": 112, "test_loaded_synthesis_objectives.py": 94, "test_robust.py": 76,
-    "test_loaded_synthesis.py": 65, "test_inspection.py": 53, "test_fea.py": 52, "test_ltca.py": 45,
-    "test_loaded_sensitivity_local.py": 42, "test_edge_grid.py": 37, "test_synthesis.py": 31,
-    "test_tca_stability.py": 30, "test_loaded_pressure.py": 29, "test_plots_results.py": 28, "test_dynamics.py": 25,
-    "test_dynamics_sensitivity.py": 24, "test_bad_input_studies.py": 23, "test_flank_limit.py": 22,
-    "test_rating_fe.py": 21, "test_ltca_continuity.py": 19, "test_cli_plots.py": 16, "test_loaded_sensitivity.py": 14,
-    "test_tca.py": 13, "test_microgeometry.py": 12, "test_edge_modifications.py": 9, "test_ltca_edges.py": 8,
-    "test_compare.py": 7, "test_edge.py": 7, "test_compare_rating.py": 6, "test_cli.py": 5, "test_problems_loaded.py": 5}
+    "scenes": 285, "scenes-loaded": 118, "test_loaded_synthesis_objectives.py": 78, "test_robust.py": 66,
+    "test_fea.py": 51, "test_loaded_synthesis.py": 48, "test_inspection.py": 36, "test_ltca.py": 33,
+    "test_edge_grid.py": 30, "test_dynamics.py": 29, "test_synthesis.py": 28, "test_loaded_sensitivity_local.py": 26,
+    "test_flank_limit.py": 25, "test_plots_results.py": 24, "test_tca_stability.py": 22,
+    "test_bad_input_studies.py": 20, "test_dynamics_sensitivity.py": 20, "test_rating_fe.py": 18,
+    "test_cli_plots.py": 17, "test_loaded_pressure.py": 16, "test_ltca_continuity.py": 16,
+    "test_loaded_sensitivity.py": 16, "test_microgeometry.py": 12, "test_tca.py": 12, "test_crowning_forked.py": 10,
+    "test_edge.py": 10, "test_edge_modifications.py": 9, "test_compare.py": 9, "test_ltca_edges.py": 8,
+    "test_loaded_speed.py": 8, "test_loaded_sensitivity_de.py": 8, "test_problems_loaded.py": 8, "test_cli.py": 7,
+    "test_compare_rating.py": 7, "test_bad_input.py": 6, "test_compiled.py": 6, "test_settings.py": 6,
+    "test_tools.py": 5}
 
 #: Environment variable: the file in which the workers leave each test's work unit for the controller.
 UNITS_FILE_ENV = "GEAROPT_TEST_UNITS_FILE"
