@@ -57,25 +57,18 @@ def point_tangent_function(lr: Lineariser, kind: int) -> ca.Function:
     cache = lr.__dict__.setdefault("_held_tangent", {})
     if kind not in cache:
         slicer = lr.ltca.slicer
-        G = slicer.G if kind == 0 else slicer.edge_branch[kind].G
-        w = ca.SX.sym("w", 4)
-        prm = ca.SX.sym("prm", lr.tca.layout.size)
-        F = G(w, prm)
-        idx = lr._prm_index
-        dw = -ca.solve(ca.jacobian(F, w), ca.jacobian(F, prm)[:, idx])
-        geo = dict(zip(slicer.geometry.name_out(), slicer.geometry(w, prm)))
+        t = lr.slice_tangent(kind)
+        geo = dict(zip(slicer.geometry.name_out(), slicer.geometry(t.w, t.prm)))
         tag = "_e1" if kind == 1 else ""
         # the line of action as LTCA.slices picks it per kind (the flank's normal, or at a tip edge the
         # mating flank's)
         nc1 = geo["nc1_e1"] if kind == 1 else geo["n1"]
         nc2 = geo["nc2_e1"] if kind == 1 else (geo["nc2"] if kind == 2 else geo["n2"])
-        outs = [ca.mtimes(ca.jacobian(v, w), dw) + ca.jacobian(v, prm)[:, idx]
-                for v in (geo["r1"], geo["r2"], nc1, nc2)]
-        outs.append(dw[2, :])
-        outs += [ca.mtimes(ca.jacobian(v, w), dw) + ca.jacobian(v, prm)[:, idx]
-                 for v in (geo[f"lever1{tag}"], geo[f"lever2{tag}"])]
-        outs.append(dw[3, :] / lr.pair.gear.r_p)
-        cache[kind] = ca.Function(f"ltca_point_tangent_{kind}", [w, prm], outs, ["w", "prm"],
+        outs = [t.total(v) for v in (geo["r1"], geo["r2"], nc1, nc2)]
+        outs.append(t.dw[2, :])
+        outs += [t.total(v) for v in (geo[f"lever1{tag}"], geo[f"lever2{tag}"])]
+        outs.append(t.dw[3, :] / lr.pair.gear.r_p)
+        cache[kind] = ca.Function(f"ltca_point_tangent_{kind}", [t.w, t.prm], outs, ["w", "prm"],
                                   ["dr1", "dr2", "dn1", "dn2", "dz2", "dl1", "dl2", "dte"])
     return cache[kind]
 

@@ -62,8 +62,35 @@ class Linearisation:
     Jk: np.ndarray = field(repr=False)
 
 
+@dataclass(frozen=True)
+class SliceTangent:
+    """A slice's equations ``G(w, prm) = 0`` (kind 0: flank, 1/2: a tip edge) with the derivative of their
+    solution in the optimiser's parameter columns (the implicit function theorem, CasADi AD)."""
+
+    w: ca.SX  #: the slice's unknowns (4) [mm]
+    prm: ca.SX  #: the TCA's parameter column (``tca.layout``)
+    dw: ca.SX  #: dw/d(columns) (4, columns) [mm per unit]
+    idx: list  #: the rows of ``prm`` that are the optimiser's columns
+
+    def total(self, v: ca.SX) -> ca.SX:
+        """The total derivative of ``v(w, prm)`` along the solution of the slice equations in the
+        columns: ``dv/dprm + dv/dw dw/dprm``."""
+        return ca.mtimes(ca.jacobian(v, self.w), self.dw) + ca.jacobian(v, self.prm)[:, self.idx]
+
+
 class Lineariser:
     """The linearisation of the slices' separations at a design, per case."""
+
+    def slice_tangent(self, kind: int) -> SliceTangent:
+        """The equations of a slice of ``kind`` (0: flank, 1/2: the pinion's / gear's tip edge) and their
+        solution's derivative in the optimiser's parameter columns (:class:`SliceTangent`)."""
+        slicer = self.ltca.slicer
+        G = slicer.G if kind == 0 else slicer.edge_branch[kind].G
+        w = ca.SX.sym("w", 4)
+        prm = ca.SX.sym("prm", self.tca.layout.size)
+        F = G(w, prm)
+        idx = self._prm_index
+        return SliceTangent(w, prm, -ca.solve(ca.jacobian(F, w), ca.jacobian(F, prm)[:, idx]), idx)
 
     # -- linearisation --------------------------------------------------------------------------
     def _sensitivity(self, kind: int) -> ca.Function:
@@ -76,23 +103,18 @@ class Lineariser:
         moves along the profile; zero on a tip edge, whose Hertz radius is held)."""
         if kind not in self._sens:
             slicer = self.ltca.slicer
-            G = slicer.G if kind == 0 else slicer.edge_branch[kind].G
-            w = ca.SX.sym("w", 4)
-            prm = ca.SX.sym("prm", self.tca.layout.size)
-            F = G(w, prm)
-            idx = self._prm_index
-            dw = -ca.solve(ca.jacobian(F, w), ca.jacobian(F, prm)[:, idx])
-            outs = [dw[3, :].T]
+            t = self.slice_tangent(kind)
+            w, prm = t.w, t.prm
+            outs = [t.dw[3, :].T]
             if kind == 0:
                 geo = slicer.geometry(w, prm)
                 names = slicer.geometry.name_out()
                 r1, r2 = geo[0], geo[2]
                 kap = geo[names.index("kappa1")] + geo[names.index("kappa2")]
                 for v in (ca.sqrt(r1[0] ** 2 + r1[1] ** 2), ca.sqrt(r2[0] ** 2 + r2[1] ** 2), kap):
-                    # total derivative along the solution of the slice equations: d/dprm + d/dw dw/dprm
-                    outs.append((ca.mtimes(ca.jacobian(v, w), dw) + ca.jacobian(v, prm)[:, idx]).T)
+                    outs.append(t.total(v).T)  # along the solution of the slice equations
             else:
-                outs += [ca.DM.zeros(len(idx))] * 3
+                outs += [ca.DM.zeros(len(t.idx))] * 3
             self._sens[kind] = ca.Function(f"ltca_dphi2_{kind}", [w, prm], outs, ["w", "prm"],
                                            ["dw3", "dr1", "dr2", "dk"])
         return self._sens[kind]
