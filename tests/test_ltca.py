@@ -576,6 +576,8 @@ def test_local_excess_is_cached_per_section_not_per_design():
 
 
 @pytest.mark.slow
+@pytest.mark.calculix
+@_needs_ccx
 def test_fe_compliance_adds_the_local_excess_of_both_members(fe_cache, monkeypatch):
     """At the pitch point (single pair, uniform line load f = W / b) the FE-coefficient model's
     approach with the local excess is the one without it plus 2 (1 - nu^2) / (pi E) (kappa1 + kappa2) f."""
