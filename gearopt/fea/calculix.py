@@ -6,6 +6,8 @@ measured behaviour this module relies on (two-step loading, LINEAR penalty ~50 E
 
 from __future__ import annotations
 
+import functools
+
 import math
 import os
 import re
@@ -266,14 +268,24 @@ def last_block(blocks: Sequence[DatBlock], what: str, set_name: str | None = Non
 
 def read_frd_block(text: str, name: str) -> dict[int, list[float]] | None:
     """The last result block ``name`` (e.g. "CONTACT", "STRESS", "DISP") of a ccx ``.frd`` file as
-    {node id: values}. Fixed-width records: `` -1`` + node id (10 chars) + values (12 chars each)."""
-    out, cur = None, None
+    {node id: values}. Fixed-width records: `` -1`` + node id (10 chars) + values (12 chars each).
+    The text is parsed once for all its blocks (:func:`_frd_blocks`, kept for the last two texts: a
+    run's results and its .vtu read the same .frd five times); each call gets its own dictionary."""
+    blk = _frd_blocks(text).get(name.upper())
+    return None if blk is None else dict(blk)
+
+
+@functools.lru_cache(maxsize=2)
+def _frd_blocks(text: str) -> dict[str, dict[int, list[float]]]:
+    """Every result block of a ``.frd`` by its upper-case name, the last of each name."""
+    out: dict[str, dict[int, list[float]]] = {}
+    cur = None
     for line in text.splitlines():
         if line.startswith(" -4"):
             parts = line.split()
-            cur = {} if len(parts) > 1 and parts[1].upper() == name.upper() else None
+            cur = {} if len(parts) > 1 else None
             if cur is not None:
-                out = cur
+                out[parts[1].upper()] = cur
             continue
         if cur is None:
             continue
