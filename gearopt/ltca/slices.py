@@ -443,19 +443,19 @@ class SliceSolver:
                         w=np.where(ok, W, np.nan)[:, :n].T.reshape(K, N, M, 4), kappa1=shp(kap1), kappa2=shp(kap2),
                         nc1=shp3(nc1), nc2=shp3(nc2), lever1=shp(lev1), lever2=shp(lev2))
 
-    def _continue_positions(self, W, ok, W0, have, prm, shape, pitch) -> int:
+    def _continue_positions(self, W: np.ndarray, ok: np.ndarray, W0: np.ndarray, have: np.ndarray, prm: np.ndarray,
+                            shape: tuple[int, int, int], pitch: float) -> int:
         """Continuation across the positions (in place on ``W``, ``ok``): a slice node whose row failed
         from the conjugate guesses is solved again from the same pair's node at the neighbouring
         position, predicted to its angle (``w_a + dw/dphi1 dphi``, the implicit-function tangent of
         :class:`~gearopt.meshing.solver.Branch`), passes until no node is rescued. The conjugate
         guess is the unmodified drive's point; a parabolic profile (Litvin's ``a_c``) with a root
         relief moves the contact so far from it near the start of contact that Newton from there
-        lands on the generated surface's fold beyond its singular line (regularity < 0) or diverges,
-        and a whole pair's contact was lost (20/40, a_c 5.5e-3/mm, C_alpha_f 8 um: the entering pair
-        at phi1 = 4.5 deg, all 11 nodes), although the pair touches 0.13 mm above the form circle.
-        ``shape`` (K, N, M): the nodes' layout of the first columns; ``pitch``: the largest distance
-        of ``r_p2 phi2`` from the conjugate guess [mm] (another tooth's flank beyond). Returns the
-        nodes rescued."""
+        lands on the generated surface's fold beyond its singular line (regularity < 0) or diverges
+        at every node of the row, so continuation along the face has no anchor (docs/ltca.md
+        section 1). ``shape`` (K, N, M): the nodes' layout of the first columns; ``pitch``: the
+        largest distance of ``r_p2 phi2`` from the conjugate guess [mm] (another tooth's flank
+        beyond). Returns the nodes rescued."""
         K, N, M = shape
         n = K * N * M
         if N < 2:
@@ -466,14 +466,14 @@ class SliceSolver:
         for _ in range(N):  # each pass may anchor the next position
             okg, hv = ok[:n].reshape(K, N, M), have[:n].reshape(K, N, M)
             anchor = np.full((K, N, M), -1)
-            for s in (1, -1):  # from the previous position, else the next
+            for s in (1, -1):  # from the previous position, else the next (each pair of nodes once)
                 nb_ok = np.roll(okg, s, axis=1)
                 nb_ok[:, 0 if s == 1 else -1] = False
                 sel = hv & ~okg & nb_ok & (anchor < 0)
-                anchor[sel] = np.roll(idx, s, axis=1)[sel]
+                for c, a in zip(idx[sel].tolist(), np.roll(idx, s, axis=1)[sel].tolist()):
+                    if (c, a) not in tried:
+                        anchor.flat[c] = a
             cols, anc = idx[anchor >= 0], anchor[anchor >= 0]
-            new = np.array([(c, a) not in tried for c, a in zip(cols.tolist(), anc.tolist())], bool)
-            cols, anc = cols[new], anc[new]
             if not cols.size:
                 break
             tried.update(zip(cols.tolist(), anc.tolist()))
@@ -487,8 +487,6 @@ class SliceSolver:
                 Wr[3] -= 2 * math.pi * self.tca.pair.gear.r_p * np.round(
                     (Wr[3] - W0[3, cols]) / (2 * math.pi * self.tca.pair.gear.r_p))
                 okr = okr & (np.abs(Wr[3] - W0[3, cols]) < pitch)
-            if not okr.any():
-                break
             W[:, cols[okr]] = Wr[:, okr]
             ok[cols[okr]] = True
             total += int(okr.sum())
