@@ -27,7 +27,13 @@ from test_loaded_synthesis import (FREE, assert_sensitivities_match_finite_diffe
 def test_litvin_settings_as_design_variables():
     """Litvin's settings a_c (parabolic rack) and a_pl (plunging) free with the tip and root relief:
     their separation sensitivities match central differences of the exact slices, and the optimum
-    is verified by the exact loaded TCA (objective lowered, no edge loading, NLP within 0.01 arcsec)."""
+    is verified by the exact loaded TCA (objective lowered, no edge loading, NLP within 0.01 arcsec).
+    The loop converges (not on its trust radius), and at every trial design after the first step (a
+    10 um step from the start without reliefs) the NLP's prediction lies within 2 % of the exact
+    loaded TCA's merit (docs/loaded_synthesis.md "Litvin's settings: the loop converges"): with the
+    slices of 01c8fa9 the entering pair lost its contact at some designs (the slice solve from the
+    conjugate guess failed, tests/test_ltca_slice_continuation.py) and the loop stopped on its radius
+    after four rejected steps (model 20.4 arcsec, exact 30.5)."""
     free = {"pinion.a_c": (0.0, 0.01), "pinion.a_pl": (0.0, 0.002), "pinion.C_alpha_a": (0.0, 0.04),
             "pinion.C_alpha_f": (0.0, 0.04)}
     # 24 positions: at 16 (with the bodies coupled over their depth and each flank's own curvature,
@@ -40,6 +46,9 @@ def test_litvin_settings_as_design_variables():
                                cases=[Misalignment(), Misalignment(crossing=2 * ARCMIN)], n_positions=24,
                                n_verify=32, n_slices=11)
     d = opt.solve()
+    assert d.stop == "converged"
+    trials = [r for r in d.rounds[1:] if "true_merit" in r]
+    assert trials and all(abs(r["model_objective"] - r["true_merit"]) < 0.02 * r["true_merit"] for r in trials)
     assert d.error["te_pp"] < 0.01
     assert d.after.objective < 0.6 * d.before.objective
     assert np.all(d.after.edge_load <= EDGE_TOL)

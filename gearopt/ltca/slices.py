@@ -37,7 +37,7 @@ import casadi as ca
 import numpy as np
 import numpy.typing as npt
 
-from ..compiled import mapped, use_compiled
+from ..compiled import call, mapped, use_compiled
 from ..errors import ArgumentError, ConvergenceError
 from ..meshing.curvature import Sym, eigh2_sym, shape_matrix, unit_perp
 from ..meshing.misalignment import Misalignment
@@ -347,6 +347,7 @@ class SliceSolver:
             W[3] -= rev * np.round((W[3] - W0[3]) / rev)
             ok = ok & have & (np.abs(W[3] - W0[3]) < rev / g2.z)
         stats.update(st)
+        stats["n_by_position"] = self._continue_positions(W, ok, W0, have, prm, (K, N, M), rev / g2.z)
         geo = self._geometry(np.where(ok, W, W0), prm)
         # both tips' signed margins [mm] at the conjugate (surface) solution, before tip edges replace it:
         # where an edge slice's conjugate point left the zone of action (for the widths below)
@@ -441,6 +442,55 @@ class SliceSolver:
                         z2=shp(W[2]), phi2_ref=phi2_ref, stats=stats, edge=shp(edge),
                         w=np.where(ok, W, np.nan)[:, :n].T.reshape(K, N, M, 4), kappa1=shp(kap1), kappa2=shp(kap2),
                         nc1=shp3(nc1), nc2=shp3(nc2), lever1=shp(lev1), lever2=shp(lev2))
+
+    def _continue_positions(self, W: np.ndarray, ok: np.ndarray, W0: np.ndarray, have: np.ndarray, prm: np.ndarray,
+                            shape: tuple[int, int, int], pitch: float) -> int:
+        """Continuation across the positions (in place on ``W``, ``ok``): a slice node whose row failed
+        from the conjugate guesses is solved again from the same pair's node at the neighbouring
+        position, predicted to its angle (``w_a + dw/dphi1 dphi``, the implicit-function tangent of
+        :class:`~gearopt.meshing.solver.Branch`), passes until no node is rescued. The conjugate
+        guess is the unmodified drive's point; a parabolic profile (Litvin's ``a_c``) with a root
+        relief moves the contact so far from it near the start of contact that Newton from there
+        lands on the generated surface's fold beyond its singular line (regularity < 0) or diverges
+        at every node of the row, so continuation along the face has no anchor (docs/ltca.md
+        section 1). ``shape`` (K, N, M): the nodes' layout of the first columns; ``pitch``: the
+        largest distance of ``r_p2 phi2`` from the conjugate guess [mm] (another tooth's flank
+        beyond). Returns the nodes rescued."""
+        K, N, M = shape
+        n = K * N * M
+        if N < 2:
+            return 0
+        idx = np.arange(n).reshape(K, N, M)
+        tried: set = set()
+        total = 0
+        for _ in range(N):  # each pass may anchor the next position
+            okg, hv = ok[:n].reshape(K, N, M), have[:n].reshape(K, N, M)
+            anchor = np.full((K, N, M), -1)
+            for s in (1, -1):  # from the previous position, else the next (each pair of nodes once)
+                nb_ok = np.roll(okg, s, axis=1)
+                nb_ok[:, 0 if s == 1 else -1] = False
+                sel = hv & ~okg & nb_ok & (anchor < 0)
+                for c, a in zip(idx[sel].tolist(), np.roll(idx, s, axis=1)[sel].tolist()):
+                    if (c, a) not in tried:
+                        anchor.flat[c] = a
+            cols, anc = idx[anchor >= 0], anchor[anchor >= 0]
+            if not cols.size:
+                break
+            tried.update(zip(cols.tolist(), anc.tolist()))
+            dw = np.asarray(self.branch.dw.map(cols.size)(W[:, anc], prm[:, anc]))
+            guess = W[:, anc] + dw * (prm[0, cols] - prm[0, anc])[None, :]
+            # one Newton pass from the predictions (each node has its own anchor: no continuation
+            # across the face, no line search)
+            Wr, rr, dr, gr = call(self.branch.mapped(cols.size), guess, prm[:, cols])[:4]
+            okr = np.asarray(self.branch.accept(rr.ravel(), dr.ravel(), gr.ravel()), bool)
+            with np.errstate(invalid="ignore"):
+                Wr[3] -= 2 * math.pi * self.tca.pair.gear.r_p * np.round(
+                    (Wr[3] - W0[3, cols]) / (2 * math.pi * self.tca.pair.gear.r_p))
+                okr = okr & (np.abs(Wr[3] - W0[3, cols]) < pitch)
+            W[:, cols[okr]] = Wr[:, okr]
+            ok[cols[okr]] = True
+            total += int(okr.sum())
+        return total
 
     def _geometry(self, W, prm) -> dict:
         """Both flanks' points and normals and the fixed-frame point at the columns of ``W``:
