@@ -80,3 +80,91 @@ def test_the_tca_result_states_the_figures_it_draws():
     pickle.dumps(result)
     assert list(result.plot_costs) == ["te.png", "bearing_contact.png", "compare.png"]
     assert set(result.plot_costs) <= set(result.captions)
+
+
+def _figure(variant):
+    """A constrained 2 x 2 figure of the kind gearopt draws (titles, labels, a legend under each
+    axes), with one axes changed by ``variant``: what decides whether a spine's extent is held by
+    the rest of its axes' tight box."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.ticker import FixedFormatter, NullFormatter
+
+    fig, axes = plt.subplots(2, 2, figsize=(6, 4.5), layout="constrained")
+    for k, ax in enumerate(axes.ravel()):
+        ax.plot([0, 1, 2], [0, 10 ** k, -3 * k], label=f"case {k}")
+        ax.set_title(f"panel {k}")
+        ax.set_xlabel("phi1 [deg]")
+        ax.set_ylabel("TE [arcsec]")
+        ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.25), fontsize=7)
+    ax = axes[0, 1]
+    if variant == "ticks all round":
+        ax.tick_params(top=True, right=True, length=12)
+    elif variant == "ticks in":
+        ax.tick_params(direction="in", length=12)
+    elif variant == "no tick labels":
+        ax.tick_params(labelleft=False, labelbottom=False, length=12)
+    elif variant == "empty tick labels":
+        ax.yaxis.set_major_formatter(NullFormatter())
+        ax.xaxis.set_major_formatter(FixedFormatter([""] * 10))
+        ax.tick_params(length=12)
+    elif variant == "twin":
+        ax.twinx().plot([0, 2], [5, 7], color="C3")
+    elif variant == "spine moved":
+        ax.spines["left"].set_position(("outward", 15))
+    elif variant == "no axes":
+        ax.set_axis_off()
+    return fig
+
+
+@pytest.mark.parametrize("variant", ["plain", "ticks all round", "ticks in", "no tick labels", "empty tick labels",
+                                     "twin", "spine moved", "no axes"])
+def test_png_saving_lays_a_figure_out_where_matplotlib_does(tmp_path, variant):
+    # gearopt.plot.saving leaves out of the layout the spines whose extent the rest of their axes'
+    # tight box holds: every axes where matplotlib's own constrained layout puts it
+    import matplotlib.pyplot as plt
+
+    from gearopt.plot.saving import png_saving
+
+    ref = _figure(variant)
+    ref.set_dpi(80)
+    ref.get_layout_engine().execute(ref)
+    expected = [ax.get_position().bounds for ax in ref.axes]
+    plt.close(ref)
+    fig = _figure(variant)
+    with png_saving():
+        fig.savefig(tmp_path / "f.png", dpi=80, bbox_inches="tight")
+    assert [ax.get_position().bounds for ax in fig.axes] == expected
+    assert all(s.get_in_layout() for ax in fig.axes for s in ax.spines.values())  # as they were
+    plt.close(fig)
+
+
+def test_png_saving_does_not_measure_the_spines_of_a_plain_figure_for_the_layout(tmp_path, monkeypatch):
+    # each spine's extent updates its axis's ticks: none is needed for the tight boxes of gearopt's
+    # figures
+    import matplotlib.pyplot as plt
+    import matplotlib.spines
+
+    from gearopt.plot.saving import png_saving
+
+    calls = []
+    extent = matplotlib.spines.Spine.get_window_extent
+
+    def counted(self, *a, **k):  # a spine's extent asked for its axes' tight box (not an axis label's place)
+        if sys._getframe(1).f_code.co_name == "get_tightbbox":
+            calls.append(self.spine_type)
+        return extent(self, *a, **k)
+
+    monkeypatch.setattr(matplotlib.spines.Spine, "get_window_extent", counted)
+    fig = _figure("plain")
+    with png_saving():
+        fig.savefig(tmp_path / "f.png", dpi=80, bbox_inches="tight")
+    plt.close(fig)
+    assert calls == []
+    fig = _figure("ticks all round")  # the top and right spines of that axes stay in the layout
+    with png_saving():
+        fig.savefig(tmp_path / "f.png", dpi=80, bbox_inches="tight")
+    plt.close(fig)
+    assert calls and set(calls) == {"top", "right"}
