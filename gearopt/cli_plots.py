@@ -5,8 +5,8 @@ Importing matplotlib takes about 0.5 s and drawing a figure 0.3-2 s, each on one
 study takes 0.3 s. :meth:`PlotProcesses.start`, called by the CLI before it imports anything heavy,
 forks one process that imports matplotlib (and the study's module, :meth:`PlotProcesses.prepare`)
 while the CLI reads the scene and runs the study. :meth:`PlotProcesses.submit` sends it the
-result (pickled); that process forks ``count - 1`` siblings of itself (``count``: one per usable core, or one per
-figure the result names in its ``captions`` where that is more, :func:`processes_for`) (matplotlib imported once,
+result (pickled); that process forks ``count - 1`` siblings of itself (``count``: one per usable core, or more
+where the figures are done sooner so: by their stated costs or one per figure, :func:`processes_for`) (matplotlib imported once,
 shared copy-on-write) and each calls the result's ``save_plots`` under gearopt's plot style, drawing
 the PNG files it reaches first (:func:`gearopt.plot.saving.png_saving`): the same files as one
 process would write, each drawn by one process, a process done with a quick figure taking the next. Warnings shown while drawing are gathered, shown once by the CLI

@@ -13,7 +13,9 @@ between processes that draw them side by side (:mod:`gearopt.cli_plots`).
   extents (the tight box) and the draw: a quarter to a third less time, the same picture, the
   image a few pixels larger where the layout leaves room at an edge. A figure with anything the
   layout does not place (a figure legend, a text but the sup-title and -labels, ...) or with an
-  axes of fixed aspect (narrower than its cell: room the tight box crops) is saved as usual;
+  axes of fixed aspect (narrower than its cell: room the tight box crops) is saved as usual. The
+  layout runs without the spines whose extent the rest of their axes' tight box holds (the same
+  positions; each spine's extent would update its axis's ticks once more);
 * with ``claims`` (a directory shared by several processes that run the same ``save_plots`` side
   by side) draws and writes a PNG file only if this process is the first to reach it (creates
   its claim file there); a process that finds a file taken moves on to the next, so that a
