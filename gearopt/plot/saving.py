@@ -162,7 +162,7 @@ def _covered_spines(fig: Any) -> list:
     """The spines of ``fig``'s axes whose extent the constrained layout can leave out, as the
     rest of their axes' tight box holds it: the layout gives the same positions without them, and
     it does not update each spine's axis's ticks once more to find how far its tick marks stick
-    out (four spines per axes, two layout passes: about a twentieth of a figure's drawing time).
+    out (four spines per axes, two layout passes: a few per cent of a figure's drawing time).
 
     A spine at its default place (the axes' edge, inside the axes' box) qualifies where no tick
     mark of its side sticks out beyond the box (the top and right spines with ticks on the bottom
