@@ -5,8 +5,8 @@ Importing matplotlib takes about 0.5 s and drawing a figure 0.3-2 s, each on one
 study takes 0.3 s. :meth:`PlotProcesses.start`, called by the CLI before it imports anything heavy,
 forks one process that imports matplotlib (and the study's module, :meth:`PlotProcesses.prepare`)
 while the CLI reads the scene and runs the study. :meth:`PlotProcesses.submit` sends it the
-result (pickled); that process forks ``count - 1`` siblings of itself (``count``: one per usable core, or one per
-figure the result names in its ``captions`` where that is more, :func:`processes_for`) (matplotlib imported once,
+result (pickled); that process forks ``count - 1`` siblings of itself (``count``: one per usable core, or more
+where the figures are done sooner so: by their stated costs or one per figure, :func:`processes_for`) (matplotlib imported once,
 shared copy-on-write) and each calls the result's ``save_plots`` under gearopt's plot style, drawing
 the PNG files it reaches first (:func:`gearopt.plot.saving.png_saving`): the same files as one
 process would write, each drawn by one process, a process done with a quick figure taking the next. Warnings shown while drawing are gathered, shown once by the CLI
@@ -31,7 +31,7 @@ import traceback
 from pathlib import Path
 from typing import Any
 
-__all__ = ["MAX_PROCESSES", "PlotProcesses", "processes_for", "usable_cores"]
+__all__ = ["MAX_PROCESSES", "PlotProcesses", "plot_makespan", "processes_for", "usable_cores"]
 
 #: largest number of drawing processes (a run writes 2-5 figures)
 MAX_PROCESSES = 4
@@ -286,36 +286,84 @@ def _draw(payload: bytes, directory: str, kwargs: dict, count: int, children: li
 
 def processes_for(result: Any, count: int) -> int:
     """The number of processes that draw ``result``'s figures: ``count`` (one per usable core), or
-    one per figure where the result names more figures (its ``captions``, figure file name ->
-    caption), at most :data:`MAX_PROCESSES`.
+    more where that finishes the figures sooner, at most :data:`MAX_PROCESSES`.
 
-    The figures are CPU-bound and of similar cost in a study (the crowning study's three take about
-    1.3 s each): three processes on two cores finish three figures in about 1.5 figure times,
-    where two processes, one of them drawing two figures in turn, take two. Only where a core is
-    idle now (:func:`gearopt.forking.idle_cores`); on a busy machine ``count``.
+    The figures are CPU-bound. Where the result states what its figures cost (``plot_costs``:
+    figure file name -> relative cost, the figures it draws, in the order it draws them), the
+    number of processes from ``count`` to one per figure whose figures are done first
+    (:func:`plot_makespan`; the fewest where several tie): the tca study's three figures, te.png
+    and compare.png of one cost and bearing_contact.png of two, take 2 cost units on two
+    processes on two cores (one draws te.png then compare.png) and 2.5 on three. Otherwise one
+    process per figure the result names in its ``captions`` (figure file name -> caption), where
+    those are more than ``count``: figures of similar cost, as the crowning study's three of about
+    1.3 s each, which three processes on two cores finish in about 1.5 figure times, where two
+    processes, one of them drawing two figures in turn, take two. More processes than ``count``
+    only where a core is idle now (:func:`gearopt.forking.idle_cores`); on a busy machine
+    ``count``.
 
     Parameters
     ----------
     result : study result
-        Read for ``captions`` only (a dict, or a property returning one; absent: ``count``).
+        Read for ``plot_costs`` and ``captions`` only (dicts, or properties returning them;
+        absent: ``count``).
     count : int
-        The processes :meth:`PlotProcesses.start` chose (>= 1).
+        The processes :meth:`PlotProcesses.start` chose (>= 1), one per usable core.
 
     Returns
     -------
     int
     """
-    try:
-        figures = len(getattr(result, "captions", None) or ())
-    except Exception:  # noqa: BLE001 - a captions property that fails: the cores decide
-        figures = 0
-    if figures <= count:
+    def named(attr: str) -> dict:
+        try:
+            return dict(getattr(result, attr, None) or {})
+        except Exception:  # noqa: BLE001 - a property that fails: as if absent
+            return {}
+
+    costs = [float(c) for c in named("plot_costs").values()]
+    figures = len(costs) if costs else len(named("captions"))
+    if min(figures, MAX_PROCESSES) <= count:
         return count
     from .forking import idle_cores
 
     # more processes than cores only on an idle machine (a core free beside this process): on busy
     # cores the extra process's own start (its first figure) is extra work, not a gain
-    return max(count, min(figures, MAX_PROCESSES)) if idle_cores() >= 1 else count
+    if idle_cores() < 1:
+        return count
+    if not costs:
+        return min(figures, MAX_PROCESSES)
+    spans = {k: plot_makespan(costs, k, count) for k in range(count, min(figures, MAX_PROCESSES) + 1)}
+    return min(spans, key=lambda k: (round(spans[k], 9), k))
+
+
+def plot_makespan(costs: list[float], processes: int, cores: int) -> float:
+    """When the last of the figures of ``costs`` (their drawing times, in the order they are
+    drawn) is done, drawn by ``processes`` processes on ``cores`` cores: each process draws the next
+    figure not yet taken when it is free (:func:`gearopt.plot.saving.png_saving`'s claims), the
+    running processes sharing the cores equally.
+
+    Parameters
+    ----------
+    costs : list of float
+        Time of each figure on one core, >= 0 (any unit).
+    processes, cores : int
+        >= 1.
+
+    Returns
+    -------
+    float
+        In the unit of ``costs``.
+    """
+    queue = list(costs)
+    left = [queue.pop(0) for _ in range(min(processes, len(queue)))]
+    t = 0.0
+    while left:
+        rate = min(1.0, cores / len(left))
+        step = min(left) / rate
+        t += step
+        left = [w - step * rate for w in left]
+        done = sum(w <= 1e-12 for w in left)
+        left = [w for w in left if w > 1e-12] + [queue.pop(0) for _ in range(min(done, len(queue)))]
+    return t
 
 
 def _draw_shared(result: Any, directory: str, kwargs: dict, count: int, children: list[int], claims: str,

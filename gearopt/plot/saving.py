@@ -13,7 +13,9 @@ between processes that draw them side by side (:mod:`gearopt.cli_plots`).
   extents (the tight box) and the draw: a quarter to a third less time, the same picture, the
   image a few pixels larger where the layout leaves room at an edge. A figure with anything the
   layout does not place (a figure legend, a text but the sup-title and -labels, ...) or with an
-  axes of fixed aspect (narrower than its cell: room the tight box crops) is saved as usual;
+  axes of fixed aspect (narrower than its cell: room the tight box crops) is saved as usual. The
+  layout runs without the spines whose extent the rest of their axes' tight box holds (the same
+  positions; each spine's extent would update its axis's ticks once more);
 * with ``claims`` (a directory shared by several processes that run the same ``save_plots`` side
   by side) draws and writes a PNG file only if this process is the first to reach it (creates
   its claim file there); a process that finds a file taken moves on to the next, so that a
@@ -156,6 +158,42 @@ def _tight_by_layout(fig: Any, kwargs: dict) -> bool:
     return all(t.get_text() in sup and t.get_in_layout() for t in fig.texts)
 
 
+def _covered_spines(fig: Any) -> list:
+    """The spines of ``fig``'s axes whose extent the constrained layout can leave out, as the
+    rest of their axes' tight box holds it: the layout gives the same positions without them, and
+    it does not update each spine's axis's ticks once more to find how far its tick marks stick
+    out (four spines per axes, two layout passes: a few per cent of a figure's drawing time).
+
+    A spine at its default place (the axes' edge, inside the axes' box) qualifies where no tick
+    mark of its side sticks out beyond the box (the top and right spines with ticks on the bottom
+    and left only, or ticks pointing in), or where the tick labels of its side stick out further
+    (the bottom and left spines of an axis with a plain number formatter, whose labels sit a pad
+    beyond the tick marks). Spines not in the layout already, moved, or of an axis with other
+    labels are left in it."""
+    from matplotlib.ticker import ScalarFormatter
+
+    out = []
+    for ax in fig.axes:
+        if not ax.axison:
+            continue
+        for side, spine in ax.spines.items():
+            axis = getattr(spine, "axis", None)
+            if (side not in ("left", "right", "top", "bottom") or axis is None or not spine.get_in_layout()
+                    or spine.get_position() != ("outward", 0.0)):
+                continue
+            if not axis.get_visible():
+                out.append(spine)  # the spine's extent is its line on the axes' edge
+                continue
+            first = side in ("left", "bottom")  # tick1 and label1 of the axis are on this side
+            major, minor = axis.majorTicks[0], axis.minorTicks[0]
+            if not any((t.tick1line if first else t.tick2line).get_visible() and t.get_tickdir() != "in"
+                       for t in (major, minor)):
+                out.append(spine)  # no tick mark sticks out of the axes' box on this side
+            elif first and major.label1.get_visible() and isinstance(axis.get_major_formatter(), ScalarFormatter):
+                out.append(spine)  # the tick labels stick out further
+    return out
+
+
 def _save_laid_out(saved: Any, fig: Any, fname: Any, kwargs: dict) -> Any:
     """Save ``fig`` (see :func:`_tight_by_layout`) laid out once by its constrained layout and
     drawn once, the image the figure's area with the margin ``pad_inches`` around the layout's own
@@ -178,12 +216,17 @@ def _save_laid_out(saved: Any, fig: Any, fname: Any, kwargs: dict) -> Any:
     dx, dy = pad - info["w_pad"], pad - info["h_pad"]
     original = fig.dpi
     fig.dpi = dpi  # the layout as savefig makes it: text measured at the saving resolution
+    covered = _covered_spines(fig)
     try:
+        for spine in covered:
+            spine.set_in_layout(False)
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             engine.execute(fig)
     finally:
         fig.dpi = original
+        for spine in covered:
+            spine.set_in_layout(True)
     if caught:  # not laid out (the usual savefig will warn again)
         return saved(fig, fname, **kwargs)
     w, h = fig.get_size_inches()
