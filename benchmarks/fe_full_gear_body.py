@@ -659,6 +659,27 @@ def neighbours_study() -> int:
                   f"default {a['default']:7.3f} ({100 * (a['default'] / ref - 1):+5.1f} % of ref, "
                   f"{100 * (a['default'] / refn - 1):+5.1f} % of ref+n), default + FE neighbours {a['default+n']:7.3f} "
                   f"({100 * (a['default+n'] / refn - 1):+5.1f} % of ref+n)", flush=True)
+    # over a mesh cycle: the mean mesh stiffness against ISO 6336-1 and the loaded TE's peak-to-peak
+    from gearopt.ltca.compliance import iso6336_stiffness
+
+    for name in ("spur 20/40 conjugate", "helical 15 deg"):
+        pair, _ = drives()[name]
+        Lf = LTCA(pair, material=mat, compliance="fe")
+        tt = (Lf.tca.pinion.unmodified, Lf.tca.gear.unmodified)
+        an_n = [neighbour_grids(tt[m], (pair.pinion, pair.gear)[m], Lf.tca.form_radius(m + 1), Lf.influence[m], "full")
+                for m in (0, 1)]
+        La = LTCA(pair, material=mat)
+        S = La.slices(phi1=La.mesh_cycle(32))
+        iso = iso6336_stiffness(pair)["c_gamma_alpha"] * E / 206000.0
+        for torque in (100.0, 200.0):
+            r0 = La.solve(torque, slices=S).results[0]
+            r1 = NeighbourLTCA(La, an_n).solve(torque, S).results[0]
+            out.setdefault("cycle", {}).setdefault(name, {})[f"{torque:g}"] = dict(
+                c_gamma=r0.c_gamma, c_gamma_n=r1.c_gamma, iso=iso, te_pp=r0.peak_to_peak_arcsec,
+                te_pp_n=r1.peak_to_peak_arcsec)
+            print(f"{name}, {torque:g} N m, 32 positions: c_gamma default {r0.c_gamma:.2f}, + the full gears' FE "
+                  f"neighbours {r1.c_gamma:.2f} N/(mm um) (ISO 6336-1 {iso:.2f} at E {E:g} MPa); loaded TE peak-to-peak "
+                  f"{r0.peak_to_peak_arcsec:.2f} -> {r1.peak_to_peak_arcsec:.2f} arcsec", flush=True)
     path = ROOT / "benchmarks" / "data" / "fe_neighbour_teeth.json"
     out.update(_about="benchmarks/fe_full_gear_body.py --neighbours: line-load responses [um mm/N] of teeth d pitches "
                "from the loaded one at the loaded rows (cols); approaches [um] per drive and position",
