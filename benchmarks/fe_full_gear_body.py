@@ -596,6 +596,7 @@ def neighbours_study() -> int:
     sys.path.insert(0, str(ROOT / "benchmarks"))
     from validate_ltca_fe import RECORD, T, drives
 
+    from gearopt.fea import FEOptions, GearFEModel
     from gearopt.ltca.engine import LTCA
 
     record = json.loads(RECORD.read_text())["very fine"]
@@ -651,8 +652,25 @@ def neighbours_study() -> int:
             fe = rec["approach_um"]
             ref = fe + a["full"] - a["sector"]
             refn = fe + a["full+n"] - a["sector+n"]
-            row = dict(fe=fe, ref=ref, ref_n=refn, **a, shares=res["default"].share[:, j].round(3).tolist())
+            # the section pressure and the share of the pair nearest the pitch point, as --validate
+            m = GearFEModel(pair, phis[j], FEOptions(torque=T * 1e3, E=E, nu=NU), mis=mis)
+            k0 = min(m.hertz, key=lambda k: abs(m.contact[k]["radius1"] - pair.pinion.r_p))
+            z_sec = m.contact[k0]["z1"]
+            ps = {}
+            for lab, rr in res.items():
+                kk = rr.pairs.index(k0)
+                ok = np.isfinite(S.z[kk, j]) & S.active[kk, j] & (S.edge[kk, j] == 0)
+                o = np.argsort(S.z[kk, j][ok])
+                ps[lab] = (float(np.interp(z_sec, S.z[kk, j][ok][o], rr.p0[kk, j][ok][o])), float(rr.share[kk, j]))
+            pref = [(rec["p_max_mid_MPa"], rec["share"])[i] + ps["full"][i] - ps["sector"][i] for i in (0, 1)]
+            prefn = [(rec["p_max_mid_MPa"], rec["share"])[i] + ps["full+n"][i] - ps["sector+n"][i] for i in (0, 1)]
+            row = dict(fe=fe, ref=ref, ref_n=refn, **a, p_share=ps, p_share_ref=pref, p_share_ref_n=prefn)
             out["runs"].setdefault(name, {})[f] = row
+            print(f"{'':<34} {'':>6} section p [MPa] / share: reference {pref[0]:.1f} / {pref[1]:.3f}, default "
+                  f"{ps['default'][0]:.1f} ({100 * (ps['default'][0] / pref[0] - 1):+.1f} %) / {ps['default'][1]:.3f} "
+                  f"({ps['default'][1] - pref[1]:+.3f}); with the neighbours: reference {prefn[0]:.1f} / {prefn[1]:.3f}, "
+                  f"default + FE neighbours {ps['default+n'][0]:.1f} ({100 * (ps['default+n'][0] / prefn[0] - 1):+.1f} %) / "
+                  f"{ps['default+n'][1]:.3f} ({ps['default+n'][1] - prefn[1]:+.3f})", flush=True)
             print(f"{name:<34} {math.degrees(phis[j]):6.2f} FE {fe:7.3f}: LTCA-fe {a['sector']:7.3f} "
                   f"({100 * (a['sector'] / fe - 1):+5.1f} %), + sector neighbours {a['sector+n']:7.3f} "
                   f"({100 * (a['sector+n'] / fe - 1):+5.1f} %) | ref {ref:7.3f}, ref+n {refn:7.3f} ({100 * (refn / ref - 1):+5.1f} %) | "
