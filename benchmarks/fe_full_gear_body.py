@@ -23,6 +23,11 @@ validation of the default compliance's approach against an FE reference with ful
                                                       # per row the FE tooth against the analytical tooth, per pair
                                                       # the approach's share under one load distribution, and a
                                                       # point load at mid face and at the face end
+    python benchmarks/fe_full_gear_body.py --neighbours  # the neighbouring teeth's coupling through the body (about
+                                                      # 25 min of ccx for the eight members, then cached): a tooth's
+                                                      # displacement under a line load on the tooth 1 and 2 pitches
+                                                      # away, sectors and full gears; the validation's approach with it
+                                                      # in the FE-coefficient model, the reference and the default model
 
 Everything is per unit face width under a normal line load uniform over the face, at the response point of
 the flank row on the tooth's middle line in the middle face layer
@@ -470,6 +475,272 @@ def helical_split() -> int:
     return 0
 
 
+class NeighbourLTCA:
+    """Loaded TCA (:class:`gearopt.ltca.engine.LTCA`, any compliance) whose compliance matrix also couples the
+    pairs' teeth through the members: pinion tooth k+d moves under a load on tooth k as ``cross[0][d]``
+    (grid points of tooth d per unit normal force at tooth 0's, an ``InfluenceGrid``-like 4D array on ``radius``
+    and ``z``), the gear's likewise (pair k meshes pinion tooth k with gear tooth -k). A diagnostic of
+    docs/ltca.md section 7, not a model."""
+
+    def __init__(self, engine, cross):
+        self.engine, self.cross = engine, cross
+
+    def __getattr__(self, name):
+        return getattr(self.engine, name)
+
+    @staticmethod
+    def _rect(c, d, ra, za, rb, zb):
+        from scipy.interpolate import RegularGridInterpolator
+
+        r, z = c["radius"], c["z"]
+        f = RegularGridInterpolator((r, z, r, z), c[d])
+        na, nb = ra.size, rb.size
+        pts = np.stack([np.repeat(np.clip(ra, r[0], r[-1]), nb), np.repeat(np.clip(za, z[0], z[-1]), nb),
+                        np.tile(np.clip(rb, r[0], r[-1]), na), np.tile(np.clip(zb, z[0], z[-1]), na)], 1)
+        return f(pts).reshape(na, nb)
+
+    def structure(self, S):
+        st = type(self.engine).structure(self.engine, S)  # the engine's own (solve patches the instance's)
+        K, N, M = S.z.shape
+        used = np.isfinite(S.z)
+        z1 = np.where(used, S.z, 0.0)
+        z2 = np.where(np.isfinite(S.z2), S.z2, z1)
+        rad = (np.hypot(S.r1[..., 0], S.r1[..., 1]), np.hypot(S.r2[..., 0], S.r2[..., 1]))
+        Cs = st.Cs.copy()
+        pairs = list(S.pairs)
+        for ia, k in enumerate(pairs):
+            for ib, k2 in enumerate(pairs):
+                d = k2 - k
+                if d <= 0:
+                    continue
+                for n in range(N):
+                    ua, ub = np.flatnonzero(used[ia, n]), np.flatnonzero(used[ib, n])
+                    if ua.size == 0 or ub.size == 0:
+                        continue
+                    blk = 0.0
+                    for m, (c, zz) in enumerate(zip(self.cross, (z1, z2))):
+                        # the response of pair k's tooth to a load on pair k2's: the pinion's tooth k2 is d pitches
+                        # on, the gear's -d; with the load on tooth 0 the response tooth is -d (pinion) or +d (gear)
+                        # (shift), or by Maxwell the transpose of the loaded tooth's response on +d (-d)
+                        e = -d if m == 0 else d
+                        a, b = (rad[m][ia, n, ua], zz[ia, n, ua]), (rad[m][ib, n, ub], zz[ib, n, ub])
+                        opts = [self._rect(c, f"N{e:+d}", *a, *b)] if f"N{e:+d}" in c else []
+                        opts += [self._rect(c, f"N{-e:+d}", *b, *a).T] if f"N{-e:+d}" in c else []
+                        if not opts:
+                            continue
+                        # a 3-tooth sector: the exact one has the load on the middle tooth (pair 0)
+                        blk = blk + (opts[0] if (k2 == 0 and len(opts) > 0) else opts[-1] if k == 0 else sum(opts) / len(opts))
+                    if np.ndim(blk):
+                        Cs[n][np.ix_(ia * M + ua, ib * M + ub)] += blk
+                        Cs[n][np.ix_(ib * M + ub, ia * M + ua)] += blk.T
+        return replace(st, Cs=Cs)
+
+    def solve(self, torque, slices):
+        """The engine's solve with this structure."""
+        import types
+
+        eng = self.engine
+        orig = eng.structure
+        eng.structure = types.MethodType(lambda _self, S: self.structure(S), eng)
+        try:
+            return eng.solve(torque, slices=slices)
+        finally:
+            eng.structure = orig
+
+
+def neighbour_grids(tooth, gear, r_form, grid, what):
+    """The coupling of a member's neighbouring teeth on ``grid``'s points (4D arrays ``N-2 ... N+2`` as
+    :class:`NeighbourLTCA` reads them): ``what = "sector"`` the contact model's member (3 teeth, point loads,
+    :func:`~gearopt.fea.influence.influence_grid` with ``neighbours``); ``"full"`` the full gear held at r_f / 2
+    (line loads on three rows, quadratic between them as :func:`member_bodies`, spread along the face by the
+    Pasternak kernel of the body's depth as :func:`full_gear_grid`); ``"full - sector"`` the sector's plus the
+    difference of the full gear's and the sector's line-load responses (the full gear's grid, as the reference's
+    own-tooth grid is built)."""
+    from gearopt.fea.influence import influence_grid
+
+    out = {"radius": grid.radius, "z": grid.z}
+    kw = dict(E=E, nu=NU, r_form=r_form)
+    if what in ("sector", "full - sector"):
+        sec = influence_grid(tooth, mesh=None, neighbours=(-1, 1), local=False, **kw).neighbours
+        out.update({f"N{d:+d}": sec[d] for d in (-1, 1)})
+        if what == "sector":
+            return out
+    secl = line_load_compliance(tooth, mesh=replace(MESH, rim_depth=1.5), teeth=3, support="sector", neighbours=(-1, 1),
+                                **kw)
+    r = secl.radius
+    cols = [0, r.size // 2, r.size - 1]
+    full = line_load_compliance(tooth, mesh=MESH, teeth=gear.z, support="bore", r_bore=0.5 * tooth.r_root, rows=cols,
+                                neighbours=(-2, -1, 1, 2), **kw)
+    z = grid.z
+    w = np.zeros(z.size)
+    w[:-1] += 0.5 * np.diff(z)
+    w[1:] += 0.5 * np.diff(z)
+    K = coupling(z, w, tooth.r_root - 0.5 * gear.r_f)
+    for d in (-2, -1, 1, 2):
+        D = full.neighbours[d][:, cols] - (secl.neighbours[d][:, cols] if what == "full - sector" and abs(d) == 1 else 0.0)
+        D = np.array([[np.polyval(np.polyfit(r[cols], D[i], 2), rj) for rj in r] for i in range(r.size)])
+        Dg = np.array([[np.interp(ri, r, [np.interp(rj, r, D[k]) for k in range(r.size)]) for rj in grid.radius]
+                       for ri in grid.radius])
+        out[f"N{d:+d}"] = out.get(f"N{d:+d}", 0.0) + Dg[:, None, :, None] * K[None, :, None, :]
+    out["line"] = {"radius": r, "sector": {d: secl.neighbours[d] for d in (-1, 1)}, "sector_self": secl.C,
+                   "full": full.neighbours, "full_self": full.C, "cols": cols}
+    return out
+
+
+#: the candidate neighbour term's constants (docs/ltca.md section 7), fitted to the FE full gears' d = 1 and 2 responses
+#: of the six members of the validation (in-sample)
+CANDIDATE = (0.715, 1.261)
+
+
+def candidate_grids(La, m, gear, grid):
+    """The candidate analytical neighbour term of member ``m`` of the engine ``La`` on ``grid``'s points (as
+    :func:`neighbour_grids`): tooth d moves by ``c_tw + A exp(-k |d| s_f / (r_f - r_int)) (c_body - c_tw)`` per
+    unit line load, whatever the rows (``c_tw`` the body's torsion, an annulus held at its bore, plane stress;
+    ``c_body`` the loaded tooth's body term at its pitch point along the normal; ``s_f`` the root pitch),
+    spread along the face over the body's depth."""
+    tc = La.teeth[m]
+    tooth = (La.tca.pinion, La.tca.gear)[m].unmodified
+    cb = math.cos(gear.beta_b)
+    c_body = float(tc.per_width(*flank_points(tooth, np.array([gear.r_p]))).foundation[0]) * tc.body_factor * cb**2
+    r_f, r_int = tooth.r_root, La.r_int[m]
+    c_tw = gear.r_b**2 * (1 / r_int**2 - 1 / r_f**2) / (4 * math.pi * E / (2 * (1 + NU)))
+    x = 2 * math.pi * r_f / gear.z / (r_f - r_int)
+    z = grid.z
+    w = np.zeros(z.size)
+    w[:-1] += 0.5 * np.diff(z)
+    w[1:] += 0.5 * np.diff(z)
+    K = coupling(z, w, r_f - r_int)
+    A, k = CANDIDATE
+    out = {"radius": grid.radius, "z": z}
+    for d in (-2, -1, 1, 2):
+        cx = c_tw + A * math.exp(-k * abs(d) * x) * (c_body - c_tw)
+        out[f"N{d:+d}"] = np.full((grid.radius.size, 1, grid.radius.size, 1), cx) * K[None, :, None, :]
+    return out
+
+
+def neighbours_study() -> int:
+    """The neighbouring teeth's coupling through the members (docs/ltca.md section 7): per member, a tooth's
+    displacement at the pitch row under a line load on the tooth d pitches away, sector and full gear; per
+    validation position, the approach of the FE-coefficient model with and without the sector's coupling (against
+    the CalculiX contact model, which has it), the reference with the full gear's coupling, and the default model
+    with and without the full gear's FE coupling added."""
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    from validate_ltca_fe import RECORD, T, drives
+
+    from gearopt.fea import FEOptions, GearFEModel
+    from gearopt.ltca.engine import LTCA
+
+    record = json.loads(RECORD.read_text())["very fine"]
+    mat = Material(E=E, nu=NU)
+    names = [n for n in drives() if "tip relief" not in n]
+    out = {"members": {}, "runs": {}}
+    print(f"{T:g} N m; approach [um] along the line of action; FE: the recorded contact model (very fine); 'ref': "
+          "the full-gear reference of --validate, 'ref+n': with the full gears' neighbouring teeth")
+    for name in names:
+        pair, mis = drives()[name]
+        cb = math.cos(pair.pinion.beta_b)
+        step = 2 * math.pi / pair.pinion.z
+        fracs = ("0", "-0.3", "+0.3")
+        phis = np.array([float(f) * step for f in fracs])
+        Lf = LTCA(pair, material=mat, compliance="fe")
+        S = Lf.slices(phi1=phis, mis=mis)
+        g = Lf.influence
+        tt = (Lf.tca.pinion.unmodified, Lf.tca.gear.unmodified)
+        gears = (pair.pinion, pair.gear)
+        rf = (Lf.tca.form_radius(1), Lf.tca.form_radius(2))
+        sec = [neighbour_grids(tt[m], gears[m], rf[m], g[m], "sector") for m in (0, 1)]
+        full = [neighbour_grids(tt[m], gears[m], rf[m], g[m], "full - sector") for m in (0, 1)]
+        an_n = [neighbour_grids(tt[m], gears[m], rf[m], g[m], "full") for m in (0, 1)]
+        for m in (0, 1):
+            ln = full[m]["line"]
+            r = ln["radius"]
+            key = f"{gears[m].z} teeth ({name})"
+            out["members"][key] = {"rows_mm": r[ln["cols"]].round(3).tolist(),
+                                   "full_self_cols": (1e3 * np.diag(ln["full_self"][np.ix_(ln["cols"], ln["cols"])])).tolist(),
+                                   **{f"full {d:+d}": (1e3 * np.diag(ln["full"][d][np.ix_(ln["cols"], ln["cols"])])).tolist()
+                                      for d in (-2, -1, 1, 2)},
+                                   **{f"sector {d:+d}": (1e3 * np.diag(ln["sector"][d][np.ix_(ln["cols"], ln["cols"])])).tolist()
+                                      for d in (-1, 1)}}
+            print(f"  {key}: rows {np.round(r[ln['cols']], 2).tolist()} mm; [um mm/N] full gear: own "
+                  f"{np.round(out['members'][key]['full_self_cols'], 4).tolist()}, " + ", ".join(
+                      f"d {d:+d} {np.round(out['members'][key][f'full {d:+d}'], 4).tolist()}" for d in (-2, -1, 1, 2))
+                  + "; sector: " + ", ".join(f"d {d:+d} {np.round(out['members'][key][f'sector {d:+d}'], 4).tolist()}"
+                                             for d in (-1, 1)), flush=True)
+        res = {"sector": Lf.solve(T, slices=S).results[0]}
+        res["sector+n"] = NeighbourLTCA(Lf, sec).solve(T, S).results[0]
+        n1, n2 = (full_gear_grid(g[m], tt[m], gears[m], rf[m])[0] for m in (0, 1))
+        Lf.influence = (n1, n2)
+        res["full"] = Lf.solve(T, slices=S).results[0]
+        res["full+n"] = NeighbourLTCA(Lf, full).solve(T, S).results[0]
+        La = LTCA(pair, material=mat)
+        res["default"] = La.solve(T, slices=S).results[0]
+        res["default+n"] = NeighbourLTCA(La, an_n).solve(T, S).results[0]
+        cand = [candidate_grids(La, m, gears[m], g[m]) for m in (0, 1)]
+        res["default+candidate"] = NeighbourLTCA(La, cand).solve(T, S).results[0]
+        for j, f in enumerate(fracs):
+            rec = record.get(name, {}).get(f)
+            if rec is None:
+                continue
+            a = {k: 1e3 * v.delta[j] / cb for k, v in res.items()}
+            fe = rec["approach_um"]
+            ref = fe + a["full"] - a["sector"]
+            refn = fe + a["full+n"] - a["sector+n"]
+            # the section pressure and the share of the pair nearest the pitch point, as --validate
+            m = GearFEModel(pair, phis[j], FEOptions(torque=T * 1e3, E=E, nu=NU), mis=mis)
+            k0 = min(m.hertz, key=lambda k: abs(m.contact[k]["radius1"] - pair.pinion.r_p))
+            z_sec = m.contact[k0]["z1"]
+            ps = {}
+            for lab, rr in res.items():
+                kk = rr.pairs.index(k0)
+                ok = np.isfinite(S.z[kk, j]) & S.active[kk, j] & (S.edge[kk, j] == 0)
+                o = np.argsort(S.z[kk, j][ok])
+                ps[lab] = (float(np.interp(z_sec, S.z[kk, j][ok][o], rr.p0[kk, j][ok][o])), float(rr.share[kk, j]))
+            pref = [(rec["p_max_mid_MPa"], rec["share"])[i] + ps["full"][i] - ps["sector"][i] for i in (0, 1)]
+            prefn = [(rec["p_max_mid_MPa"], rec["share"])[i] + ps["full+n"][i] - ps["sector+n"][i] for i in (0, 1)]
+            row = dict(fe=fe, ref=ref, ref_n=refn, **a, p_share=ps, p_share_ref=pref, p_share_ref_n=prefn)
+            out["runs"].setdefault(name, {})[f] = row
+            print(f"{'':<34} {'':>6} section p [MPa] / share: reference {pref[0]:.1f} / {pref[1]:.3f}, default "
+                  f"{ps['default'][0]:.1f} ({100 * (ps['default'][0] / pref[0] - 1):+.1f} %) / {ps['default'][1]:.3f} "
+                  f"({ps['default'][1] - pref[1]:+.3f}); with the neighbours: reference {prefn[0]:.1f} / {prefn[1]:.3f}, "
+                  f"default + FE neighbours {ps['default+n'][0]:.1f} ({100 * (ps['default+n'][0] / prefn[0] - 1):+.1f} %) / "
+                  f"{ps['default+n'][1]:.3f} ({ps['default+n'][1] - prefn[1]:+.3f})", flush=True)
+            print(f"{name:<34} {math.degrees(phis[j]):6.2f} FE {fe:7.3f}: LTCA-fe {a['sector']:7.3f} "
+                  f"({100 * (a['sector'] / fe - 1):+5.1f} %), + sector neighbours {a['sector+n']:7.3f} "
+                  f"({100 * (a['sector+n'] / fe - 1):+5.1f} %) | ref {ref:7.3f}, ref+n {refn:7.3f} ({100 * (refn / ref - 1):+5.1f} %) | "
+                  f"default {a['default']:7.3f} ({100 * (a['default'] / ref - 1):+5.1f} % of ref, "
+                  f"{100 * (a['default'] / refn - 1):+5.1f} % of ref+n), default + FE neighbours {a['default+n']:7.3f} "
+                  f"({100 * (a['default+n'] / refn - 1):+5.1f} % of ref+n), default + the candidate term "
+                  f"{a['default+candidate']:7.3f} ({100 * (a['default+candidate'] / refn - 1):+5.1f} % of ref+n)", flush=True)
+    # over a mesh cycle: the mean mesh stiffness against ISO 6336-1 and the loaded TE's peak-to-peak
+    from gearopt.ltca.compliance import iso6336_stiffness
+
+    for name in ("spur 20/40 conjugate", "helical 15 deg"):
+        pair, _ = drives()[name]
+        Lf = LTCA(pair, material=mat, compliance="fe")
+        tt = (Lf.tca.pinion.unmodified, Lf.tca.gear.unmodified)
+        an_n = [neighbour_grids(tt[m], (pair.pinion, pair.gear)[m], Lf.tca.form_radius(m + 1), Lf.influence[m], "full")
+                for m in (0, 1)]
+        La = LTCA(pair, material=mat)
+        S = La.slices(phi1=La.mesh_cycle(32))
+        iso = iso6336_stiffness(pair)["c_gamma_alpha"] * E / 206000.0
+        for torque in (100.0, 200.0):
+            r0 = La.solve(torque, slices=S).results[0]
+            r1 = NeighbourLTCA(La, an_n).solve(torque, S).results[0]
+            out.setdefault("cycle", {}).setdefault(name, {})[f"{torque:g}"] = dict(
+                c_gamma=r0.c_gamma, c_gamma_n=r1.c_gamma, iso=iso, te_pp=r0.peak_to_peak_arcsec,
+                te_pp_n=r1.peak_to_peak_arcsec)
+            print(f"{name}, {torque:g} N m, 32 positions: c_gamma default {r0.c_gamma:.2f}, + the full gears' FE "
+                  f"neighbours {r1.c_gamma:.2f} N/(mm um) (ISO 6336-1 {iso:.2f} at E {E:g} MPa); loaded TE peak-to-peak "
+                  f"{r0.peak_to_peak_arcsec:.2f} -> {r1.peak_to_peak_arcsec:.2f} arcsec", flush=True)
+    path = ROOT / "benchmarks" / "data" / "fe_neighbour_teeth.json"
+    out.update(_about="benchmarks/fe_full_gear_body.py --neighbours: line-load responses [um mm/N] of teeth d pitches "
+               "from the loaded one at the loaded rows (cols); approaches [um] per drive and position",
+               date=time.strftime("%Y-%m-%d"), torque_Nm=T)
+    path.write_text(json.dumps(out, indent=1) + "\n")
+    print(f"recorded in {path.relative_to(ROOT)}")
+    return 0
+
+
 def main(argv):
     if "-h" in argv or "--help" in argv:
         print(__doc__)
@@ -485,15 +756,18 @@ def main(argv):
             print("fe_full_gear_body.py: --lam-factor needs a number 0.05 <= x <= 20 (see --help)", file=sys.stderr)
             return 2
         argv = argv[:i] + argv[i + 2:]
-    bad = [a for a in argv if a not in ("--mesh", "--validate", "--sainsot", "--helical")]
+    bad = [a for a in argv if a not in ("--mesh", "--validate", "--sainsot", "--helical", "--neighbours")]
     if bad:
-        print(f"fe_full_gear_body.py: unknown argument {bad[0]!r}: expected --mesh, --validate, --sainsot, --helical "
+        print(f"fe_full_gear_body.py: unknown argument {bad[0]!r}: expected --mesh, --validate, --sainsot, --helical, "
+              "--neighbours "
               "or --lam-factor X (see --help)", file=sys.stderr)
         return 2
     if "--sainsot" in argv:
         return sainsot_readings()
     if "--helical" in argv:
         return helical_split()
+    if "--neighbours" in argv:
+        return neighbours_study()
     if "--validate" in argv:
         return validate(lam_factor)
     return body_study("--mesh" in argv)

@@ -38,6 +38,8 @@ from .local import local_excess
 from .mesh import SUPPORTS, MeshOptions, ToothMesher, build_member, middle_points
 
 if TYPE_CHECKING:
+    from collections.abc import Sequence
+
     from numpy.typing import ArrayLike
 
 CACHE_VERSION = 4
@@ -58,6 +60,11 @@ class InfluenceGrid:
         tooth's middle line [mm] (Weber's depth ``h``).
     kappa : (nr,) the excess of the tooth's local compression over Weber's half-space term at the grid
         rows, in Weber's bracket (:func:`gearopt.fea.local.local_excess`), or None.
+    neighbours : dict or None
+        ``{d: (nr, nz, nr, nz) array}``: the displacement of tooth ``d`` (``d`` pitches from the loaded
+        tooth, in the member's tooth numbering) along its own flank normal at the response point of its
+        grid point i per unit normal force at the loaded tooth's grid point j [mm/N] (not symmetric;
+        :func:`influence_grid`'s ``neighbours``), or None.
     """
 
     radius: np.ndarray
@@ -69,6 +76,7 @@ class InfluenceGrid:
     key: str
     depth: np.ndarray | None = None
     kappa: np.ndarray | None = None
+    neighbours: dict | None = None
 
     def local_excess(self, radius: ArrayLike) -> np.ndarray:
         """``kappa`` at flank radii ``radius`` [mm] (linear between the grid rows, constant beyond;
@@ -124,6 +132,40 @@ def _flank_loads(tooth: GeneratedTooth, t: dict, X: np.ndarray, rows: list[int])
     return load, normals
 
 
+def check_neighbours(neighbours: Sequence[int], ids: tuple[int, ...]) -> tuple[int, ...]:
+    """``neighbours``, the teeth (pitches from the loaded tooth 0) whose response is read, checked against
+    the model's teeth ``ids``: distinct nonzero integers among them."""
+    try:
+        d = tuple(int(v) for v in neighbours)
+        ok = all(float(v) == int(v) for v in neighbours)
+    except (TypeError, ValueError):
+        d, ok = (), False
+    if not ok or len(set(d)) != len(d) or any(v == 0 or v not in ids for v in d):
+        raise out_of_range("neighbours", neighbours, f"distinct nonzero tooth offsets among {min(ids)} ... {max(ids)} "
+                           "(the member model's teeth)", cls=OptionError)
+    return d
+
+
+def _neighbour_points(mm, mesher: ToothMesher, ids: tuple[int, ...], X: np.ndarray, rows: list[int],
+                      normals: np.ndarray, mid_rows: np.ndarray, nh: int) -> dict:
+    """Per tooth ``d`` of ``ids``: its load-line crossings with its middle line for the loaded tooth's flank
+    grid turned by ``d`` pitches, ``(pairs, weights, normals (n, 3))`` as :func:`middle_points`."""
+    teeth = {t["k"]: t for t in mm.teeth}
+    L = teeth[0]["nodes"].shape[0]
+    out = {}
+    for d in ids:
+        nd = teeth[d]["nodes"]
+        a = d * mesher.pitch_angle
+        c, s_ = np.cos(a), np.sin(a)
+        nrm = normals.copy()
+        nrm[..., 0] = c * normals[..., 0] - s_ * normals[..., 1]
+        nrm[..., 1] = s_ * normals[..., 0] + c * normals[..., 1]
+        load_d = np.array([[nd[layer, r, -1] for layer in range(L)] for r in rows])
+        pairs, w, _ = middle_points(X, nd, load_d, nrm, mid_rows, nh)
+        out[d] = (pairs, w, nrm.reshape(-1, 3))
+    return out
+
+
 def _deck_head(title: str, X: np.ndarray, elements: np.ndarray, element: str, fixed: np.ndarray,
                ridx: np.ndarray, E: float, nu: float) -> list[str]:
     """The CalculiX deck's lines before its steps: nodes, elements of type ``element``, the held
@@ -167,7 +209,8 @@ def _run_deck(lines: list[str], jobname: str, who: str, n_cases: int, ridx: np.n
 
 def influence_grid(tooth: GeneratedTooth, E: float = 206000.0, nu: float = 0.3, mesh: MeshOptions | None = None,
                    teeth: int = 3, side: str = "right", r_form: float | None = None, use_cache: bool = True,
-                   threads: int = 2, local: bool = True, support: str = "sector") -> InfluenceGrid:
+                   threads: int = 2, local: bool = True, support: str = "sector",
+                   neighbours: Sequence[int] = ()) -> InfluenceGrid:
     """Influence coefficients of ``tooth``'s driving flank (see the module docstring).
 
     Parameters
@@ -193,6 +236,10 @@ def influence_grid(tooth: GeneratedTooth, E: float = 206000.0, nu: float = 0.3, 
         rim's bottom arc and both sector sides, as the contact model's members; ``"bore"`` the bottom
         arc only (with ``teeth`` = the member's tooth count: a full gear held at its bore ``r_f -
         rim_depth m_n``).
+    neighbours : sequence of int
+        Teeth (pitches from the loaded tooth, in the member's numbering) whose response to each load is
+        read as well, at the points of their own grids (``InfluenceGrid.neighbours``): the coupling of
+        neighbouring teeth through the rim or body (docs/ltca.md section 7). Default none.
 
     Returns
     -------
@@ -204,19 +251,22 @@ def influence_grid(tooth: GeneratedTooth, E: float = 206000.0, nu: float = 0.3, 
     check_teeth(teeth, tooth.gear.z)
     if support not in SUPPORTS:
         raise out_of_range("support", support, " or ".join(repr(v) for v in SUPPORTS), cls=OptionError)
-    key = _key(tooth, E, nu, mesh, teeth, r_form, support)
+    ids = tuple(range(-(teeth // 2), teeth - teeth // 2))
+    nbs = check_neighbours(neighbours, ids)
+    key = _key(tooth, E, nu, mesh, teeth, r_form, support,
+               what="grid" if not nbs else "grid:neighbours " + ",".join(str(d) for d in nbs))
     path = cache_dir() / f"{key}.npz"
     if use_cache and path.exists():
         try:
             d = np.load(path)
             out = InfluenceGrid(radius=d["radius"], z=d["z"], G=d["G"], asymmetry=float(d["asymmetry"]),
-                                ccx_s=float(d["ccx_s"]), cached=True, key=key, depth=d["depth"])
+                                ccx_s=float(d["ccx_s"]), cached=True, key=key, depth=d["depth"],
+                                neighbours={v: d[f"N{v:+d}"] for v in nbs} or None)
         except (OSError, KeyError, ValueError):
             out = None  # a damaged file: compute again
         if out is not None:
             return _with_local(out, tooth, E, nu, use_cache, threads) if local else out
     m = ToothMesher(tooth, mesh)
-    ids = tuple(range(-(teeth // 2), teeth - teeth // 2))
     mm = build_member(m, ids, {}, tooth.gear.name or "member", 0.0)
     t = [t for t in mm.teeth if t["k"] == 0][0]
     nodes = t["nodes"]  # (layers, rows, cols)
@@ -236,6 +286,10 @@ def influence_grid(tooth: GeneratedTooth, E: float = 206000.0, nu: float = 0.3, 
     # (Weber's depth h is measured to there; the middle node of the same row lies off the load line, and
     # the bending slope between the two points is of the order of the whole local term)
     resp_pair, resp_w, depth = middle_points(X, nodes, load, normals, mid_rows, nh)
+    n_own = resp_w.size
+    nb = _neighbour_points(mm, m, nbs, X, rows, normals, mid_rows, nh)
+    resp_pair = np.concatenate([resp_pair] + [nb[v][0] for v in nbs])
+    resp_w = np.concatenate([resp_w] + [nb[v][1] for v in nbs])
     fixed = mm.held(support) + 1
     ridx = np.unique(resp_pair) + 1  # the response nodes, 1-based
     lines = _deck_head("influence coefficients of a tooth flank (unit normal loads)", X, mm.elements, "C3D8",
@@ -255,8 +309,11 @@ def influence_grid(tooth: GeneratedTooth, E: float = 206000.0, nu: float = 0.3, 
     if say:
         say(f"{label}: done in {ccx_s:.1f} s")
     G = np.zeros((n, n))
+    Gn = {v: np.zeros((n, n)) for v in nbs}
     for j, U in enumerate(responses):
-        G[:, j] = -np.einsum("ij,ij->i", U, flat_n)  # displacement into the tooth along the normal
+        G[:, j] = -np.einsum("ij,ij->i", U[:n_own], flat_n)  # displacement into the tooth along the normal
+        for q, v in enumerate(nbs):  # tooth v's own normal
+            Gn[v][:, j] = -np.einsum("ij,ij->i", U[n_own * (q + 1):n_own * (q + 2)], nb[v][2])
     if not np.all(np.isfinite(G)) or np.any(np.diag(G) <= 0):
         raise CalculixError("influence_grid: non-finite or non-positive self-compliance in the ccx results.")
     asym = float(np.max(np.abs(G - G.T)) / np.max(np.abs(G)))
@@ -266,10 +323,12 @@ def influence_grid(tooth: GeneratedTooth, E: float = 206000.0, nu: float = 0.3, 
     order = np.argsort(radius)
     nr, nz = len(rows), L
     G4 = G.reshape(nr, nz, nr, nz)[order][:, :, order]
+    N4 = {v: g.reshape(nr, nz, nr, nz)[order][:, :, order] for v, g in Gn.items()}
     out = InfluenceGrid(radius=radius[order], z=z, G=G4, asymmetry=asym, ccx_s=ccx_s, cached=False, key=key,
-                        depth=depth.reshape(nr, nz)[order])
+                        depth=depth.reshape(nr, nz)[order], neighbours=N4 or None)
     if use_cache:
-        save_npz(path, radius=out.radius, z=out.z, G=out.G, asymmetry=asym, ccx_s=ccx_s, depth=out.depth)
+        save_npz(path, radius=out.radius, z=out.z, G=out.G, asymmetry=asym, ccx_s=ccx_s, depth=out.depth,
+                 **{f"N{v:+d}": g for v, g in N4.items()})
     return _with_local(out, tooth, E, nu, use_cache, threads) if local else out
 
 
@@ -306,6 +365,9 @@ class LineLoadCompliance:
         per unit face width, the quantity of the analytical model's per-width terms).
     support : how the member was held; teeth : its teeth; full_ring : every tooth (a closed ring).
     ccx_s : CalculiX time [s]; cached : read from the cache; key : the cache key.
+    neighbours : ``{d: (nr, nr) array}``, tooth ``d``'s displacement along its own normal at its row i's
+        response point per unit line load on the loaded tooth's row j [mm^2/N] (:func:`line_load_compliance`'s
+        ``neighbours``), or None.
     """
 
     radius: np.ndarray
@@ -316,6 +378,7 @@ class LineLoadCompliance:
     ccx_s: float
     cached: bool
     key: str
+    neighbours: dict | None = None
 
     def at(self, radius: ArrayLike) -> np.ndarray:
         """The own compliance ``C[i, i]`` at flank radii ``radius`` [mm] (linear between rows, constant
@@ -326,7 +389,7 @@ class LineLoadCompliance:
 def line_load_compliance(tooth: GeneratedTooth, E: float = 206000.0, nu: float = 0.3, mesh: MeshOptions | None = None,
                          teeth: int = 3, support: str = "sector", r_form: float | None = None,
                          rows: ArrayLike | None = None, r_bore: float | None = None, element: str = "C3D8",
-                         use_cache: bool = True, threads: int = 2) -> LineLoadCompliance:
+                         use_cache: bool = True, threads: int = 2, neighbours: Sequence[int] = ()) -> LineLoadCompliance:
     """The central tooth's compliance per unit face width under a line load uniform over the face, per
     flank row (one CalculiX load case a loaded row, not one per grid point as :func:`influence_grid`).
 
@@ -364,6 +427,9 @@ def line_load_compliance(tooth: GeneratedTooth, E: float = 206000.0, nu: float =
         Read and write the on-disk cache (:func:`gearopt.fea.cache.cache_dir`).
     threads : int
         CalculiX threads.
+    neighbours : sequence of int
+        Teeth (pitches from the loaded tooth, in the member's numbering) whose response at their own rows
+        is read as well (``LineLoadCompliance.neighbours``; docs/ltca.md section 7). Default none.
 
     Returns
     -------
@@ -378,6 +444,7 @@ def line_load_compliance(tooth: GeneratedTooth, E: float = 206000.0, nu: float =
         raise out_of_range("element", element, " or ".join(repr(v) for v in ELEMENTS), cls=OptionError)
     m = ToothMesher(tooth, mesh, r_rim=r_bore)
     ids = tuple(range(-(teeth // 2), teeth - teeth // 2))
+    nbs = check_neighbours(neighbours, ids)
     mm = build_member(m, ids, {}, tooth.gear.name or "member", 0.0)
     fixed = mm.held(support) + 1  # (checks support against a full ring)
     t = [t for t in mm.teeth if t["k"] == 0][0]
@@ -399,13 +466,15 @@ def line_load_compliance(tooth: GeneratedTooth, E: float = 206000.0, nu: float =
         raise out_of_range("rows", np.asarray(rows).tolist(), f"distinct row indices 0 <= i < {nr}",
                            cls=ArgumentError)
     key = _key(tooth, E, nu, mesh, teeth, r_form, support, what=f"line:r_rim {m.r_rim:.9g}:" + ",".join(str(int(i)) for i in loaded)
-               + ("" if element == "C3D8" else f":{element}"))
+               + ("" if element == "C3D8" else f":{element}")
+               + ("" if not nbs else ":neighbours " + ",".join(str(d) for d in nbs)))
     path = cache_dir() / f"{key}.npz"
     if use_cache and path.exists():
         try:
             d = np.load(path)
             return LineLoadCompliance(radius=d["radius"], C=d["C"], support=support, teeth=teeth,
-                                      full_ring=mm.full_ring, ccx_s=float(d["ccx_s"]), cached=True, key=key)
+                                      full_ring=mm.full_ring, ccx_s=float(d["ccx_s"]), cached=True, key=key,
+                                      neighbours={v: d[f"N{v:+d}"] for v in nbs} or None)
         except (OSError, KeyError, ValueError):
             pass  # a damaged file: compute again
     load, normals = _flank_loads(tooth, t, X, all_rows)
@@ -414,6 +483,9 @@ def line_load_compliance(tooth: GeneratedTooth, E: float = 206000.0, nu: float =
     resp_pair = resp_pair.reshape(nr, L, 2)[:, L // 2]
     resp_w = resp_w.reshape(nr, L)[:, L // 2]
     n_mid = normals[:, L // 2]
+    nb = _neighbour_points(mm, m, nbs, X, all_rows, normals, mid_rows, nh)
+    resp_pair = np.concatenate([resp_pair] + [nb[v][0].reshape(nr, L, 2)[:, L // 2] for v in nbs])
+    resp_w = np.concatenate([resp_w] + [nb[v][1].reshape(nr, L)[:, L // 2] for v in nbs])
     zl = X[load[0], 2]
     trib = np.zeros(L)  # tributary face widths of the layers (trapezoidal rule) [mm]
     trib[:-1] += 0.5 * np.diff(zl)
@@ -434,14 +506,17 @@ def line_load_compliance(tooth: GeneratedTooth, E: float = 206000.0, nu: float =
     responses, ccx_s = _run_deck(lines, "lineload", "line_load_compliance", loaded.size, ridx, resp_pair, resp_w,
                                  threads, say, label)
     C = np.full((nr, nr), np.nan)
+    Cn = {v: np.full((nr, nr), np.nan) for v in nbs}
     inv = np.empty(nr, int)
     inv[order] = np.arange(nr)
     for jj, U in zip(loaded, responses):
-        C[inv, jj] = -np.einsum("ij,ij->i", U, n_mid)  # rows of U by mesh row; into ascending radius
+        C[inv, jj] = -np.einsum("ij,ij->i", U[:nr], n_mid)  # rows of U by mesh row; into ascending radius
+        for q, v in enumerate(nbs):  # tooth v's own normal
+            Cn[v][inv, jj] = -np.einsum("ij,ij->i", U[nr * (q + 1):nr * (q + 2)], nb[v][2].reshape(nr, L, 3)[:, L // 2])
     if not np.all(np.isfinite(C[:, loaded])) or np.any(np.diag(C)[loaded] <= 0):
         raise CalculixError("line_load_compliance: non-finite or non-positive self-compliance in the ccx results.")
     out = LineLoadCompliance(radius=radius[order], C=C, support=support, teeth=teeth, full_ring=mm.full_ring,
-                             ccx_s=ccx_s, cached=False, key=key)
+                             ccx_s=ccx_s, cached=False, key=key, neighbours=Cn or None)
     if use_cache:
-        save_npz(path, radius=out.radius, C=C, ccx_s=ccx_s)
+        save_npz(path, radius=out.radius, C=C, ccx_s=ccx_s, **{f"N{v:+d}": c for v, c in Cn.items()})
     return out
