@@ -196,9 +196,9 @@ def test_a_refinement_starts_from_the_last_passs_final_solve():
 
 
 def test_only_an_optimisations_first_round_is_solved_along_the_smoothing():
-    """The first round of a first pass (no earlier NLP) goes through the two stages of the smoothing
-    (:meth:`NLPBuilder._solve_smoothed`); a refined pass's first round (the last pass's multipliers)
-    and every later round do not."""
+    """The first round of a first pass (no earlier NLP) from the drive's own design goes through the two
+    stages of the smoothing (:meth:`NLPBuilder._solve_smoothed`); a refined pass's first round (the
+    last pass's multipliers), every later round and a first round from another design do not."""
 
     class Rec(_Toy):
         def _solve_smoothed(self, nlp, z0, lbx, ubx, p):
@@ -210,6 +210,9 @@ def test_only_an_optimisations_first_round_is_solved_along_the_smoothing():
     toy.solve()
     assert toy.smoothed == [2]  # the first pass's round 0 only (2 positions); the refined pass (3) warm
     assert len(toy.solves) > 2
+    toy.refine = [0.25]
+    toy.solve(start=[0.010])  # from another design than the drive's own (a Pareto point's start): cold
+    assert toy.smoothed == [2] and len(toy.solves) > 5
 
 
 @pytest.mark.slow
