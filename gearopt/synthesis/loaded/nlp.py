@@ -312,8 +312,8 @@ class NLPBuilder:
 
     def _solve_smoothed(self, nlp: LoadedNLP, z0: np.ndarray, lbx: np.ndarray, ubx: np.ndarray,
                         p: list) -> tuple[dict, dict, int]:
-        """Solve ``nlp`` from ``z0`` with no earlier multipliers (the first round of an optimisation) in
-        two stages of the complementarity's smoothing ``x y = mu``: first at ``MU_START`` from ``z0``
+        """Solve ``nlp`` from ``z0`` with no earlier multipliers (the first round of an optimisation from
+        the drive's own design, :meth:`TrustRegion._trust_region`) in two stages of the complementarity's smoothing ``x y = mu``: first at ``MU_START`` from ``z0``
         (IPOPT's cold start), then at the NLP's own ``p`` (``MU``) from that solution and its
         multipliers (``WARM_OPTS``, :meth:`TrustRegion._warm_solver`); where the second stage fails,
         the cold start at ``p``. Returns the solution, IPOPT's stats and the iterations of every stage.
