@@ -163,6 +163,9 @@ class _Toy(LoadedMicroOptimizer):
         return LocalModel(nlp=SimpleNamespace(sizes={"nx": 1}, layout=lay, phi1=self.phi1.copy()), z0=theta * 1e3,
                           check=chk, merit=self._merit(chk, rho), time=0.0)
 
+    def _solve_smoothed(self, nlp, z0, lbx, ubx, p):  # the first round: one solve of the toy, as every other
+        return self._solve_nlp(nlp, z0, lbx, ubx, p)
+
     def _solve_nlp(self, nlp, z0, lbx, ubx, p, prev=None):
         self.solves.append((prev, nlp.phi1.size))
         t = float(np.clip(30.0, lbx[0], ubx[0]))
@@ -189,6 +192,73 @@ def test_a_refinement_starts_from_the_last_passs_final_solve():
     assert prev is not None and prev[0].phi1.size == 2  # the last pass's final NLP and solution
     assert prev[1]["x"] == [30.0] and toy.solves[first_refined - 1][1] == 2
     assert toy.last_solve[0].phi1.size == 3  # the refined pass's own final solve
+
+
+
+def test_only_an_optimisations_first_round_is_solved_along_the_smoothing():
+    """The first round of a first pass (no earlier NLP) from the drive's own design goes through the two
+    stages of the smoothing (:meth:`NLPBuilder._solve_smoothed`); a refined pass's first round (the
+    last pass's multipliers), every later round and a first round from another design do not."""
+
+    class Rec(_Toy):
+        def _solve_smoothed(self, nlp, z0, lbx, ubx, p):
+            self.smoothed.append(nlp.phi1.size)
+            return super()._solve_smoothed(nlp, z0, lbx, ubx, p)
+
+    toy = Rec()
+    toy.smoothed = []
+    toy.solve()
+    assert toy.smoothed == [2]  # the first pass's round 0 only (2 positions); the refined pass (3) warm
+    assert len(toy.solves) > 2
+    toy.refine = [0.25]
+    toy.solve(start=[0.010])  # from another design than the drive's own (a Pareto point's start): cold
+    assert toy.smoothed == [2] and len(toy.solves) > 5
+
+
+@pytest.mark.slow
+@pytest.mark.ipopt
+def test_the_first_round_along_the_smoothing_reaches_the_cold_solves_optimum(small, monkeypatch):
+    """The first round's two stages (the NLP at ``MU_START``, then at ``MU`` from that solution and its
+    multipliers) end at the optimum of the plain cold solve at ``MU``: the design within 1e-6 um, the
+    objective within 1e-9 relative; the first stage solves at ``MU_START`` and the second at ``MU``."""
+    from gearopt.synthesis.loaded import nlp as nlp_mod
+    from gearopt.synthesis.loaded.layout import param_layout
+
+    opt = small
+    th = opt.theta0.copy()
+    opt.phi1 = opt.ltca.mesh_cycle(opt.n_positions)
+    cur = opt._around(th, 0.008)
+    cold, st_c, it_c = _solve(opt, cur, th, 0.004)
+    lbx, ubx = opt._bounds(cur.nlp)
+    k = cur.nlp.layout.unknowns["theta"]
+    lbx[k] = np.maximum(opt.lo, th - 0.004) * 1e3
+    ubx[k] = np.minimum(opt.hi, th + 0.004) * 1e3
+    seen = []
+    at = param_layout(0, 0)["mu"].start
+    solver = cur.nlp.solver
+    monkeypatch.setattr(type(cur.nlp), "solver", property(lambda n: _Spy(solver, seen, at)))
+    warm = opt._warm_solver(cur.nlp)
+    cur.nlp.warm = _Spy(warm, seen, at)
+    r, st, it = opt._solve_smoothed(cur.nlp, cur.z0, lbx, ubx, opt._pvec(1000.0))
+    assert st_c["success"] and st["success"]
+    assert seen[:2] == [nlp_mod.MU_START, MU] and nlp_mod.MU_START > 100 * MU
+    P = len(opt.free)
+    assert np.max(np.abs(np.asarray(r["x"])[:P] - np.asarray(cold["x"])[:P])) < 1e-6  # [um]
+    assert abs(float(r["f"]) - float(cold["f"])) < 1e-9 * abs(float(cold["f"]))
+
+
+class _Spy:
+    """An IPOPT solver that records the smoothing ``mu`` of every call."""
+
+    def __init__(self, f, seen, at):
+        self.f, self.seen, self.at = f, seen, at
+
+    def __call__(self, **kw):
+        self.seen.append(float(np.asarray(kw["p"]).ravel()[self.at]))
+        return self.f(**kw)
+
+    def stats(self):
+        return self.f.stats()
 
 
 _EXITER = r"""

@@ -228,6 +228,9 @@ class _PenaltyToy(LoadedMicroOptimizer):
         return LocalModel(nlp=SimpleNamespace(sizes={"nx": 1}, layout=lay), z0=theta * 1e3, check=chk,
                           merit=self._merit(chk, rho), time=0.0)
 
+    def _solve_smoothed(self, nlp, z0, lbx, ubx, p):  # the first round: one solve of the toy, as every other
+        return self._solve_nlp(nlp, z0, lbx, ubx, p)
+
     def _solve_nlp(self, nlp, z0, lbx, ubx, p, prev=None):
         rho = p[3]
         self.solves.append((rho, self.phi1.size))

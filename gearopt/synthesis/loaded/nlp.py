@@ -24,6 +24,8 @@ from .verify import harmonic_rows
 
 #: IPOPT's ``mumps_mem_percent`` for the loaded NLP: MUMPS's workspace over its estimate [%] (:meth:`NLPBuilder._nlp`)
 MUMPS_MEM_PERCENT = 50
+#: the complementarity's smoothing of the first stage of a first round (:meth:`NLPBuilder._solve_smoothed`)
+MU_START = 1e-5
 
 
 class NLPBuilder:
@@ -307,6 +309,35 @@ class NLPBuilder:
                     w_part=np.concatenate(w_part) if w_part else np.zeros(0, int),
                     te0=te0, te0_term=ca.Function("te0_term", [z], [te0_obj if te0 is not None else ca.MX(0.0)],
                                                   ["z"], ["te0_term"]))
+
+    def _solve_smoothed(self, nlp: LoadedNLP, z0: np.ndarray, lbx: np.ndarray, ubx: np.ndarray,
+                        p: list) -> tuple[dict, dict, int]:
+        """Solve ``nlp`` from ``z0`` with no earlier multipliers (the first round of an optimisation from
+        the drive's own design, :meth:`TrustRegion._trust_region`) in two stages of the complementarity's smoothing ``x y = mu``: first at ``MU_START`` from ``z0``
+        (IPOPT's cold start), then at the NLP's own ``p`` (``MU``) from that solution and its
+        multipliers (``WARM_OPTS``, :meth:`TrustRegion._warm_solver`); where the second stage fails,
+        the cold start at ``p``. Returns the solution, IPOPT's stats and the iterations of every stage.
+
+        A cold start at ``MU`` = 1e-8 follows the smoothed kinks of every slice that opens or closes
+        on the way (short steps, restorations: 236 iterations on the first round of
+        ``microgeometry_loaded``); at ``MU_START`` the kinks are 30x wider and the second stage only
+        sharpens them (84 + 30 iterations, the same solution to 1e-12 um; docs/benchmarks.md "Loaded
+        optimiser", h4 of 2026-11-29 afternoon)."""
+        args = dict(x0=z0, lbx=lbx, ubx=ubx, lbg=nlp.lbg, ubg=nlp.ubg)
+        at = param_layout(0, 0)["mu"].start
+        q = list(p)
+        q[at] = MU_START
+        r0 = nlp.solver(p=q, **args)
+        its = int(nlp.solver.stats()["iter_count"])
+        if nlp.solver.stats()["success"]:
+            r = self._warm_solver(nlp)(p=p, lam_x0=r0["lam_x"], lam_g0=r0["lam_g"], **{**args, "x0": r0["x"]})
+            st = nlp.warm.stats()
+            its += int(st["iter_count"])
+            if st["success"]:
+                return r, st, its
+        r = nlp.solver(p=p, **args)
+        st = nlp.solver.stats()
+        return r, st, its + int(st["iter_count"])
 
     def _te0_blocks(self, lin, radius: float, lever: float) -> Te0Slices:
         """The unloaded-TE target's slices in the NLP: per case and position, the active slices of the

@@ -69,7 +69,12 @@ class TrustRegion:
             # from the last NLP's multipliers unless the radius grew (its step reached the region's
             # bound and the next optimum may lie far: there the cold start took 2-3x fewer iterations)
             warm = prev if prev is not None and prev[3] >= radius else None
-            r, st, it = self._solve_nlp(nlp, cur.z0, lbx, ubx, p, warm)
+            if rnd == 0 and warm is None and np.array_equal(theta, self.theta0):
+                # the first round from the drive's own design (far from the optimum): two stages of the
+                # smoothing (a start near an optimum, the Pareto sweep's, solves cold in fewer)
+                r, st, it = self._solve_smoothed(nlp, cur.z0, lbx, ubx, p)
+            else:
+                r, st, it = self._solve_nlp(nlp, cur.z0, lbx, ubx, p, warm)
             status = st["return_status"]
             iters += it
             zs = np.asarray(r["x"]).ravel()
