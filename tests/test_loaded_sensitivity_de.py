@@ -128,3 +128,29 @@ def test_differences_are_taken_between_fixed_points(optimum):
     assert np.all(np.abs(fd - ad) <= 2 * tol / h + 0.01 * np.abs(ad)), (fd, ad)
     unsettled = (th - np.array([off.theta[n] for n in names])) / h
     assert np.max(np.abs(unsettled - ad)) > 0.03
+
+
+@pytest.mark.slow
+def test_separation_sensitivities_move_as_relinearised():
+    """The separations' sensitivities the NLP holds at its linearisation (``J``: a relief's is its shape
+    at the contact point) move with the points along the slice equations' tangent
+    (``held_data.moved_gradients``): 1e-4 mm of dE moves them as the linearisation at that centre
+    distance does, to the second order (the motion is O(1) per mm here: 1.15 per mm of the root
+    relief's). Held (``J`` unmoved), the miss is the motion itself."""
+    from gearopt.synthesis.loaded import held_data
+
+    start = Microgeometry(C_alpha=5 * UM, C_beta=10 * UM, d_Ca=64.0, d_Cf=58.5)
+    pair = GearPair(Gear(z=20, m_n=3.0, b=20.0, modifications=start), Gear(z=40, m_n=3.0, b=20.0))
+    free = {f"pinion.{a}": (0.0, 40 * UM) for a in ("C_alpha", "C_beta", "C_alpha_a", "C_alpha_f")}
+    opt = LoadedMicroOptimizer(pair, free, [250.0], cases=[Misalignment()], n_positions=8, n_verify=8, n_slices=5)
+    theta = np.array([10.0, 10.0, 20.0, 10.0]) * UM
+    (L,) = opt.linearise(theta)
+    (tg,) = held_data.point_tangents(opt, theta, [L])
+    h = 1e-4
+    col = len(free) + Misalignment.names().index("dE")
+    (J, _, _, _), = held_data.moved_gradients(opt, L, tg, [(col, h)])
+    (L2,) = opt.shifted(Misalignment(dE=h)).linearise(theta)
+    both = L.slices.active & L2.slices.active
+    motion = np.max(np.abs(L2.J - L.J)[both])
+    assert motion > 5e-5  # the sensitivities do move (by ~1e-4 over the step)
+    assert np.max(np.abs(J - L2.J)[both]) < 0.05 * motion
