@@ -14,7 +14,12 @@ misalignment kind is the total derivative along the solution of its slice equati
 edge: the implicit function theorem, by CasADi AD of the slice geometry ``LTCA.slices`` evaluates),
 and the held data move with it through the same functions that compute them (``LTCA.structure``
 and the levers' correction, evaluated at the points moved by ``+-eps`` along that tangent: a central
-directional difference of smooth numpy functions; no derivative written by hand). The NLP is then
+directional difference of smooth numpy functions; no derivative written by hand). So do the
+separations' sensitivities ``J``, ``Jm``, ``Jr``, ``Jk`` the NLP's separations, edge weights and
+curvatures are linear in about the linearisation (:func:`moved_gradients`: the function that computes
+them, at the slice's unknowns moved along the tangent and the column moved; their motion is the
+separations' second derivative, which the Lagrangian's gradient takes in through the contact
+multipliers; docs/loaded_synthesis.md section 6.4). The NLP is then
 built around the linearisation with those data, and its constraint rows, the gradient of its
 Lagrangian and the Lagrangian differenced at the solution (:func:`held_derivatives`).
 
