@@ -160,7 +160,7 @@ def moved_gradients(lr: Lineariser, L: Linearisation, tg: dict, motions: list[tu
     parameter by ``step``, evaluated by the function that computes them at the linearisation
     (:meth:`~gearopt.synthesis.loaded.linearise.Lineariser._sensitivity`, all motions in one call per slice
     kind). They are the separations' first derivatives, so their motion is the separations' second
-    derivative in the design and the misalignment (a reliefs' ``J`` is its shape at the point, which
+    derivative in the design and the misalignment (a relief's ``J`` is its shape at the point, which
     moves along the profile), which the Lagrangian's gradient in the design takes in through the
     contact multipliers. A partner slice's is interpolated to its crossing and a curvature's held where
     the slice has none, as :meth:`~gearopt.synthesis.loaded.linearise.Lineariser.linearise` does."""
@@ -194,8 +194,10 @@ def moved_gradients(lr: Lineariser, L: Linearisation, tg: dict, motions: list[tu
         kk, nn, mm = np.nonzero(S.partner_of >= 0)
         ii, tt = S.partner_of[kk, nn, mm], S.partner_t[kk, nn, mm][:, None]
         J[:, kk, nn, mm] = J[:, kk, nn, ii] + tt * (J[:, kk, nn, mm] - J[:, kk, nn, ii])
-    known = S.active if S.kappa1 is None else S.active & np.isfinite(S.kappa1) & np.isfinite(S.kappa2)
-    Jk = np.where(known[..., None] if S.kappa1 is not None else False, Jk, 0.0)
+    if S.kappa1 is None:
+        Jk[:] = 0.0
+    else:
+        Jk = np.where((S.active & np.isfinite(S.kappa1) & np.isfinite(S.kappa2))[..., None], Jk, 0.0)
     return [(J[i, ..., :P], J[i, ..., P:], Jr[i], Jk[i]) for i in range(nm)]
 
 
@@ -239,15 +241,16 @@ def held_derivatives(lr: Lineariser, theta: np.ndarray, lin: list[Linearisation]
     # the points move by at most POINT_STEP
     big = [max(float(np.max(np.abs(np.nan_to_num(t[k][..., col])))) for t in tgs for k in ("r1", "r2"))
            for col in columns]
+    keys = [(col, sgn) for col, b in zip(columns, big) if b > 0.0 for sgn in (1.0, -1.0)]
     motions = [(col, sgn * POINT_STEP / b) for col, b in zip(columns, big) if b > 0.0 for sgn in (1.0, -1.0)]
-    grads = [dict(zip(motions, moved_gradients(lr, L, t, motions))) for L, t in zip(lin, tgs)]
+    grads = [dict(zip(keys, moved_gradients(lr, L, t, motions))) for L, t in zip(lin, tgs)]
     for j, col in enumerate(columns):
         if big[j] == 0.0:
             continue
         eps = POINT_STEP / big[j]
         vals = []
         for sgn in (1.0, -1.0):
-            other = build([moved(lr, L, t, col, sgn * eps, g[(col, sgn * eps)]) for L, t, g in zip(lin, tgs, grads)])
+            other = build([moved(lr, L, t, col, sgn * eps, g[(col, sgn)]) for L, t, g in zip(lin, tgs, grads)])
             if other.lbg.size != m or other.layout.unknowns.size != n:
                 raise RuntimeError("held data: the NLP built with the moved data has another layout")
             pr = other.problem
