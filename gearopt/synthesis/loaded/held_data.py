@@ -14,7 +14,12 @@ misalignment kind is the total derivative along the solution of its slice equati
 edge: the implicit function theorem, by CasADi AD of the slice geometry ``LTCA.slices`` evaluates),
 and the held data move with it through the same functions that compute them (``LTCA.structure``
 and the levers' correction, evaluated at the points moved by ``+-eps`` along that tangent: a central
-directional difference of smooth numpy functions; no derivative written by hand). The NLP is then
+directional difference of smooth numpy functions; no derivative written by hand). So do the
+separations' sensitivities ``J``, ``Jm``, ``Jr``, ``Jk`` the NLP's separations, edge weights and
+curvatures are linear in about the linearisation (:func:`moved_gradients`: the function that computes
+them, at the slice's unknowns moved along the tangent and the column moved; their motion is the
+separations' second derivative, which the Lagrangian's gradient takes in through the contact
+multipliers; docs/loaded_synthesis.md section 6.4). The NLP is then
 built around the linearisation with those data, and its constraint rows, the gradient of its
 Lagrangian and the Lagrangian differenced at the solution (:func:`held_derivatives`).
 
@@ -68,13 +73,15 @@ def point_tangent_function(lr: Lineariser, kind: int) -> ca.Function:
         outs.append(t.dw[2, :])
         outs += [t.total(v) for v in (geo[f"lever1{tag}"], geo[f"lever2{tag}"])]
         outs.append(t.dw[3, :] / lr.pair.gear.r_p)
+        outs.append(t.dw)
         cache[kind] = ca.Function(f"ltca_point_tangent_{kind}", [t.w, t.prm], outs, ["w", "prm"],
-                                  ["dr1", "dr2", "dn1", "dn2", "dz2", "dl1", "dl2", "dte"])
+                                  ["dr1", "dr2", "dn1", "dn2", "dz2", "dl1", "dl2", "dte", "dw"])
     return cache[kind]
 
 
 #: the tangents of :func:`point_tangents` and their rows (3: a vector, 1: a number)
-TANGENTS = (("r1", 3), ("r2", 3), ("n1", 3), ("n2", 3), ("z2", 1), ("lever1", 1), ("lever2", 1), ("te", 1))
+TANGENTS = (("r1", 3), ("r2", 3), ("n1", 3), ("n2", 3), ("z2", 1), ("lever1", 1), ("lever2", 1), ("te", 1),
+            ("w", 4))
 
 
 def point_tangents(lr: Lineariser, theta: np.ndarray, lin: list[Linearisation]) -> list[dict]:
@@ -91,7 +98,8 @@ def point_tangents(lr: Lineariser, theta: np.ndarray, lin: list[Linearisation]) 
     for L in lin:
         S = L.slices
         K, N, M = S.z.shape
-        tg = {k: np.zeros((K, N, M, 3, nq) if r == 3 else (K, N, M, nq)) for k, r in TANGENTS}
+        tg = {k: np.zeros((K, N, M, r, nq) if r > 1 else (K, N, M, nq)) for k, r in TANGENTS}
+        tg["prm"] = np.full((K, N, M, lr.tca.layout.size), np.nan)
         kinds = np.zeros((K, N, M), int) if S.edge is None else S.edge
         phis = S.phi1[None, :] - 2 * math.pi * np.array(S.pairs)[:, None] / z1
         for kind in (0, 1, 2):
@@ -107,16 +115,20 @@ def point_tangents(lr: Lineariser, theta: np.ndarray, lin: list[Linearisation]) 
             for (key, r), v in zip(TANGENTS, vals):
                 # (r, n * nq): the columns of each slice side by side
                 v = v.reshape(r, n, nq).transpose(1, 0, 2)
-                tg[key][kk, nn, mm] = v if r == 3 else v[:, 0, :]
+                tg[key][kk, nn, mm] = v if r > 1 else v[:, 0, :]
+            tg["prm"][kk, nn, mm] = prm.T
         out.append(tg)
     return out
 
 
-def moved(lr: Lineariser, L: Linearisation, tg: dict, col: int, step: float) -> Linearisation:
+def moved(lr: Lineariser, L: Linearisation, tg: dict, col: int, step: float,
+          gradients: tuple | None = None) -> Linearisation:
     """The linearisation ``L`` with the data the NLP holds at it (``LTCA.structure`` of its slices, the
     levers ``lam`` and their separation correction ``da``, :meth:`~gearopt.synthesis.loaded.linearise
     .Lineariser.linearise`) of every active slice's point, line of action, gear section, levers and TE
-    moved by ``step`` times its tangent ``tg`` (:func:`point_tangents`) in column ``col``."""
+    moved by ``step`` times its tangent ``tg`` (:func:`point_tangents`) in column ``col``; with
+    ``gradients`` (``(J, Jm, Jr, Jk)`` of :func:`moved_gradients` at the same motion) the separations'
+    sensitivities too."""
     S = L.slices
 
     def mv(v, t):
@@ -134,7 +146,59 @@ def moved(lr: Lineariser, L: Linearisation, tg: dict, col: int, step: float) -> 
     te0 = S2.te_unloaded[None, :, None]
     te0 = np.where(np.isfinite(te0), te0, 0.0)
     da = np.where(S.active, -(S2.te - te0) * (lev2 - lever) - te0 * (lam - 1.0) * lever, 0.0)
-    return dataclasses.replace(L, structure=st, lam=lam, da=da)
+    if gradients is None:
+        return dataclasses.replace(L, structure=st, lam=lam, da=da)
+    J, Jm, Jr, Jk = gradients
+    return dataclasses.replace(L, structure=st, lam=lam, da=da, J=J, Jm=Jm, Jr=Jr, Jk=Jk)
+
+
+def moved_gradients(lr: Lineariser, L: Linearisation, tg: dict, motions: list[tuple[int, float]]) -> list[tuple]:
+    """The separations' sensitivities of ``L`` (``J``, ``Jm``, ``Jr``, ``Jk`` of :class:`~gearopt.synthesis
+    .loaded.linearise.Linearisation`) with every active slice moved along the solution of its slice
+    equations by ``step`` in column ``col``, for each ``(col, step)`` of ``motions``: the slice's unknowns
+    ``w`` by ``step`` times their tangent ``tg["w"]`` (:func:`point_tangents`) and the column's own
+    parameter by ``step``, evaluated by the function that computes them at the linearisation
+    (:meth:`~gearopt.synthesis.loaded.linearise.Lineariser._sensitivity`, all motions in one call per slice
+    kind). They are the separations' first derivatives, so their motion is the separations' second
+    derivative in the design and the misalignment (a relief's ``J`` is its shape at the point, which
+    moves along the profile), which the Lagrangian's gradient in the design takes in through the
+    contact multipliers. A partner slice's is interpolated to its crossing and a curvature's held where
+    the slice has none, as :meth:`~gearopt.synthesis.loaded.linearise.Lineariser.linearise` does."""
+    S = L.slices
+    K, N, M = S.z.shape
+    nq, P, nm = len(lr._prm_index), len(lr.free), len(motions)
+    lever = lr.pair.gear.r_b * lr.ltca.cos_bb
+    J = np.zeros((nm, K, N, M, nq))
+    Jr = np.zeros((nm, K, N, M, 2, nq))
+    Jk = np.zeros((nm, K, N, M, nq))
+    kinds = np.zeros((K, N, M), int) if S.edge is None else S.edge
+    for kind in (0, 1, 2):
+        sel = S.active & (kinds == kind)
+        if not sel.any():
+            continue
+        kk, nn, mm = np.nonzero(sel)
+        w0, prm0, dw = S.w[kk, nn, mm], tg["prm"][kk, nn, mm], tg["w"][kk, nn, mm]
+        ws, prms = [], []
+        for col, step in motions:
+            ws.append(w0 + step * dw[..., col])
+            prm = prm0.copy()
+            prm[:, lr._prm_index[col]] += step
+            prms.append(prm)
+        wv, prm = np.concatenate(ws).T, np.concatenate(prms).T
+        dw3, dr1, dr2, dk = (np.asarray(v).T.reshape(nm, kk.size, -1)
+                             for v in lr._sensitivity_columns(kind, wv.shape[1])(wv, prm))
+        J[:, kk, nn, mm] = dw3 / lr.pair.gear.r_p * (-lever)
+        Jr[:, kk, nn, mm] = np.stack([dr1, dr2], axis=2)
+        Jk[:, kk, nn, mm] = dk
+    if S.partner_of is not None:
+        kk, nn, mm = np.nonzero(S.partner_of >= 0)
+        ii, tt = S.partner_of[kk, nn, mm], S.partner_t[kk, nn, mm][:, None]
+        J[:, kk, nn, mm] = J[:, kk, nn, ii] + tt * (J[:, kk, nn, mm] - J[:, kk, nn, ii])
+    if S.kappa1 is None:
+        Jk[:] = 0.0
+    else:
+        Jk = np.where((S.active & np.isfinite(S.kappa1) & np.isfinite(S.kappa2))[..., None], Jk, 0.0)
+    return [(J[i, ..., :P], J[i, ..., P:], Jr[i], Jk[i]) for i in range(nm)]
 
 
 def held_derivatives(lr: Lineariser, theta: np.ndarray, lin: list[Linearisation], nlp: LoadedNLP,
@@ -174,14 +238,19 @@ def held_derivatives(lr: Lineariser, theta: np.ndarray, lin: list[Linearisation]
     tgs = point_tangents(lr, theta, lin)
     m, n = nlp.lbg.size, z.size
     dg, dgz, dL = np.zeros((m, len(columns))), np.zeros((n, len(columns))), np.zeros(len(columns))
+    # the points move by at most POINT_STEP
+    big = [max(float(np.max(np.abs(np.nan_to_num(t[k][..., col])))) for t in tgs for k in ("r1", "r2"))
+           for col in columns]
+    keys = [(col, sgn) for col, b in zip(columns, big) if b > 0.0 for sgn in (1.0, -1.0)]
+    motions = [(col, sgn * POINT_STEP / b) for col, b in zip(columns, big) if b > 0.0 for sgn in (1.0, -1.0)]
+    grads = [dict(zip(keys, moved_gradients(lr, L, t, motions))) for L, t in zip(lin, tgs)]
     for j, col in enumerate(columns):
-        big = max(float(np.max(np.abs(np.nan_to_num(t[k][..., col])))) for t in tgs for k in ("r1", "r2"))
-        if big == 0.0:
+        if big[j] == 0.0:
             continue
-        eps = POINT_STEP / big  # the points move by at most POINT_STEP
+        eps = POINT_STEP / big[j]
         vals = []
         for sgn in (1.0, -1.0):
-            other = build([moved(lr, L, t, col, sgn * eps) for L, t in zip(lin, tgs)])
+            other = build([moved(lr, L, t, col, sgn * eps, g[(col, sgn)]) for L, t, g in zip(lin, tgs, grads)])
             if other.lbg.size != m or other.layout.unknowns.size != n:
                 raise RuntimeError("held data: the NLP built with the moved data has another layout")
             pr = other.problem

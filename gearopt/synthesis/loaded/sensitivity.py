@@ -74,7 +74,7 @@ class Sensitivities:
 
         With ``held`` (default) the derivatives are those of the trust-region loop's optimum, the fixed
         point at which the NLP built around a design has its optimum there: the compliance, Hertz
-        depths and levers the NLP holds at its linearisation move with the contact points, which the
+        depths, levers and separations' sensitivities the NLP holds at its linearisation move with the contact points, which the
         design and a misalignment move (:mod:`.held_data`, docs/loaded_synthesis.md section 6.3); their
         motion enters the KKT system (the design's columns of the Hessian and the constraint Jacobian,
         the misalignment's columns of the parameters) and the objective's derivatives. Without it they
