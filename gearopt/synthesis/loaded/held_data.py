@@ -33,6 +33,8 @@ from typing import TYPE_CHECKING
 import casadi as ca
 import numpy as np
 
+from ... import compiled
+
 if TYPE_CHECKING:
     from .linearise import Lineariser, Linearisation
     from .nlp import LoadedNLP
@@ -68,9 +70,24 @@ def point_tangent_function(lr: Lineariser, kind: int) -> ca.Function:
         outs.append(t.dw[2, :])
         outs += [t.total(v) for v in (geo[f"lever1{tag}"], geo[f"lever2{tag}"])]
         outs.append(t.dw[3, :] / lr.pair.gear.r_p)
-        cache[kind] = ca.Function(f"ltca_point_tangent_{kind}", [t.w, t.prm], outs, ["w", "prm"],
-                                  ["dr1", "dr2", "dn1", "dn2", "dz2", "dl1", "dl2", "dte"])
+        cache[kind] = lr.keyed_by_construction(
+            ca.Function(f"ltca_point_tangent_{kind}", [t.w, t.prm], outs, ["w", "prm"],
+                        ["dr1", "dr2", "dn1", "dn2", "dz2", "dl1", "dl2", "dte"]), kind, point_tangent_function)
     return cache[kind]
+
+
+def point_tangent_columns(lr: Lineariser, kind: int, n: int) -> compiled.ColumnMap:
+    """:func:`point_tangent_function` of slice kind ``kind`` on ``n`` columns, as
+    :meth:`~gearopt.synthesis.loaded.linearise.Lineariser._sensitivity_columns`: with ``lr.jit`` the
+    compiled library from the disk cache (``jit="auto"``: on a cache miss it compiles in the background
+    while these columns run interpreted; the AD graph interpreted took 0.8 s of the sensitivities of
+    problems/microgeometry_loaded.toml, compiled milliseconds)."""
+    f = point_tangent_function(lr, kind)
+    maps = lr.__dict__.setdefault("_held_tangent_maps", {})
+    cm = maps.get(kind)
+    if cm is None or (not cm.compiled and lr.jit and compiled.cached_function(f) is not None):
+        cm = maps[kind] = compiled.mapped(f, n, jit="auto" if lr.jit else False)
+    return cm
 
 
 #: the tangents of :func:`point_tangents` and their rows (3: a vector, 1: a number)
@@ -103,7 +120,7 @@ def point_tangents(lr: Lineariser, theta: np.ndarray, lin: list[Linearisation]) 
             prm[lr.tca.layout.index("z_section"), :] = S.z[kk, nn, mm]
             wv = S.w[kk, nn, mm].T
             n = wv.shape[1]
-            vals = [np.asarray(v) for v in point_tangent_function(lr, kind).map(n)(wv, prm)]
+            vals = point_tangent_columns(lr, kind, n)(wv, prm)
             for (key, r), v in zip(TANGENTS, vals):
                 # (r, n * nq): the columns of each slice side by side
                 v = v.reshape(r, n, nq).transpose(1, 0, 2)

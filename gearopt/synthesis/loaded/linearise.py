@@ -83,14 +83,32 @@ class Lineariser:
 
     def slice_tangent(self, kind: int) -> SliceTangent:
         """The equations of a slice of ``kind`` (0: flank, 1/2: the pinion's / gear's tip edge) and their
-        solution's derivative in the optimiser's parameter columns (:class:`SliceTangent`)."""
+        solution's derivative in the optimiser's parameter columns (:class:`SliceTangent`), built once
+        per kind (the separations' sensitivities and the held data's point tangents share it)."""
+        memo = self.__dict__.setdefault("_tangents", {})
+        if kind not in memo:
+            G = self.slice_residual(kind)
+            w = ca.SX.sym("w", 4)
+            prm = ca.SX.sym("prm", self.tca.layout.size)
+            F = G(w, prm)
+            idx = self._prm_index
+            memo[kind] = SliceTangent(w, prm, -ca.solve(ca.jacobian(F, w), ca.jacobian(F, prm)[:, idx]), idx)
+        return memo[kind]
+
+    def slice_residual(self, kind: int) -> ca.Function:
+        """The slice equations ``G(w, prm)`` of a slice of ``kind`` (0: flank, 1/2: the pinion's / gear's
+        tip edge; :class:`~gearopt.ltca.slices.SliceSolver`)."""
         slicer = self.ltca.slicer
-        G = slicer.G if kind == 0 else slicer.edge_branch[kind].G
-        w = ca.SX.sym("w", 4)
-        prm = ca.SX.sym("prm", self.tca.layout.size)
-        F = G(w, prm)
-        idx = self._prm_index
-        return SliceTangent(w, prm, -ca.solve(ca.jacobian(F, w), ca.jacobian(F, prm)[:, idx]), idx)
+        return slicer.G if kind == 0 else slicer.edge_branch[kind].G
+
+    def keyed_by_construction(self, f: ca.Function, kind: int, *code) -> ca.Function:
+        """``f``, built from the slice equations of ``kind`` and the slices' geometry by the code
+        ``code`` (functions, classes) with this optimiser's parameter columns, keyed in the disk
+        cache of compiled libraries by that (:func:`gearopt.compiled.keyed_by`): looking its library
+        up serialises no derived graph (0.2-0.3 s each, as long as running them interpreted)."""
+        tag = compiled.source_tag(Lineariser.slice_tangent, Lineariser.slice_residual, SliceTangent, *code)
+        return compiled.keyed_by(f, [self.slice_residual(kind), self.ltca.slicer.geometry],
+                                 tag and f"{tag}/{kind}/{self._prm_index}/{self.pair.gear.r_p!r}")
 
     # -- linearisation --------------------------------------------------------------------------
     def _sensitivity(self, kind: int) -> ca.Function:
@@ -115,8 +133,9 @@ class Lineariser:
                     outs.append(t.total(v).T)  # along the solution of the slice equations
             else:
                 outs += [ca.DM.zeros(len(t.idx))] * 3
-            self._sens[kind] = ca.Function(f"ltca_dphi2_{kind}", [w, prm], outs, ["w", "prm"],
-                                           ["dw3", "dr1", "dr2", "dk"])
+            self._sens[kind] = self.keyed_by_construction(
+                ca.Function(f"ltca_dphi2_{kind}", [w, prm], outs, ["w", "prm"], ["dw3", "dr1", "dr2", "dk"]),
+                kind, Lineariser._sensitivity)
         return self._sens[kind]
 
     def _sensitivity_columns(self, kind: int, n: int) -> compiled.ColumnMap:
