@@ -101,7 +101,7 @@ class Lineariser:
         slicer = self.ltca.slicer
         return slicer.G if kind == 0 else slicer.edge_branch[kind].G
 
-    def keyed_by_construction(self, f: ca.Function, kind: int, *code) -> ca.Function:
+    def keyed_by_construction(self, f: ca.Function, kind: int, *code: object) -> ca.Function:
         """``f``, built from the slice equations of ``kind`` and the slices' geometry by the code
         ``code`` (functions, classes) with this optimiser's parameter columns, keyed in the disk
         cache of compiled libraries by that (:func:`gearopt.compiled.keyed_by`): looking its library
