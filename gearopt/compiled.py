@@ -185,16 +185,30 @@ def keyed_by(f: ca.Function, bases: Sequence[ca.Function], tag: str) -> ca.Funct
     them interpreted); looking their library up then serialises only the bases, which a process
     keys anyway for their own libraries. Returns ``f``; without a compiler, or for a base CasADi
     cannot serialise, or an empty ``tag``, ``f`` stays keyed by its graph."""
-    cc = compiler()
-    if cc is None or not tag:
+    h = _construction_key(f.name(), bases, tag)
+    if h is None:
         return f
-    paths = [_path_or_none(b) for b in bases]
-    if any(p is None for p in paths):
-        return f
-    h = hashlib.sha256("\0".join([p.name for p in paths] + [f.name(), tag]).encode()).hexdigest()
-    memo = (id(f), cc)
+    memo = (id(f), compiler())
     _keys[memo] = (weakref.ref(f, lambda _, m=memo: _keys.pop(m, None)), h)
     return f
+
+
+def _construction_key(name: str, bases: Sequence[ca.Function], tag: str) -> str | None:
+    """:func:`keyed_by`'s key of a Function ``name`` (None: keyed by its graph)."""
+    if compiler() is None or not tag:
+        return None
+    paths = [_path_or_none(b) for b in bases]
+    if any(p is None for p in paths):
+        return None
+    return hashlib.sha256("\0".join([p.name for p in paths] + [name, tag]).encode()).hexdigest()
+
+
+def keyed_library(name: str, bases: Sequence[ca.Function], tag: str) -> ca.Function | None:
+    """The library of the Function ``name`` that :func:`keyed_by` keys by ``bases`` and ``tag``, if it is
+    in the disk cache (loaded once per process), else None: the derived graph need not be built when
+    its library is there (0.3-0.6 s for the loaded optimiser's); never compiles."""
+    h = _construction_key(name, bases, tag)
+    return None if h is None else _load(name, cache_dir() / f"{name}-{h[:24]}.so")
 
 
 @functools.lru_cache(maxsize=None)

@@ -26,8 +26,8 @@ def _derived(base: ca.Function) -> ca.Function:
 
 @pytest.mark.skipif(not compiled.available(), reason="no C compiler")
 def test_a_derived_library_is_keyed_by_its_bases_and_tag_without_serialising_it(tmp_path, monkeypatch):
-    """The key names the bases' libraries and the tag (a change of either: another library), and looking
-    the derived library up never serialises its own graph."""
+    """The key names the bases' libraries and the tag (a change of either: another library), looking
+    the derived library up never serialises its own graph, and it is found without building it."""
     monkeypatch.setenv("GEAROPT_CACHE_DIR", str(tmp_path))
     b1, b2 = _base(1.5), _base(2.5)
     f = compiled.keyed_by(_derived(b1), [b1], "construction A")
@@ -53,6 +53,10 @@ def test_a_derived_library_is_keyed_by_its_bases_and_tag_without_serialising_it(
     g = compiled.compile_function(f)
     x = np.array([0.3, -1.2])
     assert np.allclose(np.asarray(g(x)), np.asarray(_derived(b1)(x)), rtol=1e-14, atol=0.0)
+    # found by its name, bases and tag before the derived graph is built; not under another tag
+    h = compiled.keyed_library("outside_derived", [b1], "construction A")
+    assert h is not None and np.array_equal(np.asarray(h(x)), np.asarray(g(x)))
+    assert compiled.keyed_library("outside_derived", [b1], "construction B") is None
 
 
 @pytest.fixture(scope="module")

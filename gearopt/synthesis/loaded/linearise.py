@@ -106,9 +106,21 @@ class Lineariser:
         ``code`` (functions, classes) with this optimiser's parameter columns, keyed in the disk
         cache of compiled libraries by that (:func:`gearopt.compiled.keyed_by`): looking its library
         up serialises no derived graph (0.2-0.3 s each, as long as running them interpreted)."""
+        return compiled.keyed_by(f, *self._construction(kind, code))
+
+    def _construction(self, kind: int, code: tuple) -> tuple[list, str]:
+        """The bases and tag of :meth:`keyed_by_construction` (:func:`gearopt.compiled.keyed_by`)."""
         tag = compiled.source_tag(Lineariser.slice_tangent, Lineariser.slice_residual, SliceTangent, *code)
-        return compiled.keyed_by(f, [self.slice_residual(kind), self.ltca.slicer.geometry],
-                                 tag and f"{tag}/{kind}/{self._prm_index}/{self.pair.gear.r_p!r}")
+        return ([self.slice_residual(kind), self.ltca.slicer.geometry],
+                tag and f"{tag}/{kind}/{self._prm_index}/{self.pair.gear.r_p!r}")
+
+    def cached_construction(self, name: str, kind: int, *code: object) -> compiled.ColumnMap | None:
+        """The compiled library of the Function ``name`` that :meth:`keyed_by_construction` keys, on
+        columns, if it is in the disk cache (with ``jit``), else None: then the graph is not built."""
+        if not self.jit:
+            return None
+        g = compiled.keyed_library(name, *self._construction(kind, code))
+        return None if g is None else compiled.ColumnMap(g, lambda m: compiled.map_columns(g, m), compiled=True)
 
     # -- linearisation --------------------------------------------------------------------------
     def _sensitivity(self, kind: int) -> ca.Function:
@@ -143,8 +155,16 @@ class Lineariser:
         from the disk cache (:func:`gearopt.compiled.mapped`, ``jit="auto"``: on a cache miss it compiles in
         the background while these columns run interpreted, and a later call picks it up); the AD graph
         interpreted took most of a linearisation (4 s of the 7 of problems/microgeometry_loaded.toml)."""
-        f = self._sensitivity(kind)
         cm = self._sens_maps.get(kind)
+        if cm is not None and cm.compiled:
+            return cm
+        if cm is None and kind not in self._sens:
+            # the library in the cache: the AD graph is not built (0.26 s)
+            cm = self.cached_construction(f"ltca_dphi2_{kind}", kind, Lineariser._sensitivity)
+            if cm is not None:
+                self._sens_maps[kind] = cm
+                return cm
+        f = self._sensitivity(kind)
         if cm is None or (not cm.compiled and self.jit and compiled.cached_function(f) is not None):
             cm = self._sens_maps[kind] = compiled.mapped(f, n, jit="auto" if self.jit else False)
         return cm
