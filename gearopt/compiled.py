@@ -68,7 +68,7 @@ import numpy as np
 from .errors import ArgumentError, OptionError
 
 if TYPE_CHECKING:
-    from collections.abc import Callable, Iterator
+    from collections.abc import Callable, Iterator, Sequence
     from numpy.typing import ArrayLike
 
 #: compiler flags (part of the cache key). Besides -O2: the generated helpers (casadi_qr, casadi_sq, ...)
@@ -174,6 +174,58 @@ def library_path(f: ca.Function) -> Path:
         # (the entry leaves with its Function: a new one that reuses the id finds none)
         hit = _keys[memo] = (weakref.ref(f, lambda _, m=memo: _keys.pop(m, None)), cache_key(f))
     return cache_dir() / f"{f.name()}-{hit[1][:24]}.so"
+
+
+def keyed_by(f: ca.Function, bases: Sequence[ca.Function], tag: str) -> ca.Function:
+    """Key ``f``'s library (:func:`library_path`) by how it is built instead of by its graph: the
+    SHA-256 of the library names of ``bases`` (their own keys: graph, CasADi, compiler, flags), of
+    ``f``'s name and of ``tag``, which must name everything else the construction puts into ``f``
+    (its code, e.g. :func:`source_tag`, and every number it adds). For derived graphs that are large
+    (the loaded optimiser's sensitivities: 10-17 MB serialised, 0.2-0.3 s each, as long as running
+    them interpreted); looking their library up then serialises only the bases, which a process
+    keys anyway for their own libraries. Returns ``f``; without a compiler, or for a base CasADi
+    cannot serialise, or an empty ``tag``, ``f`` stays keyed by its graph."""
+    h = _construction_key(f.name(), bases, tag)
+    if h is None:
+        return f
+    memo = (id(f), compiler())
+    _keys[memo] = (weakref.ref(f, lambda _, m=memo: _keys.pop(m, None)), h)
+    return f
+
+
+def _construction_key(name: str, bases: Sequence[ca.Function], tag: str) -> str | None:
+    """:func:`keyed_by`'s key of a Function ``name`` (None: keyed by its graph)."""
+    if compiler() is None or not tag:
+        return None
+    paths = [_path_or_none(b) for b in bases]
+    if any(p is None for p in paths):
+        return None
+    return hashlib.sha256("\0".join([p.name for p in paths] + [name, tag]).encode()).hexdigest()
+
+
+def keyed_library(name: str, bases: Sequence[ca.Function], tag: str) -> ca.Function | None:
+    """The library of the Function ``name`` that :func:`keyed_by` keys by ``bases`` and ``tag``, if it is
+    in the disk cache (loaded once per process), else None: the derived graph need not be built when
+    its library is there (0.3-0.6 s for the loaded optimiser's); never compiles."""
+    h = _construction_key(name, bases, tag)
+    return None if h is None else _load(name, cache_dir() / f"{name}-{h[:24]}.so")
+
+
+@functools.lru_cache(maxsize=None)
+def source_tag(*objects: Callable) -> str:
+    """SHA-256 of the source code of ``objects`` (functions, methods, classes), for :func:`keyed_by`'s
+    ``tag``: a change of the code that builds a graph gives its library a new key. An empty string
+    when a source cannot be read (then the caller keys the graph itself: :func:`keyed_by` is for a
+    non-empty tag only)."""
+    import inspect
+
+    h = hashlib.sha256()
+    for o in objects:
+        try:
+            h.update(inspect.getsource(o).encode())
+        except (OSError, TypeError):
+            return ""
+    return h.hexdigest()
 
 
 def compile_function(f: ca.Function) -> ca.Function | None:

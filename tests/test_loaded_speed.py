@@ -100,6 +100,7 @@ def test_the_sensitivities_switch_to_the_compiled_library_once_it_is_cached(smal
     cache = {}
     monkeypatch.setattr(compiled, "cached_function", lambda f: cache.get(f.name()))
     monkeypatch.setattr(compiled, "select", lambda f, jit, n: cache.get(f.name()) if jit else None)
+    monkeypatch.setattr(compiled, "keyed_library", lambda name, bases, tag: cache.get(name))  # (found before building)
     monkeypatch.setattr(small, "_sens_maps", {})
     monkeypatch.setattr(small, "jit", True)
     miss = small.linearise(th)  # a cache miss: interpreted

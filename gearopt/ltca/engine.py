@@ -600,7 +600,8 @@ class LTCA:
 
     def solve(self, torque: float | Sequence[float], phi1: npt.ArrayLike | None = None, p1: npt.ArrayLike | None = None,
               p2: npt.ArrayLike | None = None, mis: Misalignment | None = None, pairs: Sequence[int] | None = None,
-              slices: SliceSet | None = None, offsets: tuple[npt.ArrayLike, npt.ArrayLike] | None = None) -> LoadedSweep:
+              slices: SliceSet | None = None, offsets: tuple[npt.ArrayLike, npt.ArrayLike] | None = None,
+              structure: ContactStructure | None = None) -> LoadedSweep:
         """Loaded TCA at one or several pinion torques.
 
         Parameters
@@ -616,16 +617,23 @@ class LTCA:
         offsets : (e1, e2), optional
             Angular position deviations of the pinion and gear teeth of each pair [rad] (pitch
             deviations, :meth:`SliceSolver.solve`).
+        structure : ContactStructure, optional
+            :meth:`structure` of ``slices``, computed already (the loaded micro-geometry optimiser's
+            linearisation holds it); only with ``slices``.
 
         Returns
         -------
         LoadedSweep
         """
         T = self.validate_torques(torque)
+        if structure is not None and (slices is None or not isinstance(structure, ContactStructure)):
+            raise ArgumentError("structure: LTCA.structure of the slices given as slices= (a ContactStructure), "
+                                "and only with slices.", param="structure", value=type(structure).__name__,
+                                valid="a ContactStructure of slices=")
         t0 = time.perf_counter()
         S = slices if slices is not None else self.slices(phi1, p1, p2, mis, pairs, offsets)
         t_sep = time.perf_counter() - t0
-        st = self.structure(S)
+        st = structure if structure is not None else self.structure(S)
         results = []
         for t in T:  # each torque's first contact set: the previous torque's (a warm start)
             results.append(self._solve_one(float(t), S, st, start=results[-1] if results else None))

@@ -38,6 +38,8 @@ from typing import TYPE_CHECKING
 import casadi as ca
 import numpy as np
 
+from ... import compiled
+
 if TYPE_CHECKING:
     from .linearise import Lineariser, Linearisation
     from .nlp import LoadedNLP
@@ -74,9 +76,32 @@ def point_tangent_function(lr: Lineariser, kind: int) -> ca.Function:
         outs += [t.total(v) for v in (geo[f"lever1{tag}"], geo[f"lever2{tag}"])]
         outs.append(t.dw[3, :] / lr.pair.gear.r_p)
         outs.append(t.dw)
-        cache[kind] = ca.Function(f"ltca_point_tangent_{kind}", [t.w, t.prm], outs, ["w", "prm"],
-                                  ["dr1", "dr2", "dn1", "dn2", "dz2", "dl1", "dl2", "dte", "dw"])
+        cache[kind] = lr.keyed_by_construction(
+            ca.Function(f"ltca_point_tangent_{kind}", [t.w, t.prm], outs, ["w", "prm"],
+                        ["dr1", "dr2", "dn1", "dn2", "dz2", "dl1", "dl2", "dte", "dw"]), kind, point_tangent_function)
     return cache[kind]
+
+
+def point_tangent_columns(lr: Lineariser, kind: int, n: int) -> compiled.ColumnMap:
+    """:func:`point_tangent_function` of slice kind ``kind`` on ``n`` columns, as
+    :meth:`~gearopt.synthesis.loaded.linearise.Lineariser.sensitivity_columns`: with ``lr.jit`` the
+    compiled library from the disk cache (``jit="auto"``: on a cache miss it compiles in the background
+    while these columns run interpreted; the AD graph interpreted took 0.8 s of the sensitivities of
+    problems/microgeometry_loaded.toml, compiled milliseconds)."""
+    maps = lr.__dict__.setdefault("_held_tangent_maps", {})
+    cm = maps.get(kind)
+    if cm is not None and cm.compiled:
+        return cm
+    if cm is None and kind not in lr.__dict__.get("_held_tangent", {}):
+        # the library in the cache: the AD graph is not built (0.15-0.26 s per kind)
+        cm = lr.cached_construction(f"ltca_point_tangent_{kind}", kind, point_tangent_function)
+        if cm is not None:
+            maps[kind] = cm
+            return cm
+    f = point_tangent_function(lr, kind)
+    if cm is None or (not cm.compiled and lr.jit and compiled.cached_function(f) is not None):
+        cm = maps[kind] = compiled.mapped(f, n, jit="auto" if lr.jit else False)
+    return cm
 
 
 #: the tangents of :func:`point_tangents` and their rows (3: a vector, 1: a number)
@@ -111,7 +136,7 @@ def point_tangents(lr: Lineariser, theta: np.ndarray, lin: list[Linearisation]) 
             prm[lr.tca.layout.index("z_section"), :] = S.z[kk, nn, mm]
             wv = S.w[kk, nn, mm].T
             n = wv.shape[1]
-            vals = [np.asarray(v) for v in point_tangent_function(lr, kind).map(n)(wv, prm)]
+            vals = point_tangent_columns(lr, kind, n)(wv, prm)
             for (key, r), v in zip(TANGENTS, vals):
                 # (r, n * nq): the columns of each slice side by side
                 v = v.reshape(r, n, nq).transpose(1, 0, 2)
@@ -186,7 +211,7 @@ def moved_gradients(lr: Lineariser, L: Linearisation, tg: dict, motions: list[tu
             prms.append(prm)
         wv, prm = np.concatenate(ws).T, np.concatenate(prms).T
         dw3, dr1, dr2, dk = (np.asarray(v).T.reshape(nm, kk.size, -1)
-                             for v in lr._sensitivity_columns(kind, wv.shape[1])(wv, prm))
+                             for v in lr.sensitivity_columns(kind, wv.shape[1])(wv, prm))
         J[:, kk, nn, mm] = dw3 / lr.pair.gear.r_p * (-lever)
         Jr[:, kk, nn, mm] = np.stack([dr1, dr2], axis=2)
         Jk[:, kk, nn, mm] = dk

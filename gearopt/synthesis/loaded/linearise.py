@@ -83,14 +83,44 @@ class Lineariser:
 
     def slice_tangent(self, kind: int) -> SliceTangent:
         """The equations of a slice of ``kind`` (0: flank, 1/2: the pinion's / gear's tip edge) and their
-        solution's derivative in the optimiser's parameter columns (:class:`SliceTangent`)."""
+        solution's derivative in the optimiser's parameter columns (:class:`SliceTangent`), built once
+        per kind (the separations' sensitivities and the held data's point tangents share it)."""
+        memo = self.__dict__.setdefault("_tangents", {})
+        if kind not in memo:
+            G = self.slice_residual(kind)
+            w = ca.SX.sym("w", 4)
+            prm = ca.SX.sym("prm", self.tca.layout.size)
+            F = G(w, prm)
+            idx = self._prm_index
+            memo[kind] = SliceTangent(w, prm, -ca.solve(ca.jacobian(F, w), ca.jacobian(F, prm)[:, idx]), idx)
+        return memo[kind]
+
+    def slice_residual(self, kind: int) -> ca.Function:
+        """The slice equations ``G(w, prm)`` of a slice of ``kind`` (0: flank, 1/2: the pinion's / gear's
+        tip edge; :class:`~gearopt.ltca.slices.SliceSolver`)."""
         slicer = self.ltca.slicer
-        G = slicer.G if kind == 0 else slicer.edge_branch[kind].G
-        w = ca.SX.sym("w", 4)
-        prm = ca.SX.sym("prm", self.tca.layout.size)
-        F = G(w, prm)
-        idx = self._prm_index
-        return SliceTangent(w, prm, -ca.solve(ca.jacobian(F, w), ca.jacobian(F, prm)[:, idx]), idx)
+        return slicer.G if kind == 0 else slicer.edge_branch[kind].G
+
+    def keyed_by_construction(self, f: ca.Function, kind: int, *code: object) -> ca.Function:
+        """``f``, built from the slice equations of ``kind`` and the slices' geometry by the code
+        ``code`` (functions, classes) with this optimiser's parameter columns, keyed in the disk
+        cache of compiled libraries by that (:func:`gearopt.compiled.keyed_by`): looking its library
+        up serialises no derived graph (0.2-0.3 s each, as long as running them interpreted)."""
+        return compiled.keyed_by(f, *self._construction(kind, code))
+
+    def _construction(self, kind: int, code: tuple) -> tuple[list, str]:
+        """The bases and tag of :meth:`keyed_by_construction` (:func:`gearopt.compiled.keyed_by`)."""
+        tag = compiled.source_tag(Lineariser.slice_tangent, Lineariser.slice_residual, SliceTangent, *code)
+        return ([self.slice_residual(kind), self.ltca.slicer.geometry],
+                tag and f"{tag}/{kind}/{self._prm_index}/{self.pair.gear.r_p!r}")
+
+    def cached_construction(self, name: str, kind: int, *code: object) -> compiled.ColumnMap | None:
+        """The compiled library of the Function ``name`` that :meth:`keyed_by_construction` keys, on
+        columns, if it is in the disk cache (with ``jit``), else None: then the graph is not built."""
+        if not self.jit:
+            return None
+        g = compiled.keyed_library(name, *self._construction(kind, code))
+        return None if g is None else compiled.ColumnMap(g, lambda m: compiled.map_columns(g, m), compiled=True)
 
     # -- linearisation --------------------------------------------------------------------------
     def _sensitivity(self, kind: int) -> ca.Function:
@@ -115,17 +145,26 @@ class Lineariser:
                     outs.append(t.total(v).T)  # along the solution of the slice equations
             else:
                 outs += [ca.DM.zeros(len(t.idx))] * 3
-            self._sens[kind] = ca.Function(f"ltca_dphi2_{kind}", [w, prm], outs, ["w", "prm"],
-                                           ["dw3", "dr1", "dr2", "dk"])
+            self._sens[kind] = self.keyed_by_construction(
+                ca.Function(f"ltca_dphi2_{kind}", [w, prm], outs, ["w", "prm"], ["dw3", "dr1", "dr2", "dk"]),
+                kind, Lineariser._sensitivity)
         return self._sens[kind]
 
-    def _sensitivity_columns(self, kind: int, n: int) -> compiled.ColumnMap:
+    def sensitivity_columns(self, kind: int, n: int) -> compiled.ColumnMap:
         """:meth:`_sensitivity` of slice kind ``kind`` on ``n`` columns: with ``jit``, the compiled library
         from the disk cache (:func:`gearopt.compiled.mapped`, ``jit="auto"``: on a cache miss it compiles in
         the background while these columns run interpreted, and a later call picks it up); the AD graph
         interpreted took most of a linearisation (4 s of the 7 of problems/microgeometry_loaded.toml)."""
-        f = self._sensitivity(kind)
         cm = self._sens_maps.get(kind)
+        if cm is not None and cm.compiled:
+            return cm
+        if cm is None and kind not in self._sens:
+            # the library in the cache: the AD graph is not built (0.26 s)
+            cm = self.cached_construction(f"ltca_dphi2_{kind}", kind, Lineariser._sensitivity)
+            if cm is not None:
+                self._sens_maps[kind] = cm
+                return cm
+        f = self._sensitivity(kind)
         if cm is None or (not cm.compiled and self.jit and compiled.cached_function(f) is not None):
             cm = self._sens_maps[kind] = compiled.mapped(f, n, jit="auto" if self.jit else False)
         return cm
@@ -154,7 +193,7 @@ class Lineariser:
                 prm = self.tca.prm(phis[kk, nn], p1, p2, mis)
                 prm[self.tca.layout.index("z_section"), :] = S.z[kk, nn, mm]
                 wv = S.w[kk, nn, mm].T
-                f = self._sensitivity_columns(kind, wv.shape[1])
+                f = self.sensitivity_columns(kind, wv.shape[1])
                 dw3, dr1, dr2, dk = (np.asarray(v).T for v in f(wv, prm))
                 J[kk, nn, mm] = dw3 / self.pair.gear.r_p * (-lever)
                 Jr[kk, nn, mm] = np.stack([dr1, dr2], axis=1)

@@ -90,13 +90,16 @@ class NLPBuilder:
                 for n in range(N):
                     A = np.flatnonzero(act[n])
                     cnt = A.size
-                    pos = {int(i): nx + j for j, i in enumerate(A)}
+                    pos = np.full(K * M, -1)  # the load unknown of each flat slice (-1: not held)
+                    pos[A] = nx + np.arange(cnt)
                     if sparse:
                         for part, (Acoup, Dn) in enumerate(coup):
                             wi = np.full(cnt, -1)
                             for k in range(K):
                                 U = np.flatnonzero(np.isfinite(S.z[k, n]))
-                                if not any((k * M + m) in pos for m in U):
+                                qU = pos[k * M + U]
+                                held = qU >= 0
+                                if not held.any():
                                     continue
                                 Ak = Acoup[k, n][np.ix_(U, U)]
                                 Dk = Dn[k, n, U]
@@ -109,13 +112,12 @@ class NLPBuilder:
                                 trip_A[0].append(rows[ii])
                                 trip_A[1].append(rows[jj])
                                 trip_A[2].append(Ak[ii, jj] * Dk[ii] / Dk[jj])
-                                for j, m in enumerate(U):
-                                    q = pos.get(int(k * M + m))
-                                    if q is not None:
-                                        trip_D[0].append([rows[j]])
-                                        trip_D[1].append([q])
-                                        trip_D[2].append([cb**2 * Dk[j] ** 2 * Wt[t] / G_REF])
-                                        wi[q - nx] = rows[j]
+                                q = qU[held]
+                                trip_D[0].append(rows[held])
+                                trip_D[1].append(q)
+                                # (D^2 by pow, as a scalar's ** 2: numpy's array square differs in the last bit)
+                                trip_D[2].append(cb**2 * np.array([v**2 for v in Dk[held].tolist()]) * Wt[t] / G_REF)
+                                wi[q - nx] = rows[held]
                                 nw += U.size
                             if len(w_of_x) <= part:
                                 w_of_x.append([])

@@ -90,7 +90,7 @@ class LoadedProblem:
             raise out_of_range(f"free.{n}", f"{float(t) * k:g} {u}", f"the start design's {n} must lie within its bounds "
                                f"{self.lo[i] * k:g} ... {self.hi[i] * k:g} {u}", cls=OptionError)
         self._sens = {}
-        self._sens_maps = {}  #: per slice kind, the sensitivities on columns (:meth:`Lineariser._sensitivity_columns`)
+        self._sens_maps = {}  #: per slice kind, the sensitivities on columns (:meth:`Lineariser.sensitivity_columns`)
         self._has_settings = any(n.split(".", 1)[1] in SETTINGS for n in self.free)
         #: the penalty's weight scale (that of the full duty cycle; an unloaded-TE target adds its weight: its
         #: term weighs te_weight times the loaded objective's per case, and so may its multipliers)
