@@ -50,14 +50,24 @@ class Figures:
         return out
 
 
+#: the forking tests of this file that skipped because another thread ran in this process (an xdist
+#: worker's own, or one a test of another file left): the last test runs them in a fresh process
+THREAD_SKIPS: list[str] = []
+
+
+def skip_unless_single_threaded(name: str) -> None:
+    if threading.active_count() != 1:
+        THREAD_SKIPS.append(name)
+        pytest.skip("another thread runs in this process: the CLI would not fork")
+
+
 def pixels(path):
     return np.asarray(Image.open(path).convert("RGBA"))
 
 
 @pytest.fixture
-def processes(tmp_path_factory, monkeypatch):
-    if threading.active_count() != 1:
-        pytest.skip("another thread runs in this process: the CLI would not fork")
+def processes(request, tmp_path_factory, monkeypatch):
+    skip_unless_single_threaded(request.node.name)
     # the drawing processes' temporary directories (claims) in a directory of this test's own, so that
     # what other test processes create in the shared /tmp meanwhile is not taken for theirs
     import tempfile
@@ -367,26 +377,6 @@ def test_gearopt_run_leaves_matplotlib_to_the_drawing_process(tmp_path):
     assert (tmp_path / "out" / "dummy.png").stat().st_size > 0
 
 
-def test_the_forking_tests_run_in_a_process_without_other_threads():
-    """Under pytest-xdist (``make test``) a worker runs threads of its own, so the tests above that
-    fork skip there; this runs them in a fresh single-threaded pytest process instead, so that CI
-    tests the drawing processes too."""
-    if threading.active_count() == 1:
-        pytest.skip("single-threaded here: the forking tests above ran in this process")
-    if not (hasattr(os, "fork") and os.uname().sysname == "Linux"):
-        pytest.skip("no fork here (not Linux)")
-    import subprocess
-    import sys
-
-    root = Path(__file__).resolve().parents[1]
-    proc = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:xdist", "-p", "no:cacheprovider",
-                           "-m", "not slow", str(Path(__file__)), "-k", "processes or close"],
-                          cwd=root, capture_output=True, text=True, timeout=600)
-    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-2000:]
-    assert "skipped" not in proc.stdout.splitlines()[-1], proc.stdout[-1000:]
-    assert " passed" in proc.stdout.splitlines()[-1]
-
-
 class SlowFigures(Figures):
     """Figures that name themselves in ``captions`` and take ``seconds`` each; every figure drawn
     leaves ``<name>.pid`` with the number of the process that drew it."""
@@ -431,8 +421,7 @@ def test_processes_for_gives_one_process_per_named_figure_up_to_the_maximum(monk
 
 def test_three_figures_are_drawn_by_three_processes_on_two(tmp_path, monkeypatch):
     # each figure takes 1.5 s: three processes each take one (two would leave one to draw two)
-    if threading.active_count() != 1:
-        pytest.skip("another thread runs in this process: the CLI would not fork")
+    skip_unless_single_threaded("test_three_figures_are_drawn_by_three_processes_on_two")
     monkeypatch.setattr("gearopt.forking.idle_cores", lambda: 1)  # an idle machine, in the drawing process too
     processes = PlotProcesses.start(count=2)
     if processes is None:
@@ -446,3 +435,23 @@ def test_three_figures_are_drawn_by_three_processes_on_two(tmp_path, monkeypatch
     pids = {(tmp_path / f"{n}.pid").read_text() for n in NAMES[:3]}
     assert len(pids) == 3, pids
     assert sorted(p.name for p in tmp_path.glob("*.png")) == NAMES[:3]
+
+
+def test_the_forking_tests_run_in_a_process_without_other_threads():
+    """Under pytest-xdist (``make test``) a worker runs threads of its own, so the tests above that
+    fork skip there (``THREAD_SKIPS``: a thread left by another file may also end meanwhile); this runs
+    them in a fresh single-threaded pytest process instead, so that CI tests the drawing processes too."""
+    if threading.active_count() == 1 and not THREAD_SKIPS:
+        pytest.skip("single-threaded here: the forking tests above ran in this process")
+    if not (hasattr(os, "fork") and os.uname().sysname == "Linux"):
+        pytest.skip("no fork here (not Linux)")
+    import subprocess
+    import sys
+
+    root = Path(__file__).resolve().parents[1]
+    proc = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:xdist", "-p", "no:cacheprovider",
+                           "-m", "not slow", str(Path(__file__)), "-k", "processes or close"],
+                          cwd=root, capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-2000:]
+    assert "skipped" not in proc.stdout.splitlines()[-1], proc.stdout[-1000:]
+    assert " passed" in proc.stdout.splitlines()[-1]

@@ -15,10 +15,16 @@ import pytest
 from gearopt.forking import ForkedCall, idle_cores, running_children
 
 
+#: the tests of this file that skipped because another thread ran in this process (an xdist worker's
+#: own, or one a test of another file left and that may end meanwhile): the last test reruns them
+THREAD_SKIPS: list[str] = []
+
+
 @pytest.fixture
 def forking(monkeypatch):
     monkeypatch.setattr(ForkedCall, "min_idle_cores", None)  # fork also on a busy machine
     if threading.active_count() != 1:
+        THREAD_SKIPS.append("forking")
         pytest.skip("another thread runs in this process: ForkedCall computes in the caller")
     probe = ForkedCall(lambda: None)
     forked = probe.forked
@@ -210,7 +216,7 @@ def test_the_forking_tests_run_in_a_process_without_other_threads(request):
     """Under pytest-xdist (``make test``) a worker runs threads of its own, so the tests above that
     fork skip there; this runs them in a fresh single-threaded pytest process instead (the slow one
     too where this run selects slow tests), so that CI tests the forked calls."""
-    if threading.active_count() == 1:
+    if threading.active_count() == 1 and not THREAD_SKIPS:
         pytest.skip("single-threaded here: the forking tests above ran in this process")
     if not (hasattr(os, "fork") and os.uname().sysname == "Linux" and len(os.sched_getaffinity(0)) >= 2):
         pytest.skip("no fork here (not Linux, or one core)")
