@@ -192,7 +192,6 @@ def moved_gradients(lr: Lineariser, L: Linearisation, tg: dict, motions: list[tu
     S = L.slices
     K, N, M = S.z.shape
     nq, P, nm = len(lr._prm_index), len(lr.free), len(motions)
-    lever = lr.pair.gear.r_b * lr.ltca.cos_bb
     J = np.zeros((nm, K, N, M, nq))
     Jr = np.zeros((nm, K, N, M, 2, nq))
     Jk = np.zeros((nm, K, N, M, nq))
@@ -209,12 +208,10 @@ def moved_gradients(lr: Lineariser, L: Linearisation, tg: dict, motions: list[tu
             prm = prm0.copy()
             prm[:, lr._prm_index[col]] += step
             prms.append(prm)
-        wv, prm = np.concatenate(ws).T, np.concatenate(prms).T
-        dw3, dr1, dr2, dk = (np.asarray(v).T.reshape(nm, kk.size, -1)
-                             for v in lr.sensitivity_columns(kind, wv.shape[1])(wv, prm))
-        J[:, kk, nn, mm] = dw3 / lr.pair.gear.r_p * (-lever)
-        Jr[:, kk, nn, mm] = np.stack([dr1, dr2], axis=2)
-        Jk[:, kk, nn, mm] = dk
+        dJ, dJr, dJk = lr.separation_gradients(kind, np.concatenate(ws).T, np.concatenate(prms).T)
+        J[:, kk, nn, mm] = dJ.reshape(nm, kk.size, -1)
+        Jr[:, kk, nn, mm] = dJr.reshape(nm, kk.size, 2, -1)
+        Jk[:, kk, nn, mm] = dJk.reshape(nm, kk.size, -1)
     if S.partner_of is not None:
         kk, nn, mm = np.nonzero(S.partner_of >= 0)
         ii, tt = S.partner_of[kk, nn, mm], S.partner_t[kk, nn, mm][:, None]

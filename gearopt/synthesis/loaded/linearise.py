@@ -169,6 +169,16 @@ class Lineariser:
             cm = self._sens_maps[kind] = compiled.mapped(f, n, jit="auto" if self.jit else False)
         return cm
 
+    def separation_gradients(self, kind: int, wv: np.ndarray, prm: np.ndarray
+                             ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The separations' sensitivities of slices of kind ``kind`` at the slice unknowns ``wv``
+        (4, n) and parameter columns ``prm`` (:meth:`sensitivity_columns`), one row per column:
+        ``J`` (n, nq) [mm per unit] (the gear's rotation times ``-r_b2 cos(beta_b)``), ``Jr`` (n, 2, nq)
+        (the point's radius on the pinion and the gear), ``Jk`` (n, nq) (the relative curvature)."""
+        lever = self.pair.gear.r_b * self.ltca.cos_bb
+        dw3, dr1, dr2, dk = (np.asarray(v).T for v in self.sensitivity_columns(kind, wv.shape[1])(wv, prm))
+        return dw3 / self.pair.gear.r_p * (-lever), np.stack([dr1, dr2], axis=1), dk
+
     def linearise(self, theta: npt.ArrayLike) -> list[Linearisation]:
         """Slices, compliance and the separations' sensitivities of the design ``theta`` [mm]: one
         :class:`Linearisation` per case."""
@@ -192,12 +202,7 @@ class Lineariser:
                 kk, nn, mm = np.nonzero(sel)
                 prm = self.tca.prm(phis[kk, nn], p1, p2, mis)
                 prm[self.tca.layout.index("z_section"), :] = S.z[kk, nn, mm]
-                wv = S.w[kk, nn, mm].T
-                f = self.sensitivity_columns(kind, wv.shape[1])
-                dw3, dr1, dr2, dk = (np.asarray(v).T for v in f(wv, prm))
-                J[kk, nn, mm] = dw3 / self.pair.gear.r_p * (-lever)
-                Jr[kk, nn, mm] = np.stack([dr1, dr2], axis=1)
-                Jk[kk, nn, mm] = dk
+                J[kk, nn, mm], Jr[kk, nn, mm], Jk[kk, nn, mm] = self.separation_gradients(kind, S.w[kk, nn, mm].T, prm)
             if S.partner_of is not None:
                 # a partner slice's separation is interpolated to the crossing (SliceSet.partner_t), and
                 # so is its sensitivity (the crossing's own motion with the design is left out); its Hertz
