@@ -34,7 +34,10 @@ When a sweep runs compiled (``jit="auto"``, :func:`select`): whenever its librar
 cache, whatever its size (loading costs milliseconds); on a cache miss, a sweep of at least
 :data:`MIN_COLUMNS` columns compiles at once (the compile pays within the call), a smaller one runs
 interpreted while the library compiles in a background thread (:func:`compile_in_background`), so a
-small sweep never waits for the compiler; the next call finds the library. A map size that a
+small sweep never waits for the compiler; the next call finds the library (a large call whose library
+compiles in the background already runs interpreted too). The background compilers run in detached
+processes, :func:`compile_slots` at a time, the smallest source first; a process that ends hands its
+queued compiles to one detached process and never waits for them (:func:`_exit_wait`). A map size that a
 process calls again and again (:data:`MAP_LIBRARY_CALLS`) gets a library of its own, the loop over its
 columns in C (:func:`map_library`, compiled in the background; the same numbers bit for bit).
 
