@@ -402,10 +402,17 @@ def _background_job(make: Callable[[], ca.Function], key: str) -> None:
 
 
 def _compiling(f: ca.Function) -> bool:
-    """Whether ``f``'s library is being compiled in the background by this process."""
+    """Whether ``f``'s library is being compiled in the background by this process; if so, it moves
+    to the front of the queue of compiles (:func:`_compile_detached`): a call that would have compiled
+    it at once (:data:`MIN_COLUMNS` columns or more) runs interpreted meanwhile."""
     _, path, _ = _library(f)
     job = None if path is None else _pending.get(str(path))
-    return job is not None and job.is_alive()
+    if job is None or not job.is_alive():
+        return False
+    with _turn:
+        _urgent.add(str(path))
+        _turn.notify_all()
+    return True
 
 
 def wait_for_background(timeout: float | None = None) -> bool:
@@ -434,7 +441,7 @@ def select(f: ca.Function, jit: bool | str, n: int) -> ca.Function | None:
     if g is not None:
         return g
     if n >= MIN_COLUMNS:
-        if _compiling(f):  # its background compile is under way (queued maybe): interpreted now, never wait
+        if _compiling(f):  # its background compile is under way: interpreted now, never wait, but first in the queue
             return None
         return compile_function(f)
     if background():
@@ -567,8 +574,15 @@ class _Job:
 
 
 _queue: list[_Job] = []  # background compiles with their source written, not yet handed to a process
+_urgent: set[str] = set()  # library paths a large call waits for (run interpreted meanwhile): compiled first
 _running: dict[int, subprocess.Popen] = {}  # detached compiles this process started and waits for, by process id
 _turn = threading.Condition(_lock)
+
+
+def _order(job: _Job) -> tuple[bool, int]:
+    """Queue order of the background compiles: those a large call waits for (:func:`_compiling`)
+    first, then the smallest source first."""
+    return str(job.path) not in _urgent, job.size
 
 
 def _spawn(jobs: list[_Job], cc: str, after: Sequence[int] = ()) -> subprocess.Popen:
@@ -590,14 +604,15 @@ def _spawn(jobs: list[_Job], cc: str, after: Sequence[int] = ()) -> subprocess.P
 def _compile_detached(tmp: str, src: str, path: Path, cc: str) -> str | None:
     """Compile the C source ``src`` of the scratch directory ``tmp`` into ``path`` in a detached
     process and wait for it while this process runs. The compile waits its turn: at most
-    :func:`compile_slots` at a time per process, the queued ones the smallest source first. When the
+    :func:`compile_slots` at a time per process, the queued ones in :func:`_order` (the smallest
+    source first, but a library that a large call wants before the others). When the
     process ends, its queued compiles are handed to one detached process that compiles them one after
     the other (:func:`_exit_wait`). The library appears at ``path`` only whole (atomic rename). None on
     success, else the reason."""
     job = _Job(tmp, src, path)
     with _turn:
         _queue.append(job)
-        while not job.handed and (len(_running) >= compile_slots() or min(_queue, key=lambda j: j.size) is not job):
+        while not job.handed and (len(_running) >= compile_slots() or min(_queue, key=_order) is not job):
             _turn.wait()
         if job.handed:  # the process is ending: _exit_wait gave it to the chain of the queued compiles
             return "handed to the compile of the queued sources at exit"
@@ -638,7 +653,7 @@ def _exit_wait(timeout: float = 120.0) -> None:
     while time.monotonic() < end and writing():
         time.sleep(0.01)
     with _turn:
-        jobs = sorted(_queue, key=lambda j: j.size)
+        jobs = sorted(_queue, key=_order)
         _queue.clear()
         for j in jobs:
             j.handed = True

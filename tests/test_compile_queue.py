@@ -151,3 +151,36 @@ def test_a_process_hands_its_queued_compiles_over_at_exit(tmp_path):
         name, value, built = line.split()
         assert value != "missing" and built == "0"
         assert float(value) == pytest.approx(_value(SIZES[name], 0.7), rel=1e-13)
+
+
+def test_a_library_a_large_call_wants_is_compiled_next(tmp_path, monkeypatch):
+    """A call of MIN_COLUMNS columns or more whose library waits in the queue runs interpreted and
+    moves that library to the front: with the first compile held at the gate and a small and a big
+    source queued, the big one, wanted by a large call, is compiled second, before the small one."""
+    fake, gate, log = _logging_cc(tmp_path)
+    monkeypatch.setenv("CC", str(fake))
+    monkeypatch.setenv("GEAROPT_CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.delenv("GEAROPT_JIT_BACKGROUND", raising=False)
+    monkeypatch.setattr(compiled, "_loaded", {})
+    monkeypatch.setattr(compiled, "_pending", {})
+    monkeypatch.setattr(compiled, "compile_slots", lambda: 1, raising=False)
+    first = _fun("queue_first", 20)
+    assert compiled.compile_in_background(first) is not None
+    for _ in range(600):  # the first compile holds the slot, at the gate
+        if log.exists():
+            break
+        time.sleep(0.05)
+    assert log.exists()
+    big, small = _fun("queue_big", SIZES["queue_big"]), _fun("queue_small", SIZES["queue_small"])
+    assert compiled.compile_in_background(small) is not None and compiled.compile_in_background(big) is not None
+    n = compiled.MIN_COLUMNS
+    cm = compiled.mapped(big, n, "auto")
+    assert not cm.compiled
+    x = np.linspace(-1.0, 1.0, n)[None, :]
+    interpreted = cm(x)[0]
+    gate.touch()
+    assert compiled.wait_for_background(300)
+    assert [r[0] for r in _intervals(log)] == ["queue_first.c", "queue_big.c", "queue_small.c"]
+    again = compiled.mapped(big, n, "auto")
+    assert again.compiled
+    np.testing.assert_allclose(again(x)[0], interpreted, rtol=1e-13, atol=1e-15)
