@@ -83,6 +83,9 @@ BASE_FLAGS = ("-O2", "-shared", "-fPIC")  #: what a compiler that refuses FLAGS 
 #: jit="auto", cache miss: mapped solves of at least this many columns compile at once (the compile,
 #: 0.2-2.5 s, pays within the call); smaller ones run interpreted while it compiles in the background
 MIN_COLUMNS = 1024
+# A call of at least this many columns waits for its library's background compile instead of running
+# interpreted: about 2 s interpreted at ~30 us per column, longer than a compile of the library.
+WAIT_COLUMNS = 65536
 
 MIN_PER_THREAD = 512  #: a compiled mapped call is split over threads only with at least this many columns each
 #: a compiled ColumnMap's serial map of one size compiles as a library of its own (ColumnMap._settle) from
@@ -430,7 +433,9 @@ def select(f: ca.Function, jit: bool | str, n: int) -> ca.Function | None:
     ``jit=True``: compiled (compiling on a cache miss; None without a compiler). ``False``: None.
     ``"auto"``: the cached library whenever there is one, whatever ``n``; on a cache miss, compiled
     at once when ``n >= MIN_COLUMNS``, else None while the library compiles in the background
-    (:func:`compile_in_background`, unless :func:`background` is off). Compiled and interpreted
+    (:func:`compile_in_background`, unless :func:`background` is off). A call of ``MIN_COLUMNS`` or
+    more whose library is already compiling in the background runs interpreted (None) meanwhile,
+    unless it has ``WAIT_COLUMNS`` columns or more: then it waits for that library. Compiled and interpreted
     columns agree to round-off (tests/test_tca_jit.py), so which one runs changes no result beyond it.
     """
     if jit is True:
@@ -441,8 +446,16 @@ def select(f: ca.Function, jit: bool | str, n: int) -> ca.Function | None:
     if g is not None:
         return g
     if n >= MIN_COLUMNS:
-        if _compiling(f):  # its background compile is under way: interpreted now, never wait, but first in the queue
-            return None
+        if _compiling(f):  # its background compile is under way and first in the queue now
+            if n < WAIT_COLUMNS:  # interpreted meanwhile: cheaper than waiting
+                return None
+            _, path, _ = _library(f)
+            job = _pending.get(str(path))
+            if job is not None:
+                job.join()
+            g = cached_function(f)
+            if g is not None:
+                return g
         return compile_function(f)
     if background():
         compile_in_background(f)
