@@ -112,7 +112,8 @@ def counts() -> dict:
 def cache_root() -> Path:
     """Root of gearopt's disk caches: ``GEAROPT_CACHE``, else ``$XDG_CACHE_HOME/gearopt``, else
     ``~/.cache/gearopt`` (compiled libraries in ``compiled/``, FE influence coefficients in
-    ``influence/``, measured flanks' B-splines in ``interpolant/``)."""
+    ``influence/``, measured flanks' B-splines in ``interpolant/``, the TCA branches' CSE graphs in
+    ``graphs/``: :mod:`gearopt.graph_cache`)."""
     env = os.environ.get("GEAROPT_CACHE")
     if env:
         return Path(env).expanduser()
