@@ -22,8 +22,8 @@ form a rigid body tied to a reference node on the pinion axis whose rotation abo
 free DOF. Step 1 prescribes a rotation in the driving direction that closes the contact (the estimated
 loaded approach, :meth:`GearFEModel.approach_estimate`); step 2 releases it (``*BOUNDARY, OP=NEW``) and
 applies the torque as a moment on the rotation node (docs/theory.md section 12.3, rule 1); step 3 repeats
-the load with the contact faces paired again at the loaded state (docs/fea.md "Solver cost"). Contact: element-face surfaces on the driving flanks, the gear master
-and the pinion slave, surface-to-surface penalty contact with a LINEAR pressure-overclosure slope
+the load with the contact faces paired again at the loaded state (docs/fea.md "Solver cost"). Contact:
+element-face surfaces on the driving flanks, the gear master and the pinion slave, surface-to-surface penalty contact with a LINEAR pressure-overclosure slope
 of ``penalty`` x E (50 E by default, docs/theory.md section 12.3, rule 2), no ADJUST (rule 3), no friction.
 
 Elements are 8-node hexahedra C3D8 (full integration). C3D8I (incompatible modes) was measured to
@@ -653,8 +653,9 @@ class GearFEModel:
         exceeds its unloaded separation ``g_k`` (the TCA's, ``contact[k]["gap"]``):
         ``sum_k c' b max(0, delta - g_k) = F_n``. The FE models are stiffer or softer than ISO's c': the
         converged approach is 0.92 (one pair) and 1.12-1.15 (two pairs) of the estimate on
-        problems/fea_crowned.toml, 0.72 and 0.85 on problems/fea_spur.toml. The results do not depend on it,
-        only ccx's iterations (docs/fea.md "Solver cost").
+        problems/fea_crowned.toml, 0.72 and 0.85 on problems/fea_spur.toml. It sets ccx's iterations; the
+        results depend on it to about 1e-5 only (step 3 pairs the faces again at the loaded state; docs/fea.md
+        "Solver cost").
         """
         g1, g2 = self.pair.pinion, self.pair.gear
         cb = MESH_STIFFNESS * self.opt.E / 210e3 * min(g1.b, g2.b)
