@@ -23,8 +23,9 @@ free DOF. Step 1 prescribes a rotation in the driving direction that closes the 
 loaded approach, :meth:`GearFEModel.approach_estimate`); step 2 releases it (``*BOUNDARY, OP=NEW``) and
 applies the torque as a moment on the rotation node (docs/theory.md section 12.3, rule 1); step 3 repeats
 the load with the contact faces paired again at the loaded state (docs/fea.md "Solver cost"). Contact:
-element-face surfaces on the driving flanks, the gear master and the pinion slave, surface-to-surface penalty contact with a LINEAR pressure-overclosure slope
-of ``penalty`` x E (50 E by default, docs/theory.md section 12.3, rule 2), no ADJUST (rule 3), no friction.
+element-face surfaces on the driving flanks, the gear master and the pinion slave, surface-to-surface
+penalty contact with a LINEAR pressure-overclosure slope of ``penalty`` x E (50 E by default, docs/theory.md
+section 12.3, rule 2), no ADJUST (rule 3), no friction.
 
 Elements are 8-node hexahedra C3D8 (full integration). C3D8I (incompatible modes) was measured to
 cost ~3.4x the equations for no gain in this contact/root-stress problem (docs/theory.md section 12.2), so it is not
