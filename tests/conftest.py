@@ -282,22 +282,19 @@ def scene_run(tmp_path_factory):
 LOADED_SCENE_STUDIES = ("ltca", "loaded_microgeometry")
 
 #: Time of each work unit of the whole suite [s] (a test file, or one of the two units of scene runs;
-#: the junit times of the whole suite on the idle machine, 2026-11-29 15:41, main after the afternoon merge): only their order matters
+#: the junit times of the whole suite, 2026-11-29 18:10, main after the evening merge (warm caches)): only their order matters
 #: (heaviest first, so that no heavy unit starts last and the two workers end together); a unit not
 #: listed counts 0 and keeps its place. Re-measure with ``python tests/suite_units.py JUNIT.xml`` (a
 #: junit report of ``make test``) after a change that moves a unit by a minute.
 UNIT_COST: dict[str, float] = {
-    "scenes": 235, "scenes-loaded": 90, "test_loaded_synthesis_objectives.py": 65, "test_fea.py": 50,
-    "test_loaded_synthesis.py": 37, "test_inspection.py": 37, "test_ltca.py": 33, "test_edge_grid.py": 32,
-    "test_robust.py": 30, "test_synthesis.py": 27, "test_loaded_sensitivity_local.py": 27, "test_dynamics.py": 25,
-    "test_tca_stability.py": 24, "test_flank_limit.py": 23, "test_rating_fe.py": 23, "test_ltca_continuity.py": 22,
-    "test_loaded_pressure.py": 22, "test_dynamics_sensitivity.py": 22, "test_bad_input_studies.py": 22,
-    "test_plots_results.py": 21, "test_microgeometry.py": 20, "test_cli_plots.py": 18,
-    "test_loaded_sensitivity_de.py": 15, "test_tca.py": 14, "test_loaded_sensitivity.py": 13,
-    "test_edge_modifications.py": 13, "test_loaded_speed.py": 11, "test_crowning_forked.py": 11, "test_edge.py": 10,
-    "test_ltca_edges.py": 8, "test_run_exit_and_processes.py": 8, "test_settings.py": 8, "test_compare.py": 8,
-    "test_tools.py": 8, "test_compiled.py": 7, "test_bad_input.py": 7, "test_cli.py": 6, "test_compare_rating.py": 6,
-    "test_modification.py": 6, "test_ltca_slice_continuation.py": 6, "test_ltca_point_contact.py": 5,
+    "scenes": 172, "test_loaded_synthesis_objectives.py": 81, "scenes-loaded": 74, "test_fea.py": 30,
+    "test_dynamics.py": 29, "test_robust.py": 27, "test_dynamics_sensitivity.py": 25, "test_ltca.py": 23,
+    "test_loaded_synthesis.py": 19, "test_synthesis.py": 16, "test_edge_grid.py": 16, "test_inspection.py": 15,
+    "test_tca_stability.py": 14, "test_bad_input_studies.py": 14, "test_flank_limit.py": 14, "test_rating_fe.py": 13,
+    "test_loaded_sensitivity_local.py": 12, "test_plots_results.py": 12, "test_edge_modifications.py": 12,
+    "test_cli_plots.py": 11, "test_loaded_speed.py": 9, "test_ltca_continuity.py": 8, "test_microgeometry.py": 8,
+    "test_edge.py": 8, "test_loaded_pressure.py": 7, "test_tca.py": 7, "test_crowning_forked.py": 6,
+    "test_loaded_sensitivity.py": 6, "test_loaded_sensitivity_de.py": 6, "test_cli.py": 5
 }
 
 #: Environment variable: the file in which the workers leave each test's work unit for the controller.
