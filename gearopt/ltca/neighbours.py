@@ -31,8 +31,9 @@ import numpy as np
 from .compliance import ToothCompliance, coupling_batch
 
 #: (A, k) of (N1): least squares on the logarithm of (n - c_tw) / (c_body - c_tw) of the fitting gears of
-#: benchmarks/fe_body_fit.py (d = 1, 2 at three rows each; benchmarks/data/fe_body_fit.json "neighbour_fit")
-NEIGHBOUR_FIT = (0.715, 1.261)
+#: benchmarks/fe_body_fit.py (d = +-1, +-2 at three rows each; ``python benchmarks/fe_body_fit.py --neighbours
+#: --record``, benchmarks/data/fe_body_fit.json "neighbour_fit"; docs/ltca.md section 7)
+NEIGHBOUR_FIT = (0.6345, 1.0531)
 #: the values of ``LTCASettings.neighbours``
 NEIGHBOURS = ("full_gear", "none")
 
