@@ -153,22 +153,28 @@ class Oracle:
             i, j = np.unravel_index(idx, f.shape)
             if all(abs(i - a) > 3 or abs(j - b) > 3 for a, b in cands):
                 cands.append((i, j))
-        best, at = -np.inf, (math.nan, math.nan)
+        # zoom around every candidate at once (one (K, 41, 41) grid a level: the same points and
+        # values as candidate by candidate)
         dr, dz = R[1] - R[0], Z[1] - Z[0]
-        for i, j in cands:
-            r0, z0, hr, hz = R[i], Z[j], 2 * dr, 2 * dz
-            val = f[i, j]
-            for _ in range(self.levels):
-                r = np.clip(np.linspace(r0 - hr, r0 + hr, 41), m1.r_form, m1.r_a)
-                z = np.clip(np.linspace(z0 - hz, z0 + hz, 41), -m1.b / 2, m1.b / 2)
-                rr, zz = np.meshgrid(r, z, indexing="ij")
-                g = self._phi2(phis, rr, zz)
-                k = np.unravel_index(np.argmax(g), g.shape)
-                if g[k] >= val:
-                    val, r0, z0 = g[k], rr[k], zz[k]
-                hr, hz = hr / 4, hz / 4
-            if val > best:
-                best, at = val, (r0, z0)
+        ci, cj = np.array(cands).T
+        r0, z0 = R[ci], Z[cj]
+        hr, hz = np.full(ci.size, 2 * dr), np.full(ci.size, 2 * dz)
+        val = f[ci, cj]
+        for _ in range(self.levels):
+            r = np.clip(np.linspace(r0 - hr, r0 + hr, 41, axis=1), m1.r_form, m1.r_a)
+            z = np.clip(np.linspace(z0 - hz, z0 + hz, 41, axis=1), -m1.b / 2, m1.b / 2)
+            rr = np.broadcast_to(r[:, :, None], (ci.size, 41, 41))
+            zz = np.broadcast_to(z[:, None, :], (ci.size, 41, 41))
+            g = self._phi2(phis, rr, zz).reshape(ci.size, -1)
+            k = np.argmax(g, axis=1)
+            gk = g[np.arange(ci.size), k]
+            up = gk >= val
+            val = np.where(up, gk, val)
+            r0 = np.where(up, r[np.arange(ci.size), k // 41], r0)
+            z0 = np.where(up, z[np.arange(ci.size), k % 41], z0)
+            hr, hz = hr / 4, hz / 4
+        c = int(np.argmax(val))  # the first of equal maxima, as the candidate loop kept
+        best, at = val[c], (r0[c], z0[c])
         return best - ratio * phis, at
 
     def envelope(self, phi1, pairs=(-1, 0, 1)):

@@ -8,7 +8,8 @@ the design for another stationary point of the non-convex NLP 22-31 um away (mer
 an edge slack, against 125.08 at the design), so there was no derivative of the design to check. Now
 that NLP is solved first with the design held, then free from that solution's multipliers (the
 sensitivities' ``_local_solution``): its optimum lies 5e-6 mm from the design, and the AD derivatives
-match Richardson-extrapolated central differences of the re-solved NLP within 0.1 % (the slow tests of
+match central differences of the re-solved NLP (Richardson-extrapolated for the angles and the centre
+distance) within 0.1 % (the slow tests of
 tests/test_loaded_sensitivity_local.py, which this script runs once, printing the figures).
 
     python benchmarks/loaded_te_target_open.py            # about 1.5 minutes alone on one core

@@ -34,7 +34,10 @@ When a sweep runs compiled (``jit="auto"``, :func:`select`): whenever its librar
 cache, whatever its size (loading costs milliseconds); on a cache miss, a sweep of at least
 :data:`MIN_COLUMNS` columns compiles at once (the compile pays within the call), a smaller one runs
 interpreted while the library compiles in a background thread (:func:`compile_in_background`), so a
-small sweep never waits for the compiler; the next call finds the library. A map size that a
+small sweep never waits for the compiler; the next call finds the library (a large call whose library
+compiles in the background already runs interpreted too). The background compilers run in detached
+processes, :func:`compile_slots` at a time, the smallest source first; a process that ends hands its
+queued compiles to one detached process and never waits for them (:func:`_exit_wait`). A map size that a
 process calls again and again (:data:`MAP_LIBRARY_CALLS`) gets a library of its own, the loop over its
 columns in C (:func:`map_library`, compiled in the background; the same numbers bit for bit).
 
@@ -80,6 +83,9 @@ BASE_FLAGS = ("-O2", "-shared", "-fPIC")  #: what a compiler that refuses FLAGS 
 #: jit="auto", cache miss: mapped solves of at least this many columns compile at once (the compile,
 #: 0.2-2.5 s, pays within the call); smaller ones run interpreted while it compiles in the background
 MIN_COLUMNS = 1024
+# A call of at least this many columns waits for its library's background compile instead of running
+# interpreted: about 2 s interpreted at ~30 us per column, longer than a compile of the library.
+WAIT_COLUMNS = 65536
 
 MIN_PER_THREAD = 512  #: a compiled mapped call is split over threads only with at least this many columns each
 #: a compiled ColumnMap's serial map of one size compiles as a library of its own (ColumnMap._settle) from
@@ -106,7 +112,8 @@ def counts() -> dict:
 def cache_root() -> Path:
     """Root of gearopt's disk caches: ``GEAROPT_CACHE``, else ``$XDG_CACHE_HOME/gearopt``, else
     ``~/.cache/gearopt`` (compiled libraries in ``compiled/``, FE influence coefficients in
-    ``influence/``, measured flanks' B-splines in ``interpolant/``)."""
+    ``influence/``, measured flanks' B-splines in ``interpolant/``, the TCA branches' CSE graphs in
+    ``graphs/``: :mod:`gearopt.graph_cache`)."""
     env = os.environ.get("GEAROPT_CACHE")
     if env:
         return Path(env).expanduser()
@@ -398,6 +405,20 @@ def _background_job(make: Callable[[], ca.Function], key: str) -> None:
             _pending.pop(key, None)
 
 
+def _compiling(f: ca.Function) -> bool:
+    """Whether ``f``'s library is being compiled in the background by this process; if so, it moves
+    to the front of the queue of compiles (:func:`_compile_detached`): a call that would have compiled
+    it at once (:data:`MIN_COLUMNS` columns or more) runs interpreted meanwhile."""
+    _, path, _ = _library(f)
+    job = None if path is None else _pending.get(str(path))
+    if job is None or not job.is_alive():
+        return False
+    with _turn:
+        _urgent.add(str(path))
+        _turn.notify_all()
+    return True
+
+
 def wait_for_background(timeout: float | None = None) -> bool:
     """Wait for this process's background compiles (:func:`compile_in_background`); True when none
     is left running. ``timeout`` [s] per compile (None: no limit)."""
@@ -413,7 +434,9 @@ def select(f: ca.Function, jit: bool | str, n: int) -> ca.Function | None:
     ``jit=True``: compiled (compiling on a cache miss; None without a compiler). ``False``: None.
     ``"auto"``: the cached library whenever there is one, whatever ``n``; on a cache miss, compiled
     at once when ``n >= MIN_COLUMNS``, else None while the library compiles in the background
-    (:func:`compile_in_background`, unless :func:`background` is off). Compiled and interpreted
+    (:func:`compile_in_background`, unless :func:`background` is off). A call of ``MIN_COLUMNS`` or
+    more whose library is already compiling in the background runs interpreted (None) meanwhile,
+    unless it has ``WAIT_COLUMNS`` columns or more: then it waits for that library. Compiled and interpreted
     columns agree to round-off (tests/test_tca_jit.py), so which one runs changes no result beyond it.
     """
     if jit is True:
@@ -424,6 +447,16 @@ def select(f: ca.Function, jit: bool | str, n: int) -> ca.Function | None:
     if g is not None:
         return g
     if n >= MIN_COLUMNS:
+        if _compiling(f):  # its background compile is under way and first in the queue now
+            if n < WAIT_COLUMNS:  # interpreted meanwhile: cheaper than waiting
+                return None
+            _, path, _ = _library(f)
+            job = _pending.get(str(path))
+            if job is not None:
+                job.join()
+            g = cached_function(f)
+            if g is not None:
+                return g
         return compile_function(f)
     if background():
         compile_in_background(f)
@@ -447,10 +480,14 @@ def _compile_into(generate, src: str, path: Path, cc: str) -> str | None:
         tmp = tempfile.mkdtemp(prefix=".build-", dir=path.parent)
     except OSError as e:
         return f"cache directory {path.parent} not writable: {e}"
-    try:
-        if getattr(_detached, "on", False):  # a background compile: the compiler, rename and clean-up detached
+    if getattr(_detached, "on", False):  # a background compile: the compiler, rename and clean-up detached
+        try:
             generate(tmp, src)
-            return _compile_detached(tmp, src, path, cc)
+        except Exception as e:  # noqa: BLE001 - CasADi's code generator: no scratch directory left behind
+            shutil.rmtree(tmp, ignore_errors=True)
+            return str(e)
+        return _compile_detached(tmp, src, path, cc)  # (the detached process removes tmp)
+    try:
         generate(tmp, src)
         so = os.path.join(tmp, "lib.so")
         for flags in (FLAGS, BASE_FLAGS):  # a compiler that does not know the extra flags: without them
@@ -468,70 +505,184 @@ def _compile_into(generate, src: str, path: Path, cc: str) -> str | None:
         shutil.rmtree(tmp, ignore_errors=True)
 
 
-#: the detached compile of a background job (:func:`_compile_detached`): argv[1:] = scratch directory,
-#: C source, library path, compiler, the flags (JSON); it compiles into the scratch directory, moves
-#: the library into place by an atomic rename, removes the scratch directory and reports a failure
-#: on its standard output (whose reader may be gone: the process that started it may have ended)
+#: the detached compile of background jobs (:func:`_compile_detached`): argv[1:] = the jobs (JSON: a list of
+#: [scratch directory, C source, library path]), the compiler, the flag sets (JSON), the processes to let
+#: end first (JSON: process ids, the compiles running when the process that queued the jobs ended). It
+#: compiles them one after the other, each into its scratch directory, moves the library into place by an atomic rename
+#: (skipped when another process put it there meanwhile), removes the scratch directory and reports a
+#: failure on its standard output (whose reader may be gone: the process that started it may have ended)
 _DETACHED_JOB = r"""
 import json, os, shutil, subprocess, sys
-tmp, src, path, cc, flag_sets = sys.argv[1], sys.argv[2], sys.argv[3], sys.argv[4], json.loads(sys.argv[5])
-so = os.path.join(tmp, "lib.so")
-err = None
-try:
-    for flags in flag_sets:
-        out = subprocess.run([cc, *flags, "-o", so, os.path.join(tmp, src), "-lm"], capture_output=True, text=True,
-                             timeout=3600)
-        if out.returncode == 0:
-            break
-    if out.returncode != 0:
-        err = f"{cc} exited with {out.returncode}: {out.stderr.strip()[:300]}"
-    else:
-        os.replace(so, path)
-except (OSError, subprocess.SubprocessError) as e:
-    err = str(e)
-finally:
-    shutil.rmtree(tmp, ignore_errors=True)
-if err is not None:
+import time
+jobs, cc, flag_sets, before = json.loads(sys.argv[1]), sys.argv[2], json.loads(sys.argv[3]), json.loads(sys.argv[4])
+def running(pid):
     try:
-        os.write(1, err.encode())
+        with open(f"/proc/{pid}/stat") as f:
+            return f.read().rsplit(")", 1)[1].split()[0] != "Z"
+    except OSError:
+        try:
+            os.kill(pid, 0)
+        except ProcessLookupError:
+            return False
+        except OSError:
+            pass
+        return not os.path.isdir("/proc")
+for pid in before:
+    while running(pid):
+        time.sleep(0.05)
+errors = []
+for tmp, src, path in jobs:
+    so = os.path.join(tmp, "lib.so")
+    err = None
+    try:
+        if not os.path.exists(path):
+            for flags in flag_sets:
+                out = subprocess.run([cc, *flags, "-o", so, os.path.join(tmp, src), "-lm"], capture_output=True,
+                                     text=True, timeout=3600)
+                if out.returncode == 0:
+                    break
+            if out.returncode != 0:
+                err = f"{cc} exited with {out.returncode}: {out.stderr.strip()[:300]}"
+            else:
+                os.replace(so, path)
+    except (OSError, subprocess.SubprocessError) as e:
+        err = str(e)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    if err is not None:
+        errors.append(err)
+if errors:
+    try:
+        os.write(1, "; ".join(errors).encode())
     except OSError:
         pass
     sys.exit(1)
 """
 
 
+def compile_slots() -> int:
+    """Detached compiles a process runs at a time: one core less than it may use, at least one.
+
+    A first run starts several background compiles within seconds (the loaded optimiser's: eight,
+    the largest a 4 MB source); run all at once, the compilers would share the cores with the
+    process that waits for nothing but its own work (on two cores: a third of one core for it with
+    five compilers), so they wait in a queue, the smallest source first (:func:`_compile_detached`).
+    """
+    try:
+        cores = len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        cores = os.cpu_count() or 1
+    return max(1, cores - 1)
+
+
+class _Job:
+    """A background compile whose C source is written: queued, then handed to a detached process."""
+
+    def __init__(self, tmp: str, src: str, path: Path):
+        self.tmp, self.src, self.path = tmp, src, path
+        try:
+            self.size = os.path.getsize(os.path.join(tmp, src))
+        except OSError:
+            self.size = 0
+        self.handed = False  # given to a detached process (by its own thread, or by _exit_wait's chain)
+
+
+_queue: list[_Job] = []  # background compiles with their source written, not yet handed to a process
+_urgent: set[str] = set()  # library paths a large call waits for (run interpreted meanwhile): compiled first
+_running: dict[int, subprocess.Popen] = {}  # detached compiles this process started and waits for, by process id
+_turn = threading.Condition(_lock)
+
+
+def _order(job: _Job) -> tuple[bool, int]:
+    """Queue order of the background compiles: those a large call waits for (:func:`_compiling`)
+    first, then the smallest source first."""
+    return str(job.path) not in _urgent, job.size
+
+
+def _spawn(jobs: list[_Job], cc: str, after: Sequence[int] = ()) -> subprocess.Popen:
+    """Start the detached process that compiles ``jobs`` in this order, once the processes ``after``
+    have ended (its own session, no inherited descriptors: the process that starts it may end first,
+    neither waits for the other)."""
+    try:
+        return subprocess.Popen([sys.executable, "-I", "-S", "-c", _DETACHED_JOB,
+                                 json.dumps([[j.tmp, j.src, str(j.path)] for j in jobs]), cc,
+                                 json.dumps([list(FLAGS), list(BASE_FLAGS)]), json.dumps(list(after))],
+                                stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                                start_new_session=True, close_fds=True)
+    except OSError:
+        for j in jobs:
+            shutil.rmtree(j.tmp, ignore_errors=True)
+        raise
+
+
 def _compile_detached(tmp: str, src: str, path: Path, cc: str) -> str | None:
     """Compile the C source ``src`` of the scratch directory ``tmp`` into ``path`` in a detached
-    process (its own session, no inherited descriptors: the process that starts it may end first,
-    neither waits for the other); wait for it while this process runs. The library appears at
-    ``path`` only whole (atomic rename). None on success, else the reason."""
+    process and wait for it while this process runs. The compile waits its turn: at most
+    :func:`compile_slots` at a time per process, the queued ones in :func:`_order` (the smallest
+    source first, but a library that a large call wants before the others). When the
+    process ends, its queued compiles are handed to one detached process that compiles them one after
+    the other (:func:`_exit_wait`). The library appears at ``path`` only whole (atomic rename). None on
+    success, else the reason."""
+    job = _Job(tmp, src, path)
+    with _turn:
+        _queue.append(job)
+        while not job.handed and (len(_running) >= compile_slots() or min(_queue, key=_order) is not job):
+            _turn.wait()
+        if job.handed:  # the process is ending: _exit_wait gave it to the chain of the queued compiles
+            return "handed to the compile of the queued sources at exit"
+        _queue.remove(job)
+        job.handed = True
+        _started.add(str(path))
+        try:
+            proc = _spawn([job], cc)
+        except OSError as e:
+            _turn.notify_all()
+            return str(e)
+        _running[proc.pid] = proc
     try:
-        job = subprocess.Popen([sys.executable, "-I", "-S", "-c", _DETACHED_JOB, tmp, src, str(path), cc,
-                                json.dumps([list(FLAGS), list(BASE_FLAGS)])],
-                               stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                               start_new_session=True, close_fds=True)
-    except OSError as e:
-        shutil.rmtree(tmp, ignore_errors=True)
-        return str(e)
+        out, _ = proc.communicate()
     finally:
-        _spawned.add(str(path))
-    out, _ = job.communicate()
-    if job.returncode != 0:
-        return out.decode(errors="replace").strip() or f"the compile exited with {job.returncode}"
+        with _turn:
+            _running.pop(proc.pid, None)
+            _turn.notify_all()
+    if proc.returncode != 0:
+        return out.decode(errors="replace").strip() or f"the compile exited with {proc.returncode}"
     return None if path.exists() else f"{path} missing after the compile"
 
 
 _detached = threading.local()  # .on: this thread's compiles run detached (background jobs)
-_spawned: set[str] = set()  # library paths whose background job has handed its compile to a detached process
 
 
 def _exit_wait(timeout: float = 120.0) -> None:
-    """At exit: wait while a background job has not yet handed its compile to a detached process
-    (it writes the C source first, a fraction of a second: an interpreter ending then would leave a
-    half-written scratch directory), not for the compile."""
+    """At exit: wait while a background job writes its C source (a fraction of a second: an
+    interpreter ending then would leave a half-written scratch directory), not for the compiles;
+    then hand the queued compiles to one detached process, which compiles them one after the other
+    (the smallest first) after this process has ended."""
+    def writing() -> bool:
+        with _turn:
+            ready = {str(j.path) for j in _queue} | _started
+            return any(job.is_alive() and key not in ready for key, job in _pending.items())
+
     end = time.monotonic() + timeout
-    while time.monotonic() < end and any(job.is_alive() and key not in _spawned for key, job in list(_pending.items())):
+    while time.monotonic() < end and writing():
         time.sleep(0.01)
+    with _turn:
+        jobs = sorted(_queue, key=_order)
+        _queue.clear()
+        for j in jobs:
+            j.handed = True
+            _started.add(str(j.path))
+        after = list(_running)
+        _turn.notify_all()
+    cc = compiler()
+    if jobs and cc is not None:
+        try:
+            _spawn(jobs, cc[0], after)  # after the compiles under way: still one at a time
+        except OSError:
+            pass
+
+
+_started: set[str] = set()  # library paths whose compile a detached process runs (or ran)
 
 
 atexit.register(_exit_wait)

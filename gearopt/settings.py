@@ -747,7 +747,8 @@ class FEOptions(Settings):
     penalty : float
         Contact stiffness as a multiple of E [1/mm] (pressure = penalty E overclosure).
     close_fraction : float
-        Step-1 rotation as a fraction of the estimated loaded mesh deflection.
+        Step-1 rotation as a fraction of the estimated loaded approach
+        (:meth:`~gearopt.fea.model.GearFEModel.approach_estimate`).
     element_type : str
         "C3D8" (default) or "C3D8I".
     threads, timeout : int, float
@@ -775,8 +776,8 @@ class FEOptions(Settings):
                               doc="face layers per major semi-axis of the Hertz ellipse, point contact (0: uniform)")
     penalty: float = option(50.0, kind="float", label="E per mm", bounds=Bounds(lo=1, hi=1000),
                             doc="contact penalty stiffness [multiples of E per mm]")
-    close_fraction: float = option(0.25, kind="float", bounds=Bounds(lo=0, hi=1), key="",
-                                   doc="step-1 rotation as a fraction of the estimated loaded mesh deflection")
+    close_fraction: float = option(1.0, kind="float", bounds=Bounds(lo=0, hi=1), key="",
+                                   doc="step-1 rotation as a fraction of the estimated loaded approach")
     element_type: str = option("C3D8", kind="str", choices=("C3D8", "C3D8I"), key="", doc="CalculiX element type")
     threads: int = option(2, kind="int", bounds=Bounds(lo=1, hi=1024), key="", doc="ccx threads")
     timeout: float = option(900.0, kind="float", label="s", bounds=Bounds(lo=0, lo_open=True), key="",

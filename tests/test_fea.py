@@ -109,6 +109,46 @@ def test_deck_lines_and_sets(model, tmp_path):
     assert "ADJUST" not in text and "*BOUNDARY, OP=NEW" in text and "*RIGID BODY" in text
     assert text.count("*CONTACT PAIR") == 3
     assert d.close_rotation < 0 and d.moment < 0  # the pinion drives clockwise
+    # three steps (docs/fea.md "Solver cost"): the closing rotation ends once its contact set stops doubling
+    # (delcon 1), the torque with ccx's own controls again, the same load with the faces paired at the
+    # loaded state; the results are written by the last step only
+    steps = text.split("*STEP\n")[1:]
+    assert len(steps) == 3 and all(st.count("*END STEP") == 1 for st in steps)
+    assert "*CONTROLS, PARAMETERS=CONTACT\n1.0\n" in steps[0] and "NROT, 3, 3," in steps[0]
+    assert "*CONTROLS, RESET" in steps[1] and "*CONTROLS" not in steps[2]
+    for st in steps[1:]:
+        assert "*BOUNDARY, OP=NEW" in st and f"NROT, 3, {d.moment:.9e}" in st
+    assert all(k not in "".join(steps[:2]) for k in ("PRINT", "FILE"))
+    assert all(k in steps[2] for k in ("*NODE PRINT", "*CONTACT PRINT", "*CONTACT FILE", "*NODE FILE", "*EL FILE",
+                                       "*EL PRINT"))
+
+
+def test_step_one_rotation_is_the_estimated_approach(model, pair):
+    """Step 1 turns the pinion by ``close_fraction`` of the estimated loaded approach (docs/fea.md "Solver
+    cost"): the loaded pairs as ISO 6336-1 springs c' b in parallel, each taking load past its unloaded
+    separation, sum_k c' b max(0, delta - g_k) = F_n, solved here by hand for one, two and three pairs."""
+    from dataclasses import replace
+
+    from gearopt.fea.model import MESH_STIFFNESS
+
+    cb = MESH_STIFFNESS * min(pair.pinion.b, pair.gear.b)
+    F = model.F_n
+    one = F / cb
+    assert model.loaded == [0] and model.approach_estimate() == pytest.approx(one, rel=1e-12)
+    assert model.deck().close_rotation == pytest.approx(-one / pair.pinion.r_b, rel=1e-12)
+    half = replace(model.opt, close_fraction=0.5)
+    m2 = GearFEModel.__new__(GearFEModel)
+    m2.__dict__.update(model.__dict__, opt=half)
+    m2.contact = {k: dict(v) for k, v in model.contact.items()}
+    m2.loaded = [-1, 0, 1]
+    for g_a, g_b, expected in [(0.25 * one, 10 * one, (F / cb + 0.25 * one) / 2),  # the third pair stays open
+                               (0.0, 0.0, one / 3),  # three equal pairs share the load
+                               (2 * one, 3 * one, one)]:  # neither closes: the one pair carries it all
+        m2.contact[-1]["gap"], m2.contact[1]["gap"], m2.contact[0]["gap"] = g_a, g_b, 0.0
+        assert m2.approach_estimate() == pytest.approx(expected, rel=1e-12)
+    assert m2.deck().close_rotation == pytest.approx(-0.5 * one / pair.pinion.r_b, rel=1e-12)  # close_fraction
+    m2.opt = replace(half, E=105e3)  # c' scales with E: half the modulus, twice the approach
+    assert m2.approach_estimate() == pytest.approx(2 * one, rel=1e-12)
 
 
 def test_readers():

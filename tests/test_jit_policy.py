@@ -90,6 +90,43 @@ def test_large_cache_miss_compiles_at_once(fresh, monkeypatch):
     assert cm.compiled and ran == [threading.main_thread()]
 
 
+def test_large_call_never_waits_for_its_background_compile(fresh, monkeypatch):
+    """A call of MIN_COLUMNS columns or more whose library a background compile of this process is
+    building (started by a smaller call before: the loaded TCA's slice geometry) runs interpreted
+    instead of waiting for that compile, which may be queued behind others (compiled.compile_slots);
+    the call after it lands runs compiled. Held at the gate, a call that waited would get the library
+    only when the gate times out (60 s), compiled, not None."""
+    f = _fun(5.5)
+    gate, ran = _gated_build(monkeypatch)
+    assert not compiled.mapped(f, 64, "auto").compiled  # the background compile, held at the gate
+    n = compiled.MIN_COLUMNS
+    big = compiled.mapped(f, n, "auto")
+    assert not big.compiled and len(compiled._pending) == 1
+    X, P = np.random.default_rng(2).normal(size=(2, n)), np.linspace(-1, 1, n)[None, :]
+    interpreted = big(X, P)
+    gate.set()
+    assert compiled.wait_for_background(60)
+    again = compiled.mapped(f, n, "auto")
+    assert again.compiled and len(ran) == 1  # the background library, not a second compile
+    np.testing.assert_allclose(again(X, P), interpreted, rtol=1e-15, atol=1e-15)
+
+
+def test_a_very_large_call_waits_for_its_background_compile(fresh, monkeypatch):
+    """From WAIT_COLUMNS columns a call whose library compiles in the background waits for it (running
+    that many columns interpreted costs more than the compile) and runs compiled, without a second
+    compile; below it the call runs interpreted (the test above)."""
+    f = _fun(6.5)
+    gate, ran = _gated_build(monkeypatch)
+    monkeypatch.setattr(compiled, "WAIT_COLUMNS", 2 * compiled.MIN_COLUMNS)
+    assert not compiled.mapped(f, 64, "auto").compiled  # the background compile, held at the gate
+    threading.Timer(0.5, gate.set).start()  # the gate opens while the large call waits
+    n = compiled.WAIT_COLUMNS
+    big = compiled.mapped(f, n, "auto")
+    assert big.compiled and len(ran) == 1
+    X, P = np.random.default_rng(3).normal(size=(2, n)), np.linspace(-1, 1, n)[None, :]
+    np.testing.assert_allclose(big(X, P), f.map(n)(X, P).full(), rtol=1e-14, atol=1e-14)
+
+
 def test_background_compile_can_be_switched_off(fresh, monkeypatch):
     monkeypatch.setenv("GEAROPT_JIT_BACKGROUND", "0")
     monkeypatch.setattr(compiled, "_build", lambda *a: pytest.fail("no compile with GEAROPT_JIT_BACKGROUND=0"))

@@ -71,21 +71,25 @@ def test_curvature_sensitivity_matches_finite_differences(monkeypatch):
     across the contact line (implicit function theorem on the slice equations, by AD), against central
     differences of the exact slices' own curvature (``SliceSet.kappa1/2``) on the flank slices, for
     every free amount and the crossing; at a design with profile crowning and both reliefs, where the
-    curvature of the reliefs' smooth starts moves with their amounts."""
+    curvature of the reliefs' smooth starts moves with their amounts. (The differences from the exact
+    slices alone, :meth:`LTCA.slices` as :meth:`linearise` calls it, not from whole linearisations.)"""
     opt = LoadedMicroOptimizer(drive(), FREE, torques=[TORQUE], cases=[Misalignment(crossing=2 * ARCMIN)],
                                n_positions=8, n_verify=16, n_slices=N_SLICES)
     th = np.array([0.012, 0.010, 0.015])
     lin = opt.linearise(th)[0]
     S = lin.slices
-    kap = lambda L: L.slices.kappa1 + L.slices.kappa2  # noqa: E731
+    kap = lambda S: S.kappa1 + S.kappa2  # noqa: E731
     h = 1e-5  # 0.01 um
     P = th.size
     crossing = Misalignment.names().index("crossing")
-    for j, (plus, minus) in enumerate(
-            [(opt.linearise(th + h * e)[0], opt.linearise(th - h * e)[0]) for e in np.eye(P)]
-            + [(o.linearise(th)[0] for o in (opt.shifted(Misalignment(crossing=s * h)) for s in (1, -1)))]):
-        fl = (S.active & (S.edge == 0) & plus.slices.active & minus.slices.active & (plus.slices.edge == 0)
-              & (minus.slices.edge == 0))
+    mis = opt.cases[0]
+
+    def exact(theta, dc=0.0):  # the exact slices of the design ``theta``, the crossing moved by ``dc``
+        return opt.ltca.slices(opt.phi1, *opt.params(theta), Misalignment(crossing=mis.crossing + dc))
+
+    for j, (plus, minus) in enumerate([(exact(th + h * e), exact(th - h * e)) for e in np.eye(P)]
+                                      + [(exact(th, h), exact(th, -h))]):
+        fl = (S.active & (S.edge == 0) & plus.active & minus.active & (plus.edge == 0) & (minus.edge == 0))
         assert fl.sum() > 50
         fd = ((kap(plus) - kap(minus)) / (2 * h))[fl]
         ad = lin.Jk[..., j if j < P else P + crossing][fl]

@@ -216,6 +216,21 @@ def test_only_an_optimisations_first_round_is_solved_along_the_smoothing():
     assert toy.smoothed == [2] and len(toy.solves) > 5
 
 
+def test_every_round_after_the_first_starts_from_the_last_nlps_multipliers():
+    """Every round after the first is solved from the last NLP's solution and multipliers, the round after
+    the trust radius doubled too (the toy's first step reaches the 25 um radius with an exact prediction:
+    the radius doubles to 50 um and the next round is solved from round 0's NLP and solution)."""
+    toy = _Toy()
+    rounds = []
+    d = toy.solve(progress=rounds.append)
+    assert d.theta["pinion.C_alpha"] == pytest.approx(0.030, abs=1e-12)
+    assert d.rounds[0]["radius_um"] == pytest.approx(25.0) and d.rounds[1]["radius_um"] == pytest.approx(50.0)
+    assert toy.solves[0][0] is None  # the first NLP: nothing earlier
+    prev = toy.solves[1][0]
+    assert prev is not None and prev[1]["x"] == [25.0] and prev[3] == pytest.approx(0.025)
+    assert all(s[0] is not None for s in toy.solves[1:])
+
+
 @pytest.mark.slow
 @pytest.mark.ipopt
 def test_the_first_round_along_the_smoothing_reaches_the_cold_solves_optimum(small, monkeypatch):

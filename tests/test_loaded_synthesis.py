@@ -341,11 +341,15 @@ def test_optimum_is_verified_by_the_exact_loaded_tca(opt, design):
 def test_sensitivities_of_the_optimum_match_finite_differences(opt, sens):
     """d(optimum)/d(torque) and d(optimum)/d(misalignment) by AD (the perturbed KKT system of the NLP
     at the optimum, the envelope theorem for the objective) against central differences of the same
-    NLP solved again at perturbed parameters: every torque, every misalignment kind."""
-    assert_sensitivities_match_finite_differences(opt, sens)
+    NLP solved again at perturbed parameters: every torque, every misalignment kind. (The angles by plain
+    central differences within 0.1 %: at this optimum they lie within 1.2e-8 of AD, 2026-11-29; without
+    the unloaded-TE target the optimum does not curve in them as with it.)"""
+    assert_sensitivities_match_finite_differences(opt, sens, richardson=False)
 
 
-def assert_sensitivities_match_finite_differences(opt, S):
+def assert_sensitivities_match_finite_differences(opt, S, richardson=True):
+    """``richardson``: the angles' differences extrapolated by Richardson and compared within 1 % (the
+    optimum with the unloaded-TE target curves in the crossing), else plain and within 0.1 % as the rest."""
     from gearopt.meshing.misalignment import Misalignment as Mis
 
     assert S["model_step"] < 1e-4  # the NLP's optimum is the design (converged)
@@ -393,7 +397,7 @@ def assert_sensitivities_match_finite_differences(opt, S):
 
         fd_t, fd_f = central(h)
         tol = 1e-3
-        if angle:
+        if angle and richardson:
             half_t, half_f = central(h / 2)
             fd_t, fd_f, tol = (4 * half_t - fd_t) / 3, (4 * half_f - fd_f) / 3, 1e-2
         ad_t = S["d_theta_d_torque"][:, j] if j < T else S["d_theta_d_mis"][:, j - T]

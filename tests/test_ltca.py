@@ -623,15 +623,19 @@ def test_relieved_pair_keeps_its_slices_where_newton_stalls():
     far from the unmodified drive's conjugate guess: plain Newton stalls on every slice of that pair,
     and line-search Newton must take over (else the pair silently drops out and the loaded TE jumps;
     this drive lost pair -1 at C_alpha_a 27 um, 68 arcsec at 300 N m). The pair's slices stay active
-    and its separations continuous as the relief deepens through that value."""
+    and its separations continuous as the relief deepens through that value. (One loaded TCA, the
+    relief amount its parameter ``iso.C_alpha_a``: the same slices, bit for bit, as a loaded TCA built
+    for each amount; the first guesses are the unmodified drive's conjugate contact either way.)"""
     from gearopt.geometry.microgeometry import Microgeometry
 
     phi1 = np.array([-math.pi / 24])
     te, n_act = [], []
+    mg = Microgeometry(C_alpha=0.02952, C_beta=0.03247, C_alpha_a=0.0265, C_alpha_f=0.03253, d_Ca=64.0, d_Cf=58.5)
+    L = LTCA(GearPair(Gear(z=20, m_n=3.0, b=20.0, modifications=mg), Gear(z=40, m_n=3.0, b=20.0)), n_slices=11)
     for c_a in (0.0265, 0.0270, 0.0275):
-        mg = Microgeometry(C_alpha=0.02952, C_beta=0.03247, C_alpha_a=c_a, C_alpha_f=0.03253, d_Ca=64.0, d_Cf=58.5)
-        pair = GearPair(Gear(z=20, m_n=3.0, b=20.0, modifications=mg), Gear(z=40, m_n=3.0, b=20.0))
-        S = LTCA(pair, n_slices=11).slices(phi1, pairs=(-1, 0, 1))
+        p1 = np.array(L.tca.pinion.p0, float)
+        p1[L.tca.layout.member_names["pinion"].index("iso.C_alpha_a")] = c_a
+        S = L.slices(phi1, p1, pairs=(-1, 0, 1))
         k = S.pairs.index(-1)
         n_act.append(int(S.active[k, 0].sum()))
         te.append(S.te[k, 0, :11] * RAD_TO_ARCSEC)

@@ -31,11 +31,13 @@ P_JUMP = 0.01  # share of the peak pressure
 SHARE_JUMP = 0.01  # load share
 
 
+#: The ISO amounts [mm] of :func:`optimum`.
+OPTIMUM = dict(C_alpha=40 * UM, C_beta=28.29 * UM, C_alpha_a=3.26 * UM, C_alpha_f=15.16 * UM, d_Ca=64.0, d_Cf=58.5)
+
+
 def optimum(**kw):
     """The 20/40 spur drive of docs/loaded_synthesis.md section 5 at its optimum (ISO amounts [mm])."""
-    amounts = dict(C_alpha=40 * UM, C_beta=28.29 * UM, C_alpha_a=3.26 * UM, C_alpha_f=15.16 * UM, d_Ca=64.0,
-                   d_Cf=58.5)
-    amounts.update(kw)
+    amounts = {**OPTIMUM, **kw}
     return GearPair(Gear(z=20, m_n=3.0, b=20, name="pinion", modifications=Microgeometry(**amounts)),
                     Gear(z=40, m_n=3.0, b=20, name="gear"))
 
@@ -53,6 +55,10 @@ _LTCA = {}
 
 
 def ltca(pair_fn, **kw) -> LTCA:
+    """The loaded TCA of ``pair_fn(**kw)``, built once per module: a keyword that repeats the drive's own
+    value (``optimum(d_Ca=64.0)``) names the same drive and reuses its loaded TCA."""
+    if pair_fn is optimum:
+        kw = {k: v for k, v in kw.items() if OPTIMUM.get(k) != v}
     key = (pair_fn.__name__, tuple(sorted(kw.items())))
     if key not in _LTCA:
         _LTCA[key] = LTCA(pair_fn(**kw), n_slices=N_SLICES)

@@ -1,7 +1,7 @@
 """CalculiX (``ccx``) input writer, runner and a small reader of its ``.dat`` output.
 
 Units throughout: mm, N, MPa, N*mm; rotations in rad. See ``docs/theory.md`` section 12 and ``docs/fea.md`` for the
-measured behaviour this module relies on (two-step loading, LINEAR penalty ~50 E, no ADJUST).
+measured behaviour this module relies on (a closing step before the torque, LINEAR penalty ~50 E, no ADJUST).
 """
 
 from __future__ import annotations
@@ -74,12 +74,13 @@ class Deck:
     moment: float  # N*mm (signed, about +z)
     print_elsets: list = field(default_factory=list)
     element_type: str = "C3D8"
-    increments: tuple = (1.0, 1.0)  # (initial increment of step 1, of step 2)
+    increments: tuple = (1.0, 1.0)  # (initial increment of step 1, of steps 2 and 3)
 
 
 def write_inp(deck: Deck, path: str | os.PathLike) -> Path:
     """Write the Abaqus-style input deck: mesh, rigid pinion rim, fixed gear rim, contact pairs and the
-    two steps (close the contact with a small rotation, then release it and apply the torque)."""
+    three steps (close the contact with a prescribed rotation near the loaded one, release it and apply the
+    torque, the same load again with the contact faces paired at the loaded state)."""
     path = Path(path)
     lines = ["** gearopt: automatic FE model of a gear drive (Litvin 9.5); units mm, N, MPa", "*NODE, NSET=NALL"]
     lines += [f"{i + 1}, {x:.12e}, {y:.12e}, {z:.12e}" for i, (x, y, z) in enumerate(deck.nodes)]
@@ -104,11 +105,22 @@ def write_inp(deck: Deck, path: str | os.PathLike) -> Path:
         lines += ["*CONTACT PAIR, INTERACTION=SI, TYPE=SURFACE TO SURFACE", f"{slave}, {master}"]
     fix = [f"{deck.fixed_nset}, 1, 3", "NREF, 1, 3", "NROT, 1, 2"]
     d0, d1 = deck.increments
-    lines += ["** step 1: close the contact with a small prescribed pinion rotation (docs/theory.md 12.3 rule 1)",
-              "*STEP", "*STATIC", f"{d0}, 1.0", "*BOUNDARY", *fix, f"NROT, 3, 3, {deck.close_rotation:.9e}", "*END STEP",
+    static = ["*STATIC", f"{d1}, 1.0"]
+    load = ["*BOUNDARY, OP=NEW", *fix, "*CLOAD", f"NROT, 3, {deck.moment:.9e}"]
+    # Step 1 only places the members near their loaded state: ccx's face-to-face contact pairs the slave
+    # integration points with master faces at the start of each step and finds its contact set from the
+    # penetrations of the last solution, so the rotation's rigid overlap would take ~10 iterations (one
+    # SPOOLES factorisation each) to shrink to the set it settles on; delcon 1 ends the step when the set
+    # stops doubling. Step 2 then converges the loaded contact, and step 3 (the same load) pairs the faces
+    # again at the loaded state and converges once more: the result no longer depends on where step 1 left
+    # the members (docs/fea.md "Solver cost").
+    lines += ["** step 1: close the contact with a prescribed pinion rotation near the loaded one (docs/theory.md 12.3 rule 1)",
+              "*STEP", "*STATIC", f"{d0}, 1.0", "*CONTROLS, PARAMETERS=CONTACT", "1.0",
+              "*BOUNDARY", *fix, f"NROT, 3, 3, {deck.close_rotation:.9e}", "*END STEP",
               "** step 2: release the rotation, apply the torque about the pinion axis",
-              "*STEP", "*STATIC", f"{d1}, 1.0", "*BOUNDARY, OP=NEW", *fix,
-              "*CLOAD", f"NROT, 3, {deck.moment:.9e}",
+              "*STEP", *static, "*CONTROLS, RESET", *load, "*END STEP",
+              "** step 3: the same load, the contact faces paired again at the loaded state",
+              "*STEP", *static, *load,
               f"*NODE PRINT, NSET={deck.fixed_nset}, TOTALS=ONLY", "RF",
               "*NODE PRINT, NSET=NREF, TOTALS=ONLY", "RF",
               "*NODE PRINT, NSET=NROT", "U",

@@ -19,7 +19,8 @@ import numpy as np
 import numpy.typing as npt
 
 from ..compiled import (ColumnMap, available, cached_function, call, compile_derived, derived_library, map_columns,
-                        mapped, select)
+                        mapped, select, source_tag)
+from ..graph_cache import built_once
 from ..settings import ContactSettings  # re-exported: declared with the other option sets (gearopt.settings)
 
 NORMAL_TOL = 1e-8  #: accepted contact points have n1 . n2 < -1 + NORMAL_TOL (tangency, not crossing)
@@ -133,11 +134,14 @@ class Branch:
         J = ca.jacobian(F, w)
         # Implicit-function predictor: dw/dphi1 = -J^-1 dF/dphi1.
         self.dw = ca.Function(f"{name}_dw", [w, p], [-ca.solve(J, ca.jacobian(F, p)[:, 0])])
+        # the residual and its Jacobian as one graph, common subexpressions eliminated (the Newton
+        # step's whole cost); this graph and the checks' below are built once per residual graph
+        # (gearopt.graph_cache: the elimination is most of a Branch's construction)
+        tag = source_tag(Branch.__init__)
+        jac = built_once(f"{name}_jac", (G,), tag,
+                         lambda: ca.Function(f"{name}_jac", [w, p], [J, F], {"cse": True}))
         # abstol 1e-15 reaches the float64 floor of phi2 (1.7e-16 rad) for ~4 % more time; the step
         # test stops after the Newton step below 1e-9 mm (saves one Jacobian). docs/work-precision.md
-        # the residual and its Jacobian as one graph, common subexpressions eliminated (the Newton
-        # step's whole cost)
-        jac = ca.Function(f"{name}_jac", [w, p], [J, F], {"cse": True})
         fast_opts = {"error_on_fail": False, "abstol": 1e-15, "max_iter": 30, "jacobian_function": jac}
         if solver == "fast_newton":
             fast_opts["abstolStep"] = 1e-9
@@ -156,21 +160,25 @@ class Branch:
         # one column: solve from W0, then the residual norm and the checks at the solution (the
         # compiled unit); what is evaluated there is one SX graph with common subexpressions
         # eliminated (the checks and the caller's extra outputs share the surfaces' derivatives)
-        c = checks(w, p)
-        post = [ca.norm_2(F), c[0], c[1]]
+        def post():
+            c = checks(w, p)
+            return [ca.norm_2(F), c[0], c[1]]
+
         self.extra = extra
         self._extra_names = extra.name_out() if extra is not None else []  # (asked once: a call into CasADi)
         w0 = ca.MX.sym("W0", nw)
         pp = ca.MX.sym("P", npr)
         wf = self.rf_fast(w0, pp)
-        at = ca.Function(f"{name}_post", [w, p], post, {"cse": True})
+        at = built_once(f"{name}_post", (G, checks), tag,
+                        lambda: ca.Function(f"{name}_post", [w, p], post(), {"cse": True}))
         self.one = ca.Function(f"{name}_one", [w0, pp], [wf] + list(at(wf, pp)), ["W0", "P"],
                                ["W", "res", "n1n2", "reg"])
         # the same column with the caller's outputs at the solved point (``extra(w, prm)``, e.g. the
         # sweep's contact quantities): one compiled pass instead of two (solve(..., extra=True))
         self.one_x = None
         if extra is not None:
-            at_x = ca.Function(f"{name}_postx", [w, p], post + list(extra(w, p)), {"cse": True})
+            at_x = built_once(f"{name}_postx", (G, checks, extra), tag,
+                              lambda: ca.Function(f"{name}_postx", [w, p], post() + list(extra(w, p)), {"cse": True}))
             self.one_x = ca.Function(f"{name}_onex", [w0, pp], [wf] + list(at_x(wf, pp)), ["W0", "P"],
                                      ["W", "res", "n1n2", "reg"] + extra.name_out())
 

@@ -69,7 +69,7 @@ The package, one concept per module:
 
 from __future__ import annotations
 
-from .constants import (DEGENERATE_REL, EDGE_TOL, F_TOL, G_REF, HARM_EPS, MAX_REFINE, MAX_ROUNDS, MU, NONNEG, RHO,
+from .constants import (DEGENERATE_REL, EDGE_TOL, F_TOL, G_REF, HARM_EPS, LOOP_WARM_OPTS, MAX_REFINE, MAX_ROUNDS, MU, NONNEG, RHO,
                         RHO_MAX, SETTINGS, SLACK_TOL, TE0_EPS, THETA_TOL, TIP_BAND, TR_START, WARM_OPTS)
 from .edges import edge_mask, edge_weight, edge_weight_lin, edge_where, loaded_gaps
 from .kkt import central_path_indicators, degenerate_constraints
@@ -81,4 +81,4 @@ __all__ = ["LoadedMicroOptimizer", "LoadedCheck", "MicroDesign", "ParetoFront", 
            "central_path_indicators", "degenerate_constraints", "edge_weight", "edge_weight_lin", "edge_where",
            "edge_mask", "loaded_gaps", "DEGENERATE_REL", "EDGE_TOL", "F_TOL", "G_REF", "HARM_EPS", "MAX_REFINE",
            "MAX_ROUNDS", "MU", "NONNEG", "RHO", "RHO_MAX", "SETTINGS", "SLACK_TOL", "TE0_EPS", "THETA_TOL",
-           "TIP_BAND", "TR_START", "WARM_OPTS"]
+           "TIP_BAND", "TR_START", "WARM_OPTS", "LOOP_WARM_OPTS"]

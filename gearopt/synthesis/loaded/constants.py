@@ -22,6 +22,13 @@ F_TOL = 1e-4  #: ... or when the NLP predicts a decrease of the objective below 
 WARM_OPTS = {"ipopt.warm_start_init_point": "yes", "ipopt.mu_init": 1e-4, "ipopt.warm_start_bound_push": 1e-9,
              "ipopt.warm_start_mult_bound_push": 1e-9, "ipopt.warm_start_slack_bound_push": 1e-9,
              "ipopt.max_iter": 300}
+#: the trust-region loop's warm solves (:meth:`TrustRegion._warm_solver`): ``WARM_OPTS`` with the start
+#: point, its slacks and the bound multipliers pushed ``1e-5`` (instead of 1e-9) into the interior. A start that
+#: close to its bounds made the adaptive barrier cut its first steps short: the refined grid's first round of
+#: ``problems/microgeometry_loaded.toml`` 76 -> 39 iterations, the same solution to 1e-11 um
+#: (docs/benchmarks.md, "Every round warm"). The sensitivities' re-solve keeps ``WARM_OPTS``.
+LOOP_WARM_OPTS = {**WARM_OPTS, "ipopt.warm_start_bound_push": 1e-5, "ipopt.warm_start_mult_bound_push": 1e-5,
+                  "ipopt.warm_start_slack_bound_push": 1e-5}
 HARM_EPS = 1e-3  #: [arcsec] smoothing of a harmonic amplitude at zero, sqrt(a^2 + b^2 + eps^2)
 TE0_EPS = 1e-3  #: [arcsec] smoothing of the unloaded TE's RMS misfit to its parabola at zero, sqrt(rms^2 + eps^2)
 DEGENERATE_REL = 1e-6  #: an active constraint whose multiplier is below this times the largest is degenerate

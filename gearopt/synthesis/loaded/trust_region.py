@@ -13,7 +13,7 @@ import numpy as np
 
 from ..crowning import SynthesisError
 from . import constants
-from .constants import EDGE_TOL, MAX_ROUNDS, RHO, RHO_MAX, SLACK_TOL, TR_START, WARM_OPTS
+from .constants import EDGE_TOL, LOOP_WARM_OPTS, MAX_ROUNDS, RHO, RHO_MAX, SLACK_TOL, TR_START
 from .layout import param_layout
 from .nlp import LoadedNLP
 from .results import LoadedCheck
@@ -52,7 +52,8 @@ class TrustRegion:
         than the first's), the weight grows tenfold after the second step, for the next round.
         ``rho``: the first weight (a refinement of the grid starts from the weight the last pass ended
         with); ``prev``: the last pass's final NLP and solution (:attr:`last_solve`), whose multipliers
-        start the first round's IPOPT (:meth:`_multipliers` carries them to the refined grid).
+        start the first round's IPOPT (:meth:`_multipliers` carries them to the refined grid); every
+        later round starts from the last NLP's (after a radius doubling too), unless the penalty grew.
         The final NLP's own solve is kept as :attr:`last_solve`."""
         p = self._pvec(rho)
         radius = TR_START * float(np.max(self.hi - self.lo))
@@ -66,9 +67,10 @@ class TrustRegion:
             lbx[th] = np.maximum(self.lo, theta - radius) * 1e3
             ubx[th] = np.minimum(self.hi, theta + radius) * 1e3
             t1 = time.perf_counter()
-            # from the last NLP's multipliers unless the radius grew (its step reached the region's
-            # bound and the next optimum may lie far: there the cold start took 2-3x fewer iterations)
-            warm = prev if prev is not None and prev[3] >= radius else None
+            # from the last NLP's multipliers, after a radius doubling too (there the cold start took
+            # 59 + 104 iterations on problems/microgeometry_loaded.toml, the warm one 86 + 34 with the
+            # bound push of LOOP_WARM_OPTS; the same solutions to 1e-11 um)
+            warm = prev
             if rnd == 0 and warm is None and np.array_equal(theta, self.theta0):
                 # the first round from the drive's own design (far from the optimum): two stages of the
                 # smoothing (a start near an optimum, the Pareto sweep's, solves cold in fewer)
@@ -168,7 +170,7 @@ class TrustRegion:
     def _solve_nlp(self, nlp, z0, lbx, ubx, p, prev=None):
         """Solve ``nlp`` from ``z0``. With ``prev`` (an earlier NLP of the same positions, or of a grid
         they are part of, and its solution), first from its multipliers (:meth:`_multipliers`) and a
-        small barrier parameter (``WARM_OPTS``): near the earlier optimum a few tens of iterations
+        small barrier parameter (``LOOP_WARM_OPTS``): near the earlier optimum a few tens of iterations
         instead of hundreds; where that fails, from the cold start. Returns the solution, IPOPT's stats
         and the iterations of both."""
         args = dict(x0=z0, lbx=lbx, ubx=ubx, lbg=nlp.lbg, ubg=nlp.ubg, p=p)
@@ -186,9 +188,9 @@ class TrustRegion:
 
     @staticmethod
     def _warm_solver(nlp) -> ca.Function:
-        """The IPOPT solver of ``nlp`` from a given point and multipliers (``WARM_OPTS``), built on first use."""
+        """The IPOPT solver of ``nlp`` from a given point and multipliers (``LOOP_WARM_OPTS``), built on first use."""
         if nlp.warm is None:
-            nlp.warm = ca.nlpsol("loaded_microgeometry_warm", "ipopt", nlp.oracle, {**nlp.opts, **WARM_OPTS})
+            nlp.warm = ca.nlpsol("loaded_microgeometry_warm", "ipopt", nlp.oracle, {**nlp.opts, **LOOP_WARM_OPTS})
         return nlp.warm
 
     def _around(self, theta, radius: float = np.inf, rho: float = RHO) -> LocalModel:

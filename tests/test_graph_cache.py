@@ -1,0 +1,97 @@
+"""gearopt.graph_cache: a Branch's CSE graphs built once per residual graph, in the process and on disk,
+the same Functions bit for bit as built."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+import gearopt.graph_cache as gc
+import gearopt.meshing.solver as solver
+from gearopt.compiled import no_background
+from gearopt.gears import Gear, GearPair
+from gearopt.geometry.microgeometry import Microgeometry
+from gearopt.meshing.tca import TCA
+
+DEG = math.pi / 180
+
+
+def _pair(beta=15.0):
+    return GearPair(Gear(z=19, m_n=3.0, b=24, beta=beta * DEG, hand="right", name="pinion",
+                         modifications=Microgeometry(C_beta=0.010)),
+                    Gear(z=37, m_n=3.0, b=24, beta=beta * DEG, hand="left", name="gear"))
+
+
+def _run(pair):
+    """(serialised one column, serialised column with extras, a sweep's TE and contact points)"""
+    tca = TCA(pair, jit=False)
+    r = tca.sweep(np.linspace(-0.12, 0.12, 9))
+    return tca.branch.one.serialize(), tca.branch.one_x.serialize(), r.te, r.rf, r.residual
+
+
+def test_branch_graphs_are_built_once_and_read_back_as_built(tmp_path, monkeypatch):
+    """Built (cache off), built and written, found in the process, read from disk in a "new process":
+    the same column Functions (so the same compiled-library keys) and the same sweep bit for bit; a
+    different pair builds its own; ``no_background`` (gearopt check) writes nothing."""
+    monkeypatch.setenv("GEAROPT_CACHE", str(tmp_path / "cache"))
+    monkeypatch.setattr(gc, "_graphs", {})
+    pair = _pair()
+    # the construction without the cache (each graph as built, serialised and read back: what the cache keeps)
+    monkeypatch.setattr(solver, "built_once",
+                        lambda name, bases, tag, build: __import__("casadi").Function.deserialize(build().serialize()))
+    ref = _run(pair)
+    monkeypatch.undo()
+    monkeypatch.setenv("GEAROPT_CACHE", str(tmp_path / "cache"))
+    monkeypatch.setattr(gc, "_graphs", {})
+
+    def same(got):
+        assert got[0] == ref[0] and got[1] == ref[1]
+        for a, b in zip(got[2:], ref[2:]):
+            assert np.array_equal(np.asarray(a), np.asarray(b), equal_nan=True)
+
+    c0 = gc.counts()
+    same(_run(pair))  # built: jac, post, postx
+    c1 = gc.counts()
+    assert c1["built"] - c0["built"] == 3 and c1["memo"] == c0["memo"] and c1["disk"] == c0["disk"]
+    files = sorted((tmp_path / "cache" / "graphs").glob("*.casadi.z"))
+    assert len(files) == 3
+    same(_run(pair))  # this process's
+    c2 = gc.counts()
+    assert c2["memo"] - c1["memo"] == 3 and c2["built"] == c1["built"]
+    monkeypatch.setattr(gc, "_graphs", {})  # a new process
+    same(_run(pair))  # the disk's
+    c3 = gc.counts()
+    assert c3["disk"] - c2["disk"] == 3 and c3["built"] == c2["built"]
+    # another residual graph: its own graphs; within no_background none is written
+    monkeypatch.setattr(gc, "_graphs", {})
+    with no_background():
+        TCA(_pair(beta=12.0), jit=False)
+    assert gc.counts()["built"] - c3["built"] == 3
+    assert sorted((tmp_path / "cache" / "graphs").glob("*")) == files
+
+
+def test_a_corrupt_or_foreign_cache_file_is_rebuilt(tmp_path, monkeypatch):
+    """A truncated file, or one holding another graph, under a graph's key: built again (and rewritten)."""
+    monkeypatch.setenv("GEAROPT_CACHE", str(tmp_path / "cache"))
+    monkeypatch.setattr(gc, "_graphs", {})
+    import casadi as ca
+
+    x = ca.SX.sym("x", 2)
+    base = ca.Function("base", [x], [ca.sin(x[0]) * x[1]])
+    e = base(x)
+    make = lambda: ca.Function("derived", [x], [ca.jacobian(e, x), e], {"cse": True})  # noqa: E731
+    f = gc.built_once("derived", (base,), "t1", make)
+    (path,) = (tmp_path / "cache" / "graphs").glob("*.casadi.z")
+    assert np.array_equal(np.asarray(f([0.3, 2.0])[0]), np.asarray(make()([0.3, 2.0])[0]))
+    for bad in (path.read_bytes()[:100], __import__("zlib").compress(base.serialize().encode())):
+        path.write_bytes(bad)
+        monkeypatch.setattr(gc, "_graphs", {})
+        n = gc.counts()["built"]
+        g = gc.built_once("derived", (base,), "t1", make)
+        assert g.name() == "derived" and gc.counts()["built"] == n + 1
+        assert g.serialize() == f.serialize()
+    # another construction tag: another graph
+    n = gc.counts()["built"]
+    gc.built_once("derived", (base,), "t2", make)
+    assert gc.counts()["built"] == n + 1
