@@ -235,9 +235,9 @@ def validate(lam_factor: float = 1.0) -> int:
     mat = Material(E=E, nu=NU)
     names = [n for n in drives() if "tip relief" not in n]
     print(f"{T:g} N m; FE: the recorded contact model at the very fine level ({RECORD.relative_to(ROOT)}); "
-          "'ref': corrected to full-gear bodies held at r_f / 2 and their neighbouring teeth; 'default': the default "
-          "compliance (with the neighbours' term); 'ref0': the reference without the neighbours, 'none': the default "
-          "without them (neighbours = 'none')")
+          "'ref': corrected to full-gear bodies held at r_f / 2 and their neighbouring teeth; 'default': the analytical "
+          "compliance with the neighbours' term (neighbours = 'full_gear'); 'ref0': the reference without the "
+          "neighbours, 'none': the analytical compliance without them (neighbours = 'none', gearopt's default)")
     print(f"{'drive':<34} {'phi1':>6} {'FE app':>7} {'ref app':>7} {'default':>7} {'err %':>6} "
           f"{'FE p':>7} {'ref p':>7} {'default p':>9} {'err %':>6} {'FE sh':>6} {'ref sh':>6} {'def sh':>6} {'d sh':>6} | "
           "ref0 app, none app, err %, ref0 p, none p, err %, ref0 sh, none sh | diagnostics without the neighbours "
@@ -255,13 +255,14 @@ def validate(lam_factor: float = 1.0) -> int:
         gears = (pair.pinion, pair.gear)
         res, Ss = {}, {}
         for label in ("full", "analytical", "none", "sainsot2004", "fe", "an, FE body", "an, FE body, teeth / cos beta_b"):
-            # "analytical": the default compliance; "none": without the neighbours' term; "sainsot2004" and the
+            # "analytical": the analytical compliance with the neighbours' term (neighbours = "full_gear"); "none":
+            # without it (the default); "sainsot2004" and the
             # diagnostics: the model before 2026-11-29 (Sainsot's 2004 body, a helical slice's compliance projected
             # with cos^2(beta_b), no neighbours)
             old = dict(body="sainsot2004", helical="transverse", neighbours="none") if label not in (
                 "full", "analytical", "none", "fe") else {}
-            if label == "none":
-                old = dict(neighbours="none")
+            if label in ("none", "analytical"):
+                old = dict(neighbours="none" if label == "none" else "full_gear")
             L = LTCA(pair, material=mat, compliance="fe" if label in ("fe", "full") else "analytical", **old)
             S = L.slices(phi1=np.array(phis), mis=mis)
             if label in ("fe", "full"):
@@ -333,7 +334,7 @@ def validate(lam_factor: float = 1.0) -> int:
                                                   "analytical": an, "analytical_without_neighbours": none,
                                                   "analytical_sainsot2004": old, "analytical_fe_body": anb,
                                                   "analytical_fe_body_teeth_over_cos_beta_b": ant}
-    print(f"within 5 % of the reference (shares: 0.05 of the total), of {n_pos} positions: default compliance: "
+    print(f"within 5 % of the reference (shares: 0.05 of the total), of {n_pos} positions: with the neighbours' term: "
           f"approach {n_pos - miss[0]}, pressure {n_pos - miss[1]}, share {n_pos - miss[2]}; without the neighbours "
           f"against the reference without them: approach {n_pos - miss_none[0]}, pressure {n_pos - miss_none[1]}, share "
           f"{n_pos - miss_none[2]}; Sainsot 2004 and cos^2 (against the reference without the neighbours): "
@@ -366,8 +367,8 @@ def validate_recorded() -> int:
     rec = json.loads((ROOT / "benchmarks" / "data" / "fe_neighbour_teeth.json").read_text())["runs"]
     mat = Material(E=E, nu=NU)
     print(f"{T:g} N m; the references recorded by --neighbours (benchmarks/data/fe_neighbour_teeth.json); 'ref': with "
-          "the full gears' neighbouring teeth, 'ref0': without; 'default': the default compliance, 'none': "
-          "neighbours = 'none'")
+          "the full gears' neighbouring teeth, 'ref0': without; 'default': the analytical compliance with "
+          "the neighbours' term (neighbours = 'full_gear'), 'none': neighbours = 'none' (gearopt's default)")
     print(f"{'drive':<34} {'phi1':>6} {'ref app':>7} {'default':>7} {'err %':>6} {'ref p':>7} {'default p':>9} "
           f"{'err %':>6} {'ref sh':>6} {'def sh':>6} {'d sh':>6} | {'ref0 app':>8} {'none':>7} {'err %':>6} "
           f"{'ref0 p':>7} {'none p':>7} {'err %':>6} {'ref0 sh':>7} {'none sh':>7}")
@@ -411,7 +412,7 @@ def validate_recorded() -> int:
                   flush=True)
             out.setdefault(name, {})[f] = {"reference": ref, "default": an, "reference_without_neighbours": ref0,
                                            "without_neighbours": none}
-    print(f"within 5 % of the reference (shares: 0.05 of the total), of {n_pos} positions: default compliance "
+    print(f"within 5 % of the reference (shares: 0.05 of the total), of {n_pos} positions: with the neighbours' term "
           f"against the reference with the neighbours: approach {n_pos - miss[0]}, pressure {n_pos - miss[1]}, share "
           f"{n_pos - miss[2]}; neighbours = 'none' against the reference without them: approach {n_pos - miss0[0]}, "
           f"pressure {n_pos - miss0[1]}, share {n_pos - miss0[2]}")

@@ -118,13 +118,11 @@ def test_pressure_limit_holds_in_the_default_loaded_tca_near_relief_starts(drive
 @pytest.mark.slow
 def test_pressure_limit_and_edges_hold_in_the_default_loaded_tca_with_profile_crowning():
     """Drive (b): 30 um of profile crowning, lead crowning and both reliefs free, 250 N m aligned,
-    p_limit 2200 MPa and no edge loading (0.5 um). By the independent default LTCA: within 0.5 % of the
-    limit at every position of both grids (the limit active: the largest within 1 % of it), and no tip edge
-    or face end carries more than EDGE_TOL of the load. (The uncoupled compliance, ``neighbours = "none"``,
-    had the limit active at 2600 MPa: with the pairs coupled through the bodies the optimum under 2600 MPa
-    reads 2268 MPa, the limit inactive. With the involute's curvature in the NLP that model's optimum
-    (38.79 / 16.59 / 25.43 um) read 2856.9 MPa on the verification grid, +9.9 %.)"""
-    p_limit = 2200.0
+    p_limit 2600 MPa and no edge loading (0.5 um). By the independent default LTCA: within 0.5 % of the
+    limit at every position of both grids, and no tip edge or face end carries more than EDGE_TOL of
+    the load. With the involute's curvature in the NLP the optimum (38.79 / 16.59 / 25.43 um) read
+    2856.9 MPa on the verification grid (+9.9 %)."""
+    p_limit = 2600.0
     mg = {"C_alpha": 0.030}
     opt = LoadedMicroOptimizer(drive(**mg), FREE, torques=[TORQUE], n_positions=8, n_verify=16, n_slices=N_SLICES,
                                p_limit=p_limit, edge_margin=5e-4)

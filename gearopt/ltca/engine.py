@@ -380,8 +380,8 @@ class LTCA:
     neighbours : {"full_gear", "none"}, optional
         The coupling of the pairs in mesh through the gear bodies: a load on one tooth moves the teeth
         ``d`` pitches away by :class:`~gearopt.ltca.neighbours.NeighbourTerm` (fitted to FE full gears held
-        at their bores, docs/ltca.md section 7) ("full_gear", the default with the analytical compliance),
-        or the pairs are not coupled ("none"; the default with FE coefficients, the only choice there).
+        at their bores, docs/ltca.md section 7; analytical compliance only), or the pairs are not coupled
+        ("none", the default: docs/ltca.md section 7 says why the coupling is not yet the default).
     curvature : {"surface", "involute"}
         The flanks' curvature across the contact line in the Hertz term: each modified surface's own
         at the slice's point (by AD; profile crowning, reliefs and their smooth starts raise it), or
@@ -433,9 +433,9 @@ class LTCA:
         self.cos_bb = math.cos(g1.beta_b)
         self.compliance = compliance
         self.curvature = curvature
-        # the pairs' coupling through the bodies (gearopt.ltca.neighbours): the analytical compliance's by default;
+        # the pairs' coupling through the bodies (gearopt.ltca.neighbours): a term of the analytical compliance;
         # FE coefficients are their members' own models (3-tooth sectors), without it
-        nb = s.neighbours if s.neighbours is not None else ("full_gear" if compliance == "analytical" else "none")
+        nb = s.neighbours
         if nb == "full_gear" and compliance != "analytical":
             raise out_of_range("neighbours", nb, "'none' with compliance = 'fe' (the coupling through the bodies is a "
                                "term of the analytical compliance)", cls=OptionError)
