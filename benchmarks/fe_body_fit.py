@@ -5,6 +5,11 @@ fit of Sainsot's functional form to them (docs/ltca.md sections 2 and 7).
                                                  # then fit and report the fit and the hold-out error
     python benchmarks/fe_body_fit.py --fit       # fit only, from benchmarks/data/fe_body_fit.json (no CalculiX)
     python benchmarks/fe_body_fit.py --generate  # generate only
+    python benchmarks/fe_body_fit.py --generate-neighbours  # the neighbouring teeth's responses of every recorded
+                                                 # gear (CalculiX, the full gears again with the teeth d = +-1, +-2,
+                                                 # +-z/4, -z/2 read; resumable), then the fit of (N1), recorded
+    python benchmarks/fe_body_fit.py --neighbours [--record]  # the fit of the neighbour term (N1) of
+                                                 # gearopt.ltca.neighbours from the recorded responses (no CalculiX)
 
 Each case is a spur gear (m_n 3 mm, ISO 53 profile A, tooth count ``z``, profile shift ``x``) 2 mm wide (plane
 stress, as Sainsot et al.'s term is written with ``E``; on the 20/40 pinion of docs/ltca.md section 7 the full
@@ -21,7 +26,10 @@ fit: the 24 coefficients of ``L*, M*, P*, Q* = A / theta_f^2 + B h_fi^2 + C h_fi
 E h_fi + F`` in ``c_f = cos^2(g) / E (L* (u_f / S_f)^2 + M* (u_f / S_f) + P* (1 + Q* tan^2 g))`` (Sainsot,
 Velex & Duverger 2004), by Gauss-Newton on the relative error of the fitting cases, with a weak pull towards
 Sainsot's coefficients (the design has fewer distinct (h_fi, theta_f) than coefficients), started from
-them; the hold-out cases are not used. The fitted coefficients are written to the same file
+them; the hold-out cases are not used. The neighbour term (:mod:`gearopt.ltca.neighbours`, (N1)): its two
+constants by least squares on the logarithm of its decaying part over the fitting cases' responses of the
+teeth d = +-1, +-2 at the three rows, its error on the fitting and the hold-out cases, written to
+``"neighbour_fit"`` (copied to :data:`gearopt.ltca.neighbours.NEIGHBOUR_FIT`). The fitted coefficients are written to the same file
 (``"fit"``), which is where :data:`gearopt.ltca.compliance.FULL_GEAR_FIT`'s numbers come from (copied).
 """
 
@@ -104,6 +112,50 @@ def run_case(z, x, h_fi) -> dict:
             "full": [full.C[i, i] for i in rows], "tooth": [t03.C[i, i] for i in rows], "body": body.tolist(),
             "sainsot2004": c.foundation.tolist(), "eta_F": c.eta_F.tolist(),
             "ccx_s": full.ccx_s + t03.ccx_s, "wall_s": time.perf_counter() - t0}
+
+
+def far_teeth(z: int) -> tuple[int, ...]:
+    """The teeth whose response :func:`run_neighbours` reads: d = -2, -1, 1, 2 and the far teeth -z/4, z/4 and the
+    opposite tooth -z//2 (the body's torsion), in the full gear's numbering."""
+    d = [-2, -1, 1, 2, -(z // 4), z // 4, -(z // 2)]
+    return tuple(sorted({v for v in d if v != 0}))
+
+
+def run_neighbours(rec: dict) -> dict:
+    """The neighbouring teeth's responses of a recorded case's full gear: the same model and load cases as
+    :func:`run_case`'s full gear, with the response of teeth :func:`far_teeth` read as well, at the loaded rows
+    along each tooth's own normal (:func:`gearopt.fea.influence.line_load_compliance`'s ``neighbours``) [mm^2/N]
+    per unit line load; ``own`` is the loaded tooth's own response (the same as the recorded ``full``)."""
+    z, x = rec["z"], rec["x"]
+    tooth = generate(gear_of(z, x))
+    rows = rec["rows"]
+    ds = far_teeth(z)
+    t0 = time.perf_counter()
+    full = line_load_compliance(tooth, E, NU, mesh=MESH, teeth=z, support="bore", r_bore=rec["r_int"], rows=rows,
+                                threads=1, neighbours=ds)
+    return {"own": [full.C[i, i] for i in rows], **{f"{d:+d}": [full.neighbours[d][i, i] for i in rows] for d in ds},
+            "cols": {f"{d:+d}": [full.neighbours[d][:, i].tolist() for i in rows] for d in ds},
+            "radius_all": full.radius.tolist(), "ccx_s": full.ccx_s, "wall_s": time.perf_counter() - t0}
+
+
+def generate_neighbours() -> None:
+    """:func:`run_neighbours` for every recorded case that has not got them (``"neighbours"``), the cheapest first
+    (resumable: written after every case)."""
+    d = load()
+    todo = sorted((c["ccx_s"], k) for k, c in d["cases"].items() if "neighbours" not in c)
+    for _, key in todo:
+        rec = load()["cases"][key]
+        try:
+            nb = run_neighbours(rec)
+        except Exception as exc:  # noqa: BLE001 - a case that cannot be built is reported, the rest go on
+            print(f"{key}: neighbours failed: {exc}", flush=True)
+            continue
+        d = load()
+        d["cases"][key]["neighbours"] = nb
+        save(d)
+        own = np.array(nb["own"])
+        print(f"{key} ({rec['role']}): own / recorded {np.round(own / np.array(rec['full']), 6).tolist()}, d+1 / body "
+              f"{np.round(np.array(nb['+1']) / np.array(rec['body']), 3).tolist()}, ccx {nb['ccx_s']:.0f} s", flush=True)
 
 
 def load() -> dict:
@@ -273,9 +325,112 @@ def report(d, coef) -> dict:
     return out
 
 
+def neighbour_arrays(cases):
+    """Per case and row the FE neighbours' responses d = +-1, +-2 and the inputs of (N1)
+    (:class:`gearopt.ltca.neighbours.NeighbourTerm`, the fitted body term at the pitch point): arrays
+    ``(key, d, row, y, c_tw, c_body, x)``, one entry per (case, d, row)."""
+    from gearopt.ltca.neighbours import NeighbourTerm
+
+    out = {k: [] for k in ("key", "d", "row", "y", "c_tw", "c_body", "x")}
+    for c in cases:
+        tooth = generate(gear_of(c["z"], c["x"]))
+        tc = ToothCompliance(tooth, Material(E=E, nu=NU), c["r_int"], member="gear")
+        t = NeighbourTerm.of(tc, tooth)
+        for d in (-2, -1, 1, 2):
+            for i, y in enumerate(c["neighbours"][f"{d:+d}"]):
+                for k, v in zip(out, (case_key(c["z"], c["x"], c["h_fi"]), d, i, y, t.c_tw, t.c_body, t.x)):
+                    out[k].append(v)
+    return {k: np.array(v) for k, v in out.items()}
+
+
+def fit_neighbours(d: dict) -> dict:
+    """(N1)'s constants (A, k) by least squares on ``log((n - c_tw) / (c_body - c_tw)) = log A - k |d| x`` over
+    the fitting cases' d = +-1, +-2 responses at their three rows; the relative error of (N1) on the fitting and
+    the hold-out cases (the same split as the body term), the far teeth against the torsion, and the
+    plane-stress 20/40 members against the 3D full gears of benchmarks/data/fe_neighbour_teeth.json."""
+    from gearopt.ltca.neighbours import NEIGHBOUR_FIT
+
+    roles = {r: [c for c in d["cases"].values() if c.get("role") == r and "neighbours" in c] for r in ("fit", "holdout")}
+    a = neighbour_arrays(roles["fit"])
+    q = (a["y"] - a["c_tw"]) / (a["c_body"] - a["c_tw"])
+    X = np.stack([np.ones(q.size), -np.abs(a["d"]) * a["x"]], 1)
+    sol = np.linalg.lstsq(X, np.log(q), rcond=None)[0]
+    A, k = float(np.exp(sol[0])), float(sol[1])
+    out = {"A": A, "k": k, "form": "n(d) = c_tw + A exp(-k |d| s_f / (r_f - r_int)) (c_body - c_tw)",
+           "fit_cases": sorted(case_key(c["z"], c["x"], c["h_fi"]) for c in roles["fit"]),
+           "in_code": list(NEIGHBOUR_FIT)}
+    print(f"(N1) fitted on {len(roles['fit'])} gears ({q.size} values): A = {A:.4f}, k = {k:.4f} "
+          f"(gearopt.ltca.neighbours.NEIGHBOUR_FIT: {NEIGHBOUR_FIT})")
+    for role, cs in roles.items():
+        if not cs:
+            continue
+        b = neighbour_arrays(cs)
+        model = b["c_tw"] + A * np.exp(-k * np.abs(b["d"]) * b["x"]) * (b["c_body"] - b["c_tw"])
+        e = model / b["y"] - 1.0
+        st = {"n_cases": len(cs), "n_values": int(e.size), "max_abs_err": float(np.max(np.abs(e))),
+              "rms_err": float(np.sqrt(np.mean(e**2))),
+              **{f"max_abs_err_d{v}": float(np.max(np.abs(e[np.abs(b["d"]) == v]))) for v in (1, 2)}}
+        out[role] = st
+        print(f"{role}: {len(cs)} gears, {e.size} values: (N1) / FE - 1 max |.| {100 * st['max_abs_err']:.1f} % "
+              f"(d = 1: {100 * st['max_abs_err_d1']:.1f} %, d = 2: {100 * st['max_abs_err_d2']:.1f} %), "
+              f"rms {100 * st['rms_err']:.1f} %")
+        for key in dict.fromkeys(b["key"]):
+            j = b["key"] == key
+            c = d["cases"][key]
+            far = -(c["z"] // 2)
+            tw = c["neighbours"][f"{far:+d}"]
+            print(f"  {key:<20} FE d=+1 " + " ".join(f"{1e3 * v:.4f}" for v in c["neighbours"]["+1"])
+                  + ", d=+2 " + " ".join(f"{1e3 * v:.4f}" for v in c["neighbours"]["+2"])
+                  + f" um mm/N; (N1) d=1 {1e3 * model[j & (b['d'] == 1)][0]:.4f}, d=2 {1e3 * model[j & (b['d'] == 2)][0]:.4f}"
+                  + f"; err {100 * e[j].min():+.1f} to {100 * e[j].max():+.1f} %; opposite tooth d={far} "
+                  + " ".join(f"{1e3 * v:.4f}" for v in tw) + f" / torsion {1e3 * b['c_tw'][j][0]:.4f}")
+    tw = []
+    for c in d["cases"].values():
+        if "neighbours" in c:
+            far = -(c["z"] // 2)
+            bb = neighbour_arrays([c])
+            tw += [v / bb["c_tw"][0] for v in c["neighbours"][f"{far:+d}"]]
+    if tw:
+        out["opposite_over_torsion"] = [float(min(tw)), float(max(tw))]
+        print(f"the opposite tooth's response over the torsion c_tw, every gear and row: {min(tw):.3f} to {max(tw):.3f}")
+    # the plane-stress gears against the 3D full gears of the validation's members (same z, x, bore; b 2 vs 20 mm)
+    p3 = ROOT / "benchmarks" / "data" / "fe_neighbour_teeth.json"
+    if p3.exists():
+        m3 = json.loads(p3.read_text())["members"]
+        cmp = {}
+        for key3, z in (("20 teeth (spur 20/40 conjugate)", 20), ("40 teeth (spur 20/40 conjugate)", 40)):
+            c = d["cases"].get(case_key(z, 0.0, 2.0))
+            if c is None or "neighbours" not in c or key3 not in m3:
+                continue
+            r2 = np.array(c["radius"])
+            rows = []
+            for i, r in enumerate(m3[key3]["rows_mm"]):
+                j = int(np.argmin(np.abs(r2 - r)))
+                if abs(r2[j] - r) > 0.01:
+                    continue
+                rows.append({"radius": r, **{f"{dd:+d}": [1e3 * c["neighbours"][f"{dd:+d}"][j], m3[key3][f"full {dd:+d}"][i]]
+                                             for dd in (-2, -1, 1, 2)}})
+            cmp[key3] = rows
+            for row in rows:
+                print(f"  {key3} row {row['radius']:.3f} mm: plane stress / 3D [um mm/N] " + ", ".join(
+                    f"d {dd:+d} {row[f'{dd:+d}'][0]:.4f} / {row[f'{dd:+d}'][1]:.4f} ({100 * (row[f'{dd:+d}'][0] / row[f'{dd:+d}'][1] - 1):+.1f} %)"
+                    for dd in (-2, -1, 1, 2)))
+        out["plane_stress_vs_3d"] = cmp
+    return out
+
+
 def main(argv) -> int:
     if "-h" in argv or "--help" in argv:
         print(__doc__)
+        return 0
+    if "--generate-neighbours" in argv or "--neighbours" in argv:
+        if "--generate-neighbours" in argv:
+            generate_neighbours()
+        d = load()
+        d["neighbour_fit"] = {**fit_neighbours(d), "date": time.strftime("%Y-%m-%d"),
+                              "command": "python benchmarks/fe_body_fit.py --neighbours"}
+        if "--generate-neighbours" in argv or "--record" in argv:
+            save(d)
         return 0
     bad = [a for a in argv if a not in ("--fit", "--generate")]
     if bad:

@@ -14,6 +14,8 @@ validation of the default compliance's approach against an FE reference with ful
                                                       # (about 15 min of ccx for the eight members, then cached):
                                                       # the default compliance (the refitted body, helical normal
                                                       # compliance) and the model before (Sainsot 2004, cos^2)
+    python benchmarks/fe_full_gear_body.py --validate --recorded  # the same table from the references recorded
+                                                      # by --neighbours (no CalculiX, a minute)
     python benchmarks/fe_full_gear_body.py --validate --lam-factor 0.5  # the body difference spread along the
                                                       # face over half (or X times) the body's depth (not recorded)
     python benchmarks/fe_full_gear_body.py --sainsot  # Sainsot's term on the 20/40 pinion's rows as implemented
@@ -219,7 +221,10 @@ def full_gear_grid(grid, tooth, gear, r_form, lam_factor=1.0):
 
 def validate(lam_factor: float = 1.0) -> int:
     """(c): the default compliance's approach, pressure and share against the FE reference corrected to
-    full-gear bodies (the very fine level's recorded FE results)."""
+    full-gear bodies and their neighbouring teeth (the very fine level's recorded FE results):
+    ``reference = FE + (FE coefficients, full gears + their neighbours) - (FE coefficients, sectors + their
+    neighbours)`` (:class:`NeighbourLTCA`, :func:`neighbour_grids`); the reference without the neighbours (the
+    table before 2026-11-29 evening) and the default model without them (``neighbours = "none"``) beside it."""
     sys.path.insert(0, str(ROOT / "benchmarks"))
     from validate_ltca_fe import RECORD, T, drives
 
@@ -230,26 +235,42 @@ def validate(lam_factor: float = 1.0) -> int:
     mat = Material(E=E, nu=NU)
     names = [n for n in drives() if "tip relief" not in n]
     print(f"{T:g} N m; FE: the recorded contact model at the very fine level ({RECORD.relative_to(ROOT)}); "
-          "'full': corrected to full-gear bodies held at r_f / 2")
-    print(f"{'drive':<34} {'phi1':>6} {'FE app':>7} {'d(full)':>7} {'ref app':>7} {'LTCA-an':>7} {'err %':>6} "
-          f"{'FE p':>7} {'ref p':>7} {'LTCA-an p':>9} {'err %':>6} {'FE sh':>6} {'ref sh':>6} {'an sh':>6} {'d sh':>6} | "
-          "diagnostic, Sainsot's term x the full gear's FE body over it: approach, err %, p, err %, share | the same "
+          "'ref': corrected to full-gear bodies held at r_f / 2 and their neighbouring teeth; 'default': the analytical "
+          "compliance with the neighbours' term (neighbours = 'full_gear'); 'ref0': the reference without the "
+          "neighbours, 'none': the analytical compliance without them (neighbours = 'none', gearopt's default)")
+    print(f"{'drive':<34} {'phi1':>6} {'FE app':>7} {'ref app':>7} {'default':>7} {'err %':>6} "
+          f"{'FE p':>7} {'ref p':>7} {'default p':>9} {'err %':>6} {'FE sh':>6} {'ref sh':>6} {'def sh':>6} {'d sh':>6} | "
+          "ref0 app, none app, err %, ref0 p, none p, err %, ref0 sh, none sh | diagnostics without the neighbours "
+          "(against ref0): Sainsot's term x the full gear's FE body over it: approach, err %, p, err %, share | the same "
           "with the teeth / cos(beta_b) | Sainsot 2004 and cos^2(beta_b) (before 2026-11-29): approach, err %, p, err %, "
           "share")
     out = {}
-    miss, miss_old, n_pos = [0, 0, 0], [0, 0, 0], 0
+    miss, miss_none, miss_old, n_pos = [0, 0, 0], [0, 0, 0], [0, 0, 0], 0
     for name in names:
         pair, mis = drives()[name]
         step = 2 * math.pi / pair.pinion.z
         fracs = ("0", "-0.3", "+0.3")
         phis = [float(f) * step for f in fracs]
         cb = math.cos(pair.pinion.beta_b)
+        gears = (pair.pinion, pair.gear)
         res, Ss = {}, {}
-        for label in ("full", "analytical", "sainsot2004", "fe", "an, FE body", "an, FE body, teeth / cos beta_b"):
-            # "analytical": the default compliance; "sainsot2004" and the diagnostics: the model before 2026-11-29
-            # (Sainsot's 2004 body, a helical slice's compliance projected with cos^2(beta_b))
-            old = dict(body="sainsot2004", helical="transverse") if label not in ("full", "analytical", "fe") else {}
+        for label in ("full", "analytical", "none", "sainsot2004", "fe", "an, FE body", "an, FE body, teeth / cos beta_b"):
+            # "analytical": the analytical compliance with the neighbours' term (neighbours = "full_gear"); "none":
+            # without it (the default); "sainsot2004" and the
+            # diagnostics: the model before 2026-11-29 (Sainsot's 2004 body, a helical slice's compliance projected
+            # with cos^2(beta_b), no neighbours)
+            old = dict(body="sainsot2004", helical="transverse", neighbours="none") if label not in (
+                "full", "analytical", "none", "fe") else {}
+            if label in ("none", "analytical"):
+                old = dict(neighbours="none" if label == "none" else "full_gear")
             L = LTCA(pair, material=mat, compliance="fe" if label in ("fe", "full") else "analytical", **old)
+            S = L.slices(phi1=np.array(phis), mis=mis)
+            if label in ("fe", "full"):
+                g = L.influence
+                tt = (L.tca.pinion.unmodified, L.tca.gear.unmodified)
+                rf = (L.tca.form_radius(1), L.tca.form_radius(2))
+                what = "sector" if label == "fe" else "full - sector"
+                nb = [neighbour_grids(tt[m], gears[m], rf[m], g[m], what) for m in (0, 1)]
             if label == "full":
                 g1, g2 = L.influence
                 t1, t2 = L.tca.pinion.unmodified, L.tca.gear.unmodified
@@ -266,8 +287,9 @@ def validate(lam_factor: float = 1.0) -> int:
                 # and enter the normal compliance times cos^2(beta_b) (LTCA.structure): the ratio over that
                 kt = 1.0 / cb if label.endswith("cos beta_b") else 1.0
                 L.teeth = tuple(FEBody(t, rl, rat / cb**2, kt) for t, (rl, rat) in zip(L.teeth, (rat1, rat2)))
-            S = L.slices(phi1=np.array(phis), mis=mis)
             res[label], Ss[label] = L.solve(T, slices=S).results[0], S
+            if label in ("fe", "full"):
+                res[label + "+n"], Ss[label + "+n"] = NeighbourLTCA(L, nb).solve(T, S).results[0], S
         for j, ph in enumerate(phis):
             rec = record.get(name, {}).get(fracs[j])
             if rec is None:
@@ -285,35 +307,131 @@ def validate(lam_factor: float = 1.0) -> int:
                 q[label] = (1e3 * r.delta[j] / cb, float(np.interp(z_sec, S.z[kk, j][ok][o], r.p0[kk, j][ok][o])),
                             float(r.share[kk, j]))
             fe = (rec["approach_um"], rec["p_max_mid_MPa"], rec["share"])
-            ref = tuple(f + (a - b) for f, a, b in zip(fe, q["full"], q["fe"]))
-            an, anb, ant = q["analytical"], q["an, FE body"], q["an, FE body, teeth / cos beta_b"]
+            ref = tuple(f + (a - b) for f, a, b in zip(fe, q["full+n"], q["fe+n"]))
+            ref0 = tuple(f + (a - b) for f, a, b in zip(fe, q["full"], q["fe"]))
+            an, none, anb, ant = q["analytical"], q["none"], q["an, FE body"], q["an, FE body, teeth / cos beta_b"]
             old = q["sainsot2004"]
             for k in range(3):
-                miss[k] += (abs(an[k] / ref[k] - 1) > 0.05) if k < 2 else (abs(an[k] - ref[k]) > 0.05)
-                miss_old[k] += (abs(old[k] / ref[k] - 1) > 0.05) if k < 2 else (abs(old[k] - ref[k]) > 0.05)
+                def off(a, b):
+                    return (abs(a / b - 1) > 0.05) if k < 2 else (abs(a - b) > 0.05)
+                miss[k] += off(an[k], ref[k])
+                miss_none[k] += off(none[k], ref0[k])
+                miss_old[k] += off(old[k], ref0[k])
             n_pos += 1
-            print(f"{name:<34} {math.degrees(ph):6.2f} {fe[0]:7.3f} {ref[0] - fe[0]:+7.3f} {ref[0]:7.3f} {an[0]:7.3f} "
+            print(f"{name:<34} {math.degrees(ph):6.2f} {fe[0]:7.3f} {ref[0]:7.3f} {an[0]:7.3f} "
                   f"{100 * (an[0] / ref[0] - 1):+6.1f} {fe[1]:7.1f} {ref[1]:7.1f} {an[1]:9.1f} {100 * (an[1] / ref[1] - 1):+6.1f} "
-                  f"{fe[2]:6.3f} {ref[2]:6.3f} {an[2]:6.3f} {an[2] - ref[2]:+6.3f} | {anb[0]:7.3f} {100 * (anb[0] / ref[0] - 1):+6.1f}"
-                  f" {anb[1]:7.1f} {100 * (anb[1] / ref[1] - 1):+6.1f} {anb[2]:6.3f} | {ant[0]:7.3f} "
-                  f"{100 * (ant[0] / ref[0] - 1):+6.1f} {ant[1]:7.1f} {100 * (ant[1] / ref[1] - 1):+6.1f} {ant[2]:6.3f} | "
-                  f"{old[0]:7.3f} {100 * (old[0] / ref[0] - 1):+6.1f} {old[1]:7.1f} {100 * (old[1] / ref[1] - 1):+6.1f} "
+                  f"{fe[2]:6.3f} {ref[2]:6.3f} {an[2]:6.3f} {an[2] - ref[2]:+6.3f} | {ref0[0]:7.3f} {none[0]:7.3f} "
+                  f"{100 * (none[0] / ref0[0] - 1):+6.1f} {ref0[1]:7.1f} {none[1]:7.1f} {100 * (none[1] / ref0[1] - 1):+6.1f} "
+                  f"{ref0[2]:6.3f} {none[2]:6.3f} | {anb[0]:7.3f} {100 * (anb[0] / ref0[0] - 1):+6.1f}"
+                  f" {anb[1]:7.1f} {100 * (anb[1] / ref0[1] - 1):+6.1f} {anb[2]:6.3f} | {ant[0]:7.3f} "
+                  f"{100 * (ant[0] / ref0[0] - 1):+6.1f} {ant[1]:7.1f} {100 * (ant[1] / ref0[1] - 1):+6.1f} {ant[2]:6.3f} | "
+                  f"{old[0]:7.3f} {100 * (old[0] / ref0[0] - 1):+6.1f} {old[1]:7.1f} {100 * (old[1] / ref0[1] - 1):+6.1f} "
                   f"{old[2]:6.3f}", flush=True)
             out.setdefault(name, {})[fracs[j]] = {"fe": fe, "sector_ltca_fe": q["fe"], "full_ltca_fe": q["full"],
-                                                  "reference": ref, "analytical": an, "analytical_sainsot2004": old,
-                                                  "analytical_fe_body": anb,
+                                                  "sector_ltca_fe_neighbours": q["fe+n"],
+                                                  "full_ltca_fe_neighbours": q["full+n"],
+                                                  "reference": ref, "reference_without_neighbours": ref0,
+                                                  "analytical": an, "analytical_without_neighbours": none,
+                                                  "analytical_sainsot2004": old, "analytical_fe_body": anb,
                                                   "analytical_fe_body_teeth_over_cos_beta_b": ant}
-    print(f"within 5 % of the reference (shares: 0.05 of the total), of {n_pos} positions: default compliance: "
-          f"approach {n_pos - miss[0]}, pressure {n_pos - miss[1]}, share {n_pos - miss[2]}; Sainsot 2004 and cos^2: "
+    print(f"within 5 % of the reference (shares: 0.05 of the total), of {n_pos} positions: with the neighbours' term: "
+          f"approach {n_pos - miss[0]}, pressure {n_pos - miss[1]}, share {n_pos - miss[2]}; without the neighbours "
+          f"against the reference without them: approach {n_pos - miss_none[0]}, pressure {n_pos - miss_none[1]}, share "
+          f"{n_pos - miss_none[2]}; Sainsot 2004 and cos^2 (against the reference without the neighbours): "
           f"approach {n_pos - miss_old[0]}, pressure {n_pos - miss_old[1]}, share {n_pos - miss_old[2]}")
     if lam_factor != 1.0:
         return 0  # a sensitivity run: not recorded
     path = ROOT / "benchmarks" / "data" / "fe_full_gear_reference.json"
     path.write_text(json.dumps({"_about": "benchmarks/fe_full_gear_body.py --validate: (approach um, section p MPa, "
                                 "share) per drive and position (pitches); fe: the recorded very fine FE contact model; "
-                                "reference: fe + (full_ltca_fe - sector_ltca_fe)", "date": time.strftime("%Y-%m-%d"),
+                                "reference: fe + (full_ltca_fe_neighbours - sector_ltca_fe_neighbours) (full gears and "
+                                "their neighbouring teeth); reference_without_neighbours: fe + (full_ltca_fe - "
+                                "sector_ltca_fe); analytical: the default compliance (LTCASettings.neighbours "
+                                "'full_gear'), analytical_without_neighbours: 'none'", "date": time.strftime("%Y-%m-%d"),
                                 "torque_Nm": T, "runs": out}, indent=1) + "\n")
     print(f"recorded in {path.relative_to(ROOT)}")
+    return 0
+
+
+def validate_recorded() -> int:
+    """(c) without CalculiX: the default compliance (the neighbours' term) and the model without it against the
+    references recorded by ``--neighbours`` (benchmarks/data/fe_neighbour_teeth.json: ``ref_n`` / ``p_share_ref_n``
+    with the full gears' neighbours, ``ref`` / ``p_share_ref`` without them), the same section and pair as
+    :func:`validate`."""
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    from validate_ltca_fe import T, drives
+
+    from gearopt.fea import FEOptions, GearFEModel
+    from gearopt.ltca.engine import LTCA
+
+    rec = json.loads((ROOT / "benchmarks" / "data" / "fe_neighbour_teeth.json").read_text())["runs"]
+    mat = Material(E=E, nu=NU)
+    print(f"{T:g} N m; the references recorded by --neighbours (benchmarks/data/fe_neighbour_teeth.json); 'ref': with "
+          "the full gears' neighbouring teeth, 'ref0': without; 'default': the analytical compliance with "
+          "the neighbours' term (neighbours = 'full_gear'), 'none': neighbours = 'none' (gearopt's default)")
+    print(f"{'drive':<34} {'phi1':>6} {'ref app':>7} {'default':>7} {'err %':>6} {'ref p':>7} {'default p':>9} "
+          f"{'err %':>6} {'ref sh':>6} {'def sh':>6} {'d sh':>6} | {'ref0 app':>8} {'none':>7} {'err %':>6} "
+          f"{'ref0 p':>7} {'none p':>7} {'err %':>6} {'ref0 sh':>7} {'none sh':>7}")
+    miss, miss0, n_pos = [0, 0, 0], [0, 0, 0], 0
+    out = {}
+    for name, runs in rec.items():
+        pair, mis = drives()[name]
+        step = 2 * math.pi / pair.pinion.z
+        fracs = list(runs)
+        phis = [float(f) * step for f in fracs]
+        cb = math.cos(pair.pinion.beta_b)
+        q = {}
+        for lab, nb in (("default", "full_gear"), ("none", "none")):
+            L = LTCA(pair, material=mat, neighbours=nb)
+            S = L.slices(phi1=np.array(phis), mis=mis)
+            r = L.solve(T, slices=S).results[0]
+            for j, ph in enumerate(phis):
+                m = GearFEModel(pair, ph, FEOptions(torque=T * 1e3, E=E, nu=NU), mis=mis)
+                k0 = min(m.hertz, key=lambda k: abs(m.contact[k]["radius1"] - pair.pinion.r_p))
+                kk = r.pairs.index(k0)
+                ok = np.isfinite(S.z[kk, j]) & S.active[kk, j] & (S.edge[kk, j] == 0)
+                o = np.argsort(S.z[kk, j][ok])
+                q[(lab, j)] = (1e3 * r.delta[j] / cb,
+                               float(np.interp(m.contact[k0]["z1"], S.z[kk, j][ok][o], r.p0[kk, j][ok][o])),
+                               float(r.share[kk, j]))
+        for j, (f, ph) in enumerate(zip(fracs, phis)):
+            rr = runs[f]
+            ref = (rr["ref_n"], *rr["p_share_ref_n"])
+            ref0 = (rr["ref"], *rr["p_share_ref"])
+            an, none = q[("default", j)], q[("none", j)]
+            for k in range(3):
+                def off(a, b):
+                    return (abs(a / b - 1) > 0.05) if k < 2 else (abs(a - b) > 0.05)
+                miss[k] += off(an[k], ref[k])
+                miss0[k] += off(none[k], ref0[k])
+            n_pos += 1
+            print(f"{name:<34} {math.degrees(ph):6.2f} {ref[0]:7.3f} {an[0]:7.3f} {100 * (an[0] / ref[0] - 1):+6.1f} "
+                  f"{ref[1]:7.1f} {an[1]:9.1f} {100 * (an[1] / ref[1] - 1):+6.1f} {ref[2]:6.3f} {an[2]:6.3f} "
+                  f"{an[2] - ref[2]:+6.3f} | {ref0[0]:8.3f} {none[0]:7.3f} {100 * (none[0] / ref0[0] - 1):+6.1f} "
+                  f"{ref0[1]:7.1f} {none[1]:7.1f} {100 * (none[1] / ref0[1] - 1):+6.1f} {ref0[2]:7.3f} {none[2]:7.3f}",
+                  flush=True)
+            out.setdefault(name, {})[f] = {"reference": ref, "default": an, "reference_without_neighbours": ref0,
+                                           "without_neighbours": none}
+    print(f"within 5 % of the reference (shares: 0.05 of the total), of {n_pos} positions: with the neighbours' term "
+          f"against the reference with the neighbours: approach {n_pos - miss[0]}, pressure {n_pos - miss[1]}, share "
+          f"{n_pos - miss[2]}; neighbours = 'none' against the reference without them: approach {n_pos - miss0[0]}, "
+          f"pressure {n_pos - miss0[1]}, share {n_pos - miss0[2]}")
+    # over a mesh cycle: the mean mesh stiffness against ISO 6336-1 and the loaded TE's peak-to-peak, with and
+    # without the neighbours' term
+    from gearopt.ltca.compliance import iso6336_stiffness
+
+    for name in ("spur 20/40 conjugate", "helical 15 deg"):
+        pair, _ = drives()[name]
+        iso = iso6336_stiffness(pair)["c_gamma_alpha"] * E / 206000.0
+        for torque in (100.0, 200.0):
+            r = {}
+            for nb in ("full_gear", "none"):
+                L = LTCA(pair, material=mat, neighbours=nb)
+                r[nb] = L.solve(torque, slices=L.slices(phi1=L.mesh_cycle(32))).results[0]
+            print(f"{name}, {torque:g} N m, 32 positions: c_gamma {r['full_gear'].c_gamma:.2f} N/(mm um) (neighbours "
+                  f"'none' {r['none'].c_gamma:.2f}; ISO 6336-1 {iso:.2f} at E {E:g} MPa); loaded TE peak-to-peak "
+                  f"{r['full_gear'].peak_to_peak_arcsec:.2f} arcsec ('none' {r['none'].peak_to_peak_arcsec:.2f})",
+                  flush=True)
     return 0
 
 
@@ -410,7 +528,7 @@ def helical_split() -> int:
     rows = {"FE full-gear grids": [(float(F[k] @ stf.Cs[0][k * M:(k + 1) * M, k * M:(k + 1) * M] @ F[k]), weber(stf, k))
                                    for k in range(K)]}
     for kt in (1.0, 1.0 / cb):
-        La = LTCA(pair, material=mat, **OLD)
+        La = LTCA(pair, material=mat, neighbours="none", **OLD)
         La.teeth = tuple(FEBody(t, rl, rat / cb**2, kt) for t, (rl, rat) in zip(La.teeth, (full[0][3], full[1][3])))
         st = La.structure(S)
         lab = "analytical, FE body" + (", teeth / cos(beta_b)" if kt != 1.0 else "")
@@ -433,7 +551,7 @@ def helical_split() -> int:
         pair, _ = drives()[name]
         cb = math.cos(pair.pinion.beta_b)
         Lf = LTCA(pair, material=mat, compliance="fe")
-        La = LTCA(pair, material=mat, **OLD)
+        La = LTCA(pair, material=mat, neighbours="none", **OLD)
         for m, (g, gear) in enumerate(zip(Lf.influence, (pair.pinion, pair.gear))):
             t = (Lf.tca.pinion, Lf.tca.gear)[m].unmodified
             grid, _, _, (rl, rat) = full_gear_grid(g, t, gear, Lf.tca.form_radius(m + 1))
@@ -460,7 +578,7 @@ def helical_split() -> int:
           "face ends (teeth over cos(beta_b), FE body), each pair's approach over the FE grids' (loads of (2))")
     pair, _ = drives()["helical 15 deg"]
     cb = math.cos(pair.pinion.beta_b)
-    La = LTCA(pair, material=mat, **OLD)
+    La = LTCA(pair, material=mat, neighbours="none", **OLD)
     La.teeth = tuple(FEBody(t, rl, rat / cb**2, 1.0 / cb) for t, (rl, rat) in zip(La.teeth, (full[0][3], full[1][3])))
     st = La.structure(S)
     d = 0.5 * pair.pinion.b - np.abs(np.nan_to_num(S.z[:, 0, :]))
@@ -672,7 +790,7 @@ def neighbours_study() -> int:
         Lf.influence = (n1, n2)
         res["full"] = Lf.solve(T, slices=S).results[0]
         res["full+n"] = NeighbourLTCA(Lf, full).solve(T, S).results[0]
-        La = LTCA(pair, material=mat)
+        La = LTCA(pair, material=mat, neighbours="none")  # the uncoupled model, + the diagnostics
         res["default"] = La.solve(T, slices=S).results[0]
         res["default+n"] = NeighbourLTCA(La, an_n).solve(T, S).results[0]
         cand = [candidate_grids(La, m, gears[m], g[m]) for m in (0, 1)]
@@ -720,7 +838,7 @@ def neighbours_study() -> int:
         tt = (Lf.tca.pinion.unmodified, Lf.tca.gear.unmodified)
         an_n = [neighbour_grids(tt[m], (pair.pinion, pair.gear)[m], Lf.tca.form_radius(m + 1), Lf.influence[m], "full")
                 for m in (0, 1)]
-        La = LTCA(pair, material=mat)
+        La = LTCA(pair, material=mat, neighbours="none")  # the uncoupled model, + the diagnostics
         S = La.slices(phi1=La.mesh_cycle(32))
         iso = iso6336_stiffness(pair)["c_gamma_alpha"] * E / 206000.0
         for torque in (100.0, 200.0):
@@ -756,10 +874,10 @@ def main(argv):
             print("fe_full_gear_body.py: --lam-factor needs a number 0.05 <= x <= 20 (see --help)", file=sys.stderr)
             return 2
         argv = argv[:i] + argv[i + 2:]
-    bad = [a for a in argv if a not in ("--mesh", "--validate", "--sainsot", "--helical", "--neighbours")]
+    bad = [a for a in argv if a not in ("--mesh", "--validate", "--sainsot", "--helical", "--neighbours", "--recorded")]
     if bad:
         print(f"fe_full_gear_body.py: unknown argument {bad[0]!r}: expected --mesh, --validate, --sainsot, --helical, "
-              "--neighbours "
+              "--neighbours, --recorded (with --validate) "
               "or --lam-factor X (see --help)", file=sys.stderr)
         return 2
     if "--sainsot" in argv:
@@ -768,6 +886,8 @@ def main(argv):
         return helical_split()
     if "--neighbours" in argv:
         return neighbours_study()
+    if "--validate" in argv and "--recorded" in argv:
+        return validate_recorded()
     if "--validate" in argv:
         return validate(lam_factor)
     return body_study("--mesh" in argv)

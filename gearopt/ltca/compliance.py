@@ -20,8 +20,8 @@ own length: the teeth (bending, shear, compression) over ``lambda`` = half the t
 member's body (the foundation term) over the body's depth under the root, ``r_f - r_int``
 (:func:`face_matrix_batch`, :func:`body_coupling_length`). A load uniform over the face deflects
 every slice by the plane-strain value ``c f``; a concentrated load spreads each part over about
-``2 lambda`` of its own. Different tooth pairs are not coupled (the rim is taken as rigid beyond the
-foundation term).
+``2 lambda`` of its own. Different tooth pairs are coupled through the bodies by
+:mod:`gearopt.ltca.neighbours` (``LTCASettings.neighbours``).
 
 A helical slice is the transverse section; ``LTCA.structure`` projects its compliance on the normal with
 ``cos^2(beta_b)``. With ``helical = "normal"`` (the default) the teeth's terms are divided by ``cos(beta_b)``

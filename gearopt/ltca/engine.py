@@ -47,6 +47,7 @@ from ..settings import LTCASettings
 from ..units import RAD_TO_ARCSEC
 from .compliance import (Material, ToothCompliance, body_coupling_length, face_matrix_batch,
                          weber_contact, weber_tangent, weber_tangent_array)
+from .neighbours import NeighbourTerm, cross_blocks
 from .slices import SliceSet, SliceSolver
 
 if TYPE_CHECKING:
@@ -376,6 +377,11 @@ class LTCA:
         (bending, shear, compression) ``cos(beta_b)`` times the transverse slice's and the body's once
         the transverse term (default; the FE full gears of docs/ltca.md section 7), or both
         ``cos^2(beta_b)`` times it (the projection of the transverse slice, the model before 2026-11-29).
+    neighbours : {"full_gear", "none"}, optional
+        The coupling of the pairs in mesh through the gear bodies: a load on one tooth moves the teeth
+        ``d`` pitches away by :class:`~gearopt.ltca.neighbours.NeighbourTerm` (fitted to FE full gears held
+        at their bores, docs/ltca.md section 7; analytical compliance only), or the pairs are not coupled
+        ("none", the default: docs/ltca.md section 7 says why the coupling is not yet the default).
     curvature : {"surface", "involute"}
         The flanks' curvature across the contact line in the Hertz term: each modified surface's own
         at the slice's point (by AD; profile crowning, reliefs and their smooth starts raise it), or
@@ -427,6 +433,15 @@ class LTCA:
         self.cos_bb = math.cos(g1.beta_b)
         self.compliance = compliance
         self.curvature = curvature
+        # the pairs' coupling through the bodies (gearopt.ltca.neighbours): a term of the analytical compliance;
+        # FE coefficients are their members' own models (3-tooth sectors), without it
+        nb = s.neighbours
+        if nb == "full_gear" and compliance != "analytical":
+            raise out_of_range("neighbours", nb, "'none' with compliance = 'fe' (the coupling through the bodies is a "
+                               "term of the analytical compliance)", cls=OptionError)
+        self.neighbours = nb
+        self.neighbour_terms = (tuple(NeighbourTerm.of(tc, t.unmodified) for tc, t in
+                                      zip(self.teeth, (self.tca.pinion, self.tca.gear))) if nb == "full_gear" else None)
         self._influence = None
         self._fe_mesh = fe_mesh
         if compliance == "fe" and self.side != "right":
@@ -552,6 +567,10 @@ class LTCA:
             Cv = Cs.reshape(N, K, M, K, M)
             for k in range(K):
                 Cv[:, k, :, k, :] = blocks[k]
+            if self.neighbour_terms is not None:
+                # the pairs coupled through the bodies (docs/ltca.md section 2, gearopt.ltca.neighbours (N1))
+                Cs = cross_blocks(Cs, S.pairs, (np.where(used, S.z, np.nan), np.where(used, z2, np.nan)), wt,
+                                  self.neighbour_terms, self.body_coupling, cb)
         # Hertz data per node: reduced radius across the contact line, depths to the centrelines, line
         # length. The curvature of each flank is its own surface's at the point (SliceSet.kappa: profile
         # crowning, reliefs and every modification change it); the involute's cos(beta_b) / rho_t where

@@ -37,7 +37,9 @@ class NLPBuilder:
         With the analytical compliance the deflections ``w`` [um] of every slice node are unknowns too,
         tied to the loads by the sparse stiffness form of the face coupling (``A (w / D) = cos^2(beta_b) D F``,
         A tridiagonal, docs/ltca.md section 2), so the NLP's Jacobian grows with the slice count and not
-        its square; with FE influence coefficients the dense compliance blocks enter the gaps."""
+        its square; with FE influence coefficients the dense compliance blocks enter the gaps, and with the
+        analytical compliance the dense blocks between the pairs (their coupling through the bodies,
+        :mod:`gearopt.ltca.neighbours`), so that the NLP's compliance is the analysis's ``Cs``."""
         g1 = self.pair.pinion
         cb = self.ltca.cos_bb
         lever = self.pair.gear.r_b * cb
@@ -46,7 +48,7 @@ class NLPBuilder:
         P = len(self.free)
         Wt = self.torques * 1e3 / (g1.r_b * cb)
         sparse = self.ltca.compliance == "analytical"
-        trip_C = ([], [], [])  # dense compliance (FE): gap rows x load columns [mm/N]
+        trip_C = ([], [], [])  # dense compliance (FE; analytical: between pairs): gap rows x load columns [mm/N]
         trip_A = ([], [], [])  # stiffness rows x deflection columns
         trip_D = ([], [], [])  # stiffness rows x load-share columns
         w_of_x = []  # per compliance part, the deflection unknown of each slice (sparse path)
@@ -85,6 +87,11 @@ class NLPBuilder:
                 coup = [(coupling_stiffness_batch(S.z.reshape(K * N, M), wt.reshape(K * N, M),
                                                   p.coupling_length).reshape(K, N, M, M), np.sqrt(p.compliance))
                         for p in st.parts]
+                # the pairs' coupling through the bodies (LTCA.structure's off-diagonal blocks, the analysis's
+                # gearopt.ltca.neighbours term): dense between the held loads of different pairs
+                Cx = st.Cs.reshape(N, K, M, K, M).copy()
+                Cx[:, np.arange(K), :, np.arange(K), :] = 0.0
+                Cx = Cx.reshape(N, K * M, K * M)
             for t in range(T):
                 act = acts[t]
                 for n in range(N):
@@ -122,12 +129,11 @@ class NLPBuilder:
                             if len(w_of_x) <= part:
                                 w_of_x.append([])
                             w_of_x[part].append(wi)
-                    else:
-                        Cb = st.Cs[n][np.ix_(A, A)]
-                        ii, jj = np.nonzero(Cb)
-                        trip_C[0].append(ii + nx)
-                        trip_C[1].append(jj + nx)
-                        trip_C[2].append(Cb[ii, jj])
+                    Cb = (Cx if sparse else st.Cs)[n][np.ix_(A, A)]
+                    ii, jj = np.nonzero(Cb)
+                    trip_C[0].append(ii + nx)
+                    trip_C[1].append(jj + nx)
+                    trip_C[2].append(Cb[ii, jj])
                     a0.append(a_n[n, A])
                     lamx.append(lam_n[n, A])
                     Jx.append(J_n[n, A])
@@ -203,7 +209,8 @@ class NLPBuilder:
             E_wt = ca.DM.triplet(list(range(nw)), w_t.tolist(), ca.DM.ones(nw), nw, T)  # w row -> torque
             g_rows["stiffness"] = (ca.mtimes(triplet(trip_A, nw, nw), w) - ca.mtimes(triplet(trip_D, nw, nx), x)
                                    * ca.mtimes(E_wt, tq), 0.0, 0.0)
-        else:
+        if trip_C[2] and sum(v.size for v in trip_C[2]):
+            # dense compliance: FE's blocks, or (analytical) the coupling between pairs
             gap = gap + ca.mtimes(triplet(trip_C, nx, nx), F) / G_REF
         fb = x + y - ca.sqrt(x**2 + y**2 + 2 * mu)  # zero where x >= 0, y >= 0, x y = mu
         te = -d * G_REF / lever * RAD_TO_ARCSEC  # (nB) loaded TE [arcsec] (up to each case's constant)
