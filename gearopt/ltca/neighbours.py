@@ -25,10 +25,12 @@ slice grid: a line load uniform over the face on one pair moves the other pair's
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
+from ..geometry.generation import GeneratedTooth
 from .compliance import ToothCompliance, coupling_batch
 
 #: (A, k) of (N1): least squares on the logarithm of (n - c_tw) / (c_body - c_tw) of the fitting gears of
@@ -48,7 +50,7 @@ def torsion(tc: ToothCompliance, r_b: float) -> float:
     return tc.body_factor * r_b**2 * (1.0 / tc.r_int**2 - 1.0 / tc.r_f**2) / (4.0 * math.pi * G)
 
 
-def pitch_body(tc: ToothCompliance, tooth) -> float:
+def pitch_body(tc: ToothCompliance, tooth: GeneratedTooth) -> float:
     """The body term of ``tc`` [mm^2/N] for a load at the pitch point of ``tooth``'s right flank (mid face,
     transverse section), along the flank normal."""
     g = tooth.gear
@@ -88,7 +90,7 @@ class NeighbourTerm:
     k: float = NEIGHBOUR_FIT[1]
 
     @classmethod
-    def of(cls, tc: ToothCompliance, tooth, fit: tuple[float, float] = NEIGHBOUR_FIT) -> NeighbourTerm:
+    def of(cls, tc: ToothCompliance, tooth: GeneratedTooth, fit: tuple[float, float] = NEIGHBOUR_FIT) -> NeighbourTerm:
         """The term of the member whose body term is ``tc`` and whose unmodified tooth is ``tooth``."""
         g = tooth.gear
         x = 2.0 * math.pi * tc.r_f / g.z / (tc.r_f - tc.r_int)
@@ -99,7 +101,7 @@ class NeighbourTerm:
         return self.c_tw + self.A * np.exp(-self.k * np.abs(np.asarray(d, float)) * self.x) * (self.c_body - self.c_tw)
 
 
-def cross_blocks(Cs: np.ndarray, pairs, z: tuple[np.ndarray, np.ndarray], widths: np.ndarray,
+def cross_blocks(Cs: np.ndarray, pairs: Sequence[int], z: tuple[np.ndarray, np.ndarray], widths: np.ndarray,
                  terms: tuple, lengths: tuple[float, float], cb: float) -> np.ndarray:
     """``Cs`` (N, K M, K M) with the pairs coupled through the bodies (module docstring).
 
