@@ -65,7 +65,9 @@ def test_the_results_units_agree(tiny):
 
 def test_the_torque_sensitivities_are_the_central_differences_of_re_solved_optima(tiny):
     """d objective / d T and d theta / d T (KKT system, with the held data's motion) against central
-    differences of the optima re-solved at T -+ 3 N m (the same active set: C_beta on its bound)."""
+    differences of the optima re-solved at T -+ 3 N m (the same active set: C_beta on its bound). The held
+    data's motion (:mod:`.held_data`) runs here but moves these derivatives by less than the tolerances on
+    this drive; test_loaded_sensitivity*.py check its effect on the full problems."""
     opt, d = tiny
     s = opt.sensitivities(d)
     h = 3.0
