@@ -360,6 +360,21 @@ def writes_nothing() -> bool:
     return _quiet[0] > 0
 
 
+def write_cache_file(path: Path, data: bytes) -> None:
+    """Write ``data`` to the cache file ``path`` atomically (a temporary file beside it, renamed: a
+    concurrent reader sees no file or a whole one), best effort: nothing within :func:`no_background`,
+    and a read-only or full cache only costs the next build of what it would have held."""
+    if writes_nothing():  # (gearopt check leaves the disk untouched)
+        return
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_name(f"{path.name}.{os.getpid()}.tmp")
+        tmp.write_bytes(data)
+        os.replace(tmp, path)
+    except OSError:
+        pass
+
+
 def compile_in_background(f: ca.Function) -> threading.Thread | None:
     """Compile ``f`` into the disk cache in a background thread (one per library and process) and
     return the thread; None when the library is loaded or on disk already, a compile of it is under

@@ -26,7 +26,7 @@ from collections.abc import Callable, Sequence
 
 import casadi as ca
 
-from .compiled import cache_root, writes_nothing
+from .compiled import cache_root, write_cache_file
 
 KEPT = 32  #: graphs kept in this process (newest last)
 _graphs: dict[str, ca.Function] = {}
@@ -91,14 +91,7 @@ def built_once(name: str, bases: Sequence[ca.Function], tag: str, build: Callabl
             # key (CasADi's serialisation of an embedded Function that was read back differs from
             # that of the one built, their generated C code being the same)
             f = ca.Function.deserialize(text)
-            if not writes_nothing():  # (gearopt check leaves the disk untouched)
-                try:  # best effort: a read-only or full cache costs only the next build
-                    path.parent.mkdir(parents=True, exist_ok=True)
-                    tmp = path.with_name(f"{path.name}.{os.getpid()}.tmp")
-                    tmp.write_bytes(zlib.compress(text.encode(), 1))
-                    os.replace(tmp, path)
-                except OSError:
-                    pass
+            write_cache_file(path, zlib.compress(text.encode(), 1))
     _graphs[key] = f
     while len(_graphs) > KEPT:
         _graphs.pop(next(iter(_graphs)))

@@ -64,18 +64,26 @@ def _value(terms: int, x: float) -> float:
 SIZES = {"queue_mid": 60, "queue_big": 400, "queue_small": 5}
 
 
-def test_background_compiles_run_one_at_a_time_smallest_first(tmp_path, monkeypatch):
-    """With one compile slot, three background compiles started at once run one after the other (no
-    two compilers at the same time: on two cores the process keeps one to itself), the first one
-    queued at once, the others the smallest source first; each library gives the Function's values."""
+@pytest.fixture
+def queued_cc(tmp_path, monkeypatch):
+    """This process's background compiles through :func:`_logging_cc`'s compiler into an empty cache, one
+    compile slot, nothing loaded or pending: ``(gate, log)``."""
     fake, gate, log = _logging_cc(tmp_path)
-    gate.touch()
     monkeypatch.setenv("CC", str(fake))
     monkeypatch.setenv("GEAROPT_CACHE_DIR", str(tmp_path / "cache"))
     monkeypatch.delenv("GEAROPT_JIT_BACKGROUND", raising=False)
     monkeypatch.setattr(compiled, "_loaded", {})
     monkeypatch.setattr(compiled, "_pending", {})
     monkeypatch.setattr(compiled, "compile_slots", lambda: 1, raising=False)
+    return gate, log
+
+
+def test_background_compiles_run_one_at_a_time_smallest_first(queued_cc, tmp_path):
+    """With one compile slot, three background compiles started at once run one after the other (no
+    two compilers at the same time: on two cores the process keeps one to itself), the first one
+    queued at once, the others the smallest source first; each library gives the Function's values."""
+    gate, log = queued_cc
+    gate.touch()
     funs = {name: _fun(name, n) for name, n in SIZES.items()}
     for f in funs.values():
         assert compiled.compile_in_background(f) is not None
@@ -153,17 +161,11 @@ def test_a_process_hands_its_queued_compiles_over_at_exit(tmp_path):
         assert float(value) == pytest.approx(_value(SIZES[name], 0.7), rel=1e-13)
 
 
-def test_a_library_a_large_call_wants_is_compiled_next(tmp_path, monkeypatch):
+def test_a_library_a_large_call_wants_is_compiled_next(queued_cc):
     """A call of MIN_COLUMNS columns or more whose library waits in the queue runs interpreted and
     moves that library to the front: with the first compile held at the gate and a small and a big
     source queued, the big one, wanted by a large call, is compiled second, before the small one."""
-    fake, gate, log = _logging_cc(tmp_path)
-    monkeypatch.setenv("CC", str(fake))
-    monkeypatch.setenv("GEAROPT_CACHE_DIR", str(tmp_path / "cache"))
-    monkeypatch.delenv("GEAROPT_JIT_BACKGROUND", raising=False)
-    monkeypatch.setattr(compiled, "_loaded", {})
-    monkeypatch.setattr(compiled, "_pending", {})
-    monkeypatch.setattr(compiled, "compile_slots", lambda: 1, raising=False)
+    gate, log = queued_cc
     first = _fun("queue_first", 20)
     assert compiled.compile_in_background(first) is not None
     for _ in range(600):  # the first compile holds the slot, at the gate

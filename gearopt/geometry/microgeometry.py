@@ -62,7 +62,6 @@ parabolic, and its amount at the tip (face end) is exact.
 from __future__ import annotations
 
 import math
-import os
 from dataclasses import dataclass, field, fields
 from typing import TYPE_CHECKING
 
@@ -575,7 +574,7 @@ def _grid_spline(name: str, Lx: np.ndarray, zx: np.ndarray, E2: np.ndarray) -> c
     Grid coordinates in mm, values in mm."""
     import hashlib
 
-    from ..compiled import cache_root, writes_nothing
+    from ..compiled import cache_root, write_cache_file
 
     h = hashlib.sha256()
     for part in (ca.__version__, name, str(SPLINE_DEGREE)):
@@ -594,14 +593,7 @@ def _grid_spline(name: str, Lx: np.ndarray, zx: np.ndarray, E2: np.ndarray) -> c
         if f is None or f.name() != name:
             f = ca.interpolant(name, "bspline", [Lx.tolist(), zx.tolist()], E2.ravel(order="F").tolist(),
                                {"degree": [SPLINE_DEGREE, SPLINE_DEGREE]})
-            if not writes_nothing():  # (gearopt check leaves the disk untouched)
-                try:  # best effort: a read-only or full cache costs only the next build
-                    path.parent.mkdir(parents=True, exist_ok=True)
-                    tmp = path.with_suffix(f".{os.getpid()}.tmp")
-                    tmp.write_text(f.serialize())
-                    os.replace(tmp, path)
-                except OSError:
-                    pass
+            write_cache_file(path, f.serialize().encode())
     _SPLINES[key] = f
     while len(_SPLINES) > _SPLINES_KEPT:
         _SPLINES.pop(next(iter(_SPLINES)))
