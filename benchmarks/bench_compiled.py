@@ -160,6 +160,37 @@ def sweep_guesses(tca, phi, mis, pairs):
     return seen["W0"], seen["prm"]
 
 
+def fsolve_columns(tca, mis, m: int):
+    """A callable that solves ``m`` positions of tooth pair 0 (one cycle) with ``scipy.optimize.fsolve``
+    (finite-difference Jacobian, default xtol) on ``tca``'s residual, from the sweep's own first guesses
+    (the linear prediction around the anchor): fsolve's best case, the residual called through CasADi's
+    buffer API (no numpy <-> DM conversion per call). Its time / ``m`` is "fsolve per column"."""
+    from scipy.optimize import fsolve
+
+    sub = np.linspace(-math.pi / 20, math.pi / 20, m)
+    prm = tca.prm(sub, mis=mis)
+    w_a = tca.solve_point(0.0, None, None, None, mis)
+    W0 = tca.branch.predict(w_a, tca.prm([0.0], mis=mis)[:, 0], sub)
+    buf, trig = tca.residual.buffer()
+    x_in, p_in, f_out = np.zeros(W0.shape[0]), np.zeros(prm.shape[0]), np.zeros(W0.shape[0])
+    buf.set_arg(0, memoryview(x_in))
+    buf.set_arg(1, memoryview(p_in))
+    buf.set_res(0, memoryview(f_out))
+
+    def fun(w):
+        x_in[:] = w
+        trig()
+        return f_out.copy()
+
+    def run_fsolve():
+        for i in range(m):
+            p_in[:] = prm[:, i]
+            fsolve(fun, W0[:, i])
+
+    run_fsolve.buf = buf  # the buffer must outlive the calls
+    return run_fsolve
+
+
 def best(f, k=5):
     clock = CLOCK[0]
     ts = []
@@ -195,8 +226,6 @@ def main(argv):
     os.environ["GEAROPT_CACHE_DIR"] = cache
     ns: dict = {}
     exec(CASE, ns)  # noqa: S102 - the case text is shared with the child process
-    from scipy.optimize import fsolve
-
     from gearopt import compiled
     from gearopt.meshing.tca import TCA, Misalignment
 
@@ -258,25 +287,7 @@ def main(argv):
 
     # fsolve per column on pair 0 (a subset), same equations and first guesses as the sweep's
     m = 100 if quick else 200
-    sub = np.linspace(-math.pi / 20, math.pi / 20, m)
-    prm = tca_c.prm(sub, mis=mis)
-    w_a = tca_c.solve_point(0.0, None, None, None, mis)
-    W0 = tca_c.branch.predict(w_a, tca_c.prm([0.0], mis=mis)[:, 0], sub)
-    buf, trig = tca_c.residual.buffer()  # fsolve's best case: no numpy <-> DM conversion per call
-    x_in, p_in, f_out = np.zeros(W0.shape[0]), np.zeros(prm.shape[0]), np.zeros(W0.shape[0])
-    buf.set_arg(0, memoryview(x_in))
-    buf.set_arg(1, memoryview(p_in))
-    buf.set_res(0, memoryview(f_out))
-
-    def fun(w):
-        x_in[:] = w
-        trig()
-        return f_out.copy()
-
-    def run_fsolve():
-        for i in range(m):
-            p_in[:] = prm[:, i]
-            fsolve(fun, W0[:, i])
+    run_fsolve = fsolve_columns(tca_c, mis, m)
 
     rows = {}  # (sweep, row) -> list of us/pos-pair over the repeats
     fs = []
