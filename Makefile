@@ -10,7 +10,7 @@ STAMP   := $(VENV)/.installed
 SCENE   ?= problems/tca_spur_crowned.toml
 OUT     ?= out/tca_spur_crowned
 
-.PHONY: demo lint check test bench ccx chromium clean distclean venv
+.PHONY: demo lint check test bench figures ccx chromium clean distclean venv
 
 venv: $(STAMP)
 
@@ -54,14 +54,20 @@ check: lint
 test: ccx chromium lint
 	$(BYTECODE) $(VPY) -m pytest -q -n auto --dist loadgroup
 
-# Every benchmark with its defaults; the two comparison tools need their arguments (run them by hand).
-BENCH_TOOLS := benchmarks/compare_results.py benchmarks/results_unchanged.py
+# Every benchmark with its defaults; the two comparison tools need their arguments (run them by hand);
+# benchmarks/figures.py (which writes docs/) is `make figures`.
+BENCH_TOOLS := benchmarks/compare_results.py benchmarks/results_unchanged.py benchmarks/figures.py
 
 bench: $(STAMP)
 	@set -e; found=0; for f in benchmarks/*.py; do \
 	  [ -e "$$f" ] || continue; case " $(BENCH_TOOLS) " in *" $$f "*) continue;; esac; \
 	  found=1; echo "== $$f"; $(VPY) "$$f"; done; \
 	  [ $$found = 1 ] || echo "no benchmarks/*.py yet"
+
+# Every speed figure README.md and docs/ state (docs/figures.md, and the marked blocks in the docs that quote
+# it), measured again: about 8 minutes idle (benchmarks/figures.py; --check compares instead of writing).
+figures: $(STAMP)
+	$(VPY) benchmarks/figures.py
 
 # CalculiX (ccx) for the FE study (problems/fea_spur.toml) and its tests: best effort, never fails the build.
 ccx:
