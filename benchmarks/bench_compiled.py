@@ -26,7 +26,9 @@ small sweep in a new process of this tree and of ``--base-tree``: best of ``NEW_
 warm: the column's library in the cache and each sweep called often enough before that its map
 sizes run their own compiled libraries (``compiled.ColumnMap``, ``MAP_LIBRARY_CALLS``).
 fsolve: ``scipy.optimize.fsolve`` (finite-difference Jacobian, default xtol) on the same equations
-(called through CasADi's buffer API) from the same first guesses, per column, 200 positions of pair 0.
+(called through CasADi's buffer API) from the same first guesses, per column: 25 positions of pair 0 over
+one cycle per call, best of 10 calls (longer calls are preempted more on a loaded machine: 100-200 positions,
+best of 2, scattered 27-118 us per column at load 8 where these gave 29.6-32.8 us).
 
 ``--cpu``: every time is the process's CPU time (``time.process_time``) instead of the wall time: on
 a loaded machine the wall time counts the waits for a core, the CPU time does not (it still grows
@@ -286,7 +288,7 @@ def main(argv):
              "linear prediction from the anchor": newton_steps(tca_c, lin, prm_s)}
 
     # fsolve per column on pair 0 (a subset), same equations and first guesses as the sweep's
-    m = 100 if quick else 200
+    m = 25
     run_fsolve = fsolve_columns(tca_c, mis, m)
 
     rows = {}  # (sweep, row) -> list of us/pos-pair over the repeats
@@ -298,7 +300,7 @@ def main(argv):
 
     k_old = min(cpus, (n_large * 3 if n_large * 3 < compiled.CHUNK else compiled.CHUNK) // compiled.MIN_PER_THREAD)
     for _ in range(repeat):
-        fs.append(best(run_fsolve, 2) / m * 1e6)
+        fs.append(best(run_fsolve, 10) / m * 1e6)
         if base_tree:  # the same warm cache: this tree's libraries; the base tree reads what it can use
             trees["base"].append(small_in(base_tree, repeat))
             trees["here"].append(small_in(here, repeat))

@@ -7,7 +7,7 @@ regenerates from one benchmark command on this machine and is within its stated 
     python benchmarks/figures.py --only tca,run  # some groups (the other keys of docs/figures.md are kept)
     make figures                                 # the first line
 
-About 8 minutes on this 2-core machine idle (the loaded optimiser's cold runs are half of it); progress
+About 6-8 minutes on this 2-core machine idle (the loaded optimiser's cold runs are half of it); progress
 on stderr. Each group runs the measurement of its benchmark (no timing code of its own):
 
 - ``tca``: the compiled sweeps of ``benchmarks/bench_compiled.py`` (its case, its ``best`` of 5 calls, its
@@ -18,7 +18,9 @@ on stderr. Each group runs the measurement of its benchmark (no timing code of i
 - ``loaded``: ``benchmarks/bench_loaded_synthesis.py``'s ``scene_run`` on ``microgeometry_loaded``: a cold
   process (an empty ``GEAROPT_CACHE``), then, once its detached compiles are done (``settle``), a warm one;
 - ``run``: ``benchmarks/bench_run.py``'s ``run_once`` (one process of ``gearopt run``) on the demo and the
-  crowning scene, after one warm-up run each.
+  crowning scene, after one warm-up run each;
+- ``rating``: ``benchmarks/bench_rating.py``'s ``rate_time`` and ``study_times``;
+- ``scenes``: the same as ``run`` on the dynamics and rating scenes whose run times docs/dynamics.md and docs/rating.md state.
 
 Every figure is the median over ``--repeat`` repeats (default: the group's own, 3-7) with its spread, the
 range over the repeats: that range is the figure's stated noise. ``--check`` reports a figure as within its
@@ -27,7 +29,7 @@ with the machine and its load: the header of docs/figures.md names the CPU, the 
 average; ratios against fsolve are taken within one repeat and move less).
 
 The docs quote a figure through a marked block, ``<!-- figure: KEY -->VALUE<!-- /figure -->`` (``KEY range``:
-``VALUE (MIN-MAX)``), which this command rewrites; tests/test_figures.py checks that every block holds the
+``VALUE (MIN-MAX)``; ``KEY met``: ``met`` or ``not met``, its issue-43 target), which this command rewrites; tests/test_figures.py checks that every block holds the
 generated value.
 """
 
@@ -53,8 +55,8 @@ ROOT = HERE.parent
 OUT = ROOT / "docs" / "figures.md"
 #: files whose marked blocks are rewritten
 DOCS = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
-BLOCK = re.compile(r"<!-- figure: ([A-Za-z0-9_.]+)( range)? -->(.*?)<!-- /figure -->")
-ROW = re.compile(r"^\| `([A-Za-z0-9_.]+)` \| ([^|]+) \| ([^|]*) \| ([^|]+) \| (\d+) \|")
+BLOCK = re.compile(r"<!-- figure: ([A-Za-z0-9_.]+)( range| met)? -->(.*?)<!-- /figure -->")
+ROW = re.compile(r"^\| `([A-Za-z0-9_.]+)` \| ([^|]+) \| ([^|]*) \| ([^|]+) \| (\d+) \| ([^|]*) \|")
 
 
 @dataclass(frozen=True)
@@ -122,10 +124,15 @@ FIGURES = [
     Figure("run.demo_cpu_s", "s", 2, "the same, CPU time (user + system, children included)"),
     Figure("run.crowning_s", "s", 2, "`gearopt run problems/crowning_spur.toml`, warm: the process's wall time", "<= 6"),
     Figure("run.crowning_cpu_s", "s", 2, "the same, CPU time"),
+    Figure("rating.rate_ms", "ms", 2, "one ISO 6336 `rate()` call (the TR example 1), median of 200 (bench_rating.py rate_time)"),
+    Figure("rating.study_run_s", "s", 2, "the rating study's run() on problems/rating_spur.toml (loaded TCA of the pair and the "
+           "reference pair at every torque; bench_rating.py study_times)"),
+    *(Figure(f"scenes.{k}_s", "s", 1, f"`gearopt run problems/{k}.toml`, warm: the process's wall time")
+      for k in ("dynamics_spur", "dynamics_helical", "rating_spur", "rating_helical", "rating_spectrum")),
 ]
 BY_KEY = {f.key: f for f in FIGURES}
 #: repeats per group by default (the loaded optimiser's cold run is the expensive one)
-REPEATS = {"tca": 7, "ltca": 3, "loaded": 3, "run": 5}
+REPEATS = {"tca": 7, "ltca": 3, "loaded": 3, "run": 5, "rating": 3, "scenes": 2}
 #: the command of a group's figures (its benchmark's functions: the module docstring)
 COMMANDS = {g: f"python benchmarks/figures.py --only {g}" for g in REPEATS}
 
@@ -206,26 +213,50 @@ def measure_loaded(repeat: int, log) -> list[dict]:
     return out
 
 
-def measure_run(repeat: int, log) -> list[dict]:
-    """bench_run.py's ``run_once`` on the demo and the crowning scene, a warm-up run first."""
+def measure_rating(repeat: int, log) -> list[dict]:
+    """bench_rating.py's ``rate_time`` and ``study_times`` (a new study each repeat; its loaded TCA warm after the
+    first, as the disk cache is)."""
+    brt = _import("bench_rating")
+    brt.study_times()  # the warm-up
+    out = []
+    for i in range(repeat):
+        out.append({"rating.rate_ms": brt.rate_time() * 1e3, "rating.study_run_s": brt.study_times()["run_s"]})
+        log(f"rating {i + 1}/{repeat}: rate() {out[-1]['rating.rate_ms']:.2f} ms, run() {out[-1]['rating.study_run_s']:.2f} s")
+    return out
+
+
+def runs_of(group: str, scenes: dict[str, str], repeat: int, log, cpu: bool) -> list[dict]:
+    """bench_run.py's ``run_once`` on each scene (``{name: scene}``), a warm-up run first."""
     br = _import("bench_run")
     work = Path(tempfile.mkdtemp(prefix="gearopt-figures-run-"))
-    scenes = {"demo": "tca_spur_crowned", "crowning": "crowning_spur"}
     out = [{} for _ in range(repeat)]
     try:
         for name, scene in scenes.items():
             br.run_once(ROOT, scene, work / scene)  # the warm-up
             for i in range(repeat):
                 t = br.run_once(ROOT, scene, work / scene)
-                out[i][f"run.{name}_s"] = t["wall"]["wall"]
-                out[i][f"run.{name}_cpu_s"] = t["cpu"]["wall"]
-                log(f"run {name} {i + 1}/{repeat}: {t['wall']['wall']:.2f} s")
+                out[i][f"{group}.{name}_s"] = t["wall"]["wall"]
+                if cpu:
+                    out[i][f"{group}.{name}_cpu_s"] = t["cpu"]["wall"]
+                log(f"{group} {name} {i + 1}/{repeat}: {t['wall']['wall']:.2f} s")
     finally:
         shutil.rmtree(work, ignore_errors=True)
     return out
 
 
-MEASURE = {"tca": measure_tca, "ltca": measure_ltca, "loaded": measure_loaded, "run": measure_run}
+def measure_run(repeat: int, log) -> list[dict]:
+    """``gearopt run`` of the demo and of the crowning scene (issue 43's targets), wall and CPU."""
+    return runs_of("run", {"demo": "tca_spur_crowned", "crowning": "crowning_spur"}, repeat, log, cpu=True)
+
+
+def measure_scenes(repeat: int, log) -> list[dict]:
+    """``gearopt run`` of the scenes whose run time docs/dynamics.md and docs/rating.md state."""
+    names = [f.key.split(".")[1][:-2] for f in FIGURES if f.group == "scenes"]
+    return runs_of("scenes", {n: n for n in names}, repeat, log, cpu=False)
+
+
+MEASURE = {"tca": measure_tca, "ltca": measure_ltca, "loaded": measure_loaded, "run": measure_run,
+           "rating": measure_rating, "scenes": measure_scenes}
 
 
 def machine() -> str:
@@ -257,7 +288,7 @@ def parse(text: str) -> dict[str, dict]:
         if m:
             lo, hi = (float(x) for x in m.group(4).strip().split(" - "))
             out[m.group(1)] = {"value": m.group(2).strip(), "unit": m.group(3).strip(), "min": lo, "max": hi,
-                               "repeats": int(m.group(5))}
+                               "repeats": int(m.group(5)), "status": m.group(6).strip().partition(": ")[2]}
     return out
 
 
@@ -304,7 +335,12 @@ def rewrite_blocks(table: dict[str, dict]) -> list[str]:
             raise SystemExit(f"figures: a block names {key!r}, which docs/figures.md does not have")
         t = table[key]
         f = BY_KEY[key]
-        val = t["value"] + (f" ({f.fmt(t['min'])}-{f.fmt(t['max'])})" if rng else "")
+        if rng == " met":
+            if not t["status"]:
+                raise SystemExit(f"figures: a 'met' block names {key!r}, which has no target")
+            val = t["status"]
+        else:
+            val = t["value"] + (f" ({f.fmt(t['min'])}-{f.fmt(t['max'])})" if rng else "")
         return f"<!-- figure: {key}{rng or ''} -->{val}<!-- /figure -->"
 
     for p in DOCS:
