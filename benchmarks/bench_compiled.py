@@ -1,5 +1,5 @@
-"""The compiled engine (gearopt.compiled): every figure of docs/scale.md section 2 and of the
-"Compiled sweeps (issue 43)" section of docs/benchmarks.md, in one run.
+"""The compiled engine (gearopt.compiled): the sweeps of docs/scale.md section 2 and of docs/benchmarks.md
+section 1 (its records), in one run (benchmarks/figures.py measures the current figures with its case).
 
     python benchmarks/bench_compiled.py          # about 2 minutes on 2 cores
     python benchmarks/bench_compiled.py --quick  # fewer positions and repeats, about 1 minute

@@ -124,7 +124,7 @@ FIGURES = [
     Figure("run.demo_cpu_s", "s", 2, "the same, CPU time (user + system, children included)"),
     Figure("run.crowning_s", "s", 2, "`gearopt run problems/crowning_spur.toml`, warm: the process's wall time", "<= 6"),
     Figure("run.crowning_cpu_s", "s", 2, "the same, CPU time"),
-    Figure("rating.rate_ms", "ms", 2, "one ISO 6336 `rate()` call (the TR example 1), median of 200 (bench_rating.py rate_time)"),
+    Figure("rating.rate_ms", "ms", 3, "one ISO 6336 `rate()` call (the TR example 1), median of 200 (bench_rating.py rate_time)"),
     Figure("rating.study_run_s", "s", 2, "the rating study's run() on problems/rating_spur.toml (loaded TCA of the pair and the "
            "reference pair at every torque; bench_rating.py study_times)"),
     *(Figure(f"scenes.{k}_s", "s", 1, f"`gearopt run problems/{k}.toml`, warm: the process's wall time")
@@ -374,6 +374,7 @@ def main(argv: list[str] | None = None) -> int:
     old = parse(OUT.read_text()) if OUT.exists() else {}
     t0 = [time.perf_counter()]
     c0 = time.process_time()
+    where = machine()  # the commit measured: at the start
     runs: list[dict] = []
     notes = {}
     for g in groups:
@@ -388,7 +389,7 @@ def main(argv: list[str] | None = None) -> int:
     if OUT.exists():  # the groups not measured now keep their lines
         for m in re.finditer(r"^- `([a-z]+)`: .*$", OUT.read_text(), re.M):
             notes.setdefault(m.group(1), m.group(0))
-    header = f"Machine: {machine()}.\n\n" + "\n".join(notes[g] for g in MEASURE if g in notes)
+    header = f"Machine: {where}.\n\n" + "\n".join(notes[g] for g in MEASURE if g in notes)
     if a.check:
         outside = 0
         print(f"{header}\n\n| key | documented (spread) | now (spread) | |\n|---|---|---|---|")
