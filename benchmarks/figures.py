@@ -114,6 +114,8 @@ FIGURES = [
            "(bench_ltca.py 'one torque, one cycle')", "<= 0.1"),
     Figure("ltca.crowned_s", "s", 3, "the same, spur crowned, 3' crossing", "<= 0.1"),
     Figure("ltca.helical_s", "s", 3, "the same, helical 21/53 crowned, 300 N m", "<= 0.1"),
+    *(Figure(f"ltca.{k}_cpu_s", "s", 3, f"ltca.{k}_s as the process's CPU time (all threads; bench_ltca.py 'cpu')")
+      for k in ("conjugate", "crowned", "helical")),
     Figure("loaded.warm_s", "s", 1, "microgeometry_loaded optimisation, warm cache: the whole process's wall time "
            "(scene read, study built, LoadedMicroOptimizer.solve)", "<= 8"),
     Figure("loaded.warm_cpu_s", "s", 1, "the same, CPU time (user + system, children included)"),
@@ -191,6 +193,7 @@ def measure_ltca(repeat: int, log) -> list[dict]:
     for i in range(repeat):
         m = bl.measure(5)
         out.append({f"ltca.{names[k]}_s": v["total"] for k, v in m.items() if k in names})
+        out[-1].update({f"ltca.{names[k]}_cpu_s": v["cpu"] for k, v in m.items() if k in names})
         log(f"ltca repeat {i + 1}/{repeat}: " + ", ".join(f"{k} {v:.3f} s" for k, v in out[-1].items()))
     return out
 
