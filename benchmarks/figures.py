@@ -7,7 +7,8 @@ regenerates from one benchmark command on this machine and is within its stated 
     python benchmarks/figures.py --only tca,run  # some groups (the other keys of docs/figures.md are kept)
     make figures                                 # the first line
 
-About 6-8 minutes on this 2-core machine idle (the loaded optimiser's cold runs are half of it); progress
+18 minutes on this 2-core machine at load 8-13 (2026-11-29), idle about a third of that (the loaded optimiser's
+cold runs and the compiles after them are most of it); progress
 on stderr. Each group runs the measurement of its benchmark (no timing code of its own):
 
 - ``tca``: the compiled sweeps of ``benchmarks/bench_compiled.py`` (its case, its ``best`` of 5 calls, its
