@@ -402,7 +402,8 @@ def main(argv: list[str] | None = None) -> int:
                 continue
             v, lo, hi, _ = stats[f.key]
             o = old[f.key]
-            ok = lo <= o["max"] and hi >= o["min"]
+            # the ranges overlap at the digits written (the documented range is rounded to them)
+            ok = float(f.fmt(lo)) <= o["max"] and float(f.fmt(hi)) >= o["min"]
             outside += not ok
             print(f"| {f.key} | {o['value']} ({f.fmt(o['min'])}-{f.fmt(o['max'])}) {f.unit} | {f.fmt(v)} ({f.fmt(lo)}-{f.fmt(hi)}) "
                   f"{f.unit} | {'within' if ok else 'OUTSIDE'} |")
