@@ -236,7 +236,10 @@ def test_every_round_after_the_first_starts_from_the_last_nlps_multipliers():
 def test_the_first_round_along_the_smoothing_reaches_the_cold_solves_optimum(small, monkeypatch):
     """The first round's two stages (the NLP at ``MU_START``, then at ``MU`` from that solution and its
     multipliers) end at the optimum of the plain cold solve at ``MU``: the design within 1e-6 um, the
-    objective within 1e-9 relative; the first stage solves at ``MU_START`` and the second at ``MU``."""
+    objective within 1e-9 relative; the first stage solves at ``MU_START`` with the monotone barrier
+    (``SMOOTH_STAGE_OPTS``), the second at ``MU`` with the loop's warm start (adaptive barrier)."""
+    import casadi as ca
+
     from gearopt.synthesis.loaded import nlp as nlp_mod
     from gearopt.synthesis.loaded.layout import param_layout
 
@@ -251,13 +254,16 @@ def test_the_first_round_along_the_smoothing_reaches_the_cold_solves_optimum(sma
     ubx[k] = np.minimum(opt.hi, th + 0.004) * 1e3
     seen = []
     at = param_layout(0, 0)["mu"].start
-    solver = cur.nlp.solver
-    monkeypatch.setattr(type(cur.nlp), "solver", property(lambda n: _Spy(solver, seen, at)))
-    warm = opt._warm_solver(cur.nlp)
-    cur.nlp.warm = _Spy(warm, seen, at)
+    nlpsol = ca.nlpsol
+
+    def spied(name, plugin, oracle, opts):  # every IPOPT solver built from here on records the barrier of its calls
+        return _Spy(nlpsol(name, plugin, oracle, opts), seen, at, opts.get("ipopt.mu_strategy"))
+
+    monkeypatch.setattr(ca, "nlpsol", spied)
     r, st, it = opt._solve_smoothed(cur.nlp, cur.z0, lbx, ubx, opt._pvec(1000.0))
     assert st_c["success"] and st["success"]
-    assert seen[:2] == [nlp_mod.MU_START, MU] and nlp_mod.MU_START > 100 * MU
+    assert seen[:2] == [(nlp_mod.MU_START, "monotone"), (MU, "adaptive")]
+    assert nlp_mod.MU_START > 100 * MU
     P = len(opt.free)
     assert np.max(np.abs(np.asarray(r["x"])[:P] - np.asarray(cold["x"])[:P])) < 1e-6  # [um]
     assert abs(float(r["f"]) - float(cold["f"])) < 1e-9 * abs(float(cold["f"]))
@@ -266,11 +272,11 @@ def test_the_first_round_along_the_smoothing_reaches_the_cold_solves_optimum(sma
 class _Spy:
     """An IPOPT solver that records the smoothing ``mu`` of every call."""
 
-    def __init__(self, f, seen, at):
-        self.f, self.seen, self.at = f, seen, at
+    def __init__(self, f, seen, at, strategy=None):
+        self.f, self.seen, self.at, self.strategy = f, seen, at, strategy
 
     def __call__(self, **kw):
-        self.seen.append(float(np.asarray(kw["p"]).ravel()[self.at]))
+        self.seen.append((float(np.asarray(kw["p"]).ravel()[self.at]), self.strategy))
         return self.f(**kw)
 
     def stats(self):

@@ -29,6 +29,13 @@ WARM_OPTS = {"ipopt.warm_start_init_point": "yes", "ipopt.mu_init": 1e-4, "ipopt
 #: (docs/benchmarks.md, "Every round warm"). The sensitivities' re-solve keeps ``WARM_OPTS``.
 LOOP_WARM_OPTS = {**WARM_OPTS, "ipopt.warm_start_bound_push": 1e-5, "ipopt.warm_start_mult_bound_push": 1e-5,
                   "ipopt.warm_start_slack_bound_push": 1e-5}
+#: the first stage of an optimisation's first round (:meth:`NLPBuilder._solve_smoothed`, at ``nlp.MU_START``): the
+#: monotone barrier from 1e-2 (Fiacco-McCormick). That stage only gives the second one (the NLP's own ``MU``,
+#: adaptive barrier, ``LOOP_WARM_OPTS``) its start and multipliers; the adaptive barrier's oracle crawled there
+#: (its mu between 1e-11 and 1e-4 from one iteration to the next): ``problems/microgeometry_loaded.toml``'s
+#: first round 94 + 20 -> 63 + 18 iterations, the second stage's solution the same to 3e-13 um
+#: (docs/benchmarks.md, "The first stage monotone").
+SMOOTH_STAGE_OPTS = {"ipopt.mu_strategy": "monotone", "ipopt.mu_init": 1e-2}
 HARM_EPS = 1e-3  #: [arcsec] smoothing of a harmonic amplitude at zero, sqrt(a^2 + b^2 + eps^2)
 TE0_EPS = 1e-3  #: [arcsec] smoothing of the unloaded TE's RMS misfit to its parabola at zero, sqrt(rms^2 + eps^2)
 DEGENERATE_REL = 1e-6  #: an active constraint whose multiplier is below this times the largest is degenerate

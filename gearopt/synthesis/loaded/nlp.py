@@ -17,7 +17,7 @@ from ...ltca.engine import F_MIN_SHARE
 from ...contact.hertz import weber_compliance
 from ...meshing.misalignment import Misalignment
 from ...units import RAD_TO_ARCSEC
-from .constants import G_REF, HARM_EPS, KAPPA_FLOOR, MU, TE0_EPS
+from .constants import G_REF, HARM_EPS, KAPPA_FLOOR, MU, SMOOTH_STAGE_OPTS, TE0_EPS
 from .edges import edge_weight_lin
 from .layout import Block, NLPLayout, Te0Block, Te0Slices, block_vector, nlp_layout, param_layout
 from .verify import harmonic_rows
@@ -323,22 +323,26 @@ class NLPBuilder:
                         p: list) -> tuple[dict, dict, int]:
         """Solve ``nlp`` from ``z0`` with no earlier multipliers (the first round of an optimisation from
         the drive's own design, :meth:`TrustRegion._trust_region`) in two stages of the complementarity's smoothing ``x y = mu``: first at ``MU_START`` from ``z0``
-        (IPOPT's cold start), then at the NLP's own ``p`` (``MU``) from that solution and its
-        multipliers (``WARM_OPTS``, :meth:`TrustRegion._warm_solver`); where the second stage fails,
-        the cold start at ``p``. Returns the solution, IPOPT's stats and the iterations of every stage.
+        (IPOPT's cold start with the monotone barrier, :attr:`LoadedNLP.smoothing_solver`), then at the
+        NLP's own ``p`` (``MU``) from that solution and its multipliers (``LOOP_WARM_OPTS``, adaptive
+        barrier, :meth:`TrustRegion._warm_solver`); where either stage fails, the cold start at ``p``.
+        Returns the solution, IPOPT's stats and the iterations of every stage.
 
         A cold start at ``MU`` = 1e-8 follows the smoothed kinks of every slice that opens or closes
         on the way (short steps, restorations: 236 iterations on the first round of
         ``microgeometry_loaded``); at ``MU_START`` the kinks are 30x wider and the second stage only
         sharpens them (84 + 30 iterations, the same solution to 1e-12 um; docs/benchmarks.md "Loaded
-        optimiser", h4 of 2026-11-29 afternoon)."""
+        optimiser", h4 of 2026-11-29 afternoon). The first stage with the monotone barrier
+        (``SMOOTH_STAGE_OPTS``): 63 instead of 94 iterations there, the second stage's solution the same to
+        3e-13 um (docs/benchmarks.md, "The first stage monotone")."""
         args = dict(x0=z0, lbx=lbx, ubx=ubx, lbg=nlp.lbg, ubg=nlp.ubg)
         at = param_layout(0, 0)["mu"].start
         q = list(p)
         q[at] = MU_START
-        r0 = nlp.solver(p=q, **args)
-        its = int(nlp.solver.stats()["iter_count"])
-        if nlp.solver.stats()["success"]:
+        first = nlp.smoothing_solver
+        r0 = first(p=q, **args)
+        its = int(first.stats()["iter_count"])
+        if first.stats()["success"]:
             r = self._warm_solver(nlp)(p=p, lam_x0=r0["lam_x"], lam_g0=r0["lam_g"], **{**args, "x0": r0["x"]})
             st = nlp.warm.stats()
             its += int(st["iter_count"])
@@ -452,6 +456,7 @@ class LoadedNLP:
     te0_term: ca.Function  #: the unloaded-TE target's term of the objective, ``z -> te0_term``
     warm: ca.Function | None = None  #: the warm-start IPOPT solver, once built (:meth:`TrustRegion._solve_nlp`)
     _solver: ca.Function | None = field(default=None, repr=False)
+    _smoothing: ca.Function | None = field(default=None, repr=False)
     _oracle: ca.Function | None = field(default=None, repr=False)
 
     @property
@@ -470,6 +475,15 @@ class LoadedNLP:
         if self._solver is None:
             self._solver = ca.nlpsol("loaded_microgeometry", "ipopt", self.oracle, self.opts)
         return self._solver
+
+    @property
+    def smoothing_solver(self) -> ca.Function:
+        """The IPOPT solver of a first round's first stage (:meth:`NLPBuilder._solve_smoothed`): the cold start
+        with the monotone barrier (``SMOOTH_STAGE_OPTS``), built on first use from :attr:`oracle`."""
+        if self._smoothing is None:
+            self._smoothing = ca.nlpsol("loaded_microgeometry_smoothing", "ipopt", self.oracle,
+                                        {**self.opts, **SMOOTH_STAGE_OPTS})
+        return self._smoothing
 
     @solver.setter
     def solver(self, f: ca.Function) -> None:
