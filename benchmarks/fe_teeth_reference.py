@@ -181,11 +181,22 @@ def tables() -> int:
             fe5 = (r5["approach_um"], r5["p_max_mid_MPa"], r5["share"])
             r3 = rec3.get("default", {}).get(name, {}).get(f)
             fe3 = (r3["approach_um"], r3["p_max_mid_MPa"], r3["share"]) if r3 else (math.nan,) * 3
-            ref = tuple(a + b - c for a, b, c in zip(fe5, q["full+n"], q["sec5+n"]))
-            ref0 = tuple(a + b - c for a, b, c in zip(fe5, q["full"], q["sec5+n"]))
+            # the FE level: the 3-tooth contact model's very fine over its default result at this position
+            # (approach and p: ratio; share: difference), where both are recorded, else none (flagged)
+            rv = rec3.get("very fine", {}).get(name, {}).get(f)
+            lvl = ((rv["approach_um"] / fe3[0], rv["p_max_mid_MPa"] / fe3[1], rv["share"] - fe3[2])
+                   if rv and r3 else None)
+            fe5v = (fe5[0] * lvl[0], fe5[1] * lvl[1], fe5[2] + lvl[2]) if lvl else fe5
+            ref = tuple(a + b - c for a, b, c in zip(fe5v, q["full+n"], q["sec5+n"]))
+            ref0 = tuple(a + b - c for a, b, c in zip(fe5v, q["full"], q["sec5+n"]))
             nloaded = int(sum(float(v or 0.0) > 1e-3 for v in r5["shares"].values()))
-            row = {"drive": name, "pos": f, "phi1_deg": math.degrees(phis[j]), "pairs": nloaded, "fe3": fe3, "fe5": fe5,
-                   "ref": ref, "ref0": ref0, "shares5": r5["shares"], **{k: v for k, v in q.items()}}
+            # per pair, loaded TCA's stiffness over the 5-tooth FE's, (share / approach) over (share / approach)
+            # (benchmarks/ltca_pair_stiffness.py): where it sits, pitch pair (k0) or the others
+            ratio = {lab: {str(k): (float(res[lab].share[kk, j]) / q[lab][0]) / (float(r5["shares"][str(k)]) / fe5[0])
+                           for kk, k in enumerate(res[lab].pairs) if float(r5["shares"].get(str(k)) or 0.0) > 1e-3}
+                     for lab in ("fe", "sec5+n")}
+            row = {"drive": name, "k0": int(k0), "pair_ratio": ratio, "pos": f, "phi1_deg": math.degrees(phis[j]), "pairs": nloaded, "fe3": fe3, "fe5": fe5,
+                   "level": lvl, "ref": ref, "ref0": ref0, "shares5": r5["shares"], **{k: v for k, v in q.items()}}
             out["runs"].setdefault(name, {})[f] = row
     print_tables(out)
     TABLES.write_text(json.dumps({"_about": "benchmarks/fe_teeth_reference.py --tables: (approach um, section p MPa, "
@@ -193,8 +204,9 @@ def tables() -> int:
                                   "contact model with 3 / 5 teeth per member (default level); fe, fe+n3, sec5, sec5+n, "
                                   "full, full+n: loaded TCA with FE coefficients (3-tooth grids; + the 3-tooth sector's "
                                   "neighbours; moved to the 5-tooth sector; + its neighbours; full gears; + theirs); "
-                                  "none, full_gear: the default compliance with LTCASettings.neighbours; ref, ref0: "
-                                  "fe5 + full(+n) - sec5+n", "date": time.strftime("%Y-%m-%d"), "torque_Nm": T, **out},
+                                  "none, full_gear: the default compliance with LTCASettings.neighbours; level: the 3-tooth "
+                                  "contact model's very fine over default (approach, p ratios; share difference) or "
+                                  "null; ref, ref0: fe5 at the very fine level (fe5 x level) + full(+n) - sec5+n", "date": time.strftime("%Y-%m-%d"), "torque_Nm": T, **out},
                                  indent=1) + "\n")
     print(f"recorded in {TABLES.relative_to(ROOT)}")
     return 0
@@ -227,10 +239,17 @@ def print_tables(out: dict) -> None:
     n = len(rows)
     print(f"within 5 % (shares 0.05) of {n}: " + "; ".join(f"{k}: approach {c[0]}, p {c[1]}, share {c[2]}"
                                                           for k, c in cnt.items()))
+    print("per pair, loaded TCA's stiffness over the 5-tooth FE's - 1 [%] (pair: fe / sec5+n; * the pitch pair)")
+    for r in rows:
+        pr = r["pair_ratio"]
+        print(f"  {r['drive'][:34]:<34} {r['phi1_deg']:6.2f} " + "  ".join(
+            f"{int(k):+d}{'*' if int(k) == r['k0'] else ' '}: {100 * (pr['fe'][k] - 1):+5.1f} / "
+            f"{100 * (pr['sec5+n'][k] - 1):+5.1f}" for k in sorted(pr["fe"], key=int)))
     print("(b) the default compliance against the 5-tooth reference corrected to full-gear bodies held at r_f / 2: "
-          "ref = FE5 + full+n - sec5+n (with the full gears' neighbouring teeth), ref0 = FE5 + full - sec5+n "
-          "(without); 'full_gear' / 'none': LTCASettings.neighbours")
-    print(f"{'drive':<34} {'phi1':>6} {'n':>1} {'ref app':>7} {'full_gear':>15} {'none':>15} {'ref0':>7} "
+          "ref = FE5' + full+n - sec5+n (with the full gears' neighbouring teeth), ref0 = FE5' + full - sec5+n "
+          "(without); FE5': FE5 moved to the very fine level by the 3-tooth model's ratio there (* where no 3-tooth "
+          "default-level run is recorded: FE5 as it is); 'full_gear' / 'none': LTCASettings.neighbours")
+    print(f"{'drive':<34} {'phi1':>6} {'n':>1} {'ref app':>8} {'full_gear':>15} {'none':>15} {'ref0':>7} "
           f"{'none':>6} | {'ref p':>7} {'full_gear p':>15} {'none p':>15} | {'ref sh':>6} {'fg sh':>6} {'none sh':>7}")
     cnt = {k: [0, 0, 0] for k in ("full_gear", "none", "none/ref0")}
     for r in rows:
@@ -240,7 +259,7 @@ def print_tables(out: dict) -> None:
             cnt[k][0] += abs(e(v[0], rr[0])) <= 5
             cnt[k][1] += abs(e(v[1], rr[1])) <= 5
             cnt[k][2] += abs(v[2] - rr[2]) <= 0.05
-        print(f"{r['drive'][:34]:<34} {r['phi1_deg']:6.2f} {r['pairs']:1d} {ref[0]:7.3f} "
+        print(f"{r['drive'][:34]:<34} {r['phi1_deg']:6.2f} {r['pairs']:1d} {ref[0]:7.3f}{' ' if r['level'] else '*'}"
               f"{r['full_gear'][0]:7.3f} ({e(r['full_gear'][0], ref[0]):+5.1f}) {r['none'][0]:7.3f} "
               f"({e(r['none'][0], ref[0]):+5.1f}) {ref0[0]:7.3f} {e(r['none'][0], ref0[0]):+6.1f} | {ref[1]:7.1f} "
               f"{r['full_gear'][1]:7.1f} ({e(r['full_gear'][1], ref[1]):+5.1f}) {r['none'][1]:7.1f} "
