@@ -26,7 +26,9 @@ import fcntl
 import json
 import math
 import sys
+import tempfile
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -59,7 +61,7 @@ def read_record(teeth: int = 5) -> dict:
 def add_record(teeth: int, name: str, frac: str, rec: dict) -> None:
     """Add one run to the record, re-reading it under a lock (two workers write the same file)."""
     path = RECORD_TEETH[teeth]
-    with open(path.with_suffix(".lock"), "w") as lock:
+    with open(Path(tempfile.gettempdir()) / f"gearopt-{path.stem}.lock", "w") as lock:
         fcntl.flock(lock, fcntl.LOCK_EX)
         data = read_record(teeth)
         data.setdefault("_about", "CalculiX contact model (GearFEModel.run) with 5 teeth per member at "
