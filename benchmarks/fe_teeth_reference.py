@@ -13,7 +13,7 @@
 The FE level is validate_ltca_fe.py's default (its ``FE_MESH``), 200 N m, E 210 GPa, nu 0.3, with
 ``FEOptions(teeth=5)``: each member a sector of 5 teeth held at the sides of its outer teeth and its rim bottom,
 so that no loaded pair sits on an outer tooth next to a held side (with 3 teeth per member the pair other than the
-pitch pair always does). Each run takes 10-30 minutes of CalculiX on a loaded machine (4-8 idle). The records
+pitch pair always does). Each run took 84-589 s of wall time at load 9-13 (two at a time, one thread each). The records
 (validate_ltca_fe.fe_record's fields, every pair's share included) go to
 benchmarks/data/fe_reference_teeth5.json as ``{"default": {drive: {position: record}}}``, read by
 ``fe_full_gear_body.py --validate --teeth 5 --recorded``. The queue is ordered by value: the two-pair positions
@@ -276,7 +276,32 @@ def print_tables(out: dict) -> None:
               f"{100 * (r['sec5+n'][0] - fe5v) / r['ref'][0]:+5.1f} {100 * (r['full_gear'][0] - r['full+n'][0]) / r['ref'][0]:+5.1f}")
 
 
+def check_args(argv) -> str | None:
+    """The first problem with the command line, or None."""
+    i = 0
+    while i < len(argv):
+        if argv[i] == "--worker":
+            v = argv[i + 1].split("/") if i + 1 < len(argv) else []
+            if len(v) != 2 or not all(x.isdigit() for x in v) or not 0 <= int(v[0]) < int(v[1]):
+                return "--worker needs I/N with 0 <= I < N (e.g. 0/2)"
+            i += 2
+            continue
+        if argv[i] not in ("--list", "--tables", "--recorded"):
+            return f"unknown argument {argv[i]!r}: expected --list, --worker I/N, --tables [--recorded]"
+        i += 1
+    if "--recorded" in argv and "--tables" not in argv:
+        return "--recorded goes with --tables"
+    return None
+
+
 def main(argv) -> int:
+    if "-h" in argv or "--help" in argv:
+        print(__doc__)
+        return 0
+    problem = check_args(argv)
+    if problem is not None:
+        print(f"fe_teeth_reference.py: {problem} (see --help)", file=sys.stderr)
+        return 2
     teeth = 5
     if "--tables" in argv:
         if "--recorded" in argv:  # print the recorded tables (no loaded TCA, no CalculiX)
