@@ -112,6 +112,19 @@ def section_line_load(profile) -> float:
     return float(np.trapezoid(p[o], s[o]))
 
 
+def fe_record(d: dict, pair) -> dict:
+    """The record of one CalculiX run (``GearFEModel.run().to_dict()``) kept in the FE reference files."""
+    k0 = d["contact"]["hertz_pair"]
+    return {"approach_um": 1000 * abs(d["pinion_rotation_rad"]) * pair.pinion.r_b,
+            "p_max_mid_MPa": d["contact"]["p_max_mid"], "share": d["pair_share"].get(str(k0)) or 0.0,
+            "z_c_mm": d["contact"]["pattern"][str(k0)]["z_centroid"], "date": time.strftime("%Y-%m-%d"),
+            # the nodal pressure integrated over the pair's flank over its contact force, and
+            # over the section's profile [N/mm]: how far the nodal field is from equilibrium
+            "nodal_over_force": d["contact"]["pattern"][str(k0)]["nodal_over_force"],
+            "w_section_Nmm": section_line_load(d["contact"]["profiles"][str(k0)]),
+            "shares": d["pair_share"]}  # every pair's (tooth id: share)
+
+
 FLAGS = ("--spur", "--fine", "--very-fine", "--recorded")
 VALUED = {"--only": None, "--pos": ("0", "-0.3", "+0.3"), "--compliance": ("fe", "analytical")}
 
@@ -199,14 +212,7 @@ def main(argv):
             else:
                 d = m.run().to_dict()
                 k0 = d["contact"]["hertz_pair"]
-                rec = {"approach_um": 1000 * abs(d["pinion_rotation_rad"]) * pair.pinion.r_b,
-                       "p_max_mid_MPa": d["contact"]["p_max_mid"], "share": d["pair_share"].get(str(k0)) or 0.0,
-                       "z_c_mm": d["contact"]["pattern"][str(k0)]["z_centroid"], "date": time.strftime("%Y-%m-%d"),
-                       # the nodal pressure integrated over the pair's flank over its contact force, and
-                       # over the section's profile [N/mm]: how far the nodal field is from equilibrium
-                       "nodal_over_force": d["contact"]["pattern"][str(k0)]["nodal_over_force"],
-                       "w_section_Nmm": section_line_load(d["contact"]["profiles"][str(k0)]),
-                       "shares": d["pair_share"]}  # every pair's (tooth id: share)
+                rec = fe_record(d, pair)
                 record.setdefault(level, {}).setdefault(name, {})[fracs[j]] = rec
                 loaded = d["loaded_pairs"]
             t_fe = time.perf_counter() - t0
