@@ -485,11 +485,11 @@ class LTCASettings(Settings):
                               "compression) cos(beta_b) and the body once the transverse slice's (FE full gears, "
                               "docs/ltca.md section 7), or both cos^2(beta_b) of it (the model before 2026-11-29)")
     neighbours: str = option(
-        "none", kind="str", choices=("full_gear", "none"), key="",
+        "auto", kind="str", choices=("auto", "full_gear", "none"), key="",
         doc="the coupling of the pairs in mesh through the gear bodies (a load on one tooth moves the neighbouring "
-            "teeth, docs/ltca.md section 7): 'full_gear' the analytical term fitted to FE full gears held at their "
-            "bores (analytical compliance only; not yet the default: docs/ltca.md section 7), 'none' the pairs "
-            "uncoupled")
+            "teeth, docs/ltca.md sections 2 and 7): 'full_gear' the analytical term fitted to FE full gears held at "
+            "their bores (analytical compliance only), 'none' the pairs uncoupled, 'auto' (default) 'full_gear' with "
+            "the analytical compliance and 'none' with FE influence coefficients (their members' own models)")
 
 
 @dataclass(frozen=True)

@@ -6,6 +6,7 @@ optimizer of tests/test_loaded_synthesis.py)."""
 
 from __future__ import annotations
 
+import dataclasses
 from types import SimpleNamespace
 
 import numpy as np
@@ -14,6 +15,7 @@ import pytest
 from gearopt.errors import OptionError, SynthesisError
 from gearopt.gears import Gear, GearPair
 from gearopt.geometry.microgeometry import Microgeometry
+from gearopt.ltca.engine import LTCA
 from gearopt.meshing.misalignment import Misalignment
 from gearopt.synthesis.loaded import EDGE_TOL, LoadedMicroOptimizer
 from gearopt.units import ARCMIN, RAD_TO_ARCSEC
@@ -45,6 +47,12 @@ def test_litvin_settings_as_design_variables():
     opt = LoadedMicroOptimizer(drive(C_alpha=0.0, C_beta=0.0), free, torques=[250.0],
                                cases=[Misalignment(), Misalignment(crossing=2 * ARCMIN)], n_positions=24,
                                n_verify=32, n_slices=11)
+    # the pairs in mesh uncoupled (neighbours "none"): the 2 % bound on the NLP's prediction is the uncoupled
+    # model's (1.3 % at most). With the bodies' coupling (the default) the loop converges too (4 rounds, 10.28
+    # arcsec on its grid), but its second trial (C_alpha_a 10.0 -> 5.0 um, C_alpha_f 7.5 -> 11.4 um) reads
+    # 10.25 in the NLP against 10.60 exact, 3.3 % (docs/loaded_synthesis.md section 2)
+    opt.ltca = LTCA(opt.pair, dataclasses.replace(opt.ltca.settings, neighbours="none"), material=opt.material,
+                    tca=opt.tca)
     d = opt.solve()
     assert d.stop == "converged"
     trials = [r for r in d.rounds[1:] if "true_merit" in r]
@@ -103,6 +111,11 @@ def test_pareto_front_is_verified_monotone_and_meets_its_limits():
     free = {"pinion.C_alpha": (0.0, 0.04), "pinion.C_beta": (0.0, 0.04)}
     opt = LoadedMicroOptimizer(drive(), free, torques=[250.0], cases=[Misalignment(crossing=2 * ARCMIN)],
                                n_positions=12, n_verify=24, n_slices=9, edge_margin=None)
+    # the pairs in mesh uncoupled (neighbours "none"): the limits 0.99 and 0.96 p0 bind on the uncoupled
+    # model's front; with the bodies' coupling (the default) the 0.99 p0 point lands at 0.956 p0 (2018.0 MPa),
+    # inside the next limit too, so both limits give one design (the coupled front: test_loaded_pareto.py)
+    opt.ltca = LTCA(opt.pair, dataclasses.replace(opt.ltca.settings, neighbours="none"), material=opt.material,
+                    tca=opt.tca)
     anchor = opt.solve()
     p0 = float(anchor.after.p_max.max())
     lims = [0.99 * p0, 0.96 * p0, 0.6 * p0, 0.5 * p0]

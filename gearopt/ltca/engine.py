@@ -377,11 +377,12 @@ class LTCA:
         (bending, shear, compression) ``cos(beta_b)`` times the transverse slice's and the body's once
         the transverse term (default; the FE full gears of docs/ltca.md section 7), or both
         ``cos^2(beta_b)`` times it (the projection of the transverse slice, the model before 2026-11-29).
-    neighbours : {"full_gear", "none"}, optional
+    neighbours : {"auto", "full_gear", "none"}, optional
         The coupling of the pairs in mesh through the gear bodies: a load on one tooth moves the teeth
         ``d`` pitches away by :class:`~gearopt.ltca.neighbours.NeighbourTerm` (fitted to FE full gears held
         at their bores, docs/ltca.md section 7; analytical compliance only), or the pairs are not coupled
-        ("none", the default: docs/ltca.md section 7 says why the coupling is not yet the default).
+        ("none"); "auto" (default): "full_gear" with the analytical compliance, "none" with FE influence
+        coefficients (their members' own models). :attr:`neighbours` is the one in use.
     curvature : {"surface", "involute"}
         The flanks' curvature across the contact line in the Hertz term: each modified surface's own
         at the slice's point (by AD; profile crowning, reliefs and their smooth starts raise it), or
@@ -436,6 +437,8 @@ class LTCA:
         # the pairs' coupling through the bodies (gearopt.ltca.neighbours): a term of the analytical compliance;
         # FE coefficients are their members' own models (3-tooth sectors), without it
         nb = s.neighbours
+        if nb == "auto":
+            nb = "full_gear" if compliance == "analytical" else "none"
         if nb == "full_gear" and compliance != "analytical":
             raise out_of_range("neighbours", nb, "'none' with compliance = 'fe' (the coupling through the bodies is a "
                                "term of the analytical compliance)", cls=OptionError)

@@ -129,28 +129,34 @@ class ParetoFront:
     p_limits : (L,) the pressure limits asked for [MPa], decreasing.
     designs : (L,) the :class:`MicroDesign` at each limit, None where none meets it.
     messages : (L,) why a limit has no design (the :class:`SynthesisError`'s text), else "".
+    notes : (L + 1,) the anchor's and each limit's note, else "": its design was solved again from a
+        tighter limit's design, or is that design (:meth:`LoadedMicroOptimizer.pareto`).
     """
 
     anchor: MicroDesign
     p_limits: tuple
     designs: tuple
     messages: tuple
+    notes: tuple = ()
 
     def points(self) -> list[dict]:
         """The front's points, the anchor first: the limit [MPa] (None for the anchor), the verified
         weighted loaded TE [arcsec] and largest peak pressure over the duty cycle [MPa] (loaded TCA on
         the verification grid), the unloaded-TE target's term [arcsec] (0 without one), and the design
-        [um]; limits without a design give ``feasible: False``."""
+        [um]; limits without a design give ``feasible: False``; a point whose design was solved again
+        from a tighter limit's, or is that design, has its ``note``."""
         out = []
-        for lim, d, msg in zip((None,) + tuple(self.p_limits), (self.anchor,) + tuple(self.designs),
-                               ("",) + tuple(self.messages)):
+        notes = tuple(self.notes) or ("",) * (len(self.p_limits) + 1)
+        for lim, d, msg, note in zip((None,) + tuple(self.p_limits), (self.anchor,) + tuple(self.designs),
+                                     ("",) + tuple(self.messages), notes):
             if d is None:
                 out.append({"p_limit_MPa": lim, "feasible": False, "message": msg})
                 continue
             out.append({"p_limit_MPa": lim, "feasible": True, "objective_arcsec": d.after.objective,
                         "te0_term_arcsec": d.after.te0_term,
                         "p_max_MPa": float(np.max(d.after.p_max)), "edge_load": float(np.max(d.after.edge_load)),
-                        "theta_um": d.theta_um(), "rounds": len(d.rounds), "time_s": d.time})
+                        "theta_um": d.theta_um(), "rounds": len(d.rounds), "time_s": d.time,
+                        **({"note": note} if note else {})})
         return out
 
     def to_dict(self) -> dict:
