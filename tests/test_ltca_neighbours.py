@@ -154,3 +154,32 @@ def test_fe_coefficients_refuse_the_analytical_coupling():
         LTCA(spur(), neighbours="body")
     # the default ("auto"): the coupling with the analytical compliance, none with FE coefficients
     assert LTCA(spur(), compliance="fe").neighbours == "none" and LTCA(spur()).neighbours == "full_gear"
+
+
+def test_coupled_pairs_are_solved_on_their_valid_nodes_only(monkeypatch):
+    """With the pairs coupled the contact QP of a position is one dense block; it is solved on the position's
+    valid nodes only (the helical's 5 pairs x M nodes hold 2-3 pairs in mesh), and gives the loads and the
+    approach of the same QP over every node of every pair (the dense path, forced here) to round-off."""
+    from gearopt.ltca import engine
+
+    pair = helical()
+    L = LTCA(pair, material=Material(E=E, nu=NU))
+    S = L.slices(phi1=L.mesh_cycle(12))
+    calls = []
+    compact = engine.LTCA._fixed_point_compact
+
+    def spy(self, A, *args, **kw):
+        calls.append((A.shape[1], int(A.sum(axis=1).max())))
+        return compact(self, A, *args, **kw)
+
+    monkeypatch.setattr(engine.LTCA, "_fixed_point_compact", spy)
+    r = L.solve(300.0, slices=S).results[0]
+    assert calls and all(nc < n for n, nc in calls)
+
+    def dense(self, A, s, hz, Cs, W, f_min, nc, F0=None, lam=None, P0=None):
+        return engine.LTCA._fixed_point(self, A, s, hz, Cs, W, f_min, F0=F0, lam=lam, block=A.shape[1], P0=P0)
+
+    monkeypatch.setattr(engine.LTCA, "_fixed_point_compact", dense)
+    rd = L.solve(300.0, slices=S).results[0]
+    np.testing.assert_allclose(r.delta, rd.delta, rtol=1e-11)
+    np.testing.assert_allclose(r.load, rd.load, rtol=0, atol=1e-9 * rd.load.max())

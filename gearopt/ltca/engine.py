@@ -680,6 +680,9 @@ class LTCA:
         Cv = Cs.reshape(N, K, M, K, M)
         Cb = np.moveaxis(Cv[:, np.arange(K), :, np.arange(K), :], 0, 1)  # (N, K, M, M)
         if any(np.any(Cv[:, k, :, j, :]) for k in range(K) for j in range(K) if j != k):  # pairs coupled: one block
+            nc = int(max(A.sum(axis=1).max(), 1))
+            if nc < n:
+                return self._fixed_point_compact(A, s, hz, Cs, W, f_min, nc, F0=F0, lam=lam, P0=P0)
             K, M = 1, n
             Cb = Cs.reshape(N, 1, n, n)
         valid = A
@@ -726,6 +729,25 @@ class LTCA:
                                                        lam=None if lam is None else lam[j])
             Fc[j], done[j], change[j], it[j] = Fj, dj, cj, ij
         return Fc, done, change, it
+
+    def _fixed_point_compact(self, A, s, hz: HertzNodes, Cs, W, f_min, nc, F0=None, lam=None, P0=None):
+        """:meth:`_fixed_point` of coupled pairs (one dense block per position) on each position's valid
+        nodes only, gathered into ``nc`` columns (padded with invalid nodes): the same QP, whose dense
+        solves shrink from every node of every pair (most of them out of mesh) to the nodes that can carry
+        load; arguments and returns as :meth:`_fixed_point`."""
+        N, n = A.shape
+        # each position's valid nodes first (stable: in their order), the rest as padding
+        gi = np.argsort(~A, axis=1, kind="stable")[:, :nc]
+        rows = np.arange(N)[:, None]
+        Ac = A[rows, gi]
+        take = lambda a: None if a is None else a[rows, gi]  # noqa: E731
+        hzc = HertzNodes(length=take(hz.length), R=take(hz.R), h1=take(hz.h1), h2=take(hz.h2))
+        Cc = Cs[rows[:, :, None], gi[:, :, None], gi[:, None, :]]
+        Fc, done, change, it = self._fixed_point(Ac, take(s), hzc, Cc, W, f_min, F0=take(F0), lam=take(lam),
+                                                 block=None, P0=take(P0))
+        F = np.zeros((N, n))
+        F[rows, gi] = np.where(Ac, Fc, 0.0)
+        return F, done, change, it
 
     def _fixed_point_qpoases(self, A, s, hz: HertzNodes, Cs, W, f_min, F0=None, lam=None):
         """The contact QP over the slices ``A`` (N, n) of each position (separations ``s``, Hertz data
