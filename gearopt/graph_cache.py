@@ -26,7 +26,7 @@ from collections.abc import Callable, Sequence
 
 import casadi as ca
 
-from .compiled import cache_root, write_cache_file
+from .compile_cache import cache_root, write_cache_file
 
 KEPT = 32  #: graphs kept in this process (newest last)
 _graphs: dict[str, ca.Function] = {}
