@@ -90,7 +90,7 @@ __all__ = [
     # gearopt.compile_queue
     "compile_in_background", "compile_slots", "wait_for_background",
     # this module
-    "CHUNK", "MAP_LIBRARY_CALLS", "MIN_COLUMNS", "MIN_PER_THREAD", "WAIT_COLUMNS", "ColumnMap", "cached_function",
+    "CHUNK", "EXACT_MAPS", "EXACT_PADDING", "MAP_LIBRARY_CALLS", "MIN_COLUMNS", "MIN_PER_THREAD", "WAIT_COLUMNS", "ColumnMap", "cached_function",
     "call", "compile_derived", "compile_function", "derived_library", "idle_cpus", "keyed_library", "map_columns",
     "map_library", "map_size", "mapped", "matrix_columns", "nlpsol", "select", "set_threads", "threads",
     "threads_for", "use_compiled",
@@ -297,6 +297,10 @@ def set_threads(n: int | None) -> None:
 
 
 CHUNK = 2048  #: ColumnMap: columns per mapped call (maps are built for this and a few smaller sizes)
+#: an interpreted ColumnMap evaluates k columns on a map of exactly k when map_size(k) would pad at least
+#: this many columns (ColumnMap._size; up to a fifth of a call, each padded column interpreted in vain)
+EXACT_PADDING = 32
+EXACT_MAPS = 64  #: ... while it holds fewer maps than this (each size it meets is built once)
 
 
 class ColumnMap:
@@ -343,6 +347,17 @@ class ColumnMap:
         state.setdefault("_open", {})
         state.setdefault("own_maps", False)
         self.__dict__.update(state)
+
+    def _size(self, k: int) -> int:
+        """Columns of the map that evaluates ``k`` columns: :func:`map_size` (a few sizes, each map
+        built once), but ``k`` itself for an interpreted map whose padding would be
+        :data:`EXACT_PADDING` columns or more (an interpreted column costs 30-200 us, building a
+        map about 3 us per column), while this ColumnMap holds fewer than :data:`EXACT_MAPS` maps.
+        Each column is evaluated alone, so the size changes no number."""
+        m = map_size(k)
+        if not self.compiled and m - k >= EXACT_PADDING and len(self._maps) < EXACT_MAPS:
+            return k
+        return m
 
     def _map(self, m: int) -> _Signature:
         key = (m, threads_for(m))
@@ -414,7 +429,7 @@ class ColumnMap:
                 raise ArgumentError(f"{self.column.name()}: input {name} of {n} columns must be ({r}, {c * n}), "
                                     f"got {v.shape}", param=name, value=v.shape, valid=f"shape ({r}, {c * n})")
         if 0 < n <= CHUNK:  # one mapped call: its outputs (new arrays) are the result
-            m = map_size(n)
+            m = self._size(n)
             if m == n:
                 return self._map(m).run(a)
             sel = np.arange(m)
@@ -425,7 +440,7 @@ class ColumnMap:
         start = 0
         while start < n:
             k = min(CHUNK, n - start)
-            m = CHUNK if k == CHUNK else map_size(k)
+            m = CHUNK if k == CHUNK else self._size(k)
             if m == k:
                 chunk = [v[:, start * c:(start + k) * c] for v, c in zip(a, cin)]
             else:

@@ -295,3 +295,23 @@ def test_one_cache_root_for_compiled_libraries_and_influence_coefficients(monkey
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
     assert compiled.cache_dir() == tmp_path / "xdg" / "gearopt" / "compiled"
     assert influence.cache_dir() == tmp_path / "xdg" / "gearopt" / "influence"
+
+
+def test_an_interpreted_column_map_evaluates_a_large_call_unpadded():
+    """An interpreted ColumnMap evaluates k columns on a map of exactly k when map_size(k) would pad
+    EXACT_PADDING columns or more (539 -> 640: 101 columns interpreted in vain); with little padding
+    (121 -> 128), and compiled, it keeps the few sizes; the outputs are the columns' own, bit for bit
+    those of the padded map."""
+    x, p = ca.SX.sym("x", 2), ca.SX.sym("p")
+    f = ca.Function("pad_test", [x, p], [ca.sin(x * p) + p ** 2, ca.dot(x, x) * ca.exp(-p)])
+    rng = np.random.default_rng(5)
+    X, P = rng.normal(size=(2, 539)), rng.normal(size=(1, 539))
+    sizes = []
+    got = compiled.ColumnMap(f, lambda m: sizes.append(m) or f.map(m))(X, P)
+    assert sizes == [539]
+    ref = compiled.ColumnMap(f, lambda m: sizes.append(m) or f.map(m), compiled=True)(X, P)  # (the padded path)
+    assert sizes == [539, 640]
+    for a, b in zip(got, ref):
+        assert np.array_equal(a, b)
+    compiled.ColumnMap(f, lambda m: sizes.append(m) or f.map(m))(X[:, :121], P[:, :121])
+    assert sizes[-1] == 128
