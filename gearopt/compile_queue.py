@@ -115,7 +115,7 @@ def build(f: ca.Function, path: Path, cc: str) -> str | None:
     return compile_into(generate, f"{f.name()}.c", path, cc)
 
 
-def compile_into(generate, src: str, path: Path, cc: str) -> str | None:
+def compile_into(generate: Callable[[str, str], None], src: str, path: Path, cc: str) -> str | None:
     """``generate(tmp, src)`` writes the C source ``src`` into a scratch directory inside the cache;
     it is compiled and moved into ``path`` by an atomic rename. None on success, else the reason."""
     try:
