@@ -3,32 +3,25 @@
 A Function (one column of a sweep: the rootfinder, its residual and its checks) is written as C by
 CasADi's code generator, compiled once by the system C compiler into a shared library and loaded
 with :func:`casadi.external`; sweeps map the loaded Function over their columns. The library is
-kept in a cache directory under a key that is the SHA-256 of
+kept in a cache directory under a key (:mod:`gearopt.compile_cache`: the serialised Function, the
+CasADi version, the compiler and the flags), so a new process with a warm cache loads it in
+milliseconds instead of compiling again (0.2-0.8 s per graph). Writing is safe when several
+processes compile the same Function at once: each compiles in its own scratch directory inside the
+cache and moves the library into place with an atomic rename.
 
-* the serialised Function (``Function.serialize()``, deterministic for the same graph),
-* the CasADi version, the compiler's identity (``cc --version``) and the flags,
+The three modules of the engine: :mod:`gearopt.compile_cache` (where a library lives, its key, the
+compiler, whether anything may be written), :mod:`gearopt.compile_queue` (the background compiles:
+the queue, the detached compilers, the hand-over at exit) and this one (the Functions a caller
+runs: :func:`compile_function`, :func:`select`, :func:`mapped`, :class:`ColumnMap`, :func:`call`,
+:func:`nlpsol`, the threads). This module re-exports the public names of the other two
+(:data:`__all__`), the API the library and its users call.
 
-so a new process with a warm cache loads it in milliseconds instead of compiling again
-(0.2-0.8 s per graph). Writing is safe when several processes compile the same Function at once:
-each compiles in its own scratch directory inside the cache and moves the library into place with
-an atomic rename.
+Settings (environment): ``GEAROPT_CACHE``, ``GEAROPT_CACHE_DIR``, ``CC``, ``GEAROPT_JIT_BACKGROUND``
+(:mod:`gearopt.compile_cache`) and
 
-Settings (environment):
-
-``GEAROPT_CACHE``
-    Root of gearopt's disk caches (default ``$XDG_CACHE_HOME/gearopt``, else ``~/.cache/gearopt``):
-    the compiled libraries go to ``compiled/`` in it, the FE influence coefficients to ``influence/``.
-``GEAROPT_CACHE_DIR``
-    The compiled libraries' directory alone (overrides ``GEAROPT_CACHE``/compiled).
-``CC``
-    The C compiler (default the first of ``cc``, ``gcc``, ``clang`` on the ``PATH``).
 ``GEAROPT_THREADS``
     Threads over which a compiled mapped call splits its columns (default: the CPUs of the
     process that are idle, :func:`threads_for`; :func:`set_threads` in code).
-``GEAROPT_JIT_BACKGROUND``
-    ``0``: under ``jit="auto"`` a sweep below :data:`MIN_COLUMNS` columns whose library is not in
-    the cache stays interpreted and compiles nothing (default ``1``: the library is compiled in a
-    background thread, and the calls after it is ready run compiled).
 
 When a sweep runs compiled (``jit="auto"``, :func:`select`): whenever its library is in the disk
 cache, whatever its size (loading costs milliseconds); on a cache miss, a sweep of at least
@@ -37,9 +30,9 @@ interpreted while the library compiles in a background thread (:func:`compile_in
 small sweep never waits for the compiler; the next call finds the library (a large call whose library
 compiles in the background already runs interpreted too). The background compilers run in detached
 processes, :func:`compile_slots` at a time, the smallest source first; a process that ends hands its
-queued compiles to one detached process and never waits for them (:func:`_exit_wait`). A map size that a
-process calls again and again (:data:`MAP_LIBRARY_CALLS`) gets a library of its own, the loop over its
-columns in C (:func:`map_library`, compiled in the background; the same numbers bit for bit).
+queued compiles to one detached process and never waits for them (:mod:`gearopt.compile_queue`). A map
+size that a process calls again and again (:data:`MAP_LIBRARY_CALLS`) gets a library of its own, the
+loop over its columns in C (:func:`map_library`, compiled in the background; the same numbers bit for bit).
 
 Without a working compiler :func:`compile_function` returns None after one warning (a one-line
 note) per process, and the callers run the interpreted Function.
@@ -47,20 +40,10 @@ note) per process, and the callers run the interpreted Function.
 
 from __future__ import annotations
 
-import atexit
-import contextlib
-import functools
 import hashlib
-import json
 import math
 import os
-import shutil
-import subprocess
-import sys
-import tempfile
 import threading
-import time
-import warnings
 import weakref
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -68,18 +51,51 @@ from typing import TYPE_CHECKING
 import casadi as ca
 import numpy as np
 
+from . import compile_cache, compile_queue
+from .compile_cache import (
+    BASE_FLAGS,
+    FLAGS,
+    available,
+    background,
+    cache_dir,
+    cache_key,
+    cache_root,
+    compiler,
+    construction_key,
+    counts,
+    derived_library_path,
+    keyed_by,
+    library_path,
+    lookup,
+    map_library_path,
+    no_background,
+    note,
+    source_tag,
+    write_cache_file,
+    writes_nothing,
+)
+from .compile_queue import compile_in_background, compile_slots, wait_for_background
 from .errors import ArgumentError, OptionError
 
 if TYPE_CHECKING:
-    from collections.abc import Callable, Iterator, Sequence
+    from collections.abc import Callable, Sequence
+
     from numpy.typing import ArrayLike
 
-#: compiler flags (part of the cache key). Besides -O2: the generated helpers (casadi_qr, casadi_sq, ...)
-#: are global symbols, which -fno-semantic-interposition lets gcc inline instead of calling through
-#: the PLT, and -fno-math-errno makes sqrt one instruction; neither reorders or contracts floating-point
-#: operations, so the results are the same bit for bit (tests/test_compiled_flags.py), about 10 % faster.
-FLAGS = ("-O2", "-shared", "-fPIC", "-fno-semantic-interposition", "-fno-math-errno")
-BASE_FLAGS = ("-O2", "-shared", "-fPIC")  #: what a compiler that refuses FLAGS is given instead (same key)
+__all__ = [
+    # gearopt.compile_cache
+    "BASE_FLAGS", "FLAGS", "available", "background", "cache_dir", "cache_key", "cache_root", "compiler", "counts",
+    "derived_library_path", "keyed_by", "library_path", "map_library_path", "no_background", "source_tag",
+    "write_cache_file", "writes_nothing",
+    # gearopt.compile_queue
+    "compile_in_background", "compile_slots", "wait_for_background",
+    # this module
+    "CHUNK", "EXACT_MAPS", "EXACT_PADDING", "MAP_LIBRARY_CALLS", "MIN_COLUMNS", "MIN_PER_THREAD", "WAIT_COLUMNS", "ColumnMap", "cached_function",
+    "call", "compile_derived", "compile_function", "derived_library", "idle_cpus", "keyed_library", "map_columns",
+    "map_library", "map_size", "mapped", "matrix_columns", "nlpsol", "select", "set_threads", "threads",
+    "threads_for", "use_compiled",
+]
+
 #: jit="auto", cache miss: mapped solves of at least this many columns compile at once (the compile,
 #: 0.2-2.5 s, pays within the call); smaller ones run interpreted while it compiles in the background
 MIN_COLUMNS = 1024
@@ -93,146 +109,7 @@ MIN_PER_THREAD = 512  #: a compiled mapped call is split over threads only with 
 #: misalignments, a benchmark), not the few calls of a scene, which would only wait for the compile at exit
 MAP_LIBRARY_CALLS = 8
 
-_loaded: dict[str, ca.Function] = {}
-_keys: dict[tuple, tuple] = {}  # (id of a Function, compiler) -> (weak reference, cache key)
 _threads: list[int | None] = [None]
-_noted: set[str] = set()
-_counts = {"built": 0, "loaded": 0}
-_pending: dict[str, threading.Thread] = {}  # library path -> its background compile
-_quiet = [0]  # open no_background() blocks
-_failed: set[str] = set()  # library paths whose background compile failed (not tried again)
-_lock = threading.Lock()
-
-
-def counts() -> dict:
-    """Libraries this process compiled (``built``) and loaded from the disk cache (``loaded``)."""
-    return dict(_counts)
-
-
-def cache_root() -> Path:
-    """Root of gearopt's disk caches: ``GEAROPT_CACHE``, else ``$XDG_CACHE_HOME/gearopt``, else
-    ``~/.cache/gearopt`` (compiled libraries in ``compiled/``, FE influence coefficients in
-    ``influence/``, measured flanks' B-splines in ``interpolant/``, the TCA branches' CSE graphs in
-    ``graphs/``: :mod:`gearopt.graph_cache`)."""
-    env = os.environ.get("GEAROPT_CACHE")
-    if env:
-        return Path(env).expanduser()
-    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
-    return Path(base) / "gearopt"
-
-
-def cache_dir() -> Path:
-    """The directory of the compiled libraries: ``GEAROPT_CACHE_DIR``, else ``compiled/`` in
-    :func:`cache_root`."""
-    env = os.environ.get("GEAROPT_CACHE_DIR")
-    if env:
-        return Path(env).expanduser()
-    return cache_root() / "compiled"
-
-
-@functools.lru_cache(maxsize=None)
-def _compiler_of(cc_env: str | None, path_env: str | None) -> tuple[str, str] | None:
-    names = [cc_env] if cc_env else ["cc", "gcc", "clang"]
-    for name in names:
-        exe = shutil.which(name)
-        if exe is None:
-            continue
-        try:
-            out = subprocess.run([exe, "--version"], capture_output=True, text=True, timeout=30)
-        except (OSError, subprocess.SubprocessError):
-            continue
-        if out.returncode == 0:
-            return exe, out.stdout.strip().splitlines()[0] if out.stdout.strip() else exe
-    return None
-
-
-def compiler() -> tuple[str, str] | None:
-    """``(path, version line)`` of the C compiler, or None when none works."""
-    return _compiler_of(os.environ.get("CC"), os.environ.get("PATH"))
-
-
-def available() -> bool:
-    """True when a C compiler is present (compiled Functions can be built)."""
-    return compiler() is not None
-
-
-def _note(kind: str, msg: str) -> None:
-    if kind not in _noted:
-        _noted.add(kind)
-        warnings.warn(msg, RuntimeWarning, stacklevel=3)
-
-
-def cache_key(f: ca.Function) -> str:
-    """SHA-256 key of ``f``'s compiled library (the serialised Function, CasADi, compiler, flags)."""
-    cc = compiler()
-    h = hashlib.sha256()
-    for part in (f.serialize(), ca.__version__, cc[1] if cc else "", " ".join(FLAGS)):
-        h.update(part.encode() if isinstance(part, str) else bytes(part))
-        h.update(b"\0")
-    return h.hexdigest()
-
-
-def library_path(f: ca.Function) -> Path:
-    """Where ``f``'s compiled library lives in the cache (whether or not it exists yet). The key is
-    computed once per Function object and compiler (serialising a large graph takes ~20 ms)."""
-    memo = (id(f), compiler())
-    hit = _keys.get(memo)
-    if hit is None or hit[0]() is not f:
-        # (the entry leaves with its Function: a new one that reuses the id finds none)
-        hit = _keys[memo] = (weakref.ref(f, lambda _, m=memo: _keys.pop(m, None)), cache_key(f))
-    return cache_dir() / f"{f.name()}-{hit[1][:24]}.so"
-
-
-def keyed_by(f: ca.Function, bases: Sequence[ca.Function], tag: str) -> ca.Function:
-    """Key ``f``'s library (:func:`library_path`) by how it is built instead of by its graph: the
-    SHA-256 of the library names of ``bases`` (their own keys: graph, CasADi, compiler, flags), of
-    ``f``'s name and of ``tag``, which must name everything else the construction puts into ``f``
-    (its code, e.g. :func:`source_tag`, and every number it adds). For derived graphs that are large
-    (the loaded optimiser's sensitivities: 10-17 MB serialised, 0.2-0.3 s each, as long as running
-    them interpreted); looking their library up then serialises only the bases, which a process
-    keys anyway for their own libraries. Returns ``f``; without a compiler, or for a base CasADi
-    cannot serialise, or an empty ``tag``, ``f`` stays keyed by its graph."""
-    h = _construction_key(f.name(), bases, tag)
-    if h is None:
-        return f
-    memo = (id(f), compiler())
-    _keys[memo] = (weakref.ref(f, lambda _, m=memo: _keys.pop(m, None)), h)
-    return f
-
-
-def _construction_key(name: str, bases: Sequence[ca.Function], tag: str) -> str | None:
-    """:func:`keyed_by`'s key of a Function ``name`` (None: keyed by its graph)."""
-    if compiler() is None or not tag:
-        return None
-    paths = [_path_or_none(b) for b in bases]
-    if any(p is None for p in paths):
-        return None
-    return hashlib.sha256("\0".join([p.name for p in paths] + [name, tag]).encode()).hexdigest()
-
-
-def keyed_library(name: str, bases: Sequence[ca.Function], tag: str) -> ca.Function | None:
-    """The library of the Function ``name`` that :func:`keyed_by` keys by ``bases`` and ``tag``, if it is
-    in the disk cache (loaded once per process), else None: the derived graph need not be built when
-    its library is there (0.3-0.6 s for the loaded optimiser's); never compiles."""
-    h = _construction_key(name, bases, tag)
-    return None if h is None else _load(name, cache_dir() / f"{name}-{h[:24]}.so")
-
-
-@functools.lru_cache(maxsize=None)
-def source_tag(*objects: Callable) -> str:
-    """SHA-256 of the source code of ``objects`` (functions, methods, classes), for :func:`keyed_by`'s
-    ``tag``: a change of the code that builds a graph gives its library a new key. An empty string
-    when a source cannot be read (then the caller keys the graph itself: :func:`keyed_by` is for a
-    non-empty tag only)."""
-    import inspect
-
-    h = hashlib.sha256()
-    for o in objects:
-        try:
-            h.update(inspect.getsource(o).encode())
-        except (OSError, TypeError):
-            return ""
-    return h.hexdigest()
 
 
 def compile_function(f: ca.Function) -> ca.Function | None:
@@ -250,25 +127,25 @@ def compile_function(f: ca.Function) -> ca.Function | None:
         compiler works or the cache directory cannot be written (one warning per process and
         cause; the caller then runs ``f`` interpreted).
     """
-    cc, path, g = _library(f)
+    cc, path, g = lookup(f)
     if cc is None:
-        _note("cc", "gearopt: no C compiler found (cc, gcc or clang; or set CC): sweeps run interpreted, "
+        note("cc", "gearopt: no C compiler found (cc, gcc or clang; or set CC): sweeps run interpreted, "
                     "about 10x slower. Install one (e.g. apt-get install gcc) for the compiled engine.")
         return None
     if path is None or g is not None:
         return g
     key = str(path)
-    job = _pending.get(key)
+    job = compile_queue.pending.get(key)
     if job is not None:  # being compiled in the background: wait for it rather than compile twice
         job.join()
-        if key in _loaded:
-            return _loaded[key]
+        if key in compile_cache.loaded_libraries:
+            return compile_cache.loaded_libraries[key]
     for attempt in (0, 1):
         built = False
         if not path.exists():
-            err = _build(f, path, cc[0])
+            err = compile_queue.build(f, path, cc[0])
             if err is not None:
-                _note("build", f"gearopt: compiling {f.name()} failed ({err:.200}); it runs interpreted.")
+                note("build", f"gearopt: compiling {f.name()} failed ({err:.200}); it runs interpreted.")
                 return None
             built = True
         try:
@@ -277,38 +154,18 @@ def compile_function(f: ca.Function) -> ca.Function | None:
             if attempt == 0:
                 path.unlink(missing_ok=True)
                 continue
-            _note("load", f"gearopt: loading {path} failed ({e!s:.160}); {f.name()} runs interpreted.")
+            note("load", f"gearopt: loading {path} failed ({e!s:.160}); {f.name()} runs interpreted.")
             return None
-        _loaded[key] = g
-        _counts["built" if built else "loaded"] += 1
+        compile_cache.loaded_libraries[key] = g
+        compile_cache.count("built" if built else "loaded")
         return g
     return None
-
-
-def _path_or_none(f: ca.Function) -> Path | None:
-    """:func:`library_path`, or None (one warning) for a Function CasADi cannot serialise."""
-    try:
-        return library_path(f)
-    except Exception as e:  # noqa: BLE001 - a Function CasADi cannot serialise: stay interpreted
-        _note("serialize", f"gearopt: {f.name()} cannot be serialised ({e!s:.120}); it runs interpreted.")
-        return None
-
-
-def _library(f: ca.Function) -> tuple[tuple[str, str] | None, Path | None, ca.Function | None]:
-    """What :func:`compile_function`, :func:`cached_function` and :func:`compile_in_background` look up
-    first: the compiler (None: none works), ``f``'s library path in the cache (None without a compiler
-    or for a Function CasADi cannot serialise) and the library if this process loaded it already."""
-    cc = compiler()
-    if cc is None:
-        return None, None, None
-    path = _path_or_none(f)
-    return cc, path, None if path is None else _loaded.get(str(path))
 
 
 def cached_function(f: ca.Function) -> ca.Function | None:
     """``f``'s compiled library if it is in the disk cache (loaded: milliseconds), else None; never
     compiles. None too without a working compiler (the cache key names the compiler)."""
-    cc, path, g = _library(f)
+    cc, path, g = lookup(f)
     if cc is None or path is None or g is not None:
         return g
     return _load(f.name(), path)
@@ -318,10 +175,10 @@ def _load(name: str, path: Path) -> ca.Function | None:
     """The library at ``path`` (its Function ``name``), loaded once per process; None while it is
     compiled in the background here, when it is not on disk, or cannot be loaded."""
     key = str(path)
-    g = _loaded.get(key)
+    g = compile_cache.loaded_libraries.get(key)
     if g is not None:
         return g
-    if key in _pending and _pending[key].is_alive():
+    if key in compile_queue.pending and compile_queue.pending[key].is_alive():
         return None
     if not path.exists():
         return None
@@ -329,117 +186,17 @@ def _load(name: str, path: Path) -> ca.Function | None:
         g = ca.external(name, key)
     except Exception:  # noqa: BLE001 - a truncated or foreign file: compile_function rebuilds it
         return None
-    _loaded[key] = g
-    _counts["loaded"] += 1
+    compile_cache.loaded_libraries[key] = g
+    compile_cache.count("loaded")
     return g
 
 
-def background() -> bool:
-    """Whether a cache miss of a small ``jit="auto"`` sweep compiles in the background
-    (``GEAROPT_JIT_BACKGROUND``, default on; ``0``, ``false``, ``no`` or ``off``: it does not; off
-    too inside :func:`no_background`)."""
-    if _quiet[0]:
-        return False
-    return os.environ.get("GEAROPT_JIT_BACKGROUND", "1").strip().lower() not in ("0", "false", "no", "off")
-
-
-@contextlib.contextmanager
-def no_background() -> Iterator[None]:
-    """Within the block no background compile starts (small sweeps of a cache miss run interpreted
-    and write nothing to the cache): for what must leave the disk untouched (``gearopt check``)."""
-    _quiet[0] += 1
-    try:
-        yield
-    finally:
-        _quiet[0] -= 1
-
-
-def writes_nothing() -> bool:
-    """True within :func:`no_background`: nothing may be written to gearopt's disk caches (the
-    compiled libraries here, the measured-flank splines of :mod:`gearopt.geometry.microgeometry`)."""
-    return _quiet[0] > 0
-
-
-def write_cache_file(path: Path, data: bytes) -> None:
-    """Write ``data`` to the cache file ``path`` atomically (a temporary file beside it, renamed: a
-    concurrent reader sees no file or a whole one), best effort: nothing within :func:`no_background`,
-    and a read-only or full cache only costs the next build of what it would have held."""
-    if writes_nothing():  # (gearopt check leaves the disk untouched)
-        return
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_name(f"{path.name}.{os.getpid()}.tmp")
-        tmp.write_bytes(data)
-        os.replace(tmp, path)
-    except OSError:
-        pass
-
-
-def compile_in_background(f: ca.Function) -> threading.Thread | None:
-    """Compile ``f`` into the disk cache in a background thread (one per library and process) and
-    return the thread; None when the library is loaded or on disk already, a compile of it is under
-    way or failed before in this process, or no compiler works. The compiler runs detached
-    (:func:`_compile_into`): a process that ends before it does never waits for it, the compile goes
-    on and moves the library into the cache by an atomic rename (the thread, a daemon, only waits for
-    it; at exit the process waits only while the C source is being written, :func:`_exit_wait`). The
-    caller keeps running ``f`` interpreted; :func:`cached_function` finds the library once it is there
-    (in this process or the next)."""
-    _, path, g = _library(f)
-    if path is None or g is not None:
-        return None
-    return _start(path, lambda: f, f.name())
-
-
-def _start(path: Path, make: Callable[[], ca.Function], name: str) -> threading.Thread | None:
-    """Compile ``make()`` into ``path`` in a background thread (:func:`compile_in_background`)."""
-    key = str(path)
-    with _lock:
-        if key in _loaded or key in _pending or key in _failed or path.exists():
-            return None
-        job = threading.Thread(target=_background_job, args=(make, key), name=f"gearopt-compile-{name}",
-                               daemon=True)
-        _pending[key] = job
-    job.start()
-    return job
-
-
-def _background_job(make: Callable[[], ca.Function], key: str) -> None:
-    # (no warning from this thread: the warnings filters are process-wide; a failed build is kept in
-    # _failed, so it is not tried again in the background, and a synchronous compile reports it)
-    _detached.on = True
-    try:
-        err = _build(make(), Path(key), compiler()[0]) if not Path(key).exists() else None
-        if err is None:
-            _counts["built"] += 1
-        else:
-            _failed.add(key)
-    except Exception:  # noqa: BLE001 - never let a background compile raise into the interpreter
-        _failed.add(key)
-    finally:
-        with _lock:
-            _pending.pop(key, None)
-
-
-def _compiling(f: ca.Function) -> bool:
-    """Whether ``f``'s library is being compiled in the background by this process; if so, it moves
-    to the front of the queue of compiles (:func:`_compile_detached`): a call that would have compiled
-    it at once (:data:`MIN_COLUMNS` columns or more) runs interpreted meanwhile."""
-    _, path, _ = _library(f)
-    job = None if path is None else _pending.get(str(path))
-    if job is None or not job.is_alive():
-        return False
-    with _turn:
-        _urgent.add(str(path))
-        _turn.notify_all()
-    return True
-
-
-def wait_for_background(timeout: float | None = None) -> bool:
-    """Wait for this process's background compiles (:func:`compile_in_background`); True when none
-    is left running. ``timeout`` [s] per compile (None: no limit)."""
-    for job in list(_pending.values()):
-        job.join(timeout)
-    return not any(j.is_alive() for j in list(_pending.values()))
+def keyed_library(name: str, bases: Sequence[ca.Function], tag: str) -> ca.Function | None:
+    """The library of the Function ``name`` that :func:`keyed_by` keys by ``bases`` and ``tag``, if it is
+    in the disk cache (loaded once per process), else None: the derived graph need not be built when
+    its library is there (0.3-0.6 s for the loaded optimiser's); never compiles."""
+    h = construction_key(name, bases, tag)
+    return None if h is None else _load(name, cache_dir() / f"{name}-{h[:24]}.so")
 
 
 def select(f: ca.Function, jit: bool | str, n: int) -> ca.Function | None:
@@ -462,11 +219,11 @@ def select(f: ca.Function, jit: bool | str, n: int) -> ca.Function | None:
     if g is not None:
         return g
     if n >= MIN_COLUMNS:
-        if _compiling(f):  # its background compile is under way and first in the queue now
+        if compile_queue.compiling(f):  # its background compile is under way and first in the queue now
             if n < WAIT_COLUMNS:  # interpreted meanwhile: cheaper than waiting
                 return None
-            _, path, _ = _library(f)
-            job = _pending.get(str(path))
+            _, path, _ = lookup(f)
+            job = compile_queue.pending.get(str(path))
             if job is not None:
                 job.join()
             g = cached_function(f)
@@ -478,229 +235,6 @@ def select(f: ca.Function, jit: bool | str, n: int) -> ca.Function | None:
     return None
 
 
-def _build(f: ca.Function, path: Path, cc: str) -> str | None:
-    """Generate and compile ``f`` into ``path`` (atomic rename); None on success, else the reason."""
-    def generate(tmp, src):
-        cg = ca.CodeGenerator(src, {"with_header": False})
-        cg.add(f)
-        cg.generate(tmp + os.sep)
-    return _compile_into(generate, f"{f.name()}.c", path, cc)
-
-
-def _compile_into(generate, src: str, path: Path, cc: str) -> str | None:
-    """``generate(tmp, src)`` writes the C source ``src`` into a scratch directory inside the cache;
-    it is compiled and moved into ``path`` by an atomic rename. None on success, else the reason."""
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = tempfile.mkdtemp(prefix=".build-", dir=path.parent)
-    except OSError as e:
-        return f"cache directory {path.parent} not writable: {e}"
-    if getattr(_detached, "on", False):  # a background compile: the compiler, rename and clean-up detached
-        try:
-            generate(tmp, src)
-        except Exception as e:  # noqa: BLE001 - CasADi's code generator: no scratch directory left behind
-            shutil.rmtree(tmp, ignore_errors=True)
-            return str(e)
-        return _compile_detached(tmp, src, path, cc)  # (the detached process removes tmp)
-    try:
-        generate(tmp, src)
-        so = os.path.join(tmp, "lib.so")
-        for flags in (FLAGS, BASE_FLAGS):  # a compiler that does not know the extra flags: without them
-            out = subprocess.run([cc, *flags, "-o", so, os.path.join(tmp, src), "-lm"], capture_output=True,
-                                 text=True, timeout=3600)
-            if out.returncode == 0:
-                break
-        if out.returncode != 0:
-            return f"{cc} exited with {out.returncode}: {out.stderr.strip()[:300]}"
-        os.replace(so, path)  # atomic: a concurrent reader sees the old file or the whole new one
-        return None
-    except (OSError, subprocess.SubprocessError, RuntimeError) as e:
-        return str(e)
-    finally:
-        shutil.rmtree(tmp, ignore_errors=True)
-
-
-#: the detached compile of background jobs (:func:`_compile_detached`): argv[1:] = the jobs (JSON: a list of
-#: [scratch directory, C source, library path]), the compiler, the flag sets (JSON), the processes to let
-#: end first (JSON: process ids, the compiles running when the process that queued the jobs ended). It
-#: compiles them one after the other, each into its scratch directory, moves the library into place by an atomic rename
-#: (skipped when another process put it there meanwhile), removes the scratch directory and reports a
-#: failure on its standard output (whose reader may be gone: the process that started it may have ended)
-_DETACHED_JOB = r"""
-import json, os, shutil, subprocess, sys
-import time
-jobs, cc, flag_sets, before = json.loads(sys.argv[1]), sys.argv[2], json.loads(sys.argv[3]), json.loads(sys.argv[4])
-def running(pid):
-    try:
-        with open(f"/proc/{pid}/stat") as f:
-            return f.read().rsplit(")", 1)[1].split()[0] != "Z"
-    except OSError:
-        try:
-            os.kill(pid, 0)
-        except ProcessLookupError:
-            return False
-        except OSError:
-            pass
-        return not os.path.isdir("/proc")
-for pid in before:
-    while running(pid):
-        time.sleep(0.05)
-errors = []
-for tmp, src, path in jobs:
-    so = os.path.join(tmp, "lib.so")
-    err = None
-    try:
-        if not os.path.exists(path):
-            for flags in flag_sets:
-                out = subprocess.run([cc, *flags, "-o", so, os.path.join(tmp, src), "-lm"], capture_output=True,
-                                     text=True, timeout=3600)
-                if out.returncode == 0:
-                    break
-            if out.returncode != 0:
-                err = f"{cc} exited with {out.returncode}: {out.stderr.strip()[:300]}"
-            else:
-                os.replace(so, path)
-    except (OSError, subprocess.SubprocessError) as e:
-        err = str(e)
-    finally:
-        shutil.rmtree(tmp, ignore_errors=True)
-    if err is not None:
-        errors.append(err)
-if errors:
-    try:
-        os.write(1, "; ".join(errors).encode())
-    except OSError:
-        pass
-    sys.exit(1)
-"""
-
-
-def compile_slots() -> int:
-    """Detached compiles a process runs at a time: one core less than it may use, at least one.
-
-    A first run starts several background compiles within seconds (the loaded optimiser's: eight,
-    the largest a 4 MB source); run all at once, the compilers would share the cores with the
-    process that waits for nothing but its own work (on two cores: a third of one core for it with
-    five compilers), so they wait in a queue, the smallest source first (:func:`_compile_detached`).
-    """
-    try:
-        cores = len(os.sched_getaffinity(0))
-    except AttributeError:  # not on Linux
-        cores = os.cpu_count() or 1
-    return max(1, cores - 1)
-
-
-class _Job:
-    """A background compile whose C source is written: queued, then handed to a detached process."""
-
-    def __init__(self, tmp: str, src: str, path: Path):
-        self.tmp, self.src, self.path = tmp, src, path
-        try:
-            self.size = os.path.getsize(os.path.join(tmp, src))
-        except OSError:
-            self.size = 0
-        self.handed = False  # given to a detached process (by its own thread, or by _exit_wait's chain)
-
-
-_queue: list[_Job] = []  # background compiles with their source written, not yet handed to a process
-_urgent: set[str] = set()  # library paths a large call waits for (run interpreted meanwhile): compiled first
-_running: dict[int, subprocess.Popen] = {}  # detached compiles this process started and waits for, by process id
-_turn = threading.Condition(_lock)
-
-
-def _order(job: _Job) -> tuple[bool, int]:
-    """Queue order of the background compiles: those a large call waits for (:func:`_compiling`)
-    first, then the smallest source first."""
-    return str(job.path) not in _urgent, job.size
-
-
-def _spawn(jobs: list[_Job], cc: str, after: Sequence[int] = ()) -> subprocess.Popen:
-    """Start the detached process that compiles ``jobs`` in this order, once the processes ``after``
-    have ended (its own session, no inherited descriptors: the process that starts it may end first,
-    neither waits for the other)."""
-    try:
-        return subprocess.Popen([sys.executable, "-I", "-S", "-c", _DETACHED_JOB,
-                                 json.dumps([[j.tmp, j.src, str(j.path)] for j in jobs]), cc,
-                                 json.dumps([list(FLAGS), list(BASE_FLAGS)]), json.dumps(list(after))],
-                                stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                                start_new_session=True, close_fds=True)
-    except OSError:
-        for j in jobs:
-            shutil.rmtree(j.tmp, ignore_errors=True)
-        raise
-
-
-def _compile_detached(tmp: str, src: str, path: Path, cc: str) -> str | None:
-    """Compile the C source ``src`` of the scratch directory ``tmp`` into ``path`` in a detached
-    process and wait for it while this process runs. The compile waits its turn: at most
-    :func:`compile_slots` at a time per process, the queued ones in :func:`_order` (the smallest
-    source first, but a library that a large call wants before the others). When the
-    process ends, its queued compiles are handed to one detached process that compiles them one after
-    the other (:func:`_exit_wait`). The library appears at ``path`` only whole (atomic rename). None on
-    success, else the reason."""
-    job = _Job(tmp, src, path)
-    with _turn:
-        _queue.append(job)
-        while not job.handed and (len(_running) >= compile_slots() or min(_queue, key=_order) is not job):
-            _turn.wait()
-        if job.handed:  # the process is ending: _exit_wait gave it to the chain of the queued compiles
-            return "handed to the compile of the queued sources at exit"
-        _queue.remove(job)
-        job.handed = True
-        _started.add(str(path))
-        try:
-            proc = _spawn([job], cc)
-        except OSError as e:
-            _turn.notify_all()
-            return str(e)
-        _running[proc.pid] = proc
-    try:
-        out, _ = proc.communicate()
-    finally:
-        with _turn:
-            _running.pop(proc.pid, None)
-            _turn.notify_all()
-    if proc.returncode != 0:
-        return out.decode(errors="replace").strip() or f"the compile exited with {proc.returncode}"
-    return None if path.exists() else f"{path} missing after the compile"
-
-
-_detached = threading.local()  # .on: this thread's compiles run detached (background jobs)
-
-
-def _exit_wait(timeout: float = 120.0) -> None:
-    """At exit: wait while a background job writes its C source (a fraction of a second: an
-    interpreter ending then would leave a half-written scratch directory), not for the compiles;
-    then hand the queued compiles to one detached process, which compiles them one after the other
-    (the smallest first) after this process has ended."""
-    def writing() -> bool:
-        with _turn:
-            ready = {str(j.path) for j in _queue} | _started
-            return any(job.is_alive() and key not in ready for key, job in _pending.items())
-
-    end = time.monotonic() + timeout
-    while time.monotonic() < end and writing():
-        time.sleep(0.01)
-    with _turn:
-        jobs = sorted(_queue, key=_order)
-        _queue.clear()
-        for j in jobs:
-            j.handed = True
-            _started.add(str(j.path))
-        after = list(_running)
-        _turn.notify_all()
-    cc = compiler()
-    if jobs and cc is not None:
-        try:
-            _spawn(jobs, cc[0], after)  # after the compiles under way: still one at a time
-        except OSError:
-            pass
-
-
-_started: set[str] = set()  # library paths whose compile a detached process runs (or ran)
-
-
-atexit.register(_exit_wait)
 
 
 def threads() -> int:
@@ -714,7 +248,7 @@ def threads() -> int:
         try:
             return max(1, int(env))
         except ValueError:
-            _note("threads", f"gearopt: GEAROPT_THREADS = {env!r} is not a whole number; one thread is used.")
+            note("threads", f"gearopt: GEAROPT_THREADS = {env!r} is not a whole number; one thread is used.")
             return 1
     try:
         return max(1, len(os.sched_getaffinity(0)))
@@ -763,6 +297,10 @@ def set_threads(n: int | None) -> None:
 
 
 CHUNK = 2048  #: ColumnMap: columns per mapped call (maps are built for this and a few smaller sizes)
+#: an interpreted ColumnMap evaluates k columns on a map of exactly k when map_size(k) would pad at least
+#: this many columns (ColumnMap._size; up to a fifth of a call, each padded column interpreted in vain)
+EXACT_PADDING = 32
+EXACT_MAPS = 64  #: ... while it holds fewer maps than this (each size it meets is built once)
 
 
 class ColumnMap:
@@ -809,6 +347,17 @@ class ColumnMap:
         state.setdefault("_open", {})
         state.setdefault("own_maps", False)
         self.__dict__.update(state)
+
+    def _size(self, k: int) -> int:
+        """Columns of the map that evaluates ``k`` columns: :func:`map_size` (a few sizes, each map
+        built once), but ``k`` itself for an interpreted map whose padding would be
+        :data:`EXACT_PADDING` columns or more (an interpreted column costs 30-200 us, building a
+        map about 3 us per column), while this ColumnMap holds fewer than :data:`EXACT_MAPS` maps.
+        Each column is evaluated alone, so the size changes no number."""
+        m = map_size(k)
+        if not self.compiled and m - k >= EXACT_PADDING and len(self._maps) < EXACT_MAPS:
+            return k
+        return m
 
     def _map(self, m: int) -> _Signature:
         key = (m, threads_for(m))
@@ -880,7 +429,7 @@ class ColumnMap:
                 raise ArgumentError(f"{self.column.name()}: input {name} of {n} columns must be ({r}, {c * n}), "
                                     f"got {v.shape}", param=name, value=v.shape, valid=f"shape ({r}, {c * n})")
         if 0 < n <= CHUNK:  # one mapped call: its outputs (new arrays) are the result
-            m = map_size(n)
+            m = self._size(n)
             if m == n:
                 return self._map(m).run(a)
             sel = np.arange(m)
@@ -891,7 +440,7 @@ class ColumnMap:
         start = 0
         while start < n:
             k = min(CHUNK, n - start)
-            m = CHUNK if k == CHUNK else map_size(k)
+            m = CHUNK if k == CHUNK else self._size(k)
             if m == k:
                 chunk = [v[:, start * c:(start + k) * c] for v, c in zip(a, cin)]
             else:
@@ -916,20 +465,6 @@ def map_library(column: ca.Function, m: int) -> ca.Function | None:
     return None if path is None else _load(f"map{m}_{column.name()}", path)
 
 
-def derived_library_path(base: ca.Function, name: str, tag: str) -> Path | None:
-    """Where the library of a Function named ``name``, built from ``base`` by a fixed construction
-    that ``tag`` names, lives in the cache: ``<name>-<key>.so``, the key the SHA-256 of the library
-    name of ``base`` (its own key: graph, CasADi, compiler, flags) and ``tag`` (which must change
-    whenever the construction does); None without a compiler or for a ``base`` CasADi cannot
-    serialise. Looking it up builds nothing (the derived graph can cost tens of milliseconds)."""
-    if compiler() is None:
-        return None
-    col = _path_or_none(base)
-    if col is None:
-        return None
-    return col.parent / f"{name}-{hashlib.sha256(f'{col.name}/{tag}'.encode()).hexdigest()[:24]}.so"
-
-
 def derived_library(base: ca.Function, name: str, tag: str) -> ca.Function | None:
     """The library of :func:`derived_library_path` if it is in the disk cache (loaded once per
     process), else None; never compiles (:func:`compile_derived`)."""
@@ -945,19 +480,8 @@ def compile_derived(base: ca.Function, f: ca.Function, tag: str) -> threading.Th
     if not background():
         return None
     path = derived_library_path(base, f.name(), tag)
-    return None if path is None else _start(path, lambda: f, f.name())
+    return None if path is None else compile_queue.start(path, lambda: f, f.name())
 
-
-def map_library_path(column: ca.Function, m: int) -> Path | None:
-    """Where the library of ``column.map(m)`` lives in the cache: ``map<m>_<name>-<key>.so``, the key
-    the SHA-256 of the column library's name (its own key: graph, CasADi, compiler, flags) and m;
-    None without a compiler or for a column CasADi cannot serialise."""
-    if compiler() is None:
-        return None
-    col = _path_or_none(column)
-    if col is None:
-        return None
-    return col.parent / f"map{m}_{column.name()}-{hashlib.sha256(f'{col.name}/map{m}'.encode()).hexdigest()[:24]}.so"
 
 
 def _compile_map(column: ca.Function, m: int) -> threading.Thread | None:
@@ -974,7 +498,7 @@ def _compile_map(column: ca.Function, m: int) -> threading.Thread | None:
             raise RuntimeError(f"CasADi named the map {f.name()}, not {name}")
         return f
 
-    return _start(path, make, name)
+    return compile_queue.start(path, make, name)
 
 
 def map_size(k: int) -> int:
@@ -1164,7 +688,7 @@ def nlpsol(name: str, plugin: str, nlp: dict, opts: dict, jit: bool = False) -> 
         return solver
     cc = compiler()
     if cc is None:
-        _note("cc", "gearopt: no C compiler found (cc, gcc or clang; or set CC): the NLP runs interpreted.")
+        note("cc", "gearopt: no C compiler found (cc, gcc or clang; or set CC): the NLP runs interpreted.")
         return solver
     ins = [nlp["x"]] + ([nlp["p"]] if "p" in nlp else [])
     outs = [nlp.get("f", 0), nlp.get("g", ca.DM.zeros(0, 1))]
@@ -1174,22 +698,22 @@ def nlpsol(name: str, plugin: str, nlp: dict, opts: dict, jit: bool = False) -> 
     base = cache_dir()
     path = base / f"{name}_nlp-{h.hexdigest()[:24]}.so"
     key = str(path)
-    if key in _loaded:
-        return _loaded[key]
+    if key in compile_cache.loaded_libraries:
+        return compile_cache.loaded_libraries[key]
     built = False
     if not path.exists():
         err = _build_nlp(solver, name, path, cc[0])
         if err is not None:
-            _note("build", f"gearopt: compiling {name} failed ({err:.200}); it runs interpreted.")
+            note("build", f"gearopt: compiling {name} failed ({err:.200}); it runs interpreted.")
             return solver
         built = True
     try:
-        _loaded[key] = ca.nlpsol(name, plugin, str(path), opts)
+        compile_cache.loaded_libraries[key] = ca.nlpsol(name, plugin, str(path), opts)
     except RuntimeError as e:
-        _note("load", f"gearopt: loading {path} failed ({e!s:.160}); {name} runs interpreted.")
+        note("load", f"gearopt: loading {path} failed ({e!s:.160}); {name} runs interpreted.")
         return solver
-    _counts["built" if built else "loaded"] += 1
-    return _loaded[key]
+    compile_cache.count("built" if built else "loaded")
+    return compile_cache.loaded_libraries[key]
 
 
 def _build_nlp(solver, name: str, path: Path, cc: str) -> str | None:
@@ -1201,4 +725,4 @@ def _build_nlp(solver, name: str, path: Path, cc: str) -> str | None:
             solver.generate_dependencies(src, {})
         finally:
             os.chdir(cwd)
-    return _compile_into(generate, f"{name}_nlp.c", path, cc)
+    return compile_queue.compile_into(generate, f"{name}_nlp.c", path, cc)

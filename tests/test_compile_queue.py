@@ -16,7 +16,7 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from gearopt import compiled
+from gearopt import compile_cache, compile_queue, compiled
 
 pytestmark = pytest.mark.skipif(not compiled.available(), reason="no C compiler")
 
@@ -72,9 +72,9 @@ def queued_cc(tmp_path, monkeypatch):
     monkeypatch.setenv("CC", str(fake))
     monkeypatch.setenv("GEAROPT_CACHE_DIR", str(tmp_path / "cache"))
     monkeypatch.delenv("GEAROPT_JIT_BACKGROUND", raising=False)
-    monkeypatch.setattr(compiled, "_loaded", {})
-    monkeypatch.setattr(compiled, "_pending", {})
-    monkeypatch.setattr(compiled, "compile_slots", lambda: 1, raising=False)
+    monkeypatch.setattr(compile_cache, "loaded_libraries", {})
+    monkeypatch.setattr(compile_queue, "pending", {})
+    monkeypatch.setattr(compile_queue, "compile_slots", lambda: 1)
     return gate, log
 
 

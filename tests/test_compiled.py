@@ -16,7 +16,7 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from gearopt import compiled
+from gearopt import compile_cache, compiled
 from gearopt.errors import ArgumentError, OptionError
 from gearopt.gears import BasicRack, Gear, GearPair
 from gearopt.meshing.tca import TCA
@@ -46,13 +46,13 @@ def test_library_key_is_memoised_per_live_function_object(cache):
     path = compiled.library_path(f)
     assert path == compiled.library_path(f) == cache / f"cmp_test-{compiled.cache_key(f)[:24]}.so"
     memo = (id(f), compiled.compiler())
-    assert memo in compiled._keys
-    stale = (weakref.ref(f), compiled._keys[memo][1])
+    assert memo in compile_cache._keys
+    stale = (weakref.ref(f), compile_cache._keys[memo][1])
     del f
     gc.collect()
-    assert memo not in compiled._keys  # evicted with its Function
+    assert memo not in compile_cache._keys  # evicted with its Function
     g = _fun(2.5)
-    compiled._keys[(id(g), compiled.compiler())] = stale  # as if g took f's identity before the eviction
+    compile_cache._keys[(id(g), compiled.compiler())] = stale  # as if g took f's identity before the eviction
     assert compiled.library_path(g) == cache / f"cmp_test-{compiled.cache_key(g)[:24]}.so" != path
 
 
@@ -121,7 +121,7 @@ def test_truncated_library_is_rebuilt(cache):
 
 def test_without_compiler_one_warning_and_interpreted(cache, monkeypatch):
     monkeypatch.setenv("CC", "/nonexistent/cc")
-    monkeypatch.setattr(compiled, "_noted", set())
+    monkeypatch.setattr(compile_cache, "_noted", set())
     assert not compiled.available()
     with pytest.warns(RuntimeWarning, match="no C compiler"):
         assert compiled.compile_function(_fun(1.0)) is None
@@ -180,7 +180,7 @@ def test_nlpsol_compiled_once_cached_and_equal(tmp_path, monkeypatch):
     if not compiled.available():
         pytest.skip("no C compiler")
     monkeypatch.setenv("GEAROPT_CACHE_DIR", str(tmp_path))
-    monkeypatch.setattr(compiled, "_loaded", {})
+    monkeypatch.setattr(compile_cache, "loaded_libraries", {})
     x = ca.SX.sym("x", 2)
     nlp = {"x": x, "f": (1 - x[0]) ** 2 + 100 * (x[1] - x[0] ** 2) ** 2, "g": x[0] + x[1]}
     opts = {"ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes", "ipopt.tol": 1e-12}
@@ -198,7 +198,7 @@ def test_nlpsol_compiled_once_cached_and_equal(tmp_path, monkeypatch):
     gx = -2 * (1 - xs[0]) - 400 * xs[0] * (xs[1] - xs[0] ** 2)
     gy = 200 * (xs[1] - xs[0] ** 2)
     assert gx == pytest.approx(gy, rel=1e-6) and gx < 0
-    monkeypatch.setattr(compiled, "_loaded", {})  # a new process: the library is on disk
+    monkeypatch.setattr(compile_cache, "loaded_libraries", {})  # a new process: the library is on disk
     monkeypatch.setattr(compiled, "_build_nlp", lambda *a: pytest.fail("a warm cache generates nothing"))
     compiled.nlpsol("rosen", "ipopt", nlp, opts, jit=True)
     after = compiled.counts()
@@ -295,3 +295,23 @@ def test_one_cache_root_for_compiled_libraries_and_influence_coefficients(monkey
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
     assert compiled.cache_dir() == tmp_path / "xdg" / "gearopt" / "compiled"
     assert influence.cache_dir() == tmp_path / "xdg" / "gearopt" / "influence"
+
+
+def test_an_interpreted_column_map_evaluates_a_large_call_unpadded():
+    """An interpreted ColumnMap evaluates k columns on a map of exactly k when map_size(k) would pad
+    EXACT_PADDING columns or more (539 -> 640: 101 columns interpreted in vain); with little padding
+    (121 -> 128), and compiled, it keeps the few sizes; the outputs are the columns' own, bit for bit
+    those of the padded map."""
+    x, p = ca.SX.sym("x", 2), ca.SX.sym("p")
+    f = ca.Function("pad_test", [x, p], [ca.sin(x * p) + p ** 2, ca.dot(x, x) * ca.exp(-p)])
+    rng = np.random.default_rng(5)
+    X, P = rng.normal(size=(2, 539)), rng.normal(size=(1, 539))
+    sizes = []
+    got = compiled.ColumnMap(f, lambda m: sizes.append(m) or f.map(m))(X, P)
+    assert sizes == [539]
+    ref = compiled.ColumnMap(f, lambda m: sizes.append(m) or f.map(m), compiled=True)(X, P)  # (the padded path)
+    assert sizes == [539, 640]
+    for a, b in zip(got, ref):
+        assert np.array_equal(a, b)
+    compiled.ColumnMap(f, lambda m: sizes.append(m) or f.map(m))(X[:, :121], P[:, :121])
+    assert sizes[-1] == 128

@@ -95,3 +95,57 @@ def test_a_corrupt_or_foreign_cache_file_is_rebuilt(tmp_path, monkeypatch):
     n = gc.counts()["built"]
     gc.built_once("derived", (base,), "t2", make)
     assert gc.counts()["built"] == n + 1
+
+
+def test_eliminated_computes_each_repeated_operation_once_with_the_same_numbers():
+    """graph_cache.eliminated: a graph that builds the same subexpression twice (as separate nodes)
+    evaluates it once, with the same outputs bit for bit."""
+    import casadi as ca
+
+    x, y = ca.SX.sym("x", 3), ca.SX.sym("y")
+
+    def term():  # a new node each call (the same operations on the same operands)
+        return ca.sin(x * y) / (1 + ca.dot(x, x)) + ca.exp(-y) * ca.cos(x)
+
+    f = ca.Function("twice", [x, y], [term() + 2 * term(), term()], ["x", "y"], ["a", "b"])
+    g = gc.eliminated(f)
+    assert g.name() == f.name() and g.name_in() == f.name_in() and g.name_out() == f.name_out()
+    assert g.n_instructions() < 0.6 * f.n_instructions()
+    rng = np.random.default_rng(3)
+    X, Y = rng.normal(size=(3, 200)), rng.normal(size=(1, 200))
+    for a, b in zip(f.map(200)(X, Y), g.map(200)(X, Y)):
+        assert np.array_equal(np.asarray(a), np.asarray(b))
+
+
+def test_the_slices_geometry_is_evaluated_with_its_common_subexpressions_eliminated(tmp_path, monkeypatch):
+    """LTCA slices evaluate their geometry (points, normals, curvatures, levers) with
+    ``SliceSolver.geometry_columns``: the geometry graph with its common subexpressions eliminated,
+    under half its instructions, the same numbers bit for bit at the columns a loaded TCA asks for."""
+    import gearopt.ltca.slices as slices
+    from gearopt import compiled
+    from gearopt.ltca.engine import LTCA
+
+    monkeypatch.setenv("GEAROPT_CACHE", str(tmp_path / "cache"))
+    monkeypatch.setenv("GEAROPT_JIT_BACKGROUND", "0")
+    monkeypatch.setattr(gc, "_graphs", {})
+    calls = []
+
+    def spy(f, n, jit):
+        cm = compiled.mapped(f, n, jit)
+
+        def run(W, prm):
+            calls.append((f, np.array(W), np.array(prm)))
+            return cm(W, prm)
+        return run
+
+    monkeypatch.setattr(slices, "mapped", spy)
+    L = LTCA(GearPair(Gear(z=20, m_n=3.0, b=20.0, modifications=Microgeometry(C_beta=0.010)),
+                      Gear(z=40, m_n=3.0, b=20.0)), n_slices=5)
+    L.slices(L.mesh_cycle(6))
+    s = L.slicer
+    g, f = s.geometry_columns(), s.geometry
+    assert calls and all(c[0] is g for c in calls)
+    assert g.n_instructions() < 0.5 * f.n_instructions() and g.name_out() == f.name_out()
+    W, P = np.hstack([c[1] for c in calls]), np.hstack([c[2] for c in calls])
+    for a, b in zip(f.map(W.shape[1])(W, P), g.map(W.shape[1])(W, P)):
+        assert np.array_equal(np.asarray(a), np.asarray(b), equal_nan=True)

@@ -11,7 +11,7 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from gearopt import compiled
+from gearopt import compile_cache, compile_queue, compiled
 
 pytestmark = pytest.mark.skipif(not compiled.available(), reason="no C compiler")
 
@@ -27,8 +27,8 @@ def fresh(tmp_path, monkeypatch):
     """An empty cache directory and a process that has loaded no library (as if new)."""
     monkeypatch.setenv("GEAROPT_CACHE_DIR", str(tmp_path / "cache"))
     monkeypatch.delenv("GEAROPT_JIT_BACKGROUND", raising=False)
-    monkeypatch.setattr(compiled, "_loaded", {})
-    monkeypatch.setattr(compiled, "_pending", {})
+    monkeypatch.setattr(compile_cache, "loaded_libraries", {})
+    monkeypatch.setattr(compile_queue, "pending", {})
     return tmp_path / "cache"
 
 
@@ -36,22 +36,22 @@ def _gated_build(monkeypatch):
     """Replace the compiler step by one that waits for ``gate`` (so a synchronous compile in the
     caller would hang the test until the timeout) and records the thread it ran in."""
     gate, ran = threading.Event(), []
-    real = compiled._build
+    real = compile_queue.build
 
     def build(f, path, cc):
         ran.append(threading.current_thread())
         assert gate.wait(60), "the compile was never released"
         return real(f, path, cc)
 
-    monkeypatch.setattr(compiled, "_build", build)
+    monkeypatch.setattr(compile_queue, "build", build)
     return gate, ran
 
 
 def test_cached_library_runs_compiled_at_any_size(fresh, monkeypatch):
     f = _fun(1.5)
     assert compiled.compile_function(f) is not None  # warm the cache
-    monkeypatch.setattr(compiled, "_loaded", {})  # a new process: the library is on disk only
-    monkeypatch.setattr(compiled, "_build", lambda *a: pytest.fail("a warm cache compiles nothing"))
+    monkeypatch.setattr(compile_cache, "loaded_libraries", {})  # a new process: the library is on disk only
+    monkeypatch.setattr(compile_queue, "build", lambda *a: pytest.fail("a warm cache compiles nothing"))
     loaded = compiled.counts()["loaded"]
     for n in (1, 7, 192, 810):
         assert n < compiled.MIN_COLUMNS and not compiled.use_compiled("auto", n)
@@ -71,7 +71,7 @@ def test_small_cache_miss_compiles_in_background_not_in_the_call(fresh, monkeypa
     X, P = np.random.default_rng(1).normal(size=(2, 64)), np.linspace(-1, 1, 64)[None, :]
     interpreted = cm(X, P)
     assert compiled.select(f, "auto", 64) is None  # still compiling: interpreted again, no second job
-    assert not list(fresh.glob("*.so")) and len(compiled._pending) == 1
+    assert not list(fresh.glob("*.so")) and len(compile_queue.pending) == 1
     gate.set()
     assert compiled.wait_for_background(60)
     assert len(ran) == 1 and ran[0] is not threading.main_thread()
@@ -84,8 +84,8 @@ def test_small_cache_miss_compiles_in_background_not_in_the_call(fresh, monkeypa
 def test_large_cache_miss_compiles_at_once(fresh, monkeypatch):
     f = _fun(3.5)
     ran = []
-    real = compiled._build
-    monkeypatch.setattr(compiled, "_build", lambda *a: ran.append(threading.current_thread()) or real(*a))
+    real = compile_queue.build
+    monkeypatch.setattr(compile_queue, "build", lambda *a: ran.append(threading.current_thread()) or real(*a))
     cm = compiled.mapped(f, compiled.MIN_COLUMNS, "auto")
     assert cm.compiled and ran == [threading.main_thread()]
 
@@ -101,7 +101,7 @@ def test_large_call_never_waits_for_its_background_compile(fresh, monkeypatch):
     assert not compiled.mapped(f, 64, "auto").compiled  # the background compile, held at the gate
     n = compiled.MIN_COLUMNS
     big = compiled.mapped(f, n, "auto")
-    assert not big.compiled and len(compiled._pending) == 1
+    assert not big.compiled and len(compile_queue.pending) == 1
     X, P = np.random.default_rng(2).normal(size=(2, n)), np.linspace(-1, 1, n)[None, :]
     interpreted = big(X, P)
     gate.set()
@@ -129,10 +129,10 @@ def test_a_very_large_call_waits_for_its_background_compile(fresh, monkeypatch):
 
 def test_background_compile_can_be_switched_off(fresh, monkeypatch):
     monkeypatch.setenv("GEAROPT_JIT_BACKGROUND", "0")
-    monkeypatch.setattr(compiled, "_build", lambda *a: pytest.fail("no compile with GEAROPT_JIT_BACKGROUND=0"))
+    monkeypatch.setattr(compile_queue, "build", lambda *a: pytest.fail("no compile with GEAROPT_JIT_BACKGROUND=0"))
     f = _fun(4.5)
     assert not compiled.mapped(f, 64, "auto").compiled
-    assert not compiled._pending and not list(fresh.glob("*.so"))
+    assert not compile_queue.pending and not list(fresh.glob("*.so"))
 
 
 def test_threads_only_on_idle_cores(monkeypatch):
@@ -173,8 +173,8 @@ def test_failed_background_compile_is_not_retried(fresh, monkeypatch):
     import warnings
 
     calls = []
-    monkeypatch.setattr(compiled, "_build", lambda *a: calls.append(a) or "cc exited with 1: broken")
-    monkeypatch.setattr(compiled, "_failed", set())
+    monkeypatch.setattr(compile_queue, "build", lambda *a: calls.append(a) or "cc exited with 1: broken")
+    monkeypatch.setattr(compile_queue, "failed", set())
     f = _fun(5.5)
     with warnings.catch_warnings():
         warnings.simplefilter("error")
@@ -193,7 +193,7 @@ def test_no_background_block_writes_nothing(fresh, monkeypatch):
     f = _fun(6.5)
     with compiled.no_background():
         assert not compiled.mapped(f, 16, "auto").compiled
-        assert not compiled._pending and not fresh.exists()
-    assert not compiled.mapped(f, 16, "auto").compiled and len(compiled._pending) == 1
+        assert not compile_queue.pending and not fresh.exists()
+    assert not compiled.mapped(f, 16, "auto").compiled and len(compile_queue.pending) == 1
     gate.set()
     assert compiled.wait_for_background(60) and len(ran) == 1

@@ -33,7 +33,7 @@ PKG = ROOT / "gearopt"
 LAYERS: list[tuple[str, ...]] = [
     # base: no gearopt imports except among themselves
     ("gearopt.errors", "gearopt.units", "gearopt.version", "gearopt.types", "gearopt.report", "gearopt.progress",
-     "gearopt.compiled", "gearopt.schema", "gearopt.settings", "gearopt.summary", "gearopt.warning_log",
+     "gearopt.compiled", "gearopt.compile_cache", "gearopt.compile_queue", "gearopt.schema", "gearopt.settings", "gearopt.summary", "gearopt.warning_log",
      "gearopt.forking", "gearopt.graph_cache"),
     ("gearopt.geometry",),       # basic rack, tools, surfaces (envelope, generation), micro-geometry
     ("gearopt.gears",),          # gear data (ISO 21771): a Gear holds its tool and micro-geometry

@@ -8,7 +8,7 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from gearopt import compiled
+from gearopt import compile_cache, compiled
 from gearopt.errors import ArgumentError
 from gearopt.gears import Gear, GearPair
 from gearopt.ltca.engine import LTCA
@@ -38,7 +38,7 @@ def test_a_derived_library_is_keyed_by_its_bases_and_tag_without_serialising_it(
         serialised.append(g.name())
         return orig(g)
 
-    monkeypatch.setattr(compiled, "cache_key", spy)
+    monkeypatch.setattr(compile_cache, "cache_key", spy)
     path = compiled.library_path(f)
     assert "outside_derived" not in serialised  # the base's key only (memoised per Function)
     assert path.name.startswith("outside_derived-") and path.parent == tmp_path

@@ -12,7 +12,7 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from gearopt import ARCMIN, BasicRack, Gear, GearPair, compiled
+from gearopt import ARCMIN, BasicRack, Gear, GearPair, compile_cache, compile_queue, compiled
 from gearopt.errors import GeometryError
 from gearopt.meshing.solver import sorted_unique
 from gearopt.meshing.tca import TCA, Misalignment
@@ -50,7 +50,7 @@ def test_extra_compiler_flags_give_the_same_numbers_bit_for_bit(tmp_path):
         saved = compiled.FLAGS
         compiled.FLAGS = flags  # _compile_into compiles with FLAGS first
         try:
-            assert compiled._build(f, path, compiled.compiler()[0]) is None
+            assert compile_queue.build(f, path, compiled.compiler()[0]) is None
         finally:
             compiled.FLAGS = saved
         libs.append(ca.external("ovh_col", str(path)))
@@ -157,8 +157,8 @@ def test_map_library_gives_the_numbers_of_casadis_map_bit_for_bit(tmp_path, monk
     ColumnMap finds it in the cache at its first call; its pickled state drops the background job."""
     monkeypatch.setenv("GEAROPT_CACHE_DIR", str(tmp_path / "cache"))
     monkeypatch.delenv("GEAROPT_JIT_BACKGROUND", raising=False)
-    monkeypatch.setattr(compiled, "_loaded", {})
-    monkeypatch.setattr(compiled, "_pending", {})
+    monkeypatch.setattr(compile_cache, "loaded_libraries", {})
+    monkeypatch.setattr(compile_queue, "pending", {})
     f = _newton_column()
     rng = np.random.default_rng(5)
     W0, P = rng.normal(size=(2, 40)), rng.uniform(0.5, 2.0, size=(2, 40))
@@ -188,10 +188,10 @@ def test_map_library_not_compiled_for_a_one_off_size_or_without_background(tmp_p
     """Fewer calls of a size than MAP_LIBRARY_CALLS, or the background compile off, start no compile;
     looking the map's library up builds no map (its key derives from the column's)."""
     monkeypatch.setenv("GEAROPT_CACHE_DIR", str(tmp_path / "cache"))
-    monkeypatch.setattr(compiled, "_loaded", {})
-    monkeypatch.setattr(compiled, "_pending", {})
+    monkeypatch.setattr(compile_cache, "loaded_libraries", {})
+    monkeypatch.setattr(compile_queue, "pending", {})
     built = []
-    monkeypatch.setattr(compiled, "_build", lambda f, path, cc: built.append(f.name()) or "not here")
+    monkeypatch.setattr(compile_queue, "build", lambda f, path, cc: built.append(f.name()) or "not here")
     col = _newton_column()
     cm = compiled.ColumnMap(col, lambda m: col.map(m), compiled=True, own_maps=True)
     W0, P = np.zeros((2, 3)), np.ones((2, 3))
@@ -373,8 +373,8 @@ def test_derived_library_found_without_building_and_keyed_by_its_construction(tm
     background compiles off nothing compiles."""
     monkeypatch.setenv("GEAROPT_CACHE_DIR", str(tmp_path / "cache"))
     monkeypatch.delenv("GEAROPT_JIT_BACKGROUND", raising=False)
-    monkeypatch.setattr(compiled, "_loaded", {})
-    monkeypatch.setattr(compiled, "_pending", {})
+    monkeypatch.setattr(compile_cache, "loaded_libraries", {})
+    monkeypatch.setattr(compile_queue, "pending", {})
     base = _newton_column()
     w, p = ca.SX.sym("w", 2), ca.SX.sym("p", 2)
     f = ca.Function("ovh_derived", [w, p], [ca.sin(w[0]) * p[1] + ca.exp(w[1] - p[0])])

@@ -37,21 +37,21 @@ def test_small_sweep_compiled_from_a_warm_cache_and_never_waits_for_a_cold_one(t
     compiled; all three give the same numbers."""
     import threading
 
-    from gearopt import compiled
+    from gearopt import compile_cache, compile_queue, compiled
 
     monkeypatch.setenv("GEAROPT_CACHE_DIR", str(tmp_path / "cache"))
     monkeypatch.delenv("GEAROPT_JIT_BACKGROUND", raising=False)
-    monkeypatch.setattr(compiled, "_loaded", {})
-    monkeypatch.setattr(compiled, "_pending", {})
+    monkeypatch.setattr(compile_cache, "loaded_libraries", {})
+    monkeypatch.setattr(compile_queue, "pending", {})
     gate, ran = threading.Event(), []
-    real = compiled._build
+    real = compile_queue.build
 
     def build(f, path, cc):
         ran.append(threading.current_thread())
         assert gate.wait(300)
         return real(f, path, cc)
 
-    monkeypatch.setattr(compiled, "_build", build)
+    monkeypatch.setattr(compile_queue, "build", build)
     rack = BasicRack.iso53("A", a_c=0.002)
     pair = GearPair(Gear(z=19, m_n=2.0, b=16, rack=rack, a_pl=4e-4, name="pinion"), Gear(z=37, m_n=2.0, b=16, name="gear"))
     mis = Misalignment(crossing=2 * ARCMIN, dE=0.02)
@@ -65,8 +65,8 @@ def test_small_sweep_compiled_from_a_warm_cache_and_never_waits_for_a_cold_one(t
     assert ran and all(t is not threading.main_thread() for t in ran)
     warm = tca.sweep(phi, mis=mis)
     assert tca.branch.mapped(3 * phi.size, extra=True).compiled
-    monkeypatch.setattr(compiled, "_loaded", {})  # a new process: the libraries are on disk
-    monkeypatch.setattr(compiled, "_build", lambda *a: pytest.fail("a warm cache compiles nothing"))
+    monkeypatch.setattr(compile_cache, "loaded_libraries", {})  # a new process: the libraries are on disk
+    monkeypatch.setattr(compile_queue, "build", lambda *a: pytest.fail("a warm cache compiles nothing"))
     tca2 = TCA(pair)
     new = tca2.sweep(phi, mis=mis)
     assert tca2.branch.mapped(3 * phi.size, extra=True).compiled

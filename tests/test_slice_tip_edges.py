@@ -1,0 +1,62 @@
+"""LTCA slices' tip-edge solves (gearopt.ltca.slices.SliceSolver._tip_edges): interpreted, the columns
+beyond a tip are solved alone, not padded to a compiled chunk, with the same slices bit for bit."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+import gearopt.ltca.slices as slices
+from gearopt.compiled import ColumnMap
+from gearopt.gears import Gear, GearPair
+from gearopt.geometry.microgeometry import Microgeometry
+from gearopt.ltca.engine import LTCA
+from gearopt.meshing.solver import Branch
+from gearopt.meshing.tca import TCA
+
+
+def _slices():
+    pair = GearPair(Gear(z=20, m_n=3.0, b=20.0, modifications=Microgeometry(C_beta=0.010)),
+                    Gear(z=40, m_n=3.0, b=20.0))
+    L = LTCA(pair, tca=TCA(pair, jit=False), n_slices=5)
+    return L.slices(L.mesh_cycle(8))
+
+
+def test_interpreted_tip_edge_solves_take_their_columns_alone_with_the_same_slices(monkeypatch):
+    """jit=False: each tip-edge solve gets as many columns as lie beyond that tip (fewer than the
+    compiled chunk of EDGE_CHUNK here); the slices equal, bit for bit, those of solves padded to the
+    chunk (the compiled path's columns, forced here on the interpreted map)."""
+    sizes = []
+    real_outputs = ColumnMap.outputs
+
+    def spy(self, *args):
+        if self.column.name().startswith("ltca_tip"):
+            sizes.append(np.asarray(args[0]).shape[1])
+        return real_outputs(self, *args)
+
+    monkeypatch.setattr(ColumnMap, "outputs", spy)
+    S = _slices()
+    assert S.edge is not None and (S.edge > 0).any()  # tip edges in contact
+    assert sizes and all(0 < n < slices.EDGE_CHUNK for n in sizes)
+    # the reference: every tip-edge call padded to EDGE_CHUNK columns
+    real_mapped = Branch.mapped
+
+    def padded(self, n, n_total=None, extra=False):
+        cm = real_mapped(self, n, n_total, extra)
+        if self.name.startswith("ltca_tip"):
+            cm.compiled = True  # (the flag _tip_edges pads by; the map stays the interpreted one)
+        return cm
+
+    monkeypatch.setattr(Branch, "mapped", padded)
+    sizes.clear()
+    ref = _slices()
+    assert sizes and all(n == slices.EDGE_CHUNK for n in sizes)
+    for f in dataclasses.fields(S):
+        a, b = getattr(S, f.name), getattr(ref, f.name)
+        if isinstance(a, np.ndarray):
+            assert np.array_equal(a, b, equal_nan=True), f.name
+        elif f.name == "stats":  # the solver's counts equal; its time does not
+            assert {k: v for k, v in a.items() if k != "time_s"} == {k: v for k, v in b.items() if k != "time_s"}
+        else:
+            assert a == b, f.name
