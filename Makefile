@@ -65,7 +65,7 @@ bench: $(STAMP)
 	  [ $$found = 1 ] || echo "no benchmarks/*.py yet"
 
 # Every speed figure README.md and docs/ state (docs/figures.md, and the marked blocks in the docs that quote
-# it), measured again: 18 minutes at load 8-13, idle about a third of that (benchmarks/figures.py; --check compares).
+# it), measured again: about 11 minutes idle, every scene but the FE ones included (benchmarks/figures.py; --check compares).
 figures: $(STAMP)
 	$(VPY) benchmarks/figures.py
 

@@ -7,7 +7,8 @@ regenerates from one benchmark command on this machine and is within its stated 
     python benchmarks/figures.py --only tca,run  # some groups (the other keys of docs/figures.md are kept)
     make figures                                 # the first line
 
-18 minutes on this 2-core machine at load 8-13 (2026-11-29), idle about a third of that (the loaded optimiser's
+About 11 minutes on this 2-core machine idle (2026-11-29 night: 4:47 for every group but ``scenes``, 6:06 for
+``scenes``; 18 minutes for the first five groups at load 8-13; the loaded optimiser's
 cold runs and the compiles after them are most of it); progress
 on stderr. Each group runs the measurement of its benchmark (no timing code of its own):
 
@@ -21,7 +22,8 @@ on stderr. Each group runs the measurement of its benchmark (no timing code of i
 - ``run``: ``benchmarks/bench_run.py``'s ``run_once`` (one process of ``gearopt run``) on the demo and the
   crowning scene, after one warm-up run each;
 - ``rating``: ``benchmarks/bench_rating.py``'s ``rate_time`` and ``study_times``;
-- ``scenes``: the same as ``run`` on the dynamics and rating scenes whose run times docs/dynamics.md and docs/rating.md state.
+- ``scenes``: the same as ``run`` on every scene of problems/ but the FE ones (CalculiX: docs/fea.md), whose run
+  times problems/README.md, docs/dynamics.md and docs/rating.md state (about 8 minutes idle).
 
 Every figure is the median over ``--repeat`` repeats (default: the group's own, 3-7) with its spread, the
 range over the repeats: that range is the figure's stated noise. ``--check`` reports a figure as within its
@@ -55,7 +57,7 @@ HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
 OUT = ROOT / "docs" / "figures.md"
 #: files whose marked blocks are rewritten
-DOCS = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
+DOCS = [ROOT / "README.md", ROOT / "problems" / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
 BLOCK = re.compile(r"<!-- figure: ([A-Za-z0-9_.]+)( range| met)? -->(.*?)<!-- /figure -->")
 ROW = re.compile(r"^\| `([A-Za-z0-9_.]+)` \| ([^|]+) \| ([^|]*) \| ([^|]+) \| (\d+) \| ([^|]*) \|")
 
@@ -101,6 +103,10 @@ class Figure:
 #: positions per fsolve call (about 1-3 ms a call)
 FSOLVE_COLUMNS = 25
 CASE_NOTE = "crowned misaligned spur 20/40 of bench_compiled.py"
+#: the scenes of problems/ timed by the ``scenes`` group: every one but the FE studies (CalculiX runs of minutes)
+SCENES = tuple(sorted(p.stem for p in (ROOT / "problems").glob("*.toml")
+                      if re.search(r'^study\s*=\s*"fea"', p.read_text(), re.M) is None
+                      and p.stem not in ("tca_spur_crowned", "crowning_spur")))  # those two: the ``run`` group
 FIGURES = [
     Figure("tca.fsolve_us", "us", 1, f"scipy fsolve per column (FD Jacobian, default xtol), 25 positions of pair 0 over a cycle, best of 10 calls (short calls: a loaded machine preempts them less), {CASE_NOTE}"),
     Figure("tca.sweep_64x3_us", "us", 2, "TCA.sweep 64 positions x 3 pairs (192 columns), default jit='auto', warm cache: "
@@ -131,7 +137,7 @@ FIGURES = [
     Figure("rating.study_run_s", "s", 2, "the rating study's run() on problems/rating_spur.toml (loaded TCA of the pair and the "
            "reference pair at every torque; bench_rating.py study_times)"),
     *(Figure(f"scenes.{k}_s", "s", 1, f"`gearopt run problems/{k}.toml`, warm: the process's wall time")
-      for k in ("dynamics_spur", "dynamics_helical", "rating_spur", "rating_helical", "rating_spectrum")),
+      for k in SCENES),
 ]
 BY_KEY = {f.key: f for f in FIGURES}
 #: repeats per group by default (the loaded optimiser's cold run is the expensive one)
@@ -254,7 +260,7 @@ def measure_run(repeat: int, log) -> list[dict]:
 
 
 def measure_scenes(repeat: int, log) -> list[dict]:
-    """``gearopt run`` of the scenes whose run time docs/dynamics.md and docs/rating.md state."""
+    """``gearopt run`` of every scene but the FE ones (:data:`SCENES`), whose run times problems/README.md states."""
     names = [f.key.split(".")[1][:-2] for f in FIGURES if f.group == "scenes"]
     return runs_of("scenes", {n: n for n in names}, repeat, log, cpu=False)
 

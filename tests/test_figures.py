@@ -12,7 +12,7 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 FIGURES = ROOT / "docs" / "figures.md"
-DOCS = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
+DOCS = [ROOT / "README.md", ROOT / "problems" / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
 BLOCK = re.compile(r"<!-- figure: ([^ ]+?)( range| met)? -->(.*?)<!-- /figure -->")
 ROW = re.compile(r"^\| `([^`]+)` \| ([^|]+?) \| [^|]*? \| ([^|]+?) - ([^|]+?) \| (\d+) \| ([^|]*?) \|", re.M)
 
@@ -24,7 +24,8 @@ def table() -> dict[str, tuple[str, str, str, str]]:
 
 def blocks() -> list[tuple[str, str, str, str]]:
     """Every marked block: (file, key, form: '', ' range' or ' met', content)."""
-    return [(p.name, m.group(1), m.group(2) or "", m.group(3)) for p in DOCS for m in BLOCK.finditer(p.read_text())]
+    return [(str(p.relative_to(ROOT)), m.group(1), m.group(2) or "", m.group(3)) for p in DOCS
+            for m in BLOCK.finditer(p.read_text())]
 
 
 def test_generated_file_has_figures_with_their_spread():
@@ -40,7 +41,7 @@ def test_generated_file_has_figures_with_their_spread():
             assert verdict == ("met" if ok else "not met"), f"{key}: {v} against {target}"
 
 
-@pytest.mark.parametrize("doc", [p.name for p in DOCS])
+@pytest.mark.parametrize("doc", [str(p.relative_to(ROOT)) for p in DOCS])
 def test_every_block_holds_the_generated_value(doc):
     t = table()
     for name, key, rng, content in blocks():
