@@ -147,7 +147,10 @@ def _unloaded_te_scalars(res, out):
 def _pareto_scalars(res, out):
     """The Pareto front (problems/microgeometry_pareto.toml): the optimum without a limit is the
     scene's design; every point meets its limit on the verification grid; the loaded TE rises as
-    the limit tightens, by more than an arcsec over the front; the CSV has a row per point."""
+    the limit tightens, by more than an arcsec over the front; the CSV has a row per point; the
+    design's sensitivities are those of the NLP it solves (a tighter limit's, when the front keeps
+    that limit's design: LoadedMicroStudy), whose optimum lies at the design."""
+    assert res["design"]["sensitivities"]["at_design"], res["design"]["sensitivities"]["model_step_um"]
     pts = res["pareto"]["points"]
     assert pts[0]["p_limit_MPa"] is None
     assert pts[0]["objective_arcsec"] == res["design"]["after"]["objective_arcsec"]

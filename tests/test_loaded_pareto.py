@@ -42,5 +42,11 @@ def test_the_coupled_pareto_front_is_monotone_and_each_point_optimal_or_noted():
     assert front.designs[0].stop == "converged"
     if front.anchor is not front.designs[0]:  # re-solved: a converged optimum of no pressure limit
         assert front.anchor.stop == "converged" and te[0] < te[1]
+        assert front.solved_under[:2] == (None, 2500.0)
     else:  # the 2500 MPa design kept, both objectives in the note
         assert f"{te[1]:.6g}" in pts[0]["note"]
+        # the kept design solves the 2500 MPa NLP, and its sensitivities are that NLP's: the NLP built
+        # around it (every slice, no trust radius) has its optimum there (the unlimited NLP's lies um away)
+        assert front.solved_under[:2] == (2500.0, 2500.0)
+        sens = opt.with_p_limit(front.solved_under[0]).sensitivities(front.anchor)
+        assert sens["at_design"], sens["model_step"]

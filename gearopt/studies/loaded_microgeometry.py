@@ -244,14 +244,18 @@ class LoadedMicroStudy:
         with heartbeat(progress, "loaded micro-geometry: trust-region round running", every=30.0) as say:
             d = opt.solve(progress=say)
         front = None
+        sopt = opt  # the optimiser whose NLP the shown design solves (its sensitivities)
         if self.pareto is not None:
             # the front's anchor is the optimum without a pressure limit: this design when there is none
             with heartbeat(progress, "loaded micro-geometry: Pareto front running", every=30.0) as say:
                 fr = opt.pareto(self.pareto, progress=say, anchor=d if opt.p_limit is None else None)
             if opt.p_limit is None:
-                d = fr.anchor  # solved again from a better point of the front, if one was
+                d = fr.anchor  # solved again from a better point of the front, or that point's design
+                if fr.solved_under and fr.solved_under[0] is not None:
+                    # the design of a tighter limit: its sensitivities are those of that limit's NLP
+                    sopt = opt.with_p_limit(fr.solved_under[0])
             front = fr.to_dict()
-        sens = sensitivity_dict(opt, opt.sensitivities(d))
+        sens = sensitivity_dict(sopt, sopt.sensitivities(d))
         unloaded = None if opt.te_level is None else unloaded_te_dict(opt, d, self.case_names)
         if progress and d.stop != "converged":
             progress("loaded micro-geometry: warning: the trust-region loop stopped on its radius (no better design "

@@ -18,6 +18,13 @@ from .results import MicroDesign, ParetoFront
 class ParetoSweep:
     """The epsilon-constraint sweep of the pressure limit."""
 
+    def with_p_limit(self, p_limit: float | None):
+        """This optimiser with another pressure limit [MPa] (None: none); it shares the compiled slices,
+        the loaded TCA and the sensitivities' functions with this one."""
+        o = copy.copy(self)
+        o.p_limit = p_limit
+        return o
+
     def pareto(self, p_limits: Sequence[float], progress: Callable[[str], None] | None = None,
                anchor: MicroDesign | None = None) -> ParetoFront:
         """Loaded TE against peak pressure: the epsilon-constraint sweep of the pressure limit.
@@ -53,11 +60,7 @@ class ParetoSweep:
             raise out_of_range("p_limits", p_limits, "a non-empty list of distinct limits, 100 ... 10000 MPa each",
                                cls=OptionError)
 
-        def at(limit):
-            o = copy.copy(self)  # shares the compiled slices, the LTCA and the sensitivities
-            o.p_limit = limit
-            return o
-
+        at = self.with_p_limit
         say = progress or (lambda m: None)
         first = at(None)
         if anchor is None:
@@ -111,6 +114,8 @@ class ParetoSweep:
         # keeps the tighter limit's design. Either way the point's note says so.
         solved = [(None, anchor)] + [(lim, d) for lim, d in zip(lims, designs) if d is not None]
         notes = {}
+        # the limit whose NLP each point's design solves (its own, or a tighter one's whose design it keeps)
+        under = {lim: lim for lim, _ in solved}
         # (with an unloaded-TE target its term counts too: the objective the designs minimise)
         tot = lambda m: m.after.objective + m.after.te0_term  # noqa: E731
         for i in range(len(solved) - 2, -1, -1):
@@ -127,6 +132,7 @@ class ParetoSweep:
                               f"{tot(d):.6g} -> {tot(d2):.6g} arcsec")
             else:
                 solved[i] = (lim, better)
+                under[lim] = under[solved[i + 1][0]]
                 notes[lim] = (f"the {tighter} design ({tot(better):.6g} arcsec): this limit's own optimum "
                               f"{tot(d):.6g} arcsec, solved again from that design {tot(d2):.6g} arcsec "
                               "(each optimal on its NLP's positions only)")
@@ -135,4 +141,5 @@ class ParetoSweep:
         again = {lim: d for lim, d in solved[1:]}
         designs = [again.get(lim) if d is not None else None for lim, d in zip(lims, designs)]
         return ParetoFront(anchor=anchor, p_limits=tuple(lims), designs=tuple(designs), messages=tuple(msgs),
-                           notes=tuple(notes.get(lim, "") for lim in (None, *lims)))
+                           notes=tuple(notes.get(lim, "") for lim in (None, *lims)),
+                           solved_under=tuple(under.get(lim) for lim in (None, *lims)))

@@ -131,6 +131,9 @@ class ParetoFront:
     messages : (L,) why a limit has no design (the :class:`SynthesisError`'s text), else "".
     notes : (L + 1,) the anchor's and each limit's note, else "": its design was solved again from a
         tighter limit's design, or is that design (:meth:`LoadedMicroOptimizer.pareto`).
+    solved_under : (L + 1,) the pressure limit [MPa] whose NLP the anchor's and each limit's design solves
+        (None: no limit): the point's own, or the tighter limit's whose design it keeps (None where the
+        limit has no design); the design's sensitivities are those of that NLP.
     """
 
     anchor: MicroDesign
@@ -138,6 +141,7 @@ class ParetoFront:
     designs: tuple
     messages: tuple
     notes: tuple = ()
+    solved_under: tuple = ()
 
     def points(self) -> list[dict]:
         """The front's points, the anchor first: the limit [MPa] (None for the anchor), the verified
