@@ -18,7 +18,7 @@ from .results import MicroDesign, ParetoFront
 class ParetoSweep:
     """The epsilon-constraint sweep of the pressure limit."""
 
-    def with_p_limit(self, p_limit: float | None):
+    def with_p_limit(self, p_limit: float | None) -> ParetoSweep:
         """This optimiser with another pressure limit [MPa] (None: none); it shares the compiled slices,
         the loaded TCA and the sensitivities' functions with this one."""
         o = copy.copy(self)
