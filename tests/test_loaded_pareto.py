@@ -50,3 +50,17 @@ def test_the_coupled_pareto_front_is_monotone_and_each_point_optimal_or_noted():
         assert front.solved_under[:2] == (2500.0, 2500.0)
         sens = opt.with_p_limit(front.solved_under[0]).sensitivities(front.anchor)
         assert sens["at_design"], sens["model_step"]
+
+
+def test_with_p_limit_checks_the_limit_and_leaves_the_optimiser_alone():
+    """``with_p_limit`` gives the same optimiser with another limit (the study's sensitivities of a kept
+    tighter design); a limit outside the option's range is the option's error, naming it."""
+    from gearopt.errors import OptionError
+    from gearopt.io.scene import load_scene
+
+    opt = load_scene(ROOT / "problems" / "microgeometry_pareto.toml").build().optimizer
+    o = opt.with_p_limit(2500.0)
+    assert o.p_limit == 2500.0 and opt.p_limit is None and o.ltca is opt.ltca
+    for bad in (-5.0, 50.0, 2e4):
+        with pytest.raises(OptionError, match="p_limit"):
+            opt.with_p_limit(bad)

@@ -11,6 +11,7 @@ import math
 import numpy as np
 
 from ...errors import ArgumentError, OptionError, out_of_range
+from ...settings import LoadedMicroSettings
 from ..crowning import SynthesisError
 from .results import MicroDesign, ParetoFront
 
@@ -20,7 +21,9 @@ class ParetoSweep:
 
     def with_p_limit(self, p_limit: float | None) -> ParetoSweep:
         """This optimiser with another pressure limit [MPa] (None: none); it shares the compiled slices,
-        the loaded TCA and the sensitivities' functions with this one."""
+        the loaded TCA and the sensitivities' functions with this one. A limit outside the option's range
+        raises the option's error (:class:`~gearopt.settings.LoadedMicroSettings`)."""
+        LoadedMicroSettings(p_limit=p_limit)  # the one check of the option
         o = copy.copy(self)
         o.p_limit = p_limit
         return o
