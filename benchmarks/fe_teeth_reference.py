@@ -39,6 +39,7 @@ from gearopt.fea import FEOptions, GearFEModel  # noqa: E402
 
 RECORD_TEETH = {5: ROOT / "benchmarks" / "data" / "fe_reference_teeth5.json"}
 TABLES = ROOT / "benchmarks" / "data" / "fe_teeth5_tables.json"
+HOLDOUT = ROOT / "benchmarks" / "data" / "fe_helical_neighbours.json"
 LEVEL = "default"
 
 # (drive, position in pinion pitches): two pairs in mesh, three pairs, one pair
@@ -276,6 +277,192 @@ def print_tables(out: dict) -> None:
               f"{100 * (r['sec5+n'][0] - fe5v) / r['ref'][0]:+5.1f} {100 * (r['full_gear'][0] - r['full+n'][0]) / r['ref'][0]:+5.1f}")
 
 
+def split() -> int:
+    """The default compliance's miss against loaded TCA with FE coefficients on full gears + their neighbours
+    (the last column of table (b)), located: with one load distribution F (the FE-coefficient solve's) each
+    pair's own part ``(F_k^T C_kk F_k + sum F_k c_Weber F_k / l) / sum F`` and the pairs' coupling ``sum_{k != k'}
+    F_k^T C_kk' F_k' / sum F`` [um] for both compliances (on crowned drives the separations' part ``F^T s`` is not
+    in either, so the sums are below the approach there; the differences are like for like); then per member the
+    FE full gears' response of the teeth d = 1, 2 (mean of -d and +d, three rows) over (N1)'s, and what an annular
+    Kirchhoff plate (thickness b, clamped at the bore r_f / 2, free at r_f) gives for the axial part of the normal
+    load, ``sin^2(beta_b) w(d)`` (:func:`plate_axial`)."""
+    from fe_full_gear_body import NeighbourLTCA, full_gear_grid, neighbour_grids
+
+    from gearopt.ltca.compliance import Material, weber_contact
+    from gearopt.ltca.engine import LTCA
+
+    mat = Material(E=210e3, nu=0.3)
+    nbr = json.loads((ROOT / "benchmarks" / "data" / "fe_neighbour_teeth.json").read_text())["members"]
+    print("per position, pair by pair (own tooth + Weber) and the pairs' coupling [um], under the FE-coefficient "
+          "solve's loads: FE coefficients on full gears + their neighbours (FE), the default compliance (an.)")
+    for name in drives():
+        if "tip relief" in name:
+            continue
+        pair, mis = drives()[name]
+        cb = math.cos(pair.pinion.beta_b)
+        fracs = ("0", "-0.3", "+0.3")
+        phis = np.array([float(f) * 2 * math.pi / pair.pinion.z for f in fracs])
+        Lf = LTCA(pair, material=mat, compliance="fe")
+        S = Lf.slices(phi1=phis, mis=mis)
+        g = Lf.influence
+        tt = (Lf.tca.pinion.unmodified, Lf.tca.gear.unmodified)
+        gears = (pair.pinion, pair.gear)
+        rf = (Lf.tca.form_radius(1), Lf.tca.form_radius(2))
+        Lf.influence = tuple(full_gear_grid(g[m], tt[m], gears[m], rf[m])[0] for m in (0, 1))
+        NL = NeighbourLTCA(Lf, [neighbour_grids(tt[m], gears[m], rf[m], g[m], "full - sector") for m in (0, 1)])
+        res = NL.solve(T, S).results[0]
+        sts = {"FE": NL.structure(S), "an.": LTCA(pair, material=mat).structure(S)}
+        K, N, M = S.z.shape
+        for j, f in enumerate(fracs):
+            F = np.nan_to_num(res.load[:, j, :])
+            on = [k for k in range(K) if F[k].sum() > 1e-3 * F.sum()]
+            if len(on) < 2:
+                continue
+            scale = 1e3 / F.sum() / cb
+            parts = {}
+            for lab, st in sts.items():
+                C = np.nan_to_num(st.Cs[j])
+                own = []
+                for k in on:
+                    ln = st.length[k, j]
+                    w = weber_contact(np.maximum(F[k] / ln, 0.0), st.R[k, j], st.h1[k, j], st.h2[k, j], mat, 1e-3)
+                    own.append(float(F[k] @ C[k * M:(k + 1) * M, k * M:(k + 1) * M] @ F[k])
+                               + float(np.nansum(F[k] * w.compliance * F[k] / ln)))
+                Fv = F.reshape(-1)
+                cross = float(Fv @ C @ Fv) - sum(float(F[k] @ C[k * M:(k + 1) * M, k * M:(k + 1) * M] @ F[k]) for k in on)
+                parts[lab] = (np.array(own) * scale, cross * scale)
+            (fo, fc), (ao, ac) = parts["FE"], parts["an."]
+            sh = F.sum(axis=1) / F.sum()
+            print(f"  {name[:30]:<30} {math.degrees(phis[j]):+5.2f} " + "  ".join(
+                f"pair {res.pairs[k]:+d} ({sh[k]:.2f}): {a:6.3f}/{b:6.3f} ({100 * (b / a - 1):+5.1f} %)"
+                for k, a, b in zip(on, fo, ao)) + f"  coupling: {fc:6.3f}/{ac:6.3f} ({100 * (ac / fc - 1):+5.1f} %)"
+                f"  an. - FE: own {ao.sum() - fo.sum():+6.3f}, coupling {ac - fc:+6.3f} um")
+    print("the full gears' FE response of the teeth d pitches away (mean of -d, +d; rows low / mid / tip) over (N1)'s, "
+          "and the Kirchhoff plate's axial part sin^2(beta_b) w(d) against the FE's excess over (N1) x the spur's "
+          "FE / (N1) at the mid row [um mm/N]")
+    spur = {}
+    for name in ("spur 20/40 conjugate", "helical 15 deg", "scene ltca_helical (crowned)"):
+        pair, _ = drives()[name]
+        La = LTCA(pair, material=mat)
+        cb = math.cos(pair.pinion.beta_b)
+        for m, gm in enumerate((pair.pinion, pair.gear)):
+            t = La.neighbour_terms[m]
+            fe = nbr[f"{gm.z} teeth ({name})"]
+            for d in (1, 2):
+                v = 0.5 * (np.array(fe[f"full -{d}"]) + np.array(fe[f"full +{d}"]))
+                n1 = 1e3 * cb**2 * float(t(d))
+                if gm.beta_b == 0.0:
+                    spur[m, d] = v[1] / n1
+                ex = v[1] - n1 * spur[m, d]
+                ax = 1e3 * math.sin(gm.beta_b) ** 2 * gm.b * plate_axial(0.5 * gm.r_f, gm.r_f, gm.b, [2 * math.pi * d / gm.z])[0]
+                print(f"  {name[:30]:<30} z {gm.z:2d} d {d}: FE / (N1) " + " ".join(f"{x:.3f}" for x in v / n1)
+                      + f"; excess {ex:+.5f}, plate {ax:.5f}")
+    return 0
+
+
+#: the hold-out member of ``--holdout``: (z, m_n [mm], b [mm], beta [deg]), a gear with 21 pinion teeth, no
+#: validation member
+HOLDOUT_GEAR = (60, 2.5, 24.0, 25.0)
+
+
+def holdout() -> int:
+    """The full gear (held at r_f / 2) of :data:`HOLDOUT_GEAR` and the spur gear of its transverse section
+    (``m = m_n / cos(beta)``): each tooth's response along its normal [um mm/N] at three rows under a normal line
+    load uniform over the face on the tooth d = -2 ... +2 pitches away (fe_full_gear_body's line-load mesh,
+    CalculiX, recorded per gear), and against (N1): ``FE_helical(d) = cos^2(beta_b) n_t(d) + sin^2(beta_b) n_a(d)``
+    with ``n_t`` the spur's in-plane response and ``n_a`` the axial one, which (N1) takes equal to ``n_t``."""
+    from dataclasses import replace
+
+    from fe_full_gear_body import MESH
+
+    from gearopt.fea.influence import line_load_compliance
+    from gearopt.gears import Gear, GearPair
+    from gearopt.ltca.compliance import Material
+    from gearopt.ltca.engine import LTCA
+    from gearopt.meshing.tca import TCA
+
+    z, mn, b, beta = HOLDOUT_GEAR
+    data = json.loads(HOLDOUT.read_text()) if HOLDOUT.exists() else {}
+    pairs = {}
+    for lab, bt, m in (("helical", beta, mn), ("spur, the same transverse section", 0.0, mn / math.cos(math.radians(beta)))):
+        pair = GearPair(Gear(z=21, m_n=m, b=b, beta=math.radians(bt), name="pinion"),
+                        Gear(z=z, m_n=m, b=b, beta=math.radians(bt), hand="left" if bt else "right", name="gear"))
+        pairs[lab] = pair
+        if lab in data:
+            continue
+        tca = TCA(pair)
+        tooth = tca.gear.unmodified
+        kw = dict(E=210e3, nu=0.3, r_form=tca.form_radius(2))
+        r = line_load_compliance(tooth, mesh=replace(MESH, rim_depth=1.5), teeth=3, support="sector", **kw).radius
+        cols = [0, r.size // 2, r.size - 1]
+        full = line_load_compliance(tooth, mesh=MESH, teeth=z, support="bore", r_bore=0.5 * tooth.r_root, rows=cols,
+                                    neighbours=(-2, -1, 1, 2), **kw)
+        data[lab] = {"z": z, "m_n": m, "b": b, "beta_deg": bt, "rows_mm": [round(float(full.radius[c]), 4) for c in cols],
+                     "self": [1e3 * float(full.C[c, c]) for c in cols],
+                     **{f"{d:+d}": [1e3 * float(full.neighbours[d][c, c]) for c in cols] for d in (-2, -1, 1, 2)}}
+        data["_about"] = ("benchmarks/fe_teeth_reference.py --holdout: a full gear held at r_f / 2, line loads on three "
+                          "rows, the loaded tooth's (self) and the teeth d pitches away's responses along their normals "
+                          "at those rows [um mm/N], E 210 GPa, nu 0.3")
+        HOLDOUT.write_text(json.dumps(data, indent=1) + "\n")
+    hel, sp = data["helical"], data["spur, the same transverse section"]
+    gear = pairs["helical"].gear
+    s2 = math.sin(gear.beta_b) ** 2
+    La = LTCA(pairs["helical"], material=Material(E=210e3, nu=0.3))
+    Ls = LTCA(pairs["spur, the same transverse section"], material=Material(E=210e3, nu=0.3))
+    print(f"hold-out gear z {z}, m_n {mn}, b {b}, beta {beta} deg (sin^2(beta_b) {s2:.4f}); rows low / mid / tip [um mm/N]")
+    for d in (1, 2):
+        h = 0.5 * (np.array(hel[f"-{d}"]) + np.array(hel[f"+{d}"]))
+        t = 0.5 * (np.array(sp[f"-{d}"]) + np.array(sp[f"+{d}"]))
+        n1h = 1e3 * math.cos(gear.beta_b) ** 2 * float(La.neighbour_terms[1](d))
+        n1s = 1e3 * float(Ls.neighbour_terms[1](d))
+        na = (h - (1 - s2) * t) / s2
+        ax = 1e3 * b * plate_axial(0.5 * gear.r_f, gear.r_f, b, [2 * math.pi * d / z])[0]
+        print(f"  d {d}: FE helical " + " ".join(f"{x:.5f}" for x in h) + ", spur " + " ".join(f"{x:.5f}" for x in t)
+              + "; helical / spur " + " ".join(f"{x:.3f}" for x in h / t) + f"; (N1) helical {n1h:.5f} (FE / (N1) "
+              + " ".join(f"{x:.3f}" for x in h / n1h) + f"), spur {n1s:.5f} (FE / (N1) " + " ".join(f"{x:.3f}" for x in t / n1s)
+              + "); n_a from FE " + " ".join(f"{x:.4f}" for x in na) + f", Kirchhoff plate {ax:.4f}")
+    print("  self: helical / spur " + " ".join(f"{x:.3f}" for x in np.array(hel["self"]) / np.array(sp["self"])))
+    return 0
+
+
+def plate_axial(a: float, b: float, t: float, angles, E: float = 210e3, nu: float = 0.3, nmax: int = 60) -> np.ndarray:
+    """Axial deflection [mm/N] of the outer edge of an annular Kirchhoff plate (inner radius ``a`` clamped, outer
+    radius ``b`` free, thickness ``t`` [mm]) at the polar ``angles`` [rad] under a unit axial point force on the
+    outer edge at angle 0: the Fourier series of the edge shear ``delta(theta) / b``, each harmonic ``n`` from
+    ``w = (A r^n + B r^-n + C r^(n+2) + D r^(2-n)) cos(n theta)`` (n >= 2; ``1, r^2, ln r, r^2 ln r`` for n = 0;
+    ``r, r^3, 1/r, r ln r`` for n = 1) with w = w' = 0 at ``a`` and M_r = 0, V_r = the load at ``b``."""
+    D = E * t**3 / (12.0 * (1.0 - nu**2))
+
+    def rows(n, r):
+        # w, w', M_r / D, V_r / D of the four basis functions at r (theta = 0), per unit amplitude
+        if n == 0:
+            f = [(1.0, 0.0, 0.0, 0.0), (r**2, 2 * r, 2.0, 0.0), (math.log(r), 1 / r, -1 / r**2, 2 / r**3),
+                 (r**2 * math.log(r), 2 * r * math.log(r) + r, 2 * math.log(r) + 3, 2 / r)]
+        elif n == 1:
+            f = [(r, 1.0, 0.0, 0.0), (r**3, 3 * r**2, 6 * r, 6.0), (1 / r, -1 / r**2, 2 / r**3, -6 / r**4),
+                 (r * math.log(r), math.log(r) + 1, 1 / r, -1 / r**2)]
+        else:
+            f = [(r**p, p * r**(p - 1), p * (p - 1) * r**(p - 2), p * (p - 1) * (p - 2) * r**(p - 3))
+                 for p in (n, -n, n + 2, 2 - n)]
+        out = []
+        for w, w1, w2, w3 in f:
+            lap_r = w3 + w2 / r - w1 / r**2 - n**2 * (w1 / r**2 - 2 * w / r**3)  # d/dr of the Laplacian
+            mr = -(w2 + nu * (w1 / r - n**2 * w / r**2))
+            vr = -(lap_r - (1 - nu) * n**2 * (w1 / r**2 - w / r**3))  # Kirchhoff's effective shear
+            out.append((w, w1, mr, vr))
+        return np.array(out).T
+
+    ang = np.asarray(angles, float)
+    total = np.zeros(ang.size)
+    for n in range(nmax + 1):
+        ra, rb = rows(n, a), rows(n, b)
+        A = np.vstack([ra[0], ra[1], rb[2], rb[3]])
+        q = 1.0 / (2 * math.pi * b) if n == 0 else 1.0 / (math.pi * b)
+        c = np.linalg.solve(A, np.array([0.0, 0.0, 0.0, q / D]))
+        total += float(rb[0] @ c) * np.cos(n * ang)
+    return total
+
+
 def check_args(argv) -> str | None:
     """The first problem with the command line, or None."""
     i = 0
@@ -286,8 +473,8 @@ def check_args(argv) -> str | None:
                 return "--worker needs I/N with 0 <= I < N (e.g. 0/2)"
             i += 2
             continue
-        if argv[i] not in ("--list", "--tables", "--recorded"):
-            return f"unknown argument {argv[i]!r}: expected --list, --worker I/N, --tables [--recorded]"
+        if argv[i] not in ("--list", "--tables", "--recorded", "--split", "--holdout"):
+            return f"unknown argument {argv[i]!r}: expected --list, --worker I/N, --tables [--recorded], --split, --holdout"
         i += 1
     if "--recorded" in argv and "--tables" not in argv:
         return "--recorded goes with --tables"
@@ -303,6 +490,10 @@ def main(argv) -> int:
         print(f"fe_teeth_reference.py: {problem} (see --help)", file=sys.stderr)
         return 2
     teeth = 5
+    if "--split" in argv:
+        return split()
+    if "--holdout" in argv:
+        return holdout()
     if "--tables" in argv:
         if "--recorded" in argv:  # print the recorded tables (no loaded TCA, no CalculiX)
             print_tables(json.loads(TABLES.read_text()))

@@ -45,6 +45,7 @@ import numpy.typing as npt
 from ..contact.hertz import contact_modulus, hertz_half_width, hertz_peak_pressure, weber_compliance
 from ..errors import OptionError, check_number, out_of_range
 from ..geometry.generation import GeneratedTooth
+from .plate import rim_flexibility
 
 if TYPE_CHECKING:
     from ..gears import GearPair
@@ -148,7 +149,8 @@ class ToothCompliance:
     helical : {"normal", "transverse"}
         For a helical member (``beta_b > 0``): ``"normal"`` divides the teeth's terms by ``cos(beta_b)``
         and the body's by ``cos^2(beta_b)`` (the values are transverse compliances that loaded TCA
-        multiplies by ``cos^2(beta_b)``), ``"transverse"`` leaves them. A spur member: no difference.
+        multiplies by ``cos^2(beta_b)``), the body with its axial part (:meth:`axial`, (N2) of
+        docs/ltca.md section 2); ``"transverse"`` leaves them. A spur member: no difference.
 
     Raises
     ------
@@ -207,8 +209,29 @@ class ToothCompliance:
         self._eta = eta
         self._I = [cum(w3), cum(eta * w3), cum(eta**2 * w3)]
         self._J = cum(w1)
+        # the axial part of a helical member's normal load (helical = "normal"): sin^2(beta_b) of it bends the
+        # body out of its plane, the annular Mindlin plate of gearopt.ltca.plate (thickness b, held at r_int,
+        # free at r_f) loaded through the tooth at the load point's radius; per unit line load over the face
+        # b (F11 - 2 h F12 + h^2 F22), h the lever above r_f (docs/ltca.md section 2, (N2))
+        g = tooth.gear
+        self.axial_share = math.sin(float(g.beta_b)) ** 2 if helical == "normal" else 0.0
+        self._axial_F = None
+        if self.axial_share > 0.0:
+            F = rim_flexibility(self.r_int, self.r_f, float(g.b), [0.0], spread=float(g.b) * math.tan(abs(float(g.beta)))
+                                / float(g.r_p), E=material.E, nu=material.nu)[0]
+            self._axial_F = float(g.b) * F
 
-    def per_width(self, xy: npt.ArrayLike, n_xy: npt.ArrayLike) -> SliceCompliance:
+    def axial(self, radius: npt.ArrayLike) -> np.ndarray:
+        """The body's axial compliance [mm^2/N] under an axial line load over the face at ``radius`` [mm] (the
+        annular plate, read where it is loaded; zeros where the member has no axial part)."""
+        r = np.asarray(radius, float)
+        if self._axial_F is None:
+            return np.zeros_like(r)
+        h = np.maximum(r - self.r_f, 0.0)
+        F = self._axial_F
+        return F[0, 0] - 2.0 * h * F[0, 1] + h**2 * F[1, 1]
+
+    def per_width(self, xy: npt.ArrayLike, n_xy: npt.ArrayLike, axial: bool = True) -> SliceCompliance:
         """Compliances per unit face width [mm^2/N] for loads at points of the flank.
 
         Parameters
@@ -217,6 +240,10 @@ class ToothCompliance:
             Load points in the tooth's transverse frame (tooth centred on +y) [mm].
         n_xy : (M, 2) array
             Outward flank normals there (transverse components; normalised here).
+        axial : bool
+            Whether the body term carries a helical member's axial part (:meth:`axial`): ``foundation`` is then
+            ``body_factor ((1 - q) c_t + q a)``, ``q = sin^2(beta_b)``, ``c_t`` the in-plane term; else ``body_factor
+            c_t`` (the in-plane body alone, as (N1) takes it).
 
         Returns
         -------
@@ -245,7 +272,11 @@ class ToothCompliance:
         comp = kt * sin_g**2 / m.E_plane * J
         c = self.sainsot
         ratio = etaF / self.S_f
-        found = self.body_factor * cos_g**2 / m.E * (c["L"] * ratio**2 + c["M"] * ratio + c["P"] * (1.0 + c["Q"] * (sin_g / cos_g) ** 2))
+        found = cos_g**2 / m.E * (c["L"] * ratio**2 + c["M"] * ratio + c["P"] * (1.0 + c["Q"] * (sin_g / cos_g) ** 2))
+        q = self.axial_share if axial else 0.0
+        if q > 0.0:
+            found = (1.0 - q) * found + q * self.axial(np.hypot(xy[:, 0], xy[:, 1]))
+        found = self.body_factor * found
         return SliceCompliance(bending=bend, shear=shear, compression=comp, foundation=found,
                                total=bend + shear + comp + found, h=xP / cos_g, eta_F=etaF)
 

@@ -15,6 +15,17 @@ one number per member and ``d``, whatever the rows of the loaded and the respond
 within 12.3 % at every row from ``r_f / r_int`` = 3 up, -22 to +34 % at 2-2.5 (the row and the profile shift),
 up to +84 % on thinner bodies (hold-out gears: 14.6 %; docs/ltca.md section 7).
 
+On a helical member the normal load has the axial part ``sin(beta_b)``, which bends the body out of its plane (the
+disc of thickness ``b`` held at its bore), a mode the plane-stress gears of (N1) do not have. With ``helical =
+"normal"`` the term is
+
+    (1 - sin^2(beta_b)) n(d) + sin^2(beta_b) a(d),                                                    (N2)
+
+``a(d)`` the axial response of an annular Mindlin plate (:mod:`gearopt.ltca.plate`, :func:`axial_part`): no fitted
+constant. Against the FE full gears' responses of the helical members of docs/ltca.md section 7 and a hold-out
+gear (z 60, beta 25 deg) it puts the teeth d = 1, 2 at the mid row at 0.96-1.03 of the FE, where (N1) alone gave
+1.04-1.25 (1.81 on the hold-out); the spur gears' pattern is 0.97-1.06 (section 7, "The axial part").
+
 Loaded TCA couples the slices of pairs ``k`` and ``k'`` (pinion teeth ``|k - k'|`` pitches apart, and gear
 teeth likewise) by ``cos^2(beta_b) (n_1(d) G_1 + n_2(d) G_2)``, ``G_m`` each member's body coupling across the
 face (the Pasternak kernel over the body's depth, :func:`~gearopt.ltca.compliance.coupling`) on the tooth's
@@ -32,6 +43,7 @@ import numpy as np
 
 from ..geometry.generation import GeneratedTooth
 from .compliance import ToothCompliance, coupling_batch
+from .plate import axial_response
 
 #: (A, k) of (N1): least squares on the logarithm of (n - c_tw) / (c_body - c_tw) of the fitting gears of
 #: benchmarks/fe_body_fit.py (d = +-1, +-2 at three rows each; ``python benchmarks/fe_body_fit.py --neighbours
@@ -52,7 +64,7 @@ def torsion(tc: ToothCompliance, r_b: float) -> float:
 
 def pitch_body(tc: ToothCompliance, tooth: GeneratedTooth) -> float:
     """The body term of ``tc`` [mm^2/N] for a load at the pitch point of ``tooth``'s right flank (mid face,
-    transverse section), along the flank normal."""
+    transverse section), along the flank normal: its in-plane part (without a helical member's axial part)."""
     g = tooth.gear
     pr = tooth.transverse_profile(z=0.0, n=600)["right_flank"]
     rr = np.hypot(pr[:, 0], pr[:, 1])
@@ -64,12 +76,26 @@ def pitch_body(tc: ToothCompliance, tooth: GeneratedTooth) -> float:
     r = float(np.clip(g.r_p, rr[0], rr[-1]))
     xy = np.array([[np.interp(r, rr, pr[:, k]) for k in range(2)]])
     n = np.array([[np.interp(r, rr, nrm[:, k]) for k in range(2)]])
-    return float(tc.per_width(xy, n).foundation[0])
+    return float(tc.per_width(xy, n, axial=False).foundation[0])
+
+
+def axial_part(tc: ToothCompliance, tooth: GeneratedTooth) -> tuple[float, ...]:
+    """The body's axial response [mm^2/N] of the teeth ``d = 1, 2, ..., z // 2`` pitches from the loaded one, per
+    unit axial line load over the face (N2): the annular Mindlin plate of :func:`gearopt.ltca.plate.axial_response`
+    (thickness the face width ``b``, held at ``r_int``, free at ``r_f``; loaded and read at the pitch radius through
+    the tooth as a rigid lever, the load spread over the angle ``b tan(beta) / r_p`` its helix spans), times ``b``
+    and ``tc``'s ``body_factor``."""
+    g = tooth.gear
+    d = np.arange(1, max(g.z // 2, 1) + 1)
+    w = axial_response(tc.r_int, tc.r_f, g.b, 2.0 * np.pi * d / g.z, lever=g.r_p - tc.r_f,
+                       spread=g.b * math.tan(abs(g.beta)) / g.r_p, E=tc.material.E, nu=tc.material.nu)
+    return tuple(float(x) for x in tc.body_factor * g.b * w)
 
 
 @dataclass(frozen=True)
 class NeighbourTerm:
-    """(N1) of one member: ``n(d) = c_tw + A exp(-k |d| x) (c_body - c_tw)`` [mm^2/N] (:meth:`of`).
+    """(N1) of one member: ``n(d) = c_tw + A exp(-k |d| x) (c_body - c_tw)`` [mm^2/N] (:meth:`of`), on a helical
+    member with its axial part (N2): ``(1 - q) n(d) + q a(d)``.
 
     Attributes
     ----------
@@ -81,6 +107,11 @@ class NeighbourTerm:
         ``s_f / (r_f - r_int)``, the root pitch over the body's depth.
     A, k : float
         The constants of (N1) (:data:`NEIGHBOUR_FIT`).
+    q : float
+        ``sin^2(beta_b)``, the axial part's share of a normal load's work (0: none, a spur gear or
+        ``helical = "transverse"``).
+    axial : tuple of float
+        ``a(d)`` of (N2) for ``d = 1, 2, ...`` [mm^2/N] (:func:`axial_part`; beyond the last, the last).
     """
 
     c_tw: float
@@ -88,17 +119,26 @@ class NeighbourTerm:
     x: float
     A: float = NEIGHBOUR_FIT[0]
     k: float = NEIGHBOUR_FIT[1]
+    q: float = 0.0
+    axial: tuple[float, ...] = ()
 
     @classmethod
     def of(cls, tc: ToothCompliance, tooth: GeneratedTooth, fit: tuple[float, float] = NEIGHBOUR_FIT) -> NeighbourTerm:
         """The term of the member whose body term is ``tc`` and whose unmodified tooth is ``tooth``."""
         g = tooth.gear
         x = 2.0 * math.pi * tc.r_f / g.z / (tc.r_f - tc.r_int)
-        return cls(c_tw=torsion(tc, g.r_b), c_body=pitch_body(tc, tooth), x=x, A=float(fit[0]), k=float(fit[1]))
+        axial = g.beta_b != 0.0 and tc.helical == "normal"
+        return cls(c_tw=torsion(tc, g.r_b), c_body=pitch_body(tc, tooth), x=x, A=float(fit[0]), k=float(fit[1]),
+                   q=math.sin(g.beta_b) ** 2 if axial else 0.0, axial=axial_part(tc, tooth) if axial else ())
 
     def __call__(self, d) -> np.ndarray:
         """``n(d)`` [mm^2/N] of the tooth ``d`` pitches from the loaded one (``d`` != 0)."""
-        return self.c_tw + self.A * np.exp(-self.k * np.abs(np.asarray(d, float)) * self.x) * (self.c_body - self.c_tw)
+        d = np.abs(np.asarray(d, float))
+        n = self.c_tw + self.A * np.exp(-self.k * d * self.x) * (self.c_body - self.c_tw)
+        if not self.q:
+            return n
+        a = np.asarray(self.axial)[np.clip(np.rint(d).astype(int), 1, len(self.axial)) - 1]
+        return (1.0 - self.q) * n + self.q * a
 
 
 def cross_blocks(Cs: np.ndarray, pairs: Sequence[int], z: tuple[np.ndarray, np.ndarray], widths: np.ndarray,
@@ -147,4 +187,4 @@ def cross_blocks(Cs: np.ndarray, pairs: Sequence[int], z: tuple[np.ndarray, np.n
     return Cs
 
 
-__all__ = ["NEIGHBOUR_FIT", "NEIGHBOURS", "NeighbourTerm", "cross_blocks", "pitch_body", "torsion"]
+__all__ = ["NEIGHBOUR_FIT", "NEIGHBOURS", "NeighbourTerm", "axial_part", "cross_blocks", "pitch_body", "torsion"]
