@@ -283,9 +283,9 @@ def split() -> int:
     pair's own part ``(F_k^T C_kk F_k + sum F_k c_Weber F_k / l) / sum F`` and the pairs' coupling ``sum_{k != k'}
     F_k^T C_kk' F_k' / sum F`` [um] for both compliances (on crowned drives the separations' part ``F^T s`` is not
     in either, so the sums are below the approach there; the differences are like for like); then per member the
-    FE full gears' response of the teeth d = 1, 2 (mean of -d and +d, three rows) over (N1)'s, and what an annular
-    Kirchhoff plate (thickness b, clamped at the bore r_f / 2, free at r_f) gives for the axial part of the normal
-    load, ``sin^2(beta_b) w(d)`` (:func:`plate_axial`)."""
+    FE full gears' response of the teeth d = 1, 2 (mean of -d and +d, three rows) over the default term's (with
+    its axial part (N2), the annular Mindlin plate) and over (N1) alone, and the axial part against a Kirchhoff
+    plate's (thickness b, clamped at the bore r_f / 2, free at r_f; :func:`plate_axial`)."""
     from fe_full_gear_body import NeighbourLTCA, full_gear_grid, neighbour_grids
 
     from gearopt.ltca.compliance import Material, weber_contact
@@ -337,10 +337,10 @@ def split() -> int:
                 f"pair {res.pairs[k]:+d} ({sh[k]:.2f}): {a:6.3f}/{b:6.3f} ({100 * (b / a - 1):+5.1f} %)"
                 for k, a, b in zip(on, fo, ao)) + f"  coupling: {fc:6.3f}/{ac:6.3f} ({100 * (ac / fc - 1):+5.1f} %)"
                 f"  an. - FE: own {ao.sum() - fo.sum():+6.3f}, coupling {ac - fc:+6.3f} um")
-    print("the full gears' FE response of the teeth d pitches away (mean of -d, +d; rows low / mid / tip) over (N1)'s, "
-          "and the Kirchhoff plate's axial part sin^2(beta_b) w(d) against the FE's excess over (N1) x the spur's "
-          "FE / (N1) at the mid row [um mm/N]")
-    spur = {}
+    print("the full gears' FE response of the teeth d pitches away (mean of -d, +d; rows low / mid / tip) over the "
+          "default term's (with the axial part (N2)) and over (N1) alone; at the mid row what (N2) adds to (N1), "
+          "sin^2(beta_b) (a(d) - n_t(d)) (a: the annular Mindlin plate), and a Kirchhoff plate's whole axial part "
+          "sin^2(beta_b) b w(d) [um mm/N]")
     for name in ("spur 20/40 conjugate", "helical 15 deg", "scene ltca_helical (crowned)"):
         pair, _ = drives()[name]
         La = LTCA(pair, material=mat)
@@ -350,13 +350,12 @@ def split() -> int:
             fe = nbr[f"{gm.z} teeth ({name})"]
             for d in (1, 2):
                 v = 0.5 * (np.array(fe[f"full -{d}"]) + np.array(fe[f"full +{d}"]))
-                n1 = 1e3 * cb**2 * float(t(d))
-                if gm.beta_b == 0.0:
-                    spur[m, d] = v[1] / n1
-                ex = v[1] - n1 * spur[m, d]
+                model = 1e3 * cb**2 * float(t(d))
+                n1 = 1e3 * cb**2 * (t.c_tw + t.A * math.exp(-t.k * d * t.x) * (t.c_body - t.c_tw))
                 ax = 1e3 * math.sin(gm.beta_b) ** 2 * gm.b * plate_axial(0.5 * gm.r_f, gm.r_f, gm.b, [2 * math.pi * d / gm.z])[0]
-                print(f"  {name[:30]:<30} z {gm.z:2d} d {d}: FE / (N1) " + " ".join(f"{x:.3f}" for x in v / n1)
-                      + f"; excess {ex:+.5f}, plate {ax:.5f}")
+                print(f"  {name[:30]:<30} z {gm.z:2d} d {d}: FE / model " + " ".join(f"{x:.3f}" for x in v / model)
+                      + "; FE / (N1) alone " + " ".join(f"{x:.3f}" for x in v / n1)
+                      + f"; (N2) - (N1) {model - cb**2 * n1:.5f}, Kirchhoff sin^2(beta_b) b w {ax:.5f}")
     return 0
 
 
