@@ -9,6 +9,17 @@
                                                              # reference", from the recorded runs (no contact-model
                                                              # run; the members' line loads on 5-tooth sectors once,
                                                              # then cached), recorded in fe_teeth5_tables.json
+    python benchmarks/fe_teeth_reference.py --split         # the default compliance's miss against the FE
+                                                             # coefficients on full gears + their neighbours, per
+                                                             # pair (own tooth + Weber) and the pairs' coupling under
+                                                             # one load; the helical members' FE neighbours against
+                                                             # the term with and without its axial part (N2) (cached
+                                                             # grids, ~2 min)
+    python benchmarks/fe_teeth_reference.py --holdout       # a helical gear that is no validation member (z 60,
+                                                             # beta 25 deg) and the spur of its transverse section:
+                                                             # the full gears' own and neighbouring teeth's responses
+                                                             # (CalculiX, a few minutes each, recorded in
+                                                             # fe_helical_neighbours.json) against the default term
 
 The FE level is validate_ltca_fe.py's default (its ``FE_MESH``), 200 N m, E 210 GPa, nu 0.3, with
 ``FEOptions(teeth=5)``: each member a sector of 5 teeth held at the sides of its outer teeth and its rim bottom,
