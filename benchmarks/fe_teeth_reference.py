@@ -423,13 +423,16 @@ def holdout() -> int:
     for d in (1, 2):
         h = 0.5 * (np.array(hel[f"-{d}"]) + np.array(hel[f"+{d}"]))
         t = 0.5 * (np.array(sp[f"-{d}"]) + np.array(sp[f"+{d}"]))
-        n1h = 1e3 * math.cos(gear.beta_b) ** 2 * float(La.neighbour_terms[1](d))
+        th = La.neighbour_terms[1]
+        n1h = 1e3 * math.cos(gear.beta_b) ** 2 * float(th(d))
+        n1a = 1e3 * math.cos(gear.beta_b) ** 2 * (th.c_tw + th.A * math.exp(-th.k * d * th.x) * (th.c_body - th.c_tw))
         n1s = 1e3 * float(Ls.neighbour_terms[1](d))
         na = (h - (1 - s2) * t) / s2
         ax = 1e3 * b * plate_axial(0.5 * gear.r_f, gear.r_f, b, [2 * math.pi * d / z])[0]
         print(f"  d {d}: FE helical " + " ".join(f"{x:.5f}" for x in h) + ", spur " + " ".join(f"{x:.5f}" for x in t)
-              + "; helical / spur " + " ".join(f"{x:.3f}" for x in h / t) + f"; (N1) helical {n1h:.5f} (FE / (N1) "
-              + " ".join(f"{x:.3f}" for x in h / n1h) + f"), spur {n1s:.5f} (FE / (N1) " + " ".join(f"{x:.3f}" for x in t / n1s)
+              + "; helical / spur " + " ".join(f"{x:.3f}" for x in h / t) + f"; the default term, helical {n1h:.5f} (FE / it "
+              + " ".join(f"{x:.3f}" for x in h / n1h) + f"; (N1) alone {n1a:.5f}, FE / it "
+              + " ".join(f"{x:.3f}" for x in h / n1a) + f"), spur {n1s:.5f} (FE / it " + " ".join(f"{x:.3f}" for x in t / n1s)
               + "); n_a from FE " + " ".join(f"{x:.4f}" for x in na) + f", Kirchhoff plate {ax:.4f}")
     print("  self: helical / spur " + " ".join(f"{x:.3f}" for x in np.array(hel["self"]) / np.array(sp["self"])))
     return 0
