@@ -26,6 +26,13 @@ from .verify import harmonic_rows
 MUMPS_MEM_PERCENT = 50
 #: the complementarity's smoothing of the first stage of a first round (:meth:`NLPBuilder._solve_smoothed`)
 MU_START = 1e-5
+#: the most slices across the face (``n_slices``) at which the NLP takes the analytical compliance as dense
+#: blocks over each block's held loads (as FE coefficients) instead of deflection unknowns tied to the loads by
+#: the face coupling's tridiagonal stiffness form (:meth:`NLPBuilder._nlp`): a block's loads are coupled
+#: with each other anyway (its balance row and its approach), so the dense blocks add little fill, and the KKT
+#: system loses the deflection unknowns and their rows (``problems/microgeometry_loaded.toml``, 11 slices:
+#: 18,250 -> 7,662 rows, IPOPT's iterations about half the CPU time; docs/benchmarks.md section 3)
+DENSE_SLICES_MAX = 31
 
 
 class NLPBuilder:
@@ -34,12 +41,13 @@ class NLPBuilder:
     def _nlp(self, lin, theta_k, keep=None, radius: float = np.inf) -> LoadedNLP:
         """Build the duty-cycle NLP around the linearisation ``lin`` (module docstring).
 
-        With the analytical compliance the deflections ``w`` [um] of every slice node are unknowns too,
-        tied to the loads by the sparse stiffness form of the face coupling (``A (w / D) = cos^2(beta_b) D F``,
-        A tridiagonal, docs/ltca.md section 2), so the NLP's Jacobian grows with the slice count and not
-        its square; with FE influence coefficients the dense compliance blocks enter the gaps, and with the
-        analytical compliance the dense blocks between the pairs (their coupling through the bodies,
-        :mod:`gearopt.ltca.neighbours`), so that the NLP's compliance is the analysis's ``Cs``."""
+        The compliance ``LTCA.structure``'s ``Cs`` (FE influence coefficients, or the analytical compliance
+        with the pairs' coupling through the bodies, :mod:`gearopt.ltca.neighbours`) enters the gaps as dense
+        blocks over each block's held loads, so that the NLP's compliance is the analysis's. With the
+        analytical compliance and more than ``DENSE_SLICES_MAX`` slices across the face, the deflections ``w``
+        [um] of every slice node are unknowns instead, tied to the loads by the sparse stiffness form of the face
+        coupling (``A (w / D) = cos^2(beta_b) D F``, A tridiagonal, docs/ltca.md section 2), and only the blocks
+        between the pairs stay dense."""
         g1 = self.pair.pinion
         cb = self.ltca.cos_bb
         lever = self.pair.gear.r_b * cb
@@ -47,7 +55,8 @@ class NLPBuilder:
         T, C = self.torques.size, len(self.cases)
         P = len(self.free)
         Wt = self.torques * 1e3 / (g1.r_b * cb)
-        sparse = self.ltca.compliance == "analytical"
+        # deflection unknowns (the stiffness form) only for many slices across the face (DENSE_SLICES_MAX)
+        sparse = self.ltca.compliance == "analytical" and lin[0].slices.z.shape[2] > DENSE_SLICES_MAX
         trip_C = ([], [], [])  # dense compliance (FE; analytical: between pairs): gap rows x load columns [mm/N]
         trip_A = ([], [], [])  # stiffness rows x deflection columns
         trip_D = ([], [], [])  # stiffness rows x load-share columns
