@@ -30,8 +30,9 @@ MU_START = 1e-5
 #: blocks over each block's held loads (as FE coefficients) instead of deflection unknowns tied to the loads by
 #: the face coupling's tridiagonal stiffness form (:meth:`NLPBuilder._nlp`): a block's loads are coupled
 #: with each other anyway (its balance row and its approach), so the dense blocks add little fill, and the KKT
-#: system loses the deflection unknowns and their rows (``problems/microgeometry_loaded.toml``, 11 slices:
-#: 18,250 -> 7,662 rows, IPOPT's iterations about half the CPU time; docs/benchmarks.md section 3)
+#: system loses the deflection unknowns and their rows: ``problems/microgeometry_loaded.toml``'s first NLP,
+#: IPOPT's CPU per iteration dense / stiffness form 22.5 / 44 ms with 11 slices, 82 / 127 ms with 21, 209 / 379 ms
+#: with 31 (docs/loaded_synthesis.md section 2; more slices not measured)
 DENSE_SLICES_MAX = 31
 
 
