@@ -58,7 +58,7 @@ class NLPBuilder:
         Wt = self.torques * 1e3 / (g1.r_b * cb)
         # deflection unknowns (the stiffness form) only for many slices across the face (DENSE_SLICES_MAX)
         sparse = self.ltca.compliance == "analytical" and lin[0].slices.z.shape[2] > DENSE_SLICES_MAX
-        trip_C = ([], [], [])  # dense compliance (FE; analytical: between pairs): gap rows x load columns [mm/N]
+        trip_C = ([], [], [])  # dense compliance (Cs; the stiffness form: between pairs): gap rows x loads [mm/N]
         trip_A = ([], [], [])  # stiffness rows x deflection columns
         trip_D = ([], [], [])  # stiffness rows x load-share columns
         w_of_x = []  # per compliance part, the deflection unknown of each slice (sparse path)
@@ -220,7 +220,7 @@ class NLPBuilder:
             g_rows["stiffness"] = (ca.mtimes(triplet(trip_A, nw, nw), w) - ca.mtimes(triplet(trip_D, nw, nx), x)
                                    * ca.mtimes(E_wt, tq), 0.0, 0.0)
         if trip_C[2] and sum(v.size for v in trip_C[2]):
-            # dense compliance: FE's blocks, or (analytical) the coupling between pairs
+            # dense compliance: LTCA.structure's Cs, or (the stiffness form) its blocks between pairs
             gap = gap + ca.mtimes(triplet(trip_C, nx, nx), F) / G_REF
         fb = x + y - ca.sqrt(x**2 + y**2 + 2 * mu)  # zero where x >= 0, y >= 0, x y = mu
         te = -d * G_REF / lever * RAD_TO_ARCSEC  # (nB) loaded TE [arcsec] (up to each case's constant)
