@@ -417,3 +417,54 @@ def test_a_first_run_solves_the_slices_interpreted_while_they_compile_in_the_bac
     assert any(n.startswith("ltca_slice") for n in fg)  # compiled at once (here: the stub's None, interpreted)
     assert LoadedMicroOptimizer(opt.pair, {"pinion.C_alpha": (0.0, 0.04)}, torques=[200.0], n_positions=8,
                                 n_verify=16, n_slices=5, jit=False).tca.jit is False
+
+
+@pytest.mark.slow
+def test_the_nlp_takes_the_analytical_compliance_as_the_analysiss_dense_blocks(small, monkeypatch):
+    """With few slices across the face (``n_slices <= DENSE_SLICES_MAX``) the loaded NLP has no deflection
+    unknowns: its gaps take ``LTCA.structure``'s compliance ``Cs`` (each pair's face coupling and the pairs'
+    coupling through the bodies) as dense blocks over each block's held loads, ``d gap / d x = Cs W / g_ref``
+    off the diagonal (the diagonal: the Hertz term). The stiffness form (deflection unknowns, forced here)
+    has the same compliance once its deflections are eliminated: ``G_x - G_w S_w^-1 S_x``."""
+    import casadi as ca
+
+    from gearopt.synthesis.loaded import nlp as nlp_module
+    from gearopt.synthesis.loaded.constants import G_REF
+
+    opt = small
+    th = opt.theta0.copy()
+    opt.phi1 = opt.ltca.mesh_cycle(opt.n_positions)
+
+    def jacobians(nlp, z0):
+        z = ca.MX.sym("z", z0.size)
+        U, R = nlp.layout.unknowns, nlp.layout.rows
+        ones, zeros = np.ones(opt.torques.size), np.zeros(nlp.Jk.shape[1] - th.size)
+        Jg = np.asarray(ca.Function("jg", [z], [ca.jacobian(nlp.gap(z, ones, zeros), z)])(z0))
+        p = ca.MX.sym("p", nlp.problem["p"].shape[0])
+        g = ca.Function("g", [nlp.problem["x"], nlp.problem["p"]], [nlp.problem["g"]])
+        Js = np.asarray(ca.Function("js", [z, p], [ca.jacobian(g(z, p), z)])(z0, opt._pvec(1000.0)))[R["stiffness"]]
+        return Jg[:, U["x"]], Jg[:, U["w"]], Js[:, U["x"]], Js[:, U["w"]]
+
+    cur = opt._around(th, 0.004)
+    nlp = cur.nlp
+    assert nlp.sizes["nw"] == 0 and nlp.layout.rows.count("stiffness") == 0
+    Gx = jacobians(nlp, cur.z0)[0]
+    lin = opt.linearise(th)
+    expected = np.zeros_like(Gx)
+    cross = 0
+    for b in nlp.blocks:
+        A = nlp.keys[b.first:b.first + b.count, 3]
+        M = lin[b.case].slices.z.shape[2]
+        s = slice(b.first, b.first + b.count)
+        expected[s, s] = lin[b.case].structure.Cs[b.position][np.ix_(A, A)] * nlp.Wt[b.torque] / G_REF
+        cross += np.count_nonzero(expected[s, s][(A // M)[:, None] != (A // M)[None, :]])
+    assert cross > 0  # the pairs' coupling through the bodies is there
+    off = ~np.eye(Gx.shape[0], dtype=bool)
+    assert np.max(np.abs(Gx - expected)[off]) <= 1e-12 * np.max(np.abs(expected))
+    # the stiffness form, its deflections eliminated
+    monkeypatch.setattr(nlp_module, "DENSE_SLICES_MAX", 0)
+    cur_w = opt._around(th, 0.004)
+    assert cur_w.nlp.sizes["nw"] > 0 and np.array_equal(cur_w.nlp.keys, nlp.keys)
+    gx, gw, sx, sw = jacobians(cur_w.nlp, cur_w.z0)
+    total = gx - gw @ np.linalg.solve(sw, sx)
+    assert np.max(np.abs(total - expected)[off]) <= 1e-9 * np.max(np.abs(expected))

@@ -10,11 +10,12 @@ Unknowns (in this order; all scaled, docs/loaded_synthesis.md section 2):
 * ``"d"`` (nB) the approach of every (torque, case, position) block [um];
 * ``"te_hi"``, ``"te_lo"`` (T C) the loaded TE's bounds per (torque, case) [arcsec];
 * ``"slack_p"``, ``"slack_e"`` (T C) the pressure and edge-loading slacks;
-* ``"w"`` (nw) the deflections of every slice node [um] (analytical compliance; 0 with FE);
+* ``"w"`` (nw) the deflections of every slice node [um] (the analytical compliance with more than
+  ``nlp.DENSE_SLICES_MAX`` slices across the face; else 0: the compliance enters the gaps as dense blocks);
 * ``"x0"``, ``"y0"`` (n0), ``"d0"`` (nB0) the unloaded-TE target's loads, gaps and approaches (0
   without a target).
 
-Rows: ``"stiffness"`` (nw, the face coupling), ``"gap"`` and ``"complementarity"`` (nx),
+Rows: ``"stiffness"`` (nw, the face coupling of the deflections), ``"gap"`` and ``"complementarity"`` (nx),
 ``"balance"``, ``"te_hi"``, ``"te_lo"`` (nB), ``"pressure"`` (one per flank slice under a pressure
 limit), ``"edge"`` (one per slice of the edge-loading constraint), ``"te0_gap"``,
 ``"te0_complementarity"`` (n0) and ``"te0_balance"`` (nB0).

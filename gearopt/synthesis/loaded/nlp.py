@@ -26,6 +26,14 @@ from .verify import harmonic_rows
 MUMPS_MEM_PERCENT = 50
 #: the complementarity's smoothing of the first stage of a first round (:meth:`NLPBuilder._solve_smoothed`)
 MU_START = 1e-5
+#: the most slices across the face (``n_slices``) at which the NLP takes the analytical compliance as dense
+#: blocks over each block's held loads (as FE coefficients) instead of deflection unknowns tied to the loads by
+#: the face coupling's tridiagonal stiffness form (:meth:`NLPBuilder._nlp`): a block's loads are coupled
+#: with each other anyway (its balance row and its approach), so the dense blocks add little fill, and the KKT
+#: system loses the deflection unknowns and their rows: ``problems/microgeometry_loaded.toml``'s first NLP,
+#: IPOPT's CPU per iteration dense / stiffness form 22.5 / 44 ms with 11 slices, 82 / 127 ms with 21, 209 / 379 ms
+#: with 31 (docs/loaded_synthesis.md section 2; more slices not measured)
+DENSE_SLICES_MAX = 31
 
 
 class NLPBuilder:
@@ -34,12 +42,13 @@ class NLPBuilder:
     def _nlp(self, lin, theta_k, keep=None, radius: float = np.inf) -> LoadedNLP:
         """Build the duty-cycle NLP around the linearisation ``lin`` (module docstring).
 
-        With the analytical compliance the deflections ``w`` [um] of every slice node are unknowns too,
-        tied to the loads by the sparse stiffness form of the face coupling (``A (w / D) = cos^2(beta_b) D F``,
-        A tridiagonal, docs/ltca.md section 2), so the NLP's Jacobian grows with the slice count and not
-        its square; with FE influence coefficients the dense compliance blocks enter the gaps, and with the
-        analytical compliance the dense blocks between the pairs (their coupling through the bodies,
-        :mod:`gearopt.ltca.neighbours`), so that the NLP's compliance is the analysis's ``Cs``."""
+        The compliance ``LTCA.structure``'s ``Cs`` (FE influence coefficients, or the analytical compliance
+        with the pairs' coupling through the bodies, :mod:`gearopt.ltca.neighbours`) enters the gaps as dense
+        blocks over each block's held loads, so that the NLP's compliance is the analysis's. With the
+        analytical compliance and more than ``DENSE_SLICES_MAX`` slices across the face, the deflections ``w``
+        [um] of every slice node are unknowns instead, tied to the loads by the sparse stiffness form of the face
+        coupling (``A (w / D) = cos^2(beta_b) D F``, A tridiagonal, docs/ltca.md section 2), and only the blocks
+        between the pairs stay dense."""
         g1 = self.pair.pinion
         cb = self.ltca.cos_bb
         lever = self.pair.gear.r_b * cb
@@ -47,8 +56,9 @@ class NLPBuilder:
         T, C = self.torques.size, len(self.cases)
         P = len(self.free)
         Wt = self.torques * 1e3 / (g1.r_b * cb)
-        sparse = self.ltca.compliance == "analytical"
-        trip_C = ([], [], [])  # dense compliance (FE; analytical: between pairs): gap rows x load columns [mm/N]
+        # deflection unknowns (the stiffness form) only for many slices across the face (DENSE_SLICES_MAX)
+        sparse = self.ltca.compliance == "analytical" and lin[0].slices.z.shape[2] > DENSE_SLICES_MAX
+        trip_C = ([], [], [])  # dense compliance (Cs; the stiffness form: between pairs): gap rows x loads [mm/N]
         trip_A = ([], [], [])  # stiffness rows x deflection columns
         trip_D = ([], [], [])  # stiffness rows x load-share columns
         w_of_x = []  # per compliance part, the deflection unknown of each slice (sparse path)
@@ -210,7 +220,7 @@ class NLPBuilder:
             g_rows["stiffness"] = (ca.mtimes(triplet(trip_A, nw, nw), w) - ca.mtimes(triplet(trip_D, nw, nx), x)
                                    * ca.mtimes(E_wt, tq), 0.0, 0.0)
         if trip_C[2] and sum(v.size for v in trip_C[2]):
-            # dense compliance: FE's blocks, or (analytical) the coupling between pairs
+            # dense compliance: LTCA.structure's Cs, or (the stiffness form) its blocks between pairs
             gap = gap + ca.mtimes(triplet(trip_C, nx, nx), F) / G_REF
         fb = x + y - ca.sqrt(x**2 + y**2 + 2 * mu)  # zero where x >= 0, y >= 0, x y = mu
         te = -d * G_REF / lever * RAD_TO_ARCSEC  # (nB) loaded TE [arcsec] (up to each case's constant)
