@@ -52,8 +52,11 @@ from ..errors import ConvergenceError, GearoptError, GeometryError, LineContactE
 from ..errors import ArgumentError
 from ..report import CONJUGATE_ARCSEC, arr, misalignment_dict, pair_numbers, te_harmonics
 from ..units import RAD_TO_ARCSEC
-from ..meshing.tca import (REGULARITY_MIN, TCA, Branch, EnvelopeTE, Misalignment, TCAResult, check_sweep_args,
-                           no_contact)
+from ..meshing.misalignment import Misalignment
+from ..meshing.solver import REGULARITY_MIN, Branch
+from ..meshing.sweep_args import check_sweep_args, no_contact
+from ..meshing.tca import TCA
+from ..meshing.tca_result import EnvelopeTE, TCAResult
 
 if TYPE_CHECKING:
     from collections.abc import Sequence

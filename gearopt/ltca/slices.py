@@ -43,7 +43,8 @@ from ..graph_cache import built_once, eliminated
 from ..meshing.curvature import Sym, eigh2_sym, shape_matrix, unit_perp
 from ..meshing.misalignment import Misalignment
 from ..meshing.solver import REGULARITY_MIN, Branch
-from ..meshing.tca import TCA, check_sweep_args
+from ..meshing.sweep_args import check_sweep_args
+from ..meshing.tca import TCA
 
 SLICE_NORMAL_TOL = 0.05  #: accepted slice points have n1 . n2 < -1 + this (crowning tilts the normals)
 _SECTIONS = (-0.5, -0.25, 0.0, 0.25, 0.5)  #: pinion sections of the conjugate first guesses [b1]
