@@ -274,7 +274,7 @@ class SliceSolver:
     def _conjugate(self, phis, p1, p2) -> dict:
         """Conjugate contact of the aligned, unmodified drive in the sections ``s b1`` at the angles
         ``phis``: {z: (4, P) unknowns (u1, u2, z2, r_p2 phi2), NaN where none} (first guesses)."""
-        from ..contact.edge import conjugate_sections
+        from ..contact.edge_guesses import conjugate_sections
 
         # they depend on the angles and the tool shifts in p1, p2 only (not on the modifications or the
         # misalignment): kept for the last few calls (a torque or misalignment sweep, an optimiser's
