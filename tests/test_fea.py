@@ -129,7 +129,7 @@ def test_step_one_rotation_is_the_estimated_approach(model, pair):
     separation, sum_k c' b max(0, delta - g_k) = F_n, solved here by hand for one, two and three pairs."""
     from dataclasses import replace
 
-    from gearopt.fea.model import MESH_STIFFNESS
+    from gearopt.fea.references import MESH_STIFFNESS
 
     cb = MESH_STIFFNESS * min(pair.pinion.b, pair.gear.b)
     F = model.F_n
@@ -250,7 +250,7 @@ def test_helical_default_mesh_follows_the_inclined_contact_line(beta_deg, a_pl):
 def test_hertz_point_limits():
     import math
 
-    from gearopt.fea.model import hertz_point
+    from gearopt.fea.references import hertz_point
     E, nu, F = 210e3, 0.3, 1000.0
     # sphere on sphere: a^3 = 3 F R_eff / (4 E*), p0 = 3F/(2 pi a^2)
     R1, R2 = 20.0, 30.0
@@ -271,7 +271,7 @@ def test_penalty_layer_factor_between_hertz_and_winkler():
     import math
 
     from gearopt.errors import ArgumentError
-    from gearopt.fea.model import _layered_line_contact, penalty_layer_factor
+    from gearopt.fea.references import _layered_line_contact, penalty_layer_factor
     # without the layer the boundary-element line contact is Hertz's: p0 = 1 and b = 1 in its units
     p, b = _layered_line_contact(0.0, 300)
     assert p == pytest.approx(1.0, abs=1e-4) and b == pytest.approx(1.0, abs=0.011)

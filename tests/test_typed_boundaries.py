@@ -12,7 +12,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from gearopt.fea.model import FEOptions, GearFEModel, HertzLine, HertzPoint, hertz_line, hertz_point
+from gearopt.fea.model import FEOptions, GearFEModel
+from gearopt.fea.references import HertzLine, HertzPoint, hertz_line, hertz_point
 from gearopt.gears import BasicRack, Gear, GearPair
 from gearopt.ltca.compliance import Material, ToothCompliance, face_matrix_batch
 from gearopt.ltca.engine import LTCA, CompliancePart, ContactStructure, HertzNodes
