@@ -16,7 +16,8 @@ from gearopt.fea.model import FEOptions, GearFEModel
 from gearopt.fea.references import HertzLine, HertzPoint, hertz_line, hertz_point
 from gearopt.gears import BasicRack, Gear, GearPair
 from gearopt.ltca.compliance import Material, ToothCompliance, face_matrix_batch
-from gearopt.ltca.engine import LTCA, CompliancePart, ContactStructure, HertzNodes
+from gearopt.ltca.contact_qp import CompliancePart, ContactStructure, HertzNodes
+from gearopt.ltca.engine import LTCA
 from gearopt.meshing.solver import BranchSolution
 from gearopt.meshing.sweep_args import SweepArgs, check_sweep_args
 
