@@ -293,6 +293,26 @@ def test_penalty_layer_factor_between_hertz_and_winkler():
             penalty_layer_factor(0.05, n=bad)
 
 
+
+def test_fillet_stress_measures_against_closed_forms():
+    """The result's fillet stresses (max principal, von Mises of ccx's rows sxx, syy, szz, sxy, sxz, syz):
+    uniaxial and pure shear in closed form, any tensor against numpy's eigenvalues and the deviatoric
+    form ``sqrt(3/2 s:s)``; the results dictionary holds plain JSON numbers (non-finite: None)."""
+    from gearopt.fea.result import _jsonable, _principal_vm
+
+    s1, vm = _principal_vm(np.array([[100.0, 0, 0, 0, 0, 0], [0, 0, 0, 50.0, 0, 0], [-30.0, -30.0, -30.0, 0, 0, 0]]))
+    np.testing.assert_allclose(s1, [100.0, 50.0, -30.0], rtol=1e-12)
+    np.testing.assert_allclose(vm, [100.0, 50.0 * np.sqrt(3.0), 0.0], rtol=1e-12, atol=1e-12)
+    S = np.random.default_rng(7).normal(0.0, 100.0, (20, 6))
+    s1, vm = _principal_vm(S)
+    T = np.array([[[r[0], r[3], r[4]], [r[3], r[1], r[5]], [r[4], r[5], r[2]]] for r in S])
+    dev = T - np.trace(T, axis1=1, axis2=2)[:, None, None] / 3 * np.eye(3)
+    np.testing.assert_allclose(s1, np.linalg.eigvalsh(T)[:, -1], rtol=1e-12)
+    np.testing.assert_allclose(vm, np.sqrt(1.5 * np.einsum("nij,nij->n", dev, dev)), rtol=1e-12)
+    out = _jsonable({"a": np.float64(1.5), 3: [np.int64(2), np.nan, np.inf], "c": (np.float32(2.5), np.bool_(True))})
+    assert out == {"a": 1.5, "3": [2, None, None], "c": [2.5, True]}
+    assert [type(v) for v in (out["a"], out["3"][0], out["c"][0], out["c"][1])] == [float, int, float, bool]
+
 @pytest.mark.slow
 @needs_ccx
 def test_crowned_run_passes_the_checks(scene_run):
