@@ -23,7 +23,7 @@ point (200 N m, line contact: Hertz applies) and the crowned a_pl 2e-3 pinion (1
 inside the face), each penalty beside what the penalty layer alone does to a Hertz line contact: an
 independent boundary-element solution of two elastic half-spaces in plane strain with a linear
 pressure-overclosure layer p = K g between them, whose peak over Hertz's depends on E* / (K b) only
-(`gearopt.fea.model.penalty_layer_factor`).
+(`gearopt.fea.references.penalty_layer_factor`).
 """
 
 from __future__ import annotations

@@ -19,7 +19,7 @@ import sys
 import numpy as np
 
 from gearopt.fea.local import local_excess, section_compression, section_tooth
-from gearopt.fea.model import hertz_line
+from gearopt.fea.references import hertz_line
 from gearopt.gears import Gear
 from gearopt.geometry.generation import generate
 

@@ -82,7 +82,7 @@ def pairs():
 def hertz_table() -> int:
     """The crowned pinions of tests/test_ltca_point_contact.py at phi1 = 0: loaded TCA's peak pressure
     (default analytical compliance) against the Hertz ellipse of the whole normal load (the unloaded
-    TCA's curvatures, gearopt.fea.model.hertz_point), and its log-slope over the torques."""
+    TCA's curvatures, gearopt.fea.references.hertz_point), and its log-slope over the torques."""
     from gearopt.fea import FEOptions, GearFEModel
     from gearopt.ltca import LTCA, Material
 

@@ -509,7 +509,7 @@ def _edge(case, tca, phi1, row, n_mp):
     orig = ec._combine
 
     def grab(sv):
-        captured["sv"] = sv  # the solved bundle (contact.edge._EdgeSolved), read by name
+        captured["sv"] = sv  # the solved bundle (contact.edge_result.EdgeSolved), read by name
         return orig(sv)
 
     ec._combine = grab

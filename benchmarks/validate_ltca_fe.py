@@ -34,7 +34,7 @@ analytical compliance and with the FE influence coefficients of the same members
 mesh of gearopt.fea.influence; cached in $GEAROPT_CACHE/influence, default ~/.cache/gearopt), and the load share of that
 pair (FE: its contact force over the sum of all pairs', from the ccx contact statistics).
 "FE p/lay": the FE's section peak divided by what its penalty contact's compliant layer leaves of a Hertz
-peak at that half-width (gearopt.fea.model.penalty_layer_factor, 0.97-0.99 at the default 50 E; docs/fea.md),
+peak at that half-width (gearopt.fea.references.penalty_layer_factor, 0.97-0.99 at the default 50 E; docs/fea.md),
 the reference loaded TCA, which has no such layer, is compared with in the "err %" column after it.
 "max dsh": the largest difference between FE and loaded TCA in the share of any pair in mesh (of the
 total; FE runs recorded since 2026-11-28 keep every pair's share).

@@ -2,7 +2,7 @@
 
 Every result object (:class:`gearopt.meshing.tca.TCAResult`, :class:`gearopt.contact.edge.EdgeTCAResult`,
 :class:`gearopt.meshing.planar.PlanarTCAResult`, :class:`gearopt.synthesis.crowning.CrowningDesign`,
-:class:`gearopt.synthesis.local.LocalDesign`, :class:`gearopt.fea.model.FEResult`) builds its own
+:class:`gearopt.synthesis.local.LocalDesign`, :class:`gearopt.fea.result.FEResult`) builds its own
 dictionary with these conversions; the studies assemble those dictionaries and the plots read them.
 Every key, unit and meaning is documented in docs/results.md (a test walks every scene's
 results.json against it). This module imports only NumPy and :mod:`gearopt.units`.

@@ -552,7 +552,7 @@ GOOD_FE = dict(phi1=0.0, rotation=-6.7e-4, r_b1=28.19, F_n=3547.0, b=10.0, E=210
 
 
 def test_fe_physics_accepts_the_validated_model():
-    from gearopt.fea.model import check_physics
+    from gearopt.fea.references import check_physics
 
     check_physics(**GOOD_FE)
     # the reference is the case's own Hertz value (the ellipse for a crowned point contact): a mesh
@@ -570,7 +570,7 @@ def test_fe_physics_accepts_the_validated_model():
 ])
 def test_fe_garbage_raises_calculix_error(change, needle):
     from gearopt.fea.calculix import CalculixError
-    from gearopt.fea.model import check_physics
+    from gearopt.fea.references import check_physics
 
     with pytest.raises(CalculixError, match=needle):
         check_physics(**{**GOOD_FE, **change})
@@ -578,7 +578,7 @@ def test_fe_garbage_raises_calculix_error(change, needle):
 
 def test_inverted_elements_are_refused():
     from gearopt.fea.calculix import CalculixError
-    from gearopt.fea.model import check_elements
+    from gearopt.fea.references import check_elements
 
     cube = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1]], float)
     nodes = np.vstack([cube, cube + [2.0, 0, 0]])

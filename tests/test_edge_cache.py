@@ -21,7 +21,7 @@ import math
 import numpy as np
 import pytest
 
-import gearopt.contact.edge as edge_mod
+import gearopt.contact.edge_guesses as edge_guesses
 from gearopt.contact.edge import EdgeContact
 from gearopt.gears import BasicRack, Gear, GearPair
 from gearopt.meshing.tca import TCA, Misalignment
@@ -80,8 +80,8 @@ def test_sweep_with_kept_guesses_equals_a_fresh_edge_contact(ec):
 
 def test_flank_evaluators_are_built_once_and_match_the_surface_function(ec, monkeypatch):
     built = []
-    inner = edge_mod.mapped
-    monkeypatch.setattr(edge_mod, "mapped", lambda *a, **k: built.append(a[0].name()) or inner(*a, **k))
+    inner = edge_guesses.mapped
+    monkeypatch.setattr(edge_guesses, "mapped", lambda *a, **k: built.append(a[0].name()) or inner(*a, **k))
     e = fresh()
     phi = grid(9)
     e.sweep(phi, mis=CASES[0], pairs=PAIRS)

@@ -129,7 +129,7 @@ def test_step_one_rotation_is_the_estimated_approach(model, pair):
     separation, sum_k c' b max(0, delta - g_k) = F_n, solved here by hand for one, two and three pairs."""
     from dataclasses import replace
 
-    from gearopt.fea.model import MESH_STIFFNESS
+    from gearopt.fea.references import MESH_STIFFNESS
 
     cb = MESH_STIFFNESS * min(pair.pinion.b, pair.gear.b)
     F = model.F_n
@@ -250,7 +250,7 @@ def test_helical_default_mesh_follows_the_inclined_contact_line(beta_deg, a_pl):
 def test_hertz_point_limits():
     import math
 
-    from gearopt.fea.model import hertz_point
+    from gearopt.fea.references import hertz_point
     E, nu, F = 210e3, 0.3, 1000.0
     # sphere on sphere: a^3 = 3 F R_eff / (4 E*), p0 = 3F/(2 pi a^2)
     R1, R2 = 20.0, 30.0
@@ -271,7 +271,7 @@ def test_penalty_layer_factor_between_hertz_and_winkler():
     import math
 
     from gearopt.errors import ArgumentError
-    from gearopt.fea.model import _layered_line_contact, penalty_layer_factor
+    from gearopt.fea.references import _layered_line_contact, penalty_layer_factor
     # without the layer the boundary-element line contact is Hertz's: p0 = 1 and b = 1 in its units
     p, b = _layered_line_contact(0.0, 300)
     assert p == pytest.approx(1.0, abs=1e-4) and b == pytest.approx(1.0, abs=0.011)
@@ -292,6 +292,26 @@ def test_penalty_layer_factor_between_hertz_and_winkler():
         with pytest.raises(ArgumentError, match="n = "):
             penalty_layer_factor(0.05, n=bad)
 
+
+
+def test_fillet_stress_measures_against_closed_forms():
+    """The result's fillet stresses (max principal, von Mises of ccx's rows sxx, syy, szz, sxy, sxz, syz):
+    uniaxial and pure shear in closed form, any tensor against numpy's eigenvalues and the deviatoric
+    form ``sqrt(3/2 s:s)``; the results dictionary holds plain JSON numbers (non-finite: None)."""
+    from gearopt.fea.result import _jsonable, _principal_vm
+
+    s1, vm = _principal_vm(np.array([[100.0, 0, 0, 0, 0, 0], [0, 0, 0, 50.0, 0, 0], [-30.0, -30.0, -30.0, 0, 0, 0]]))
+    np.testing.assert_allclose(s1, [100.0, 50.0, -30.0], rtol=1e-12)
+    np.testing.assert_allclose(vm, [100.0, 50.0 * np.sqrt(3.0), 0.0], rtol=1e-12, atol=1e-12)
+    S = np.random.default_rng(7).normal(0.0, 100.0, (20, 6))
+    s1, vm = _principal_vm(S)
+    T = np.array([[[r[0], r[3], r[4]], [r[3], r[1], r[5]], [r[4], r[5], r[2]]] for r in S])
+    dev = T - np.trace(T, axis1=1, axis2=2)[:, None, None] / 3 * np.eye(3)
+    np.testing.assert_allclose(s1, np.linalg.eigvalsh(T)[:, -1], rtol=1e-12)
+    np.testing.assert_allclose(vm, np.sqrt(1.5 * np.einsum("nij,nij->n", dev, dev)), rtol=1e-12)
+    out = _jsonable({"a": np.float64(1.5), 3: [np.int64(2), np.nan, np.inf], "c": (np.float32(2.5), np.bool_(True))})
+    assert out == {"a": 1.5, "3": [2, None, None], "c": [2.5, True]}
+    assert [type(v) for v in (out["a"], out["3"][0], out["c"][0], out["c"][1])] == [float, int, float, bool]
 
 @pytest.mark.slow
 @needs_ccx

@@ -331,7 +331,9 @@ def _new(check, planted: Graph) -> list:
 def test_a_planted_cycle_is_found():
     # gears imports geometry.tools (a Gear holds its tool); a function-level import back closes a cycle
     g = _planted("gearopt.geometry.tools", "def f():\n    from ..gears import Gear\n")
-    assert ["gearopt.gears", "gearopt.geometry.tools", "gearopt.gears"] in import_cycles(g)
+    # (the cycle is reported from whichever of its modules the search reaches first)
+    assert ["gearopt.gears", "gearopt.geometry.tools", "gearopt.gears"] in import_cycles(g) or \
+        ["gearopt.geometry.tools", "gearopt.gears", "gearopt.geometry.tools"] in import_cycles(g)
 
 
 def test_a_planted_package_cycle_is_found():

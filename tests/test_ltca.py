@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from gearopt.errors import ConvergenceError, GearoptError, GeometryError, OptionError
-from gearopt.fea.model import hertz_line
+from gearopt.fea.references import hertz_line
 from gearopt.gears import BasicRack, Gear, GearPair
 from gearopt.ltca.compliance import Material, ToothCompliance, coupling, iso6336_stiffness, weber_contact
 from gearopt.ltca.engine import LTCA

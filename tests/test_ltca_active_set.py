@@ -1,4 +1,4 @@
-"""The loaded TCA's contact QP by the primal-dual active-set method (gearopt.ltca.engine.contact_active_set)
+"""The loaded TCA's contact QP by the primal-dual active-set method (gearopt.ltca.contact_qp.contact_active_set)
 against qpOASES, its fallback, and the vectorised helpers of the loaded TCA against their references
 (issue 43: one torque over 64 positions in well under 0.1 s with the same results)."""
 
@@ -10,11 +10,12 @@ import casadi as ca
 import numpy as np
 import pytest
 
-import gearopt.ltca.engine as engine
+import gearopt.ltca.contact_qp as contact_qp
 import gearopt.ltca.slices as slices_mod
 from gearopt.gears import BasicRack, Gear, GearPair
 from gearopt.ltca.compliance import Material, coupling_batch, weber_tangent, weber_tangent_array
-from gearopt.ltca.engine import LTCA, contact_active_set, row_median
+from gearopt.ltca.contact_qp import contact_active_set, row_median
+from gearopt.ltca.engine import LTCA
 from gearopt.meshing.misalignment import Misalignment
 from gearopt.units import ARCMIN
 
@@ -104,7 +105,7 @@ def test_engine_falls_back_to_qpoases_where_the_active_set_does_not_settle(monke
         calls.append(a[0].shape[0])
         return orig(self, *a, **k)
 
-    monkeypatch.setattr(engine, "ACTIVE_SET_MAX_ITER", 1)
+    monkeypatch.setattr(contact_qp, "ACTIVE_SET_MAX_ITER", 1)
     monkeypatch.setattr(LTCA, "_fixed_point_qpoases", spy)
     r = L.solve(150.0, slices=S).results[0]
     assert calls and calls[0] > 0

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from gearopt.fea import FEOptions, GearFEModel
-from gearopt.fea.model import HertzPoint
+from gearopt.fea.references import HertzPoint
 from gearopt.gears import BasicRack, Gear, GearPair
 from gearopt.ltca import LTCA, Material
 from gearopt.ltca.compliance import coupling, face_matrix_batch
@@ -31,7 +31,7 @@ def helical_crowned():
 
 def hertz_ellipse(pair, torque):
     """The Hertz ellipse of the whole normal load at phi1 = 0, independent of loaded TCA: the unloaded
-    TCA's relative curvatures and Hertz's elliptic-integral solution (``gearopt.fea.model.hertz_point``,
+    TCA's relative curvatures and Hertz's elliptic-integral solution (``gearopt.fea.references.hertz_point``,
     scipy's ellipk/ellipe), as the FE model's reference."""
     m = GearFEModel(pair, 0.0, FEOptions(torque=torque * 1e3, E=MAT.E, nu=MAT.nu))
     (h,) = m.hertz.values()

@@ -12,12 +12,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from gearopt.fea.model import FEOptions, GearFEModel, HertzLine, HertzPoint, hertz_line, hertz_point
+from gearopt.fea.model import FEOptions, GearFEModel
+from gearopt.fea.references import HertzLine, HertzPoint, hertz_line, hertz_point
 from gearopt.gears import BasicRack, Gear, GearPair
 from gearopt.ltca.compliance import Material, ToothCompliance, face_matrix_batch
-from gearopt.ltca.engine import LTCA, CompliancePart, ContactStructure, HertzNodes
+from gearopt.ltca.contact_qp import CompliancePart, ContactStructure, HertzNodes
+from gearopt.ltca.engine import LTCA
 from gearopt.meshing.solver import BranchSolution
-from gearopt.meshing.tca import SweepArgs, check_sweep_args
+from gearopt.meshing.sweep_args import SweepArgs, check_sweep_args
 
 ROOT = Path(__file__).resolve().parent.parent / "gearopt"
 MODULES = sorted(p.relative_to(ROOT.parent).with_suffix("").as_posix().replace("/", ".") for p in ROOT.rglob("*.py"))

@@ -1,7 +1,7 @@
 """Hertz's line contact, Weber & Banaschek's contact approach and ISO 6336-1's single-pair stiffness
 c' of steel: the one implementation shared by the
 loaded TCA (:mod:`gearopt.ltca.compliance`, :mod:`gearopt.ltca.engine`), the loaded micro-geometry
-optimiser's NLP (:mod:`gearopt.synthesis.loaded.nlp`) and the FE references (:func:`gearopt.fea.model.hertz_line`).
+optimiser's NLP (:mod:`gearopt.synthesis.loaded.nlp`) and the FE references (:func:`gearopt.fea.references.hertz_line`).
 
 Every function is elementwise and generic: NumPy arrays or floats give NumPy results, CasADi
 expressions (SX, MX, DM) give CasADi expressions (the NLP differentiates them by AD). The

@@ -59,9 +59,10 @@ def loaded_mesh(pair: GearPair, torque: float, settings: LTCASettings | None = N
     ------
     OptionError
         Naming ``torque`` when no loaded TCA is possible there (not > 0, or beyond the contact
-        model's range: :func:`gearopt.ltca.engine.check_torque_range`, ``check_validity``).
+        model's range: :func:`gearopt.ltca.validity.check_torque_range`, ``check_validity``).
     """
-    from ..ltca.engine import LTCA, check_torque_range, check_validity
+    from ..ltca.engine import LTCA
+    from ..ltca.validity import check_torque_range, check_validity
 
     LTCA.validate_torques(torque)
     L = LTCA(pair, settings, material=material)

@@ -12,7 +12,7 @@ are the optimality conditions of the convex QP
 
 whose equality multiplier is the loaded approach ``delta`` [mm] (the pinion's rigid advance along the
 flank contact normal). The primal-dual active-set method solves it at every position at once
-(:func:`contact_active_set`; qpOASES, CasADi's conic plugin, where that does not settle); the Hertz
+(:func:`~gearopt.ltca.contact_qp.contact_active_set`; qpOASES, CasADi's conic plugin, where that does not settle); the Hertz
 part of C depends on the load (Weber's logarithm), so the QP is re-solved with the Hertz approach
 linearised at the last loads (a Newton step, tangent by AD) until the loads stop changing (the
 nonlinear contact law holds at the solution). Each solution is checked against the contact
@@ -21,322 +21,48 @@ conditions (``kkt_error_mm``).
 Loaded TE = unloaded TE - delta / (r_b2 cos(beta_b)) [rad] (the gear lags); at zero load
 delta = 0 and the loaded TE is the unloaded TE of the slices, which at the point contact equals
 the TCA's (the grid of each pair passes through its unloaded point contact).
+
+:class:`LTCA` (here) builds the slices and the contact structure and solves each torque; the contact QP
+and its Hertz fixed point are in :mod:`gearopt.ltca.contact_qp`, the results in
+:mod:`gearopt.ltca.loaded_result`, the model's range of validity in :mod:`gearopt.ltca.validity`.
 """
 
 from __future__ import annotations
 
-import contextlib
 import math
-import os
-import sys
 import time
-from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, NamedTuple
+from typing import TYPE_CHECKING, Any
 from collections.abc import Sequence
 
-import casadi as ca
 import numpy as np
 import numpy.typing as npt
 
-from ..contact.hertz import C_PRIME_STEEL, contact_modulus, hertz_peak_pressure
+from ..contact.hertz import C_PRIME_STEEL
 from ..errors import ArgumentError, ConvergenceError, OptionError, check_number, out_of_range
 from ..gears import GearPair
 from ..meshing.misalignment import Misalignment
 from ..meshing.tca import TCA
 from ..settings import LTCASettings
-from ..units import RAD_TO_ARCSEC
-from .compliance import (Material, ToothCompliance, body_coupling_length, face_matrix_batch,
-                         weber_contact, weber_tangent, weber_tangent_array)
+from .compliance import Material, ToothCompliance, body_coupling_length, face_matrix_batch, weber_contact
+from .contact_qp import (HERTZ_MAX_ITER, QP_METHOD, CompliancePart, ContactQP, ContactStructure,
+                         row_median)
+from .loaded_result import LoadedResult, LoadedSweep
 from .neighbours import NeighbourTerm, cross_blocks
 from .slices import SliceSet, SliceSolver
+from .validity import check_validity
 
 if TYPE_CHECKING:
     from ..fea.influence import InfluenceGrid
     from ..fea.mesh import MeshOptions
 
-HERTZ_TOL = 1e-7  #: the Hertz fixed point stops when no slice load changes by more than this x W
-HERTZ_MAX_ITER = 30
 EDGE_RADIUS = 0.05  #: rounding of an unrelieved tip edge [m_n]: the Hertz radius of a tip-edge slice
 EDGE_GUESS = 2.0  #: first QP round: tip edges within this many times the ISO-estimated approach
 OUTER_MAX = 10  #: QP rounds that add tip-edge slices found closed after a solve
 KKT_ADD_TOL = 1e-12  #: a left-out slice whose gap falls below the approach by more than this [mm] is added
-QP_SOLVER = "qpoases"  #: CasADi conic plugin of the contact QP where the active-set method does not settle
-#: the contact QP's solver as results.json names it (``options.qp_solver``)
-QP_METHOD = "active-set (qpoases where it does not settle)"
 F_MIN_SHARE = 1e-3  #: Weber's logarithm uses at least this share of the mean line load
-#: Range of validity of the linear-elastic contact model (refused beyond it, :func:`check_validity`).
-#: Peak Hertz pressure of the flank contact [MPa] for steel (E = 206000 MPa), scaled by E / 206000
-#: for another modulus (the same contact strain p0 / E = 0.024): at p0 = 5000 MPa the largest
-#: subsurface shear stress of a line contact, 0.30 p0 = 1500 MPa, is beyond the shear yield
-#: strength of the hardest case-hardened gear steel (~1200 MPa at 60+ HRC), and the static
-#: contact capacity of such steels (ISO 6336-2, sigma_Hlim 1500 MPa x Z_NT 1.6 = 2400 MPa) is
-#: exceeded twice over: no gear survives it, and the elastic model no longer describes it.
-P_MAX_VALID = 5000.0
-E_STEEL = 206000.0  #: [MPa] the modulus P_MAX_VALID is stated for
-#: Largest loaded approach (the deflection of the mesh along the contact normal) [m_n]: beyond
-#: 0.1 m_n the teeth bend so far that the small-deflection compliance (and the unloaded contact
-#: geometry it is applied to) no longer hold (normal loads give 0.005 ... 0.02 m_n).
-DELTA_MAX_VALID = 0.1
 
 
-def pressure_lower_bound(pair: GearPair, torque: float, material: Material) -> float:
-    """A lower bound of the peak Hertz pressure [MPa] of the flank contact at pinion torque
-    ``torque`` [N m], from the gear data alone (no solve): the normal load ``W = T / (r_b1 cos
-    beta_b)`` spread over the longest contact length the mesh can have, ``b (floor(eps_alpha) + 1) /
-    cos(beta_b)``, on the flattest flanks of the path of contact (normal equivalent radius
-    ``g / 4 / cos(beta_b)``, g = a_w sin(alpha_wt) the distance between the base-circle tangency
-    points; the sum of the transverse radii along the path is g): Hertz's line contact
-    ``p0 = sqrt(w E* / (pi rho))``, ``E* = E / (2 (1 - nu^2))``. Some slice carries at least the mean
-    line load on flanks no flatter than that, so the solved peak is not below it (up to loads taken
-    by tip edges)."""
-    g1 = pair.pinion
-    cb = math.cos(g1.beta_b)
-    W = torque * 1e3 / (g1.r_b * cb)
-    length = min(g1.b, pair.gear.b) * (math.floor(pair.eps_alpha) + 1) / cb
-    rho = pair.a_w * math.sin(pair.alpha_wt) / 4 / cb
-    e_star = contact_modulus(material.E, material.nu)
-    return float(hertz_peak_pressure(W / length, rho, e_star))
-
-
-def check_torque_range(pair: GearPair, torque_max: float, material: Material | None = None, name: str = "torque") -> None:
-    """Refuse, before any solve, a torque [N m] whose :func:`pressure_lower_bound` already exceeds
-    the model's pressure limit (``P_MAX_VALID E / 206000``): :class:`OptionError` naming ``name``.
-    The solved results are checked in full by :func:`check_validity`."""
-    from .compliance import Material
-
-    material = material or Material()
-    p_lim = P_MAX_VALID * material.E / E_STEEL
-    p = pressure_lower_bound(pair, float(torque_max), material)
-    if p > p_lim:
-        valid = (f"a torque whose peak contact pressure stays <= {p_lim:.4g} MPa (no gear steel survives more; "
-                 f"{P_MAX_VALID:g} MPa x E / {E_STEEL:g} MPa: the linear-elastic contact model's range of validity)")
-        detail = (f"is beyond the range of the linear-elastic contact model: at {torque_max:g} N m the contact pressure "
-                  f"is at least {p:.4g} MPa (Hertz, the load over the longest contact line); valid: {valid}.")
-        raise OptionError(f"{name} = {torque_max:g} {detail}", param=name, value=float(torque_max), valid=valid,
-                          detail=detail)
-
-
-def check_validity(result: LoadedResult, pair: GearPair, material: Material) -> None:
-    """Refuse a loaded result outside the linear-elastic model's range of validity: a peak flank
-    pressure above ``P_MAX_VALID E / 206000`` MPa, a loaded approach above ``DELTA_MAX_VALID m_n``,
-    or a mesh stiffness that is not positive (an approach <= 0 under load).
-
-    Raises
-    ------
-    OptionError
-        Naming ``torque`` and its value [N m], the figure reached and the limit.
-    """
-    T = float(result.torque)
-    m_n = pair.pinion.m_n
-    p_lim = P_MAX_VALID * material.E / E_STEEL
-    d_lim = DELTA_MAX_VALID * m_n
-    p = float(np.nanmax(result.p0_flank)) if np.isfinite(result.p0_flank).any() else 0.0
-    d = np.asarray(result.delta, float)
-    why = None
-    if p > p_lim:
-        why = f"the peak contact pressure reaches {p:.4g} MPa"
-    elif np.nanmax(d) > d_lim:
-        why = f"the loaded approach reaches {float(np.nanmax(d)) * 1000:.4g} um = {float(np.nanmax(d)) / m_n:.3g} m_n"
-    elif np.any(d <= 0):
-        why = (f"the loaded approach is {float(np.nanmin(d)) * 1000:.4g} um at some position: the mesh stiffness "
-               "would not be positive")
-    if why is None:
-        return
-    valid = (f"a torque whose peak contact pressure stays <= {p_lim:.4g} MPa (no gear steel survives more; "
-             f"{P_MAX_VALID:g} MPa x E / {E_STEEL:g} MPa) and whose loaded approach stays within 0 ... "
-             f"{DELTA_MAX_VALID:g} m_n = {d_lim * 1000:.4g} um (the linear-elastic contact model's range of validity)")
-    detail = f"is beyond the range of the linear-elastic contact model: at {T:g} N m {why}; valid: {valid}."
-    raise OptionError(f"torque = {T:g} {detail}", param="torque", value=T, valid=valid, detail=detail)
-
-
-@contextlib.contextmanager
-def _quiet_stdout():
-    """Silence writes to the process's stdout (file descriptor 1) from C code."""
-    sys.stdout.flush()
-    saved = os.dup(1)
-    try:
-        with open(os.devnull, "w") as dn:
-            os.dup2(dn.fileno(), 1)
-            yield
-    finally:
-        os.dup2(saved, 1)
-        os.close(saved)
-
-
-#: Slices narrower than this share of the nominal slice width are left out of the line-load statistics
-#: (``K_Hbeta``, ``line_load_max``): slivers left where a flank slice is trimmed at a tip crossing.
-SLIVER = 0.25
-
-
-@dataclass(frozen=True)
-class LoadedResult:
-    """Loaded TCA at one torque over the positions ``phi1`` (arrays (K, N, M): K tooth pairs, N
-    positions, M slice nodes; see :class:`~gearopt.ltca.slices.SliceSet`).
-
-    Attributes
-    ----------
-    torque : pinion torque [N m]; W : total normal load [N].
-    phi1 : (N,) [rad]; pairs : tuple.
-    te_unloaded, te_loaded : (N,) unloaded and loaded TE [rad].
-    delta : (N,) loaded approach along the contact normal [mm].
-    load : (K, N, M) slice loads [N]; line_load : (K, N, M) load per unit face width [N/mm].
-    p0, b_H : (K, N, M) Hertz peak pressure [MPa] and half-width [mm] of each slice.
-    pair_load : (K, N) normal load of each pair [N]; share : (K, N) its share of the pinion torque
-        (``sum lever F`` of its slices over ``torque``; its share of W where every slice is a flank).
-    stiffness : (N,) mesh stiffness W / delta [N/um] (secant, including the separations closed).
-    kkt_error : (N,) largest violation of the contact conditions [mm].
-    hertz_iterations : (N,) fixed-point iterations; solve_time [s].
-    edge : (K, N, M) tip-edge slices (1 pinion tip, 2 gear tip, 0 flank; ``SliceSet.edge``).
-    lever : (K, N, M) moment arm of each slice's force about the pinion axis [mm]
-        (``SliceSet.lever1``: r_b1 cos(beta_b) on a flank, less on a tip edge); the pinion torque is
-        ``sum(lever * load)`` at every position (:attr:`torque_balance_error`).
-    """
-
-    torque: float
-    W: float
-    phi1: np.ndarray
-    pairs: tuple
-    te_unloaded: np.ndarray
-    te_loaded: np.ndarray
-    delta: np.ndarray
-    load: np.ndarray
-    line_load: np.ndarray
-    p0: np.ndarray
-    b_H: np.ndarray
-    pair_load: np.ndarray
-    share: np.ndarray
-    stiffness: np.ndarray
-    kkt_error: np.ndarray
-    hertz_iterations: np.ndarray
-    solve_time: float
-    face_width: float
-    stats: dict = field(default_factory=dict)
-    edge: np.ndarray | None = None
-    lever: np.ndarray | None = None
-
-    @property
-    def te_loaded_arcsec(self) -> np.ndarray:
-        return self.te_loaded * RAD_TO_ARCSEC
-
-    @property
-    def peak_to_peak_arcsec(self) -> float:
-        """Peak-to-peak loaded TE [arcsec]."""
-        t = self.te_loaded_arcsec
-        return float(np.nanmax(t) - np.nanmin(t))
-
-    @property
-    def p0_flank(self) -> np.ndarray:
-        """(K, N, M) Hertz peak pressure of the flank slices [MPa] (0 on tip-edge slices)."""
-        return self.p0 if self.edge is None else np.where(self.edge > 0, 0.0, self.p0)
-
-    @property
-    def p_max(self) -> float:
-        """Largest Hertz peak pressure of the flank contact over positions and slices [MPa] (tip-edge
-        slices excluded: see :attr:`edge_share` and :attr:`p_max_edge`)."""
-        return float(np.nanmax(self.p0_flank))
-
-    @property
-    def edge_share(self) -> np.ndarray:
-        """(N,) share of the pinion torque carried by tip edges (edge loading of unrelieved tips)."""
-        if self.edge is None:
-            return np.zeros(self.phi1.size)
-        lev = 1.0 if self.lever is None else self.lever / (self.torque * 1e3 / self.W)
-        return np.sum(np.where(self.edge > 0, lev * self.load, 0.0), axis=(0, 2)) / self.W
-
-    @property
-    def torque_balance_error(self) -> np.ndarray:
-        """(N,) ``sum(lever * load) / torque - 1``: the pinion's moment balance with each slice force on
-        its own lever (``lever``); NaN without levers."""
-        if self.lever is None:
-            return np.full(self.phi1.size, np.nan)
-        return np.nansum(self.lever * self.load, axis=(0, 2)) * 1e-3 / self.torque - 1.0
-
-    @property
-    def p_max_edge(self) -> float:
-        """Largest Hertz pressure on a tip edge of rounding ``EDGE_RADIUS`` m_n [MPa] (0: none loaded)."""
-        if self.edge is None:
-            return 0.0
-        return float(np.max(np.where((self.edge > 0) & (self.load > 0), self.p0, 0.0)))
-
-    @property
-    def c_gamma(self) -> float:
-        """Mean mesh stiffness per unit face width [N/(mm um)]."""
-        return float(np.nanmean(self.stiffness)) / self.face_width
-
-
-class CompliancePart(NamedTuple):
-    """One term of the analytical tooth compliance (:meth:`LTCA.structure`), coupled across the face
-    over its own length (:func:`~gearopt.ltca.compliance.face_matrix_batch`)."""
-
-    #: (K, N, M) compliance per unit face width of each slice node [mm^2/N] (inactive nodes: the
-    #: mean of the active ones)
-    compliance: np.ndarray
-    #: coupling length of the term across the face [mm]
-    coupling_length: float
-
-
-@dataclass(frozen=True)
-class HertzNodes:
-    """The Hertz data of slice nodes (any common shape: (K, N, M) per pair, position and node, or
-    (N, K M) per position, :meth:`ContactStructure.by_position`)."""
-
-    length: np.ndarray  #: length of contact line of each node [mm] (1 where inactive)
-    R: np.ndarray  #: reduced radius of curvature across the contact line [mm] (1 where inactive)
-    h1: np.ndarray  #: depth of the pinion's centreline below the point along the load line [mm] (Weber)
-    h2: np.ndarray  #: the same on the gear [mm]
-
-
-@dataclass(frozen=True)
-class ContactStructure:
-    """The load-independent parts of the loaded contact problem of a :class:`~gearopt.ltca.slices.SliceSet`
-    (:meth:`LTCA.structure`): arrays (K, N, M) per tooth pair, position and slice node unless stated.
-
-    Attributes
-    ----------
-    Cs : (N, K M, K M) array
-        Compliance matrix of the teeth and bodies (bending, shear, compression, foundation) of each
-        position over the flattened nodes ``k M + m`` [mm/N] (without the Hertz term).
-    parts : tuple of CompliancePart
-        The analytical compliance's terms (the teeth; the pinion's body; the gear's body) whose face
-        matrices, times ``cos^2(beta_b)``, sum to ``Cs`` (with FE influence coefficients ``Cs`` is
-        FE's and the parts are the analytical model's).
-    ct : array
-        Sum of the parts' compliances per unit face width [mm^2/N].
-    length : array
-        Length of contact line of each node, its width over ``cos(beta_b)`` [mm] (1 where inactive).
-    R : array
-        Reduced radius of curvature across the contact line [mm] (1 where inactive).
-    h1, h2 : array
-        Depths of the pinion's and the gear's tooth centreline below the point along the load line
-        [mm] (Weber's contact term; 1 where inactive).
-    radius1, radius2 : array
-        Radius of the node's point on the pinion and on the gear [mm] (NaN where unused).
-    """
-
-    Cs: np.ndarray
-    parts: tuple[CompliancePart, ...]
-    ct: np.ndarray
-    length: np.ndarray
-    R: np.ndarray
-    h1: np.ndarray
-    h2: np.ndarray
-    radius1: np.ndarray
-    radius2: np.ndarray
-
-    @property
-    def hertz(self) -> HertzNodes:
-        """The Hertz data (K, N, M)."""
-        return HertzNodes(length=self.length, R=self.R, h1=self.h1, h2=self.h2)
-
-    def by_position(self) -> HertzNodes:
-        """The Hertz data as (N, K M) arrays: one row per position over the flattened nodes
-        ``k M + m`` (the order of ``Cs``)."""
-        K, N, M = self.length.shape
-        flat = lambda a: np.transpose(a, (1, 0, 2)).reshape(N, K * M)  # noqa: E731
-        return HertzNodes(length=flat(self.length), R=flat(self.R), h1=flat(self.h1), h2=flat(self.h2))
-
-
-class LTCA:
+class LTCA(ContactQP):
     """Loaded tooth contact analysis of a gear pair (build once, solve many torques).
 
     Parameters
@@ -603,23 +329,6 @@ class LTCA:
                                 R=np.where(act, R, 1.0), h1=np.where(act, h1, 1.0), h2=np.where(act, h2, 1.0),
                                 length=np.where(act, length, 1.0), radius1=rad1, radius2=rad2, ct=ct)
 
-    def _weber_tangent(self, n: int) -> ca.Function:
-        key = ("weber", n)
-        if key not in self._qp:
-            self._qp[key] = weber_tangent(self.material).map(n)
-        return self._qp[key]
-
-    def _solver(self, n: int, N: int) -> ca.Function:
-        key = (n, N)
-        if key not in self._qp:
-            # qpOASES: an exact active-set method (daqp leaves loads of ~1e-8 W on slices that are
-            # out of contact when the separations dominate, i.e. at light loads)
-            with _quiet_stdout():
-                qp = ca.conic("ltca_qp", QP_SOLVER, {"h": ca.Sparsity.dense(n, n), "a": ca.Sparsity.dense(1, n)},
-                              {"error_on_fail": False, "printLevel": "none"})
-                self._qp[key] = (qp, qp.map(N))
-        return self._qp[key][1]
-
     def solve(self, torque: float | Sequence[float], phi1: npt.ArrayLike | None = None, p1: npt.ArrayLike | None = None,
               p2: npt.ArrayLike | None = None, mis: Misalignment | None = None, pairs: Sequence[int] | None = None,
               slices: SliceSet | None = None, offsets: tuple[npt.ArrayLike, npt.ArrayLike] | None = None,
@@ -661,151 +370,6 @@ class LTCA:
             results.append(self._solve_one(float(t), S, st, start=results[-1] if results else None))
         return LoadedSweep(slices=S, results=results, separation_time=t_sep, structure=st,
                            te_zero_rad=S.phi2_ref, ltca=self)
-
-    def _fixed_point(self, A, s, hz: HertzNodes, Cs, W, f_min, F0=None, lam=None, block=None, P0=None):
-        """The contact QP over the slices ``A`` (N, n) of each position (separations ``s``, Hertz data
-        ``hz`` (N, n) and compliance ``Cs`` (N, n, n), :class:`ContactStructure`), with the Hertz fixed point:
-        ``(F (N, n), done (N,), change (N,), iterations (N,))``. ``lam`` (N, n): each slice's lever
-        about the pinion axis over ``r_b1 cos(beta_b)`` (the equilibrium ``sum lam F = W``; default 1).
-        ``block``: the nodes per tooth pair (``Cs`` is block diagonal: pairs are not coupled); default
-        one block. ``P0`` (N, n): without ``F0``, the active-set method's first contact set (default every
-        slice of ``A``; the solution does not depend on it).
-
-        Each Newton step's QP is solved by the primal-dual active-set method on all positions at once
-        (:func:`contact_active_set`), started from the previous step's contact set; a position where
-        that does not settle is solved again by qpOASES (:meth:`_fixed_point_qpoases`)."""
-        N, n = A.shape
-        M = n if block is None else int(block)
-        K = n // M
-        Cv = Cs.reshape(N, K, M, K, M)
-        Cb = np.moveaxis(Cv[:, np.arange(K), :, np.arange(K), :], 0, 1)  # (N, K, M, M)
-        if any(np.any(Cv[:, k, :, j, :]) for k in range(K) for j in range(K) if j != k):  # pairs coupled: one block
-            nc = int(max(A.sum(axis=1).max(), 1))
-            if nc < n:
-                return self._fixed_point_compact(A, s, hz, Cs, W, f_min, nc, F0=F0, lam=lam, P0=P0)
-            K, M = 1, n
-            Cb = Cs.reshape(N, 1, n, n)
-        valid = A
-        lamv = np.where(valid, np.ones((N, n)) if lam is None else lam, 0.0)
-        lv = np.where(valid, hz.length, 1.0)
-        Rv, h1v, h2v = (np.where(valid, v, 1.0) for v in (hz.R, hz.h1, hz.h2))
-        # start: the load spread over the active contact length, or the previous round's loads
-        Fc = np.where(valid, W * lv / np.maximum((lv * valid).sum(axis=1, keepdims=True), 1e-12), 0.0)
-        P = valid.copy() if P0 is None else valid & P0
-        P = np.where(P.any(axis=1, keepdims=True), P, valid)
-        if F0 is not None:
-            Fc = np.where(valid, F0, 0.0)
-            P = valid & (F0 > 0)
-            P = np.where(P.any(axis=1, keepdims=True), P, valid)
-        it = np.zeros(N, int)
-        done = np.zeros(N, bool)
-        change = np.zeros(N)
-        bad = np.zeros(N, bool)
-        shp = (N, K, M)
-        for i in range(HERTZ_MAX_ITER):
-            # Newton step of the Hertz law (Josephy-Newton: the QP with the approach linearised at the
-            # last loads, delta_H(F) ~ c F_k + dc (F - F_k), dc = d(c f)/df by AD); its fixed point is the
-            # contact law's, reached quadratically (the secant compliance c alone converges linearly)
-            cH, dc = weber_tangent_array(Fc / lv, Rv, h1v, h2v, self.material, f_min)
-            dc = np.maximum(dc, 0.5 * cH)  # keeps the QP convex far from the solution (a damped step)
-            sk = s + np.where(valid, (cH - dc) / lv * Fc, 0.0)
-            Fn, Pn, ok = contact_active_set(Cb, sk.reshape(shp), lamv.reshape(shp), valid.reshape(shp), W,
-                                            P.reshape(shp), max_iter=ACTIVE_SET_MAX_ITER,
-                                            diag=np.where(valid, dc / lv, 0.0).reshape(shp))
-            Fn, P = Fn.reshape(N, n), Pn.reshape(N, n)
-            bad |= ~ok
-            Fn = np.where(valid, np.maximum(Fn, 0.0), 0.0)
-            change = np.max(np.abs(Fn - Fc), axis=1) / W
-            it = np.where(done, it, i + 1)
-            done = change <= HERTZ_TOL
-            Fc = Fn
-            if (done | bad).all():
-                break
-        if bad.any():
-            # the active-set iteration did not settle at some position: qpOASES there (the same QP)
-            j = np.flatnonzero(bad)
-            sub = HertzNodes(length=hz.length[j], R=hz.R[j], h1=hz.h1[j], h2=hz.h2[j])
-            Fj, dj, cj, ij = self._fixed_point_qpoases(A[j], s[j], sub, Cs[j], W, f_min, F0=F0 if F0 is None else F0[j],
-                                                       lam=None if lam is None else lam[j])
-            Fc[j], done[j], change[j], it[j] = Fj, dj, cj, ij
-        return Fc, done, change, it
-
-    def _fixed_point_compact(self, A, s, hz: HertzNodes, Cs, W, f_min, nc, F0=None, lam=None, P0=None):
-        """:meth:`_fixed_point` of coupled pairs (one dense block per position) on each position's valid
-        nodes only, gathered into ``nc`` columns (padded with invalid nodes): the same QP, whose dense
-        solves shrink from every node of every pair (most of them out of mesh) to the nodes that can carry
-        load; arguments and returns as :meth:`_fixed_point`."""
-        N, n = A.shape
-        # each position's valid nodes first (stable: in their order), the rest as padding
-        gi = np.argsort(~A, axis=1, kind="stable")[:, :nc]
-        rows = np.arange(N)[:, None]
-        Ac = A[rows, gi]
-        take = lambda a: None if a is None else a[rows, gi]  # noqa: E731
-        hzc = HertzNodes(length=take(hz.length), R=take(hz.R), h1=take(hz.h1), h2=take(hz.h2))
-        Cc = Cs[rows[:, :, None], gi[:, :, None], gi[:, None, :]]
-        Fc, done, change, it = self._fixed_point(Ac, take(s), hzc, Cc, W, f_min, F0=take(F0), lam=take(lam),
-                                                 block=None, P0=take(P0))
-        F = np.zeros((N, n))
-        F[rows, gi] = np.where(Ac, Fc, 0.0)
-        return F, done, change, it
-
-    def _fixed_point_qpoases(self, A, s, hz: HertzNodes, Cs, W, f_min, F0=None, lam=None):
-        """The contact QP over the slices ``A`` (N, n) of each position (separations ``s``, Hertz data
-        ``hz`` (N, n) and compliance ``Cs`` (N, n, n), :class:`ContactStructure`), with the Hertz fixed point,
-        each Newton step's QP solved by qpOASES (mapped over the positions); arguments and returns as
-        :meth:`_fixed_point`."""
-        N, n = A.shape
-        nc = int(max(A.sum(axis=1).max(), 1))  # padded to the largest count
-        gi = np.zeros((N, nc), int)
-        valid = np.zeros((N, nc), bool)
-        for j in range(N):
-            a = np.flatnonzero(A[j])
-            gi[j, :a.size], valid[j, :a.size] = a, True
-        rows = np.arange(N)[:, None]
-        take = lambda a: np.where(valid, a[rows, gi], 0.0)  # noqa: E731
-        Cc = Cs[rows[:, :, None], gi[:, :, None], gi[:, None, :]]
-        Cc = np.where(valid[:, :, None] & valid[:, None, :], Cc, 0.0)
-        sc, lc, Rc, h1c, h2c = (take(v) for v in (s, hz.length, hz.R, hz.h1, hz.h2))
-        lamc = np.where(valid, take(np.ones((N, n)) if lam is None else lam), 0.0)
-        lc = np.where(valid, lc, 1.0)
-        Rc, h1c, h2c = (np.where(valid, v, 1.0) for v in (Rc, h1c, h2c))
-        eye = np.eye(nc)
-        # start: the load spread over the active contact length, or the previous round's loads
-        Fc = np.where(valid, W * lc / np.maximum((lc * valid).sum(axis=1, keepdims=True), 1e-12), 0.0)
-        if F0 is not None:
-            Fc = np.where(valid, F0[rows, gi], 0.0)
-        qp = self._solver(nc, N)
-        ubx = np.where(valid, np.inf, 0.0).T
-        it = np.zeros(N, int)
-        done = np.zeros(N, bool)
-        change = np.zeros(N)
-        wt = self._weber_tangent(N * nc)
-        for i in range(HERTZ_MAX_ITER):
-            # Newton step of the Hertz law (Josephy-Newton: the QP with the approach linearised at the
-            # last loads, delta_H(F) ~ c F_k + dc (F - F_k), dc = d(c f)/df by AD); its fixed point is the
-            # contact law's, reached quadratically (the secant compliance c alone converges linearly)
-            cH, dc = (np.asarray(v).reshape(N, nc) for v in wt((Fc / lc).ravel()[None, :], Rc.ravel()[None, :],
-                                                                 h1c.ravel()[None, :], h2c.ravel()[None, :], f_min))
-            dc = np.maximum(dc, 0.5 * cH)  # keeps the QP convex far from the solution (a damped step)
-            C = Cc + np.einsum("ni,ij->nij", np.where(valid, dc / lc, 1.0), eye)
-            sk = sc + np.where(valid, (cH - dc) / lc * Fc, 0.0)
-            # scaled: min 1/2 x^T (C / c_ref) x + (s_k / (W c_ref))^T x, x = F / W (same minimiser)
-            cref = np.einsum("nii->n", C) / nc
-            H = C / cref[:, None, None]
-            with _quiet_stdout():  # qpOASES prints its banner on stdout whatever its printLevel
-                r = qp(h=np.hstack(list(H)), g=(sk / (W * cref[:, None])).T, a=lamc.reshape(1, nc * N), lba=1.0,
-                       uba=1.0, lbx=0.0, ubx=ubx)
-            Fn = np.where(valid, np.maximum(W * np.asarray(r["x"]).T, 0.0), 0.0)
-            change = np.max(np.abs(Fn - Fc), axis=1) / W
-            it = np.where(done, it, i + 1)
-            done = change <= HERTZ_TOL
-            Fc = Fn
-            if done.all():
-                break
-        F = np.zeros((N, n))
-        jj, cc = np.nonzero(valid)
-        F[jj, gi[jj, cc]] = Fc[jj, cc]
-        return F, done, change, it
 
     def _solve_one(self, torque: float, S: SliceSet, st: ContactStructure,
                    start: LoadedResult | None = None) -> LoadedResult:
@@ -906,220 +470,3 @@ class LTCA:
             lever=lam_k * g1.r_b * cb)
         check_validity(result, self.pair, self.material)
         return result
-
-
-def row_median(a: np.ndarray) -> np.ndarray:
-    """Median of each row of ``a`` (N, n) over its finite entries (NaN: none), as ``np.median`` of
-    those entries gives it (the mean of the two middle ones of an even count)."""
-    a = np.sort(np.where(np.isfinite(a), a, np.inf), axis=1)
-    c = np.isfinite(a).sum(axis=1)
-    rows = np.arange(a.shape[0])
-    lo, hi = a[rows, np.maximum((c - 1) // 2, 0)], a[rows, np.minimum(c // 2, a.shape[1] - 1)]
-    with np.errstate(invalid="ignore"):
-        return np.where(c > 0, np.where(c % 2 == 1, lo, (lo + hi) / 2), np.nan)
-
-
-#: primal-dual active-set iterations of one contact QP (:func:`contact_active_set`) before qpOASES takes over
-ACTIVE_SET_MAX_ITER = 40
-
-
-def contact_active_set(C: np.ndarray, s: np.ndarray, lam: np.ndarray, valid: np.ndarray, W: float,
-                       P0: np.ndarray | None = None, max_iter: int = ACTIVE_SET_MAX_ITER,
-                       diag: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The contact QP ``min 1/2 F^T C F + s^T F  s.t.  F >= 0, sum lam F = W`` of many positions at
-    once, by the primal-dual active-set method (Hintermüller, Ito & Kunisch 2002, for this
-    complementarity problem the classical load-distribution iteration of loaded TCA).
-
-    With a contact set P, the loads on P solve ``C_PP F_P - lam_P delta = -s_P`` and ``lam_P^T F_P = W``
-    (``F = 0`` off P; ``delta`` the approach, the equality's multiplier); the gaps are
-    ``g = s + C F - lam delta``. The next set keeps the nodes of P whose load is not negative (to
-    1e-13 W) and adds those off P whose gap is negative (to 1e-13 of the approach); when the set
-    repeats, ``F >= 0`` on P, ``g = 0`` on P and ``g >= 0`` off it: the QP's optimality conditions,
-    so its unique minimiser (C positive definite).
-    The compliance of different tooth pairs is not coupled, so each pair with nodes in P is solved
-    alone (the others carry nothing) and the approach follows from the load balance.
-
-    Parameters
-    ----------
-    C : (N, K, M, M) array
-        Compliance blocks of the K tooth pairs at N positions [mm/N], symmetric positive definite on
-        the valid nodes.
-    s : (N, K, M) array
-        Separations [mm].
-    lam : (N, K, M) array
-        The equality's coefficients (each slice's lever over ``r_b1 cos(beta_b)``, > 0 on valid nodes).
-    valid : (N, K, M) bool array
-        Nodes that may carry load (others carry none).
-    W : float
-        Total normal load [N] (> 0).
-    P0 : (N, K, M) bool array, optional
-        The contact set to start from (a warm start: the previous Newton step's; default every valid node).
-    max_iter : int
-        Iterations before a position is given up.
-    diag : (N, K, M) array, optional
-        Added to the diagonal of ``C`` [mm/N] (the Hertz term of a Newton step).
-
-    Returns
-    -------
-    F : (N, K, M) array
-        Loads [N] (NaN where not settled).
-    P : (N, K, M) bool array
-        The final contact sets.
-    ok : (N,) bool array
-        The iteration settled at the position.
-    """
-    N, K, M = s.shape
-    P = valid.copy() if P0 is None else (P0 & valid)
-    F = np.full(s.shape, np.nan)
-    ok = np.zeros(N, bool)
-    todo = np.flatnonzero(valid.any(axis=(1, 2)))
-    eye = np.eye(M)
-    # hysteresis of the set changes (a node at zero load within rounding neither leaves nor re-enters)
-    f_tol = 1e-13 * W
-    for _ in range(max_iter):
-        if todo.size == 0:
-            break
-        Pt = P[todo]
-        # only the pairs with contact nodes (the others carry nothing and add nothing to the gaps)
-        tb, kb = np.nonzero(Pt.any(axis=2))
-        nb = todo[tb]
-        Pb, Cb = Pt[tb, kb], C[nb, kb]
-        if diag is not None:
-            Cb = Cb + diag[nb, kb][:, :, None] * eye
-        Cm = np.where(Pb[:, :, None] & Pb[:, None, :], Cb, 0.0) + (~Pb)[:, :, None] * eye
-        sb, lb = s[nb, kb], lam[nb, kb]
-        xy = np.linalg.solve(Cm, np.stack([np.where(Pb, -sb, 0.0), np.where(Pb, lb, 0.0)], axis=-1))
-        x, y = xy[..., 0], xy[..., 1]
-        lx = np.bincount(tb, weights=np.sum(lb * x, axis=1), minlength=todo.size)
-        ly = np.bincount(tb, weights=np.sum(lb * y, axis=1), minlength=todo.size)
-        empty = ~Pt.any(axis=(1, 2))
-        d = (W - lx) / np.where(empty, 1.0, ly)
-        Fb = x + d[tb, None] * y
-        Ft = np.zeros(Pt.shape)
-        Ft[tb, kb] = Fb
-        CF = np.zeros(Pt.shape)
-        CF[tb, kb] = (Cb @ Fb[:, :, None])[:, :, 0]
-        st, lt = s[todo], lam[todo]
-        g = st + CF - d[:, None, None] * lt
-        g_tol = 1e-13 * np.maximum(np.abs(d), np.max(np.abs(st), axis=(1, 2)))[:, None, None]
-        Pn = valid[todo] & np.where(Pt, Ft > -f_tol, g < -g_tol)
-        same = np.all(Pn == Pt, axis=(1, 2)) & ~empty
-        F[todo[same]] = Ft[same]
-        ok[todo[same]] = True
-        P[todo] = Pn
-        todo = todo[~same & ~empty]
-    return F, P, ok
-
-
-@dataclass
-class LoadedSweep:
-    """Loaded TCA over a list of torques (one :class:`LoadedResult` each) on one set of slices."""
-
-    slices: SliceSet
-    results: list
-    separation_time: float
-    structure: ContactStructure
-    te_zero_rad: float
-    ltca: LTCA
-
-    @property
-    def torques(self) -> np.ndarray:
-        return np.array([r.torque for r in self.results])
-
-    def te_vs_torque(self, z1: int) -> dict:
-        """Peak-to-peak loaded TE and its first mesh harmonic against torque [arcsec]."""
-        from ..report import te_harmonics
-
-        pp = [r.peak_to_peak_arcsec for r in self.results]
-        h1 = []
-        for r in self.results:
-            h = te_harmonics(r.phi1, r.te_loaded_arcsec, z1)
-            h1.append(None if h is None else h[0])
-        return {"torque_Nm": self.torques.tolist(), "peak_to_peak_arcsec": pp, "harmonic1_arcsec": h1}
-
-    def to_dict(self, z1: int, nominal: float | None = None) -> dict:
-        """The sweep as results.json holds it (every key, unit and meaning in docs/results.md):
-        unloaded TE, one entry per torque (loaded TE, harmonics, load sharing, mesh stiffness,
-        peak pressure, errors), the TE-vs-torque curve, and the slice maps (loads, pressure,
-        contact bands on both flanks) at the ``nominal`` torque (default: the largest)."""
-        from ..report import arr, te_harmonics
-
-        S = self.slices
-        res = self.results
-        nom = res[-1] if nominal is None else min(res, key=lambda r: abs(r.torque - nominal))
-        g1, g2 = self.ltca.pair.pinion, self.ltca.pair.gear
-        per = []
-        for r in res:
-            env = r.te_loaded_arcsec
-            ll = np.where(r.load > 0, r.line_load, np.nan)
-            mean_ll = r.pair_load / np.maximum(np.nansum(np.where(np.isfinite(S.z), S.width, 0.0), axis=2), 1e-12)
-            # K_Hbeta (ISO 6336-1, 3.4: peak over mean load per unit face width) of the flank contact that
-            # carries the largest line load of the cycle: the factor of the most loaded point. (The largest
-            # ratio over all pairs would be that of a pair just entering mesh with a few newtons near a
-            # face end: a large ratio of a negligible load.) Tip-edge slices are not flank line loads.
-            # Slivers (a flank slice trimmed at a tip crossing to less than a quarter of the nominal slice
-            # width) carry a few newtons over microns: their load over width is no line load to quote.
-            w_nom = float(np.nanmax(np.where(np.isfinite(S.z), S.width, np.nan)))
-            whole = S.width >= SLIVER * w_nom
-            on_flank = ((r.load > 0) if S.edge is None else (r.load > 0) & (S.edge == 0)) & whole
-            ll_flank = np.where(on_flank & np.isfinite(r.line_load), r.line_load, 0.0)
-            peak = np.max(ll_flank, axis=2)
-            k_star, n_star = np.unravel_index(int(np.argmax(peak)), peak.shape)
-            khb = (np.array([peak[k_star, n_star] / mean_ll[k_star, n_star]])
-                   if peak[k_star, n_star] > 0 and r.pair_load[k_star, n_star] > 0 else np.array([np.nan]))
-            kp, nphi, mm = np.unravel_index(int(np.nanargmax(r.p0_flank)), r.p0.shape)
-            per.append({
-                "torque_Nm": r.torque, "normal_load_N": r.W,
-                "te_loaded_arcsec": arr(env), "peak_to_peak_arcsec": r.peak_to_peak_arcsec,
-                "harmonics_arcsec": te_harmonics(r.phi1, env, z1),
-                "pair_share": arr(r.share), "pair_load_N": arr(r.pair_load),
-                "stiffness_N_per_um": arr(r.stiffness), "stiffness_mean_N_per_um": float(np.mean(r.stiffness)),
-                "c_gamma_N_per_mm_um": r.c_gamma,
-                "delta_mm": arr(r.delta),
-                "p_max_MPa": r.p_max, "p_max_at": {"phi1": float(r.phi1[nphi]), "pair": int(S.pairs[kp]),
-                                                   "z_mm": float(S.z[kp, nphi, mm]),
-                                                   "radius_mm": float(self.structure.radius1[kp, nphi, mm])},
-                "p_max_per_position_MPa": arr(np.max(r.p0_flank, axis=(0, 2))),
-                "edge_share": arr(r.edge_share), "edge_share_max": float(np.max(r.edge_share)),
-                "p_max_edge_MPa": r.p_max_edge,
-                "line_load_max_N_per_mm": float(np.nanmax(np.where(whole, ll, np.nan)))
-                if np.isfinite(np.where(whole, ll, np.nan)).any() else 0.0,
-                "K_Hbeta": float(np.nanmax(khb)) if np.isfinite(khb).any() else None,
-                "kkt_error_max_mm": float(np.max(r.kkt_error)), "hertz_iterations_max": int(np.max(r.hertz_iterations)),
-                "solve_time_s": r.solve_time,
-            })
-        used = np.isfinite(S.z)
-        loaded = used & (nom.load > 0)
-        st = self.structure
-
-        def flat(a):
-            return arr(np.asarray(a)[loaded])
-
-        pattern = {
-            "torque_Nm": nom.torque,
-            "pair": [int(S.pairs[k]) for k in np.nonzero(loaded)[0]],
-            "phi1": [float(S.phi1[n]) for n in np.nonzero(loaded)[1]],
-            "load_N": flat(nom.load), "line_load_N_per_mm": flat(nom.line_load), "p0_MPa": flat(nom.p0),
-            "edge": flat(nom.edge if nom.edge is not None else np.zeros(S.z.shape)),
-            "b_H_mm": flat(nom.b_H), "width_mm": flat(S.width),
-            "pinion": {"axial": flat(S.z), "from": flat(S.z_lo), "to": flat(S.z_hi), "radius": flat(st.radius1),
-                       "r_b": g1.r_b},
-            "gear": {"axial": flat(S.z2), "from": flat(S.z_lo + S.z2 - S.z), "to": flat(S.z_hi + S.z2 - S.z),
-                     "radius": flat(st.radius2), "r_b": g2.r_b},
-        }
-        n_pk = int(np.argmax(np.max(nom.p0_flank, axis=(0, 2))))  # the largest flank pressure
-        face = {"phi1": float(S.phi1[n_pk]), "pairs": list(S.pairs),
-                "axial": arr(S.z[:, n_pk, :]), "line_load_N_per_mm": arr(np.where(used[:, n_pk], nom.line_load[:, n_pk],
-                                                                                   np.nan)),
-                "p0_MPa": arr(np.where(used[:, n_pk], nom.p0[:, n_pk], np.nan)),
-                "edge": arr(np.where(used[:, n_pk], nom.edge[:, n_pk], 0) if nom.edge is not None
-                            else np.zeros(S.z[:, n_pk].shape))}
-        return {
-            "phi1": arr(S.phi1), "pairs": list(S.pairs), "te_zero_rad": self.te_zero_rad,
-            "te_unloaded_arcsec": arr(S.te_unloaded * RAD_TO_ARCSEC),
-            "unloaded_peak_to_peak_arcsec": float(np.ptp(S.te_unloaded) * RAD_TO_ARCSEC),
-            "torques": per, "te_vs_torque": self.te_vs_torque(z1), "nominal_torque_Nm": nom.torque,
-            "pattern": pattern, "face_load": face,
-            "slices": {"n_slices": self.ltca.n_slices, "n_active": int(S.active.sum()), "stats": S.stats},
-            "separation_time_s": self.separation_time,
-        }

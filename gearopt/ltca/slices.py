@@ -43,7 +43,8 @@ from ..graph_cache import built_once, eliminated
 from ..meshing.curvature import Sym, eigh2_sym, shape_matrix, unit_perp
 from ..meshing.misalignment import Misalignment
 from ..meshing.solver import REGULARITY_MIN, Branch
-from ..meshing.tca import TCA, check_sweep_args
+from ..meshing.sweep_args import check_sweep_args
+from ..meshing.tca import TCA
 
 SLICE_NORMAL_TOL = 0.05  #: accepted slice points have n1 . n2 < -1 + this (crowning tilts the normals)
 _SECTIONS = (-0.5, -0.25, 0.0, 0.25, 0.5)  #: pinion sections of the conjugate first guesses [b1]
@@ -273,7 +274,7 @@ class SliceSolver:
     def _conjugate(self, phis, p1, p2) -> dict:
         """Conjugate contact of the aligned, unmodified drive in the sections ``s b1`` at the angles
         ``phis``: {z: (4, P) unknowns (u1, u2, z2, r_p2 phi2), NaN where none} (first guesses)."""
-        from ..contact.edge import conjugate_sections
+        from ..contact.edge_guesses import conjugate_sections
 
         # they depend on the angles and the tool shifts in p1, p2 only (not on the modifications or the
         # misalignment): kept for the last few calls (a torque or misalignment sweep, an optimiser's

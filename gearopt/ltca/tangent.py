@@ -34,7 +34,9 @@ import numpy as np
 
 from ..contact.hertz import weber_compliance
 from ..errors import OptionError, out_of_range
-from .engine import F_MIN_SHARE, LTCA, LoadedResult, check_torque_range, check_validity
+from .engine import F_MIN_SHARE, LTCA
+from .loaded_result import LoadedResult
+from .validity import check_torque_range, check_validity
 
 if TYPE_CHECKING:
     from ..gears import GearPair

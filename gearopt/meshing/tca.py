@@ -33,59 +33,34 @@ import functools
 import math
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass, field
-from typing import NamedTuple
 
 import casadi as ca
 import numpy as np
 import numpy.typing as npt
 
 from ..compiled import call, mapped, matrix_columns
-from ..errors import (ArgumentError, ConvergenceError, LineContactError, OptionError, check_number,
-                      out_of_range, shorten)
+from ..errors import ArgumentError, ConvergenceError, LineContactError, OptionError, check_number, out_of_range, shorten
 from ..gears import GearPair
 from ..geometry.frames import rot_z
 from ..geometry.generation import PARAMS, FlankLimit, GeneratedTooth, generate, generate_by_rack  # noqa: F401
 from ..geometry.microgeometry import modified_tooth
-from ..units import RAD_TO_ARCSEC
 from .curvature import eigh2_sym, shape_matrix, unit_perp  # noqa: F401 (eigh2_sym re-exported)
+from .flank_limits import FlankLimits
 from .layout import ParamLayout
 from .misalignment import MISALIGNMENTS, Misalignment  # noqa: F401 (re-exported)
 from .solver import (DELTA_DEFAULT, NORMAL_TOL, REGULARITY_MIN, Branch, ContactSettings, accept_tangency,  # noqa: F401 (re-exported)
                      SolverSettings)
+from .sweep_args import check_sweep_args, describe, no_contact
+from .tca_result import SolvedSweep, TCAResult, TCAResultAssembly
 
 
 KNOTS_PER_PITCH = 16  #: knots of the sweep's first guesses per angular pitch of the pinion (Branch.predict_knots)
-
-
-def _describe(v) -> str:
-    return f"{type(v).__name__} {shorten(repr(v))}"
-
-
-class SweepArgs(NamedTuple):
-    """The checked arguments of a sweep (:func:`check_sweep_args`)."""
-
-    phi1: np.ndarray  #: (N,) pinion angles [rad]
-    p1: np.ndarray  #: the pinion's parameter vector (its ``param_names`` entries)
-    p2: np.ndarray  #: the gear's
-    mis: Misalignment
-    pairs: tuple[int, ...]  #: tooth pairs (pinion tooth numbers)
 
 
 def _bytes(v) -> bytes:
     """Exact key of a parameter vector (None: the member's defaults)."""
     return b"" if v is None else np.ascontiguousarray(np.asarray(v, float)).tobytes()
 
-
-def default_vector(tca: TCA, name: str, tooth: GeneratedTooth) -> np.ndarray:
-    """``tooth.p0`` (a new array), kept per TCA under ``name`` ("p1" or "p2"): the teeth of a TCA are
-    fixed when it is built, and assembling p0 from the gear's data costs a few microseconds a sweep."""
-    kept = getattr(tca, "_defaults", None)
-    if kept is None:
-        return np.asarray(tooth.p0, float)
-    if name not in kept:
-        kept[name] = np.asarray(tooth.p0, float)
-    return kept[name].copy()
 
 
 def _point_key(phi1, w0, p1, p2, mis, z_section) -> tuple | None:
@@ -106,265 +81,7 @@ def _point_key(phi1, w0, p1, p2, mis, z_section) -> tuple | None:
     return tuple(parts)
 
 
-def check_sweep_args(tca: TCA, phi1: npt.ArrayLike, p1: npt.ArrayLike | None = None, p2: npt.ArrayLike | None = None,
-                     mis: Misalignment | None = None, pairs: Sequence[int] = (-1, 0, 1), delta: float | None = None,
-                     anchor: float = 0.0, z_section: float | None = 0.0) -> SweepArgs:
-    """Validate and normalise the arguments of :meth:`TCA.sweep` / ``EdgeContact.sweep``.
-
-    Returns :class:`SweepArgs` ``(phi1 (N,), p1, p2, mis, pairs)`` (p1, p2: each member's ``param_names`` entries); raises :class:`~gearopt.errors.ArgumentError`
-    (wrong type, shape, empty, non-finite) or :class:`~gearopt.errors.GeometryError` (a misalignment
-    that jams or separates the teeth, faces that do not overlap, a section off the face), naming
-    the argument and its valid range.
-    """
-    pair = tca.pair
-    g1 = pair.pinion
-    try:
-        arr = np.asarray(phi1)
-        if arr.dtype.kind in "USb":  # "0.1" would convert: the API takes numbers in rad
-            raise TypeError
-        arr = arr.astype(float, copy=False)
-    except (TypeError, ValueError):
-        raise ArgumentError(f"phi1 = {_describe(phi1)}: expected a sequence of pinion angles [rad] (numbers).",
-                            param="phi1", value=phi1, valid="a sequence of pinion angles [rad] (numbers)") from None
-    if arr.ndim > 1:
-        raise ArgumentError(f"phi1: expected a 1-D sequence of pinion angles [rad], got shape {arr.shape}.",
-                            param="phi1", valid="a 1-D sequence of pinion angles [rad]")
-    arr = np.atleast_1d(arr)
-    if arr.size == 0:
-        raise ArgumentError("phi1 is empty: a sweep needs at least one pinion angle [rad] (one mesh cycle is "
-                            f"2 pi / z1 = {2 * math.pi / g1.z:.6g} rad).",
-                            param="phi1", valid="at least one pinion angle [rad]")
-    fin = np.isfinite(arr)
-    if not fin.all():
-        bad = np.flatnonzero(~fin)
-        raise ArgumentError(f"phi1[{bad[0]}] = {arr[bad[0]]}: every pinion angle must be a finite number [rad] "
-                            f"({bad.size} of {arr.size} are not).",
-                            param=f"phi1[{bad[0]}]", value=float(arr[bad[0]]), valid="a finite number [rad]")
-    vecs = []
-    for name, p, tooth in (("p1", p1, tca.pinion), ("p2", p2, tca.gear)):
-        if p is None:
-            vecs.append(default_vector(tca, name, tooth))
-            continue
-        names = tooth.param_names  # PARAMS, then the theta of any flank modification
-        try:
-            v = np.asarray(p, dtype=float)
-        except (TypeError, ValueError):
-            raise ArgumentError(f"{name} = {_describe(p)}: expected {len(names)} numbers {names}.",
-                                param=name, value=p, valid=f"{len(names)} numbers {names}") from None
-        if v.shape != (len(names),):
-            raise ArgumentError(f"{name}: expected a vector of {len(names)} numbers {names} (x, a_c [1/mm], u_0 [mm], "
-                                f"a_pl [1/mm], then any modification parameters), got shape {v.shape}.",
-                                param=name, valid=f"a vector of {len(names)} numbers {names}")
-        if not np.all(np.isfinite(v)):
-            bad = [n_ for n_, x_ in zip(names, v) if not math.isfinite(x_)]
-            raise ArgumentError(f"{name} = {v.tolist()}: every entry of {names} must be finite ({bad} are not).",
-                                param=name, value=v.tolist(), valid="finite entries")
-        vecs.append(v)
-    if mis is None:
-        mis = Misalignment()
-    elif not isinstance(mis, Misalignment):
-        hint = " Use Misalignment(**d) (angles in rad)." if isinstance(mis, dict) else ""
-        kinds = ", ".join(f"{k} [{'rad' if Misalignment.meta(k)['unit'] == 'angle' else 'mm'}]"
-                          for k in Misalignment.names())
-        raise ArgumentError(f"mis = {_describe(mis)}: expected a gearopt.meshing.tca.Misalignment ({kinds}).{hint}",
-                            param="mis", value=mis, valid="a gearopt.meshing.tca.Misalignment")
-    checked = getattr(tca, "_checked_mis", None)  # misalignments this TCA's pair accepted (frozen: same answer)
-    if checked is None or mis not in checked:
-        mis.check(pair, "mis")
-        if checked is not None:
-            if len(checked) >= 256:
-                checked.clear()
-            checked.add(mis)
-    try:
-        seq = list(pairs)
-    except TypeError:
-        raise ArgumentError(f"pairs = {_describe(pairs)}: expected a sequence of tooth-pair indices (integers), "
-                            "e.g. (-1, 0, 1).",
-                            param="pairs", value=pairs, valid="a sequence of tooth-pair indices (integers)") from None
-    if not seq:
-        raise ArgumentError("pairs is empty: give at least one tooth-pair index, e.g. (0,) or (-1, 0, 1).",
-                            param="pairs", valid="at least one tooth-pair index")
-    out = []
-    for k in seq:
-        if isinstance(k, (bool, np.bool_)) or not isinstance(k, (int, np.integer)):
-            raise ArgumentError(f"pairs contains {_describe(k)}: tooth-pair indices are integers (pinion tooth k, "
-                                f"-{g1.z} < k < {g1.z}).",
-                                param="pairs", value=k, valid=f"-{g1.z} < k < {g1.z}")
-        if abs(int(k)) >= g1.z:
-            raise ArgumentError(f"pairs contains {int(k)}; valid: -{g1.z} < k < {g1.z} (pinion teeth from tooth 0).",
-                                param="pairs", value=int(k), valid=f"-{g1.z} < k < {g1.z}")
-        out.append(int(k))
-    if len(set(out)) != len(out):
-        raise ArgumentError(f"pairs = {tuple(out)}: every tooth pair may appear once.",
-                            param="pairs", value=tuple(out), valid="every tooth pair may appear once")
-    for name, v in (("delta", delta), ("anchor", anchor), ("z_section", z_section)):
-        if v is None:
-            continue
-        if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, float, np.integer, np.floating)) \
-                or not math.isfinite(v):
-            raise ArgumentError(f"{name} = {_describe(v)}: expected a finite number.",
-                                param=name, value=v, valid="a finite number", detail=": expected a finite number.")
-    if delta is not None and not 0 < delta <= 0.1 * g1.m_n:
-        raise out_of_range("delta", delta, f"0 < delta <= 0.1 m_n = {0.1 * g1.m_n:.4g} mm (elastic approach for the "
-                           "contact ellipse, microns)", cls=OptionError)
-    if tca.contact_type == "line" and z_section is not None and abs(z_section) > g1.b / 2:
-        raise out_of_range("z_section", z_section, f"|z_section| <= b1 / 2 = {g1.b / 2:.6g} mm (a section of the "
-                           "pinion face)", cls=OptionError)
-    return SweepArgs(phi1=arr, p1=vecs[0], p2=vecs[1], mis=mis, pairs=tuple(out))
-
-
-def no_contact(where: str, phi1: np.ndarray, pairs: Sequence[int], z1: int) -> ConvergenceError:
-    """The error for a sweep that found no contact at any position (never an all-NaN result)."""
-    return ConvergenceError(
-        f"{where}: no contact at any of the {phi1.size} positions phi1 = {phi1.min():.6g} .. "
-        f"{phi1.max():.6g} rad (pairs {tuple(pairs)}). The angles may lie outside the meshing cycle (pair 0 meshes "
-        f"around phi1 = 0; one cycle is 2 pi / z1 = {2 * math.pi / z1:.6g} rad; angles are in rad), or the flanks do "
-        "not meet under this misalignment.")
-
-
-class EnvelopeTE:
-    """TE-envelope helpers shared by the result objects (needs ``te_envelope`` [rad])."""
-
-    @property
-    def te_envelope_arcsec(self) -> np.ndarray:
-        return self.te_envelope * RAD_TO_ARCSEC
-
-    @property
-    def peak_to_peak(self) -> float:
-        """Peak-to-peak of the actual TE (envelope) [rad]."""
-        v = self.te_envelope[np.isfinite(self.te_envelope)]
-        return float(v.max() - v.min()) if v.size else float("nan")
-
-    @property
-    def peak_to_peak_arcsec(self) -> float:
-        """Peak-to-peak of the actual TE (envelope) [arcsec]."""
-        return self.peak_to_peak * RAD_TO_ARCSEC
-
-
-@dataclass(frozen=True)
-class TCAResult(EnvelopeTE):
-    """Numeric result of a TCA sweep (one design, one misalignment case).
-
-    Arrays have shape (K, N): K tooth pairs (pinion tooth ``pairs[k]``, positions shifted by
-    2 pi/z1) and N input positions ``phi1``.
-
-    Attributes
-    ----------
-    phi1 : (N,) pinion angles [rad].
-    phi2, te : (K, N) gear angle and transmission error [rad] of each pair (NaN where unsolved).
-    te_envelope : (N,) actual TE [rad]: the upper envelope over pairs in contact on the active flank.
-    driving : (N,) index into ``pairs`` of the driving pair (-1 where none).
-    u1, z1, u2, z2 : (K, N) surface coordinates [mm] of the contact points.
-    r1, r2 : (K, N, 3) contact points on pinion / gear in their own frames [mm].
-    radius1, radius2 : (K, N) transverse radii of the contact point on each member [mm].
-    rf : (K, N, 3) contact point in the fixed frame [mm].
-    kappa1, kappa2 : (K, N, 2) principal curvatures of pinion and gear flank [1/mm] (convex > 0).
-    ellipse_a, ellipse_b : (K, N) contact ellipse semi-axes [mm] (major, minor) for ``delta``.
-    ellipse_dir2, ellipse_dir1 : (K, N, 2, 3) unit directions of the major ([..., 0, :]) and minor
-        ([..., 1, :]) axes in the gear and in the pinion frame.
-    residual : (K, N) residual norm after the solve [mm].
-    normal_dot : (K, N) n1 . n2 of the outward normals in S_f (-1 for a true contact point).
-    converged, on_surface : (K, N) bool flags.
-    solve_time : float [s]; ``stats`` dict with counts and timing.
-    """
-
-    phi1: np.ndarray
-    pairs: tuple
-    phi2: np.ndarray
-    te: np.ndarray
-    te_envelope: np.ndarray
-    driving: np.ndarray
-    u1: np.ndarray
-    z1: np.ndarray
-    u2: np.ndarray
-    z2: np.ndarray
-    r1: np.ndarray
-    r2: np.ndarray
-    rf: np.ndarray
-    radius1: np.ndarray
-    radius2: np.ndarray
-    kappa1: np.ndarray
-    kappa2: np.ndarray
-    ellipse_a: np.ndarray
-    ellipse_b: np.ndarray
-    ellipse_dir2: np.ndarray
-    ellipse_dir1: np.ndarray
-    residual: np.ndarray
-    normal_dot: np.ndarray
-    converged: np.ndarray
-    on_surface: np.ndarray
-    delta: float
-    misalignment: Misalignment
-    solve_time: float
-    stats: dict = field(default_factory=dict)
-
-    @property
-    def te_arcsec(self) -> np.ndarray:
-        """TE of every pair [arcsec]."""
-        return self.te * RAD_TO_ARCSEC
-
-    def transfer_phi1(self) -> list:
-        """Pinion angles [rad] where the driving pair changes (midway between the two samples);
-        empty for a conjugate drive (the pairs in contact tie, round-off picks the "driving" one)."""
-        from ..report import CONJUGATE_ARCSEC
-
-        if self.peak_to_peak_arcsec < CONJUGATE_ARCSEC:
-            return []
-        drv = self.driving
-        return [float(0.5 * (self.phi1[i] + self.phi1[i + 1])) for i in range(len(drv) - 1)
-                if drv[i] >= 0 and drv[i + 1] >= 0 and drv[i] != drv[i + 1]]
-
-    def to_dict(self, label: str = "", z1: int | None = None, limits: dict | None = None) -> dict:
-        """This case as results.json holds it (``cases[]`` of the tca study; every key, unit and
-        meaning in docs/results.md): TE of every pair and the actual TE [arcsec], driving pair,
-        transfers, harmonics, the central pair's path of contact, curvatures and contact ellipses.
-
-        Parameters
-        ----------
-        label : str
-            Name of the case.
-        z1 : int, optional
-            Pinion tooth number, for the mesh-frequency harmonics (None: ``harmonics_arcsec`` null).
-        limits : dict, optional
-            Flank boundaries for the plots (``{"pinion": {"b", "r_a", "r_form"}, "gear": ...}`` [mm]).
-        """
-        from ..report import CONJUGATE_ARCSEC, arr, misalignment_dict, pair_numbers, te_harmonics
-
-        k0 = self.pairs.index(0) if 0 in self.pairs else 0
-        env = self.te_envelope_arcsec
-        stats = dict(self.stats)
-        if "n_failed" in stats:  # tooth pairs out of mesh at a position: not a failure of the drive
-            stats["n_pair_positions_without_contact"] = stats.pop("n_failed")
-        pp = self.peak_to_peak_arcsec
-
-        def member(z, radius, r, kappa, dirs):
-            return {"axial": arr(z[k0]), "radius": arr(radius[k0]), "xyz": arr(r[k0]), "kappa": arr(kappa[k0]),
-                    "ellipse_dirs": arr(dirs[k0].reshape(-1, 6))}
-
-        return {
-            "label": label,
-            "misalignment": misalignment_dict(self.misalignment),
-            "phi1": arr(self.phi1), "pairs": list(self.pairs),
-            "phi2": arr(self.phi2), "te_arcsec": arr(self.te_arcsec), "te_envelope_arcsec": arr(env),
-            "driving_pair": pair_numbers(self.driving, self.pairs), "transfer_phi1": self.transfer_phi1(),
-            "peak_to_peak_arcsec": pp, "conjugate": bool(pp < CONJUGATE_ARCSEC),
-            "harmonics_arcsec": None if z1 is None else te_harmonics(self.phi1, env, z1),
-            "pinion": member(self.z1, self.radius1, self.r1, self.kappa1, self.ellipse_dir1),
-            "gear": member(self.z2, self.radius2, self.r2, self.kappa2, self.ellipse_dir2),
-            "ellipse_semi_major_mm": arr(self.ellipse_a[k0]), "ellipse_semi_minor_mm": arr(self.ellipse_b[k0]),
-            "delta_mm": self.delta,
-            "converged": [bool(v) for v in self.converged[k0]], "on_surface": [bool(v) for v in self.on_surface[k0]],
-            "on_surface_pairs": [[bool(v) for v in row] for row in self.on_surface],
-            "actual_te_at_every_position": bool(np.isfinite(self.te_envelope).all()),
-            "max_residual": float(np.max(self.residual[self.converged])),  # over the accepted points
-            "min_normal_dot": float(np.min(self.normal_dot[self.converged])),
-            "stats": stats, "solve_time_s": self.solve_time,
-            "limits": limits,
-        }
-
-
-
-class TCA:
+class TCA(FlankLimits, TCAResultAssembly):
     """Compiled tooth contact analysis of a gear pair (build once, solve many).
 
     Parameters
@@ -397,7 +114,7 @@ class TCA:
                  gear: GeneratedTooth | None = None, solver: str = SolverSettings.solver,
                  tol: float = SolverSettings.tol, contact: str = "point", jit: bool | str = SolverSettings.jit):
         if not isinstance(pair, GearPair):
-            raise ArgumentError(f"pair = {_describe(pair)}: expected a gearopt.gears.GearPair (pinion, gear).",
+            raise ArgumentError(f"pair = {describe(pair)}: expected a gearopt.gears.GearPair (pinion, gear).",
                                 param="pair", value=pair, valid="a gearopt.gears.GearPair")
         if side not in ("right", "left"):
             raise out_of_range("side", side, "'right' or 'left'", cls=OptionError)
@@ -646,7 +363,7 @@ class TCA:
             try:
                 w0 = np.asarray(w0, float).ravel()
             except (TypeError, ValueError):
-                raise ArgumentError(f"w0 = {_describe(w0)}: expected {n_w} numbers (the unknowns [mm]).",
+                raise ArgumentError(f"w0 = {describe(w0)}: expected {n_w} numbers (the unknowns [mm]).",
                                     param="w0", value=w0, valid=f"{n_w} numbers") from None
             if w0.size != n_w or not np.all(np.isfinite(w0)):
                 raise ArgumentError(f"w0 = {shorten(str(w0.tolist()))}: expected {n_w} finite numbers (the unknowns "
@@ -819,94 +536,12 @@ class TCA:
         folded = self.folding(p1, p2)
         if folded:
             stats["folded_flanks"] = folded
-        result = self._result(_Solved(phi1=phi1, pairs=pairs, W=Wf, ok=ok, res=res, n1n2=n1n2, contact=c, delta=delta,
-                                      mis=mis, solve_time=solve_time, stats=stats, phi2_ref=phi2_ref, p1=p1, p2=p2))
+        result = self._result(SolvedSweep(phi1=phi1, pairs=pairs, W=Wf, ok=ok, res=res, n1n2=n1n2, contact=c,
+                                          delta=delta, mis=mis, solve_time=solve_time, stats=stats, phi2_ref=phi2_ref,
+                                          p1=p1, p2=p2))
         if not ok.any():  # all-NaN: not a result (points found off the finite flanks are kept, flagged)
             raise no_contact("TCA.sweep", phi1, pairs, g1.z)
         return result
-
-    # ------------------------------------------------------------------------------------------
-    def _result(self, sv: "_Solved"):
-        phi1, pairs, W, ok, res, n1n2 = sv.phi1, sv.pairs, sv.W, sv.ok, sv.res, sv.n1n2
-        delta, mis, solve_time, stats, phi2_ref, p1, p2 = (sv.delta, sv.mis, sv.solve_time, sv.stats, sv.phi2_ref,
-                                                           sv.p1, sv.p2)
-        c = sv.contact
-        K, N = len(pairs), phi1.size
-        bad = np.flatnonzero(~ok)  # the columns not accepted
-        # the contact points [pinion, gear, S_f] x column x xyz, NaN where not accepted (one array)
-        pts = np.concatenate([c["r1"].T, c["r2"].T, c["rf1"].T]).reshape(3, K * N, 3)
-        pts[:, bad] = np.nan
-        g1, g2 = self.pair.pinion, self.pair.gear
-        okk = ok.reshape(K, N)
-        shp = lambda a: a.reshape(K, N)  # noqa: E731
-        phi2 = shp(W[4] / self.scale2) + self._pitch_angles(pairs, 2)[:, None]
-        # TE relative to the pair-0 gear angle at phi1 = 0, so that every pair and sweep shares one zero.
-        ratio = g1.z / g2.z
-        te = phi2 - ratio * phi1[None, :] - phi2_ref
-        radii = np.hypot(pts[:2, :, 0], pts[:2, :, 1])  # transverse radii of the points on pinion and gear
-        radius1, radius2 = shp(radii[0]), shp(radii[1])
-        z1, z2 = shp(W[1]), shp(W[3])
-        eps = 1e-9
-        # Above the true end of each generated flank (junction, fold or crossing; per section z).
-        lim1 = self.on_flank(1, shp(W[0]), z1, p1)
-        lim2 = self.on_flank(2, shp(W[2]), z2, p2)
-        # on the face (|z1| <= b1 / 2, |z2| <= b2 / 2) and inside the tip circles (NaN, where not
-        # accepted, compares False)
-        edge = self._memo.get("edge")
-        if edge is None:  # (the pair is fixed when the TCA is built)
-            edge = self._remember("edge", np.array([[g1.b / 2 + eps, g1.r_a + eps], [g2.b / 2 + eps, g2.r_a + eps]]))
-        inside = (np.abs(W[1:4:2]) <= edge[:, :1]) & (radii <= edge[:, 1:])
-        inside = shp(inside[0] & inside[1])
-        on = okk & inside & lim1 & lim2
-        te_on = np.where(on, te, -np.inf)
-        drv = np.argmax(te_on, axis=0)
-        env = te_on[drv, np.arange(N)]
-        has = np.isfinite(env)
-        # A tangency past the end of a folded flank that the tool cut off at a ridge (a convex edge):
-        # that pair's real contact is on the ridge, at a TE between the surface one and nothing; if
-        # the surface TE is above the envelope, the surface contacts cannot tell the actual TE there.
-        ridge = None
-        for member, lim_ok, uu, pp in ((1, lim1, W[0], p1), (2, lim2, W[2], p2)):
-            if self.flank_limit(member, 0.0, pp).kind == "intersection":
-                r_m = okk & ~lim_ok & np.isfinite(shp(uu)) & inside
-                ridge = r_m if ridge is None else ridge | r_m
-        if ridge is not None:
-            # (a tie within round-off, e.g. conjugate line contact, changes nothing: the ridge TE <= the surface TE)
-            unknown = (ridge & (np.where(ridge, te, -np.inf) > np.where(has, env, -np.inf)[None, :] + 1e-13)).any(axis=0)
-            if unknown.any():
-                has = has & ~unknown
-                stats["ridge_contact"] = (
-                    f"{int(unknown.sum())} of {N} positions: a tooth pair's contact falls past the end of a folded "
-                    "flank, where the tool cut it off at a ridge; that pair rests on the ridge (edge contact), "
-                    "so the actual TE there is NaN here: analyse edge contact (gearopt.contact.EdgeContact)")
-        env = np.where(has, env, np.nan)
-        driving = np.where(has, drv, -1)
-        # Curvatures and contact ellipse (eigen-decomposition of K1 + K2 in the common basis, in the
-        # compiled sweep outputs): semi-axes sqrt(2 delta / lam), NaN where not converged.
-        kap1 = c["kappa1"].T.copy()
-        kap2 = c["kappa2"].T.copy()
-        lam = c["lam"].T
-        ax_len = np.full(lam.shape, np.inf)  # no contact ellipse where K1 + K2 is not positive (or NaN)
-        pos = lam > 0
-        ax_len[pos] = np.sqrt(2 * delta / lam[pos])
-        # [major, minor] x (3,) in the gear frame and in the pinion frame (each output (3, 2 K N):
-        # column 2 j + a holds axis a of column j)
-        edir = c["dir2"].T.reshape(K * N, 2, 3).copy()
-        edir1 = c["dir1"].T.reshape(K * N, 2, 3).copy()
-        for a in (kap1, kap2, ax_len, edir, edir1):
-            a[bad] = np.nan
-        ea, eb = ax_len.T.copy()
-        # (phi2, te and the radii are NaN where not accepted already: W and the points are)
-        return TCAResult(
-            phi1=phi1, pairs=pairs, phi2=phi2, te=te,
-            te_envelope=env, driving=driving, u1=shp(W[0]), z1=z1, u2=shp(W[2]), z2=z2,
-            r1=pts[0].reshape(K, N, 3), r2=pts[1].reshape(K, N, 3), rf=pts[2].reshape(K, N, 3),
-            radius1=radius1, radius2=radius2,
-            kappa1=kap1.reshape(K, N, 2), kappa2=kap2.reshape(K, N, 2),
-            ellipse_a=ea.reshape(K, N), ellipse_b=eb.reshape(K, N), ellipse_dir2=edir.reshape(K, N, 2, 3),
-            ellipse_dir1=edir1.reshape(K, N, 2, 3),
-            residual=res.reshape(K, N), normal_dot=n1n2.reshape(K, N), converged=okk, on_surface=on,
-            delta=delta, misalignment=mis, solve_time=solve_time, stats=stats)
 
     def _orientation(self, tooth: GeneratedTooth, r_w: float) -> float:
         """Sign of (r_u x r_z) . n on the flank's valid branch (at the operating pitch radius)."""
@@ -914,111 +549,3 @@ class TCA:
         r, n = tooth.surface(self.side, "flank")(u, z, tooth.p0)[:2]
         f = ca.Function("o", [u, z], [ca.dot(ca.cross(ca.jacobian(r, u), ca.jacobian(r, z)), n)])
         return float(np.sign(float(f(tooth.u_at_radius(r_w, 0.0, self.side), 0.0))))
-
-    def form_radius(self, member: int, p: npt.ArrayLike | None = None) -> float:
-        """Form radius [mm] of member 1 (pinion) or 2 (gear) on the driving flank in the mid section
-        z = 0, for the parameter vector ``p`` (default: as built): where the real generated flank
-        ends (:meth:`GeneratedTooth.flank_limit`: the tool's flank/fillet junction, or below a fold
-        of the flank its crossing with the reversed branch or the fillet)."""
-        return self.flank_limit(member, 0.0, p).radius
-
-    def flank_limit(self, member: int, z: float = 0.0, p: npt.ArrayLike | None = None) -> FlankLimit:
-        """:class:`~gearopt.geometry.generation.FlankLimit` of member 1 (pinion) or 2 (gear) on the
-        driving side in section ``z`` [mm] for the parameter vector ``p`` (default: as built)."""
-        tooth = self.pinion if member == 1 else self.gear
-        p = tooth.p0 if p is None else np.asarray(p, float).ravel()
-        key = ("limit", member, float(z), tuple(p.tolist()))
-        if key not in self._limits:
-            self._limits[key] = tooth.flank_limit(self.side, float(z), p)
-        return self._limits[key]
-
-    def limit_table(self, member: int, p: npt.ArrayLike | None = None) -> tuple[np.ndarray, np.ndarray]:
-        """(z^2 grid, u_limit on it): the flank limit depends on z only through the plunging a_pl z^2
-        (a shift of the tool in that section), so it is tabulated in z^2 across the face."""
-        tooth = self.pinion if member == 1 else self.gear
-        p = tooth.p0 if p is None else np.asarray(p, float).ravel()
-        key = ("table", member, tuple(p.tolist()))
-        if key not in self._limits:
-            b = (self.pair.pinion if member == 1 else self.pair.gear).b
-            a_pl = p[self.layout.p_index("pinion" if member == 1 else "gear", "a_pl")]
-            s = np.array([0.0]) if a_pl == 0 else (b / 2) ** 2 * np.linspace(0.0, 1.0, 9)
-            ends = [self.flank_limit(member, math.sqrt(v), p) for v in (s[0], s[-1])]
-            if all(e.kind == "junction" for e in ends) and ends[0].u == ends[1].u:
-                # The plunging shifts the tool monotonically in z^2, and a fold (undercut) grows with
-                # the shift: regular at both ends means regular in between, and the flank ends at
-                # the tool's junction, the same u in every section (checked: tests/test_flank_limit.py).
-                s = s[:1]
-            self._limits[key] = (s, np.array([self.flank_limit(member, math.sqrt(v), p).u for v in s]))
-        return self._limits[key]
-
-    def on_flank(self, member: int, u: npt.ArrayLike, z: npt.ArrayLike, p: npt.ArrayLike | None = None,
-                 band: float = 1e-3) -> np.ndarray:
-        """True where the flank point (u, z) [mm] of member 1 or 2 lies on the real generated flank
-        (``u`` not past the flank limit of its section; the tip and face are checked elsewhere).
-        The limit is interpolated in z^2 (:meth:`limit_table`) and recomputed exactly for points
-        within ``band`` [mm] of it or within the limit's change across their table interval (the
-        interpolation's error bound: the limit moves monotonically with the plunging shift).
-        NaN points are False."""
-        u, z = np.asarray(u, float), np.asarray(z, float)
-        s_grid, u_grid = self.limit_table(member, p)
-        fin = np.isfinite(u) & np.isfinite(z)
-        if s_grid.size == 1:  # one limit in every section (compared where finite only)
-            return np.less_equal(u, u_grid[0] + 1e-8, out=np.zeros(u.shape, bool), where=fin)
-        b = (self.pair.pinion if member == 1 else self.pair.gear).b
-        s = np.clip(np.where(fin, z, 0.0) ** 2, 0.0, (b / 2) ** 2)
-        u_lim = np.interp(s, s_grid, u_grid) if s_grid.size > 1 else np.full(u.shape, u_grid[0])
-        if s_grid.size > 1:  # within the table interval's own variation of the limit (the
-            # interpolation's error bound), or within band of it: the exact limit of that section
-            k = np.clip(np.searchsorted(s_grid, s, side="right") - 1, 0, s_grid.size - 2)
-            width = np.maximum(band, np.abs(np.diff(u_grid))[k])
-            near = fin & (np.abs(np.where(fin, u, 0.0) - u_lim) < width)
-        else:
-            near = np.zeros(u.shape, bool)
-        for idx in zip(*np.nonzero(near)):
-            u_lim[idx] = self.flank_limit(member, math.sqrt(s[idx]), p).u
-        with np.errstate(invalid="ignore"):
-            return fin & (u <= u_lim + 1e-8)
-
-    on_active_flank = on_flank  #: (the old name)
-
-    def folding(self, p1: npt.ArrayLike | None = None, p2: npt.ArrayLike | None = None) -> dict:
-        """Members whose driving flank folds before the tool's junction (mid section), with the
-        flank limit and the largest a_c that does not fold: ``{"pinion": {...}}``; empty if none."""
-        out = {}
-        for member, name, tooth, p in ((1, "pinion", self.pinion, p1), (2, "gear", self.gear, p2)):
-            lim = self.flank_limit(member, 0.0, p)
-            if lim.folded:
-                key = ("a_c_max", member, tuple((tooth.p0 if p is None else np.asarray(p, float)).tolist()))
-                if key not in self._limits:
-                    self._limits[key] = float(tooth.max_unfolded_a_c(self.side, 0.0, p))
-                out[name] = {"kind": lim.kind, "r_form": float(lim.radius), "u_limit": float(lim.u),
-                             "r_fold": float(lim.radius_fold),
-                             "r_junction": float(np.hypot(*tooth.point(self.side, "flank", lim.u_junction, 0.0,
-                                                                       p)[0][:2])),
-                             "a_c": float((tooth.p0 if p is None else np.asarray(p, float))[
-                                 self.layout.p_index(name, "a_c")]),
-                             "a_c_max_unfolded": self._limits[key]}
-        return out
-
-
-@dataclass
-class _Solved:
-    """What a sweep solved, handed to :meth:`TCA._result` by name: positions ``phi1`` (N,),
-    ``pairs``, full unknowns ``W`` (5, K N) (NaN where not accepted), the per-point checks ``ok``,
-    ``res``, ``n1n2`` (K N,), the mapped contact Function's outputs by name ``contact``, and the
-    sweep's settings."""
-
-    phi1: np.ndarray
-    pairs: tuple
-    W: np.ndarray
-    ok: np.ndarray
-    res: np.ndarray
-    n1n2: np.ndarray
-    contact: dict
-    delta: float
-    mis: Misalignment
-    solve_time: float
-    stats: dict
-    phi2_ref: float
-    p1: np.ndarray | None = None
-    p2: np.ndarray | None = None

@@ -33,7 +33,8 @@ from gearopt.errors import OptionError
 
 if TYPE_CHECKING:  # pragma: no cover
     from gearopt.fea.calculix import Deck
-    from gearopt.fea.model import FEResult, GearFEModel
+    from gearopt.fea.model import GearFEModel
+    from gearopt.fea.result import FEResult
     from gearopt.gears import GearPair
 
 #: the CI-sized mesh of the comparison (tests/test_fea.py's coarse mesh, ~5 s per ccx run on 2 cores)
@@ -78,7 +79,7 @@ def single_pair_deck(model: GearFEModel) -> Deck:
 def run_single_pair(model: GearFEModel) -> FEResult:
     """Run ``model`` with :func:`single_pair_deck` (ccx) and read its results as :meth:`GearFEModel.run` does."""
     from gearopt.fea.calculix import run_ccx
-    from gearopt.fea.model import FEResult
+    from gearopt.fea.result import FEResult
 
     deck = single_pair_deck(model)
     o = model.opt

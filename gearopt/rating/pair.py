@@ -52,7 +52,7 @@ def generated_tooth_forms(pair: GearPair, p: PairData | None = None) -> tuple[di
     """The critical sections of ISO 6336-3 method B measured on each member's generated tooth (its own
     tool, tooth thickness allowance, fillet): the points where the fillet's tangent makes 30 deg with the
     tooth centre line, the fillet radius there, and the load at the outer point of single pair contact
-    (``d_en`` of the closed form) along the flank normal (:func:`gearopt.fea.model.root_stress_estimate`).
+    (``d_en`` of the closed form) along the flank normal (:func:`gearopt.fea.references.root_stress_estimate`).
 
     Returns
     -------
@@ -60,7 +60,7 @@ def generated_tooth_forms(pair: GearPair, p: PairData | None = None) -> tuple[di
         ``s_Fn``, ``h_Fe``, ``rho_F`` [mm], ``alpha_Fen`` [rad] of pinion and gear; None for a helical
         pair (ISO rates its virtual spur gear, which is not a section of the generated tooth).
     """
-    from gearopt.fea.model import root_stress_estimate
+    from gearopt.fea.references import root_stress_estimate
     from gearopt.geometry.generation import generate
     from gearopt.rating.iso6336 import geometry, tooth_form
 

@@ -414,7 +414,7 @@ class LTCAKernel:
                               pairs=self.pairs, offsets=(e1[i], e2[i]))
             except (ConvergenceError, GeometryError):
                 continue
-            except OptionError as e:  # beyond the model's range of validity (ltca.engine.check_validity)
+            except OptionError as e:  # beyond the model's range of validity (ltca.validity.check_validity)
                 e.sample = int(chunk.get("first", 0)) + i  # the study names the sample and its inputs
                 raise
             r = sw.results[0]

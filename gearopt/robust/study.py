@@ -539,7 +539,7 @@ class MonteCarlo(_Robust):
                                    cls=OptionError)
             self.torque_dist = torque
             if math.isfinite(torque.support[1]):  # the largest torque drawn, against the model's range
-                from ..ltca.engine import check_torque_range
+                from ..ltca.validity import check_torque_range
                 check_torque_range(pair, torque.support[1], material, name="torque.hi" if torque.kind != "fixed"
                                    else "torque.value")
         if not inputs:

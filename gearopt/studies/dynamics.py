@@ -224,7 +224,8 @@ class DynamicsStudy:
         from ..dynamics.settings import DynamicsSettings
         from ..errors import OptionError, check_number, out_of_range
         from ..ltca.compliance import Material
-        from ..ltca.engine import LTCA, check_torque_range
+        from ..ltca.engine import LTCA
+        from ..ltca.validity import check_torque_range
 
         s = DynamicsSettings.of(settings, **options)
         torque = check_number("torque", torque, "the pinion torque [N m]", cls=OptionError)

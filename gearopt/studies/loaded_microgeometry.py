@@ -220,7 +220,7 @@ class LoadedMicroStudy:
                  weights: Sequence[float] | None = None, name: str = "loaded_microgeometry",
                  pareto: Sequence[float] | None = None, settings: LoadedMicroSettings | None = None,
                  material: Material | None = None, **options: Any) -> None:
-        from ..ltca.engine import check_torque_range
+        from ..ltca.validity import check_torque_range
         from ..synthesis.loaded import LoadedMicroOptimizer
 
         self.pair, self.name, self.torque = pair, name, float(torque)

@@ -193,7 +193,8 @@ class LTCAStudy:
                  settings: LTCAStudySettings | None = None, material: Material | None = None,
                  r_int: tuple[float, float] | None = None, **options: Any) -> None:
         from ..errors import OptionError, check_number, out_of_range
-        from ..ltca.engine import LTCA, check_torque_range
+        from ..ltca.engine import LTCA
+        from ..ltca.validity import check_torque_range
         from ..meshing.misalignment import Misalignment
         from ..settings import LTCAStudySettings
 
@@ -233,7 +234,7 @@ class LTCAStudy:
         # one call: the contact structure once, each torque's contact set started from the previous one's
         sweep = L.solve(self.torques, slices=S)
         results = sweep.results
-        from ..ltca.engine import QP_METHOD
+        from ..ltca.contact_qp import QP_METHOD
         data = sweep.to_dict(p.pinion.z, nominal=self.torque)
         pair = {"z1": p.pinion.z, "z2": p.gear.z, "m_n": p.pinion.m_n, "beta_deg": p.pinion.beta / DEG, "a": p.a_w,
                 "b": min(p.pinion.b, p.gear.b), "b1": p.pinion.b, "b2": p.gear.b, "r_b1": p.pinion.r_b,
