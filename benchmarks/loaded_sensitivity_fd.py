@@ -71,6 +71,25 @@ def build_optimizer(name: str):
                             n_positions=16, n_verify=32, n_slices=11, name="optimize_microgeometry").optimizer
 
 
+def reported(name: str, opt, design):
+    """The optimiser and design whose sensitivities the scene reports: for a scene with a Pareto front
+    (``pareto`` limits) the front's anchor, which may be a tighter limit's design, with the optimiser of
+    the limit whose NLP it solves (``ParetoFront.solved_under``, as ``LoadedMicroStudy`` does); else
+    ``(opt, design)``."""
+    if name == "optimize_microgeometry":
+        return opt, design
+    from gearopt.io.scene import load_scene
+
+    limits = load_scene(ROOT / "problems" / f"{name}.toml").build().pareto
+    if limits is None or opt.p_limit is not None:
+        return opt, design
+    fr = opt.pareto(limits, anchor=design)
+    under = fr.solved_under[0] if fr.solved_under else None
+    print(f"Pareto front: the anchor {fr.anchor.theta_um()} um solves the NLP of the limit {under} MPa "
+          f"(the optimum without a limit: {design.theta_um()} um)")
+    return (opt if under is None else opt.with_p_limit(under)), fr.anchor
+
+
 def active_set_of(S: dict) -> dict:
     """The active set of a ``kkt_sensitivities`` result: the active rows of each constraint block of its
     NLP, the free amounts on a bound, the positions of the loaded TE's extremes and per case the active
@@ -268,6 +287,9 @@ def main(argv=None) -> int:
     ap.add_argument("--no-settle", action="store_true",
                     help="take each optimum where its trust-region loop stops instead of at its fixed point "
                          "(fixed_point: the loop may stop a few nm from it, which small steps amplify)")
+    ap.add_argument("--no-pareto", action="store_true",
+                    help="a scene with a Pareto front: check the optimum without a pressure limit instead of the "
+                         "design the scene reports (the front's anchor, under the limit whose NLP it solves)")
     a = ap.parse_args(argv)
     from gearopt.synthesis.loaded import constants
 
@@ -288,6 +310,8 @@ def main(argv=None) -> int:
         t0 = time.perf_counter()
         opt = build_optimizer(name)
         design = opt.solve()
+        if not a.no_pareto:
+            opt, design = reported(name, opt, design)
         theta = np.array([design.theta[n] for n in opt.free])
         if a.no_settle:
             # the zero point of the differences: the optimum re-solved as the offset ones are (from the
