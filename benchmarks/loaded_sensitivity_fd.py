@@ -19,10 +19,13 @@ fixed point whatever ``THETA_TOL`` says: problems/optimize_microgeometry.py's 3 
 steps (default 0.01 arcmin, 0.005 mm) stay within one active set and above the noise. The steps are
 cut to the range over which the sensitivities' active set holds (``range_mis`` of
 ``LoadedMicroOptimizer.sensitivities``, first order), and where that range is short the optimum is
-re-solved beyond it to confirm the flagged change (:func:`fd_check`).
+re-solved beyond it to confirm the flagged change (:func:`fd_check`). A scene with a Pareto front is
+checked at the design it reports (the front's anchor, under the limit whose NLP it solves:
+:func:`reported`; ``--no-pareto``: the optimum without a limit).
 
     python benchmarks/loaded_sensitivity_fd.py                       # 4 scenes x crossing, dE (~40 min alone)
     python benchmarks/loaded_sensitivity_fd.py --only microgeometry_pareto --kinds crossing
+    python benchmarks/loaded_sensitivity_fd.py --only microgeometry_pareto --no-pareto   # its range of 1.06 um of dE
     python benchmarks/loaded_sensitivity_fd.py --h-angle 0.05 --h-length 0.05 --theta-tol 1e-4   # the issue's steps
 
 ``--h-angle`` [arcmin] and ``--h-length`` [mm] are the steps. Each re-solved optimum's active set
