@@ -180,6 +180,9 @@ def verdict(r: dict, base_set, odd: bool, base_stop: str = "converged") -> tuple
         if changed and not odd:
             return None, (f"not compared: the re-solved optimum's active set or slice set changes within the steps "
                           f"(optimum {base_set}, re-solved {changed[0]})")
+    if r.get("kink") and not odd:
+        return None, (f"not compared: the sensitivities flag a kink (their active set holds over {r['range']} only, "
+                      f"range_mis); the differences are the slopes beside it")
     if not odd and noise > 0.25 * np.max(np.abs(ad)):
         return None, (f"not compared: the sensitivities' active set holds over {r['range']} only (their range_mis), "
                       f"where the differences' noise bound {noise:.3g} um per unit exceeds a quarter of AD")
@@ -222,8 +225,13 @@ def fd_check(opt, design, sens, kind: str, h: float, check_sets: bool = True, ba
         steps = (1, 2)
     h_req = h
     lo, hi = (float(v) for v in sens["range_mis"][j])
+    kink = False
     if np.isfinite(lo) or np.isfinite(hi):  # (NaN: a mirror-odd kind, zero by the symmetry)
-        h = min(h, 0.4 * hi) if steps == (1, 2) else min(h, 0.8 * min(hi, -lo))
+        cut = min(h, 0.4 * hi) if steps == (1, 2) else min(h, 0.8 * min(hi, -lo))
+        # a range below what differences resolve (a hundred design tolerances) is a kink the sensitivities
+        # flag: the requested steps then measure the slopes on either side of it
+        kink = bool(sens["kink_mis"][j]) or cut < 100 * opt_theta_tol()
+        h = h if kink else cut
     beyond = []
     for edge in ((hi,) if steps == (1, 2) else (lo, hi)):
         if check_sets and base_set is not None and np.isfinite(edge) and abs(edge) < 10 * h_req:
@@ -262,7 +270,7 @@ def fd_check(opt, design, sens, kind: str, h: float, check_sets: bool = True, ba
             "noise_um": float(noise * 1e3), "ad_objective": float(sens["d_objective_d_mis"][j]),
             "fd_objective": float(fd_f), "stops": [out[k][2] for k in steps], "names": names,
             "active_sets": [sets[k] for k in steps], "h_requested": h_req, "range": [lo, hi],
-            "range_why": sens["range_why"]["mis"][j], "beyond": beyond}
+            "range_why": sens["range_why"]["mis"][j], "beyond": beyond, "kink": kink}
 
 
 def opt_theta_tol() -> float:

@@ -17,6 +17,11 @@ from .kkt import active_set_range, central_path_indicators, csc_of_dm, degenerat
 from .results import MicroDesign
 
 
+#: a range of the active set below this [mm, rad or N m] on either side is a kink: the derivatives
+#: of the active set chosen predict no re-solved optimum (``kink_mis``, ``kink_torque``)
+KINK_RANGE = 1e-9
+
+
 class Sensitivities:
     """Sensitivities of an optimum by the KKT system of its active set."""
 
@@ -56,6 +61,7 @@ class Sensitivities:
         out["d_objective_d_mis"][odd] = 0.0
         # (the offset breaks the mirror pairing: a kink at 0 may be there, section 6.1; not this problem's range)
         out["range_mis"][odd] = np.nan
+        out["kink_mis"][odd] = False
         for j in odd:
             out["range_why"]["mis"][j] = ("mirror-odd: zero by the symmetry, one-sided derivatives not computed",) * 2
         out["mirror_odd"] = [kinds[j] for j in odd]
@@ -131,7 +137,9 @@ class Sensitivities:
             :func:`~gearopt.synthesis.loaded.kkt.active_set_range`; the TE extremes, the pressure and edge
             rows, the design's bounds and the penalty slacks; +-inf: none), beyond which the optimum is
             another active set's and the derivatives no longer predict it (a range of nm at the
-            optimum is a kink: they are one side's); ``range_why``: per parameter
+            optimum is a kink: they are one side's); ``kink_mis`` (4,) and ``kink_torque`` (T,) bool: the
+            range on a side below :data:`KINK_RANGE` (the derivatives then predict no re-solved optimum:
+            e.g. a numerically singular KKT system, whose multipliers' derivatives are huge); ``range_why``: per parameter
             (``{"mis": [...], "torque": [...]}``) the events at the two ends of its range.
 
         Raises
@@ -287,6 +295,8 @@ class Sensitivities:
                 "d_objective_d_mis": dfdp[mis], "d_theta_d_mis": dth[:, mis], "held_data": bool(held),
                 "range_mis": np.stack([rng_lo[mis], rng_hi[mis]], axis=1),
                 "range_torque": np.stack([rng_lo[tq], rng_hi[tq]], axis=1) * self.torques[:, None],
+                "kink_mis": (np.minimum(-rng_lo[mis], rng_hi[mis]) < KINK_RANGE),
+                "kink_torque": (np.minimum(-rng_lo[tq], rng_hi[tq]) * self.torques < KINK_RANGE),
                 "range_why": {"mis": [tuple(name_of(w) for w in ws) for ws in rng_why[mis]],
                               "torque": [tuple(name_of(w) for w in ws) for ws in rng_why[tq]]}}
 
