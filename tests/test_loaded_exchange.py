@@ -100,3 +100,15 @@ def test_an_objective_the_exchanges_cannot_confirm_raises():
 def test_bad_confirmation_options_name_themselves(key, value):
     with pytest.raises(GearoptError, match=key):
         LoadedMicroOptimizer(_pair(), FREE, torques=[TORQUE], **{key: value})
+
+
+def test_without_the_exchange_the_disagreement_is_reported():
+    """``exchange=False``: the NLP's objective on its 8 positions only, and the result says by how much the
+    loaded TE between them exceeds it (more than confirm_tol here: the optimum's extremes lie between the
+    positions), without raising."""
+    opt = _optimiser(exchange=False)
+    d = opt.solve()
+    assert d.exchanges == 0 and d.phi1.size == 8
+    assert d.error["confirmed"] == pytest.approx(d.confirmed.objective - d.promised)
+    assert d.error["confirmed"] > opt.confirm_tol * d.confirmed.objective
+    assert d.confirmed.objective >= _fine_pp(d.theta) - 1e-9

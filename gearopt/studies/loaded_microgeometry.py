@@ -396,7 +396,7 @@ def _register():
             "edge_margin",
             Field("edge_loading", "bool", default=False,
                   doc="allow edge loading (no edge constraint; edge_margin is then not used)"),
-            "n_positions", "n_verify", "n_confirm", "confirm_tol", "max_exchanges", "n_slices", "side",
+            "n_positions", "n_verify", "n_confirm", "confirm_tol", "max_exchanges", "exchange", "n_slices", "side",
             *material_fields(),
             *misalignment_fields(signed=False, prefix="+- ", suffix=" cases"),
         ], subsections=[Section("free", [], subsections=[amounts("pinion"), amounts("gear")], required=True,

@@ -91,9 +91,13 @@ class LoadedMicroOptimizer(LoadedProblem, MirrorReduction, Verification, Exchang
 
         The trust-region loop (:meth:`_trust_region`) optimises on the NLP's grid of positions. The
         optimum is then checked by the exact loaded TCA on the verification grid (``n_verify``
-        positions); where that shows edge loading or a pressure above the limit between the NLP's
-        positions, those positions join the NLP's grid and the loop goes on from the optimum (at most
-        ``MAX_REFINE`` times)."""
+        positions) and on the confirmation grid (``n_confirm``, :meth:`confirm`); where the first shows
+        edge loading or either a pressure above the limit between the NLP's positions, those positions
+        join the NLP's grid and the loop goes on from the optimum (at most ``MAX_REFINE`` times). Then,
+        with ``exchange`` and the peak-to-peak objective, where the NLP's objective (the promised one)
+        and the confirmed one (the loaded TE extremes over the whole cycle) differ by more than
+        ``confirm_tol``, the extremes' positions join the NLP's grid and the loop goes on from the
+        optimum (at most ``max_exchanges`` times, then ``SynthesisError``)."""
         t_start = time.perf_counter()
         theta = self.theta0.copy() if start is None else np.clip(np.asarray(start, float), self.lo, self.hi)
         rounds, iters = [], 0
@@ -132,7 +136,7 @@ class LoadedMicroOptimizer(LoadedProblem, MirrorReduction, Verification, Exchang
                         param="n_positions", value=self.phi1.size)
                 refine += 1
                 what = "load an edge or exceed the pressure limit"
-            elif self.harmonics is None:
+            elif self.harmonics is None and self.exchange:
                 # the NLP's objective confirmed between its positions: where the design's loaded TE extremes
                 # over the mesh cycle give another peak-to-peak, their positions join the NLP's grid and the
                 # loop goes on from the optimum
