@@ -11,7 +11,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from gearopt.errors import GearoptError
+from gearopt.errors import OptionError
 from gearopt.gears import Gear, GearPair
 from gearopt.geometry.microgeometry import Microgeometry
 from gearopt.ltca.engine import LTCA
@@ -95,10 +95,13 @@ def test_an_objective_the_exchanges_cannot_confirm_raises():
     assert e.value.param == "max_exchanges"
 
 
-@pytest.mark.parametrize("key,value", [("confirm_tol", 0.0), ("confirm_tol", 0.6), ("max_exchanges", -1),
-                                       ("n_confirm", 4)])
-def test_bad_confirmation_options_name_themselves(key, value):
-    with pytest.raises(GearoptError, match=key):
+@pytest.mark.parametrize("key,value,valid", [("confirm_tol", 0.0, "0 < confirm_tol <= 0.5"),
+                                             ("confirm_tol", 0.6, "0 < confirm_tol <= 0.5"),
+                                             ("max_exchanges", -1, "0 <= max_exchanges <= 20"),
+                                             ("n_confirm", 4, "8 <= n_confirm <= 2000")])
+def test_bad_confirmation_options_name_themselves(key, value, valid):
+    """An option out of its range: an OptionError naming the option, the value and the valid range."""
+    with pytest.raises(OptionError, match=f"{key} = {value} is out of range; valid: .*{valid}"):
         LoadedMicroOptimizer(_pair(), FREE, torques=[TORQUE], **{key: value})
 
 
