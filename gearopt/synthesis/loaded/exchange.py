@@ -40,6 +40,8 @@ class Confirmation:
         [arcsec] Refined loaded TE peak-to-peak per torque and case.
     extremes : (T, C, 2) array
         [rad] Pinion angles of the largest and the smallest loaded TE per torque and case.
+    te_extremes : (T, C, 2) array
+        [arcsec] The largest and the smallest loaded TE per torque and case.
     n_grid : int
         Positions per mesh cycle of the fine grid.
     check : LoadedCheck
@@ -50,12 +52,19 @@ class Confirmation:
     grid_objective: float
     te_pp: np.ndarray = field(repr=False)
     extremes: np.ndarray = field(repr=False)
+    te_extremes: np.ndarray = field(repr=False)
     n_grid: int = 0
     check: LoadedCheck | None = field(default=None, repr=False)
 
-    def positions(self) -> np.ndarray:
-        """The distinct extreme positions [rad], sorted."""
-        return np.unique(self.extremes.ravel())
+    def positions(self, te_range: np.ndarray | None = None, tol: float = 0.0) -> np.ndarray:
+        """The distinct extreme positions [rad], sorted; with ``te_range`` ((T, C, 2) [arcsec], the largest
+        and smallest loaded TE over the NLP's positions), only those of the extremes the range misses by
+        more than ``tol`` (T, C) [arcsec]."""
+        if te_range is None:
+            return np.unique(self.extremes.ravel())
+        miss = np.stack([self.te_extremes[..., 0] - te_range[..., 0], te_range[..., 1] - self.te_extremes[..., 1]],
+                        axis=-1) > np.asarray(tol)[..., None]
+        return np.unique(self.extremes[miss])
 
     def to_dict(self) -> dict:
         from ...report import arr
@@ -86,6 +95,7 @@ class Exchange:
         T, C = self.torques.size, len(self.cases)
         pp = np.zeros((T, C))
         ext = np.zeros((T, C, 2))
+        val = np.zeros((T, C, 2))
         p1, p2 = self.params(theta)
         for c, (sw, mis) in enumerate(zip(chk.sweeps, self.cases)):
             te = np.stack([r.te_loaded_arcsec for r in sw.results])  # (T, n)
@@ -115,9 +125,11 @@ class Exchange:
                 best_x, best_f = np.where(up, x, best_x), np.where(up, f, best_f)
             hi, lo = best_f[0::2], -best_f[1::2]
             pp[:, c] = hi - lo
+            val[:, c, 0], val[:, c, 1] = hi, lo
             ext[:, c, 0], ext[:, c, 1] = self._wrap(best_x[0::2]), self._wrap(best_x[1::2])
         obj = float(np.sum(self.weights * pp))
-        return Confirmation(objective=obj, grid_objective=chk.objective, te_pp=pp, extremes=ext, n_grid=n, check=chk)
+        return Confirmation(objective=obj, grid_objective=chk.objective, te_pp=pp, extremes=ext, te_extremes=val,
+                            n_grid=n, check=chk)
 
     def _wrap(self, phi: np.ndarray) -> np.ndarray:
         """Pinion angles [rad] brought into the mesh cycle ``[-pi/z1, pi/z1)`` (the loaded TE is periodic
@@ -133,6 +145,19 @@ class Exchange:
         te = np.stack([r.te_loaded_arcsec for r in sw.results])  # (T, len(u))
         f = sign * te[rows, inv]
         return np.where(np.isfinite(f), f, -np.inf)
+
+    def _exchanged(self, conf: Confirmation, chk: LoadedCheck) -> np.ndarray:
+        """The extremes' positions [rad] that join the NLP's grid: those of each (torque, case) of weight > 0
+        whose loaded TE the NLP's positions (``chk``: the loaded TCA there) miss by more than a quarter of
+        ``confirm_tol`` of its peak-to-peak (what the extremes left out can add to the objective is then
+        below half the tolerance)."""
+        T, C = self.torques.size, len(self.cases)
+        rng = np.zeros((T, C, 2))
+        for c, sw in enumerate(chk.sweeps):
+            for t, r in enumerate(sw.results):
+                rng[t, c] = np.nanmax(r.te_loaded_arcsec), np.nanmin(r.te_loaded_arcsec)
+        tol = np.where(self.weights > 0, 0.25 * self.confirm_tol * conf.te_pp, np.inf)
+        return conf.positions(rng, tol)
 
     def _agrees(self, promised: float, conf: Confirmation) -> bool:
         """Whether the NLP's objective ``promised`` [arcsec] and the confirmed one agree within

@@ -142,7 +142,7 @@ class LoadedMicroOptimizer(LoadedProblem, MirrorReduction, Verification, Exchang
                 # loop goes on from the optimum
                 if self._agrees(pred["objective"], conf):
                     break
-                add = self._new_positions(conf.positions())
+                add = self._new_positions(red._exchanged(conf, cur.check))
                 if exchanges == self.max_exchanges or not add.size:
                     self._disagrees(pred["objective"], conf, exchanges)
                 exchanges += 1
