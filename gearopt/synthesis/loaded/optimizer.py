@@ -124,9 +124,11 @@ class LoadedMicroOptimizer(LoadedProblem, MirrorReduction, Verification, Exchang
             # the design on the confirmation grid: its loaded TE extremes between the positions (module
             # exchange), and its peak pressures there
             conf = red.confirm(theta)
-            cgrid = self.ltca.mesh_cycle(conf.n_grid)
-            add = self._new_positions(np.union1d(self._violated_positions(after, fine),
-                                                 red._violated_positions(conf.check, cgrid, edges=False)))
+            add = self._violated_positions(after, fine)
+            if conf is not None:
+                add = np.union1d(add, red._violated_positions(conf.check, self.ltca.mesh_cycle(conf.n_grid),
+                                                              edges=False))
+            add = self._new_positions(add)
             if add.size:
                 if refine == MAX_REFINE:
                     raise SynthesisError(
@@ -136,7 +138,7 @@ class LoadedMicroOptimizer(LoadedProblem, MirrorReduction, Verification, Exchang
                         param="n_positions", value=self.phi1.size)
                 refine += 1
                 what = "load an edge or exceed the pressure limit"
-            elif self.harmonics is None and self.exchange:
+            elif conf is not None and self.exchange and self.harmonics is None:
                 # the NLP's objective confirmed between its positions: where the design's loaded TE extremes
                 # over the mesh cycle give another peak-to-peak, their positions join the NLP's grid and the
                 # loop goes on from the optimum
@@ -166,7 +168,7 @@ class LoadedMicroOptimizer(LoadedProblem, MirrorReduction, Verification, Exchang
         self._raise_if_verification_fails(ver, after)
         err = {"te_pp": float(np.max(np.abs(pred["te_pp"] - ver.te_pp))),
                "objective": abs(pred["objective"] - ver.objective)}
-        if self.harmonics is None:
+        if conf is not None and self.harmonics is None:
             err["confirmed"] = conf.objective - pred["objective"]
         if self.p_limit is not None:
             err["p_max"] = float(np.max(np.abs(pred["p_max"] - ver.p_max)))
@@ -177,7 +179,8 @@ class LoadedMicroOptimizer(LoadedProblem, MirrorReduction, Verification, Exchang
                            predicted=pred, verified=ver, error=err, before=before, after=after, rounds=rounds,
                            iterations=iters, time=time.perf_counter() - t_start, status=status, stop=stop,
                            binding=self._binding(theta, pred, ver), rho=rho, phi1=self.phi1.copy(),
-                           confirmed=None if self.harmonics is not None else conf, exchanges=exchanges)
+                           confirmed=None if conf is None or self.harmonics is not None else conf,
+                           exchanges=exchanges)
 
     def _new_positions(self, phi: np.ndarray) -> np.ndarray:
         """The pinion angles ``phi`` [rad] not already among the NLP's positions."""
