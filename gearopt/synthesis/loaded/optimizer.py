@@ -134,7 +134,7 @@ class LoadedMicroOptimizer(LoadedProblem, MirrorReduction, Verification, Exchang
                     raise SynthesisError(
                         f"loaded micro-geometry: the optimum on {self.phi1.size} positions per cycle still loads an "
                         f"edge or exceeds the pressure limit at {add.size} of the verification ({self.n_verify}) and "
-                        f"confirmation ({conf.n_grid}) positions after {MAX_REFINE} refinements; raise n_positions.",
+                        f"confirmation ({self.n_confirm}) positions after {MAX_REFINE} refinements; raise n_positions.",
                         param="n_positions", value=self.phi1.size)
                 refine += 1
                 what = "load an edge or exceed the pressure limit"
