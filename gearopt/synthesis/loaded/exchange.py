@@ -148,15 +148,16 @@ class Exchange:
 
     def _exchanged(self, conf: Confirmation, chk: LoadedCheck) -> np.ndarray:
         """The extremes' positions [rad] that join the NLP's grid: those of each (torque, case) of weight > 0
-        whose loaded TE the NLP's positions (``chk``: the loaded TCA there) miss by more than a quarter of
-        ``confirm_tol`` of its peak-to-peak (what the extremes left out can add to the objective is then
-        below half the tolerance)."""
+        whose loaded TE the NLP's positions (``chk``: the loaded TCA there) miss. (Only those missed by more
+        than a quarter of ``confirm_tol`` of the peak-to-peak, one or two positions an exchange, took 4
+        exchanges without agreeing on the tiny problem of tests/test_loaded_exchange.py, and 529 instead of
+        429 IPOPT iterations on problems/microgeometry_te_target.toml.)"""
         T, C = self.torques.size, len(self.cases)
         rng = np.zeros((T, C, 2))
         for c, sw in enumerate(chk.sweeps):
             for t, r in enumerate(sw.results):
                 rng[t, c] = np.nanmax(r.te_loaded_arcsec), np.nanmin(r.te_loaded_arcsec)
-        tol = np.where(self.weights > 0, 0.25 * self.confirm_tol * conf.te_pp, np.inf)
+        tol = np.where(self.weights > 0, 0.0, np.inf)
         return conf.positions(rng, tol)
 
     def _agrees(self, promised: float, conf: Confirmation) -> bool:
