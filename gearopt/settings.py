@@ -418,6 +418,18 @@ class LoadedMicroSettings(Settings):
                               doc="positions per mesh cycle in the NLP")
     n_verify: int = option(64, kind="int", key="verify_positions", bounds=Bounds(lo=8, hi=2000),
                            doc="positions per mesh cycle of the before/after loaded TCA")
+    n_confirm: int = option(96, kind="int", key="confirm_positions", bounds=Bounds(lo=8, hi=2000),
+                            doc="positions per mesh cycle of the grid on which the optimum's loaded TE extremes are "
+                                "found (then refined between its positions) to confirm the NLP's objective")
+    confirm_tol: float = option(0.01, kind="float", bounds=Bounds(lo=0, lo_open=True, hi=0.5),
+                                doc="largest difference of the confirmed (loaded TE extremes between positions) and the "
+                                    "NLP's peak-to-peak objective, a share of the confirmed one")
+    max_exchanges: int = option(4, kind="int", bounds=Bounds(lo=0, hi=20),
+                                doc="times the loaded TE extremes of the optimum may join the NLP's positions before "
+                                    "a disagreement of the two objectives raises")
+    exchange: bool = option(True, kind="bool",
+                            doc="exchange the optimum's loaded TE extremes into the NLP's positions until its objective "
+                                "is confirmed (false: the NLP's positions only; the confirmed objective is still reported)")
     n_slices: int = option(15, kind="int", bounds=Bounds(lo=3, hi=201), doc="slices across the face")
     side: str = option("right", kind="str", choices=("right", "left"), doc="driving flank of the pinion")
     te_level: float | None = option(None, kind="angle", key="level", group="unloaded_te", scene_required=True,

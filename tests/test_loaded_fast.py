@@ -28,10 +28,11 @@ def _optimiser(torque: float = TORQUE) -> LoadedMicroOptimizer:
     model. With the bodies' coupling (the default) the optimum sits on C_beta's bound and the edge row
     (binding ("pinion.C_beta at its upper bound", "edge"), edge_share 0.037 verified, both amounts
     fixed: no derivative to compare); the coupled optimiser is checked in test_loaded_pareto.py and the
-    slow tier."""
+    slow tier. The objective is the NLP's on its 8 positions (``exchange=False``): the claims below are
+    those of its optimum; the exchange of the loaded TE extremes is tested in test_loaded_exchange.py."""
     pair = GearPair(Gear(z=20, m_n=3.0, b=20.0, modifications=Microgeometry(C_alpha=0.005, C_beta=0.010)),
                     Gear(z=40, m_n=3.0, b=20.0))
-    opt = LoadedMicroOptimizer(pair, FREE, torques=[torque], n_positions=8, n_verify=8, n_slices=5)
+    opt = LoadedMicroOptimizer(pair, FREE, torques=[torque], n_positions=8, n_verify=8, n_slices=5, exchange=False)
     opt.ltca = LTCA(pair, dataclasses.replace(opt.ltca.settings, neighbours="none"), material=opt.material,
                     tca=opt.tca)
     return opt

@@ -269,6 +269,10 @@ class LoadedMicroStudy:
         if progress:
             progress(f"loaded micro-geometry: objective {d.before.objective:.4g} -> {d.after.objective:.4g} arcsec "
                      f"(verification grid); NLP vs loaded TCA {d.error['te_pp']:.2g} arcsec")
+            if d.confirmed is not None:
+                progress(f"loaded micro-geometry: objective promised {d.promised:.4g} arcsec (the NLP's positions), "
+                         f"confirmed {d.confirmed.objective:.4g} (the loaded TE extremes between "
+                         f"{d.confirmed.n_grid} positions per cycle; {d.exchanges} exchange(s))")
             if opt.te_level is not None:
                 progress(f"loaded micro-geometry: unloaded TE against its {opt.te_level * RAD_TO_ARCSEC:.3g} arcsec parabola, "
                          f"largest RMS misfit of a case {np.max(d.before.te0_rms):.3g} -> {np.max(d.after.te0_rms):.3g} "
@@ -396,7 +400,7 @@ def _register():
             "edge_margin",
             Field("edge_loading", "bool", default=False,
                   doc="allow edge loading (no edge constraint; edge_margin is then not used)"),
-            "n_positions", "n_verify", "n_slices", "side",
+            "n_positions", "n_verify", "n_confirm", "confirm_tol", "max_exchanges", "exchange", "n_slices", "side",
             *material_fields(),
             *misalignment_fields(signed=False, prefix="+- ", suffix=" cases"),
         ], subsections=[Section("free", [], subsections=[amounts("pinion"), amounts("gear")], required=True,

@@ -45,3 +45,5 @@ KAPPA_FLOOR = 1e-4  #: [1/mm] the NLP's linearised relative curvature 1 / R* is 
 TIP_BAND = 0.02  #: [m_n] contact within this radial distance of a tip circle counts as tip (edge) contact
 SETTINGS = {"a_c": 0.05, "a_pl": 0.02}  #: Litvin's settings a design may free, with their largest value [1/mm]
 NONNEG = ("C_alpha", "C_beta", "C_alpha_a", "C_alpha_f", "C_beta_I", "C_beta_II")  #: amounts >= 0
+GOLDEN_STEPS = 8  #: golden-section steps refining each loaded TE extreme between the confirmation grid's positions (the interval to 0.618^8 = 2 % of two grid steps)
+CONFIRM_ATOL = 1e-2  #: [arcsec] the confirmed and the NLP's objective agree within confirm_tol of the confirmed, or this

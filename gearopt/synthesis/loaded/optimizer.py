@@ -12,6 +12,7 @@ import numpy.typing as npt
 
 from ..crowning import SynthesisError
 from .constants import MAX_REFINE, RHO
+from .exchange import Exchange
 from .linearise import Lineariser
 from .mirror import MirrorReduction
 from .nlp import NLPBuilder
@@ -24,8 +25,8 @@ from .trust_region import TrustRegion
 from .verify import Verification
 
 
-class LoadedMicroOptimizer(LoadedProblem, MirrorReduction, Verification, Lineariser, NLPBuilder, NLPSolution,
-                           TrustRegion, ParetoSweep, Sensitivities):
+class LoadedMicroOptimizer(LoadedProblem, MirrorReduction, Verification, Exchange, Lineariser, NLPBuilder,
+                           NLPSolution, TrustRegion, ParetoSweep, Sensitivities):
     """Choose flank modifications that minimise the loaded TE over a duty cycle (the package docstring,
     :mod:`gearopt.synthesis.loaded`).
 
@@ -90,9 +91,13 @@ class LoadedMicroOptimizer(LoadedProblem, MirrorReduction, Verification, Lineari
 
         The trust-region loop (:meth:`_trust_region`) optimises on the NLP's grid of positions. The
         optimum is then checked by the exact loaded TCA on the verification grid (``n_verify``
-        positions); where that shows edge loading or a pressure above the limit between the NLP's
-        positions, those positions join the NLP's grid and the loop goes on from the optimum (at most
-        ``MAX_REFINE`` times)."""
+        positions) and on the confirmation grid (``n_confirm``, :meth:`confirm`); where the first shows
+        edge loading or either a pressure above the limit between the NLP's positions, those positions
+        join the NLP's grid and the loop goes on from the optimum (at most ``MAX_REFINE`` times). Then,
+        with ``exchange`` and the peak-to-peak objective, where the NLP's objective (the promised one)
+        and the confirmed one (the loaded TE extremes over the whole cycle) differ by more than
+        ``confirm_tol``, the extremes' positions join the NLP's grid and the loop goes on from the
+        optimum (at most ``max_exchanges`` times, then ``SynthesisError``)."""
         t_start = time.perf_counter()
         theta = self.theta0.copy() if start is None else np.clip(np.asarray(start, float), self.lo, self.hi)
         rounds, iters = [], 0
@@ -106,7 +111,9 @@ class LoadedMicroOptimizer(LoadedProblem, MirrorReduction, Verification, Lineari
         for i, k in enumerate(classes):
             of[k] = i
         rho, last = RHO, None
-        for refine in range(MAX_REFINE + 1):
+        refine = exchanges = 0
+        conf = None
+        while True:
             red.phi1 = self.phi1
             # (a refinement goes on from the optimum with the penalty weight the last pass needed, its
             # IPOPT from the last pass's multipliers)
@@ -114,19 +121,41 @@ class LoadedMicroOptimizer(LoadedProblem, MirrorReduction, Verification, Lineari
             last = red.last_solve
             iters += it
             after = self.check(theta, fine)
+            # the design on the confirmation grid: its loaded TE extremes between the positions (module
+            # exchange), and its peak pressures there
+            conf = red.confirm(theta)
             add = self._violated_positions(after, fine)
-            add = add[~np.any(np.isclose(add[:, None], self.phi1[None, :], rtol=0.0, atol=1e-12), axis=1)]
-            if not add.size:
+            if conf is not None:
+                add = np.union1d(add, red._violated_positions(conf.check, self.ltca.mesh_cycle(conf.n_grid),
+                                                              edges=False))
+            add = self._new_positions(add)
+            if add.size:
+                if refine == MAX_REFINE:
+                    raise SynthesisError(
+                        f"loaded micro-geometry: the optimum on {self.phi1.size} positions per cycle still loads an "
+                        f"edge or exceeds the pressure limit at {add.size} of the verification ({self.n_verify}) and "
+                        f"confirmation ({self.n_confirm}) positions after {MAX_REFINE} refinements; raise n_positions.",
+                        param="n_positions", value=self.phi1.size)
+                refine += 1
+                what = "load an edge or exceed the pressure limit"
+            elif conf is not None and self.exchange and self.harmonics is None:
+                # the NLP's objective confirmed between its positions: where the design's loaded TE extremes
+                # over the mesh cycle give another peak-to-peak, their positions join the NLP's grid and the
+                # loop goes on from the optimum
+                if self._agrees(pred["objective"], conf):
+                    break
+                add = self._new_positions(red._exchanged(conf, cur.check))
+                if exchanges == self.max_exchanges or not add.size:
+                    self._disagrees(pred["objective"], conf, exchanges)
+                exchanges += 1
+                what = (f"are loaded TE extremes (objective {pred['objective']:.4f} arcsec on the NLP's positions, "
+                        f"{conf.objective:.4f} between them)")
+            else:
                 break
-            if refine == MAX_REFINE:
-                raise SynthesisError(
-                    f"loaded micro-geometry: the optimum on {self.phi1.size} positions per cycle still loads an edge "
-                    f"or exceeds the pressure limit at {add.size} of the {self.n_verify} verification positions after "
-                    f"{MAX_REFINE} refinements; raise n_positions.", param="n_positions", value=self.phi1.size)
             self.phi1 = np.sort(np.concatenate([self.phi1, add]))
             if progress:
-                progress(f"loaded micro-geometry: {add.size} verification positions load an edge or exceed the pressure "
-                         f"limit between the NLP's positions; the NLP's grid grows to {self.phi1.size}")
+                progress(f"loaded micro-geometry: {add.size} positions between the NLP's {what}; the NLP's grid "
+                         f"grows to {self.phi1.size}")
         ver = cur.check  # the exact loaded TCA of the final design (LTCA.solve on its own slices)
         if red is not self:  # every case, and the NLP's prediction of each mirror image by its twin's
             # (the loop's own loaded TCA of the final design is that of one case per class: the others
@@ -139,6 +168,8 @@ class LoadedMicroOptimizer(LoadedProblem, MirrorReduction, Verification, Lineari
         self._raise_if_verification_fails(ver, after)
         err = {"te_pp": float(np.max(np.abs(pred["te_pp"] - ver.te_pp))),
                "objective": abs(pred["objective"] - ver.objective)}
+        if conf is not None and self.harmonics is None:
+            err["confirmed"] = conf.objective - pred["objective"]
         if self.p_limit is not None:
             err["p_max"] = float(np.max(np.abs(pred["p_max"] - ver.p_max)))
         if self.te_level is not None:
@@ -147,4 +178,11 @@ class LoadedMicroOptimizer(LoadedProblem, MirrorReduction, Verification, Lineari
         return MicroDesign(theta=dict(zip(self.free, theta.tolist())), theta0=dict(zip(self.free, self.theta0.tolist())),
                            predicted=pred, verified=ver, error=err, before=before, after=after, rounds=rounds,
                            iterations=iters, time=time.perf_counter() - t_start, status=status, stop=stop,
-                           binding=self._binding(theta, pred, ver), rho=rho, phi1=self.phi1.copy())
+                           binding=self._binding(theta, pred, ver), rho=rho, phi1=self.phi1.copy(),
+                           confirmed=None if conf is None or self.harmonics is not None else conf,
+                           exchanges=exchanges)
+
+    def _new_positions(self, phi: np.ndarray) -> np.ndarray:
+        """The pinion angles ``phi`` [rad] not already among the NLP's positions."""
+        phi = np.asarray(phi, float)
+        return phi[~np.any(np.isclose(phi[:, None], self.phi1[None, :], rtol=0.0, atol=1e-12), axis=1)]

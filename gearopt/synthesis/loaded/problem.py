@@ -50,6 +50,8 @@ class LoadedProblem:
                                 "not all 0.", param="weights", value=np.shape(w), valid=f"shape ({T}, {C}), >= 0")
         self.weights = w
         self.p_limit, self.edge_margin, self.n_verify = s.p_limit, s.edge_margin, s.n_verify
+        self.n_confirm, self.confirm_tol, self.max_exchanges = s.n_confirm, s.confirm_tol, s.max_exchanges
+        self.exchange = s.exchange
         self.harmonics = None if s.harmonics is None else np.array(s.harmonics, float)
         self.te_level, self.te_weight = s.te_level, s.te_weight
         n_positions, n_slices, side = s.n_positions, s.n_slices, s.side

@@ -4,10 +4,14 @@ the duty cycle), :class:`MicroDesign` (an optimum, verified) and :class:`ParetoF
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .constants import RHO
+
+if TYPE_CHECKING:
+    from .exchange import Confirmation
 
 
 @dataclass(frozen=True)
@@ -69,6 +73,11 @@ class MicroDesign:
         radius shrank below ``THETA_TOL`` with no better design found: not shown stationary).
     binding : the bounds and constraints active at the optimum.
     rho, phi1 : the penalty weight and the NLP's positions [rad] at the end (:meth:`LoadedMicroOptimizer.sensitivities`).
+    confirmed : :class:`~gearopt.synthesis.loaded.exchange.Confirmation` of the optimum: its loaded TE
+        objective with the extremes located on ``n_confirm`` positions per cycle and refined between them
+        (None with ``harmonics``); :attr:`promised` (the NLP's objective) agrees with it within
+        ``confirm_tol`` (``error["confirmed"]``: confirmed minus promised [arcsec]).
+    exchanges : times the optimum's loaded TE extremes joined the NLP's positions.
     """
 
     theta: dict
@@ -86,6 +95,13 @@ class MicroDesign:
     rho: float = RHO  #: the exact-penalty weight the loop ended with
     phi1: np.ndarray | None = field(default=None, repr=False)  #: the NLP's final positions [rad]
     stop: str = "converged"  #: why the trust-region loop ended ("converged" or "trust radius")
+    confirmed: Confirmation | None = None  #: the objective between the NLP's positions (:class:`.exchange.Confirmation`)
+    exchanges: int = 0  #: times the extremes' positions joined the NLP's grid
+
+    @property
+    def promised(self) -> float:
+        """The NLP's objective at the optimum [arcsec] (the loaded TE over its own positions)."""
+        return float(self.predicted["objective"])
 
     def theta_um(self) -> dict:
         """The optimum's amounts [um]."""
@@ -115,7 +131,9 @@ class MicroDesign:
                 "predicted": pred,
                 "verified": chk(self.verified), "error": dict(self.error), "before": chk(self.before),
                 "after": chk(self.after), "rounds": self.rounds, "iterations": self.iterations,
-                "time_s": self.time, "status": self.status, "stop": self.stop, "binding": list(self.binding)}
+                "time_s": self.time, "status": self.status, "stop": self.stop, "binding": list(self.binding),
+                "confirmed": None if self.confirmed is None else self.confirmed.to_dict(),
+                "exchanges": self.exchanges}
 
 
 @dataclass(frozen=True)

@@ -125,14 +125,14 @@ class Verification:
             pen += float(np.sum(self._mult * np.maximum(chk.edge_load - MU * G_REF / self.edge_margin, 0.0)))
         return chk.objective + chk.te0_term + rho * self._w_mean * pen
 
-    def _violated_positions(self, chk: LoadedCheck, phi1) -> np.ndarray:
+    def _violated_positions(self, chk: LoadedCheck, phi1, edges: bool = True) -> np.ndarray:
         """Positions of ``phi1`` where the exact loaded TCA ``chk`` loads an edge (a weighted slice load
-        share above ``EDGE_TOL``) or exceeds the pressure limit, at any torque and case."""
+        share above ``EDGE_TOL``; only with ``edges``) or exceeds the pressure limit, at any torque and case."""
         bad = np.zeros(phi1.size, bool)
         for sw in chk.sweeps:
             w = edge_weight(sw.slices, self.pair)
             for r in sw.results:
-                if self.edge_margin is not None:
+                if self.edge_margin is not None and edges:
                     bad |= np.max(w * r.load, axis=(0, 2)) / r.W > EDGE_TOL
                 if self.p_limit is not None:
                     bad |= np.max(r.p0_flank, axis=(0, 2)) > self.p_limit * (1 + SLACK_TOL)
