@@ -16,10 +16,16 @@ judged against that. (Where each loop stops, ``--no-settle``, an optimum may lie
 fixed point whatever ``THETA_TOL`` says: problems/optimize_microgeometry.py's 3 nm of root relief gave
 6 um per mm over h = 0.5 um, docs/loaded_synthesis.md section 6.4.) The loop itself runs with
 ``THETA_TOL`` = ``--theta-tol`` and without its stop on a negligible predicted decrease, so that small
-steps (default 0.01 arcmin, 0.005 mm) stay within one active set and above the noise.
+steps (default 0.01 arcmin, 0.005 mm) stay within one active set and above the noise. The steps are
+cut to the range over which the sensitivities' active set holds (``range_mis`` of
+``LoadedMicroOptimizer.sensitivities``, first order), and where that range is short the optimum is
+re-solved beyond it to confirm the flagged change (:func:`fd_check`). A scene with a Pareto front is
+checked at the design it reports (the front's anchor, under the limit whose NLP it solves:
+:func:`reported`; ``--no-pareto``: the optimum without a limit).
 
     python benchmarks/loaded_sensitivity_fd.py                       # 4 scenes x crossing, dE (~40 min alone)
     python benchmarks/loaded_sensitivity_fd.py --only microgeometry_pareto --kinds crossing
+    python benchmarks/loaded_sensitivity_fd.py --only microgeometry_pareto --no-pareto   # its range of 1.06 um of dE
     python benchmarks/loaded_sensitivity_fd.py --h-angle 0.05 --h-length 0.05 --theta-tol 1e-4   # the issue's steps
 
 ``--h-angle`` [arcmin] and ``--h-length`` [mm] are the steps. Each re-solved optimum's active set
@@ -68,6 +74,25 @@ def build_optimizer(name: str):
                             n_positions=16, n_verify=32, n_slices=11, name="optimize_microgeometry").optimizer
 
 
+def reported(name: str, opt, design):
+    """The optimiser and design whose sensitivities the scene reports: for a scene with a Pareto front
+    (``pareto`` limits) the front's anchor, which may be a tighter limit's design, with the optimiser of
+    the limit whose NLP it solves (``ParetoFront.solved_under``, as ``LoadedMicroStudy`` does); else
+    ``(opt, design)``."""
+    if name == "optimize_microgeometry":
+        return opt, design
+    from gearopt.io.scene import load_scene
+
+    limits = load_scene(ROOT / "problems" / f"{name}.toml").build().pareto
+    if limits is None or opt.p_limit is not None:
+        return opt, design
+    fr = opt.pareto(limits, anchor=design)
+    under = fr.solved_under[0] if fr.solved_under else None
+    print(f"Pareto front: the anchor {fr.anchor.theta_um()} um solves the NLP of the limit {under} MPa "
+          f"(the optimum without a limit: {design.theta_um()} um)")
+    return (opt if under is None else opt.with_p_limit(under)), fr.anchor
+
+
 def active_set_of(S: dict) -> dict:
     """The active set of a ``kkt_sensitivities`` result: the active rows of each constraint block of its
     NLP, the free amounts on a bound, the positions of the loaded TE's extremes and per case the active
@@ -82,7 +107,7 @@ def active_set(opt, design) -> dict | str:
     from gearopt.errors import SynthesisError
 
     try:
-        S = opt.kkt_sensitivities(design, held=False)
+        S = opt.kkt_sensitivities(design, held=False, derivatives=False)
     except SynthesisError as exc:
         return str(exc)[:120]
     return active_set_of(S)
@@ -117,7 +142,9 @@ def fixed_point(opt, design, tol: float) -> tuple:
     S = None
     for _ in range(FIXED_POINT_ITERATIONS):
         try:
-            S = opt.kkt_sensitivities(design, held=False)
+            # (the NLP's optimum and active set only: the KKT system of a mirror-image duty cycle's full
+            # problem is singular, Sensitivities.sensitivities, and is not needed here)
+            S = opt.kkt_sensitivities(design, held=False, derivatives=False)
         except SynthesisError:
             return design, S, "not settled"
         th = S["nlp"].layout.unknowns.take(S["z"], "theta") * 1e-3
@@ -153,6 +180,9 @@ def verdict(r: dict, base_set, odd: bool, base_stop: str = "converged") -> tuple
         if changed and not odd:
             return None, (f"not compared: the re-solved optimum's active set or slice set changes within the steps "
                           f"(optimum {base_set}, re-solved {changed[0]})")
+    if not odd and noise > 0.25 * np.max(np.abs(ad)):
+        return None, (f"not compared: the sensitivities' active set holds over {r['range']} only (their range_mis), "
+                      f"where the differences' noise bound {noise:.3g} um per unit exceeds a quarter of AD")
     jump = np.abs(np.array(r["plus_um"]) - np.array(r["other_um"]))
     if np.any(jump > 0.25 * np.max(np.abs(fd)) + 4 * noise) and not odd:
         return None, (f"not compared: the one-sided differences disagree by up to {np.max(jump):.3g} um per unit "
@@ -162,12 +192,19 @@ def verdict(r: dict, base_set, odd: bool, base_stop: str = "converged") -> tuple
 
 
 def fd_check(opt, design, sens, kind: str, h: float, check_sets: bool = True, base=None,
-             base_objective: float | None = None, settle: bool = True) -> dict:
+             base_objective: float | None = None, settle: bool = True, base_set=None) -> dict:
     """AD against finite differences of re-solved optima for one kind (``h`` in mm or rad); ``base``:
     the optimum re-solved without an offset as the others are (from ``design`` on its grid), whose
     design and objective (``base_objective``, default its ``predicted["objective"]``) are the
     differences' zero point (default ``design``). ``settle``: each re-solved optimum taken to its fixed
-    point (:func:`fixed_point`; its status replaces the loop's stop)."""
+    point (:func:`fixed_point`; its status replaces the loop's stop).
+
+    The steps stay within the range over which the sensitivities' active set holds (their
+    ``range_mis``: to first order, where an active inequality's multiplier or an inactive one's slack
+    crosses zero): ``h`` is cut to 0.8 of the range for a central difference, 0.4 for the forward one's
+    ``2h``. Where that range lies within ten requested steps, the optimum is re-solved at 1.5 times its
+    edge (each side) and its active set compared with ``base_set`` (the zero point's): ``beyond`` says
+    whether it changed there, i.e. whether the flagged event is the optimum's."""
     from gearopt.meshing.misalignment import Misalignment
 
     from gearopt.errors import GeometryError
@@ -183,6 +220,18 @@ def fd_check(opt, design, sens, kind: str, h: float, check_sets: bool = True, ba
         steps = (1, -1)
     except GeometryError:
         steps = (1, 2)
+    h_req = h
+    lo, hi = (float(v) for v in sens["range_mis"][j])
+    if np.isfinite(lo) or np.isfinite(hi):  # (NaN: a mirror-odd kind, zero by the symmetry)
+        h = min(h, 0.4 * hi) if steps == (1, 2) else min(h, 0.8 * min(hi, -lo))
+    beyond = []
+    for edge in ((hi,) if steps == (1, 2) else (lo, hi)):
+        if check_sets and base_set is not None and np.isfinite(edge) and abs(edge) < 10 * h_req:
+            o = opt.shifted(Misalignment(**{kind: 1.5 * edge}))
+            d = o.solve(start=theta, grid=design.phi1)
+            d, S, stop = fixed_point(o, d, opt_theta_tol()) if settle else (d, None, d.stop)
+            now = active_set_of(S) if S is not None else active_set(o, d)
+            beyond.append({"offset": 1.5 * edge, "changed": now != base_set, "stop": stop})
     out, sets = {}, {}
     for sgn in steps:
         o = opt.shifted(Misalignment(**{kind: sgn * h}))
@@ -212,7 +261,8 @@ def fd_check(opt, design, sens, kind: str, h: float, check_sets: bool = True, ba
             "plus_um": ((out[1][0] - theta0) / h * 1e3).tolist(), "other_um": (other * 1e3).tolist(),
             "noise_um": float(noise * 1e3), "ad_objective": float(sens["d_objective_d_mis"][j]),
             "fd_objective": float(fd_f), "stops": [out[k][2] for k in steps], "names": names,
-            "active_sets": [sets[k] for k in steps]}
+            "active_sets": [sets[k] for k in steps], "h_requested": h_req, "range": [lo, hi],
+            "range_why": sens["range_why"]["mis"][j], "beyond": beyond}
 
 
 def opt_theta_tol() -> float:
@@ -240,6 +290,9 @@ def main(argv=None) -> int:
     ap.add_argument("--no-settle", action="store_true",
                     help="take each optimum where its trust-region loop stops instead of at its fixed point "
                          "(fixed_point: the loop may stop a few nm from it, which small steps amplify)")
+    ap.add_argument("--no-pareto", action="store_true",
+                    help="a scene with a Pareto front: check the optimum without a pressure limit instead of the "
+                         "design the scene reports (the front's anchor, under the limit whose NLP it solves)")
     a = ap.parse_args(argv)
     from gearopt.synthesis.loaded import constants
 
@@ -260,6 +313,8 @@ def main(argv=None) -> int:
         t0 = time.perf_counter()
         opt = build_optimizer(name)
         design = opt.solve()
+        if not a.no_pareto:
+            opt, design = reported(name, opt, design)
         theta = np.array([design.theta[n] for n in opt.free])
         if a.no_settle:
             # the zero point of the differences: the optimum re-solved as the offset ones are (from the
@@ -284,13 +339,19 @@ def main(argv=None) -> int:
             h = (a.h_angle if angle else a.h_length) * scale
             try:
                 r = fd_check(opt, design, sens, kind, h, check_sets=not a.no_active_sets, base=base,
-                             base_objective=base_obj, settle=not a.no_settle)
+                             base_objective=base_obj, settle=not a.no_settle, base_set=base_set)
             except SynthesisError as exc:  # e.g. no design keeps the edges open at the offset
                 print(f"\n{kind} (h = {h / scale:g} {unit}): a re-solve failed: {str(exc)[:300]}")
                 records.append({"scene": name, "kind": kind, "h": h, "error": str(exc)})
                 continue
             r["scene"] = name
             records.append(r)
+            lo, hi = r["range"]
+            print(f"\n{kind}: the sensitivities' active set holds over {lo / scale:.4g} ... {hi / scale:.4g} {unit} "
+                  f"(events at its ends: {r['range_why'][0]}; {r['range_why'][1]}); beyond it, re-solved: "
+                  + ", ".join(f"{b['offset'] / scale:.4g} {unit} active set changed {b['changed']} ({b['stop']})"
+                              for b in r["beyond"]))
+            h = r["h"]
             print(f"\n{kind} (h = {h / scale:g} {unit}, {r['difference']} difference; noise bound "
                   f"{r['noise_um'] * scale:.3g} um per {unit}; re-solved loops: {r['stops']})")
             other = "one-sided -h" if r["difference"] == "central" else "one-sided 2h"

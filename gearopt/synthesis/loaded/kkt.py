@@ -103,11 +103,116 @@ def csc_of_dm(m: ca.DM | np.ndarray) -> scipy.sparse.csc_matrix:
 
 
 def sparse_lu(K: scipy.sparse.spmatrix, what: str) -> scipy.sparse.linalg.SuperLU:
-    import scipy.sparse.linalg as spla
+    """The sparse LU factors of the square ``K`` (``what``: its name in the error).
 
+    A structurally singular ``K`` (no perfect matching of its rows and columns: a zero row, or more
+    active rows than the unknowns they act on) is refused before it is factored: SuperLU meets a
+    zero pivot column there and passes BLAS a negative dimension (OpenBLAS prints "On entry to DGEMV
+    parameter number 2 had an illegal value") before it reports the singular factor.
+
+    Raises
+    ------
+    SynthesisError
+        When ``K`` is singular, structurally or numerically (the active constraints' gradients are
+        dependent: no LICQ, the derivatives are not unique).
+    """
+    import scipy.sparse.linalg as spla
+    from scipy.sparse.csgraph import structural_rank
+
+    def singular(why):
+        return SynthesisError(f"loaded micro-geometry sensitivities: {what} is singular ({why}); the active "
+                              "constraints' gradients are linearly dependent at this optimum, so its "
+                              "derivatives are not unique.", param="sensitivities", value=what)
+
+    K = K.tocsc()
+    rank = structural_rank(K)
+    if rank < K.shape[0]:
+        raise singular(f"structurally: rank at most {rank} of {K.shape[0]}")
     try:
         return spla.splu(K)
-    except RuntimeError as exc:  # singular: the active constraints' gradients are dependent (no LICQ)
-        raise SynthesisError(f"loaded micro-geometry sensitivities: {what} is singular ({exc}); the active "
-                             "constraints' gradients are linearly dependent at this optimum, so its "
-                             "derivatives are not unique.", param="sensitivities", value=what) from exc
+    except RuntimeError as exc:  # numerically singular
+        raise singular(exc) from exc
+
+
+def active_set_range(d_z: np.ndarray, d_nu: np.ndarray, rows: np.ndarray, bounds: np.ndarray, g: np.ndarray,
+                     d_g: np.ndarray, lbg: np.ndarray, ubg: np.ndarray, lam_g: np.ndarray, x: np.ndarray,
+                     lbx: np.ndarray, ubx: np.ndarray, lam_x: np.ndarray, act_g: np.ndarray, act_x: np.ndarray,
+                     watch_g: np.ndarray, watch_x: np.ndarray) -> tuple[np.ndarray, np.ndarray, list[tuple]]:
+    """How far each parameter may move before the active set of a solution changes, to first order
+    (Fiacco's parametric sensitivity: the derivatives at a fixed active set hold while every active
+    inequality keeps the sign of its multiplier and every inactive one stays within its bounds).
+
+    Along the derivatives ``d_z`` of the solution and ``d_nu`` of the active rows' and bounds'
+    multipliers, an active row or bound leaves the active set where its multiplier ``lam + t d_lam``
+    crosses zero, and an inactive one joins it where its value ``g + t d_g`` (or ``x + t d_x``) reaches
+    a bound. A derivative that changes the active set at ``t`` of the order of the solution's own
+    tolerance is that of a kink: the optimum is only directionally differentiable there, and the
+    derivative of the fixed active set is one side's at most.
+
+    Parameters
+    ----------
+    d_z : (n, q) array
+        The solution's derivatives in the ``q`` parameters (the active set's KKT system).
+    d_nu : (len(rows) + len(bounds), q) array
+        The multipliers' derivatives of the KKT system's constraint rows (``rows``) and bounds (``bounds``).
+    rows, bounds : int arrays
+        The rows of ``g`` and the unknowns of ``x`` in the KKT system (equalities, active inequalities,
+        active bounds), in the order of ``d_nu``.
+    g, d_g : (m,) and (m, q) arrays
+        The constraint rows' values at the solution and their total derivatives in the parameters.
+    lbg, ubg, lam_g : (m,) arrays
+        Their bounds and multipliers (CasADi's signs: positive at an upper bound).
+    x, lbx, ubx, lam_x : (n,) arrays
+        The solution, its bounds and their multipliers.
+    act_g, act_x : (m,) and (n,) bool arrays
+        The active inequality rows and bounds.
+    watch_g, watch_x : (m,) and (n,) bool arrays
+        The inequality rows and bounds whose changes count (the others change smoothly in the NLP,
+        e.g. a smoothed complementarity's loads and gaps).
+
+    Returns
+    -------
+    lo, hi : (q,) arrays
+        The largest negative and smallest positive parameter offsets at which a watched row or bound
+        changes (``-inf`` / ``inf``: none to first order).
+    why : list of tuple
+        Per parameter, the change at ``lo`` and the one at ``hi``, each ``("g", row, what)`` or ``("x",
+        unknown, what)`` (``("", -1, "")``: none).
+    """
+    q = d_z.shape[1]
+    rows, bounds = np.asarray(rows, int), np.asarray(bounds, int)
+    nu_of = {("g", int(i)): k for k, i in enumerate(rows)}
+    nu_of.update({("x", int(j)): rows.size + k for k, j in enumerate(bounds)})
+    cands = []  # (offsets (q,), (kind, index, what))
+    for i in np.flatnonzero(watch_g & act_g):
+        cands.append((-lam_g[i] / _nz(d_nu[nu_of[("g", int(i))]]), ("g", int(i), "leaves the active set")))
+    for i in np.flatnonzero(watch_g & ~act_g):
+        for b, side in ((lbg[i], "lower"), (ubg[i], "upper")):
+            if np.isfinite(b):
+                cands.append(((b - g[i]) / _nz(d_g[i]), ("g", int(i), f"reaches its {side} bound")))
+    for j in np.flatnonzero(watch_x & act_x):
+        cands.append((-lam_x[j] / _nz(d_nu[nu_of[("x", int(j))]]), ("x", int(j), "leaves its bound")))
+    for j in np.flatnonzero(watch_x & ~act_x):
+        for b, side in ((lbx[j], "lower"), (ubx[j], "upper")):
+            if np.isfinite(b):
+                cands.append(((b - x[j]) / _nz(d_z[j]), ("x", int(j), f"reaches its {side} bound")))
+    lo, hi = np.full(q, -np.inf), np.full(q, np.inf)
+    none = ("", -1, "")
+    why = [[none, none] for _ in range(q)]
+    for t, what in cands:
+        t = np.asarray(t, float).ravel()
+        for k in range(q):
+            tk = t[k]
+            if not np.isfinite(tk):
+                continue
+            if tk > 0 and tk < hi[k]:
+                hi[k], why[k][1] = tk, what
+            elif tk <= 0 and tk > lo[k]:
+                lo[k], why[k][0] = tk, what
+    return lo, hi, [tuple(w) for w in why]
+
+
+def _nz(v: np.ndarray) -> np.ndarray:
+    """``v`` with its zeros as NaN (a quotient by it is then NaN: no crossing)."""
+    v = np.asarray(v, float).ravel()
+    return np.where(v == 0.0, np.nan, v)

@@ -13,7 +13,7 @@ from ..crowning import SynthesisError
 from . import constants
 from .constants import WARM_OPTS
 from .held_data import held_derivatives
-from .kkt import central_path_indicators, csc_of_dm, degenerate_constraints, sparse_lu
+from .kkt import active_set_range, central_path_indicators, csc_of_dm, degenerate_constraints, sparse_lu
 from .results import MicroDesign
 
 
@@ -42,7 +42,7 @@ class Sensitivities:
         -------
         dict
             As :meth:`kkt_sensitivities`, and ``mirror_odd``: the kinds whose derivatives are zero by
-            the mirror symmetry (empty without mirror-image cases).
+            the mirror symmetry (empty without mirror-image cases; their ``range_mis`` NaN).
         """
         classes = self.mirror_classes()
         if classes is None:
@@ -54,10 +54,15 @@ class Sensitivities:
                                                 held_kinds=[k for j, k in enumerate(kinds) if j not in odd])
         out["d_theta_d_mis"][:, odd] = 0.0
         out["d_objective_d_mis"][odd] = 0.0
+        # (the offset breaks the mirror pairing: a kink at 0 may be there, section 6.1; not this problem's range)
+        out["range_mis"][odd] = np.nan
+        for j in odd:
+            out["range_why"]["mis"][j] = ("mirror-odd: zero by the symmetry, one-sided derivatives not computed",) * 2
         out["mirror_odd"] = [kinds[j] for j in odd]
         return out
 
-    def kkt_sensitivities(self, design: MicroDesign, held: bool = True, held_kinds: list[str] | None = None) -> dict:
+    def kkt_sensitivities(self, design: MicroDesign, held: bool = True, held_kinds: list[str] | None = None,
+                          derivatives: bool = True) -> dict:
         """Sensitivities of the optimum to the torques and to a misalignment, by AD (docs/loaded_synthesis.md),
         of this optimiser's own cases (:meth:`sensitivities` handles mirror-image cases).
 
@@ -91,6 +96,11 @@ class Sensitivities:
         held_kinds : list of str, optional
             The misalignment kinds (``Misalignment.names()``) whose motion of the held data is taken in
             (default all; :meth:`sensitivities` leaves out the kinds that are zero by symmetry).
+        derivatives : bool
+            Whether to solve the active set's KKT system (default True); without, only the NLP's optimum
+            and its active set are returned (the entries from ``model_step`` on below but ``held_data``
+            and the ranges): a fixed-point iteration needs no more, and the KKT system of a full
+            mirror-image duty cycle is singular.
 
         Returns
         -------
@@ -114,7 +124,15 @@ class Sensitivities:
             upper bound, else 0; ``peaks``: the (torque, case, position) of each active ``te_hi`` and
             ``te_lo`` row (the positions of the loaded TE's maxima and minima) and, under ``edge``, the
             (torque, case, position, flat slice) of each active edge row; ``slices``: per case, the active slices and the tip-edge slices among
-            them (to compare the active sets and slice sets of two optima).
+            them (to compare the active sets and slice sets of two optima); ``range_mis`` (4, 2) [rad or
+            mm] and ``range_torque`` (T, 2) [N m]: the offsets (negative, positive) of each parameter within
+            which the active set the derivatives hold for stays, to first order (an active inequality's
+            or bound's multiplier, or an inactive one's slack, moved along the derivatives, crosses zero:
+            :func:`~gearopt.synthesis.loaded.kkt.active_set_range`; the TE extremes, the pressure and edge
+            rows, the design's bounds and the penalty slacks; +-inf: none), beyond which the optimum is
+            another active set's and the derivatives no longer predict it (a range of nm at the
+            optimum is a kink: they are one side's); ``range_why``: per parameter
+            (``{"mis": [...], "torque": [...]}``) the events at the two ends of its range.
 
         Raises
         ------
@@ -167,6 +185,45 @@ class Sensitivities:
         # optimum is then only directionally differentiable), i.e. below DEGENERATE_REL times the largest
         # active multiplier, or one the central path cannot tell active from inactive
         degenerate, min_mult = degenerate_constraints(ind_g, lam_g[I_], ind_x, lam_x)
+        step = float(np.max(np.abs(lay.unknowns.take(z, "theta") * 1e-3 - theta)))
+        # the active set by constraint block and the free amounts on a bound (lower -1, upper +1), for
+        # comparing the active sets of two optima (benchmarks/loaded_sensitivity_fd.py)
+        on = np.zeros(lbg.size, bool)
+        on[I_[act_g]] = True
+        blocks = {k: int(on[lay.rows[k]].sum()) for k in lay.rows.names if lay.rows.count(k)}
+        # the TE's extremes: (torque, case, position) of each active te_hi / te_lo row (one per block)
+        peaks = {k: [tuple(int(v) for v in nlp.blocks[i][:3]) for i in np.flatnonzero(on[lay.rows[k]])]
+                 for k in ("te_hi", "te_lo") if lay.rows.count(k) == len(nlp.blocks)}
+        # and the (torque, case, position, flat slice) of each active edge row
+        ends = nlp.rows["ends"]
+        if lay.rows.count("edge") == ends.size:
+            peaks["edge"] = [tuple(int(v) for v in nlp.keys[ends[i]]) for i in np.flatnonzero(on[lay.rows["edge"]])]
+        thx = np.arange(z.size)[lay.unknowns["theta"]]
+        at_bound = {n: (int(np.sign(lam_x[i])) if act_x[i] else 0) for n, i in zip(self.free, thx)}
+        state = {"model_step": step, "at_design": step <= 10 * constants.THETA_TOL, "objective": float(r["f"]),
+                 "active": int(act_g.sum() + act_x.sum()), "degenerate": degenerate, "min_multiplier": min_mult,
+                 "nlp": nlp, "z": z, "lam_g": lam_g, "lam_x": lam_x, "p": p, "bounds": (lbx, ubx), "z0": z0,
+                 "active_rows": blocks, "active_bounds": at_bound, "peaks": peaks,
+                 "slices": [(int(L.slices.active.sum()),
+                             int(0 if L.slices.edge is None else np.sum(L.slices.active & (L.slices.edge > 0))))
+                            for L in lin]}
+        if not derivatives:
+            return state
+
+        def name_of(what: tuple) -> str:  # an event of active_set_range by block and (torque, case, position)
+            kind, i, how = what
+            if not kind:
+                return "none"
+            if kind == "x":
+                k = next(k for k in lay.unknowns.names if i in range(lay.unknowns[k].start, lay.unknowns[k].stop))
+                j = i - lay.unknowns[k].start
+                return f"{list(self.free)[j] if k == 'theta' else f'{k}[{j}]'} {how}"
+            k = next(k for k in lay.rows.names if i in range(lay.rows[k].start, lay.rows[k].stop))
+            j = i - lay.rows[k].start
+            at = (f" (torque, case, position) {tuple(int(v) for v in nlp.blocks[j][:3])}"
+                  if k in ("te_hi", "te_lo") and lay.rows.count(k) == len(nlp.blocks) else "")
+            return f"{k} row {j}{at} {how}"
+
         # the limit's multipliers (inactive ones zero) and the active set's KKT system: the derivatives
         # of the optimum at fixed active set (Fiacco), one sparse LU for all parameters
         lam_a = lam_g.copy()
@@ -208,34 +265,30 @@ class Sensitivities:
         rhs = -sp_.vstack([Lzp, Gp[rows], sp_.csc_matrix((B.size, Lzp.shape[1]))]).toarray()
         sol = sparse_lu(K, "the active set's KKT system").solve(rhs)
         dth = lay.unknowns.take(sol, "theta") * 1e-3  # theta is in um in the NLP
+        # how far each parameter may move before the active set changes, to first order (an active
+        # inequality's multiplier crossing zero, an inactive one's value reaching its bound): the TE
+        # extremes, the pressure and edge rows, the design's bounds and the penalty slacks (the loads'
+        # and gaps' bounds change smoothly through the smoothed complementarity)
+        n = z.size
+        on_g = np.zeros(lbg.size, bool)
+        on_g[I_[act_g]] = True
+        watch_x = np.zeros(n, bool)
+        for k in ("theta", "slack_p", "slack_e"):
+            watch_x[lay.unknowns[k]] = True
+        watch_x &= np.isfinite(lbx) | np.isfinite(ubx)
+        d_g = np.asarray(Jg @ sol[:n]) + Gp.toarray()
+        rng_lo, rng_hi, rng_why = active_set_range(
+            sol[:n], sol[n:], rows, B, gv, d_g, lbg, ubg, lam_g, z, lbx, ubx, lam_x, on_g, act_x, ~eq, watch_x)
         # the optimal objective's derivatives: the Lagrangian's in the parameters (the envelope theorem),
         # and through the held data's motion with the design along the optimum's own derivatives
         dfdp = Lp + dL_design @ dth
-        step = float(np.max(np.abs(lay.unknowns.take(z, "theta") * 1e-3 - theta)))
-        # the active set by constraint block and the free amounts on a bound (lower -1, upper +1), for
-        # comparing the active sets of two optima (benchmarks/loaded_sensitivity_fd.py)
-        on = np.zeros(lbg.size, bool)
-        on[I_[act_g]] = True
-        blocks = {k: int(on[lay.rows[k]].sum()) for k in lay.rows.names if lay.rows.count(k)}
-        # the TE's extremes: (torque, case, position) of each active te_hi / te_lo row (one per block)
-        peaks = {k: [tuple(int(v) for v in nlp.blocks[i][:3]) for i in np.flatnonzero(on[lay.rows[k]])]
-                 for k in ("te_hi", "te_lo") if lay.rows.count(k) == len(nlp.blocks)}
-        # and the (torque, case, position, flat slice) of each active edge row
-        ends = nlp.rows["ends"]
-        if lay.rows.count("edge") == ends.size:
-            peaks["edge"] = [tuple(int(v) for v in nlp.keys[ends[i]]) for i in np.flatnonzero(on[lay.rows["edge"]])]
-        thx = np.arange(z.size)[lay.unknowns["theta"]]
-        at_bound = {n: (int(np.sign(lam_x[i])) if act_x[i] else 0) for n, i in zip(self.free, thx)}
-        return {"d_objective_d_torque": dfdp[tq] / self.torques, "d_theta_d_torque": dth[:, tq] / self.torques[None, :],
-                "d_objective_d_mis": dfdp[mis], "d_theta_d_mis": dth[:, mis],
-                "model_step": step, "at_design": step <= 10 * constants.THETA_TOL, "objective": float(r["f"]),
-                "active": int(act_g.sum() + act_x.sum()), "degenerate": degenerate,
-                "min_multiplier": min_mult,
-                "nlp": nlp, "z": z, "lam_g": lam_g, "lam_x": lam_x, "p": p, "bounds": (lbx, ubx), "z0": z0,
-                "held_data": bool(held), "active_rows": blocks, "active_bounds": at_bound, "peaks": peaks,
-                "slices": [(int(L.slices.active.sum()), int(0 if L.slices.edge is None else np.sum(L.slices.active
-                                                                                                & (L.slices.edge > 0))))
-                           for L in lin]}
+        return {**state, "d_objective_d_torque": dfdp[tq] / self.torques,
+                "d_theta_d_torque": dth[:, tq] / self.torques[None, :],
+                "d_objective_d_mis": dfdp[mis], "d_theta_d_mis": dth[:, mis], "held_data": bool(held),
+                "range_mis": np.stack([rng_lo[mis], rng_hi[mis]], axis=1),
+                "range_torque": np.stack([rng_lo[tq], rng_hi[tq]], axis=1) * self.torques[:, None],
+                "range_why": {"mis": [tuple(name_of(w) for w in ws) for ws in rng_why[mis]],
+                              "torque": [tuple(name_of(w) for w in ws) for ws in rng_why[tq]]}}
 
     def _local_solution(self, nlp, z0: np.ndarray, theta: np.ndarray, lbx: np.ndarray, ubx: np.ndarray,
                         p: np.ndarray) -> dict:

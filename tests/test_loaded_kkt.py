@@ -1,0 +1,68 @@
+"""The generic KKT algebra of the loaded sensitivities (gearopt.synthesis.loaded.kkt): the range of a
+parameter over which an active set holds, on a parametric problem solved by hand, and the singular
+KKT system refused before SuperLU passes BLAS a negative dimension."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from gearopt.errors import GearoptError
+from gearopt.synthesis.loaded.kkt import active_set_range, sparse_lu
+
+
+def test_active_set_range_of_a_projection():
+    """``min (x - p)^2 + (y - 2 p)^2`` s.t. ``x <= 1`` (a row), ``y >= 0`` (a bound): the optimum is
+    ``x = min(p, 1)``, ``y = max(2 p, 0)``. At ``p = 0.4`` no constraint is active: the row becomes
+    active at ``p = 1`` (+0.6) and the bound at ``p = 0`` (-0.4). At ``p = 1.5`` the row is active
+    with the multiplier ``2 (p - 1) = 1`` (``d lam / dp = 2``): it leaves at ``p = 1`` (-0.5)."""
+    inf = np.inf
+    common = dict(lbg=np.array([-inf]), ubg=np.array([1.0]), lbx=np.array([-inf, 0.0]), ubx=np.array([inf, inf]),
+                  watch_g=np.array([True]), watch_x=np.array([False, True]))
+    # p = 0.4: nothing active; dx/dp = 1, dy/dp = 2; the row g = x
+    p = 0.4
+    lo, hi, why = active_set_range(np.array([[1.0], [2.0]]), np.zeros((0, 1)), np.array([], int), np.array([], int),
+                                   np.array([p]), np.array([[1.0]]), lam_g=np.array([0.0]), x=np.array([p, 2 * p]),
+                                   lam_x=np.zeros(2), act_g=np.array([False]), act_x=np.array([False, False]),
+                                   **common)
+    assert hi[0] == pytest.approx(0.6) and lo[0] == pytest.approx(-0.4)
+    assert why[0] == (("x", 1, "reaches its lower bound"), ("g", 0, "reaches its upper bound"))
+    # p = 1.5: the row active (x = 1, dx/dp = 0), multiplier 1 (CasADi's sign: positive at an upper
+    # bound) moving by 2 per unit; y = 3 inactive, dy/dp = 2 (reaches 0 at p = 0: -1.5)
+    p = 1.5
+    lo, hi, why = active_set_range(np.array([[0.0], [2.0]]), np.array([[2.0]]), np.array([0]), np.array([], int),
+                                   np.array([1.0]), np.array([[0.0]]), lam_g=np.array([2 * (p - 1)]),
+                                   x=np.array([1.0, 2 * p]), lam_x=np.zeros(2), act_g=np.array([True]),
+                                   act_x=np.array([False, False]), **common)
+    assert lo[0] == pytest.approx(-0.5) and hi[0] == np.inf
+    assert why[0] == (("g", 0, "leaves the active set"), ("", -1, ""))
+
+
+def _structurally_singular() -> sp.csc_matrix:
+    """A 214 x 214 sparse matrix with a zero row, on which SciPy's SuperLU calls DGEMV with a negative
+    dimension before it reports the singular factor (found among random matrices with a zero row)."""
+    A = (sp.random(214, 214, density=0.05, random_state=142) + sp.eye(214)).tolil()
+    A[155, :] = 0.0
+    return A.tocsc()
+
+
+def test_a_structurally_singular_kkt_system_is_refused_before_blas_sees_it(capfd):
+    """A singular KKT system raises the library's error naming it, and BLAS prints nothing: SuperLU
+    itself, given this matrix, makes OpenBLAS print "On entry to DGEMV parameter number 2 had an
+    illegal value" (seen during benchmarks/loaded_sensitivity_fd.py runs) before it fails."""
+    A = _structurally_singular()
+    with pytest.raises(RuntimeError):
+        spla.splu(A)
+    raw = capfd.readouterr()
+    if "DGEMV" not in raw.out + raw.err:
+        pytest.skip("this BLAS does not report SuperLU's negative dimension on this matrix")
+    with pytest.raises(GearoptError, match="singular"):
+        sparse_lu(A, "the test's system")
+    out = capfd.readouterr()
+    assert "DGEMV" not in out.out + out.err
+    # a regular system is factored as before
+    lu = sparse_lu((sp.random(50, 50, density=0.1, random_state=1) + 4 * sp.eye(50)).tocsc(), "a regular system")
+    assert np.allclose(lu.solve(np.ones(50)), spla.spsolve((sp.random(50, 50, density=0.1, random_state=1)
+                                                            + 4 * sp.eye(50)).tocsc(), np.ones(50)))
