@@ -266,6 +266,11 @@ class LoadedMicroStudy:
         if progress and sens["degenerate"]:
             progress(f"loaded micro-geometry: warning: {sens['degenerate']} constraints are degenerate at the optimum "
                      "(active with a zero multiplier): the sensitivities are one-sided, for the active set chosen")
+        if progress and sens["dependent_active"]:
+            progress(f"loaded micro-geometry: warning: {len(sens['dependent_active'])} active constraints depend on the "
+                     "others at the optimum (dropped from the sensitivities' KKT system)"
+                     + (f"; the sensitivities to {sens['undetermined']} are one-sided (a kink), not computed (NaN)"
+                        if sens["undetermined"]["mis"] or sens["undetermined"]["torque_index"] else ""))
         if progress:
             progress(f"loaded micro-geometry: objective {d.before.objective:.4g} -> {d.after.objective:.4g} arcsec "
                      f"(verification grid); NLP vs loaded TCA {d.error['te_pp']:.2g} arcsec")
@@ -326,7 +331,9 @@ def sensitivity_dict(opt: LoadedMicroOptimizer, S: dict) -> dict:
                                      for j, k in enumerate(kinds)} for i, n in enumerate(opt.free)},
             "model_step_um": S["model_step"] * 1e3, "at_design": bool(S["at_design"]),
             "active": int(S["active"]), "degenerate": int(S["degenerate"]), "min_multiplier": S.get("min_multiplier"),
-            "mirror_odd_zero": list(S.get("mirror_odd", []))}
+            "mirror_odd_zero": list(S.get("mirror_odd", [])), "dependent_active": list(S.get("dependent", [])),
+            "undetermined": {"mis": [unit[k][1] for k in S.get("undetermined", {}).get("mis", [])],
+                             "torque_index": list(S.get("undetermined", {}).get("torque", []))}}
 
 
 def _from_scene(scene):
