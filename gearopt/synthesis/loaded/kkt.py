@@ -179,7 +179,7 @@ def dependent_active_rows(A_eq: scipy.sparse.spmatrix, A_act: scipy.sparse.spmat
     _, R, piv = sla.qr(proj, mode="economic", pivoting=True)
     d = np.abs(np.diag(R))
     dep[piv[:d.size][d <= tol]] = True
-    dep[piv[d.size:]] = True  # (more active rows than the null space's dimension)
+    dep[piv[d.size:]] = True  # (more active rows than unknowns)
     return dep
 
 
