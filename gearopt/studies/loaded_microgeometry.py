@@ -37,6 +37,7 @@ results.json: docs/results.md; ``loaded_microgeometry.csv`` beside it.
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -266,6 +267,15 @@ class LoadedMicroStudy:
         if progress and sens["degenerate"]:
             progress(f"loaded micro-geometry: warning: {sens['degenerate']} constraints are degenerate at the optimum "
                      "(active with a zero multiplier): the sensitivities are one-sided, for the active set chosen")
+        if progress and sens["dependent_active"]:
+            progress(f"loaded micro-geometry: warning: {len(sens['dependent_active'])} active constraints depend on the "
+                     "others at the optimum (dropped from the sensitivities' KKT system)"
+                     + (f"; the sensitivities to {sens['undetermined']} are one-sided (a kink), not computed (NaN)"
+                        if sens["undetermined"]["mis"] or sens["undetermined"]["torque_index"] else ""))
+        kink = sens.get("kink", {})
+        if progress and (kink.get("mis") or kink.get("torque_index")):
+            progress(f"loaded micro-geometry: warning: the optimum sits at a kink in {kink}: its active set changes "
+                     "at once on one side, the sensitivities there are one side's (valid_range_*)")
         if progress:
             progress(f"loaded micro-geometry: objective {d.before.objective:.4g} -> {d.after.objective:.4g} arcsec "
                      f"(verification grid); NLP vs loaded TCA {d.error['te_pp']:.2g} arcsec")
@@ -330,7 +340,30 @@ def sensitivity_dict(opt: LoadedMicroOptimizer, S: dict) -> dict:
                                      for j, k in enumerate(kinds)} for i, n in enumerate(opt.free)},
             "model_step_um": S["model_step"] * 1e3, "at_design": bool(S["at_design"]),
             "active": int(S["active"]), "degenerate": int(S["degenerate"]), "min_multiplier": S.get("min_multiplier"),
-            "mirror_odd_zero": list(S.get("mirror_odd", []))}
+            "mirror_odd_zero": list(S.get("mirror_odd", [])), "dependent_active": list(S.get("dependent", [])),
+            "undetermined": {"mis": [unit[k][1] for k in S.get("undetermined", {}).get("mis", [])],
+                             "torque_index": list(S.get("undetermined", {}).get("torque", []))},
+            **validity_dict(S, kinds, unit)}
+
+
+def validity_dict(S: dict, kinds: Sequence[str], unit: dict) -> dict:
+    """Where the sensitivities hold (docs/loaded_synthesis.md section 6.5): per misalignment kind the
+    offsets (below, above) [arcmin or mm] and per torque [N m] within which the optimum keeps its
+    active set, ``None`` where no event bounds it (or a mirror-odd kind, zero by symmetry), and the
+    parameters at a kink (a range under ``KINK_RANGE`` on a side: the derivatives are one side's)."""
+    def bound(v, scale):
+        v = float(v)
+        return None if not math.isfinite(v) else v / scale
+
+    out = {}
+    if "range_mis" in S:
+        out["valid_range_mis"] = {unit[k][1]: [bound(v, unit[k][0]) for v in S["range_mis"][j]]
+                                  for j, k in enumerate(kinds)}
+        out["valid_range_torque_Nm"] = [[bound(v, 1.0) for v in row] for row in S["range_torque"]]
+    if "kink_mis" in S:
+        out["kink"] = {"mis": [unit[k][1] for j, k in enumerate(kinds) if bool(S["kink_mis"][j])],
+                       "torque_index": [int(t) for t in np.flatnonzero(S["kink_torque"])]}
+    return out
 
 
 def _from_scene(scene):

@@ -39,6 +39,7 @@ SMOOTH_STAGE_OPTS = {"ipopt.mu_strategy": "monotone", "ipopt.mu_init": 1e-2}
 HARM_EPS = 1e-3  #: [arcsec] smoothing of a harmonic amplitude at zero, sqrt(a^2 + b^2 + eps^2)
 TE0_EPS = 1e-3  #: [arcsec] smoothing of the unloaded TE's RMS misfit to its parabola at zero, sqrt(rms^2 + eps^2)
 DEGENERATE_REL = 1e-6  #: an active constraint whose multiplier is below this times the largest is degenerate
+DEPENDENT_REL = 1e-8  #: an active row whose unit gradient lies within this of the span of the others' is dependent (kkt.dependent_active_rows)
 THETA_TOL = 1e-4  #: [mm] the design has settled when no amount moves by more than this (0.1 um: below any grinding machine's resolution)
 P_VERIFY_TOL = 5e-3  #: the optimum's peak pressure (default loaded TCA) exceeds p_limit by this share at most
 KAPPA_FLOOR = 1e-4  #: [1/mm] the NLP's linearised relative curvature 1 / R* is kept above about this (R* 10 m)

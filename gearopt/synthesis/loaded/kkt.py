@@ -10,7 +10,7 @@ import casadi as ca
 import numpy as np
 
 from ..crowning import SynthesisError
-from .constants import DEGENERATE_REL
+from .constants import DEGENERATE_REL, DEPENDENT_REL
 
 if TYPE_CHECKING:
     import scipy.sparse
@@ -132,6 +132,122 @@ def sparse_lu(K: scipy.sparse.spmatrix, what: str) -> scipy.sparse.linalg.SuperL
         return spla.splu(K)
     except RuntimeError as exc:  # numerically singular
         raise singular(exc) from exc
+
+
+def dependent_active_rows(A_eq: scipy.sparse.spmatrix, A_act: scipy.sparse.spmatrix,
+                          tol: float = DEPENDENT_REL) -> np.ndarray:
+    """Which active inequality rows (and bound rows) of a KKT system depend linearly on the equalities'
+    and on the other active rows: LICQ fails there, the KKT matrix ``[[H, A'], [A, 0]]`` is singular
+    in the multipliers (``A' nu = 0`` has a solution) and an LU, which may not see it in rounding, gives
+    multipliers of 1e30 whose rounding swamps the solution's own derivatives.
+
+    Each active row ``a_r`` (scaled to unit length) is projected onto the null space of ``A_eq`` (one
+    sparse LU of ``[[I, A_eq'], [A_eq, 0]]``, every row at once); the projections span at most that
+    null space's few dimensions, and a QR with column pivoting of them keeps a largest independent set:
+    a row whose pivot is below ``tol`` is dependent on the equalities and the rows kept before it. (The
+    equalities are taken as independent: the NLP's model, which IPOPT solved.)
+
+    Parameters
+    ----------
+    A_eq : (e, n) sparse matrix
+        The equality rows' Jacobian.
+    A_act : (a, n) sparse matrix
+        The active inequality rows' Jacobian and the active bounds' unit rows.
+    tol : float
+        A row is dependent where its QR pivot (of the unit row's projection) is at most this.
+
+    Returns
+    -------
+    (a,) bool array
+        True for each dependent row (dropped from the KKT system: the primal derivatives are those of
+        the remaining, independent active set where the dropped rows' own constraints stay satisfied
+        along them, which the caller checks).
+    """
+    import scipy.linalg as sla
+    import scipy.sparse as sp_
+
+    A_act = sp_.csr_matrix(A_act)
+    a, n = A_act.shape
+    dep = np.zeros(a, bool)
+    if a == 0:
+        return dep
+    Ad = A_act.toarray()
+    Ad /= np.maximum(np.linalg.norm(Ad, axis=1), 1e-300)[:, None]
+    M = sp_.bmat([[sp_.identity(n, format="csc"), sp_.csc_matrix(A_eq).T], [sp_.csc_matrix(A_eq), None]], format="csc")
+    proj = sparse_lu(M, "the equalities' projection").solve(
+        np.vstack([Ad.T, np.zeros((A_eq.shape[0], a))]))[:n]
+    _, R, piv = sla.qr(proj, mode="economic", pivoting=True)
+    d = np.abs(np.diag(R))
+    dep[piv[:d.size][d <= tol]] = True
+    dep[piv[d.size:]] = True  # (more active rows than unknowns)
+    return dep
+
+
+def active_set_derivatives(H: scipy.sparse.spmatrix, Jg: scipy.sparse.spmatrix, Gp: scipy.sparse.spmatrix,
+                           Lzp: scipy.sparse.spmatrix, eq: np.ndarray, act_rows: np.ndarray, act_bounds: np.ndarray,
+                           what: str) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The derivatives of a solution at a fixed active set in its parameters (Fiacco): the KKT system
+    ``[[H, A'], [A, 0]] [dz; dnu] = -[Lzp; Gp_A]`` of the equalities ``eq``, the active rows
+    ``act_rows`` and the active bounds ``act_bounds`` (unknowns' indices), one sparse LU for all
+    parameters, with the active rows and bounds that depend on the others dropped
+    (:func:`dependent_active_rows`: LICQ fails there; the full system is singular in their
+    multipliers).
+
+    A dropped row's constraint must stay active along the derivatives of the rest (as where a
+    parameter moves two mirror-image rows alike): where it does not, within 1e-6 of the row's own
+    terms, the active set holds on neither side of that parameter and its derivatives are one-sided
+    (``off``).
+
+    Parameters
+    ----------
+    H : (n, n) sparse matrix
+        The Lagrangian's Hessian in the unknowns (the inactive rows' multipliers zero).
+    Jg, Gp : (m, n) and (m, q) sparse matrices
+        The constraint rows' Jacobians in the unknowns and in the ``q`` parameters.
+    Lzp : (n, q) sparse matrix
+        The Lagrangian's gradient's Jacobian in the parameters.
+    eq, act_rows, act_bounds : int arrays
+        The equality rows, the active inequality rows and the unknowns on an active bound.
+    what : str
+        The system's name in errors.
+
+    Returns
+    -------
+    d_z : (n, q) array
+        The solution's derivatives.
+    d_nu : (len(eq) + len(act_rows) + len(act_bounds), q) array
+        The multipliers' derivatives in that order (NaN for a dropped row or bound: not determined).
+    dependent : (len(act_rows) + len(act_bounds),) bool array
+        The dropped rows and bounds.
+    off : (q,) bool array
+        The parameters along which a dropped row or bound does not stay active.
+    """
+    import scipy.sparse as sp_
+
+    Jg, Gp = sp_.csr_matrix(Jg), sp_.csr_matrix(Gp)
+    n = H.shape[0]
+    eq, act_rows, act_bounds = (np.asarray(v, int) for v in (eq, act_rows, act_bounds))
+
+    def units(B):
+        return sp_.csr_matrix((np.ones(B.size), (np.arange(B.size), B)), shape=(B.size, n))
+
+    dep = dependent_active_rows(Jg[eq], sp_.vstack([Jg[act_rows], units(act_bounds)]))
+    na = act_rows.size
+    rows, B = np.concatenate([eq, act_rows[~dep[:na]]]), act_bounds[~dep[na:]]
+    A = sp_.vstack([Jg[rows], units(B)])
+    K = sp_.bmat([[H, A.T], [A, None]], format="csc")
+    rhs = -sp_.vstack([Lzp, Gp[rows], sp_.csr_matrix((B.size, Gp.shape[1]))]).toarray()
+    sol = sparse_lu(K, what).solve(rhs)
+    d_z = sol[:n]
+    kept = np.concatenate([np.ones(eq.size, bool), ~dep])
+    d_nu = np.full((kept.size, rhs.shape[1]), np.nan)
+    d_nu[kept] = sol[n:]
+    drop_g, drop_x = act_rows[dep[:na]], act_bounds[dep[na:]]
+    d_g = np.asarray(Jg[drop_g] @ d_z) + Gp[drop_g].toarray()
+    scale = np.abs(Gp[drop_g].toarray()) + np.abs(Jg[drop_g]) @ np.abs(d_z)
+    off = np.any(np.abs(d_g) > 1e-6 * np.maximum(scale, 1e-300), axis=0)
+    off |= np.any(np.abs(d_z[drop_x]) > 1e-6 * np.maximum(np.max(np.abs(d_z), axis=0), 1e-300), axis=0)
+    return d_z, d_nu, dep, off
 
 
 def active_set_range(d_z: np.ndarray, d_nu: np.ndarray, rows: np.ndarray, bounds: np.ndarray, g: np.ndarray,

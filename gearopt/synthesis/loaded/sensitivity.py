@@ -13,7 +13,8 @@ from ..crowning import SynthesisError
 from . import constants
 from .constants import WARM_OPTS
 from .held_data import held_derivatives
-from .kkt import active_set_range, central_path_indicators, csc_of_dm, degenerate_constraints, sparse_lu
+from .kkt import (active_set_derivatives, active_set_range, central_path_indicators, csc_of_dm,
+                  degenerate_constraints)
 from .results import MicroDesign
 
 
@@ -65,6 +66,7 @@ class Sensitivities:
         for j in odd:
             out["range_why"]["mis"][j] = ("mirror-odd: zero by the symmetry, one-sided derivatives not computed",) * 2
         out["mirror_odd"] = [kinds[j] for j in odd]
+        out["undetermined"]["mis"] = [k for k in out["undetermined"]["mis"] if k not in out["mirror_odd"]]
         return out
 
     def kkt_sensitivities(self, design: MicroDesign, held: bool = True, held_kinds: list[str] | None = None,
@@ -140,16 +142,19 @@ class Sensitivities:
             optimum is a kink: they are one side's); ``kink_mis`` (4,) and ``kink_torque`` (T,) bool: the
             range on a side below :data:`KINK_RANGE` (the derivatives then predict no re-solved optimum:
             e.g. a numerically singular KKT system, whose multipliers' derivatives are huge); ``range_why``: per parameter
-            (``{"mis": [...], "torque": [...]}``) the events at the two ends of its range.
+            (``{"mis": [...], "torque": [...]}``) the events at the two ends of its range; ``dependent``:
+            the active rows and bounds that depend on the equalities and the other active ones (LICQ
+            fails, e.g. two edge rows mirror images about the face's middle), dropped from the KKT
+            system (:func:`~gearopt.synthesis.loaded.kkt.active_set_derivatives`), by name;
+            ``undetermined`` (``{"mis": [kinds], "torque": [indices]}``): the parameters along which a
+            dropped row does not stay active, whose derivatives are one-sided and given as NaN.
 
         Raises
         ------
         SynthesisError
-            When the NLP at the optimum fails, or the active set's KKT system is singular (dependent
-            active constraints: the derivatives are not unique).
+            When the NLP at the optimum fails, or the active set's KKT system is singular after the
+            dependent active rows are dropped (the equalities dependent, or a flat direction).
         """
-        import scipy.sparse as sp_
-
         theta = np.array([design.theta[n] for n in self.free])
         if design.phi1 is not None:
             self.phi1 = np.asarray(design.phi1, float)
@@ -266,13 +271,15 @@ class Sensitivities:
             H, Jg, Gp, Lzp = H.tocsc(), Jg.tocsc(), Gp.tocsc(), Lzp.tocsc()
             Lp[mis] += dL[P:]
             dL_design = dL[:P]
-        rows = np.concatenate([E, I_[act_g]])
-        B = np.flatnonzero(act_x)
-        A = sp_.vstack([Jg[rows], sp_.csc_matrix((np.ones(B.size), (np.arange(B.size), B)), shape=(B.size, z.size))])
-        K = sp_.bmat([[H, A.T], [A, None]], format="csc")
-        rhs = -sp_.vstack([Lzp, Gp[rows], sp_.csc_matrix((B.size, Lzp.shape[1]))]).toarray()
-        sol = sparse_lu(K, "the active set's KKT system").solve(rhs)
-        dth = lay.unknowns.take(sol, "theta") * 1e-3  # theta is in um in the NLP
+        # active rows and bounds that depend on the equalities and the other active ones (LICQ fails:
+        # e.g. the edge rows of two slices mirror images about the face's middle in an aligned case,
+        # which the symmetric design cannot tell apart) are dropped: with them the KKT system is
+        # singular in their multipliers and its LU's rounding swamps the design's derivatives
+        # (docs/loaded_synthesis.md section 6.5)
+        act_rows, B_all = I_[act_g], np.flatnonzero(act_x)
+        d_z, d_nu, dep, off = active_set_derivatives(H, Jg, Gp, Lzp, E, act_rows, B_all,
+                                                     "the active set's KKT system")
+        dth = lay.unknowns.take(d_z, "theta") * 1e-3  # theta is in um in the NLP
         # how far each parameter may move before the active set changes, to first order (an active
         # inequality's multiplier crossing zero, an inactive one's value reaching its bound): the TE
         # extremes, the pressure and edge rows, the design's bounds and the penalty slacks (the loads'
@@ -284,12 +291,22 @@ class Sensitivities:
         for k in ("theta", "slack_p", "slack_e"):
             watch_x[lay.unknowns[k]] = True
         watch_x &= np.isfinite(lbx) | np.isfinite(ubx)
-        d_g = np.asarray(Jg @ sol[:n]) + Gp.toarray()
+        d_g = np.asarray(Jg @ d_z) + Gp.toarray()
+        # (a dropped row's multiplier is not determined, only its sum with those it depends on: its
+        # leaving is not computed, NaN; the kept ones' own multipliers give theirs)
         rng_lo, rng_hi, rng_why = active_set_range(
-            sol[:n], sol[n:], rows, B, gv, d_g, lbg, ubg, lam_g, z, lbx, ubx, lam_x, on_g, act_x, ~eq, watch_x)
+            d_z, d_nu, np.concatenate([E, act_rows]), B_all, gv, d_g, lbg, ubg, lam_g, z, lbx, ubx, lam_x, on_g,
+            act_x, ~eq, watch_x)
         # the optimal objective's derivatives: the Lagrangian's in the parameters (the envelope theorem),
         # and through the held data's motion with the design along the optimum's own derivatives
         dfdp = Lp + dL_design @ dth
+        # a dropped row that does not stay active along a parameter: the active set holds on neither
+        # side, that parameter's derivatives are one-sided, undetermined here (NaN, named in ``undetermined``)
+        dth[:, off], dfdp[off] = np.nan, np.nan
+        na = act_rows.size
+        dependent = ([name_of(("g", int(i), "depends on the other active rows")) for i in act_rows[dep[:na]]]
+                     + [name_of(("x", int(j), "depends on the other active rows")) for j in B_all[dep[na:]]])
+        kinds = Misalignment.names()
         return {**state, "d_objective_d_torque": dfdp[tq] / self.torques,
                 "d_theta_d_torque": dth[:, tq] / self.torques[None, :],
                 "d_objective_d_mis": dfdp[mis], "d_theta_d_mis": dth[:, mis], "held_data": bool(held),
@@ -298,7 +315,10 @@ class Sensitivities:
                 "kink_mis": (np.minimum(-rng_lo[mis], rng_hi[mis]) < KINK_RANGE),
                 "kink_torque": (np.minimum(-rng_lo[tq], rng_hi[tq]) * self.torques < KINK_RANGE),
                 "range_why": {"mis": [tuple(name_of(w) for w in ws) for ws in rng_why[mis]],
-                              "torque": [tuple(name_of(w) for w in ws) for ws in rng_why[tq]]}}
+                              "torque": [tuple(name_of(w) for w in ws) for ws in rng_why[tq]]},
+                "dependent": dependent,
+                "undetermined": {"mis": [k for k, o in zip(kinds, off[mis]) if o],
+                                 "torque": [int(t) for t in np.flatnonzero(off[tq])]}}
 
     def _local_solution(self, nlp, z0: np.ndarray, theta: np.ndarray, lbx: np.ndarray, ubx: np.ndarray,
                         p: np.ndarray) -> dict:
