@@ -283,8 +283,8 @@ def _spawn(jobs: list[_Job], cc: str, after: Sequence[int] = ()) -> subprocess.P
 def _compile_detached(tmp: str, src: str, path: Path, cc: str) -> str | None:
     """Compile the C source ``src`` of the scratch directory ``tmp`` into ``path`` in a detached
     process and wait for it while this process runs. The compile waits its turn: at most
-    :func:`compile_slots` at a time per process, the queued ones in :func:`_order` (the smallest
-    source first, but a library that a large call wants before the others). When the
+    :func:`compile_slots` at a time per process, the queued ones in :func:`_order` (a library
+    that a large call wants, then by interpreted cost per byte of source, then the smallest). When the
     process ends, its queued compiles are handed to one detached process that compiles them one after
     the other (:func:`_exit_wait`). The library appears at ``path`` only whole (atomic rename). None on
     success, else the reason."""

@@ -29,7 +29,8 @@ cache, whatever its size (loading costs milliseconds); on a cache miss, a sweep 
 interpreted while the library compiles in a background thread (:func:`compile_in_background`), so a
 small sweep never waits for the compiler; the next call finds the library (a large call whose library
 compiles in the background already runs interpreted too). The background compilers run in detached
-processes, :func:`compile_slots` at a time, the smallest source first; a process that ends hands its
+processes, :func:`compile_slots` at a time, in the order of :mod:`gearopt.compile_queue` (first what its
+interpreted stand-in has cost the process per byte of source); a process that ends hands its
 queued compiles to one detached process and never waits for them (:mod:`gearopt.compile_queue`). A map
 size that a process calls again and again (:data:`MAP_LIBRARY_CALLS`) gets a library of its own, the
 loop over its columns in C (:func:`map_library`, compiled in the background; the same numbers bit for bit).
