@@ -23,8 +23,8 @@
 Errors in the input (any :class:`~gearopt.errors.GearoptError`) print ``error: <message>`` to
 stderr and exit with status 2, without a traceback; anything else is a bug and propagates.
 
-At its start the command sets every OpenBLAS of the process to one thread (:func:`limit_blas_threads`),
-unless ``OPENBLAS_NUM_THREADS``, ``GOTO_NUM_THREADS`` or ``OMP_NUM_THREADS`` is set.
+At its start the command sets CasADi's OpenBLAS (its solvers' BLAS) to one thread
+(:func:`limit_blas_threads`), unless ``OPENBLAS_NUM_THREADS``, ``GOTO_NUM_THREADS`` or ``OMP_NUM_THREADS`` is set.
 """
 
 from __future__ import annotations
@@ -122,60 +122,44 @@ def exit_without_collecting() -> None:
 
 #: environment variables by which a user chooses OpenBLAS's thread count (then :func:`limit_blas_threads` does nothing)
 BLAS_THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "GOTO_NUM_THREADS", "OMP_NUM_THREADS")
-#: the entries that set an OpenBLAS's thread count (plain, and the prefixed / 64-bit builds of numpy and scipy)
-_BLAS_SETTERS = ("openblas_set_num_threads", "scipy_openblas_set_num_threads", "scipy_openblas_set_num_threads64_",
-                 "openblas_set_num_threads64_")
 
 
 def limit_blas_threads(n: int = 1) -> list[str]:
-    """Set every OpenBLAS of this process to ``n`` threads [-]; the libraries set (their paths).
+    """Set CasADi's own OpenBLAS, the BLAS of its solvers (MUMPS in IPOPT), to ``n`` threads [-];
+    the libraries set (their paths: none, or CasADi's).
 
-    gearopt's dense linear algebra is small: the loaded TCA's contact QPs (a position's valid nodes,
-    tens to a few hundred), the frontal matrices of MUMPS in IPOPT's factorisations (through
-    CasADi's own OpenBLAS). A second OpenBLAS thread there adds no speed but burns a core: its
-    threads wait for the next call spinning, which on an idle machine took 2.8 s of the loaded
-    optimiser's 14.9 s CPU for the same wall time (docs/benchmarks.md section 3) and, in a first
-    run, the core on which the background compilers run. A process-wide setting, so the library
-    never makes it; the command line does, at its start (:func:`main`), and a user's choice comes
-    first: nothing is done when one of :data:`BLAS_THREAD_VARIABLES` is set.
+    MUMPS factorises the loaded optimiser's KKT systems (7,300 unknowns) in frontal matrices of tens
+    to a few hundred rows, whose products (``dgemm``, ``dtrsm``: 21 % of a warm run's samples) a
+    second OpenBLAS thread does not speed up; between the calls its thread waits spinning, which on an
+    idle machine took 2.8 s of the loaded optimiser's 14.9 s CPU for the same wall time
+    (docs/benchmarks.md section 3) and, in a first run, the core the background compilers run on. A
+    process-wide setting, so the library never makes it; the command line does, at its start
+    (:func:`main`), and a user's choice comes first: nothing is done when one of
+    :data:`BLAS_THREAD_VARIABLES` is set. The IPOPT iterates are the same bit for bit.
 
-    Works when numpy is imported already: each OpenBLAS the process has loaded (numpy's, scipy's;
-    listed in ``/proc/self/maps``) is set through its own entry (:data:`_BLAS_SETTERS`), and CasADi's,
-    which its first IPOPT solver would load, is loaded now and set (the solver then finds it loaded).
-    Linux only: elsewhere nothing is done (no ``/proc/self/maps``). Every scene's results are the
-    same (benchmarks/results_unchanged.py)."""
+    CasADi loads this OpenBLAS with its first IPOPT solver; it is loaded here and set (the solver then
+    finds it loaded), so it works whatever was imported before. numpy's and scipy's OpenBLAS are left
+    as they are: their calls in gearopt are few and small, and one thread there changes the round-off
+    of the loaded optimiser's sensitivities (3 numbers of ``microgeometry_loaded`` by up to 5e-9,
+    benchmarks/results_unchanged.py)."""
     import ctypes
 
     if any(os.environ.get(v) for v in BLAS_THREAD_VARIABLES):
         return []
-    paths: list[str] = []
-    try:
-        with open("/proc/self/maps") as f:
-            paths = [line.split(None, 5)[5].strip() for line in f if "openblas" in line.rsplit("/", 1)[-1]]
-    except (OSError, IndexError):
-        return []
     try:
         import casadi
-
-        paths.append(os.path.join(os.path.dirname(casadi.__file__), "libcasadi-tp-openblas.so.0"))
     except ImportError:
-        pass
-    done: list[str] = []
-    for path in dict.fromkeys(os.path.realpath(p) for p in paths):
-        if not os.path.isfile(path):
-            continue
-        try:
-            lib = ctypes.CDLL(path)
-        except OSError:
-            continue
-        for name in _BLAS_SETTERS:
-            setter = getattr(lib, name, None)
-            if setter is not None:
-                setter.argtypes, setter.restype = [ctypes.c_int], None
-                setter(int(n))
-                done.append(path)
-                break
-    return done
+        return []
+    path = os.path.join(os.path.dirname(casadi.__file__), "libcasadi-tp-openblas.so.0")
+    if not os.path.isfile(path):  # a CasADi built against another BLAS: nothing to set
+        return []
+    try:
+        setter = ctypes.CDLL(path).openblas_set_num_threads
+    except (OSError, AttributeError):
+        return []
+    setter.argtypes, setter.restype = [ctypes.c_int], None
+    setter(int(n))
+    return [path]
 
 
 def _run(args) -> int:
