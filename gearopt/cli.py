@@ -135,13 +135,14 @@ def limit_blas_threads(n: int = 1) -> list[str]:
     (docs/benchmarks.md section 3) and, in a first run, the core the background compilers run on. A
     process-wide setting, so the library never makes it; the command line does, at its start
     (:func:`main`), and a user's choice comes first: nothing is done when one of
-    :data:`BLAS_THREAD_VARIABLES` is set. The IPOPT iterates are the same bit for bit.
+    :data:`BLAS_THREAD_VARIABLES` is set. The IPOPT iterates are the same bit for bit; the loaded
+    optimiser's sensitivities move by round-off (``microgeometry_loaded``: 3 of 53,277 numbers, up to
+    5.3e-9 relative, benchmarks/results_unchanged.py).
 
     CasADi loads this OpenBLAS with its first IPOPT solver; it is loaded here and set (the solver then
     finds it loaded), so it works whatever was imported before. numpy's and scipy's OpenBLAS are left
-    as they are: their calls in gearopt are few and small, and one thread there changes the round-off
-    of the loaded optimiser's sensitivities (3 numbers of ``microgeometry_loaded`` by up to 5e-9,
-    benchmarks/results_unchanged.py)."""
+    as they are: their calls in gearopt are few and small (0.2 % of a warm loaded optimisation's
+    samples under ``perf``)."""
     import ctypes
 
     if any(os.environ.get(v) for v in BLAS_THREAD_VARIABLES):
