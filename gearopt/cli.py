@@ -22,6 +22,9 @@
 
 Errors in the input (any :class:`~gearopt.errors.GearoptError`) print ``error: <message>`` to
 stderr and exit with status 2, without a traceback; anything else is a bug and propagates.
+
+At its start the command sets CasADi's OpenBLAS (its solvers' BLAS) to one thread
+(:func:`limit_blas_threads`), unless ``OPENBLAS_NUM_THREADS``, ``GOTO_NUM_THREADS`` or ``OMP_NUM_THREADS`` is set.
 """
 
 from __future__ import annotations
@@ -80,6 +83,7 @@ def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``gearopt`` console script; returns the exit status."""
     args = _parser().parse_args(argv)
     exit_without_collecting()
+    limit_blas_threads()
     try:
         if args.command == "run":
             return _run(args)
@@ -114,6 +118,49 @@ def exit_without_collecting() -> None:
 
         atexit.register(gc.freeze)
         _EXIT_FREEZE.append(True)
+
+
+#: environment variables by which a user chooses OpenBLAS's thread count (then :func:`limit_blas_threads` does nothing)
+BLAS_THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "GOTO_NUM_THREADS", "OMP_NUM_THREADS")
+
+
+def limit_blas_threads(n: int = 1) -> list[str]:
+    """Set CasADi's own OpenBLAS, the BLAS of its solvers (MUMPS in IPOPT), to ``n`` threads [-];
+    the libraries set (their paths: none, or CasADi's).
+
+    MUMPS factorises the loaded optimiser's KKT systems (7,300 unknowns) in frontal matrices of tens
+    to a few hundred rows, whose products (``dgemm``, ``dtrsm``: 21 % of a warm run's samples) a
+    second OpenBLAS thread does not speed up; between the calls its thread waits spinning, which on an
+    idle machine took 2.8 s of the loaded optimiser's 14.9 s CPU for the same wall time
+    (docs/benchmarks.md section 3) and, in a first run, the core the background compilers run on. A
+    process-wide setting, so the library never makes it; the command line does, at its start
+    (:func:`main`), and a user's choice comes first: nothing is done when one of
+    :data:`BLAS_THREAD_VARIABLES` is set. The IPOPT iterates are the same bit for bit; the loaded
+    optimiser's sensitivities move by round-off (``microgeometry_loaded``: 3 of 53,277 numbers, up to
+    5.3e-9 relative, benchmarks/results_unchanged.py).
+
+    CasADi loads this OpenBLAS with its first IPOPT solver; it is loaded here and set (the solver then
+    finds it loaded), so it works whatever was imported before. numpy's and scipy's OpenBLAS are left
+    as they are: their calls in gearopt are few and small (0.2 % of a warm loaded optimisation's
+    samples under ``perf``)."""
+    import ctypes
+
+    if any(os.environ.get(v) for v in BLAS_THREAD_VARIABLES):
+        return []
+    try:
+        import casadi
+    except ImportError:
+        return []
+    path = os.path.join(os.path.dirname(casadi.__file__), "libcasadi-tp-openblas.so.0")
+    if not os.path.isfile(path):  # a CasADi built against another BLAS: nothing to set
+        return []
+    try:
+        setter = ctypes.CDLL(path).openblas_set_num_threads
+    except (OSError, AttributeError):
+        return []
+    setter.argtypes, setter.restype = [ctypes.c_int], None
+    setter(int(n))
+    return [path]
 
 
 def _run(args) -> int:

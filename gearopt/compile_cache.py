@@ -4,7 +4,8 @@ A compiled library (:mod:`gearopt.compiled`) is kept in :func:`cache_dir` under 
 SHA-256 of
 
 * the serialised Function (``Function.serialize()``, deterministic for the same graph),
-* the CasADi version, the compiler's identity (``cc --version``) and the flags (:data:`FLAGS`),
+* the CasADi version, the compiler's identity (``cc --version``) and the flags (:func:`flags_key`:
+  :data:`FLAGS` and the rule of :data:`LARGE_FLAGS`),
 
 or, for a large derived graph, of how it is built (:func:`keyed_by`, :func:`derived_library_path`,
 :func:`map_library_path`): the names of its bases' libraries and a tag naming the construction
@@ -47,6 +48,14 @@ if TYPE_CHECKING:
 #: operations, so the results are the same bit for bit (tests/test_compiled_flags.py), about 10 % faster.
 FLAGS = ("-O2", "-shared", "-fPIC", "-fno-semantic-interposition", "-fno-math-errno")
 BASE_FLAGS = ("-O2", "-shared", "-fPIC")  #: what a compiler that refuses FLAGS is given instead (same key)
+#: what a C source of at least :data:`LARGE_SOURCE` bytes is compiled with besides FLAGS: without gcc's
+#: partial-redundancy elimination and code hoisting (its ``pre`` pass), which take 55-60 % of the compile of
+#: the long straight-line functions CasADi writes for large graphs (the loaded optimiser's slice geometry,
+#: 519 kB: 15.5 -> 7.1 s CPU; the slice solve 6.8 -> 5.3 s) and find little in code whose common
+#: subexpressions are eliminated already (its evaluation 2 % slower). Neither moves, reorders or contracts
+#: a floating-point operation: the same numbers bit for bit (tests/test_sweep_overhead.py).
+LARGE_FLAGS = ("-fno-tree-pre", "-fno-code-hoisting")
+LARGE_SOURCE = 100_000  #: [bytes] C sources from this size on are compiled with LARGE_FLAGS too
 
 #: the libraries this process has loaded, by library path (:func:`gearopt.compiled.compile_function`)
 loaded_libraries: dict[str, ca.Function] = {}
@@ -54,6 +63,18 @@ _keys: dict[tuple, tuple] = {}  # (id of a Function, compiler) -> (weak referenc
 _noted: set[str] = set()
 _counts = {"built": 0, "loaded": 0}
 _quiet = [0]  # open no_background() blocks
+
+
+def flag_sets(size: int) -> tuple[tuple[str, ...], ...]:
+    """The flag sets a C source of ``size`` [bytes] is compiled with, in order until one works:
+    :data:`FLAGS` (with :data:`LARGE_FLAGS` from :data:`LARGE_SOURCE` bytes on), then
+    :data:`BASE_FLAGS` (a compiler that refuses the others). Read at call time (tests patch them)."""
+    return (FLAGS + LARGE_FLAGS if size >= LARGE_SOURCE else FLAGS), BASE_FLAGS
+
+
+def flags_key() -> str:
+    """The flags' part of a library's key: :data:`FLAGS` and the rule of :data:`LARGE_FLAGS`."""
+    return f"{' '.join(FLAGS)}; from {LARGE_SOURCE} B: {' '.join(LARGE_FLAGS)}"
 
 
 def counts() -> dict:
@@ -120,10 +141,11 @@ def note(kind: str, msg: str) -> None:
 
 
 def cache_key(f: ca.Function) -> str:
-    """SHA-256 key of ``f``'s compiled library (the serialised Function, CasADi, compiler, flags)."""
+    """SHA-256 key of ``f``'s compiled library (the serialised Function, CasADi, compiler,
+    :func:`flags_key`)."""
     cc = compiler()
     h = hashlib.sha256()
-    for part in (f.serialize(), ca.__version__, cc[1] if cc else "", " ".join(FLAGS)):
+    for part in (f.serialize(), ca.__version__, cc[1] if cc else "", flags_key()):
         h.update(part.encode() if isinstance(part, str) else bytes(part))
         h.update(b"\0")
     return h.hexdigest()

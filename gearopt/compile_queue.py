@@ -4,8 +4,9 @@ A library that a call does not wait for (:func:`gearopt.compiled.select` on a ca
 sweep, a map size called again and again, a large derived graph) is compiled in a background
 thread (:func:`compile_in_background`, :func:`start`) that writes its C source into a scratch
 directory inside the cache and queues it. The compilers run detached: at most
-:func:`compile_slots` per process at a time, the smallest source first, a library that a large call
-wants (:func:`compiling`) before the others. A process that ends hands its queued compiles to one
+:func:`compile_slots` per process at a time: a library that a large call wants (:func:`compiling`)
+first, then the one whose interpreted stand-in has cost this process the most per byte of its source
+(:func:`note_interpreted`), then the smallest source. A process that ends hands its queued compiles to one
 detached process and never waits for them (:func:`_exit_wait`); each library appears whole at its
 path (atomic rename), where the next process finds it.
 """
@@ -27,7 +28,7 @@ from typing import TYPE_CHECKING
 import casadi as ca
 
 from . import compile_cache
-from .compile_cache import BASE_FLAGS, FLAGS, compiler, lookup
+from .compile_cache import compiler, lookup
 
 if TYPE_CHECKING:
     from collections.abc import Callable, Sequence
@@ -36,6 +37,9 @@ if TYPE_CHECKING:
 pending: dict[str, threading.Thread] = {}
 #: library paths whose background compile failed in this process (not tried again)
 failed: set[str] = set()
+#: [s] time this process spent evaluating a Function interpreted while its library waited to compile,
+#: by library path (:func:`note_interpreted`): what the library would have saved had it been there
+interpreted: dict[str, float] = {}
 _lock = threading.Lock()
 
 
@@ -98,6 +102,20 @@ def compiling(f: ca.Function) -> bool:
     return True
 
 
+def note_interpreted(f: ca.Function, seconds: float) -> None:
+    """Count ``seconds`` [s] of interpreted evaluation of ``f`` (one column Function, mapped) in this
+    process towards its library while that compiles in the background (:data:`interpreted`; ignored
+    otherwise): the queue compiles first the library that has cost the most per byte of its C source
+    (a compile takes roughly its size in time), since it is the one whose time keeps being lost
+    (:func:`_order`)."""
+    if not pending:
+        return
+    _, path, _ = lookup(f)
+    if path is not None and str(path) in pending:
+        key = str(path)
+        interpreted[key] = interpreted.get(key, 0.0) + seconds
+
+
 def wait_for_background(timeout: float | None = None) -> bool:
     """Wait for this process's background compiles (:func:`compile_in_background`); True when none
     is left running. ``timeout`` [s] per compile (None: no limit)."""
@@ -133,7 +151,7 @@ def compile_into(generate: Callable[[str, str], None], src: str, path: Path, cc:
     try:
         generate(tmp, src)
         so = os.path.join(tmp, "lib.so")
-        for flags in (FLAGS, BASE_FLAGS):  # a compiler that does not know the extra flags: without them
+        for flags in compile_cache.flag_sets(os.path.getsize(os.path.join(tmp, src))):  # (BASE_FLAGS last)
             out = subprocess.run([cc, *flags, "-o", so, os.path.join(tmp, src), "-lm"], capture_output=True,
                                  text=True, timeout=3600)
             if out.returncode == 0:
@@ -149,7 +167,7 @@ def compile_into(generate: Callable[[str, str], None], src: str, path: Path, cc:
 
 
 #: the detached compile of background jobs (:func:`_compile_detached`): argv[1:] = the jobs (JSON: a list of
-#: [scratch directory, C source, library path]), the compiler, the flag sets (JSON), the processes to let
+#: [scratch directory, C source, library path, flag sets to try in order]), the compiler, the processes to let
 #: end first (JSON: process ids, the compiles running when the process that queued the jobs ended). It
 #: compiles them one after the other, each into its scratch directory, moves the library into place by an atomic rename
 #: (skipped when another process put it there meanwhile), removes the scratch directory and reports a
@@ -157,7 +175,7 @@ def compile_into(generate: Callable[[str, str], None], src: str, path: Path, cc:
 _DETACHED_JOB = r"""
 import json, os, shutil, subprocess, sys
 import time
-jobs, cc, flag_sets, before = json.loads(sys.argv[1]), sys.argv[2], json.loads(sys.argv[3]), json.loads(sys.argv[4])
+jobs, cc, before = json.loads(sys.argv[1]), sys.argv[2], json.loads(sys.argv[3])
 def running(pid):
     try:
         with open(f"/proc/{pid}/stat") as f:
@@ -174,7 +192,7 @@ for pid in before:
     while running(pid):
         time.sleep(0.05)
 errors = []
-for tmp, src, path in jobs:
+for tmp, src, path, flag_sets in jobs:
     so = os.path.join(tmp, "lib.so")
     err = None
     try:
@@ -207,9 +225,9 @@ def compile_slots() -> int:
     """Detached compiles a process runs at a time: one core less than it may use, at least one.
 
     A first run starts several background compiles within seconds (the loaded optimiser's: eight,
-    the largest a 4 MB source); run all at once, the compilers would share the cores with the
+    the largest a 2 MB source); run all at once, the compilers would share the cores with the
     process that waits for nothing but its own work (on two cores: a third of one core for it with
-    five compilers), so they wait in a queue, the smallest source first (:func:`_compile_detached`).
+    five compilers), so they wait in a queue (:func:`_order`, :func:`_compile_detached`).
     """
     try:
         cores = len(os.sched_getaffinity(0))
@@ -236,10 +254,14 @@ _running: dict[int, subprocess.Popen] = {}  # detached compiles this process sta
 _turn = threading.Condition(_lock)
 
 
-def _order(job: _Job) -> tuple[bool, int]:
+def _order(job: _Job) -> tuple[bool, float, int]:
     """Queue order of the background compiles: those a large call waits for (:func:`compiling`)
-    first, then the smallest source first."""
-    return str(job.path) not in _urgent, job.size
+    first, then by the interpreted time their Function has cost this process so far per byte of
+    source, the most first (:func:`note_interpreted`; the loaded optimiser's first run: the tip-edge
+    solves and the slice geometry, 1-5 s interpreted, before the smaller sensitivities it calls a few
+    times, 0.1 s), then the smallest source first."""
+    key = str(job.path)
+    return key not in _urgent, -interpreted.get(key, 0.0) / max(job.size, 1), job.size
 
 
 def _spawn(jobs: list[_Job], cc: str, after: Sequence[int] = ()) -> subprocess.Popen:
@@ -248,8 +270,8 @@ def _spawn(jobs: list[_Job], cc: str, after: Sequence[int] = ()) -> subprocess.P
     neither waits for the other)."""
     try:
         return subprocess.Popen([sys.executable, "-I", "-S", "-c", _DETACHED_JOB,
-                                 json.dumps([[j.tmp, j.src, str(j.path)] for j in jobs]), cc,
-                                 json.dumps([list(FLAGS), list(BASE_FLAGS)]), json.dumps(list(after))],
+                                 json.dumps([[j.tmp, j.src, str(j.path), [list(f) for f in compile_cache.flag_sets(j.size)]]
+                                             for j in jobs]), cc, json.dumps(list(after))],
                                 stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
                                 start_new_session=True, close_fds=True)
     except OSError:
@@ -261,8 +283,8 @@ def _spawn(jobs: list[_Job], cc: str, after: Sequence[int] = ()) -> subprocess.P
 def _compile_detached(tmp: str, src: str, path: Path, cc: str) -> str | None:
     """Compile the C source ``src`` of the scratch directory ``tmp`` into ``path`` in a detached
     process and wait for it while this process runs. The compile waits its turn: at most
-    :func:`compile_slots` at a time per process, the queued ones in :func:`_order` (the smallest
-    source first, but a library that a large call wants before the others). When the
+    :func:`compile_slots` at a time per process, the queued ones in :func:`_order` (a library
+    that a large call wants, then by interpreted cost per byte of source, then the smallest). When the
     process ends, its queued compiles are handed to one detached process that compiles them one after
     the other (:func:`_exit_wait`). The library appears at ``path`` only whole (atomic rename). None on
     success, else the reason."""
@@ -300,7 +322,7 @@ def _exit_wait(timeout: float = 120.0) -> None:
     """At exit: wait while a background job writes its C source (a fraction of a second: an
     interpreter ending then would leave a half-written scratch directory), not for the compiles;
     then hand the queued compiles to one detached process, which compiles them one after the other
-    (the smallest first) after this process has ended."""
+    (in :func:`_order`) after this process has ended."""
     def writing() -> bool:
         with _turn:
             ready = {str(j.path) for j in _queue} | _started

@@ -29,7 +29,8 @@ cache, whatever its size (loading costs milliseconds); on a cache miss, a sweep 
 interpreted while the library compiles in a background thread (:func:`compile_in_background`), so a
 small sweep never waits for the compiler; the next call finds the library (a large call whose library
 compiles in the background already runs interpreted too). The background compilers run in detached
-processes, :func:`compile_slots` at a time, the smallest source first; a process that ends hands its
+processes, :func:`compile_slots` at a time, in the order of :mod:`gearopt.compile_queue` (first what its
+interpreted stand-in has cost the process per byte of source); a process that ends hands its
 queued compiles to one detached process and never waits for them (:mod:`gearopt.compile_queue`). A map
 size that a process calls again and again (:data:`MAP_LIBRARY_CALLS`) gets a library of its own, the
 loop over its columns in C (:func:`map_library`, compiled in the background; the same numbers bit for bit).
@@ -44,6 +45,7 @@ import hashlib
 import math
 import os
 import threading
+import time
 import weakref
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -325,11 +327,17 @@ class ColumnMap:
         (:func:`map_library`, from its :data:`MAP_LIBRARY_CALLS`-th call). For the sweeps a user
         repeats (the TCA's); off by default, so that other repeated maps (loaded TCA, optimisers)
         do not compile more in the background.
+    stand_in : bool
+        Without ``compiled``: whether the maps evaluate what ``column``'s library would (default),
+        so that their time counts towards that library's place in the queue of background compiles
+        while it compiles (:func:`gearopt.compile_queue.note_interpreted`); False for maps of
+        another evaluation of the same column (a line-search Newton instead of its fast Newton).
     """
 
     def __init__(self, column: ca.Function, factory: Callable[[int], ca.Function], compiled: bool = False,
-                 own_maps: bool = False) -> None:
+                 own_maps: bool = False, stand_in: bool = True) -> None:
         self.column, self.factory, self.compiled = column, factory, bool(compiled)
+        self.stand_in = bool(stand_in) and not self.compiled
         self.own_maps = bool(own_maps) and self.compiled
         self._maps: dict[tuple, _Signature] = {}
         self._sig = _Signature(column)
@@ -346,6 +354,7 @@ class ColumnMap:
     def __setstate__(self, state):
         state.setdefault("_open", {})
         state.setdefault("own_maps", False)
+        state.setdefault("stand_in", False)
         self.__dict__.update(state)
 
     def _size(self, k: int) -> int:
@@ -415,6 +424,15 @@ class ColumnMap:
     def outputs(self, *args: ArrayLike) -> list[np.ndarray]:
         """The outputs as a list of numpy arrays (rows, columns * their columns per column),
         whatever their number (what :func:`call` returns)."""
+        if self.stand_in and compile_queue.pending:  # interpreted while the library compiles: its cost counts
+            t = time.perf_counter()
+            try:
+                return self._outputs(args)
+            finally:
+                compile_queue.note_interpreted(self.column, time.perf_counter() - t)
+        return self._outputs(args)
+
+    def _outputs(self, args: tuple) -> list[np.ndarray]:
         sig = self._sig
         if len(args) != len(sig.shape_in):
             raise ArgumentError(f"{self.column.name()} takes {len(sig.shape_in)} inputs, {len(args)} given",
@@ -693,7 +711,7 @@ def nlpsol(name: str, plugin: str, nlp: dict, opts: dict, jit: bool = False) -> 
     ins = [nlp["x"]] + ([nlp["p"]] if "p" in nlp else [])
     outs = [nlp.get("f", 0), nlp.get("g", ca.DM.zeros(0, 1))]
     h = hashlib.sha256(ca.Function(f"{name}_nlp", ins, outs).serialize().encode())
-    for part in (plugin, repr(sorted((k, repr(v)) for k, v in opts.items())), ca.__version__, cc[1], " ".join(FLAGS)):
+    for part in (plugin, repr(sorted((k, repr(v)) for k, v in opts.items())), ca.__version__, cc[1], compile_cache.flags_key()):
         h.update(b"\0" + part.encode())
     base = cache_dir()
     path = base / f"{name}_nlp-{h.hexdigest()[:24]}.so"

@@ -12,6 +12,7 @@ from pathlib import Path
 import pytest
 
 from conftest import GOOD_SCENE
+from gearopt import cli
 from gearopt.cli import main
 from gearopt.io.results import MANIFEST, write_results
 
@@ -317,3 +318,50 @@ def test_python_dash_m_gearopt_is_the_cli(monkeypatch, capsys):
         runpy.run_module("gearopt", run_name="__main__", alter_sys=True)
     assert e.value.code == 0
     assert "tca" in capsys.readouterr().out
+
+
+_BLAS_PROBE = r"""
+import ctypes, json, os, sys
+import numpy, scipy.linalg, casadi
+from gearopt import cli
+GETTERS = ("openblas_get_num_threads", "scipy_openblas_get_num_threads", "scipy_openblas_get_num_threads64_")
+def counts():
+    out = {}
+    paths = [l.split(None, 5)[5].strip() for l in open("/proc/self/maps") if "openblas" in l.rsplit("/", 1)[-1]]
+    paths.append(os.path.join(os.path.dirname(casadi.__file__), "libcasadi-tp-openblas.so.0"))
+    for p in dict.fromkeys(os.path.realpath(p) for p in paths):
+        lib = ctypes.CDLL(p)
+        for g in GETTERS:
+            f = getattr(lib, g, None)
+            if f is not None:
+                out[os.path.basename(p)] = f()
+                break
+    return out
+before = counts()
+cli.main(["studies"])
+print("PROBE " + json.dumps([before, counts()]))
+"""
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux") or (os.cpu_count() or 1) < 2,
+                    reason="OpenBLAS's thread count is set through /proc/self/maps (Linux); one CPU: one thread anyway")
+@pytest.mark.parametrize("chosen", [None, "2"])
+def test_the_command_sets_casadis_openblas_to_one_thread_unless_the_user_chose(chosen):
+    """`gearopt` (cli.main) sets CasADi's OpenBLAS (not loaded yet: numpy imported before it runs) to
+    one thread and leaves numpy's and scipy's; with OPENBLAS_NUM_THREADS set it leaves them all."""
+    import json
+    import subprocess
+
+    env = {k: v for k, v in os.environ.items() if k not in cli.BLAS_THREAD_VARIABLES}
+    if chosen is not None:
+        env["OPENBLAS_NUM_THREADS"] = chosen
+    p = subprocess.run([sys.executable, "-c", _BLAS_PROBE], env=env, capture_output=True, text=True, timeout=120)
+    assert p.returncode == 0, p.stderr
+    before, after = json.loads(next(s for s in p.stdout.splitlines() if s.startswith("PROBE "))[6:])
+    assert len(after) >= 3 and any("casadi" in k for k in after)  # numpy's, scipy's, CasADi's
+    if chosen is None:
+        assert min(before.values()) > 1
+        assert {k: v for k, v in after.items() if "casadi" not in k} == {k: v for k, v in before.items() if "casadi" not in k}
+        assert [v for k, v in after.items() if "casadi" in k] == [1]
+    else:
+        assert set(before.values()) == set(after.values()) == {int(chosen)}

@@ -1,5 +1,6 @@
-"""Background compiles wait in a queue (gearopt.compiled.compile_slots at a time per process, the
-smallest C source first), and a process that ends hands its queued compiles to one detached process:
+"""Background compiles wait in a queue (gearopt.compiled.compile_slots at a time per process, first
+the one whose interpreted stand-in has cost the process the most per byte of source, then the
+smallest C source), and a process that ends hands its queued compiles to one detached process:
 it never waits for them, each library appears in the cache whole or not at all, and the next process
 finds them. The compiler is a wrapper around the real one that logs when each compile starts and
 ends and may be held at a gate (a file)."""
@@ -96,6 +97,38 @@ def test_background_compiles_run_one_at_a_time_smallest_first(queued_cc, tmp_pat
         g = compiled.cached_function(f)
         assert g is not None and float(g(0.7)) == pytest.approx(_value(SIZES[name], 0.7), rel=1e-13)
     assert not list((tmp_path / "cache").glob(".build-*"))
+
+
+def test_the_queue_compiles_first_what_its_interpreted_stand_in_costs(queued_cc, monkeypatch):
+    """With one compile slot busy (held at the gate), of two queued compiles the one whose Function
+    has run interpreted meanwhile (an interpreted ColumnMap of it: its time is noted) goes first,
+    though its source is the larger; a map of another evaluation of the column (``stand_in=False``)
+    notes nothing."""
+    gate, log = queued_cc
+    monkeypatch.setattr(compile_queue, "interpreted", {})
+    funs = {name: _fun(name, n) for name, n in SIZES.items()}
+    assert compiled.compile_in_background(funs["queue_mid"]) is not None
+    for _ in range(1200):  # the first compile has started (held at the gate)
+        if log.exists():
+            break
+        time.sleep(0.05)
+    for name in ("queue_big", "queue_small"):
+        assert compiled.compile_in_background(funs[name]) is not None
+    for _ in range(1200):  # both sources written and queued behind it
+        if len(compile_queue._queue) == 2:
+            break
+        time.sleep(0.05)
+    assert len(compile_queue._queue) == 2
+    x = np.linspace(0.0, 1.0, 64)[None, :]
+    other = compiled.ColumnMap(funs["queue_small"], funs["queue_small"].map, stand_in=False)
+    assert np.allclose(other(x), [[_value(SIZES["queue_small"], v) for v in x.ravel()]], rtol=1e-13)
+    assert not compile_queue.interpreted
+    big = compiled.mapped(funs["queue_big"], x.size, jit=False)  # interpreted, as a cache miss runs
+    assert np.allclose(big(x), [[_value(SIZES["queue_big"], v) for v in x.ravel()]], rtol=1e-13)
+    assert compile_queue.interpreted[str(compiled.library_path(funs["queue_big"]))] > 0.0
+    gate.touch()
+    assert compiled.wait_for_background(300)
+    assert [r[0] for r in _intervals(log)] == ["queue_mid.c", "queue_big.c", "queue_small.c"]
 
 
 _ENDER = r"""

@@ -39,27 +39,48 @@ def _newton_column() -> ca.Function:
 
 
 @needs_cc
-def test_extra_compiler_flags_give_the_same_numbers_bit_for_bit(tmp_path):
-    """FLAGS (inlined runtime helpers, sqrt without errno) reorder no floating-point operation: the
-    library of a Newton column gives the numbers of one built with the plain -O2 flags."""
+def test_extra_compiler_flags_give_the_same_numbers_bit_for_bit(tmp_path, monkeypatch):
+    """FLAGS (inlined runtime helpers, sqrt without errno) and LARGE_FLAGS (no partial-redundancy
+    elimination or code hoisting) reorder no floating-point operation: the library of a Newton
+    column built with each gives the numbers of one built with the plain -O2 flags; the compiler is
+    called with the flags asked for (LARGE_FLAGS for a source of LARGE_SOURCE bytes or more)."""
+    import subprocess
+
     f = _newton_column()
     assert set(compiled.BASE_FLAGS) < set(compiled.FLAGS)
+    assert not set(compile_cache.LARGE_FLAGS) & set(compiled.FLAGS)
+    seen = []
+    run = subprocess.run
+
+    def spy(cmd, *a, **k):
+        seen.append(tuple(cmd))
+        return run(cmd, *a, **k)
+
+    monkeypatch.setattr(subprocess, "run", spy)
     libs = []
-    for flags in (compiled.FLAGS, compiled.BASE_FLAGS):
+    for flags, large in ((compiled.FLAGS, 0), (compiled.FLAGS, 10 ** 9), (compiled.BASE_FLAGS, 10 ** 9)):
         path = tmp_path / f"ovh_col-{len(libs)}.so"
-        saved = compiled.FLAGS
-        compiled.FLAGS = flags  # _compile_into compiles with FLAGS first
-        try:
-            assert compile_queue.build(f, path, compiled.compiler()[0]) is None
-        finally:
-            compiled.FLAGS = saved
+        monkeypatch.setattr(compile_cache, "FLAGS", flags)  # compile_into compiles with compile_cache.flag_sets
+        monkeypatch.setattr(compile_cache, "LARGE_SOURCE", large)  # 0: every source is large
+        seen.clear()
+        assert compile_queue.build(f, path, compiled.compiler()[0]) is None
+        used = set(seen[0])
+        assert set(flags) <= used and (set(compile_cache.LARGE_FLAGS) <= used) == (large == 0)
         libs.append(ca.external("ovh_col", str(path)))
     rng = np.random.default_rng(3)
     W0, P = rng.normal(size=(2, 400)), rng.uniform(0.5, 2.0, size=(2, 400))
-    a = [np.asarray(v) for v in libs[0].map(400)(W0, P)]
-    b = [np.asarray(v) for v in libs[1].map(400)(W0, P)]
-    for x, y in zip(a, b):
-        assert np.array_equal(x, y, equal_nan=True)
+    ref = [np.asarray(v) for v in libs[-1].map(400)(W0, P)]
+    for lib in libs[:-1]:
+        for x, y in zip((np.asarray(v) for v in lib.map(400)(W0, P)), ref):
+            assert np.array_equal(x, y, equal_nan=True)
+
+
+def test_large_sources_get_the_large_flags_and_the_rule_is_in_the_key():
+    """flag_sets: LARGE_FLAGS from LARGE_SOURCE bytes on, BASE_FLAGS last; the key's flags name the rule."""
+    c = compile_cache
+    assert c.flag_sets(c.LARGE_SOURCE - 1) == (c.FLAGS, c.BASE_FLAGS)
+    assert c.flag_sets(c.LARGE_SOURCE) == (c.FLAGS + c.LARGE_FLAGS, c.BASE_FLAGS)
+    assert all(x in c.flags_key() for x in c.FLAGS + c.LARGE_FLAGS) and str(c.LARGE_SOURCE) in c.flags_key()
 
 
 def test_reused_buffer_hands_out_independent_arrays_and_serves_threads():

@@ -445,7 +445,7 @@ class Branch:
         (interpreted: CasADi's ``newton`` has no C code generation)."""
         key = ("safe",)
         if key not in self._maps:
-            self._maps[key] = ColumnMap(self.one, lambda m: self._interpreted(self.rf_safe, m, "retry"))
+            self._maps[key] = ColumnMap(self.one, lambda m: self._interpreted(self.rf_safe, m, "retry"), stand_in=False)
         return self._maps[key]
 
     @staticmethod
