@@ -427,7 +427,7 @@ class LoadedMicroSettings(Settings):
     max_exchanges: int = option(4, kind="int", bounds=Bounds(lo=0, hi=20),
                                 doc="times the loaded TE extremes of the optimum may join the NLP's positions before "
                                     "a disagreement of the two objectives raises")
-    exchange: bool = option(True, kind="bool",
+    exchange: bool = option(False, kind="bool",
                             doc="exchange the optimum's loaded TE extremes into the NLP's positions until its objective "
                                 "is confirmed (false: the NLP's positions only; the confirmed objective is still reported)")
     n_slices: int = option(15, kind="int", bounds=Bounds(lo=3, hi=201), doc="slices across the face")

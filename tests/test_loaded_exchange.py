@@ -30,7 +30,9 @@ def _pair(C_alpha: float = 0.005, C_beta: float = 0.010) -> GearPair:
 
 def _optimiser(**options) -> LoadedMicroOptimizer:
     """The tiny problem of test_loaded_fast.py (the 20/40 spur drive, one torque, 8 positions, 5 slices,
-    two free amounts, the pairs uncoupled)."""
+    two free amounts, the pairs uncoupled), with the exchange on (the default is off: docs/loaded_synthesis.md
+    section 4, "Confirmed") unless ``options`` say otherwise."""
+    options = {"exchange": True, **options}
     opt = LoadedMicroOptimizer(_pair(), FREE, torques=[TORQUE], n_positions=8, n_verify=8, n_slices=5, **options)
     opt.ltca = LTCA(opt.pair, dataclasses.replace(opt.ltca.settings, neighbours="none"), material=opt.material,
                     tca=opt.tca)

@@ -283,6 +283,11 @@ class LoadedMicroStudy:
                 progress(f"loaded micro-geometry: objective promised {d.promised:.4g} arcsec (the NLP's positions), "
                          f"confirmed {d.confirmed.objective:.4g} (the loaded TE extremes between "
                          f"{d.confirmed.n_grid} positions per cycle; {d.exchanges} exchange(s))")
+                gap = d.confirmed.objective - d.promised
+                if abs(gap) > opt.confirm_tol * abs(d.confirmed.objective):
+                    progress(f"loaded micro-geometry: warning: the loaded TE between the NLP's {d.phi1.size} positions "
+                             f"per cycle is {gap:+.3g} arcsec off its objective (more than confirm_tol = "
+                             f"{100 * opt.confirm_tol:g} %); exchange = true puts the extremes into the NLP")
             if opt.te_level is not None:
                 progress(f"loaded micro-geometry: unloaded TE against its {opt.te_level * RAD_TO_ARCSEC:.3g} arcsec parabola, "
                          f"largest RMS misfit of a case {np.max(d.before.te0_rms):.3g} -> {np.max(d.after.te0_rms):.3g} "
