@@ -23,6 +23,7 @@ import math
 from functools import lru_cache
 
 import numpy as np
+import numpy.typing as npt
 from scipy.linalg import solveh_banded
 
 from ..errors import out_of_range
@@ -100,7 +101,7 @@ def _check(a: float, b: float, t: float) -> None:
         raise out_of_range("t", f"{t:g} mm", "t > 0 mm")
 
 
-def rim_flexibility(a: float, b: float, t: float, angles, spread: float = 0.0, E: float = 210e3, nu: float = 0.3,
+def rim_flexibility(a: float, b: float, t: float, angles: npt.ArrayLike, spread: float = 0.0, E: float = 210e3, nu: float = 0.3,
                     n_max: int = 80, n_el: int = 48) -> np.ndarray:
     """The rim's flexibility between a unit axial force and moment at angle 0 and the axial displacement and
     rotation ``(w, psi_r)`` at the polar ``angles`` [rad]: (len(angles), 2, 2) [mm/N, 1/N; 1/N, 1/(N mm)].
@@ -117,7 +118,7 @@ def rim_flexibility(a: float, b: float, t: float, angles, spread: float = 0.0, E
     return out
 
 
-def axial_response(a: float, b: float, t: float, angles, lever: float = 0.0, spread: float = 0.0,
+def axial_response(a: float, b: float, t: float, angles: npt.ArrayLike, lever: float = 0.0, spread: float = 0.0,
                    E: float = 210e3, nu: float = 0.3, n_max: int = 80, n_el: int = 48) -> np.ndarray:
     """Axial displacement [mm/N] at the polar ``angles`` [rad] under a unit axial force at angle 0.
 
