@@ -213,7 +213,7 @@ class _PenaltyToy(LoadedMicroOptimizer):
         add, self.refine = np.array(self.refine), []
         return add
 
-    def confirm(self, theta, n=None):  # no loaded TCA here: no objective to confirm between positions
+    def confirm(self, theta, n=None, refine=True, check=None):  # no loaded TCA here: no objective to confirm between positions
         return None
 
     def _raise_if_verification_fails(self, *checks):  # no loaded TCA here: the loop alone

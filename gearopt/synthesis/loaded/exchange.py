@@ -76,7 +76,8 @@ class Confirmation:
 class Exchange:
     """The loaded TE extremes of a design between the positions of a grid, and the agreement test."""
 
-    def confirm(self, theta: npt.ArrayLike, n: int | None = None) -> Confirmation:
+    def confirm(self, theta: npt.ArrayLike, n: int | None = None, refine: bool = True,
+                check: LoadedCheck | None = None) -> Confirmation:
         """The loaded TE objective of the design ``theta`` [mm] over the whole mesh cycle.
 
         Default loaded TCA (:meth:`check`) of every torque and case on ``n`` positions per mesh cycle
@@ -85,11 +86,15 @@ class Exchange:
         torque's two points) over the two grid intervals around the grid's extreme, the interval
         shrinking to ``0.618^GOLDEN_STEPS`` of its width. The refined extreme is the best point the
         search evaluated, the grid's own included, so the confirmed peak-to-peak is never below the
-        grid's. Only the loaded TE peak-to-peak objective (not ``harmonics``) is confirmed."""
+        grid's. Only the loaded TE peak-to-peak objective (not ``harmonics``) is confirmed.
+
+        ``refine=False``: the grid's extremes only (no search; what the loop needs to find the grid's
+        pressures before its last pass); ``check``: the design's loaded TCA on the grid of ``n``
+        positions already computed (:meth:`check`), reused."""
         theta = np.asarray(theta, float)
         n = self.n_confirm if n is None else int(n)
         grid = self.ltca.mesh_cycle(n)
-        chk = self.check(theta, grid)
+        chk = self.check(theta, grid) if check is None else check
         half = math.pi / self.pair.pinion.z
         h = 2.0 * half / n
         T, C = self.torques.size, len(self.cases)
@@ -107,9 +112,12 @@ class Exchange:
             best_f = sign * te[rows, k]
             a, b = grid[k] - h, grid[k] + h
             x1, x2 = b - INV_PHI * (b - a), a + INV_PHI * (b - a)
-            f1 = self._te_at(x1, rows, sign, p1, p2, mis)
-            f2 = self._te_at(x2, rows, sign, p1, p2, mis)
-            for _ in range(GOLDEN_STEPS):
+            if refine:
+                f1 = self._te_at(x1, rows, sign, p1, p2, mis)
+                f2 = self._te_at(x2, rows, sign, p1, p2, mis)
+            else:  # the grid's extremes: no point evaluated beside them
+                f1 = f2 = np.full_like(best_f, -np.inf)
+            for _ in range(GOLDEN_STEPS if refine else 0):
                 for x, f in ((x1, f1), (x2, f2)):
                     up = f > best_f
                     best_x, best_f = np.where(up, x, best_x), np.where(up, f, best_f)

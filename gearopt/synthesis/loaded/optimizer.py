@@ -123,12 +123,16 @@ class LoadedMicroOptimizer(LoadedProblem, MirrorReduction, Verification, Exchang
             after = self.check(theta, fine)
             # the design on the confirmation grid: its loaded TE extremes between the positions (module
             # exchange), and its peak pressures there
-            conf = red.confirm(theta)
+            # (the extremes refined between the grid's positions only where no position joins the grid:
+            # the pass's last; and only for the peak-to-peak objective, the one confirmed)
+            conf = red.confirm(theta, refine=False)
             add = self._violated_positions(after, fine)
             if conf is not None:
                 add = np.union1d(add, red._violated_positions(conf.check, self.ltca.mesh_cycle(conf.n_grid),
                                                               edges=False))
             add = self._new_positions(add)
+            if not add.size and conf is not None and self.harmonics is None:
+                conf = red.confirm(theta, check=conf.check)
             if add.size:
                 if refine == MAX_REFINE:
                     raise SynthesisError(
