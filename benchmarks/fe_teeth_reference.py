@@ -39,7 +39,9 @@ import math
 import sys
 import tempfile
 import time
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -135,6 +137,31 @@ def sector5_grids(tooth, gear, r_form, grid):
     return own, nb, info
 
 
+@dataclass(frozen=True)
+class FECoefficients:
+    """Loaded TCA with FE coefficients of one drive at its validation positions (:func:`fe_coefficients`)."""
+
+    ltca: Any  #: the engine (``compliance="fe"``: the members' 3-tooth sector grids)
+    slices: Any  #: its slices at ``phi1``
+    phi1: np.ndarray  #: [rad] the positions
+    grids: tuple  #: the members' influence grids
+    teeth: tuple  #: the members' unmodified teeth
+    gears: tuple  #: pinion, gear
+    r_form: tuple  #: [mm] the members' form radii
+
+
+def fe_coefficients(pair, mis, fracs, mat) -> FECoefficients:
+    """Loaded TCA with FE coefficients of ``pair`` under ``mis`` at the positions ``fracs`` (strings: fractions
+    of the pinion's angular pitch, as the records name them), material ``mat``."""
+    from gearopt.ltca.engine import LTCA
+
+    phis = np.array([float(f) * 2 * math.pi / pair.pinion.z for f in fracs])
+    Lf = LTCA(pair, material=mat, compliance="fe")
+    return FECoefficients(ltca=Lf, slices=Lf.slices(phi1=phis, mis=mis), phi1=phis, grids=Lf.influence,
+                          teeth=(Lf.tca.pinion.unmodified, Lf.tca.gear.unmodified), gears=(pair.pinion, pair.gear),
+                          r_form=(Lf.tca.form_radius(1), Lf.tca.form_radius(2)))
+
+
 def tables() -> int:
     """(a) loaded TCA with FE coefficients against the recorded 5-tooth contact model (3-tooth grids as they are;
     with the 3-tooth sector's neighbour coupling; moved to the 5-tooth sector with its coupling), beside the
@@ -159,13 +186,8 @@ def tables() -> int:
         pair, mis = drives()[name]
         cb = math.cos(pair.pinion.beta_b)
         fracs = [f for f in ("0", "-0.3", "+0.3") if f in rec5[name]]
-        phis = np.array([float(f) * 2 * math.pi / pair.pinion.z for f in fracs])
-        Lf = LTCA(pair, material=mat, compliance="fe")
-        S = Lf.slices(phi1=phis, mis=mis)
-        g = Lf.influence
-        tt = (Lf.tca.pinion.unmodified, Lf.tca.gear.unmodified)
-        gears = (pair.pinion, pair.gear)
-        rf = (Lf.tca.form_radius(1), Lf.tca.form_radius(2))
+        fs = fe_coefficients(pair, mis, fracs, mat)
+        Lf, S, phis, g, tt, gears, rf = fs.ltca, fs.slices, fs.phi1, fs.grids, fs.teeth, fs.gears, fs.r_form
         s5 = [sector5_grids(tt[m], gears[m], rf[m], g[m]) for m in (0, 1)]
         for m in (0, 1):
             out["members"][f"{gears[m].z} teeth ({name})"] = s5[m][2]
@@ -312,13 +334,8 @@ def split() -> int:
         pair, mis = drives()[name]
         cb = math.cos(pair.pinion.beta_b)
         fracs = ("0", "-0.3", "+0.3")
-        phis = np.array([float(f) * 2 * math.pi / pair.pinion.z for f in fracs])
-        Lf = LTCA(pair, material=mat, compliance="fe")
-        S = Lf.slices(phi1=phis, mis=mis)
-        g = Lf.influence
-        tt = (Lf.tca.pinion.unmodified, Lf.tca.gear.unmodified)
-        gears = (pair.pinion, pair.gear)
-        rf = (Lf.tca.form_radius(1), Lf.tca.form_radius(2))
+        fs = fe_coefficients(pair, mis, fracs, mat)
+        Lf, S, phis, g, tt, gears, rf = fs.ltca, fs.slices, fs.phi1, fs.grids, fs.teeth, fs.gears, fs.r_form
         Lf.influence = tuple(full_gear_grid(g[m], tt[m], gears[m], rf[m])[0] for m in (0, 1))
         NL = NeighbourLTCA(Lf, [neighbour_grids(tt[m], gears[m], rf[m], g[m], "full - sector") for m in (0, 1)])
         res = NL.solve(T, S).results[0]
