@@ -24,7 +24,6 @@ from functools import lru_cache
 
 import numpy as np
 import numpy.typing as npt
-from scipy.linalg import solveh_banded
 
 from ..errors import out_of_range
 
@@ -85,7 +84,11 @@ def _edge_flexibility(n: int, a: float, b: float, t: float, E: float, nu: float,
     Kf = K[np.ix_(free, free)]
     rhs = np.zeros((free.size, 2))
     rhs[pos[0], 0] = rhs[pos[1], 1] = 1.0
-    # symmetric positive definite and banded (half bandwidth 5): LAPACK's banded Cholesky
+    # symmetric positive definite and banded (half bandwidth 5): LAPACK's banded Cholesky (scipy
+    # imported here: a spur drive, or a helical one whose compliance is cached, never needs it, and
+    # importing scipy.linalg costs ~0.13 s of every process's start)
+    from scipy.linalg import solveh_banded
+
     u = 5
     ab = np.zeros((u + 1, free.size))
     for k in range(u + 1):

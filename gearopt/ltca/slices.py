@@ -545,7 +545,7 @@ class SliceSolver:
             for i in range(0, cols.size, EDGE_CHUNK):
                 idx = cols[i:i + EDGE_CHUNK]
                 cm = br.mapped(EDGE_CHUNK, W.shape[1])
-                pad = np.concatenate([idx, np.full(EDGE_CHUNK - idx.size, idx[0])]) if cm.compiled else idx
+                pad = idx
                 Wc, rc, cc, gc = (np.asarray(v) for v in cm(W[:, pad], prm[:, pad]))
                 We[:, idx] = Wc[:, :idx.size]
                 oke[idx] = br.accept(rc.ravel()[:idx.size], cc.ravel()[:idx.size], gc.ravel()[:idx.size])
