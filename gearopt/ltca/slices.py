@@ -49,7 +49,7 @@ from ..meshing.tca import TCA
 SLICE_NORMAL_TOL = 0.05  #: accepted slice points have n1 . n2 < -1 + this (crowning tilts the normals)
 _SECTIONS = (-0.5, -0.25, 0.0, 0.25, 0.5)  #: pinion sections of the conjugate first guesses [b1]
 PARTNER_MIN = 1e-4  #: smallest weight [share of the slice spacing] with which a node past a boundary joins the contact
-EDGE_CHUNK = 256  #: columns per mapped tip-edge solve (one compiled size)
+EDGE_CHUNK = 256  #: columns per mapped tip-edge solve at most
 CONJUGATE_CACHE = 4  #: first-guess sets (conjugate sections) a SliceSolver keeps (per angles and tool shifts)
 
 
@@ -533,11 +533,11 @@ class SliceSolver:
                                (2, ok & keep & (rad2 > g2.r_a + eps) & (rad1 <= g1.r_a + eps))):
             if not beyond.any():
                 continue
-            # mapped solves from the conjugate slices, in chunks of a fixed size when compiled (one
-            # compiled map), of the columns alone when interpreted (the ColumnMap pads them to one of
-            # its few map sizes, at most a fifth more, where a chunk of 256 solved up to twice as many);
-            # no continuation retries: a slice whose edge equations fail from there lies far beyond
-            # the contact line's end
+            # mapped solves from the conjugate slices, of the columns alone, compiled or interpreted
+            # (the ColumnMap pads them to one of its few map sizes, at most a fifth more: a compiled
+            # chunk padded to 256 columns cost a few-position loaded TCA 6 ms of its 20); no
+            # continuation retries: a slice whose edge equations fail from there lies far beyond the
+            # contact line's end
             br = self.edge_branch[member]
             cols = np.flatnonzero(beyond)
             We = np.full(W.shape, np.nan)
@@ -545,8 +545,7 @@ class SliceSolver:
             for i in range(0, cols.size, EDGE_CHUNK):
                 idx = cols[i:i + EDGE_CHUNK]
                 cm = br.mapped(EDGE_CHUNK, W.shape[1])
-                pad = idx
-                Wc, rc, cc, gc = (np.asarray(v) for v in cm(W[:, pad], prm[:, pad]))
+                Wc, rc, cc, gc = (np.asarray(v) for v in cm(W[:, idx], prm[:, idx]))
                 We[:, idx] = Wc[:, :idx.size]
                 oke[idx] = br.accept(rc.ravel()[:idx.size], cc.ravel()[:idx.size], gc.ravel()[:idx.size])
             # the gear angle on the conjugate slice's branch (Newton may land a revolution away), and
