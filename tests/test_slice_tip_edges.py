@@ -1,5 +1,5 @@
-"""LTCA slices' tip-edge solves (gearopt.ltca.slices.SliceSolver._tip_edges): interpreted, the columns
-beyond a tip are solved alone, not padded to a compiled chunk, with the same slices bit for bit."""
+"""LTCA slices' tip-edge solves (gearopt.ltca.slices.SliceSolver._tip_edges): interpreted or compiled, the
+columns beyond a tip are solved alone, not padded to a fixed chunk, with the same slices bit for bit."""
 
 from __future__ import annotations
 
@@ -23,10 +23,11 @@ def _slices():
     return L.slices(L.mesh_cycle(8))
 
 
-def test_interpreted_tip_edge_solves_take_their_columns_alone_with_the_same_slices(monkeypatch):
-    """jit=False: each tip-edge solve gets as many columns as lie beyond that tip (fewer than the
-    compiled chunk of EDGE_CHUNK here); the slices equal, bit for bit, those of solves padded to the
-    chunk (the compiled path's columns, forced here on the interpreted map)."""
+def test_tip_edge_solves_take_their_columns_alone_with_the_same_slices(monkeypatch):
+    """Interpreted, and with the map flagged compiled too (the flag the solves were once padded by):
+    each tip-edge solve gets as many columns as lie beyond that tip (fewer than EDGE_CHUNK here),
+    never a chunk padded to EDGE_CHUNK; the slices equal, bit for bit, those of solves padded to the
+    chunk (copies of the first column, the padding the compiled path once took)."""
     sizes = []
     real_outputs = ColumnMap.outputs
 
@@ -39,24 +40,39 @@ def test_interpreted_tip_edge_solves_take_their_columns_alone_with_the_same_slic
     S = _slices()
     assert S.edge is not None and (S.edge > 0).any()  # tip edges in contact
     assert sizes and all(0 < n < slices.EDGE_CHUNK for n in sizes)
-    # the reference: every tip-edge call padded to EDGE_CHUNK columns
     real_mapped = Branch.mapped
 
-    def padded(self, n, n_total=None, extra=False):
+    def flagged(self, n, n_total=None, extra=False):
         cm = real_mapped(self, n, n_total, extra)
         if self.name.startswith("ltca_tip"):
-            cm.compiled = True  # (the flag _tip_edges pads by; the map stays the interpreted one)
+            cm.compiled = True  # (the map stays the interpreted one)
         return cm
 
-    monkeypatch.setattr(Branch, "mapped", padded)
+    monkeypatch.setattr(Branch, "mapped", flagged)
+    sizes.clear()
+    flag = _slices()
+    assert sizes and all(0 < n < slices.EDGE_CHUNK for n in sizes)
+    # the reference: every tip-edge call padded to EDGE_CHUNK columns, the padding cut off after
+    monkeypatch.setattr(Branch, "mapped", real_mapped)
+
+    def padded(self, *args):
+        if not self.column.name().startswith("ltca_tip"):
+            return real_outputs(self, *args)
+        n = np.asarray(args[0]).shape[1]
+        sel = np.concatenate([np.arange(n), np.zeros(slices.EDGE_CHUNK - n, int)])
+        sizes.append(sel.size)
+        return [np.asarray(o)[:, :n] for o in real_outputs(self, *(np.asarray(a)[:, sel] for a in args))]
+
+    monkeypatch.setattr(ColumnMap, "outputs", padded)
     sizes.clear()
     ref = _slices()
     assert sizes and all(n == slices.EDGE_CHUNK for n in sizes)
-    for f in dataclasses.fields(S):
-        a, b = getattr(S, f.name), getattr(ref, f.name)
-        if isinstance(a, np.ndarray):
-            assert np.array_equal(a, b, equal_nan=True), f.name
-        elif f.name == "stats":  # the solver's counts equal; its time does not
-            assert {k: v for k, v in a.items() if k != "time_s"} == {k: v for k, v in b.items() if k != "time_s"}
-        else:
-            assert a == b, f.name
+    for other in (S, flag):
+        for f in dataclasses.fields(other):
+            a, b = getattr(other, f.name), getattr(ref, f.name)
+            if isinstance(a, np.ndarray):
+                assert np.array_equal(a, b, equal_nan=True), f.name
+            elif f.name == "stats":  # the solver's counts equal; its time does not
+                assert {k: v for k, v in a.items() if k != "time_s"} == {k: v for k, v in b.items() if k != "time_s"}
+            else:
+                assert a == b, f.name
