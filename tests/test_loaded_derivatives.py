@@ -13,6 +13,7 @@ import pytest
 from gearopt.gears import Gear, GearPair
 from gearopt.synthesis.loaded import LoadedMicroOptimizer
 from gearopt.synthesis.loaded.derivatives import constraint_jacobian, lagrangian_hessian
+from gearopt.synthesis.loaded.trust_region import TrustRegion
 
 
 def _shaped_oracle() -> ca.Function:
@@ -72,4 +73,7 @@ def test_a_loaded_nlps_hessian_and_jacobian_are_nlpsols_own_bit_for_bit():
                                p_limit=2500.0, n_positions=8, n_verify=8, n_slices=7)
     nlp = opt._around(opt.theta0.copy(), 0.01).nlp
     _same_as_nlpsols(nlp.oracle, points=2)
-    assert nlp.derivatives["hess_lag"] is nlp.derivatives["hess_lag"]  # built once, shared by the solvers
+    # built once per NLP: its solvers evaluate the same Functions
+    warm = TrustRegion._warm_solver(nlp)
+    for name in ("nlp_hess_l", "nlp_jac_g"):
+        assert nlp.solver.get_function(name).__hash__() == warm.get_function(name).__hash__()

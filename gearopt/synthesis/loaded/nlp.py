@@ -473,9 +473,9 @@ class LoadedNLP:
 
     @property
     def oracle(self) -> ca.Function:
-        """:attr:`problem` as one Function ``(x, p) -> (f, g)`` (built on first use), from which the
-        cold and the warm solver are built: the two share its derivatives' construction (a third less
-        time to build both; the same iterates bit for bit as from :attr:`problem` itself)."""
+        """:attr:`problem` as one Function ``(x, p) -> (f, g)`` (built on first use), from which every
+        solver of the NLP is built, with its :attr:`derivatives` (the same iterates bit for bit as from
+        :attr:`problem` itself)."""
         if self._oracle is None:
             pr = self.problem
             self._oracle = ca.Function("nlp", [pr["x"], pr["p"]], [pr["f"], pr["g"]], ["x", "p"], ["f", "g"])
