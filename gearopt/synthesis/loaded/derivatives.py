@@ -63,6 +63,9 @@ def lagrangian_hessian(oracle: ca.Function) -> ca.Function:
     grad = ca.gradient(gamma, z)
     n = z.numel()
     sp = ca.Function("lagrangian_gradient", [z], [grad], {"allow_free": True}).sparsity_jac(0, 0, True, True)
+    if sp.nnz() == 0:  # (no second derivatives: nlpsol's own, an empty pattern)
+        return oracle.factory("nlp_hess_l", ["x", "p", "lam:f", "lam:g"], ["triu:hess:gamma:x:x"],
+                              {"gamma": ["f", "g"]})
     colors = sp.star_coloring2()
     ci, cr = np.array(colors.colind()), np.array(colors.row())
     nc = colors.size2()
