@@ -18,6 +18,7 @@ from ...contact.hertz import weber_compliance
 from ...meshing.misalignment import Misalignment
 from ...units import RAD_TO_ARCSEC
 from .constants import G_REF, HARM_EPS, KAPPA_FLOOR, MU, SMOOTH_STAGE_OPTS, TE0_EPS
+from .derivatives import ipopt_derivatives
 from .edges import edge_weight_lin
 from .layout import Block, NLPLayout, Te0Block, Te0Slices, block_vector, nlp_layout, param_layout
 from .verify import harmonic_rows
@@ -436,7 +437,7 @@ def _sparse_dm(rows, cols, vals, n_rows, n_cols) -> ca.DM:
 class LoadedNLP:
     """One linearisation's NLP (:meth:`NLPBuilder._nlp`), its parts by name; its cold-start IPOPT
     solver, :attr:`solver`, is built on first use (a round solved warm, or a trial never solved,
-    needs none)."""
+    needs none), as every solver of it from :attr:`derivatives` (:meth:`ipopt`)."""
 
     problem: dict  #: CasADi's NLP: ``x``, ``p``, ``f``, ``g``
     opts: dict  #: IPOPT's options
@@ -468,31 +469,45 @@ class LoadedNLP:
     _solver: ca.Function | None = field(default=None, repr=False)
     _smoothing: ca.Function | None = field(default=None, repr=False)
     _oracle: ca.Function | None = field(default=None, repr=False)
+    _derivatives: dict | None = field(default=None, repr=False)
 
     @property
     def oracle(self) -> ca.Function:
-        """:attr:`problem` as one Function ``(x, p) -> (f, g)`` (built on first use), from which the
-        cold and the warm solver are built: the two share its derivatives' construction (a third less
-        time to build both; the same iterates bit for bit as from :attr:`problem` itself)."""
+        """:attr:`problem` as one Function ``(x, p) -> (f, g)`` (built on first use), from which every
+        solver of the NLP is built, with its :attr:`derivatives` (the same iterates bit for bit as from
+        :attr:`problem` itself)."""
         if self._oracle is None:
             pr = self.problem
             self._oracle = ca.Function("nlp", [pr["x"], pr["p"]], [pr["f"], pr["g"]], ["x", "p"], ["f", "g"])
         return self._oracle
 
     @property
+    def derivatives(self) -> dict:
+        """IPOPT's constraint Jacobian and Lagrangian Hessian of :attr:`oracle` as ``nlpsol``'s options
+        ``jac_g`` and ``hess_lag`` (:func:`~gearopt.synthesis.loaded.derivatives.ipopt_derivatives`: CasADi's
+        own, the same values bit for bit, built in about half the time), built on first use and shared by
+        every solver of the NLP."""
+        if self._derivatives is None:
+            self._derivatives = ipopt_derivatives(self.oracle)
+        return self._derivatives
+
+    def ipopt(self, name: str, opts: dict) -> ca.Function:
+        """An IPOPT solver of :attr:`oracle` with the options ``opts`` and :attr:`derivatives`."""
+        return ca.nlpsol(name, "ipopt", self.oracle, {**opts, **self.derivatives})
+
+    @property
     def solver(self) -> ca.Function:
-        """The cold-start IPOPT solver of :attr:`problem` (built on first use, from :attr:`oracle`)."""
+        """The cold-start IPOPT solver of :attr:`problem` (built on first use, :meth:`ipopt`)."""
         if self._solver is None:
-            self._solver = ca.nlpsol("loaded_microgeometry", "ipopt", self.oracle, self.opts)
+            self._solver = self.ipopt("loaded_microgeometry", self.opts)
         return self._solver
 
     @property
     def smoothing_solver(self) -> ca.Function:
         """The IPOPT solver of a first round's first stage (:meth:`NLPBuilder._solve_smoothed`): the cold start
-        with the monotone barrier (``SMOOTH_STAGE_OPTS``), built on first use from :attr:`oracle`."""
+        with the monotone barrier (``SMOOTH_STAGE_OPTS``), built on first use (:meth:`ipopt`)."""
         if self._smoothing is None:
-            self._smoothing = ca.nlpsol("loaded_microgeometry_smoothing", "ipopt", self.oracle,
-                                        {**self.opts, **SMOOTH_STAGE_OPTS})
+            self._smoothing = self.ipopt("loaded_microgeometry_smoothing", {**self.opts, **SMOOTH_STAGE_OPTS})
         return self._smoothing
 
     @solver.setter

@@ -190,7 +190,7 @@ class TrustRegion:
     def _warm_solver(nlp) -> ca.Function:
         """The IPOPT solver of ``nlp`` from a given point and multipliers (``LOOP_WARM_OPTS``), built on first use."""
         if nlp.warm is None:
-            nlp.warm = ca.nlpsol("loaded_microgeometry_warm", "ipopt", nlp.oracle, {**nlp.opts, **LOOP_WARM_OPTS})
+            nlp.warm = nlp.ipopt("loaded_microgeometry_warm", {**nlp.opts, **LOOP_WARM_OPTS})
         return nlp.warm
 
     def _around(self, theta, radius: float = np.inf, rho: float = RHO) -> LocalModel:
