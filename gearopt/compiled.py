@@ -92,9 +92,9 @@ __all__ = [
     # gearopt.compile_queue
     "compile_in_background", "compile_slots", "wait_for_background",
     # this module
-    "CHUNK", "EXACT_MAPS", "EXACT_PADDING", "MAP_LIBRARY_CALLS", "MIN_COLUMNS", "MIN_PER_THREAD", "WAIT_COLUMNS", "ColumnMap", "cached_function",
+    "CHUNK", "EXACT_MAPS", "EXACT_PADDING", "MAP_LIBRARY_CALLS", "SPLIT_PADDING", "MIN_COLUMNS", "MIN_PER_THREAD", "WAIT_COLUMNS", "ColumnMap", "cached_function",
     "call", "compile_derived", "compile_function", "derived_library", "idle_cpus", "keyed_library", "map_columns",
-    "map_library", "map_size", "mapped", "matrix_columns", "nlpsol", "select", "set_threads", "threads",
+    "map_floor", "map_library", "map_size", "mapped", "matrix_columns", "nlpsol", "select", "set_threads", "threads",
     "threads_for", "use_compiled",
 ]
 
@@ -303,6 +303,10 @@ CHUNK = 2048  #: ColumnMap: columns per mapped call (maps are built for this and
 #: this many columns (ColumnMap._size; up to a fifth of a call, each padded column interpreted in vain)
 EXACT_PADDING = 32
 EXACT_MAPS = 64  #: ... while it holds fewer maps than this (each size it meets is built once)
+#: a compiled ColumnMap without maps of its own evaluates k columns as the largest map size below k plus
+#: the rest (ColumnMap._pieces) where map_size(k) would pad at least this many columns: a padded column
+#: of the loaded TCA's slices costs 6-22 us compiled, a second mapped call about as much as one
+SPLIT_PADDING = 8
 
 
 class ColumnMap:
@@ -446,8 +450,9 @@ class ColumnMap:
                 name = self.column.name_in(i)
                 raise ArgumentError(f"{self.column.name()}: input {name} of {n} columns must be ({r}, {c * n}), "
                                     f"got {v.shape}", param=name, value=v.shape, valid=f"shape ({r}, {c * n})")
-        if 0 < n <= CHUNK:  # one mapped call: its outputs (new arrays) are the result
-            m = self._size(n)
+        pieces = self._pieces(n)
+        if len(pieces) == 1 and n > 0:  # one mapped call: its outputs (new arrays) are the result
+            m = pieces[0][1]
             if m == n:
                 return self._map(m).run(a)
             sel = np.arange(m)
@@ -456,9 +461,7 @@ class ColumnMap:
             return [r[:, :n * c] for r, c in zip(res, cout)]
         outs = [np.empty((r, c * n), order="F") for r, c in sig.shape_out]
         start = 0
-        while start < n:
-            k = min(CHUNK, n - start)
-            m = CHUNK if k == CHUNK else self._size(k)
+        for k, m in pieces:
             if m == k:
                 chunk = [v[:, start * c:(start + k) * c] for v, c in zip(a, cin)]
             else:
@@ -470,6 +473,23 @@ class ColumnMap:
                 o[:, start * c:(start + k) * c] = r[:, :k * c]
             start += k
         return outs
+
+    def _pieces(self, n: int) -> list[tuple[int, int]]:
+        """The mapped calls that evaluate ``n`` columns, in order: (columns, map size) each; chunks of
+        :data:`CHUNK`, the rest on :meth:`_size`'s map, or, for a compiled ColumnMap without maps of its
+        own where that would pad :data:`SPLIT_PADDING` columns or more, on the largest map size
+        (:func:`map_size`) below it and the rest likewise (1067 -> 1024 + 48 instead of 1280: the
+        padded columns are solved too). Each column is evaluated alone, so the pieces change no
+        number."""
+        out = []
+        while n > 0:
+            k = min(CHUNK, n)
+            m = CHUNK if k == CHUNK else self._size(k)
+            if m - k >= SPLIT_PADDING and self.compiled and not self.own_maps:
+                m = k = map_floor(k)
+            out.append((k, m))
+            n -= k
+        return out
 
 
 def map_library(column: ca.Function, m: int) -> ca.Function | None:
@@ -528,6 +548,14 @@ def map_size(k: int) -> int:
         return max(k, 1)
     j = (k - 1).bit_length() - 1  # 2^j < k <= 2^(j+1)
     return next(m for m in ((q << j) >> 2 for q in (5, 6, 7, 8)) if m >= k)  # j >= 3: whole numbers
+
+
+def map_floor(k: int) -> int:
+    """The largest :func:`map_size` (a size whose map holds its columns unpadded) not above ``k`` >= 1."""
+    if k <= 8:
+        return k
+    j = k.bit_length() - 1  # 2^j <= k < 2^(j+1)
+    return max(m for m in ((q << i) >> 2 for i in (j - 1, j) for q in (5, 6, 7, 8)) if m <= k)
 
 
 def matrix_columns(idx: np.ndarray, c: int) -> np.ndarray:

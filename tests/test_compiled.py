@@ -309,9 +309,28 @@ def test_an_interpreted_column_map_evaluates_a_large_call_unpadded():
     sizes = []
     got = compiled.ColumnMap(f, lambda m: sizes.append(m) or f.map(m))(X, P)
     assert sizes == [539]
-    ref = compiled.ColumnMap(f, lambda m: sizes.append(m) or f.map(m), compiled=True)(X, P)  # (the padded path)
+    ref = compiled.ColumnMap(f, lambda m: sizes.append(m) or f.map(m), compiled=True, own_maps=True)(X, P)  # padded
     assert sizes == [539, 640]
     for a, b in zip(got, ref):
         assert np.array_equal(a, b)
     compiled.ColumnMap(f, lambda m: sizes.append(m) or f.map(m))(X[:, :121], P[:, :121])
     assert sizes[-1] == 128
+
+
+def test_a_compiled_column_map_splits_a_call_instead_of_padding_it():
+    """A compiled ColumnMap without maps of its own evaluates k columns as the largest map size below k
+    and the rest where map_size(k) would pad SPLIT_PADDING columns or more (the loaded TCA's slices:
+    1067 -> 1024 + 48, not 1280; 3179 -> 2048 + 1024 + 112); the outputs are bit for bit those of one
+    padded map, and a call with little padding (121 -> 128) stays one call."""
+    x, p = ca.SX.sym("x", 2), ca.SX.sym("p")
+    f = ca.Function("split_test", [x, p], [ca.sin(x * p) + p ** 2, ca.dot(x, x) * ca.exp(-p)])
+    rng = np.random.default_rng(7)
+    for n, want in ((1067, [1024, 48]), (539, [512, 28]), (3179, [2048, 1024, 112]), (121, [128])):
+        X, P = rng.normal(size=(2, n)), rng.normal(size=(1, n))
+        sizes = []
+        got = compiled.ColumnMap(f, lambda m: sizes.append(m) or f.map(m), compiled=True)(X, P)
+        assert sizes == want
+        ref = compiled.ColumnMap(f, lambda m: f.map(m), compiled=True, own_maps=True)(X, P)  # one padded map
+        for a, b in zip(got, ref):
+            assert a.shape == b.shape == (a.shape[0], n) and np.array_equal(a, b)
+    assert [compiled.map_floor(k) for k in (1, 8, 9, 10, 11, 539, 1067, 2048)] == [1, 8, 8, 10, 10, 512, 1024, 2048]

@@ -80,3 +80,35 @@ def test_loaded_tca_with_the_structure_given_is_the_same_and_checks_it(spur_ltca
     with pytest.raises(ArgumentError) as e:
         L.solve(50.0, slices=S, structure={"Cs": None})
     assert e.value.param == "structure"
+
+
+def test_designs_at_the_same_positions_share_the_first_guesses(monkeypatch):
+    """The slices' first guesses (the unmodified drive's conjugate sections) depend on the positions and
+    the tool shifts x only: a second design at the same positions solves none, and its slices are bit
+    for bit those of a solver that never saw the first design; another x solves them again."""
+    from gearopt.contact import edge_guesses
+    from gearopt.geometry.microgeometry import Microgeometry
+
+    pair = GearPair(Gear(z=20, m_n=3.0, b=20.0, modifications=Microgeometry(C_alpha=0.005, C_beta=0.01)),
+                    Gear(z=40, m_n=3.0, b=20.0))
+    phi = LTCA(pair, n_slices=7).mesh_cycle(4)
+    names = LTCA(pair, n_slices=7).tca.pinion.param_names
+    solved = []
+    orig = edge_guesses.conjugate_sections
+    monkeypatch.setattr(edge_guesses, "conjugate_sections", lambda *a: solved.append(1) or orig(*a))
+    L = LTCA(pair, n_slices=7)
+    p1a = L.tca.pinion.p0.copy()
+    p1b = p1a.copy()
+    p1b[names.index("iso.C_alpha")] = 0.012
+    p1b[names.index("iso.C_beta")] = 0.004
+    L.slices(phi, p1a)
+    Sb = L.slices(phi, p1b)
+    assert len(solved) == 1
+    fresh = LTCA(pair, n_slices=7).slices(phi, p1b)
+    assert len(solved) == 2
+    for name in ("te", "width", "r1", "n1", "lever1", "kappa1", "active"):
+        assert np.array_equal(getattr(Sb, name), getattr(fresh, name), equal_nan=name != "active")
+    p1c = p1b.copy()
+    p1c[names.index("x")] = 0.05
+    L.slices(phi, p1c)
+    assert len(solved) == 3

@@ -359,9 +359,13 @@ def coupling_batch(z: np.ndarray, widths: np.ndarray, lam: float) -> np.ndarray:
     z = np.asarray(z, float)
     widths = np.asarray(widths, float)
     used = np.isfinite(z)
-    # rows of one grid repeat (the slices are fixed to the tooth): each distinct row inverted once
-    key = np.concatenate([np.where(used, z, np.inf), np.where(np.isfinite(widths), widths, -np.inf)], axis=1)
-    uniq, first, inv = np.unique(key, axis=0, return_index=True, return_inverse=True)
+    # rows of one grid repeat (the slices are fixed to the tooth): each distinct row inverted once (rows
+    # compared by their bytes, one void item per row: 0.04 instead of 0.33 ms for np.unique(axis=0) on 96
+    # rows; rows of equal bytes have equal matrices, so the same inverse bit for bit)
+    key = np.ascontiguousarray(np.concatenate([np.where(used, z, np.inf),
+                                               np.where(np.isfinite(widths), widths, -np.inf)], axis=1))
+    rows = key.view(np.dtype((np.void, key.itemsize * key.shape[1]))).ravel()
+    uniq, first, inv = np.unique(rows, return_index=True, return_inverse=True)
     if uniq.shape[0] < z.shape[0]:
         G = np.linalg.inv(coupling_stiffness_batch(z[first], widths[first], lam))[inv.ravel()]
     else:

@@ -276,10 +276,12 @@ class SliceSolver:
         ``phis``: {z: (4, P) unknowns (u1, u2, z2, r_p2 phi2), NaN where none} (first guesses)."""
         from ..contact.edge_guesses import conjugate_sections
 
-        # they depend on the angles and the tool shifts in p1, p2 only (not on the modifications or the
-        # misalignment): kept for the last few calls (a torque or misalignment sweep, an optimiser's
-        # designs at the same positions solve them once)
-        key = (np.asarray(phis, float).tobytes(), np.asarray(p1, float).tobytes(), np.asarray(p2, float).tobytes())
+        # they depend on the angles and the tool shifts x in p1, p2 only (conjugate_sections: not on the
+        # modifications or the misalignment): kept for the last few calls (a torque or misalignment
+        # sweep, an optimiser's designs at the same positions solve them once)
+        lay = self.tca.layout
+        key = (np.asarray(phis, float).tobytes(), np.asarray(p1, float)[lay.p_index("pinion", "x")].tobytes(),
+               np.asarray(p2, float)[lay.p_index("gear", "x")].tobytes())
         hit = self._conj_cache.get(key)
         if hit is not None:
             return {z: W.copy() for z, W in hit.items()}

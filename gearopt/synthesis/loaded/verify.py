@@ -48,6 +48,7 @@ class Verification:
             S = sw.slices
             R = harmonic_rows(S.phi1, self.pair.pinion.z, H) if H else None
             ends = edge_mask(S, self.pair)
+            w_edge = edge_weight(S, self.pair)  # (of the slices: the same at every torque)
             for t, r in enumerate(sw.results):
                 pp[t, c] = r.peak_to_peak_arcsec
                 if H:
@@ -55,7 +56,7 @@ class Verification:
                     hm[t, c] = np.hypot(ab[:, 0], ab[:, 1])
                 pm[t, c] = r.p_max
                 es[t, c] = float(np.max(np.sum(np.where(ends, r.load, 0.0), axis=(0, 2)) / r.W))
-                el[t, c] = float(np.max(edge_weight(S, self.pair) * r.load) / r.W)
+                el[t, c] = float(np.max(w_edge * r.load) / r.W)
                 gap = loaded_gaps(sw, r)
                 eg[t, c] = float(np.min(np.where(ends & S.active, gap, np.inf)))
         obj = float(np.sum(self.weights * pp)) if not H else float(np.sum(self.weights[..., None] * hm * self.harmonics))
