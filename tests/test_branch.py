@@ -113,3 +113,25 @@ def test_solve_with_extra_outputs_and_line_search_rescue(jit):
     np.testing.assert_allclose(st["extra"]["dbl"][0, first], 2 * W[0, first], atol=1e-12)
     assert st["extra"]["pair"].shape == (2, 6)
     np.testing.assert_allclose(st["extra"]["pair"][:, first], np.vstack([W[0, first], prm[1, first]]), atol=1e-12)
+
+
+def test_a_branch_builds_its_predictor_and_extra_column_on_first_use(monkeypatch):
+    """Constructing a Branch (its graphs in the process's cache) takes no Jacobian: dw/dphi1 and the
+    column with extras are built on first use, the same graphs as built eagerly."""
+    br = _branch_phi(False)
+    w, p = ca.SX.sym("w"), ca.SX.sym("p", 2)
+    F = br.G(w, p)
+    J = ca.jacobian(F, w)
+    eager = ca.Function("toy_phi_dw", [w, p], [-ca.solve(J, ca.jacobian(F, p)[:, 0])])
+    extra = ca.Function("toy_phi_extra", [w, p], [w * p[0], w + p[1]], ["w", "p"], ["wp", "wq"])
+    taken = []
+    orig = ca.jacobian
+    monkeypatch.setattr(ca, "jacobian", lambda *a: taken.append(1) or orig(*a))
+    again = Branch("toy_phi", br.G, br.checks, br.accept, br.tol, jit=False, extra=extra)
+    assert taken == []
+    assert again.dw.serialize() == eager.serialize() and again.dw is again.dw
+    x = again.one_x(np.array([1.1]), np.array([0.2, 0.0]))
+    assert again.one_x is again.one_x and again.one_x.name_out() == ["W", "res", "n1n2", "reg", "wp", "wq"]
+    w_sol = float(np.sqrt(1.0 + 0.2 + 0.3 * np.sin(0.6)))
+    np.testing.assert_allclose(float(x[0]), w_sol, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(float(x[4]), w_sol * 0.2, rtol=0, atol=1e-12)
