@@ -18,7 +18,7 @@ import casadi as ca
 import numpy as np
 import numpy.typing as npt
 
-from ..compiled import (ColumnMap, available, cached_function, call, compile_derived, derived_library, map_columns,
+from ..compiled import (ColumnMap, available, cached_function, call, compile_derived, derived_library, keyed_by, map_columns,
                         mapped, select, source_tag)
 from ..graph_cache import built_once
 from ..settings import ContactSettings  # re-exported: declared with the other option sets (gearopt.settings)
@@ -169,6 +169,20 @@ class Branch:
         at = built_once(f"{name}_post", (G, checks), tag, lambda: self._post_graph("post"))
         self.one = ca.Function(f"{name}_one", [w0, pp], [wf] + list(at(wf, pp)), ["W0", "P"],
                                ["W", "res", "n1n2", "reg"])
+        self._key_column(self.one, (G, checks))
+
+    def _key_column(self, col: ca.Function, bases: tuple[ca.Function, ...]) -> None:
+        """Key the library of the column ``col`` (:attr:`one`, :attr:`one_x`) by how it is built
+        (:func:`gearopt.compiled.keyed_by`) instead of by its serialisation (2 MB for a loaded-TCA
+        slice's: 16 ms a process): ``bases`` (the residual, the checks[, the extras]: their graphs'
+        library keys, which the graph cache's digests serialised already), the construction's code
+        (the rootfinder's options, the Jacobian's and the checks' graphs, the columns: ``__init__``,
+        ``_symbolic``, ``_post_graph``, ``one_x``)
+        and the rootfinder plugin, the one argument that enters the column besides the bases and
+        the name. Not under ``jit=False`` (looked up by no one)."""
+        if self.jit is not False:
+            code = source_tag(Branch.__init__, Branch._symbolic, Branch._post_graph, Branch.one_x.fget)
+            keyed_by(col, bases, f"{code}/{self.solver}" if code else "")
 
     def _symbolic(self) -> tuple[ca.SX, ca.SX, ca.SX]:
         """``(w, p, G(w, p))``: the unknowns, the parameters and the residual as SX expressions."""
@@ -208,6 +222,7 @@ class Branch:
             wf = self.rf_fast(w0, pp)
             self._one_x = ca.Function(f"{self.name}_onex", [w0, pp], [wf] + list(at_x(wf, pp)), ["W0", "P"],
                                       ["W", "res", "n1n2", "reg"] + self._extra_names)
+            self._key_column(self._one_x, (self.G, self.checks, self.extra))
         return self._one_x
 
     def __getstate__(self):
@@ -227,6 +242,11 @@ class Branch:
         if "_extra_names" not in state:
             state["_extra_names"] = state["extra"].name_out() if state.get("extra") is not None else []
         self.__dict__.update(state)
+        # the columns' library keys (by construction) are kept per Function object: a copy keeps its
+        # objects, a Branch unpickled in another process keys its new ones again
+        self._key_column(self.one, (self.G, self.checks))
+        if self._one_x is not None:
+            self._key_column(self._one_x, (self.G, self.checks, self.extra))
 
     def newton(self, w0: npt.ArrayLike, prm: npt.ArrayLike) -> np.ndarray:
         """Line-search Newton from ``w0`` at one parameter column (unchecked)."""
