@@ -27,8 +27,9 @@ Prints a markdown table: objective reached, edge load, loaded-TCA evaluations, w
 (``build``) and calls ``LoadedMicroOptimizer.solve`` (``solve``); wall and CPU time (user + system,
 less sensitive to the load of the machine), the whole process's wall time (``process``: interpreter
 start, imports and exit too, so a wait at exit for background compiles shows), IPOPT iterations,
-trust-region rounds and the optimum. Each process first does what ``gearopt run`` does at its start
-(``gearopt.cli.limit_blas_threads``: one OpenBLAS thread, where the tree has it).
+trust-region rounds and the optimum. Each process first does what ``gearopt run`` does at its start,
+where the tree has it: ``gearopt.cli.exit_without_collecting`` (no final garbage collections at exit:
+60 ms CPU of a warm run's exit) and ``gearopt.cli.limit_blas_threads`` (one OpenBLAS thread).
 The first run of each tree is cold (a new, empty ``GEAROPT_CACHE``: every compiled library built),
 the ``--repeat`` runs after it warm (the same cache). With ``--base REV`` the revision is exported
 (``git archive``) to a temporary folder and its runs alternate with the working tree's; the optimum
@@ -62,12 +63,10 @@ sys.path.insert(0, str(ROOT / "tests"))
 SCENE_DRIVER = r"""
 import json, sys, time
 t0, c0 = time.perf_counter(), time.process_time()
-try:  # what `gearopt run` sets at its start (an older tree: nothing)
-    from gearopt.cli import limit_blas_threads
-except ImportError:
-    limit_blas_threads = None
-if limit_blas_threads is not None:
-    limit_blas_threads()
+import gearopt.cli as cli
+for start in ("exit_without_collecting", "limit_blas_threads"):  # what `gearopt run` does at its start
+    if hasattr(cli, start):  # (an older tree: what it has)
+        getattr(cli, start)()
 from gearopt.io.scene import load_scene
 opt = load_scene(sys.argv[1]).build().optimizer
 t1, c1 = time.perf_counter(), time.process_time()

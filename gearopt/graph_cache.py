@@ -20,17 +20,15 @@ from __future__ import annotations
 
 import hashlib
 import os
-import weakref
 import zlib
 from collections.abc import Callable, Sequence
 
 import casadi as ca
 
-from .compile_cache import cache_root, write_cache_file
+from .compile_cache import cache_root, serial_digest, write_cache_file
 
 KEPT = 32  #: graphs kept in this process (newest last)
 _graphs: dict[str, ca.Function] = {}
-_digests: dict[int, tuple[weakref.ref, str]] = {}  # id(Function) -> (its weak reference, SHA-256 of its serialisation)
 _counts = {"built": 0, "memo": 0, "disk": 0}
 
 
@@ -40,17 +38,12 @@ def counts() -> dict:
 
 
 def digest(f: ca.Function) -> str | None:
-    """SHA-256 of ``f``'s serialisation (once per Function object; None when CasADi cannot serialise it)."""
-    hit = _digests.get(id(f))
-    if hit is not None and hit[0]() is f:
-        return hit[1]
+    """SHA-256 of ``f``'s serialisation (once per Function object, shared with its library key:
+    :func:`gearopt.compile_cache.serial_digest`; None when CasADi cannot serialise it)."""
     try:
-        h = hashlib.sha256(f.serialize().encode()).hexdigest()
+        return serial_digest(f)
     except Exception:  # noqa: BLE001 - a Function CasADi cannot serialise: its derived graphs are built each time
         return None
-    k = id(f)
-    _digests[k] = (weakref.ref(f, lambda _: _digests.pop(k, None)), h)
-    return h
 
 
 def graph_path(key: str) -> os.PathLike:

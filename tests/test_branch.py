@@ -113,3 +113,74 @@ def test_solve_with_extra_outputs_and_line_search_rescue(jit):
     np.testing.assert_allclose(st["extra"]["dbl"][0, first], 2 * W[0, first], atol=1e-12)
     assert st["extra"]["pair"].shape == (2, 6)
     np.testing.assert_allclose(st["extra"]["pair"][:, first], np.vstack([W[0, first], prm[1, first]]), atol=1e-12)
+
+
+def test_a_branch_builds_its_predictor_and_extra_column_on_first_use(monkeypatch):
+    """Constructing a Branch (its graphs in the process's cache) takes no Jacobian: dw/dphi1 and the
+    column with extras are built on first use, the same graphs as built eagerly."""
+    br = _branch_phi(False)
+    w, p = ca.SX.sym("w"), ca.SX.sym("p", 2)
+    F = br.G(w, p)
+    J = ca.jacobian(F, w)
+    eager = ca.Function("toy_phi_dw", [w, p], [-ca.solve(J, ca.jacobian(F, p)[:, 0])])
+    extra = ca.Function("toy_phi_extra", [w, p], [w * p[0], w + p[1]], ["w", "p"], ["wp", "wq"])
+    taken = []
+    orig = ca.jacobian
+    monkeypatch.setattr(ca, "jacobian", lambda *a: taken.append(1) or orig(*a))
+    again = Branch("toy_phi", br.G, br.checks, br.accept, br.tol, jit=False, extra=extra)
+    assert taken == []
+    assert again.dw.serialize() == eager.serialize() and again.dw is again.dw
+    x = again.one_x(np.array([1.1]), np.array([0.2, 0.0]))
+    assert again.one_x is again.one_x and again.one_x.name_out() == ["W", "res", "n1n2", "reg", "wp", "wq"]
+    w_sol = float(np.sqrt(1.0 + 0.2 + 0.3 * np.sin(0.6)))
+    np.testing.assert_allclose(float(x[0]), w_sol, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(float(x[4]), w_sol * 0.2, rtol=0, atol=1e-12)
+
+
+def _small_residual(res, s, reg):  # (picklable: a module-level function)
+    return res <= 1e-10
+
+
+@pytest.mark.skipif(not compiled.available(), reason="no C compiler")
+def test_the_columns_libraries_are_keyed_by_their_bases_construction_and_solver(monkeypatch, tmp_path):
+    """A Branch's column (``one``, ``one_x``) is looked up under a key made of the residual's, the
+    checks' (and the extras') library keys, the construction's code and the rootfinder plugin, without
+    serialising the column; any of them changed: another library; the same: the same one, also for a
+    Branch unpickled (a worker process); under jit=False the column keeps its graph's key."""
+    import pickle
+
+    from gearopt import compile_cache
+
+    monkeypatch.setenv("GEAROPT_CACHE_DIR", str(tmp_path))
+    w, p = ca.SX.sym("w"), ca.SX.sym("p", 2)
+    extra = ca.Function("toy_extra", [w, p], [w * p[0], w + p[1]], ["w", "p"], ["wp", "wq"])
+    extra2 = ca.Function("toy_extra", [w, p], [w * p[1], w + p[1]], ["w", "p"], ["wp", "wq"])
+
+    def make(name="toy", rhs=lambda q: q[1], checks_value=1.0, solver="fast_newton", jit=True, ex=extra):
+        G = ca.Function(name, [w, p], [w**2 - rhs(p)])
+        checks = ca.Function(f"{name}_checks", [w, p], [w, ca.DM(checks_value)])
+        return Branch(name, G, checks, _small_residual, 1e-10, solver=solver, jit=jit, extra=ex)
+
+    serialised = []
+    orig = compile_cache.cache_key
+    monkeypatch.setattr(compile_cache, "cache_key", lambda f: serialised.append(f.name()) or orig(f))
+    ref = make()
+    one, one_x = compiled.library_path(ref.one), compiled.library_path(ref.one_x)
+    assert not {"toy_one", "toy_onex"} & set(serialised)
+    assert one.name.startswith("toy_one-") and one != tmp_path / f"toy_one-{orig(ref.one)[:24]}.so"
+    assert compiled.library_path(make().one) == one and compiled.library_path(make().one_x) == one_x
+    for other in (make(rhs=lambda q: q[1] + 1.0), make(checks_value=2.0), make(solver="newton")):
+        assert compiled.library_path(other.one) != one and compiled.library_path(other.one_x) != one_x
+    assert compiled.library_path(make(ex=extra2).one) == one
+    assert compiled.library_path(make(ex=extra2).one_x) != one_x
+    monkeypatch.setattr(compile_cache, "cache_key", orig)
+    import gearopt.meshing.solver as solver_module
+
+    with monkeypatch.context() as m:  # another construction (its code's tag)
+        m.setattr(solver_module, "source_tag", lambda *objects: "another construction")
+        assert compiled.library_path(make().one) != one
+    back = pickle.loads(pickle.dumps(ref))
+    assert back.one is not ref.one and compiled.library_path(back.one) == one
+    assert compiled.library_path(back.one_x) == one_x
+    plain = make(jit=False)
+    assert compiled.library_path(plain.one) == tmp_path / f"toy_one-{orig(plain.one)[:24]}.so"

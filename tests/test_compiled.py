@@ -56,6 +56,31 @@ def test_library_key_is_memoised_per_live_function_object(cache):
     assert compiled.library_path(g) == cache / f"cmp_test-{compiled.cache_key(g)[:24]}.so" != path
 
 
+def test_graph_digest_and_library_key_come_from_one_serialisation(cache, monkeypatch):
+    """graph_cache.digest (the key of graphs built from f) and cache_key (the key of f's library)
+    serialise f once between them, and are what they were: SHA-256 of the serialisation, and of the
+    serialisation, CasADi's version, the compiler and the flags, each followed by a zero byte."""
+    import hashlib
+
+    from gearopt import graph_cache
+
+    f = _fun(1.5)
+    text = f.serialize()
+    calls = []
+    orig = ca.Function.serialize
+    monkeypatch.setattr(ca.Function, "serialize", lambda self, *a: calls.append(self.name()) or orig(self, *a))
+    assert graph_cache.digest(f) == hashlib.sha256(text.encode()).hexdigest()
+    want = hashlib.sha256(b"".join(part.encode() + b"\0" for part in (
+        text, ca.__version__, compiled.compiler()[1], compile_cache.flags_key()))).hexdigest()
+    assert compile_cache.cache_key(f) == want
+    assert compiled.library_path(f) == cache / f"cmp_test-{want[:24]}.so"
+    assert graph_cache.digest(f) == hashlib.sha256(text.encode()).hexdigest()
+    assert calls == ["cmp_test"]
+    # another graph: its own digest and key
+    g = _fun(2.5)
+    assert graph_cache.digest(g) != graph_cache.digest(f) and compile_cache.cache_key(g) != want
+
+
 def test_compiled_equals_interpreted_and_keys_differ(cache):
     f, g = _fun(1.5), _fun(2.5)
     cf, cg = compiled.compile_function(f), compiled.compile_function(g)

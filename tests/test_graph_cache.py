@@ -63,10 +63,13 @@ def test_branch_graphs_are_built_once_and_read_back_as_built(tmp_path, monkeypat
     same(_run(pair))  # the disk's
     c3 = gc.counts()
     assert c3["disk"] - c2["disk"] == 3 and c3["built"] == c2["built"]
-    # another residual graph: its own graphs; within no_background none is written
+    # another residual graph: its own graphs (the column with extras, postx, on first use only);
+    # within no_background none is written
     monkeypatch.setattr(gc, "_graphs", {})
     with no_background():
-        TCA(_pair(beta=12.0), jit=False)
+        other = TCA(_pair(beta=12.0), jit=False)
+        assert gc.counts()["built"] - c3["built"] == 2
+        assert other.branch.one_x is other.branch.one_x
     assert gc.counts()["built"] - c3["built"] == 3
     assert sorted((tmp_path / "cache" / "graphs").glob("*")) == files
 

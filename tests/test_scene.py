@@ -276,3 +276,33 @@ def test_env_study_modules(monkeypatch, tmp_path):
         assert "plugin_study" in registry.studies()
     finally:
         registry.unregister("plugin_study")
+
+
+def test_a_scene_imports_its_own_study_module_only_until_a_hint_needs_the_others(tmp_path):
+    """load_scene and build of a built-in study import that study's module alone (a new process: the
+    other study modules, e.g. rating and dynamics, stay unimported); a key written in the wrong
+    section still gets its hint naming another study's section (which imports the others then)."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    bad = tmp_path / "bad.toml"
+    bad.write_text((root / "problems" / "tca_helical.toml").read_text().replace("[tca]", "[tca]\nte_level = 1.0", 1))
+    code = (
+        "import sys\n"
+        "from gearopt.errors import SceneError\n"
+        "from gearopt.io.scene import load_scene\n"
+        f"load_scene({str(root / 'problems' / 'tca_helical.toml')!r}).build()\n"
+        "print(sorted(m for m in ('gearopt.studies.rating', 'gearopt.studies.dynamics', 'gearopt.studies.fea',"
+        " 'gearopt.studies.crowning') if m in sys.modules))\n"
+        "try:\n"
+        f"    load_scene({str(bad)!r})\n"
+        "except SceneError as e:\n"
+        "    print(e)\n")
+    env = {k: v for k, v in __import__("os").environ.items() if k != registry.ENV_MODULES}
+    env["PYTHONPATH"] = str(root)
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, cwd=root, check=True)
+    lines = out.stdout.splitlines()
+    assert lines[0] == "[]", out.stdout
+    assert 'te_level belongs in [crowning] of study "crowning"' in out.stdout, out.stdout

@@ -27,7 +27,7 @@ import re
 import tomllib
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from collections.abc import Mapping
+from collections.abc import Callable, Iterator, Mapping
 from typing import Any
 
 from ..errors import GearoptError, GeometryError, SceneError, join_detail, shorten, value_text
@@ -351,6 +351,27 @@ class Scene:
         return spec.build(self)
 
 
+class _Later(Mapping):
+    """A mapping made by ``make()`` on its first use (then kept)."""
+
+    def __init__(self, make: Callable[[], Mapping]) -> None:
+        self._make, self._made = make, None
+
+    def _it(self) -> Mapping:
+        if self._made is None:
+            self._made = self._make()
+        return self._made
+
+    def __getitem__(self, key: Any) -> Any:
+        return self._it()[key]
+
+    def __iter__(self) -> Iterator:
+        return iter(self._it())
+
+    def __len__(self) -> int:
+        return len(self._it())
+
+
 def _read_toml(path: Path, label: str) -> dict:
     try:
         raw = path.read_bytes()
@@ -457,22 +478,27 @@ def load_scene(path: str | Path) -> Scene:
             raise ValueError(f"study {spec.name!r} redefines the common section [{s.name}]")
         sections[s.name] = s
 
-    homes: dict[str, list[str]] = {}
+    known_homes: dict[str, list[str]] = {}
 
     def index(sec: Section, path: str):
         for k in sec.keys:
-            homes.setdefault(k, []).append(f"[{path}]")
+            known_homes.setdefault(k, []).append(f"[{path}]")
         for sub in sec.subsections:
             index(sub, f"{path}.{sub.name}")
 
     for n_, sec_ in sections.items():
         index(sec_, n_)
-    for other, st in studies().items():  # keys of other studies' sections, said as such
-        if other == study_name:
-            continue
-        for sec_ in st.sections:
-            for k in sec_.keys:
-                homes.setdefault(k, []).append(f"[{sec_.name}] of study {toml_text(other)}")
+
+    def with_other_studies() -> dict[str, list[str]]:  # keys of other studies' sections, said as such
+        for other, st in studies().items():
+            if other == study_name:
+                continue
+            for sec_ in st.sections:
+                for k in sec_.keys:
+                    known_homes.setdefault(k, []).append(f"[{sec_.name}] of study {toml_text(other)}")
+        return known_homes
+
+    homes = _Later(with_other_studies)  # (read for a misplaced key's hint only: the studies imported then)
     for key, value in data.items():
         if key in sections:
             continue

@@ -18,7 +18,7 @@ import casadi as ca
 import numpy as np
 import numpy.typing as npt
 
-from ..compiled import (ColumnMap, available, cached_function, call, compile_derived, derived_library, map_columns,
+from ..compiled import (ColumnMap, available, cached_function, call, compile_derived, derived_library, keyed_by, map_columns,
                         mapped, select, source_tag)
 from ..graph_cache import built_once
 from ..settings import ContactSettings  # re-exported: declared with the other option sets (gearopt.settings)
@@ -129,17 +129,16 @@ class Branch:
         #: the grid and the graph is large)
         self.taylor = bool(taylor)
         nw, npr = G.size1_in(0), G.size1_in(1)
-        w, p = ca.SX.sym("w", nw), ca.SX.sym("p", npr)
-        F = G(w, p)
-        J = ca.jacobian(F, w)
-        # Implicit-function predictor: dw/dphi1 = -J^-1 dF/dphi1.
-        self.dw = ca.Function(f"{name}_dw", [w, p], [-ca.solve(J, ca.jacobian(F, p)[:, 0])])
         # the residual and its Jacobian as one graph, common subexpressions eliminated (the Newton
         # step's whole cost); this graph and the checks' below are built once per residual graph
         # (gearopt.graph_cache: the elimination is most of a Branch's construction)
-        tag = source_tag(Branch.__init__)
-        jac = built_once(f"{name}_jac", (G,), tag,
-                         lambda: ca.Function(f"{name}_jac", [w, p], [J, F], {"cse": True}))
+        tag = source_tag(Branch.__init__, Branch._symbolic, Branch._post_graph)
+
+        def jac_graph():
+            w, p, F = self._symbolic()
+            return ca.Function(f"{name}_jac", [w, p], [ca.jacobian(F, w), F], {"cse": True})
+
+        jac = built_once(f"{name}_jac", (G,), tag, jac_graph)
         # abstol 1e-15 reaches the float64 floor of phi2 (1.7e-16 rad) for ~4 % more time; the step
         # test stops after the Newton step below 1e-9 mm (saves one Jacobian). docs/work-precision.md
         fast_opts = {"error_on_fail": False, "abstol": 1e-15, "max_iter": 30, "jacobian_function": jac}
@@ -157,30 +156,74 @@ class Branch:
         self._dw_memo: dict = {}  # dw/dphi1 at solved anchors by their exact (w, prm) (predict)
         self._taylor_memo: dict = {}  # the branch's Taylor terms at solved anchors (predict_taylor)
         self._taylor: ca.Function | None = None  # built on first use (taylor_function)
+        self._dw: ca.Function | None = None  # built on first use (dw)
+        self._one_x: ca.Function | None = None  # built on first use (one_x)
+        self.extra = extra
+        self._extra_names = extra.name_out() if extra is not None else []  # (asked once: a call into CasADi)
         # one column: solve from W0, then the residual norm and the checks at the solution (the
         # compiled unit); what is evaluated there is one SX graph with common subexpressions
         # eliminated (the checks and the caller's extra outputs share the surfaces' derivatives)
-        def post():
-            c = checks(w, p)
-            return [ca.norm_2(F), c[0], c[1]]
-
-        self.extra = extra
-        self._extra_names = extra.name_out() if extra is not None else []  # (asked once: a call into CasADi)
         w0 = ca.MX.sym("W0", nw)
         pp = ca.MX.sym("P", npr)
         wf = self.rf_fast(w0, pp)
-        at = built_once(f"{name}_post", (G, checks), tag,
-                        lambda: ca.Function(f"{name}_post", [w, p], post(), {"cse": True}))
+        at = built_once(f"{name}_post", (G, checks), tag, lambda: self._post_graph("post"))
         self.one = ca.Function(f"{name}_one", [w0, pp], [wf] + list(at(wf, pp)), ["W0", "P"],
                                ["W", "res", "n1n2", "reg"])
-        # the same column with the caller's outputs at the solved point (``extra(w, prm)``, e.g. the
-        # sweep's contact quantities): one compiled pass instead of two (solve(..., extra=True))
-        self.one_x = None
-        if extra is not None:
-            at_x = built_once(f"{name}_postx", (G, checks, extra), tag,
-                              lambda: ca.Function(f"{name}_postx", [w, p], post() + list(extra(w, p)), {"cse": True}))
-            self.one_x = ca.Function(f"{name}_onex", [w0, pp], [wf] + list(at_x(wf, pp)), ["W0", "P"],
-                                     ["W", "res", "n1n2", "reg"] + extra.name_out())
+        self._key_column(self.one, (G, checks))
+
+    def _key_column(self, col: ca.Function, bases: tuple[ca.Function, ...]) -> None:
+        """Key the library of the column ``col`` (:attr:`one`, :attr:`one_x`) by how it is built
+        (:func:`gearopt.compiled.keyed_by`) instead of by its serialisation (2 MB for a loaded-TCA
+        slice's: 16 ms a process): ``bases`` (the residual, the checks[, the extras]: their graphs'
+        library keys, which the graph cache's digests serialised already), the construction's code
+        (the rootfinder's options, the Jacobian's and the checks' graphs, the columns: ``__init__``,
+        ``_symbolic``, ``_post_graph``, ``one_x``)
+        and the rootfinder plugin, the one argument that enters the column besides the bases and
+        the name. Not under ``jit=False`` (looked up by no one)."""
+        if self.jit is not False:
+            code = source_tag(Branch.__init__, Branch._symbolic, Branch._post_graph, Branch.one_x.fget)
+            keyed_by(col, bases, f"{code}/{self.solver}" if code else "")
+
+    def _symbolic(self) -> tuple[ca.SX, ca.SX, ca.SX]:
+        """``(w, p, G(w, p))``: the unknowns, the parameters and the residual as SX expressions."""
+        w, p = ca.SX.sym("w", self.G.size1_in(0)), ca.SX.sym("p", self.G.size1_in(1))
+        return w, p, self.G(w, p)
+
+    def _post_graph(self, what: str) -> ca.Function:
+        """``(w, p) -> (|G|, n1 . n2, regularity[, the extra outputs])`` at a solved point as one SX
+        graph, common subexpressions eliminated: ``{name}_post``, or with ``extra`` ``{name}_postx``."""
+        w, p, F = self._symbolic()
+        c = self.checks(w, p)
+        outs = [ca.norm_2(F), c[0], c[1]] + (list(self.extra(w, p)) if what == "postx" else [])
+        return ca.Function(f"{self.name}_{what}", [w, p], outs, {"cse": True})
+
+    @property
+    def dw(self) -> ca.Function:
+        """``(w, prm) -> dw/dphi1``: the implicit-function predictor ``-J^-1 dF/dphi1`` (J = dF/dw).
+        Built on first use: a branch that never predicts (a loaded-TCA slice) saves its two
+        Jacobians and the solve's graph, 10-30 ms."""
+        if self._dw is None:
+            w, p, F = self._symbolic()
+            J = ca.jacobian(F, w)
+            self._dw = ca.Function(f"{self.name}_dw", [w, p], [-ca.solve(J, ca.jacobian(F, p)[:, 0])])
+        return self._dw
+
+    @property
+    def one_x(self) -> ca.Function | None:
+        """The column :attr:`one` with the caller's outputs at the solved point (``extra(w, prm)``,
+        e.g. the sweep's contact quantities): one compiled pass instead of two (``solve(...,
+        extra=True)``); None without ``extra``. Built on first use (its graph's key serialises
+        ``extra``, 3 MB for the TCA sweep's: 25 ms a process that never sweeps with it)."""
+        if self._one_x is None and self.extra is not None:
+            at_x = built_once(f"{self.name}_postx", (self.G, self.checks, self.extra), source_tag(Branch.__init__, Branch._symbolic, Branch._post_graph),
+                              lambda: self._post_graph("postx"))
+            w0 = ca.MX.sym("W0", self.G.size1_in(0))
+            pp = ca.MX.sym("P", self.G.size1_in(1))
+            wf = self.rf_fast(w0, pp)
+            self._one_x = ca.Function(f"{self.name}_onex", [w0, pp], [wf] + list(at_x(wf, pp)), ["W0", "P"],
+                                      ["W", "res", "n1n2", "reg"] + self._extra_names)
+            self._key_column(self._one_x, (self.G, self.checks, self.extra))
+        return self._one_x
 
     def __getstate__(self):
         # picklable (the robust-design studies ship it to worker processes): the Functions
@@ -193,10 +236,17 @@ class Branch:
         state.setdefault("_dw_memo", {})
         state.setdefault("_taylor_memo", {})
         state.setdefault("_taylor", None)
+        state.setdefault("_dw", state.pop("dw", None))
+        state.setdefault("_one_x", state.pop("one_x", None))
         state.setdefault("own_maps", False)
         if "_extra_names" not in state:
             state["_extra_names"] = state["extra"].name_out() if state.get("extra") is not None else []
         self.__dict__.update(state)
+        # the columns' library keys (by construction) are kept per Function object: a copy keeps its
+        # objects, a Branch unpickled in another process keys its new ones again
+        self._key_column(self.one, (self.G, self.checks))
+        if self._one_x is not None:
+            self._key_column(self._one_x, (self.G, self.checks, self.extra))
 
     def newton(self, w0: npt.ArrayLike, prm: npt.ArrayLike) -> np.ndarray:
         """Line-search Newton from ``w0`` at one parameter column (unchecked)."""
@@ -400,7 +450,7 @@ class Branch:
         it for ``n_total`` columns in all (default n: under ``jit="auto"`` whenever its library is
         in the disk cache; on a miss compiled at once from ``MIN_COLUMNS`` columns on, else in the
         background while this call runs interpreted), or the interpreted one."""
-        extra = bool(extra) and self.one_x is not None
+        extra = bool(extra) and self.extra is not None
         fast = self.solver == "fast_newton" and self.jit is not False
         done = ("columns", True, extra)
         if fast and done in self._maps:  # once compiled, always (the library does not go away)
@@ -489,7 +539,7 @@ class Branch:
             ``W, res, n1n2, reg, ok, stats`` by name.
         """
         n_total = prm.shape[1] if n_total is None else n_total
-        extra = bool(extra) and self.one_x is not None
+        extra = bool(extra) and self.extra is not None
         first = call(self.mapped(prm.shape[1], n_total, extra), W0, prm)
         W, res, n1n2, reg = first[:4]  # (new arrays: changed in place below)
         res, n1n2, reg = res.ravel(), n1n2.ravel(), reg.ravel()

@@ -24,7 +24,8 @@ are in ``scene.options[section_name][key]`` (internal units: mm, rad, 1/mm). The
 :func:`gearopt.io.results.write_results`.
 
 Built-in study modules are imported lazily, the first time the registry is consulted
-(:func:`studies`, :func:`get_study`), so importing :mod:`gearopt` stays cheap. Extra modules can be
+(:func:`studies`, :func:`get_study`), so importing :mod:`gearopt` stays cheap; :func:`get_study`
+of a built-in study imports its own module only. Extra modules can be
 named in the environment variable ``GEAROPT_STUDY_MODULES`` (comma-separated module names); they
 are imported the same way.
 """
@@ -125,6 +126,21 @@ def _load_builtin() -> None:
             _broken[mod] = e
 
 
+def _load_own(name: str) -> bool:
+    """Import only the built-in module named like the study ``name`` (``gearopt.studies.<name>``);
+    True when that registered ``name``. Not when ``GEAROPT_STUDY_MODULES`` names modules (they may
+    replace a built-in study: then every module is imported, in order, by :func:`_load_builtin`).
+    A scene's run needs its own study only; the other modules cost a new process 20-30 ms CPU."""
+    mod = f"gearopt.studies.{name}"
+    if mod not in BUILTIN_MODULES or os.environ.get(ENV_MODULES, "").strip():
+        return False
+    try:
+        importlib.import_module(mod)
+    except Exception:  # noqa: BLE001 - _load_builtin imports it again, keeps the error and get_study re-raises it
+        return False
+    return name in STUDIES
+
+
 def studies() -> dict[str, StudySpec]:
     """All registered studies (built-in ones imported first)."""
     _load_builtin()
@@ -135,7 +151,10 @@ def get_study(name: str) -> StudySpec | None:
     """The study ``name``, or ``None`` when no such study is registered.
 
     Re-raises the import error of a built-in study module whose last name component is ``name``.
+    Imports that module alone when it registers ``name`` (:func:`_load_own`), else every study module.
     """
+    if not _loaded and _load_own(name):
+        return STUDIES[name]
     _load_builtin()
     if name in STUDIES:
         return STUDIES[name]
