@@ -13,11 +13,15 @@ import casadi as ca
 import numpy as np
 import numpy.typing as npt
 
-from ... import compiled
+from ... import compiled, compile_queue
 from ...graph_cache import eliminated
 from ...ltca.engine import ContactStructure
 from ...ltca.slices import SliceSet
 from ...meshing.misalignment import Misalignment
+
+#: linearisations kept per optimiser and its copies (:meth:`Lineariser.linearise`): a case each of the
+#: last two designs of the loop
+LIN_KEPT = 4
 
 
 @dataclass(frozen=True)
@@ -186,57 +190,105 @@ class Lineariser:
 
     def linearise(self, theta: npt.ArrayLike) -> list[Linearisation]:
         """Slices, compliance and the separations' sensitivities of the design ``theta`` [mm]: one
-        :class:`Linearisation` per case."""
+        :class:`Linearisation` per case. A case linearised already at the same design and positions (by
+        this optimiser or a copy: a Pareto point's first round is the last point's final design, the KKT
+        sensitivities that of the loop's last round) is that linearisation (:meth:`_remembered`)."""
         p1, p2 = self.params(theta)
-        lever = self.pair.gear.r_b * self.ltca.cos_bb
-        z1 = self.pair.pinion.z
         out = []
         for mis in self.cases:
-            S = self.ltca.slices(self.phi1, p1, p2, mis)
-            st = self.ltca.structure(S)
-            K, N, M = S.z.shape
-            J = np.zeros((K, N, M, len(self._prm_index)))
-            Jr = np.zeros((K, N, M, 2, len(self._prm_index)))
-            Jk = np.zeros((K, N, M, len(self._prm_index)))
-            phis = (S.phi1[None, :] - 2 * math.pi * np.array(S.pairs)[:, None] / z1)
-            kinds = np.zeros((K, N, M), int) if S.edge is None else S.edge
-            for kind in (0, 1, 2):
-                sel = S.active & (kinds == kind)
-                if not sel.any():
-                    continue
-                kk, nn, mm = np.nonzero(sel)
-                prm = self.tca.prm(phis[kk, nn], p1, p2, mis)
-                prm[self.tca.layout.index("z_section"), :] = S.z[kk, nn, mm]
-                J[kk, nn, mm], Jr[kk, nn, mm], Jk[kk, nn, mm] = self.separation_gradients(kind, S.w[kk, nn, mm].T, prm)
-            if S.partner_of is not None:
-                # a partner slice's separation is interpolated to the crossing (SliceSet.partner_t), and
-                # so is its sensitivity (the crossing's own motion with the design is left out); its Hertz
-                # radius is its own, and so is Jk (the NLP bounds its own pressure, the loaded TCA reports
-                # the one interpolated to the crossing, which lies between its and its neighbour's)
-                kk, nn, mm = np.nonzero(S.partner_of >= 0)
-                ii, tt = S.partner_of[kk, nn, mm], S.partner_t[kk, nn, mm][:, None]
-                J[kk, nn, mm] = J[kk, nn, ii] + tt * (J[kk, nn, mm] - J[kk, nn, ii])
-            # each slice on its own levers (LTCA._solve_one, docs/ltca.md section 3): the gap is
-            # (te0 - te) L2 + C F - lam delta, lam = L1 / (r_b1 cos(beta_b)); with the absolute separation
-            # a = -te r_b2 cos(beta_b) and the block's approach d = delta - te0 r_b2 cos(beta_b)
-            # (TE = -d / (r_b2 cos(beta_b))) it is a + da + C F - lam d, da = -(te - te0) (L2 - r_b2 cos(beta_b))
-            # - te0 (lam - 1) r_b2 cos(beta_b): zero on an involute flank, on a tip edge held at its value
-            # at the linearisation (J, the derivative of a, is the flank lever's)
-            lam, lev2 = self._levers(S)
-            te0 = S.te_unloaded[None, :, None]
-            te0 = np.where(np.isfinite(te0), te0, 0.0)
-            da = np.where(S.active, -(S.te - te0) * (lev2 - lever) - te0 * (lam - 1.0) * lever, 0.0)
-            a = np.where(S.active, -S.te * lever, 0.0)
-            P = len(self.free)
-            # the Hertz term's relative curvature 1 / R* of the default loaded TCA (each flank's own, LTCA
-            # .structure) where the slice's curvature is known, its sensitivity there (else held)
-            if S.kappa1 is not None:
-                Jk = np.where((np.isfinite(S.kappa1) & np.isfinite(S.kappa2) & S.active)[..., None], Jk, 0.0)
-            else:
-                Jk[:] = 0.0
-            out.append(Linearisation(slices=S, structure=st, a=a, J=J[..., :P], Jm=J[..., P:], Jr=Jr, mis=mis,
-                                     lam=lam, da=da, Jk=Jk))
+            key = (p1.tobytes(), p2.tobytes(), np.asarray(self.phi1, float).tobytes(),
+                   tuple(float(getattr(mis, k)) for k in Misalignment.names()), tuple(self._prm_index), bool(self.jit))
+            L = self._remembered(key)
+            if L is None:
+                L = self._linearise_case(p1, p2, mis)
+                self._remember(key, L)
+            out.append(L)
         return out
+
+    def _remembered(self, key: tuple) -> Linearisation | None:
+        """The linearisation of ``key`` (design, positions, case, columns, ``jit``) made by this loaded TCA, if kept."""
+        hit = self._lin_memo.get(key)
+        return hit[1] if hit is not None and hit[0] is self.ltca else None
+
+    def _remember(self, key: tuple, L: Linearisation) -> None:
+        """Keep ``L`` (the newest :data:`LIN_KEPT`) when its numbers are those every later linearisation of
+        ``key`` gives: no library compiles in the background, and the sensitivities ran compiled (or
+        ``jit`` is off); else a later one may run the library and differ at round-off."""
+        if compile_queue.pending or (self.jit and not all(m.compiled for m in self._sens_maps.values())):
+            return
+        memo = self._lin_memo
+        memo.pop(key, None)
+        memo[key] = (self.ltca, L)
+        while len(memo) > LIN_KEPT:
+            memo.pop(next(iter(memo)))
+
+    def exact_sweeps(self, lin: list[Linearisation]) -> list:
+        """The loaded TCA at every torque of each linearisation's slices (:meth:`gearopt.ltca.engine.LTCA.solve`
+        on its slices and structure), solved once per :class:`Linearisation` kept by :meth:`linearise`."""
+        out = []
+        for L in lin:
+            memo = self._lin_sweeps
+            key = (id(L), np.asarray(self.torques, float).tobytes())
+            hit = memo.get(key)
+            if hit is not None and hit[0] is L:
+                out.append(hit[1])
+                continue
+            sw = self.ltca.solve(self.torques, slices=L.slices, structure=L.structure)
+            if any(v[1] is L for v in self._lin_memo.values()):  # (only a kept one is met again)
+                memo[key] = (L, sw)
+                while len(memo) > LIN_KEPT:
+                    memo.pop(next(iter(memo)))
+            out.append(sw)
+        return out
+
+    def _linearise_case(self, p1: np.ndarray, p2: np.ndarray, mis: Misalignment) -> Linearisation:
+        """:meth:`linearise` of one case (the members' parameter vectors ``p1``, ``p2``)."""
+        lever = self.pair.gear.r_b * self.ltca.cos_bb
+        z1 = self.pair.pinion.z
+        S = self.ltca.slices(self.phi1, p1, p2, mis)
+        st = self.ltca.structure(S)
+        K, N, M = S.z.shape
+        J = np.zeros((K, N, M, len(self._prm_index)))
+        Jr = np.zeros((K, N, M, 2, len(self._prm_index)))
+        Jk = np.zeros((K, N, M, len(self._prm_index)))
+        phis = (S.phi1[None, :] - 2 * math.pi * np.array(S.pairs)[:, None] / z1)
+        kinds = np.zeros((K, N, M), int) if S.edge is None else S.edge
+        for kind in (0, 1, 2):
+            sel = S.active & (kinds == kind)
+            if not sel.any():
+                continue
+            kk, nn, mm = np.nonzero(sel)
+            prm = self.tca.prm(phis[kk, nn], p1, p2, mis)
+            prm[self.tca.layout.index("z_section"), :] = S.z[kk, nn, mm]
+            J[kk, nn, mm], Jr[kk, nn, mm], Jk[kk, nn, mm] = self.separation_gradients(kind, S.w[kk, nn, mm].T, prm)
+        if S.partner_of is not None:
+            # a partner slice's separation is interpolated to the crossing (SliceSet.partner_t), and
+            # so is its sensitivity (the crossing's own motion with the design is left out); its Hertz
+            # radius is its own, and so is Jk (the NLP bounds its own pressure, the loaded TCA reports
+            # the one interpolated to the crossing, which lies between its and its neighbour's)
+            kk, nn, mm = np.nonzero(S.partner_of >= 0)
+            ii, tt = S.partner_of[kk, nn, mm], S.partner_t[kk, nn, mm][:, None]
+            J[kk, nn, mm] = J[kk, nn, ii] + tt * (J[kk, nn, mm] - J[kk, nn, ii])
+        # each slice on its own levers (LTCA._solve_one, docs/ltca.md section 3): the gap is
+        # (te0 - te) L2 + C F - lam delta, lam = L1 / (r_b1 cos(beta_b)); with the absolute separation
+        # a = -te r_b2 cos(beta_b) and the block's approach d = delta - te0 r_b2 cos(beta_b)
+        # (TE = -d / (r_b2 cos(beta_b))) it is a + da + C F - lam d, da = -(te - te0) (L2 - r_b2 cos(beta_b))
+        # - te0 (lam - 1) r_b2 cos(beta_b): zero on an involute flank, on a tip edge held at its value
+        # at the linearisation (J, the derivative of a, is the flank lever's)
+        lam, lev2 = self._levers(S)
+        te0 = S.te_unloaded[None, :, None]
+        te0 = np.where(np.isfinite(te0), te0, 0.0)
+        da = np.where(S.active, -(S.te - te0) * (lev2 - lever) - te0 * (lam - 1.0) * lever, 0.0)
+        a = np.where(S.active, -S.te * lever, 0.0)
+        P = len(self.free)
+        # the Hertz term's relative curvature 1 / R* of the default loaded TCA (each flank's own, LTCA
+        # .structure) where the slice's curvature is known, its sensitivity there (else held)
+        if S.kappa1 is not None:
+            Jk = np.where((np.isfinite(S.kappa1) & np.isfinite(S.kappa2) & S.active)[..., None], Jk, 0.0)
+        else:
+            Jk[:] = 0.0
+        return Linearisation(slices=S, structure=st, a=a, J=J[..., :P], Jm=J[..., P:], Jr=Jr, mis=mis,
+                             lam=lam, da=da, Jk=Jk)
 
     def _levers(self, S) -> tuple[np.ndarray, np.ndarray]:
         """Per slice (K, N, M): ``lam`` = its lever about the pinion axis over ``r_b1 cos(beta_b)`` and its
