@@ -160,6 +160,34 @@ def test_a_design_linearised_again_at_the_same_positions_is_the_kept_linearisati
     assert opt.linearise(th)[0] is a
 
 
+def test_a_refined_grid_takes_the_kept_gradients_of_the_slices_it_shares(small, monkeypatch):
+    """A design linearised on a grid with one position more than a kept linearisation of it (a refined
+    grid's first round) evaluates the sensitivities of the new position's slices only; its linearisation
+    is a fresh one's bit for bit."""
+    opt = copy.copy(small)
+    opt.jit, opt._sens_maps, opt._lin_memo, opt._lin_sweeps = False, {}, {}, {}
+    grid = opt.ltca.mesh_cycle(opt.n_positions)
+    th = opt.theta0 + np.array([0.001, 0.002])
+    opt.phi1 = grid
+    opt.linearise(th)
+    finer = np.sort(np.append(grid, 0.5 * (grid[2] + grid[3])))
+    fresh = copy.copy(opt)
+    fresh._lin_memo, fresh._lin_sweeps = {}, {}
+    fresh.phi1 = finer
+    (c,) = fresh.linearise(th)
+    cols = []
+    run = type(opt).separation_gradients
+    monkeypatch.setattr(type(opt), "separation_gradients",
+                        lambda self, kind, wv, prm: (cols.append(wv.shape[1]), run(self, kind, wv, prm))[1])
+    opt.phi1 = finer
+    (b,) = opt.linearise(th)
+    new = int(np.flatnonzero(~np.isin(finer, grid))[0])
+    assert 0 < sum(cols) == int(b.slices.active[:, new].sum())  # the new position's active slices alone
+    for k in ("a", "J", "Jm", "Jr", "Jk", "lam", "da"):
+        assert np.array_equal(getattr(b, k), getattr(c, k)), k
+    assert np.count_nonzero(b.J[:, new]) > 0 and np.count_nonzero(b.J) > 2 * np.count_nonzero(b.J[:, new])
+
+
 class _Toy(LoadedMicroOptimizer):
     """The trust-region loop and ``solve`` (unchanged) on a one-amount problem solved in closed form
     (merit (t - 30)^2 [t in um]); the verification adds one position once. Records every NLP solve's

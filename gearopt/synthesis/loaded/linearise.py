@@ -196,29 +196,38 @@ class Lineariser:
         p1, p2 = self.params(theta)
         out = []
         for mis in self.cases:
-            key = (p1.tobytes(), p2.tobytes(), np.asarray(self.phi1, float).tobytes(),
-                   tuple(float(getattr(mis, k)) for k in Misalignment.names()), tuple(self._prm_index), bool(self.jit))
-            L = self._remembered(key)
-            if L is None:
-                L = self._linearise_case(p1, p2, mis)
-                self._remember(key, L)
+            case = (p1.tobytes(), p2.tobytes(), tuple(float(getattr(mis, k)) for k in Misalignment.names()),
+                    tuple(self._prm_index), bool(self.jit))
+            key = (case, np.asarray(self.phi1, float).tobytes())
+            hit = self._remembered(key)
+            if hit is not None:
+                out.append(hit[0])
+                continue
+            # the same design and case on another grid (a refined grid's first round: the last pass's final
+            # design): its sensitivities of the slices this grid shares
+            near = next((v[2] for k, v in reversed(self._lin_memo.items()) if k[0] == case and v[0] is self.ltca), None)
+            L, raw = self._linearise_case(p1, p2, mis, near)
+            self._remember(key, L, raw)
             out.append(L)
         return out
 
-    def _remembered(self, key: tuple) -> Linearisation | None:
-        """The linearisation of ``key`` (design, positions, case, columns, ``jit``) made by this loaded TCA, if kept."""
+    def _remembered(self, key: tuple) -> tuple | None:
+        """The linearisation of ``key`` (design, case, columns, ``jit``; positions) made by this loaded TCA
+        and its raw gradients (:meth:`_remember`), if kept."""
         hit = self._lin_memo.get(key)
-        return hit[1] if hit is not None and hit[0] is self.ltca else None
+        return hit[1:] if hit is not None and hit[0] is self.ltca else None
 
-    def _remember(self, key: tuple, L: Linearisation) -> None:
-        """Keep ``L`` (the newest :data:`LIN_KEPT`) when its numbers are those every later linearisation of
-        ``key`` gives: no library compiles in the background, and the sensitivities ran compiled (or
-        ``jit`` is off); else a later one may run the library and differ at round-off."""
+    def _remember(self, key: tuple, L: Linearisation, raw: tuple) -> None:
+        """Keep ``L`` and ``raw`` (its slices and per-slice gradients ``(J, Jr, Jk)`` as
+        :meth:`separation_gradients` gave them; the newest :data:`LIN_KEPT`) when its numbers are those
+        every later linearisation of ``key`` gives: no library compiles in the background, and the
+        sensitivities ran compiled (or ``jit`` is off); else a later one may run the library and differ at
+        round-off."""
         if compile_queue.pending or (self.jit and not all(m.compiled for m in self._sens_maps.values())):
             return
         memo = self._lin_memo
         memo.pop(key, None)
-        memo[key] = (self.ltca, L)
+        memo[key] = (self.ltca, L, raw)
         while len(memo) > LIN_KEPT:
             memo.pop(next(iter(memo)))
 
@@ -241,8 +250,12 @@ class Lineariser:
             out.append(sw)
         return out
 
-    def _linearise_case(self, p1: np.ndarray, p2: np.ndarray, mis: Misalignment) -> Linearisation:
-        """:meth:`linearise` of one case (the members' parameter vectors ``p1``, ``p2``)."""
+    def _linearise_case(self, p1: np.ndarray, p2: np.ndarray, mis: Misalignment, near: tuple | None = None
+                        ) -> tuple[Linearisation, tuple]:
+        """:meth:`linearise` of one case (the members' parameter vectors ``p1``, ``p2``), and its raw
+        gradients (:meth:`_remember`). ``near``: the raw gradients of this design and case on another grid,
+        taken for every slice whose position (its angle), pair, node, kind and unknowns are the same bit
+        for bit (:meth:`separation_gradients` is a function of the slice's unknowns and column alone)."""
         lever = self.pair.gear.r_b * self.ltca.cos_bb
         z1 = self.pair.pinion.z
         S = self.ltca.slices(self.phi1, p1, p2, mis)
@@ -258,9 +271,20 @@ class Lineariser:
             if not sel.any():
                 continue
             kk, nn, mm = np.nonzero(sel)
+            if near is not None:  # the slices the other grid solved alike: their gradients
+                got = _same_slices(near[0], S, kind, (kk, nn, mm))
+                if got is not None:
+                    hit, at = got
+                    src = (kk[hit], at, mm[hit])
+                    dst = (kk[hit], nn[hit], mm[hit])
+                    J[dst], Jr[dst], Jk[dst] = near[1][src], near[2][src], near[3][src]
+                    kk, nn, mm = kk[~hit], nn[~hit], mm[~hit]
+                    if not kk.size:
+                        continue
             prm = self.tca.prm(phis[kk, nn], p1, p2, mis)
             prm[self.tca.layout.index("z_section"), :] = S.z[kk, nn, mm]
             J[kk, nn, mm], Jr[kk, nn, mm], Jk[kk, nn, mm] = self.separation_gradients(kind, S.w[kk, nn, mm].T, prm)
+        raw = (S, J.copy(), Jr, Jk)
         if S.partner_of is not None:
             # a partner slice's separation is interpolated to the crossing (SliceSet.partner_t), and
             # so is its sensitivity (the crossing's own motion with the design is left out); its Hertz
@@ -288,7 +312,7 @@ class Lineariser:
         else:
             Jk[:] = 0.0
         return Linearisation(slices=S, structure=st, a=a, J=J[..., :P], Jm=J[..., P:], Jr=Jr, mis=mis,
-                             lam=lam, da=da, Jk=Jk)
+                             lam=lam, da=da, Jk=Jk), raw
 
     def _levers(self, S) -> tuple[np.ndarray, np.ndarray]:
         """Per slice (K, N, M): ``lam`` = its lever about the pinion axis over ``r_b1 cos(beta_b)`` and its
@@ -324,3 +348,23 @@ class Lineariser:
                     keep.append(S.active & ~(s - reach > bound))
             out.append(np.array(keep))
         return out
+
+
+def _same_slices(Sp: SliceSet, S: SliceSet, kind: int, idx: tuple) -> tuple[np.ndarray, np.ndarray] | None:
+    """Which of the active slices ``idx = (kk, nn, mm)`` of kind ``kind`` of ``S`` the slices ``Sp`` of the same
+    design and case on another grid hold alike: the same pair, position angle, node and section, active, of
+    that kind, with the same unknowns, bit for bit. Returns the mask over ``idx`` and those slices'
+    positions in ``Sp``; None when the grids share no slice layout."""
+    if Sp.pairs != S.pairs or Sp.z.shape[2] != S.z.shape[2]:
+        return None
+    kk, nn, mm = idx
+    o = np.argsort(Sp.phi1, kind="stable")
+    at = o[np.minimum(np.searchsorted(Sp.phi1[o], S.phi1), Sp.phi1.size - 1)]
+    pos = np.where(Sp.phi1[at] == S.phi1, at, -1)[nn]
+    hit = pos >= 0
+    q = np.where(hit, pos, 0)
+    kinds = np.zeros(Sp.z.shape, int) if Sp.edge is None else Sp.edge
+    with np.errstate(invalid="ignore"):
+        hit &= (Sp.active[kk, q, mm] & (kinds[kk, q, mm] == kind) & (Sp.z[kk, q, mm] == S.z[kk, nn, mm])
+                & np.all(Sp.w[kk, q, mm] == S.w[kk, nn, mm], axis=1))
+    return hit, q[hit]
