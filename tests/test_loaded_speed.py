@@ -104,6 +104,7 @@ def test_the_sensitivities_switch_to_the_compiled_library_once_it_is_cached(smal
     monkeypatch.setattr(compiled, "select", lambda f, jit, n: cache.get(f.name()) if jit else None)
     monkeypatch.setattr(compiled, "keyed_library", lambda name, bases, tag: cache.get(name))  # (found before building)
     monkeypatch.setattr(small, "_sens_maps", {})
+    monkeypatch.setattr(small, "_lin_memo", {})  # (none kept by an earlier test: each call here linearises)
     monkeypatch.setattr(small, "jit", True)
     miss = small.linearise(th)  # a cache miss: interpreted
     kinds = sorted(small._sens_maps)
