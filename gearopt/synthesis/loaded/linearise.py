@@ -310,7 +310,7 @@ class Lineariser:
         if S.kappa1 is not None:
             Jk = np.where((np.isfinite(S.kappa1) & np.isfinite(S.kappa2) & S.active)[..., None], Jk, 0.0)
         else:
-            Jk[:] = 0.0
+            Jk = np.zeros_like(Jk)  # (the raw gradients kept as they are)
         return Linearisation(slices=S, structure=st, a=a, J=J[..., :P], Jm=J[..., P:], Jr=Jr, mis=mis,
                              lam=lam, da=da, Jk=Jk), raw
 
