@@ -5,6 +5,7 @@ compiled once their library is cached."""
 
 from __future__ import annotations
 
+import copy
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -13,6 +14,7 @@ import pytest
 
 from gearopt import compiled
 from gearopt.gears import Gear, GearPair
+from gearopt.meshing.misalignment import Misalignment
 from gearopt.geometry.microgeometry import Microgeometry
 from gearopt.synthesis.loaded import LoadedMicroOptimizer
 from gearopt.synthesis.loaded.constants import MU
@@ -102,6 +104,7 @@ def test_the_sensitivities_switch_to_the_compiled_library_once_it_is_cached(smal
     monkeypatch.setattr(compiled, "select", lambda f, jit, n: cache.get(f.name()) if jit else None)
     monkeypatch.setattr(compiled, "keyed_library", lambda name, bases, tag: cache.get(name))  # (found before building)
     monkeypatch.setattr(small, "_sens_maps", {})
+    monkeypatch.setattr(small, "_lin_memo", {})  # (none kept by an earlier test: each call here linearises)
     monkeypatch.setattr(small, "jit", True)
     miss = small.linearise(th)  # a cache miss: interpreted
     kinds = sorted(small._sens_maps)
@@ -118,6 +121,72 @@ def test_the_sensitivities_switch_to_the_compiled_library_once_it_is_cached(smal
         for k in ("J", "Jm", "Jr", "Jk"):
             assert np.array_equal(getattr(a, k), getattr(c, k)) and np.array_equal(getattr(b, k), getattr(c, k))
         assert np.count_nonzero(c.J) > 0
+
+
+def test_a_design_linearised_again_at_the_same_positions_is_the_kept_linearisation(small):
+    """A case linearised again at the same design, positions and misalignment (a Pareto point's first
+    round is the last point's final design, the KKT sensitivities the loop's last round), by the optimiser
+    or a copy, is the kept linearisation and loaded TCA, which a fresh linearisation gives bit for bit;
+    another design, grid or case is linearised anew."""
+    opt = copy.copy(small)
+    opt.phi1 = opt.ltca.mesh_cycle(opt.n_positions)
+    # (interpreted sensitivities whatever the disk cache holds: under jit a linearisation is kept only once
+    # they run compiled, whose numbers every later one then gives)
+    opt.jit, opt._sens_maps, opt._lin_memo, opt._lin_sweeps = False, {}, {}, {}
+    th = opt.theta0 + np.array([0.002, -0.001])
+    (a,) = opt.linearise(th)
+    (sa,) = opt.exact_sweeps([a])
+    twin = copy.copy(opt)  # shares the kept ones (a Pareto point's optimiser)
+    (b,) = twin.linearise(th.copy())
+    assert b is a and twin.exact_sweeps([b])[0] is sa
+    fresh = copy.copy(opt)
+    fresh._lin_memo, fresh._lin_sweeps = {}, {}
+    (c,) = fresh.linearise(th)
+    (sc,) = fresh.exact_sweeps([c])
+    assert c is not a
+    for k in ("a", "J", "Jm", "Jr", "Jk", "lam", "da"):
+        assert np.array_equal(getattr(a, k), getattr(c, k)), k
+    assert np.array_equal(a.slices.te, c.slices.te, equal_nan=True) and np.array_equal(a.structure.Cs, c.structure.Cs)
+    for r, q in zip(sa.results, sc.results):
+        assert np.array_equal(r.load, q.load) and np.array_equal(r.te_loaded, q.te_loaded)
+    # another grid, design or case: not the kept one
+    opt.phi1 = opt.ltca.mesh_cycle(opt.n_positions + 1)
+    (d,) = opt.linearise(th)
+    assert d.slices.phi1.size == opt.n_positions + 1
+    opt.phi1 = fresh.phi1
+    (e,) = opt.linearise(th + np.array([0.001, 0.0]))
+    assert e is not a and not np.array_equal(e.a, a.a)
+    (f,) = opt.shifted(Misalignment(crossing=1e-4)).linearise(th)
+    assert f is not a and f.mis.crossing == 1e-4 and not np.array_equal(f.a, a.a)
+    assert opt.linearise(th)[0] is a
+
+
+def test_a_refined_grid_takes_the_kept_gradients_of_the_slices_it_shares(small, monkeypatch):
+    """A design linearised on a grid with one position more than a kept linearisation of it (a refined
+    grid's first round) evaluates the sensitivities of the new position's slices only; its linearisation
+    is a fresh one's bit for bit."""
+    opt = copy.copy(small)
+    opt.jit, opt._sens_maps, opt._lin_memo, opt._lin_sweeps = False, {}, {}, {}
+    grid = opt.ltca.mesh_cycle(opt.n_positions)
+    th = opt.theta0 + np.array([0.001, 0.002])
+    opt.phi1 = grid
+    opt.linearise(th)
+    finer = np.sort(np.append(grid, 0.5 * (grid[2] + grid[3])))
+    fresh = copy.copy(opt)
+    fresh._lin_memo, fresh._lin_sweeps = {}, {}
+    fresh.phi1 = finer
+    (c,) = fresh.linearise(th)
+    cols = []
+    run = type(opt).separation_gradients
+    monkeypatch.setattr(type(opt), "separation_gradients",
+                        lambda self, kind, wv, prm: (cols.append(wv.shape[1]), run(self, kind, wv, prm))[1])
+    opt.phi1 = finer
+    (b,) = opt.linearise(th)
+    new = int(np.flatnonzero(~np.isin(finer, grid))[0])
+    assert 0 < sum(cols) == int(b.slices.active[:, new].sum())  # the new position's active slices alone
+    for k in ("a", "J", "Jm", "Jr", "Jk", "lam", "da"):
+        assert np.array_equal(getattr(b, k), getattr(c, k)), k
+    assert np.count_nonzero(b.J[:, new]) > 0 and np.count_nonzero(b.J) > 2 * np.count_nonzero(b.J[:, new])
 
 
 class _Toy(LoadedMicroOptimizer):

@@ -13,11 +13,15 @@ import casadi as ca
 import numpy as np
 import numpy.typing as npt
 
-from ... import compiled
+from ... import compiled, compile_queue
 from ...graph_cache import eliminated
 from ...ltca.engine import ContactStructure
 from ...ltca.slices import SliceSet
 from ...meshing.misalignment import Misalignment
+
+#: linearisations kept per optimiser and its copies (:meth:`Lineariser.linearise`): a case each of the
+#: last two designs of the loop
+LIN_KEPT = 4
 
 
 @dataclass(frozen=True)
@@ -186,57 +190,129 @@ class Lineariser:
 
     def linearise(self, theta: npt.ArrayLike) -> list[Linearisation]:
         """Slices, compliance and the separations' sensitivities of the design ``theta`` [mm]: one
-        :class:`Linearisation` per case."""
+        :class:`Linearisation` per case. A case linearised already at the same design and positions (by
+        this optimiser or a copy: a Pareto point's first round is the last point's final design, the KKT
+        sensitivities that of the loop's last round) is that linearisation (:meth:`_remembered`)."""
         p1, p2 = self.params(theta)
-        lever = self.pair.gear.r_b * self.ltca.cos_bb
-        z1 = self.pair.pinion.z
         out = []
         for mis in self.cases:
-            S = self.ltca.slices(self.phi1, p1, p2, mis)
-            st = self.ltca.structure(S)
-            K, N, M = S.z.shape
-            J = np.zeros((K, N, M, len(self._prm_index)))
-            Jr = np.zeros((K, N, M, 2, len(self._prm_index)))
-            Jk = np.zeros((K, N, M, len(self._prm_index)))
-            phis = (S.phi1[None, :] - 2 * math.pi * np.array(S.pairs)[:, None] / z1)
-            kinds = np.zeros((K, N, M), int) if S.edge is None else S.edge
-            for kind in (0, 1, 2):
-                sel = S.active & (kinds == kind)
-                if not sel.any():
-                    continue
-                kk, nn, mm = np.nonzero(sel)
-                prm = self.tca.prm(phis[kk, nn], p1, p2, mis)
-                prm[self.tca.layout.index("z_section"), :] = S.z[kk, nn, mm]
-                J[kk, nn, mm], Jr[kk, nn, mm], Jk[kk, nn, mm] = self.separation_gradients(kind, S.w[kk, nn, mm].T, prm)
-            if S.partner_of is not None:
-                # a partner slice's separation is interpolated to the crossing (SliceSet.partner_t), and
-                # so is its sensitivity (the crossing's own motion with the design is left out); its Hertz
-                # radius is its own, and so is Jk (the NLP bounds its own pressure, the loaded TCA reports
-                # the one interpolated to the crossing, which lies between its and its neighbour's)
-                kk, nn, mm = np.nonzero(S.partner_of >= 0)
-                ii, tt = S.partner_of[kk, nn, mm], S.partner_t[kk, nn, mm][:, None]
-                J[kk, nn, mm] = J[kk, nn, ii] + tt * (J[kk, nn, mm] - J[kk, nn, ii])
-            # each slice on its own levers (LTCA._solve_one, docs/ltca.md section 3): the gap is
-            # (te0 - te) L2 + C F - lam delta, lam = L1 / (r_b1 cos(beta_b)); with the absolute separation
-            # a = -te r_b2 cos(beta_b) and the block's approach d = delta - te0 r_b2 cos(beta_b)
-            # (TE = -d / (r_b2 cos(beta_b))) it is a + da + C F - lam d, da = -(te - te0) (L2 - r_b2 cos(beta_b))
-            # - te0 (lam - 1) r_b2 cos(beta_b): zero on an involute flank, on a tip edge held at its value
-            # at the linearisation (J, the derivative of a, is the flank lever's)
-            lam, lev2 = self._levers(S)
-            te0 = S.te_unloaded[None, :, None]
-            te0 = np.where(np.isfinite(te0), te0, 0.0)
-            da = np.where(S.active, -(S.te - te0) * (lev2 - lever) - te0 * (lam - 1.0) * lever, 0.0)
-            a = np.where(S.active, -S.te * lever, 0.0)
-            P = len(self.free)
-            # the Hertz term's relative curvature 1 / R* of the default loaded TCA (each flank's own, LTCA
-            # .structure) where the slice's curvature is known, its sensitivity there (else held)
-            if S.kappa1 is not None:
-                Jk = np.where((np.isfinite(S.kappa1) & np.isfinite(S.kappa2) & S.active)[..., None], Jk, 0.0)
-            else:
-                Jk[:] = 0.0
-            out.append(Linearisation(slices=S, structure=st, a=a, J=J[..., :P], Jm=J[..., P:], Jr=Jr, mis=mis,
-                                     lam=lam, da=da, Jk=Jk))
+            case = (p1.tobytes(), p2.tobytes(), tuple(float(getattr(mis, k)) for k in Misalignment.names()),
+                    tuple(self._prm_index), bool(self.jit))
+            key = (case, np.asarray(self.phi1, float).tobytes())
+            hit = self._remembered(key)
+            if hit is not None:
+                out.append(hit[0])
+                continue
+            # the same design and case on another grid (a refined grid's first round: the last pass's final
+            # design): its sensitivities of the slices this grid shares
+            near = next((v[2] for k, v in reversed(self._lin_memo.items()) if k[0] == case and v[0] is self.ltca), None)
+            L, raw = self._linearise_case(p1, p2, mis, near)
+            self._remember(key, L, raw)
+            out.append(L)
         return out
+
+    def _remembered(self, key: tuple) -> tuple | None:
+        """The linearisation of ``key`` (design, case, columns, ``jit``; positions) made by this loaded TCA
+        and its raw gradients (:meth:`_remember`), if kept."""
+        hit = self._lin_memo.get(key)
+        return hit[1:] if hit is not None and hit[0] is self.ltca else None
+
+    def _remember(self, key: tuple, L: Linearisation, raw: tuple) -> None:
+        """Keep ``L`` and ``raw`` (its slices and per-slice gradients ``(J, Jr, Jk)`` as
+        :meth:`separation_gradients` gave them; the newest :data:`LIN_KEPT`) when its numbers are those
+        every later linearisation of ``key`` gives: no library compiles in the background, and the
+        sensitivities ran compiled (or ``jit`` is off); else a later one may run the library and differ at
+        round-off."""
+        if compile_queue.pending or (self.jit and not all(m.compiled for m in self._sens_maps.values())):
+            return
+        memo = self._lin_memo
+        memo.pop(key, None)
+        memo[key] = (self.ltca, L, raw)
+        while len(memo) > LIN_KEPT:
+            memo.pop(next(iter(memo)))
+
+    def exact_sweeps(self, lin: list[Linearisation]) -> list:
+        """The loaded TCA at every torque of each linearisation's slices (:meth:`gearopt.ltca.engine.LTCA.solve`
+        on its slices and structure), solved once per :class:`Linearisation` kept by :meth:`linearise`."""
+        out = []
+        for L in lin:
+            memo = self._lin_sweeps
+            key = (id(L), np.asarray(self.torques, float).tobytes())
+            hit = memo.get(key)
+            if hit is not None and hit[0] is L:
+                out.append(hit[1])
+                continue
+            sw = self.ltca.solve(self.torques, slices=L.slices, structure=L.structure)
+            if any(v[1] is L for v in self._lin_memo.values()):  # (only a kept one is met again)
+                memo[key] = (L, sw)
+                while len(memo) > LIN_KEPT:
+                    memo.pop(next(iter(memo)))
+            out.append(sw)
+        return out
+
+    def _linearise_case(self, p1: np.ndarray, p2: np.ndarray, mis: Misalignment, near: tuple | None = None
+                        ) -> tuple[Linearisation, tuple]:
+        """:meth:`linearise` of one case (the members' parameter vectors ``p1``, ``p2``), and its raw
+        gradients (:meth:`_remember`). ``near``: the raw gradients of this design and case on another grid,
+        taken for every slice whose position (its angle), pair, node, kind and unknowns are the same bit
+        for bit (:meth:`separation_gradients` is a function of the slice's unknowns and column alone)."""
+        lever = self.pair.gear.r_b * self.ltca.cos_bb
+        z1 = self.pair.pinion.z
+        S = self.ltca.slices(self.phi1, p1, p2, mis)
+        st = self.ltca.structure(S)
+        K, N, M = S.z.shape
+        J = np.zeros((K, N, M, len(self._prm_index)))
+        Jr = np.zeros((K, N, M, 2, len(self._prm_index)))
+        Jk = np.zeros((K, N, M, len(self._prm_index)))
+        phis = (S.phi1[None, :] - 2 * math.pi * np.array(S.pairs)[:, None] / z1)
+        kinds = np.zeros((K, N, M), int) if S.edge is None else S.edge
+        for kind in (0, 1, 2):
+            sel = S.active & (kinds == kind)
+            if not sel.any():
+                continue
+            kk, nn, mm = np.nonzero(sel)
+            if near is not None:  # the slices the other grid solved alike: their gradients
+                got = _same_slices(near[0], S, kind, (kk, nn, mm))
+                if got is not None:
+                    hit, at = got
+                    src = (kk[hit], at, mm[hit])
+                    dst = (kk[hit], nn[hit], mm[hit])
+                    J[dst], Jr[dst], Jk[dst] = near[1][src], near[2][src], near[3][src]
+                    kk, nn, mm = kk[~hit], nn[~hit], mm[~hit]
+                    if not kk.size:
+                        continue
+            prm = self.tca.prm(phis[kk, nn], p1, p2, mis)
+            prm[self.tca.layout.index("z_section"), :] = S.z[kk, nn, mm]
+            J[kk, nn, mm], Jr[kk, nn, mm], Jk[kk, nn, mm] = self.separation_gradients(kind, S.w[kk, nn, mm].T, prm)
+        raw = (S, J.copy(), Jr, Jk)
+        if S.partner_of is not None:
+            # a partner slice's separation is interpolated to the crossing (SliceSet.partner_t), and
+            # so is its sensitivity (the crossing's own motion with the design is left out); its Hertz
+            # radius is its own, and so is Jk (the NLP bounds its own pressure, the loaded TCA reports
+            # the one interpolated to the crossing, which lies between its and its neighbour's)
+            kk, nn, mm = np.nonzero(S.partner_of >= 0)
+            ii, tt = S.partner_of[kk, nn, mm], S.partner_t[kk, nn, mm][:, None]
+            J[kk, nn, mm] = J[kk, nn, ii] + tt * (J[kk, nn, mm] - J[kk, nn, ii])
+        # each slice on its own levers (LTCA._solve_one, docs/ltca.md section 3): the gap is
+        # (te0 - te) L2 + C F - lam delta, lam = L1 / (r_b1 cos(beta_b)); with the absolute separation
+        # a = -te r_b2 cos(beta_b) and the block's approach d = delta - te0 r_b2 cos(beta_b)
+        # (TE = -d / (r_b2 cos(beta_b))) it is a + da + C F - lam d, da = -(te - te0) (L2 - r_b2 cos(beta_b))
+        # - te0 (lam - 1) r_b2 cos(beta_b): zero on an involute flank, on a tip edge held at its value
+        # at the linearisation (J, the derivative of a, is the flank lever's)
+        lam, lev2 = self._levers(S)
+        te0 = S.te_unloaded[None, :, None]
+        te0 = np.where(np.isfinite(te0), te0, 0.0)
+        da = np.where(S.active, -(S.te - te0) * (lev2 - lever) - te0 * (lam - 1.0) * lever, 0.0)
+        a = np.where(S.active, -S.te * lever, 0.0)
+        P = len(self.free)
+        # the Hertz term's relative curvature 1 / R* of the default loaded TCA (each flank's own, LTCA
+        # .structure) where the slice's curvature is known, its sensitivity there (else held)
+        if S.kappa1 is not None:
+            Jk = np.where((np.isfinite(S.kappa1) & np.isfinite(S.kappa2) & S.active)[..., None], Jk, 0.0)
+        else:
+            Jk = np.zeros_like(Jk)  # (the raw gradients kept as they are)
+        return Linearisation(slices=S, structure=st, a=a, J=J[..., :P], Jm=J[..., P:], Jr=Jr, mis=mis,
+                             lam=lam, da=da, Jk=Jk), raw
 
     def _levers(self, S) -> tuple[np.ndarray, np.ndarray]:
         """Per slice (K, N, M): ``lam`` = its lever about the pinion axis over ``r_b1 cos(beta_b)`` and its
@@ -272,3 +348,23 @@ class Lineariser:
                     keep.append(S.active & ~(s - reach > bound))
             out.append(np.array(keep))
         return out
+
+
+def _same_slices(Sp: SliceSet, S: SliceSet, kind: int, idx: tuple) -> tuple[np.ndarray, np.ndarray] | None:
+    """Which of the active slices ``idx = (kk, nn, mm)`` of kind ``kind`` of ``S`` the slices ``Sp`` of the same
+    design and case on another grid hold alike: the same pair, position angle, node and section, active, of
+    that kind, with the same unknowns, bit for bit. Returns the mask over ``idx`` and those slices'
+    positions in ``Sp``; None when the grids share no slice layout."""
+    if Sp.pairs != S.pairs or Sp.z.shape[2] != S.z.shape[2]:
+        return None
+    kk, nn, mm = idx
+    o = np.argsort(Sp.phi1, kind="stable")
+    at = o[np.minimum(np.searchsorted(Sp.phi1[o], S.phi1), Sp.phi1.size - 1)]
+    pos = np.where(Sp.phi1[at] == S.phi1, at, -1)[nn]
+    hit = pos >= 0
+    q = np.where(hit, pos, 0)
+    kinds = np.zeros(Sp.z.shape, int) if Sp.edge is None else Sp.edge
+    with np.errstate(invalid="ignore"):
+        hit &= (Sp.active[kk, q, mm] & (kinds[kk, q, mm] == kind) & (Sp.z[kk, q, mm] == S.z[kk, nn, mm])
+                & np.all(Sp.w[kk, q, mm] == S.w[kk, nn, mm], axis=1))
+    return hit, q[hit]

@@ -93,6 +93,9 @@ class LoadedProblem:
                                f"{self.lo[i] * k:g} ... {self.hi[i] * k:g} {u}", cls=OptionError)
         self._sens = {}
         self._sens_maps = {}  #: per slice kind, the sensitivities on columns (:meth:`Lineariser.sensitivity_columns`)
+        #: the newest linearisations and their loaded TCA (:meth:`Lineariser.linearise`, ``exact_sweeps``), shared
+        #: with this optimiser's copies (the reduced cases', a Pareto point's)
+        self._lin_memo, self._lin_sweeps = {}, {}
         self._has_settings = any(n.split(".", 1)[1] in SETTINGS for n in self.free)
         #: the penalty's weight scale (that of the full duty cycle; an unloaded-TE target adds its weight: its
         #: term weighs te_weight times the loaded objective's per case, and so may its multipliers)

@@ -161,7 +161,7 @@ class Sensitivities:
         # the NLP of :meth:`_around` with every active slice and no trust radius, its linearisation kept
         # (the held data's derivatives need it)
         lin = self.linearise(theta)
-        sweeps = [self.ltca.solve(self.torques, slices=L.slices, structure=L.structure) for L in lin]
+        sweeps = self.exact_sweeps(lin)
         keep = self._keep(lin, sweeps, np.inf)
         nlp = self._nlp(lin, theta, keep, np.inf)
         z0 = self._start(nlp, lin, theta, sweeps)

@@ -198,7 +198,7 @@ class TrustRegion:
         leaves out the slices that stay open within ``radius`` [mm] of ``theta`` (:meth:`_keep`)."""
         t0 = time.perf_counter()
         lin = self.linearise(theta)
-        sweeps = [self.ltca.solve(self.torques, slices=L.slices, structure=L.structure) for L in lin]
+        sweeps = self.exact_sweeps(lin)
         nlp = self._nlp(lin, theta, self._keep(lin, sweeps, radius), radius)
         z0 = self._start(nlp, lin, theta, sweeps)
         chk = self._check_of(sweeps)
