@@ -24,6 +24,8 @@ from contextlib import contextmanager
 import casadi as ca
 import numpy as np
 
+from ...errors import SynthesisError
+
 #: CasADi's directions per forward sweep (``FunctionInternal::max_num_dir``'s default)
 MAX_NUM_DIR = 64
 
@@ -96,8 +98,10 @@ def lagrangian_hessian(oracle: ca.Function) -> ca.Function:
         src[hit] = at[row[hit]]
         src[trans[hit]] = at[row[hit]]
         offset += rows_d.size
-    if np.any(src < 0):
-        raise ValueError("lagrangian_hessian: the star colouring left a Hessian nonzero undetermined")
+    if np.any(src < 0):  # (a star colouring determines every nonzero: a CasADi whose colouring is not one)
+        raise SynthesisError(f"loaded NLP: the star colouring of the Lagrangian's Hessian ({nc} colours) left "
+                             f"{int(np.sum(src < 0))} of its {src.size} nonzeros undetermined; this CasADi "
+                             f"({ca.__version__}) colours otherwise: report it.", param="casadi", value=ca.__version__)
     up = row <= col
     H = ca.MX(ca.Sparsity.triplet(n, n, row[up].tolist(), col[up].tolist()), ca.vertcat(*sens).nz[src[up].tolist()])
     return ca.Function("nlp_hess_l", [z, p, lam_f, lam_g], [H], ["x", "p", "lam_f", "lam_g"],
