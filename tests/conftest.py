@@ -282,21 +282,21 @@ def scene_run(tmp_path_factory):
 LOADED_SCENE_STUDIES = ("ltca", "loaded_microgeometry")
 
 #: Time of each work unit of the whole suite [s] (a test file, or one of the two units of scene runs;
-#: the junit times of the whole suite, 2026-11-29 23:34, main after the late-night merge, libraries recompiled): only their order matters
+#: the junit times of the whole suite, 2026-11-30 01:30, main after the night's merge, the columns' libraries recompiled): only their order matters
 #: (heaviest first, so that no heavy unit starts last and the two workers end together); a unit not
 #: listed counts 0 and keeps its place. Re-measure with ``python tests/suite_units.py JUNIT.xml`` (a
 #: junit report of ``make test``) after a change that moves a unit by a minute.
 UNIT_COST: dict[str, float] = {
-    "scenes": 175, "scenes-loaded": 72, "test_loaded_synthesis_objectives.py": 67, "test_ltca.py": 28,
-    "test_dynamics.py": 28, "test_robust.py": 27, "test_fea.py": 27, "test_synthesis.py": 27,
-    "test_dynamics_sensitivity.py": 21, "test_loaded_pareto.py": 20, "test_loaded_synthesis.py": 19,
-    "test_microgeometry.py": 18, "test_inspection.py": 15, "test_loaded_exchange.py": 14, "test_flank_limit.py": 14,
-    "test_plots_results.py": 14, "test_loaded_pressure.py": 13, "test_tca_stability.py": 13, "test_rating_fe.py": 13,
-    "test_loaded_sensitivity_licq.py": 13, "test_edge_grid.py": 13, "test_cli_plots.py": 13,
-    "test_loaded_fast.py": 13, "test_loaded_sensitivity.py": 12, "test_loaded_sensitivity_local.py": 12,
-    "test_bad_input_studies.py": 10, "test_edge_modifications.py": 10, "test_loaded_sensitivity_de.py": 10,
-    "test_crowning_forked.py": 8, "test_edge.py": 8, "test_tca.py": 7, "test_ltca_continuity.py": 6,
-    "test_compile_queue.py": 6, "test_cli.py": 5}
+    "scenes": 156, "scenes-loaded": 60, "test_loaded_synthesis_objectives.py": 59, "test_fea.py": 33,
+    "test_ltca.py": 27, "test_inspection.py": 26, "test_dynamics.py": 26, "test_robust.py": 25,
+    "test_microgeometry.py": 23, "test_dynamics_sensitivity.py": 18, "test_loaded_synthesis.py": 17,
+    "test_synthesis.py": 17, "test_tca_stability.py": 16, "test_flank_limit.py": 16, "test_plots_results.py": 15,
+    "test_edge_grid.py": 15, "test_rating_fe.py": 14, "test_loaded_pareto.py": 14, "test_cli_plots.py": 13,
+    "test_loaded_sensitivity_licq.py": 12, "test_loaded_pressure.py": 12, "test_edge_modifications.py": 12,
+    "test_loaded_exchange.py": 11, "test_loaded_sensitivity.py": 11, "test_loaded_sensitivity_local.py": 10,
+    "test_bad_input_studies.py": 10, "test_ltca_continuity.py": 8, "test_loaded_sensitivity_de.py": 7,
+    "test_edge.py": 7, "test_loaded_fast.py": 7, "test_tca.py": 7, "test_compare_rating.py": 6,
+    "test_crowning_forked.py": 6, "test_compile_queue.py": 6, "test_ltca_edges.py": 5}
 
 #: Environment variable: the file in which the workers leave each test's work unit for the controller.
 UNITS_FILE_ENV = "GEAROPT_TEST_UNITS_FILE"
